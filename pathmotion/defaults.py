@@ -1,0 +1,31 @@
+"""Default values of every number that matters, defined once.
+
+Scenario and robot files override these; code never repeats them as literals.
+"""
+
+from __future__ import annotations
+
+#: Controller sample time of an ABB IRC5 controller [s].
+SAMPLE_TIME = 0.004
+#: Resample step used to verify that no limit is exceeded [s].
+VERIFY_SAMPLE_TIME = 1e-4
+#: Allowed relative excess over a limit on the verification resample [-].
+LIMIT_TOLERANCE = 1e-3
+#: Planner grid points per path (whole chain) unless a scenario says otherwise.
+GRID_POINTS = 1000
+#: Gravity vector [m/s^2].
+GRAVITY = (0.0, 0.0, -9.81)
+#: Inverse-kinematics position / orientation tolerance for FK(IK(pose)) [m], [rad].
+IK_TOLERANCE = 1e-9
+#: Damped-least-squares IK: damping [-], iterations.
+DLS_DAMPING = 1e-6
+DLS_MAX_ITERATIONS = 200
+#: Singularity measure threshold: smallest singular value of the 6x6 Jacobian below which a
+#: configuration is reported as (near) singular [m or rad per rad].
+SINGULARITY_THRESHOLD = 1e-3
+#: Fitted (thesis) profile: margin below the optimum [-].
+FITTED_PROFILE_MARGIN = 0.05
+#: Closed-loop tracking failure threshold on joint deviation |q - Phi(theta)| [rad].
+TRACKING_FAILURE_THRESHOLD = 0.05
+#: Plant integration sub-steps per controller sample (RK4).
+PLANT_SUBSTEPS = 4

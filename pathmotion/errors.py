@@ -1,0 +1,45 @@
+"""One error hierarchy for the whole package.
+
+Every message says what went wrong, where (file, key, segment, theta, joint) and what the
+user can change. The CLI prints ``str(error)`` on one or two lines and exits non-zero.
+"""
+
+from __future__ import annotations
+
+
+class PathmotionError(Exception):
+    """Base class of every error pathmotion raises on purpose."""
+
+
+class ScenarioError(PathmotionError):
+    """A scenario or limits file is malformed, wrongly typed or inconsistent."""
+
+
+class RobotModelError(PathmotionError):
+    """A robot description (URDF, limits file, payload) cannot be used."""
+
+
+class UnreachableError(PathmotionError):
+    """A pose or path point cannot be reached: out of reach, outside a joint range, or singular."""
+
+
+class PathError(PathmotionError):
+    """A path is geometrically invalid: zero-length or degenerate segment, gap, blend that does not fit."""
+
+
+class InfeasibleError(PathmotionError):
+    """Limits cannot be met: gravity torque above a limit, impossible boundary velocity, ..."""
+
+
+class SimulationError(PathmotionError):
+    """A closed-loop simulation could not be set up (not a tracking failure, which is a result)."""
+
+
+def check_finite(name: str, value, where: str = "") -> None:
+    """Raise a PathmotionError naming ``name`` (and ``where``) if ``value`` holds NaN or inf."""
+    import numpy as np
+
+    arr = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        loc = f" in {where}" if where else ""
+        raise PathmotionError(f"{name}{loc} contains NaN or inf ({arr.tolist()}); give finite numbers")

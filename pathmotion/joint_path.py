@@ -1,0 +1,88 @@
+"""Joint-space paths q = Phi(theta): the virtual holonomic constraint every later stage takes.
+
+A :class:`JointPath` maps the path coordinate theta (one coordinate for the whole chain, in
+``domain``) to joint positions, with first and second derivatives:
+
+    q = Phi(theta)  (N, n)      Phi'(theta)  (N, n) [rad/unit theta]      Phi''(theta)  (N, n)
+
+``kinks`` lists the theta values where Phi' jumps (sharp task-space corners without a blend):
+any admissible motion must stop there. ``breaks`` lists every segment connection (kinks
+included), for segment-by-segment planning. At a break, ``side="right"`` (default) evaluates the
+segment that starts there and ``side="left"`` the one that ends there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .errors import PathError, check_finite
+
+
+@dataclass(frozen=True, eq=False)
+class JointPath:
+    """Base class: subclasses implement :meth:`evaluate`."""
+
+    n: int
+    domain: tuple[float, float]
+    closed: bool = False
+    kinks: tuple[float, ...] = ()
+    breaks: tuple[float, ...] = ()
+    joint_names: tuple[str, ...] | None = None
+
+    def evaluate(self, theta, side: str = "right") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(Phi, Phi', Phi'') at ``theta`` (scalar or (N,)); each (N, n), or (n,) for a scalar."""
+        raise NotImplementedError
+
+    def __call__(self, theta, side: str = "right") -> np.ndarray:
+        return self.evaluate(theta, side)[0]
+
+    @property
+    def length(self) -> float:
+        return self.domain[1] - self.domain[0]
+
+    def _check_theta(self, theta) -> tuple[np.ndarray, bool]:
+        th = np.asarray(theta, dtype=float)
+        check_finite("theta", th)
+        scalar = th.ndim == 0
+        th = np.atleast_1d(th)
+        lo, hi = self.domain
+        tol = 1e-9 * max(1.0, abs(hi - lo))
+        if np.any(th < lo - tol) or np.any(th > hi + tol):
+            bad = th[(th < lo - tol) | (th > hi + tol)][0]
+            raise PathError(f"theta = {bad:.6g} is outside the path's range [{lo:.6g}, {hi:.6g}]")
+        return np.clip(th, lo, hi), scalar
+
+
+@dataclass(frozen=True, eq=False)
+class SplineJointPath(JointPath):
+    """Clamped cubic spline through joint waypoints, knots evenly spaced on theta in [0, 1].
+
+    The same input toppra's ``SplineInterpolator`` takes with ``bc_type="clamped"``.
+    """
+
+    waypoints: np.ndarray | None = None
+    _spline: CubicSpline | None = None
+
+    @classmethod
+    def from_waypoints(cls, waypoints, joint_names=None) -> "SplineJointPath":
+        """waypoints: (K, n) joint positions [rad], K >= 2."""
+        wp = np.asarray(waypoints, dtype=float)
+        if wp.ndim != 2 or wp.shape[0] < 2:
+            raise PathError(f"joint waypoints must be a (K >= 2, n) array, got shape {wp.shape}")
+        check_finite("joint waypoints", wp)
+        if np.any(np.all(np.abs(np.diff(wp, axis=0)) < 1e-12, axis=1)):
+            k = int(np.argmax(np.all(np.abs(np.diff(wp, axis=0)) < 1e-12, axis=1)))
+            raise PathError(f"joint waypoints {k} and {k + 1} are identical; remove the repeated waypoint")
+        knots = np.linspace(0.0, 1.0, len(wp))
+        spline = CubicSpline(knots, wp, bc_type="clamped")
+        return cls(n=wp.shape[1], domain=(0.0, 1.0), waypoints=wp, _spline=spline,
+                   joint_names=None if joint_names is None else tuple(joint_names))
+
+    def evaluate(self, theta, side: str = "right"):
+        th, scalar = self._check_theta(theta)
+        s = self._spline
+        out = (s(th), s(th, 1), s(th, 2))
+        return tuple(o[0] for o in out) if scalar else out

@@ -1,0 +1,61 @@
+"""A time-parameterized motion along a joint path: theta(t), q(t), qd(t), qdd(t), tau(t)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import defaults
+from ..joint_path import JointPath
+from ..robot import Robot, rnea
+from .profile import Profile
+
+
+@dataclass(frozen=True)
+class Samples:
+    """Trajectory samples: t (N,) [s]; theta, theta_dot, theta_ddot (N,); q, qd, qdd, tau (N, n)."""
+
+    t: np.ndarray
+    theta: np.ndarray
+    theta_dot: np.ndarray
+    theta_ddot: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    tau: np.ndarray | None
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Path + profile (+ robot for torques). Sample it at any rate with :meth:`sample`."""
+
+    path: JointPath
+    profile: Profile
+    robot: Robot | None = None
+
+    @property
+    def duration(self) -> float:
+        return self.profile.duration
+
+    def at_time(self, t) -> Samples:
+        """Samples at the given times [s] (clipped to [0, duration])."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        theta, theta_dot, theta_ddot = self.profile.state_at_time(t)
+        q, dq, ddq = self.path.evaluate(theta)
+        qd = dq * theta_dot[:, None]
+        qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
+        tau = None if self.robot is None else rnea(self.robot, q, qd, qdd)
+        return Samples(t, theta, theta_dot, np.broadcast_to(theta_ddot, t.shape).copy(), q, qd, qdd, tau)
+
+    def sample(self, dt: float = defaults.SAMPLE_TIME) -> Samples:
+        """Samples every ``dt`` seconds from 0, the last one at exactly the duration."""
+        if not dt > 0:
+            from ..errors import PathmotionError
+
+            raise PathmotionError(f"sample time must be > 0 s, got {dt}")
+        n = int(np.floor(self.duration / dt + 1e-9))
+        t = np.arange(n + 1) * dt
+        if t[-1] < self.duration - 1e-12:
+            t = np.append(t, self.duration)
+        return self.at_time(t)

@@ -1,0 +1,78 @@
+"""Forward kinematics and Jacobians (Pinocchio), single configurations or batches.
+
+Shapes: q (n,) or (N, n); positions (3,) / (N, 3); rotations (3, 3) / (N, 3, 3); Jacobians
+(6, n) / (N, 6, n) in LOCAL_WORLD_ALIGNED form: rows 0-2 the linear velocity of the frame origin
+in world axes [m/s per rad/s], rows 3-5 the angular velocity in world axes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .model import Robot
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def _as_batch(q, n):
+    q = np.asarray(q, dtype=float)
+    single = q.ndim == 1
+    q = np.atleast_2d(q)
+    if q.shape[1] != n:
+        from ..errors import PathmotionError
+
+        raise PathmotionError(f"configuration has {q.shape[1]} joints, the robot has {n}")
+    return q, single
+
+
+def fk(robot: Robot, q, frame: str | int | None = None):
+    """Pose of ``frame`` (default TCP) in the base frame: (position, rotation)."""
+    model, data = robot.model, robot.data
+    fid = robot.frame_id(frame)
+    qs, single = _as_batch(q, robot.n)
+    pos = np.empty((len(qs), 3))
+    rot = np.empty((len(qs), 3, 3))
+    for k, qk in enumerate(qs):
+        pin.framesForwardKinematics(model, data, qk)
+        placement = data.oMf[fid]
+        pos[k] = placement.translation
+        rot[k] = placement.rotation
+    return (pos[0], rot[0]) if single else (pos, rot)
+
+
+def jacobian(robot: Robot, q, frame: str | int | None = None) -> np.ndarray:
+    """Geometric Jacobian of ``frame`` (default TCP), LOCAL_WORLD_ALIGNED, (6, n) or (N, 6, n)."""
+    model, data = robot.model, robot.data
+    fid = robot.frame_id(frame)
+    qs, single = _as_batch(q, robot.n)
+    out = np.empty((len(qs), 6, robot.n))
+    for k, qk in enumerate(qs):
+        out[k] = pin.computeFrameJacobian(model, data, qk, fid, _LWA)
+    return out[0] if single else out
+
+
+def frame_acceleration_bias(robot: Robot, q, qd, frame: str | int | None = None) -> np.ndarray:
+    """Jdot(q, qd) qd of ``frame``: the classical (not spatial) acceleration at qdd = 0, (6,) or (N, 6).
+
+    Rows 0-2: linear acceleration of the frame origin, rows 3-5: angular acceleration, world axes.
+    """
+    model, data = robot.model, robot.data
+    fid = robot.frame_id(frame)
+    qs, single = _as_batch(q, robot.n)
+    qds, _ = _as_batch(qd, robot.n)
+    zero = np.zeros(robot.n)
+    out = np.empty((len(qs), 6))
+    for k in range(len(qs)):
+        pin.forwardKinematics(model, data, qs[k], qds[k], zero)
+        pin.updateFramePlacements(model, data)
+        acc = pin.getFrameClassicalAcceleration(model, data, fid, _LWA)
+        out[k, :3] = acc.linear
+        out[k, 3:] = acc.angular
+    return out[0] if single else out
+
+
+def manipulability(robot: Robot, q, frame: str | int | None = None) -> np.ndarray:
+    """Singularity measure: smallest singular value of the 6 x n Jacobian, () or (N,)."""
+    jac = jacobian(robot, q, frame)
+    return np.linalg.svd(jac, compute_uv=False)[..., -1]

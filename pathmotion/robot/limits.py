@@ -1,0 +1,153 @@
+"""Joint limits of an arm and their loading from a TOML limits file or a URDF."""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import RobotModelError
+
+_KEYS = ("lower", "upper", "velocity", "acceleration", "torque")
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Per-joint limits, arrays of shape (n,), SI units.
+
+    lower, upper [rad]; velocity [rad/s] (> 0); acceleration [rad/s^2] (> 0) or None when
+    not given; torque [N m] (> 0). ``sources`` maps each quantity to "official"/"estimate"/...
+    """
+
+    names: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    velocity: np.ndarray
+    torque: np.ndarray
+    acceleration: np.ndarray | None = None
+    sources: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        n = len(self.names)
+        for key in _KEYS:
+            v = getattr(self, key)
+            if v is None:
+                continue
+            arr = np.asarray(v, dtype=float)
+            if arr.shape != (n,):
+                raise RobotModelError(f"limits: '{key}' has {arr.size} values for {n} joints {list(self.names)}")
+            if not np.all(np.isfinite(arr)):
+                raise RobotModelError(f"limits: '{key}' contains NaN or inf: {arr.tolist()}")
+            object.__setattr__(self, key, arr)
+        for key in ("velocity", "torque", "acceleration"):
+            v = getattr(self, key)
+            if v is not None and np.any(v <= 0):
+                j = int(np.argmax(v <= 0))
+                raise RobotModelError(
+                    f"limits: {key} of {self.names[j]} is {v[j]:g}; limits are magnitudes and must be > 0"
+                )
+        bad = np.nonzero(self.lower >= self.upper)[0]
+        if bad.size:
+            j = int(bad[0])
+            raise RobotModelError(
+                f"limits: joint {self.names[j]} has lower {self.lower[j]:g} >= upper {self.upper[j]:g} rad"
+            )
+
+    @property
+    def n(self) -> int:
+        return len(self.names)
+
+    def scaled(self, velocity: float = 1.0, acceleration: float = 1.0, torque: float = 1.0) -> "JointLimits":
+        """Limits with velocity/acceleration/torque magnitudes multiplied by the given factors."""
+        return replace(
+            self,
+            velocity=self.velocity * velocity,
+            torque=self.torque * torque,
+            acceleration=None if self.acceleration is None else self.acceleration * acceleration,
+        )
+
+
+def limits_from_toml(path: str | Path, joint_names: tuple[str, ...]) -> JointLimits:
+    """Read a limits file (``[[joints]]`` tables with name, lower, upper, velocity, torque and
+    optional acceleration) and order it as ``joint_names``."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise RobotModelError(f"limits file {path} does not exist") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise RobotModelError(f"limits file {path} is not valid TOML: {exc}") from None
+    return limits_from_dict(doc, joint_names, where=str(path))
+
+
+def limits_from_dict(doc: dict, joint_names: tuple[str, ...], where: str = "limits") -> JointLimits:
+    """Limits from the parsed form of a limits file (see :func:`limits_from_toml`)."""
+    joints = doc.get("joints")
+    if not isinstance(joints, list) or not all(isinstance(j, dict) for j in joints):
+        raise RobotModelError(f"{where}: expected a [[joints]] table per joint ({len(joint_names)} joints)")
+    if len(joints) != len(joint_names):
+        raise RobotModelError(
+            f"{where}: {len(joints)} [[joints]] entries, but the robot has {len(joint_names)} joints "
+            f"{list(joint_names)}; give one entry per joint"
+        )
+    by_name = {}
+    for k, j in enumerate(joints):
+        name = j.get("name", joint_names[k])
+        if name not in joint_names:
+            raise RobotModelError(f"{where}: joints[{k}] names '{name}', not a joint of the robot {list(joint_names)}")
+        by_name[name] = j
+    values: dict[str, list] = {key: [] for key in _KEYS}
+    sources = {}
+    for name in joint_names:
+        if name not in by_name:
+            raise RobotModelError(f"{where}: no [[joints]] entry for joint '{name}'")
+        j = by_name[name]
+        for key in _KEYS:
+            v = j.get(key)
+            if v is None and key != "acceleration":
+                raise RobotModelError(f"{where}: joint '{name}' has no '{key}' limit; add it")
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+                raise RobotModelError(f"{where}: joint '{name}' {key} = {v!r} is not a number")
+            values[key].append(v)
+        sources[name] = dict(j.get("sources", {}))
+    acc = values["acceleration"]
+    if any(a is None for a in acc) and not all(a is None for a in acc):
+        missing = [n for n, a in zip(joint_names, acc) if a is None]
+        raise RobotModelError(f"{where}: acceleration given for some joints but not for {missing}; give all or none")
+    return JointLimits(
+        names=tuple(joint_names),
+        lower=values["lower"],
+        upper=values["upper"],
+        velocity=values["velocity"],
+        torque=values["torque"],
+        acceleration=None if acc[0] is None else acc,
+        sources=sources,
+    )
+
+
+def limits_from_model(model, where: str) -> JointLimits:
+    """Limits carried by a Pinocchio model built from a URDF (lower/upper, velocity, effort).
+
+    Raises RobotModelError naming every joint whose limit is missing (0 or infinite in the URDF).
+    """
+    names = tuple(model.names[1:])
+    lower = np.asarray(model.lowerPositionLimit, dtype=float)
+    upper = np.asarray(model.upperPositionLimit, dtype=float)
+    vel = np.asarray(model.velocityLimit, dtype=float)
+    eff = np.asarray(model.effortLimit, dtype=float)
+    missing = []
+    for j, name in enumerate(names):
+        if not np.isfinite(lower[j]) or not np.isfinite(upper[j]) or lower[j] >= upper[j]:
+            missing.append(f"{name}: range")
+        if not np.isfinite(vel[j]) or vel[j] <= 0:
+            missing.append(f"{name}: velocity")
+        if not np.isfinite(eff[j]) or eff[j] <= 0:
+            missing.append(f"{name}: effort (torque)")
+    if missing:
+        raise RobotModelError(
+            f"{where}: limits missing for {', '.join(missing)}; add <limit> values to the URDF or give a limits file"
+        )
+    return JointLimits(names=names, lower=lower, upper=upper, velocity=vel, torque=eff,
+                       sources={n: {"all": "urdf"} for n in names})

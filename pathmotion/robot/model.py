@@ -1,0 +1,226 @@
+"""The robot: a Pinocchio model of an arm with its limits, payload and tool frame.
+
+A :class:`Robot` is an immutable value: ``with_payload``/``with_tool``/``with_limits`` return new
+robots. It pickles (by its URDF text and parameters), so it can be shipped to worker processes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .. import defaults
+from ..errors import RobotModelError, check_finite
+from .limits import JointLimits, limits_from_model, limits_from_toml
+
+TCP_FRAME = "tcp"
+
+
+@dataclass(frozen=True)
+class Payload:
+    """Rigid payload attached to the flange.
+
+    mass [kg]; com (3,) [m] in the flange frame; inertia (3, 3) [kg m^2] about the centre of
+    mass, in flange-frame axes (default: a point mass).
+    """
+
+    mass: float = 0.0
+    com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    inertia: tuple[tuple[float, ...], ...] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+
+    def __post_init__(self):
+        check_finite("payload mass", self.mass)
+        check_finite("payload com", self.com)
+        check_finite("payload inertia", self.inertia)
+        if self.mass < 0:
+            raise RobotModelError(f"payload mass is {self.mass:g} kg; it must be >= 0")
+        if np.shape(self.com) != (3,) or np.shape(self.inertia) != (3, 3):
+            raise RobotModelError("payload: com must have 3 values [m] and inertia a 3x3 matrix [kg m^2]")
+        inertia = np.asarray(self.inertia, float)
+        if not np.allclose(inertia, inertia.T) or np.min(np.linalg.eigvalsh(inertia)) < -1e-12:
+            raise RobotModelError("payload inertia must be symmetric positive semi-definite")
+
+
+@dataclass(frozen=True)
+class Tool:
+    """Tool frame (TCP) relative to the flange: translation (3,) [m] and rotation (3, 3)."""
+
+    translation: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: tuple[tuple[float, ...], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+    def __post_init__(self):
+        check_finite("tool translation", self.translation)
+        check_finite("tool rotation", self.rotation)
+        r = np.asarray(self.rotation, float)
+        if np.shape(self.translation) != (3,) or r.shape != (3, 3):
+            raise RobotModelError("tool: translation must have 3 values [m] and rotation be a 3x3 matrix")
+        if not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:
+            raise RobotModelError("tool rotation is not a proper rotation matrix (R^T R = I, det R = +1)")
+
+    @property
+    def se3(self) -> pin.SE3:
+        return pin.SE3(np.asarray(self.rotation, float), np.asarray(self.translation, float))
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """An arm: URDF text, limits, payload, tool, and the flange frame they attach to.
+
+    Build with :func:`load_robot`. ``model`` is the Pinocchio model with the payload merged into
+    the last link and a ``"tcp"`` frame; ``n`` is the number of joints.
+    """
+
+    name: str
+    urdf_text: str
+    limits: JointLimits
+    flange_frame: str
+    payload: Payload = field(default_factory=Payload)
+    tool: Tool = field(default_factory=Tool)
+    gravity: tuple[float, float, float] = defaults.GRAVITY
+
+    @cached_property
+    def model(self) -> pin.Model:
+        model = _build_model(self.urdf_text, self.name)
+        if not model.existFrame(self.flange_frame):
+            frames = [f.name for f in model.frames]
+            raise RobotModelError(f"robot {self.name}: no frame '{self.flange_frame}' (frames: {frames})")
+        fid = model.getFrameId(self.flange_frame)
+        frame = model.frames[fid]
+        if self.payload.mass > 0:
+            lever = frame.placement.act(np.asarray(self.payload.com, float))
+            rot = frame.placement.rotation
+            inertia = rot @ np.asarray(self.payload.inertia, float) @ rot.T
+            model.inertias[frame.parentJoint] += pin.Inertia(self.payload.mass, lever, inertia)
+        model.addFrame(pin.Frame(TCP_FRAME, frame.parentJoint, fid, frame.placement * self.tool.se3,
+                                 pin.FrameType.OP_FRAME))
+        model.gravity.linear = np.asarray(self.gravity, float)
+        return model
+
+    @cached_property
+    def data(self) -> pin.Data:
+        """Scratch data of this process (not shared between threads)."""
+        return self.model.createData()
+
+    @property
+    def n(self) -> int:
+        return self.model.nv
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(self.model.names[1:])
+
+    @property
+    def tcp_frame_id(self) -> int:
+        return self.model.getFrameId(TCP_FRAME)
+
+    def frame_id(self, frame: str | int | None) -> int:
+        """Frame index of a frame name (None: the TCP)."""
+        if frame is None:
+            return self.tcp_frame_id
+        if isinstance(frame, (int, np.integer)):
+            return int(frame)
+        if not self.model.existFrame(frame):
+            raise RobotModelError(f"robot {self.name}: no frame '{frame}'")
+        return self.model.getFrameId(frame)
+
+    def with_payload(self, payload: Payload) -> "Robot":
+        return _replace(self, payload=payload)
+
+    def with_tool(self, tool: Tool) -> "Robot":
+        return _replace(self, tool=tool)
+
+    def with_limits(self, limits: JointLimits) -> "Robot":
+        if limits.names != self.limits.names:
+            raise RobotModelError(f"limits are for joints {list(limits.names)}, robot has {list(self.joint_names)}")
+        return _replace(self, limits=limits)
+
+    def __getstate__(self):
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+    def __setstate__(self, state):
+        for k, v in state.items():
+            object.__setattr__(self, k, v)
+
+    def __repr__(self) -> str:
+        return f"Robot({self.name!r}, n={self.n}, payload={self.payload.mass:g} kg)"
+
+
+def _replace(robot: Robot, **changes) -> Robot:
+    kwargs = {k: getattr(robot, k) for k in robot.__dataclass_fields__}
+    kwargs.update(changes)
+    return Robot(**kwargs)
+
+
+def _build_model(urdf_text: str, where: str) -> pin.Model:
+    try:
+        model = pin.buildModelFromXML(urdf_text)
+    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with parser text
+        raise RobotModelError(f"URDF of {where} cannot be parsed: {str(exc).strip().splitlines()[0]}") from None
+    if model.nq != model.nv:
+        raise RobotModelError(
+            f"URDF of {where}: only revolute/prismatic chains are supported (nq={model.nq}, nv={model.nv})"
+        )
+    if model.nv == 0:
+        raise RobotModelError(f"URDF of {where} has no movable joints")
+    return model
+
+
+BUILTIN_ROBOTS = {"irb140": ("irb140.urdf", "irb140_limits.toml", "IRB140")}
+
+
+def builtin_robot_names() -> list[str]:
+    return sorted(BUILTIN_ROBOTS)
+
+
+def load_robot(
+    name_or_urdf: str | Path = "irb140",
+    limits: str | Path | JointLimits | None = None,
+    *,
+    payload: Payload | None = None,
+    tool: Tool | None = None,
+    flange_frame: str | None = None,
+) -> Robot:
+    """Load a built-in robot by name (``"irb140"``) or any arm from a URDF file.
+
+    ``limits``: a limits TOML file or a :class:`JointLimits`; when None, a built-in robot uses its
+    shipped limits file and a URDF its own ``<limit>`` tags (missing ones are an error naming them).
+    ``flange_frame``: frame the payload and tool attach to (default: the last frame of the URDF).
+    """
+    key = str(name_or_urdf).lower()
+    if key in BUILTIN_ROBOTS:
+        urdf_file, limits_file, display = BUILTIN_ROBOTS[key]
+        base = resources.files("pathmotion.robot") / "data"
+        urdf_text = (base / urdf_file).read_text()
+        default_limits = base / limits_file
+        name = display
+    else:
+        path = Path(name_or_urdf)
+        if not path.exists():
+            raise RobotModelError(
+                f"robot '{name_or_urdf}' is neither a built-in robot ({', '.join(builtin_robot_names())}) "
+                "nor an existing URDF file"
+            )
+        urdf_text = path.read_text()
+        default_limits = None
+        name = path.stem
+    model = _build_model(urdf_text, name)
+    names = tuple(model.names[1:])
+    if isinstance(limits, JointLimits):
+        lim = limits
+    elif limits is not None:
+        lim = limits_from_toml(limits, names)
+    elif default_limits is not None:
+        lim = limits_from_toml(Path(str(default_limits)), names)
+    else:
+        lim = limits_from_model(model, where=f"URDF {name_or_urdf}")
+    if lim.names != names:
+        raise RobotModelError(f"limits are for joints {list(lim.names)}, the URDF has {list(names)}")
+    if flange_frame is None:
+        flange_frame = model.frames[len(model.frames) - 1].name
+    return Robot(name=name, urdf_text=urdf_text, limits=lim, flange_frame=flange_frame,
+                 payload=payload or Payload(), tool=tool or Tool())
