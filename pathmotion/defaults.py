@@ -29,3 +29,5 @@ FITTED_PROFILE_MARGIN = 0.05
 TRACKING_FAILURE_THRESHOLD = 0.05
 #: Plant integration sub-steps per controller sample (RK4).
 PLANT_SUBSTEPS = 4
+#: Spacing of the dense reference samples the lift takes along a task path [m of theta].
+LIFT_REFERENCE_STEP = 0.002

@@ -1,0 +1,164 @@
+"""Exports of a sampled trajectory: CSV, Parquet, ROS 2 JointTrajectory YAML, ABB EGM stream, RAPID.
+
+All take :class:`pathmotion.planning.trajectory.Samples` (t (N,), q/qd/qdd/tau (N, n)) and write
+atomically. Units in files: SI and radians, except the ABB formats, which use degrees as the
+controller does (jointtarget and EGM joint values are in degrees).
+"""
+
+from __future__ import annotations
+
+import io as _io
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PathmotionError
+from .atomic import atomic_path, write_text
+
+
+def trajectory_columns(samples, n: int | None = None) -> dict[str, np.ndarray]:
+    """Column name -> values, in the contract order t, theta, theta_dot, theta_ddot, q1..qn,
+    qd1..qdn, qdd1..qddn, tau1..taun (tau only when computed)."""
+    n = samples.q.shape[1] if n is None else n
+    cols = {"t": samples.t, "theta": samples.theta, "theta_dot": samples.theta_dot,
+            "theta_ddot": samples.theta_ddot}
+    for name, arr in (("q", samples.q), ("qd", samples.qd), ("qdd", samples.qdd), ("tau", samples.tau)):
+        if arr is None:
+            continue
+        for j in range(n):
+            cols[f"{name}{j + 1}"] = arr[:, j]
+    return cols
+
+
+def write_table_csv(path: str | Path, columns: dict[str, np.ndarray]) -> Path:
+    """CSV with a header line and full double precision (repr round-trips)."""
+    names = list(columns)
+    data = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
+    buf = _io.StringIO()
+    buf.write(",".join(names) + "\n")
+    np.savetxt(buf, data, delimiter=",", fmt="%.17g")
+    return write_text(path, buf.getvalue())
+
+
+def write_table_parquet(path: str | Path, columns: dict[str, np.ndarray]) -> Path:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table({k: np.asarray(v) for k, v in columns.items()})
+    with atomic_path(path) as tmp:
+        pq.write_table(table, tmp)
+    return Path(path)
+
+
+def write_trajectory_csv(path, samples) -> Path:
+    return write_table_csv(path, trajectory_columns(samples))
+
+
+def write_trajectory_parquet(path, samples) -> Path:
+    return write_table_parquet(path, trajectory_columns(samples))
+
+
+def _duration(t: float) -> dict:
+    sec = int(np.floor(t))
+    nanosec = int(round((t - sec) * 1e9))
+    if nanosec >= 1_000_000_000:
+        sec, nanosec = sec + 1, nanosec - 1_000_000_000
+    return {"sec": sec, "nanosec": nanosec}
+
+
+def ros2_joint_trajectory(samples, joint_names) -> dict:
+    """A ``trajectory_msgs/msg/JointTrajectory`` as a plain dict (YAML/JSON message form).
+
+    The first point is the start state at time_from_start 0 (the arm must already be there);
+    times strictly increase, as ros2_control's joint_trajectory_controller requires.
+    """
+    joint_names = list(joint_names)
+    if samples.q.shape[1] != len(joint_names):
+        raise PathmotionError(f"{len(joint_names)} joint names for {samples.q.shape[1]} joints")
+    if np.any(np.diff(samples.t) <= 0):
+        raise PathmotionError("trajectory times must strictly increase for ROS 2 export")
+    points = []
+    for k in range(len(samples.t)):
+        points.append({
+            "positions": [float(v) for v in samples.q[k]],
+            "velocities": [float(v) for v in samples.qd[k]],
+            "accelerations": [float(v) for v in samples.qdd[k]],
+            "effort": [],
+            "time_from_start": _duration(float(samples.t[k])),
+        })
+    return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""},
+            "joint_names": joint_names, "points": points}
+
+
+def write_ros2_yaml(path, samples, joint_names) -> Path:
+    """Write the JointTrajectory message as YAML, e.g. for
+    ``ros2 topic pub --once /joint_trajectory_controller/joint_trajectory
+    trajectory_msgs/msg/JointTrajectory "$(cat trajectory_ros2.yaml)"``."""
+    import yaml
+
+    msg = ros2_joint_trajectory(samples, joint_names)
+    return write_text(path, yaml.safe_dump(msg, sort_keys=False, default_flow_style=None, width=1000))
+
+
+def write_egm_csv(path, samples, sample_time: float = 0.004) -> Path:
+    """ABB Externally Guided Motion joint stream: one row per controller cycle (default 4 ms),
+    columns t [s], j1..jn [deg], j1_speed..jn_speed [deg/s]. A streaming client (e.g. over
+    EgmSensor UDP messages) sends row k at cycle k."""
+    t = samples.t
+    grid = np.arange(0.0, t[-1] + 1e-12, sample_time)
+    if grid[-1] < t[-1] - 1e-12:
+        grid = np.append(grid, t[-1])
+    q = np.column_stack([np.interp(grid, t, samples.q[:, j]) for j in range(samples.q.shape[1])])
+    qd = np.column_stack([np.interp(grid, t, samples.qd[:, j]) for j in range(samples.qd.shape[1])])
+    n = q.shape[1]
+    cols = {"t": grid}
+    cols.update({f"j{j + 1}": np.degrees(q[:, j]) for j in range(n)})
+    cols.update({f"j{j + 1}_speed": np.degrees(qd[:, j]) for j in range(n)})
+    return write_table_csv(path, cols)
+
+
+def rapid_module(samples, module: str = "PathmotionReplay", step: float = 0.05, zone: str = "z1") -> str:
+    """A RAPID module replaying the motion with timed ``MoveAbsJ`` instructions.
+
+    Points every ``step`` seconds (the IRC5 cannot take one instruction per 4 ms); each move gets
+    ``\\T:=`` the time since the previous point, so the controller's own interpolation reproduces
+    the timing between points, not the profile inside them. The first move (``fine``, 2 s) brings
+    the arm to the start; the last uses ``fine``.
+    """
+    if not module.isidentifier() or len(module) > 32:
+        raise PathmotionError(f"RAPID module name {module!r} must be an identifier of at most 32 characters")
+    t = samples.t
+    picks = np.unique(np.concatenate([np.searchsorted(t, np.arange(0.0, t[-1], step)), [len(t) - 1]]))
+    q = np.degrees(samples.q[picks])
+    times = t[picks]
+    if q.shape[1] > 6:
+        raise PathmotionError("RAPID jointtarget export supports at most 6 robot axes")
+    lines = [f"MODULE {module}", f"  ! Generated by pathmotion: {len(picks)} points, duration {t[-1]:.4f} s.",
+             "  ! Joint values in degrees (jointtarget); \\T is the time of each move in seconds.",
+             f"  CONST num n_points := {len(picks)};",
+             f"  CONST jointtarget path{{{len(picks)}}} := ["]
+    rows = []
+    for row in q:
+        axes = list(row) + [0.0] * (6 - len(row))
+        rows.append("    [[" + ",".join(f"{v:.6f}" for v in axes) + "],[9E9,9E9,9E9,9E9,9E9,9E9]]")
+    lines.append(",\n".join(rows) + "];")
+    lines.append(f"  CONST num move_time{{{len(picks)}}} := [" + ",".join(
+        f"{max(dt, 0.0):.6f}" for dt in np.diff(np.concatenate([[times[0]], times]))) + "];")
+    lines += [
+        "  PROC main()",
+        "    MoveAbsJ path{1}, v100, fine, tool0;",
+        "    FOR i FROM 2 TO n_points DO",
+        "      IF i = n_points THEN",
+        "        MoveAbsJ path{i}, v7000 \\T:=move_time{i}, fine, tool0;",
+        "      ELSE",
+        f"        MoveAbsJ path{{i}}, v7000 \\T:=move_time{{i}}, {zone}, tool0;",
+        "      ENDIF",
+        "    ENDFOR",
+        "  ENDPROC",
+        "ENDMODULE",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def write_rapid(path, samples, module: str = "PathmotionReplay", step: float = 0.05) -> Path:
+    return write_text(path, rapid_module(samples, module=module, step=step))

@@ -1,0 +1,259 @@
+"""Scenario files (TOML), validated with Pydantic.
+
+A scenario says which robot, which path, which limits, how to plan, how to simulate and what
+to write. Every error names the file, the key path and what is allowed, in one or two lines.
+``scenario_json_schema()`` gives the JSON Schema for editors.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from .. import defaults
+from ..errors import ScenarioError
+
+Vec3 = tuple[float, float, float]
+Mat3 = tuple[Vec3, Vec3, Vec3]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+# ----------------------------------------------------------------------------------------- robot
+class PayloadSpec(_Model):
+    mass: float = Field(0.0, ge=0, description="payload mass [kg]")
+    com: Vec3 = Field((0.0, 0.0, 0.0), description="centre of mass in the flange frame [m]")
+    inertia: Mat3 = Field(((0.0,) * 3,) * 3, description="inertia about the COM, flange axes [kg m^2]")
+
+
+class ToolSpec(_Model):
+    translation: Vec3 = Field((0.0, 0.0, 0.0), description="TCP offset from the flange [m]")
+    rotation_rpy: Vec3 = Field((0.0, 0.0, 0.0), description="TCP rotation from the flange, roll-pitch-yaw [rad]")
+
+
+class RobotSpec(_Model):
+    name: str = Field("irb140", description="built-in robot name, or a URDF file path (relative to the scenario)")
+    limits: str | None = Field(None, description="limits TOML file (default: the built-in one, or the URDF's)")
+    payload: PayloadSpec = PayloadSpec()
+    tool: ToolSpec = ToolSpec()
+
+
+# ------------------------------------------------------------------------------------------ path
+class LineSpec(_Model):
+    type: Literal["line"]
+    start: Vec3 | None = Field(None, description="start point [m] (default: the previous segment's end)")
+    end: Vec3 = Field(description="end point [m]")
+
+
+class ArcSpec(_Model):
+    type: Literal["arc"]
+    start: Vec3 | None = Field(None, description="start point [m] (default: previous end)")
+    center: Vec3 = Field(description="circle centre [m]")
+    normal: Vec3 = Field((0.0, 0.0, 1.0), description="plane normal; the sweep is right-handed about it")
+    sweep: float = Field(description="signed sweep angle [rad]")
+
+
+class CircleSpec(_Model):
+    type: Literal["circle"]
+    center: Vec3 = Field(description="centre [m]")
+    radius: float = Field(gt=0, description="radius [m]")
+    normal: Vec3 = Field((0.0, 0.0, 1.0), description="plane normal (0,0,1): horizontal circle")
+    start_angle: float = Field(0.0, description="angle of the start point in the plane [rad]")
+    turns: float = Field(1.0, gt=0, description="number of turns (1 = a full circle)")
+    start: Vec3 | None = Field(None, description="start point instead of start_angle (default: previous end, if any)")
+
+
+SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec], Field(discriminator="type")]
+
+
+class BlendSpec(_Model):
+    corner: int | Literal["all"] = Field("all", description="connection index (1 = between segments 1 and 2) or 'all'")
+    type: Literal["circle", "g2"] = Field(description="'circle': the thesis' transition circle; 'g2': curvature-continuous blend")
+    radius: float | None = Field(None, gt=0, description="transition circle radius r_t [m] (type circle)")
+    tolerance: float | None = Field(None, gt=0, description="largest deviation from the corner [m] (type g2)")
+
+    @model_validator(mode="after")
+    def _size(self):
+        if self.type == "circle" and self.radius is None:
+            raise ValueError("a 'circle' blend needs radius = r_t in metres")
+        if self.type == "g2" and self.tolerance is None:
+            raise ValueError("a 'g2' blend needs tolerance = largest allowed deviation in metres")
+        return self
+
+
+class TaskPathSpec(_Model):
+    type: Literal["task"]
+    segments: list[SegmentSpec] = Field(min_length=1)
+    blends: list[BlendSpec] = []
+    orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation matrix")
+    start_configuration: tuple[float, ...] | None = Field(
+        None, description="joint configuration [rad] the IK branch stays continuous with")
+
+
+class JointPathSpec(_Model):
+    type: Literal["joint"]
+    waypoints: list[tuple[float, ...]] = Field(min_length=2, description="joint waypoints [rad], one row per waypoint")
+
+
+PathSpec = Annotated[Union[TaskPathSpec, JointPathSpec], Field(discriminator="type")]
+
+
+# ---------------------------------------------------------------------------------------- limits
+class LimitsSpec(_Model):
+    velocity: tuple[float, ...] | None = Field(None, description="joint speed limits [rad/s], override")
+    acceleration: tuple[float, ...] | None = Field(None, description="joint acceleration limits [rad/s^2], override")
+    torque: tuple[float, ...] | None = Field(None, description="joint torque limits [N m], override")
+    use_velocity: bool = True
+    use_acceleration: bool = True
+    use_torque: bool = True
+    velocity_scale: float = Field(1.0, gt=0)
+    acceleration_scale: float = Field(1.0, gt=0)
+    torque_scale: float = Field(1.0, gt=0)
+    tcp_speed: float | None = Field(None, gt=0, description="TCP speed limit [m/s] (off when absent)")
+
+
+Boundary = Union[Literal["zero", "max"], Annotated[float, Field(ge=0)]]
+
+
+class PlanSpec(_Model):
+    grid_points: int = Field(defaults.GRID_POINTS, ge=10, le=1_000_000)
+    start: Boundary = Field("zero", description="theta_dot at the start: 'zero', 'max' or a value [1/s]")
+    end: Boundary = Field("zero", description="theta_dot at the end: 'zero', 'max' or a value")
+    periodic: bool = Field(False, description="closed path: the steady-state cycle")
+    connections: Literal["chain", "zero", "max"] = Field(
+        "chain", description="'chain': plan the whole path at once; 'zero'/'max': segment by segment")
+    sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, description="output sample time [s]")
+
+
+# ------------------------------------------------------------------------------------ simulation
+class RealismSpec(_Model):
+    seed: int = 0
+    inertia_scale: float = Field(1.0, gt=0, description="plant mass/inertia scale vs the controller's model")
+    unmodelled_payload: float = Field(0.0, ge=0, description="unmodelled payload mass at the flange [kg]")
+    viscous_friction: float = Field(0.0, ge=0, description="[N m s/rad]")
+    coulomb_friction: float = Field(0.0, ge=0, description="[N m]")
+    encoder_resolution: float = Field(0.0, ge=0, description="quantization step [rad] (0 = off)")
+    noise_std: float = Field(0.0, ge=0, description="measurement noise std [rad]")
+    delay: bool = Field(False, description="one-sample delay of the measurement")
+
+
+class SimulateSpec(_Model):
+    controller: Literal["orbital", "computed_torque", "pd_gravity"] = "orbital"
+    sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, description="controller sample time [s]")
+    substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=1000)
+    realism: RealismSpec = RealismSpec()
+    gains: dict[str, float] = Field({}, description="controller gains overriding the defaults")
+    failure_threshold: float = Field(defaults.TRACKING_FAILURE_THRESHOLD, gt=0, description="[rad]")
+
+
+class Scenario(_Model):
+    name: str = "scenario"
+    description: str = ""
+    robot: RobotSpec = RobotSpec()
+    path: PathSpec
+    limits: LimitsSpec = LimitsSpec()
+    plan: PlanSpec = PlanSpec()
+    simulate: SimulateSpec = SimulateSpec()
+
+
+# ----------------------------------------------------------------------------------------- load
+def _loc(loc: tuple) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif part in ("line", "arc", "circle", "task", "joint", "tuple[float, float, float]"):
+            continue  # discriminator tags that pydantic inserts into the location
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "(top level)"
+
+
+def scenario_from_dict(doc: dict, where: str = "scenario") -> Scenario:
+    """Validate a parsed scenario; ScenarioError names ``where``, the key path and what is allowed."""
+    try:
+        return Scenario.model_validate(doc)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        more = f" (+{exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
+        msg = err["msg"]
+        if err["type"] == "extra_forbidden":
+            msg = "unknown key; check the spelling (see `pathmotion init` for an example)"
+        elif err["type"] == "missing":
+            msg = "missing required key"
+        value = err.get("input")
+        shown = "" if err["type"] in ("missing",) or isinstance(value, dict) else f" (got {value!r:.60})"
+        raise ScenarioError(f"{where}: {_loc(err['loc'])}: {msg}{shown}{more}") from None
+
+
+def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> tuple[Scenario, Path]:
+    """Read and validate a scenario file; ``overrides`` maps dotted key paths to values
+    (e.g. ``{"path.blends[0].radius": 0.03}``) applied before validation. Returns the
+    scenario and the folder relative paths in it refer to."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise ScenarioError(f"scenario file {path} does not exist") from None
+    except (IsADirectoryError, UnicodeDecodeError, PermissionError) as exc:
+        raise ScenarioError(f"scenario file {path} cannot be read: {exc}") from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    for key, value in (overrides or {}).items():
+        set_key(doc, key, value, where=str(path))
+    return scenario_from_dict(doc, where=str(path)), path.parent
+
+
+def _parse_key(key: str) -> list:
+    parts: list = []
+    for token in key.replace("]", "").split("."):
+        name, *idx = token.split("[")
+        if name:
+            parts.append(name)
+        parts.extend(int(i) for i in idx)
+    return parts
+
+
+def set_key(doc: dict, key: str, value, where: str = "scenario") -> None:
+    """Set a dotted key path (``plan.grid_points``, ``path.blends[0].radius``) in a parsed document."""
+    try:
+        parts = _parse_key(key)
+    except ValueError:
+        raise ScenarioError(f"{where}: bad key path '{key}' (use e.g. path.blends[0].radius)") from None
+    if not parts:
+        raise ScenarioError(f"{where}: empty key path")
+    node = doc
+    for k, nxt in zip(parts[:-1], parts[1:]):
+        try:
+            child = node[k]
+        except (KeyError, IndexError, TypeError):
+            if isinstance(node, dict):
+                child = node.setdefault(k, [] if isinstance(nxt, int) else {})
+            else:
+                raise ScenarioError(f"{where}: key path '{key}': no element {k!r}") from None
+        node = child
+    last = parts[-1]
+    try:
+        if isinstance(node, list) and isinstance(last, int) and last == len(node):
+            node.append(value)
+        else:
+            node[last] = value
+    except (IndexError, TypeError):
+        raise ScenarioError(f"{where}: key path '{key}': cannot set element {last!r}") from None
+
+
+def scenario_json_schema() -> dict:
+    """JSON Schema of the scenario format (for editors: e.g. taplo or Even Better TOML)."""
+    schema = Scenario.model_json_schema()
+    schema["title"] = "pathmotion scenario"
+    return schema
+
+

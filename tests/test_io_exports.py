@@ -1,0 +1,99 @@
+"""Exports: CSV/Parquet round trips, the ROS 2 JointTrajectory message parsed back, EGM stream, RAPID."""
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+import yaml
+
+from pathmotion.errors import PathmotionError
+from pathmotion.io import exports
+from pathmotion.io.atomic import atomic_path, write_json
+from pathmotion.joint_path import SplineJointPath
+from pathmotion.planning.profile import Profile
+from pathmotion.planning.trajectory import Trajectory
+
+
+@pytest.fixture(scope="module")
+def samples(irb140):
+    wp = np.array([[0, 0, 0, 0, 0.5, 0], [0.5, 0.2, -0.3, 0.4, 0.8, 1.0], [1.0, 0.4, -0.1, 0.0, 0.5, 2.0]])
+    path = SplineJointPath.from_waypoints(wp)
+    grid = np.linspace(0, 1, 201)
+    x = 4.0 * np.sin(np.pi * grid) ** 2 + 1e-3  # a smooth, slow profile
+    return Trajectory(path, Profile(grid, x), irb140).sample(0.004)
+
+
+def test_csv_round_trip(tmp_path, samples):
+    path = exports.write_trajectory_csv(tmp_path / "t.csv", samples)
+    header = path.read_text().splitlines()[0].split(",")
+    assert header[:4] == ["t", "theta", "theta_dot", "theta_ddot"]
+    assert header[4:10] == [f"q{j}" for j in range(1, 7)] and header[-1] == "tau6"
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(data[:, 0], samples.t)  # %.17g round-trips exactly
+    np.testing.assert_array_equal(data[:, 4:10], samples.q)
+
+
+def test_parquet_round_trip(tmp_path, samples):
+    path = exports.write_trajectory_parquet(tmp_path / "t.parquet", samples)
+    table = pq.read_table(path)
+    np.testing.assert_array_equal(table.column("qd3").to_numpy(), samples.qd[:, 2])
+    np.testing.assert_array_equal(table.column("tau2").to_numpy(), samples.tau[:, 1])
+
+
+def test_ros2_yaml_parses_back(tmp_path, samples, irb140):
+    path = exports.write_ros2_yaml(tmp_path / "traj.yaml", samples, irb140.joint_names)
+    msg = yaml.safe_load(path.read_text())
+    assert set(msg) == {"header", "joint_names", "points"}
+    assert msg["joint_names"] == list(irb140.joint_names)
+    times = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"] for p in msg["points"]])
+    np.testing.assert_allclose(times, samples.t, atol=1e-9)
+    assert np.all(np.diff(times) > 0)
+    assert all(0 <= p["time_from_start"]["nanosec"] < 1_000_000_000 for p in msg["points"])
+    k = len(times) // 2
+    np.testing.assert_allclose(msg["points"][k]["positions"], samples.q[k], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(msg["points"][k]["velocities"], samples.qd[k], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(msg["points"][k]["accelerations"], samples.qdd[k], rtol=0, atol=1e-15)
+
+
+def test_ros2_rejects_wrong_joint_names(samples):
+    with pytest.raises(PathmotionError, match="joint names"):
+        exports.ros2_joint_trajectory(samples, ["a", "b"])
+
+
+def test_egm_stream_is_4ms_degrees(tmp_path, samples):
+    path = exports.write_egm_csv(tmp_path / "egm.csv", samples, sample_time=0.004)
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
+    np.testing.assert_allclose(np.diff(data[:-1, 0]), 0.004, atol=1e-12)
+    assert data[-1, 0] == pytest.approx(samples.t[-1])
+    np.testing.assert_allclose(data[:, 1:7], np.degrees(np.array(
+        [np.interp(data[:, 0], samples.t, samples.q[:, j]) for j in range(6)]).T), atol=1e-9)
+
+
+def test_rapid_module_structure(samples):
+    text = exports.rapid_module(samples, step=0.05)
+    assert text.startswith("MODULE PathmotionReplay") and text.rstrip().endswith("ENDMODULE")
+    n = int(text.split("CONST num n_points := ")[1].split(";")[0])
+    targets = text.split("CONST jointtarget path{")[1].split("];")[0]
+    assert targets.count("[[") == n
+    move_times = [float(v) for v in text.split("CONST num move_time{")[1].split(":= [")[1].split("]")[0].split(",")]
+    assert len(move_times) == n
+    assert sum(move_times) == pytest.approx(samples.t[-1], abs=1e-5)
+    first = [float(v) for v in targets.split("[[")[1].split("]")[0].split(",")]
+    np.testing.assert_allclose(first, np.degrees(samples.q[0]), atol=1e-5)
+    with pytest.raises(PathmotionError):
+        exports.rapid_module(samples, module="bad name")
+
+
+def test_atomic_write_keeps_old_file_on_failure(tmp_path):
+    target = tmp_path / "summary.json"
+    write_json(target, {"a": 1})
+    with pytest.raises(RuntimeError):
+        with atomic_path(target) as tmp:
+            tmp.write_text("half")
+            raise RuntimeError("interrupted")
+    assert yaml.safe_load(target.read_text()) == {"a": 1}
+    assert [p.name for p in tmp_path.iterdir()] == ["summary.json"]
+
+
+def test_json_writes_nan_as_null(tmp_path):
+    path = write_json(tmp_path / "x.json", {"v": float("nan"), "w": np.float64(2.0), "k": np.int64(3)})
+    assert yaml.safe_load(path.read_text()) == {"k": 3, "v": None, "w": 2.0}
