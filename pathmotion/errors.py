@@ -20,7 +20,23 @@ class RobotModelError(PathmotionError):
 
 
 class UnreachableError(PathmotionError):
-    """A pose or path point cannot be reached: out of reach, outside a joint range, or singular."""
+    """A pose or path point cannot be reached: out of reach, outside a joint range, or singular.
+
+    ``index``: index of the first bad point of a batch (None for a single pose); ``reason``:
+    "reach", "joint_range", "singular" or "not_converged" (None when not given).
+    """
+
+    def __init__(self, message: str, *, index: int | None = None, reason: str | None = None):
+        super().__init__(message)
+        self.index = index
+        self.reason = reason
+
+    def __reduce__(self):
+        return (_rebuild_unreachable, (str(self), self.index, self.reason))
+
+
+def _rebuild_unreachable(message, index, reason):
+    return UnreachableError(message, index=index, reason=reason)
 
 
 class PathError(PathmotionError):

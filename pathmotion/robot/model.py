@@ -106,6 +106,21 @@ class Robot:
         """Scratch data of this process (not shared between threads)."""
         return self.model.createData()
 
+    @cached_property
+    def opw_detection(self) -> tuple:
+        """(OPWGeometry, "") when the arm has the OPW structure (closed-form IK), else (None, reason).
+
+        Use :func:`pathmotion.robot.ik.opw_geometry`; cached per robot (recomputed after unpickling).
+        """
+        from .opw import detect_opw
+
+        try:
+            geo = detect_opw(self.model, self.tcp_frame_id, self.model.getFrameId(self.flange_frame),
+                             self.limits.lower, self.limits.upper)
+        except RobotModelError as exc:
+            return None, str(exc)
+        return geo, ""
+
     @property
     def n(self) -> int:
         return self.model.nv

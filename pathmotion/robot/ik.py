@@ -1,0 +1,377 @@
+"""Inverse kinematics of the TCP: closed form for OPW arms, damped least squares for any other arm.
+
+Poses are TCP poses in the base frame: position (3,) [m] and rotation (3, 3), or batches
+(N, 3) / (N, 3, 3). Configurations are (n,) / (N, n) [rad], inside the robot's joint ranges.
+
+* Closed form (:mod:`pathmotion.robot.opw`, equations and branch convention there): used when the
+  robot's kinematics has the OPW structure (6R, ortho-parallel basis, spherical wrist), detected from
+  the model and verified against its forward kinematics (``Robot.opw_detection``). The wrist centre
+  is found from the TCP pose through the tool, so the tool frame needs no special care. Every branch
+  gives joint angles in [-pi, pi]; joints whose range is wider than that also get the 2*pi-shifted
+  copies (IRB140: joint 4 +-200 deg, joint 6 +-400 deg).
+* :func:`ik` picks, over the 8 branches and the in-range 2*pi shifts, the solution nearest (Euclidean)
+  to ``q_ref``; :func:`ik_all` lists all of them; :func:`ik_batch` keeps the branch chosen at the first
+  point for the whole batch and each joint on the 2*pi turn continuous with the previous point.
+* :func:`ik_dls`: Levenberg-Marquardt damped least squares from ``q_ref``, clamped to the joint ranges;
+  used for arms without the closed form (any URDF, any number of joints).
+
+Failures raise :class:`~pathmotion.errors.UnreachableError` with ``reason`` "reach" (distance and
+reach given), "joint_range" (joint, value and range), "singular" (wrist q5 = 0, shoulder, elbow
+stretched) or "not_converged" (DLS), and for batches ``index`` = the first bad point.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pinocchio as pin
+
+from .. import defaults
+from ..errors import PathmotionError, RobotModelError, UnreachableError
+from .kinematics import fk, jacobian
+from .model import Robot
+from .opw import TWO_PI, OPWGeometry, OPWSolutions, branch_name, solve, wrap
+
+
+def opw_geometry(robot: Robot) -> OPWGeometry:
+    """The robot's OPW parameters; RobotModelError saying why when the arm has no closed form."""
+    geo, why = robot.opw_detection
+    if geo is None:
+        raise RobotModelError(f"robot {robot.name}: {why}")
+    return geo
+
+
+def has_closed_form(robot: Robot) -> bool:
+    """True when IK of ``robot`` uses the closed (OPW) form, False when it uses damped least squares."""
+    return robot.opw_detection[0] is not None
+
+
+# ----------------------------------------------------------------------------------------------
+# Input checks
+
+
+def _poses(positions, rotations, batch: bool) -> tuple[np.ndarray, np.ndarray]:
+    p = np.asarray(positions, dtype=float)
+    r = np.asarray(rotations, dtype=float)
+    want_p, want_r = ((-1, 3), (-1, 3, 3)) if batch else ((3,), (3, 3))
+    if p.ndim != len(want_p) or p.shape[-1] != 3 or r.ndim != len(want_r) or r.shape[-2:] != (3, 3):
+        raise PathmotionError(
+            f"IK: positions must have shape {'(N, 3)' if batch else '(3,)'} and rotations "
+            f"{'(N, 3, 3)' if batch else '(3, 3)'}; got {p.shape} and {r.shape}"
+        )
+    p, r = p.reshape(-1, 3), r.reshape(-1, 3, 3)
+    if len(p) != len(r):
+        raise PathmotionError(f"IK: {len(p)} positions but {len(r)} rotations")
+    bad = ~(np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(r), axis=(1, 2)))
+    if bad.any():
+        i = int(np.argmax(bad))
+        where = f" at point {i}" if batch else ""
+        raise PathmotionError(
+            f"IK: pose{where} contains NaN or inf (position {p[i].tolist()}, rotation {r[i].tolist()}); "
+            "give finite numbers"
+        )
+    dev = np.max(np.abs(np.swapaxes(r, 1, 2) @ r - np.eye(3)), axis=(1, 2))
+    bad = (dev > defaults.ROTATION_TOLERANCE) | (np.linalg.det(r) < 0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        where = f" at point {i}" if batch else ""
+        raise PathmotionError(
+            f"IK: rotation{where} is not a proper rotation matrix (max |R^T R - I| = {dev[i]:.3g}, "
+            f"det = {np.linalg.det(r[i]):.6g}); give an orthonormal matrix with det +1"
+        )
+    return p, r
+
+
+def _reference(robot: Robot, q_ref) -> np.ndarray:
+    q = np.asarray(q_ref, dtype=float)
+    if q.shape != (robot.n,):
+        raise PathmotionError(f"IK: q_ref has shape {q.shape}, the robot has {robot.n} joints")
+    if not np.all(np.isfinite(q)):
+        raise PathmotionError(f"IK: q_ref contains NaN or inf ({q.tolist()}); give finite numbers")
+    return q
+
+
+# ----------------------------------------------------------------------------------------------
+# Messages
+
+
+def _fmt_pose(p, r) -> str:
+    rv = pin.log3(r)
+    return (f"TCP position ({p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}) m, rotation vector "
+            f"({rv[0]:.4f}, {rv[1]:.4f}, {rv[2]:.4f}) rad")
+
+
+def _reach_message(geo: OPWGeometry, sol: OPWSolutions, i: int, branches=range(8)) -> str:
+    c = sol.centre[i]
+    rho = float(np.hypot(c[0], c[1]))
+    if rho < abs(geo.b) - defaults.IK_REACH_ROUNDING:
+        return (f"out of reach: the wrist centre ({c[0]:.4f}, {c[1]:.4f}, {c[2]:.4f}) m is {rho:.4f} m from "
+                f"axis 1, inside the shoulder offset |b| = {abs(geo.b):.4f} m")
+    shoulders = sorted({b >> 2 for b in branches})
+    inner, outer = abs(geo.c2 - geo.k), geo.c2 + geo.k
+    dist = ", ".join(f"{sol.arm_distance[i, s]:.4f} m ({('front', 'back')[s]} shoulder)" for s in shoulders)
+    return (f"out of reach: the wrist centre ({c[0]:.4f}, {c[1]:.4f}, {c[2]:.4f}) m is {dist} from the "
+            f"joint-2 axis; the arm reaches {inner:.4f} to {outer:.4f} m from it "
+            f"(upper arm c2 = {geo.c2:.4f} m, forearm {geo.k:.4f} m)")
+
+
+def _range_violation(robot: Robot, q: np.ndarray) -> str:
+    lo, hi = robot.limits.lower, robot.limits.upper
+    for j in range(robot.n):
+        if not lo[j] <= q[j] <= hi[j]:
+            return (f"joint {robot.joint_names[j]} = {q[j]:.4f} rad ({np.degrees(q[j]):.1f} deg) is outside "
+                    f"its range [{lo[j]:.4f}, {hi[j]:.4f}] rad")
+    return "all joints in range"
+
+
+# ----------------------------------------------------------------------------------------------
+# Closed form, single pose
+
+
+def _nearest_in_range(robot: Robot, q: np.ndarray, q_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For wrapped joint values q (..., n): the in-range 2*pi shift nearest to q_ref, and a mask of
+    joints that have one."""
+    lo, hi = robot.limits.lower, robot.limits.upper
+    k_lo = np.ceil((lo - q) / TWO_PI)
+    k_hi = np.floor((hi - q) / TWO_PI)
+    k = np.clip(np.round((q_ref - q) / TWO_PI), k_lo, k_hi)
+    return q + TWO_PI * k, k_lo <= k_hi
+
+
+def _closest(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, i: int, q_ref: np.ndarray,
+             pose: str) -> tuple[np.ndarray, int]:
+    """Solution of point i nearest to q_ref over all branches and shifts, and its branch."""
+    qs = sol.q[i]
+    reach = sol.reach_ok[i]
+    if not reach.any():
+        raise UnreachableError(f"{pose}: {_reach_message(geo, sol, i)}", reason="reach")
+    with np.errstate(invalid="ignore"):
+        shifted, fits = _nearest_in_range(robot, qs, q_ref)
+    ok = reach & fits.all(axis=1)
+    if not ok.any():
+        raw = qs + TWO_PI * np.round((q_ref - qs) / TWO_PI)
+        dist = np.where(reach, np.linalg.norm(raw - q_ref, axis=1), np.inf)
+        b = int(np.argmin(dist))
+        raise UnreachableError(
+            f"{pose}: no IK solution inside the joint ranges; on the branch nearest to q_ref "
+            f"({branch_name(b)}) {_range_violation(robot, raw[b])}; "
+            f"{int(reach.sum())} of 8 branches reach the pose, none within the ranges",
+            reason="joint_range",
+        )
+    dist = np.where(ok, np.linalg.norm(shifted - q_ref, axis=1), np.inf)
+    b = int(np.argmin(dist))
+    return shifted[b], b
+
+
+def ik(robot: Robot, position, rotation, q_ref) -> np.ndarray:
+    """Joint configuration (n,) [rad] reaching the TCP pose, nearest to ``q_ref`` (n,).
+
+    Closed form over all branches and in-range 2*pi shifts for OPW arms; otherwise :func:`ik_dls`
+    started at q_ref. Raises UnreachableError (reason reach / joint_range / not_converged).
+    """
+    p, r = _poses(position, rotation, batch=False)
+    q_ref = _reference(robot, q_ref)
+    geo = robot.opw_detection[0]
+    if geo is None:
+        return ik_dls(robot, p[0], r[0], q_ref)
+    t_ref = geo.to_t(q_ref)
+    sol = solve(geo, p, r, t_ref[None, 0], t_ref[None, 3])
+    return _closest(robot, geo, sol, 0, q_ref, _fmt_pose(p[0], r[0]))[0]
+
+
+def ik_all(robot: Robot, position, rotation) -> np.ndarray:
+    """All closed-form solutions (k, 6) [rad] of a TCP pose inside the joint ranges.
+
+    Ordered by branch (see :mod:`pathmotion.robot.opw`), then by 2*pi shift. At an exact wrist or
+    shoulder singularity the redundant angle is the one of q = 0. Needs an OPW arm
+    (RobotModelError otherwise); UnreachableError when no solution is in range.
+    """
+    p, r = _poses(position, rotation, batch=False)
+    geo = opw_geometry(robot)
+    t0 = geo.to_t(np.zeros(robot.n))
+    sol = solve(geo, p, r, t0[None, 0], t0[None, 3])
+    lo, hi = robot.limits.lower, robot.limits.upper
+    rows = []
+    for b in range(8):
+        if not sol.reach_ok[0, b]:
+            continue
+        q = sol.q[0, b]
+        choices = []
+        for j in range(robot.n):
+            ks = np.arange(np.ceil((lo[j] - q[j]) / TWO_PI), np.floor((hi[j] - q[j]) / TWO_PI) + 1)
+            choices.append(q[j] + TWO_PI * ks)
+        for combo in itertools.product(*choices):
+            row = np.array(combo)
+            if not any(np.max(np.abs(row - other)) < defaults.IK_TOLERANCE for other in rows):
+                rows.append(row)
+    if not rows:
+        _closest(robot, geo, sol, 0, np.zeros(robot.n), _fmt_pose(p[0], r[0]))  # raises with the reason
+    return np.array(rows)
+
+
+# ----------------------------------------------------------------------------------------------
+# Closed form, batch
+
+
+def _forward_fill(values: np.ndarray, degenerate: np.ndarray, first: float) -> np.ndarray:
+    """values with every degenerate entry replaced by the last non-degenerate one before it
+    (``first`` when there is none)."""
+    idx = np.where(degenerate, -1, np.arange(len(values)))
+    idx = np.maximum.accumulate(idx)
+    return np.where(idx < 0, first, values[np.maximum(idx, 0)])
+
+
+def ik_batch(robot: Robot, positions, rotations, q_ref, *,
+             max_joint_step: float | None = defaults.IK_MAX_JOINT_STEP) -> np.ndarray:
+    """Configurations (N, n) [rad] reaching N TCP poses (positions (N, 3), rotations (N, 3, 3)).
+
+    The branch is the one nearest to ``q_ref`` (n,) at point 0 and is kept for all points; each
+    joint takes the 2*pi turn continuous with the previous point. A joint change above
+    ``max_joint_step`` [rad] between consecutive points is reported as a singularity (the path
+    crosses it, or passes nearer than the point spacing resolves); None disables that check.
+    Raises UnreachableError with ``index`` = first bad point. Arms without the closed form use
+    :func:`ik_dls` point by point, each started at the previous solution.
+    """
+    p, r = _poses(positions, rotations, batch=True)
+    q_ref = _reference(robot, q_ref)
+    geo = robot.opw_detection[0]
+    if geo is None:
+        return _dls_batch(robot, p, r, q_ref)
+    n_pts = len(p)
+    t_ref = geo.to_t(q_ref)
+    first = solve(geo, p[:1], r[:1], t_ref[None, 0], t_ref[None, 3])
+    try:
+        q0, branch = _closest(robot, geo, first, 0, q_ref, "point 0, " + _fmt_pose(p[0], r[0]))
+    except UnreachableError as exc:
+        raise UnreachableError(str(exc), index=0, reason=exc.reason) from None
+    t0 = geo.to_t(q0)
+    sol = solve(geo, p, r, np.full(n_pts, t0[0]), np.full(n_pts, t0[3]), branches=(branch,))
+    # exact singularities: take the redundant angle from the previous regular point
+    shoulder_deg = sol.shoulder_radius < defaults.IK_DEGENERATE
+    wrist_deg = np.abs(sol.sin_wrist[:, branch]) < defaults.IK_DEGENERATE
+    if shoulder_deg.any() or wrist_deg.any():
+        t = geo.to_t(sol.q[:, branch])
+        t1 = _forward_fill(t[:, 0], shoulder_deg, t0[0])
+        t4 = _forward_fill(t[:, 3], wrist_deg, t0[3])
+        sol = solve(geo, p, r, t1, t4, branches=(branch,))
+    qb = sol.q[:, branch]
+    bad_reach = ~sol.reach_ok[:, branch]
+    i_reach = int(np.argmax(bad_reach)) if bad_reach.any() else n_pts
+    step = wrap(np.diff(qb, axis=0))
+    i_jump = n_pts
+    if max_joint_step is not None and n_pts > 1:
+        with np.errstate(invalid="ignore"):
+            jump = np.abs(step) > max_joint_step
+        if jump.any():
+            i_jump = int(np.argmax(jump.any(axis=1))) + 1
+    step = np.nan_to_num(step)
+    q_cont = q0 + np.concatenate([np.zeros((1, robot.n)), np.cumsum(step, axis=0)])
+    q = qb + TWO_PI * np.round((q_cont - qb) / TWO_PI)
+    with np.errstate(invalid="ignore"):
+        out = (q < robot.limits.lower) | (q > robot.limits.upper)
+    i_range = int(np.argmax(out.any(axis=1))) if out.any() else n_pts
+    i_bad = min(i_reach, i_jump, i_range)
+    if i_bad == n_pts:
+        return q
+    where = f"point {i_bad}, {_fmt_pose(p[i_bad], r[i_bad])}"
+    name = branch_name(branch)
+    if i_bad == i_reach:
+        raise UnreachableError(f"{where}: {_reach_message(geo, sol, i_bad, (branch,))} (branch {name})",
+                               index=i_bad, reason="reach")
+    if i_bad == i_jump:
+        raise UnreachableError(f"{where}: {_singular_message(robot, geo, sol, qb, step, branch, i_bad)}",
+                               index=i_bad, reason="singular")
+    raise UnreachableError(
+        f"{where}: {_range_violation(robot, q[i_bad])} on the branch followed from point 0 ({name}); "
+        "start from another q_ref or move the path", index=i_bad, reason="joint_range")
+
+
+def _singular_message(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, qb, step, branch: int, i: int) -> str:
+    raw = wrap(np.diff(qb[i - 1:i + 1], axis=0))[0]
+    j = int(np.argmax(np.abs(raw)))
+    moved = f"joint {robot.joint_names[j]} changes by {raw[j]:.3f} rad between points {i - 1} and {i}"
+    if j in (3, 5) or (j == 4 and abs(sol.sin_wrist[i, branch]) < 0.1):
+        what = (f"wrist singularity (q5 = 0): |sin q5| = {abs(sol.sin_wrist[i, branch]):.2e} "
+                f"(q5 = {qb[i, 4]:.2e} rad)")
+    elif j == 0:
+        what = (f"shoulder singularity: the wrist centre is {sol.shoulder_radius[i]:.2e} m from axis 1")
+    else:
+        what = (f"elbow singularity (arm stretched or folded): wrist centre {sol.arm_distance[i, branch >> 2]:.4f} m "
+                f"from the joint-2 axis, limits {abs(geo.c2 - geo.k):.4f}..{geo.c2 + geo.k:.4f} m")
+    return (f"singular: {moved}; the path crosses or passes too near the {what}; move the path away "
+            "from it or sample it more densely")
+
+
+# ----------------------------------------------------------------------------------------------
+# Damped least squares
+
+
+def _pose_error(robot: Robot, q, p, r) -> np.ndarray:
+    pos, rot = fk(robot, q)
+    return np.concatenate([p - pos, pin.log3(r @ rot.T)])
+
+
+def ik_dls(robot: Robot, position, rotation, q_ref, *, damping: float = defaults.DLS_DAMPING,
+           max_iterations: int = defaults.DLS_MAX_ITERATIONS, tolerance: float = defaults.IK_TOLERANCE) -> np.ndarray:
+    """IK of any arm by damped least squares (Levenberg-Marquardt), from ``q_ref`` (n,).
+
+    Step dq = (J^T J + lambda^2 I)^-1 J^T e with e = (position error [m], rotation-vector error
+    [rad]) in base axes and J the TCP Jacobian; lambda starts at ``damping``, grows by
+    ``defaults.DLS_DAMPING_GROWTH`` after a rejected step and shrinks after an accepted one; steps
+    are clamped to ``defaults.DLS_MAX_STEP`` [rad] and the joints to their ranges. Converged when
+    the largest position and rotation errors are below ``tolerance``. Arms with fewer than 6 joints
+    reach only poses consistent with their motion (e.g. FK outputs). Raises UnreachableError
+    (reason "not_converged" or "singular") with the final residual.
+    """
+    p, r = _poses(position, rotation, batch=False)
+    p, r = p[0], r[0]
+    q_ref = _reference(robot, q_ref)
+    lo, hi = robot.limits.lower, robot.limits.upper
+    q = np.clip(q_ref, lo, hi)
+    err = _pose_error(robot, q, p, r)
+    lam = damping
+    eye = np.eye(robot.n)
+    for _ in range(max_iterations):
+        if np.max(np.abs(err)) < tolerance:
+            return q
+        jac = jacobian(robot, q)
+        dq = np.linalg.solve(jac.T @ jac + lam**2 * eye, jac.T @ err)
+        norm = np.linalg.norm(dq)
+        if norm > defaults.DLS_MAX_STEP:
+            dq *= defaults.DLS_MAX_STEP / norm
+        q_new = np.clip(q + dq, lo, hi)
+        err_new = _pose_error(robot, q_new, p, r)
+        if np.linalg.norm(err_new) < np.linalg.norm(err):
+            q, err = q_new, err_new
+            lam = max(lam / defaults.DLS_DAMPING_GROWTH, damping)
+        else:
+            lam *= defaults.DLS_DAMPING_GROWTH
+            if lam > 1e6:
+                break
+    if np.max(np.abs(err)) < tolerance:
+        return q
+    sigma = np.linalg.svd(jacobian(robot, q), compute_uv=False)[min(robot.n, 6) - 1]
+    at_limit = [robot.joint_names[j] for j in range(robot.n) if q[j] <= lo[j] or q[j] >= hi[j]]
+    singular = sigma < defaults.SINGULARITY_THRESHOLD
+    detail = (f"position error {np.linalg.norm(err[:3]):.3g} m, rotation error {np.linalg.norm(err[3:]):.3g} rad; "
+              f"smallest Jacobian singular value {sigma:.3g}"
+              + (" (singular)" if singular else "")
+              + (f"; joints at a range limit: {at_limit}" if at_limit else ""))
+    raise UnreachableError(
+        f"{_fmt_pose(p, r)}: damped-least-squares IK from q_ref did not converge ({detail}); the pose may be "
+        "out of reach, outside the joint ranges or singular; try another q_ref",
+        reason="singular" if singular else "not_converged",
+    )
+
+
+def _dls_batch(robot: Robot, p: np.ndarray, r: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+    out = np.empty((len(p), robot.n))
+    q = q_ref
+    for i in range(len(p)):
+        try:
+            q = ik_dls(robot, p[i], r[i], q)
+        except UnreachableError as exc:
+            raise UnreachableError(f"point {i}: {exc}", index=i, reason=exc.reason) from None
+        out[i] = q
+    return out
