@@ -133,10 +133,16 @@ def _nearest_in_range(robot: Robot, q: np.ndarray, q_ref: np.ndarray) -> tuple[n
     """For wrapped joint values q (..., n): the in-range 2*pi shift nearest to q_ref, and a mask of
     joints that have one."""
     lo, hi = robot.limits.lower, robot.limits.upper
-    k_lo = np.ceil((lo - q) / TWO_PI)
-    k_hi = np.floor((hi - q) / TWO_PI)
+    k_lo, k_hi = _shift_bounds(robot, q)
     k = np.clip(np.round((q_ref - q) / TWO_PI), k_lo, k_hi)
-    return q + TWO_PI * k, k_lo <= k_hi
+    return np.clip(q + TWO_PI * k, lo, hi), k_lo <= k_hi
+
+
+def _shift_bounds(robot: Robot, q):
+    """Smallest and largest k with q + 2*pi*k inside the range (widened by IK_TOLERANCE: a solution
+    that far beyond a limit, by rounding, counts as on it and is clipped to it)."""
+    tol = defaults.IK_TOLERANCE
+    return (np.ceil((robot.limits.lower - tol - q) / TWO_PI), np.floor((robot.limits.upper + tol - q) / TWO_PI))
 
 
 def _closest(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, i: int, q_ref: np.ndarray,
@@ -197,10 +203,8 @@ def ik_all(robot: Robot, position, rotation) -> np.ndarray:
         if not sol.reach_ok[0, b]:
             continue
         q = sol.q[0, b]
-        choices = []
-        for j in range(robot.n):
-            ks = np.arange(np.ceil((lo[j] - q[j]) / TWO_PI), np.floor((hi[j] - q[j]) / TWO_PI) + 1)
-            choices.append(q[j] + TWO_PI * ks)
+        k_lo, k_hi = _shift_bounds(robot, q)
+        choices = [np.clip(q[j] + TWO_PI * np.arange(k_lo[j], k_hi[j] + 1), lo[j], hi[j]) for j in range(robot.n)]
         for combo in itertools.product(*choices):
             row = np.array(combo)
             if not any(np.max(np.abs(row - other)) < defaults.IK_TOLERANCE for other in rows):
@@ -268,12 +272,13 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
     step = np.nan_to_num(step)
     q_cont = q0 + np.concatenate([np.zeros((1, robot.n)), np.cumsum(step, axis=0)])
     q = qb + TWO_PI * np.round((q_cont - qb) / TWO_PI)
+    tol = defaults.IK_TOLERANCE
     with np.errstate(invalid="ignore"):
-        out = (q < robot.limits.lower) | (q > robot.limits.upper)
+        out = (q < robot.limits.lower - tol) | (q > robot.limits.upper + tol)
     i_range = int(np.argmax(out.any(axis=1))) if out.any() else n_pts
     i_bad = min(i_reach, i_jump, i_range)
     if i_bad == n_pts:
-        return q
+        return np.clip(q, robot.limits.lower, robot.limits.upper)
     where = f"point {i_bad}, {_fmt_pose(p[i_bad], r[i_bad])}"
     name = branch_name(branch)
     if i_bad == i_reach:
