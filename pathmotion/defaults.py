@@ -50,3 +50,104 @@ TRACKING_FAILURE_THRESHOLD = 0.05
 PLANT_SUBSTEPS = 4
 #: Spacing of the dense reference samples the lift takes along a task path [m of theta].
 LIFT_REFERENCE_STEP = 0.002
+
+# --- Task-space geometry (pathmotion.geometry) -------------------------------------------------
+#: Default tool orientation R (world_vector = R @ tool_vector; its columns are the tool x, y, z
+#: axes in world coordinates): tool z pointing down (= -world z), tool x = world x, i.e. a
+#: rotation of pi about world x.
+TOOL_DOWN_ROTATION = ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0))
+#: Largest gap between the end of one segment and the start of the next [m].
+PATH_GAP_TOLERANCE = 1e-9
+#: Shortest segment accepted (anything shorter is "zero length") [m].
+MIN_SEGMENT_LENGTH = 1e-9
+#: Angle between the tangents above which a connection is a sharp corner [rad].
+CORNER_ANGLE_TOLERANCE = 1e-7
+#: Jump of the curvature vector above which a G1 connection is "tangent" rather than "smooth" [1/m].
+CURVATURE_JUMP_TOLERANCE = 1e-6
+#: Out-of-plane tolerance (sine of the angle between plane normals) for planar-corner checks [-].
+PLANARITY_TOLERANCE = 1e-9
+#: Relative accuracy of certified maximum-distance computations (upper - lower <= this * upper) [-].
+DEVIATION_RELATIVE_ACCURACY = 1e-4
+#: G2 blend shape in (0, 1]: the end speed is lambda = 5/2 * shape * cut, so for a line-line corner
+#: b2 sits at (1 - shape) * cut from the corner (b2 = corner when 1) [-]. 0.7 keeps the peak
+#: curvature within ~15 % of its minimum over shape for 30-90 degree corners at a given deviation
+#: while keeping d(curvature)/ds moderate; see pathmotion.geometry.blends and docs/geometry.md.
+G2_BLEND_SHAPE = 0.7
+#: Fraction of a neighbouring segment that one blend may consume when several corners are blended
+#: in one call (each end of a segment may be blended) [-].
+SHARED_SEGMENT_FRACTION = 0.5
+#: Thesis paths (Chapter 6-7): horizontal circle centre [m] (its z is the height), radius [m],
+#: radial line length [m], vertical circle radius [m], transition circle radius r_t [m].
+THESIS_CIRCLE_CENTRE = (0.5, 0.0, 0.5)
+THESIS_CIRCLE_RADIUS = 0.1
+THESIS_LINE_LENGTH = 0.1
+THESIS_VERTICAL_CIRCLE_RADIUS = 0.1
+THESIS_TRANSITION_RADIUS = 0.04
+#: Planner: verify-and-tighten iterations (resample, tighten limits locally, re-solve) before giving up.
+PLAN_MAX_TIGHTEN_ITERATIONS = 8
+#: Planner: upper bound on x = theta_dot^2 where no limit bounds it (e.g. Phi' = 0 with only velocity
+#: limits) [(unit theta / s)^2]; a "max" boundary velocity that reaches it is reported as unbounded.
+PLANNER_X_CAP = 1e8
+#: Segment-by-segment planning with "max" connections: length of the interval that carries the jump in
+#: theta_dot at a connection, as a fraction of the local grid step [-].
+CONNECTION_JUMP_FRACTION = 1e-3
+#: Fitted (thesis) profile: polynomial degree (or 2 x number of harmonics on periodic paths) of the fit
+#: of log(theta_dot) in theta.
+FITTED_PROFILE_DEGREE = 6
+#: Relative tolerance of the searches over a boundary velocity (periodic cycle, industrial baseline) [-].
+PLANNER_SEARCH_TOLERANCE = 1e-9
+
+# --- Closed loop: controllers (pathmotion.control) and plant (pathmotion.simulation) ---------------
+#: Orbital controller: closed-loop natural frequency [rad/s] and damping ratio [-] of the transverse
+#: position error; they set the LQR weights Q = diag(w^4, 2 w^2 (2 zeta^2 - 1), ...), R = I.
+ORBITAL_BANDWIDTH = 40.0
+ORBITAL_DAMPING = 1.0
+#: Orbital controller: convergence rate of the speed deviation I = theta_dot^2 - x*(theta) [1/s],
+#: and the joint speed along the path [rad/s] below which its weight stops growing.
+ORBITAL_SPEED_RATE = 20.0
+ORBITAL_MIN_SPEED = 0.05
+#: Open paths: planned time-to-go [s] below which the orbital controller plays the rest of the
+#: plan on the clock and then holds the final configuration.
+TERMINAL_TIME_TO_GO = 0.04
+#: Points of the controller's path table (quintic Hermite in theta, breaks added) [-].
+PATH_TABLE_POINTS = 2001
+#: Path projection: Gauss-Newton iterations per sample [-], step tolerance [unit theta, relative
+#: to the path length] and largest step per iteration [fraction of the path length].
+PROJECTION_ITERATIONS = 4
+PROJECTION_TOLERANCE = 1e-12
+PROJECTION_MAX_STEP = 0.02
+#: Riccati equation: relative tolerance of the ODE solver and of the periodic fixed point [-],
+#: and the most periods iterated for a closed path.
+RICCATI_TOLERANCE = 1e-7
+RICCATI_MAX_PERIODS = 50
+#: Time-indexed computed-torque baseline: natural frequency [rad/s] and damping ratio [-].
+COMPUTED_TORQUE_BANDWIDTH = 40.0
+COMPUTED_TORQUE_DAMPING = 1.0
+#: PD + gravity baseline (decentralized industrial joint loop): natural frequency [rad/s] and
+#: damping ratio [-] per joint, gains scaled by the diagonal of M at the start configuration.
+PD_BANDWIDTH = 40.0
+PD_DAMPING = 1.0
+#: Closed-loop time budget: factor on the planned duration [-] plus a margin [s].
+TIME_BUDGET_FACTOR = 3.0
+TIME_BUDGET_MARGIN = 1.0
+#: Open paths: the robot has arrived when |q - Phi(theta_end)| (max over joints) is below this [rad];
+#: the simulation then runs SETTLE_TIME longer, holding the final configuration [s].
+ARRIVAL_TOLERANCE = 1e-4
+SETTLE_TIME = 0.1
+#: Divergence: a joint speed above this multiple of its velocity limit ends the run as diverged [-].
+DIVERGENCE_SPEED_FACTOR = 10.0
+#: Realistic-plant preset (Realism.realistic): relative mass/inertia error per link [-], unmodelled
+#: payload [kg] and its centre of mass in the flange frame [m], viscous [N m s/rad] and Coulomb
+#: [N m] friction per joint, Coulomb smoothing speed [rad/s], encoder resolution [rad] (20-bit per
+#: motor turn through a ~100:1 gear), position [rad] and velocity [rad/s] noise (standard deviations).
+REALISTIC_INERTIA_ERROR = 0.10
+REALISTIC_PAYLOAD_MASS = 6.0
+REALISTIC_PAYLOAD_COM = (0.0, 0.0, 0.1)
+REALISTIC_VISCOUS_FRICTION = (2.0, 2.0, 1.5, 0.3, 0.3, 0.2)
+REALISTIC_COULOMB_FRICTION = (3.0, 3.0, 2.0, 0.4, 0.4, 0.2)
+COULOMB_SMOOTHING_SPEED = 0.01
+REALISTIC_ENCODER_RESOLUTION = 6.0e-8
+REALISTIC_POSITION_NOISE = 1.0e-5
+REALISTIC_VELOCITY_NOISE = 1.0e-3
+#: Industrial baseline: relative tolerance of the search for the highest constant TCP speed [-].
+BASELINE_SPEED_TOLERANCE = 1e-6

@@ -1,0 +1,321 @@
+"""Replacing a sharp corner (or a curvature jump) by a transition segment.
+
+Two kinds of transition, both cutting the two neighbouring segments A (ending at the corner) and B
+(starting there) and inserting one new segment between the cut points:
+
+**Transition circle** (the thesis' method, chapter 7.2): a circular arc of radius r_t tangent to
+both neighbours, for planar line-line, line-arc and arc-arc corners. Its centre C lies at distance
+r_t from both neighbours on the inside of the turn: with m = t_A x t_B / |t_A x t_B| the corner's
+plane normal (the turn is left-handed about m) and n(s) = m x t(s) the inward normal,
+
+    p_A(L_A - a) + r_t n_A(L_A - a) = p_B(b) + r_t n_B(b)
+
+is solved for the cut lengths (a, b) by Newton's method (closed form a = b = r_t tan(delta/2) for
+two lines, delta = angle between the tangents, is the starting guess). The result is G1: the
+tangent is continuous, the curvature jumps (0 -> 1/r_t on a line), so Phi'' jumps at both ends.
+
+For two lines meeting at angle delta (interior angle phi = pi - delta) the arc's midpoint is
+farthest from the original path: distance r_t (1 - sin(phi/2)) to the nearest line (and
+r_t (1/sin(phi/2) - 1) to the corner point itself); see docs/geometry.md.
+
+**G2 blend**: a quintic Bezier curve X(u), u in [0, 1], that matches position, unit tangent and
+curvature vector of both neighbours at the cut points, so tangent and curvature (hence Phi' and
+Phi'') are continuous. Why a quintic Bezier: it is the lowest-degree polynomial that meets
+position, tangent and curvature at both ends with free end speeds (6 conditions per end pair);
+it works in 3-D and for line and arc neighbours alike (a clothoid pair only joins lines or needs
+Fresnel integrals per arc case), and it admits a simple Lipschitz bound for the guarantee below.
+With the cut length a on both sides, the end speeds lambda = 5/2 * shape * a and tangents t,
+curvature vectors k of the neighbours at the cuts:
+
+    b0 = p_A           b1 = b0 + lambda/5 t_A      b2 = b0 + 2 lambda/5 t_A + lambda^2/20 k_A
+    b5 = p_B           b4 = b5 - lambda/5 t_B      b3 = b5 - 2 lambda/5 t_B + lambda^2/20 k_B
+
+so X'(0) = lambda t_A, X''(0) = lambda^2 k_A (zero tangential acceleration), and the curvature
+vector (X'' - (X''.T)T)/|X'|^2 equals k_A at u = 0 (k_B at u = 1). For a line-line corner all six
+points lie on the two lines, and with shape = 1 b2 = b3 = corner point.
+
+*Deviation guarantee.* d(x) = distance from x to the original path is 1-Lipschitz; along X it is
+K-Lipschitz in u with K = 5 max_i |b_{i+1} - b_i| (X' is a convex combination of
+5 (b_{i+1} - b_i)). Replacing the whole path by the two neighbours A and B only increases d, so
+:func:`~pathmotion.geometry.deviation.certified_max` of u -> dist(X(u), A u B) bounds the true
+deviation from above. The cut length a is the largest (by bisection) whose certified upper bound
+is <= tolerance, so the deviation is <= tolerance by construction (and >= tolerance (1 - 1e-4)
+minus the bisection resolution, i.e. the blend is as large as the tolerance allows).
+
+*Path coordinate.* The Bezier is reparameterized by arc length (see
+:class:`~pathmotion.geometry.segments.BezierSegment`), so theta remains arc length.
+
+Orientation keys that fall in a replaced stretch are mapped linearly onto the new segment; keys
+after it move by the change of length.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable
+
+import numpy as np
+
+from .. import defaults
+from ..errors import PathError
+from .chain import Connection, TaskPath
+from .deviation import Deviation, certified_max, distance_to_segments
+from .segments import Arc, BezierSegment, Segment, _fmt
+
+_FULL = 1.0 - 1e-6  # a single blend may use all of a neighbour but this sliver
+
+
+@dataclass(frozen=True)
+class _Corner:
+    """Connection ``conn`` of ``path`` with neighbours A, B and the largest cuts allowed [m]."""
+
+    conn: Connection
+    A: Segment
+    B: Segment
+    max_a: float
+    max_b: float
+
+    def where(self) -> str:
+        return self.conn.describe()
+
+
+def _corner(path: TaskPath, index: int, kinds: tuple[str, ...], what: str,
+            shared: tuple[bool, bool] = (False, False)) -> _Corner:
+    if not isinstance(index, (int, np.integer)):
+        raise PathError(f"{what}: corner must be a connection index (int), got {index!r}")
+    conn = path.connection(int(index))
+    if conn.kind not in kinds:
+        raise PathError(f"{what}: {conn.describe()} is {conn.kind}; only {' or '.join(kinds)} connections "
+                        "can be blended")
+    A, B = path.segments[index], path.segments[index + 1]
+    fa = _FULL * (defaults.SHARED_SEGMENT_FRACTION if shared[0] else 1.0)
+    fb = _FULL * (defaults.SHARED_SEGMENT_FRACTION if shared[1] else 1.0)
+    return _Corner(conn, A, B, fa * A.length, fb * B.length)
+
+
+def _replace(path: TaskPath, corner: _Corner, a: float, b: float, blend: Segment) -> TaskPath:
+    """``path`` with the last ``a`` of A and the first ``b`` of B replaced by ``blend``."""
+    i, A, B = corner.conn.index, corner.A, corner.B
+    t0, t1 = corner.conn.theta - a, corner.conn.theta + b
+    new_len = blend.length
+
+    def theta_map(th):
+        th = np.asarray(th, float)
+        return np.where(th <= t0, th, np.where(th >= t1, th + new_len - (t1 - t0),
+                                               t0 + (th - t0) * new_len / (t1 - t0)))
+
+    segs = (path.segments[:i] + (A.trimmed(0.0, A.length - a), blend, B.trimmed(b, B.length))
+            + path.segments[i + 2:])
+    return path.with_segments(segs, theta_map)
+
+
+def _plane_normal(corner: _Corner, what: str) -> np.ndarray:
+    """Unit normal m of the corner's plane (the turn is right-handed about m); PathError if the
+    corner is not planar or reverses."""
+    _, tA, _ = corner.A.end_frame
+    _, tB, _ = corner.B.start_frame
+    m = np.cross(tA, tB)
+    if np.linalg.norm(m) < 1e-9:
+        raise PathError(f"{what}: at {corner.where()} the path reverses direction; no circle can round it "
+                        "(insert a short segment or stop there)")
+    m = m / np.linalg.norm(m)
+    for name, seg in (("incoming", corner.A), ("outgoing", corner.B)):
+        n = seg.plane_normal
+        if n is not None and np.linalg.norm(np.cross(n, m)) > defaults.PLANARITY_TOLERANCE:
+            raise PathError(f"{what}: at {corner.where()} the {name} segment ({seg.describe()}) is not in the "
+                            f"corner's plane (normal {_fmt(m)}); a transition circle needs a planar corner "
+                            "(use with_g2_blend, which works in 3-D)")
+    return m
+
+
+def _fillet(corner: _Corner, m: np.ndarray, radius: float) -> tuple[float, float, Arc] | None:
+    """Cut lengths (a, b) and the tangent arc of ``radius``, or None if it does not fit."""
+    A, B = corner.A, corner.B
+    LA = A.length
+    a = b = radius * np.tan(0.5 * corner.conn.angle)
+    scale = max(radius, 1e-3)
+    for _ in range(60):
+        pA, tA, kA = (x[0] for x in A.evaluate(LA - a))
+        pB, tB, kB = (x[0] for x in B.evaluate(b))
+        F = pA + radius * np.cross(m, tA) - pB - radius * np.cross(m, tB)
+        if np.linalg.norm(F) < 1e-14 * scale:
+            break
+        J = np.column_stack([-(tA + radius * np.cross(m, kA)), tB + radius * np.cross(m, kB)])
+        step = np.linalg.lstsq(J, -F, rcond=None)[0]
+        a, b = a + step[0], b - step[1]
+        if not (np.isfinite(a) and np.isfinite(b)) or a < 0 or b < 0 or a > LA or b > B.length:
+            return None
+    else:
+        return None
+    if not (0.0 < a <= corner.max_a and 0.0 < b <= corner.max_b):
+        return None
+    sweep = float(np.arctan2(np.cross(tA, tB) @ m, tA @ tB))
+    if sweep <= 0.0:
+        return None
+    arc = Arc(pA + radius * np.cross(m, tA), pA, m, sweep)
+    if np.linalg.norm(arc.end_point - pB) > 1e-9 * max(1.0, radius):
+        return None
+    return float(a), float(b), arc
+
+
+def _largest(ok, start: float, bisections: int = 50) -> float:
+    """Largest x > 0 with ok(x), assuming ok holds below some threshold; 0.0 if ok(start) fails
+    and ok(start * 2**-40) fails too."""
+    lo, hi = 0.0, start
+    while not ok(hi):
+        hi *= 0.5
+        if hi < start * 2.0 ** -40:
+            return 0.0
+    lo, hi = hi, 2.0 * hi
+    for _ in range(200):
+        if not ok(hi):
+            break
+        lo, hi = hi, 2.0 * hi
+    for _ in range(bisections):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
+
+
+def _transition_radius_limit(corner: _Corner, m: np.ndarray) -> float:
+    return _largest(lambda r: _fillet(corner, m, r) is not None, min(corner.max_a, corner.max_b))
+
+
+def largest_transition_radius(path: TaskPath, corner: int) -> float:
+    """Largest transition-circle radius [m] that fits at connection ``corner`` (a sharp corner)."""
+    c = _corner(path, corner, ("corner",), "largest_transition_radius")
+    return _transition_radius_limit(c, _plane_normal(c, "largest_transition_radius"))
+
+
+def _with_transition(path: TaskPath, c: _Corner, radius: float) -> TaskPath:
+    what = "with_transition"
+    r = float(radius) if np.isscalar(radius) else np.nan
+    if not np.isfinite(r) or r <= 0:
+        raise PathError(f"{what}: transition radius must be a positive number [m], got {radius!r}")
+    m = _plane_normal(c, what)
+    fit = _fillet(c, m, r)
+    if fit is None:
+        r_max = _transition_radius_limit(c, m)
+        raise PathError(f"{what}: a transition circle of radius {r:.6g} m does not fit at {c.where()}: it would "
+                        f"need more than the neighbouring segments allow (cuts <= {c.max_a:.6g} m and "
+                        f"{c.max_b:.6g} m); the largest radius that fits is {r_max:.6g} m")
+    a, b, arc = fit
+    return _replace(path, c, a, b, arc)
+
+
+def _selected(path: TaskPath, corners: Iterable[int] | None, kinds: tuple[str, ...]) -> list[int]:
+    if corners is None:
+        return [c.index for c in path.connections if c.kind in kinds]
+    return sorted({int(k) for k in corners})
+
+
+def _apply_all(path: TaskPath, corners: list[int], kinds: tuple[str, ...], what: str, one) -> TaskPath:
+    """Apply ``one(path, corner)`` at each of ``corners`` from the last to the first (so earlier
+    indices stay valid); a segment blended at both ends gives each blend at most
+    SHARED_SEGMENT_FRACTION of its length."""
+    chosen = set(corners)
+    out = path
+    for k in sorted(chosen, reverse=True):
+        c = _corner(path, k, kinds, what, shared=(k - 1 in chosen, k + 1 in chosen))
+        c = _Corner(out.connection(k), out.segments[k], out.segments[k + 1], c.max_a, c.max_b)
+        out = one(out, c)
+    return out
+
+
+def with_transition(path: TaskPath, corner: int, radius: float) -> TaskPath:
+    """``path`` with the sharp corner at connection ``corner`` replaced by a circular arc of
+    ``radius`` [m] tangent to both neighbours (planar line/arc corners).
+
+    PathError if the corner is not sharp, not planar, or the circle does not fit (the message gives
+    the largest radius that does)."""
+    return _with_transition(path, _corner(path, corner, ("corner",), "with_transition"), radius)
+
+
+def with_transitions(path: TaskPath, radius: float, corners: Iterable[int] | None = None) -> TaskPath:
+    """:func:`with_transition` at every sharp corner (or at the connection indices ``corners``)."""
+    sel = _selected(path, corners, ("corner",))
+    return _apply_all(path, sel, ("corner",), "with_transitions", lambda p, c: _with_transition(p, c, radius))
+
+
+# --- G2 blend ---------------------------------------------------------------------------------
+def g2_control_points(A: Segment, B: Segment, cut: float, shape: float = defaults.G2_BLEND_SHAPE) -> np.ndarray:
+    """Control points (6, 3) [m] of the quintic G2 blend that cuts ``cut`` [m] from the end of A and
+    the start of B (see the module docstring)."""
+    pA, tA, kA = (x[0] for x in A.evaluate(A.length - cut))
+    pB, tB, kB = (x[0] for x in B.evaluate(cut))
+    lam = 2.5 * shape * cut
+    return np.array([pA, pA + lam / 5 * tA, pA + 2 * lam / 5 * tA + lam ** 2 / 20 * kA,
+                     pB - 2 * lam / 5 * tB + lam ** 2 / 20 * kB, pB - lam / 5 * tB, pB])
+
+
+def g2_deviation(A: Segment, B: Segment, cut: float, shape: float = defaults.G2_BLEND_SHAPE,
+                 stop_above: float = np.inf) -> Deviation:
+    """Certified largest distance [m] of the G2 blend with ``cut`` from the original segments A, B
+    (``lower``/``upper`` bracket; ``theta`` holds the Bezier parameter u of the maximum)."""
+    b = g2_control_points(A, B, cut, shape)
+    coef = BezierSegment._power_basis(b)
+    lip = 5.0 * float(np.max(np.linalg.norm(np.diff(b, axis=0), axis=1)))
+    return certified_max(lambda u: distance_to_segments(BezierSegment._polyval(coef, u), (A, B)),
+                         0.0, 1.0, lip, stop_above=stop_above)
+
+
+def _check_shape(shape: float, what: str) -> float:
+    s = float(shape)
+    if not (np.isfinite(s) and 0.0 < s <= 1.0):
+        raise PathError(f"{what}: shape must be in (0, 1], got {shape!r}")
+    return s
+
+
+def _with_g2_blend(path: TaskPath, c: _Corner, tolerance: float, shape: float) -> TaskPath:
+    what = "with_g2_blend"
+    tol = float(tolerance) if np.isscalar(tolerance) else np.nan
+    if not np.isfinite(tol) or tol <= 0:
+        raise PathError(f"{what}: tolerance must be a positive distance [m], got {tolerance!r}")
+    shape = _check_shape(shape, what)
+    cut_max = min(c.max_a, c.max_b)
+    full = g2_deviation(c.A, c.B, cut_max, shape)
+    if full.upper <= tol:
+        raise PathError(f"{what}: tolerance {tol:.6g} m is too large at {c.where()}: even the largest G2 blend the "
+                        f"neighbouring segments allow (cutting {cut_max:.6g} m from each) deviates only "
+                        f"{full.upper:.6g} m; give a tolerance below {full.upper:.6g} m")
+
+    def ok(cut):
+        d = g2_deviation(c.A, c.B, cut, shape, stop_above=tol)
+        return d.upper <= tol
+
+    cut = _largest(ok, cut_max)
+    if cut <= 0.0:
+        raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance")
+    return _replace(path, c, cut, cut, BezierSegment(g2_control_points(c.A, c.B, cut, shape)))
+
+
+def with_g2_blend(path: TaskPath, corner: int, tolerance: float,
+                  shape: float = defaults.G2_BLEND_SHAPE) -> TaskPath:
+    """``path`` with connection ``corner`` (a sharp corner, or a tangent joint with a curvature
+    jump) replaced by the largest quintic G2 blend whose distance from the original path is at most
+    ``tolerance`` [m] (guaranteed; see the module docstring). Works in 3-D.
+
+    PathError if the tolerance cannot be used up because the neighbours are too short (the message
+    gives the largest tolerance that fits)."""
+    kinds = ("corner", "tangent")
+    return _with_g2_blend(path, _corner(path, corner, kinds, "with_g2_blend"), tolerance, shape)
+
+
+def with_g2_blends(path: TaskPath, tolerance: float, corners: Iterable[int] | None = None,
+                   shape: float = defaults.G2_BLEND_SHAPE) -> TaskPath:
+    """:func:`with_g2_blend` at every sharp corner (or at the connection indices ``corners``, which
+    may also name tangent joints)."""
+    kinds = ("corner",) if corners is None else ("corner", "tangent")
+    sel = _selected(path, corners, kinds)
+    return _apply_all(path, sel, kinds, "with_g2_blends", lambda p, c: _with_g2_blend(p, c, tolerance, shape))
+
+
+def largest_g2_tolerance(path: TaskPath, corner: int, shape: float = defaults.G2_BLEND_SHAPE) -> float:
+    """Certified deviation [m] of the largest G2 blend the neighbours of ``corner`` allow: tolerances
+    below this fit."""
+    c = _corner(path, corner, ("corner", "tangent"), "largest_g2_tolerance")
+    return g2_deviation(c.A, c.B, min(c.max_a, c.max_b), _check_shape(shape, "largest_g2_tolerance")).upper
+
+
+__all__ = ["g2_control_points", "g2_deviation", "largest_g2_tolerance", "largest_transition_radius",
+           "with_g2_blend", "with_g2_blends", "with_transition", "with_transitions"]

@@ -1,0 +1,208 @@
+"""TaskPath: segments joined end to end, with one path coordinate theta for the whole chain.
+
+theta is the cumulative arc length [m] over the chain, domain (0, L). Segment k covers
+[breaks_k, breaks_{k+1}]. At a break, ``side="right"`` evaluates the segment that starts there
+and ``side="left"`` the one that ends there. Scalar theta gives un-batched results ((3,), (3, 3)),
+an (N,) array gives (N, 3), (N, 3, 3), as :class:`pathmotion.joint_path.JointPath` does.
+
+Connections are classified as
+
+* ``"corner"``  -- the tangents differ by more than ``defaults.CORNER_ANGLE_TOLERANCE`` (sharp corner:
+  p' jumps, so any motion must stop there),
+* ``"tangent"`` -- G1: same tangent, but the curvature vector jumps by more than
+  ``defaults.CURVATURE_JUMP_TOLERANCE`` (p'' and hence Phi'' jump),
+* ``"smooth"``  -- G2: tangent and curvature vector continuous.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from .. import defaults
+from ..errors import PathError
+from .orientation import FixedOrientation, Orientation
+from .segments import Segment, _fmt
+
+Side = Literal["right", "left"]
+ConnectionKind = Literal["corner", "tangent", "smooth"]
+
+
+@dataclass(frozen=True)
+class Connection:
+    """The joint between segment ``index`` and the next one (for the closing joint of a closed
+    path: between the last segment and segment 0).
+
+    theta [m]; kind "corner" | "tangent" | "smooth"; angle between the two tangents [rad];
+    curvature_jump = |k_after - k_before| of the curvature vectors [1/m]; position (3,) [m].
+    """
+
+    index: int
+    theta: float
+    kind: ConnectionKind
+    angle: float
+    curvature_jump: float
+    position: tuple[float, float, float]
+
+    def describe(self) -> str:
+        return (f"connection {self.index} at theta = {self.theta:.6g} m, position {_fmt(self.position)}, "
+                f"{self.kind} (angle {np.degrees(self.angle):.4g} deg)")
+
+
+def classify(before: Segment, after: Segment, index: int, theta: float) -> Connection:
+    """Connection between the end of ``before`` and the start of ``after``."""
+    p0, t0, k0 = before.end_frame
+    _, t1, k1 = after.start_frame
+    angle = float(np.arctan2(np.linalg.norm(np.cross(t0, t1)), t0 @ t1))
+    jump = float(np.linalg.norm(k1 - k0))
+    if angle > defaults.CORNER_ANGLE_TOLERANCE:
+        kind = "corner"
+    elif jump > defaults.CURVATURE_JUMP_TOLERANCE:
+        kind = "tangent"
+    else:
+        kind = "smooth"
+    return Connection(index, float(theta), kind, angle, jump, tuple(float(x) for x in p0))
+
+
+@dataclass(frozen=True, eq=False)
+class TaskPath:
+    """A chain of segments (tuple of :class:`~pathmotion.geometry.segments.Segment`) and a tool
+    orientation (:class:`FixedOrientation` by default, tool pointing down).
+
+    Consecutive segments must meet within ``defaults.PATH_GAP_TOLERANCE``; key orientations must lie
+    in the domain.
+    """
+
+    segments: tuple[Segment, ...]
+    tool_orientation: Orientation = field(default_factory=FixedOrientation)
+    offsets: np.ndarray = field(init=False, repr=False)
+    connections: tuple[Connection, ...] = field(init=False)
+    closure: Connection | None = field(init=False)
+
+    def __post_init__(self):
+        segs = tuple(self.segments)
+        if not segs:
+            raise PathError("TaskPath needs at least one segment")
+        for k, seg in enumerate(segs):
+            if not isinstance(seg, Segment):
+                raise PathError(f"TaskPath: item {k} is a {type(seg).__name__}, not a path segment")
+        for k in range(len(segs) - 1):
+            gap = float(np.linalg.norm(segs[k + 1].start_point - segs[k].end_point))
+            if gap > defaults.PATH_GAP_TOLERANCE:
+                raise PathError(f"segments {k} ({segs[k].describe()}) and {k + 1} ({segs[k + 1].describe()}) do not "
+                                f"meet: gap {gap:.3g} m > {defaults.PATH_GAP_TOLERANCE:g} m; make segment {k + 1} start "
+                                f"where segment {k} ends, {_fmt(segs[k].end_point)}")
+        offsets = np.concatenate([[0.0], np.cumsum([s.length for s in segs])])
+        offsets.flags.writeable = False
+        conns = tuple(classify(segs[k], segs[k + 1], k, offsets[k + 1]) for k in range(len(segs) - 1))
+        closed = np.linalg.norm(segs[-1].end_point - segs[0].start_point) <= defaults.PATH_GAP_TOLERANCE
+        closure = classify(segs[-1], segs[0], len(segs) - 1, offsets[-1]) if closed else None
+        keys = np.asarray(self.tool_orientation.key_thetas())
+        tol = 1e-9 * max(1.0, offsets[-1])
+        if keys.size and (keys.min() < -tol or keys.max() > offsets[-1] + tol):
+            raise PathError(f"key orientations at theta = {keys.tolist()} lie outside the path's range "
+                            f"[0, {offsets[-1]:.6g}] m; put every key on the path")
+        object.__setattr__(self, "segments", segs)
+        object.__setattr__(self, "offsets", offsets)
+        object.__setattr__(self, "connections", conns)
+        object.__setattr__(self, "closure", closure)
+
+    # --- scalar properties -----------------------------------------------------------------
+    @property
+    def length(self) -> float:
+        """Total arc length L [m]."""
+        return float(self.offsets[-1])
+
+    @property
+    def domain(self) -> tuple[float, float]:
+        """(0, L) [m]."""
+        return (0.0, self.length)
+
+    @property
+    def breaks(self) -> tuple[float, ...]:
+        """theta [m] of every interior segment connection."""
+        return tuple(float(x) for x in self.offsets[1:-1])
+
+    @property
+    def kinks(self) -> tuple[float, ...]:
+        """theta [m] of the interior sharp corners (the closing joint is in :attr:`closure`)."""
+        return tuple(c.theta for c in self.connections if c.kind == "corner")
+
+    @property
+    def closed(self) -> bool:
+        """True if the end point is the start point (within the gap tolerance); :attr:`closure`
+        then says whether the closing joint is a corner, tangent or smooth."""
+        return self.closure is not None
+
+    # --- evaluation -------------------------------------------------------------------------
+    def _theta(self, theta) -> tuple[np.ndarray, bool]:
+        th = np.asarray(theta, dtype=float)
+        scalar = th.ndim == 0
+        th = np.atleast_1d(th)
+        if th.ndim != 1:
+            raise PathError(f"theta must be a scalar or a 1-D array, got shape {th.shape}")
+        if not np.all(np.isfinite(th)):
+            raise PathError("theta contains NaN or inf; give finite path coordinates [m]")
+        tol = 1e-9 * max(1.0, self.length)
+        bad = (th < -tol) | (th > self.length + tol)
+        if np.any(bad):
+            raise PathError(f"theta = {th[bad][0]:.6g} m is outside the path's range [0, {self.length:.6g}] m")
+        return np.clip(th, 0.0, self.length), scalar
+
+    def _index(self, th: np.ndarray, side: str) -> np.ndarray:
+        if side not in ("right", "left"):
+            raise PathError(f"side must be 'right' or 'left', got {side!r}")
+        k = np.searchsorted(self.offsets, th, side="right" if side == "right" else "left") - 1
+        return np.clip(k, 0, len(self.segments) - 1)
+
+    def segment_index(self, theta, side: Side = "right"):
+        """Index of the segment evaluated at theta (int for a scalar, (N,) int array otherwise)."""
+        th, scalar = self._theta(theta)
+        k = self._index(th, side)
+        return int(k[0]) if scalar else k
+
+    def evaluate(self, theta, side: Side = "right") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(p [m], dp/dtheta [-], d2p/dtheta2 [1/m]) at theta [m]; each (N, 3), or (3,) for a scalar."""
+        th, scalar = self._theta(theta)
+        k = self._index(th, side)
+        out = np.empty((3, len(th), 3))
+        for j in np.unique(k):
+            m = k == j
+            out[:, m] = self.segments[j].evaluate(th[m] - self.offsets[j])
+        return tuple(o[0] for o in out) if scalar else tuple(out)
+
+    def orientation(self, theta, side: Side = "right") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(R (N, 3, 3), w (N, 3) [rad/m], dw (N, 3) [rad/m^2]): tool rotation, its angular velocity
+        per unit theta in world axes (dR/dtheta = [w]x R) and dw/dtheta. The orientation is C2 in
+        theta, so ``side`` (checked, for symmetry with :meth:`evaluate`) gives the same values."""
+        th, scalar = self._theta(theta)
+        self._index(th, side)
+        out = self.tool_orientation.evaluate(th)
+        return tuple(o[0] for o in out) if scalar else out
+
+    def pose(self, theta, side: Side = "right"):
+        """(p, dp, ddp, R, w, dw) at theta; see :meth:`evaluate` and :meth:`orientation`."""
+        return self.evaluate(theta, side) + self.orientation(theta, side)
+
+    def connection(self, index: int) -> Connection:
+        """Connection ``index`` (between segments index and index + 1), or a PathError."""
+        if not 0 <= index < len(self.connections):
+            raise PathError(f"connection {index} does not exist: the path has {len(self.segments)} segments, "
+                            f"so connections 0..{len(self.connections) - 1}")
+        return self.connections[index]
+
+    def with_segments(self, segments, theta_map=None) -> "TaskPath":
+        """A new path with ``segments`` and the tool orientation keys mapped by ``theta_map``
+        (an increasing function of old theta, for edits that change the length)."""
+        orient = self.tool_orientation if theta_map is None else self.tool_orientation.remapped(theta_map)
+        return TaskPath(tuple(segments), orient)
+
+    def describe(self) -> str:
+        lines = [f"TaskPath: {len(self.segments)} segments, length {self.length:.6g} m"
+                 + (f", closed ({self.closure.kind})" if self.closed else "")]
+        for k, seg in enumerate(self.segments):
+            lines.append(f"  [{k}] theta {self.offsets[k]:.6g}..{self.offsets[k + 1]:.6g}: {seg.describe()}")
+        lines += [f"  {c.describe()}" for c in self.connections]
+        return "\n".join(lines)

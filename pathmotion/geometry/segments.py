@@ -1,0 +1,496 @@
+"""Path segments, each parameterized by its own arc length s in [0, length] [m].
+
+Every segment returns, vectorized over s (N,):
+
+    p(s)  (N, 3) [m]      p'(s) = unit tangent  (N, 3) [-]      p''(s) = curvature vector  (N, 3) [1/m]
+
+The derivatives are the exact derivatives of the returned position. Segment types:
+
+* :class:`Line` -- straight line from ``start`` to ``end``.
+* :class:`Arc` -- circular arc in any plane: centre, start point, plane normal and a signed sweep
+  angle (right-hand rule about the normal); or :meth:`Arc.through_points`.
+* :class:`Circle` -- a full circle (an :class:`Arc` with sweep +-2 pi); :meth:`Circle.from_centre`
+  and :meth:`Circle.horizontal` take a radius and a start angle.
+* :class:`BezierSegment` -- a quintic Bezier curve reparameterized by arc length (numerically, to
+  ~1e-13 m), used for curvature-continuous blends.
+
+Degenerate input raises :class:`~pathmotion.errors.PathError` naming the segment and what to change.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from math import comb
+from typing import ClassVar
+
+import numpy as np
+
+from .. import defaults
+from ..errors import PathError
+
+_TWO_PI = 2.0 * np.pi
+
+
+def as_point(name: str, value, where: str) -> np.ndarray:
+    """``value`` as a finite (3,) float array, or a PathError naming ``name`` in ``where``."""
+    try:
+        arr = np.array(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise PathError(f"{where}: {name} must be 3 numbers [m], got {value!r}") from exc
+    if arr.shape != (3,):
+        raise PathError(f"{where}: {name} must be 3 numbers (x, y, z), got {arr.size}")
+    if not np.all(np.isfinite(arr)):
+        raise PathError(f"{where}: {name} = {arr.tolist()} contains NaN or inf; give finite numbers")
+    arr.flags.writeable = False
+    return arr
+
+
+def as_scalar(name: str, value, where: str) -> float:
+    """``value`` as a finite float, or a PathError naming ``name`` in ``where``."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as exc:
+        raise PathError(f"{where}: {name} must be a number, got {value!r}") from exc
+    if not np.isfinite(x):
+        raise PathError(f"{where}: {name} = {x} is not finite; give a finite number")
+    return x
+
+
+def unit(name: str, value, where: str) -> np.ndarray:
+    """``value`` normalized to length 1; PathError if it is (nearly) zero."""
+    v = np.array(as_point(name, value, where))
+    n = np.linalg.norm(v)
+    if n < 1e-12:
+        raise PathError(f"{where}: {name} = {v.tolist()} has zero length; give a non-zero direction")
+    v = v / n
+    v.flags.writeable = False
+    return v
+
+
+def _fmt(v) -> str:
+    return "(" + ", ".join(f"{x:.4g}" for x in np.asarray(v, float)) + ")"
+
+
+def _as_s(s) -> np.ndarray:
+    return np.atleast_1d(np.asarray(s, dtype=float))
+
+
+class Segment:
+    """Base class of path segments; subclasses are frozen dataclasses.
+
+    Subclasses implement ``length``, :meth:`evaluate` and :meth:`describe`; they may override
+    :meth:`closest` (exact formulas) and :meth:`trimmed`.
+    """
+
+    kind: ClassVar[str] = "segment"
+
+    @property
+    def length(self) -> float:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def evaluate(self, s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+        """(p, p', p'') at arc length s (N,), each (N, 3); s is clipped to [0, length]."""
+        raise NotImplementedError
+
+    def describe(self) -> str:  # pragma: no cover - abstract
+        """Short human-readable description used in error messages."""
+        raise NotImplementedError
+
+    @property
+    def plane_normal(self) -> np.ndarray | None:
+        """Unit normal (3,) of the plane the segment lies in, or None for a straight line."""
+        return None
+
+    def _end(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p, dp, ddp = self.evaluate(0.0 if which == 0 else self.length)
+        return p[0], dp[0], ddp[0]
+
+    @property
+    def start_point(self) -> np.ndarray:
+        """p(0) (3,) [m]."""
+        return self._end(0)[0]
+
+    @property
+    def end_point(self) -> np.ndarray:
+        """p(length) (3,) [m]."""
+        return self._end(1)[0]
+
+    @property
+    def start_frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(point, unit tangent, curvature vector) at s = 0, each (3,)."""
+        return self._end(0)
+
+    @property
+    def end_frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(point, unit tangent, curvature vector) at s = length, each (3,)."""
+        return self._end(1)
+
+    def closest(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """Closest point of the segment to each of ``points`` (N, 3): (s (N,), distance (N,) [m]).
+
+        Generic version: best of 129 samples, then Newton on (p(s) - x) . p'(s) = 0, and the ends.
+        """
+        x = np.atleast_2d(np.asarray(points, float))
+        grid = np.linspace(0.0, self.length, 129)
+        pg = self.evaluate(grid)[0]
+        d2 = np.sum((x[:, None, :] - pg[None, :, :]) ** 2, axis=2)
+        s = grid[np.argmin(d2, axis=1)]
+        for _ in range(30):
+            p, dp, ddp = self.evaluate(s)
+            r = p - x
+            g = np.sum(r * dp, axis=1)
+            h = 1.0 + np.sum(r * ddp, axis=1)
+            step = np.where(h > 0.1, g / np.where(h > 0.1, h, 1.0), g)
+            s = np.clip(s - step, 0.0, self.length)
+            if np.max(np.abs(step)) < 1e-15 * max(1.0, self.length):
+                break
+        cand = np.stack([s, np.zeros_like(s), np.full_like(s, self.length)], axis=1)
+        dist = np.stack([np.linalg.norm(self.evaluate(c)[0] - x, axis=1) for c in cand.T], axis=1)
+        k = np.argmin(dist, axis=1)
+        rows = np.arange(len(x))
+        return cand[rows, k], dist[rows, k]
+
+    def trimmed(self, s0: float, s1: float) -> "Segment":
+        """The part of this segment between arc lengths s0 < s1, as a new segment."""
+        raise PathError(f"{self.describe()} cannot be trimmed; blends can only cut lines and arcs")
+
+
+@dataclass(frozen=True, eq=False)
+class Line(Segment):
+    """Straight line from ``start`` to ``end`` (each (3,) [m])."""
+
+    start: np.ndarray
+    end: np.ndarray
+    kind: ClassVar[str] = "line"
+    _t: np.ndarray = field(init=False, repr=False)
+    _length: float = field(init=False, repr=False)
+
+    def __post_init__(self):
+        where = "Line"
+        a = as_point("start", self.start, where)
+        b = as_point("end", self.end, where)
+        length = float(np.linalg.norm(b - a))
+        if length < defaults.MIN_SEGMENT_LENGTH:
+            raise PathError(f"Line from {_fmt(a)} to {_fmt(b)} has zero length ({length:.3g} m); "
+                            "give distinct start and end points or remove the segment")
+        t = (b - a) / length
+        t.flags.writeable = False
+        object.__setattr__(self, "start", a)
+        object.__setattr__(self, "end", b)
+        object.__setattr__(self, "_t", t)
+        object.__setattr__(self, "_length", length)
+
+    @property
+    def length(self) -> float:
+        return self._length
+
+    @property
+    def direction(self) -> np.ndarray:
+        """Unit direction (3,)."""
+        return self._t
+
+    def describe(self) -> str:
+        return f"Line {_fmt(self.start)} -> {_fmt(self.end)}"
+
+    def evaluate(self, s):
+        s = np.clip(_as_s(s), 0.0, self._length)
+        p = self.start + s[:, None] * self._t
+        return p, np.broadcast_to(self._t, p.shape).copy(), np.zeros_like(p)
+
+    def closest(self, points):
+        x = np.atleast_2d(np.asarray(points, float))
+        s = np.clip((x - self.start) @ self._t, 0.0, self._length)
+        return s, np.linalg.norm(self.start + s[:, None] * self._t - x, axis=1)
+
+    def trimmed(self, s0, s1):
+        return Line(self.evaluate(s0)[0][0], self.evaluate(s1)[0][0])
+
+
+@dataclass(frozen=True, eq=False)
+class Arc(Segment):
+    """Circular arc: ``centre`` (3,) [m], ``start`` point (3,) [m], plane ``normal`` (3,),
+    ``sweep`` [rad], signed: positive turns right-handed about ``normal``.
+
+    The radius is |start - centre|; start - centre must be perpendicular to the normal.
+    """
+
+    centre: np.ndarray
+    start: np.ndarray
+    normal: np.ndarray
+    sweep: float
+    kind: ClassVar[str] = "arc"
+    radius: float = field(init=False)
+    _u: np.ndarray = field(init=False, repr=False)
+    _v: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        where = type(self).__name__
+        c = as_point("centre", self.centre, where)
+        a = as_point("start", self.start, where)
+        n = unit("normal", self.normal, where)
+        sweep = as_scalar("sweep", self.sweep, where)
+        d = a - c
+        radius = float(np.linalg.norm(d))
+        if radius < defaults.MIN_SEGMENT_LENGTH:
+            raise PathError(f"{where} with centre {_fmt(c)}: radius is {radius:.3g} m (start point at the "
+                            "centre); give a start point away from the centre")
+        u = d / radius
+        off = float(abs(u @ n))
+        if off > 1.0 - 1e-9:
+            raise PathError(f"{where} with centre {_fmt(c)}: the plane normal {_fmt(n)} is parallel to the "
+                            "radius (start - centre); give a normal perpendicular to the radius")
+        if off > 1e-6:
+            raise PathError(f"{where} with centre {_fmt(c)}: start point {_fmt(a)} is not in the plane through "
+                            f"the centre with normal {_fmt(n)} (radius makes {np.degrees(np.arccos(off)):.4g} deg "
+                            "with the normal); give a normal perpendicular to start - centre")
+        if abs(sweep) * radius < defaults.MIN_SEGMENT_LENGTH:
+            raise PathError(f"{where} with centre {_fmt(c)}: sweep {sweep:.3g} rad gives zero length; "
+                            "give a non-zero sweep angle")
+        if abs(sweep) > _TWO_PI * (1.0 + 1e-12):
+            raise PathError(f"{where} with centre {_fmt(c)}: sweep {sweep:.6g} rad exceeds one turn (2 pi); "
+                            "split it into a Circle and an Arc")
+        v = np.cross(n, u)
+        for arr in (u, v):
+            arr.flags.writeable = False
+        object.__setattr__(self, "centre", c)
+        object.__setattr__(self, "start", a)
+        object.__setattr__(self, "normal", n)
+        object.__setattr__(self, "sweep", sweep)
+        object.__setattr__(self, "radius", radius)
+        object.__setattr__(self, "_u", u)
+        object.__setattr__(self, "_v", v)
+
+    @classmethod
+    def through_points(cls, p0, p1, p2) -> "Arc":
+        """Arc from ``p0`` through ``p1`` to ``p2`` (each (3,) [m])."""
+        where = "Arc.through_points"
+        a, b, c = (as_point(nm, v, where) for nm, v in (("p0", p0), ("p1", p1), ("p2", p2)))
+        ab, ac = b - a, c - a
+        nvec = np.cross(ab, ac)
+        scale = max(np.linalg.norm(ab), np.linalg.norm(ac), 1e-300)
+        if np.linalg.norm(nvec) < 1e-12 * scale ** 2:
+            raise PathError(f"{where}: points {_fmt(a)}, {_fmt(b)}, {_fmt(c)} are collinear or coincide; "
+                            "give three distinct points not on one line (or use a Line)")
+        n2 = nvec @ nvec
+        centre = a + (np.cross(nvec, ab) * (ac @ ac) + np.cross(ac, nvec) * (ab @ ab)) / (2.0 * n2)
+        normal = nvec / np.sqrt(n2)
+        u = (a - centre) / np.linalg.norm(a - centre)
+        v = np.cross(normal, u)
+        w = c - centre
+        sweep = float(np.arctan2(w @ v, w @ u)) % _TWO_PI
+        return cls(centre, a, normal, sweep)
+
+    @property
+    def length(self) -> float:
+        return abs(self.sweep) * self.radius
+
+    @property
+    def plane_normal(self) -> np.ndarray:
+        return self.normal
+
+    @property
+    def curvature(self) -> float:
+        """1 / radius [1/m]."""
+        return 1.0 / self.radius
+
+    def describe(self) -> str:
+        return (f"{type(self).__name__} centre {_fmt(self.centre)} radius {self.radius:.4g} m "
+                f"normal {_fmt(self.normal)} sweep {np.degrees(self.sweep):.4g} deg")
+
+    def _angle(self, s):
+        return np.sign(self.sweep) * np.clip(_as_s(s), 0.0, self.length) / self.radius
+
+    def evaluate(self, s):
+        phi = self._angle(s)
+        c, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
+        radial = c * self._u + sn * self._v
+        p = self.centre + self.radius * radial
+        dp = np.sign(self.sweep) * (-sn * self._u + c * self._v)
+        return p, dp, -radial / self.radius
+
+    def closest(self, points):
+        x = np.atleast_2d(np.asarray(points, float))
+        d = x - self.centre
+        h = d @ self.normal
+        X, Y = d @ self._u, np.sign(self.sweep) * (d @ self._v)
+        rho = np.hypot(X, Y)
+        t = np.mod(np.arctan2(Y, X), _TWO_PI)
+        on_arc = t <= abs(self.sweep)
+        d_in = np.sqrt((rho - self.radius) ** 2 + h ** 2)
+        p0, p1 = self.evaluate(0.0)[0][0], self.evaluate(self.length)[0][0]
+        d0, d1 = np.linalg.norm(x - p0, axis=1), np.linalg.norm(x - p1, axis=1)
+        s_end = np.where(d0 <= d1, 0.0, self.length)
+        dist = np.where(on_arc, d_in, np.minimum(d0, d1))
+        return np.where(on_arc, t * self.radius, s_end), dist
+
+    def trimmed(self, s0, s1):
+        return Arc(self.centre, self.evaluate(s0)[0][0], self.normal,
+                   np.sign(self.sweep) * (s1 - s0) / self.radius)
+
+
+def _reference_axis(normal: np.ndarray) -> np.ndarray:
+    """Unit vector in the plane with ``normal`` from which start angles are measured: the
+    projection of world x, or of world y when the normal is (nearly) along x."""
+    for axis in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
+        e = axis - (axis @ normal) * normal
+        if np.linalg.norm(e) > 1e-6:
+            return e / np.linalg.norm(e)
+    raise AssertionError("unreachable: x and y cannot both be parallel to a unit normal")
+
+
+@dataclass(frozen=True, eq=False)
+class Circle(Arc):
+    """Full circle: an :class:`Arc` with ``sweep`` = +2 pi (right-handed about ``normal``) or -2 pi."""
+
+    sweep: float = _TWO_PI
+    kind: ClassVar[str] = "circle"
+
+    def __post_init__(self):
+        super().__post_init__()
+        if abs(abs(self.sweep) - _TWO_PI) > 1e-12:
+            raise PathError(f"Circle centre {_fmt(self.centre)}: sweep must be +-2 pi, got {self.sweep:.6g} rad; "
+                            "use an Arc for part of a circle")
+
+    @classmethod
+    def from_centre(cls, centre, radius: float, normal, start_angle: float = 0.0,
+                    direction: int = 1) -> "Circle":
+        """Circle with ``centre`` (3,) [m], ``radius`` [m], plane ``normal`` (3,), starting at
+        ``start_angle`` [rad] measured right-handed about the normal from the projection of world x
+        on the plane (world y if the normal is along x); ``direction`` +1 runs right-handed about
+        the normal, -1 the other way."""
+        where = "Circle"
+        c = as_point("centre", centre, where)
+        n = unit("normal", normal, where)
+        r = as_scalar("radius", radius, where)
+        ang = as_scalar("start_angle", start_angle, where)
+        if r <= defaults.MIN_SEGMENT_LENGTH:
+            raise PathError(f"Circle centre {_fmt(c)}: radius {r:.3g} m must be positive")
+        if direction not in (1, -1):
+            raise PathError(f"Circle centre {_fmt(c)}: direction must be +1 or -1, got {direction!r}")
+        e1 = _reference_axis(n)
+        e2 = np.cross(n, e1)
+        start = c + r * (np.cos(ang) * e1 + np.sin(ang) * e2)
+        return cls(c, start, n, direction * _TWO_PI)
+
+    @classmethod
+    def horizontal(cls, centre, radius: float, start_angle: float = 0.0, direction: int = 1) -> "Circle":
+        """Circle in the horizontal plane through ``centre`` (normal +z); ``start_angle`` [rad]
+        from world x towards world y; ``direction`` +1 counter-clockwise seen from above."""
+        return cls.from_centre(centre, radius, (0.0, 0.0, 1.0), start_angle, direction)
+
+    def trimmed(self, s0, s1):
+        return Arc.trimmed(self, s0, s1)
+
+
+#: Gauss-Legendre rule used for the arc length of Bezier segments: panels on [0, 1], nodes each.
+_GL_PANELS = 32
+_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
+
+
+@dataclass(frozen=True, eq=False)
+class BezierSegment(Segment):
+    """Quintic Bezier curve X(u), u in [0, 1], with control points (6, 3) [m], reparameterized by
+    arc length.
+
+    s(u) = int_0^u |X'(v)| dv is computed with a composite Gauss-Legendre rule (32 panels of 12
+    nodes: exact to rounding for this smooth integrand) and inverted by Newton's method to
+    |s(u) - s| < 1e-13 max(1, length). Then, with T = X'/|X'|,
+
+        p(s) = X(u(s))      p'(s) = T      p''(s) = (X'' - (X''.T) T) / |X'|^2
+
+    are the exact derivatives of the returned position (du/ds = 1/|X'|), so theta stays true arc
+    length on blends and |p'| = 1 everywhere.
+    """
+
+    control_points: np.ndarray
+    kind: ClassVar[str] = "bezier"
+    _coef: np.ndarray = field(init=False, repr=False)
+    _panel_s: np.ndarray = field(init=False, repr=False)
+    _table_u: np.ndarray = field(init=False, repr=False)
+    _table_s: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        b = np.array(self.control_points, dtype=float)
+        if b.shape != (6, 3):
+            raise PathError(f"BezierSegment: control_points must be a (6, 3) array, got shape {b.shape}")
+        if not np.all(np.isfinite(b)):
+            raise PathError("BezierSegment: control points contain NaN or inf; give finite numbers")
+        b.flags.writeable = False
+        coef = self._power_basis(b)
+        object.__setattr__(self, "control_points", b)
+        object.__setattr__(self, "_coef", coef)
+        ug = np.linspace(0.0, 1.0, 2049)
+        speed = self._speed(ug)
+        if np.min(speed) < 1e-9 * max(np.max(speed), 1e-300):
+            k = int(np.argmin(speed))
+            raise PathError(f"BezierSegment {self.describe()}: the curve stops (cusp) near u = {ug[k]:.3g}; "
+                            "the blend is degenerate (tangents nearly opposite?)")
+        edges = np.linspace(0.0, 1.0, _GL_PANELS + 1)
+        panel = np.array([self._integral(np.array([lo]), np.array([hi]))[0] for lo, hi in zip(edges[:-1], edges[1:])])
+        object.__setattr__(self, "_panel_s", np.concatenate([[0.0], np.cumsum(panel)]))
+        table_u = np.linspace(0.0, 1.0, 257)
+        object.__setattr__(self, "_table_u", table_u)
+        object.__setattr__(self, "_table_s", self._arc_length(table_u))
+
+    def describe(self) -> str:
+        b = self.control_points
+        return f"Bezier blend {_fmt(b[0])} -> {_fmt(b[-1])}"
+
+    @staticmethod
+    def _power_basis(b: np.ndarray) -> np.ndarray:
+        """Monomial coefficients (6, 3) of the Bezier curve with control points b (6, 3):
+        X(u) = sum_k coef[k] u^k, coef[k] = C(5, k) sum_i (-1)^(k-i) C(k, i) b_i."""
+        return np.array([comb(5, k) * sum((-1) ** (k - i) * comb(k, i) * b[i] for i in range(k + 1))
+                         for k in range(6)])
+
+    @staticmethod
+    def _polyval(coef: np.ndarray, u, order: int = 0) -> np.ndarray:
+        """d^order X / du^order (N, 3) at u (N,) by Horner's rule from monomial coefficients."""
+        u = _as_s(u)[:, None]
+        ks = np.arange(order, 6)
+        fac = np.array([np.prod(np.arange(k - order + 1, k + 1)) for k in ks], float)
+        out = np.zeros((u.shape[0], 3)) + fac[-1] * coef[5]
+        for k, f in zip(ks[-2::-1], fac[-2::-1]):
+            out = out * u + f * coef[k]
+        return out
+
+    def curve(self, u) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(X, X', X'') at the Bezier parameter u (N,), each (N, 3)."""
+        return tuple(self._polyval(self._coef, u, k) for k in range(3))
+
+    def _speed(self, u):
+        return np.linalg.norm(self._polyval(self._coef, u, 1), axis=1)
+
+    def _integral(self, lo, hi):
+        """int_lo^hi |X'(u)| du for arrays lo, hi (N,) (each within one short interval)."""
+        half = 0.5 * (hi - lo)
+        nodes = 0.5 * (hi + lo)[:, None] + half[:, None] * _GL_NODES[None, :]
+        return half * (self._speed(nodes.ravel()).reshape(nodes.shape) @ _GL_WEIGHTS)
+
+    def _arc_length(self, u):
+        u = np.clip(u, 0.0, 1.0)
+        k = np.minimum((u * _GL_PANELS).astype(int), _GL_PANELS - 1)
+        return self._panel_s[k] + self._integral(k / _GL_PANELS, u)
+
+    @property
+    def length(self) -> float:
+        return float(self._panel_s[-1])
+
+    def parameter(self, s) -> np.ndarray:
+        """Bezier parameter u (N,) at arc length s (N,) [m]."""
+        s = np.clip(_as_s(s), 0.0, self.length)
+        u = np.interp(s, self._table_s, self._table_u)
+        tol = 1e-13 * max(1.0, self.length)
+        for _ in range(50):
+            err = self._arc_length(u) - s
+            u = np.clip(u - err / self._speed(u), 0.0, 1.0)
+            if np.max(np.abs(err)) < tol:
+                break
+        return u
+
+    def evaluate(self, s):
+        u = self.parameter(s)
+        x, dx, ddx = self.curve(u)
+        g = np.linalg.norm(dx, axis=1)[:, None]
+        t = dx / g
+        return x, t, (ddx - np.sum(ddx * t, axis=1)[:, None] * t) / g ** 2
