@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cached_property
 from importlib import resources
+from xml.etree import ElementTree
 from pathlib import Path
 
 import numpy as np
@@ -185,6 +186,27 @@ def _build_model(urdf_text: str, where: str) -> pin.Model:
     return model
 
 
+def _check_urdf_limits(urdf_text: str, where: str, limits_given: bool) -> str:
+    """URDF text with a placeholder <limit/> in every revolute/prismatic joint that has none (the URDF
+    parser needs one) when limits come from elsewhere; RobotModelError naming those joints when not."""
+    try:
+        root = ElementTree.fromstring(urdf_text)
+    except ElementTree.ParseError as exc:
+        raise RobotModelError(f"URDF of {where} is not well-formed XML: {exc}") from None
+    bare = [j for j in root.iter("joint") if j.get("type") in ("revolute", "prismatic") and j.find("limit") is None]
+    if not bare:
+        return urdf_text
+    names = [j.get("name") for j in bare]
+    if not limits_given:
+        raise RobotModelError(
+            f"URDF of {where}: joints {names} have no <limit> tag and no limits file was given; add "
+            "<limit lower upper velocity effort> to each joint or give a limits file"
+        )
+    for j in bare:
+        ElementTree.SubElement(j, "limit", {"lower": "0", "upper": "0", "effort": "0", "velocity": "0"})
+    return ElementTree.tostring(root, encoding="unicode")
+
+
 BUILTIN_ROBOTS = {"irb140": ("irb140.urdf", "irb140_limits.toml", "IRB140")}
 
 
@@ -223,6 +245,7 @@ def load_robot(
         urdf_text = path.read_text()
         default_limits = None
         name = path.stem
+    urdf_text = _check_urdf_limits(urdf_text, name, limits_given=limits is not None or default_limits is not None)
     model = _build_model(urdf_text, name)
     names = tuple(model.names[1:])
     if isinstance(limits, JointLimits):
