@@ -285,14 +285,14 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
         raise UnreachableError(f"{where}: {_reach_message(geo, sol, i_bad, (branch,))} (branch {name})",
                                index=i_bad, reason="reach")
     if i_bad == i_jump:
-        raise UnreachableError(f"{where}: {_singular_message(robot, geo, sol, qb, step, branch, i_bad)}",
+        raise UnreachableError(f"{where}: {_singular_message(robot, geo, sol, qb, branch, i_bad)}",
                                index=i_bad, reason="singular")
     raise UnreachableError(
         f"{where}: {_range_violation(robot, q[i_bad])} on the branch followed from point 0 ({name}); "
         "start from another q_ref or move the path", index=i_bad, reason="joint_range")
 
 
-def _singular_message(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, qb, step, branch: int, i: int) -> str:
+def _singular_message(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, qb, branch: int, i: int) -> str:
     raw = wrap(np.diff(qb[i - 1:i + 1], axis=0))[0]
     j = int(np.argmax(np.abs(raw)))
     moved = f"joint {robot.joint_names[j]} changes by {raw[j]:.3f} rad between points {i - 1} and {i}"
