@@ -158,6 +158,15 @@ def _fillet(corner: _Corner, m: np.ndarray, radius: float) -> tuple[float, float
     return float(a), float(b), arc
 
 
+def _down(x: float, digits: int = 6) -> str:
+    """``x`` > 0 rounded DOWN to ``digits`` significant digits, so a value quoted as "the largest
+    that fits" does fit when the user copies it."""
+    if x <= 0.0:
+        return f"{x:.{digits}g}"
+    scale = 10.0 ** (digits - 1 - int(np.floor(np.log10(x))))
+    return f"{np.floor(x * scale * (1 - 1e-15)) / scale:.{digits}g}"
+
+
 def _largest(ok, start: float, bisections: int = 50) -> float:
     """Largest x > 0 with ok(x), assuming ok holds below some threshold; 0.0 if ok(start) fails
     and ok(start * 2**-40) fails too."""
@@ -198,7 +207,7 @@ def _with_transition(path: TaskPath, c: _Corner, radius: float) -> TaskPath:
         r_max = _transition_radius_limit(c, m)
         raise PathError(f"{what}: a transition circle of radius {r:.6g} m does not fit at {c.where()}: it would "
                         f"need more than the neighbouring segments allow (cuts <= {c.max_a:.6g} m and "
-                        f"{c.max_b:.6g} m); the largest radius that fits is {r_max:.6g} m")
+                        f"{c.max_b:.6g} m); the largest radius that fits is {_down(r_max)} m")
     a, b, arc = fit
     return _replace(path, c, a, b, arc)
 
@@ -277,13 +286,13 @@ def _with_g2_blend(path: TaskPath, c: _Corner, tolerance: float, shape: float) -
     if full.upper <= tol:
         raise PathError(f"{what}: tolerance {tol:.6g} m is too large at {c.where()}: even the largest G2 blend the "
                         f"neighbouring segments allow (cutting {cut_max:.6g} m from each) deviates only "
-                        f"{full.upper:.6g} m; give a tolerance below {full.upper:.6g} m")
+                        f"{full.upper:.6g} m; give a tolerance below {_down(full.upper)} m")
 
     def ok(cut):
         d = g2_deviation(c.A, c.B, cut, shape, stop_above=tol)
         return d.upper <= tol
 
-    cut = _largest(ok, cut_max)
+    cut = _largest(ok, cut_max, bisections=36)  # cut to ~1e-11 relative
     if cut <= 0.0:
         raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance")
     return _replace(path, c, cut, cut, BezierSegment(g2_control_points(c.A, c.B, cut, shape)))
