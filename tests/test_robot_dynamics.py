@@ -118,7 +118,7 @@ def test_payload_changes_gravity_as_a_point_mass(robot):
     h = 1e-6
     for q in rng.uniform(robot.limits.lower, robot.limits.upper, size=(10, 6)):
         def height(qq):
-            pos, rot = fk(robot, qq, frame="flange")
+            pos, rot = fk(robot, qq, frame=robot.flange_frame)
             return (pos + rot @ com)[2]
 
         dz = np.array([(height(q + h * e) - height(q - h * e)) / (2 * h) for e in np.eye(6)])

@@ -194,7 +194,7 @@ def test_tool_frame_is_the_ik_target(robot):
     rng = np.random.default_rng(9)
     qs = random_q(arm, rng, 200)
     pos, rot = fk(arm, qs)
-    flange_pos, flange_rot = fk(arm, qs, frame="flange")
+    flange_pos, flange_rot = fk(arm, qs, frame=arm.flange_frame)
     # the tcp frame is the flange frame composed with the tool
     np.testing.assert_allclose(pos, flange_pos + flange_rot @ np.array(tool.translation), atol=1e-12)
     for q, p, r in zip(qs, pos, rot):

@@ -380,3 +380,38 @@ def _dls_batch(robot: Robot, p: np.ndarray, r: np.ndarray, q_ref: np.ndarray) ->
             raise UnreachableError(f"point {i}: {exc}", index=i, reason=exc.reason) from None
         out[i] = q
     return out
+
+
+def ik_nearest(robot: Robot, positions, rotations, q_refs) -> np.ndarray:
+    """Configurations (N, n) reaching N TCP poses, each the solution nearest to its own reference
+    ``q_refs`` (N, n) over all branches and 2*pi turns (no range filtering: the caller checks).
+
+    For evaluating a path at arbitrary theta, in any order, against a dense continuous reference
+    of the same path: the nearest solution is then the reference's branch and turn. Vectorized
+    for closed-form arms; DLS from each reference otherwise.
+    """
+    p, r = _poses(positions, rotations, batch=True)
+    q_refs = np.asarray(q_refs, dtype=float)
+    if q_refs.shape != (len(p), robot.n):
+        raise PathmotionError(f"IK: q_refs has shape {q_refs.shape}, expected {(len(p), robot.n)}")
+    geo = robot.opw_detection[0]
+    if geo is None:
+        out = np.empty((len(p), robot.n))
+        for i in range(len(p)):
+            try:
+                out[i] = ik_dls(robot, p[i], r[i], q_refs[i])
+            except UnreachableError as exc:
+                raise UnreachableError(f"point {i}: {exc}", index=i, reason=exc.reason) from None
+        return out
+    t_ref = geo.to_t(q_refs)
+    sol = solve(geo, p, r, t_ref[:, 0], t_ref[:, 3])
+    qs = sol.q + TWO_PI * np.round((q_refs[:, None, :] - sol.q) / TWO_PI)
+    with np.errstate(invalid="ignore"):
+        dist = np.where(sol.reach_ok, np.linalg.norm(qs - q_refs[:, None, :], axis=2), np.inf)
+    unreached = ~np.isfinite(dist).any(axis=1)
+    if unreached.any():
+        i = int(np.argmax(unreached))
+        raise UnreachableError(f"point {i}, {_fmt_pose(p[i], r[i])}: {_reach_message(geo, sol, i)}",
+                               index=i, reason="reach")
+    best = np.argmin(dist, axis=1)
+    return qs[np.arange(len(p)), best]

@@ -1,0 +1,161 @@
+"""Lift a task-space path to joint space: the virtual holonomic constraint q = Phi(theta).
+
+For a TaskPath with pose p(theta), R(theta) and its theta-derivatives (dp, ddp; w, dw, where
+w is the angular velocity of the tool per unit theta, world axes):
+
+    Phi(theta)   = IK(p, R) on one solution branch, continuous along the path
+    Phi'(theta)  = J(Phi)^-1 [dp; w]
+    Phi''(theta) = J(Phi)^-1 ([ddp; dw] - Jdot(Phi, Phi') Phi')
+
+with J the 6 x 6 TCP Jacobian (LOCAL_WORLD_ALIGNED) and Jdot Phi' the classical acceleration of
+the TCP at qd = Phi', qdd = 0. No finite differences: the accuracy is the same at any grid.
+
+Construction samples the path densely (``defaults.LIFT_REFERENCE_STEP``) to fix the branch and
+the 2*pi turns of each joint, and checks reachability, joint ranges and the distance to
+singularity along the whole path, raising an error that names theta, the segment and the joint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import defaults
+from .errors import PathError, UnreachableError
+from .joint_path import JointPath
+from .robot import Robot, fk, frame_acceleration_bias, jacobian
+from .robot.ik import ik_batch, ik_nearest
+
+TWO_PI = 2.0 * np.pi
+
+
+@dataclass(frozen=True)
+class PathCheck:
+    """What the lift found along the path.
+
+    min_singular_value: smallest singular value of the TCP Jacobian along the path and its theta;
+    range_margin: smallest distance of any joint to its range limits [rad], with theta and joint;
+    kinks: theta of the sharp corners (the planner must stop there).
+    """
+
+    min_singular_value: float
+    min_singular_theta: float
+    range_margin: float
+    range_margin_theta: float
+    range_margin_joint: str
+    kinks: tuple[float, ...]
+    samples: int
+
+
+@dataclass(frozen=True, eq=False)
+class TaskJointPath(JointPath):
+    """q = Phi(theta) for a task-space path, on one IK branch. Build with :func:`lift`."""
+
+    robot: Robot | None = None
+    task_path: object = None
+    original_task_path: object = None
+    reference_theta: np.ndarray = field(default=None, repr=False)
+    reference_q: np.ndarray = field(default=None, repr=False)
+    check: PathCheck | None = None
+
+    def _reference_at(self, theta: np.ndarray) -> np.ndarray:
+        ref_t, ref_q = self.reference_theta, self.reference_q
+        return np.column_stack([np.interp(theta, ref_t, ref_q[:, j]) for j in range(self.n)])
+
+    def evaluate(self, theta, side: str = "right"):
+        th, scalar = self._check_theta(theta)
+        p, dp, ddp, rot, w, dw = self.task_path.pose(th, side=side)
+        q = ik_nearest(self.robot, p, rot, self._reference_at(th))
+        dq, ddq = joint_derivatives(self.robot, q, dp, ddp, w, dw)
+        if scalar:
+            return q[0], dq[0], ddq[0]
+        return q, dq, ddq
+
+
+def joint_derivatives(robot: Robot, q, dp, ddp, w, dw) -> tuple[np.ndarray, np.ndarray]:
+    """Phi' and Phi'' (N, n) from the task-space derivatives through the TCP Jacobian."""
+    jac = jacobian(robot, q)
+    twist = np.concatenate([dp, w], axis=1)
+    dq = np.linalg.solve(jac, twist[..., None])[..., 0]
+    bias = frame_acceleration_bias(robot, q, dq)
+    acc = np.concatenate([ddp, dw], axis=1) - bias
+    ddq = np.linalg.solve(jac, acc[..., None])[..., 0]
+    return dq, ddq
+
+
+def lift(robot: Robot, task_path, q_start=None, *, original=None,
+         reference_step: float = defaults.LIFT_REFERENCE_STEP,
+         singularity_threshold: float = defaults.SINGULARITY_THRESHOLD) -> TaskJointPath:
+    """Lift ``task_path`` to joint space for ``robot``.
+
+    q_start: (n,) configuration the branch is chosen to be closest to at theta = 0 (default:
+    the middle of the joint ranges). original: the path before blends replaced its corners
+    (kept for deviation metrics). Raises UnreachableError / PathError naming theta and segment.
+    """
+    if robot.n != 6:
+        raise PathError(f"task-space paths need a 6-joint arm; {robot.name} has {robot.n} joints")
+    lo, hi = task_path.domain
+    count = max(int(np.ceil((hi - lo) / reference_step)) + 1, 50)
+    theta = np.linspace(lo, hi, count)
+    breaks = np.asarray(task_path.breaks, dtype=float)
+    theta = np.unique(np.concatenate([theta, breaks[(breaks > lo) & (breaks < hi)]]))
+    p, dp, ddp, rot, w, dw = task_path.pose(theta)
+    if q_start is None:
+        q_start = 0.5 * (robot.limits.lower + robot.limits.upper)
+    q_start = np.asarray(q_start, dtype=float)
+    if q_start.shape != (robot.n,):
+        raise PathError(f"start configuration has {q_start.size} values, the robot has {robot.n} joints")
+    try:
+        q = ik_batch(robot, p, rot, q_start)
+    except UnreachableError as exc:
+        idx = getattr(exc, "index", None)
+        if idx is None:
+            raise
+        raise UnreachableError(_where(task_path, theta[idx], p[idx]) + f": {exc}") from None
+    # continuity: unwrap every joint along the dense reference
+    q = np.unwrap(q, axis=0)
+    check = _check_path(robot, task_path, theta, q, p, singularity_threshold)
+    path = TaskJointPath(
+        n=robot.n, domain=(lo, hi), closed=bool(getattr(task_path, "closed", False)),
+        kinks=tuple(float(k) for k in task_path.kinks), breaks=tuple(float(b) for b in task_path.breaks),
+        joint_names=robot.joint_names, robot=robot, task_path=task_path, original_task_path=original,
+        reference_theta=theta, reference_q=q, check=check,
+    )
+    return path
+
+
+def _where(task_path, theta: float, p) -> str:
+    seg = ""
+    if hasattr(task_path, "segment_index"):
+        seg = f" (segment {int(task_path.segment_index(theta)) + 1})"
+    return f"path point at theta = {theta:.4f} m{seg}, position ({p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}) m"
+
+
+def _check_path(robot, task_path, theta, q, p, threshold) -> PathCheck:
+    lim = robot.limits
+    below = q < lim.lower - 1e-9
+    above = q > lim.upper + 1e-9
+    if np.any(below | above):
+        k, j = np.argwhere(below | above)[0]
+        raise UnreachableError(
+            f"{_where(task_path, theta[k], p[k])}: joint {lim.names[j]} would be at {q[k, j]:.4f} rad, outside "
+            f"its range [{lim.lower[j]:.4f}, {lim.upper[j]:.4f}] on this IK branch; move the path or give "
+            "path.start_configuration for another branch"
+        )
+    margin = np.minimum(q - lim.lower, lim.upper - q)
+    k, j = np.unravel_index(np.argmin(margin), margin.shape)
+    sv = np.linalg.svd(jacobian(robot, q), compute_uv=False)[:, -1]
+    ks = int(np.argmin(sv))
+    if sv[ks] < threshold:
+        raise UnreachableError(
+            f"{_where(task_path, theta[ks], p[ks])}: the arm is (near) singular there (smallest Jacobian singular "
+            f"value {sv[ks]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity"
+        )
+    return PathCheck(float(sv[ks]), float(theta[ks]), float(margin[k, j]), float(theta[k]), lim.names[j],
+                     tuple(float(x) for x in task_path.kinks), len(theta))
+
+
+def tcp_positions(robot: Robot, q) -> np.ndarray:
+    """TCP positions (N, 3) of configurations (N, n)."""
+    return fk(robot, q)[0]
