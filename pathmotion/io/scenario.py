@@ -7,7 +7,6 @@ to write. Every error names the file, the key path and what is allowed, in one o
 
 from __future__ import annotations
 
-import math
 import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
@@ -203,13 +202,18 @@ def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> 
         raise ScenarioError(f"scenario file {path} does not exist") from None
     except (IsADirectoryError, UnicodeDecodeError, PermissionError) as exc:
         raise ScenarioError(f"scenario file {path} cannot be read: {exc}") from None
+    return parse_scenario(text, str(path), overrides), path.parent
+
+
+def parse_scenario(text: str, where: str = "scenario", overrides: dict[str, Any] | None = None) -> Scenario:
+    """Validate scenario TOML text (``where`` names it in errors), with key-path overrides."""
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+        raise ScenarioError(f"{where}: not valid TOML: {exc}") from None
     for key, value in (overrides or {}).items():
-        set_key(doc, key, value, where=str(path))
-    return scenario_from_dict(doc, where=str(path)), path.parent
+        set_key(doc, key, value, where=where)
+    return scenario_from_dict(doc, where=where)
 
 
 def _parse_key(key: str) -> list:
