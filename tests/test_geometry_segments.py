@@ -58,11 +58,11 @@ def test_parameter_is_arc_length(seg):
 def test_closest_point_matches_brute_force(seg):
     rng = np.random.default_rng(3)
     pts = seg.evaluate(rng.uniform(0, seg.length, 40))[0] + rng.normal(scale=0.2, size=(40, 3))
-    grid = seg.evaluate(np.linspace(0, seg.length, 200001))[0]
+    grid = seg.evaluate(np.linspace(0, seg.length, 50001))[0]
     brute = np.array([np.min(np.linalg.norm(grid - x, axis=1)) for x in pts])
     s, d = seg.closest(pts)
     assert np.all(d <= brute + 1e-12)
-    np.testing.assert_allclose(d, brute, atol=seg.length / 200000)
+    np.testing.assert_allclose(d, brute, atol=seg.length / 50000)
     np.testing.assert_allclose(np.linalg.norm(seg.evaluate(s)[0] - pts, axis=1), d, atol=1e-12)
 
 
