@@ -90,7 +90,7 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     """Lift ``task_path`` to joint space for ``robot``.
 
     q_start: (n,) configuration the branch is chosen to be closest to at theta = 0 (default:
-    the middle of the joint ranges). original: the path before blends replaced its corners
+    the zero (calibration) configuration, clipped to the ranges). original: the path before blends replaced its corners
     (kept for deviation metrics). Raises UnreachableError / PathError naming theta and segment.
     """
     if robot.n != 6:
@@ -102,7 +102,7 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     theta = np.unique(np.concatenate([theta, breaks[(breaks > lo) & (breaks < hi)]]))
     p, dp, ddp, rot, w, dw = task_path.pose(theta)
     if q_start is None:
-        q_start = 0.5 * (robot.limits.lower + robot.limits.upper)
+        q_start = np.clip(np.zeros(robot.n), robot.limits.lower, robot.limits.upper)
     q_start = np.asarray(q_start, dtype=float)
     if q_start.shape != (robot.n,):
         raise PathError(f"start configuration has {q_start.size} values, the robot has {robot.n} joints")

@@ -132,22 +132,28 @@ class PlanSpec(_Model):
 
 # ------------------------------------------------------------------------------------ simulation
 class RealismSpec(_Model):
-    seed: int = 0
-    inertia_scale: float = Field(1.0, gt=0, description="plant mass/inertia scale vs the controller's model")
-    unmodelled_payload: float = Field(0.0, ge=0, description="unmodelled payload mass at the flange [kg]")
-    viscous_friction: float = Field(0.0, ge=0, description="[N m s/rad]")
-    coulomb_friction: float = Field(0.0, ge=0, description="[N m]")
+    """Plant vs controller-model differences (all off by default); see pathmotion.simulation.Realism."""
+
+    seed: int = Field(0, description="seed of every random part")
+    inertia_error: float = Field(0.0, ge=0, lt=1, description="plant link mass/inertia error, e.g. 0.1 = 10 %")
+    payload_mass: float = Field(0.0, ge=0, description="unmodelled payload at the flange [kg]")
+    payload_com: Vec3 | None = Field(None, description="its centre of mass in the flange frame [m]")
+    viscous_friction: float = Field(0.0, ge=0, description="[N m s/rad], every joint")
+    coulomb_friction: float = Field(0.0, ge=0, description="[N m], every joint")
     encoder_resolution: float = Field(0.0, ge=0, description="quantization step [rad] (0 = off)")
-    noise_std: float = Field(0.0, ge=0, description="measurement noise std [rad]")
-    delay: bool = Field(False, description="one-sample delay of the measurement")
+    position_noise: float = Field(0.0, ge=0, description="measurement noise std [rad]")
+    velocity_noise: float = Field(0.0, ge=0, description="measurement noise std [rad/s]")
+    delay: bool = Field(False, description="one-sample delay of the applied torque")
 
 
 class SimulateSpec(_Model):
     controller: Literal["orbital", "computed_torque", "pd_gravity"] = "orbital"
-    sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, description="controller sample time [s]")
-    substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=1000)
+    sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, le=0.1, description="controller sample time [s]")
+    substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=1000, description="RK4 plant steps per sample")
+    laps: int = Field(1, ge=1, le=100, description="laps of a closed path")
     realism: RealismSpec = RealismSpec()
-    gains: dict[str, float] = Field({}, description="controller gains overriding the defaults")
+    gains: dict[str, float] = Field({}, description="gains of the chosen controller overriding the defaults "
+                                                    "(orbital: bandwidth, damping, speed_rate; others: bandwidth, damping)")
     failure_threshold: float = Field(defaults.TRACKING_FAILURE_THRESHOLD, gt=0, description="[rad]")
 
 

@@ -1,0 +1,344 @@
+"""The Python API the CLI is built on: scenario -> robot -> path -> plan -> simulation -> files.
+
+Each CLI subcommand is a few lines over these functions::
+
+    setup = pathmotion.load("scenarios/circle_horizontal.toml")
+    result = pathmotion.plan_scenario(setup)
+    pathmotion.write_plan(setup, result, "out/plan")
+    sim = pathmotion.simulate_scenario(setup, result)
+    pathmotion.write_simulation(setup, result, sim, "out/sim")
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import PathmotionError, ScenarioError
+from .geometry import Arc, Circle, FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend, with_transition
+from .io import exports
+from .io.atomic import write_json, write_text
+from .io.scenario import Scenario, load_scenario, parse_scenario
+from .joint_path import JointPath, SplineJointPath
+from .lift import TaskJointPath, lift
+from .planning import PlanResult, PlanSettings, plan
+from .robot import Payload, Robot, Tool, load_robot
+from .robot.limits import JointLimits
+
+
+@dataclass(frozen=True, eq=False)
+class Setup:
+    """A validated scenario turned into objects: robot, joint path (and the task path it came
+    from, and the path before blends), planner and simulation settings."""
+
+    scenario: Scenario
+    scenario_text: str
+    base_dir: Path
+    robot: Robot
+    path: JointPath
+    task_path: TaskPath | None
+    original_task_path: TaskPath | None
+    plan_settings: PlanSettings
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+
+# ------------------------------------------------------------------------------------- building
+def _rpy(rpy) -> np.ndarray:
+    import pinocchio as pin
+
+    return pin.rpy.rpyToMatrix(*map(float, rpy))
+
+
+def build_robot(scenario: Scenario, base_dir: Path) -> Robot:
+    """The scenario's robot with its payload, tool and limit overrides."""
+    spec = scenario.robot
+    name = spec.name
+    if name.lower() not in ("irb140",):
+        name = str((base_dir / name).resolve()) if not Path(name).is_absolute() else name
+    limits = None if spec.limits is None else str(base_dir / spec.limits)
+    robot = load_robot(name, limits,
+                       payload=Payload(spec.payload.mass, spec.payload.com, spec.payload.inertia),
+                       tool=Tool(spec.tool.translation, tuple(map(tuple, _rpy(spec.tool.rotation_rpy)))))
+    lim = scenario.limits
+    changes = {}
+    for key in ("velocity", "acceleration", "torque"):
+        value = getattr(lim, key)
+        if value is not None:
+            if len(value) != robot.n:
+                raise ScenarioError(f"limits.{key} has {len(value)} values; {robot.name} has {robot.n} joints "
+                                    f"{list(robot.joint_names)}")
+            changes[key] = np.asarray(value, float)
+    if changes:
+        robot = robot.with_limits(dataclasses.replace(robot.limits, **changes))
+    return robot
+
+
+def _segments(specs) -> list:
+    segs = []
+    prev_end = None
+    for k, s in enumerate(specs):
+        where = f"path.segments[{k}]"
+        start = s.start if getattr(s, "start", None) is not None else prev_end
+        try:
+            if s.type == "line":
+                if start is None:
+                    raise ScenarioError(f"{where}: the first line needs a start point")
+                seg = Line(start, s.end)
+            elif s.type == "arc":
+                if start is None:
+                    raise ScenarioError(f"{where}: the first arc needs a start point")
+                seg = Arc(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float),
+                          float(s.sweep))
+            else:  # circle
+                if s.turns != 1.0:
+                    raise ScenarioError(f"{where}: turns = {s.turns:g}; only full single circles (turns = 1) are "
+                                        "supported; chain several circles for more turns")
+                if start is not None and s.start is None and k > 0 or s.start is not None:
+                    seg = Circle(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float))
+                else:
+                    seg = Circle.from_centre(s.center, s.radius, s.normal, s.start_angle)
+                if abs(seg.radius - s.radius) > 1e-6:
+                    raise ScenarioError(f"{where}: the start point is {seg.radius:.6g} m from the centre, not the "
+                                        f"radius {s.radius:.6g} m; fix radius or centre")
+        except PathmotionError as exc:
+            if isinstance(exc, ScenarioError):
+                raise
+            raise type(exc)(f"{where}: {exc}") from None
+        segs.append(seg)
+        prev_end = seg.end_point
+    return segs
+
+
+def build_path(scenario: Scenario, robot: Robot) -> tuple[JointPath, TaskPath | None, TaskPath | None]:
+    """(joint path, task path or None, original task path before blends or None)."""
+    spec = scenario.path
+    if spec.type == "joint":
+        wp = np.asarray(spec.waypoints, dtype=float)
+        if wp.ndim != 2 or wp.shape[1] != robot.n:
+            raise ScenarioError(f"path.waypoints: each waypoint needs {robot.n} joint values for {robot.name}")
+        bad = (wp < robot.limits.lower) | (wp > robot.limits.upper)
+        if bad.any():
+            k, j = np.argwhere(bad)[0]
+            raise ScenarioError(f"path.waypoints[{k}]: joint {robot.joint_names[j]} = {wp[k, j]:g} rad is outside "
+                                f"its range [{robot.limits.lower[j]:.4f}, {robot.limits.upper[j]:.4f}]")
+        return SplineJointPath.from_waypoints(wp, robot.joint_names), None, None
+    orientation = FixedOrientation() if spec.orientation == "down" else FixedOrientation(
+        np.asarray(spec.orientation, float))
+    task = TaskPath(tuple(_segments(spec.segments)), orientation)
+    original = task if spec.blends else None
+    for k, blend in enumerate(spec.blends):
+        corners = [c.index for c in task.connections if c.kind == "corner"] if blend.corner == "all" \
+            else [blend.corner - 1]
+        for c in sorted(corners, reverse=True):  # later corners first: earlier indices stay valid
+            if blend.type == "circle":
+                task = with_transition(task, c, blend.radius)
+            else:
+                task = with_g2_blend(task, c, blend.tolerance)
+    q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    path = lift(robot, task, q_start, original=original)
+    return path, task, original
+
+
+def plan_settings(scenario: Scenario) -> PlanSettings:
+    lim, p = scenario.limits, scenario.plan
+    periodic = p.periodic
+    return PlanSettings(
+        grid_points=p.grid_points,
+        velocity=lim.use_velocity, velocity_scale=lim.velocity_scale,
+        acceleration=lim.use_acceleration, acceleration_scale=lim.acceleration_scale,
+        torque=lim.use_torque, torque_scale=lim.torque_scale,
+        tcp_speed_limit=lim.tcp_speed,
+        start=None if periodic else p.start, end=None if periodic else p.end,
+        periodic=periodic, connections=p.connections,
+    )
+
+
+def build(scenario: Scenario, base_dir: str | Path = ".", text: str = "") -> Setup:
+    """Turn a validated scenario into a :class:`Setup` (loads the robot, lifts the path)."""
+    base_dir = Path(base_dir)
+    robot = build_robot(scenario, base_dir)
+    path, task, original = build_path(scenario, robot)
+    return Setup(scenario, text, base_dir, robot, path, task, original, plan_settings(scenario))
+
+
+def load(scenario_path: str | Path, overrides: dict[str, Any] | None = None) -> Setup:
+    """Read, validate and build a scenario file (``overrides``: key path -> value)."""
+    scenario, base_dir = load_scenario(scenario_path, overrides)
+    return build(scenario, base_dir, Path(scenario_path).read_text())
+
+
+def load_text(text: str, base_dir: str | Path = ".", overrides: dict[str, Any] | None = None,
+              where: str = "scenario") -> Setup:
+    return build(parse_scenario(text, where, overrides), base_dir, text)
+
+
+# ------------------------------------------------------------------------------------- planning
+def plan_scenario(setup: Setup) -> PlanResult:
+    """The time-optimal plan of the scenario (with baselines and verification)."""
+    return plan(setup.path, setup.robot, setup.plan_settings)
+
+
+def plan_summary(setup: Setup, result: PlanResult) -> dict:
+    """The contract keys of ``summary.json`` (issue 4) plus context."""
+    r = result.ratios
+    b = result.baselines
+    out = {
+        "scenario": setup.name,
+        "robot": setup.robot.name,
+        "path_length": float(setup.path.length),
+        "path_kind": "task" if setup.task_path is not None else "joint",
+        "duration_s": result.profile.duration,
+        "solve_time_s": result.solve_time_s,
+        "grid_points": result.grid_points,
+        "max_velocity_ratio": None if r is None else r.velocity,
+        "max_acceleration_ratio": None if r is None else r.acceleration,
+        "max_torque_ratio": None if r is None else r.torque,
+        "max_tcp_speed_ratio": None if r is None else r.tcp_speed,
+        "worst_limit": None if r is None else r.worst,
+        "baseline_constant_speed_duration_s": None if b is None or b.industrial is None else b.industrial.profile.duration,
+        "fitted_profile_duration_s": None if b is None or b.fitted is None else b.fitted.profile.duration,
+        "connections": setup.plan_settings.connections,
+        "velocity_jumps": [list(j) for j in result.jump_intervals],
+        "kinks_theta": list(setup.path.kinks),
+    }
+    if setup.original_task_path is not None and setup.task_path is not None:
+        out["blend_max_deviation_m"] = max_deviation(setup.task_path, setup.original_task_path).distance
+    check = getattr(setup.path, "check", None)
+    if check is not None:
+        out["min_singular_value"] = check.min_singular_value
+        out["joint_range_margin_rad"] = check.range_margin
+    return out
+
+
+def write_plan(setup: Setup, result: PlanResult, out: str | Path, figures: bool = True) -> dict:
+    """Write trajectory.csv/.parquet, summary.json, phase_plane.csv, the exports and figures."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    samples = result.trajectory.sample(setup.scenario.plan.sample_time)
+    exports.write_trajectory_csv(out / "trajectory.csv", samples)
+    exports.write_trajectory_parquet(out / "trajectory.parquet", samples)
+    exports.write_ros2_yaml(out / "trajectory_ros2.yaml", samples, setup.robot.joint_names)
+    exports.write_egm_csv(out / "trajectory_egm.csv", samples)
+    exports.write_rapid(out / "trajectory_rapid.mod", samples)
+    exports.write_table_csv(out / "phase_plane.csv", phase_plane_columns(result))
+    if setup.scenario_text:
+        write_text(out / "scenario.toml", setup.scenario_text)
+    summary = plan_summary(setup, result)
+    write_json(out / "summary.json", summary)
+    if figures:
+        from .report import figures as fig
+
+        fig.plan_figures(setup, result, samples, out)
+    return summary
+
+
+def phase_plane_columns(result: PlanResult) -> dict[str, np.ndarray]:
+    """theta, the limit curves and the profiles (optimal, fitted, constant speed) as theta_dot."""
+    grid = result.profile.grid
+    cols = {"theta": grid, "theta_dot_optimal": np.sqrt(result.profile.x)}
+    c = result.curves
+    cols["theta_dot_max_pointwise"] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_max, 1e12)), 0))
+    cols["theta_dot_controllable"] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_controllable, 1e12)), 0))
+    b = result.baselines
+    if b is not None:
+        for name, base in (("fitted", b.fitted), ("constant_speed", b.industrial)):
+            if base is not None:
+                cols[f"theta_dot_{name}"] = base.profile.theta_dot_at(grid)
+    return cols
+
+
+# ----------------------------------------------------------------------------------- simulation
+def simulation_settings(setup: Setup):
+    from .control import OrbitalGains, TrackingGains
+    from .simulation import Realism, SimulationSettings
+
+    sim = setup.scenario.simulate
+    rs = sim.realism
+    realism_kwargs = dict(inertia_error=rs.inertia_error, payload_mass=rs.payload_mass,
+                          viscous_friction=rs.viscous_friction, coulomb_friction=rs.coulomb_friction,
+                          encoder_resolution=rs.encoder_resolution, position_noise=rs.position_noise,
+                          velocity_noise=rs.velocity_noise, delay=rs.delay, seed=rs.seed)
+    if rs.payload_com is not None:
+        realism_kwargs["payload_com"] = rs.payload_com
+    kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
+                  failure_threshold=sim.failure_threshold, laps=sim.laps)
+    if sim.gains:
+        cls, field = (OrbitalGains, "orbital_gains") if sim.controller == "orbital" else (
+            TrackingGains, "computed_torque_gains" if sim.controller == "computed_torque" else "pd_gains")
+        allowed = [f.name for f in dataclasses.fields(cls)]
+        unknown = sorted(set(sim.gains) - set(allowed))
+        if unknown:
+            raise ScenarioError(f"simulate.gains: unknown gain(s) {unknown} for controller {sim.controller!r}; "
+                                f"allowed: {allowed}")
+        base = getattr(SimulationSettings(), field)
+        kwargs[field] = dataclasses.replace(base, **sim.gains)
+    return SimulationSettings(**kwargs)
+
+
+def simulate_scenario(setup: Setup, result: PlanResult):
+    """Closed-loop simulation of the planned motion with the scenario's controller and plant."""
+    from .simulation import simulate
+
+    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller,
+                    simulation_settings(setup))
+
+
+def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:
+    summary = dict(sim.summary())
+    summary["controller"] = setup.scenario.simulate.controller
+    summary["planned_duration_s"] = result.profile.duration
+    return summary
+
+
+def write_simulation(setup: Setup, result: PlanResult, sim, out: str | Path, figures: bool = True) -> dict:
+    """Write simulation.csv/.parquet, summary.json (plan and simulation keys) and figures."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    cols = simulation_columns(sim)
+    exports.write_table_csv(out / "simulation.csv", cols)
+    exports.write_table_parquet(out / "simulation.parquet", cols)
+    summary = {"plan": plan_summary(setup, result)}
+    summary.update(simulation_summary(setup, result, sim))
+    if setup.scenario_text:
+        write_text(out / "scenario.toml", setup.scenario_text)
+    write_json(out / "summary.json", summary)
+    if figures:
+        from .report import figures as fig
+
+        fig.simulation_figures(setup, result, sim, out)
+    return summary
+
+
+def simulation_columns(sim) -> dict[str, np.ndarray]:
+    """simulation.csv columns: t, theta, q1..n, qd1..n, tau1..n, q_desired1..n, tcp xyz, desired tcp xyz,
+    deviations."""
+    cols = {"t": sim.t, "theta": sim.theta}
+    n = sim.q.shape[1]
+    for name, arr in (("q", sim.q), ("qd", sim.qd), ("tau", sim.tau), ("q_desired", sim.q_desired)):
+        cols.update({f"{name}{j + 1}": arr[:, j] for j in range(n)})
+    for name, arr in (("tcp", sim.tcp), ("tcp_desired", sim.tcp_desired)):
+        cols.update({f"{name}_{a}": arr[:, k] for k, a in enumerate("xyz")})
+    cols["joint_deviation"] = sim.joint_deviation
+    cols["path_deviation"] = sim.path_deviation
+    if sim.corner_deviation is not None:
+        cols["corner_deviation"] = sim.corner_deviation
+    return cols
+
+
+def simulate_summary(scenario_text: str, base_dir: str, overrides: dict[str, Any] | None = None) -> dict:
+    """Plan and simulate a scenario given as text; the flat summary a sweep row holds."""
+    setup = load_text(scenario_text, base_dir, overrides)
+    result = plan_scenario(setup)
+    sim = simulate_scenario(setup, result)
+    summary = simulation_summary(setup, result, sim)
+    summary["baseline_constant_speed_duration_s"] = plan_summary(setup, result)["baseline_constant_speed_duration_s"]
+    failure = summary.pop("failure", None)
+    summary["failure_reason"] = None if not failure else failure.get("reason")
+    return summary
