@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 
 from pathmotion.errors import PathError
 from pathmotion.geometry import (Arc, BezierSegment, Line, TaskPath, certified_max, circle_with_radial_line,
+                                 circle_with_radial_line_transition,
                                  circle_with_vertical_circle, largest_g2_tolerance, largest_transition_radius,
                                  max_deviation, with_g2_blend, with_g2_blends, with_transition, with_transitions)
 
@@ -66,6 +67,8 @@ def test_transition_thesis_circle_line_deviation_and_limit():
     dev = max_deviation(new, path)
     assert dev.lower <= expected * (1 + 1e-12) and expected <= dev.upper * (1 + 1e-12)
     assert expected == pytest.approx(0.018986, abs=1e-6)  # 19 mm for the thesis' r_t = 0.04 m
+    thesis = circle_with_radial_line_transition()  # r_t = 0.04 m by default
+    np.testing.assert_allclose(thesis.segments[1].centre, new.segments[1].centre, atol=1e-15)
     # the fillet needs |OC| = R - r >= r: the largest radius is R / 2
     assert largest_transition_radius(path, 0) == pytest.approx(R / 2, rel=1e-6)
 

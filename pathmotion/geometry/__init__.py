@@ -5,13 +5,15 @@ from .blends import (g2_control_points, g2_deviation, largest_g2_tolerance, larg
                      with_g2_blend, with_g2_blends, with_transition, with_transitions)
 from .chain import Connection, TaskPath
 from .deviation import Deviation, certified_max, distance_to_segments, max_deviation
-from .library import circle_with_radial_line, circle_with_vertical_circle, horizontal_circle, thesis_circle
+from .library import (circle_with_radial_line, circle_with_radial_line_transition, circle_with_vertical_circle,
+                      horizontal_circle, thesis_circle)
 from .orientation import FixedOrientation, SlerpOrientation, smoothstep5
 from .segments import Arc, BezierSegment, Circle, Line, Segment
 
 __all__ = [
     "Arc", "BezierSegment", "Circle", "Connection", "Deviation", "FixedOrientation", "Line", "Segment",
-    "SlerpOrientation", "TaskPath", "certified_max", "circle_with_radial_line", "circle_with_vertical_circle",
+    "SlerpOrientation", "TaskPath", "certified_max", "circle_with_radial_line", "circle_with_radial_line_transition",
+    "circle_with_vertical_circle",
     "distance_to_segments", "g2_control_points", "g2_deviation", "horizontal_circle", "largest_g2_tolerance",
     "largest_transition_radius", "max_deviation", "smoothstep5", "thesis_circle", "with_g2_blend",
     "with_g2_blends", "with_transition", "with_transitions",

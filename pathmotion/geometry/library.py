@@ -5,6 +5,8 @@
 * :func:`circle_with_radial_line` -- the circle followed by a straight line along its radius,
   a 90 degree corner (chapter 7's sharp-corner case; add a transition with
   :func:`~pathmotion.geometry.blends.with_transition` at connection 0).
+* :func:`circle_with_radial_line_transition` -- the same with the corner replaced by the
+  thesis' transition circle (r_t = 0.04 m).
 * :func:`circle_with_vertical_circle` -- the circle followed by a vertical circle through the
   same point with the same tangent: a "tangent" connection (G1, curvature jump).
 """
@@ -14,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import defaults
+from .blends import with_transition
 from .chain import TaskPath
 from .orientation import FixedOrientation, Orientation
 from .segments import Circle, Line, as_point, as_scalar
@@ -50,6 +53,13 @@ def circle_with_radial_line(centre=defaults.THESIS_CIRCLE_CENTRE, radius: float 
     radial = (p - circle.centre) / circle.radius
     end = p + (-1.0 if inward else 1.0) * length * radial
     return TaskPath((circle, Line(p, end)), _orientation(orientation))
+
+
+def circle_with_radial_line_transition(transition_radius: float = defaults.THESIS_TRANSITION_RADIUS,
+                                       **kwargs) -> TaskPath:
+    """:func:`circle_with_radial_line` (``kwargs`` passed on) with its 90 degree corner replaced by a
+    transition circle of ``transition_radius`` [m] (thesis chapter 7.2)."""
+    return with_transition(circle_with_radial_line(**kwargs), 0, transition_radius)
 
 
 def circle_with_vertical_circle(centre=defaults.THESIS_CIRCLE_CENTRE,
