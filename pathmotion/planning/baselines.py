@@ -1,0 +1,223 @@
+"""Two sub-optimal references planned on the same discretized problem as the optimum.
+
+fitted (the thesis' method): a smooth curve fitted to the optimal theta_dot(theta) — per segment,
+theta_dot = w(theta) exp(p(theta)) with p a Chebyshev polynomial (a Fourier series on a periodic
+cycle) fitted by least squares to log(theta_dot / w), and w = sqrt(distance to an end where the
+optimum starts or stops from rest), so the fit keeps the square-root shape there — scaled to lie
+FITTED_PROFILE_MARGIN below the optimum, then reduced until every limit holds: exactly on the
+planner's discretization (a closed-form largest scale), then on the dense verification resample.
+
+industrial: the highest constant TCP speed that can be held along the whole path, with ramps of
+constant TCP acceleration at the ends where the motion starts or stops (what a commercial
+controller does "at maximum velocity": a trapezoid in TCP speed over the TCP arc length). The
+(speed, acceleration) pair of least duration that satisfies every limit on the planner's
+discretization is searched; on a periodic cycle there are no ramps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import defaults
+from ..errors import InfeasibleError
+from .profile import Profile
+from .segments import Solution, join_segments, solve_chain
+from .topp import IntervalProblem
+from .trajectory import Trajectory
+from .verify import LimitRatios, sample_ratios, summarize, worst_outside
+
+_VERIFY_ROUNDS = 6
+
+
+@dataclass(frozen=True, eq=False)
+class Baseline:
+    """A reference profile with its verification ratios; ``description`` says what it is."""
+
+    name: str
+    profile: Profile
+    ratios: LimitRatios
+    description: str
+
+    @property
+    def duration(self) -> float:
+        return self.profile.duration
+
+
+@dataclass(frozen=True, eq=False)
+class Baselines:
+    fitted: Baseline
+    industrial: Baseline
+
+
+def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
+    """Largest s with s * x feasible on the discretized problem (x (K,) >= 0): each row
+    P x_i + Q x_{i+1} <= R scales linearly in s, and so does 0 <= x <= x_max."""
+    den = problem.P * x[:-1, None] + problem.Q * x[1:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rows = np.where(den > 0, problem.R / np.where(den > 0, den, 1.0), np.inf)
+        caps = np.where(x > 0, problem.x_max / np.where(x > 0, x, 1.0), np.inf)
+    return float(min(rows.min(initial=np.inf), caps.min(initial=np.inf)))
+
+
+def _cuts(chain_args: dict, size: int) -> list[int]:
+    split = set(chain_args["stops"])
+    if chain_args["connections"] != "chain":
+        split |= set(chain_args["breaks"])
+    return sorted(split | {0, size - 1})
+
+
+def _piece_values(sol: Solution, chain_args: dict, cuts: list[int]) -> list[np.ndarray]:
+    if chain_args["connections"] == "max":
+        return [p.x for p in sol.segment_profiles]
+    return [sol.x[i0:i1 + 1] for i0, i1 in zip(cuts[:-1], cuts[1:])]
+
+
+def _fit_piece(theta: np.ndarray, x: np.ndarray, periodic: bool, degree: int) -> np.ndarray:
+    v = np.sqrt(np.maximum(x, 0.0))
+    t = (theta - theta[0]) / (theta[-1] - theta[0])
+    w = np.ones_like(t)
+    tiny = 1e-12 * max(v.max(), 1e-300)
+    if v[0] <= tiny:
+        w *= np.sqrt(t)
+    if v[-1] <= tiny:
+        w *= np.sqrt(1.0 - t)
+    ok = w > 0
+    y = np.log(np.maximum(v[ok] / w[ok], 1e-9 * v.max()))
+    if periodic:
+        cols = [np.ones_like(t)]
+        for h in range(1, max(degree // 2, 1) + 1):
+            cols += [np.cos(2 * np.pi * h * t), np.sin(2 * np.pi * h * t)]
+        basis = np.stack(cols, axis=1)
+    else:
+        basis = np.polynomial.chebyshev.chebvander(2.0 * t - 1.0, degree)
+    coef, *_ = np.linalg.lstsq(basis[ok], y, rcond=None)
+    fit = w * np.exp(basis @ coef)
+    return fit**2
+
+
+def _verified(name, description, problem, cuts, pieces, path, robot, limits, settings, joint_names) -> Baseline:
+    """Join, verify on the dense resample, and scale x down until the ratios pass (bounded)."""
+    for _ in range(_VERIFY_ROUNDS):
+        prof, jumps = join_segments(problem.grid, cuts, pieces)
+        traj = Trajectory(path, prof, robot)
+        samples, r = sample_ratios(traj, limits, settings.verify_sample_time, jumps)
+        ratios = summarize(samples, r, limits, settings.verify_sample_time, (), joint_names)
+        worst = worst_outside(samples, r, jumps)
+        if worst <= 1.0 + settings.limit_tolerance:
+            return Baseline(name, prof, ratios, description)
+        pieces = [p / worst for p in pieces]
+    raise InfeasibleError(f"{name} baseline: limits still exceeded after {_VERIFY_ROUNDS} reductions "
+                          f"({ratios.worst}); switch baselines off or raise grid_points")
+
+
+def fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle) -> Baseline:
+    cuts = _cuts(chain_args, problem.size)
+    pieces = []
+    for (i0, i1), x in zip(zip(cuts[:-1], cuts[1:]), _piece_values(sol, chain_args, cuts)):
+        fit = _fit_piece(problem.grid[i0:i1 + 1], x, periodic_cycle, defaults.FITTED_PROFILE_DEGREE)
+        moving = fit > 0
+        below = (1.0 - settings.fitted_margin) ** 2 * np.min(x[moving] / fit[moving])
+        fit = fit * below
+        fit *= min(1.0, max_feasible_scale(problem.slice(i0, i1), fit) * (1.0 - 1e-9))
+        pieces.append(fit)
+    text = (f"smooth fit (degree {defaults.FITTED_PROFILE_DEGREE}) of log theta_dot, "
+            f"{100 * settings.fitted_margin:g} % below the optimum, verified")
+    return _verified("fitted", text, problem, cuts, pieces, path, robot, limits, settings, robot.joint_names)
+
+
+def _piece_time(theta: np.ndarray, x: np.ndarray) -> float:
+    sq = np.sqrt(x)
+    den = sq[:-1] + sq[1:]
+    return float(np.sum(np.where(den > 0, 2.0 * np.diff(theta) / np.where(den > 0, den, 1.0), np.inf)))
+
+
+def _trapezoid(theta, gain, x_max, v, a, rest_start, rest_end) -> np.ndarray:
+    """x (K,) of a TCP-speed trapezoid on one piece: speed min(v, sqrt(2 a s), sqrt(2 a (S - s)))
+    in TCP arc length s (ramps only at ends where the motion is at rest); where the TCP does not
+    move (gain = 0) the joint limits' bound x_max applies."""
+    arc = np.concatenate([[0.0], np.cumsum(0.5 * (gain[1:] + gain[:-1]) * np.diff(theta))])
+    speed = np.full_like(theta, v)
+    if rest_start:
+        speed = np.minimum(speed, np.sqrt(2.0 * a * arc))
+    if rest_end:
+        speed = np.minimum(speed, np.sqrt(2.0 * a * np.maximum(arc[-1] - arc, 0.0)))
+    moving = gain > 1e-12 * gain.max()
+    x = np.where(moving, speed**2 / np.where(moving, gain, 1.0) ** 2, x_max)
+    if rest_start:
+        x[0] = 0.0
+    if rest_end:
+        x[-1] = 0.0
+    return x
+
+
+def industrial_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits, settings,
+                        periodic_cycle) -> Baseline:
+    """Trapezoid in TCP speed: the (cruise speed v, TCP acceleration a) pair of least duration for
+    which the motion is feasible (searched: a on a logarithmic grid refined around the best, the
+    largest feasible v for each a by bisection); a periodic cycle has no ramps."""
+    cuts = _cuts(chain_args, problem.size)
+    spans = list(zip(cuts[:-1], cuts[1:]))
+    x_opt = _piece_values(sol, chain_args, cuts)
+    subs = [problem.slice(i0, i1) for i0, i1 in spans]
+    rests = [(x[0] <= 0.0, x[-1] <= 0.0) for x in x_opt]
+
+    gains = []
+    for i0, i1 in spans:  # each piece seen from its own side of a connection
+        g = gain_right[i0:i1 + 1].copy()
+        g[-1] = gain_left[i1]
+        gains.append(g)
+
+    def pieces_for(v, a):
+        return [_trapezoid(sub.grid, g, sub.x_max, v, a, r0, r1) for sub, g, (r0, r1) in zip(subs, gains, rests)]
+
+    def feasible(v, a):
+        return all(max_feasible_scale(sub, x) >= 1.0 for sub, x in zip(subs, pieces_for(v, a)))
+
+    def best_speed(a):
+        lo, hi = 0.0, v_top
+        if feasible(hi, a):
+            return hi
+        while hi - lo > defaults.BASELINE_SPEED_TOLERANCE * v_top:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if feasible(mid, a) else (lo, mid)
+        return lo
+
+    def duration(a):
+        v = best_speed(a)
+        if v <= 0:
+            return np.inf, v
+        return sum(_piece_time(sub.grid, x) for sub, x in zip(subs, pieces_for(v, a))), v
+
+    v_top = float(np.max(np.sqrt(np.concatenate(x_opt)) * np.concatenate(gains)))
+    ramps = any(r0 or r1 for r0, r1 in rests)
+    accs = np.geomspace(1e-2, 1e4, 19) if ramps else np.array([1.0])
+    results = [duration(a) for a in accs]
+    k = int(np.argmin([r[0] for r in results]))
+    if ramps:  # refine around the best grid value
+        fine = np.geomspace(accs[max(k - 1, 0)], accs[min(k + 1, len(accs) - 1)], 15)
+        accs = np.concatenate([accs, fine])
+        results += [duration(a) for a in fine]
+        k = int(np.argmin([r[0] for r in results]))
+    (t_best, v), a = results[k], accs[k]
+    if not np.isfinite(t_best):
+        raise InfeasibleError("industrial baseline: no constant TCP speed can be held on this path; "
+                              "switch baselines off")
+    text = (f"constant TCP speed {v:.6g} m/s" +
+            (f" with TCP acceleration ramps of {a:.4g} m/s^2" if ramps else " (periodic, no ramps)"))
+    return _verified("industrial", text, problem, cuts, pieces_for(v * (1.0 - 1e-9), a), path, robot, limits,
+                     settings, robot.joint_names)
+
+
+def compute_baselines(problem: IntervalProblem, sol: Solution, chain_args: dict, gain_right: np.ndarray,
+                      gain_left: np.ndarray, path, robot, limits, settings) -> Baselines:
+    """Both baselines for a solved problem (see the module docstring). gain_right / gain_left (K,):
+    TCP speed per unit theta_dot, |J_v Phi'| [m per unit theta], on each side of every point."""
+    periodic_cycle = bool(chain_args["periodic"]) and not ({0, problem.size - 1} & set(chain_args["stops"]))
+    periodic_cycle = periodic_cycle and chain_args["connections"] != "max" and len(_cuts(chain_args, problem.size)) == 2
+    return Baselines(
+        fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle),
+        industrial_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits, settings,
+                            periodic_cycle),
+    )

@@ -1,0 +1,126 @@
+"""Boundary conditions of one planning run: "zero", "max" or a given theta_dot at each end, and the
+periodic steady-state cycle (theta_dot equal at both ends of a closed path, the largest such).
+
+"max" is the boundary-level velocity of the thesis: the largest x in the controllable set at the
+start, the largest x in the reachable set at the end. Every failure is an InfeasibleError that
+gives theta and, for an impossible boundary velocity, the feasible range.
+"""
+
+from __future__ import annotations
+
+from typing import Union
+
+import numpy as np
+
+from .. import defaults
+from ..errors import InfeasibleError
+from .topp import IntervalProblem, SetSequence, controllable_sets, greedy_profile, reachable_sets
+
+#: "zero", "max" or a path velocity theta_dot >= 0 [unit theta / s].
+Boundary = Union[str, float]
+
+
+def _range_text(lo: float, hi: float) -> str:
+    return f"[{np.sqrt(max(lo, 0.0)):.6g}, {np.sqrt(max(hi, 0.0)):.6g}]"
+
+
+def _start_set(problem: IntervalProblem, start: Boundary) -> tuple[float, float]:
+    if start == "zero":
+        return 0.0, 0.0
+    if start == "max":
+        return 0.0, float(problem.x_max[0])
+    return float(start) ** 2, float(start) ** 2
+
+
+def _end_set(problem: IntervalProblem, end: Boundary) -> tuple[float, float]:
+    if end == "zero":
+        return 0.0, 0.0
+    if end == "max":
+        return 0.0, float(problem.x_max[-1])
+    return float(end) ** 2, float(end) ** 2
+
+
+def _not_traversable(problem: IntervalProblem, index: int, where: str) -> InfeasibleError:
+    theta = problem.grid[index]
+    return InfeasibleError(
+        f"{where}the path cannot be traversed: no admissible path velocity at theta = {theta:.6g} "
+        f"(maximum-velocity bound there x_max = {problem.x_max[index]:.6g}); relax the limits, "
+        "lower the payload or change the path there"
+    )
+
+
+def _check_unbounded(x: float, which: str, theta: float, where: str) -> None:
+    if x >= 0.999 * defaults.PLANNER_X_CAP:
+        raise InfeasibleError(
+            f"{where}the 'max' {which} velocity at theta = {theta:.6g} is unbounded: no active limit "
+            "bounds theta_dot there (Phi' = 0 and no acceleration/torque limit); give a value instead"
+        )
+
+
+def solve_open(problem: IntervalProblem, start: Boundary, end: Boundary, where: str = "") -> tuple[np.ndarray, SetSequence]:
+    """Time-optimal x (K,) with the given boundary conditions, and the controllable sets."""
+    end_lo, end_hi = _end_set(problem, end)
+    sets = controllable_sets(problem, end_lo, end_hi)
+    if sets.failed_at >= 0:
+        if end not in ("zero", "max"):
+            reach = reachable_sets(problem, *_start_set(problem, start))
+            if reach.failed_at < 0:
+                raise InfeasibleError(
+                    f"{where}end velocity theta_dot = {float(end):.6g} at theta = {problem.grid[-1]:.6g} is "
+                    f"infeasible: from the given start the feasible range there is "
+                    f"{_range_text(reach.lo[-1], reach.hi[-1])} (unit theta / s)"
+                )
+        raise _not_traversable(problem, max(sets.failed_at, 0), where)
+    k_lo, k_hi = sets.lo[0], sets.hi[0]
+    tol = 1e-9 * (1.0 + k_hi)
+    if start == "max":
+        x0 = k_hi
+        _check_unbounded(x0, "start", problem.grid[0], where)
+    else:
+        x0 = 0.0 if start == "zero" else float(start) ** 2
+        if not (k_lo - tol <= x0 <= k_hi + tol):
+            what = "rest" if start == "zero" else f"theta_dot = {float(start):.6g}"
+            raise InfeasibleError(
+                f"{where}start from {what} at theta = {problem.grid[0]:.6g} is infeasible: the feasible start "
+                f"velocity range is {_range_text(k_lo, k_hi)} (unit theta / s)"
+            )
+        x0 = min(max(x0, k_lo), k_hi)
+    x = greedy_profile(problem, sets, x0)
+    if end == "max":
+        _check_unbounded(x[-1], "end", problem.grid[-1], where)
+    return x, sets
+
+
+def solve_periodic(problem: IntervalProblem, where: str = "") -> tuple[np.ndarray, SetSequence]:
+    """The fastest steady-state cycle: the largest v = x_0 = x_{K-1} for which the end set {v} is
+    controllable from x_0 = v, found by bisection (the feasible v form an interval containing 0,
+    since the feasible x sequences form a convex polytope and the arm can stop anywhere)."""
+
+    def sets_for(v: float) -> SetSequence | None:
+        s = controllable_sets(problem, v, v)
+        if s.failed_at >= 0:
+            return None
+        return s if s.lo[0] - 1e-9 * (1 + v) <= v <= s.hi[0] + 1e-9 * (1 + v) else None
+
+    free = controllable_sets(problem, 0.0, float(problem.x_max[-1]))
+    if free.failed_at >= 0:
+        raise _not_traversable(problem, free.failed_at, where)
+    lo, hi = 0.0, float(min(problem.x_max[0], problem.x_max[-1], free.hi[0]))
+    best = sets_for(lo)
+    if best is None:
+        raise InfeasibleError(f"{where}no periodic cycle exists: the arm cannot even pass the closure point "
+                              f"theta = {problem.grid[0]:.6g} from rest; relax the limits")
+    top = sets_for(hi)
+    if top is not None:
+        lo, best = hi, top
+    else:
+        while hi - lo > defaults.PLANNER_SEARCH_TOLERANCE * max(hi, 1e-12):
+            mid = 0.5 * (lo + hi)
+            s = sets_for(mid)
+            if s is None:
+                hi = mid
+            else:
+                lo, best = mid, s
+    x = greedy_profile(problem, best, min(max(lo, best.lo[0]), best.hi[0]))
+    x[-1] = x[0]
+    return x, best

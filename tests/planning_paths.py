@@ -1,0 +1,59 @@
+"""Small joint paths for the planner tests (straight lines, polylines with kinks, periodic splines)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from pathmotion.joint_path import JointPath
+
+
+@dataclass(frozen=True, eq=False)
+class PolylinePath(JointPath):
+    """Straight joint-space lines between waypoints, segment k on theta in [k, k+1]; every
+    interior waypoint is a break, and a kink where the direction changes."""
+
+    waypoints: np.ndarray | None = None
+
+    @classmethod
+    def through(cls, waypoints, closed=False):
+        wp = np.asarray(waypoints, float)
+        m = len(wp) - 1
+        d = np.diff(wp, axis=0)
+        kinks = tuple(float(k) for k in range(1, m) if np.linalg.norm(np.cross(d[k - 1][:3], d[k][:3])) > 0
+                      or np.linalg.norm(d[k - 1] / np.linalg.norm(d[k - 1]) - d[k] / np.linalg.norm(d[k])) > 1e-12)
+        return cls(n=wp.shape[1], domain=(0.0, float(m)), closed=closed, kinks=kinks,
+                   breaks=tuple(float(k) for k in range(1, m)), waypoints=wp)
+
+    def evaluate(self, theta, side="right"):
+        th, scalar = self._check_theta(theta)
+        m = len(self.waypoints) - 1
+        k = np.floor(th).astype(int)
+        if side == "left":
+            k = np.where((th == np.floor(th)) & (th > 0), k - 1, k)
+        k = np.clip(k, 0, m - 1)
+        d = self.waypoints[k + 1] - self.waypoints[k]
+        q = self.waypoints[k] + (th - k)[:, None] * d
+        out = (q, d, np.zeros_like(d))
+        return tuple(o[0] for o in out) if scalar else out
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicSplinePath(JointPath):
+    """Periodic cubic spline through waypoints (first == last), theta in [0, 1], closed."""
+
+    spline: CubicSpline | None = None
+
+    @classmethod
+    def through(cls, waypoints):
+        wp = np.asarray(waypoints, float)
+        return cls(n=wp.shape[1], domain=(0.0, 1.0), closed=True,
+                   spline=CubicSpline(np.linspace(0, 1, len(wp)), wp, bc_type="periodic"))
+
+    def evaluate(self, theta, side="right"):
+        th, scalar = self._check_theta(theta)
+        s = self.spline
+        out = (s(th), s(th, 1), s(th, 2))
+        return tuple(o[0] for o in out) if scalar else out

@@ -1,0 +1,137 @@
+"""Planner boundary conditions, periodic cycles, connection modes, baselines and infeasibility errors."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pathmotion import defaults
+from pathmotion.errors import InfeasibleError, ScenarioError
+from pathmotion.joint_path import SplineJointPath
+from pathmotion.planning import PlanSettings, plan
+from pathmotion.robot import gravity
+
+sys.path.insert(0, str(Path(__file__).parent))
+from planning_paths import PeriodicSplinePath, PolylinePath  # noqa: E402
+
+LINE = [np.zeros(6), np.array([1.0, 0.5, -0.5, 0.3, 0.2, 0.0])]
+CORNER = [np.zeros(6), np.array([1.0, 0.5, -0.5, 0.0, 0.0, 0.0]), np.array([1.0, 1.0, 0.0, 0.5, 0.0, 0.0])]
+FAST = dict(baselines=False, grid_points=300)
+
+
+@pytest.fixture(scope="module")
+def line():
+    return PolylinePath.through(LINE)
+
+
+def test_max_zero_and_given_start(irb140, line):
+    zero = plan(line, irb140, PlanSettings(**FAST))
+    top = plan(line, irb140, PlanSettings(start="max", **FAST))
+    v_max = float(top.profile.theta_dot_at(0.0))
+    assert v_max > 0 and top.duration < zero.duration
+    given = plan(line, irb140, PlanSettings(start=0.5 * v_max, **FAST))
+    assert float(given.profile.theta_dot_at(0.0)) == pytest.approx(0.5 * v_max, rel=1e-9)
+    assert top.duration < given.duration < zero.duration
+    # "max" is the largest feasible start velocity: just above it is infeasible, with the range
+    with pytest.raises(InfeasibleError, match=r"feasible start velocity range is \[0, ") as err:
+        plan(line, irb140, PlanSettings(start=1.001 * v_max, **FAST))
+    lo, hi = (float(v) for v in str(err.value).split("[")[1].split("]")[0].split(","))
+    assert hi == pytest.approx(v_max, rel=1e-6)
+    assert "theta = 0" in str(err.value)
+
+
+def test_max_end_and_infeasible_end(irb140, line):
+    top = plan(line, irb140, PlanSettings(end="max", **FAST))
+    v_end = float(top.profile.theta_dot_at(line.domain[1]))
+    assert v_end > 0
+    with pytest.raises(InfeasibleError, match=r"end velocity theta_dot = .* is infeasible.*feasible range") as err:
+        plan(line, irb140, PlanSettings(end=1.01 * v_end, **FAST))
+    hi = float(str(err.value).split("[")[1].split("]")[0].split(",")[1])
+    assert hi == pytest.approx(v_end, rel=1e-6)
+
+
+def test_periodic_cycle(irb140):
+    wp = np.array([[0, 0, 0, 0, 0, 0], [1, 0.5, -0.5, 0.3, 0.2, 0], [0.5, -0.3, 0.2, 0, 1, 1], [0, 0, 0, 0, 0, 0]], float)
+    path = PeriodicSplinePath.through(wp)
+    rest = plan(path, irb140, PlanSettings(**FAST))
+    cyc = plan(path, irb140, PlanSettings(periodic=True, **FAST))
+    assert cyc.profile.x[0] == pytest.approx(cyc.profile.x[-1], rel=1e-12)
+    assert cyc.profile.x[0] > 0
+    assert cyc.duration <= rest.duration
+    assert cyc.ratios.within()
+    # largest such: starting and ending slightly faster is infeasible
+    with pytest.raises(InfeasibleError):
+        plan(path, irb140, PlanSettings(start=1.001 * np.sqrt(cyc.profile.x[0]), end=1.001 * np.sqrt(cyc.profile.x[0]), **FAST))
+    with pytest.raises(ScenarioError, match="closed path"):
+        plan(PolylinePath.through(LINE), irb140, PlanSettings(periodic=True))
+
+
+def test_kink_stops_in_chain_mode_and_jumps_with_max_connections(irb140):
+    path = PolylinePath.through(CORNER)
+    assert path.kinks == (1.0,)
+    chain = plan(path, irb140, PlanSettings(**FAST))
+    k = int(np.argmin(np.abs(chain.profile.grid - 1.0)))
+    assert chain.profile.x[k] == 0.0
+    assert chain.ratios.within()
+    zero = plan(path, irb140, PlanSettings(connections="zero", **FAST))
+    assert zero.duration == pytest.approx(chain.duration, rel=1e-12)
+    fast = plan(path, irb140, PlanSettings(connections="max", **FAST))
+    assert len(fast.segment_profiles) == 2
+    assert fast.duration < chain.duration
+    assert float(fast.profile.theta_dot_at(1.0)) > 0
+    assert fast.ratios.acceleration == np.inf  # the corner taken at speed: velocity jump
+    # each segment on its own reaches its boundary-level velocity at the corner
+    first, second = fast.segment_profiles
+    alone = plan(PolylinePath.through(CORNER[:2]), irb140, PlanSettings(end="max", **FAST))
+    assert first.x[-1] == pytest.approx(alone.profile.x[-1], rel=1e-9)
+
+
+def test_max_connection_with_unequal_speeds_reports_the_jump(irb140):
+    """A smooth-direction break where the two segments' boundary velocities differ: jump interval."""
+    wp = [np.zeros(6), np.array([0.5, 0, 0, 0, 0, 0]), np.array([2.5, 0, 0, 0, 0, 0])]
+    path = PolylinePath.through(wp)  # same direction, different Phi' scale: break, not a kink
+    assert path.kinks == () and path.breaks == (1.0,)
+    res = plan(path, irb140, PlanSettings(connections="max", torque=False, **FAST))
+    assert len(res.jump_intervals) == 1
+    a, b = res.jump_intervals[0]
+    assert b == 1.0 and 0 < b - a < 1e-4
+    assert res.ratios.acceleration > 10.0
+
+
+def test_gravity_above_torque_limit_names_joint_and_theta(irb140):
+    path = SplineJointPath.from_waypoints([[0, 0.2, 0, 0, 0, 0], [0.5, 0.8, -0.3, 0, 0.5, 0], [1, 0.4, 0.2, 0, 0, 0]])
+    g = gravity(irb140, path(np.linspace(0, 1, 101)))
+    torque = irb140.limits.torque.copy()
+    torque[1] = 0.8 * np.max(np.abs(g[:, 1]))
+    robot = irb140.with_limits(replace(irb140.limits, torque=torque))
+    with pytest.raises(InfeasibleError, match=r"gravity torque of joint_2 at theta = [0-9.]+ is .* N m") as err:
+        plan(path, robot, PlanSettings(**FAST))
+    assert "lower the payload" in str(err.value)
+
+
+def test_baselines_are_slower_and_feasible(irb140):
+    # long enough to cruise; a joint-space line is a curved TCP path, so the TCP speed varies
+    line = PolylinePath.through([LINE[0], 3.0 * LINE[1]])
+    res = plan(line, irb140, PlanSettings(grid_points=300))
+    fitted, industrial = res.baselines.fitted, res.baselines.industrial
+    assert res.duration < fitted.duration
+    assert res.duration < industrial.duration
+    assert fitted.ratios.within() and industrial.ratios.within()
+    # fitted profile lies at least the margin below the optimum
+    th = res.profile.grid[1:-1]
+    assert np.all(fitted.profile.theta_dot_at(th) <= (1 - defaults.FITTED_PROFILE_MARGIN) * res.profile.theta_dot_at(th) + 1e-12)
+    # industrial: a straight joint line has a curved TCP path; its cruise holds a constant TCP speed
+    assert "constant TCP speed" in industrial.description
+
+
+def test_settings_are_validated():
+    with pytest.raises(ScenarioError):
+        PlanSettings(start="fast")
+    with pytest.raises(ScenarioError):
+        PlanSettings(connections="smooth")
+    with pytest.raises(ScenarioError):
+        PlanSettings(periodic=True, start="max")
