@@ -165,6 +165,9 @@ def build(scenario: Scenario, base_dir: str | Path = ".", text: str = "") -> Set
     base_dir = Path(base_dir)
     robot = build_robot(scenario, base_dir)
     path, task, original = build_path(scenario, robot)
+    if path.closed and not scenario.plan.periodic:
+        # a closed path run once from rest to rest (or with given end speeds) is an open motion
+        path = dataclasses.replace(path, closed=False)
     return Setup(scenario, text, base_dir, robot, path, task, original, plan_settings(scenario))
 
 
@@ -342,3 +345,86 @@ def simulate_summary(scenario_text: str, base_dir: str, overrides: dict[str, Any
     failure = summary.pop("failure", None)
     summary["failure_reason"] = None if not failure else failure.get("reason")
     return summary
+
+
+# ------------------------------------------------------------------------------------ check
+def check_scenario(setup: Setup) -> dict:
+    """What ``pathmotion check`` reports: the path lifted (reachable, in range, away from
+    singularities: errors otherwise), its corners, and pointwise feasibility (gravity torque below
+    the limits, the largest admissible speed > 0 everywhere), without planning a profile."""
+    from .planning.reduced import reduced_dynamics
+
+    path, robot = setup.path, setup.robot
+    out: dict[str, Any] = {"scenario": setup.name, "robot": robot.name, "joints": robot.n,
+                           "path_kind": "task" if setup.task_path is not None else "joint",
+                           "path_length": float(path.length), "closed": bool(path.closed)}
+    if setup.task_path is not None:
+        out["segments"] = len(setup.task_path.segments)
+        out["connections"] = [c.describe() for c in setup.task_path.connections]
+    out["sharp_corners_theta"] = list(path.kinks)
+    check = getattr(path, "check", None)
+    if check is not None:
+        out["min_singular_value"] = check.min_singular_value
+        out["min_singular_value_theta"] = check.min_singular_theta
+        out["joint_range_margin_rad"] = check.range_margin
+        out["joint_range_margin_joint"] = check.range_margin_joint
+    theta = np.linspace(*path.domain, 400)
+    q, dq, ddq = path.evaluate(theta)
+    if setup.plan_settings.torque:
+        red = reduced_dynamics(robot, q, dq, ddq)
+        ratio = np.abs(red.gamma) / robot.limits.torque / setup.plan_settings.torque_scale
+        k, j = np.unravel_index(np.argmax(ratio), ratio.shape)
+        out["max_gravity_torque_ratio"] = float(ratio[k, j])
+        if ratio[k, j] >= 1:
+            from .errors import InfeasibleError
+
+            raise InfeasibleError(f"gravity torque of {robot.joint_names[j]} at theta = {theta[k]:.4f} is "
+                                  f"{abs(red.gamma[k, j]):.1f} N m, above its limit "
+                                  f"{robot.limits.torque[j] * setup.plan_settings.torque_scale:.1f} N m; "
+                                  "raise the torque limit or move the path")
+    if setup.plan_settings.velocity:
+        speed = np.abs(dq) / robot.limits.velocity / setup.plan_settings.velocity_scale
+        peak = np.max(speed, axis=1)
+        vmax = 1.0 / np.maximum(peak, 1e-12)
+        out["min_velocity_limited_theta_dot"] = float(np.min(vmax))
+    return out
+
+
+# ------------------------------------------------------------------------------------- demo
+DEMO_SCENARIOS = ("circle_max", "corner_stop", "corner_max", "corner_transition", "corner_g2")
+DEMO_COLUMNS = ("scenario", "planned_duration_s", "simulated_duration_s", "tracking_ok", "max_joint_deviation_rad",
+                "max_path_deviation_m", "max_corner_deviation_m", "baseline_constant_speed_duration_s")
+
+
+def run_shipped(name: str, out: str | Path) -> dict:
+    """Plan and simulate a shipped scenario into ``out`` (plan in out/plan); its summary row."""
+    from .scenarios import scenario_path
+
+    setup = load(scenario_path(name))
+    result = plan_scenario(setup)
+    write_plan(setup, result, Path(out) / "plan")
+    sim = simulate_scenario(setup, result)
+    summary = write_simulation(setup, result, sim, out)
+    row = {"scenario": name}
+    row.update({k: v for k, v in summary.items() if k != "plan"})
+    row["baseline_constant_speed_duration_s"] = summary["plan"]["baseline_constant_speed_duration_s"]
+    return row
+
+
+def write_demo_table(rows: list[dict], out: str | Path) -> Path:
+    """demo.csv with DEMO_COLUMNS, one row per scenario."""
+    out = Path(out)
+    lines = [",".join(DEMO_COLUMNS)]
+    for r in rows:
+        lines.append(",".join("" if r.get(c) is None else str(r.get(c)) for c in DEMO_COLUMNS))
+    return write_text(out / "demo.csv", "\n".join(lines) + "\n")
+
+
+def format_cell(v) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "NO"
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)

@@ -1,0 +1,311 @@
+"""The ``pathmotion`` command: one subcommand per job, each a few lines over :mod:`pathmotion.api`.
+
+Errors are printed on one or two lines (never a traceback) and the exit code is non-zero:
+1 for a PathmotionError (bad input, infeasible limits, ...), 2 for usage errors, 130 when interrupted.
+Set PATHMOTION_DEBUG=1 to see the traceback of an internal error.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import sys
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from .errors import PathmotionError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="rich",
+                  help="Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation.")
+console = Console(stderr=False)
+err_console = Console(stderr=True)
+
+
+def _fail(message: str, code: int = 1):
+    first = message.strip().splitlines()[0] if message.strip() else "error"
+    err_console.print(f"[bold red]error:[/] {first}", highlight=False, soft_wrap=True)
+    raise typer.Exit(code)
+
+
+def guarded(fn):
+    """Turn PathmotionError into a one-line message and exit 1; never show a traceback."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except typer.Exit:
+            raise
+        except PathmotionError as exc:
+            _fail(str(exc))
+        except KeyboardInterrupt:
+            err_console.print("[yellow]interrupted[/]: finished files are complete, nothing half-written remains")
+            raise typer.Exit(130)
+        except Exception as exc:  # a bug: say so plainly, keep the traceback for debugging
+            if os.environ.get("PATHMOTION_DEBUG"):
+                raise
+            _fail(f"internal error ({type(exc).__name__}: {exc}); please report it with the scenario "
+                  "(PATHMOTION_DEBUG=1 shows the traceback)", code=3)
+
+    return wrapper
+
+
+def _overrides(sets: Optional[List[str]]) -> dict:
+    from .study.sweep import parse_value
+
+    out = {}
+    for item in sets or []:
+        if "=" not in item:
+            _fail(f"--set {item!r}: expected KEY=VALUE, e.g. --set plan.grid_points=2000", code=2)
+        key, value = item.split("=", 1)
+        out[key.strip()] = parse_value(value)
+    return out
+
+
+def _progress() -> Progress:
+    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                    TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(), console=err_console,
+                    transient=True)
+
+
+def _summary_table(title: str, summary: dict) -> Table:
+    table = Table(title=title, show_header=False, title_justify="left")
+    table.add_column("key", style="bold")
+    table.add_column("value")
+    for k, v in summary.items():
+        if isinstance(v, (dict, list)):
+            v = json.dumps(v) if len(json.dumps(v)) < 80 else f"({len(v)} items)"
+        elif isinstance(v, float):
+            v = f"{v:.6g}"
+        table.add_row(k, str(v))
+    return table
+
+
+SetOpt = typer.Option(None, "--set", help="override a scenario key, e.g. --set plan.grid_points=2000")
+
+
+@app.command()
+@guarded
+def robots():
+    """List the built-in robots and their limits.
+
+    Example: [bold]pathmotion robots[/]
+    """
+    import numpy as np
+
+    from .robot import builtin_robot_names, load_robot
+
+    for name in builtin_robot_names():
+        robot = load_robot(name)
+        lim = robot.limits
+        table = Table(title=f"{robot.name} ({name}): {robot.n} joints, flange frame {robot.flange_frame}",
+                      title_justify="left")
+        for col in ("joint", "range [deg]", "speed [deg/s]", "accel [rad/s^2]", "torque [N m]", "sources"):
+            table.add_column(col)
+        for j, jn in enumerate(lim.names):
+            src = lim.sources.get(jn, {})
+            table.add_row(jn, f"{np.degrees(lim.lower[j]):.0f} .. {np.degrees(lim.upper[j]):.0f}",
+                          f"{np.degrees(lim.velocity[j]):.0f}",
+                          "-" if lim.acceleration is None else f"{lim.acceleration[j]:g}",
+                          f"{lim.torque[j]:g}", ", ".join(f"{k}: {v}" for k, v in src.items()))
+        console.print(table)
+
+
+@app.command()
+@guarded
+def init(path: Path = typer.Argument(Path("scenario.toml"), help="file to write"),
+         from_: Optional[str] = typer.Option(None, "--from", help="copy a shipped scenario instead of the example"),
+         force: bool = typer.Option(False, "--force", help="overwrite an existing file")):
+    """Write a commented example scenario (or a shipped one) to start from.
+
+    Example: [bold]pathmotion init my_corner.toml[/]   or   [bold]pathmotion init c.toml --from corner_g2[/]
+    """
+    from importlib import resources
+
+    from .io.atomic import write_text
+    from .scenarios import scenario_path
+
+    if path.exists() and not force:
+        _fail(f"{path} exists; use --force to overwrite it or give another file name")
+    if from_:
+        text = scenario_path(from_).read_text()
+    else:
+        text = (resources.files("pathmotion.io") / "templates" / "example.toml").read_text()
+    write_text(path, text)
+    console.print(f"wrote {path}; next: [bold]pathmotion check {path}[/]")
+
+
+@app.command()
+@guarded
+def schema(out: Optional[Path] = typer.Option(None, "--out", help="write to this file instead of stdout")):
+    """Print the JSON Schema of the scenario format (for editor completion and validation).
+
+    Example: [bold]pathmotion schema --out pathmotion-scenario.schema.json[/]
+    """
+    from .io.atomic import write_json
+    from .io.scenario import scenario_json_schema
+
+    if out:
+        write_json(out, scenario_json_schema())
+        console.print(f"wrote {out}")
+    else:
+        print(json.dumps(scenario_json_schema(), indent=2))
+
+
+@app.command()
+@guarded
+def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_: Optional[List[str]] = SetOpt):
+    """Validate a scenario and report reachability, singularity margin and feasibility, without planning.
+
+    Example: [bold]pathmotion check scenarios/corner_g2.toml[/]
+    """
+    from . import api
+
+    report = api.check_scenario(api.load(scenario, _overrides(set_)))
+    console.print(_summary_table(f"check {scenario}: OK", report))
+
+
+@app.command()
+@guarded
+def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
+         out: Path = typer.Option(..., "--out", help="output folder"), set_: Optional[List[str]] = SetOpt,
+         figures: bool = typer.Option(True, help="write PNG figures")):
+    """Plan the time-optimal motion: writes trajectory.csv/.parquet, summary.json, exports and figures.
+
+    Example: [bold]pathmotion plan scenarios/circle_max.toml --out out/circle[/]
+    """
+    from . import api
+
+    with _progress() as progress:
+        task = progress.add_task("plan", total=3)
+        setup = api.load(scenario, _overrides(set_))
+        progress.update(task, advance=1, description="plan: time-optimal profile")
+        result = api.plan_scenario(setup)
+        progress.update(task, advance=1, description="plan: writing")
+        summary = api.write_plan(setup, result, out, figures=figures)
+        progress.update(task, advance=1)
+    console.print(_summary_table(f"plan {setup.name} -> {out}", summary))
+
+
+@app.command()
+@guarded
+def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
+             out: Path = typer.Option(..., "--out", help="output folder"), set_: Optional[List[str]] = SetOpt,
+             controller: Optional[str] = typer.Option(None, help="orbital | computed_torque | pd_gravity"),
+             figures: bool = typer.Option(True, help="write PNG figures")):
+    """Plan, then simulate the closed loop (controller at 4 ms, full arm dynamics); writes
+    simulation.csv, summary.json and figures; plus the plan's files in OUT/plan.
+
+    Example: [bold]pathmotion simulate scenarios/corner_g2.toml --out out/g2[/]
+    """
+    from . import api
+
+    overrides = _overrides(set_)
+    if controller:
+        overrides["simulate.controller"] = controller
+    with _progress() as progress:
+        task = progress.add_task("simulate: load", total=4)
+        setup = api.load(scenario, overrides)
+        progress.update(task, advance=1, description="simulate: plan")
+        result = api.plan_scenario(setup)
+        api.write_plan(setup, result, Path(out) / "plan", figures=figures)
+        progress.update(task, advance=1, description="simulate: closed loop")
+        sim = api.simulate_scenario(setup, result)
+        progress.update(task, advance=1, description="simulate: writing")
+        summary = api.write_simulation(setup, result, sim, out, figures=figures)
+        progress.update(task, advance=1)
+    summary.pop("plan", None)
+    console.print(_summary_table(f"simulate {setup.name} -> {out}", summary))
+    if not summary.get("tracking_ok", True):
+        err_console.print(f"[yellow]tracking failed[/]: {summary['failure']['message']}")
+
+
+@app.command()
+@guarded
+def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
+          set_: List[str] = typer.Option(..., "--set", help="NAME=V1,V2,... (repeat for a grid)"),
+          out: Path = typer.Option(..., "--out", help="output folder (a re-run resumes)"),
+          scheduler: Optional[str] = typer.Option(None, help="Dask scheduler, tcp://HOST:PORT"),
+          workers: int = typer.Option(2, min=1, help="local worker processes"),
+          figures: bool = typer.Option(True, help="write the trade-off figures")):
+    """Run plan + simulate for every combination of --set values, in parallel; writes sweep.csv,
+    sweep.parquet, best.json and figures. Failed points are rows with an error.
+
+    Example: [bold]pathmotion sweep scenarios/corner_transition.toml --set "path.blends[0].radius=0.02,0.04,0.06" --out out/rt[/]
+    """
+    from .study import run_study_sweep
+    from .study.sweep import parse_sets
+
+    grid = parse_sets(set_)
+    with _progress() as progress:
+        task = progress.add_task("sweep", total=None)
+
+        def on_result(done, total):
+            progress.update(task, completed=done, total=total)
+
+        outcome = run_study_sweep(scenario, grid, out, workers=workers, scheduler=scheduler,
+                                  on_result=on_result, figures=figures)
+    failed = sum(1 for r in outcome.rows if r.get("error"))
+    console.print(f"{len(outcome.rows)} points, {failed} failed -> {out}/sweep.csv")
+    if outcome.best is not None:
+        console.print(_summary_table("best point (best.json)", outcome.best))
+
+
+@app.command()
+@guarded
+def report(folder: Path = typer.Argument(..., help="a folder written by plan, simulate, sweep or demo")):
+    """Turn results into one self-contained interactive HTML page (works offline).
+
+    Example: [bold]pathmotion report out/g2[/]
+    """
+    from .report.html import build_report
+
+    path = build_report(folder)
+    console.print(f"wrote {path}")
+
+
+@app.command()
+@guarded
+def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder")):
+    """The main job: the thesis' corner study on the IRB140 (circle, stop at the corner, boundary-level
+    velocity, transition circle, G2 blend), planned and simulated; a comparison table, figures, report.
+
+    Example: [bold]pathmotion demo --out out/demo[/]
+    """
+    from . import api
+
+    names = api.DEMO_SCENARIOS
+    rows = []
+    with _progress() as progress:
+        task = progress.add_task("demo", total=len(names))
+        for name in names:
+            progress.update(task, description=f"demo: {name}")
+            rows.append(api.run_shipped(name, out / name))
+            progress.advance(task)
+    table_path = api.write_demo_table(rows, out)
+    table = Table(title=f"Corner study on the IRB140 ({table_path})", title_justify="left")
+    for col in api.DEMO_COLUMNS:
+        table.add_column(col)
+    for r in rows:
+        table.add_row(*[api.format_cell(r.get(c)) for c in api.DEMO_COLUMNS])
+    console.print(table)
+    try:
+        from .report.html import build_report
+
+        console.print(f"report: {build_report(out)}")
+    except ImportError:
+        pass
+
+
+def main():
+    app(prog_name="pathmotion")
+
+
+if __name__ == "__main__":
+    main()
