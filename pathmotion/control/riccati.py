@@ -1,0 +1,71 @@
+"""Riccati differential equation of a linear time-varying system, integrated backward in time.
+
+    -dP/dt = A^T P + P A - P B R^-1 B^T P + Q,        K = R^-1 B^T P
+
+A, B, Q are given at increasing times (M,) and interpolated linearly between them. Open horizon:
+P(T) = P_end, integrated back to t = 0. Periodic (A, B, Q of period T): the backward map over one
+period is iterated from P_end until P(0) = P(T) to ``defaults.RICCATI_TOLERANCE`` (the periodic
+solution of a stabilizable and detectable periodic system attracts the backward iteration;
+Bittanti, Colaneri, De Nicolao, "The periodic Riccati equation", 1991).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from .. import defaults
+from ..errors import SimulationError
+
+
+def _interpolator(times: np.ndarray, values: np.ndarray):
+    def at(t: float) -> np.ndarray:
+        i = min(max(int(np.searchsorted(times, t, side="right")) - 1, 0), len(times) - 2)
+        w = (t - times[i]) / (times[i + 1] - times[i])
+        w = min(max(w, 0.0), 1.0)
+        return values[i] + w * (values[i + 1] - values[i])
+
+    return at
+
+
+def solve_riccati(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray,
+                  p_end: np.ndarray, periodic: bool = False) -> np.ndarray:
+    """P at ``times`` (M, d, d). a, q (M, d, d); b (M, d, m); r (m, m) positive definite."""
+    times = np.asarray(times, dtype=float)
+    if np.any(np.diff(times) <= 0):
+        raise SimulationError("Riccati equation: the times of the planned motion must increase")
+    d = a.shape[1]
+    r_inv = np.linalg.inv(r)
+    s = b @ r_inv[None] @ np.transpose(b, (0, 2, 1))  # B R^-1 B^T, (M, d, d)
+    a_at, s_at, q_at = _interpolator(times, a), _interpolator(times, s), _interpolator(times, q)
+
+    def rhs(t, p_flat):
+        p = p_flat.reshape(d, d)
+        at = a_at(t)
+        pa = p @ at
+        dp = -(pa + pa.T - p @ s_at(t) @ p + q_at(t))
+        return dp.ravel()
+
+    scale = max(float(np.max(np.abs(q))), 1.0)
+
+    def sweep(p_final: np.ndarray) -> np.ndarray:
+        sol = solve_ivp(rhs, (times[-1], times[0]), p_final.ravel(), t_eval=times[::-1], method="RK45",
+                        rtol=defaults.RICCATI_TOLERANCE, atol=defaults.RICCATI_TOLERANCE * scale * 1e-3)
+        if not sol.success:
+            raise SimulationError(f"Riccati equation could not be integrated: {sol.message}")
+        p = sol.y.T[::-1].reshape(len(times), d, d)
+        return 0.5 * (p + np.transpose(p, (0, 2, 1)))
+
+    p = sweep(p_end)
+    if not periodic:
+        return p
+    for _ in range(defaults.RICCATI_MAX_PERIODS):
+        p_new = sweep(p[0])
+        change = np.max(np.abs(p_new[0] - p[0])) / max(np.max(np.abs(p_new[0])), 1e-300)
+        p = p_new
+        if change < defaults.RICCATI_TOLERANCE * 10:
+            return p
+    raise SimulationError(
+        f"periodic Riccati equation did not converge in {defaults.RICCATI_MAX_PERIODS} periods; "
+        "the transverse linearization may not be stabilizable with these weights (raise the bandwidth)"
+    )

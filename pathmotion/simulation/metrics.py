@@ -1,0 +1,185 @@
+"""Closed-loop metrics, failure records and the result value object.
+
+Deviations are measured from the path, not from a clock-indexed point:
+
+* joint deviation e = q - Phi(theta), theta the projection of the true q onto the path (the
+  controller's own projection uses the measured, possibly noisy q); max over samples and joints of
+  |e|, RMS over samples and joints;
+* TCP path deviation: distance of the TCP to the desired TCP path (the lift's task path when the
+  joint path carries ``task_path``, else FK(Phi(theta))), minimized over the path near the current
+  theta: a polyline through 4x the controller table's points, so the figure is exact to the chord
+  sag (segment length)^2 * curvature / 8, below a micrometre for the paths here;
+* corner deviation: distance to the original sharp task path (``original_task_path``, when a blend
+  replaced a corner), minimized over the whole original path; None without one;
+* torque ratio: max over samples and joints of |tau_commanded| / tau_limit (before saturation);
+* saturation time: number of samples in which any joint was clipped, times the sample time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..joint_path import JointPath
+from ..robot import Robot, fk
+
+#: Failure reasons, in the order they are checked each sample.
+FAILURE_REASONS = ("diverged", "left_path_range", "deviation", "timeout")
+
+
+@dataclass(frozen=True)
+class Failure:
+    """Why, when [s] and where (theta, unwrapped on closed paths) tracking failed."""
+
+    reason: str
+    t: float
+    theta: float
+    message: str
+
+    def as_dict(self) -> dict:
+        return {"reason": self.reason, "t": float(self.t), "theta": float(self.theta), "message": self.message}
+
+
+@dataclass(frozen=True, eq=False)
+class SimulationResult:
+    """One closed-loop run. Signals at the controller samples t (K,) [s]:
+
+    theta (K,) projection of the true q on the path; q, qd (K, n); tau (K, n) applied (saturated) and
+    tau_command (K, n) as commanded [N m]; q_desired (K, n) = Phi(theta); tcp, tcp_desired (K, 3) [m];
+    joint_deviation (K,) = max_j |q - Phi(theta)|; path_deviation (K,) [m]; corner_deviation (K,) [m]
+    or None. planned_duration [s]: the profile's duration (one period on a closed path);
+    simulated_duration [s]: time to arrive (open) or the mean period (closed), None if not reached.
+    """
+
+    controller: str
+    sample_time: float
+    closed: bool
+    t: np.ndarray
+    theta: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tau: np.ndarray
+    tau_command: np.ndarray
+    q_desired: np.ndarray
+    tcp: np.ndarray
+    tcp_desired: np.ndarray
+    joint_deviation: np.ndarray
+    path_deviation: np.ndarray
+    corner_deviation: np.ndarray | None
+    torque_limit: np.ndarray
+    planned_duration: float
+    simulated_duration: float | None
+    saturation_time: float
+    failure: Failure | None = None
+    extras: dict = field(default_factory=dict)
+
+    @property
+    def tracking_ok(self) -> bool:
+        return self.failure is None
+
+    def summary(self) -> dict:
+        """Headline figures (SI units), JSON-serializable."""
+        e = self.q - self.q_desired
+        return {
+            "controller": self.controller,
+            "sample_time_s": self.sample_time,
+            "planned_duration_s": self.planned_duration,
+            "simulated_duration_s": self.simulated_duration,
+            "max_joint_deviation_rad": float(np.max(np.abs(e))) if e.size else 0.0,
+            "rms_joint_deviation_rad": float(np.sqrt(np.mean(e**2))) if e.size else 0.0,
+            "max_path_deviation_m": float(np.max(self.path_deviation)) if self.path_deviation.size else 0.0,
+            "max_corner_deviation_m": None if self.corner_deviation is None else float(np.max(self.corner_deviation)),
+            "max_torque_ratio": float(np.max(np.abs(self.tau_command) / self.torque_limit)) if e.size else 0.0,
+            "saturation_time_s": self.saturation_time,
+            "tracking_ok": self.tracking_ok,
+            "failure": None if self.failure is None else self.failure.as_dict(),
+        }
+
+
+def _wrap(path: JointPath, theta: np.ndarray) -> np.ndarray:
+    lo, hi = path.domain
+    return lo + (theta - lo) % (hi - lo) if path.closed else np.clip(theta, lo, hi)
+
+
+def polish_projection(path: JointPath, q: np.ndarray, theta: np.ndarray, iterations: int = 2):
+    """Newton steps on Phi'(theta)^T (q - Phi(theta)) = 0 with the exact path, vectorized.
+
+    theta (K,) start values (unwrapped on closed paths, kept unwrapped); returns (theta, Phi(theta)).
+    """
+    theta = np.asarray(theta, dtype=float).copy()
+    for _ in range(iterations):
+        phi, dphi, ddphi = path.evaluate(_wrap(path, theta))
+        y = q - phi
+        d2 = np.sum(dphi * dphi, axis=1)
+        curv = d2 - np.sum(ddphi * y, axis=1)
+        den = np.where(curv > 0.5 * d2, curv, d2)
+        step = np.divide(np.sum(dphi * y, axis=1), den, out=np.zeros_like(den), where=d2 > 1e-24)
+        theta = theta + step
+        if not path.closed:
+            theta = np.clip(theta, *path.domain)
+    return theta, path.evaluate(_wrap(path, theta))[0]
+
+
+def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance of points (..., 3) to segments [a, b] (..., 3)."""
+    ab = b - a
+    den = np.sum(ab * ab, axis=-1)
+    s = np.clip(np.sum((points - a) * ab, axis=-1) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+    return np.linalg.norm(points - (a + s[..., None] * ab), axis=-1)
+
+
+def _polyline_distance_local(points: np.ndarray, line: np.ndarray, centre: np.ndarray, window: int,
+                             closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (K,) and nearest point (K, 3) of points (K, 3) to the polyline line (S+1, 3), over
+    segments centre-window .. centre+window (wrapped on closed polylines)."""
+    segs = len(line) - 1
+    offsets = np.arange(-window, window + 1)
+    idx = centre[:, None] + offsets[None, :]
+    idx = idx % segs if closed else np.clip(idx, 0, segs - 1)
+    a, b = line[idx], line[idx + 1]
+    ab = b - a
+    den = np.sum(ab * ab, axis=-1)
+    s = np.clip(np.sum((points[:, None, :] - a) * ab, axis=-1) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+    near = a + s[..., None] * ab
+    dist = np.linalg.norm(points[:, None, :] - near, axis=-1)
+    best = np.argmin(dist, axis=1)
+    rows = np.arange(len(points))
+    return dist[rows, best], near[rows, best]
+
+
+def tcp_path_deviation(robot: Robot, path: JointPath, q: np.ndarray, theta: np.ndarray,
+                       points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(tcp (K, 3), nearest desired TCP point (K, 3), distance (K,) [m]) for joint states q (K, n)."""
+    lo, hi = path.domain
+    grid = np.linspace(lo, hi, points)
+    task = getattr(path, "task_path", None)
+    if task is not None:
+        line = task.evaluate(grid)[0]
+    else:
+        line = fk(robot, path.evaluate(grid)[0])[0]
+    tcp = fk(robot, q)[0] if len(q) else np.zeros((0, 3))
+    if not len(q):
+        return tcp, tcp.copy(), np.zeros(0)
+    th = _wrap(path, theta)
+    centre = np.clip(np.searchsorted(grid, th) - 1, 0, points - 2)
+    window = max(2, points // 50)
+    dist, near = _polyline_distance_local(tcp, line, centre, window, path.closed)
+    return tcp, near, dist
+
+
+def original_path_deviation(path: JointPath, tcp: np.ndarray, points: int) -> np.ndarray | None:
+    """Distance (K,) [m] of the TCP to the original sharp task path, or None when there is none."""
+    original = getattr(path, "original_task_path", None)
+    if original is None:
+        return None
+    lo, hi = original.domain
+    grid = np.unique(np.concatenate([np.linspace(lo, hi, points), list(getattr(original, "breaks", ()))]))
+    line = original.evaluate(grid)[0]
+    a, b = line[:-1], line[1:]
+    out = np.empty(len(tcp))
+    chunk = max(1, 2_000_000 // max(len(a), 1))
+    for s in range(0, len(tcp), chunk):
+        block = tcp[s:s + chunk, None, :]
+        out[s:s + chunk] = np.min(_segment_distance(block, a[None], b[None]), axis=1)
+    return out

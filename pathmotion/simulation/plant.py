@@ -1,0 +1,161 @@
+"""The plant: rigid-body dynamics of the arm (Pinocchio ABA), integrated by fixed-step RK4.
+
+    qdd = ABA(q, qd, tau - tau_f(qd)),   tau_f = F_v qd + F_c tanh(qd / v_c)
+
+The torque is held constant over each controller sample (zero-order hold) after saturation at the
+torque limits; each sample is integrated with ``substeps`` classical RK4 steps. On the IRB140 at
+4 ms / 4 sub-steps the state error after 1 s is below 1e-9 rad (tests/test_simulation_plant.py
+checks it against solve_ivp at rtol 1e-10).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numba
+import numpy as np
+import pinocchio as pin
+
+from ..errors import SimulationError
+from ..robot import Robot
+from .realism import Realism, plant_model
+
+
+# RK4 arithmetic between the ABA calls, compiled: one call per stage instead of four numpy operations
+# (the ABA calls themselves are Pinocchio's C++). Halves the cost of a plant step.
+@numba.njit(cache=True)
+def _stage(q, qd, vs, a, c):
+    """(q + c vs, qd + c a)."""
+    n = q.shape[0]
+    oq = np.empty(n)
+    ov = np.empty(n)
+    for i in range(n):
+        oq[i] = q[i] + c * vs[i]
+        ov[i] = qd[i] + c * a[i]
+    return oq, ov
+
+
+@numba.njit(cache=True)
+def _combine(q, qd, a1, a2, a3, a4, h):
+    """RK4 update: q + h qd + h^2/6 (a1 + a2 + a3) (= h/6 (qd + 2 v2 + 2 v3 + v4)), qd + h/6 (a1 + 2 a2 + 2 a3 + a4)."""
+    n = q.shape[0]
+    oq = np.empty(n)
+    ov = np.empty(n)
+    c = h * h / 6.0
+    for i in range(n):
+        oq[i] = q[i] + h * qd[i] + c * (a1[i] + a2[i] + a3[i])
+        ov[i] = qd[i] + h / 6.0 * (a1[i] + a4[i] + 2.0 * (a2[i] + a3[i]))
+    return oq, ov
+
+
+@numba.njit(cache=True)
+def _minus_friction(tau, qd, viscous, coulomb, speed):
+    """tau - (F_v qd + F_c tanh(qd / v_c))."""
+    n = tau.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = tau[i] - viscous[i] * qd[i] - coulomb[i] * np.tanh(qd[i] / speed)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Plant:
+    """model: the plant's Pinocchio model; torque_limit (n,) [N m]; viscous (n,) [N m s/rad];
+    coulomb (n,) [N m]; coulomb_speed [rad/s]."""
+
+    model: pin.Model
+    torque_limit: np.ndarray
+    viscous: np.ndarray
+    coulomb: np.ndarray
+    coulomb_speed: float = 0.01
+
+    @classmethod
+    def from_robot(cls, robot: Robot, realism: Realism = Realism()) -> "Plant":
+        viscous, coulomb = realism.friction(robot.n)
+        return cls(plant_model(robot, realism), np.asarray(robot.limits.torque, float).copy(), viscous, coulomb,
+                   float(realism.coulomb_smoothing))
+
+    @cached_property
+    def data(self) -> pin.Data:
+        return self.model.createData()
+
+    @cached_property
+    def has_friction(self) -> bool:
+        return bool(np.any(self.viscous > 0) or np.any(self.coulomb > 0))
+
+    @property
+    def n(self) -> int:
+        return self.model.nv
+
+    def friction(self, qd: np.ndarray) -> np.ndarray:
+        """Friction torque (n,) [N m] opposing qd."""
+        return self.viscous * qd + self.coulomb * np.tanh(qd / self.coulomb_speed)
+
+    def saturate(self, tau: np.ndarray) -> tuple[np.ndarray, bool]:
+        """tau clipped to +-torque_limit, and whether any joint was clipped."""
+        if (np.abs(tau) <= self.torque_limit).all():
+            return tau, False
+        return np.clip(tau, -self.torque_limit, self.torque_limit), True
+
+    def acceleration(self, q: np.ndarray, qd: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """qdd (n,) [rad/s^2] for the applied torque tau (n,)."""
+        if self.has_friction:
+            tau = tau - self.friction(qd)
+        return pin.aba(self.model, self.data, q, qd, tau)
+
+    def step(self, q: np.ndarray, qd: np.ndarray, tau: np.ndarray, dt: float, substeps: int) -> tuple[np.ndarray, np.ndarray]:
+        """State after ``dt`` seconds of constant torque tau (n,), by ``substeps`` classical RK4 steps."""
+        if substeps < 1:
+            raise SimulationError(f"plant sub-steps must be >= 1, got {substeps}")
+        model, data = self.model, self.data
+        aba = pin.aba
+        h = dt / substeps
+        hh = 0.5 * h
+        q = np.ascontiguousarray(q, dtype=float)
+        qd = np.ascontiguousarray(qd, dtype=float)
+        tau = np.ascontiguousarray(tau, dtype=float)
+        if self.has_friction:
+            fv, fc, vc = self.viscous, self.coulomb, self.coulomb_speed
+            for _ in range(substeps):
+                a1 = aba(model, data, q, qd, _minus_friction(tau, qd, fv, fc, vc))
+                q2, v2 = _stage(q, qd, qd, a1, hh)
+                a2 = aba(model, data, q2, v2, _minus_friction(tau, v2, fv, fc, vc))
+                q3, v3 = _stage(q, qd, v2, a2, hh)
+                a3 = aba(model, data, q3, v3, _minus_friction(tau, v3, fv, fc, vc))
+                q4, v4 = _stage(q, qd, v3, a3, h)
+                a4 = aba(model, data, q4, v4, _minus_friction(tau, v4, fv, fc, vc))
+                q, qd = _combine(q, qd, a1, a2, a3, a4, h)
+            return q, qd
+        for _ in range(substeps):
+            a1 = aba(model, data, q, qd, tau)
+            q2, v2 = _stage(q, qd, qd, a1, hh)
+            a2 = aba(model, data, q2, v2, tau)
+            q3, v3 = _stage(q, qd, v2, a2, hh)
+            a3 = aba(model, data, q3, v3, tau)
+            q4, v4 = _stage(q, qd, v3, a3, h)
+            a4 = aba(model, data, q4, v4, tau)
+            q, qd = _combine(q, qd, a1, a2, a3, a4, h)
+        return q, qd
+
+    def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None:
+        """Raise SimulationError when friction makes the ODE too stiff for RK4 at this step.
+
+        Friction adds a damping d tau_f/d qd = F_v + F_c / v_c; with the joint inertia M_jj the mode
+        decays at lambda = (F_v + F_c / v_c) / M_jj. Classical RK4 is stable for h lambda < 2.78; this
+        asks for h lambda <= 1 (accurate, not merely stable) at the start configuration.
+        """
+        if not self.has_friction:
+            return
+        h = dt / substeps
+        inertia = np.diag(pin.crba(self.model, self.data, np.asarray(q, float)))
+        rate = (self.viscous + self.coulomb / self.coulomb_speed) / inertia
+        j = int(np.argmax(rate))
+        if h * rate[j] > 1.0:
+            name = self.model.names[j + 1]
+            need = int(np.ceil(dt * rate[j]))
+            raise SimulationError(
+                f"joint {name}: friction damping {self.viscous[j] + self.coulomb[j] / self.coulomb_speed:.3g} N m s/rad on "
+                f"an inertia of {inertia[j]:.3g} kg m^2 decays in {1.0 / rate[j]:.3g} s, shorter than the plant step "
+                f"{h:.3g} s; raise substeps to >= {need}, Realism.coulomb_smoothing, or lower that joint's friction"
+            )
