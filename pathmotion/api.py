@@ -394,6 +394,9 @@ def check_scenario(setup: Setup) -> dict:
 DEMO_SCENARIOS = ("circle_max", "corner_stop", "corner_max", "corner_transition", "corner_g2")
 DEMO_COLUMNS = ("scenario", "planned_duration_s", "simulated_duration_s", "tracking_ok", "max_joint_deviation_rad",
                 "max_path_deviation_m", "max_corner_deviation_m", "baseline_constant_speed_duration_s")
+#: Short table headers of DEMO_COLUMNS for the terminal.
+DEMO_HEADERS = ("scenario", "planned [s]", "simulated [s]", "tracking", "joint dev [rad]", "path dev [m]",
+                "corner dev [m]", "const. speed [s]")
 
 
 def run_shipped(name: str, out: str | Path) -> dict:

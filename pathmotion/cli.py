@@ -290,7 +290,7 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
             progress.advance(task)
     table_path = api.write_demo_table(rows, out)
     table = Table(title=f"Corner study on the IRB140 ({table_path})", title_justify="left")
-    for col in api.DEMO_COLUMNS:
+    for col in api.DEMO_HEADERS:
         table.add_column(col)
     for r in rows:
         table.add_row(*[api.format_cell(r.get(c)) for c in api.DEMO_COLUMNS])
