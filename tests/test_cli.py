@@ -1,0 +1,152 @@
+"""The command line as a user meets it: every subcommand, its files, and one-line errors (never a traceback)."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from pathmotion.cli import app
+from pathmotion.scenarios import scenario_names, scenario_path
+
+runner = CliRunner()
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(*args):
+    result = runner.invoke(app, [str(a) for a in args])
+    return result.exit_code, result.output
+
+
+def test_help_of_every_command_shows_an_example():
+    for cmd in ("robots", "init", "schema", "check", "plan", "simulate", "sweep", "report", "demo"):
+        code, out = run(cmd, "--help")
+        assert code == 0 and "Example" in out, cmd
+
+
+def test_robots_lists_the_irb140_with_official_speeds():
+    code, out = run("robots")
+    assert code == 0
+    assert "IRB140" in out and "200" in out and "450" in out and "official" in out and "estimate" in out
+
+
+def test_init_writes_a_scenario_that_checks(tmp_path):
+    target = tmp_path / "s.toml"
+    code, out = run("init", target)
+    assert code == 0 and target.exists()
+    code, out = run("init", target)
+    assert code == 1 and "exists" in out and "--force" in out
+    code, out = run("check", target)
+    assert code == 0, out
+    assert "min_singular_value" in out
+
+
+def test_init_from_a_shipped_scenario(tmp_path):
+    code, _ = run("init", tmp_path / "c.toml", "--from", "corner_g2")
+    assert code == 0
+    assert (tmp_path / "c.toml").read_text() == scenario_path("corner_g2").read_text()
+    code, out = run("init", tmp_path / "d.toml", "--from", "nonsense")
+    assert code == 1 and "corner_g2" in out
+
+
+def test_schema_is_valid_json_with_the_top_level_tables(tmp_path):
+    code, _ = run("schema", "--out", tmp_path / "schema.json")
+    assert code == 0
+    schema = json.loads((tmp_path / "schema.json").read_text())
+    assert {"robot", "path", "limits", "plan", "simulate"} <= set(schema["properties"])
+
+
+def test_plan_writes_the_contract_files(tmp_path):
+    out = tmp_path / "plan"
+    code, text = run("plan", scenario_path("circle_max"), "--out", out, "--set", "plan.grid_points=400")
+    assert code == 0, text
+    for name in ("trajectory.csv", "trajectory.parquet", "summary.json", "phase_plane.csv", "trajectory_ros2.yaml",
+                 "trajectory_egm.csv", "trajectory_rapid.mod", "phase_plane.png", "joints.png", "scenario.toml"):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("duration_s", "solve_time_s", "grid_points", "max_velocity_ratio", "max_acceleration_ratio",
+                "max_torque_ratio", "baseline_constant_speed_duration_s", "fitted_profile_duration_s"):
+        assert key in summary, key
+    assert summary["max_acceleration_ratio"] <= 1.001 and summary["max_torque_ratio"] <= 1.001
+    assert summary["baseline_constant_speed_duration_s"] > summary["duration_s"]
+    header = (out / "trajectory.csv").read_text().splitlines()[0].split(",")
+    assert header == (["t", "theta", "theta_dot", "theta_ddot"] + [f"{p}{j}" for p in ("q", "qd", "qdd", "tau")
+                                                                    for j in range(1, 7)])
+    data = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(np.diff(data[:-1, 0]), 0.004, atol=1e-12)
+    assert data[-1, 0] == pytest.approx(summary["duration_s"], abs=1e-9)
+    ros = yaml.safe_load((out / "trajectory_ros2.yaml").read_text())
+    assert len(ros["points"]) == len(data)
+
+
+def test_simulate_writes_results_and_the_plan(tmp_path):
+    out = tmp_path / "sim"
+    code, text = run("simulate", scenario_path("corner_g2"), "--out", out, "--set", "plan.grid_points=400")
+    assert code == 0, text
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("planned_duration_s", "simulated_duration_s", "max_joint_deviation_rad", "rms_joint_deviation_rad",
+                "max_path_deviation_m", "max_corner_deviation_m", "max_torque_ratio", "tracking_ok"):
+        assert key in summary, key
+    assert summary["tracking_ok"] is True
+    assert summary["max_corner_deviation_m"] <= 0.0051
+    header = (out / "simulation.csv").read_text().splitlines()[0].split(",")
+    assert header[:2] == ["t", "theta"] and "q_desired6" in header and "tcp_desired_z" in header
+    assert (out / "plan" / "trajectory.csv").is_file()
+    assert (out / "tracking_task.png").is_file() and (out / "tracking_joints.png").is_file()
+
+
+def test_tracking_failure_is_a_result_not_an_error(tmp_path):
+    code, text = run("simulate", scenario_path("corner_max"), "--out", tmp_path / "m")
+    assert code == 0, text
+    summary = json.loads((tmp_path / "m" / "summary.json").read_text())
+    assert summary["tracking_ok"] is False and summary["failure"]["reason"]
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["check", "missing.toml"], "does not exist"),
+    (["plan", "{bad}", "--out", "{tmp}/o"], "not valid TOML"),
+    (["plan", "{circle}", "--out", "{tmp}/o", "--set", "plan.grid_points=abc"], "plan.grid_points"),
+    (["plan", "{circle}", "--out", "{tmp}/o", "--set", "plan.start=fast"], "plan.start"),
+    (["plan", "{circle}", "--out", "{tmp}/o", "--set", "limits.torque_scale=0.01"], "gravity torque"),
+    (["plan", "{circle}", "--out", "{tmp}/o", "--set", "path.segments[0].center=[2.0, 0.0, 0.5]"], "theta"),
+    (["simulate", "{circle}", "--out", "{tmp}/o", "--set", "simulate.controller=magic"], "simulate.controller"),
+    (["plan", "{circle}", "--out", "{tmp}/o", "--set", "plan.typo=1"], "unknown key"),
+])
+def test_bad_input_is_one_line_and_exit_1(tmp_path, args, expected):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[path\ntype = 'task'")
+    fill = {"{bad}": str(bad), "{tmp}": str(tmp_path), "{circle}": str(scenario_path("circle_max"))}
+    args = [a for a in args]
+    for i, a in enumerate(args):
+        for k, v in fill.items():
+            a = a.replace(k, v)
+        args[i] = a
+    if "center=[2.0, 0.0, 0.5]" in " ".join(args):  # --set takes scalars; use a scenario file instead
+        text = scenario_path("circle_max").read_text().replace("center = [0.5, 0.0, 0.5]", "center = [2.0, 0.0, 0.5]")
+        moved = tmp_path / "far.toml"
+        moved.write_text(text)
+        args = ["plan", str(moved), "--out", str(tmp_path / "o")]
+    code, out = run(*args)
+    assert code == 1, out
+    assert "Traceback" not in out
+    assert expected in out
+    assert len(out.strip().splitlines()) <= 3
+
+
+def test_real_process_prints_no_traceback_and_exits_nonzero(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "pathmotion.cli", "plan", str(tmp_path / "none.toml"), "--out",
+                           str(tmp_path / "o")], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert "does not exist" in proc.stderr
+
+
+def test_every_shipped_scenario_checks():
+    for name in scenario_names():
+        code, out = run("check", scenario_path(name))
+        assert code == 0, (name, out)
+    assert (ROOT / "scenarios").resolve() == scenario_path("corner_g2").parent.resolve()
