@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from .. import defaults
@@ -79,19 +80,36 @@ class TransverseBasis:
 
     def coordinates(self, dphi, ddphi, y, ydot, theta_dot) -> tuple[np.ndarray, np.ndarray]:
         """z = E^T y and z_dot = E^T ydot + theta_dot E'^T y for one point, each (n-1,)."""
-        speed = np.sqrt(dphi @ dphi)
-        t = dphi / speed
-        dt = (ddphi - t * (t @ ddphi)) / speed
-        w = t.copy()
-        w[self.k] -= self.sigma
-        s = w @ w
-        wy = w @ y
-        hy = y - (2.0 * wy / s) * w
-        hyd = ydot - (2.0 * (w @ ydot) / s) * w
-        dhy = (-2.0 / s) * (dt * wy + w * (dt @ y)) + (4.0 * (w @ dt) * wy / s**2) * w
-        zfull = hy
-        zdfull = hyd + theta_dot * dhy
-        return np.delete(zfull, self.k), np.delete(zdfull, self.k)
+        return _coordinates(np.ascontiguousarray(dphi, dtype=float), np.ascontiguousarray(ddphi, dtype=float),
+                            np.ascontiguousarray(y, dtype=float), np.ascontiguousarray(ydot, dtype=float),
+                            float(theta_dot), self.k, self.sigma)
+
+
+@numba.njit(cache=True)
+def _coordinates(dphi, ddphi, y, ydot, theta_dot, k, sigma):
+    """Compiled z = (H y)[j != k], z_dot = (H ydot + theta_dot H' y)[j != k] (H, H' symmetric)."""
+    speed = np.sqrt(np.dot(dphi, dphi))
+    t = dphi / speed
+    dt = (ddphi - t * np.dot(t, ddphi)) / speed
+    w = t.copy()
+    w[k] -= sigma
+    s = np.dot(w, w)
+    wy = np.dot(w, y)
+    wyd = np.dot(w, ydot)
+    dty = np.dot(dt, y)
+    wdt = np.dot(w, dt)
+    n = y.shape[0]
+    z = np.empty(n - 1)
+    zd = np.empty(n - 1)
+    m = 0
+    for j in range(n):
+        if j == k:
+            continue
+        z[m] = y[j] - 2.0 * wy / s * w[j]
+        dhy = -2.0 / s * (dt[j] * wy + w[j] * dty) + 4.0 * wdt * wy / (s * s) * w[j]
+        zd[m] = ydot[j] - 2.0 * wyd / s * w[j] + theta_dot * dhy
+        m += 1
+    return z, zd
 
 
 def project(table: PathTable, q: np.ndarray, theta_guess: float,
@@ -103,41 +121,10 @@ def project(table: PathTable, q: np.ndarray, theta_guess: float,
     distance does not grow, so theta moves continuously and never jumps across the path. Where
     Phi' = 0 (clamped spline ends) theta is nudged into the interior first. Open paths: theta is
     clipped to the domain; closed paths: theta is not wrapped (the caller counts laps).
-    Returns theta and (Phi, Phi', Phi'') there.
+    Returns theta and (Phi, Phi', Phi'') there. (Compiled with numba: it runs twice per sample.)
     """
-    theta = float(theta_guess)
-    max_step = defaults.PROJECTION_MAX_STEP * table.length
-    tol = defaults.PROJECTION_TOLERANCE * table.length
-    lo, hi = table.domain
-    ev = table.evaluate_scalar(theta)
-    y = q - ev[0]
-    dist = y @ y
-    for _ in range(iterations):
-        _, dphi, ddphi = ev
-        d2 = dphi @ dphi
-        if d2 <= 1e-24:
-            step = 1e-3 * max_step * (-1.0 if (not table.closed and theta >= hi) else 1.0)
-        else:
-            g = dphi @ y
-            curv = d2 - ddphi @ y
-            step = g / (curv if curv > 0.5 * d2 else d2)
-            step = min(max(step, -max_step), max_step)
-            if abs(step) <= tol:
-                break
-        for _halve in range(8):
-            new = theta + step
-            if not table.closed:
-                new = min(max(new, lo), hi)
-            ev_new = table.evaluate_scalar(new)
-            y_new = q - ev_new[0]
-            dist_new = y_new @ y_new
-            if dist_new <= dist * (1.0 + 1e-12) + 1e-300:
-                break
-            step *= 0.5
-        else:
-            break
-        theta, ev, y, dist = new, ev_new, y_new, dist_new
-    return theta, ev
+    return table.project(q, theta_guess, iterations, defaults.PROJECTION_TOLERANCE * table.length,
+                         defaults.PROJECTION_MAX_STEP * table.length)
 
 
 @dataclass(frozen=True)

@@ -172,7 +172,7 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
                 turns = (theta - lo) / length
                 if turns >= laps:
                     prev = (rec_theta[k - 1] - lo) / length
-                    done_at = (t - ts + ts * (laps - prev) / (turns - prev)) / laps
+                    done_at = float((t - ts + ts * (laps - prev) / (turns - prev)) / laps)
                     stop_at = t
                     break
             else:
@@ -182,7 +182,7 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
                         done_at = t
                     else:
                         done_at = t - ts + ts * (prev_end_dist - settings.arrival_tolerance) / (prev_end_dist - end_dist)
-                    done_at += planned - plan_arrival
+                    done_at = float(done_at + planned - plan_arrival)
                     stop_at = t + settings.settle_time
                 prev_end_dist = end_dist
         if done_at is None and t >= budget:
@@ -211,9 +211,9 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
 
 
 def _plan_arrival(table: PathTable, profile: Profile, q_end: np.ndarray, tolerance: float) -> float:
-    """Planned time [s] at which the plan enters max_j |Phi(theta*(t)) - q_end| <= tolerance (1 us resolution
-    on a 0.1 ms grid, interpolated)."""
-    t = np.linspace(0.0, profile.duration, max(2, int(np.ceil(profile.duration / 1e-4)) + 1))
+    """Planned time [s] at which the plan enters max_j |Phi(theta*(t)) - q_end| <= tolerance (found on a 1 ms
+    grid, interpolated linearly)."""
+    t = np.linspace(0.0, profile.duration, max(2, int(np.ceil(profile.duration / 1e-3)) + 1))
     theta = profile.state_at_time(t)[0]
     dist = np.max(np.abs(table.evaluate(theta)[0] - q_end), axis=1)
     outside = np.nonzero(dist > tolerance)[0]
