@@ -114,7 +114,7 @@ PATH_TABLE_POINTS = 2001
 #: Path projection: Gauss-Newton iterations per sample [-], step tolerance [unit theta, relative
 #: to the path length] and largest step per iteration [fraction of the path length].
 PROJECTION_ITERATIONS = 4
-PROJECTION_TOLERANCE = 1e-12
+PROJECTION_TOLERANCE = 1e-10
 PROJECTION_MAX_STEP = 0.02
 #: Riccati equation: relative tolerance of the ODE solver and of the periodic fixed point [-],
 #: and the most periods iterated for a closed path.
