@@ -7,9 +7,12 @@ divergence, leaving the path's theta range, a deviation past the threshold, or t
 (``time_budget_factor`` x planned duration + ``time_budget_margin``). Failures are results, not
 exceptions; a run always ends (the sample count is bounded by the budget).
 
-Open paths end ``settle_time`` after arrival (max_j |q - Phi(theta_end)| <= ``arrival_tolerance``, the
-crossing interpolated between samples); closed paths after ``laps`` turns of theta (crossing
-interpolated), their simulated duration is the mean period.
+Open paths planned to end at rest end ``settle_time`` after arrival: max_j |q - Phi(theta_end)| <=
+``arrival_tolerance`` with the projected theta in the end's own stretch of the path (so a path whose
+start is its end does not arrive at t = 0), the crossing interpolated between samples. Open paths
+planned to end moving stop when the robot crosses the end (the projection extended past it reaches
+theta_end, interpolated). Closed paths end after ``laps`` turns of theta (crossing interpolated), their
+simulated duration is the mean period.
 """
 
 from __future__ import annotations
@@ -121,8 +124,17 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     qd = np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
     plant.check_step(q, ts, substeps)
     q_end = path.evaluate(hi, side="left")[0]
-    # the plan itself spends (planned - plan_arrival) inside the arrival ball: credited to the run
-    plan_arrival = None if path.closed else _plan_arrival(table, profile, q_end, settings.arrival_tolerance)
+    # the plan itself spends (planned - plan_arrival) inside the arrival ball: credited to the run. Arrival
+    # also needs theta past the point where the plan enters the ball (less the ball's own theta extent), so a
+    # path that starts where it ends (a full circle run from rest to rest) does not arrive at t = 0
+    if path.closed:
+        plan_arrival, arrival_theta = None, lo
+    else:
+        plan_arrival, theta_in = _plan_arrival(table, profile, q_end, settings.arrival_tolerance)
+        arrival_theta = theta_in - (hi - theta_in)
+    # an open path planned to end moving (x*(end) > 0) arrives when the robot crosses the end, and the run
+    # stops there: what follows is not part of the plan
+    moving_end = not path.closed and profile.x[-1] > 0
     speed_limit = defaults.DIVERGENCE_SPEED_FACTOR * np.asarray(robot.limits.velocity, float)
 
     count = int(np.ceil(budget / ts)) + 1
@@ -137,6 +149,7 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     theta, theta_dot = lo, 0.0
     prev_end_dist = None
     pending = None
+    crossed = False
     thr = settings.failure_threshold
     k = 0
     for k in range(count):
@@ -152,6 +165,14 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         rec_theta[k] = theta
         theta_dot = table.theta_rate(dphi, qd)
         y = q - phi
+        if moving_end and theta >= hi:
+            # arrival at a moving end: the robot crosses the normal plane of the end, theta_ext = hi, with
+            # theta_ext = theta + Phi'^T y / |Phi'|^2 extending the projection past the end
+            ext = theta + (dphi @ y) / (dphi @ dphi)
+            prev = rec_theta[k - 1] if k else lo
+            done_at = float(t - ts + ts * (hi - prev) / (ext - prev)) if ext > prev else t
+            crossed = True  # this sample lies past the end: not part of the recorded motion
+            break
         if not path.closed and (theta <= lo or theta >= hi) and dphi @ dphi > 1e-12 * table.speed2_scale:
             excess = (dphi @ y) / np.sqrt(dphi @ dphi)
             if (theta >= hi and excess > thr) or (theta <= lo and excess < -thr):
@@ -177,8 +198,8 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
                     break
             else:
                 end_dist = float(np.abs(q - q_end).max())
-                if end_dist <= settings.arrival_tolerance:
-                    if prev_end_dist is None:
+                if end_dist <= settings.arrival_tolerance and theta >= arrival_theta:
+                    if prev_end_dist is None or prev_end_dist <= settings.arrival_tolerance:
                         done_at = t
                     else:
                         done_at = t - ts + ts * (prev_end_dist - settings.arrival_tolerance) / (prev_end_dist - end_dist)
@@ -202,7 +223,7 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         saturated += sat
         rec_cmd[k], rec_tau[k] = cmd, tau
         q, qd = plant.step(q, qd, tau, ts, substeps)
-    last = k + 1
+    last = k if crossed else k + 1
     if last > 1 and not np.any(rec_cmd[last - 1]):  # no torque was computed at the final sample
         rec_cmd[last - 1], rec_tau[last - 1] = rec_cmd[last - 2], rec_tau[last - 2]
     return _result(robot, path, profile, controller, settings, table, rec_q[:last], rec_qd[:last],
@@ -210,19 +231,20 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
                    saturated * ts, failure)
 
 
-def _plan_arrival(table: PathTable, profile: Profile, q_end: np.ndarray, tolerance: float) -> float:
-    """Planned time [s] at which the plan enters max_j |Phi(theta*(t)) - q_end| <= tolerance (found on a 1 ms
-    grid, interpolated linearly)."""
+def _plan_arrival(table: PathTable, profile: Profile, q_end: np.ndarray, tolerance: float) -> tuple[float, float]:
+    """Planned time [s] and theta at which the plan enters max_j |Phi(theta*(t)) - q_end| <= tolerance for the
+    last time (found on a 1 ms grid, interpolated linearly)."""
     t = np.linspace(0.0, profile.duration, max(2, int(np.ceil(profile.duration / 1e-3)) + 1))
     theta = profile.state_at_time(t)[0]
     dist = np.max(np.abs(table.evaluate(theta)[0] - q_end), axis=1)
     outside = np.nonzero(dist > tolerance)[0]
     if len(outside) == 0:
-        return 0.0
+        return 0.0, float(theta[0])
     i = int(outside[-1])
     if i + 1 >= len(t):
-        return float(profile.duration)
-    return float(t[i] + (t[i + 1] - t[i]) * (dist[i] - tolerance) / (dist[i] - dist[i + 1]))
+        return float(profile.duration), float(theta[-1])
+    w = (dist[i] - tolerance) / (dist[i] - dist[i + 1])
+    return float(t[i] + (t[i + 1] - t[i]) * w), float(theta[i] + (theta[i + 1] - theta[i]) * w)
 
 
 def _result(robot, path, profile, controller, settings, table, q, qd, tau, cmd, theta, duration, saturation,

@@ -1,0 +1,85 @@
+"""Closed loop on the shipped thesis scenarios, loaded as a user would (api.load(scenario_path(...))).
+
+References: the planned duration (the plan itself; the robot on the orbit takes the planned time), the
+thesis' accuracy figure (max joint deviation 0.0002 rad, Chapter 8) and its findings for the corner
+cases (Chapter 7: a velocity jump at a sharp corner makes tracking fail; stopping there succeeds; a
+tangent connection at boundary-level velocity succeeds).
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from pathmotion import api
+from pathmotion.planning import plan
+from pathmotion.scenarios import scenario_path
+from pathmotion.simulation import SimulationSettings, simulate
+
+THESIS_MAX_DEVIATION = 2e-4  # rad (thesis, Chapter 8)
+
+
+def planned(name):
+    """The scenario's own plan (its settings), without the comparison baselines the test does not use."""
+    setup = api.load(scenario_path(name))
+    return setup, plan(setup.path, setup.robot, dataclasses.replace(setup.plan_settings, baselines=False))
+
+
+@pytest.fixture(scope="module")
+def circle_zero():
+    return planned("circle_zero")
+
+
+@pytest.mark.parametrize("controller", ["orbital", "computed_torque"])
+def test_full_circle_from_rest_to_rest_takes_the_planned_time(circle_zero, controller):
+    """Regression: start configuration == end configuration. The arrival test must not fire at t = 0."""
+    setup, result = circle_zero
+    assert not setup.path.closed
+    lo, hi = setup.path.domain
+    assert np.allclose(setup.path.evaluate(lo)[0], setup.path.evaluate(hi, side="left")[0], atol=1e-9)
+    r = simulate(setup.robot, setup.path, result.profile, controller, api.simulation_settings(setup))
+    s = r.summary()
+    assert s["tracking_ok"]
+    assert abs(s["simulated_duration_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
+    assert r.theta[-1] == pytest.approx(hi, abs=1e-3 * (hi - lo))  # it went around
+    assert s["max_joint_deviation_rad"] <= THESIS_MAX_DEVIATION
+
+
+def test_circle_with_boundary_level_end_velocities():
+    """The plan ends moving: the run ends when the robot crosses the end of the path, at the planned time."""
+    setup, result = planned("circle_max")
+    assert result.profile.x[0] > 0 and result.profile.x[-1] > 0
+    r = simulate(setup.robot, setup.path, result.profile, "orbital", api.simulation_settings(setup))
+    s = r.summary()
+    assert s["tracking_ok"]
+    assert abs(s["simulated_duration_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
+    assert s["max_joint_deviation_rad"] <= THESIS_MAX_DEVIATION
+    assert r.theta[-1] <= setup.path.domain[1] and r.t[-1] <= s["simulated_duration_s"]
+
+
+def test_corner_with_a_velocity_jump_fails_and_a_stop_succeeds():
+    setup, result = planned("corner_max")
+    s = simulate(setup.robot, setup.path, result.profile, "orbital", api.simulation_settings(setup)).summary()
+    assert not s["tracking_ok"] and s["failure"]["reason"] in ("deviation", "left_path_range")
+    corner = setup.path.kinks[0]
+    assert abs(s["failure"]["theta"] - corner) < 0.05 * (setup.path.domain[1] - setup.path.domain[0])
+    setup, result = planned("corner_stop")
+    s = simulate(setup.robot, setup.path, result.profile, "orbital", api.simulation_settings(setup)).summary()
+    assert s["tracking_ok"]
+    assert abs(s["simulated_duration_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
+    assert s["max_joint_deviation_rad"] <= 1.5 * THESIS_MAX_DEVIATION
+
+
+def test_tangent_connection_at_boundary_level_velocity_succeeds():
+    """circle_vertical: the planner lets theta_dot jump at the (tangent, curvature-discontinuous) connection,
+    a joint-velocity step dv; a critically damped loop of bandwidth w lags by at most dv / (w e)."""
+    setup, result = planned("circle_vertical")
+    s = simulate(setup.robot, setup.path, result.profile, "orbital", api.simulation_settings(setup)).summary()
+    assert s["tracking_ok"]
+    assert abs(s["simulated_duration_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
+    p, b = result.profile, setup.path.breaks[0]
+    i = int(np.argmin(np.abs(p.grid - b)))
+    jump = np.sqrt(p.x[i + 2]) - np.sqrt(p.x[i - 2])
+    dv = np.max(np.abs(setup.path.evaluate(b)[1])) * abs(jump)
+    w = SimulationSettings().orbital_gains.bandwidth
+    assert s["max_joint_deviation_rad"] <= 1.2 * dv / (w * np.e) + THESIS_MAX_DEVIATION
