@@ -28,8 +28,10 @@ err_console = Console(stderr=True)
 
 
 def _fail(message: str, code: int = 1):
+    from rich.markup import escape
+
     first = message.strip().splitlines()[0] if message.strip() else "error"
-    err_console.print(f"[bold red]error:[/] {first}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(first)}", highlight=False, soft_wrap=True)
     raise typer.Exit(code)
 
 
@@ -57,7 +59,7 @@ def guarded(fn):
 
 
 def _overrides(sets: Optional[List[str]]) -> dict:
-    from .study.sweep import parse_value
+    from .io.scenario import parse_value
 
     out = {}
     for item in sets or []:
@@ -303,7 +305,15 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
         pass
 
 
+def _terminate(signum, frame):
+    """SIGTERM -> KeyboardInterrupt: the same clean exit as Ctrl-C (temporary files removed, code 130)."""
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 def main():
+    import signal
+
+    signal.signal(signal.SIGTERM, _terminate)
     app(prog_name="pathmotion")
 
 

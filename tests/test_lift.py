@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from pathmotion.errors import PathError, UnreachableError
-from pathmotion.geometry import (Line, TaskPath, circle_with_radial_line, circle_with_vertical_circle,
+from pathmotion.geometry import (FixedOrientation, Line, TaskPath, circle_with_radial_line, circle_with_vertical_circle,
                                  horizontal_circle, with_g2_blend, with_transition)
 from pathmotion.joint_path import SplineJointPath
 from pathmotion.lift import lift
@@ -94,11 +94,13 @@ def test_unreachable_point_names_theta_and_segment(irb140):
         lift(irb140, far)
 
 
-def test_path_through_the_shoulder_singularity_is_refused(irb140):
-    # the TCP (tool down) crosses the base axis: the wrist centre passes over axis 1
-    through_axis = TaskPath((Line((0.2, 0.0, 0.6), (-0.2, 0.0, 0.6)),))
-    with pytest.raises(UnreachableError, match="singular"):
-        lift(irb140, through_axis)
+def test_path_through_the_wrist_singularity_is_refused(irb140):
+    # tool held horizontal (its orientation at the zero pose) while the TCP rises through the height
+    # where the forearm is horizontal too: q5 passes through 0 and q4/q6 would flip by pi
+    rot = fk(irb140, np.zeros(6))[1]
+    through = TaskPath((Line((0.515, 0.0, 0.65), (0.515, 0.0, 0.78)),), FixedOrientation(rot))
+    with pytest.raises(UnreachableError, match=r"theta = 0\.06\d+ m .*singular.*wrist"):
+        lift(irb140, through)
 
 
 def test_start_configuration_with_wrong_size_is_an_error(irb140):
