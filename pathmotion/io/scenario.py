@@ -7,6 +7,7 @@ to write. Every error names the file, the key path and what is allowed, in one o
 
 from __future__ import annotations
 
+import math
 import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
@@ -258,6 +259,28 @@ def set_key(doc: dict, key: str, value, where: str = "scenario") -> None:
             node[last] = value
     except (IndexError, TypeError):
         raise ScenarioError(f"{where}: key path '{key}': cannot set element {last!r}") from None
+
+
+def parse_value(text: str):
+    """A command-line value (``--set KEY=VALUE``): true/false, an integer, a finite float, a TOML
+    array or inline table (``[0.5, 0.0, 0.5]``), else the string itself."""
+    t = text.strip()
+    if t.lower() in ("true", "false"):
+        return t.lower() == "true"
+    for conv in (int, float):
+        try:
+            v = conv(t)
+        except ValueError:
+            continue
+        if isinstance(v, float) and not math.isfinite(v):
+            raise ScenarioError(f"value {text!r} is not a finite number")
+        return v
+    if t[:1] in ("[", "{"):
+        try:
+            return tomllib.loads(f"v = {t}")["v"]
+        except tomllib.TOMLDecodeError as exc:
+            raise ScenarioError(f"value {text!r} is not a valid TOML array or table: {exc}") from None
+    return t
 
 
 def scenario_json_schema() -> dict:
