@@ -120,9 +120,12 @@ def build_path(scenario: Scenario, robot: Robot) -> tuple[JointPath, TaskPath | 
     """(joint path, task path or None, original task path before blends or None)."""
     spec = scenario.path
     if spec.type == "joint":
+        counts = [len(w) for w in spec.waypoints]
+        if any(c != robot.n for c in counts):
+            k = next(i for i, c in enumerate(counts) if c != robot.n)
+            raise ScenarioError(f"path.waypoints[{k}] has {counts[k]} joint values; {robot.name} has {robot.n} "
+                                f"joints {list(robot.joint_names)}: give {robot.n} values [rad] per waypoint")
         wp = np.asarray(spec.waypoints, dtype=float)
-        if wp.ndim != 2 or wp.shape[1] != robot.n:
-            raise ScenarioError(f"path.waypoints: each waypoint needs {robot.n} joint values for {robot.name}")
         bad = (wp < robot.limits.lower) | (wp > robot.limits.upper)
         if bad.any():
             k, j = np.argwhere(bad)[0]

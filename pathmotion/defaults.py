@@ -11,6 +11,9 @@ SAMPLE_TIME = 0.004
 VERIFY_SAMPLE_TIME = 1e-4
 #: Allowed relative excess over a limit on the verification resample [-].
 LIMIT_TOLERANCE = 1e-3
+#: Most samples one resample of a trajectory may hold (output files, verification): beyond it a
+#: motion is far longer than any real one at that sample time (usually a limit set far too small) [-].
+MAX_TRAJECTORY_SAMPLES = 2_000_000
 #: Planner grid points per path (whole chain) unless a scenario says otherwise.
 GRID_POINTS = 1000
 #: Gravity vector [m/s^2].

@@ -69,7 +69,10 @@ class SplineJointPath(JointPath):
     @classmethod
     def from_waypoints(cls, waypoints, joint_names=None) -> "SplineJointPath":
         """waypoints: (K, n) joint positions [rad], K >= 2."""
-        wp = np.asarray(waypoints, dtype=float)
+        try:
+            wp = np.asarray(waypoints, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise PathError(f"joint waypoints must be K >= 2 rows of n numbers [rad] each ({exc})") from None
         if wp.ndim != 2 or wp.shape[0] < 2:
             raise PathError(f"joint waypoints must be a (K >= 2, n) array, got shape {wp.shape}")
         check_finite("joint waypoints", wp)

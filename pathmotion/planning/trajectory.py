@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import defaults
+from ..errors import PathmotionError
 from ..joint_path import JointPath
 from ..robot import Robot, rnea
 from .profile import Profile
@@ -50,12 +51,24 @@ class Trajectory:
 
     def sample(self, dt: float = defaults.SAMPLE_TIME) -> Samples:
         """Samples every ``dt`` seconds from 0, the last one at exactly the duration."""
-        if not dt > 0:
-            from ..errors import PathmotionError
+        return self.at_time(sample_times(self.duration, dt))
 
-            raise PathmotionError(f"sample time must be > 0 s, got {dt}")
-        n = int(np.floor(self.duration / dt + 1e-9))
-        t = np.arange(n + 1) * dt
-        if t[-1] < self.duration - 1e-12:
-            t = np.append(t, self.duration)
-        return self.at_time(t)
+
+def sample_times(duration: float, dt: float, max_samples: int = defaults.MAX_TRAJECTORY_SAMPLES) -> np.ndarray:
+    """Times (N,) [s] every ``dt`` from 0, the last at exactly ``duration`` [s]; a PathmotionError when
+    ``dt`` is not > 0 or N would exceed ``max_samples`` (a motion far too long for that sample time)."""
+    if not dt > 0 or not np.isfinite(dt):
+        raise PathmotionError(f"sample time must be a finite number > 0 s, got {dt}")
+    if not (np.isfinite(duration) and duration >= 0):
+        raise PathmotionError(f"the motion's duration is {duration} s; it must be finite and >= 0")
+    count = duration / dt + 1
+    if count > max_samples:
+        raise PathmotionError(
+            f"sampling the {duration:.6g} s motion every {dt:g} s needs {count:.3g} samples, more than "
+            f"{max_samples:,} (defaults.MAX_TRAJECTORY_SAMPLES): raise the sample time, or check the limits "
+            "(a motion this long usually means a limit or a scale such as tcp_speed is far too small)")
+    n = int(np.floor(duration / dt + 1e-9))
+    t = np.arange(n + 1) * dt
+    if t[-1] < duration - 1e-12:
+        t = np.append(t, duration)
+    return t

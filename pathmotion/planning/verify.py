@@ -15,7 +15,7 @@ import numpy as np
 from .. import defaults
 from ..robot import jacobian
 from .constraints import EffectiveLimits
-from .trajectory import Samples, Trajectory
+from .trajectory import Samples, Trajectory, sample_times
 
 KINDS = ("velocity", "acceleration", "torque", "tcp_speed")
 
@@ -49,10 +49,7 @@ def sample_ratios(trajectory: Trajectory, limits: EffectiveLimits, dt: float,
     if limits.torque is None and traj.robot is not None:
         traj = Trajectory(traj.path, traj.profile, None)
     prof = traj.profile
-    n = int(np.floor(prof.duration / dt + 1e-9))
-    t = np.arange(n + 1) * dt
-    if t[-1] < prof.duration - 1e-12:
-        t = np.append(t, prof.duration)
+    t = sample_times(prof.duration, dt)
     if jump_intervals:
         i = np.searchsorted(prof.grid, [a for a, _ in jump_intervals])
         t = np.sort(np.concatenate([t, 0.5 * (prof.times[i] + prof.times[i + 1])]))
