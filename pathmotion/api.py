@@ -210,6 +210,7 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
         "worst_limit": None if r is None else r.worst,
         "baseline_constant_speed_duration_s": None if b is None or b.industrial is None else b.industrial.profile.duration,
         "fitted_profile_duration_s": None if b is None or b.fitted is None else b.fitted.profile.duration,
+        "baseline_constant_speed_error": None if b is None else b.industrial_error,
         "connections": setup.plan_settings.connections,
         "velocity_jumps": [list(j) for j in result.jump_intervals],
         "kinks_theta": list(setup.path.kinks),

@@ -47,8 +47,12 @@ class Baseline:
 
 @dataclass(frozen=True, eq=False)
 class Baselines:
+    """The two baselines; ``industrial`` is None when no constant TCP speed meets the plan's boundary
+    conditions and limits (``industrial_error`` then says why): the optimal plan stands without it."""
+
     fitted: Baseline
-    industrial: Baseline
+    industrial: Baseline | None
+    industrial_error: str | None = None
 
 
 def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
@@ -202,8 +206,8 @@ def industrial_baseline(problem, sol, chain_args, gain_right, gain_left, path, r
         k = int(np.argmin([r[0] for r in results]))
     (t_best, v), a = results[k], accs[k]
     if not np.isfinite(t_best):
-        raise InfeasibleError("industrial baseline: no constant TCP speed can be held on this path; "
-                              "switch baselines off")
+        raise InfeasibleError("industrial baseline: no constant TCP speed (with TCP acceleration ramps) meets "
+                              "this plan's boundary conditions and limits (e.g. a 'max' or given start/end speed)")
     text = (f"constant TCP speed {v:.6g} m/s" +
             (f" with TCP acceleration ramps of {a:.4g} m/s^2" if ramps else " (periodic, no ramps)"))
     return _verified("industrial", text, problem, cuts, pieces_for(v * (1.0 - 1e-9), a), path, robot, limits,
@@ -216,8 +220,10 @@ def compute_baselines(problem: IntervalProblem, sol: Solution, chain_args: dict,
     TCP speed per unit theta_dot, |J_v Phi'| [m per unit theta], on each side of every point."""
     periodic_cycle = bool(chain_args["periodic"]) and not ({0, problem.size - 1} & set(chain_args["stops"]))
     periodic_cycle = periodic_cycle and chain_args["connections"] != "max" and len(_cuts(chain_args, problem.size)) == 2
-    return Baselines(
-        fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle),
-        industrial_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits, settings,
-                            periodic_cycle),
-    )
+    fitted = fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle)
+    try:
+        industrial = industrial_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits,
+                                         settings, periodic_cycle)
+    except InfeasibleError as exc:
+        return Baselines(fitted, None, str(exc))
+    return Baselines(fitted, industrial)

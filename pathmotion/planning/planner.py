@@ -248,6 +248,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     while True:
         problem, right, left = _build(grid, samp, limits, scale)
         sol = solve_chain(problem, **chain_args)
+        _check_bounded(grid, sol.x)
         traj = Trajectory(path, sol.profile, robot)
         if not settings.verify:
             break
@@ -274,6 +275,16 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         base = compute_baselines(problem, sol, chain_args, samp.gain_r, samp.gain_l, path, robot, limits, settings)
     return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
                       iterations, sol.jump_intervals, settings)
+
+
+def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:
+    """InfeasibleError where the profile reaches the cap on x: no active limit bounds the speed there."""
+    capped = np.nonzero(x >= 0.999 * defaults.PLANNER_X_CAP)[0]
+    if capped.size:
+        raise InfeasibleError(
+            f"no active limit bounds the path speed at theta = {grid[capped[0]]:.6g} (theta_dot would reach the "
+            f"cap {np.sqrt(defaults.PLANNER_X_CAP):.3g}): the time-optimal motion is unbounded; switch on a "
+            "velocity, acceleration or torque limit (limits.use_*) or give a tcp_speed limit")
 
 
 def _outside(theta: np.ndarray, intervals) -> np.ndarray:
