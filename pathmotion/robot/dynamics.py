@@ -31,68 +31,52 @@ def _args(robot, *arrays):
     return out, single
 
 
-def rnea(robot: Robot, q, qd, qdd) -> np.ndarray:
-    """Inverse dynamics tau = M(q) qdd + C(q, qd) qd + G(q)."""
-    (qs, qds, qdds), single = _args(robot, q, qd, qdd)
+def _batched(robot: Robot, fn, arrays, shape: tuple = None) -> np.ndarray:
+    """Call ``fn(model, data, *row)`` for every row of the (N, n) ``arrays``; outputs of ``shape``
+    per row (default (n,)); a single configuration in, a single result out."""
+    rows, single = _args(robot, *arrays)
     model, data = robot.model, robot.data
-    out = np.empty_like(qs)
-    for k in range(len(qs)):
-        out[k] = pin.rnea(model, data, qs[k], qds[k], qdds[k])
+    out = np.empty((len(rows[0]),) + ((robot.n,) if shape is None else shape))
+    for k in range(len(rows[0])):
+        out[k] = fn(model, data, *(r[k] for r in rows))
     return out[0] if single else out
+
+
+def _symmetric_crba(model, data, q):
+    m = pin.crba(model, data, q)  # upper triangle only
+    return np.triu(m) + np.triu(m, 1).T
+
+
+def rnea(robot: Robot, q, qd, qdd) -> np.ndarray:
+    """Inverse dynamics tau = M(q) qdd + C(q, qd) qd + G(q) [N m]."""
+    return _batched(robot, pin.rnea, (q, qd, qdd))
 
 
 def gravity(robot: Robot, q) -> np.ndarray:
-    """Gravity torques G(q)."""
-    (qs,), single = _args(robot, q)
-    model, data = robot.model, robot.data
-    out = np.empty_like(qs)
-    for k in range(len(qs)):
-        out[k] = pin.computeGeneralizedGravity(model, data, qs[k])
-    return out[0] if single else out
+    """Gravity torques G(q) [N m]."""
+    return _batched(robot, pin.computeGeneralizedGravity, (q,))
 
 
 def mass_matrix(robot: Robot, q) -> np.ndarray:
-    """Joint-space inertia matrix M(q), symmetric."""
-    (qs,), single = _args(robot, q)
-    model, data = robot.model, robot.data
-    out = np.empty((len(qs), robot.n, robot.n))
-    for k in range(len(qs)):
-        m = pin.crba(model, data, qs[k])
-        out[k] = np.triu(m) + np.triu(m, 1).T
-    return out[0] if single else out
+    """Joint-space inertia matrix M(q), symmetric [kg m^2]."""
+    return _batched(robot, _symmetric_crba, (q,), (robot.n, robot.n))
 
 
 def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
     """Coriolis/centrifugal matrix C(q, qd) (Pinocchio's, with Mdot - 2C skew-symmetric)."""
-    (qs, qds), single = _args(robot, q, qd)
-    model, data = robot.model, robot.data
-    out = np.empty((len(qs), robot.n, robot.n))
-    for k in range(len(qs)):
-        out[k] = pin.computeCoriolisMatrix(model, data, qs[k], qds[k])
-    return out[0] if single else out
+    return _batched(robot, pin.computeCoriolisMatrix, (q, qd), (robot.n, robot.n))
 
 
 def aba(robot: Robot, q, qd, tau) -> np.ndarray:
-    """Forward dynamics qdd = M^-1 (tau - C qd - G) by the articulated-body algorithm."""
-    (qs, qds, taus), single = _args(robot, q, qd, tau)
-    model, data = robot.model, robot.data
-    out = np.empty_like(qs)
-    for k in range(len(qs)):
-        out[k] = pin.aba(model, data, qs[k], qds[k], taus[k])
-    return out[0] if single else out
+    """Forward dynamics qdd = M^-1 (tau - C qd - G) by the articulated-body algorithm [rad/s^2]."""
+    return _batched(robot, pin.aba, (q, qd, tau))
 
 
 def kinetic_energy(robot: Robot, q, qd) -> np.ndarray:
     """Kinetic energy 0.5 qd^T M(q) qd [J], () or (N,)."""
-    (qs, qds), single = _args(robot, q, qd)
-    model, data = robot.model, robot.data
-    out = np.array([pin.computeKineticEnergy(model, data, qs[k], qds[k]) for k in range(len(qs))])
-    return out[0] if single else out
+    return _batched(robot, pin.computeKineticEnergy, (q, qd), ())
 
 
 def potential_energy(robot: Robot, q) -> np.ndarray:
     """Potential energy in the robot's gravity field [J], () or (N,)."""
-    (qs,), single = _args(robot, q)
-    model, data = robot.model, robot.data
-    out = np.array([pin.computePotentialEnergy(model, data, qs[k]) for k in range(len(qs))])
-    return out[0] if single else out
+    return _batched(robot, pin.computePotentialEnergy, (q,), ())
