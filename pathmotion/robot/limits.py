@@ -139,8 +139,10 @@ def limits_from_model(model, where: str) -> JointLimits:
     eff = np.asarray(model.effortLimit, dtype=float)
     missing = []
     for j, name in enumerate(names):
-        if not np.isfinite(lower[j]) or not np.isfinite(upper[j]) or lower[j] >= upper[j]:
+        if not np.isfinite(lower[j]) or not np.isfinite(upper[j]):
             missing.append(f"{name}: range")
+        elif lower[j] >= upper[j]:
+            missing.append(f"{name}: range (lower {lower[j]:g} >= upper {upper[j]:g} rad)")
         if not np.isfinite(vel[j]) or vel[j] <= 0:
             missing.append(f"{name}: velocity")
         if not np.isfinite(eff[j]) or eff[j] <= 0:

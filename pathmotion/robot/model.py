@@ -193,6 +193,7 @@ def _check_urdf_limits(urdf_text: str, where: str, limits_given: bool) -> str:
         root = ElementTree.fromstring(urdf_text)
     except ElementTree.ParseError as exc:
         raise RobotModelError(f"URDF of {where} is not well-formed XML: {exc}") from None
+    _check_urdf_tree(root, where)
     bare = [j for j in root.iter("joint") if j.get("type") in ("revolute", "prismatic") and j.find("limit") is None]
     if not bare:
         return urdf_text
@@ -205,6 +206,76 @@ def _check_urdf_limits(urdf_text: str, where: str, limits_given: bool) -> str:
     for j in bare:
         ElementTree.SubElement(j, "limit", {"lower": "0", "upper": "0", "effort": "0", "velocity": "0"})
     return ElementTree.tostring(root, encoding="unicode")
+
+
+_MOVING = ("revolute", "prismatic", "continuous")
+
+
+def _check_urdf_tree(root, where: str) -> None:
+    """RobotModelError naming the element when a URDF is not one tree of links joined by joints: no
+    <robot> element, duplicate names, a joint naming a missing link, a link with two parents or a
+    closed loop, links not connected to the root (a missing joint), a zero joint axis, a negative mass."""
+    if root.tag != "robot":
+        raise RobotModelError(f"URDF of {where}: the top element is <{root.tag}>, not <robot>")
+    links = [link.get("name") for link in root.findall("link")]
+    for kind, names in (("link", links), ("joint", [j.get("name") for j in root.findall("joint")])):
+        dup = sorted({n for n in names if names.count(n) > 1}, key=str)
+        if dup:
+            raise RobotModelError(f"URDF of {where}: {kind} name(s) {dup} used more than once; names must be unique")
+    known = set(links)
+    parent_of: dict[str, str] = {}
+    children: dict[str, list[str]] = {}
+    for j in root.findall("joint"):
+        name = j.get("name")
+        ends = {}
+        for end in ("parent", "child"):
+            el = j.find(end)
+            ends[end] = None if el is None else el.get("link")
+            if ends[end] not in known:
+                raise RobotModelError(f"URDF of {where}: joint '{name}' names {end} link {ends[end]!r}, which is not "
+                                      f"a <link> of the file {sorted(known, key=str)}; add the link or fix the name")
+        child = ends["child"]
+        if child in parent_of:
+            raise RobotModelError(f"URDF of {where}: link '{child}' is the child of two joints ('{parent_of[child]}' "
+                                  f"and '{name}'): a closed loop; URDF describes trees, remove one of the joints")
+        parent_of[child] = name
+        children.setdefault(ends["parent"], []).append(child)
+        axis = j.find("axis")
+        if j.get("type") in _MOVING and axis is not None:
+            try:
+                xyz = np.array([float(v) for v in axis.get("xyz", "1 0 0").split()])
+            except ValueError:
+                xyz = np.array([np.nan])
+            if xyz.shape != (3,) or not np.all(np.isfinite(xyz)) or np.linalg.norm(xyz) < 1e-12:
+                raise RobotModelError(f"URDF of {where}: joint '{name}' has axis xyz = {axis.get('xyz')!r}; give a "
+                                      "non-zero finite direction of 3 numbers")
+    roots = [link for link in links if link not in parent_of]
+    if not roots:
+        raise RobotModelError(f"URDF of {where}: every link has a parent joint, so the joints form a closed loop; "
+                              "URDF describes trees, remove the joint that closes the loop")
+    if len(roots) > 1:
+        raise RobotModelError(f"URDF of {where}: links {roots} are not connected (each is a root: no joint has it as "
+                              "child); a joint is missing, add it or remove the unconnected links")
+    seen, todo = {roots[0]}, [roots[0]]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            if c not in seen:
+                seen.add(c)
+                todo.append(c)
+    stray = [link for link in links if link not in seen]
+    if stray:
+        raise RobotModelError(f"URDF of {where}: links {stray} form a closed loop not connected to the root link "
+                              f"'{roots[0]}'; URDF describes trees, remove the joint that closes the loop")
+    for link in root.findall("link"):
+        mass = link.find("inertial/mass")
+        if mass is not None:
+            try:
+                m = float(mass.get("value", "nan"))
+            except ValueError:
+                m = float("nan")
+            if not (np.isfinite(m) and m >= 0):
+                raise RobotModelError(f"URDF of {where}: link '{link.get('name')}' has mass {mass.get('value')!r}; "
+                                      "give a finite mass >= 0 kg")
 
 
 BUILTIN_ROBOTS = {"irb140": ("irb140.urdf", "irb140_limits.toml", "IRB140")}
