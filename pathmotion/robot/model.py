@@ -232,7 +232,7 @@ def _check_urdf_tree(root, where: str) -> None:
             el = j.find(end)
             ends[end] = None if el is None else el.get("link")
             if ends[end] not in known:
-                raise RobotModelError(f"URDF of {where}: joint '{name}' names {end} link {ends[end]!r}, which is not "
+                raise RobotModelError(f"URDF of {where} cannot be parsed: joint '{name}' names {end} link {ends[end]!r}, which is not "
                                       f"a <link> of the file {sorted(known, key=str)}; add the link or fix the name")
         child = ends["child"]
         if child in parent_of:
