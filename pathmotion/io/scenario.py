@@ -129,6 +129,8 @@ class PlanSpec(_Model):
     connections: Literal["chain", "zero", "max"] = Field(
         "chain", description="'chain': plan the whole path at once; 'zero'/'max': segment by segment")
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, description="output sample time [s]")
+    blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
+                                     "of the optimal profile's there (1 = optimal; see pathmotion.study.blend_speed)")
 
 
 # ------------------------------------------------------------------------------------ simulation
@@ -182,9 +184,15 @@ def _loc(loc: tuple) -> str:
 
 
 def scenario_from_dict(doc: dict, where: str = "scenario") -> Scenario:
-    """Validate a parsed scenario; ScenarioError names ``where``, the key path and what is allowed."""
+    """Validate a parsed scenario; ScenarioError names ``where``, the key path and what is allowed.
+
+    Strict types: a string, a boolean or a fractional number where an integer belongs (``grid_points =
+    "60"``, ``laps = true``) is an error, not a silent conversion; an integer is a valid float. (Validated
+    in JSON form, where arrays are tuples; TOML dates and times become strings.)"""
+    import json
+
     try:
-        return Scenario.model_validate(doc)
+        return Scenario.model_validate_json(json.dumps(doc, default=str), strict=True)
     except ValidationError as exc:
         err = exc.errors()[0]
         more = f" (+{exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
