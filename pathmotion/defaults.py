@@ -71,6 +71,9 @@ CURVATURE_JUMP_TOLERANCE = 1e-6
 PLANARITY_TOLERANCE = 1e-9
 #: Relative accuracy of certified maximum-distance computations (upper - lower <= this * upper) [-].
 DEVIATION_RELATIVE_ACCURACY = 1e-4
+#: Most live intervals of the certified deviation search; beyond it (a flat maximum, e.g. a blend that
+#: lies on the path) the search stops with a valid but wider bracket instead of doubling on [-].
+DEVIATION_MAX_INTERVALS = 1 << 16
 #: G2 blend shape in (0, 1]: the end speed is lambda = 5/2 * shape * cut, so for a line-line corner
 #: b2 sits at (1 - shape) * cut from the corner (b2 = corner when 1) [-]. 0.7 keeps the peak
 #: curvature within ~15 % of its minimum over shape for 30-90 degree corners at a given deviation

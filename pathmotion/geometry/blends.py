@@ -281,6 +281,9 @@ def _with_g2_blend(path: TaskPath, c: _Corner, tolerance: float, shape: float) -
     if not np.isfinite(tol) or tol <= 0:
         raise PathError(f"{what}: tolerance must be a positive distance [m], got {tolerance!r}")
     shape = _check_shape(shape, what)
+    if c.conn.angle > np.pi - defaults.CORNER_ANGLE_TOLERANCE:
+        raise PathError(f"{what}: at {c.where()} the path reverses direction; no blend can round it (insert a short "
+                        "sideways segment, or leave the corner sharp: the motion stops there)")
     cut_max = min(c.max_a, c.max_b)
     full = g2_deviation(c.A, c.B, cut_max, shape)
     if full.upper <= tol:

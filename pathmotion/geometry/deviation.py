@@ -68,6 +68,8 @@ def certified_max(fn: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, 
         keep = ub > lower * (1.0 + rel_tol) + atol
         dropped = max(dropped, float(np.max(ub[~keep], initial=0.0)))
         a, b, da, db = a[keep], b[keep], da[keep], db[keep]
+        if len(a) > defaults.DEVIATION_MAX_INTERVALS:  # a flat maximum: the bracket stays valid, only wider
+            break
         m = 0.5 * (a + b)
         dm = fn(m)
         k = int(np.argmax(dm)) if len(dm) else 0
