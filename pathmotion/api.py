@@ -187,8 +187,15 @@ def load_text(text: str, base_dir: str | Path = ".", overrides: dict[str, Any] |
 
 # ------------------------------------------------------------------------------------- planning
 def plan_scenario(setup: Setup) -> PlanResult:
-    """The time-optimal plan of the scenario (with baselines and verification)."""
-    return plan(setup.path, setup.robot, setup.plan_settings)
+    """The time-optimal plan of the scenario (with baselines and verification); with
+    ``plan.blend_speed_scale`` < 1 the blends are then slowed to that fraction (verified)."""
+    result = plan(setup.path, setup.robot, setup.plan_settings)
+    scale = setup.scenario.plan.blend_speed_scale
+    if scale != 1.0:
+        from .study.blend_speed import cap_blend_speed
+
+        result = cap_blend_speed(setup, result, scale)
+    return result
 
 
 def plan_summary(setup: Setup, result: PlanResult) -> dict:

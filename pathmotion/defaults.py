@@ -168,3 +168,13 @@ BASELINE_SPEED_TOLERANCE = 1e-6
 #: and segment connection, where the profile may leave or reach rest with Phi' = 0 (the discretization
 #: error there is first order in the step; grading makes it negligible).
 GRID_GRADING_LEVELS = 12
+#: Study: a segment of a blended task path whose midpoint is farther than this from the original
+#: (sharp) path is a blend [m] (blend_speed_scale acts on it).
+BLEND_DETECTION_DISTANCE = 1e-7
+#: Study: fewest planner grid points on a piece of path re-planned around a slowed blend [-].
+BLEND_PIECE_MIN_POINTS = 50
+#: Study score: seconds of cycle time one metre of mean TCP deviation from the sharp path costs [s/m]
+#: (100 s/m: 1 mm of mean deviation weighs as much as 0.1 s of cycle time).
+STUDY_ERROR_WEIGHT = 100.0
+#: Study: points of the sharp-path polyline stored with each traced sweep point (for figures).
+STUDY_TRACE_PATH_POINTS = 2000
