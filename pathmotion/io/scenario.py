@@ -176,8 +176,9 @@ def _loc(loc: tuple) -> str:
     for part in loc:
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in ("line", "arc", "circle", "task", "joint", "tuple[float, float, float]"):
-            continue  # discriminator tags that pydantic inserts into the location
+        elif part in ("line", "arc", "circle", "task", "joint", "float", "int", "str", "bool") or not str(
+                part).isidentifier():
+            continue  # discriminator and union-member tags that pydantic inserts (e.g. "literal['zero','max']")
         else:
             out += ("." if out else "") + str(part)
     return out or "(top level)"
