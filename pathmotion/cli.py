@@ -274,9 +274,13 @@ def report(folder: Path = typer.Argument(..., help="a folder written by plan, si
 
 @app.command()
 @guarded
-def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder")):
-    """The main job: the thesis' corner study on the IRB140 (circle, stop at the corner, boundary-level
-    velocity, transition circle, G2 blend), planned and simulated; a comparison table, figures, report.
+def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder"),
+         study: bool = typer.Option(True, help="also run the chapter-7 corner study (r_t, speed, G2 sweeps)"),
+         workers: int = typer.Option(2, min=1, help="worker processes for the corner study")):
+    """The main job: the thesis' experiments on the IRB140 (circle at boundary-level speed; the 90 degree
+    corner stopped at, taken at boundary-level speed, with a transition circle and with a G2 blend),
+    planned and simulated; then the corner study (sweeps over r_t, the blend speed and the G2
+    tolerance, with the thesis-style figures and the best trade-off); a comparison table and report.
 
     Example: [bold]pathmotion demo --out out/demo[/]
     """
@@ -291,18 +295,25 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
             rows.append(api.run_shipped(name, out / name))
             progress.advance(task)
     table_path = api.write_demo_table(rows, out)
-    table = Table(title=f"Corner study on the IRB140 ({table_path})", title_justify="left")
+    table = Table(title=f"The thesis' experiments on the IRB140 ({table_path})", title_justify="left")
     for col in api.DEMO_HEADERS:
         table.add_column(col)
     for r in rows:
         table.add_row(*[api.format_cell(r.get(c)) for c in api.DEMO_COLUMNS])
     console.print(table)
-    try:
-        from .report.html import build_report
+    if study:
+        from .study import corner_study
 
-        console.print(f"report: {build_report(out)}")
-    except ImportError:
-        pass
+        with _progress() as progress:
+            task = progress.add_task("corner study", total=None)
+            result = corner_study(out / "corner_study", workers=workers,
+                                  on_result=lambda done, total: progress.update(task, completed=done, total=total))
+        console.print(f"corner study: {len(result.rows)} runs, figures in {result.out}")
+        if result.best is not None:
+            console.print(_summary_table("best trade-off (least mean deviation + shortest cycle)", result.best))
+    from .report.html import build_report
+
+    console.print(f"report: {build_report(out)}")
 
 
 def _terminate(signum, frame):
