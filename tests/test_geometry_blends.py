@@ -244,3 +244,16 @@ def test_certified_max_brackets_an_analytic_maximum():
     a = TaskPath((Line((0, 0, 0), (1, 0, 0)),))
     b = TaskPath((Line((0, 0.01, 0), (1, 0.01, 0)),))
     assert max_deviation(a, b).lower == pytest.approx(0.01, rel=1e-12)
+
+
+@pytest.mark.parametrize("radius", [1e-4, 1e-3, 0.00647645, 0.02])
+def test_small_transition_radii_fit(radius):
+    """Regression: the fillet's Newton solve used a tolerance scaled by the radius, unattainable in
+    floating point for small radii, and reported them as not fitting. For the thesis' circle + radial
+    line the deviation tends to the line-line value r_t (1 - sin(45 deg)) as r_t / R -> 0 (the
+    circle's curvature adds a relative error of order r_t / R, R = 0.1 m)."""
+    from pathmotion.geometry import circle_with_radial_line, max_deviation, with_transition
+
+    original = circle_with_radial_line()
+    dev = max_deviation(with_transition(original, 0, radius), original).distance
+    assert dev == pytest.approx(radius * (1 - np.sin(np.pi / 4)), rel=2 * radius / 0.1 + 1e-3)

@@ -133,12 +133,12 @@ def _fillet(corner: _Corner, m: np.ndarray, radius: float) -> tuple[float, float
     A, B = corner.A, corner.B
     LA = A.length
     a = b = radius * np.tan(0.5 * corner.conn.angle)
-    scale = max(radius, 1e-3)
     for _ in range(60):
         pA, tA, kA = (x[0] for x in A.evaluate(LA - a))
         pB, tB, kB = (x[0] for x in B.evaluate(b))
         F = pA + radius * np.cross(m, tA) - pB - radius * np.cross(m, tB)
-        if np.linalg.norm(F) < 1e-14 * scale:
+        # converged to rounding: F is a difference of positions of size |pA|
+        if np.linalg.norm(F) < 1e-13 * max(1.0, float(np.linalg.norm(pA))):
             break
         J = np.column_stack([-(tA + radius * np.cross(m, kA)), tB + radius * np.cross(m, kB)])
         step = np.linalg.lstsq(J, -F, rcond=None)[0]
