@@ -57,17 +57,9 @@ def transition_radius_for_deviation(original, corner: int, deviation: float, ite
     from ..geometry.blends import largest_transition_radius
 
     def dev(r: float) -> float:
-        # with_transition's Newton solve for the tangent points can miss its (absolute, very tight)
-        # tolerance for an unlucky radius and report "does not fit"; a relative nudge of 1e-9 avoids it
-        for nudge in (1.0, 1.0 + 1e-9, 1.0 - 1e-9):
-            try:
-                return max_deviation(with_transition(original, corner, r * nudge), original).distance
-            except PathError:
-                if r * nudge >= largest:
-                    raise
-        raise PathError(f"with_transition failed for r_t = {r:.6g} m and its neighbours at connection {corner}")
+        return max_deviation(with_transition(original, corner, r), original).distance
 
-    largest = hi = largest_transition_radius(original, corner)
+    hi = largest_transition_radius(original, corner)
     if dev(hi) < deviation:
         raise PathError(f"a transition circle at connection {corner} deviates at most {dev(hi):.4g} m (r_t = {hi:.4g} m)"
                         f", less than {deviation:.4g} m")
