@@ -96,7 +96,13 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     if robot.n != 6:
         raise PathError(f"task-space paths need a 6-joint arm; {robot.name} has {robot.n} joints")
     lo, hi = task_path.domain
-    count = max(int(np.ceil((hi - lo) / reference_step)) + 1, 50)
+    steps = (hi - lo) / reference_step
+    if not (np.isfinite(steps) and steps <= defaults.LIFT_MAX_REFERENCE_SAMPLES):
+        raise UnreachableError(
+            f"the path is {hi - lo:.6g} m long: more than {defaults.LIFT_MAX_REFERENCE_SAMPLES:,} reference points "
+            f"{reference_step:g} m apart, far beyond the reach of any arm; check the points (units are metres)",
+            reason="reach")
+    count = max(int(np.ceil(steps)) + 1, 50)
     theta = np.linspace(lo, hi, count)
     breaks = np.asarray(task_path.breaks, dtype=float)
     theta = np.unique(np.concatenate([theta, breaks[(breaks > lo) & (breaks < hi)]]))
