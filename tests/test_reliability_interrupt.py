@@ -194,10 +194,6 @@ def test_atomic_writes_leave_the_previous_file_when_interrupted(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="ESCAPE in pathmotion/study/sweep.py (_run_processes): on Ctrl-C/SIGTERM the "
-                   "'with ProcessPoolExecutor' exit waits for every queued point to run (shutdown(wait=True) without "
-                   "cancel_futures) and discards their results: an interrupted 200-point sweep runs to the end before "
-                   "it exits; fix: on BaseException call pool.shutdown(wait=False, cancel_futures=True) and re-raise")
 def test_interrupted_parallel_sweep_stops_without_running_the_queued_points(tmp_path):
     scenario = fast_joint_scenario(tmp_path)
     out = tmp_path / "sweep"

@@ -248,7 +248,8 @@ def _lost(exc: BaseException) -> dict:
 
 
 def _run_processes(workers: int, args, todo, record, point_fn, traces) -> None:
-    with ProcessPoolExecutor(max_workers=min(workers, len(todo))) as pool:
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
+    try:
         futures = {pool.submit(point_fn, *args, p.overrides, traces): p for p in todo}
         for fut in as_completed(futures):
             try:
@@ -256,6 +257,15 @@ def _run_processes(workers: int, args, todo, record, point_fn, traces) -> None:
             except Exception as exc:  # a crashed worker process: record it, keep the others
                 result = _lost(exc)
             record(futures[fut], result)
+    except BaseException:
+        # interrupted (Ctrl-C, SIGTERM): drop the queued points and stop the running ones now; every
+        # finished point is already on disk, so a re-run resumes from there
+        processes = list((getattr(pool, "_processes", None) or {}).values())  # no public terminate before 3.14
+        pool.shutdown(wait=False, cancel_futures=True)
+        for proc in processes:
+            proc.terminate()
+        raise
+    pool.shutdown(wait=True)
 
 
 def _run_dask(address: str, args, todo, record, point_fn, traces) -> None:
