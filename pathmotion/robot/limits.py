@@ -18,7 +18,10 @@ class JointLimits:
     """Per-joint limits, arrays of shape (n,), SI units.
 
     lower, upper [rad]; velocity [rad/s] (> 0); acceleration [rad/s^2] (> 0) or None when
-    not given; torque [N m] (> 0). ``sources`` maps each quantity to "official"/"estimate"/...
+    not given; torque [N m] (> 0); armature [kg m^2] (>= 0) or None: the reflected rotor inertia
+    J_motor N^2 of each drive, added to the diagonal of the mass matrix (the torques are joint-side,
+    so they include the torque that accelerates the rotors). ``sources`` maps each quantity to
+    "official"/"estimate"/...
     """
 
     names: tuple[str, ...]
@@ -28,10 +31,11 @@ class JointLimits:
     torque: np.ndarray
     acceleration: np.ndarray | None = None
     sources: dict = field(default_factory=dict)
+    armature: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.names)
-        for key in _KEYS:
+        for key in (*_KEYS, "armature"):
             v = getattr(self, key)
             if v is None:
                 continue
@@ -48,6 +52,9 @@ class JointLimits:
                 raise RobotModelError(
                     f"limits: {key} of {self.names[j]} is {v[j]:g}; limits are magnitudes and must be > 0"
                 )
+        if self.armature is not None and np.any(self.armature < 0):
+            j = int(np.argmax(self.armature < 0))
+            raise RobotModelError(f"limits: armature of {self.names[j]} is {self.armature[j]:g} kg m^2; it must be >= 0")
         bad = np.nonzero(self.lower >= self.upper)[0]
         if bad.size:
             j = int(bad[0])
@@ -71,12 +78,14 @@ class JointLimits:
 
 def limits_from_toml(path: str | Path, joint_names: tuple[str, ...]) -> JointLimits:
     """Read a limits file (``[[joints]]`` tables with name, lower, upper, velocity, torque and
-    optional acceleration) and order it as ``joint_names``."""
+    optional acceleration and armature) and order it as ``joint_names``."""
     path = Path(path)
     try:
         doc = tomllib.loads(path.read_text())
     except FileNotFoundError:
         raise RobotModelError(f"limits file {path} does not exist") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise RobotModelError(f"limits file {path} cannot be read ({exc.__class__.__name__}); give a TOML file") from None
     except tomllib.TOMLDecodeError as exc:
         raise RobotModelError(f"limits file {path} is not valid TOML: {exc}") from None
     return limits_from_dict(doc, joint_names, where=str(path))
@@ -98,24 +107,26 @@ def limits_from_dict(doc: dict, joint_names: tuple[str, ...], where: str = "limi
         if name not in joint_names:
             raise RobotModelError(f"{where}: joints[{k}] names '{name}', not a joint of the robot {list(joint_names)}")
         by_name[name] = j
-    values: dict[str, list] = {key: [] for key in _KEYS}
+    values: dict[str, list] = {key: [] for key in (*_KEYS, "armature")}
     sources = {}
     for name in joint_names:
         if name not in by_name:
             raise RobotModelError(f"{where}: no [[joints]] entry for joint '{name}'")
         j = by_name[name]
-        for key in _KEYS:
+        for key in (*_KEYS, "armature"):
             v = j.get(key)
-            if v is None and key != "acceleration":
+            if v is None and key not in ("acceleration", "armature"):
                 raise RobotModelError(f"{where}: joint '{name}' has no '{key}' limit; add it")
             if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
                 raise RobotModelError(f"{where}: joint '{name}' {key} = {v!r} is not a number")
             values[key].append(v)
         sources[name] = dict(j.get("sources", {}))
-    acc = values["acceleration"]
-    if any(a is None for a in acc) and not all(a is None for a in acc):
-        missing = [n for n, a in zip(joint_names, acc) if a is None]
-        raise RobotModelError(f"{where}: acceleration given for some joints but not for {missing}; give all or none")
+    for key in ("acceleration", "armature"):
+        given = values[key]
+        if any(a is None for a in given) and not all(a is None for a in given):
+            missing = [n for n, a in zip(joint_names, given) if a is None]
+            raise RobotModelError(f"{where}: {key} given for some joints but not for {missing}; give all or none")
+    acc, arm = values["acceleration"], values["armature"]
     return JointLimits(
         names=tuple(joint_names),
         lower=values["lower"],
@@ -124,6 +135,7 @@ def limits_from_dict(doc: dict, joint_names: tuple[str, ...], where: str = "limi
         torque=values["torque"],
         acceleration=None if acc[0] is None else acc,
         sources=sources,
+        armature=None if arm[0] is None else arm,
     )
 
 

@@ -73,7 +73,8 @@ class Robot:
     """An arm: URDF text, limits, payload, tool, and the flange frame they attach to.
 
     Build with :func:`load_robot`. ``model`` is the Pinocchio model with the payload merged into
-    the last link and a ``"tcp"`` frame; ``n`` is the number of joints.
+    the last link, a ``"tcp"`` frame and, when the limits give one, the drives' armature
+    (``model.armature``, reflected rotor inertia [kg m^2]); ``n`` is the number of joints.
     """
 
     name: str
@@ -100,6 +101,8 @@ class Robot:
         model.addFrame(pin.Frame(TCP_FRAME, frame.parentJoint, fid, frame.placement * self.tool.se3,
                                  pin.FrameType.OP_FRAME))
         model.gravity.linear = np.asarray(self.gravity, float)
+        if self.limits.armature is not None:  # reflected rotor inertias (crba, rnea and aba include them)
+            model.armature = np.asarray(self.limits.armature, float).copy()
         return model
 
     @cached_property
