@@ -116,14 +116,21 @@ ORBITAL_DAMPING = 1.0
 #: and the joint speed along the path [rad/s] below which its weight stops growing.
 ORBITAL_SPEED_RATE = 20.0
 ORBITAL_MIN_SPEED = 0.05
-#: Open paths: planned time-to-go [s] below which the orbital controller plays the rest of the
-#: plan on the clock and then holds the final configuration.
-TERMINAL_TIME_TO_GO = 0.04
+#: Orbital controller: rate [rad/s] of the integral action on the transverse error (closed-loop pole of
+#: the integrator; 0 turns it off). Rejects constant unmodelled torques such as a payload's gravity.
+ORBITAL_INTEGRAL_RATE = 20.0
+#: Orbital controller: planned time [s] by which the clock play is widened on each side of a slow stretch
+#: (planned joint speed below ORBITAL_MIN_SPEED: stops, ends of open paths). Near a stop the speed channel's
+#: authority (about speed_rate x planned joint speed / 2 in joint acceleration) falls below what friction and
+#: model error take: with 40 ms a realistic plant (Realism.realistic) stalled short of the end of a clamped
+#: spline; 0.1 s brings the clock play in first.
+TERMINAL_TIME_TO_GO = 0.1
 #: Points of the controller's path table (quintic Hermite in theta, breaks added) [-].
 PATH_TABLE_POINTS = 2001
-#: Path projection: Gauss-Newton iterations per sample [-], step tolerance [unit theta, relative
-#: to the path length] and largest step per iteration [fraction of the path length].
-PROJECTION_ITERATIONS = 4
+#: Path projection: most Newton iterations per sample [-] (it stops at the step tolerance, usually after
+#: one or two), step tolerance [unit theta, relative to the path length] and largest step per iteration
+#: [fraction of the path length].
+PROJECTION_ITERATIONS = 6
 PROJECTION_TOLERANCE = 1e-10
 PROJECTION_MAX_STEP = 0.02
 #: Riccati equation: relative tolerance of the ODE solver and of the periodic fixed point [-],
@@ -156,12 +163,11 @@ REALISTIC_PAYLOAD_COM = (0.0, 0.0, 0.1)
 #: Realistic-plant preset: principal moments of inertia of the unmodelled payload about its centre of
 #: mass [kg m^2]: a point mass, as in the IRB140 torque estimates (6 kg, 0.1 m beyond the flange).
 REALISTIC_PAYLOAD_INERTIA = (0.0, 0.0, 0.0)
-#: Realistic-plant preset friction: axes 1-3 only. The built-in URDF has no rotor (armature) inertia,
-#: so the wrist inertias are 1e-5..1e-2 kg m^2 and any realistic wrist friction would both dominate
-#: the wrist dynamics and make the ODE stiff; give wrist friction explicitly with a robot model that
-#: includes the reflected rotor inertia.
-REALISTIC_VISCOUS_FRICTION = (2.0, 2.0, 1.5, 0.0, 0.0, 0.0)
-REALISTIC_COULOMB_FRICTION = (3.0, 3.0, 2.0, 0.0, 0.0, 0.0)
+#: Realistic-plant preset friction, joint side. Wrist axes: the PUMA 560's motor-side figures times the gear
+#: ratio squared (viscous) and times the ratio (Coulomb), 0.4 N m s/rad and 0.8 N m (Corke and
+#: Armstrong-Helouvry 1994, in Corke's Robotics Toolbox mdl_puma560); axes 1-3 a few times larger.
+REALISTIC_VISCOUS_FRICTION = (2.0, 2.0, 1.5, 0.4, 0.4, 0.3)
+REALISTIC_COULOMB_FRICTION = (3.0, 3.0, 2.0, 0.8, 0.8, 0.5)
 COULOMB_SMOOTHING_SPEED = 0.05
 REALISTIC_ENCODER_RESOLUTION = 6.0e-8
 REALISTIC_POSITION_NOISE = 1.0e-5

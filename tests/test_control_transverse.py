@@ -14,6 +14,7 @@ from scipy.linalg import solve_continuous_are
 
 from pathmotion.control import (OrbitalDesign, OrbitalGains, PathTable, ProfileLookup, TransverseBasis, lqr_weights,
                                 project, solve_riccati, transverse_linearization, transverse_state)
+from pathmotion.control.orbital import with_integral
 from pathmotion.joint_path import JointPath, SplineJointPath
 from pathmotion.planning.profile import Profile
 
@@ -147,20 +148,38 @@ def test_riccati_differential_equation_converges_to_the_algebraic_solution():
     assert np.allclose(p[-1], 0.0)
 
 
-def test_orbital_gains_on_a_straight_line_equal_the_lqr_of_the_double_integrator():
+@pytest.mark.parametrize("integral_rate", [0.0, 20.0])
+def test_orbital_gains_on_a_straight_line_place_the_chain_poles(integral_rate):
+    """On a line at constant speed the transverse system is LTI and decoupled: per direction a double integrator
+    (or a triple one with the integral state). The Riccati solution must be the algebraic one, and the gains
+    those of the characteristic polynomial (s + w_i)(s^2 + 2 zeta w s + w^2) expanded by hand:
+    k_xi = w_i w^2, k_z = w^2 + 2 zeta w w_i, k_zdot = w_i + 2 zeta w."""
     path = LinePath(n=6, domain=(0.0, 1.0), q0=np.zeros(6), d=np.array([0.5, -0.3, 0.2, 0.4, 0.1, -0.6]))
     profile = Profile(np.linspace(0, 1, 5), np.full(5, 0.25))  # constant theta_dot: a constant LTI system
-    gains = OrbitalGains()
+    gains = OrbitalGains(integral_rate=integral_rate)
     design = OrbitalDesign.build(PathTable.from_path(path, 201), profile, gains)
     mid = len(design.theta) // 2
     _, dphi, _ = path.evaluate(design.theta[mid:mid + 1])
     q, r = lqr_weights(gains, dphi, np.array([0.25]))
     table = design.table
-    a, b = transverse_linearization(table, design.basis, design.profile, design.theta[mid - 1:mid + 2])
+    a, b = with_integral(*transverse_linearization(table, design.basis, design.profile,
+                                                   design.theta[mid - 1:mid + 2]), 6 if integral_rate else 0)
     care = solve_continuous_are(a[1], b[1], q[0], r)
     assert np.allclose(design.riccati[mid], care, rtol=1e-4, atol=1e-6 * np.abs(care).max())
-    # z part: K = [w^2 I, 2 zeta w I] in the transverse directions
     k = design.gain[mid]
     e = design.basis.frames(dphi, np.zeros_like(dphi))[0][0]
-    assert np.allclose(e.T @ k[:, :5], gains.bandwidth**2 * np.eye(5), rtol=1e-4, atol=1e-3)
-    assert np.allclose(e.T @ k[:, 5:10], 2 * gains.damping * gains.bandwidth * np.eye(5), rtol=1e-4, atol=1e-3)
+    w, wi, zeta = gains.bandwidth, integral_rate, gains.damping
+    # columns: (xi_z (5), xi_I) with integral action, then z (5), z_dot (5), I
+    start = [0, 6, 11] if integral_rate else [0, 5]
+    expected = ([wi * w * w] if integral_rate else []) + [w * w + 2 * zeta * w * wi, wi + 2 * zeta * w]
+    for c, kj in zip(start, expected):
+        assert np.allclose(e.T @ k[:, c:c + 5], kj * np.eye(5), rtol=1e-4, atol=1e-3 * kj), c
+    assert np.allclose(gains.clock_gains, (expected[-2], expected[-1], wi * w * w))
+    # closed loop: per transverse direction (s + w_i)(s^2 + 2 zeta w s + w^2); the speed chain (I, xi_I)
+    # (s + lambda)(s + lambda_i). Compared as characteristic polynomials (zeta = 1 repeats roots).
+    lam = gains.speed_rate
+    chain = np.polymul([1, wi], [1, 2 * zeta * w, w * w]) if integral_rate else np.array([1, 2 * zeta * w, w * w])
+    want = np.polymul(np.polymul(*[chain] * 2), np.polymul(*[chain] * 2))
+    want = np.polymul(np.polymul(want, chain), np.polymul([1, lam], [1, wi]) if integral_rate else [1, lam])
+    got = np.poly(a[1] - b[1] @ k)
+    assert np.allclose(got, want, rtol=1e-3)

@@ -26,6 +26,10 @@ class OrbitalGains:
     which that weight stops growing and (open paths) the plan is played on the clock, as near stops;
     terminal_time_to_go [s]: open paths, how much longer (planned time) the clock play lasts on each
     side of such a slow stretch; at the end of the path the final configuration is then held.
+    integral_rate [rad/s]: integral action on z (0: none). The transverse state is augmented with
+    xi = int z dt and weighted so that a decoupled triple integrator closes with the poles
+    (s + integral_rate)(s^2 + 2 zeta w s + w^2): a constant unmodelled torque (payload gravity)
+    leaves no steady transverse error. The clock play near stops uses the same poles on the joint error.
     """
 
     bandwidth: float = defaults.ORBITAL_BANDWIDTH
@@ -33,12 +37,15 @@ class OrbitalGains:
     speed_rate: float = defaults.ORBITAL_SPEED_RATE
     min_speed: float = defaults.ORBITAL_MIN_SPEED
     terminal_time_to_go: float = defaults.TERMINAL_TIME_TO_GO
+    integral_rate: float = defaults.ORBITAL_INTEGRAL_RATE
 
     def __post_init__(self):
         _check_positive("OrbitalGains", bandwidth=self.bandwidth, damping=self.damping,
                         speed_rate=self.speed_rate, min_speed=self.min_speed)
         if self.damping < 2**-0.5:
             raise SimulationError(f"OrbitalGains.damping = {self.damping:g}; the LQR form needs damping >= 0.7072")
+        if not (isinstance(self.integral_rate, (int, float)) and self.integral_rate >= 0):
+            raise SimulationError(f"OrbitalGains.integral_rate = {self.integral_rate!r}; give a rate >= 0 rad/s (0: off)")
         if not self.terminal_time_to_go >= 0:
             raise SimulationError(f"OrbitalGains.terminal_time_to_go = {self.terminal_time_to_go!r}; give a time >= 0 s")
 
@@ -51,6 +58,22 @@ class OrbitalGains:
     def velocity_gain(self) -> float:
         """2 zeta w [1/s]."""
         return 2.0 * self.damping * self.bandwidth
+
+    @property
+    def chain_weights(self) -> tuple[float, float, float]:
+        """LQR weights (q_xi, q_z, q_zdot) with R = 1 that close a triple integrator with the poles
+        (s + w_i)(s^2 + 2 zeta w s + w^2) (w_i = integral_rate; for w_i = 0 the double integrator's
+        (w^4, 2 w^2 (2 zeta^2 - 1)) and q_xi = 0). From the return-difference identity
+        Delta(s) Delta(-s) = -s^6 + q_zdot s^4 - q_z s^2 + q_xi."""
+        w, wi, c = self.bandwidth, self.integral_rate, 2.0 * self.damping**2 - 1.0
+        return wi**2 * w**4, w**4 + 2.0 * wi**2 * w**2 * c, wi**2 + 2.0 * w**2 * c
+
+    @property
+    def clock_gains(self) -> tuple[float, float, float]:
+        """(kp [1/s^2], kd [1/s], ki [1/s^3]) of the clock play: v = a_ref - kd e' - kp e - ki int e, the
+        characteristic polynomial (s + w_i)(s^2 + 2 zeta w s + w^2) of the orbital law's z-chain."""
+        w, wi, zeta = self.bandwidth, self.integral_rate, self.damping
+        return w * w + 2.0 * zeta * w * wi, wi + 2.0 * zeta * w, wi * w * w
 
 
 @dataclass(frozen=True)

@@ -3,14 +3,16 @@ Freidovich, Gusev 2010), for a fully actuated arm with a computed-torque inner l
 
 Per sample (docs/control.md has the equations):
 
-1. project the measured q onto the path near the previous theta -> theta, theta_dot, x_perp = (z, z_dot, I);
+1. project the measured q onto the path near the previous theta -> theta, theta_dot, x_perp = (xi, z, z_dot, I)
+   (xi = int z dt, the integral action, when ``OrbitalGains.integral_rate`` > 0);
 2. v = v*(theta_m) - K(theta) x_perp, v* = Phi' u* + Phi'' x*, evaluated at theta_m = theta + theta_dot Ts/2
    (the middle of the coming hold interval), K from the Riccati equation of the transverse linearization;
 3. tau = M(q) v + C(q, qd) qd + G(q) with the nominal model.
 
-The clock never enters steps 1-3. On an open path, once the planned time-to-go from the projected theta is
-below ``OrbitalGains.terminal_time_to_go``, the rest of the plan is played on the clock (computed torque
-with the same bandwidth) and the final configuration is then held.
+Steps 1-2 are one compiled call (:mod:`.orbital_law`). The clock never enters steps 1-3. Near stops (open
+paths: the ends, kinks) the plan is played on the clock with the same closed-loop poles (and integral
+action on the joint error), and the final configuration is then held; the integral state is carried
+across the switches (xi = E^T xi_q one way, xi_q = E xi the other).
 """
 
 from __future__ import annotations
@@ -26,29 +28,58 @@ from ..planning.profile import Profile
 from ..robot import Robot
 from .gains import OrbitalGains
 from .laws import computed_torque
+from .orbital_law import clock_command, orbital_command
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
 from .riccati import solve_riccati
-from .transverse import TransverseBasis, TransverseState, transverse_linearization, transverse_state
+from .transverse import TransverseBasis, transverse_linearization
+
+
+def integral_size(gains: OrbitalGains, n: int) -> int:
+    """Number of integral states xi = (int z dt (n-1), int I dt (1)): n with integral action, else 0."""
+    return n if gains.integral_rate > 0 else 0
 
 
 def lqr_weights(gains: OrbitalGains, dphi: np.ndarray, x_star: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Q (N, 2n-1, 2n-1) and R (n, n) along the path from Phi' (N, n) and x* (N,).
+    """Q (N, d, d) and R (n, n) along the path from Phi' (N, n) and x* (N,); d = 2n - 1, or 3n - 1 with
+    integral action (state (xi_z, xi_I, z, z_dot, I), xi_z = int z dt, xi_I = int I dt).
 
-    Q = diag(w^4 I, 2 w^2 (2 zeta^2 - 1) I, q_I),  q_I = lambda^2 |Phi'|^4 / (4 max(|Phi'|^2 x*, v_min^2)),
-    R = I: I weighted as the joint speed error along the path it means, |Phi'|^2 I / (2 |q_dot*|).
+    Q = diag(q_xi I, q_xiI, q_z I, q_zdot I, q_I) with (q_xi, q_z, q_zdot) = ``gains.chain_weights``,
+    q_I = (lambda^2 + lambda_i^2) / b^2, q_xiI = lambda^2 lambda_i^2 / b^2, 1 / b^2 = |Phi'|^4 / (4 max(|Phi'|^2 x*,
+    v_min^2)), R = I: I weighted as the joint speed error along the path it means, |Phi'|^2 I / (2 |q_dot*|);
+    lambda = speed_rate, lambda_i = integral_rate: the scalar chain I_dot = b u closes with (s + lambda)(s + lambda_i).
     """
     big, n = dphi.shape
     m = n - 1
-    w, zeta = gains.bandwidth, gains.damping
+    ni = integral_size(gains, n)
+    q_xi, q_z, q_zd = gains.chain_weights
     speed2 = np.sum(dphi * dphi, axis=1)
-    q_i = gains.speed_rate**2 * speed2**2 / (4.0 * np.maximum(speed2 * x_star, gains.min_speed**2))
-    diag = np.concatenate([np.full((big, m), w**4), np.full((big, m), 2.0 * w**2 * (2.0 * zeta**2 - 1.0)),
-                           q_i[:, None]], axis=1)
-    q = np.zeros((big, 2 * m + 1, 2 * m + 1))
-    idx = np.arange(2 * m + 1)
+    inv_b2 = speed2**2 / (4.0 * np.maximum(speed2 * x_star, gains.min_speed**2))
+    lam, lam_i = gains.speed_rate, gains.integral_rate
+    q_i = (lam**2 + lam_i**2) * inv_b2
+    xi_cols = [np.full((big, m), q_xi), (lam * lam_i) ** 2 * inv_b2[:, None]] if ni else []
+    diag = np.concatenate([*xi_cols, np.full((big, m), q_z), np.full((big, m), q_zd), q_i[:, None]], axis=1)
+    d = ni + 2 * m + 1
+    q = np.zeros((big, d, d))
+    idx = np.arange(d)
     q[:, idx, idx] = diag
     return q, np.eye(n)
+
+
+def with_integral(a: np.ndarray, b: np.ndarray, ni: int) -> tuple[np.ndarray, np.ndarray]:
+    """The transverse linearization (a (N, d, d), b (N, d, n), state (z, z_dot, I)) augmented with ``ni``
+    (0 or n) integral states xi_z' = z, xi_I' = I: state (xi_z, xi_I, z, z_dot, I)."""
+    if ni == 0:
+        return a, b
+    big, d, n = b.shape
+    m = n - 1
+    aa = np.zeros((big, d + ni, d + ni))
+    aa[:, ni:, ni:] = a
+    aa[:, np.arange(m), ni + np.arange(m)] = 1.0
+    aa[:, m, -1] = 1.0
+    bb = np.zeros((big, d + ni, n))
+    bb[:, ni:, :] = b
+    return aa, bb
 
 
 def clock_zones(times: np.ndarray, joint_speed: np.ndarray, min_speed: float,
@@ -128,22 +159,26 @@ class OrbitalDesign:
                 f"{gains.terminal_time_to_go:g} s of a stop; lower OrbitalGains.terminal_time_to_go"
             )
         m = table.n - 1
-        d = 2 * m + 1
+        ni = integral_size(gains, table.n)
+        d = ni + 2 * m + 1
         gain = np.zeros((len(theta), table.n, d))
         riccati = np.zeros((len(theta), d, d))
         active = np.concatenate([np.arange(i0, i1) for i0, i1 in segments])
         basis = TransverseBasis.for_table(table, theta[active])
         for i0, i1 in segments:
             sl = slice(i0, i1)
-            a, b = transverse_linearization(table, basis, lookup, theta[sl])
+            a, b = with_integral(*transverse_linearization(table, basis, lookup, theta[sl]), ni)
             _, dphi, _ = table.evaluate(theta[sl])
             x_star = np.array([lookup.state(t)[0] for t in theta[sl]])
             q, r = lqr_weights(gains, dphi, x_star)
-            zz = slice(0, 2 * m)
+            # (xi_z, z, z_dot): the algebraic Riccati solution at the end; zero on I and xi_I (open paths)
+            zz = np.concatenate([np.arange(min(ni, m)), ni + np.arange(2 * m)])
             p_end = np.zeros((d, d))
-            p_end[zz, zz] = solve_continuous_are(a[-1][zz, zz], b[-1][zz], q[-1][zz, zz], r)
-            if table.closed:
+            p_end[np.ix_(zz, zz)] = solve_continuous_are(a[-1][np.ix_(zz, zz)], b[-1][zz], q[-1][np.ix_(zz, zz)], r)
+            if table.closed:  # a start for the periodic iteration
                 p_end[-1, -1] = q[-1][-1, -1] / max(gains.speed_rate, 1.0)
+                if ni:
+                    p_end[m, m] = q[-1][m, m] / max(gains.integral_rate, 1.0)
             riccati[sl] = solve_riccati(times[sl], a, b, q, r, p_end, periodic=table.closed)
             gain[sl] = np.linalg.solve(r, np.transpose(b, (0, 2, 1))) @ riccati[sl]  # R^-1 B^T P
         # outside the segments: hold the nearest segment-end gain (used only at zone edges)
@@ -179,7 +214,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 class OrbitalController:
-    """Running orbital controller (stateful: the previous theta and the clock zone it is in).
+    """Running orbital controller (stateful: theta, the integral states and the clock zone it is in).
 
     Build a new one for every run. ``__call__(t, q, qd) -> tau`` with q, qd (n,) measured, tau (n,) [N m].
     """
@@ -187,21 +222,37 @@ class OrbitalController:
     name = "orbital"
 
     def __init__(self, design: OrbitalDesign, robot: Robot, sample_time: float = defaults.SAMPLE_TIME):
+        d = design
         self.design = design
         self.model = robot.model
         self.data = robot.model.createData()
         self.sample_time = float(sample_time)
-        self.theta = design.table.domain[0]
-        self.theta_dot = float(np.sqrt(design.profile.state(self.theta)[0]))
+        self.theta = d.table.domain[0]
+        self.theta_dot = float(np.sqrt(d.profile.state(self.theta)[0]))
+        n = d.table.n
+        self.xi = np.zeros(integral_size(d.gains, n))  # (int z dt, int I dt) in orbital mode
+        self.xi_q = np.zeros(n)  # integral of q - q_ref (clock play)
+        self.x_perp = np.zeros(d.gain.shape[2])
+        self.v = np.zeros(n)
+        p = d.profile.profile
+        self._profile = (np.ascontiguousarray(p.times, float), np.ascontiguousarray(p.grid, float),
+                         np.ascontiguousarray(p.x, float), np.ascontiguousarray(p.u, float))
+        t = d.table
+        self._projection = (defaults.PROJECTION_ITERATIONS, defaults.PROJECTION_TOLERANCE * t.length,
+                            defaults.PROJECTION_MAX_STEP * t.length)
+        self._clock_gains = d.gains.clock_gains
+        # zones are entered by theta: t*(theta) is increasing, so zone i starts at theta*(start of zone i)
+        self._zone_theta = np.asarray([float(p.state_at_time(z0)[0]) for z0, _ in d.zones])
         zone = design.zone_at(0.0)
         # clock play: (zone index, clock time at entry, planned time at entry); zones are passed in order
         # and never re-entered, so measurement noise near a stop cannot restart the clock
         self.clock: tuple | None = None if zone is None else (zone, 0.0, 0.0)
         self.next_zone = 0 if zone is None else zone + 1
-        self.last: TransverseState | None = None
 
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         d = self.design
+        q = np.ascontiguousarray(q, dtype=float)
+        qd = np.ascontiguousarray(qd, dtype=float)
         if self.clock is not None:
             zone, t0, plan0 = self.clock
             z1 = d.zones[zone][1]
@@ -210,34 +261,47 @@ class OrbitalController:
                 return self._play(t_ref, q, qd)
             th, thd, _ = d.profile.profile.state_at_time(t_ref)  # leave the zone: back to orbital
             self.theta, self.theta_dot, self.clock = float(th), float(thd), None
-        guess = d.table.next_guess(self.theta, self.theta_dot, self.sample_time)
-        st = transverse_state(d.table, d.basis, d.profile, q, qd, guess)
-        self.theta, self.theta_dot, self.last = st.theta, st.theta_dot, st
-        if self.next_zone < len(d.zones):
-            plan = d.profile.time(st.theta)
+            self._integral_to_transverse()
+        table = d.table
+        guess = table.next_guess(self.theta, self.theta_dot, self.sample_time)
+        if self.next_zone < len(d.zones) and guess + self._projection[2] >= self._zone_theta[self.next_zone]:
+            theta, _ = table.project(q, guess, *self._projection)
+            plan = d.profile.time(theta)
             zone = d.zone_at(plan, self.next_zone)
             if zone is not None:
+                self.theta = theta
                 self.clock, self.next_zone = (zone, t, plan), zone + 1
+                self._integral_to_joints(theta)
                 return self._play(plan, q, qd)
-        theta_m = st.theta + 0.5 * self.sample_time * st.theta_dot
-        if not d.table.closed:
-            theta_m = min(theta_m, d.table.domain[1])
-        _, dphi_m, ddphi_m = d.table.evaluate_scalar(theta_m)
-        x_m, u_m = d.profile.state(theta_m)
-        v = dphi_m * u_m + ddphi_m * x_m - d.gain_at(st.theta) @ st.x_perp
-        return computed_torque(self.model, self.data, q, qd, v)
+        _, _, px, pu = self._profile
+        self.theta, self.theta_dot = orbital_command(
+            table.grid, table.coeffs, table.closed, q, qd, guess, *self._projection, d.basis.k, d.basis.sigma,
+            d.profile.profile.grid, px, pu, d.gain, self.xi, self.sample_time, self.x_perp, self.v)
+        return computed_torque(self.model, self.data, q, qd, self.v)
 
     def _play(self, t_ref: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """Computed-torque tracking of the plan at planned time t_ref (after its end: hold Phi(theta_end))."""
+        """Tracking of the plan at planned time t_ref (after its end: hold Phi(theta_end)) with the orbital
+        law's closed-loop poles and integral action on the joint error."""
         d = self.design
-        half = 0.5 * self.sample_time
-        th, thd, thdd = d.profile.profile.state_at_time([t_ref, t_ref + half])
-        phi, dphi, _ = d.table.evaluate_scalar(float(th[0]))
-        _, dphi_m, ddphi_m = d.table.evaluate_scalar(float(th[1]))
-        qd_ref = dphi * thd[0]
-        qdd_ff = dphi_m * thdd[1] + ddphi_m * thd[1] ** 2
-        if t_ref + half >= d.profile.duration:
-            qdd_ff = np.zeros_like(qdd_ff)
-        g = d.gains
-        v = qdd_ff + g.velocity_gain * (qd_ref - qd) + g.stiffness * (phi - q)
-        return computed_torque(self.model, self.data, q, qd, v)
+        times, grid, px, pu = self._profile
+        kp, kd, ki = self._clock_gains
+        clock_command(d.table.grid, d.table.coeffs, d.table.closed, times, grid, px, pu, t_ref, self.sample_time,
+                      q, qd, kp, kd, ki, self.xi_q, self.v)
+        return computed_torque(self.model, self.data, q, qd, self.v)
+
+    def _frame(self, theta: float) -> np.ndarray:
+        """E(theta) (n, n-1)."""
+        _, dphi, ddphi = self.design.table.evaluate_scalar(theta)
+        return self.design.basis.frames(dphi[None], ddphi[None])[0][0]
+
+    def _integral_to_joints(self, theta: float) -> None:
+        """Entering the clock play: the transverse integral as a joint-space one, xi_q = E xi_z."""
+        if len(self.xi):
+            self.xi_q[:] = self._frame(theta) @ self.xi[:-1]
+
+    def _integral_to_transverse(self) -> None:
+        """Back to orbital mode: xi_z = E^T xi_q; the speed integral restarts (the clock play held the
+        along-path error itself)."""
+        if len(self.xi):
+            self.xi[:-1] = self._frame(self.theta).T @ self.xi_q
+            self.xi[-1] = 0.0

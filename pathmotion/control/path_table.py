@@ -13,7 +13,7 @@ Shapes: theta () or (N,); Phi, Phi', Phi'' (n,) or (N, n).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numba
@@ -107,7 +107,8 @@ class PathTable:
     """Tabulated q = Phi(theta).
 
     grid (M,) theta values; coeffs (M-1, 6, n) quintic coefficients in s = (theta - grid[i]) / h_i;
-    domain, closed as the path's. Build with :meth:`from_path`.
+    domain, closed as the path's; kinks (K,) the path's kinks (theta where Phi' jumps). Build with
+    :meth:`from_path`.
     """
 
     grid: np.ndarray
@@ -115,6 +116,7 @@ class PathTable:
     domain: tuple[float, float]
     closed: bool
     n: int
+    kinks: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @classmethod
     def from_path(cls, path: JointPath, points: int = defaults.PATH_TABLE_POINTS) -> "PathTable":
@@ -138,7 +140,9 @@ class PathTable:
         coeffs = np.einsum("kj,mjn->mkn", _HERMITE5, data)
         if not np.all(np.isfinite(coeffs)):
             raise SimulationError("the joint path returned NaN or inf while tabulating it for the controller")
-        return cls(grid=grid, coeffs=coeffs, domain=(float(lo), float(hi)), closed=bool(path.closed), n=path.n)
+        kinks = np.array(sorted(k for k in path.kinks if lo < k < hi), dtype=float)
+        return cls(grid=grid, coeffs=coeffs, domain=(float(lo), float(hi)), closed=bool(path.closed), n=path.n,
+                   kinks=kinks)
 
     @property
     def length(self) -> float:
