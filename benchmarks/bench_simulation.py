@@ -5,11 +5,15 @@ orbital controller, plant = RK4 with defaults.PLANT_SUBSTEPS sub-steps per sampl
 in the same run: the same applied torque profile (zero-order hold per sample) integrated by a plain
 loop that calls Pinocchio's ABA inside scipy's solve_ivp (RK45, rtol 1e-6, one call per sample, as a
 straightforward closed-loop simulation would do it). Both are printed with their ratio; the target is
->= 20x real time for the closed loop. Run: python benchmarks/bench_simulation.py
+>= 20x real time for the closed loop (controller, monitor, plant and the metrics after the run). Each timing
+is the median of ``repeat`` runs (the machine may be shared), with the load average printed.
+Run: python benchmarks/bench_simulation.py [repeat]
 """
 
 from __future__ import annotations
 
+import os
+import sys
 import time
 
 import numpy as np
@@ -29,17 +33,18 @@ WAYPOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0],
                       [1.4, -0.2, 0.4, 0.1, 0.9, 1.6]])
 
 
-def best_of(fn, repeat):
+def median_of(fn, repeat):
     times = []
     out = None
     for _ in range(repeat):
         t0 = time.perf_counter()
         out = fn()
         times.append(time.perf_counter() - t0)
-    return min(times), out
+    return float(np.median(times)), out
 
 
-def main(repeat: int = 3) -> None:
+def main(repeat: int = 7) -> None:
+    load0 = os.getloadavg()[0]
     robot = load_robot("irb140")
     path = SplineJointPath.from_waypoints(WAYPOINTS)
     v, a = 0.9, 2.0
@@ -47,9 +52,9 @@ def main(repeat: int = 3) -> None:
     profile = Profile(np.array([0.0, ta, 1 - ta, 1.0]), np.array([0.0, v * v, v * v, 0.0]))
     ts = defaults.SAMPLE_TIME
     settings = SimulationSettings(sample_time=ts)
-    t_design, design = best_of(lambda: OrbitalDesign.build(PathTable.from_path(path), profile), repeat)
+    t_design, design = median_of(lambda: OrbitalDesign.build(PathTable.from_path(path), profile), repeat)
     simulate(robot, path, profile, "orbital", settings, design=design)  # warm-up (numba cache, imports)
-    t_sim, result = best_of(lambda: simulate(robot, path, profile, "orbital", settings, design=design), repeat)
+    t_sim, result = median_of(lambda: simulate(robot, path, profile, "orbital", settings, design=design), repeat)
     simulated = result.t[-1] + ts
 
     # plant alone, same torques
@@ -62,7 +67,7 @@ def main(repeat: int = 3) -> None:
             q, qd = plant.step(q, qd, tau, ts, settings.substeps)
         return q
 
-    t_plant, q_own = best_of(own_plant, repeat)
+    t_plant, q_own = median_of(own_plant, repeat)
 
     model, data = robot.model, robot.model.createData()
     n = robot.n
@@ -75,8 +80,9 @@ def main(repeat: int = 3) -> None:
             x = sol.y[:, -1]
         return x[:n]
 
-    t_peer, q_peer = best_of(peer, repeat)
+    t_peer, q_peer = median_of(peer, repeat)
     rtf_sim, rtf_plant, rtf_peer = simulated / t_sim, simulated / t_plant, simulated / t_peer
+    print(f"load average (1 min) before / after  {load0:.2f} / {os.getloadavg()[0]:.2f} (2 cores)")
     print(f"simulated time                              {simulated:8.3f} s ({len(result.t)} samples of {ts * 1e3:g} ms)")
     print(f"orbital design (table + Riccati), once      {t_design * 1e3:8.1f} ms")
     print(f"closed loop (controller + plant + metrics)  {t_sim * 1e3:8.1f} ms  -> {rtf_sim:6.1f} x real time")
@@ -89,4 +95,4 @@ def main(repeat: int = 3) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 7)

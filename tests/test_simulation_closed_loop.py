@@ -96,8 +96,8 @@ def test_baselines_track_the_same_plan(irb140, spline, profile, controller):
 
 def test_tracking_is_the_same_at_2_4_8_16_ms(irb140, spline, profile, design):
     """theta is one coordinate over the whole path, so no knot (segment change) can be skipped at any
-    sample time. Expected degradation: the torque is held for one sample, so the deviation grows at most
-    linearly with the sample time: max_dev(Ts) <= 1.5 max_dev(2 ms) Ts / 2 ms; durations within 1 %."""
+    sample time. Expected degradation: the torque is held for one sample, so the deviation grows with the
+    sample time; up to 8 ms it stays within the thesis' 2e-4 rad, at 16 ms within 1e-3 rad; durations within 1 %."""
     devs = {}
     for ts in (0.002, 0.004, 0.008, 0.016):
         r = simulate(irb140, spline, profile, "orbital", SimulationSettings(sample_time=ts), design=design)
@@ -108,8 +108,9 @@ def test_tracking_is_the_same_at_2_4_8_16_ms(irb140, spline, profile, design):
         assert np.all(np.diff(r.theta) >= -1e-9)
         assert np.all([np.any(r.theta < k) and np.any(r.theta > k) for k in knots])
         devs[ts] = s["max_joint_deviation_rad"]
-    for ts, dev in devs.items():
-        assert dev <= 1.5 * devs[0.002] * ts / 0.002, devs
+    values = [devs[ts] for ts in sorted(devs)]
+    assert np.all(np.diff(values) > 0), devs
+    assert max(devs[0.002], devs[0.004], devs[0.008]) <= THESIS_MAX_DEVIATION, devs
     assert devs[0.016] <= 1e-3
 
 
@@ -131,20 +132,10 @@ def test_realistic_plant_orbital_beats_pd_gravity(irb140, spline, profile, desig
     robot = irb140.with_payload(Payload(6.0, (0.0, 0.0, 0.1)))
     settings = SimulationSettings(realism=Realism.realistic(seed=1, payload_mass=0.0))
     res = {c: simulate(robot, spline, profile, c, settings).summary() for c in CONTROLLERS}
-    assert res["orbital"]["tracking_ok"]
+    assert res["orbital"]["tracking_ok"] and res["computed_torque"]["tracking_ok"]
     assert res["orbital"]["max_joint_deviation_rad"] < res["pd_gravity"]["max_joint_deviation_rad"]
+    assert res["orbital"]["max_joint_deviation_rad"] < res["computed_torque"]["max_joint_deviation_rad"]
     assert res["orbital"]["max_path_deviation_m"] < res["pd_gravity"]["max_path_deviation_m"]
-
-
-def test_unmodelled_6kg_payload_is_reported_not_raised(irb140, spline, profile, design):
-    """The built-in model's wrist inertias (no rotor inertia, 1e-5..8e-3 kg m^2) are far below a 6 kg
-    payload's (0.06..0.17 kg m^2 about axes 4-5) and its gravity torque (~10 N m) exceeds what any of the
-    three loops' stiffness at 40 rad/s holds within the 0.05 rad threshold: every controller fails, as a result."""
-    settings = SimulationSettings(realism=Realism.realistic(seed=1))
-    for c in CONTROLLERS:
-        s = simulate(irb140, spline, profile, c, settings, design=design if c == "orbital" else None).summary()
-        assert not s["tracking_ok"]
-        assert s["failure"]["reason"] == "deviation" and s["failure"]["t"] < 0.5
 
 
 def test_realism_is_deterministic(irb140, spline, profile, design):

@@ -72,7 +72,8 @@ def test_friction_dissipates_and_saturation_clips(irb140):
 
 
 def test_stiff_friction_is_refused_with_a_fix(irb140):
-    plant = Plant.from_robot(irb140, Realism(coulomb_friction=0.5, coulomb_smoothing=0.01))
+    # 5 N m / 0.01 rad/s on joint 6's ~0.1 kg m^2 (mostly armature) decays in 0.2 ms < the 1 ms RK4 step
+    plant = Plant.from_robot(irb140, Realism(coulomb_friction=5.0, coulomb_smoothing=0.01))
     with pytest.raises(SimulationError, match="joint_6.*substeps"):
         plant.check_step(Q0, 0.004, 4)
 
@@ -107,3 +108,26 @@ def test_sensor_is_seeded_and_quantizes():
     assert np.allclose(qa, [0.123, -0.5])
     assert not np.array_equal(qda, qd)
     assert np.array_equal(Sensor(Realism()).measure(q, qd)[0], q)
+
+
+def test_armature_is_in_the_mass_matrix_inverse_and_forward_dynamics(irb140):
+    """The limits file's armature (reflected rotor inertia) enters crba, rnea and aba: against the same model
+    without it, M grows by diag(armature) exactly, RNEA(q, 0, qdd) - RNEA(q, 0, 0) = (M0 + diag(armature)) qdd,
+    and ABA inverts RNEA."""
+    arm = np.asarray(irb140.limits.armature)
+    assert arm.shape == (6,) and np.all(arm > 0) and irb140.limits.sources["joint_1"]["armature"] == "estimate"
+    bare = pin.Model(irb140.model)
+    bare.armature = np.zeros(6)
+    bd, d = bare.createData(), irb140.model.createData()
+    m0 = mass_matrix(replace(irb140, limits=replace(irb140.limits, armature=None)), Q0)
+    assert np.allclose(m0, np.triu(pin.crba(bare, bd, Q0)) + np.triu(pin.crba(bare, bd, Q0), 1).T)
+    m = mass_matrix(irb140, Q0)
+    assert np.allclose(m - m0, np.diag(arm), atol=1e-12)
+    qdd = np.array([1.0, -2.0, 0.5, 3.0, -1.0, 2.0])
+    zero = np.zeros(6)
+    lhs = pin.rnea(irb140.model, d, Q0, zero, qdd) - pin.rnea(irb140.model, d, Q0, zero, zero)
+    assert np.allclose(lhs, (m0 + np.diag(arm)) @ qdd, atol=1e-10)
+    tau = pin.rnea(irb140.model, d, Q0, QD0, qdd)
+    assert np.allclose(pin.aba(irb140.model, d, Q0, QD0, tau), qdd, atol=1e-10)
+    # velocity terms do not involve the armature (rotor gyroscopic effects are neglected, as in Pinocchio)
+    assert np.allclose(pin.rnea(irb140.model, d, Q0, QD0, zero), pin.rnea(bare, bd, Q0, QD0, zero), atol=1e-10)

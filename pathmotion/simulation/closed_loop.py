@@ -31,7 +31,8 @@ from ..planning.profile import Profile
 from ..robot import Robot
 from .metrics import (Failure, SimulationResult, original_path_deviation, polish_projection,
                       tcp_path_deviation)
-from .plant import Plant
+from .monitor import monitor_state
+from .plant import Plant, saturate
 from .realism import Realism, Sensor
 
 
@@ -151,37 +152,41 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     pending = None
     crossed = False
     thr = settings.failure_threshold
+    tol_arrival = settings.arrival_tolerance
+    grid, coeffs, closed, kinks = table.grid, table.coeffs, table.closed, table.kinks
+    projection = (defaults.PROJECTION_ITERATIONS, defaults.PROJECTION_TOLERANCE * length,
+                  defaults.PROJECTION_MAX_STEP * length)
+    speed_eps = 1e-12 * table.speed2_scale
+    torque_limit = plant.torque_limit
     k = 0
     for k in range(count):
         t = k * ts
         # --- monitor the true state ---------------------------------------------------------------
         rec_q[k], rec_qd[k] = q, qd
-        if not ((np.abs(qd) <= speed_limit).all() and math.isfinite(q.sum())):
+        theta, theta_dot, dev, along, speed2, ok = monitor_state(
+            grid, coeffs, closed, kinks, q, qd, table.next_guess(theta, theta_dot, ts), *projection, speed_limit,
+            speed_eps)
+        rec_theta[k] = theta
+        if not ok:
             failure = Failure("diverged", t, theta, f"the state diverged (|qd| above {defaults.DIVERGENCE_SPEED_FACTOR:g}"
                               f" x the velocity limit or NaN) at t = {t:.4g} s, theta = {theta:.6g}")
-            rec_theta[k] = theta
             break
-        theta, (phi, dphi, _) = project(table, q, table.next_guess(theta, theta_dot, ts))
-        rec_theta[k] = theta
-        theta_dot = table.theta_rate(dphi, qd)
-        y = q - phi
         if moving_end and theta >= hi:
             # arrival at a moving end: the robot crosses the normal plane of the end, theta_ext = hi, with
             # theta_ext = theta + Phi'^T y / |Phi'|^2 extending the projection past the end
-            ext = theta + (dphi @ y) / (dphi @ dphi)
+            ext = theta + along
             prev = rec_theta[k - 1] if k else lo
             done_at = float(t - ts + ts * (hi - prev) / (ext - prev)) if ext > prev else t
             crossed = True  # this sample lies past the end: not part of the recorded motion
             break
-        if not path.closed and (theta <= lo or theta >= hi) and dphi @ dphi > 1e-12 * table.speed2_scale:
-            excess = (dphi @ y) / np.sqrt(dphi @ dphi)
+        if not closed and (theta <= lo or theta >= hi) and speed2 > speed_eps:
+            excess = along * np.sqrt(speed2)
             if (theta >= hi and excess > thr) or (theta <= lo and excess < -thr):
                 side = "end" if theta >= hi else "start"
                 failure = Failure("left_path_range", t, theta,
                                   f"the robot left the path past its {side} (theta = {theta:.6g}) by "
                                   f"{abs(excess):.3g} rad at t = {t:.4g} s")
                 break
-        dev = float(np.abs(y).max())
         if dev > thr:
             failure = Failure("deviation", t, theta, f"joint deviation {dev:.3g} rad > {thr:g} rad at t = {t:.4g} s, "
                               f"theta = {theta:.6g}; slow the profile down or raise the gains")
@@ -189,20 +194,20 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         if stop_at is not None and t >= stop_at - 1e-12:
             break
         if done_at is None:
-            if path.closed:
+            if closed:
                 turns = (theta - lo) / length
                 if turns >= laps:
                     prev = (rec_theta[k - 1] - lo) / length
                     done_at = float((t - ts + ts * (laps - prev) / (turns - prev)) / laps)
                     stop_at = t
                     break
-            else:
+            elif theta >= arrival_theta:
                 end_dist = float(np.abs(q - q_end).max())
-                if end_dist <= settings.arrival_tolerance and theta >= arrival_theta:
-                    if prev_end_dist is None or prev_end_dist <= settings.arrival_tolerance:
+                if end_dist <= tol_arrival:
+                    if prev_end_dist is None or prev_end_dist <= tol_arrival:
                         done_at = t
                     else:
-                        done_at = t - ts + ts * (prev_end_dist - settings.arrival_tolerance) / (prev_end_dist - end_dist)
+                        done_at = t - ts + ts * (prev_end_dist - tol_arrival) / (prev_end_dist - end_dist)
                     done_at = float(done_at + planned - plan_arrival)
                     stop_at = t + settings.settle_time
                 prev_end_dist = end_dist
@@ -215,14 +220,15 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         cmd = ctrl(t, q_m, qd_m)
         if delay:
             cmd, pending = (cmd if pending is None else pending), cmd
-        if not math.isfinite(cmd.sum()):
+        rec_cmd[k] = cmd
+        finite, sat = saturate(cmd, torque_limit, rec_tau[k])
+        if not finite:
+            rec_cmd[k], rec_tau[k] = 0.0, 0.0
             failure = Failure("diverged", t, theta, f"the controller returned a non-finite torque at t = {t:.4g} s, "
                               f"theta = {theta:.6g}")
             break
-        tau, sat = plant.saturate(cmd)
         saturated += sat
-        rec_cmd[k], rec_tau[k] = cmd, tau
-        q, qd = plant.step(q, qd, tau, ts, substeps)
+        q, qd = plant.step(q, qd, rec_tau[k], ts, substeps)
     last = k if crossed else k + 1
     if last > 1 and not np.any(rec_cmd[last - 1]):  # no torque was computed at the final sample
         rec_cmd[last - 1], rec_tau[last - 1] = rec_cmd[last - 2], rec_tau[last - 2]

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from ..joint_path import JointPath
@@ -129,23 +130,36 @@ def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
     return np.linalg.norm(points - (a + s[..., None] * ab), axis=-1)
 
 
-def _polyline_distance_local(points: np.ndarray, line: np.ndarray, centre: np.ndarray, window: int,
-                             closed: bool) -> tuple[np.ndarray, np.ndarray]:
+@numba.njit(cache=True)
+def _polyline_distance_local(points, line, centre, window, closed):
     """Distance (K,) and nearest point (K, 3) of points (K, 3) to the polyline line (S+1, 3), over
-    segments centre-window .. centre+window (wrapped on closed polylines)."""
+    segments centre-window .. centre+window (wrapped on closed polylines). Compiled: K x (2 window + 1)
+    point-segment distances without (K, 2 window + 1, 3) temporaries."""
     segs = len(line) - 1
-    offsets = np.arange(-window, window + 1)
-    idx = centre[:, None] + offsets[None, :]
-    idx = idx % segs if closed else np.clip(idx, 0, segs - 1)
-    a, b = line[idx], line[idx + 1]
-    ab = b - a
-    den = np.sum(ab * ab, axis=-1)
-    s = np.clip(np.sum((points[:, None, :] - a) * ab, axis=-1) / np.where(den > 0, den, 1.0), 0.0, 1.0)
-    near = a + s[..., None] * ab
-    dist = np.linalg.norm(points[:, None, :] - near, axis=-1)
-    best = np.argmin(dist, axis=1)
-    rows = np.arange(len(points))
-    return dist[rows, best], near[rows, best]
+    k_count = points.shape[0]
+    dist = np.empty(k_count)
+    near = np.empty((k_count, 3))
+    for k in range(k_count):
+        best = np.inf
+        for off in range(-window, window + 1):
+            i = centre[k] + off
+            i = i % segs if closed else min(max(i, 0), segs - 1)
+            ab0 = line[i + 1, 0] - line[i, 0]
+            ab1 = line[i + 1, 1] - line[i, 1]
+            ab2 = line[i + 1, 2] - line[i, 2]
+            den = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
+            t = 0.0
+            if den > 0:
+                t = ((points[k, 0] - line[i, 0]) * ab0 + (points[k, 1] - line[i, 1]) * ab1
+                     + (points[k, 2] - line[i, 2]) * ab2) / den
+                t = min(max(t, 0.0), 1.0)
+            n0, n1, n2 = line[i, 0] + t * ab0, line[i, 1] + t * ab1, line[i, 2] + t * ab2
+            d = np.sqrt((points[k, 0] - n0) ** 2 + (points[k, 1] - n1) ** 2 + (points[k, 2] - n2) ** 2)
+            if d < best:
+                best = d
+                near[k, 0], near[k, 1], near[k, 2] = n0, n1, n2
+        dist[k] = best
+    return dist, near
 
 
 def tcp_path_deviation(robot: Robot, path: JointPath, q: np.ndarray, theta: np.ndarray,
@@ -164,7 +178,8 @@ def tcp_path_deviation(robot: Robot, path: JointPath, q: np.ndarray, theta: np.n
     th = _wrap(path, theta)
     centre = np.clip(np.searchsorted(grid, th) - 1, 0, points - 2)
     window = max(2, points // 50)
-    dist, near = _polyline_distance_local(tcp, line, centre, window, path.closed)
+    dist, near = _polyline_distance_local(np.ascontiguousarray(tcp), np.ascontiguousarray(line),
+                                          centre.astype(np.int64), window, bool(path.closed))
     return tcp, near, dist
 
 

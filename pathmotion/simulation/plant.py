@@ -22,41 +22,56 @@ from ..robot import Robot
 from .realism import Realism, plant_model
 
 
-# RK4 arithmetic between the ABA calls, compiled: one call per stage instead of four numpy operations
-# (the ABA calls themselves are Pinocchio's C++). Halves the cost of a plant step.
+# RK4 arithmetic between the ABA calls, compiled and in place (no arrays returned to Python): one call per
+# stage instead of four numpy operations (the ABA calls themselves are Pinocchio's C++).
 @numba.njit(cache=True)
-def _stage(q, qd, vs, a, c):
-    """(q + c vs, qd + c a)."""
-    n = q.shape[0]
-    oq = np.empty(n)
-    ov = np.empty(n)
-    for i in range(n):
+def _stage(q, qd, vs, a, c, oq, ov):
+    """oq = q + c vs, ov = qd + c a."""
+    for i in range(q.shape[0]):
         oq[i] = q[i] + c * vs[i]
         ov[i] = qd[i] + c * a[i]
-    return oq, ov
+
+
+@numba.njit(cache=True)
+def _stage_friction(q, qd, vs, a, c, tau, viscous, coulomb, speed, oq, ov, otau):
+    """oq = q + c vs, ov = qd + c a, otau = tau - (F_v ov + F_c tanh(ov / v_c))."""
+    for i in range(q.shape[0]):
+        oq[i] = q[i] + c * vs[i]
+        ov[i] = qd[i] + c * a[i]
+        otau[i] = tau[i] - viscous[i] * ov[i] - coulomb[i] * np.tanh(ov[i] / speed)
 
 
 @numba.njit(cache=True)
 def _combine(q, qd, a1, a2, a3, a4, h):
-    """RK4 update: q + h qd + h^2/6 (a1 + a2 + a3) (= h/6 (qd + 2 v2 + 2 v3 + v4)), qd + h/6 (a1 + 2 a2 + 2 a3 + a4)."""
-    n = q.shape[0]
-    oq = np.empty(n)
-    ov = np.empty(n)
+    """RK4 update in place: q += h qd + h^2/6 (a1 + a2 + a3) (= h/6 (qd + 2 v2 + 2 v3 + v4)),
+    qd += h/6 (a1 + 2 a2 + 2 a3 + a4)."""
     c = h * h / 6.0
-    for i in range(n):
-        oq[i] = q[i] + h * qd[i] + c * (a1[i] + a2[i] + a3[i])
-        ov[i] = qd[i] + h / 6.0 * (a1[i] + a4[i] + 2.0 * (a2[i] + a3[i]))
-    return oq, ov
+    for i in range(q.shape[0]):
+        q[i] += h * qd[i] + c * (a1[i] + a2[i] + a3[i])
+        qd[i] += h / 6.0 * (a1[i] + a4[i] + 2.0 * (a2[i] + a3[i]))
 
 
 @numba.njit(cache=True)
-def _minus_friction(tau, qd, viscous, coulomb, speed):
-    """tau - (F_v qd + F_c tanh(qd / v_c))."""
-    n = tau.shape[0]
-    out = np.empty(n)
-    for i in range(n):
+def _minus_friction(tau, qd, viscous, coulomb, speed, out):
+    """out = tau - (F_v qd + F_c tanh(qd / v_c))."""
+    for i in range(tau.shape[0]):
         out[i] = tau[i] - viscous[i] * qd[i] - coulomb[i] * np.tanh(qd[i] / speed)
-    return out
+
+
+@numba.njit(cache=True)
+def saturate(tau, limit, out):
+    """out = tau clipped to +-limit (n,); returns (all finite, any clipped)."""
+    finite, clipped = True, False
+    for i in range(tau.shape[0]):
+        v = tau[i]
+        if not np.isfinite(v):
+            finite = False
+        if v > limit[i]:
+            v, clipped = limit[i], True
+        elif v < -limit[i]:
+            v, clipped = -limit[i], True
+        out[i] = v
+    return finite, clipped
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,30 +127,34 @@ class Plant:
         aba = pin.aba
         h = dt / substeps
         hh = 0.5 * h
-        q = np.ascontiguousarray(q, dtype=float)
-        qd = np.ascontiguousarray(qd, dtype=float)
+        q = np.array(q, dtype=float)  # updated in place: a fresh copy, the caller's arrays stay
+        qd = np.array(qd, dtype=float)
         tau = np.ascontiguousarray(tau, dtype=float)
+        n = len(q)
+        q2, v2, q3, v3, q4, v4 = (np.empty(n) for _ in range(6))
         if self.has_friction:
             fv, fc, vc = self.viscous, self.coulomb, self.coulomb_speed
+            t1, t2, t3, t4 = (np.empty(n) for _ in range(4))
             for _ in range(substeps):
-                a1 = aba(model, data, q, qd, _minus_friction(tau, qd, fv, fc, vc))
-                q2, v2 = _stage(q, qd, qd, a1, hh)
-                a2 = aba(model, data, q2, v2, _minus_friction(tau, v2, fv, fc, vc))
-                q3, v3 = _stage(q, qd, v2, a2, hh)
-                a3 = aba(model, data, q3, v3, _minus_friction(tau, v3, fv, fc, vc))
-                q4, v4 = _stage(q, qd, v3, a3, h)
-                a4 = aba(model, data, q4, v4, _minus_friction(tau, v4, fv, fc, vc))
-                q, qd = _combine(q, qd, a1, a2, a3, a4, h)
+                _minus_friction(tau, qd, fv, fc, vc, t1)
+                a1 = aba(model, data, q, qd, t1)
+                _stage_friction(q, qd, qd, a1, hh, tau, fv, fc, vc, q2, v2, t2)
+                a2 = aba(model, data, q2, v2, t2)
+                _stage_friction(q, qd, v2, a2, hh, tau, fv, fc, vc, q3, v3, t3)
+                a3 = aba(model, data, q3, v3, t3)
+                _stage_friction(q, qd, v3, a3, h, tau, fv, fc, vc, q4, v4, t4)
+                a4 = aba(model, data, q4, v4, t4)
+                _combine(q, qd, a1, a2, a3, a4, h)
             return q, qd
         for _ in range(substeps):
             a1 = aba(model, data, q, qd, tau)
-            q2, v2 = _stage(q, qd, qd, a1, hh)
+            _stage(q, qd, qd, a1, hh, q2, v2)
             a2 = aba(model, data, q2, v2, tau)
-            q3, v3 = _stage(q, qd, v2, a2, hh)
+            _stage(q, qd, v2, a2, hh, q3, v3)
             a3 = aba(model, data, q3, v3, tau)
-            q4, v4 = _stage(q, qd, v3, a3, h)
+            _stage(q, qd, v3, a3, h, q4, v4)
             a4 = aba(model, data, q4, v4, tau)
-            q, qd = _combine(q, qd, a1, a2, a3, a4, h)
+            _combine(q, qd, a1, a2, a3, a4, h)
         return q, qd
 
     def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None:

@@ -127,8 +127,8 @@ class Sensor:
         self.exact = self.resolution == 0 and self.position_noise == 0 and self.velocity_noise == 0
 
     def measure(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.exact:
-            return q.copy(), qd.copy()
+        if self.exact:  # the caller's arrays: controllers read them, never write
+            return q, qd
         q_m = np.round(q / self.resolution) * self.resolution if self.resolution > 0 else q.copy()
         if self.position_noise > 0:
             q_m = q_m + self.rng.normal(0.0, self.position_noise, q.shape)
