@@ -311,7 +311,7 @@ def load_robot(
         name = display
     else:
         path = Path(name_or_urdf)
-        if not path.exists():
+        if not path.is_file():
             raise RobotModelError(
                 f"robot '{name_or_urdf}' is neither a built-in robot ({', '.join(builtin_robot_names())}) "
                 "nor an existing URDF file"
