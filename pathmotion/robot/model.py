@@ -316,7 +316,10 @@ def load_robot(
                 f"robot '{name_or_urdf}' is neither a built-in robot ({', '.join(builtin_robot_names())}) "
                 "nor an existing URDF file"
             )
-        urdf_text = path.read_text()
+        try:
+            urdf_text = path.read_text()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise RobotModelError(f"URDF file {path} cannot be read ({type(exc).__name__}: {exc})") from None
         default_limits = None
         name = path.stem
     urdf_text = _check_urdf_limits(urdf_text, name, limits_given=limits is not None or default_limits is not None)
