@@ -265,6 +265,8 @@ CASES = (
     Case("urdf_not_xml", "URDF loop or missing joint", ARM, RobotModelError, ("not well-formed XML",),
          files={"arm.urdf": "<robot"}),
     Case("urdf_file_missing", "missing file", ARM, RobotModelError, ("neither a built-in robot", "URDF file")),
+    Case("urdf_is_a_folder", "missing file", JOINT + "[robot]\nname = ''\n", RobotModelError,
+         ("neither a built-in robot", "URDF file")),
     Case("limits_file_missing", "missing file", JOINT + "[robot]\nlimits = 'nope.toml'\n", RobotModelError,
          ("nope.toml does not exist",)),
     # --- overrides (--set)
