@@ -14,8 +14,22 @@ def _check_positive(owner: str, **values) -> None:
             raise SimulationError(f"{owner}.{name} = {value!r}; it must be a number > 0")
 
 
+class _SecondOrder:
+    """Gains of e'' + 2 zeta w e' + w^2 e = 0 from ``bandwidth`` w [rad/s] and ``damping`` zeta [-]."""
+
+    @property
+    def stiffness(self) -> float:
+        """w^2 [1/s^2]."""
+        return self.bandwidth**2
+
+    @property
+    def velocity_gain(self) -> float:
+        """2 zeta w [1/s]."""
+        return 2.0 * self.damping * self.bandwidth
+
+
 @dataclass(frozen=True)
-class OrbitalGains:
+class OrbitalGains(_SecondOrder):
     """Weights of the orbital controller's LQR (docs/control.md).
 
     bandwidth [rad/s] and damping [-]: the transverse position error z is weighted so that a
@@ -50,16 +64,6 @@ class OrbitalGains:
             raise SimulationError(f"OrbitalGains.terminal_time_to_go = {self.terminal_time_to_go!r}; give a time >= 0 s")
 
     @property
-    def stiffness(self) -> float:
-        """w^2 [1/s^2], the gain of the terminal/hold computed-torque loop."""
-        return self.bandwidth**2
-
-    @property
-    def velocity_gain(self) -> float:
-        """2 zeta w [1/s]."""
-        return 2.0 * self.damping * self.bandwidth
-
-    @property
     def chain_weights(self) -> tuple[float, float, float]:
         """LQR weights (q_xi, q_z, q_zdot) with R = 1 that close a triple integrator with the poles
         (s + w_i)(s^2 + 2 zeta w s + w^2) (w_i = integral_rate; for w_i = 0 the double integrator's
@@ -77,7 +81,7 @@ class OrbitalGains:
 
 
 @dataclass(frozen=True)
-class TrackingGains:
+class TrackingGains(_SecondOrder):
     """Joint-space error dynamics e'' + 2 zeta w e' + w^2 e = 0: natural frequency ``bandwidth``
     [rad/s] and ``damping`` [-]. Used by the computed-torque baseline (gains per unit inertia) and the
     PD + gravity baseline (gains scaled per joint by the diagonal of M at the start configuration)."""
@@ -88,13 +92,6 @@ class TrackingGains:
     def __post_init__(self):
         _check_positive("TrackingGains", bandwidth=self.bandwidth, damping=self.damping)
 
-    @property
-    def stiffness(self) -> float:
-        return self.bandwidth**2
-
-    @property
-    def velocity_gain(self) -> float:
-        return 2.0 * self.damping * self.bandwidth
 
 
 def default_pd_gains() -> TrackingGains:
