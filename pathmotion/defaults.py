@@ -188,3 +188,9 @@ BLEND_PIECE_MIN_POINTS = 50
 STUDY_ERROR_WEIGHT = 100.0
 #: Study: points of the sharp-path polyline stored with each traced sweep point (for figures).
 STUDY_TRACE_PATH_POINTS = 2000
+#: HTML report: most samples drawn per trace (longer signals are decimated uniformly, ends kept) [-].
+REPORT_MAX_POINTS = 2000
+#: HTML report: frames of the 3-D arm animation (decimated samples of the motion) [-].
+REPORT_ARM_FRAMES = 100
+#: HTML report: shortest time a frame of the arm animation is shown [s] (slower motions play in real time).
+REPORT_MIN_FRAME_TIME = 0.04

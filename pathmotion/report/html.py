@@ -1,0 +1,582 @@
+"""One self-contained interactive HTML page from result folders (``pathmotion report DIR``).
+
+:func:`build_report` finds every plan, simulation, sweep and corner-study folder under ``DIR``
+(:mod:`.discovery`), makes one section per folder with its key figures and interactive Plotly
+figures (:mod:`.interactive`), a table of contents and a summary table on top, and writes
+``DIR/report.html`` atomically. plotly.js is embedded once: the page works offline (no CDN, no
+web fonts). Each folder's scenario.toml is rebuilt with :func:`pathmotion.api.load_text` for the
+robot's limits, the original (sharp) path and the arm's kinematics.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from html import escape
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .. import defaults
+from ..errors import PathmotionError
+from ..io.atomic import write_text
+from . import interactive as fig
+from .discovery import ResultFolder, discover
+from .tables import joint_columns, read_columns, read_json, read_rows
+
+PLOTLY_CONFIG = {"displaylogo": False, "responsive": True,
+                 "toImageButtonOptions": {"format": "png", "scale": 2}}
+
+#: Key figures of summary.json: key -> (label, unit, scale applied to the value).
+PLAN_KEYS = {
+    "duration_s": ("time-optimal duration", "s", 1.0),
+    "fitted_profile_duration_s": ("baseline: fitted profile duration", "s", 1.0),
+    "baseline_constant_speed_duration_s": ("baseline: constant TCP speed duration", "s", 1.0),
+    "max_velocity_ratio": ("largest joint velocity / limit", "-", 1.0),
+    "max_acceleration_ratio": ("largest joint acceleration / limit", "-", 1.0),
+    "max_torque_ratio": ("largest joint torque / limit", "-", 1.0),
+    "max_tcp_speed_ratio": ("largest TCP speed / limit", "-", 1.0),
+    "worst_limit": ("where the largest ratio is", "", 1.0),
+    "path_length": ("path length (θ range)", "m", 1.0),
+    "blend_max_deviation_m": ("blend: largest distance from the sharp path", "mm", 1e3),
+    "min_singular_value": ("smallest singular value of the Jacobian", "-", 1.0),
+    "joint_range_margin_rad": ("smallest joint-range margin", "rad", 1.0),
+    "connections": ("connections taken as", "", 1.0),
+    "grid_points": ("planner grid points", "", 1.0),
+    "solve_time_s": ("planner solve time", "s", 1.0),
+}
+SIMULATION_KEYS = {
+    "controller": ("controller", "", 1.0),
+    "sample_time_s": ("controller sample time", "ms", 1e3),
+    "planned_duration_s": ("planned duration", "s", 1.0),
+    "simulated_duration_s": ("simulated duration (closed loop)", "s", 1.0),
+    "max_joint_deviation_rad": ("largest joint tracking error", "mrad", 1e3),
+    "rms_joint_deviation_rad": ("RMS joint tracking error", "mrad", 1e3),
+    "max_path_deviation_m": ("largest TCP distance from the planned path", "mm", 1e3),
+    "max_corner_deviation_m": ("largest TCP distance from the original sharp path", "mm", 1e3),
+    "max_torque_ratio": ("largest commanded torque / limit", "-", 1.0),
+    "saturation_time_s": ("time with a torque saturated", "s", 1.0),
+    "tracking_ok": ("tracking ok", "", 1.0),
+}
+#: Sweep columns: the time (first present) and the deviation (first present) of the trade-off plot.
+TIME_KEYS = ("cycle_time_s", "simulated_duration_s")
+DEVIATION_KEYS = ("max_sharp_deviation_m", "max_corner_deviation_m", "max_path_deviation_m")
+#: Sweep columns shown in the table of points (when present), with (label, unit, scale).
+SWEEP_COLUMNS = {
+    "cycle_time_s": ("cycle time", "s", 1.0),
+    "planned_duration_s": ("planned", "s", 1.0),
+    "simulated_duration_s": ("simulated", "s", 1.0),
+    "max_sharp_deviation_m": ("max dev. from sharp path", "mm", 1e3),
+    "mean_sharp_deviation_m": ("mean dev. from sharp path", "mm", 1e3),
+    "max_path_deviation_m": ("max dev. from planned path", "mm", 1e3),
+    "max_corner_deviation_m": ("max corner dev.", "mm", 1e3),
+    "tracking_ok": ("tracking ok", "", 1.0),
+    "failure_reason": ("failure", "", 1.0),
+    "error": ("error", "", 1.0),
+}
+
+
+@dataclass(frozen=True)
+class Section:
+    """One section of the page: its anchor, title, HTML body, the number of Plotly figures in it and
+    its row of the summary table ({column: HTML cell})."""
+
+    anchor: str
+    title: str
+    body: str
+    figures: int
+    summary: dict = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------------------------- formatting
+def _fmt(value, scale: float = 1.0) -> str:
+    if value is None:
+        return "–"
+    if isinstance(value, bool):
+        return "yes" if value else "NO"
+    if isinstance(value, (int, np.integer)) and scale == 1.0:
+        return str(value)
+    if isinstance(value, (int, float, np.floating)):
+        v = float(value) * scale
+        return "–" if not math.isfinite(v) else f"{v:.4g}"
+    if isinstance(value, (list, tuple)):
+        return escape(", ".join(str(v) for v in value)) if value else "none"
+    return escape(str(value))
+
+
+def _cell(value, scale: float = 1.0) -> str:
+    """A table cell; booleans coloured (ok green, NO red), errors red."""
+    text = _fmt(value, scale)
+    if isinstance(value, bool):
+        return f'<td class="{"ok" if value else "bad"}">{text}</td>'
+    return f"<td>{text}</td>"
+
+
+def _key_table(summary: dict, keys: dict, caption: str) -> str:
+    rows = []
+    for key, (label, unit, scale) in keys.items():
+        if key in summary:
+            unit_text = f" [{unit}]" if unit else ""
+            rows.append(f'<tr><th title="{escape(key)}">{escape(label)}{unit_text}</th>'
+                        f"{_cell(summary[key], scale)}</tr>")
+    return f'<table class="keys"><caption>{escape(caption)}</caption>{"".join(rows)}</table>'
+
+
+def _other_values(summary: dict, shown: Sequence[str]) -> str:
+    rest = {k: v for k, v in summary.items() if k not in shown and not isinstance(v, dict)}
+    if not rest:
+        return ""
+    rows = "".join(f"<tr><th>{escape(k)}</th>{_cell(v)}</tr>" for k, v in sorted(rest.items()))
+    return f'<details><summary>all other values of summary.json</summary><table class="keys">{rows}</table></details>'
+
+
+def _figure_html(figure, div_id: str) -> str:
+    import plotly.io as pio
+
+    return ('<div class="figure">' + pio.to_html(figure, include_plotlyjs=False, full_html=False, div_id=div_id,
+                                                 config=PLOTLY_CONFIG, auto_play=False) + "</div>")
+
+
+def _note(text: str) -> str:
+    return f'<p class="note">{escape(text)}</p>'
+
+
+# -------------------------------------------------------------------------------- scenario setup
+@dataclass
+class _Setups:
+    """Setups rebuilt from scenario.toml files, by (text, base folder); the error text when one fails."""
+
+    cache: dict = field(default_factory=dict)
+
+    def get(self, folder: Path):
+        """(Setup or None, note or None) for the scenario.toml in ``folder``."""
+        from ..api import load_text
+
+        path = folder / "scenario.toml"
+        if not path.is_file():
+            return None, ("no scenario.toml in this folder: the limit plots, the original path and the arm view "
+                          "are omitted")
+        text = path.read_text()
+        key = (text, str(folder))
+        if key not in self.cache:
+            try:
+                self.cache[key] = (load_text(text, base_dir=folder, where=str(path)), None)
+            except PathmotionError as exc:
+                self.cache[key] = (None, f"scenario.toml could not be rebuilt ({str(exc).splitlines()[0]}): the "
+                                         "limit plots, the original path and the arm view are omitted")
+        return self.cache[key]
+
+
+# ------------------------------------------------------------------------------------ figures
+#: Columns the report needs in each table.
+PHASE_PLANE_COLUMNS = ("theta", "theta_dot_optimal")
+TRAJECTORY_COLUMNS = ("t", "q1", "qd1")
+SIMULATION_COLUMNS = ("t", "q1", "q_desired1", *(f"tcp_{a}" for a in "xyz"), *(f"tcp_desired_{a}" for a in "xyz"),
+                      "path_deviation")
+
+
+def _plan_keys(summary: dict) -> dict:
+    """PLAN_KEYS with the unit of the path length: m on a task path, none on a joint path."""
+    if summary.get("path_kind") != "joint":
+        return PLAN_KEYS
+    return {**PLAN_KEYS, "path_length": ("path length (θ range)", "", 1.0)}
+
+
+def _phase_plane(plan_dir: Path, plan_summary: dict, anchor: str) -> str:
+    cols = read_columns(plan_dir / "phase_plane.csv", PHASE_PLANE_COLUMNS)
+    durations = {"optimal": plan_summary.get("duration_s"),
+                 "fitted": plan_summary.get("fitted_profile_duration_s"),
+                 "constant_speed": plan_summary.get("baseline_constant_speed_duration_s")}
+    return _figure_html(fig.phase_plane_figure(cols, durations, plan_summary.get("path_kind", "task")),
+                        f"{anchor}-phase")
+
+
+def _limit_panels(traj: dict[str, np.ndarray], setup) -> list[tuple[str, np.ndarray, float | None]]:
+    lim, ps = setup.robot.limits, setup.plan_settings
+    q, qd, qdd, tau = (joint_columns(traj, p) for p in ("q", "qd", "qdd", "tau"))
+    if q.shape[1] != setup.robot.n:
+        raise PathmotionError(f"report: trajectory.csv has {q.shape[1]} joints but the scenario's robot "
+                              f"{setup.robot.name} has {setup.robot.n}; re-run the plan with this scenario")
+    panels = [("joint position in its range: (q − centre) / half range", (q - 0.5 * (lim.upper + lim.lower))
+               / (0.5 * (lim.upper - lim.lower)), None),
+              ("joint velocity / limit", qd / lim.velocity, ps.velocity_scale if ps.velocity else None)]
+    if qdd is not None and lim.acceleration is not None:
+        panels.append(("joint acceleration / limit", qdd / lim.acceleration,
+                       ps.acceleration_scale if ps.acceleration else None))
+    if tau is not None:
+        panels.append(("joint torque / limit", tau / lim.torque, ps.torque_scale if ps.torque else None))
+    return panels
+
+
+def _joint_limits(traj: dict[str, np.ndarray], setup, anchor: str) -> str:
+    title = "Planned joint motion against the limits (dashed: robot limits; dotted: scaled limits used by the plan)"
+    return _figure_html(fig.limit_ratio_figure(traj["t"], _limit_panels(traj, setup), setup.robot.joint_names, title),
+                        f"{anchor}-limits")
+
+
+def _original_path(setup) -> np.ndarray | None:
+    task = getattr(setup, "original_task_path", None) if setup is not None else None
+    if task is None:
+        return None
+    theta = np.linspace(*task.domain, defaults.REPORT_MAX_POINTS)
+    return np.asarray(task.evaluate(theta)[0])[:, :3]
+
+
+def _arm(t: np.ndarray, q: np.ndarray, setup, reference: np.ndarray | None, anchor: str, what: str) -> str:
+    from .arm import arm_points
+
+    idx = fig.decimate(len(t), defaults.REPORT_ARM_FRAMES)
+    duration = float(t[idx[-1]] - t[idx[0]])
+    frame_time = max(duration / max(len(idx) - 1, 1), defaults.REPORT_MIN_FRAME_TIME)
+    speed = duration / max(len(idx) - 1, 1) / frame_time
+    title = (f"The arm playing the {what} (stick figure through the joint origins; "
+             f"playback at {speed:.2g}× real time)")
+    return _figure_html(fig.arm_animation_figure(t[idx], arm_points(setup.robot, q[idx]), reference, title, frame_time),
+                        f"{anchor}-arm")
+
+
+# ----------------------------------------------------------------------------------- sections
+def _failure_html(summary: dict) -> str:
+    failure = summary.get("failure")
+    if summary.get("tracking_ok") is False:
+        message = failure.get("message", "") if isinstance(failure, dict) else str(failure or "")
+        return f'<p class="failure">Tracking FAILED: {escape(message)}</p>'
+    return ""
+
+
+def _plan_summary_row(summary: dict) -> dict:
+    return {"scenario": summary.get("scenario"), "planned": summary.get("duration_s"),
+            "baseline": summary.get("baseline_constant_speed_duration_s")}
+
+
+def plan_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups) -> Section:
+    """Key figures, phase plane, joint limits, the planned TCP path and the arm of a plan folder."""
+    folder = result.path
+    summary = read_json(folder / "summary.json", {})
+    setup, note = setups.get(folder)
+    parts = [_key_table(summary, _plan_keys(summary), "Plan (summary.json)"), _other_values(summary, PLAN_KEYS),
+             _phase_plane(folder, summary, anchor)]
+    count = 1
+    if setup is None:
+        parts.append(_note(note))
+    else:
+        traj = read_columns(folder / "trajectory.csv", TRAJECTORY_COLUMNS)
+        q = joint_columns(traj, "q")
+        from .arm import arm_points
+
+        idx = fig.decimate(len(traj["t"]))
+        tcp = arm_points(setup.robot, q[idx])[:, -1]
+        parts += [_joint_limits(traj, setup, anchor),
+                  _figure_html(fig.task_space_figure(tcp, original=_original_path(setup),
+                                                     title="Planned TCP path (forward kinematics of the plan)"),
+                               f"{anchor}-task"),
+                  _arm(traj["t"], q, setup, tcp, anchor, "planned motion")]
+        count += 3
+    row = _plan_summary_row(summary)
+    return Section(anchor, f"Plan: {result.label(root)}", "".join(parts), count, row)
+
+
+def simulation_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups) -> Section:
+    """Key figures (simulation and its plan), phase plane and joint limits of the plan, task-space
+    path and deviation, joint tracking errors and the arm playing the simulated motion."""
+    folder = result.path
+    summary = read_json(folder / "summary.json", {})
+    plan_summary = summary.get("plan") if isinstance(summary.get("plan"), dict) else {}
+    setup, note = setups.get(folder)
+    sim = read_columns(folder / "simulation.csv", SIMULATION_COLUMNS)
+    t = sim["t"]
+    tables = _key_table(summary, SIMULATION_KEYS, "Closed-loop simulation (summary.json)")
+    if plan_summary:
+        tables += _key_table(plan_summary, _plan_keys(plan_summary), "Its plan (summary.json: plan)")
+    parts = [_failure_html(summary), f'<div class="tables">{tables}</div>',
+             _other_values(summary, [*SIMULATION_KEYS, "failure"])]
+    count = 0
+    if note:
+        parts.append(_note(note))
+    if result.plan_path is not None:
+        parts.append(_phase_plane(result.plan_path, plan_summary or read_json(result.plan_path / "summary.json", {}),
+                                  anchor))
+        count += 1
+        if setup is not None:
+            parts.append(_joint_limits(read_columns(result.plan_path / "trajectory.csv", TRAJECTORY_COLUMNS), setup,
+                                       anchor))
+            count += 1
+    else:
+        parts.append(_note("no plan folder (./plan) next to this simulation: phase plane and limit plots omitted"))
+    tcp = np.column_stack([sim[f"tcp_{a}"] for a in "xyz"])
+    desired = np.column_stack([sim[f"tcp_desired_{a}"] for a in "xyz"])
+    deviations = {"distance from the planned (blended) path": sim["path_deviation"]}
+    if "corner_deviation" in sim:
+        deviations["distance from the original sharp path"] = sim["corner_deviation"]
+    parts.append(_figure_html(fig.task_space_figure(desired, tcp, _original_path(setup), t, deviations,
+                                                    title="Task space: TCP path and its deviation"), f"{anchor}-task"))
+    q = joint_columns(sim, "q")
+    failure = summary.get("failure") if isinstance(summary.get("failure"), dict) else None
+    names = setup.robot.joint_names if setup is not None else [f"joint {j + 1}" for j in range(q.shape[1])]
+    parts.append(_figure_html(fig.tracking_figure(t, q - joint_columns(sim, "q_desired"), names, failure),
+                              f"{anchor}-tracking"))
+    count += 2
+    if setup is not None:
+        parts.append(_arm(t, q, setup, desired, anchor, "simulated motion"))
+        count += 1
+    row = _plan_summary_row(plan_summary)
+    row.update(simulated=summary.get("simulated_duration_s"), path_dev=summary.get("max_path_deviation_m"),
+               sharp_dev=summary.get("max_corner_deviation_m"), tracking=summary.get("tracking_ok"))
+    return Section(anchor, f"Simulation: {result.label(root)}", "".join(parts), count, row)
+
+
+def sweep_parameters(names: Sequence[str], spec: dict | None) -> list[str]:
+    """The swept parameters among a sweep table's columns: sweep_spec.json's grid keys, else the
+    columns before the first known summary column."""
+    from ..study.point import SUMMARY_KEYS
+
+    if spec and isinstance(spec.get("grid"), dict):
+        return [k for k in spec["grid"] if k in names]
+    known = {*SUMMARY_KEYS, "error", "wall_time_s"}
+    params = []
+    for n in names:
+        if n in known:
+            break
+        params.append(n)
+    return params
+
+
+def _first(names: Sequence[str], keys: Sequence[str]) -> str | None:
+    return next((k for k in keys if k in names), None)
+
+
+def _matching_row(rows: list[dict], best: dict | None, params: Sequence[str]) -> int | None:
+    """The row best.json names: its index if the parameters agree, else the row with its parameters."""
+    if not best:
+        return None
+
+    def same(row):
+        return all(p in best and _equal(row.get(p), best[p]) for p in params)
+
+    index = best.get("index")
+    if isinstance(index, int) and 0 <= index < len(rows) and same(rows[index]):
+        return index
+    return next((i for i, r in enumerate(rows) if params and same(r)), None)
+
+
+def _equal(a, b) -> bool:
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
+        return math.isclose(float(a), float(b), rel_tol=1e-12, abs_tol=1e-15)
+    return a == b
+
+
+def _rows_table(rows: list[dict], first: Sequence[str], highlight: set[int], caption: str) -> str:
+    cols = [*first, *(k for k in SWEEP_COLUMNS if rows and k in rows[0] and k not in first)]
+    head = "".join(f"<th>{escape(_column_label(c))}</th>" for c in cols)
+    body = []
+    for i, r in enumerate(rows):
+        cells = []
+        for c in cols:
+            if c == "error" and r.get(c):
+                cells.append(f'<td class="bad error">{escape(str(r[c]))}</td>')
+            else:
+                cells.append(_cell(r.get(c), SWEEP_COLUMNS.get(c, ("", "", 1.0))[2]))
+        cls = ' class="best"' if i in highlight else ""
+        body.append(f"<tr{cls}><td>{i}</td>{''.join(cells)}</tr>")
+    return (f'<div class="scroll"><table class="rows"><caption>{escape(caption)}</caption>'
+            f"<tr><th>#</th>{head}</tr>{''.join(body)}</table></div>")
+
+
+def _column_label(c: str) -> str:
+    label, unit, _ = SWEEP_COLUMNS.get(c, (c, "", 1.0))
+    return f"{label} [{unit}]" if unit else label
+
+
+def _tradeoff_section(rows, names, params, best_index, anchor, title, best_label, group_key=None, label=None):
+    from ..study.score import pareto_front
+
+    x_key, y_key = _first(names, DEVIATION_KEYS), _first(names, TIME_KEYS)
+    errors = [i for i, r in enumerate(rows) if r.get("error")]
+    parts = []
+    count = 0
+    if x_key and y_key:
+        front = pareto_front(rows, x_key=x_key, y_key=y_key)
+
+        def default_label(row):
+            return ", ".join(f"{p} = {_fmt(row.get(p))}" for p in params) or "point"
+
+        figure = fig.tradeoff_figure(rows, x_key, y_key, front, best_index, label or default_label, title,
+                                     fallback_y_key=_first(names, ("planned_duration_s",)), group_key=group_key,
+                                     best_label=best_label)
+        parts.append(_figure_html(figure, f"{anchor}-tradeoff"))
+        count = 1
+    else:
+        parts.append(_note(f"the table has no deviation column ({', '.join(DEVIATION_KEYS)}) or no time column "
+                           f"({', '.join(TIME_KEYS)}): no trade-off plot"))
+    if errors:
+        parts.append(_note(f"{len(errors)} point(s) failed with an error and have no values (red in the table)."))
+    return parts, count, errors
+
+
+def _varying(rows: list[dict], params: Sequence[str]) -> list[str]:
+    """The parameters that take more than one value over the rows (all of them if none does)."""
+    varying = [p for p in params if len({repr(r.get(p)) for r in rows}) > 1]
+    return varying or list(params)
+
+
+def _points_text(rows: list[dict], errors: list[int], noun: str = "point") -> str:
+    return f"{len(rows)} {noun}{'s' if len(rows) != 1 else ''}, {len(errors)} failed"
+
+
+def _summary_from_row(row: dict | None) -> dict:
+    """The summary-table cells a sweep or study row can fill (its best or only point)."""
+    if row is None:
+        return {}
+    return {"planned": row.get("planned_duration_s"),
+            "simulated": row.get("cycle_time_s", row.get("simulated_duration_s")),
+            "baseline": row.get("baseline_constant_speed_duration_s"), "path_dev": row.get("max_path_deviation_m"),
+            "sharp_dev": row.get("max_sharp_deviation_m", row.get("max_corner_deviation_m")),
+            "tracking": row.get("tracking_ok")}
+
+
+def sweep_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups) -> Section:
+    """The trade-off plot (deviation against time, Pareto front, failed points, best point) and the
+    table of points of a sweep folder."""
+    from ..study.score import choose_best
+
+    folder = result.path
+    names, rows = read_rows(folder / "sweep.csv")
+    spec = read_json(folder / "sweep_spec.json")
+    params = sweep_parameters(names, spec)
+    varying = _varying(rows, params)
+    best = read_json(folder / "best.json")
+    source = "best.json"
+    if best is None and "cycle_time_s" in names and "mean_sharp_deviation_m" in names:
+        best, source = choose_best(rows, params), "the study's score, no best.json"
+    best_index = _matching_row(rows, best, params)
+    scenario = spec.get("scenario") if spec else None
+    title = f"Trade-off: deviation against time ({len(rows)} point{'s' if len(rows) != 1 else ''})"
+    parts, count, errors = _tradeoff_section(
+        rows, names, varying, best_index, anchor, title, f"best score ({source})")
+    fixed = [p for p in params if p not in varying]
+    fixed_text = ", ".join(f"{p} = {_fmt(rows[0].get(p))}" for p in fixed) if rows else ""
+    intro = (f"<p>Sweep of {escape(Path(str(scenario)).name if scenario else 'a scenario')} over "
+             f"{escape(', '.join(varying) or 'no named parameter')}"
+             + (f" (fixed: {escape(fixed_text)})" if fixed_text else "")
+             + f": {_points_text(rows, errors)}.")
+    if best_index is not None:
+        rule = best.get("rule", "") if isinstance(best, dict) else ""
+        intro += (f" Best point ({escape(source)}): #{best_index}, "
+                  + escape(", ".join(f"{p} = {_fmt(best.get(p))}" for p in varying))
+                  + (f" <span class=\"muted\">({escape(rule)})</span>" if rule else "") + ".")
+    intro += "</p>"
+    parts = [intro, *parts, _rows_table(rows, params, {best_index} if best_index is not None else set(),
+                                        "Points (sweep.csv); the best point is highlighted")]
+    row = _summary_from_row(rows[best_index] if best_index is not None else rows[0] if len(rows) == 1 else None)
+    row.update(scenario=scenario and Path(str(scenario)).stem, points=_points_text(rows, errors))
+    return Section(anchor, f"Sweep: {result.label(root)}", "".join(parts), count, row)
+
+
+def study_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups) -> Section:
+    """The corner study's combined trade-off (every case, coloured by case) and its table."""
+    folder = result.path
+    names, rows = read_rows(folder / "corner_study.csv")
+    record = read_json(folder / "corner_study.json", {}) or {}
+    best = record.get("best") if isinstance(record.get("best"), dict) else None
+    best_index = _matching_row(rows, best, [p for p in ("case", "parameter", "value") if p in names])
+
+    def label(row):
+        value = f" = {_fmt(row.get('value'))}" if row.get("value") is not None else ""
+        return f"{row.get('case')}: {row.get('parameter') or ''}{value}"
+
+    title = f"Corner study: deviation from the sharp path against cycle time ({len(rows)} runs)"
+    parts, count, errors = _tradeoff_section(rows, names, [], best_index, anchor, title,
+                                             "best score (corner_study.json)", group_key="case", label=label)
+    first = [c for c in ("case", "parameter", "value", "gain_vs_stop") if c in names]
+    parts = [f"<p>The chapter-7 corner study: {len(rows)} runs in {len(set(r.get('case') for r in rows))} cases; "
+             "each case is a sweep folder below (sections that follow).</p>", *parts,
+             _rows_table(rows, first, {best_index} if best_index is not None else set(),
+                         "Runs (corner_study.csv); the best-scored run is highlighted")]
+    row = _summary_from_row(rows[best_index] if best_index is not None else None)
+    row["points"] = _points_text(rows, errors, "run")
+    return Section(anchor, f"Corner study: {result.label(root)}", "".join(parts), count, row)
+
+
+RENDERERS = {"plan": plan_section, "simulation": simulation_section, "sweep": sweep_section, "study": study_section}
+
+
+# ---------------------------------------------------------------------------------------- page
+CSS = """
+body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,Helvetica,Arial,sans-serif;margin:0;color:#222;
+background:#fafafa;line-height:1.4}
+main{max-width:1280px;margin:0 auto;padding:1em 2em 4em}
+h1{margin-bottom:.2em} h2{border-bottom:2px solid #1f77b4;padding-bottom:.2em;margin-top:2.5em}
+nav ol{columns:2;font-size:.95em} a{color:#1f5fa0}
+table{border-collapse:collapse;margin:.6em 1.5em .6em 0;font-size:.9em;background:#fff}
+caption{text-align:left;font-weight:600;padding:.3em 0}
+th,td{border:1px solid #ddd;padding:.25em .6em;text-align:left;vertical-align:top}
+table.rows th{background:#f0f4f8} table.keys th{font-weight:500;background:#f6f8fa}
+td.ok{color:#1a7f37;font-weight:600} td.bad{color:#c62828;font-weight:600}
+td.error{min-width:26em;font-weight:400}
+tr.best td{background:#fff6d5}
+.tables{display:grid;grid-template-columns:repeat(auto-fit,minmax(420px,1fr));gap:0 1.5em;align-items:start}
+.tables table{width:100%}
+.figure{background:#fff;border:1px solid #e3e3e3;margin:1em 0;padding:.3em}
+.failure{color:#c62828;font-weight:600;border-left:4px solid #c62828;padding:.3em .8em;background:#fdecea}
+.note{color:#8a6d00;background:#fff8e1;border-left:4px solid #e6a700;padding:.3em .8em}
+.muted{color:#666} .scroll{overflow-x:auto} details{margin:.5em 0}
+"""
+
+SUMMARY_COLUMNS = (("kind", "kind"), ("scenario", "scenario"), ("planned", "planned duration [s]"),
+                   ("simulated", "simulated / cycle time [s]"), ("baseline", "constant-TCP-speed baseline [s]"),
+                   ("speedup", "baseline / planned [×]"), ("path_dev", "max dev. from planned path [mm]"),
+                   ("sharp_dev", "max dev. from sharp path [mm]"), ("tracking", "tracking ok"),
+                   ("points", "sweep points"))
+
+
+def _summary_table(sections: Sequence[Section]) -> str:
+    head = "".join(f"<th>{escape(label)}</th>" for _, label in SUMMARY_COLUMNS)
+    body = []
+    for s in sections:
+        row = dict(s.summary)
+        row["kind"] = s.title.split(":")[0]
+        if isinstance(row.get("planned"), (int, float)) and isinstance(row.get("baseline"), (int, float)) \
+                and row["planned"] > 0:
+            row["speedup"] = row["baseline"] / row["planned"]
+        cells = "".join(_cell(row.get(k), 1e3 if k.endswith("_dev") else 1.0) for k, _ in SUMMARY_COLUMNS)
+        body.append(f'<tr><td><a href="#{s.anchor}">{escape(s.title.split(": ", 1)[-1])}</a></td>{cells}</tr>')
+    return (f'<div class="scroll"><table class="rows"><tr><th>folder</th>{head}</tr>{"".join(body)}</table></div>')
+
+
+def render_page(root: Path, sections: Sequence[Section]) -> str:
+    """The whole HTML page (plotly.js embedded once)."""
+    from plotly.offline import get_plotlyjs
+
+    from .. import __version__
+
+    toc = "".join(f'<li><a href="#{s.anchor}">{escape(s.title)}</a></li>' for s in sections)
+    body = "".join(f'<section id="{s.anchor}" data-figures="{s.figures}"><h2>{escape(s.title)}</h2>{s.body}</section>'
+                   for s in sections)
+    total = sum(s.figures for s in sections)
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="pathmotion-figures" content="{total}">
+<title>pathmotion report: {escape(root.resolve().name)}</title>
+<style>{CSS}</style>
+<script type="text/javascript">{get_plotlyjs()}</script>
+</head><body><main>
+<h1>pathmotion report: {escape(root.resolve().name)}</h1>
+<p class="muted">{len(sections)} result folder(s) under {escape(str(root))}, {total} interactive figures
+(drag to zoom or rotate, double-click to reset, click a legend entry to hide it). Written by pathmotion
+{escape(__version__)}; self-contained, works offline.</p>
+<nav><h2>Contents</h2><ol><li><a href="#summary">Summary</a></li>{toc}</ol></nav>
+<section id="summary"><h2>Summary</h2>{_summary_table(sections)}</section>
+{body}
+</main></body></html>
+"""
+
+
+def build_report(folder: str | Path) -> Path:
+    """Write ``folder/report.html``: one self-contained interactive page of every result under
+    ``folder`` (see the module docstring); returns its path. PathmotionError when there is none."""
+    root = Path(folder)
+    results = discover(root)
+    setups = _Setups()
+    sections = [RENDERERS[r.kind](r, root, f"s{k + 1}", setups) for k, r in enumerate(results)]
+    return write_text(root / "report.html", render_page(root, sections))

@@ -1,0 +1,93 @@
+"""Reading the result files back for the report: numeric CSV tables, mixed-type row tables (sweeps)
+and JSON. Every read error is a PathmotionError that names the file."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import PathmotionError
+
+
+def read_columns(path: str | Path, required: Sequence[str] = ()) -> dict[str, np.ndarray]:
+    """A numeric CSV with a header line (trajectory.csv, simulation.csv, phase_plane.csv) as
+    {column: (N,) float array}; PathmotionError when a ``required`` column is missing or the table
+    has no rows while columns are required."""
+    path = Path(path)
+    try:
+        with path.open(newline="") as fh:
+            header = fh.readline().strip().split(",")
+            data = np.loadtxt(fh, delimiter=",", ndmin=2) if header != [""] else np.empty((0, 0))
+    except (OSError, ValueError) as exc:
+        raise PathmotionError(f"report: cannot read the table {path}: {exc}; "
+                              "re-run the command that wrote it") from None
+    if header == [""] or (data.size and data.shape[1] != len(header)):
+        raise PathmotionError(f"report: {path} has {data.shape[1] if data.size else 0} values per row but "
+                              f"{len(header)} column names; re-run the command that wrote it")
+    missing = [name for name in required if name not in header]
+    if missing:
+        raise PathmotionError(f"report: {path} has no column(s) {missing}; it was written by another version of "
+                              "pathmotion or edited: re-run the command that wrote it")
+    if not data.size:
+        if required:
+            raise PathmotionError(f"report: {path} has no rows; re-run the command that wrote it")
+        return {name: np.empty(0) for name in header}
+    return {name: data[:, k] for k, name in enumerate(header)}
+
+
+def _cell(text: str):
+    """A CSV cell: '' -> None, true/false -> bool, numbers -> int/float, else the string."""
+    if text == "":
+        return None
+    low = text.lower()
+    if low in ("true", "false"):
+        return low == "true"
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        return text
+    return value if math.isfinite(value) else None
+
+
+def read_rows(path: str | Path) -> tuple[list[str], list[dict]]:
+    """A CSV with mixed cell types (sweep.csv, corner_study.csv): (column names, one dict per row)."""
+    path = Path(path)
+    try:
+        with path.open(newline="") as fh:
+            reader = csv.reader(fh)
+            names = next(reader, [])
+            rows = [dict(zip(names, map(_cell, line))) for line in reader if line]
+    except (OSError, csv.Error, UnicodeDecodeError) as exc:
+        raise PathmotionError(f"report: cannot read the table {path}: {exc}; "
+                              "re-run the command that wrote it") from None
+    return names, rows
+
+
+def read_json(path: str | Path, default=None):
+    """A JSON file; ``default`` when it does not exist (PathmotionError when it is unreadable)."""
+    path = Path(path)
+    if not path.is_file():
+        return default
+    try:
+        return json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise PathmotionError(f"report: cannot read {path}: {exc}; re-run the command that wrote it") from None
+
+
+def joint_columns(cols: dict[str, np.ndarray], prefix: str) -> np.ndarray | None:
+    """The columns prefix1..prefixn stacked as (N, n), or None when prefix1 is absent."""
+    names = []
+    while f"{prefix}{len(names) + 1}" in cols:
+        names.append(f"{prefix}{len(names) + 1}")
+    if not names:
+        return None
+    return np.column_stack([cols[k] for k in names])
