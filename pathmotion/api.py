@@ -405,9 +405,12 @@ def check_scenario(setup: Setup) -> dict:
 DEMO_SCENARIOS = ("circle_max", "corner_stop", "corner_max", "corner_transition", "corner_g2")
 DEMO_COLUMNS = ("scenario", "planned_duration_s", "simulated_duration_s", "tracking_ok", "max_joint_deviation_rad",
                 "max_path_deviation_m", "max_corner_deviation_m", "baseline_constant_speed_duration_s")
-#: Short table headers of DEMO_COLUMNS for the terminal.
-DEMO_HEADERS = ("scenario", "planned [s]", "simulated [s]", "tracking", "joint dev [rad]", "path dev [m]",
-                "corner dev [m]", "const. speed [s]")
+#: Terminal table of the demo: (header, DEMO_COLUMNS key, display scale).
+DEMO_DISPLAY = (("scenario", "scenario", 1.0), ("plan [s]", "planned_duration_s", 1.0),
+                ("sim [s]", "simulated_duration_s", 1.0), ("ok", "tracking_ok", 1.0),
+                ("joint dev [mrad]", "max_joint_deviation_rad", 1e3), ("path dev [mm]", "max_path_deviation_m", 1e3),
+                ("corner dev [mm]", "max_corner_deviation_m", 1e3),
+                ("const. TCP speed [s]", "baseline_constant_speed_duration_s", 1.0))
 
 
 def run_shipped(name: str, out: str | Path) -> dict:
@@ -434,11 +437,12 @@ def write_demo_table(rows: list[dict], out: str | Path) -> Path:
     return write_text(out / "demo.csv", "\n".join(lines) + "\n")
 
 
-def format_cell(v) -> str:
+def format_cell(v, scale: float = 1.0) -> str:
+    """A table cell: '-' for None, yes/NO for booleans, 4 significant digits for numbers x scale."""
     if v is None:
         return "-"
     if isinstance(v, bool):
         return "yes" if v else "NO"
-    if isinstance(v, float):
-        return f"{v:.4g}"
+    if isinstance(v, (int, float)):
+        return f"{v * scale:.4g}"
     return str(v)

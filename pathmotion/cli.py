@@ -16,6 +16,7 @@ from typing import List, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
@@ -296,10 +297,10 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
             progress.advance(task)
     table_path = api.write_demo_table(rows, out)
     table = Table(title=f"The thesis' experiments on the IRB140 ({table_path})", title_justify="left")
-    for col in api.DEMO_HEADERS:
-        table.add_column(col)
+    for k, (header, _, _) in enumerate(api.DEMO_DISPLAY):
+        table.add_column(escape(header), no_wrap=k == 0, justify="left" if k == 0 else "right")
     for r in rows:
-        table.add_row(*[api.format_cell(r.get(c)) for c in api.DEMO_COLUMNS])
+        table.add_row(*[api.format_cell(r.get(key), scale) for _, key, scale in api.DEMO_DISPLAY])
     console.print(table)
     if study:
         from .study import corner_study
