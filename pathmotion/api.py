@@ -24,10 +24,9 @@ from .io import exports
 from .io.atomic import write_json, write_text
 from .io.scenario import Scenario, load_scenario, parse_scenario
 from .joint_path import JointPath, SplineJointPath
-from .lift import TaskJointPath, lift
+from .lift import lift
 from .planning import PlanResult, PlanSettings, plan
-from .robot import Payload, Robot, Tool, load_robot
-from .robot.limits import JointLimits
+from .robot import Payload, Robot, Tool, builtin_robot_names, load_robot
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,8 +59,8 @@ def build_robot(scenario: Scenario, base_dir: Path) -> Robot:
     """The scenario's robot with its payload, tool and limit overrides."""
     spec = scenario.robot
     name = spec.name
-    if name.lower() not in ("irb140",):
-        name = str((base_dir / name).resolve()) if not Path(name).is_absolute() else name
+    if name.lower() not in builtin_robot_names():
+        name = str((base_dir / name).resolve())  # a URDF path, relative to the scenario file
     limits = None if spec.limits is None else str(base_dir / spec.limits)
     robot = load_robot(name, limits,
                        payload=Payload(spec.payload.mass, spec.payload.com, spec.payload.inertia),
@@ -96,11 +95,8 @@ def _segments(specs) -> list:
                     raise ScenarioError(f"{where}: the first arc needs a start point")
                 seg = Arc(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float),
                           float(s.sweep))
-            else:  # circle
-                if s.turns != 1.0:
-                    raise ScenarioError(f"{where}: turns = {s.turns:g}; only full single circles (turns = 1) are "
-                                        "supported; chain several circles for more turns")
-                if start is not None and s.start is None and k > 0 or s.start is not None:
+            else:  # circle: through the given or previous end point, else at start_angle
+                if start is not None:
                     seg = Circle(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float))
                 else:
                     seg = Circle.from_centre(s.center, s.radius, s.normal, s.start_angle)
@@ -136,14 +132,30 @@ def build_path(scenario: Scenario, robot: Robot) -> tuple[JointPath, TaskPath | 
         np.asarray(spec.orientation, float))
     task = TaskPath(tuple(_segments(spec.segments)), orientation)
     original = task if spec.blends else None
+    chosen: dict[int, tuple[int, Any]] = {}  # connection index (0-based) -> (blends[k], spec)
     for k, blend in enumerate(spec.blends):
-        corners = [c.index for c in task.connections if c.kind == "corner"] if blend.corner == "all" \
-            else [blend.corner - 1]
-        for c in sorted(corners, reverse=True):  # later corners first: earlier indices stay valid
+        if blend.corner == "all":
+            corners = [c.index for c in task.connections if c.kind == "corner"]
+        else:
+            if not 1 <= blend.corner <= len(task.connections):
+                raise ScenarioError(f"path.blends[{k}].corner = {blend.corner}: the path has {len(task.connections)} "
+                                    f"connection(s), numbered 1..{len(task.connections)} (1 = between segments 1 and 2)")
+            corners = [blend.corner - 1]
+        for c in corners:
+            if c in chosen:
+                raise ScenarioError(f"path.blends[{k}]: connection {c + 1} is already blended by "
+                                    f"path.blends[{chosen[c][0]}]; give one blend per corner")
+            chosen[c] = (k, blend)
+    # apply from the last connection to the first, so the indices of the earlier ones stay valid
+    for c in sorted(chosen, reverse=True):
+        k, blend = chosen[c]
+        try:
             if blend.type == "circle":
                 task = with_transition(task, c, blend.radius)
             else:
                 task = with_g2_blend(task, c, blend.tolerance)
+        except PathmotionError as exc:
+            raise type(exc)(f"path.blends[{k}] (corner {c + 1}): {exc}") from None
     q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
     path = lift(robot, task, q_start, original=original)
     return path, task, original

@@ -23,7 +23,7 @@ import pytest
 
 from pathmotion import api
 from pathmotion.scenarios import scenario_path
-from pathmotion.study import run_study_sweep, run_sweep
+from pathmotion.study import run_study_sweep
 
 #: wall-clock keys, the only ones allowed to differ between identical runs
 TIMING_KEYS = {"solve_time_s", "wall_time_s"}

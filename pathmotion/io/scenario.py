@@ -12,7 +12,7 @@ import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from .. import defaults
 from ..errors import ScenarioError
@@ -65,7 +65,6 @@ class CircleSpec(_Model):
     radius: float = Field(gt=0, description="radius [m]")
     normal: Vec3 = Field((0.0, 0.0, 1.0), description="plane normal (0,0,1): horizontal circle")
     start_angle: float = Field(0.0, description="angle of the start point in the plane [rad]")
-    turns: float = Field(1.0, gt=0, description="number of turns (1 = a full circle)")
     start: Vec3 | None = Field(None, description="start point instead of start_angle (default: previous end, if any)")
 
 

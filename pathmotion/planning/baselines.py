@@ -23,7 +23,7 @@ import numpy as np
 from .. import defaults
 from ..errors import InfeasibleError
 from .profile import Profile
-from .segments import Solution, join_segments, solve_chain
+from .segments import Solution, join_segments
 from .topp import IntervalProblem
 from .trajectory import Trajectory
 from .verify import LimitRatios, sample_ratios, summarize, worst_outside

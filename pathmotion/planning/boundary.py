@@ -24,12 +24,25 @@ def _range_text(lo: float, hi: float) -> str:
     return f"[{np.sqrt(max(lo, 0.0)):.6g}, {np.sqrt(max(hi, 0.0)):.6g}]"
 
 
+def _given(problem: IntervalProblem, value: float, index: int, which: str) -> tuple[float, float]:
+    """x = value^2 for a given boundary theta_dot. A value whose square reaches the planner's cap on x
+    (or overflows) is refused here with the pointwise feasible range; smaller infeasible values are
+    reported by the set computations with the range reachable from the other end."""
+    v = abs(float(value))
+    if not v * v < defaults.PLANNER_X_CAP:
+        cap = float(problem.x_max[index])
+        raise InfeasibleError(f"{which} velocity theta_dot = {float(value):.6g} at theta = {problem.grid[index]:.6g} "
+                              f"is infeasible: the feasible range is {_range_text(0.0, cap)} or narrower "
+                              "(unit theta / s); give a smaller value, 'zero' or 'max'")
+    return v * v, v * v
+
+
 def _start_set(problem: IntervalProblem, start: Boundary) -> tuple[float, float]:
     if start == "zero":
         return 0.0, 0.0
     if start == "max":
         return 0.0, float(problem.x_max[0])
-    return float(start) ** 2, float(start) ** 2
+    return _given(problem, start, 0, "start")
 
 
 def _end_set(problem: IntervalProblem, end: Boundary) -> tuple[float, float]:
@@ -37,7 +50,7 @@ def _end_set(problem: IntervalProblem, end: Boundary) -> tuple[float, float]:
         return 0.0, 0.0
     if end == "max":
         return 0.0, float(problem.x_max[-1])
-    return float(end) ** 2, float(end) ** 2
+    return _given(problem, end, -1, "end")
 
 
 def _not_traversable(problem: IntervalProblem, index: int, where: str) -> InfeasibleError:
@@ -77,7 +90,7 @@ def solve_open(problem: IntervalProblem, start: Boundary, end: Boundary, where: 
         x0 = k_hi
         _check_unbounded(x0, "start", problem.grid[0], where)
     else:
-        x0 = 0.0 if start == "zero" else float(start) ** 2
+        x0 = _start_set(problem, start)[0]
         if not (k_lo - tol <= x0 <= k_hi + tol):
             what = "rest" if start == "zero" else f"theta_dot = {float(start):.6g}"
             raise InfeasibleError(

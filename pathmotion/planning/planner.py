@@ -24,7 +24,7 @@ from .boundary import Boundary
 from .constraints import EffectiveLimits, LimitScale, PointConstraints, point_constraints
 from .profile import Profile
 from .reduced import ReducedDynamics, reduced_dynamics
-from .segments import CONNECTIONS, Solution, solve_chain
+from .segments import CONNECTIONS, solve_chain
 from .topp import IntervalProblem, interval_problem, maximum_velocity_curve
 from .trajectory import Trajectory
 from .verify import LimitRatios, sample_ratios, summarize, worst_outside

@@ -17,14 +17,13 @@ simulated duration is the mean period.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .. import defaults
 from ..control import (CONTROLLER_NAMES, ComputedTorqueController, OrbitalController, OrbitalDesign, OrbitalGains,
-                       PathTable, PDGravityController, TimeReference, TrackingGains, default_pd_gains, project)
+                       PathTable, PDGravityController, TimeReference, TrackingGains, default_pd_gains)
 from ..errors import SimulationError
 from ..joint_path import JointPath
 from ..planning.profile import Profile
