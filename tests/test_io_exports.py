@@ -94,6 +94,11 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["summary.json"]
 
 
-def test_json_writes_nan_as_null(tmp_path):
-    path = write_json(tmp_path / "x.json", {"v": float("nan"), "w": np.float64(2.0), "k": np.int64(3)})
-    assert yaml.safe_load(path.read_text()) == {"k": 3, "v": None, "w": 2.0}
+def test_json_is_strict_with_inf_as_a_string_and_nan_as_null(tmp_path):
+    import json
+
+    path = write_json(tmp_path / "x.json", {"v": float("nan"), "w": np.float64(2.0), "k": np.int64(3),
+                                            "r": float("inf"), "s": -np.inf})
+    data = json.loads(path.read_text(), parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
+    assert data == {"k": 3, "v": None, "w": 2.0, "r": "inf", "s": "-inf"}
+    assert float(data["r"]) == np.inf

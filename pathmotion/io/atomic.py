@@ -48,7 +48,8 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
 
 
 def write_json(path: str | Path, obj) -> Path:
-    """JSON with sorted keys and NaN/inf written as null (strict JSON)."""
+    """Strict JSON with sorted keys: +-inf written as the strings "inf" / "-inf" (an unbounded ratio,
+    e.g. a velocity jump; ``float("inf")`` reads it back), NaN as null."""
     return write_text(path, json.dumps(_strict(obj), indent=2, sort_keys=True) + "\n")
 
 
@@ -65,6 +66,8 @@ def _strict(obj):
         return [_strict(v) for v in obj.tolist()]
     if isinstance(obj, (np.floating, float)):
         v = float(obj)
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
         return v if math.isfinite(v) else None
     if isinstance(obj, np.integer):
         return int(obj)
