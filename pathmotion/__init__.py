@@ -4,24 +4,42 @@ The flow (each arrow a function, each box an immutable value)::
 
     scenario (TOML) -> Robot -> TaskPath -> JointPath q = Phi(theta) -> PlanResult (Profile, Trajectory)
                     -> SimulationResult -> files, figures, report
+
+The public names below are imported on first use (PEP 562), so ``import pathmotion`` and the
+``pathmotion`` command start fast and the command can take over Ctrl-C/SIGTERM before NumPy,
+Pinocchio and numba load.
 """
 
-from .api import (Setup, build, check_scenario, load, load_text, plan_scenario, simulate_scenario, write_plan,
-                  write_simulation)
-from .errors import (InfeasibleError, PathError, PathmotionError, RobotModelError, ScenarioError, SimulationError,
-                     UnreachableError)
-from .joint_path import JointPath, SplineJointPath
-from .lift import TaskJointPath, lift
-from .planning import PlanResult, PlanSettings, Profile, Trajectory, plan
-from .robot import JointLimits, Payload, Robot, Tool, load_robot
-from .simulation import SimulationResult, SimulationSettings, simulate
+from __future__ import annotations
+
+import importlib
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "InfeasibleError", "JointLimits", "JointPath", "PathError", "PathmotionError", "Payload", "PlanResult",
-    "PlanSettings", "Profile", "Robot", "RobotModelError", "ScenarioError", "Setup", "SimulationError",
-    "SimulationResult", "SimulationSettings", "SplineJointPath", "TaskJointPath", "Tool", "Trajectory",
-    "UnreachableError", "build", "check_scenario", "lift", "load", "load_robot", "load_text", "plan",
-    "plan_scenario", "simulate", "simulate_scenario", "write_plan", "write_simulation",
-]
+_EXPORTS = {
+    "api": ("Setup", "build", "check_scenario", "load", "load_text", "plan_scenario", "simulate_scenario",
+            "write_plan", "write_simulation"),
+    "errors": ("InfeasibleError", "PathError", "PathmotionError", "RobotModelError", "ScenarioError",
+               "SimulationError", "UnreachableError"),
+    "joint_path": ("JointPath", "SplineJointPath"),
+    "lift": ("TaskJointPath", "lift"),
+    "planning": ("PlanResult", "PlanSettings", "Profile", "Trajectory", "plan"),
+    "robot": ("JointLimits", "Payload", "Robot", "Tool", "load_robot"),
+    "simulation": ("SimulationResult", "SimulationSettings", "simulate"),
+}
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pathmotion' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -76,21 +76,24 @@ def snapshot(folder: Path) -> dict[str, bytes]:
 def test_plan_interrupted_at_random_moments_leaves_old_or_new_complete_files(tmp_path):
     scenario = scenario_path("joint_waypoints")
     out = tmp_path / "out"
-    started = time.perf_counter()
-    first = subprocess.run(cli("plan", scenario, "--out", out, "--set", "plan.grid_points=300"), capture_output=True)
-    assert first.returncode == 0, first.stderr.decode()
-    span = time.perf_counter() - started
+    for _ in range(2):  # the second run is warm (numba's cache written by the first): time that one
+        started = time.perf_counter()
+        first = subprocess.run(cli("plan", scenario, "--out", out, "--set", "plan.grid_points=300"), capture_output=True)
+        assert first.returncode == 0, first.stderr.decode()
+        span = time.perf_counter() - started
     before = snapshot(out)
     rng = random.Random(PLAN_SEED)
     codes = []
     for k, sig in enumerate((signal.SIGINT, signal.SIGTERM)):
         proc = subprocess.Popen(cli("plan", scenario, "--out", out, "--set", f"plan.grid_points={302 + k}"),
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-        time.sleep(rng.uniform(0.4, 1.0) * span)
+        time.sleep(rng.uniform(0.3, 0.7) * span)  # inside the run: after start-up, before interpreter exit
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=120)
         codes.append(proc.returncode)
-        assert proc.returncode in (0, 130), (sig, proc.returncode, err.decode())
+        # 130: the CLI's clean exit; 0: finished first; -sig: the signal landed while Python itself was
+        # starting or shutting down (its default action, no file open) -- the file checks below decide
+        assert proc.returncode in (0, 130, -sig), (sig, proc.returncode, err.decode())
         assert "Traceback" not in err.decode()
         assert not tmp_files(tmp_path), tmp_files(tmp_path)
         for name, data in snapshot(out).items():
