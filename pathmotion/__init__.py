@@ -22,7 +22,7 @@ _EXPORTS = {
     "errors": ("InfeasibleError", "PathError", "PathmotionError", "RobotModelError", "ScenarioError",
                "SimulationError", "UnreachableError"),
     "joint_path": ("JointPath", "SplineJointPath"),
-    "lift": ("TaskJointPath", "lift"),
+    "constraint": ("TaskJointPath", "lift"),
     "planning": ("PlanResult", "PlanSettings", "Profile", "Trajectory", "plan"),
     "robot": ("JointLimits", "Payload", "Robot", "Tool", "load_robot"),
     "simulation": ("SimulationResult", "SimulationSettings", "simulate"),

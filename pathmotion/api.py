@@ -24,7 +24,7 @@ from .io import exports
 from .io.atomic import write_json, write_text
 from .io.scenario import Scenario, load_scenario, parse_scenario
 from .joint_path import JointPath, SplineJointPath
-from .lift import lift
+from .constraint import lift
 from .planning import PlanResult, PlanSettings, plan
 from .robot import Payload, Robot, Tool, builtin_robot_names, load_robot
 
