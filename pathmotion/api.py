@@ -26,6 +26,7 @@ from .io.scenario import Scenario, load_scenario, parse_scenario
 from .joint_path import JointPath, SplineJointPath
 from .constraint import lift
 from .planning import PlanResult, PlanSettings, plan
+from .planning.limits import REGISTRY as LIMIT_REGISTRY, limit_choices
 from .robot import Payload, Robot, Tool, builtin_robot_names, load_robot
 
 
@@ -165,11 +166,7 @@ def plan_settings(scenario: Scenario) -> PlanSettings:
     lim, p = scenario.limits, scenario.plan
     periodic = p.periodic
     return PlanSettings(
-        grid_points=p.grid_points,
-        velocity=lim.use_velocity, velocity_scale=lim.velocity_scale,
-        acceleration=lim.use_acceleration, acceleration_scale=lim.acceleration_scale,
-        torque=lim.use_torque, torque_scale=lim.torque_scale,
-        tcp_speed_limit=lim.tcp_speed,
+        grid_points=p.grid_points, limits=limit_choices(lim),
         start=None if periodic else p.start, end=None if periodic else p.end,
         periodic=periodic, connections=p.connections,
     )
@@ -222,14 +219,12 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
         "duration_s": result.profile.duration,
         "solve_time_s": result.solve_time_s,
         "grid_points": result.grid_points,
-        "max_velocity_ratio": None if r is None else r.velocity,
-        "max_acceleration_ratio": None if r is None else r.acceleration,
-        "max_torque_ratio": None if r is None else r.torque,
-        "max_tcp_speed_ratio": None if r is None else r.tcp_speed,
+        **({cls.summary_key(): None for cls in LIMIT_REGISTRY} if r is None else r.summary()),
         "worst_limit": None if r is None else r.worst,
-        "baseline_constant_speed_duration_s": None if b is None or b.industrial is None else b.industrial.profile.duration,
+        "baseline_constant_speed_duration_s": (None if b is None or b.constant_speed is None
+                                               else b.constant_speed.profile.duration),
         "fitted_profile_duration_s": None if b is None or b.fitted is None else b.fitted.profile.duration,
-        "baseline_constant_speed_error": None if b is None else b.industrial_error,
+        "baseline_constant_speed_error": None if b is None else b.constant_speed_error,
         "connections": setup.plan_settings.connections,
         "velocity_jumps": [list(j) for j in result.jump_intervals],
         "kinks_theta": list(setup.path.kinks),
@@ -274,7 +269,7 @@ def phase_plane_columns(result: PlanResult) -> dict[str, np.ndarray]:
     cols["theta_dot_controllable"] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_controllable, 1e12)), 0))
     b = result.baselines
     if b is not None:
-        for name, base in (("fitted", b.fitted), ("constant_speed", b.industrial)):
+        for name, base in (("fitted", b.fitted), ("constant_speed", b.constant_speed)):
             if base is not None:
                 cols[f"theta_dot_{name}"] = base.profile.theta_dot_at(grid)
     return cols

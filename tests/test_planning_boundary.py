@@ -117,15 +117,15 @@ def test_baselines_are_slower_and_feasible(irb140):
     # long enough to cruise; a joint-space line is a curved TCP path, so the TCP speed varies
     line = PolylinePath.through([LINE[0], 3.0 * LINE[1]])
     res = plan(line, irb140, PlanSettings(grid_points=300))
-    fitted, industrial = res.baselines.fitted, res.baselines.industrial
+    fitted, constant = res.baselines.fitted, res.baselines.constant_speed
     assert res.duration < fitted.duration
-    assert res.duration < industrial.duration
-    assert fitted.ratios.within() and industrial.ratios.within()
+    assert res.duration < constant.duration
+    assert fitted.ratios.within() and constant.ratios.within()
     # fitted profile lies at least the margin below the optimum
     th = res.profile.grid[1:-1]
     assert np.all(fitted.profile.theta_dot_at(th) <= (1 - defaults.FITTED_PROFILE_MARGIN) * res.profile.theta_dot_at(th) + 1e-12)
-    # industrial: a straight joint line has a curved TCP path; its cruise holds a constant TCP speed
-    assert "constant TCP speed" in industrial.description
+    # constant speed: a straight joint line has a curved TCP path; its cruise holds a constant TCP speed
+    assert "constant TCP speed" in constant.description
 
 
 def test_settings_are_validated():

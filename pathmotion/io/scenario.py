@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from .. import defaults
 from ..errors import ScenarioError
+from ..modes import BlendType, BoundaryMode, Connections, Controller
 
 Vec3 = tuple[float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
@@ -73,15 +74,15 @@ SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec], Field(discriminato
 
 class BlendSpec(_Model):
     corner: int | Literal["all"] = Field("all", description="connection index (1 = between segments 1 and 2) or 'all'")
-    type: Literal["circle", "g2"] = Field(description="'circle': the thesis' transition circle; 'g2': curvature-continuous blend")
+    type: BlendType = Field(description="'circle': the thesis' transition circle; 'g2': curvature-continuous blend")
     radius: float | None = Field(None, gt=0, description="transition circle radius r_t [m] (type circle)")
     tolerance: float | None = Field(None, gt=0, description="largest deviation from the corner [m] (type g2)")
 
     @model_validator(mode="after")
     def _size(self):
-        if self.type == "circle" and self.radius is None:
+        if self.type == BlendType.CIRCLE and self.radius is None:
             raise ValueError("a 'circle' blend needs radius = r_t in metres")
-        if self.type == "g2" and self.tolerance is None:
+        if self.type == BlendType.G2 and self.tolerance is None:
             raise ValueError("a 'g2' blend needs tolerance = largest allowed deviation in metres")
         return self
 
@@ -105,6 +106,9 @@ PathSpec = Annotated[Union[TaskPathSpec, JointPathSpec], Field(discriminator="ty
 
 # ---------------------------------------------------------------------------------------- limits
 class LimitsSpec(_Model):
+    """The [limits] table: overrides of the robot's joint limits, and the keys of each registered
+    limit class (``scenario_keys`` in pathmotion/planning/limits/; a test checks they match)."""
+
     velocity: tuple[float, ...] | None = Field(None, description="joint speed limits [rad/s], override")
     acceleration: tuple[float, ...] | None = Field(None, description="joint acceleration limits [rad/s^2], override")
     torque: tuple[float, ...] | None = Field(None, description="joint torque limits [N m], override")
@@ -117,16 +121,16 @@ class LimitsSpec(_Model):
     tcp_speed: float | None = Field(None, gt=0, description="TCP speed limit [m/s] (off when absent)")
 
 
-Boundary = Union[Literal["zero", "max"], Annotated[float, Field(ge=0)]]
+Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]
 
 
 class PlanSpec(_Model):
     grid_points: int = Field(defaults.GRID_POINTS, ge=10, le=1_000_000)
-    start: Boundary = Field("zero", description="theta_dot at the start: 'zero', 'max' or a value [1/s]")
-    end: Boundary = Field("zero", description="theta_dot at the end: 'zero', 'max' or a value")
+    start: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the start: 'zero', 'max' or a value [1/s]")
+    end: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the end: 'zero', 'max' or a value")
     periodic: bool = Field(False, description="closed path: the steady-state cycle")
-    connections: Literal["chain", "zero", "max"] = Field(
-        "chain", description="'chain': plan the whole path at once; 'zero'/'max': segment by segment")
+    connections: Connections = Field(
+        Connections.CHAIN, description="'chain': plan the whole path at once; 'zero'/'max': segment by segment")
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, description="output sample time [s]")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.study.blend_speed)")
@@ -149,7 +153,7 @@ class RealismSpec(_Model):
 
 
 class SimulateSpec(_Model):
-    controller: Literal["orbital", "computed_torque", "pd_gravity"] = "orbital"
+    controller: Controller = Controller.ORBITAL
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, le=0.1, description="controller sample time [s]")
     substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=1000, description="RK4 plant steps per sample")
     laps: int = Field(1, ge=1, le=100, description="laps of a closed path")

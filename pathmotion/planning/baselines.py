@@ -7,7 +7,7 @@ optimum starts or stops from rest), so the fit keeps the square-root shape there
 FITTED_PROFILE_MARGIN below the optimum, then reduced until every limit holds: exactly on the
 planner's discretization (a closed-form largest scale), then on the dense verification resample.
 
-industrial: the highest constant TCP speed that can be held along the whole path, with ramps of
+constant_speed: the highest constant TCP speed that can be held along the whole path, with ramps of
 constant TCP acceleration at the ends where the motion starts or stops (what a commercial
 controller does "at maximum velocity": a trapezoid in TCP speed over the TCP arc length). The
 (speed, acceleration) pair of least duration that satisfies every limit on the planner's
@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import InfeasibleError
+from ..modes import Connections
 from .profile import Profile
 from .segments import Solution, join_segments
 from .topp import IntervalProblem
@@ -29,6 +30,18 @@ from .trajectory import Trajectory
 from .verify import LimitRatios, sample_ratios, summarize, worst_outside
 
 _VERIFY_ROUNDS = 6
+#: An end of a fitted piece is at rest when its theta_dot is below this fraction of the piece's largest [-].
+REST_FRACTION = 1e-12
+#: Floor of theta_dot / w in the log fit, relative to the largest theta_dot (keeps the log finite) [-].
+LOG_FLOOR = 1e-9
+#: Relative margin below the largest feasible scale, so that round-off keeps a profile feasible [-].
+FEASIBLE_MARGIN = 1e-9
+#: The TCP is taken as not moving where |J_v Phi'| is below this fraction of its largest value [-].
+STILL_GAIN_FRACTION = 1e-12
+#: Constant-speed baseline: TCP accelerations searched [m/s^2] (log grid: lowest, highest, points),
+#: and the points of the refinement around the best.
+RAMP_ACCELERATIONS = (1e-2, 1e4, 19)
+RAMP_REFINE_POINTS = 15
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,12 +60,13 @@ class Baseline:
 
 @dataclass(frozen=True, eq=False)
 class Baselines:
-    """The two baselines; ``industrial`` is None when no constant TCP speed meets the plan's boundary
-    conditions and limits (``industrial_error`` then says why): the optimal plan stands without it."""
+    """The two baselines; ``constant_speed`` is None when no constant TCP speed meets the plan's
+    boundary conditions and limits (``constant_speed_error`` then says why): the optimal plan stands
+    without it."""
 
     fitted: Baseline
-    industrial: Baseline | None
-    industrial_error: str | None = None
+    constant_speed: Baseline | None
+    constant_speed_error: str | None = None
 
 
 def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
@@ -67,13 +81,13 @@ def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
 
 def _cuts(chain_args: dict, size: int) -> list[int]:
     split = set(chain_args["stops"])
-    if chain_args["connections"] != "chain":
+    if chain_args["connections"] != Connections.CHAIN:
         split |= set(chain_args["breaks"])
     return sorted(split | {0, size - 1})
 
 
 def _piece_values(sol: Solution, chain_args: dict, cuts: list[int]) -> list[np.ndarray]:
-    if chain_args["connections"] == "max":
+    if chain_args["connections"] == Connections.MAX:
         return [p.x for p in sol.segment_profiles]
     return [sol.x[i0:i1 + 1] for i0, i1 in zip(cuts[:-1], cuts[1:])]
 
@@ -82,13 +96,13 @@ def _fit_piece(theta: np.ndarray, x: np.ndarray, periodic: bool, degree: int) ->
     v = np.sqrt(np.maximum(x, 0.0))
     t = (theta - theta[0]) / (theta[-1] - theta[0])
     w = np.ones_like(t)
-    tiny = 1e-12 * max(v.max(), 1e-300)
+    tiny = REST_FRACTION * max(v.max(), np.finfo(float).tiny)
     if v[0] <= tiny:
         w *= np.sqrt(t)
     if v[-1] <= tiny:
         w *= np.sqrt(1.0 - t)
     ok = w > 0
-    y = np.log(np.maximum(v[ok] / w[ok], 1e-9 * v.max()))
+    y = np.log(np.maximum(v[ok] / w[ok], LOG_FLOOR * v.max()))
     if periodic:
         cols = [np.ones_like(t)]
         for h in range(1, max(degree // 2, 1) + 1):
@@ -124,7 +138,7 @@ def fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, per
         moving = fit > 0
         below = (1.0 - settings.fitted_margin) ** 2 * np.min(x[moving] / fit[moving])
         fit = fit * below
-        fit *= min(1.0, max_feasible_scale(problem.slice(i0, i1), fit) * (1.0 - 1e-9))
+        fit *= min(1.0, max_feasible_scale(problem.slice(i0, i1), fit) * (1.0 - FEASIBLE_MARGIN))
         pieces.append(fit)
     text = (f"smooth fit (degree {defaults.FITTED_PROFILE_DEGREE}) of log theta_dot, "
             f"{100 * settings.fitted_margin:g} % below the optimum, verified")
@@ -147,7 +161,7 @@ def _trapezoid(theta, gain, x_max, v, a, rest_start, rest_end) -> np.ndarray:
         speed = np.minimum(speed, np.sqrt(2.0 * a * arc))
     if rest_end:
         speed = np.minimum(speed, np.sqrt(2.0 * a * np.maximum(arc[-1] - arc, 0.0)))
-    moving = gain > 1e-12 * gain.max()
+    moving = gain > STILL_GAIN_FRACTION * gain.max()
     x = np.where(moving, speed**2 / np.where(moving, gain, 1.0) ** 2, x_max)
     if rest_start:
         x[0] = 0.0
@@ -156,7 +170,7 @@ def _trapezoid(theta, gain, x_max, v, a, rest_start, rest_end) -> np.ndarray:
     return x
 
 
-def industrial_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits, settings,
+def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits, settings,
                         periodic_cycle) -> Baseline:
     """Trapezoid in TCP speed: the (cruise speed v, TCP acceleration a) pair of least duration for
     which the motion is feasible (searched: a on a logarithmic grid refined around the best, the
@@ -196,21 +210,21 @@ def industrial_baseline(problem, sol, chain_args, gain_right, gain_left, path, r
 
     v_top = float(np.max(np.sqrt(np.concatenate(x_opt)) * np.concatenate(gains)))
     ramps = any(r0 or r1 for r0, r1 in rests)
-    accs = np.geomspace(1e-2, 1e4, 19) if ramps else np.array([1.0])
+    accs = np.geomspace(*RAMP_ACCELERATIONS) if ramps else np.array([1.0])
     results = [duration(a) for a in accs]
     k = int(np.argmin([r[0] for r in results]))
     if ramps:  # refine around the best grid value
-        fine = np.geomspace(accs[max(k - 1, 0)], accs[min(k + 1, len(accs) - 1)], 15)
+        fine = np.geomspace(accs[max(k - 1, 0)], accs[min(k + 1, len(accs) - 1)], RAMP_REFINE_POINTS)
         accs = np.concatenate([accs, fine])
         results += [duration(a) for a in fine]
         k = int(np.argmin([r[0] for r in results]))
     (t_best, v), a = results[k], accs[k]
     if not np.isfinite(t_best):
-        raise InfeasibleError("industrial baseline: no constant TCP speed (with TCP acceleration ramps) meets "
+        raise InfeasibleError("constant-speed baseline: no constant TCP speed (with TCP acceleration ramps) meets "
                               "this plan's boundary conditions and limits (e.g. a 'max' or given start/end speed)")
     text = (f"constant TCP speed {v:.6g} m/s" +
             (f" with TCP acceleration ramps of {a:.4g} m/s^2" if ramps else " (periodic, no ramps)"))
-    return _verified("industrial", text, problem, cuts, pieces_for(v * (1.0 - 1e-9), a), path, robot, limits,
+    return _verified("constant_speed", text, problem, cuts, pieces_for(v * (1.0 - FEASIBLE_MARGIN), a), path, robot, limits,
                      settings, robot.joint_names)
 
 
@@ -219,11 +233,11 @@ def compute_baselines(problem: IntervalProblem, sol: Solution, chain_args: dict,
     """Both baselines for a solved problem (see the module docstring). gain_right / gain_left (K,):
     TCP speed per unit theta_dot, |J_v Phi'| [m per unit theta], on each side of every point."""
     periodic_cycle = bool(chain_args["periodic"]) and not ({0, problem.size - 1} & set(chain_args["stops"]))
-    periodic_cycle = periodic_cycle and chain_args["connections"] != "max" and len(_cuts(chain_args, problem.size)) == 2
+    periodic_cycle = periodic_cycle and chain_args["connections"] != Connections.MAX and len(_cuts(chain_args, problem.size)) == 2
     fitted = fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle)
     try:
-        industrial = industrial_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits,
-                                         settings, periodic_cycle)
+        constant = constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits,
+                                           settings, periodic_cycle)
     except InfeasibleError as exc:
         return Baselines(fitted, None, str(exc))
-    return Baselines(fitted, industrial)
+    return Baselines(fitted, constant)

@@ -14,10 +14,18 @@ import numpy as np
 
 from .. import defaults
 from ..errors import InfeasibleError
+from ..modes import BoundaryMode
 from .topp import IntervalProblem, SetSequence, controllable_sets, greedy_profile, reachable_sets
 
-#: "zero", "max" or a path velocity theta_dot >= 0 [unit theta / s].
-Boundary = Union[str, float]
+#: BoundaryMode.ZERO, BoundaryMode.MAX or a path velocity theta_dot >= 0 [unit theta / s].
+Boundary = Union[BoundaryMode, float]
+
+#: x at or above this fraction of defaults.PLANNER_X_CAP counts as unbounded [-].
+X_CAP_FRACTION = 0.999
+#: Relative slack (times 1 + x) when checking that a start x lies in a controllable set [-].
+SET_MEMBERSHIP_TOLERANCE = 1e-9
+#: Floor of the bisection's scale for the periodic search's relative tolerance [(unit theta / s)^2].
+SEARCH_FLOOR = 1e-12
 
 
 def _range_text(lo: float, hi: float) -> str:
@@ -38,17 +46,17 @@ def _given(problem: IntervalProblem, value: float, index: int, which: str) -> tu
 
 
 def _start_set(problem: IntervalProblem, start: Boundary) -> tuple[float, float]:
-    if start == "zero":
+    if start == BoundaryMode.ZERO:
         return 0.0, 0.0
-    if start == "max":
+    if start == BoundaryMode.MAX:
         return 0.0, float(problem.x_max[0])
     return _given(problem, start, 0, "start")
 
 
 def _end_set(problem: IntervalProblem, end: Boundary) -> tuple[float, float]:
-    if end == "zero":
+    if end == BoundaryMode.ZERO:
         return 0.0, 0.0
-    if end == "max":
+    if end == BoundaryMode.MAX:
         return 0.0, float(problem.x_max[-1])
     return _given(problem, end, -1, "end")
 
@@ -63,7 +71,7 @@ def _not_traversable(problem: IntervalProblem, index: int, where: str) -> Infeas
 
 
 def _check_unbounded(x: float, which: str, theta: float, where: str) -> None:
-    if x >= 0.999 * defaults.PLANNER_X_CAP:
+    if x >= X_CAP_FRACTION * defaults.PLANNER_X_CAP:
         raise InfeasibleError(
             f"{where}the 'max' {which} velocity at theta = {theta:.6g} is unbounded: no active limit "
             "bounds theta_dot there (Phi' = 0 and no acceleration/torque limit); give a value instead"
@@ -75,7 +83,7 @@ def solve_open(problem: IntervalProblem, start: Boundary, end: Boundary, where: 
     end_lo, end_hi = _end_set(problem, end)
     sets = controllable_sets(problem, end_lo, end_hi)
     if sets.failed_at >= 0:
-        if end not in ("zero", "max"):
+        if not isinstance(end, BoundaryMode):
             reach = reachable_sets(problem, *_start_set(problem, start))
             if reach.failed_at < 0:
                 raise InfeasibleError(
@@ -85,21 +93,21 @@ def solve_open(problem: IntervalProblem, start: Boundary, end: Boundary, where: 
                 )
         raise _not_traversable(problem, max(sets.failed_at, 0), where)
     k_lo, k_hi = sets.lo[0], sets.hi[0]
-    tol = 1e-9 * (1.0 + k_hi)
-    if start == "max":
+    tol = SET_MEMBERSHIP_TOLERANCE * (1.0 + k_hi)
+    if start == BoundaryMode.MAX:
         x0 = k_hi
         _check_unbounded(x0, "start", problem.grid[0], where)
     else:
         x0 = _start_set(problem, start)[0]
         if not (k_lo - tol <= x0 <= k_hi + tol):
-            what = "rest" if start == "zero" else f"theta_dot = {float(start):.6g}"
+            what = "rest" if start == BoundaryMode.ZERO else f"theta_dot = {float(start):.6g}"
             raise InfeasibleError(
                 f"{where}start from {what} at theta = {problem.grid[0]:.6g} is infeasible: the feasible start "
                 f"velocity range is {_range_text(k_lo, k_hi)} (unit theta / s)"
             )
         x0 = min(max(x0, k_lo), k_hi)
     x = greedy_profile(problem, sets, x0)
-    if end == "max":
+    if end == BoundaryMode.MAX:
         _check_unbounded(x[-1], "end", problem.grid[-1], where)
     return x, sets
 
@@ -113,7 +121,8 @@ def solve_periodic(problem: IntervalProblem, where: str = "") -> tuple[np.ndarra
         s = controllable_sets(problem, v, v)
         if s.failed_at >= 0:
             return None
-        return s if s.lo[0] - 1e-9 * (1 + v) <= v <= s.hi[0] + 1e-9 * (1 + v) else None
+        slack = SET_MEMBERSHIP_TOLERANCE * (1 + v)
+        return s if s.lo[0] - slack <= v <= s.hi[0] + slack else None
 
     free = controllable_sets(problem, 0.0, float(problem.x_max[-1]))
     if free.failed_at >= 0:
@@ -127,7 +136,7 @@ def solve_periodic(problem: IntervalProblem, where: str = "") -> tuple[np.ndarra
     if top is not None:
         lo, best = hi, top
     else:
-        while hi - lo > defaults.PLANNER_SEARCH_TOLERANCE * max(hi, 1e-12):
+        while hi - lo > defaults.PLANNER_SEARCH_TOLERANCE * max(hi, SEARCH_FLOOR):
             mid = 0.5 * (lo + hi)
             s = sets_for(mid)
             if s is None:

@@ -1,7 +1,8 @@
 """The time-optimal planner: settings, result and :func:`plan`.
 
 Flow: grid (uniform in theta, plus every segment connection) -> path derivatives on both sides of
-each connection -> reduced dynamics (RNEA) -> canonical constraints -> reachability analysis
+each connection -> limit rows from every active limit object
+(limits/, limit_rows.py) -> reachability analysis
 (topp.py) with the boundary conditions (boundary.py) and connection mode (segments.py) ->
 verify on a dense time resample and tighten the limits locally where the continuous trajectory
 exceeds them between grid points, re-solve (bounded) -> baselines.
@@ -10,7 +11,7 @@ exceeds them between grid points, re-solve (bounded) -> baselines.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Union
 
 import numpy as np
@@ -18,26 +19,39 @@ import numpy as np
 from .. import defaults
 from ..errors import InfeasibleError, ScenarioError
 from ..joint_path import JointPath
-from ..robot import Robot, jacobian
+from ..modes import BoundaryMode, Connections, parse_mode
+from ..robot import Robot
 from .baselines import Baselines, compute_baselines
-from .boundary import Boundary
-from .constraints import EffectiveLimits, LimitScale, PointConstraints, point_constraints
+from .boundary import X_CAP_FRACTION, Boundary
+from .limit_rows import LimitRows, limit_rows
+from .limits import REGISTRY, EffectiveLimits, LimitChoice, PathPoints, effective_limits_for, tcp_gain
 from .profile import Profile
-from .reduced import ReducedDynamics, reduced_dynamics
-from .segments import CONNECTIONS, solve_chain
+from .segments import solve_chain
 from .topp import IntervalProblem, interval_problem, maximum_velocity_curve
 from .trajectory import Trajectory
-from .verify import LimitRatios, sample_ratios, summarize, worst_outside
+from .verify import LimitRatios, outside, sample_ratios, summarize, worst_outside
 
 
-@dataclass(frozen=True)
+#: A closed path's closure is a kink when Phi' differs across it by more than this, relative [-].
+CLOSURE_KINK_TOLERANCE = 1e-6
+#: Grid points nearer than this fraction of the grid step to a segment connection are dropped [-].
+GRID_MERGE_FRACTION = 0.3
+#: Tightening: an interval is tightened when its ratio exceeds 1 + this x tolerance, and its limits
+#: are scaled so that the ratio becomes 1 - TIGHTEN_TARGET x tolerance [-].
+TIGHTEN_TRIGGER = 0.5
+TIGHTEN_TARGET = 0.25
+
+
+@dataclass(frozen=True, init=False)
 class PlanSettings:
     """What to plan and under which limits.
 
     grid_points: points of the uniform theta grid (segment connections are added).
-    velocity / acceleration / torque: limit on or off; *_scale multiplies the robot's limit
-    (acceleration is off anyway when the robot has no acceleration limits).
-    tcp_speed_limit: TCP speed limit [m/s] or None.
+    limits: {name: LimitChoice} for the registered limits (planning/limits/); each limit's keywords
+    may be given instead (its ``settings_keys``): velocity / acceleration / torque: limit on or off;
+    *_scale multiplies the robot's limit (acceleration is off anyway when the robot has no
+    acceleration limits); tcp_speed_limit: TCP speed limit [m/s] or None. They read back as
+    attributes too (``settings.torque_scale``).
     start, end: "zero", "max" (boundary-level velocity) or theta_dot [unit theta / s]; None = "zero".
     periodic: steady-state cycle on a closed path (start/end must then be None).
     connections: "chain" | "zero" | "max" (see segments.py).
@@ -45,44 +59,80 @@ class PlanSettings:
     verify: run the verify-and-tighten loop (and report the ratios); baselines: compute them.
     """
 
-    grid_points: int = defaults.GRID_POINTS
-    velocity: bool = True
-    velocity_scale: float = 1.0
-    acceleration: bool = True
-    acceleration_scale: float = 1.0
-    torque: bool = True
-    torque_scale: float = 1.0
-    tcp_speed_limit: float | None = None
-    start: Union[str, float, None] = None
-    end: Union[str, float, None] = None
-    periodic: bool = False
-    connections: str = "chain"
-    limit_tolerance: float = defaults.LIMIT_TOLERANCE
-    verify: bool = True
-    verify_sample_time: float = defaults.VERIFY_SAMPLE_TIME
-    max_tighten_iterations: int = defaults.PLAN_MAX_TIGHTEN_ITERATIONS
-    baselines: bool = True
-    fitted_margin: float = defaults.FITTED_PROFILE_MARGIN
+    grid_points: int
+    limits: dict
+    start: Union[BoundaryMode, float, None]
+    end: Union[BoundaryMode, float, None]
+    periodic: bool
+    connections: Connections
+    limit_tolerance: float
+    verify: bool
+    verify_sample_time: float
+    max_tighten_iterations: int
+    baselines: bool
+    fitted_margin: float
 
-    def __post_init__(self):
+    def __init__(self, grid_points: int = defaults.GRID_POINTS, limits: dict | None = None,
+                 start: Union[str, float, None] = None, end: Union[str, float, None] = None,
+                 periodic: bool = False, connections: str = Connections.CHAIN,
+                 limit_tolerance: float = defaults.LIMIT_TOLERANCE, verify: bool = True,
+                 verify_sample_time: float = defaults.VERIFY_SAMPLE_TIME,
+                 max_tighten_iterations: int = defaults.PLAN_MAX_TIGHTEN_ITERATIONS, baselines: bool = True,
+                 fitted_margin: float = defaults.FITTED_PROFILE_MARGIN, **limit_keywords):
+        choices = dict(limits or {})
+        for cls in REGISTRY:
+            given = {field: limit_keywords.pop(key) for key, field in cls.settings_keys.items() if key in limit_keywords}
+            if given:
+                base = choices.get(cls.name, cls.default_choice())
+                if "value" in given and "on" not in cls.settings_keys.values():
+                    given["on"] = given["value"] is not None
+                choices[cls.name] = replace(base, **given)
+        if limit_keywords:
+            keys = sorted(k for cls in REGISTRY for k in cls.settings_keys)
+            raise ScenarioError(f"PlanSettings: unknown keyword(s) {sorted(limit_keywords)}; limit keywords are {keys}")
+        for cls in REGISTRY:
+            if cls.name in choices:
+                cls.check_choice(choices[cls.name])
+        values = dict(grid_points=grid_points, limits=choices, start=start, end=end, periodic=periodic,
+                      connections=connections, limit_tolerance=limit_tolerance, verify=verify,
+                      verify_sample_time=verify_sample_time, max_tighten_iterations=max_tighten_iterations,
+                      baselines=baselines, fitted_margin=fitted_margin)
+        for key, value in values.items():
+            object.__setattr__(self, key, value)
+        self._validate()
+
+    def __getattr__(self, key: str):
+        """A limit's settings keyword read back (``settings.torque_scale``, ``settings.tcp_speed_limit``)."""
+        if key != "limits":
+            for cls in REGISTRY:
+                if key in cls.settings_keys:
+                    return getattr(self.choice(cls), cls.settings_keys[key])
+        raise AttributeError(f"PlanSettings has no attribute {key!r}")
+
+    def __hash__(self):
+        return hash((self.grid_points, tuple(sorted(self.limits.items())), self.start, self.end, self.periodic,
+                     self.connections, self.limit_tolerance, self.verify, self.verify_sample_time,
+                     self.max_tighten_iterations, self.baselines, self.fitted_margin))
+
+    def choice(self, cls) -> LimitChoice:
+        """The choice for the limit class ``cls`` (its default when not given)."""
+        return self.limits.get(cls.name, cls.default_choice())
+
+    def _validate(self):
         if int(self.grid_points) != self.grid_points or self.grid_points < 3:
             raise ScenarioError(f"planner grid_points must be an integer >= 3, got {self.grid_points}")
-        for name in ("velocity_scale", "acceleration_scale", "torque_scale"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise ScenarioError(f"planner {name} must be > 0, got {v}")
-        if self.tcp_speed_limit is not None and not (np.isfinite(self.tcp_speed_limit) and self.tcp_speed_limit > 0):
-            raise ScenarioError(f"tcp_speed_limit must be > 0 m/s or None, got {self.tcp_speed_limit}")
         for name in ("start", "end"):
             v = getattr(self, name)
-            if v is None or v in ("zero", "max"):
+            if v is None:
                 continue
-            if isinstance(v, str) or isinstance(v, bool) or not np.isfinite(v) or v < 0:
+            if isinstance(v, str):
+                object.__setattr__(self, name, parse_mode(BoundaryMode, v, f"planner {name} ('zero', 'max' or a "
+                                                                            "theta_dot >= 0)"))
+            elif isinstance(v, bool) or not np.isfinite(v) or v < 0:
                 raise ScenarioError(f"planner {name} must be 'zero', 'max' or a theta_dot >= 0, got {v!r}")
         if self.periodic and (self.start is not None or self.end is not None):
             raise ScenarioError("periodic planning fixes both ends (equal theta_dot); leave start and end unset")
-        if self.connections not in CONNECTIONS:
-            raise ScenarioError(f"connections must be one of {CONNECTIONS}, got {self.connections!r}")
+        object.__setattr__(self, "connections", parse_mode(Connections, self.connections, "connections"))
         if not self.limit_tolerance >= 0:
             raise ScenarioError(f"limit_tolerance must be >= 0, got {self.limit_tolerance}")
         if not (0 <= self.fitted_margin < 1):
@@ -90,11 +140,11 @@ class PlanSettings:
 
     @property
     def start_condition(self) -> Boundary:
-        return "zero" if self.start is None else self.start
+        return BoundaryMode.ZERO if self.start is None else self.start
 
     @property
     def end_condition(self) -> Boundary:
-        return "zero" if self.end is None else self.end
+        return BoundaryMode.ZERO if self.end is None else self.end
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,14 +181,8 @@ class PlanResult:
 
 
 def effective_limits(robot: Robot, settings: PlanSettings) -> EffectiveLimits:
-    lim = robot.limits
-    return EffectiveLimits(
-        velocity=lim.velocity * settings.velocity_scale if settings.velocity else None,
-        acceleration=(lim.acceleration * settings.acceleration_scale
-                      if settings.acceleration and lim.acceleration is not None else None),
-        torque=lim.torque * settings.torque_scale if settings.torque else None,
-        tcp_speed=settings.tcp_speed_limit,
-    )
+    """The limits ``plan`` enforces for ``robot`` under ``settings`` (robot limits times the scales)."""
+    return effective_limits_for(robot, settings.limits)
 
 
 def make_grid(path: JointPath, points: int) -> tuple[np.ndarray, tuple[int, ...], tuple[int, ...]]:
@@ -148,7 +192,7 @@ def make_grid(path: JointPath, points: int) -> tuple[np.ndarray, tuple[int, ...]
     special = np.array(sorted({float(b) for b in (*path.breaks, *path.kinks) if lo < b < hi}))
     if special.size:
         step = (hi - lo) / (points - 1)
-        near = np.min(np.abs(grid[:, None] - special[None, :]), axis=1) < 0.3 * step
+        near = np.min(np.abs(grid[:, None] - special[None, :]), axis=1) < GRID_MERGE_FRACTION * step
         grid = np.union1d(grid[~near | (grid == lo) | (grid == hi)], special)
     step = grid[1] - grid[0]
     ends = np.array([lo, hi, *special])
@@ -165,62 +209,31 @@ def make_grid(path: JointPath, points: int) -> tuple[np.ndarray, tuple[int, ...]
 class _Sampled:
     """Path data on the grid, as seen from the interval after (right) and before (left) each point."""
 
-    q: np.ndarray
-    dq_r: np.ndarray
-    ddq_r: np.ndarray
-    dq_l: np.ndarray
-    ddq_l: np.ndarray
-    red_r: ReducedDynamics | None
-    red_l: ReducedDynamics | None
-    gain_r: np.ndarray | None
-    gain_l: np.ndarray | None
+    right: PathPoints
+    left: PathPoints
 
 
-def _sample(path, robot, grid, breaks, need_torque, need_gain) -> _Sampled:
+def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, ...]) -> _Sampled:
     q, dq, ddq = path.evaluate(grid, "right")
     dq_l, ddq_l = dq.copy(), ddq.copy()
     idx = np.array(list(breaks) + [len(grid) - 1], dtype=int)
     _, dql, ddql = path.evaluate(grid[idx], "left")
     dq_l[idx], ddq_l[idx] = dql, ddql
-    red_r = red_l = gain_r = gain_l = None
-    if need_torque:
-        red_r = reduced_dynamics(robot, q, dq, ddq)
-        extra = reduced_dynamics(robot, q[idx], dql, ddql)
-        al, be = red_r.alpha.copy(), red_r.beta.copy()
-        al[idx], be[idx] = extra.alpha, extra.beta
-        red_l = ReducedDynamics(al, be, red_r.gamma)
-    if need_gain:
-        jv = jacobian(robot, q)[:, :3, :]
-        gain_r = np.linalg.norm(np.einsum("kij,kj->ki", jv, dq), axis=1)
-        gain_l = np.linalg.norm(np.einsum("kij,kj->ki", jv, dq_l), axis=1)
-    return _Sampled(q, dq, ddq, dq_l, ddq_l, red_r, red_l, gain_r, gain_l)
+    right = PathPoints(robot, path, grid, q, dq, ddq)
+    return _Sampled(right, PathPoints(robot, path, grid, q, dq_l, ddq_l, base=right, changed=idx))
 
 
-def _check_gravity(grid, s: _Sampled, limits: EffectiveLimits, names) -> None:
-    over = np.abs(s.red_r.gamma) > limits.torque
-    if np.any(over):
-        k, j = np.argwhere(over)[0]
-        raise InfeasibleError(
-            f"gravity torque of {names[j]} at theta = {grid[k]:.6g} is {s.red_r.gamma[k, j]:.6g} N m, beyond its "
-            f"limit +-{limits.torque[j]:.6g} N m: the arm cannot hold the path there (nor stop on it); lower the "
-            "payload, raise the torque limit or move the path"
-        )
-
-
-def _rows(pc: PointConstraints, sl) -> PointConstraints:
-    return PointConstraints(pc.a[sl], pc.b[sl], pc.c[sl], pc.lo[sl], pc.hi[sl], pc.x_max[sl], pc.row_kind, pc.row_joint)
-
-
-def _build(grid, s: _Sampled, limits, scale) -> tuple[IntervalProblem, PointConstraints, PointConstraints]:
-    right = point_constraints(s.dq_r, s.ddq_r, limits, scale, s.red_r, s.gain_r, defaults.PLANNER_X_CAP)
-    left = point_constraints(s.dq_l, s.ddq_l, limits, scale, s.red_l, s.gain_l, defaults.PLANNER_X_CAP)
-    problem = interval_problem(grid, _rows(right, slice(0, -1)), _rows(left, slice(1, None)), right.x_max, left.x_max)
+def _build(grid, s: _Sampled, limits: EffectiveLimits, scale: dict,
+           x_ref: np.ndarray | None) -> tuple[IntervalProblem, LimitRows, LimitRows]:
+    right = limit_rows(s.right, limits, scale, defaults.PLANNER_X_CAP, x_ref)
+    left = limit_rows(s.left, limits, scale, defaults.PLANNER_X_CAP, x_ref)
+    problem = interval_problem(grid, right.slice(slice(0, -1)), left.slice(slice(1, None)), right.x_max, left.x_max)
     return problem, right, left
 
 
 def _closure_is_kink(s: _Sampled) -> bool:
-    a, b = s.dq_r[0], s.dq_l[-1]
-    return bool(np.linalg.norm(a - b) > 1e-6 * (1.0 + np.linalg.norm(a)))
+    a, b = s.right.dq[0], s.left.dq[-1]
+    return bool(np.linalg.norm(a - b) > CLOSURE_KINK_TOLERANCE * (1.0 + np.linalg.norm(a)))
 
 
 def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings()) -> PlanResult:
@@ -232,21 +245,36 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         raise ScenarioError("periodic planning needs a closed path (start pose == end pose); set periodic = false")
     limits = effective_limits(robot, settings)
     grid, breaks, kinks = make_grid(path, settings.grid_points)
-    samp = _sample(path, robot, grid, breaks, limits.torque is not None,
-                   limits.tcp_speed is not None or settings.baselines)
-    if limits.torque is not None:
-        _check_gravity(grid, samp, limits, robot.joint_names)
+    samp = _sample(path, robot, grid, breaks)
+    for lim in limits:
+        lim.check(samp.right, robot.joint_names)
     stops = set(kinks)
     if settings.periodic and _closure_is_kink(samp):
         stops |= {0, len(grid) - 1}
     chain_args = dict(start=settings.start_condition, end=settings.end_condition, periodic=settings.periodic,
                       connections=settings.connections, breaks=breaks, stops=tuple(sorted(stops)))
-    scale = LimitScale.ones(len(grid), robot.n)
+    problem, right, left, sol, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, grid,
+                                                                           kinks, samp, chain_args)
+    solve_time = time.perf_counter() - t0
+    curves = LimitCurves(grid, np.minimum(maximum_velocity_curve(right), maximum_velocity_curve(left)),
+                         sol.controllable_hi)
+    base = None
+    if settings.baselines:
+        base = compute_baselines(problem, sol, chain_args, tcp_gain(samp.right), tcp_gain(samp.left), path, robot,
+                                 limits, settings)
+    return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
+                      iterations, sol.jump_intervals, settings)
+
+
+def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args):
+    """Solve, verify on the dense resample, tighten the limits locally where it exceeds them, re-solve
+    (bounded by settings.max_tighten_iterations)."""
+    scale = limits.unit_scale(len(grid), robot.n)
     tol = settings.limit_tolerance
-    ratios = None
+    ratios, x_ref = None, None
     iterations = 0
     while True:
-        problem, right, left = _build(grid, samp, limits, scale)
+        problem, right, left = _build(grid, samp, limits, scale, x_ref)
         sol = solve_chain(problem, **chain_args)
         _check_bounded(grid, sol.x)
         traj = Trajectory(path, sol.profile, robot)
@@ -257,7 +285,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         ratios = summarize(samples, r, limits, settings.verify_sample_time, jumps, robot.joint_names)
         interval = np.clip(np.searchsorted(grid, samples.theta, side="right") - 1, 0, len(grid) - 2)
         worst = worst_outside(samples, r, sol.jump_intervals)
-        free = _outside(samples.theta, sol.jump_intervals)
+        free = outside(samples.theta, sol.jump_intervals)
         if worst <= 1.0 + tol:
             break
         if iterations >= settings.max_tighten_iterations:
@@ -266,20 +294,14 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
                 f"{iterations} tightening iterations ({ratios.worst}); raise grid_points or limit_tolerance"
             )
         scale = _tightened(scale, r, interval, free, tol, len(grid))
+        x_ref = sol.x
         iterations += 1
-    solve_time = time.perf_counter() - t0
-    curves = LimitCurves(grid, np.minimum(maximum_velocity_curve(right), maximum_velocity_curve(left)),
-                         sol.controllable_hi)
-    base = None
-    if settings.baselines:
-        base = compute_baselines(problem, sol, chain_args, samp.gain_r, samp.gain_l, path, robot, limits, settings)
-    return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
-                      iterations, sol.jump_intervals, settings)
+    return problem, right, left, sol, traj, ratios, iterations
 
 
 def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:
     """InfeasibleError where the profile reaches the cap on x: no active limit bounds the speed there."""
-    capped = np.nonzero(x >= 0.999 * defaults.PLANNER_X_CAP)[0]
+    capped = np.nonzero(x >= X_CAP_FRACTION * defaults.PLANNER_X_CAP)[0]
     if capped.size:
         raise InfeasibleError(
             f"no active limit bounds the path speed at theta = {grid[capped[0]]:.6g} (theta_dot would reach the "
@@ -287,31 +309,17 @@ def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:
             "velocity, acceleration or torque limit (limits.use_*) or give a tcp_speed limit")
 
 
-def _outside(theta: np.ndarray, intervals) -> np.ndarray:
-    free = np.ones(len(theta), dtype=bool)
-    for a, b in intervals:
-        free &= ~((theta >= a) & (theta <= b))
-    return free
-
-
-def _tightened(scale: LimitScale, ratios: dict, interval: np.ndarray, free: np.ndarray, tol: float,
-               k: int) -> LimitScale:
-    """Scale the limits down at both ends of every interval whose samples exceed 1 + tol/2."""
+def _tightened(scale: dict, ratios: dict, interval: np.ndarray, free: np.ndarray, tol: float, k: int) -> dict:
+    """Scale each limit down at both ends of every interval whose samples exceed 1 + TIGHTEN_TRIGGER tol:
+    scale {name: (K, m)}, ratios {name: (N, m)} on samples in grid intervals ``interval`` (N,)."""
     new = {}
-    for kind, field_name in (("velocity", "velocity"), ("acceleration", "acceleration"), ("torque", "torque"),
-                             ("tcp_speed", "tcp")):
-        cur = getattr(scale, field_name)
-        if kind not in ratios:
-            new[field_name] = cur
-            continue
-        r = ratios[kind][free]
+    for name, cur in scale.items():
+        r = ratios[name][free]
         worst = np.ones((k - 1, r.shape[1]))
         np.maximum.at(worst, interval[free], r)
-        factor = np.where(worst > 1.0 + 0.5 * tol, (1.0 - 0.25 * tol) / worst, 1.0)
+        factor = np.where(worst > 1.0 + TIGHTEN_TRIGGER * tol, (1.0 - TIGHTEN_TARGET * tol) / worst, 1.0)
         point = np.ones((k, r.shape[1]))
         point[:-1] = np.minimum(point[:-1], factor)
         point[1:] = np.minimum(point[1:], factor)
-        if cur.ndim == 1:
-            point = point.min(axis=1)
-        new[field_name] = cur * point
-    return LimitScale(**new)
+        new[name] = cur * point
+    return new

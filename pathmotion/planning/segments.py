@@ -19,11 +19,13 @@ import numpy as np
 
 from .. import defaults
 from ..errors import InfeasibleError
+from ..modes import BoundaryMode, Connections
 from .boundary import Boundary, solve_open, solve_periodic
 from .profile import Profile
 from .topp import IntervalProblem
 
-CONNECTIONS = ("chain", "zero", "max")
+#: Neighbouring pieces whose x differ by at most this, relative to (1 + x), join without a jump [-].
+JOIN_TOLERANCE = 1e-12
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,16 +56,14 @@ def _check_moving(grid: np.ndarray, x: np.ndarray, where: str) -> None:
 
 
 def solve_chain(problem: IntervalProblem, *, start: Boundary, end: Boundary, periodic: bool,
-                connections: str, breaks: tuple[int, ...], stops: tuple[int, ...]) -> Solution:
+                connections: Connections, breaks: tuple[int, ...], stops: tuple[int, ...]) -> Solution:
     """Solve ``problem`` for a connection mode.
 
     breaks: grid indices of the segment connections; stops: grid indices where the motion must
     stop in "chain" mode (kinks; a closed path's closure point when it is a kink: 0 and K-1).
     """
-    if connections not in CONNECTIONS:
-        raise ValueError(f"connections must be one of {CONNECTIONS}, got {connections!r}")
-    if connections in ("chain", "zero"):
-        forced = set(stops) if connections == "chain" else set(stops) | set(breaks)
+    if connections in (Connections.CHAIN, Connections.ZERO):
+        forced = set(stops) if connections == Connections.CHAIN else set(stops) | set(breaks)
         bound = np.full(problem.size, np.inf)
         bound[sorted(forced)] = 0.0
         prob = problem.capped(bound)
@@ -76,8 +76,8 @@ def solve_chain(problem: IntervalProblem, *, start: Boundary, end: Boundary, per
     pieces, highs = [], []
     for j, (i0, i1) in enumerate(zip(cuts[:-1], cuts[1:])):
         sub = problem.slice(i0, i1)
-        s = "max" if (j > 0 or periodic) else start
-        e = "max" if (j < len(cuts) - 2 or periodic) else end
+        s = BoundaryMode.MAX if (j > 0 or periodic) else start
+        e = BoundaryMode.MAX if (j < len(cuts) - 2 or periodic) else end
         where = f"segment {j} (theta {sub.grid[0]:.6g} .. {sub.grid[-1]:.6g}): "
         x, sets = solve_open(sub, s, e, where)
         _check_moving(sub.grid, x, where)
@@ -104,7 +104,7 @@ def join_segments(grid: np.ndarray, cuts: list[int], pieces: list[np.ndarray]) -
     jumps = []
     for j in range(len(xs) - 1):
         left, right = xs[j], xs[j + 1]
-        if abs(left[-1] - right[0]) <= 1e-12 * (1.0 + right[0]):
+        if abs(left[-1] - right[0]) <= JOIN_TOLERANCE * (1.0 + right[0]):
             gs[j], xs[j] = gs[j][:-1], left[:-1]
             continue
         if left[-1] > right[0]:  # slow down at the end of the left segment

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .constraints import PointConstraints
+from .limit_rows import LimitRows
 
 #: Slack added to every normalized row, relative to its bound and absolute [units of x]: absorbs
 #: round-off in nearly parallel rows (far below the verification tolerance).
@@ -81,7 +81,7 @@ class SetSequence:
     failed_at: int
 
 
-def interval_problem(grid: np.ndarray, start: PointConstraints, end: PointConstraints,
+def interval_problem(grid: np.ndarray, start: LimitRows, end: LimitRows,
                      x_max_right: np.ndarray, x_max_left: np.ndarray) -> IntervalProblem:
     """Build the interval rows. ``start`` holds the constraints at points 0..K-2 as seen from the
     interval they start (K-1 rows), ``end`` at points 1..K-1 as seen from the interval they end."""
@@ -237,7 +237,7 @@ def greedy_profile(problem: IntervalProblem, sets: SetSequence, x0: float) -> np
     return _greedy(problem.P, problem.Q, problem.R, sets.lo, sets.hi, float(x0), 0.0)
 
 
-def maximum_velocity_curve(pc: PointConstraints) -> np.ndarray:
+def maximum_velocity_curve(pc: LimitRows) -> np.ndarray:
     """x_max(theta) (K,) from the point-wise limits: the largest x at each point for which some u
     satisfies every row there (the maximum-velocity curve of the phase-plane plot; inf if unbounded)."""
     A = np.ascontiguousarray(np.concatenate([pc.a, -pc.a], axis=1))

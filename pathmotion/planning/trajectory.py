@@ -54,6 +54,12 @@ class Trajectory:
         return self.at_time(sample_times(self.duration, dt))
 
 
+#: Round-off allowance when counting whole sample steps in a duration [steps], and the gap below
+#: which the last step already ends at the duration [s].
+STEP_ROUNDING = 1e-9
+END_GAP = 1e-12
+
+
 def sample_times(duration: float, dt: float, max_samples: int = defaults.MAX_TRAJECTORY_SAMPLES) -> np.ndarray:
     """Times (N,) [s] every ``dt`` from 0, the last at exactly ``duration`` [s]; a PathmotionError when
     ``dt`` is not > 0 or N would exceed ``max_samples`` (a motion far too long for that sample time)."""
@@ -67,8 +73,8 @@ def sample_times(duration: float, dt: float, max_samples: int = defaults.MAX_TRA
             f"sampling the {duration:.6g} s motion every {dt:g} s needs {count:.3g} samples, more than "
             f"{max_samples:,} (defaults.MAX_TRAJECTORY_SAMPLES): raise the sample time, or check the limits "
             "(a motion this long usually means a limit or a scale such as tcp_speed is far too small)")
-    n = int(np.floor(duration / dt + 1e-9))
+    n = int(np.floor(duration / dt + STEP_ROUNDING))
     t = np.arange(n + 1) * dt
-    if t[-1] < duration - 1e-12:
+    if t[-1] < duration - END_GAP:
         t = np.append(t, duration)
     return t

@@ -1,9 +1,9 @@
 """Verification of a trajectory against the limits on a dense time resample.
 
-ratio = max over samples and joints of |value| / limit, for joint velocity, joint acceleration,
-joint torque and TCP speed (None where that limit is off). A ratio <= 1 + LIMIT_TOLERANCE passes.
-A kink crossed at non-zero speed makes the joint velocity jump: its acceleration and torque are
-unbounded and reported as inf.
+ratio = max over samples and columns (joints, or the TCP) of |value| / limit, for every registered
+limit (planning/limits/; None where that limit is off). A ratio <= 1 + LIMIT_TOLERANCE passes.
+A kink crossed at non-zero speed makes the joint velocity jump: every limit of order >= 2
+(acceleration, torque) is then unbounded and reported as inf.
 """
 
 from __future__ import annotations
@@ -13,40 +13,44 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import defaults
-from ..robot import jacobian
-from .constraints import EffectiveLimits
+from .limits import REGISTRY, EffectiveLimits
 from .trajectory import Samples, Trajectory, sample_times
-
-KINDS = ("velocity", "acceleration", "torque", "tcp_speed")
 
 
 @dataclass(frozen=True)
 class LimitRatios:
-    """max |value| / limit per kind (None: limit off); ``sample_time`` [s] of the resample;
-    ``worst``: where the largest ratio occurs (kind, joint, t, theta)."""
+    """max |value| / limit per registered limit name (None: limit off), e.g. ``ratios.torque`` or
+    ``ratios.values["torque"]``; ``sample_time`` [s] of the resample; ``worst``: where the largest
+    ratio occurs (kind, joint, t, theta)."""
 
-    velocity: float | None
-    acceleration: float | None
-    torque: float | None
-    tcp_speed: float | None
+    values: dict
     sample_time: float
     worst: str
 
+    def __getattr__(self, name: str):
+        if name != "values" and any(cls.name == name for cls in REGISTRY):
+            return self.values.get(name)
+        raise AttributeError(name)
+
     @property
     def max_ratio(self) -> float:
-        vals = [v for v in (self.velocity, self.acceleration, self.torque, self.tcp_speed) if v is not None]
+        vals = [v for v in self.values.values() if v is not None]
         return max(vals) if vals else 0.0
 
     def within(self, tolerance: float = defaults.LIMIT_TOLERANCE) -> bool:
         return self.max_ratio <= 1.0 + tolerance
 
+    def summary(self) -> dict:
+        """{summary key: ratio or None} for every registered limit, e.g. {"max_torque_ratio": 0.98, ...}."""
+        return {cls.summary_key(): self.values.get(cls.name) for cls in REGISTRY}
+
 
 def sample_ratios(trajectory: Trajectory, limits: EffectiveLimits, dt: float,
                   jump_intervals=()) -> tuple[Samples, dict]:
     """Resample every ``dt`` [s], plus the middle of every jump interval (theta_a, theta_b) of the
-    profile (shorter than any sample step); ratios per kind: (N, n) arrays ((N, 1) for TCP speed)."""
+    profile (shorter than any sample step); ratios {name: (N, m)} per active limit."""
     traj = trajectory
-    if limits.torque is None and traj.robot is not None:
+    if not limits.needs_torque and traj.robot is not None:
         traj = Trajectory(traj.path, traj.profile, None)
     prof = traj.profile
     t = sample_times(prof.duration, dt)
@@ -54,17 +58,7 @@ def sample_ratios(trajectory: Trajectory, limits: EffectiveLimits, dt: float,
         i = np.searchsorted(prof.grid, [a for a, _ in jump_intervals])
         t = np.sort(np.concatenate([t, 0.5 * (prof.times[i] + prof.times[i + 1])]))
     s = traj.at_time(t)
-    out = {}
-    if limits.velocity is not None:
-        out["velocity"] = np.abs(s.qd) / limits.velocity
-    if limits.acceleration is not None:
-        out["acceleration"] = np.abs(s.qdd) / limits.acceleration
-    if limits.torque is not None:
-        out["torque"] = np.abs(s.tau) / limits.torque
-    if limits.tcp_speed is not None:
-        jv = jacobian(trajectory.robot, s.q)[:, :3, :]
-        out["tcp_speed"] = (np.linalg.norm(np.einsum("kij,kj->ki", jv, s.qd), axis=1) / limits.tcp_speed)[:, None]
-    return s, out
+    return s, {lim.name: lim.ratios(s, trajectory.robot) for lim in limits}
 
 
 def limit_ratios(trajectory: Trajectory, limits: EffectiveLimits, dt: float = defaults.VERIFY_SAMPLE_TIME,
@@ -79,29 +73,36 @@ def limit_ratios(trajectory: Trajectory, limits: EffectiveLimits, dt: float = de
 def summarize(s: Samples, ratios: dict, limits: EffectiveLimits, dt: float,
               velocity_jumps: tuple[float, ...] = (), joint_names: tuple[str, ...] | None = None) -> LimitRatios:
     """LimitRatios from sampled ratio arrays (see :func:`sample_ratios`)."""
-    values = {k: None for k in KINDS}
+    values = {cls.name: None for cls in REGISTRY}
     worst, worst_text = -1.0, "no limit active"
-    for kind, r in ratios.items():
+    for lim in limits:
+        r = ratios[lim.name]
         k, j = np.unravel_index(int(np.argmax(r)), r.shape)
-        values[kind] = float(r[k, j])
-        if values[kind] > worst:
-            worst = values[kind]
-            name = "TCP" if kind == "tcp_speed" else (joint_names[j] if joint_names else f"joint {j + 1}")
-            worst_text = f"{kind} of {name} at t = {s.t[k]:.6g} s, theta = {s.theta[k]:.6g}: ratio {worst:.6g}"
+        values[lim.name] = float(r[k, j])
+        if values[lim.name] > worst:
+            worst = values[lim.name]
+            worst_text = (f"{lim.name} of {lim.column_name(j, joint_names)} at t = {s.t[k]:.6g} s, "
+                          f"theta = {s.theta[k]:.6g}: ratio {worst:.6g}")
     if velocity_jumps:
-        for kind in ("acceleration", "torque"):
-            if values[kind] is not None:
-                values[kind] = float("inf")
-        if limits.acceleration is not None or limits.torque is not None:
+        jumped = [lim.name for lim in limits if lim.order >= 2]
+        for name in jumped:
+            values[name] = float("inf")
+        if jumped:
             worst_text = (f"joint velocity jumps at the kink theta = {velocity_jumps[0]:.6g} (crossed at non-zero "
                           "speed): unbounded acceleration and torque")
-    return LimitRatios(values["velocity"], values["acceleration"], values["torque"], values["tcp_speed"], dt, worst_text)
+    return LimitRatios(values, dt, worst_text)
 
 
 def worst_outside(s: Samples, ratios: dict, intervals) -> float:
     """Largest ratio over the samples outside the given theta intervals (jumps at "max" connections)."""
-    free = np.ones(len(s.t), dtype=bool)
-    for a, b in intervals:
-        free &= ~((s.theta >= a) & (s.theta <= b))
+    free = outside(s.theta, intervals)
     vals = [float(r[free].max()) for r in ratios.values() if free.any()]
     return max(vals, default=0.0)
+
+
+def outside(theta: np.ndarray, intervals) -> np.ndarray:
+    """Mask (N,) of the theta outside every interval (a, b) (bounds included in the intervals)."""
+    free = np.ones(len(theta), dtype=bool)
+    for a, b in intervals:
+        free &= ~((theta >= a) & (theta <= b))
+    return free

@@ -36,9 +36,9 @@ def phase_plane(result, ax=None):
     b = result.baselines
     if b is not None and b.fitted is not None:
         ax.plot(th, cols["theta_dot_fitted"], color="C2", lw=1.3, label=f"fitted ({b.fitted.profile.duration:.4f} s)")
-    if b is not None and b.industrial is not None:
+    if b is not None and b.constant_speed is not None:
         ax.plot(th, cols["theta_dot_constant_speed"], color="C3", lw=1.3,
-                label=f"constant TCP speed ({b.industrial.profile.duration:.4f} s)")
+                label=f"constant TCP speed ({b.constant_speed.profile.duration:.4f} s)")
     ax.set_ylim(0, top)
     ax.set_xlabel("path coordinate theta")
     ax.set_ylabel("theta_dot [1/s]")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -65,15 +65,6 @@ class JointLimits:
     @property
     def n(self) -> int:
         return len(self.names)
-
-    def scaled(self, velocity: float = 1.0, acceleration: float = 1.0, torque: float = 1.0) -> "JointLimits":
-        """Limits with velocity/acceleration/torque magnitudes multiplied by the given factors."""
-        return replace(
-            self,
-            velocity=self.velocity * velocity,
-            torque=self.torque * torque,
-            acceleration=None if self.acceleration is None else self.acceleration * acceleration,
-        )
 
 
 def limits_from_toml(path: str | Path, joint_names: tuple[str, ...]) -> JointLimits:

@@ -1,0 +1,33 @@
+"""Joint acceleration limit: -qdd_max <= Phi' u + Phi'' x <= qdd_max (order 2)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Limit, LimitChoice, Rows
+
+
+class AccelerationLimit(Limit):
+    """qdd_max [rad/s^2] (n,): the robot's joint acceleration limits times ``acceleration_scale``
+    (off when the robot gives none)."""
+
+    name = "acceleration"
+    order = 2
+    settings_keys = {"acceleration": "on", "acceleration_scale": "scale"}
+    scenario_keys = {"use_acceleration": "on", "acceleration_scale": "scale"}
+
+    def __init__(self, qdd_max: np.ndarray):
+        self.qdd_max = np.asarray(qdd_max, float)
+
+    @classmethod
+    def from_robot(cls, robot, choice: LimitChoice):
+        if not choice.on or robot.limits.acceleration is None:
+            return None
+        return cls(robot.limits.acceleration * choice.scale)
+
+    def rows(self, points, scale, x_ref=None):
+        lim = self.qdd_max * scale
+        return Rows(points.dq, points.ddq, np.zeros_like(points.dq), -lim, lim)
+
+    def ratios(self, samples, robot):
+        return np.abs(samples.qdd) / self.qdd_max

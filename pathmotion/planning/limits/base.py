@@ -1,0 +1,156 @@
+"""The limit interface: one class per limit, in the spirit of toppra's constraint classes.
+
+A limit instance holds its effective values (the robot's limit times the user's scale, or a value
+the user gave) and produces, at K path points:
+
+* order 1 (velocity level): a bound on x = theta_dot^2, ``bound(points, scale)`` -> x_max (K,);
+* order 2 (acceleration level): rows ``rows(points, scale, x_ref)`` -> (a, b, c, lo, hi), each (K, m),
+  of the canonical form lo <= a u + b x + c <= hi with u = theta_ddot;
+* order 3 (jerk level, e.g. a joint jerk limit, which needs Phi''' and theta_dddot): the planner's
+  first-order discretization has no third-order term, so such a limit gives order-2 rows linearized
+  conservatively around ``x_ref`` (the previous solve's x on the grid, None on the first solve). A
+  limit whose bounds depend on the speed (a torque-speed envelope tau_max(qd)) does the same: its
+  ``lo``/``hi`` are evaluated at ``x_ref`` so that they are inner (safe) bounds.
+
+Every limit also gives its ratio |value| / limit on a time resample (``ratios``, (N, m)), the
+summary key of its largest ratio, the keys that set it in a scenario's ``[limits]`` table and in
+:class:`~pathmotion.planning.PlanSettings`, and accepts point-wise scale factors (K, m) (<= 1) that
+the verify-and-tighten loop lowers where the continuous motion exceeds it between grid points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, ClassVar, NamedTuple
+
+import numpy as np
+
+from ...errors import ScenarioError
+from ...joint_path import JointPath
+from ...robot import Robot
+from ..trajectory import Samples
+
+
+class Rows(NamedTuple):
+    """Canonical rows lo <= a u + b x + c <= hi at K points; each (K, m)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+
+@dataclass(frozen=True)
+class LimitChoice:
+    """A user's choice for one limit: ``on`` (use it), ``scale`` (> 0, multiplies the robot's
+    limit), ``value`` (a limit the user gives, e.g. a TCP speed [m/s]; None = not given)."""
+
+    on: bool = True
+    scale: float = 1.0
+    value: float | None = None
+
+
+class PathPoints:
+    """Path data at the grid points theta (K,), seen from one side of each point: q, dq = Phi',
+    ddq = Phi'' (K, n). Derived quantities (reduced dynamics, TCP gain, ...) are computed once and
+    shared by every limit through :meth:`cached`. ``base``/``changed``: these points equal ``base``
+    except at the indices ``changed`` (the left side of segment connections), so derived
+    quantities are computed there only."""
+
+    def __init__(self, robot: Robot, path: JointPath, theta, q, dq, ddq, base: "PathPoints | None" = None,
+                 changed: np.ndarray | None = None):
+        self.robot, self.path, self.theta = robot, path, theta
+        self.q, self.dq, self.ddq = q, dq, ddq
+        self._base, self._changed = base, changed
+        self._cache: dict = {}
+
+    def cached(self, key: str, compute: Callable[[Robot, np.ndarray, np.ndarray, np.ndarray], tuple]) -> tuple:
+        """``compute(robot, q, dq, ddq)`` -> tuple of arrays with leading axis K, computed once per key."""
+        if key not in self._cache:
+            if self._base is None:
+                value = tuple(compute(self.robot, self.q, self.dq, self.ddq))
+            else:
+                value = tuple(v.copy() for v in self._base.cached(key, compute))
+                i = self._changed
+                if i is not None and len(i):
+                    for v, w in zip(value, compute(self.robot, self.q[i], self.dq[i], self.ddq[i])):
+                        v[i] = w
+            self._cache[key] = value
+        return self._cache[key]
+
+
+class Limit:
+    """Base class of a limit (see the module docstring). Subclasses set the class attributes and
+    implement :meth:`from_robot`, :meth:`ratios` and one of :meth:`bound` (order 1) or :meth:`rows`."""
+
+    #: Name: key in ratios and scale dicts, and the kind in messages ("torque").
+    name: ClassVar[str]
+    #: 1: bounds x = theta_dot^2; 2: rows in (theta_ddot, x); 3: involves theta_dddot (linearized rows).
+    order: ClassVar[int]
+    #: True: one column per joint (scale and ratios (K, n)); False: one column (e.g. the TCP).
+    per_joint: ClassVar[bool] = True
+    #: The verification needs joint torques on the resample.
+    needs_torque: ClassVar[bool] = False
+    #: PlanSettings keywords -> LimitChoice field ("on", "scale", "value"), and [limits] scenario keys.
+    settings_keys: ClassVar[dict[str, str]]
+    scenario_keys: ClassVar[dict[str, str]]
+    #: Unit of a user-given value, in messages.
+    unit: ClassVar[str] = ""
+
+    @classmethod
+    def summary_key(cls) -> str:
+        """summary.json key of the largest ratio, e.g. "max_torque_ratio"."""
+        return f"max_{cls.name}_ratio"
+
+    @classmethod
+    def default_choice(cls) -> LimitChoice:
+        return LimitChoice()
+
+    @classmethod
+    def check_choice(cls, choice: LimitChoice) -> LimitChoice:
+        """ScenarioError unless scale > 0 and value is None or > 0 (both finite)."""
+        for key, field in cls.settings_keys.items():
+            v = getattr(choice, field)
+            if field == "on" and not isinstance(v, (bool, np.bool_)):
+                raise ScenarioError(f"planner {key} must be true or false, got {v!r}")
+            if field == "scale" and not (np.isfinite(v) and v > 0):
+                raise ScenarioError(f"planner {key} must be > 0, got {v}")
+            if field == "value" and v is not None and not (np.isfinite(v) and v > 0):
+                raise ScenarioError(f"{key} must be > 0 {cls.unit} or None, got {v}")
+        return choice
+
+    @classmethod
+    def from_robot(cls, robot: Robot, choice: LimitChoice) -> "Limit | None":
+        """The effective limit for ``robot`` under ``choice``; None when it is off."""
+        raise NotImplementedError
+
+    def columns(self, n: int) -> int:
+        """Columns m of the scale and ratio arrays for an n-joint arm."""
+        return n if self.per_joint else 1
+
+    def bound(self, points: PathPoints, scale: np.ndarray) -> np.ndarray | None:
+        """Order 1: x_max (K,) (inf where unbounded) with the limit scaled by ``scale`` (K, m)."""
+        return None
+
+    def rows(self, points: PathPoints, scale: np.ndarray, x_ref: np.ndarray | None = None) -> Rows | None:
+        """Order 2 and 3: canonical rows with the limit scaled by ``scale`` (K, m)."""
+        return None
+
+    def check(self, points: PathPoints, joint_names: tuple[str, ...]) -> None:
+        """InfeasibleError when no motion can meet the limit (e.g. gravity beyond a torque limit)."""
+
+    def ratios(self, samples: Samples, robot: Robot) -> np.ndarray:
+        """|value| / limit (N, m) on a time resample."""
+        raise NotImplementedError
+
+    def column_name(self, j: int, joint_names: tuple[str, ...] | None) -> str:
+        """What column j is, in messages."""
+        return joint_names[j] if joint_names else f"joint {j + 1}"
+
+
+def safe_ratio_bound(limit_sq: np.ndarray, gain: np.ndarray) -> np.ndarray:
+    """limit_sq / gain^2 where gain != 0, inf elsewhere (the x bound of |gain| theta_dot <= limit)."""
+    nz = gain != 0.0
+    with np.errstate(divide="ignore"):
+        return np.where(nz, limit_sq / np.where(nz, gain**2, 1.0), np.inf)

@@ -1,0 +1,50 @@
+"""TCP speed limit: |J_v Phi'| theta_dot <= v_max, a bound on x (order 1)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...robot import jacobian
+from .base import Limit, LimitChoice, PathPoints, safe_ratio_bound
+
+
+def _linear_speed(robot, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """|J_v(q) qd| (N,) [m/s per unit of qd]: the TCP's linear speed."""
+    jv = jacobian(robot, q)[:, :3, :]
+    return np.linalg.norm(np.einsum("kij,kj->ki", jv, qd), axis=1)
+
+
+def tcp_gain(points: PathPoints) -> np.ndarray:
+    """|J_v Phi'| (K,) [m per unit theta]: TCP speed per unit theta_dot (computed once per side)."""
+    return points.cached("tcp_gain", lambda robot, q, dq, ddq: (_linear_speed(robot, q, dq),))[0]
+
+
+class TcpSpeedLimit(Limit):
+    """v_max [m/s]: a TCP speed the user gives (``tcp_speed_limit``; off when None)."""
+
+    name = "tcp_speed"
+    order = 1
+    per_joint = False
+    unit = "m/s"
+    settings_keys = {"tcp_speed_limit": "value"}
+    scenario_keys = {"tcp_speed": "value"}
+
+    def __init__(self, v_max: float):
+        self.v_max = float(v_max)
+
+    @classmethod
+    def default_choice(cls) -> LimitChoice:
+        return LimitChoice(on=False)
+
+    @classmethod
+    def from_robot(cls, robot, choice: LimitChoice):
+        return None if choice.value is None else cls(choice.value)
+
+    def bound(self, points, scale):
+        return safe_ratio_bound((self.v_max * scale[:, 0]) ** 2, tcp_gain(points))
+
+    def ratios(self, samples, robot):
+        return (_linear_speed(robot, samples.q, samples.qd) / self.v_max)[:, None]
+
+    def column_name(self, j, joint_names):
+        return "TCP"

@@ -1,0 +1,29 @@
+"""Joint velocity limit: |Phi'_j| theta_dot <= qd_max_j, a bound on x (order 1)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Limit, LimitChoice, safe_ratio_bound
+
+
+class VelocityLimit(Limit):
+    """qd_max [rad/s] (n,): the robot's joint speed limits times ``velocity_scale``."""
+
+    name = "velocity"
+    order = 1
+    settings_keys = {"velocity": "on", "velocity_scale": "scale"}
+    scenario_keys = {"use_velocity": "on", "velocity_scale": "scale"}
+
+    def __init__(self, qd_max: np.ndarray):
+        self.qd_max = np.asarray(qd_max, float)
+
+    @classmethod
+    def from_robot(cls, robot, choice: LimitChoice):
+        return cls(robot.limits.velocity * choice.scale) if choice.on else None
+
+    def bound(self, points, scale):
+        return safe_ratio_bound((self.qd_max * scale) ** 2, points.dq).min(axis=1)
+
+    def ratios(self, samples, robot):
+        return np.abs(samples.qd) / self.qd_max

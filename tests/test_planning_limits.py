@@ -1,0 +1,159 @@
+"""Limits as objects: a limit is one class in the registry; modes are enums validated at the edge.
+
+The toy limits below (a bound on the path speed theta_dot, order 1, and on the path acceleration
+theta_ddot, order 2) are defined here only, registered for one test, and must then be enforced by
+the planner, reported by the verification and set through PlanSettings keywords. The independent
+check is the analytic trapezoid in theta: with |theta_dot| <= v and |theta_ddot| <= a on theta in
+[0, L], the least time is L / v + v / a (when v^2 / a < L).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pathmotion import defaults
+from pathmotion.errors import ScenarioError
+from pathmotion.io.scenario import LimitsSpec, parse_scenario
+from pathmotion.modes import BoundaryMode, Connections
+from pathmotion.planning import REGISTRY, PlanSettings, plan
+from pathmotion.planning.limits import Limit, LimitChoice, Rows, limit_choices
+
+sys.path.insert(0, str(Path(__file__).parent))
+from planning_paths import PolylinePath  # noqa: E402
+
+TOL = defaults.LIMIT_TOLERANCE
+OFF = dict(velocity=False, acceleration=False, torque=False, baselines=False, grid_points=200)
+
+
+class PathSpeedLimit(Limit):
+    """Toy order-1 limit: theta_dot <= v_max [unit theta / s]."""
+
+    name = "path_speed"
+    order = 1
+    per_joint = False
+    unit = "1/s"
+    settings_keys = {"path_speed_limit": "value"}
+    scenario_keys = {"path_speed": "value"}
+
+    def __init__(self, v_max):
+        self.v_max = v_max
+
+    @classmethod
+    def default_choice(cls):
+        return LimitChoice(on=False)
+
+    @classmethod
+    def from_robot(cls, robot, choice):
+        return None if choice.value is None else cls(choice.value)
+
+    def bound(self, points, scale):
+        return (self.v_max * scale[:, 0]) ** 2
+
+    def ratios(self, samples, robot):
+        return (np.abs(samples.theta_dot) / self.v_max)[:, None]
+
+    def column_name(self, j, joint_names):
+        return "path"
+
+
+class PathAccelerationLimit(Limit):
+    """Toy order-2 limit: -a_max <= theta_ddot <= a_max, i.e. rows (a, b, c) = (1, 0, 0)."""
+
+    name = "path_acceleration"
+    order = 2
+    per_joint = False
+    unit = "1/s^2"
+    settings_keys = {"path_acceleration_limit": "value"}
+    scenario_keys = {"path_acceleration": "value"}
+
+    def __init__(self, a_max):
+        self.a_max = a_max
+
+    @classmethod
+    def default_choice(cls):
+        return LimitChoice(on=False)
+
+    @classmethod
+    def from_robot(cls, robot, choice):
+        return None if choice.value is None else cls(choice.value)
+
+    def rows(self, points, scale, x_ref=None):
+        k = len(points.theta)
+        lim = self.a_max * scale
+        return Rows(np.ones((k, 1)), np.zeros((k, 1)), np.zeros((k, 1)), -lim, lim)
+
+    def ratios(self, samples, robot):
+        return (np.abs(samples.theta_ddot) / self.a_max)[:, None]
+
+    def column_name(self, j, joint_names):
+        return "path"
+
+
+@pytest.fixture()
+def toy_registry():
+    """REGISTRY with the two toy limits appended (one line each), restored afterwards."""
+    REGISTRY.append(PathSpeedLimit)
+    REGISTRY.append(PathAccelerationLimit)
+    try:
+        yield
+    finally:
+        REGISTRY.remove(PathSpeedLimit)
+        REGISTRY.remove(PathAccelerationLimit)
+
+
+def test_a_registered_limit_class_is_enforced_and_verified(toy_registry, irb140):
+    line = PolylinePath.through([np.zeros(6), np.array([0.4, 0.2, -0.2, 0.1, 0.1, 0.0])])
+    v, a = 0.8, 2.0  # v^2 / a = 0.32 < L = 1: cruise between two ramps
+    res = plan(line, irb140, PlanSettings(path_speed_limit=v, path_acceleration_limit=a, **OFF))
+    assert res.duration == pytest.approx(1.0 / v + v / a, rel=1e-3)
+    assert res.ratios.path_speed == pytest.approx(1.0, abs=TOL)  # both bind
+    assert res.ratios.path_acceleration == pytest.approx(1.0, abs=TOL)
+    s = res.trajectory.sample(1e-3)  # independent of the verification's own resample
+    assert np.max(np.abs(s.theta_ddot)) <= a * (1 + TOL) and np.max(s.theta_dot) <= v * (1 + TOL)
+    summary = res.ratios.summary()
+    assert summary["max_path_acceleration_ratio"] == res.ratios.path_acceleration
+    assert summary["max_torque_ratio"] is None  # off
+    settings = PlanSettings(path_speed_limit=v, **OFF)
+    assert settings.path_speed_limit == v and settings.path_acceleration_limit is None
+
+
+def test_toy_limit_reads_from_scenario_keys(toy_registry):
+    choices = limit_choices({"path_speed": 0.5, "use_torque": False})
+    assert choices["path_speed"] == LimitChoice(on=True, scale=1.0, value=0.5)
+    assert choices["path_acceleration"].on is False and choices["torque"].on is False
+    with pytest.raises(ScenarioError, match="path_speed_limit must be > 0"):
+        PlanSettings(path_speed_limit=-1.0)
+
+
+def test_registry_keys_match_the_scenario_file_format():
+    keys = {k for cls in REGISTRY for k in cls.scenario_keys}
+    overrides = {"velocity", "acceleration", "torque"}  # the robot's joint limits, replaced per joint
+    assert keys == set(LimitsSpec.model_fields) - overrides
+    assert len({cls.name for cls in REGISTRY}) == len(REGISTRY)
+    assert len({cls.summary_key() for cls in REGISTRY}) == len(REGISTRY)
+
+
+def test_scenario_limits_become_settings():
+    sc = parse_scenario('[path]\ntype = "joint"\nwaypoints = [[0.0], [1.0]]\n'
+                        '[limits]\nuse_torque = false\nvelocity_scale = 0.5\ntcp_speed = 0.3\n')
+    settings = PlanSettings(limits=limit_choices(sc.limits))
+    assert settings.torque is False and settings.velocity_scale == 0.5 and settings.tcp_speed_limit == 0.3
+    assert settings.acceleration is True and settings.acceleration_scale == 1.0
+
+
+def test_unknown_limit_keyword_is_refused():
+    with pytest.raises(ScenarioError, match="unknown keyword"):
+        PlanSettings(jerk=True)
+
+
+def test_modes_are_enums_validated_once():
+    s = PlanSettings(start="max", end=0.5, connections="zero")
+    assert s.start is BoundaryMode.MAX and s.end == 0.5 and s.connections is Connections.ZERO
+    assert s.connections == "zero"  # the enum's value is the string of files and outputs
+    for bad in (dict(connections="smooth"), dict(start="fast"), dict(end="stop")):
+        with pytest.raises(ScenarioError, match="must be one of"):
+            PlanSettings(**bad)
