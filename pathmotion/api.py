@@ -231,11 +231,23 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
     }
     if setup.original_task_path is not None and setup.task_path is not None:
         out["blend_max_deviation_m"] = max_deviation(setup.task_path, setup.original_task_path).distance
+    if setup.scenario.rapid is not None and setup.task_path is not None:
+        out["rapid_estimate_s"] = _rapid_estimate(setup)
     check = getattr(setup.path, "check", None)
     if check is not None:
         out["min_singular_value"] = check.min_singular_value
         out["joint_range_margin_rad"] = check.range_margin
     return out
+
+
+def _rapid_estimate(setup: Setup) -> float:
+    """The RAPID program's constant-speed duration on the path before blends (io.rapid.rapid_estimate_s)."""
+    from .io.rapid import rapid_estimate_s
+
+    path = setup.original_task_path if setup.original_task_path is not None else setup.task_path
+    spec = setup.scenario.rapid
+    return rapid_estimate_s([s.length for s in path.segments], spec.speeds, spec.zones,
+                            [c.angle for c in path.connections])
 
 
 def write_plan(setup: Setup, result: PlanResult, out: str | Path, figures: bool = True) -> dict:

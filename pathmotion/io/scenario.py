@@ -163,6 +163,23 @@ class SimulateSpec(_Model):
     failure_threshold: float = Field(defaults.TRACKING_FAILURE_THRESHOLD, gt=0, description="[rad]")
 
 
+# ----------------------------------------------------------------------------------------- rapid
+class RapidSpec(_Model):
+    """The speeds and zones of an imported RAPID program (``pathmotion import-rapid``)."""
+
+    source: str = Field("", description="the RAPID module it came from")
+    speeds: list[Annotated[float, Field(gt=0)]] = Field(min_length=1, description="programmed TCP speed per "
+                                                                                 "segment [m/s]")
+    zones: list[Annotated[float, Field(ge=0)]] = Field([], description="zone radius per corner [m], 0 = fine point")
+
+    @model_validator(mode="after")
+    def _counts(self):
+        if len(self.zones) != len(self.speeds) - 1:
+            raise ValueError(f"{len(self.speeds)} speeds need {len(self.speeds) - 1} zones (one per corner), "
+                             f"got {len(self.zones)}")
+        return self
+
+
 class Scenario(_Model):
     name: str = "scenario"
     description: str = ""
@@ -171,6 +188,7 @@ class Scenario(_Model):
     limits: LimitsSpec = LimitsSpec()
     plan: PlanSpec = PlanSpec()
     simulate: SimulateSpec = SimulateSpec()
+    rapid: RapidSpec | None = Field(None, description="speeds and zones of an imported RAPID program")
 
 
 # ----------------------------------------------------------------------------------------- load
