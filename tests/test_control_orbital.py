@@ -1,8 +1,8 @@
-"""The compiled per-sample code against the pieces it is built from, and the monitor at a sharp kink.
+"""The compiled per-sample kernels against independent numpy references, and the monitor at a sharp kink.
 
-References: the uncompiled composition (project / transverse_state / ProfileLookup / OrbitalDesign.gain_at /
-PathTable.evaluate_scalar, each tested against its own reference in test_control_transverse.py), and the
-exact geometry of a two-segment joint-space polyline (the nearest point is known in closed form).
+References: tests/control_reference.py (numpy projection, matrix transverse basis, the planning Profile's
+own x_at / state_at_time, np.interp of the gains), and the exact geometry of a two-segment joint-space
+polyline (the nearest point is known in closed form).
 """
 
 from dataclasses import dataclass
@@ -10,9 +10,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+import control_reference as ref
 from pathmotion import defaults
-from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable, transverse_state
-from pathmotion.control.orbital_law import orbital_command, profile_at_time
+from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable, ProfileLookup
+from pathmotion.control.kernels import ProfileArrays, orbital_command, profile_at_time
 from pathmotion.joint_path import JointPath, SplineJointPath
 from pathmotion.planning.profile import Profile
 from pathmotion.simulation import SimulationSettings, simulate
@@ -36,37 +37,52 @@ def design():
 
 
 @pytest.mark.parametrize("theta", [0.2, 0.45, 0.7])
-def test_compiled_law_equals_its_pieces(design, theta):
-    table, lookup = design.table, design.profile
+@pytest.mark.parametrize("integral", [True, False])
+def test_compiled_law_equals_the_reference(design, theta, integral):
+    table = design.table
     rng = np.random.default_rng(int(theta * 100))
     phi, dphi, _ = table.evaluate_scalar(theta)
     q = phi + rng.normal(0, 1e-3, 6)
     qd = dphi * 0.8 + rng.normal(0, 1e-2, 6)
     ts, guess = 0.004, theta - 0.003
-    st = transverse_state(table, design.basis, lookup, q, qd, guess)
-    xi0 = rng.normal(0, 1e-3, 6)
+    xi0 = rng.normal(0, 1e-3, 6) if integral else np.zeros(0)
+    gain = design.gain if integral else design.gain[:, :, 6:]
     xi = xi0.copy()
-    x_perp, v = np.zeros(design.gain.shape[2]), np.zeros(6)
-    th, thd = orbital_command(table.grid, table.coeffs, table.closed, q, qd, guess, defaults.PROJECTION_ITERATIONS,
-                              defaults.PROJECTION_TOLERANCE * table.length, defaults.PROJECTION_MAX_STEP * table.length,
-                              design.basis.k, design.basis.sigma, lookup.profile.grid, lookup.profile.x,
-                              lookup.profile.u, design.gain, xi, ts, x_perp, v)
-    assert th == pytest.approx(st.theta, abs=1e-12) and thd == pytest.approx(st.theta_dot, rel=1e-10)
-    z, zd, speed = st.x_perp[:5], st.x_perp[5:10], st.x_perp[10]
-    expected_xi = xi0 + ts * np.concatenate([z, [speed]])
-    assert np.allclose(xi, expected_xi, atol=1e-15)
-    assert np.allclose(x_perp, np.concatenate([expected_xi, st.x_perp]), atol=1e-13)
-    theta_m = st.theta + 0.5 * ts * st.theta_dot
-    _, dphi_m, ddphi_m = table.evaluate_scalar(theta_m)
-    x_m, u_m = lookup.state(theta_m)
-    want = dphi_m * u_m + ddphi_m * x_m - design.gain_at(st.theta) @ x_perp
-    assert np.allclose(v, want, rtol=1e-10, atol=1e-10)
+    x_perp, v = np.zeros(gain.shape[2]), np.zeros(6)
+    th, thd = orbital_command(table.arrays, design.profile.arrays, design.basis.arrays, table.projection(), gain,
+                              q, qd, guess, ts, xi, x_perp, v)
+    want = ref.orbital_command(design if integral else _without_integral(design), q, qd, guess, xi0, ts)
+    assert th == pytest.approx(want[0], abs=1e-12) and thd == pytest.approx(want[1], rel=1e-10)
+    assert np.allclose(xi, want[2], atol=1e-15)
+    assert np.allclose(x_perp, want[3], atol=1e-13)
+    assert np.allclose(v, want[4], rtol=1e-10, atol=1e-10)
+
+
+def _without_integral(design):
+    """The design with the integral columns of the gain dropped (a law without integral action)."""
+    from dataclasses import replace
+    return replace(design, gain=design.gain[:, :, 6:])
+
+
+def test_profile_lookup_equals_the_planned_profile():
+    """x*, u* against Profile.x_at / theta_ddot_at; t*(theta) inverts Profile.state_at_time."""
+    p = trapezoid()
+    lookup = ProfileLookup(p)
+    theta = np.linspace(0.0, 1.0, 41)
+    for th in theta:
+        assert lookup.state(th) == pytest.approx(ref.profile_state(p, th), abs=1e-14)
+    times = lookup.times(theta)
+    assert np.allclose([lookup.time(th) for th in theta], times, atol=1e-15)
+    assert np.allclose(p.state_at_time(times)[0], theta, atol=1e-12)
+    closed = ProfileLookup(Profile(np.array([0.0, 0.5, 1.0]), np.array([1.0, 2.0, 1.0])), closed=True)
+    assert closed.state(1.25) == pytest.approx(closed.state(0.25), abs=1e-15)
 
 
 def test_compiled_profile_at_time_equals_the_profile():
     p = trapezoid()
+    arrays = ProfileArrays(p.times, p.grid, p.x, p.u)
     for t in np.linspace(-0.1, p.duration + 0.1, 37):
-        got = profile_at_time(p.times, p.grid, p.x, p.u, t)
+        got = profile_at_time(arrays, t)
         want = p.state_at_time(t)
         assert np.allclose(got, [float(np.asarray(w).ravel()[0]) for w in want], atol=1e-12)
 
@@ -102,13 +118,11 @@ def test_monitor_passes_a_kink_sharper_than_90_degrees():
     proj = (defaults.PROJECTION_ITERATIONS, defaults.PROJECTION_TOLERANCE * 2, defaults.PROJECTION_MAX_STEP * 2)
     alone = table.project(q, 0.999, *proj)[0]
     assert alone < 1.0  # stuck on the first segment
-    th, thd, dev, _, _, ok = monitor_state(table.grid, table.coeffs, False, table.kinks, q, np.zeros(6), 0.999,
-                                           *proj, *args)
+    th, thd, dev, _, _, ok = monitor_state(table.arrays, q, np.zeros(6), 0.999, table.projection(), *args)
     assert ok and th == pytest.approx(1.05, abs=1e-9) and dev < 1e-12
     # away from the kink the monitor is the plain local projection
     q2 = path(0.5) + 0.01 * np.array([0, 0, 1.0, 0, 0, 0])
-    th2, _, dev2, _, _, _ = monitor_state(table.grid, table.coeffs, False, table.kinks, q2, np.zeros(6), 0.49,
-                                          *proj, *args)
+    th2, _, dev2, _, _, _ = monitor_state(table.arrays, q2, np.zeros(6), 0.49, table.projection(), *args)
     assert th2 == pytest.approx(0.5, abs=1e-9) and dev2 == pytest.approx(0.01, abs=1e-12)
 
 

@@ -13,7 +13,8 @@ from hypothesis import given, settings, strategies as st
 from scipy.linalg import solve_continuous_are
 
 from pathmotion.control import (OrbitalDesign, OrbitalGains, PathTable, ProfileLookup, TransverseBasis, lqr_weights,
-                                project, solve_riccati, transverse_linearization, transverse_state)
+                                project, solve_riccati, transverse_linearization)
+from pathmotion.control import kernels
 from pathmotion.control.orbital import with_integral
 from pathmotion.joint_path import JointPath, SplineJointPath
 from pathmotion.planning.profile import Profile
@@ -125,7 +126,9 @@ def test_transverse_linearization_matches_finite_differences_of_the_dynamics(spl
         dt = 1e-5
 
         def state_at(s):
-            return transverse_state(table, basis, lookup, q + qd * s + 0.5 * v * s * s, qd + v * s, theta).x_perp
+            out = kernels.transverse_state(table.arrays, lookup.arrays, basis.arrays, table.projection(),
+                                           q + qd * s + 0.5 * v * s * s, qd + v * s, theta)
+            return np.concatenate([out[2], out[3], [out[4]]])
 
         assert np.allclose(state_at(0.0), x0, atol=1e-11)
         fd = (state_at(dt) - state_at(-dt)) / (2 * dt)

@@ -7,11 +7,11 @@ from .orbital import OrbitalController, OrbitalDesign, lqr_weights
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
 from .riccati import solve_riccati
-from .transverse import TransverseBasis, TransverseState, project, transverse_linearization, transverse_state
+from .transverse import TransverseBasis, project, transverse_linearization
 
 __all__ = [
     "CONTROLLER_NAMES", "ComputedTorqueController", "OrbitalController", "OrbitalDesign", "OrbitalGains",
     "PDGravityController", "PathTable", "ProfileLookup", "TimeReference", "TrackingGains", "TransverseBasis",
-    "TransverseState", "computed_torque", "default_pd_gains", "lqr_weights", "pd_gravity", "project",
-    "solve_riccati", "transverse_linearization", "transverse_state",
+    "computed_torque", "default_pd_gains", "lqr_weights", "pd_gravity", "project", "solve_riccati",
+    "transverse_linearization",
 ]

@@ -9,7 +9,7 @@ Per sample (docs/control.md has the equations):
    (the middle of the coming hold interval), K from the Riccati equation of the transverse linearization;
 3. tau = M(q) v + C(q, qd) qd + G(q) with the nominal model.
 
-Steps 1-2 are one compiled call (:mod:`.orbital_law`). The clock never enters steps 1-3. Near stops (open
+Steps 1-2 are one compiled call (:func:`.kernels.orbital_command`). The clock never enters steps 1-3. Near stops (open
 paths: the ends, kinks) the plan is played on the clock with the same closed-loop poles (and integral
 action on the joint error), and the final configuration is then held; the integral state is carried
 across the switches (xi = E^T xi_q one way, xi_q = E xi the other).
@@ -28,11 +28,15 @@ from ..planning.profile import Profile
 from ..robot import Robot
 from .gains import OrbitalGains
 from .laws import computed_torque
-from .orbital_law import clock_command, orbital_command
+from .kernels import clock_command, orbital_command
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
 from .riccati import solve_riccati
 from .transverse import TransverseBasis, transverse_linearization
+
+#: Relative mismatch allowed between the profile's and the path's theta ends, and between the start and end
+#: speeds of a periodic profile [-].
+DOMAIN_MATCH = 1e-9
 
 
 def integral_size(gains: OrbitalGains, n: int) -> int:
@@ -123,13 +127,13 @@ class OrbitalDesign:
     def build(cls, table: PathTable, profile: Profile, gains: OrbitalGains = OrbitalGains()) -> "OrbitalDesign":
         lookup = ProfileLookup(profile, closed=table.closed)
         lo, hi = table.domain
-        if abs(profile.grid[0] - lo) > 1e-9 * table.length or abs(profile.grid[-1] - hi) > 1e-9 * table.length:
+        if abs(profile.grid[0] - lo) > DOMAIN_MATCH * table.length or abs(profile.grid[-1] - hi) > DOMAIN_MATCH * table.length:
             raise SimulationError(
                 f"the profile covers theta in [{profile.grid[0]:.6g}, {profile.grid[-1]:.6g}] but the path's domain is "
                 f"[{lo:.6g}, {hi:.6g}]; plan the profile on this path"
             )
         if table.closed:
-            if abs(profile.x[0] - profile.x[-1]) > 1e-9 * max(profile.x.max(), 1e-12):
+            if abs(profile.x[0] - profile.x[-1]) > DOMAIN_MATCH * max(profile.x.max(), 1e-12):
                 raise SimulationError(
                     f"closed path: the profile must be periodic, x*(start) = {profile.x[0]:.6g} but "
                     f"x*(end) = {profile.x[-1]:.6g} (theta_dot^2)"
@@ -235,11 +239,8 @@ class OrbitalController:
         self.x_perp = np.zeros(d.gain.shape[2])
         self.v = np.zeros(n)
         p = d.profile.profile
-        self._profile = (np.ascontiguousarray(p.times, float), np.ascontiguousarray(p.grid, float),
-                         np.ascontiguousarray(p.x, float), np.ascontiguousarray(p.u, float))
-        t = d.table
-        self._projection = (defaults.PROJECTION_ITERATIONS, defaults.PROJECTION_TOLERANCE * t.length,
-                            defaults.PROJECTION_MAX_STEP * t.length)
+        self._path, self._plan, self._basis = d.table.arrays, d.profile.arrays, d.basis.arrays
+        self._projection = d.table.projection()
         self._clock_gains = d.gains.clock_gains
         # zones are entered by theta: t*(theta) is increasing, so zone i starts at theta*(start of zone i)
         self._zone_theta = np.asarray([float(p.state_at_time(z0)[0]) for z0, _ in d.zones])
@@ -264,7 +265,7 @@ class OrbitalController:
             self._integral_to_transverse()
         table = d.table
         guess = table.next_guess(self.theta, self.theta_dot, self.sample_time)
-        if self.next_zone < len(d.zones) and guess + self._projection[2] >= self._zone_theta[self.next_zone]:
+        if self.next_zone < len(d.zones) and guess + self._projection.max_step >= self._zone_theta[self.next_zone]:
             theta, _ = table.project(q, guess, *self._projection)
             plan = d.profile.time(theta)
             zone = d.zone_at(plan, self.next_zone)
@@ -273,20 +274,15 @@ class OrbitalController:
                 self.clock, self.next_zone = (zone, t, plan), zone + 1
                 self._integral_to_joints(theta)
                 return self._play(plan, q, qd)
-        _, _, px, pu = self._profile
-        self.theta, self.theta_dot = orbital_command(
-            table.grid, table.coeffs, table.closed, q, qd, guess, *self._projection, d.basis.k, d.basis.sigma,
-            d.profile.profile.grid, px, pu, d.gain, self.xi, self.sample_time, self.x_perp, self.v)
+        self.theta, self.theta_dot = orbital_command(self._path, self._plan, self._basis, self._projection, d.gain,
+                                                     q, qd, guess, self.sample_time, self.xi, self.x_perp, self.v)
         return computed_torque(self.model, self.data, q, qd, self.v)
 
     def _play(self, t_ref: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """Tracking of the plan at planned time t_ref (after its end: hold Phi(theta_end)) with the orbital
         law's closed-loop poles and integral action on the joint error."""
-        d = self.design
-        times, grid, px, pu = self._profile
         kp, kd, ki = self._clock_gains
-        clock_command(d.table.grid, d.table.coeffs, d.table.closed, times, grid, px, pu, t_ref, self.sample_time,
-                      q, qd, kp, kd, ki, self.xi_q, self.v)
+        clock_command(self._path, self._plan, t_ref, self.sample_time, q, qd, kp, kd, ki, self.xi_q, self.v)
         return computed_torque(self.model, self.data, q, qd, self.v)
 
     def _frame(self, theta: float) -> np.ndarray:

@@ -16,12 +16,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cached_property
 
-import numba
 import numpy as np
 
 from .. import defaults
 from ..errors import SimulationError
 from ..joint_path import JointPath
+from .kernels import PathArrays, Projection, evaluate_at, project
+
+#: Grid points closer than this fraction of the domain's length to a break are dropped (the break stays).
+BREAK_MERGE = 1e-9
 
 # Quintic Hermite: p(s) = sum_k c_k s^k on s in [0, 1] from (p0, p0', p0'', p1, p1', p1'') with the
 # derivatives already scaled by the interval length h (p' -> h p', p'' -> h^2 p'').
@@ -35,71 +38,6 @@ _HERMITE5 = np.array(
         [-6.0, -3.0, -0.5, 6.0, -3.0, 0.5],
     ]
 )
-
-
-@numba.njit(cache=True)
-def _evaluate_one(grid, coeffs, theta):
-    """(3, n): Phi, Phi', Phi'' at one theta inside [grid[0], grid[-1]] (compiled: ~1 us per call)."""
-    i = min(max(np.searchsorted(grid, theta, side="right") - 1, 0), len(grid) - 2)
-    h = grid[i + 1] - grid[i]
-    s = (theta - grid[i]) / h
-    c = coeffs[i]
-    n = c.shape[1]
-    out = np.empty((3, n))
-    for j in range(n):
-        c0, c1, c2, c3, c4, c5 = c[0, j], c[1, j], c[2, j], c[3, j], c[4, j], c[5, j]
-        out[0, j] = c0 + s * (c1 + s * (c2 + s * (c3 + s * (c4 + s * c5))))
-        out[1, j] = (c1 + s * (2.0 * c2 + s * (3.0 * c3 + s * (4.0 * c4 + s * 5.0 * c5)))) / h
-        out[2, j] = (2.0 * c2 + s * (6.0 * c3 + s * (12.0 * c4 + s * 20.0 * c5))) / (h * h)
-    return out
-
-
-@numba.njit(cache=True)
-def _wrapped(theta, lo, hi, closed):
-    if closed:
-        return lo + (theta - lo) % (hi - lo)
-    return min(max(theta, lo), hi)
-
-
-@numba.njit(cache=True)
-def _project_one(grid, coeffs, closed, q, theta, iterations, tol, max_step):
-    """Compiled core of :func:`pathmotion.control.transverse.project` (same algorithm, see there)."""
-    lo, hi = grid[0], grid[-1]
-    ev = _evaluate_one(grid, coeffs, _wrapped(theta, lo, hi, closed))
-    y = q - ev[0]
-    dist = np.dot(y, y)
-    for _ in range(iterations):
-        d2 = np.dot(ev[1], ev[1])
-        if d2 <= 1e-24:
-            step = 1e-3 * max_step
-            if not closed and theta >= hi:
-                step = -step
-        else:
-            curv = d2 - np.dot(ev[2], y)
-            step = np.dot(ev[1], y) / (curv if curv > 0.5 * d2 else d2)
-            step = min(max(step, -max_step), max_step)
-            if abs(step) <= tol:
-                break
-        accepted = False
-        new = theta
-        ev_new = ev
-        y_new = y
-        dist_new = dist
-        for _halve in range(8):
-            new = theta + step
-            if not closed:
-                new = min(max(new, lo), hi)
-            ev_new = _evaluate_one(grid, coeffs, _wrapped(new, lo, hi, closed))
-            y_new = q - ev_new[0]
-            dist_new = np.dot(y_new, y_new)
-            if dist_new <= dist * (1.0 + 1e-12) + 1e-300:
-                accepted = True
-                break
-            step *= 0.5
-        if not accepted:
-            break
-        theta, ev, y, dist = new, ev_new, y_new, dist_new
-    return theta, ev
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,11 +64,10 @@ class PathTable:
         lo, hi = path.domain
         extra = [b for b in (*path.breaks, *path.kinks) if lo < b < hi]
         grid = np.unique(np.concatenate([np.linspace(lo, hi, points), extra]))
-        # drop grid points closer than 1e-9 of the length to a break (keep the break itself)
-        if extra:
+        if extra:  # drop grid points too close to a break (keep the break itself)
             near = np.min(np.abs(grid[:, None] - np.asarray(extra)[None, :]), axis=1)
             is_break = np.isin(grid, extra)
-            grid = grid[(near > 1e-9 * (hi - lo)) | is_break]
+            grid = grid[(near > BREAK_MERGE * (hi - lo)) | is_break]
         left = path.evaluate(grid[:-1], side="right")  # start of each interval
         right = path.evaluate(grid[1:], side="left")  # end of each interval
         h = np.diff(grid)[:, None]
@@ -153,10 +90,16 @@ class PathTable:
         """max over the grid of |Phi'|^2 [rad^2 per unit theta^2], the scale of "Phi' = 0" tests."""
         return float(np.max(np.sum(self.coeffs[:, 1, :] ** 2, axis=1) / np.diff(self.grid) ** 2))
 
-    def theta_rate(self, dphi: np.ndarray, qd: np.ndarray) -> float:
-        """theta_dot = Phi'^T qd / |Phi'|^2 (0 where Phi' vanishes, e.g. at clamped ends)."""
-        d2 = dphi @ dphi
-        return float(dphi @ qd) / d2 if d2 > 1e-12 * self.speed2_scale else 0.0
+    @cached_property
+    def arrays(self) -> PathArrays:
+        """The table as the compiled kernels take it."""
+        return PathArrays(np.ascontiguousarray(self.grid, float), np.ascontiguousarray(self.coeffs, float),
+                          bool(self.closed), np.ascontiguousarray(self.kinks, float))
+
+    def projection(self, iterations: int = defaults.PROJECTION_ITERATIONS) -> Projection:
+        """Projection settings with the tolerance and the largest step scaled by the domain's length."""
+        return Projection(int(iterations), defaults.PROJECTION_TOLERANCE * self.length,
+                          defaults.PROJECTION_MAX_STEP * self.length)
 
     def next_guess(self, theta: float, theta_dot: float, dt: float) -> float:
         """theta + theta_dot dt, the move limited to PROJECTION_MAX_STEP of the length, inside an open domain."""
@@ -173,13 +116,13 @@ class PathTable:
 
     def evaluate_scalar(self, theta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(Phi, Phi', Phi'') at one theta (wrapped/clipped into the domain), each (n,)."""
-        out = _evaluate_one(self.grid, self.coeffs, self.wrap(float(theta)))
+        out = evaluate_at(self.arrays, float(theta))
         return out[0], out[1], out[2]
 
     def project(self, q: np.ndarray, theta_guess: float, iterations: int, tol: float, max_step: float):
         """Compiled projection core; see :func:`pathmotion.control.transverse.project`."""
-        theta, ev = _project_one(self.grid, self.coeffs, self.closed, np.ascontiguousarray(q, dtype=float),
-                                 float(theta_guess), iterations, tol, max_step)
+        theta, ev = project(self.arrays, np.ascontiguousarray(q, dtype=float), float(theta_guess),
+                            Projection(int(iterations), float(tol), float(max_step)))
         return theta, (ev[0], ev[1], ev[2])
 
     def evaluate(self, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -10,7 +10,8 @@ column k) of the Householder reflection H = I - 2 w w^T / (w^T w), w = t - sigma
 which maps sigma e_k onto t. It is smooth in theta as long as t stays away from sigma e_k; (k, sigma)
 is chosen once per path to maximize that distance.
 
-The exact time derivatives (used by the controller, not linearized):
+The exact time derivatives (used by the controller, not linearized; compiled in
+:func:`.kernels.transverse_state`):
 
     theta_dot = Phi'^T q_dot / (|Phi'|^2 - Phi''^T y)       y = q - Phi(theta)
     z = E^T y,   z_dot = E^T (q_dot - Phi' theta_dot) + theta_dot E'^T y
@@ -22,13 +23,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from .. import defaults
 from ..errors import SimulationError
+from .kernels import Basis
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
+
+#: |Phi'| below which the path is taken to stop (no projection, no basis) [rad per unit theta].
+ZERO_SPEED = 1e-12
+#: Smallest |t - sigma e_k|^2 along the path the basis accepts (|t - sigma e_k| >= 0.2) [-].
+MIN_AXIS_MARGIN = 0.04
 
 
 @dataclass(frozen=True)
@@ -45,8 +51,8 @@ class TransverseBasis:
         theta = table.grid if theta is None else np.asarray(theta, dtype=float)
         _, dphi, _ = table.evaluate(theta)
         speed = np.linalg.norm(dphi, axis=1)
-        if np.any(speed <= 1e-12):
-            i = int(np.argmax(speed <= 1e-12))
+        if np.any(speed <= ZERO_SPEED):
+            i = int(np.argmax(speed <= ZERO_SPEED))
             raise SimulationError(
                 f"the joint path has Phi'(theta) = 0 at theta = {theta[i]:.6g}: the projection onto the path "
                 "is undefined there; remove the repeated point or the cusp"
@@ -56,11 +62,16 @@ class TransverseBasis:
         margin_plus = 2.0 - 2.0 * np.max(t, axis=0)
         margin_minus = 2.0 + 2.0 * np.min(t, axis=0)
         best_plus, best_minus = np.max(margin_plus), np.max(margin_minus)
-        if max(best_plus, best_minus) < 0.04:  # |t - sigma e_k| < 0.2 for every choice
+        if max(best_plus, best_minus) < MIN_AXIS_MARGIN:  # the tangent comes near every axis
             raise SimulationError("cannot build a smooth transverse basis along this path (tangent visits every axis)")
         if best_plus >= best_minus:
             return cls(int(np.argmax(margin_plus)), 1.0)
         return cls(int(np.argmax(margin_minus)), -1.0)
+
+    @property
+    def arrays(self) -> Basis:
+        """The basis as the compiled kernels take it."""
+        return Basis(int(self.k), float(self.sigma))
 
     def frames(self, dphi: np.ndarray, ddphi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """E (N, n, n-1) and E' = dE/dtheta (N, n, n-1) from Phi', Phi'' (N, n)."""
@@ -78,39 +89,6 @@ class TransverseBasis:
         keep = [j for j in range(n) if j != self.k]
         return h[:, :, keep], dh[:, :, keep]
 
-    def coordinates(self, dphi, ddphi, y, ydot, theta_dot) -> tuple[np.ndarray, np.ndarray]:
-        """z = E^T y and z_dot = E^T ydot + theta_dot E'^T y for one point, each (n-1,)."""
-        return _coordinates(np.ascontiguousarray(dphi, dtype=float), np.ascontiguousarray(ddphi, dtype=float),
-                            np.ascontiguousarray(y, dtype=float), np.ascontiguousarray(ydot, dtype=float),
-                            float(theta_dot), self.k, self.sigma)
-
-
-@numba.njit(cache=True)
-def _coordinates(dphi, ddphi, y, ydot, theta_dot, k, sigma):
-    """Compiled z = (H y)[j != k], z_dot = (H ydot + theta_dot H' y)[j != k] (H, H' symmetric)."""
-    speed = np.sqrt(np.dot(dphi, dphi))
-    t = dphi / speed
-    dt = (ddphi - t * np.dot(t, ddphi)) / speed
-    w = t.copy()
-    w[k] -= sigma
-    s = np.dot(w, w)
-    wy = np.dot(w, y)
-    wyd = np.dot(w, ydot)
-    dty = np.dot(dt, y)
-    wdt = np.dot(w, dt)
-    n = y.shape[0]
-    z = np.empty(n - 1)
-    zd = np.empty(n - 1)
-    m = 0
-    for j in range(n):
-        if j == k:
-            continue
-        z[m] = y[j] - 2.0 * wy / s * w[j]
-        dhy = -2.0 / s * (dt[j] * wy + w[j] * dty) + 4.0 * wdt * wy / (s * s) * w[j]
-        zd[m] = ydot[j] - 2.0 * wyd / s * w[j] + theta_dot * dhy
-        m += 1
-    return z, zd
-
 
 def project(table: PathTable, q: np.ndarray, theta_guess: float,
             iterations: int = defaults.PROJECTION_ITERATIONS) -> tuple[float, tuple]:
@@ -121,39 +99,9 @@ def project(table: PathTable, q: np.ndarray, theta_guess: float,
     distance does not grow, so theta moves continuously and never jumps across the path. Where
     Phi' = 0 (clamped spline ends) theta is nudged into the interior first. Open paths: theta is
     clipped to the domain; closed paths: theta is not wrapped (the caller counts laps).
-    Returns theta and (Phi, Phi', Phi'') there. (Compiled with numba: it runs twice per sample.)
+    Returns theta and (Phi, Phi', Phi'') there. (Compiled: :func:`.kernels.project`.)
     """
-    return table.project(q, theta_guess, iterations, defaults.PROJECTION_TOLERANCE * table.length,
-                         defaults.PROJECTION_MAX_STEP * table.length)
-
-
-@dataclass(frozen=True)
-class TransverseState:
-    """theta (unwrapped on closed paths), theta_dot, y = q - Phi(theta) (n,), x_perp = (z, z_dot, I)
-    (2n-1,), and Phi, Phi', Phi'' at theta (n,)."""
-
-    theta: float
-    theta_dot: float
-    y: np.ndarray
-    x_perp: np.ndarray
-    phi: np.ndarray
-    dphi: np.ndarray
-    ddphi: np.ndarray
-
-
-def transverse_state(table: PathTable, basis: TransverseBasis, profile: ProfileLookup,
-                     q: np.ndarray, qd: np.ndarray, theta_guess: float) -> TransverseState:
-    """Project (q, qd) onto the path and return its transverse coordinates (module docstring)."""
-    theta, (phi, dphi, ddphi) = project(table, q, theta_guess)
-    y = q - phi
-    den = dphi @ dphi - ddphi @ y
-    den = max(den, 0.5 * (dphi @ dphi))  # far from the path the section is ill-defined: stay finite
-    theta_dot = (dphi @ qd) / den
-    ydot = qd - dphi * theta_dot
-    z, zdot = basis.coordinates(dphi, ddphi, y, ydot, theta_dot)
-    x_star, _ = profile.state(theta)
-    x_perp = np.concatenate([z, zdot, [theta_dot * theta_dot - x_star]])
-    return TransverseState(theta, theta_dot, y, x_perp, phi, dphi, ddphi)
+    return table.project(q, theta_guess, *table.projection(iterations))
 
 
 def transverse_linearization(table: PathTable, basis: TransverseBasis, profile: ProfileLookup,

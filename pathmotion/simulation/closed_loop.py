@@ -1,23 +1,23 @@
 """The closed loop: a discrete controller at a fixed sample time driving the plant.
 
-Per sample k (t_k = k Ts): measure (sensor model) -> controller -> torque (one sample later with the
-delay switch) -> saturate -> plant integrates the sample with the torque held. A monitor projects the
-true state onto the path every sample and ends the run with a :class:`~.metrics.Failure` on
-divergence, leaving the path's theta range, a deviation past the threshold, or the time budget
-(``time_budget_factor`` x planned duration + ``time_budget_margin``). Failures are results, not
-exceptions; a run always ends (the sample count is bounded by the budget).
+Per sample k (t_k = k Ts) the loop does four things:
 
-Open paths planned to end at rest end ``settle_time`` after arrival: max_j |q - Phi(theta_end)| <=
-``arrival_tolerance`` with the projected theta in the end's own stretch of the path (so a path whose
-start is its end does not arrive at t = 0), the crossing interpolated between samples. Open paths
-planned to end moving stop when the robot crosses the end (the projection extended past it reaches
-theta_end, interpolated). Closed paths end after ``laps`` turns of theta (crossing interpolated), their
-simulated duration is the mean period.
+1. measure: a monitor projects the true state onto the path (:mod:`.monitor`);
+2. control: the end rules (:mod:`.end_rules`) judge the sample, and the controller computes the torque from
+   the sensor's view (one sample later with the delay switch), saturated at the limits;
+3. step: the plant integrates the sample with the torque held (:class:`PlantModel`);
+4. record.
+
+A run ends with a :class:`~.metrics.Failure` (divergence, leaving the path's theta range, a deviation past
+the threshold, the time budget ``time_budget_factor`` x planned duration + ``time_budget_margin``) or an
+arrival (the end of an open path, crossed or reached at rest, or ``laps`` turns of a closed path).
+Failures are results, not exceptions; a run always ends (the sample count is bounded by the budget).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -28,11 +28,14 @@ from ..errors import SimulationError
 from ..joint_path import JointPath
 from ..planning.profile import Profile
 from ..robot import Robot
-from .metrics import (Failure, SimulationResult, original_path_deviation, polish_projection,
-                      tcp_path_deviation)
+from .end_rules import FLAT_SPEED2, Sample, end_rules
+from .metrics import Failure, SimulationResult, original_path_deviation, polish_projection, tcp_path_deviation
 from .monitor import monitor_state
 from .plant import Plant, saturate
 from .realism import Realism, Sensor
+
+#: Relative mismatch allowed between the profile's theta range and the path's domain [-].
+DOMAIN_MATCH = 1e-9
 
 
 @dataclass(frozen=True)
@@ -75,7 +78,7 @@ def _check_inputs(robot: Robot, path: JointPath, profile: Profile) -> None:
     if path.n != robot.n:
         raise SimulationError(f"the joint path has {path.n} joints, robot {robot.name} has {robot.n}")
     lo, hi = path.domain
-    tol = 1e-9 * max(1.0, hi - lo)
+    tol = DOMAIN_MATCH * max(1.0, hi - lo)
     if abs(profile.grid[0] - lo) > tol or abs(profile.grid[-1] - hi) > tol:
         raise SimulationError(
             f"the profile covers theta in [{profile.grid[0]:.6g}, {profile.grid[-1]:.6g}] but the path's domain is "
@@ -97,163 +100,132 @@ def make_controller(name: str, robot: Robot, path: JointPath, profile: Profile, 
     raise SimulationError(f"unknown controller '{name}'; choose one of {', '.join(CONTROLLER_NAMES)}")
 
 
+class PlantModel(Protocol):
+    """What the loop needs of a plant: torque_limit (n,) [N m]; step: the state (q, qd) (n,) after ``dt`` [s]
+    with the torque tau (n,) held; check_step: raise SimulationError when it cannot integrate that step."""
+
+    torque_limit: np.ndarray
+
+    def step(self, q: np.ndarray, qd: np.ndarray, tau: np.ndarray, dt: float, substeps: int
+             ) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None: ...
+
+
 def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
-             settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None
-             ) -> SimulationResult:
+             settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None,
+             plant: PlantModel | None = None) -> SimulationResult:
     """Run ``controller`` on ``robot`` along q = Phi(theta) with the planned ``profile``.
 
     The run starts on the plan: q = Phi(theta_start), qd = Phi'(theta_start) sqrt(x*(theta_start)).
     ``design``: a prebuilt OrbitalDesign on this path and profile (reused across runs), optional.
+    ``plant``: default the rigid-body :class:`~.plant.Plant` of ``robot`` with ``settings.realism``.
     Raises SimulationError only for unusable inputs; tracking failures are in the result.
     """
     _check_inputs(robot, path, profile)
     ts, substeps = settings.sample_time, settings.substeps
     table = design.table if design is not None else PathTable.from_path(path, settings.table_points)
     lo, hi = path.domain
-    length = hi - lo
-    planned = profile.duration
-    laps = settings.laps if path.closed else 1
-    budget = settings.time_budget_factor * planned * laps + settings.time_budget_margin
-    ctrl = make_controller(controller, robot, path, profile, table, settings, budget + ts, design)
-    plant = Plant.from_robot(robot, settings.realism)
-    sensor = Sensor(settings.realism)
-    delay = settings.realism.delay
-
+    budget = settings.time_budget_factor * profile.duration * (settings.laps if path.closed else 1) \
+        + settings.time_budget_margin
+    control = _Command(make_controller(controller, robot, path, profile, table, settings, budget + ts, design),
+                       Sensor(settings.realism), settings.realism.delay)
+    plant = Plant.from_robot(robot, settings.realism) if plant is None else plant
     phi0, dphi0, _ = path.evaluate(lo)
-    q = np.array(phi0, dtype=float)
-    qd = np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
+    q, qd = np.array(phi0, dtype=float), np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
     plant.check_step(q, ts, substeps)
-    q_end = path.evaluate(hi, side="left")[0]
-    # the plan itself spends (planned - plan_arrival) inside the arrival ball: credited to the run. Arrival
-    # also needs theta past the point where the plan enters the ball (less the ball's own theta extent), so a
-    # path that starts where it ends (a full circle run from rest to rest) does not arrive at t = 0
-    if path.closed:
-        plan_arrival, arrival_theta = None, lo
-    else:
-        plan_arrival, theta_in = _plan_arrival(table, profile, q_end, settings.arrival_tolerance)
-        arrival_theta = theta_in - (hi - theta_in)
-    # an open path planned to end moving (x*(end) > 0) arrives when the robot crosses the end, and the run
-    # stops there: what follows is not part of the plan
-    moving_end = not path.closed and profile.x[-1] > 0
-    speed_limit = defaults.DIVERGENCE_SPEED_FACTOR * np.asarray(robot.limits.velocity, float)
-
-    count = int(np.ceil(budget / ts)) + 1
-    n = robot.n
-    rec_q, rec_qd = np.empty((count, n)), np.empty((count, n))
-    rec_tau, rec_cmd = np.zeros((count, n)), np.zeros((count, n))
-    rec_theta = np.empty(count)
-    saturated = 0
-    failure = None
-    done_at = None  # simulated duration (arrival or laps crossing)
-    stop_at = None
-    theta, theta_dot = lo, 0.0
-    prev_end_dist = None
-    pending = None
-    crossed = False
-    thr = settings.failure_threshold
-    tol_arrival = settings.arrival_tolerance
-    grid, coeffs, closed, kinks = table.grid, table.coeffs, table.closed, table.kinks
-    projection = (defaults.PROJECTION_ITERATIONS, defaults.PROJECTION_TOLERANCE * length,
-                  defaults.PROJECTION_MAX_STEP * length)
-    speed_eps = 1e-12 * table.speed2_scale
-    torque_limit = plant.torque_limit
+    rules = end_rules(table, profile, path.evaluate(hi, side="left")[0], budget, settings)
+    monitor = _Monitor(table, np.asarray(robot.limits.velocity, float), ts)
+    rec = _Record(int(np.ceil(budget / ts)) + 1, robot.n)
+    failure, duration, keep = None, None, True
     k = 0
-    for k in range(count):
+    for k in range(rec.count):
         t = k * ts
-        # --- monitor the true state ---------------------------------------------------------------
-        rec_q[k], rec_qd[k] = q, qd
-        theta, theta_dot, dev, along, speed2, ok = monitor_state(
-            grid, coeffs, closed, kinks, q, qd, table.next_guess(theta, theta_dot, ts), *projection, speed_limit,
-            speed_eps)
-        rec_theta[k] = theta
-        if not ok:
-            failure = Failure("diverged", t, theta, f"the state diverged (|qd| above {defaults.DIVERGENCE_SPEED_FACTOR:g}"
-                              f" x the velocity limit or NaN) at t = {t:.4g} s, theta = {theta:.6g}")
+        rec.q[k], rec.qd[k] = q, qd
+        sample = monitor.measure(k, t, q, qd, duration is not None)  # measure (the true state)
+        rec.theta[k] = sample.theta
+        verdict = _first(rule.check(sample) for rule in rules)
+        if isinstance(verdict, Failure):
+            failure = verdict
             break
-        if moving_end and theta >= hi:
-            # arrival at a moving end: the robot crosses the normal plane of the end, theta_ext = hi, with
-            # theta_ext = theta + Phi'^T y / |Phi'|^2 extending the projection past the end
-            ext = theta + along
-            prev = rec_theta[k - 1] if k else lo
-            done_at = float(t - ts + ts * (hi - prev) / (ext - prev)) if ext > prev else t
-            crossed = True  # this sample lies past the end: not part of the recorded motion
-            break
-        if not closed and (theta <= lo or theta >= hi) and speed2 > speed_eps:
-            excess = along * np.sqrt(speed2)
-            if (theta >= hi and excess > thr) or (theta <= lo and excess < -thr):
-                side = "end" if theta >= hi else "start"
-                failure = Failure("left_path_range", t, theta,
-                                  f"the robot left the path past its {side} (theta = {theta:.6g}) by "
-                                  f"{abs(excess):.3g} rad at t = {t:.4g} s")
+        if verdict is not None:
+            duration = verdict.time if verdict.time is not None else duration
+            if verdict.stop:
+                keep = verdict.keep
                 break
-        if dev > thr:
-            failure = Failure("deviation", t, theta, f"joint deviation {dev:.3g} rad > {thr:g} rad at t = {t:.4g} s, "
-                              f"theta = {theta:.6g}; slow the profile down or raise the gains")
+        cmd = control(t, q, qd)  # control
+        rec.cmd[k] = cmd
+        finite, clipped = saturate(cmd, plant.torque_limit, rec.tau[k])
+        failure = _first(rule.check_torque(sample, cmd, rec.tau[k], finite, clipped) for rule in rules)
+        if failure is not None:
+            rec.cmd[k], rec.tau[k] = 0.0, 0.0
             break
-        if stop_at is not None and t >= stop_at - 1e-12:
-            break
-        if done_at is None:
-            if closed:
-                turns = (theta - lo) / length
-                if turns >= laps:
-                    prev = (rec_theta[k - 1] - lo) / length
-                    done_at = float((t - ts + ts * (laps - prev) / (turns - prev)) / laps)
-                    stop_at = t
-                    break
-            elif theta >= arrival_theta:
-                end_dist = float(np.abs(q - q_end).max())
-                if end_dist <= tol_arrival:
-                    if prev_end_dist is None or prev_end_dist <= tol_arrival:
-                        done_at = t
-                    else:
-                        done_at = t - ts + ts * (prev_end_dist - tol_arrival) / (prev_end_dist - end_dist)
-                    done_at = float(done_at + planned - plan_arrival)
-                    stop_at = t + settings.settle_time
-                prev_end_dist = end_dist
-        if done_at is None and t >= budget:
-            failure = Failure("timeout", t, theta, f"the robot did not reach the end of the path within the time budget "
-                              f"{budget:.4g} s (theta = {theta:.6g} of [{lo:.6g}, {hi:.6g}])")
-            break
-        # --- control and plant ---------------------------------------------------------------------
-        q_m, qd_m = sensor.measure(q, qd)
-        cmd = ctrl(t, q_m, qd_m)
-        if delay:
-            cmd, pending = (cmd if pending is None else pending), cmd
-        rec_cmd[k] = cmd
-        finite, sat = saturate(cmd, torque_limit, rec_tau[k])
-        if not finite:
-            rec_cmd[k], rec_tau[k] = 0.0, 0.0
-            failure = Failure("diverged", t, theta, f"the controller returned a non-finite torque at t = {t:.4g} s, "
-                              f"theta = {theta:.6g}")
-            break
-        saturated += sat
-        q, qd = plant.step(q, qd, rec_tau[k], ts, substeps)
-    last = k if crossed else k + 1
-    if last > 1 and not np.any(rec_cmd[last - 1]):  # no torque was computed at the final sample
-        rec_cmd[last - 1], rec_tau[last - 1] = rec_cmd[last - 2], rec_tau[last - 2]
-    return _result(robot, path, profile, controller, settings, table, rec_q[:last], rec_qd[:last],
-                   rec_tau[:last], rec_cmd[:last], rec_theta[:last], done_at if failure is None else None,
-                   saturated * ts, failure)
+        rec.saturated += clipped
+        q, qd = plant.step(q, qd, rec.tau[k], ts, substeps)  # step
+    return _result(robot, path, profile, controller, settings, table, rec, k + keep,
+                   duration if failure is None else None, failure)
 
 
-def _plan_arrival(table: PathTable, profile: Profile, q_end: np.ndarray, tolerance: float) -> tuple[float, float]:
-    """Planned time [s] and theta at which the plan enters max_j |Phi(theta*(t)) - q_end| <= tolerance for the
-    last time (found on a 1 ms grid, interpolated linearly)."""
-    t = np.linspace(0.0, profile.duration, max(2, int(np.ceil(profile.duration / 1e-3)) + 1))
-    theta = profile.state_at_time(t)[0]
-    dist = np.max(np.abs(table.evaluate(theta)[0] - q_end), axis=1)
-    outside = np.nonzero(dist > tolerance)[0]
-    if len(outside) == 0:
-        return 0.0, float(theta[0])
-    i = int(outside[-1])
-    if i + 1 >= len(t):
-        return float(profile.duration), float(theta[-1])
-    w = (dist[i] - tolerance) / (dist[i] - dist[i + 1])
-    return float(t[i] + (t[i + 1] - t[i]) * w), float(theta[i] + (theta[i + 1] - theta[i]) * w)
+def _first(verdicts):
+    """The first verdict that is not None (None if all are)."""
+    return next((v for v in verdicts if v is not None), None)
 
 
-def _result(robot, path, profile, controller, settings, table, q, qd, tau, cmd, theta, duration, saturation,
-            failure) -> SimulationResult:
+class _Command:
+    """The torque the controller commands for the sensor's view of (q, qd), one sample late with the delay."""
+
+    def __init__(self, controller, sensor: Sensor, delay: bool):
+        self.controller, self.sensor, self.delay, self.pending = controller, sensor, delay, None
+
+    def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        cmd = self.controller(t, *self.sensor.measure(q, qd))
+        if self.delay:
+            cmd, self.pending = (cmd if self.pending is None else self.pending), cmd
+        return cmd
+
+
+class _Monitor:
+    """Projection of the true state onto the path, sample after sample (:func:`.monitor.monitor_state`)."""
+
+    def __init__(self, table: PathTable, velocity_limit: np.ndarray, sample_time: float):
+        self.table, self.path, self.projection = table, table.arrays, table.projection()
+        self.speed_limit = defaults.DIVERGENCE_SPEED_FACTOR * velocity_limit
+        self.speed_eps = FLAT_SPEED2 * table.speed2_scale
+        self.sample_time = sample_time
+        self.theta, self.theta_dot = table.domain[0], 0.0
+
+    def measure(self, k: int, t: float, q: np.ndarray, qd: np.ndarray, arrived: bool) -> Sample:
+        previous = self.theta
+        guess = self.table.next_guess(self.theta, self.theta_dot, self.sample_time)
+        theta, theta_dot, dev, along, speed2, ok = monitor_state(self.path, q, qd, guess, self.projection,
+                                                                 self.speed_limit, self.speed_eps)
+        self.theta, self.theta_dot = theta, theta_dot
+        return Sample(k, t, theta, theta_dot, dev, along, speed2, ok, q, qd, previous, arrived)
+
+
+class _Record:
+    """The signals of a run of at most ``count`` samples: q, qd, tau (applied), cmd (commanded) (count, n),
+    theta (count,), and the number of samples with a clipped torque."""
+
+    def __init__(self, count: int, n: int):
+        self.count = count
+        self.q, self.qd = np.empty((count, n)), np.empty((count, n))
+        self.tau, self.cmd = np.zeros((count, n)), np.zeros((count, n))
+        self.theta = np.empty(count)
+        self.saturated = 0
+
+    def trimmed(self, last: int) -> tuple[np.ndarray, ...]:
+        """(q, qd, tau, cmd, theta) of the first ``last`` samples; the final sample, which computed no torque,
+        repeats the torque before it."""
+        if last > 1 and not np.any(self.cmd[last - 1]):
+            self.cmd[last - 1], self.tau[last - 1] = self.cmd[last - 2], self.tau[last - 2]
+        return self.q[:last], self.qd[:last], self.tau[:last], self.cmd[:last], self.theta[:last]
+
+
+def _result(robot, path, profile, controller, settings, table, rec: _Record, last: int, duration, failure
+            ) -> SimulationResult:
+    q, qd, tau, cmd, theta = rec.trimmed(last)
+    saturation = rec.saturated * settings.sample_time
     t = np.arange(len(q)) * settings.sample_time
     finite = np.all(np.isfinite(q), axis=1)
     q_ok, th_ok = q[finite], theta[finite]

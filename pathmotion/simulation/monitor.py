@@ -1,11 +1,11 @@
 """The closed loop's monitor of the true state, compiled (numba): one call per sample.
 
 It projects the true q onto the path near the previous theta (the same local projection as the orbital
-controller, :func:`pathmotion.control.transverse.project`), and returns what the failure rules and the
-arrival test need (docs/control.md, "Failure rules"). At a kink of the path (Phi' jumps, e.g. a sharp
-corner the plan stops at) the local projection cannot pass from one side to the other when the two
-tangents make more than 90 degrees in joint space: near a kink it also projects from just past it on
-either side and keeps the nearest point.
+controller, :func:`pathmotion.control.kernels.project`), and returns what the end rules need
+(docs/control.md, "Failure rules"). At a kink of the path (Phi' jumps, e.g. a sharp corner the plan stops
+at) the local projection cannot pass from one side to the other when the two tangents make more than 90
+degrees in joint space: near a kink it also projects from just past it on either side and keeps the
+nearest point.
 """
 
 from __future__ import annotations
@@ -13,12 +13,15 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ..control.path_table import _project_one, _wrapped
+from ..control.kernels import project, wrap
+
+#: How far past a kink the extra projections start, as a fraction of the projection's largest step [-].
+KINK_OFFSET = 1e-6
 
 
 @numba.njit(cache=True)
-def monitor_state(grid, coeffs, closed, kinks, q, qd, guess, iterations, tol, max_step, speed_limit, speed_eps):
-    """(theta, theta_dot, deviation, along, speed2, ok) of the true state q, qd (n,):
+def monitor_state(path, q, qd, guess, proj, speed_limit, speed_eps):
+    """(theta, theta_dot, deviation, along, speed2, ok) of the true state q, qd (n,) on ``path`` (PathArrays):
 
     theta the projection (unwrapped on closed paths), theta_dot = Phi'^T qd / |Phi'|^2 (0 where Phi' = 0),
     deviation = max_j |q - Phi(theta)| [rad], along = Phi'^T (q - Phi) / |Phi'|^2 (how far past an end of the
@@ -31,16 +34,17 @@ def monitor_state(grid, coeffs, closed, kinks, q, qd, guess, iterations, tol, ma
             ok = False
     if not ok:
         return guess, 0.0, np.inf, 0.0, 0.0, False
-    lo, hi = grid[0], grid[-1]
-    theta, ev = _project_one(grid, coeffs, closed, q, guess, iterations, tol, max_step)
+    grid = path.grid
+    max_step = proj.max_step
+    theta, ev = project(path, q, guess, proj)
     y = q - ev[0]
     best = np.dot(y, y)
-    near = _wrapped(theta, lo, hi, closed)
-    for kink in kinks:
+    near = wrap(theta, grid[0], grid[-1], path.closed)
+    for kink in path.kinks:
         if abs(near - kink) < max_step:
             for side in (-1.0, 1.0):
-                start = theta + (kink - near) + side * 1e-6 * max_step
-                th2, ev2 = _project_one(grid, coeffs, closed, q, start, iterations, tol, max_step)
+                start = theta + (kink - near) + side * KINK_OFFSET * max_step
+                th2, ev2 = project(path, q, start, proj)
                 y2 = q - ev2[0]
                 d2 = np.dot(y2, y2)
                 if d2 < best:
