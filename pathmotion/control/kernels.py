@@ -27,6 +27,8 @@ ZERO_SPEED2 = 1e-24
 NUDGE_FRACTION = 1e-3
 #: Relative slack of the step-halving test "the distance did not grow" (round-off) [-].
 DISTANCE_SLACK = 1e-12
+#: Floor of the distance test at distance 0 [rad^2].
+TINY = 1e-300
 #: Step halvings of one projection iteration before it gives up.
 HALVINGS = 8
 #: Planned joint speed^2 below which the clock play integrates all of the error (at rest) [rad^2/s^2].
@@ -141,7 +143,7 @@ def project(path, q, theta, proj):
             ev_new = evaluate_path(grid, coeffs, wrap(new, lo, hi, closed))
             y_new = q - ev_new[0]
             dist_new = np.dot(y_new, y_new)
-            if dist_new <= dist * (1.0 + DISTANCE_SLACK) + 1e-300:
+            if dist_new <= dist * (1.0 + DISTANCE_SLACK) + TINY:
                 accepted = True
                 break
             step *= 0.5

@@ -37,6 +37,8 @@ from .transverse import TransverseBasis, transverse_linearization
 #: Relative mismatch allowed between the profile's and the path's theta ends, and between the start and end
 #: speeds of a periodic profile [-].
 DOMAIN_MATCH = 1e-9
+#: Floor of the speed scale a periodic profile's end mismatch is measured against [rad^2/s^2].
+SPEED2_FLOOR = 1e-12
 
 
 def integral_size(gains: OrbitalGains, n: int) -> int:
@@ -133,7 +135,7 @@ class OrbitalDesign:
                 f"[{lo:.6g}, {hi:.6g}]; plan the profile on this path"
             )
         if table.closed:
-            if abs(profile.x[0] - profile.x[-1]) > DOMAIN_MATCH * max(profile.x.max(), 1e-12):
+            if abs(profile.x[0] - profile.x[-1]) > DOMAIN_MATCH * max(profile.x.max(), SPEED2_FLOOR):
                 raise SimulationError(
                     f"closed path: the profile must be periodic, x*(start) = {profile.x[0]:.6g} but "
                     f"x*(end) = {profile.x[-1]:.6g} (theta_dot^2)"

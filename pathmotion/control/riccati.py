@@ -17,6 +17,11 @@ from scipy.integrate import solve_ivp
 from .. import defaults
 from ..errors import SimulationError
 
+#: Absolute tolerance of the integration relative to the relative one times the scale of Q [-].
+ABSOLUTE_FRACTION = 1e-3
+#: Floor of the norm a change of P is measured against (P = 0) [-].
+TINY = 1e-300
+
 
 def _interpolator(times: np.ndarray, values: np.ndarray):
     def at(t: float) -> np.ndarray:
@@ -50,7 +55,7 @@ def solve_riccati(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray
 
     def sweep(p_final: np.ndarray) -> np.ndarray:
         sol = solve_ivp(rhs, (times[-1], times[0]), p_final.ravel(), t_eval=times[::-1], method="RK45",
-                        rtol=defaults.RICCATI_TOLERANCE, atol=defaults.RICCATI_TOLERANCE * scale * 1e-3)
+                        rtol=defaults.RICCATI_TOLERANCE, atol=defaults.RICCATI_TOLERANCE * scale * ABSOLUTE_FRACTION)
         if not sol.success:
             raise SimulationError(f"Riccati equation could not be integrated: {sol.message}")
         p = sol.y.T[::-1].reshape(len(times), d, d)
@@ -61,7 +66,7 @@ def solve_riccati(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray
         return p
     for _ in range(defaults.RICCATI_MAX_PERIODS):
         p_new = sweep(p[0])
-        change = np.max(np.abs(p_new[0] - p[0])) / max(np.max(np.abs(p_new[0])), 1e-300)
+        change = np.max(np.abs(p_new[0] - p[0])) / max(np.max(np.abs(p_new[0])), TINY)
         p = p_new
         if change < defaults.RICCATI_TOLERANCE * 10:
             return p
