@@ -6,9 +6,15 @@ w is the angular velocity of the tool per unit theta, world axes):
     Phi(theta)   = IK(p, R) on one solution branch, continuous along the path
     Phi'(theta)  = J(Phi)^-1 [dp; w]
     Phi''(theta) = J(Phi)^-1 ([ddp; dw] - Jdot(Phi, Phi') Phi')
+    Phi'''(theta) = J(Phi)^-1 ([dddp; ddw] - 2 Jdot Phi'' - Jddot Phi')
 
 with J the 6 x 6 TCP Jacobian (LOCAL_WORLD_ALIGNED) and Jdot Phi' the classical acceleration of
 the TCP at qd = Phi', qdd = 0. No finite differences: the accuracy is the same at any grid.
+
+Phi''' (for jerk limits, :meth:`TaskJointPath.evaluate3`) differentiates J Phi'' + Jdot Phi' =
+[ddp; dw] once more. 2 Jdot Phi'' + Jddot Phi' is the classical jerk of the TCP (d/dt of its
+classical acceleration) at qd = Phi', qdd = Phi'' and zero joint jerk: :func:`tcp_jerk_bias` gets
+it exactly from Pinocchio's analytic derivatives of the frame acceleration.
 
 Construction samples the path densely (``defaults.LIFT_REFERENCE_STEP``) to fix the branch and
 the 2*pi turns of each joint, and checks reachability, joint ranges and the distance to
@@ -20,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pinocchio as pin
 
 from . import defaults
 from .errors import PathError, UnreachableError
@@ -28,6 +35,7 @@ from .robot import Robot, fk, frame_acceleration_bias, jacobian
 from .robot.ik import ik_batch, ik_nearest
 
 TWO_PI = 2.0 * np.pi
+_LOCAL = pin.ReferenceFrame.LOCAL
 
 
 @dataclass(frozen=True)
@@ -72,6 +80,16 @@ class TaskJointPath(JointPath):
             return q[0], dq[0], ddq[0]
         return q, dq, ddq
 
+    def evaluate3(self, theta, side: str = "right"):
+        """(Phi, Phi', Phi'', Phi''') at theta, each (N, n) or (n,); Phi''' [rad/m^3] exact."""
+        th, scalar = self._check_theta(theta)
+        p, dp, ddp, dddp, rot, w, dw, ddw = self.task_path.pose3(th, side=side)
+        q = ik_nearest(self.robot, p, rot, self._reference_at(th))
+        dq, ddq = joint_derivatives(self.robot, q, dp, ddp, w, dw)
+        dddq = joint_third_derivative(self.robot, q, dq, ddq, dddp, ddw)
+        out = (q, dq, ddq, dddq)
+        return tuple(o[0] for o in out) if scalar else out
+
 
 def joint_derivatives(robot: Robot, q, dp, ddp, w, dw) -> tuple[np.ndarray, np.ndarray]:
     """Phi' and Phi'' (N, n) from the task-space derivatives through the TCP Jacobian."""
@@ -82,6 +100,44 @@ def joint_derivatives(robot: Robot, q, dp, ddp, w, dw) -> tuple[np.ndarray, np.n
     acc = np.concatenate([ddp, dw], axis=1) - bias
     ddq = np.linalg.solve(jac, acc[..., None])[..., 0]
     return dq, ddq
+
+
+def tcp_jerk_bias(robot: Robot, q, qd, qdd) -> np.ndarray:
+    """Classical jerk of the TCP at zero joint jerk, 2 Jdot(q, qd) qdd + Jddot(q, qd, qdd) qd, (N, 6).
+
+    q, qd, qdd (N, n). Rows 0-2: d3p/dt3 of the TCP origin, rows 3-5: d2w/dt2, world axes.
+    Exact: with the body (LOCAL) twist V = (v, w) and its derivative A = dV/dt (Pinocchio's frame
+    acceleration in LOCAL), the world classical acceleration is (R (dv + w x v), R dw), so
+
+        d3p/dt3 = R (w x (dv + w x v) + ddv + dw x v + w x dv),    d2w/dt2 = R (w x dw + ddw)
+
+    with dA/dt = dA/dq qd + dA/dv qdd (+ dA/da * 0) from ``getFrameAccelerationDerivatives``
+    (analytic partial derivatives, no finite differences).
+    """
+    model, data = robot.model, robot.data
+    fid = robot.frame_id(None)
+    q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
+    out = np.empty((len(q), 6))
+    for k in range(len(q)):
+        pin.computeForwardKinematicsDerivatives(model, data, q[k], qd[k], qdd[k])
+        pin.updateFramePlacements(model, data)
+        _, da_dq, da_dv, _ = pin.getFrameAccelerationDerivatives(model, data, fid, _LOCAL)
+        vel = pin.getFrameVelocity(model, data, fid, _LOCAL)
+        acc = pin.getFrameAcceleration(model, data, fid, _LOCAL)
+        dacc = da_dq @ qd[k] + da_dv @ qdd[k]
+        v, w, dv, dw, ddv, ddw = vel.linear, vel.angular, acc.linear, acc.angular, dacc[:3], dacc[3:]
+        rot = data.oMf[fid].rotation
+        out[k, :3] = rot @ (np.cross(w, dv + np.cross(w, v)) + ddv + np.cross(dw, v) + np.cross(w, dv))
+        out[k, 3:] = rot @ (np.cross(w, dw) + ddw)
+    return out
+
+
+def joint_third_derivative(robot: Robot, q, dq, ddq, dddp, ddw) -> np.ndarray:
+    """Phi''' (N, n) = J^-1 ([dddp; ddw] - tcp_jerk_bias(Phi, Phi', Phi'')), from the task-space third
+    derivatives dddp (N, 3) [1/m^2] and ddw (N, 3) [rad/m^3]."""
+    jac = jacobian(robot, q)
+    rhs = np.concatenate([dddp, ddw], axis=1) - tcp_jerk_bias(robot, q, dq, ddq)
+    return np.linalg.solve(jac, rhs[..., None])[..., 0]
 
 
 def lift(robot: Robot, task_path, q_start=None, *, original=None,

@@ -36,6 +36,12 @@ class JointPath:
         """(Phi, Phi', Phi'') at ``theta`` (scalar or (N,)); each (N, n), or (n,) for a scalar."""
         raise NotImplementedError
 
+    def evaluate3(self, theta, side: str = "right") -> tuple[np.ndarray, ...]:
+        """(Phi, Phi', Phi'', Phi''') at ``theta``; each (N, n), or (n,) for a scalar. Phi''' is
+        exact, for jerk and torque-rate limits: joint jerk = Phi''' theta_dot^3
+        + 3 Phi'' theta_dot theta_ddot + Phi' theta_dddot."""
+        raise NotImplementedError(f"{type(self).__name__} does not provide the third derivative Phi'''")
+
     def __call__(self, theta, side: str = "right") -> np.ndarray:
         return self.evaluate(theta, side)[0]
 
@@ -88,4 +94,14 @@ class SplineJointPath(JointPath):
         th, scalar = self._check_theta(theta)
         s = self._spline
         out = (s(th), s(th, 1), s(th, 2))
+        return tuple(o[0] for o in out) if scalar else out
+
+    def evaluate3(self, theta, side: str = "right"):
+        """Adds Phi''' (piecewise constant, 6 x the cubic coefficient of each piece); at an interior
+        knot ``side="right"`` takes the piece that starts there, ``side="left"`` the one that ends there."""
+        th, scalar = self._check_theta(theta)
+        s = self._spline
+        idx = np.searchsorted(s.x, th, side="right" if side == "right" else "left") - 1
+        idx = np.clip(idx, 0, len(s.x) - 2)
+        out = (s(th), s(th, 1), s(th, 2), 6.0 * s.c[0, idx])
         return tuple(o[0] for o in out) if scalar else out

@@ -186,6 +186,26 @@ class TaskPath:
         """(p, dp, ddp, R, w, dw) at theta; see :meth:`evaluate` and :meth:`orientation`."""
         return self.evaluate(theta, side) + self.orientation(theta, side)
 
+    def evaluate3(self, theta, side: Side = "right") -> tuple[np.ndarray, ...]:
+        """(p, dp, ddp, dddp) at theta: :meth:`evaluate` plus d3p/dtheta3 [1/m^2], each (N, 3) or (3,)."""
+        th, scalar = self._theta(theta)
+        k = self._index(th, side)
+        out = np.empty((4, len(th), 3))
+        for j in np.unique(k):
+            m = k == j
+            out[:, m] = self.segments[j].evaluate3(th[m] - self.offsets[j])
+        return tuple(o[0] for o in out) if scalar else tuple(out)
+
+    def pose3(self, theta, side: Side = "right"):
+        """(p, dp, ddp, dddp, R, w, dw, ddw) at theta: :meth:`pose` plus the third derivatives
+        d3p/dtheta3 [1/m^2] and d2w/dtheta2 [rad/m^3] (both exact, for jerk limits)."""
+        th, scalar = self._theta(theta)
+        self._index(th, side)
+        rot = self.tool_orientation.evaluate3(th)
+        if scalar:
+            rot = tuple(o[0] for o in rot)
+        return self.evaluate3(theta, side) + tuple(rot)
+
     def connection(self, index: int) -> Connection:
         """Connection ``index`` (between segments index and index + 1), or a PathError."""
         if not 0 <= index < len(self.connections):

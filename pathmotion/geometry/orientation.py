@@ -60,12 +60,25 @@ class FixedOrientation:
         z = np.zeros((len(th), 3))
         return np.broadcast_to(self.rotation, (len(th), 3, 3)).copy(), z, z.copy()
 
+    def evaluate3(self, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(R, w, dw, ddw) at theta (N,); ddw = d2w/dtheta2 = 0 (N, 3)."""
+        r, w, dw = self.evaluate(theta)
+        return r, w, dw, np.zeros_like(w)
+
     def key_thetas(self) -> tuple[float, ...]:
         return ()
 
     def remapped(self, fn: Callable[[np.ndarray], np.ndarray]) -> "FixedOrientation":
         """The same orientation after the path coordinate is remapped by ``fn`` (unchanged)."""
         return self
+
+
+def smoothstep5_third(tau: np.ndarray) -> np.ndarray:
+    """sigma'''(tau) = 60 (1 - 6 tau + 6 tau^2) on [0, 1], 0 outside (where sigma is held constant).
+
+    It does not vanish at the ends, so the third derivative of the rotation jumps at each key."""
+    t = np.asarray(tau, dtype=float)
+    return np.where((t >= 0.0) & (t <= 1.0), 60.0 * (1.0 - 6.0 * t + 6.0 * t ** 2), 0.0)
 
 
 def smoothstep5(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -147,6 +160,18 @@ class SlerpOrientation:
         rel = Rotation.from_rotvec(sig[:, None] * self._rotvecs[k]).as_matrix()
         r = np.einsum("nij,njk->nik", self.rotations[k], rel)
         return r, self._axes[k] * (dsig / h)[:, None], self._axes[k] * (ddsig / h ** 2)[:, None]
+
+    def evaluate3(self, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(R, w, dw, ddw) at theta (N,): ddw = R_k omega_k sigma'''(tau) / h^3 [rad/m^3] (N, 3), exact
+        inside each piece; it jumps at the keys (sigma''' = 60 at both ends of a piece, 0 outside the keys)."""
+        th = _thetas(theta)
+        r, w, dw = self.evaluate(th)
+        keys = np.asarray(self.thetas)
+        if len(keys) == 1:
+            return r, w, dw, np.zeros_like(w)
+        k = np.clip(np.searchsorted(keys, th, side="right") - 1, 0, len(keys) - 2)
+        h = keys[k + 1] - keys[k]
+        return r, w, dw, self._axes[k] * (smoothstep5_third((th - keys[k]) / h) / h ** 3)[:, None]
 
     def remapped(self, fn: Callable[[np.ndarray], np.ndarray]) -> "SlerpOrientation":
         """The same keys at thetas mapped by the increasing function ``fn`` (used when a blend

@@ -96,6 +96,10 @@ class Segment:
         """Short human-readable description used in error messages."""
         raise NotImplementedError
 
+    def evaluate3(self, s) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+        """(p, p', p'', p''') at arc length s (N,), each (N, 3); p''' [1/m^2] is exact (for jerk limits)."""
+        raise NotImplementedError
+
     @property
     def plane_normal(self) -> np.ndarray | None:
         """Unit normal (3,) of the plane the segment lies in, or None for a straight line."""
@@ -196,6 +200,10 @@ class Line(Segment):
         s = np.clip(_as_s(s), 0.0, self._length)
         p = self.start + s[:, None] * self._t
         return p, np.broadcast_to(self._t, p.shape).copy(), np.zeros_like(p)
+
+    def evaluate3(self, s):
+        p, dp, ddp = self.evaluate(s)
+        return p, dp, ddp, np.zeros_like(p)
 
     def closest(self, points):
         x = np.atleast_2d(np.asarray(points, float))
@@ -307,6 +315,11 @@ class Arc(Segment):
         p = self.centre + self.radius * radial
         dp = np.sign(self.sweep) * (-sn * self._u + c * self._v)
         return p, dp, -radial / self.radius
+
+    def evaluate3(self, s):
+        """p''' = -p' / r^2: the curvature vector -radial / r turns with the tangent."""
+        p, dp, ddp = self.evaluate(s)
+        return p, dp, ddp, -dp / self.radius ** 2
 
     def closest(self, points):
         x = np.atleast_2d(np.asarray(points, float))
@@ -454,9 +467,9 @@ class BezierSegment(Segment):
             out = out * u + f * coef[k]
         return out
 
-    def curve(self, u) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(X, X', X'') at the Bezier parameter u (N,), each (N, 3)."""
-        return tuple(self._polyval(self._coef, u, k) for k in range(3))
+    def curve(self, u, order: int = 2) -> tuple[np.ndarray, ...]:
+        """(X, X', X'') at the Bezier parameter u (N,), each (N, 3); ``order=3`` appends X'''."""
+        return tuple(self._polyval(self._coef, u, k) for k in range(order + 1))
 
     def _speed(self, u):
         return np.linalg.norm(self._polyval(self._coef, u, 1), axis=1)
@@ -494,3 +507,17 @@ class BezierSegment(Segment):
         g = np.linalg.norm(dx, axis=1)[:, None]
         t = dx / g
         return x, t, (ddx - np.sum(ddx * t, axis=1)[:, None] * t) / g ** 2
+
+    def evaluate3(self, s):
+        """Adds p''' = (dk/du) / g with k = p'' = (X'' - (X''.T) T) / g^2, g = |X'|, dT/du = g k and
+        dg/du = X''.T, so dk/du = (X''' - (X'''.T) T - (X''.dT/du) T - (X''.T) dT/du) / g^2 - 2 k (dg/du) / g."""
+        u = self.parameter(s)
+        x, dx, ddx, dddx = self.curve(u, 3)
+        g = np.linalg.norm(dx, axis=1)[:, None]
+        t = dx / g
+        a_t = np.sum(ddx * t, axis=1)[:, None]
+        k = (ddx - a_t * t) / g ** 2
+        dt_du = g * k
+        dk_du = ((dddx - np.sum(dddx * t, axis=1)[:, None] * t - np.sum(ddx * dt_du, axis=1)[:, None] * t
+                  - a_t * dt_du) / g ** 2 - 2.0 * k * a_t / g)
+        return x, t, k, dk_du / g
