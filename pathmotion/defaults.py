@@ -194,3 +194,7 @@ REPORT_MAX_POINTS = 2000
 REPORT_ARM_FRAMES = 100
 #: HTML report: shortest time a frame of the arm animation is shown [s] (slower motions play in real time).
 REPORT_MIN_FRAME_TIME = 0.04
+#: Planner: limits linearized around the previous solution (torque-speed envelope) are re-solved at
+#: most this many times, until the duration changes by less than this fraction [-].
+RELINEARIZE_ITERATIONS = 12
+RELINEARIZE_TOLERANCE = 1e-5

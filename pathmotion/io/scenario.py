@@ -119,6 +119,11 @@ class LimitsSpec(_Model):
     acceleration_scale: float = Field(1.0, gt=0)
     torque_scale: float = Field(1.0, gt=0)
     tcp_speed: float | None = Field(None, gt=0, description="TCP speed limit [m/s] (off when absent)")
+    torque_reserve: float | Literal["auto"] = Field(0.0, description="fraction of each torque limit kept free for "
+                                                    "feedback, in [0, 0.5) (the planner enforces (1 - r) tau_max)")
+    torque_speed: dict[str, float | tuple[float, ...]] | None = Field(
+        None, description="torque-speed envelope {knee, at_max_speed}, fractions in (0, 1] (scalar or per joint); "
+                          "off when absent")
 
 
 Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]

@@ -92,7 +92,7 @@ class PlanSettings:
             raise ScenarioError(f"PlanSettings: unknown keyword(s) {sorted(limit_keywords)}; limit keywords are {keys}")
         for cls in REGISTRY:
             if cls.name in choices:
-                cls.check_choice(choices[cls.name])
+                choices[cls.name] = cls.check_choice(choices[cls.name])
         values = dict(grid_points=grid_points, limits=choices, start=start, end=end, periodic=periodic,
                       connections=connections, limit_tolerance=limit_tolerance, verify=verify,
                       verify_sample_time=verify_sample_time, max_tighten_iterations=max_tighten_iterations,
@@ -220,7 +220,7 @@ def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, 
     _, dql, ddql = path.evaluate(grid[idx], "left")
     dq_l[idx], ddq_l[idx] = dql, ddql
     right = PathPoints(robot, path, grid, q, dq, ddq)
-    return _Sampled(right, PathPoints(robot, path, grid, q, dq_l, ddq_l, base=right, changed=idx))
+    return _Sampled(right, PathPoints(robot, path, grid, q, dq_l, ddq_l, base=right, changed=idx, side="left"))
 
 
 def _build(grid, s: _Sampled, limits: EffectiveLimits, scale: dict,
@@ -274,8 +274,7 @@ def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args
     ratios, x_ref = None, None
     iterations = 0
     while True:
-        problem, right, left = _build(grid, samp, limits, scale, x_ref)
-        sol = solve_chain(problem, **chain_args)
+        problem, right, left, sol = _solve_rows(grid, samp, limits, scale, x_ref, chain_args)
         _check_bounded(grid, sol.x)
         traj = Trajectory(path, sol.profile, robot)
         if not settings.verify:
@@ -297,6 +296,23 @@ def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args
         x_ref = sol.x
         iterations += 1
     return problem, right, left, sol, traj, ratios, iterations
+
+
+def _solve_rows(grid, samp, limits, scale, x_ref, chain_args):
+    """Build the rows and solve. With rows linearized around x_ref (``relinearize`` limits: inner
+    bounds, exact at x_ref) re-solve with x_ref = the previous x until the duration changes by less
+    than RELINEARIZE_TOLERANCE: the previous x stays feasible, so the duration never increases."""
+    problem, right, left = _build(grid, samp, limits, scale, x_ref)
+    sol = solve_chain(problem, **chain_args)
+    if not limits.relinearize:
+        return problem, right, left, sol
+    for _ in range(defaults.RELINEARIZE_ITERATIONS):
+        previous = sol.profile.duration
+        problem, right, left = _build(grid, samp, limits, scale, sol.x)
+        sol = solve_chain(problem, **chain_args)
+        if abs(previous - sol.profile.duration) <= defaults.RELINEARIZE_TOLERANCE * previous:
+            break
+    return problem, right, left, sol
 
 
 def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:

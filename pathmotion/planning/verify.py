@@ -8,7 +8,7 @@ A kink crossed at non-zero speed makes the joint velocity jump: every limit of o
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -21,11 +21,13 @@ from .trajectory import Samples, Trajectory, sample_times
 class LimitRatios:
     """max |value| / limit per registered limit name (None: limit off), e.g. ``ratios.torque`` or
     ``ratios.values["torque"]``; ``sample_time`` [s] of the resample; ``worst``: where the largest
-    ratio occurs (kind, joint, t, theta)."""
+    ratio occurs (kind, joint, t, theta); ``extra``: the limits' settings for summary.json
+    (e.g. {"torque_reserve": 0.2})."""
 
     values: dict
     sample_time: float
     worst: str
+    extra: dict = field(default_factory=dict)
 
     def __getattr__(self, name: str):
         if name != "values" and any(cls.name == name for cls in REGISTRY):
@@ -42,7 +44,10 @@ class LimitRatios:
 
     def summary(self) -> dict:
         """{summary key: ratio or None} for every registered limit, e.g. {"max_torque_ratio": 0.98, ...}."""
-        return {cls.summary_key(): self.values.get(cls.name) for cls in REGISTRY}
+        out = {cls.summary_key(): self.values.get(cls.name) for cls in REGISTRY}
+        for cls in REGISTRY:
+            out.update({key: self.extra.get(key) for key in cls.extra_summary_keys})
+        return out
 
 
 def sample_ratios(trajectory: Trajectory, limits: EffectiveLimits, dt: float,
@@ -90,7 +95,8 @@ def summarize(s: Samples, ratios: dict, limits: EffectiveLimits, dt: float,
         if jumped:
             worst_text = (f"joint velocity jumps at the kink theta = {velocity_jumps[0]:.6g} (crossed at non-zero "
                           "speed): unbounded acceleration and torque")
-    return LimitRatios(values, dt, worst_text)
+    extra = {key: value for lim in limits for key, value in lim.summary_values().items()}
+    return LimitRatios(values, dt, worst_text, extra)
 
 
 def worst_outside(s: Samples, ratios: dict, intervals) -> float:

@@ -17,10 +17,11 @@ from .acceleration import AccelerationLimit
 from .base import Limit, LimitChoice, PathPoints, Rows
 from .tcp_speed import TcpSpeedLimit, tcp_gain
 from .torque import TorqueLimit
+from .torque_speed import TorqueSpeedLimit
 from .velocity import VelocityLimit
 
 #: Every limit class, in output order.
-REGISTRY: list[type[Limit]] = [VelocityLimit, AccelerationLimit, TorqueLimit, TcpSpeedLimit]
+REGISTRY: list[type[Limit]] = [VelocityLimit, AccelerationLimit, TorqueLimit, TcpSpeedLimit, TorqueSpeedLimit]
 
 
 class EffectiveLimits:
@@ -40,6 +41,11 @@ class EffectiveLimits:
         return next((lim for lim in self.active if lim.name == name), None)
 
     @property
+    def relinearize(self) -> bool:
+        """Some active limit's rows depend on x_ref (the planner iterates)."""
+        return any(lim.relinearize for lim in self.active)
+
+    @property
     def needs_torque(self) -> bool:
         return any(lim.needs_torque for lim in self.active)
 
@@ -53,7 +59,8 @@ def effective_limits_for(robot: Robot, choices: Mapping[str, LimitChoice]) -> Ef
     for a missing name)."""
     active = []
     for cls in REGISTRY:
-        lim = cls.from_robot(robot, choices.get(cls.name, cls.default_choice()))
+        choice = choices.get(cls.name, cls.default_choice())
+        lim = cls.from_robot(robot, choice, choices=choices) if cls.uses_choices else cls.from_robot(robot, choice)
         if lim is not None:
             active.append(lim)
     return EffectiveLimits(tuple(active))
@@ -77,5 +84,5 @@ def limit_choices(source, keys: str = "scenario_keys") -> dict[str, LimitChoice]
 
 __all__ = [
     "AccelerationLimit", "EffectiveLimits", "Limit", "LimitChoice", "PathPoints", "REGISTRY", "Rows",
-    "TcpSpeedLimit", "TorqueLimit", "VelocityLimit", "limit_choices", "effective_limits_for", "tcp_gain",
+    "TcpSpeedLimit", "TorqueLimit", "TorqueSpeedLimit", "VelocityLimit", "limit_choices", "effective_limits_for", "tcp_gain",
 ]

@@ -41,6 +41,17 @@ class Rows(NamedTuple):
     hi: np.ndarray
 
 
+class Rows3(NamedTuple):
+    """Third-order rows |sqrt(x) (a3 u' + a u + b x + c)| <= lim at K points, each (K, m): joint
+    jerk has (Phi', 3 Phi'', Phi''', 0), torque rate (alpha, alpha' + 2 beta, beta', gamma')."""
+
+    a3: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    lim: np.ndarray
+
+
 @dataclass(frozen=True)
 class LimitChoice:
     """A user's choice for one limit: ``on`` (use it), ``scale`` (> 0, multiplies the robot's
@@ -48,7 +59,7 @@ class LimitChoice:
 
     on: bool = True
     scale: float = 1.0
-    value: float | None = None
+    value: float | tuple | None = None
 
 
 class PathPoints:
@@ -59,11 +70,25 @@ class PathPoints:
     quantities are computed there only."""
 
     def __init__(self, robot: Robot, path: JointPath, theta, q, dq, ddq, base: "PathPoints | None" = None,
-                 changed: np.ndarray | None = None):
-        self.robot, self.path, self.theta = robot, path, theta
+                 changed: np.ndarray | None = None, side: str = "right"):
+        self.robot, self.path, self.theta, self.side = robot, path, theta, side
         self.q, self.dq, self.ddq = q, dq, ddq
         self._base, self._changed = base, changed
         self._cache: dict = {}
+
+    @property
+    def dddq(self) -> np.ndarray:
+        """Phi''' (K, n), exact (path.evaluate3), computed on first use."""
+        if "dddq" not in self._cache:
+            if self._base is None:
+                value = self.path.evaluate3(self.theta, self.side)[3]
+            else:
+                value = self._base.dddq.copy()
+                i = self._changed
+                if i is not None and len(i):
+                    value[i] = self.path.evaluate3(self.theta[i], self.side)[3]
+            self._cache["dddq"] = np.atleast_2d(value)
+        return self._cache["dddq"]
 
     def cached(self, key: str, compute: Callable[[Robot, np.ndarray, np.ndarray, np.ndarray], tuple]) -> tuple:
         """``compute(robot, q, dq, ddq)`` -> tuple of arrays with leading axis K, computed once per key."""
@@ -97,6 +122,14 @@ class Limit:
     scenario_keys: ClassVar[dict[str, str]]
     #: Unit of a user-given value, in messages.
     unit: ClassVar[str] = ""
+    #: Rows depend on ``x_ref`` (a conservative linearization, e.g. a torque-speed envelope): the
+    #: planner re-solves with x_ref = the previous solution until the duration settles.
+    relinearize: ClassVar[bool] = False
+    #: summary.json keys of :meth:`summary_values` (written as null when the limit is off).
+    extra_summary_keys: ClassVar[tuple[str, ...]] = ()
+    #: ``from_robot`` also receives every limit's choice (``choices={name: LimitChoice}``), for a
+    #: limit defined relative to another one (the envelope scales the torque limit).
+    uses_choices: ClassVar[bool] = False
 
     @classmethod
     def summary_key(cls) -> str:
@@ -136,6 +169,14 @@ class Limit:
     def rows(self, points: PathPoints, scale: np.ndarray, x_ref: np.ndarray | None = None) -> Rows | None:
         """Order 2 and 3: canonical rows with the limit scaled by ``scale`` (K, m)."""
         return None
+
+    def rows3(self, points: PathPoints, scale: np.ndarray) -> "Rows3 | None":
+        """Order 3: rows |sqrt(x) (a3 u' + a u + b x + c)| <= lim, u' = d theta_ddot / d theta."""
+        return None
+
+    def summary_values(self) -> dict:
+        """Extra summary.json entries of this limit's settings (e.g. {"torque_reserve": 0.2})."""
+        return {}
 
     def check(self, points: PathPoints, joint_names: tuple[str, ...]) -> None:
         """InfeasibleError when no motion can meet the limit (e.g. gravity beyond a torque limit)."""

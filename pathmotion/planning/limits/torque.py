@@ -1,13 +1,23 @@
 """Joint torque limit: -tau_max <= alpha u + beta x + gamma <= tau_max (order 2), with the reduced
-dynamics alpha, beta, gamma of planning/reduced.py."""
+dynamics alpha, beta, gamma of planning/reduced.py.
+
+A feedback reserve r in [0, 0.5) (``torque_reserve``) keeps r tau_max of every joint free for the
+controller: the planner enforces (1 - r) tau_max, and the torque ratio is reported against that
+reduced (enforced) limit, so ratio <= 1 means the reserve is intact.
+"""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from ...errors import InfeasibleError
+from ...errors import InfeasibleError, ScenarioError
 from ..reduced import reduced_dynamics
 from .base import Limit, LimitChoice, PathPoints, Rows
+
+#: The reserve must stay below this fraction of the torque limit [-].
+MAX_RESERVE = 0.5
 
 
 def _reduced_arrays(robot, q, dq, ddq):
@@ -20,21 +30,58 @@ def reduced(points: PathPoints):
     return points.cached("reduced_dynamics", _reduced_arrays)
 
 
+def check_reserve(value) -> float:
+    """The reserve as a float in [0, MAX_RESERVE), or a ScenarioError naming the key."""
+    if isinstance(value, str):
+        raise ScenarioError(f"limits.torque_reserve = {value!r}: the planner takes a number in [0, {MAX_RESERVE}); "
+                            "'auto' is resolved by the scenario layer before planning")
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not (
+            np.isfinite(value) and 0.0 <= value < MAX_RESERVE):
+        raise ScenarioError(f"limits.torque_reserve must be a number in [0, {MAX_RESERVE}) (a fraction of each "
+                            f"torque limit kept free for feedback), got {value!r}")
+    return float(value)
+
+
+def torque_reserve(choices) -> float:
+    """The reserve of the torque limit's choice in ``choices`` {name: LimitChoice} (0 when not given)."""
+    choice = choices.get(TorqueLimit.name)
+    return 0.0 if choice is None or choice.value is None else float(choice.value)
+
+
 class TorqueLimit(Limit):
-    """tau_max [N m] (n,): the robot's joint torque limits times ``torque_scale``."""
+    """tau_max [N m] (n,): the robot's joint torque limits times ``torque_scale`` times
+    (1 - ``torque_reserve``)."""
 
     name = "torque"
     order = 2
     needs_torque = True
-    settings_keys = {"torque": "on", "torque_scale": "scale"}
-    scenario_keys = {"use_torque": "on", "torque_scale": "scale"}
+    settings_keys = {"torque": "on", "torque_scale": "scale", "torque_reserve": "value"}
+    scenario_keys = {"use_torque": "on", "torque_scale": "scale", "torque_reserve": "value"}
+    extra_summary_keys = ("torque_reserve",)
 
-    def __init__(self, tau_max: np.ndarray):
+    def __init__(self, tau_max: np.ndarray, reserve: float = 0.0):
         self.tau_max = np.asarray(tau_max, float)
+        self.reserve = float(reserve)
+
+    @classmethod
+    def default_choice(cls) -> LimitChoice:
+        return LimitChoice(value=0.0)
+
+    @classmethod
+    def check_choice(cls, choice: LimitChoice) -> LimitChoice:
+        reserve = check_reserve(0.0 if choice.value is None else choice.value)
+        super().check_choice(replace(choice, value=None))
+        return replace(choice, value=reserve)
 
     @classmethod
     def from_robot(cls, robot, choice: LimitChoice):
-        return cls(robot.limits.torque * choice.scale) if choice.on else None
+        if not choice.on:
+            return None
+        reserve = 0.0 if choice.value is None else float(choice.value)
+        return cls(robot.limits.torque * choice.scale * (1.0 - reserve), reserve)
+
+    def summary_values(self) -> dict:
+        return {"torque_reserve": self.reserve}
 
     def rows(self, points, scale, x_ref=None):
         alpha, beta, gamma = reduced(points)
@@ -46,10 +93,11 @@ class TorqueLimit(Limit):
         over = np.abs(gamma) > self.tau_max
         if np.any(over):
             k, j = np.argwhere(over)[0]
+            kept = f" (with the reserve {self.reserve:g} kept free)" if self.reserve else ""
             raise InfeasibleError(
                 f"gravity torque of {joint_names[j]} at theta = {points.theta[k]:.6g} is {gamma[k, j]:.6g} N m, "
-                f"beyond its limit +-{self.tau_max[j]:.6g} N m: the arm cannot hold the path there (nor stop on "
-                "it); lower the payload, raise the torque limit or move the path"
+                f"beyond its limit +-{self.tau_max[j]:.6g} N m{kept}: the arm cannot hold the path there (nor stop "
+                "on it); lower the payload or the torque reserve, raise the torque limit or move the path"
             )
 
     def ratios(self, samples, robot):
