@@ -4,9 +4,14 @@ One closed-loop run of the IRB140 (6 joints) along a joint spline at the 4 ms co
 orbital controller, plant = RK4 with defaults.PLANT_SUBSTEPS sub-steps per sample. The peer, measured
 in the same run: the same applied torque profile (zero-order hold per sample) integrated by a plain
 loop that calls Pinocchio's ABA inside scipy's solve_ivp (RK45, rtol 1e-6, one call per sample, as a
-straightforward closed-loop simulation would do it). Both are printed with their ratio; the target is
->= 20x real time for the closed loop (controller, monitor, plant and the metrics after the run). Each timing
-is the median of ``repeat`` runs (the machine may be shared), with the load average printed.
+straightforward closed-loop simulation would do it). Second peer (when ``mujoco`` is installed): MuJoCo
+stepping the same arm (its own parse of the same URDF, RK4, same step) under a plain joint PD
+(tau = Kp (q_ref - q) + Kd (qd_ref - qd), Kp/Kd from defaults.PD_BANDWIDTH/PD_DAMPING and the diagonal of
+M at the start), a Python loop calling mj_step per sample along the states the orbital run recorded.
+Loop-only rows time the sample loop alone; end-to-end rows include the set-up (our orbital design: path
+table + Riccati gains; MuJoCo: parsing the URDF into an MjModel). The target is >= 20x real time for the
+closed loop (controller, monitor, plant and the metrics after the run). Each timing is the median of
+``repeat`` runs (the machine may be shared), with the load average printed.
 Run: python benchmarks/bench_simulation.py [repeat]
 """
 
@@ -81,6 +86,7 @@ def main(repeat: int = 7) -> None:
         return x[:n]
 
     t_peer, q_peer = median_of(peer, repeat)
+    mujoco_rows = mujoco_peer(robot, result, settings, repeat)
     rtf_sim, rtf_plant, rtf_peer = simulated / t_sim, simulated / t_plant, simulated / t_peer
     print(f"load average (1 min) before / after  {load0:.2f} / {os.getloadavg()[0]:.2f} (2 cores)")
     print(f"simulated time                              {simulated:8.3f} s ({len(result.t)} samples of {ts * 1e3:g} ms)")
@@ -91,7 +97,52 @@ def main(repeat: int = 7) -> None:
     print(f"ratio closed loop / peer                    {rtf_sim / rtf_peer:8.2f}")
     print(f"ratio plant / peer                          {rtf_plant / rtf_peer:8.2f}")
     print(f"final-state difference own plant vs peer    {np.max(np.abs(q_own - q_peer)):.2e} rad")
+    print(f"end to end (design + closed loop)           {(t_design + t_sim) * 1e3:8.1f} ms  -> "
+          f"{simulated / (t_design + t_sim):6.1f} x real time")
+    for label, seconds in mujoco_rows:
+        print(f"{label:44s}{seconds * 1e3:8.1f} ms  -> {simulated / seconds:6.1f} x real time")
     print(f"target >= 20x real time for the closed loop: {'met' if rtf_sim >= 20 else 'NOT met'}")
+
+
+def mujoco_peer(robot, result, settings, repeat: int) -> list[tuple[str, float]]:
+    """(label, seconds) rows for MuJoCo: the plant alone on the same torques, and MuJoCo + a plain PD
+    loop-only and end to end (model build included); [] when mujoco is not installed."""
+    try:
+        import mujoco
+    except ImportError:
+        print("mujoco not installed: MuJoCo peer skipped (pip install \"pathmotion[mujoco]\")")
+        return []
+    from pathmotion.simulation.mujoco_plant import MujocoPlant, build_model
+
+    ts, substeps = settings.sample_time, settings.substeps
+    plant = MujocoPlant.from_robot(robot)
+
+    def replay():
+        q, qd = result.q[0], result.qd[0]
+        for tau in result.tau:
+            q, qd = plant.step(q, qd, tau, ts, substeps)
+        return q
+
+    t_replay, _ = median_of(replay, repeat)
+    w, zeta = defaults.PD_BANDWIDTH, defaults.PD_DAMPING
+    inertia = np.diag(pin.crba(robot.model, robot.data, result.q[0]))
+    kp, kd = w * w * inertia, 2.0 * zeta * w * inertia
+    q_ref, qd_ref = result.q, result.qd
+
+    def pd_loop(model):
+        data = mujoco.MjData(model)
+        data.qpos[:], data.qvel[:] = q_ref[0], qd_ref[0]
+        for k in range(len(q_ref)):
+            data.qfrc_applied[:] = kp * (q_ref[k] - data.qpos) + kd * (qd_ref[k] - data.qvel)
+            mujoco.mj_step(model, data, substeps)
+        return data.qpos.copy()
+
+    model = build_model(robot, timestep=ts / substeps)
+    t_loop, _ = median_of(lambda: pd_loop(model), repeat)
+    t_e2e, _ = median_of(lambda: pd_loop(build_model(robot, timestep=ts / substeps)), repeat)
+    return [(f"MuJoCo plant alone, RK4 x {substeps}, same torques", t_replay),
+            ("MuJoCo + plain PD, loop only", t_loop),
+            ("MuJoCo + plain PD, end to end (URDF parse)", t_e2e)]
 
 
 if __name__ == "__main__":
