@@ -301,7 +301,7 @@ def simulation_settings(setup: Setup):
     if rs.payload_com is not None:
         realism_kwargs["payload_com"] = rs.payload_com
     kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
-                  failure_threshold=sim.failure_threshold, laps=sim.laps)
+                  failure_threshold=sim.failure_threshold, laps=sim.laps, plant=sim.plant)
     if sim.gains:
         cls, field = (OrbitalGains, "orbital_gains") if sim.controller == "orbital" else (
             TrackingGains, "computed_torque_gains" if sim.controller == "computed_torque" else "pd_gains")
@@ -326,6 +326,7 @@ def simulate_scenario(setup: Setup, result: PlanResult):
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:
     summary = dict(sim.summary())
     summary["controller"] = setup.scenario.simulate.controller
+    summary["plant"] = setup.scenario.simulate.plant
     summary["planned_duration_s"] = result.profile.duration
     return summary
 

@@ -53,6 +53,9 @@ TRACKING_FAILURE_THRESHOLD = 0.05
 #: drives' armature in the model, the IRB140's state after 1 s of a torque that moves the joints by 4 rad
 #: is within 1.3e-9 rad of a DOP853 reference at rtol 1e-10 (2.2e-8 rad with one step per sample).
 PLANT_SUBSTEPS = 2
+#: The closed loop's plant: "builtin" (Pinocchio ABA + our RK4) or "mujoco" (MuJoCo's parse of the same URDF,
+#: MuJoCo's RK4; needs pip install "pathmotion[mujoco]").
+PLANT = "builtin"
 #: Spacing of the dense reference samples the lift takes along a task path [m of theta].
 LIFT_REFERENCE_STEP = 0.002
 #: Most points of that dense reference: a longer path is far beyond any arm's reach [-].

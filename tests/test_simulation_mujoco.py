@@ -146,3 +146,51 @@ def test_stiff_damping_is_refused_for_rk4(irb140):
         mj.check_step(Q0, TS, 1)
     MujocoPlant.from_robot(irb140, Realism(viscous_friction=(0, 0, 0, 0, 0, 500.0)),
                            integrator="implicitfast").check_step(Q0, TS, 1)
+
+
+# ------------------------------------------------------------------------------------ the closed loop
+def _circle_zero(plant: str, **overrides):
+    from pathmotion import api
+
+    setup = api.load(_shipped("circle_zero"), {"simulate.plant": plant, **overrides})
+    result = api.plan_scenario(setup)
+    return api.simulation_summary(setup, result, api.simulate_scenario(setup, result))
+
+
+def _shipped(name: str) -> str:
+    from importlib import resources
+
+    return str(resources.files("pathmotion.scenarios") / f"{name}.toml")
+
+
+@pytest.mark.parametrize("overrides", [{}, {"simulate.realism.viscous_friction": 2.0,
+                                            "simulate.realism.coulomb_friction": 2.0}], ids=["nominal", "friction"])
+def test_closed_loop_on_both_plants_gives_the_same_verdict(overrides):
+    """Nominal: the plants agree to round-off, so everything matches. With friction the plants differ
+    (MuJoCo's hard friction loss vs our tanh-smoothed Coulomb): same verdict, cycle time within 1 % when
+    both track, the same failure within 1 % of the path when both fail, deviations of the same order."""
+    builtin, mujoco = _circle_zero("builtin", **overrides), _circle_zero("mujoco", **overrides)
+    assert (builtin["plant"], mujoco["plant"]) == ("builtin", "mujoco")
+    assert builtin["tracking_ok"] == mujoco["tracking_ok"]
+    if builtin["tracking_ok"]:
+        a, b = builtin["simulated_duration_s"], mujoco["simulated_duration_s"]
+        assert abs(a - b) <= 0.01 * a
+    else:
+        fb, fm = builtin["failure"], mujoco["failure"]
+        assert fb["reason"] == fm["reason"]
+        assert abs(fb["theta"] - fm["theta"]) <= 0.01 * 2 * np.pi * 0.1  # 1 % of the circle's length [m]
+    ratio = mujoco["max_joint_deviation_rad"] / builtin["max_joint_deviation_rad"]
+    assert 0.5 < ratio < 2.0
+    if not overrides:
+        assert builtin["tracking_ok"]
+        assert abs(ratio - 1.0) < 1e-6
+
+
+def test_an_unknown_plant_is_refused():
+    from pathmotion.errors import ScenarioError
+    from pathmotion.simulation import SimulationSettings
+
+    with pytest.raises(SimulationError, match="builtin, mujoco"):
+        SimulationSettings(plant="ode")
+    with pytest.raises(ScenarioError, match="plant"):
+        _circle_zero("ode")

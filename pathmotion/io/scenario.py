@@ -161,6 +161,8 @@ class SimulateSpec(_Model):
     controller: Controller = Controller.ORBITAL
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, le=0.1, description="controller sample time [s]")
     substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=1000, description="RK4 plant steps per sample")
+    plant: Literal["builtin", "mujoco"] = Field(defaults.PLANT, description="the simulated arm: builtin (Pinocchio + "
+                                                "RK4) or mujoco (pip install \"pathmotion[mujoco]\")")
     laps: int = Field(1, ge=1, le=100, description="laps of a closed path")
     realism: RealismSpec = RealismSpec()
     gains: dict[str, float] = Field({}, description="gains of the chosen controller overriding the defaults "

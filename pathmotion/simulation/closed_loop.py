@@ -31,7 +31,7 @@ from ..robot import Robot
 from .end_rules import FLAT_SPEED2, Sample, end_rules
 from .metrics import Failure, SimulationResult, original_path_deviation, polish_projection, tcp_path_deviation
 from .monitor import monitor_state
-from .plant import Plant, saturate
+from .plant import PLANT_NAMES, make_plant, saturate
 from .realism import Realism, Sensor
 
 #: Relative mismatch allowed between the profile's theta range and the path's domain [-].
@@ -43,7 +43,7 @@ class SimulationSettings:
     """sample_time [s]; substeps: RK4 steps per sample; realism; gains of the three controllers;
     failure_threshold [rad]; time budget = time_budget_factor * planned + time_budget_margin [s];
     laps (closed paths); table_points of the controller's path table; arrival_tolerance [rad] and
-    settle_time [s] (open paths)."""
+    settle_time [s] (open paths); plant: "builtin" or "mujoco" (see :func:`.plant.make_plant`)."""
 
     sample_time: float = defaults.SAMPLE_TIME
     substeps: int = defaults.PLANT_SUBSTEPS
@@ -58,6 +58,7 @@ class SimulationSettings:
     table_points: int = defaults.PATH_TABLE_POINTS
     arrival_tolerance: float = defaults.ARRIVAL_TOLERANCE
     settle_time: float = defaults.SETTLE_TIME
+    plant: str = defaults.PLANT
 
     def __post_init__(self):
         for name in ("sample_time", "failure_threshold", "time_budget_factor", "arrival_tolerance"):
@@ -70,6 +71,8 @@ class SimulationSettings:
                 raise SimulationError(f"SimulationSettings.{name} = {v!r}; it must be a number >= 0")
         if not (isinstance(self.substeps, int) and self.substeps >= 1):
             raise SimulationError(f"SimulationSettings.substeps = {self.substeps!r}; give an integer >= 1")
+        if self.plant not in PLANT_NAMES:
+            raise SimulationError(f"SimulationSettings.plant = {self.plant!r}; choose one of {', '.join(PLANT_NAMES)}")
         if not (isinstance(self.laps, int) and self.laps >= 1):
             raise SimulationError(f"SimulationSettings.laps = {self.laps!r}; give an integer >= 1")
 
@@ -119,7 +122,7 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
 
     The run starts on the plan: q = Phi(theta_start), qd = Phi'(theta_start) sqrt(x*(theta_start)).
     ``design``: a prebuilt OrbitalDesign on this path and profile (reused across runs), optional.
-    ``plant``: default the rigid-body :class:`~.plant.Plant` of ``robot`` with ``settings.realism``.
+    ``plant``: a prebuilt plant (:class:`PlantModel`); default ``make_plant(settings.plant, robot, settings.realism)``.
     Raises SimulationError only for unusable inputs; tracking failures are in the result.
     """
     _check_inputs(robot, path, profile)
@@ -130,7 +133,7 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         + settings.time_budget_margin
     control = _Command(make_controller(controller, robot, path, profile, table, settings, budget + ts, design),
                        Sensor(settings.realism), settings.realism.delay)
-    plant = Plant.from_robot(robot, settings.realism) if plant is None else plant
+    plant = make_plant(settings.plant, robot, settings.realism) if plant is None else plant
     phi0, dphi0, _ = path.evaluate(lo)
     q, qd = np.array(phi0, dtype=float), np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
     plant.check_step(q, ts, substeps)

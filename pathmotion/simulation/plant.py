@@ -178,3 +178,19 @@ class Plant:
                 f"an inertia of {inertia[j]:.3g} kg m^2 decays in {1.0 / rate[j]:.3g} s, shorter than the plant step "
                 f"{h:.3g} s; raise substeps to >= {need}, Realism.coulomb_smoothing, or lower that joint's friction"
             )
+
+
+PLANT_NAMES = ("builtin", "mujoco")
+
+
+def make_plant(name: str, robot: Robot, realism: Realism = Realism()):
+    """The closed loop's plant ``name`` (one of PLANT_NAMES): the built-in :class:`Plant` or
+    :class:`.mujoco_plant.MujocoPlant`; both have ``step(q, qd, tau, dt, substeps)``, ``check_step``,
+    ``torque_limit``."""
+    if name == "builtin":
+        return Plant.from_robot(robot, realism)
+    if name == "mujoco":
+        from .mujoco_plant import MujocoPlant  # optional dependency: imported only when asked for
+
+        return MujocoPlant.from_robot(robot, realism)
+    raise SimulationError(f"unknown plant {name!r}; choose one of {', '.join(PLANT_NAMES)}")
