@@ -9,7 +9,9 @@ so theta = j t^3 / 6 near it and, in the theta domain, b = theta_dot^2 ~ theta^(
 a' = d theta_ddot / d theta ~ theta^(-2/3): the usual (b, a) transcription on a theta grid
 (Verscheure et al. 2009 for second order; TOPP3, Pham et al. 2017, for third order) then has an
 O(h^(1/3)) error in the first and last interval, about 1 % at 6400 intervals on the circle. On a
-uniform time grid the same start is smooth. So, with N intervals of dt = T / N and T free:
+uniform time grid the same start is smooth. So, with N intervals of dt = T / N and T free (one
+dt_k per interval, chained dt_{k+1} = dt_k: a single T variable would couple every dynamics row and
+make IPOPT's KKT matrix dense in that column, 3x slower at N = 800):
 
     second order (no jerk, no torque rate): states (theta, theta_dot), control theta_ddot = u_k
         piecewise constant; theta_dot_{k+1} = theta_dot_k + u_k dt, theta_{k+1} = theta_k
@@ -123,15 +125,13 @@ class ReferenceProfile:
 
 
 def _table(path, robot, limits: ReferenceLimits, points: int):
-    """Interpolant theta -> [Phi', Phi'', Phi''', alpha, beta, gamma] (6 n values)."""
+    """Interpolant theta -> [Phi', Phi'', Phi'''] (3 n values), then [alpha, beta, gamma] with torque limits."""
     theta = np.linspace(*path.domain, points)
     q, dq, ddq, dddq = path.evaluate3(theta)
     blocks = [dq, ddq, dddq]
     if limits.needs_dynamics:
         red = reduced_dynamics(robot, q, dq, ddq)
         blocks += [red.alpha, red.beta, red.gamma]
-    else:
-        blocks += [np.zeros_like(dq)] * 3
     values = np.concatenate(blocks, axis=1)
     return ca.interpolant("path_table", "bspline", [theta], values.ravel(order="C"))
 
@@ -144,7 +144,9 @@ def _node_function(table, n: int, limits: ReferenceLimits):
     """CasADi function (theta, theta_dot, a, j) -> (constraint rows,) with numeric bounds (lb, ub)."""
     th, v, a, j = (ca.MX.sym(s) for s in ("theta", "theta_dot", "a", "j"))
     vals = table(th)
-    d1, d2, d3, al, be, ga = (vals[k * n:(k + 1) * n] for k in range(6))
+    d1, d2, d3 = (vals[k * n:(k + 1) * n] for k in range(3))
+    if limits.needs_dynamics:
+        al, be, ga = (vals[k * n:(k + 1) * n] for k in range(3, 6))
     rows, lb, ub = [], [], []
 
     def add(expr, bound):
@@ -157,9 +159,9 @@ def _node_function(table, n: int, limits: ReferenceLimits):
         add(d1 * a + d2 * v ** 2, limits.acceleration)
     if limits.jerk is not None:
         add(d3 * v ** 3 + 3 * d2 * v * a + d1 * j, limits.jerk)
-    tau = al * a + be * v ** 2 + ga
     scale = 1.0 - limits.torque_reserve
     if limits.torque is not None:
+        tau = al * a + be * v ** 2 + ga
         tau_lim = scale * np.asarray(limits.torque, float)
         add(tau, tau_lim)
         if limits.torque_speed is not None:
@@ -195,7 +197,7 @@ def _initial_guess(path, limits: ReferenceLimits, N: int, third: bool) -> np.nda
 
 def _pack(theta, v, a, j, T, third):
     u = 0.5 * (j[:-1] + j[1:]) if third else 0.5 * (a[:-1] + a[1:])
-    parts = [theta, v] + ([a] if third else []) + [u, [T]]
+    parts = [theta, v] + ([a] if third else []) + [u, np.full(len(u), T / len(u))]
     return np.concatenate([np.asarray(p, float) for p in parts])
 
 
@@ -204,7 +206,7 @@ def _unpack(x: np.ndarray, N: int, third: bool):
     off = 2 * N + 2
     a = x[off:off + N + 1] if third else None
     off += N + 1 if third else 0
-    return theta, v, a, x[off:off + N], float(x[-1])
+    return theta, v, a, x[off:off + N], float(np.sum(x[off + N:]))
 
 
 def _resample(prev: ReferenceProfile, N: int) -> np.ndarray:
@@ -218,14 +220,14 @@ def _resample(prev: ReferenceProfile, N: int) -> np.ndarray:
 
 
 def _build(node, lb_node, ub_node, N: int, third: bool, L: float, limits: ReferenceLimits):
-    nx = (3 if third else 2) * (N + 1) + N + 1
+    nx = (3 if third else 2) * (N + 1) + 2 * N
     x = ca.MX.sym("x", nx)
     theta, v = x[:N + 1], x[N + 1:2 * N + 2]
     off = 2 * N + 2
     a = x[off:off + N + 1] if third else None
     off += N + 1 if third else 0
-    u, T = x[off:off + N], x[-1]
-    dt = T / N
+    # one time step per interval, all equal: a single T would couple every row (a dense KKT column)
+    u, dt = x[off:off + N], x[off + N:]
     if third:
         dyn = [theta[1:] - (theta[:-1] + v[:-1] * dt + a[:-1] * dt ** 2 / 2 + u * dt ** 3 / 6),
                v[1:] - (v[:-1] + a[:-1] * dt + u * dt ** 2 / 2), a[1:] - (a[:-1] + u * dt)]
@@ -237,8 +239,8 @@ def _build(node, lb_node, ub_node, N: int, third: bool, L: float, limits: Refere
     fmap = node.map(N)
     g_left = fmap(theta[:-1].T, v[:-1].T, a_left, jerk)
     g_right = fmap(theta[1:].T, v[1:].T, a_right, jerk)
-    g = ca.vertcat(*dyn, ca.vec(g_left), ca.vec(g_right))
-    ndyn = (3 if third else 2) * N
+    g = ca.vertcat(*dyn, dt[1:] - dt[:-1], ca.vec(g_left), ca.vec(g_right))
+    ndyn = (3 if third else 2) * N + N - 1
     lbg = np.concatenate([np.zeros(ndyn), np.tile(lb_node, 2 * N)])
     ubg = np.concatenate([np.zeros(ndyn), np.tile(ub_node, 2 * N)])
     lbx, ubx = np.full(nx, -np.inf), np.full(nx, np.inf)
@@ -253,8 +255,8 @@ def _build(node, lb_node, ub_node, N: int, third: bool, L: float, limits: Refere
             lbx[2 * N + 2] = ubx[2 * N + 2] = 0.0
         if limits.end_speed == 0.0:
             lbx[3 * N + 2] = ubx[3 * N + 2] = 0.0
-    lbx[-1] = 1e-3
-    return {"x": x, "f": T, "g": g}, lbx, ubx, lbg, ubg
+    lbx[off + N:] = 1e-3 / N
+    return {"x": x, "f": ca.sum1(dt), "g": g}, lbx, ubx, lbg, ubg
 
 
 def reference_duration(path, robot, limits: ReferenceLimits, intervals: int, *, warm: ReferenceProfile | None = None,

@@ -25,6 +25,7 @@ GRIDS = (100, 200, 400)
 S_CURVE_TOLERANCE = 1e-4  # the analytic case converges fast: 2e-5 at these grids
 
 
+@pytest.mark.slow  # ~15 s: IPOPT on three grids plus toppra
 def test_acceleration_only_reference_matches_toppra(irb140):
     pytest.importorskip("toppra", reason="the comparison needs toppra (dev extra)")
     # a lifted quarter circle: Phi' != 0 at both ends (a clamped spline has Phi' = 0 there, so any
@@ -79,6 +80,7 @@ def s_curve_time(distance, v, a, j):
     return 2.0 * accel_time(lo)
 
 
+@pytest.mark.slow  # ~12 s each: IPOPT on three grids
 @pytest.mark.parametrize("jerk_scale", [3.0, 30.0])
 def test_jerk_limited_reference_matches_the_s_curve(irb140, jerk_scale):
     lim = irb140.limits
