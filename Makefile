@@ -25,6 +25,7 @@ demo: $(STAMP)
 	$(BIN)/pathmotion demo --out out/demo
 
 test: $(STAMP) browser
+	$(BIN)/lint-imports
 	$(BIN)/python -m pytest -q -n 2
 
 clean:

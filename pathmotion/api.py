@@ -18,8 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from .io import schema
 from .errors import PathmotionError, ScenarioError
-from .geometry import Arc, Circle, FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend, with_transition
+from .geometry import Arc, Circle, FixedOrientation, Line, TaskPath, max_deviation, with_blends
+from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
 from .io.scenario import Scenario, load_scenario, parse_scenario
@@ -27,7 +29,8 @@ from .joint_path import JointPath, SplineJointPath
 from .constraint import lift
 from .planning import PlanResult, PlanSettings, plan
 from .planning.limits import REGISTRY as LIMIT_REGISTRY, limit_choices
-from .robot import Payload, Robot, Tool, builtin_robot_names, load_robot
+from .robot import Payload, Robot, Tool, builtin_robot_names, fk, load_robot
+from .robot.arm import arm_points
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,7 +136,7 @@ def build_path(scenario: Scenario, robot: Robot) -> tuple[JointPath, TaskPath | 
         np.asarray(spec.orientation, float))
     task = TaskPath(tuple(_segments(spec.segments)), orientation)
     original = task if spec.blends else None
-    chosen: dict[int, tuple[int, Any]] = {}  # connection index (0-based) -> (blends[k], spec)
+    chosen: dict[int, int] = {}  # connection index (0-based) -> k of path.blends[k]
     for k, blend in enumerate(spec.blends):
         if blend.corner == "all":
             corners = [c.index for c in task.connections if c.kind == "corner"]
@@ -145,18 +148,11 @@ def build_path(scenario: Scenario, robot: Robot) -> tuple[JointPath, TaskPath | 
         for c in corners:
             if c in chosen:
                 raise ScenarioError(f"path.blends[{k}]: connection {c + 1} is already blended by "
-                                    f"path.blends[{chosen[c][0]}]; give one blend per corner")
-            chosen[c] = (k, blend)
-    # apply from the last connection to the first, so the indices of the earlier ones stay valid
-    for c in sorted(chosen, reverse=True):
-        k, blend = chosen[c]
-        try:
-            if blend.type == "circle":
-                task = with_transition(task, c, blend.radius)
-            else:
-                task = with_g2_blend(task, c, blend.tolerance)
-        except PathmotionError as exc:
-            raise type(exc)(f"path.blends[{k}] (corner {c + 1}): {exc}") from None
+                                    f"path.blends[{chosen[c]}]; give one blend per corner")
+            chosen[c] = k
+    blends = {c: (spec.blends[k].type, spec.blends[k].radius if spec.blends[k].type == "circle"
+                  else spec.blends[k].tolerance) for c, k in chosen.items()}
+    task = with_blends(task, blends, {c: f"path.blends[{k}] (corner {c + 1})" for c, k in chosen.items()})
     q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
     path = lift(robot, task, q_start, original=original)
     return path, task, original
@@ -201,7 +197,7 @@ def plan_scenario(setup: Setup) -> PlanResult:
     result = plan(setup.path, setup.robot, setup.plan_settings)
     scale = setup.scenario.plan.blend_speed_scale
     if scale != 1.0:
-        from .study.blend_speed import cap_blend_speed
+        from .planning.blend_speed import cap_blend_speed
 
         result = cap_blend_speed(setup, result, scale)
     return result
@@ -216,27 +212,27 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
         "robot": setup.robot.name,
         "path_length": float(setup.path.length),
         "path_kind": "task" if setup.task_path is not None else "joint",
-        "duration_s": result.profile.duration,
-        "solve_time_s": result.solve_time_s,
+        schema.DURATION.key: result.profile.duration,
+        schema.SOLVE_TIME.key: result.solve_time_s,
         "grid_points": result.grid_points,
         **({cls.summary_key(): None for cls in LIMIT_REGISTRY} if r is None else r.summary()),
-        "worst_limit": None if r is None else r.worst,
-        "baseline_constant_speed_duration_s": (None if b is None or b.constant_speed is None
-                                               else b.constant_speed.profile.duration),
-        "fitted_profile_duration_s": None if b is None or b.fitted is None else b.fitted.profile.duration,
-        "baseline_constant_speed_error": None if b is None else b.constant_speed_error,
+        schema.WORST_LIMIT.key: None if r is None else r.worst,
+        schema.BASELINE_DURATION.key: (None if b is None or b.constant_speed is None
+                                       else b.constant_speed.profile.duration),
+        schema.FITTED_DURATION.key: None if b is None or b.fitted is None else b.fitted.profile.duration,
+        schema.BASELINE_ERROR.key: None if b is None else b.constant_speed_error,
         "connections": setup.plan_settings.connections,
-        "velocity_jumps": [list(j) for j in result.jump_intervals],
-        "kinks_theta": list(setup.path.kinks),
+        schema.VELOCITY_JUMPS.key: [list(j) for j in result.jump_intervals],
+        schema.KINKS.key: list(setup.path.kinks),
     }
     if setup.original_task_path is not None and setup.task_path is not None:
-        out["blend_max_deviation_m"] = max_deviation(setup.task_path, setup.original_task_path).distance
+        out[schema.BLEND_MAX_DEVIATION.key] = max_deviation(setup.task_path, setup.original_task_path).distance
     if setup.scenario.rapid is not None and setup.task_path is not None:
-        out["rapid_estimate_s"] = _rapid_estimate(setup)
+        out[schema.RAPID_ESTIMATE.key] = _rapid_estimate(setup)
     check = getattr(setup.path, "check", None)
     if check is not None:
-        out["min_singular_value"] = check.min_singular_value
-        out["joint_range_margin_rad"] = check.range_margin
+        out[schema.MIN_SINGULAR_VALUE.key] = check.min_singular_value
+        out[schema.JOINT_RANGE_MARGIN.key] = check.range_margin
     return out
 
 
@@ -250,8 +246,10 @@ def _rapid_estimate(setup: Setup) -> float:
                             [c.angle for c in path.connections])
 
 
-def write_plan(setup: Setup, result: PlanResult, out: str | Path, figures: bool = True) -> dict:
-    """Write trajectory.csv/.parquet, summary.json, phase_plane.csv, the exports and figures."""
+def write_plan(setup: Setup, result: PlanResult, out: str | Path) -> dict:
+    """Write trajectory.csv/.parquet, summary.json, phase_plane.csv, the exports and the data the
+    report and the figures read (limits.json, arm.csv, tcp_path.csv, original_path.csv); figures are
+    drawn from these files by :mod:`pathmotion.report.figures`."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     samples = result.trajectory.sample(setup.scenario.plan.sample_time)
@@ -261,15 +259,33 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, figures: bool 
     exports.write_egm_csv(out / "trajectory_egm.csv", samples)
     exports.write_rapid(out / "trajectory_rapid.mod", samples)
     exports.write_table_csv(out / "phase_plane.csv", phase_plane_columns(result))
+    write_report_data(setup, out, samples.t, samples.q)
+    idx = exports.decimate(len(samples.t))
+    tcp = fk(setup.robot, samples.q[idx])[0]
+    exports.write_table_csv(out / "tcp_path.csv", {"t": samples.t[idx], **{f"tcp_{a}": tcp[:, k]
+                                                                          for k, a in enumerate("xyz")}})
     if setup.scenario_text:
         write_text(out / "scenario.toml", setup.scenario_text)
     summary = plan_summary(setup, result)
     write_json(out / "summary.json", summary)
-    if figures:
-        from .report import figures as fig
-
-        fig.plan_figures(setup, result, samples, out)
     return summary
+
+
+def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> None:
+    """limits.json (joint names, limits, the plan's scales), arm.csv (the arm's stick figure at
+    REPORT_ARM_FRAMES of the times t (N,) [s] with joint positions q (N, n) [rad]) and, when blends
+    replaced corners, original_path.csv (the sharp path, x, y, z [m])."""
+    ps = setup.plan_settings
+    scales = {"velocity": ps.velocity_scale if ps.velocity else None,
+              "acceleration": ps.acceleration_scale if ps.acceleration else None,
+              "torque": ps.torque_scale if ps.torque else None}
+    write_json(out / "limits.json", exports.limits_record(setup.robot.joint_names, setup.robot.limits, scales))
+    idx = exports.decimate(len(t), defaults.REPORT_ARM_FRAMES)
+    exports.write_table_csv(out / "arm.csv", exports.arm_columns(t[idx], arm_points(setup.robot, q[idx])))
+    task = setup.original_task_path
+    if task is not None:
+        points = np.asarray(task.evaluate(np.linspace(*task.domain, defaults.REPORT_MAX_POINTS))[0])[:, :3]
+        exports.write_table_csv(out / "original_path.csv", {a: points[:, k] for k, a in enumerate("xyz")})
 
 
 def phase_plane_columns(result: PlanResult) -> dict[str, np.ndarray]:
@@ -326,33 +342,31 @@ def simulate_scenario(setup: Setup, result: PlanResult):
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:
     summary = dict(sim.summary())
     summary["controller"] = setup.scenario.simulate.controller
-    summary["plant"] = setup.scenario.simulate.plant
-    summary["planned_duration_s"] = result.profile.duration
+    summary[schema.PLANT.key] = setup.scenario.simulate.plant
+    summary[schema.PLANNED_DURATION.key] = result.profile.duration
     return summary
 
 
-def write_simulation(setup: Setup, result: PlanResult, sim, out: str | Path, figures: bool = True) -> dict:
-    """Write simulation.csv/.parquet, summary.json (plan and simulation keys) and figures."""
+def write_simulation(setup: Setup, result: PlanResult, sim, out: str | Path) -> dict:
+    """Write simulation.csv/.parquet, summary.json (plan and simulation keys) and the report's data
+    (limits.json, arm.csv, original_path.csv; see :func:`write_report_data`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     cols = simulation_columns(sim)
     exports.write_table_csv(out / "simulation.csv", cols)
     exports.write_table_parquet(out / "simulation.parquet", cols)
+    write_report_data(setup, out, sim.t, sim.q)
     summary = {"plan": plan_summary(setup, result)}
     summary.update(simulation_summary(setup, result, sim))
     if setup.scenario_text:
         write_text(out / "scenario.toml", setup.scenario_text)
     write_json(out / "summary.json", summary)
-    if figures:
-        from .report import figures as fig
-
-        fig.simulation_figures(setup, result, sim, out)
     return summary
 
 
 def simulation_columns(sim) -> dict[str, np.ndarray]:
     """simulation.csv columns: t, theta, q1..n, qd1..n, tau1..n, q_desired1..n, tcp xyz, desired tcp xyz,
-    deviations."""
+    deviations (path_deviation; sharp_deviation: from the original sharp path, blended paths only)."""
     cols = {"t": sim.t, "theta": sim.theta}
     n = sim.q.shape[1]
     for name, arr in (("q", sim.q), ("qd", sim.qd), ("tau", sim.tau), ("q_desired", sim.q_desired)):
@@ -362,20 +376,8 @@ def simulation_columns(sim) -> dict[str, np.ndarray]:
     cols["joint_deviation"] = sim.joint_deviation
     cols["path_deviation"] = sim.path_deviation
     if sim.corner_deviation is not None:
-        cols["corner_deviation"] = sim.corner_deviation
+        cols["sharp_deviation"] = sim.corner_deviation
     return cols
-
-
-def simulate_summary(scenario_text: str, base_dir: str, overrides: dict[str, Any] | None = None) -> dict:
-    """Plan and simulate a scenario given as text; the flat summary a sweep row holds."""
-    setup = load_text(scenario_text, base_dir, overrides)
-    result = plan_scenario(setup)
-    sim = simulate_scenario(setup, result)
-    summary = simulation_summary(setup, result, sim)
-    summary["baseline_constant_speed_duration_s"] = plan_summary(setup, result)["baseline_constant_speed_duration_s"]
-    failure = summary.pop("failure", None)
-    summary["failure_reason"] = None if not failure else failure.get("reason")
-    return summary
 
 
 # ------------------------------------------------------------------------------------ check
@@ -395,9 +397,9 @@ def check_scenario(setup: Setup) -> dict:
     out["sharp_corners_theta"] = list(path.kinks)
     check = getattr(path, "check", None)
     if check is not None:
-        out["min_singular_value"] = check.min_singular_value
+        out[schema.MIN_SINGULAR_VALUE.key] = check.min_singular_value
         out["min_singular_value_theta"] = check.min_singular_theta
-        out["joint_range_margin_rad"] = check.range_margin
+        out[schema.JOINT_RANGE_MARGIN.key] = check.range_margin
         out["joint_range_margin_joint"] = check.range_margin_joint
     theta = np.linspace(*path.domain, 400)
     q, dq, ddq = path.evaluate(theta)
@@ -423,14 +425,7 @@ def check_scenario(setup: Setup) -> dict:
 
 # ------------------------------------------------------------------------------------- demo
 DEMO_SCENARIOS = ("circle_max", "corner_stop", "corner_max", "corner_transition", "corner_g2")
-DEMO_COLUMNS = ("scenario", "planned_duration_s", "simulated_duration_s", "tracking_ok", "max_joint_deviation_rad",
-                "max_path_deviation_m", "max_corner_deviation_m", "baseline_constant_speed_duration_s")
-#: Terminal table of the demo: (header, DEMO_COLUMNS key, display scale).
-DEMO_DISPLAY = (("scenario", "scenario", 1.0), ("plan [s]", "planned_duration_s", 1.0),
-                ("sim [s]", "simulated_duration_s", 1.0), ("ok", "tracking_ok", 1.0),
-                ("joint dev [mrad]", "max_joint_deviation_rad", 1e3), ("path dev [mm]", "max_path_deviation_m", 1e3),
-                ("corner dev [mm]", "max_corner_deviation_m", 1e3),
-                ("const. TCP speed [s]", "baseline_constant_speed_duration_s", 1.0))
+DEMO_COLUMNS = schema.keys(schema.DEMO)
 
 
 def run_shipped(name: str, out: str | Path) -> dict:
@@ -444,7 +439,7 @@ def run_shipped(name: str, out: str | Path) -> dict:
     summary = write_simulation(setup, result, sim, out)
     row = {"scenario": name}
     row.update({k: v for k, v in summary.items() if k != "plan"})
-    row["baseline_constant_speed_duration_s"] = summary["plan"]["baseline_constant_speed_duration_s"]
+    row[schema.BASELINE_DURATION.key] = summary["plan"][schema.BASELINE_DURATION.key]
     return row
 
 
@@ -455,14 +450,3 @@ def write_demo_table(rows: list[dict], out: str | Path) -> Path:
     for r in rows:
         lines.append(",".join("" if r.get(c) is None else str(r.get(c)) for c in DEMO_COLUMNS))
     return write_text(out / "demo.csv", "\n".join(lines) + "\n")
-
-
-def format_cell(v, scale: float = 1.0) -> str:
-    """A table cell: '-' for None, yes/NO for booleans, 4 significant digits for numbers x scale."""
-    if v is None:
-        return "-"
-    if isinstance(v, bool):
-        return "yes" if v else "NO"
-    if isinstance(v, (int, float)):
-        return f"{v * scale:.4g}"
-    return str(v)

@@ -89,6 +89,31 @@ def _summary_table(title: str, summary: dict) -> Table:
     return table
 
 
+def _format_cell(v, scale: float = 1.0) -> str:
+    """A table cell: '-' for None, yes/NO for booleans, 4 significant digits for numbers x scale."""
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "NO"
+    if isinstance(v, (int, float)):
+        return f"{v * scale:.4g}"
+    return str(v)
+
+
+def _plan_figures(folder: Path) -> None:
+    """phase_plane.png and joints.png, drawn from the plan folder's files."""
+    from .report.figures import plan_figures
+
+    plan_figures(folder)
+
+
+def _simulation_figures(folder: Path) -> None:
+    """tracking_joints.png and tracking_task.png, drawn from the simulation folder's files."""
+    from .report.figures import simulation_figures
+
+    simulation_figures(folder)
+
+
 SetOpt = typer.Option(None, "--set", help="override a scenario key, e.g. --set plan.grid_points=2000")
 
 
@@ -239,7 +264,9 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         progress.update(task, advance=1, description="plan: time-optimal profile")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="plan: writing")
-        summary = api.write_plan(setup, result, out, figures=figures)
+        summary = api.write_plan(setup, result, out)
+        if figures:
+            _plan_figures(out)
         progress.update(task, advance=1)
     console.print(_summary_table(f"plan {setup.name} -> {out}", summary))
 
@@ -265,11 +292,15 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         setup = api.load(scenario, overrides)
         progress.update(task, advance=1, description="simulate: plan")
         result = api.plan_scenario(setup)
-        api.write_plan(setup, result, Path(out) / "plan", figures=figures)
+        api.write_plan(setup, result, Path(out) / "plan")
+        if figures:
+            _plan_figures(Path(out) / "plan")
         progress.update(task, advance=1, description="simulate: closed loop")
         sim = api.simulate_scenario(setup, result)
         progress.update(task, advance=1, description="simulate: writing")
-        summary = api.write_simulation(setup, result, sim, out, figures=figures)
+        summary = api.write_simulation(setup, result, sim, out)
+        if figures:
+            _simulation_figures(out)
         progress.update(task, advance=1)
     summary.pop("plan", None)
     console.print(_summary_table(f"simulate {setup.name} -> {out}", summary))
@@ -334,6 +365,7 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
     Example: [bold]pathmotion demo --out out/demo[/]
     """
     from . import api
+    from .io import schema
 
     names = api.DEMO_SCENARIOS
     rows = []
@@ -342,13 +374,15 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
         for name in names:
             progress.update(task, description=f"demo: {name}")
             rows.append(api.run_shipped(name, out / name))
+            _plan_figures(out / name / "plan")
+            _simulation_figures(out / name)
             progress.advance(task)
     table_path = api.write_demo_table(rows, out)
     table = Table(title=f"The thesis' experiments on the IRB140 ({table_path})", title_justify="left")
-    for k, (header, _, _) in enumerate(api.DEMO_DISPLAY):
-        table.add_column(escape(header), no_wrap=k == 0, justify="left" if k == 0 else "right")
+    for k, entry in enumerate(schema.DEMO):
+        table.add_column(escape(entry.heading), no_wrap=k == 0, justify="left" if k == 0 else "right")
     for r in rows:
-        table.add_row(*[api.format_cell(r.get(key), scale) for _, key, scale in api.DEMO_DISPLAY])
+        table.add_row(*[_format_cell(r.get(e.key), e.scale) for e in schema.DEMO])
     console.print(table)
     if study:
         from .study import corner_study

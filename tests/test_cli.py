@@ -89,10 +89,10 @@ def test_simulate_writes_results_and_the_plan(tmp_path):
     assert code == 0, text
     summary = json.loads((out / "summary.json").read_text())
     for key in ("planned_duration_s", "simulated_duration_s", "max_joint_deviation_rad", "rms_joint_deviation_rad",
-                "max_path_deviation_m", "max_corner_deviation_m", "max_torque_ratio", "tracking_ok"):
+                "max_path_deviation_m", "max_sharp_deviation_m", "max_torque_ratio", "tracking_ok"):
         assert key in summary, key
     assert summary["tracking_ok"] is True
-    assert summary["max_corner_deviation_m"] <= 0.0051
+    assert summary["max_sharp_deviation_m"] <= 0.0051
     header = (out / "simulation.csv").read_text().splitlines()[0].split(",")
     assert header[:2] == ["t", "theta"] and "q_desired6" in header and "tcp_desired_z" in header
     assert (out / "plan" / "trajectory.csv").is_file()

@@ -151,7 +151,7 @@ def test_arbitrary_values_build_and_plan_or_raise(which, data, tmp_path_factory)
         setup = api.load_text(VALID[which], ".", overrides)
         result = api.plan_scenario(setup)
         out = tmp_path_factory.mktemp("fuzz")
-        api.write_plan(setup, result, out, figures=False)
+        api.write_plan(setup, result, out)
         api.simulation_settings(setup)
         assert not list(Path(out).glob(".*.tmp"))
     except BaseException as exc:  # noqa: BLE001

@@ -39,7 +39,7 @@ def run_api(case, folder: Path) -> tuple[str, PathmotionError]:
             stage = "plan"
             result = api.plan_scenario(setup)
             stage = "write"
-            api.write_plan(setup, result, folder / "out", figures=False)
+            api.write_plan(setup, result, folder / "out")
     except PathmotionError as exc:
         return stage, exc
     raise AssertionError(f"{case.id}: no error at any stage")

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from pathmotion import api
 from pathmotion.errors import PathmotionError
 from pathmotion.report import interactive
-from pathmotion.report.arm import arm_points
+from pathmotion.robot.arm import arm_points
 from pathmotion.report.discovery import discover
 from pathmotion.report.html import _matching_row, build_report, sweep_parameters
 from pathmotion.report.tables import read_rows
@@ -171,9 +171,9 @@ def test_tradeoff_figure_marks_front_best_and_failures(tmp_path):
 
 def test_report_of_sweeps_alone_tolerates_other_tables(tmp_path):
     _write_sweep(tmp_path / "a_new", best_index=None)  # no best.json: the study's score chooses
-    old = _touch(tmp_path / "b_old")  # an older table: simulated duration and corner deviation, wall time
+    old = _touch(tmp_path / "b_old")  # an older table: simulated duration and path deviation, wall time
     (old / "sweep.csv").write_text(
-        "k.x,controller,simulated_duration_s,max_corner_deviation_m,tracking_ok,wall_time_s,error\n"
+        "k.x,controller,simulated_duration_s,max_path_deviation_m,tracking_ok,wall_time_s,error\n"
         "1,orbital,2.0,0.004,true,3.1,\n2,orbital,1.5,0.009,true,3.0,\n")
     (_touch(tmp_path / "c_empty") / "sweep.csv").write_text(SWEEP_HEADER + "\n")
     text = build_report(tmp_path).read_text()
@@ -241,10 +241,10 @@ def results(tmp_path_factory):
     root = tmp_path_factory.mktemp("report")
     setup = api.load(scenario_path("corner_g2"), {"plan.grid_points": 300})
     result = api.plan_scenario(setup)
-    api.write_plan(setup, result, root / "g2" / "plan", figures=False)
-    api.write_plan(setup, result, root / "plan_only", figures=False)
+    api.write_plan(setup, result, root / "g2" / "plan")
+    api.write_plan(setup, result, root / "plan_only")
     sim = api.simulate_scenario(setup, result)
-    api.write_simulation(setup, result, sim, root / "g2", figures=False)
+    api.write_simulation(setup, result, sim, root / "g2")
     failed = root / "g2_failed"
     shutil.copytree(root / "g2", failed)
     summary = json.loads((failed / "summary.json").read_text())
@@ -281,7 +281,7 @@ def test_report_page_content(results, report):
     assert text.count('class="failure"') == 1
     summary = json.loads((results / "g2" / "summary.json").read_text())
     assert f"{summary['simulated_duration_s']:.4g}" in text
-    assert f"{1e3 * summary['max_corner_deviation_m']:.4g}" in text  # in mm
+    assert f"{1e3 * summary['max_sharp_deviation_m']:.4g}" in text  # in mm
     assert "PathError: a transition circle of radius 0.2 m does not fit" in text
 
 
@@ -291,12 +291,17 @@ def test_report_is_rewritten_atomically(results, report):
     assert set(results.iterdir()) == before  # no temporary file left behind
 
 
-def test_report_survives_a_scenario_that_cannot_be_rebuilt(results, tmp_path):
+def test_report_of_a_folder_without_the_writers_data(results, tmp_path):
+    """A plan folder without limits.json/arm.csv (an older writer): the phase plane only, and a note.
+    The report never rebuilds the scenario: a scenario.toml naming a missing robot changes nothing."""
     folder = tmp_path / "plan"
     shutil.copytree(results / "plan_only", folder)
     (folder / "scenario.toml").write_text((folder / "scenario.toml").read_text().replace('"irb140"', '"missing.urdf"'))
+    assert len(re.findall(r'class="plotly-graph-div"', build_report(tmp_path).read_text())) == PLAN_FIGURES
+    (folder / "limits.json").unlink()
+    (folder / "arm.csv").unlink()
     text = build_report(tmp_path).read_text()
-    assert "scenario.toml could not be rebuilt" in text
+    assert "no limits.json or arm.csv in this folder" in text
     assert len(re.findall(r'class="plotly-graph-div"', text)) == 1  # the phase plane only
 
 

@@ -79,7 +79,7 @@ def test_orbital_nominal_meets_the_thesis_accuracy(irb140, spline, profile, desi
     assert s["max_joint_deviation_rad"] <= THESIS_MAX_DEVIATION
     assert abs(s["simulated_duration_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
     assert s["max_path_deviation_m"] < 1e-4
-    assert s["saturation_time_s"] == 0.0 and s["max_corner_deviation_m"] is None
+    assert s["saturation_time_s"] == 0.0 and s["max_sharp_deviation_m"] is None
     assert np.all(np.diff(r.theta) >= -1e-9)  # theta never runs backwards
     assert r.theta[-1] == pytest.approx(1.0, abs=1e-3)
     # the deviation is measured from the projection: q_desired = Phi(theta)

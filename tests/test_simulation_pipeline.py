@@ -41,7 +41,7 @@ def test_thesis_horizontal_circle_periodic(irb140):
     assert path.closed and s["tracking_ok"]
     assert within(s["simulated_duration_s"], profile.duration, 0.01)  # the period
     assert s["max_joint_deviation_rad"] <= THESIS_MAX_DEVIATION
-    assert s["max_path_deviation_m"] < 1e-4 and s["max_corner_deviation_m"] is None
+    assert s["max_path_deviation_m"] < 1e-4 and s["max_sharp_deviation_m"] is None
 
 
 def test_transition_circle_corner_deviation(irb140):
@@ -57,6 +57,6 @@ def test_transition_circle_corner_deviation(irb140):
     # distance to the sharp path <= distance to the blend + the blend's own deviation; from below the
     # samples may miss the farthest point by half a sample's travel (distance is 1-Lipschitz)
     half_step = 0.5 * np.max(np.linalg.norm(np.diff(r.tcp, axis=0), axis=1))
-    assert s["max_corner_deviation_m"] <= geometric + s["max_path_deviation_m"] + 1e-6
-    assert s["max_corner_deviation_m"] >= geometric - s["max_path_deviation_m"] - half_step
+    assert s["max_sharp_deviation_m"] <= geometric + s["max_path_deviation_m"] + 1e-6
+    assert s["max_sharp_deviation_m"] >= geometric - s["max_path_deviation_m"] - half_step
     assert s["max_path_deviation_m"] < 1e-4

@@ -2,7 +2,7 @@
 transition circles and G2 blends at corners, and the thesis' paths. Pure numpy; no robot."""
 
 from .blends import (g2_control_points, g2_deviation, largest_g2_tolerance, largest_transition_radius,
-                     with_g2_blend, with_g2_blends, with_transition, with_transitions)
+                     with_blends, with_g2_blend, with_g2_blends, with_transition, with_transitions)
 from .chain import Connection, TaskPath
 from .deviation import Deviation, certified_max, distance_to_segments, max_deviation
 from .library import (circle_with_radial_line, circle_with_radial_line_transition, circle_with_vertical_circle,
@@ -15,6 +15,6 @@ __all__ = [
     "SlerpOrientation", "TaskPath", "certified_max", "circle_with_radial_line", "circle_with_radial_line_transition",
     "circle_with_vertical_circle",
     "distance_to_segments", "g2_control_points", "g2_deviation", "horizontal_circle", "largest_g2_tolerance",
-    "largest_transition_radius", "max_deviation", "smoothstep5", "thesis_circle", "with_g2_blend",
+    "largest_transition_radius", "max_deviation", "smoothstep5", "thesis_circle", "with_blends", "with_g2_blend",
     "with_g2_blends", "with_transition", "with_transitions",
 ]

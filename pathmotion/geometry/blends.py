@@ -52,7 +52,7 @@ after it move by the change of length.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Iterable, Mapping
 
 import numpy as np
 
@@ -320,6 +320,31 @@ def with_g2_blends(path: TaskPath, tolerance: float, corners: Iterable[int] | No
     kinds = ("corner",) if corners is None else ("corner", "tangent")
     sel = _selected(path, corners, kinds)
     return _apply_all(path, sel, kinds, "with_g2_blends", lambda p, c: _with_g2_blend(p, c, tolerance, shape))
+
+
+def with_blends(path: TaskPath, blends: Mapping[int, tuple[str, float]],
+                names: Mapping[int, str] | None = None) -> TaskPath:
+    """Mixed blends in one pass: ``blends`` maps a connection index to ("circle", radius [m]) or
+    ("g2", tolerance [m]); the shared-segment rule of :func:`with_transitions` holds across kinds (a
+    segment blended at both ends gives each blend at most SHARED_SEGMENT_FRACTION of its length).
+    A PathError is prefixed with ``names[index]`` (e.g. the scenario key) when given."""
+    chosen = set(blends)
+    out = path
+    for k in sorted(chosen, reverse=True):
+        kind, value = blends[k]
+        try:
+            if kind not in ("circle", "g2"):
+                raise PathError(f"with_blends: blend type {kind!r} at connection {k}; give 'circle' or 'g2'")
+            kinds = ("corner",) if kind == "circle" else ("corner", "tangent")
+            c = _corner(path, k, kinds, "with_blends", shared=(k - 1 in chosen, k + 1 in chosen))
+            c = _Corner(out.connection(k), out.segments[k], out.segments[k + 1], c.max_a, c.max_b)
+            out = (_with_transition(out, c, value) if kind == "circle"
+                   else _with_g2_blend(out, c, value, defaults.G2_BLEND_SHAPE))
+        except PathError as exc:
+            if names is None or k not in names:
+                raise
+            raise PathError(f"{names[k]}: {exc}") from None
+    return out
 
 
 def largest_g2_tolerance(path: TaskPath, corner: int, shape: float = defaults.G2_BLEND_SHAPE) -> float:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
 from ..errors import PathmotionError
 from .atomic import atomic_path, write_text
 
@@ -28,6 +29,42 @@ def trajectory_columns(samples, n: int | None = None) -> dict[str, np.ndarray]:
         for j in range(n):
             cols[f"{name}{j + 1}"] = arr[:, j]
     return cols
+
+
+def decimate(n: int, max_points: int = defaults.REPORT_MAX_POINTS) -> np.ndarray:
+    """Indices of at most ``max_points`` samples out of ``n``, uniformly spread, first and last kept."""
+    if n <= max_points:
+        return np.arange(n)
+    return np.unique(np.linspace(0, n - 1, max_points).round().astype(int))
+
+
+def arm_columns(t: np.ndarray, points: np.ndarray) -> dict[str, np.ndarray]:
+    """arm.csv columns: t (F,) [s], then p{k}_x, p{k}_y, p{k}_z [m] of the stick-figure vertices
+    points (F, V, 3) (the base, the joint origins, the flange, the TCP last)."""
+    cols = {"t": np.asarray(t, float)}
+    for k in range(points.shape[1]):
+        cols.update({f"p{k}_{a}": points[:, k, i] for i, a in enumerate("xyz")})
+    return cols
+
+
+def arm_points_from(cols: dict[str, np.ndarray]) -> np.ndarray:
+    """The (F, V, 3) vertices of :func:`arm_columns` back from its columns."""
+    count = 0
+    while f"p{count}_x" in cols:
+        count += 1
+    return np.stack([np.column_stack([cols[f"p{k}_{a}"] for a in "xyz"]) for k in range(count)], axis=1)
+
+
+def limits_record(joint_names, limits, scales: dict[str, float | None]) -> dict:
+    """limits.json: the robot's joint names and limits (duck-typed: lower, upper, velocity,
+    acceleration or None, torque; SI units) and the scale the plan applied to each limit kind
+    (None when the plan did not enforce it)."""
+    def values(v):
+        return None if v is None else [float(x) for x in np.asarray(v, float)]
+
+    return {"joint_names": list(joint_names),
+            **{k: values(getattr(limits, k)) for k in ("lower", "upper", "velocity", "acceleration", "torque")},
+            "plan_scale": dict(scales)}
 
 
 def write_table_csv(path: str | Path, columns: dict[str, np.ndarray]) -> Path:

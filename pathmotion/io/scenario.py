@@ -138,7 +138,7 @@ class PlanSpec(_Model):
         Connections.CHAIN, description="'chain': plan the whole path at once; 'zero'/'max': segment by segment")
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, description="output sample time [s]")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
-                                     "of the optimal profile's there (1 = optimal; see pathmotion.study.blend_speed)")
+                                     "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
 
 
 # ------------------------------------------------------------------------------------ simulation

@@ -4,8 +4,9 @@
 (:mod:`.discovery`), makes one section per folder with its key figures and interactive Plotly
 figures (:mod:`.interactive`), a table of contents and a summary table on top, and writes
 ``DIR/report.html`` atomically. plotly.js is embedded once: the page works offline (no CDN, no
-web fonts). Each folder's scenario.toml is rebuilt with :func:`pathmotion.api.load_text` for the
-robot's limits, the original (sharp) path and the arm's kinematics.
+web fonts). The report reads files only: the robot's limits, the original (sharp) path and the arm's
+stick figure come from the data files the writer (:mod:`pathmotion.api`) left in each folder
+(:class:`FolderData`); it never rebuilds a scenario.
 """
 
 from __future__ import annotations
@@ -20,7 +21,9 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathmotionError
+from ..io import schema
 from ..io.atomic import write_text
+from ..io.exports import arm_points_from
 from . import interactive as fig
 from .discovery import ResultFolder, discover
 from .tables import joint_columns, read_columns, read_json, read_rows
@@ -29,52 +32,13 @@ PLOTLY_CONFIG = {"displaylogo": False, "responsive": True,
                  "toImageButtonOptions": {"format": "png", "scale": 2}}
 
 #: Key figures of summary.json: key -> (label, unit, scale applied to the value).
-PLAN_KEYS = {
-    "duration_s": ("time-optimal duration", "s", 1.0),
-    "fitted_profile_duration_s": ("baseline: fitted profile duration", "s", 1.0),
-    "baseline_constant_speed_duration_s": ("baseline: constant TCP speed duration", "s", 1.0),
-    "max_velocity_ratio": ("largest joint velocity / limit", "-", 1.0),
-    "max_acceleration_ratio": ("largest joint acceleration / limit", "-", 1.0),
-    "max_torque_ratio": ("largest joint torque / limit", "-", 1.0),
-    "max_tcp_speed_ratio": ("largest TCP speed / limit", "-", 1.0),
-    "worst_limit": ("where the largest ratio is", "", 1.0),
-    "path_length": ("path length (θ range)", "m", 1.0),
-    "blend_max_deviation_m": ("blend: largest distance from the sharp path", "mm", 1e3),
-    "min_singular_value": ("smallest singular value of the Jacobian", "-", 1.0),
-    "joint_range_margin_rad": ("smallest joint-range margin", "rad", 1.0),
-    "connections": ("connections taken as", "", 1.0),
-    "grid_points": ("planner grid points", "", 1.0),
-    "solve_time_s": ("planner solve time", "s", 1.0),
-}
-SIMULATION_KEYS = {
-    "controller": ("controller", "", 1.0),
-    "sample_time_s": ("controller sample time", "ms", 1e3),
-    "planned_duration_s": ("planned duration", "s", 1.0),
-    "simulated_duration_s": ("simulated duration (closed loop)", "s", 1.0),
-    "max_joint_deviation_rad": ("largest joint tracking error", "mrad", 1e3),
-    "rms_joint_deviation_rad": ("RMS joint tracking error", "mrad", 1e3),
-    "max_path_deviation_m": ("largest TCP distance from the planned path", "mm", 1e3),
-    "max_corner_deviation_m": ("largest TCP distance from the original sharp path", "mm", 1e3),
-    "max_torque_ratio": ("largest commanded torque / limit", "-", 1.0),
-    "saturation_time_s": ("time with a torque saturated", "s", 1.0),
-    "tracking_ok": ("tracking ok", "", 1.0),
-}
+PLAN_KEYS = schema.display(schema.PLAN)
+SIMULATION_KEYS = schema.display(schema.SIMULATION)
 #: Sweep columns: the time (first present) and the deviation (first present) of the trade-off plot.
-TIME_KEYS = ("cycle_time_s", "simulated_duration_s")
-DEVIATION_KEYS = ("max_sharp_deviation_m", "max_corner_deviation_m", "max_path_deviation_m")
+TIME_KEYS = schema.keys((schema.CYCLE_TIME, schema.SIMULATED_DURATION))
+DEVIATION_KEYS = schema.keys((schema.MAX_SHARP_DEVIATION, schema.MAX_PATH_DEVIATION))
 #: Sweep columns shown in the table of points (when present), with (label, unit, scale).
-SWEEP_COLUMNS = {
-    "cycle_time_s": ("cycle time", "s", 1.0),
-    "planned_duration_s": ("planned", "s", 1.0),
-    "simulated_duration_s": ("simulated", "s", 1.0),
-    "max_sharp_deviation_m": ("max dev. from sharp path", "mm", 1e3),
-    "mean_sharp_deviation_m": ("mean dev. from sharp path", "mm", 1e3),
-    "max_path_deviation_m": ("max dev. from planned path", "mm", 1e3),
-    "max_corner_deviation_m": ("max corner dev.", "mm", 1e3),
-    "tracking_ok": ("tracking ok", "", 1.0),
-    "failure_reason": ("failure", "", 1.0),
-    "error": ("error", "", 1.0),
-}
+SWEEP_COLUMNS = schema.display(schema.SWEEP_TABLE, short=True)
 
 
 @dataclass(frozen=True)
@@ -142,30 +106,48 @@ def _note(text: str) -> str:
     return f'<p class="note">{escape(text)}</p>'
 
 
-# -------------------------------------------------------------------------------- scenario setup
-@dataclass
-class _Setups:
-    """Setups rebuilt from scenario.toml files, by (text, base folder); the error text when one fails."""
+# ---------------------------------------------------------------------------- the writer's data
+#: Written by pathmotion.api next to the results, for the report and the figures.
+LIMITS_FILE, ARM_FILE, ORIGINAL_FILE, TCP_FILE = "limits.json", "arm.csv", "original_path.csv", "tcp_path.csv"
 
-    cache: dict = field(default_factory=dict)
 
-    def get(self, folder: Path):
-        """(Setup or None, note or None) for the scenario.toml in ``folder``."""
-        from ..api import load_text
+@dataclass(frozen=True)
+class FolderData:
+    """Plain data a result folder holds for the report: limits (limits.json: joint names, limits,
+    the plan's scales), arm (t (F,) [s], stick-figure vertices (F, V, 3) [m]), original (P, 3) sharp
+    path [m] or None, and a note when limits or arm are missing (older folders)."""
 
-        path = folder / "scenario.toml"
-        if not path.is_file():
-            return None, ("no scenario.toml in this folder: the limit plots, the original path and the arm view "
-                          "are omitted")
-        text = path.read_text()
-        key = (text, str(folder))
-        if key not in self.cache:
-            try:
-                self.cache[key] = (load_text(text, base_dir=folder, where=str(path)), None)
-            except PathmotionError as exc:
-                self.cache[key] = (None, f"scenario.toml could not be rebuilt ({str(exc).splitlines()[0]}): the "
-                                         "limit plots, the original path and the arm view are omitted")
-        return self.cache[key]
+    limits: dict | None
+    arm: tuple[np.ndarray, np.ndarray] | None
+    original: np.ndarray | None
+
+    @classmethod
+    def read(cls, folder: Path) -> "FolderData":
+        limits = read_json(folder / LIMITS_FILE, None)
+        arm = None
+        if (folder / ARM_FILE).is_file():
+            cols = read_columns(folder / ARM_FILE, ("t", "p0_x"))
+            arm = (cols["t"], arm_points_from(cols))
+        original = None
+        if (folder / ORIGINAL_FILE).is_file():
+            cols = read_columns(folder / ORIGINAL_FILE, ("x", "y", "z"))
+            original = np.column_stack([cols[a] for a in "xyz"])
+        return cls(limits, arm, original)
+
+    @property
+    def complete(self) -> bool:
+        return self.limits is not None and self.arm is not None
+
+    @property
+    def note(self) -> str | None:
+        if self.complete:
+            return None
+        return (f"no {LIMITS_FILE} or {ARM_FILE} in this folder (pathmotion plan and simulate write them): the limit "
+                "plots and the arm view are omitted")
+
+    def joint_names(self, n: int) -> list[str]:
+        names = (self.limits or {}).get("joint_names")
+        return list(names) if names and len(names) == n else [f"joint {j + 1}" for j in range(n)]
 
 
 # ------------------------------------------------------------------------------------ figures
@@ -185,105 +167,95 @@ def _plan_keys(summary: dict) -> dict:
 
 def _phase_plane(plan_dir: Path, plan_summary: dict, anchor: str) -> str:
     cols = read_columns(plan_dir / "phase_plane.csv", PHASE_PLANE_COLUMNS)
-    durations = {"optimal": plan_summary.get("duration_s"),
-                 "fitted": plan_summary.get("fitted_profile_duration_s"),
-                 "constant_speed": plan_summary.get("baseline_constant_speed_duration_s")}
+    durations = {"optimal": plan_summary.get(schema.DURATION.key),
+                 "fitted": plan_summary.get(schema.FITTED_DURATION.key),
+                 "constant_speed": plan_summary.get(schema.BASELINE_DURATION.key)}
     return _figure_html(fig.phase_plane_figure(cols, durations, plan_summary.get("path_kind", "task")),
                         f"{anchor}-phase")
 
 
-def _limit_panels(traj: dict[str, np.ndarray], setup) -> list[tuple[str, np.ndarray, float | None]]:
-    lim, ps = setup.robot.limits, setup.plan_settings
+def _limit_panels(traj: dict[str, np.ndarray], limits: dict) -> list[tuple[str, np.ndarray, float | None]]:
+    lim = {k: None if limits.get(k) is None else np.asarray(limits[k], float)
+           for k in ("lower", "upper", "velocity", "acceleration", "torque")}
+    scale = limits.get("plan_scale", {})
     q, qd, qdd, tau = (joint_columns(traj, p) for p in ("q", "qd", "qdd", "tau"))
-    if q.shape[1] != setup.robot.n:
-        raise PathmotionError(f"report: trajectory.csv has {q.shape[1]} joints but the scenario's robot "
-                              f"{setup.robot.name} has {setup.robot.n}; re-run the plan with this scenario")
-    panels = [("joint position in its range: (q − centre) / half range", (q - 0.5 * (lim.upper + lim.lower))
-               / (0.5 * (lim.upper - lim.lower)), None),
-              ("joint velocity / limit", qd / lim.velocity, ps.velocity_scale if ps.velocity else None)]
-    if qdd is not None and lim.acceleration is not None:
-        panels.append(("joint acceleration / limit", qdd / lim.acceleration,
-                       ps.acceleration_scale if ps.acceleration else None))
+    n = len(limits.get("joint_names", ()))
+    if q.shape[1] != n:
+        raise PathmotionError(f"report: trajectory.csv has {q.shape[1]} joints but {LIMITS_FILE} next to it has {n}; "
+                              "re-run the plan")
+    panels = [("joint position in its range: (q − centre) / half range", (q - 0.5 * (lim["upper"] + lim["lower"]))
+               / (0.5 * (lim["upper"] - lim["lower"])), None),
+              ("joint velocity / limit", qd / lim["velocity"], scale.get("velocity"))]
+    if qdd is not None and lim["acceleration"] is not None:
+        panels.append(("joint acceleration / limit", qdd / lim["acceleration"], scale.get("acceleration")))
     if tau is not None:
-        panels.append(("joint torque / limit", tau / lim.torque, ps.torque_scale if ps.torque else None))
+        panels.append(("joint torque / limit", tau / lim["torque"], scale.get("torque")))
     return panels
 
 
-def _joint_limits(traj: dict[str, np.ndarray], setup, anchor: str) -> str:
+def _joint_limits(traj: dict[str, np.ndarray], limits: dict, anchor: str) -> str:
     title = "Planned joint motion against the limits (dashed: robot limits; dotted: scaled limits used by the plan)"
-    return _figure_html(fig.limit_ratio_figure(traj["t"], _limit_panels(traj, setup), setup.robot.joint_names, title),
+    return _figure_html(fig.limit_ratio_figure(traj["t"], _limit_panels(traj, limits), limits["joint_names"], title),
                         f"{anchor}-limits")
 
 
-def _original_path(setup) -> np.ndarray | None:
-    task = getattr(setup, "original_task_path", None) if setup is not None else None
-    if task is None:
-        return None
-    theta = np.linspace(*task.domain, defaults.REPORT_MAX_POINTS)
-    return np.asarray(task.evaluate(theta)[0])[:, :3]
-
-
-def _arm(t: np.ndarray, q: np.ndarray, setup, reference: np.ndarray | None, anchor: str, what: str) -> str:
-    from .arm import arm_points
-
-    idx = fig.decimate(len(t), defaults.REPORT_ARM_FRAMES)
-    duration = float(t[idx[-1]] - t[idx[0]])
-    frame_time = max(duration / max(len(idx) - 1, 1), defaults.REPORT_MIN_FRAME_TIME)
-    speed = duration / max(len(idx) - 1, 1) / frame_time
+def _arm(data: FolderData, reference: np.ndarray | None, anchor: str, what: str) -> str:
+    t, points = data.arm
+    duration = float(t[-1] - t[0])
+    frame_time = max(duration / max(len(t) - 1, 1), defaults.REPORT_MIN_FRAME_TIME)
+    speed = duration / max(len(t) - 1, 1) / frame_time
     title = (f"The arm playing the {what} (stick figure through the joint origins; "
              f"playback at {speed:.2g}× real time)")
-    return _figure_html(fig.arm_animation_figure(t[idx], arm_points(setup.robot, q[idx]), reference, title, frame_time),
-                        f"{anchor}-arm")
+    return _figure_html(fig.arm_animation_figure(t, points, reference, title, frame_time), f"{anchor}-arm")
 
 
 # ----------------------------------------------------------------------------------- sections
 def _failure_html(summary: dict) -> str:
     failure = summary.get("failure")
-    if summary.get("tracking_ok") is False:
+    if summary.get(schema.TRACKING_OK.key) is False:
         message = failure.get("message", "") if isinstance(failure, dict) else str(failure or "")
         return f'<p class="failure">Tracking FAILED: {escape(message)}</p>'
     return ""
 
 
 def _plan_summary_row(summary: dict) -> dict:
-    return {"scenario": summary.get("scenario"), "planned": summary.get("duration_s"),
-            "baseline": summary.get("baseline_constant_speed_duration_s")}
+    return {"scenario": summary.get("scenario"), "planned": summary.get(schema.DURATION.key),
+            "baseline": summary.get(schema.BASELINE_DURATION.key)}
 
 
-def plan_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups) -> Section:
+def plan_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """Key figures, phase plane, joint limits, the planned TCP path and the arm of a plan folder."""
     folder = result.path
     summary = read_json(folder / "summary.json", {})
-    setup, note = setups.get(folder)
+    data = FolderData.read(folder)
     parts = [_key_table(summary, _plan_keys(summary), "Plan (summary.json)"), _other_values(summary, PLAN_KEYS),
              _phase_plane(folder, summary, anchor)]
     count = 1
-    if setup is None:
-        parts.append(_note(note))
+    if not data.complete or not (folder / TCP_FILE).is_file():
+        parts.append(_note(data.note or f"no {TCP_FILE} in this folder: the planned TCP path and the arm view are "
+                                        "omitted"))
     else:
         traj = read_columns(folder / "trajectory.csv", TRAJECTORY_COLUMNS)
-        q = joint_columns(traj, "q")
-        from .arm import arm_points
-
-        idx = fig.decimate(len(traj["t"]))
-        tcp = arm_points(setup.robot, q[idx])[:, -1]
-        parts += [_joint_limits(traj, setup, anchor),
-                  _figure_html(fig.task_space_figure(tcp, original=_original_path(setup),
+        tcp_cols = read_columns(folder / TCP_FILE, ("tcp_x", "tcp_y", "tcp_z"))
+        tcp = np.column_stack([tcp_cols[f"tcp_{a}"] for a in "xyz"])
+        parts += [_joint_limits(traj, data.limits, anchor),
+                  _figure_html(fig.task_space_figure(tcp, original=data.original,
                                                      title="Planned TCP path (forward kinematics of the plan)"),
                                f"{anchor}-task"),
-                  _arm(traj["t"], q, setup, tcp, anchor, "planned motion")]
+                  _arm(data, tcp, anchor, "planned motion")]
         count += 3
     row = _plan_summary_row(summary)
     return Section(anchor, f"Plan: {result.label(root)}", "".join(parts), count, row)
 
 
-def simulation_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups) -> Section:
+def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """Key figures (simulation and its plan), phase plane and joint limits of the plan, task-space
     path and deviation, joint tracking errors and the arm playing the simulated motion."""
     folder = result.path
     summary = read_json(folder / "summary.json", {})
     plan_summary = summary.get("plan") if isinstance(summary.get("plan"), dict) else {}
-    setup, note = setups.get(folder)
+    data = FolderData.read(folder)
+    note = data.note
     sim = read_columns(folder / "simulation.csv", SIMULATION_COLUMNS)
     t = sim["t"]
     tables = _key_table(summary, SIMULATION_KEYS, "Closed-loop simulation (summary.json)")
@@ -298,42 +270,42 @@ def simulation_section(result: ResultFolder, root: Path, anchor: str, setups: _S
         parts.append(_phase_plane(result.plan_path, plan_summary or read_json(result.plan_path / "summary.json", {}),
                                   anchor))
         count += 1
-        if setup is not None:
-            parts.append(_joint_limits(read_columns(result.plan_path / "trajectory.csv", TRAJECTORY_COLUMNS), setup,
-                                       anchor))
+        plan_limits = read_json(result.plan_path / LIMITS_FILE, None)
+        if plan_limits is not None:
+            parts.append(_joint_limits(read_columns(result.plan_path / "trajectory.csv", TRAJECTORY_COLUMNS),
+                                       plan_limits, anchor))
             count += 1
     else:
         parts.append(_note("no plan folder (./plan) next to this simulation: phase plane and limit plots omitted"))
     tcp = np.column_stack([sim[f"tcp_{a}"] for a in "xyz"])
     desired = np.column_stack([sim[f"tcp_desired_{a}"] for a in "xyz"])
     deviations = {"distance from the planned (blended) path": sim["path_deviation"]}
-    if "corner_deviation" in sim:
-        deviations["distance from the original sharp path"] = sim["corner_deviation"]
-    parts.append(_figure_html(fig.task_space_figure(desired, tcp, _original_path(setup), t, deviations,
+    if "sharp_deviation" in sim:
+        deviations["distance from the original sharp path"] = sim["sharp_deviation"]
+    parts.append(_figure_html(fig.task_space_figure(desired, tcp, data.original, t, deviations,
                                                     title="Task space: TCP path and its deviation"), f"{anchor}-task"))
     q = joint_columns(sim, "q")
     failure = summary.get("failure") if isinstance(summary.get("failure"), dict) else None
-    names = setup.robot.joint_names if setup is not None else [f"joint {j + 1}" for j in range(q.shape[1])]
+    names = data.joint_names(q.shape[1])
     parts.append(_figure_html(fig.tracking_figure(t, q - joint_columns(sim, "q_desired"), names, failure),
                               f"{anchor}-tracking"))
     count += 2
-    if setup is not None:
-        parts.append(_arm(t, q, setup, desired, anchor, "simulated motion"))
+    if data.arm is not None:
+        parts.append(_arm(data, desired, anchor, "simulated motion"))
         count += 1
     row = _plan_summary_row(plan_summary)
-    row.update(simulated=summary.get("simulated_duration_s"), path_dev=summary.get("max_path_deviation_m"),
-               sharp_dev=summary.get("max_corner_deviation_m"), tracking=summary.get("tracking_ok"))
+    row.update(simulated=summary.get(schema.SIMULATED_DURATION.key), path_dev=summary.get(schema.MAX_PATH_DEVIATION.key),
+               sharp_dev=summary.get(schema.MAX_SHARP_DEVIATION.key), tracking=summary.get(schema.TRACKING_OK.key))
     return Section(anchor, f"Simulation: {result.label(root)}", "".join(parts), count, row)
 
 
 def sweep_parameters(names: Sequence[str], spec: dict | None) -> list[str]:
     """The swept parameters among a sweep table's columns: sweep_spec.json's grid keys, else the
     columns before the first known summary column."""
-    from ..study.point import SUMMARY_KEYS
 
     if spec and isinstance(spec.get("grid"), dict):
         return [k for k in spec["grid"] if k in names]
-    known = {*SUMMARY_KEYS, "error", "wall_time_s"}
+    known = {*schema.keys(schema.SWEEP_ROW), schema.ERROR.key, schema.WALL_TIME.key}
     params = []
     for n in names:
         if n in known:
@@ -402,7 +374,7 @@ def _tradeoff_section(rows, names, params, best_index, anchor, title, best_label
             return ", ".join(f"{p} = {_fmt(row.get(p))}" for p in params) or "point"
 
         figure = fig.tradeoff_figure(rows, x_key, y_key, front, best_index, label or default_label, title,
-                                     fallback_y_key=_first(names, ("planned_duration_s",)), group_key=group_key,
+                                     fallback_y_key=_first(names, (schema.PLANNED_DURATION.key,)), group_key=group_key,
                                      best_label=best_label)
         parts.append(_figure_html(figure, f"{anchor}-tradeoff"))
         count = 1
@@ -428,14 +400,14 @@ def _summary_from_row(row: dict | None) -> dict:
     """The summary-table cells a sweep or study row can fill (its best or only point)."""
     if row is None:
         return {}
-    return {"planned": row.get("planned_duration_s"),
-            "simulated": row.get("cycle_time_s", row.get("simulated_duration_s")),
-            "baseline": row.get("baseline_constant_speed_duration_s"), "path_dev": row.get("max_path_deviation_m"),
-            "sharp_dev": row.get("max_sharp_deviation_m", row.get("max_corner_deviation_m")),
-            "tracking": row.get("tracking_ok")}
+    return {"planned": row.get(schema.PLANNED_DURATION.key),
+            "simulated": row.get(schema.CYCLE_TIME.key, row.get(schema.SIMULATED_DURATION.key)),
+            "baseline": row.get(schema.BASELINE_DURATION.key), "path_dev": row.get(schema.MAX_PATH_DEVIATION.key),
+            "sharp_dev": row.get(schema.MAX_SHARP_DEVIATION.key),
+            "tracking": row.get(schema.TRACKING_OK.key)}
 
 
-def sweep_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups) -> Section:
+def sweep_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """The trade-off plot (deviation against time, Pareto front, failed points, best point) and the
     table of points of a sweep folder."""
     from ..study.score import choose_best
@@ -447,7 +419,7 @@ def sweep_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups
     varying = _varying(rows, params)
     best = read_json(folder / "best.json")
     source = "best.json"
-    if best is None and "cycle_time_s" in names and "mean_sharp_deviation_m" in names:
+    if best is None and schema.CYCLE_TIME.key in names and schema.MEAN_SHARP_DEVIATION.key in names:
         best, source = choose_best(rows, params), "the study's score, no best.json"
     best_index = _matching_row(rows, best, params)
     scenario = spec.get("scenario") if spec else None
@@ -473,7 +445,7 @@ def sweep_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups
     return Section(anchor, f"Sweep: {result.label(root)}", "".join(parts), count, row)
 
 
-def study_section(result: ResultFolder, root: Path, anchor: str, setups: _Setups) -> Section:
+def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """The corner study's combined trade-off (every case, coloured by case) and its table."""
     folder = result.path
     names, rows = read_rows(folder / "corner_study.csv")
@@ -577,6 +549,5 @@ def build_report(folder: str | Path) -> Path:
     ``folder`` (see the module docstring); returns its path. PathmotionError when there is none."""
     root = Path(folder)
     results = discover(root)
-    setups = _Setups()
-    sections = [RENDERERS[r.kind](r, root, f"s{k + 1}", setups) for k, r in enumerate(results)]
+    sections = [RENDERERS[r.kind](r, root, f"s{k + 1}") for k, r in enumerate(results)]
     return write_text(root / "report.html", render_page(root, sections))

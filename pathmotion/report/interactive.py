@@ -14,6 +14,8 @@ import plotly.graph_objects as go
 from plotly.colors import qualitative
 from plotly.subplots import make_subplots
 
+from ..io import schema
+from ..io.exports import decimate  # noqa: F401  (the report's figures decimate with it)
 from .. import defaults
 
 JOINT_COLORS = qualitative.D3
@@ -29,21 +31,12 @@ def for_3d(points: np.ndarray) -> np.ndarray:
     return np.round(np.asarray(points, dtype=float), 6)
 
 
-def decimate(n: int, max_points: int = defaults.REPORT_MAX_POINTS) -> np.ndarray:
-    """Indices of at most ``max_points`` samples out of ``n``, uniformly spread, first and last kept."""
-    if n <= max_points:
-        return np.arange(n)
-    return np.unique(np.linspace(0, n - 1, max_points).round().astype(int))
-
-
 LEGENDS = {"top": dict(orientation="h", yanchor="bottom", y=1.02, x=0, xanchor="left"),
            "right": dict(orientation="v", yanchor="top", y=1, x=1.01, xanchor="left"),
            "bottom": dict(orientation="h", yanchor="top", y=-0.14, x=0, xanchor="left")}
 #: Axis titles of sweep columns.
-AXIS_TITLES = {"max_sharp_deviation_m": "largest TCP distance from the original sharp path [mm]",
-               "max_corner_deviation_m": "largest TCP distance from the original sharp path [mm]",
-               "max_path_deviation_m": "largest TCP distance from the planned path [mm]",
-               "cycle_time_s": "cycle time, closed loop [s]", "simulated_duration_s": "simulated duration [s]"}
+AXIS_TITLES = {k.key: f"{k.label} [{k.unit}]" for k in (schema.MAX_SHARP_DEVIATION, schema.MAX_PATH_DEVIATION,
+                                                          schema.CYCLE_TIME, schema.SIMULATED_DURATION)}
 
 
 def _layout(fig: go.Figure, title: str, height: int, legend: str = "top", **kwargs) -> go.Figure:
@@ -252,7 +245,7 @@ def tradeoff_figure(rows: Sequence[dict], x_key: str, y_key: str, front: Sequenc
 def arm_animation_figure(t: np.ndarray, points: np.ndarray, reference: np.ndarray | None, title: str,
                          frame_time: float) -> go.Figure:
     """The arm as a stick figure playing the motion: ``points`` (F, m, 3) [m] (see
-    :func:`pathmotion.report.arm.arm_points`; the last vertex is the TCP) at the frame times t (F,) [s],
+    :func:`pathmotion.robot.arm.arm_points`, read from arm.csv; the last vertex is the TCP) at the frame times t (F,) [s],
     the TCP trace drawn up to the current frame, the ``reference`` TCP path (M, 3) dashed. Play/pause
     buttons and a time slider; each frame shows for ``frame_time`` [s]."""
     points = for_3d(points)

@@ -235,7 +235,7 @@ def _result(robot, path, profile, controller, settings, table, rec: _Record, las
     theta_p, q_des = polish_projection(path, q_ok, th_ok) if len(q_ok) else (th_ok, q_ok.copy())
     points = len(table.grid)
     tcp, tcp_des, path_dev = tcp_path_deviation(robot, path, q_ok, theta_p, points)
-    corner = original_path_deviation(path, tcp, points)
+    corner = original_path_deviation(path, tcp)
     return SimulationResult(
         controller=controller, sample_time=settings.sample_time, closed=path.closed, t=t[finite], theta=theta_p,
         q=q_ok, qd=qd[finite], tau=tau[finite], tau_command=cmd[finite], q_desired=q_des, tcp=tcp,

@@ -9,8 +9,9 @@ Deviations are measured from the path, not from a clock-indexed point:
   joint path carries ``task_path``, else FK(Phi(theta))), minimized over the path near the current
   theta: a polyline through 4x the controller table's points, so the figure is exact to the chord
   sag (segment length)^2 * curvature / 8, below a micrometre for the paths here;
-* corner deviation: distance to the original sharp task path (``original_task_path``, when a blend
-  replaced a corner), minimized over the whole original path; None without one;
+* sharp deviation: distance to the original sharp task path (``original_task_path``, when a blend
+  replaced a corner), the exact closest point over all its segments (:func:`sharp_path_deviation`);
+  None without one;
 * torque ratio: max over samples and joints of |tau_commanded| / tau_limit (before saturation);
 * saturation time: number of samples in which any joint was clipped, times the sample time.
 """
@@ -49,7 +50,7 @@ class SimulationResult:
     theta (K,) projection of the true q on the path; q, qd (K, n); tau (K, n) applied (saturated) and
     tau_command (K, n) as commanded [N m]; q_desired (K, n) = Phi(theta); tcp, tcp_desired (K, 3) [m];
     joint_deviation (K,) = max_j |q - Phi(theta)|; path_deviation (K,) [m]; corner_deviation (K,) [m]
-    or None. planned_duration [s]: the profile's duration (one period on a closed path);
+    the distance from the original sharp path, or None without blends. planned_duration [s]: the profile's duration (one period on a closed path);
     simulated_duration [s]: time to arrive (open) or the mean period (closed), None if not reached.
     """
 
@@ -90,7 +91,8 @@ class SimulationResult:
             "max_joint_deviation_rad": float(np.max(np.abs(e))) if e.size else 0.0,
             "rms_joint_deviation_rad": float(np.sqrt(np.mean(e**2))) if e.size else 0.0,
             "max_path_deviation_m": float(np.max(self.path_deviation)) if self.path_deviation.size else 0.0,
-            "max_corner_deviation_m": None if self.corner_deviation is None else float(np.max(self.corner_deviation)),
+            "max_sharp_deviation_m": (None if self.corner_deviation is None or not self.corner_deviation.size
+                                      else float(np.max(self.corner_deviation))),
             "max_torque_ratio": float(np.max(np.abs(self.tau_command) / self.torque_limit)) if e.size else 0.0,
             "saturation_time_s": self.saturation_time,
             "tracking_ok": self.tracking_ok,
@@ -120,14 +122,6 @@ def polish_projection(path: JointPath, q: np.ndarray, theta: np.ndarray, iterati
         if not path.closed:
             theta = np.clip(theta, *path.domain)
     return theta, path.evaluate(_wrap(path, theta))[0]
-
-
-def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance of points (..., 3) to segments [a, b] (..., 3)."""
-    ab = b - a
-    den = np.sum(ab * ab, axis=-1)
-    s = np.clip(np.sum((points - a) * ab, axis=-1) / np.where(den > 0, den, 1.0), 0.0, 1.0)
-    return np.linalg.norm(points - (a + s[..., None] * ab), axis=-1)
 
 
 @numba.njit(cache=True)
@@ -183,18 +177,25 @@ def tcp_path_deviation(robot: Robot, path: JointPath, q: np.ndarray, theta: np.n
     return tcp, near, dist
 
 
-def original_path_deviation(path: JointPath, tcp: np.ndarray, points: int) -> np.ndarray | None:
+def sharp_path_deviation(task_path, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(distance (K,) [m], nearest point (K, 3) [m]) of ``points`` (K, 3) to ``task_path``: the exact
+    closest point over all its segments (each segment's own ``closest``)."""
+    points = np.asarray(points, float)
+    best_d = np.full(len(points), np.inf)
+    best_p = np.zeros_like(points)
+    if not len(points):
+        return best_d, best_p
+    for seg in task_path.segments:
+        s, d = seg.closest(points)
+        better = d < best_d
+        best_d = np.where(better, d, best_d)
+        best_p[better] = seg.evaluate(s)[0][better]
+    return best_d, best_p
+
+
+def original_path_deviation(path: JointPath, tcp: np.ndarray) -> np.ndarray | None:
     """Distance (K,) [m] of the TCP to the original sharp task path, or None when there is none."""
     original = getattr(path, "original_task_path", None)
     if original is None:
         return None
-    lo, hi = original.domain
-    grid = np.unique(np.concatenate([np.linspace(lo, hi, points), list(getattr(original, "breaks", ()))]))
-    line = original.evaluate(grid)[0]
-    a, b = line[:-1], line[1:]
-    out = np.empty(len(tcp))
-    chunk = max(1, 2_000_000 // max(len(a), 1))
-    for s in range(0, len(tcp), chunk):
-        block = tcp[s:s + chunk, None, :]
-        out[s:s + chunk] = np.min(_segment_distance(block, a[None], b[None]), axis=1)
-    return out
+    return sharp_path_deviation(original, tcp)[0]

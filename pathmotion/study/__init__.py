@@ -1,5 +1,5 @@
 """Studies over the plan + simulate flow: parameter sweeps (local processes or a Dask cluster),
-the score and Pareto front that choose among their points, the blend speed scale, and the
+the score and Pareto front that choose among their points, and the
 chapter-7 corner study with its figures.
 
 Entry points::
@@ -11,7 +11,6 @@ Entry points::
 
 from __future__ import annotations
 
-from .blend_speed import blend_ranges, cap_blend_speed
 from .corner import CornerStudy, corner_study, transition_radius_for_deviation
 from .point import SUMMARY_KEYS, run_point
 from .runner import SCORE_RULE, SweepOutcome, run_study_sweep
@@ -19,7 +18,7 @@ from .score import choose_best, competes, pareto_front, score
 from .sweep import SweepPoint, load_trace, parse_sets, run_sweep, sweep_points
 
 __all__ = [
-    "CornerStudy", "SCORE_RULE", "SUMMARY_KEYS", "SweepOutcome", "SweepPoint", "blend_ranges", "cap_blend_speed",
+    "CornerStudy", "SCORE_RULE", "SUMMARY_KEYS", "SweepOutcome", "SweepPoint",
     "choose_best", "competes", "corner_study", "load_trace", "pareto_front", "parse_sets", "run_point",
     "run_study_sweep", "run_sweep", "score", "sweep_points", "transition_radius_for_deviation",
 ]

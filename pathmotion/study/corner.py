@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
+from ..io import schema
 from .. import defaults
 from ..io.atomic import write_json
 from .score import choose_best, pareto_front
@@ -32,8 +33,8 @@ RADIUS_KEY = "path.blends[0].radius"
 TOLERANCE_KEY = "path.blends[0].tolerance"
 SPEED_KEY = "plan.blend_speed_scale"
 #: Columns of corner_study.csv.
-CORNER_COLUMNS = ("case", "parameter", "value", "cycle_time_s", "planned_duration_s", "gain_vs_stop",
-                  "max_sharp_deviation_m", "mean_sharp_deviation_m", "max_path_deviation_m", "tracking_ok", "error")
+CORNER_COLUMNS = ("case", "parameter", "value", schema.CYCLE_TIME.key, schema.PLANNED_DURATION.key, "gain_vs_stop",
+                  schema.MAX_SHARP_DEVIATION.key, schema.MEAN_SHARP_DEVIATION.key, schema.MAX_PATH_DEVIATION.key, schema.TRACKING_OK.key, "error")
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,7 +122,7 @@ def corner_study(out, *, r_t_values: Sequence[float] = (0.03, 0.035, 0.04, 0.049
 
 def _table(results: dict) -> list[dict]:
     stop_rows = results["stop"][1]
-    stop = stop_rows[0].get("cycle_time_s") if stop_rows else None
+    stop = stop_rows[0].get(schema.CYCLE_TIME.key) if stop_rows else None
     keys = {"transition": RADIUS_KEY, "speed": SPEED_KEY, "g2": TOLERANCE_KEY, "matched": RADIUS_KEY}
     names = {"transition": "r_t [m]", "speed": "blend_speed_scale", "g2": "tolerance [m]",
              "matched": "r_t [m] (deviation = G2 tolerance)"}
@@ -130,7 +131,7 @@ def _table(results: dict) -> list[dict]:
         for r in part_rows:
             row = {"case": case, "parameter": names.get(case, ""), "value": r.get(keys[case]) if case in keys else None}
             row.update({k: r.get(k) for k in CORNER_COLUMNS if k not in row})
-            cyc = row["cycle_time_s"]
+            cyc = row[schema.CYCLE_TIME.key]
             row["gain_vs_stop"] = None if cyc is None or not stop else 1.0 - cyc / stop
             rows.append(row)
     return rows
@@ -150,7 +151,7 @@ def _figures(out: Path, results: dict, rows: list[dict], speed_radius: float) ->
     from . import figures as fig
 
     def tag(r):
-        return "" if r.get("tracking_ok") else " (tracking failed)"
+        return "" if r.get(schema.TRACKING_OK.key) else " (tracking failed)"
 
     written = []
     rt = _runs(out, results, "transition", lambda o, r: f"r_t = {o[RADIUS_KEY]:g} m{tag(r)}")
@@ -196,14 +197,14 @@ def _families(rows: list[dict], path: Path) -> Path:
     f, ax = plt.subplots(figsize=(7, 4.8))
     for cases, label, style in ((("transition", "matched"), "transition circle (time-optimal)", "o-"),
                                 (("g2",), "G2 blend (time-optimal)", "s-")):
-        pts = sorted((r["max_sharp_deviation_m"], r["cycle_time_s"]) for r in rows
-                     if r["case"] in cases and r.get("tracking_ok") and r.get("cycle_time_s") is not None)
+        pts = sorted((r[schema.MAX_SHARP_DEVIATION.key], r[schema.CYCLE_TIME.key]) for r in rows
+                     if r["case"] in cases and r.get(schema.TRACKING_OK.key) and r.get(schema.CYCLE_TIME.key) is not None)
         if pts:
             ax.plot([p[0] * MM for p in pts], [p[1] for p in pts], style, label=label)
-    stop = [r for r in rows if r["case"] == "stop" and r.get("cycle_time_s") is not None]
+    stop = [r for r in rows if r["case"] == "stop" and r.get(schema.CYCLE_TIME.key) is not None]
     if stop:
-        ax.axhline(stop[0]["cycle_time_s"], color="k", ls="--", lw=1, label="stop at the corner")
-        ax.axhline(stop[0]["cycle_time_s"] * (1 - 0.16), color="tab:red", ls=":", lw=1, label="16 % shorter than the stop")
+        ax.axhline(stop[0][schema.CYCLE_TIME.key], color="k", ls="--", lw=1, label="stop at the corner")
+        ax.axhline(stop[0][schema.CYCLE_TIME.key] * (1 - 0.16), color="tab:red", ls=":", lw=1, label="16 % shorter than the stop")
     ax.axvline(10.0, color="0.5", ls=":", lw=1, label="10 mm")
     ax.set_xlabel("largest TCP distance from the sharp path [mm]")
     ax.set_ylabel("cycle time (closed loop) [s]")

@@ -22,34 +22,18 @@ from typing import Any
 
 import numpy as np
 
+from ..io import schema
 from .. import defaults
 from ..errors import PathmotionError
+from ..simulation.metrics import sharp_path_deviation
 
 #: Columns a sweep row holds after the parameters, in this order (then ``error``).
-SUMMARY_KEYS = (
-    "cycle_time_s", "planned_duration_s", "simulated_duration_s", "tracking_ok", "failure_reason",
-    "max_sharp_deviation_m", "mean_sharp_deviation_m", "max_path_deviation_m", "mean_path_deviation_m",
-    "max_corner_deviation_m", "blend_max_deviation_m", "max_joint_deviation_rad", "rms_joint_deviation_rad",
-    "max_torque_ratio", "saturation_time_s", "baseline_constant_speed_duration_s", "controller", "sample_time_s",
-)
+SUMMARY_KEYS = schema.keys(schema.SWEEP_ROW)
 
 
 def _sharp_path(setup):
     task = setup.original_task_path if setup.original_task_path is not None else setup.task_path
     return None if task is None else task
-
-
-def nearest_on(task_path, points: np.ndarray) -> np.ndarray:
-    """Nearest point (K, 3) of ``task_path`` (any of its segments) to each of ``points`` (K, 3) [m]."""
-    best_d = np.full(len(points), np.inf)
-    best_p = np.zeros_like(points)
-    for seg in task_path.segments:
-        s, d = seg.closest(points)
-        p = seg.evaluate(s)[0]
-        better = d < best_d
-        best_d = np.where(better, d, best_d)
-        best_p[better] = p[better]
-    return best_p
 
 
 def point_summary(setup, result, sim) -> tuple[dict, dict]:
@@ -58,20 +42,19 @@ def point_summary(setup, result, sim) -> tuple[dict, dict]:
 
     summary = dict(simulation_summary(setup, result, sim))
     failure = summary.pop("failure", None)
-    summary["failure_reason"] = None if not failure else failure.get("reason")
+    summary[schema.FAILURE_REASON.key] = None if not failure else failure.get("reason")
     plan = plan_summary(setup, result)
-    summary["baseline_constant_speed_duration_s"] = plan["baseline_constant_speed_duration_s"]
-    summary["blend_max_deviation_m"] = plan.get("blend_max_deviation_m")
-    summary["cycle_time_s"] = summary["simulated_duration_s"] if summary["tracking_ok"] else None
-    summary["mean_path_deviation_m"] = float(np.mean(sim.path_deviation)) if sim.path_deviation.size else 0.0
+    summary[schema.BASELINE_DURATION.key] = plan[schema.BASELINE_DURATION.key]
+    summary[schema.BLEND_MAX_DEVIATION.key] = plan.get(schema.BLEND_MAX_DEVIATION.key)
+    summary[schema.CYCLE_TIME.key] = summary[schema.SIMULATED_DURATION.key] if summary[schema.TRACKING_OK.key] else None
+    summary[schema.MEAN_PATH_DEVIATION.key] = float(np.mean(sim.path_deviation)) if sim.path_deviation.size else 0.0
     sharp = _sharp_path(setup)
     if sharp is not None and len(sim.tcp):
-        near = nearest_on(sharp, sim.tcp)
-        dist = np.linalg.norm(sim.tcp - near, axis=1)
+        dist, near = sharp_path_deviation(sharp, sim.tcp)
     else:  # a joint path: its own TCP path is the reference
         near, dist = sim.tcp_desired, sim.path_deviation
-    summary["max_sharp_deviation_m"] = float(np.max(dist)) if dist.size else 0.0
-    summary["mean_sharp_deviation_m"] = float(np.mean(dist)) if dist.size else 0.0
+    summary[schema.MAX_SHARP_DEVIATION.key] = float(np.max(dist)) if dist.size else 0.0
+    summary[schema.MEAN_SHARP_DEVIATION.key] = float(np.mean(dist)) if dist.size else 0.0
     return summary, {"sharp_nearest": near}
 
 
@@ -120,4 +103,4 @@ def run_point(scenario_text: str, base_dir: str, overrides: tuple[tuple[str, Any
     except Exception as exc:  # a bug must not stop a sweep: record it, loudly
         summary, error = {}, f"internal error {type(exc).__name__}: {exc}"
     summary = {k: summary.get(k) for k in SUMMARY_KEYS}
-    return {"summary": summary, "error": error, "trace": trace, "wall_time_s": time.perf_counter() - started}
+    return {"summary": summary, "error": error, "trace": trace, schema.WALL_TIME.key: time.perf_counter() - started}

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..io import schema
 from .. import defaults
 from ..io.atomic import write_json
 from .score import choose_best, pareto_front
@@ -46,8 +47,8 @@ def run_study_sweep(scenario_path, grid: dict[str, list], out, *, workers: int =
     record["rule"] = SCORE_RULE
     record["error_weight_s_per_m"] = error_weight
     record["pareto_front"] = [{**{p: rows[i].get(p) for p in params}, "index": i,
-                               "max_sharp_deviation_m": rows[i]["max_sharp_deviation_m"],
-                               "cycle_time_s": rows[i]["cycle_time_s"]} for i in front]
+                               schema.MAX_SHARP_DEVIATION.key: rows[i][schema.MAX_SHARP_DEVIATION.key],
+                               schema.CYCLE_TIME.key: rows[i][schema.CYCLE_TIME.key]} for i in front]
     write_json(out / "best.json", record)
     written: tuple[Path, ...] = ()
     if figures and rows:

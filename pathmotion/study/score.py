@@ -23,14 +23,15 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
+from ..io import schema
 from .. import defaults
 
-TIME_KEY = "cycle_time_s"
-ERROR_KEY = "mean_sharp_deviation_m"
-DEVIATION_KEY = "max_sharp_deviation_m"
+TIME_KEY = schema.CYCLE_TIME.key
+ERROR_KEY = schema.MEAN_SHARP_DEVIATION.key
+DEVIATION_KEY = schema.MAX_SHARP_DEVIATION.key
 #: Metrics copied into a best-point record.
-BEST_METRICS = ("cycle_time_s", "planned_duration_s", "mean_sharp_deviation_m", "max_sharp_deviation_m",
-                "max_path_deviation_m", "tracking_ok")
+BEST_METRICS = schema.keys((schema.CYCLE_TIME, schema.PLANNED_DURATION, schema.MEAN_SHARP_DEVIATION,
+                            schema.MAX_SHARP_DEVIATION, schema.MAX_PATH_DEVIATION, schema.TRACKING_OK))
 
 
 def _number(v) -> float | None:
@@ -45,7 +46,7 @@ def _number(v) -> float | None:
 
 def competes(row: dict, keys: Sequence[str] = (TIME_KEY, ERROR_KEY)) -> bool:
     """True for a row without error, with tracking_ok, and finite values under ``keys``."""
-    return (not row.get("error") and row.get("tracking_ok") is True
+    return (not row.get("error") and row.get(schema.TRACKING_OK.key) is True
             and all(_number(row.get(k)) is not None for k in keys))
 
 

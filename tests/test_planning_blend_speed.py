@@ -12,7 +12,7 @@ from pathmotion.geometry.deviation import distance_to_segments
 from pathmotion.planning import effective_limits, limit_ratios
 from pathmotion.robot import gravity
 from pathmotion.scenarios import scenario_path
-from pathmotion.study import blend_ranges, cap_blend_speed
+from pathmotion.planning.blend_speed import blend_ranges, cap_blend_speed
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..robot import Robot
+from .model import Robot
 
 
 def arm_points(robot: Robot, q) -> np.ndarray:

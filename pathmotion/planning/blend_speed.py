@@ -26,7 +26,10 @@ import numpy as np
 from .. import defaults
 from ..errors import InfeasibleError, ScenarioError
 from ..geometry.deviation import distance_to_segments
-from ..planning import PlanResult, Profile, Trajectory, effective_limits, limit_ratios, plan
+from .planner import PlanResult, effective_limits, plan
+from .profile import Profile
+from .trajectory import Trajectory
+from .verify import limit_ratios
 
 
 def blend_ranges(task_path, original_task_path) -> tuple[tuple[float, float], ...]:
@@ -50,7 +53,7 @@ def _piece(path, lo: float, hi: float):
 
 
 def capped_profile(setup, result: PlanResult, ranges, scale: float) -> Profile:
-    """The profile of the module docstring: s^2 x* on ``ranges`` (each (a, b) on the plan's grid),
+    """The profile of the module docstring (setup: as in :func:`cap_blend_speed`): s^2 x* on ``ranges`` (each (a, b) on the plan's grid),
     time-optimal re-plans between them. Raises the planner's errors (InfeasibleError...)."""
     prof, settings, path = result.profile, result.settings, setup.path
     lo, hi = path.domain
@@ -80,7 +83,8 @@ def cap_blend_speed(setup, result: PlanResult, scale: float) -> PlanResult:
     """``result`` with the path speed on the scenario's blends at ``scale`` (0 < scale <= 1) times the
     optimal one and time-optimal elsewhere (see the module docstring), verified against every limit.
 
-    setup: a :class:`pathmotion.api.Setup` whose task path has blends. ScenarioError without
+    setup: any object with ``name``, ``path`` (JointPath), ``robot``, ``task_path`` and
+    ``original_task_path`` (e.g. :class:`pathmotion.api.Setup`) whose task path has blends. ScenarioError without
     blends, for a periodic plan or a scale outside (0, 1]; InfeasibleError if the joined motion
     exceeds a limit."""
     if not (np.isfinite(scale) and 0.0 < scale <= 1.0):

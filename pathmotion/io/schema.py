@@ -1,0 +1,115 @@
+"""The output schema: every key of summary.json, sweep rows and demo tables, listed once.
+
+Each :class:`Key` says what the value is (``label``), the unit it is shown in (``unit``) and the
+factor from the stored SI value to that unit (``scale``: 1e3 shows metres as mm). Tables, the
+report, the study's score and the CSV writers name keys through the constants below, never through
+string literals of their own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Key:
+    """One output quantity: ``key`` as stored (SI units), ``label`` (long), ``unit`` and ``scale``
+    for display (shown value = stored value x scale), ``short``: the label in narrow tables."""
+
+    key: str
+    label: str
+    unit: str = ""
+    scale: float = 1.0
+    short: str = ""
+
+    @property
+    def heading(self) -> str:
+        """``short`` (or ``label``) with the unit in brackets, e.g. 'path dev [mm]'."""
+        text = self.short or self.label
+        return f"{text} [{self.unit}]" if self.unit and self.unit != "-" else text
+
+
+def _k(key, label, unit="", scale=1.0, short="") -> Key:
+    return Key(key, label, unit, scale, short)
+
+
+# ------------------------------------------------------------------------------------- plan
+SCENARIO = _k("scenario", "scenario", short="scenario")
+ROBOT = _k("robot", "robot")
+PATH_LENGTH = _k("path_length", "path length (θ range)", "m")
+PATH_KIND = _k("path_kind", "path kind")
+DURATION = _k("duration_s", "time-optimal duration", "s")
+SOLVE_TIME = _k("solve_time_s", "planner solve time", "s")
+GRID_POINTS = _k("grid_points", "planner grid points")
+MAX_VELOCITY_RATIO = _k("max_velocity_ratio", "largest joint velocity / limit", "-")
+MAX_ACCELERATION_RATIO = _k("max_acceleration_ratio", "largest joint acceleration / limit", "-")
+MAX_PLAN_TORQUE_RATIO = _k("max_torque_ratio", "largest joint torque / limit", "-")
+MAX_TCP_SPEED_RATIO = _k("max_tcp_speed_ratio", "largest TCP speed / limit", "-")
+WORST_LIMIT = _k("worst_limit", "where the largest ratio is")
+BASELINE_DURATION = _k("baseline_constant_speed_duration_s", "baseline: constant TCP speed duration", "s",
+                       short="const. TCP speed")
+FITTED_DURATION = _k("fitted_profile_duration_s", "baseline: fitted profile duration", "s")
+BASELINE_ERROR = _k("baseline_constant_speed_error", "baseline: constant TCP speed error")
+CONNECTIONS = _k("connections", "connections taken as")
+VELOCITY_JUMPS = _k("velocity_jumps", "velocity jumps (θ intervals)")
+KINKS = _k("kinks_theta", "sharp corners (θ)")
+BLEND_MAX_DEVIATION = _k("blend_max_deviation_m", "blend: largest distance from the sharp path", "mm", 1e3)
+MIN_SINGULAR_VALUE = _k("min_singular_value", "smallest singular value of the Jacobian", "-")
+RAPID_ESTIMATE = _k("rapid_estimate_s", "RAPID program at its programmed speeds (estimate)", "s")
+JOINT_RANGE_MARGIN = _k("joint_range_margin_rad", "smallest joint-range margin", "rad")
+
+# ------------------------------------------------------------------------------- simulation
+CONTROLLER = _k("controller", "controller")
+PLANT = _k("plant", "plant (simulator)")
+SAMPLE_TIME = _k("sample_time_s", "controller sample time", "ms", 1e3)
+PLANNED_DURATION = _k("planned_duration_s", "planned duration", "s", short="planned")
+SIMULATED_DURATION = _k("simulated_duration_s", "simulated duration (closed loop)", "s", short="simulated")
+MAX_JOINT_DEVIATION = _k("max_joint_deviation_rad", "largest joint tracking error", "mrad", 1e3, short="joint dev")
+RMS_JOINT_DEVIATION = _k("rms_joint_deviation_rad", "RMS joint tracking error", "mrad", 1e3)
+MAX_PATH_DEVIATION = _k("max_path_deviation_m", "largest TCP distance from the planned path", "mm", 1e3,
+                        short="max dev. from planned path")
+MAX_SHARP_DEVIATION = _k("max_sharp_deviation_m", "largest TCP distance from the original sharp path", "mm", 1e3,
+                         short="max dev. from sharp path")
+MAX_TORQUE_RATIO = _k("max_torque_ratio", "largest commanded torque / limit", "-")
+SATURATION_TIME = _k("saturation_time_s", "time with a torque saturated", "s")
+TRACKING_OK = _k("tracking_ok", "tracking ok")
+FAILURE = _k("failure", "failure")
+
+# ------------------------------------------------------------------------------------ study
+CYCLE_TIME = _k("cycle_time_s", "cycle time, closed loop", "s", short="cycle time")
+MEAN_SHARP_DEVIATION = _k("mean_sharp_deviation_m", "mean TCP distance from the original sharp path", "mm", 1e3,
+                           short="mean dev. from sharp path")
+MEAN_PATH_DEVIATION = _k("mean_path_deviation_m", "mean TCP distance from the planned path", "mm", 1e3)
+FAILURE_REASON = _k("failure_reason", "failure reason", short="failure")
+ERROR = _k("error", "error")
+WALL_TIME = _k("wall_time_s", "wall time", "s")
+
+#: Headline keys of a plan's summary.json, in display order.
+PLAN = (DURATION, FITTED_DURATION, BASELINE_DURATION, MAX_VELOCITY_RATIO, MAX_ACCELERATION_RATIO,
+        MAX_PLAN_TORQUE_RATIO, MAX_TCP_SPEED_RATIO, WORST_LIMIT, PATH_LENGTH, BLEND_MAX_DEVIATION,
+        MIN_SINGULAR_VALUE, JOINT_RANGE_MARGIN, CONNECTIONS, GRID_POINTS, SOLVE_TIME)
+#: Headline keys of a simulation's summary.json, in display order.
+SIMULATION = (CONTROLLER, SAMPLE_TIME, PLANNED_DURATION, SIMULATED_DURATION, MAX_JOINT_DEVIATION,
+              RMS_JOINT_DEVIATION, MAX_PATH_DEVIATION, MAX_SHARP_DEVIATION, MAX_TORQUE_RATIO, SATURATION_TIME,
+              TRACKING_OK)
+#: Columns a sweep row holds after the parameters, in this order (then ``error``).
+SWEEP_ROW = (CYCLE_TIME, PLANNED_DURATION, SIMULATED_DURATION, TRACKING_OK, FAILURE_REASON, MAX_SHARP_DEVIATION,
+             MEAN_SHARP_DEVIATION, MAX_PATH_DEVIATION, MEAN_PATH_DEVIATION, BLEND_MAX_DEVIATION,
+             MAX_JOINT_DEVIATION, RMS_JOINT_DEVIATION, MAX_TORQUE_RATIO, SATURATION_TIME, BASELINE_DURATION,
+             CONTROLLER, SAMPLE_TIME)
+#: The sweep table of the report, in column order.
+SWEEP_TABLE = (CYCLE_TIME, PLANNED_DURATION, SIMULATED_DURATION, MAX_SHARP_DEVIATION, MEAN_SHARP_DEVIATION,
+               MAX_PATH_DEVIATION, TRACKING_OK, FAILURE_REASON, ERROR)
+#: The demo's comparison table (demo.csv and the terminal), in column order.
+DEMO = (SCENARIO, PLANNED_DURATION, SIMULATED_DURATION, TRACKING_OK, MAX_JOINT_DEVIATION, MAX_PATH_DEVIATION,
+        MAX_SHARP_DEVIATION, BASELINE_DURATION)
+
+
+def keys(entries) -> tuple[str, ...]:
+    """The stored key names of ``entries`` (Key objects)."""
+    return tuple(e.key for e in entries)
+
+
+def display(entries, short: bool = False) -> dict[str, tuple[str, str, float]]:
+    """{key: (label, unit, scale)} of ``entries``, in their order (``short``: the short labels)."""
+    return {e.key: ((e.short or e.label) if short else e.label, e.unit, e.scale) for e in entries}
