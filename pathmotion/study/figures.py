@@ -17,6 +17,8 @@ from typing import Sequence
 
 import numpy as np
 
+from ..io import schema
+
 MM = 1000.0
 
 
@@ -40,8 +42,8 @@ def _save(fig, path: Path) -> Path:
 
 
 def tradeoff_figure(rows: Sequence[dict], front: Sequence[int], best: dict | None, path: str | Path, *,
-                    labels: dict[int, str] | None = None, x_key: str = "max_sharp_deviation_m",
-                    y_key: str = "cycle_time_s", point_label=None, title: str = "") -> Path:
+                    labels: dict[int, str] | None = None, x_key: str = schema.MAX_SHARP_DEVIATION.key,
+                    y_key: str = schema.CYCLE_TIME.key, point_label=None, title: str = "") -> Path:
     """Deviation [mm] vs cycle time [s]; ``labels``: row index -> text for named points;
     ``point_label(row)`` gives every point's small label (default none). Failed rows are listed
     in the legend only (they have no cycle time)."""

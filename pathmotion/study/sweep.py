@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import PathmotionError, ScenarioError
 from ..io.atomic import atomic_path, write_json, write_text
+from ..io import schema
 from ..io.scenario import parse_value
 from .point import SUMMARY_KEYS, run_point
 
@@ -136,7 +137,7 @@ def _record(out: Path, point: SweepPoint, result: dict) -> dict:
             with open(tmp, "wb") as fh:
                 np.savez(fh, **trace)
     rec = {"key": point.key, "index": point.index, "overrides": [list(kv) for kv in point.overrides],
-           "summary": result["summary"], "error": result["error"], "wall_time_s": result.get("wall_time_s"),
+           "summary": result["summary"], "error": result["error"], schema.WALL_TIME.key: result.get(schema.WALL_TIME.key),
            "traced": bool(trace)}
     write_json(_points_dir(out) / f"{point.key}.json", rec)
     return json.loads(json.dumps(rec))
