@@ -170,9 +170,12 @@ def test_sweep_tables_are_identical_with_one_and_two_workers(tmp_path):
 
 # ------------------------------------------------------------------------------------ determinism
 def test_repeated_plans_write_byte_identical_files(tmp_path):
+    from pathmotion.report.figures import plan_figures
+
     setup = api.load(scenario_path("corner_transition"), {"plan.grid_points": 150})
     for name in ("a", "b"):
         api.write_plan(setup, api.plan_scenario(setup), tmp_path / name)
+        plan_figures(tmp_path / name)  # the CLI's figures, drawn from the written folder
     a, b = snapshot(tmp_path / "a"), snapshot(tmp_path / "b")
     assert a.keys() == b.keys() and {"phase_plane.png", "trajectory.parquet", "trajectory.csv"} <= a.keys()
     for name in a:

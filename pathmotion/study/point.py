@@ -25,7 +25,6 @@ import numpy as np
 from ..io import schema
 from .. import defaults
 from ..errors import PathmotionError
-from ..simulation.metrics import sharp_path_deviation
 
 #: Columns a sweep row holds after the parameters, in this order (then ``error``).
 SUMMARY_KEYS = schema.keys(schema.SWEEP_ROW)
@@ -39,6 +38,7 @@ def _sharp_path(setup):
 def point_summary(setup, result, sim) -> tuple[dict, dict]:
     """(summary with SUMMARY_KEYS, {"sharp_nearest": (K, 3) array}) of one run."""
     from ..api import plan_summary, simulation_summary
+    from ..simulation.metrics import sharp_path_deviation  # here: keeps the sweep parent process light
 
     summary = dict(simulation_summary(setup, result, sim))
     failure = summary.pop("failure", None)
