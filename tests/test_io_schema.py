@@ -41,8 +41,13 @@ def written(tmp_path_factory):
 
 
 def test_written_summaries_use_only_schema_keys(written):
+    """Every written key is in the schema, or owned by a limit class (its ratio and settings keys:
+    adding a limit stays one file)."""
+    from pathmotion.planning.limits import REGISTRY
+
     plan, sim = written
-    names = {k.key for k in ALL}
+    names = {k.key for k in ALL} | {cls.summary_key() for cls in REGISTRY}
+    names |= {key for cls in REGISTRY for key in cls.extra_summary_keys}
     assert set(plan) <= names, set(plan) - names
     assert set(sim) - {"plan"} <= names, set(sim) - {"plan"} - names
     assert sim["max_sharp_deviation_m"] is not None and "max_corner_deviation_m" not in sim

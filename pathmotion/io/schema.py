@@ -3,7 +3,9 @@
 Each :class:`Key` says what the value is (``label``), the unit it is shown in (``unit``) and the
 factor from the stored SI value to that unit (``scale``: 1e3 shows metres as mm). Tables, the
 report, the study's score and the CSV writers name keys through the constants below, never through
-string literals of their own.
+string literals of their own. The ratio and settings keys of each limit (``max_<limit>_ratio``,
+e.g. ``torque_reserve``) belong to its class in ``planning/limits`` (adding a limit is one file);
+the common ones are listed here too, for their labels.
 """
 
 from __future__ import annotations
