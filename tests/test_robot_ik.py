@@ -20,6 +20,11 @@ from pathmotion.robot import (
 from pathmotion.robot.opw import solve
 
 TWO_PI = 2 * np.pi
+#: Round-trip tolerance [rad] at the range boundaries. Away from singularities the closed form is
+#: exact to ~1e-15 rad; at the stretched elbow (q3 at mid-range on the IRB140: t3 = 0) the elbow
+#: angle comes from acos(D) with D = 1 rounded by a few ulps, so it is known only to a few
+#: sqrt(eps) = 1.5e-8 rad (4.5e-8 measured), and the wrist angles inherit that. 2e-7 ~ 13 sqrt(eps).
+BOUNDARY_ROUND_TRIP_TOL = 2e-7
 
 
 @pytest.fixture(scope="module")
@@ -185,7 +190,7 @@ def test_ik_with_the_generating_configuration_as_reference_returns_it(robot, uni
     if abs(np.sin(q[4])) < 1e-3:  # q4/q6 split undetermined at the wrist singularity (tested above)
         q[4] = 1e-3 if q[4] >= 0 else -1e-3
     pos, rot = fk(robot, q)
-    np.testing.assert_allclose(ik(robot, pos, rot, q), q, atol=1e-8)
+    np.testing.assert_allclose(ik(robot, pos, rot, q), q, atol=BOUNDARY_ROUND_TRIP_TOL)
 
 
 def test_tool_frame_is_the_ik_target(robot):
@@ -398,3 +403,55 @@ def test_non_rotation_matrix_and_bad_shapes_are_rejected(robot):
 
 def test_defaults_used_by_ik_exist():
     assert defaults.IK_TOLERANCE > 0 and defaults.DLS_MAX_ITERATIONS > 0 and defaults.IK_MAX_JOINT_STEP > 0
+
+
+# ------------------------------------------------------------------------------------------------
+# Range boundaries
+
+def boundary_grid(robot):
+    """The 3^6 = 729 configurations with every joint at its lower limit, mid-range or upper limit."""
+    lo, hi = robot.limits.lower, robot.limits.upper
+    levels = np.stack([lo, 0.5 * (lo + hi), hi], axis=1)
+    return np.array(np.meshgrid(*levels, indexing="ij")).reshape(robot.n, -1).T
+
+
+def test_all_729_configurations_at_range_limits_and_midpoints_round_trip(robot):
+    qs = boundary_grid(robot)
+    assert qs.shape == (729, 6)
+    pos, rot = fk(robot, qs)
+    errors = np.empty(len(qs))
+    failures = []
+    for i, (q, p, r) in enumerate(zip(qs, pos, rot)):
+        try:
+            got = ik(robot, p, r, q)
+        except UnreachableError as exc:
+            failures.append((q.round(4).tolist(), str(exc)))
+            continue
+        assert np.all(got >= robot.limits.lower) and np.all(got <= robot.limits.upper), got
+        errors[i] = np.max(np.abs(got - q))
+    assert not failures, f"{len(failures)} of 729 rejected, first: {failures[0]}"
+    assert errors.max() < BOUNDARY_ROUND_TRIP_TOL, errors.max()
+    # the sqrt(eps) loss is confined to the stretched elbow: elsewhere the round trip is exact
+    stretched = np.isclose(qs[:, 2], 0.5 * (robot.limits.lower[2] + robot.limits.upper[2]))
+    assert errors[~stretched].max() < 1e-9, errors[~stretched].max()
+
+
+def test_batch_ik_accepts_a_path_ending_exactly_at_a_joint_limit(robot):
+    # joint 4 runs to its limit on the stretched arm, where the closed form rounds past the limit
+    lo, hi = robot.limits.lower, robot.limits.upper
+    end = np.array([0.0, 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2]), lo[3], lo[4], 0.0])
+    qs = np.linspace(end + np.array([0.2, 0.1, 0.1, 0.3, 0.2, 0.3]), end, 50)
+    pos, rot = fk(robot, qs)
+    got = ik_batch(robot, pos, rot, qs[0])
+    assert np.all(got >= lo) and np.all(got <= hi)
+    np.testing.assert_allclose(got, qs, atol=BOUNDARY_ROUND_TRIP_TOL)
+
+
+def test_a_joint_beyond_its_limit_by_more_than_the_slack_is_still_rejected(robot):
+    from pathmotion.robot.ik import IK_RANGE_SLACK
+
+    q = np.array([0.3, 0.2, -0.6, 0.5, robot.limits.upper[4] + 10 * IK_RANGE_SLACK, 0.2])
+    pos, rot = fk(robot, q)
+    with pytest.raises(UnreachableError) as info:
+        ik_batch(robot, pos[None], rot[None], q)
+    assert info.value.reason == "joint_range"

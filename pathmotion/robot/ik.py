@@ -33,6 +33,21 @@ from .kinematics import fk, jacobian
 from .model import Robot
 from .opw import TWO_PI, OPWGeometry, OPWSolutions, branch_name, solve, wrap
 
+#: Slack of the joint-range test [rad]: a closed-form solution up to this far beyond a limit counts
+#: as on it and is clamped to it. Away from singularities the closed form is exact to ~1e-15 rad, but
+#: near the stretched or folded elbow (and the shoulder) an angle comes from acos / sqrt of a quantity
+#: rounded by a few ulps, so it is known only to a few sqrt(eps) = 1.5e-8 rad (4.5e-8 measured on the
+#: IRB140 range-boundary grid), and the wrist angles inherit that error through R_0c. 1e-6 rad is 20x
+#: that and still far below any joint encoder's resolution (1e-6 rad moves a 1 m arm by 1 um).
+IK_RANGE_SLACK = 1e-6
+#: Two closed-form solutions closer than this [rad] (max over joints) are the same solution (at an
+#: elbow singularity the elbow-up and elbow-down branches coincide to the accuracy above).
+IK_SAME_SOLUTION = IK_RANGE_SLACK
+#: DLS: damping above which no step can reduce the error any more (the iteration gives up) [-].
+DLS_MAX_DAMPING = 1e6
+#: |sin q5| below which a large q4 jump is attributed to the wrist singularity in messages [-].
+WRIST_NEAR_SINGULAR = 0.1
+
 
 def opw_geometry(robot: Robot) -> OPWGeometry:
     """The robot's OPW parameters; RobotModelError saying why when the arm has no closed form."""
@@ -119,9 +134,10 @@ def _reach_message(geo: OPWGeometry, sol: OPWSolutions, i: int, branches=range(8
 def _range_violation(robot: Robot, q: np.ndarray) -> str:
     lo, hi = robot.limits.lower, robot.limits.upper
     for j in range(robot.n):
-        if not lo[j] <= q[j] <= hi[j]:
+        excess = max(lo[j] - q[j], q[j] - hi[j])
+        if excess > IK_RANGE_SLACK:
             return (f"joint {robot.joint_names[j]} = {q[j]:.4f} rad ({np.degrees(q[j]):.1f} deg) is outside "
-                    f"its range [{lo[j]:.4f}, {hi[j]:.4f}] rad")
+                    f"its range [{lo[j]:.4f}, {hi[j]:.4f}] rad by {excess:.3g} rad")
     return "all joints in range"
 
 
@@ -139,9 +155,9 @@ def _nearest_in_range(robot: Robot, q: np.ndarray, q_ref: np.ndarray) -> tuple[n
 
 
 def _shift_bounds(robot: Robot, q):
-    """Smallest and largest k with q + 2*pi*k inside the range (widened by IK_TOLERANCE: a solution
+    """Smallest and largest k with q + 2*pi*k inside the range (widened by IK_RANGE_SLACK: a solution
     that far beyond a limit, by rounding, counts as on it and is clipped to it)."""
-    tol = defaults.IK_TOLERANCE
+    tol = IK_RANGE_SLACK
     return (np.ceil((robot.limits.lower - tol - q) / TWO_PI), np.floor((robot.limits.upper + tol - q) / TWO_PI))
 
 
@@ -207,7 +223,7 @@ def ik_all(robot: Robot, position, rotation) -> np.ndarray:
         choices = [np.clip(q[j] + TWO_PI * np.arange(k_lo[j], k_hi[j] + 1), lo[j], hi[j]) for j in range(robot.n)]
         for combo in itertools.product(*choices):
             row = np.array(combo)
-            if not any(np.max(np.abs(row - other)) < defaults.IK_TOLERANCE for other in rows):
+            if not any(np.max(np.abs(row - other)) < IK_SAME_SOLUTION for other in rows):
                 rows.append(row)
     if not rows:
         _closest(robot, geo, sol, 0, np.zeros(robot.n), _fmt_pose(p[0], r[0]))  # raises with the reason
@@ -272,7 +288,7 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
     step = np.nan_to_num(step)
     q_cont = q0 + np.concatenate([np.zeros((1, robot.n)), np.cumsum(step, axis=0)])
     q = qb + TWO_PI * np.round((q_cont - qb) / TWO_PI)
-    tol = defaults.IK_TOLERANCE
+    tol = IK_RANGE_SLACK
     with np.errstate(invalid="ignore"):
         out = (q < robot.limits.lower - tol) | (q > robot.limits.upper + tol)
     i_range = int(np.argmax(out.any(axis=1))) if out.any() else n_pts
@@ -296,7 +312,7 @@ def _singular_message(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, qb, bra
     raw = wrap(np.diff(qb[i - 1:i + 1], axis=0))[0]
     j = int(np.argmax(np.abs(raw)))
     moved = f"joint {robot.joint_names[j]} changes by {raw[j]:.3f} rad between points {i - 1} and {i}"
-    if j in (3, 5) or (j == 4 and abs(sol.sin_wrist[i, branch]) < 0.1):
+    if j in (3, 5) or (j == 4 and abs(sol.sin_wrist[i, branch]) < WRIST_NEAR_SINGULAR):
         what = (f"wrist singularity (q5 = 0): |sin q5| = {abs(sol.sin_wrist[i, branch]):.2e} "
                 f"(q5 = {qb[i, 4]:.2e} rad)")
     elif j == 0:
@@ -352,7 +368,7 @@ def ik_dls(robot: Robot, position, rotation, q_ref, *, damping: float = defaults
             lam = max(lam / defaults.DLS_DAMPING_GROWTH, damping)
         else:
             lam *= defaults.DLS_DAMPING_GROWTH
-            if lam > 1e6:
+            if lam > DLS_MAX_DAMPING:
                 break
     if np.max(np.abs(err)) < tolerance:
         return q
