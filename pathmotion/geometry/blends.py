@@ -63,6 +63,16 @@ from .deviation import Deviation, certified_max, distance_to_segments
 from .segments import Arc, BezierSegment, Segment, _fmt
 
 _FULL = 1.0 - 1e-6  # a single blend may use all of a neighbour but this sliver
+#: |t_A x t_B| below this: the tangents are (anti)parallel, the path reverses at the corner [-].
+REVERSAL_SINE = 1e-9
+#: Fillet Newton iteration: converged when the closure error is below this times max(1, |p_A|) [-]
+#: (the error is a difference of positions of size |p_A|, so this is rounding).
+FILLET_ROUNDING = 1e-13
+#: A fillet arc must end on the outgoing segment to this times max(1, radius) [-].
+FILLET_CLOSURE = 1e-9
+#: Rounding guard of _down: the value is scaled by 1 - this before flooring, so a product that rounds
+#: up to the next digit is still rounded down [-].
+ROUND_DOWN_GUARD = 1e-15
 
 
 @dataclass(frozen=True)
@@ -115,7 +125,7 @@ def _plane_normal(corner: _Corner, what: str) -> np.ndarray:
     _, tA, _ = corner.A.end_frame
     _, tB, _ = corner.B.start_frame
     m = np.cross(tA, tB)
-    if np.linalg.norm(m) < 1e-9:
+    if np.linalg.norm(m) < REVERSAL_SINE:
         raise PathError(f"{what}: at {corner.where()} the path reverses direction; no circle can round it "
                         "(insert a short segment or stop there)")
     m = m / np.linalg.norm(m)
@@ -138,7 +148,7 @@ def _fillet(corner: _Corner, m: np.ndarray, radius: float) -> tuple[float, float
         pB, tB, kB = (x[0] for x in B.evaluate(b))
         F = pA + radius * np.cross(m, tA) - pB - radius * np.cross(m, tB)
         # converged to rounding: F is a difference of positions of size |pA|
-        if np.linalg.norm(F) < 1e-13 * max(1.0, float(np.linalg.norm(pA))):
+        if np.linalg.norm(F) < FILLET_ROUNDING * max(1.0, float(np.linalg.norm(pA))):
             break
         J = np.column_stack([-(tA + radius * np.cross(m, kA)), tB + radius * np.cross(m, kB)])
         step = np.linalg.lstsq(J, -F, rcond=None)[0]
@@ -153,7 +163,7 @@ def _fillet(corner: _Corner, m: np.ndarray, radius: float) -> tuple[float, float
     if sweep <= 0.0:
         return None
     arc = Arc(pA + radius * np.cross(m, tA), pA, m, sweep)
-    if np.linalg.norm(arc.end_point - pB) > 1e-9 * max(1.0, radius):
+    if np.linalg.norm(arc.end_point - pB) > FILLET_CLOSURE * max(1.0, radius):
         return None
     return float(a), float(b), arc
 
@@ -164,7 +174,7 @@ def _down(x: float, digits: int = 6) -> str:
     if x <= 0.0:
         return f"{x:.{digits}g}"
     scale = 10.0 ** (digits - 1 - int(np.floor(np.log10(x))))
-    return f"{np.floor(x * scale * (1 - 1e-15)) / scale:.{digits}g}"
+    return f"{np.floor(x * scale * (1 - ROUND_DOWN_GUARD)) / scale:.{digits}g}"
 
 
 def _largest(ok, start: float, bisections: int = 50) -> float:

@@ -26,6 +26,9 @@ from ..errors import PathError
 from .orientation import FixedOrientation, Orientation
 from .segments import Segment, _fmt
 
+#: A path coordinate up to this times max(1, length) outside [0, length] is rounding, not an error [-].
+THETA_ROUNDING = 1e-9
+
 Side = Literal["right", "left"]
 ConnectionKind = Literal["corner", "tangent", "smooth"]
 
@@ -100,7 +103,7 @@ class TaskPath:
         closed = np.linalg.norm(segs[-1].end_point - segs[0].start_point) <= defaults.PATH_GAP_TOLERANCE
         closure = classify(segs[-1], segs[0], len(segs) - 1, offsets[-1]) if closed else None
         keys = np.asarray(self.tool_orientation.key_thetas())
-        tol = 1e-9 * max(1.0, offsets[-1])
+        tol = THETA_ROUNDING * max(1.0, offsets[-1])
         if keys.size and (keys.min() < -tol or keys.max() > offsets[-1] + tol):
             raise PathError(f"key orientations at theta = {keys.tolist()} lie outside the path's range "
                             f"[0, {offsets[-1]:.6g}] m; put every key on the path")
@@ -145,7 +148,7 @@ class TaskPath:
             raise PathError(f"theta must be a scalar or a 1-D array, got shape {th.shape}")
         if not np.all(np.isfinite(th)):
             raise PathError("theta contains NaN or inf; give finite path coordinates [m]")
-        tol = 1e-9 * max(1.0, self.length)
+        tol = THETA_ROUNDING * max(1.0, self.length)
         bad = (th < -tol) | (th > self.length + tol)
         if np.any(bad):
             raise PathError(f"theta = {th[bad][0]:.6g} m is outside the path's range [0, {self.length:.6g}] m")

@@ -24,6 +24,12 @@ from ..errors import PathError
 from .chain import TaskPath
 from .segments import Segment
 
+#: certified_max: intervals whose bound exceeds the best value by less than this times
+#: max(1, Lipschitz constant * interval) differ by rounding only and are not split further [-].
+BOUND_ROUNDING = 1e-15
+#: max_deviation: a theta_range may end this far beyond the path's domain (rounding) [m].
+DOMAIN_ROUNDING = 1e-12
+
 
 @dataclass(frozen=True)
 class Deviation:
@@ -58,7 +64,7 @@ def certified_max(fn: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, 
     a, b, da, db = u[:-1], u[1:], d[:-1], d[1:]
     best = int(np.argmax(d))
     lower, where = float(d[best]), float(u[best])
-    atol = 1e-15 * max(1.0, lipschitz * (hi - lo))
+    atol = BOUND_ROUNDING * max(1.0, lipschitz * (hi - lo))
     dropped = 0.0  # largest bound of the intervals already discarded
     for _ in range(max_rounds):
         ub = 0.5 * (da + db + lipschitz * (b - a))
@@ -92,7 +98,7 @@ def max_deviation(path: TaskPath, reference: TaskPath | Sequence[Segment],
     if not segs:
         raise PathError("max_deviation: the reference path has no segments")
     lo, hi = path.domain if theta_range is None else (float(theta_range[0]), float(theta_range[1]))
-    if not (path.domain[0] <= lo < hi <= path.domain[1] + 1e-12):
+    if not (path.domain[0] <= lo < hi <= path.domain[1] + DOMAIN_ROUNDING):
         raise PathError(f"max_deviation: theta_range ({lo:.6g}, {hi:.6g}) is not inside the path's domain "
                         f"(0, {path.length:.6g}) m")
     return certified_max(lambda th: distance_to_segments(path.evaluate(np.minimum(th, path.length))[0], segs),

@@ -23,6 +23,12 @@ from scipy.spatial.transform import Rotation
 from .. import defaults
 from ..errors import PathError
 
+#: A rotation matrix given by the user must satisfy max |R^T R - I| <= this [-].
+ORTHONORMALITY = 1e-9
+#: Consecutive key orientations must differ by less than a half turn by this margin [rad]: at a half
+#: turn the rotation direction is ambiguous.
+HALF_TURN_MARGIN = 1e-6
+
 
 def as_rotation(name: str, value, where: str = "orientation") -> np.ndarray:
     """``value`` as a read-only proper rotation matrix (3, 3), or a PathError."""
@@ -34,7 +40,7 @@ def as_rotation(name: str, value, where: str = "orientation") -> np.ndarray:
         raise PathError(f"{where}: {name} must be a 3x3 rotation matrix, got shape {r.shape}")
     if not np.all(np.isfinite(r)):
         raise PathError(f"{where}: {name} contains NaN or inf; give a finite rotation matrix")
-    if not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:
+    if not np.allclose(r.T @ r, np.eye(3), atol=ORTHONORMALITY) or np.linalg.det(r) < 0:
         raise PathError(f"{where}: {name} is not a proper rotation (R^T R = I, det R = +1); "
                         "give an orthonormal right-handed matrix")
     r.flags.writeable = False
@@ -133,7 +139,7 @@ class SlerpOrientation:
         rotvecs = np.zeros((max(len(th) - 1, 0), 3))
         for k in range(len(th) - 1):
             rotvecs[k] = Rotation.from_matrix(rots[k].T @ rots[k + 1]).as_rotvec()
-            if np.linalg.norm(rotvecs[k]) > np.pi - 1e-6:
+            if np.linalg.norm(rotvecs[k]) > np.pi - HALF_TURN_MARGIN:
                 raise PathError(f"{where}: keys {k} and {k + 1} (theta = {th[k]:.6g}, {th[k + 1]:.6g}) differ by a "
                                 "half turn, so the rotation direction is ambiguous; add a key in between")
         axes = np.einsum("kij,kj->ki", rots[:-1], rotvecs)

@@ -28,6 +28,29 @@ import numpy as np
 from .. import defaults
 from ..errors import PathError
 
+#: A direction vector shorter than this [m or -] has no direction.
+ZERO_LENGTH = 1e-12
+#: Closest-point Newton iteration: converged when the step is below this times max(1, length) [-].
+NEWTON_ROUNDING = 1e-15
+#: Arc: |cos| between radius and plane normal above 1 - this means the normal lies along the radius [-].
+NORMAL_ALONG_RADIUS = 1e-9
+#: Arc: |cos| between radius and plane normal above this means the start point is off the plane
+#: (1e-6 = 5.7e-5 deg: more than rounding, less than any intended geometry) [-].
+OFF_PLANE_COS = 1e-6
+#: A sweep may exceed one turn, and a Circle's sweep differ from 2 pi, by this relative rounding [-].
+TURN_ROUNDING = 1e-12
+#: Arc.through_points: |ab x ac| below this times max(|ab|, |ac|)^2 means collinear points [-].
+COLLINEAR_SINE = 1e-12
+#: Stand-in for a zero scale in relative tests, so that they never divide by zero.
+NONZERO = 1e-300
+#: Start angles are measured from world x projected on the plane, unless that projection is shorter
+#: than this (normal nearly along x); then from world y [-].
+REFERENCE_AXIS_MIN = 1e-6
+#: Bezier: a speed |dp/du| below this fraction of the largest one is a cusp [-].
+CUSP_SPEED_RATIO = 1e-9
+#: Bezier arc-length inversion: converged when |s(u) - s| is below this times max(1, length) [-].
+ARC_LENGTH_ROUNDING = 1e-13
+
 _TWO_PI = 2.0 * np.pi
 
 
@@ -60,7 +83,7 @@ def unit(name: str, value, where: str) -> np.ndarray:
     """``value`` normalized to length 1; PathError if it is (nearly) zero."""
     v = np.array(as_point(name, value, where))
     n = np.linalg.norm(v)
-    if n < 1e-12:
+    if n < ZERO_LENGTH:
         raise PathError(f"{where}: {name} = {v.tolist()} has zero length; give a non-zero direction")
     v = v / n
     v.flags.writeable = False
@@ -146,7 +169,7 @@ class Segment:
             h = 1.0 + np.sum(r * ddp, axis=1)
             step = np.where(h > 0.1, g / np.where(h > 0.1, h, 1.0), g)
             s = np.clip(s - step, 0.0, self.length)
-            if np.max(np.abs(step)) < 1e-15 * max(1.0, self.length):
+            if np.max(np.abs(step)) < NEWTON_ROUNDING * max(1.0, self.length):
                 break
         cand = np.stack([s, np.zeros_like(s), np.full_like(s, self.length)], axis=1)
         dist = np.stack([np.linalg.norm(self.evaluate(c)[0] - x, axis=1) for c in cand.T], axis=1)
@@ -244,17 +267,17 @@ class Arc(Segment):
                             "centre); give a start point away from the centre")
         u = d / radius
         off = float(abs(u @ n))
-        if off > 1.0 - 1e-9:
+        if off > 1.0 - NORMAL_ALONG_RADIUS:
             raise PathError(f"{where} with centre {_fmt(c)}: the plane normal {_fmt(n)} is parallel to the "
                             "radius (start - centre); give a normal perpendicular to the radius")
-        if off > 1e-6:
+        if off > OFF_PLANE_COS:
             raise PathError(f"{where} with centre {_fmt(c)}: start point {_fmt(a)} is not in the plane through "
                             f"the centre with normal {_fmt(n)} (radius makes {np.degrees(np.arccos(off)):.4g} deg "
                             "with the normal); give a normal perpendicular to start - centre")
         if abs(sweep) * radius < defaults.MIN_SEGMENT_LENGTH:
             raise PathError(f"{where} with centre {_fmt(c)}: sweep {sweep:.3g} rad gives zero length; "
                             "give a non-zero sweep angle")
-        if abs(sweep) > _TWO_PI * (1.0 + 1e-12):
+        if abs(sweep) > _TWO_PI * (1.0 + TURN_ROUNDING):
             raise PathError(f"{where} with centre {_fmt(c)}: sweep {sweep:.6g} rad exceeds one turn (2 pi); "
                             "split it into a Circle and an Arc")
         v = np.cross(n, u)
@@ -275,8 +298,8 @@ class Arc(Segment):
         a, b, c = (as_point(nm, v, where) for nm, v in (("p0", p0), ("p1", p1), ("p2", p2)))
         ab, ac = b - a, c - a
         nvec = np.cross(ab, ac)
-        scale = max(np.linalg.norm(ab), np.linalg.norm(ac), 1e-300)
-        if np.linalg.norm(nvec) < 1e-12 * scale ** 2:
+        scale = max(np.linalg.norm(ab), np.linalg.norm(ac), NONZERO)
+        if np.linalg.norm(nvec) < COLLINEAR_SINE * scale ** 2:
             raise PathError(f"{where}: points {_fmt(a)}, {_fmt(b)}, {_fmt(c)} are collinear or coincide; "
                             "give three distinct points not on one line (or use a Line)")
         n2 = nvec @ nvec
@@ -346,7 +369,7 @@ def _reference_axis(normal: np.ndarray) -> np.ndarray:
     projection of world x, or of world y when the normal is (nearly) along x."""
     for axis in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
         e = axis - (axis @ normal) * normal
-        if np.linalg.norm(e) > 1e-6:
+        if np.linalg.norm(e) > REFERENCE_AXIS_MIN:
             return e / np.linalg.norm(e)
     raise AssertionError("unreachable: x and y cannot both be parallel to a unit normal")
 
@@ -360,7 +383,7 @@ class Circle(Arc):
 
     def __post_init__(self):
         super().__post_init__()
-        if abs(abs(self.sweep) - _TWO_PI) > 1e-12:
+        if abs(abs(self.sweep) - _TWO_PI) > _TWO_PI * TURN_ROUNDING:
             raise PathError(f"Circle centre {_fmt(self.centre)}: sweep must be +-2 pi, got {self.sweep:.6g} rad; "
                             "use an Arc for part of a circle")
 
@@ -434,7 +457,7 @@ class BezierSegment(Segment):
         object.__setattr__(self, "_coef", coef)
         ug = np.linspace(0.0, 1.0, 2049)
         speed = self._speed(ug)
-        if np.min(speed) < 1e-9 * max(np.max(speed), 1e-300):
+        if np.min(speed) < CUSP_SPEED_RATIO * max(np.max(speed), NONZERO):
             k = int(np.argmin(speed))
             raise PathError(f"BezierSegment {self.describe()}: the curve stops (cusp) near u = {ug[k]:.3g}; "
                             "the blend is degenerate (tangents nearly opposite?)")
@@ -493,7 +516,7 @@ class BezierSegment(Segment):
         """Bezier parameter u (N,) at arc length s (N,) [m]."""
         s = np.clip(_as_s(s), 0.0, self.length)
         u = np.interp(s, self._table_s, self._table_u)
-        tol = 1e-13 * max(1.0, self.length)
+        tol = ARC_LENGTH_ROUNDING * max(1.0, self.length)
         for _ in range(50):
             err = self._arc_length(u) - s
             u = np.clip(u - err / self._speed(u), 0.0, 1.0)

@@ -20,6 +20,12 @@ from ..errors import RobotModelError, check_finite
 from .limits import JointLimits, limits_from_model, limits_from_toml
 
 TCP_FRAME = "tcp"
+#: Payload inertia: an eigenvalue down to -this is rounding of a positive semi-definite matrix [kg m^2].
+INERTIA_ROUNDING = 1e-12
+#: Tool rotation: max |R^T R - I| allowed [-].
+ORTHONORMALITY = 1e-9
+#: A URDF joint axis shorter than this has no direction [-].
+ZERO_AXIS = 1e-12
 
 
 @dataclass(frozen=True)
@@ -43,7 +49,7 @@ class Payload:
         if np.shape(self.com) != (3,) or np.shape(self.inertia) != (3, 3):
             raise RobotModelError("payload: com must have 3 values [m] and inertia a 3x3 matrix [kg m^2]")
         inertia = np.asarray(self.inertia, float)
-        if not np.allclose(inertia, inertia.T) or np.min(np.linalg.eigvalsh(inertia)) < -1e-12:
+        if not np.allclose(inertia, inertia.T) or np.min(np.linalg.eigvalsh(inertia)) < -INERTIA_ROUNDING:
             raise RobotModelError("payload inertia must be symmetric positive semi-definite")
 
 
@@ -60,7 +66,7 @@ class Tool:
         r = np.asarray(self.rotation, float)
         if np.shape(self.translation) != (3,) or r.shape != (3, 3):
             raise RobotModelError("tool: translation must have 3 values [m] and rotation be a 3x3 matrix")
-        if not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:
+        if not np.allclose(r.T @ r, np.eye(3), atol=ORTHONORMALITY) or np.linalg.det(r) < 0:
             raise RobotModelError("tool rotation is not a proper rotation matrix (R^T R = I, det R = +1)")
 
     @property
@@ -249,7 +255,7 @@ def _check_urdf_tree(root, where: str) -> None:
                 xyz = np.array([float(v) for v in axis.get("xyz", "1 0 0").split()])
             except ValueError:
                 xyz = np.array([np.nan])
-            if xyz.shape != (3,) or not np.all(np.isfinite(xyz)) or np.linalg.norm(xyz) < 1e-12:
+            if xyz.shape != (3,) or not np.all(np.isfinite(xyz)) or np.linalg.norm(xyz) < ZERO_AXIS:
                 raise RobotModelError(f"URDF of {where}: joint '{name}' has axis xyz = {axis.get('xyz')!r}; give a "
                                       "non-zero finite direction of 3 numbers")
     roots = [link for link in links if link not in parent_of]
