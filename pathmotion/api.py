@@ -164,7 +164,7 @@ def plan_settings(scenario: Scenario) -> PlanSettings:
     return PlanSettings(
         grid_points=p.grid_points, limits=limit_choices(lim),
         start=None if periodic else p.start, end=None if periodic else p.end,
-        periodic=periodic, connections=p.connections,
+        periodic=periodic, connections=p.connections, verify=p.verify, baselines=True,
     )
 
 
@@ -217,6 +217,7 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
         "grid_points": result.grid_points,
         **({cls.summary_key(): None for cls in LIMIT_REGISTRY} if r is None else r.summary()),
         schema.WORST_LIMIT.key: None if r is None else r.worst,
+        schema.VERIFY_METHOD.key: None if r is None else r.method,
         schema.BASELINE_DURATION.key: (None if b is None or b.constant_speed is None
                                        else b.constant_speed.profile.duration),
         schema.FITTED_DURATION.key: None if b is None or b.fitted is None else b.fitted.profile.duration,

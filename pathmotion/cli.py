@@ -115,6 +115,8 @@ def _simulation_figures(folder: Path) -> None:
 
 
 SetOpt = typer.Option(None, "--set", help="override a scenario key, e.g. --set plan.grid_points=2000")
+VerifyOpt = typer.Option(None, "--verify", help="certified (default: a certified bound per grid interval) | dense "
+                         "(the 0.1 ms resample) | off; sets plan.verify")
 
 
 @app.command()
@@ -247,11 +249,18 @@ def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_:
     console.print(_summary_table(f"check {scenario}: OK", report))
 
 
+def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
+    """``overrides`` with plan.verify set from the --verify option (validated with the scenario)."""
+    if verify is not None:
+        overrides["plan.verify"] = verify
+    return overrides
+
+
 @app.command()
 @guarded
 def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
          out: Path = typer.Option(..., "--out", help="output folder"), set_: Optional[List[str]] = SetOpt,
-         figures: bool = typer.Option(True, help="write PNG figures")):
+         figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt):
     """Plan the time-optimal motion: writes trajectory.csv/.parquet, summary.json, exports and figures.
 
     Example: [bold]pathmotion plan scenarios/circle_max.toml --out out/circle[/]
@@ -260,7 +269,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
     with _progress() as progress:
         task = progress.add_task("plan", total=3)
-        setup = api.load(scenario, _overrides(set_))
+        setup = api.load(scenario, _with_verify(_overrides(set_), verify))
         progress.update(task, advance=1, description="plan: time-optimal profile")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="plan: writing")
@@ -276,7 +285,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
              out: Path = typer.Option(..., "--out", help="output folder"), set_: Optional[List[str]] = SetOpt,
              controller: Optional[str] = typer.Option(None, help="orbital | computed_torque | pd_gravity"),
-             figures: bool = typer.Option(True, help="write PNG figures")):
+             figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt):
     """Plan, then simulate the closed loop (controller at 4 ms, full arm dynamics); writes
     simulation.csv, summary.json and figures; plus the plan's files in OUT/plan.
 
@@ -284,7 +293,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     """
     from . import api
 
-    overrides = _overrides(set_)
+    overrides = _with_verify(_overrides(set_), verify)
     if controller:
         overrides["simulate.controller"] = controller
     with _progress() as progress:

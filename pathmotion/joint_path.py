@@ -90,6 +90,11 @@ class SplineJointPath(JointPath):
         return cls(n=wp.shape[1], domain=(0.0, 1.0), waypoints=wp, _spline=spline,
                    joint_names=None if joint_names is None else tuple(joint_names))
 
+    @property
+    def knots(self) -> tuple[float, ...]:
+        """Interior knots: the third derivative jumps there, so the planner puts them on its grid."""
+        return tuple(float(k) for k in self._spline.x[1:-1])
+
     def evaluate(self, theta, side: str = "right"):
         th, scalar = self._check_theta(theta)
         s = self._spline

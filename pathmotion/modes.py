@@ -23,6 +23,15 @@ class Connections(StrEnum):
     MAX = "max"
 
 
+class VerifyMode(StrEnum):
+    """How the planner checks the continuous motion between grid points: a certified bound per grid
+    interval (planning/certify.py), the dense time resample (planning/verify.py), or not at all."""
+
+    CERTIFIED = "certified"
+    DENSE = "dense"
+    OFF = "off"
+
+
 class BoundaryMode(StrEnum):
     """A named path velocity at a path end: rest, or the largest feasible (a number is the third kind)."""
 

@@ -116,7 +116,7 @@ def test_gravity_above_torque_limit_names_joint_and_theta(irb140):
 def test_baselines_are_slower_and_feasible(irb140):
     # long enough to cruise; a joint-space line is a curved TCP path, so the TCP speed varies
     line = PolylinePath.through([LINE[0], 3.0 * LINE[1]])
-    res = plan(line, irb140, PlanSettings(grid_points=300))
+    res = plan(line, irb140, PlanSettings(grid_points=300, baselines=True))
     fitted, constant = res.baselines.fitted, res.baselines.constant_speed
     assert res.duration < fitted.duration
     assert res.duration < constant.duration

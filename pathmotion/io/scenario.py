@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from .. import defaults
 from ..errors import ScenarioError
-from ..modes import BlendType, BoundaryMode, Connections, Controller
+from ..modes import BlendType, BoundaryMode, Connections, Controller, VerifyMode
 
 Vec3 = tuple[float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
@@ -137,6 +137,8 @@ class PlanSpec(_Model):
     connections: Connections = Field(
         Connections.CHAIN, description="'chain': plan the whole path at once; 'zero'/'max': segment by segment")
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, description="output sample time [s]")
+    verify: VerifyMode = Field(VerifyMode.CERTIFIED, description="'certified': a certified bound of every limit "
+                               "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
 

@@ -48,6 +48,7 @@ MAX_ACCELERATION_RATIO = _k("max_acceleration_ratio", "largest joint acceleratio
 MAX_PLAN_TORQUE_RATIO = _k("max_torque_ratio", "largest joint torque / limit", "-")
 MAX_TCP_SPEED_RATIO = _k("max_tcp_speed_ratio", "largest TCP speed / limit", "-")
 WORST_LIMIT = _k("worst_limit", "where the largest ratio is")
+VERIFY_METHOD = _k("verify_method", "limit ratios from (certified interval bounds or dense resample)")
 BASELINE_DURATION = _k("baseline_constant_speed_duration_s", "baseline: constant TCP speed duration", "s",
                        short="const. TCP speed")
 FITTED_DURATION = _k("fitted_profile_duration_s", "baseline: fitted profile duration", "s")

@@ -19,9 +19,10 @@ import numpy as np
 from .. import defaults
 from ..errors import InfeasibleError, ScenarioError
 from ..joint_path import JointPath
-from ..modes import BoundaryMode, Connections, parse_mode
+from ..modes import BoundaryMode, Connections, VerifyMode, parse_mode
 from ..robot import Robot
 from .baselines import Baselines, compute_baselines
+from .certify import CertifyContext, certify
 from .boundary import X_CAP_FRACTION, Boundary
 from .limit_rows import LimitRows, limit_rows
 from .limits import REGISTRY, EffectiveLimits, LimitChoice, PathPoints, effective_limits_for, tcp_gain
@@ -29,13 +30,16 @@ from .profile import Profile
 from .segments import solve_chain
 from .topp import IntervalProblem, interval_problem, maximum_velocity_curve
 from .trajectory import Trajectory
-from .verify import LimitRatios, outside, sample_ratios, summarize, worst_outside
+from .verify import LimitRatios, interval_maxima, outside, sample_ratios, summarize, summarize_intervals
 
 
 #: A closed path's closure is a kink when Phi' differs across it by more than this, relative [-].
 CLOSURE_KINK_TOLERANCE = 1e-6
 #: Grid points nearer than this fraction of the grid step to a segment connection are dropped [-].
 GRID_MERGE_FRACTION = 0.3
+#: Grid points nearer than this fraction of the grid step to their predecessor are rounding twins
+#: (grading points that land on a break) and are dropped [-].
+GRID_MIN_GAP = 1e-9
 #: Tightening: an interval is tightened when its ratio exceeds 1 + this x tolerance, and its limits
 #: are scaled so that the ratio becomes 1 - TIGHTEN_TARGET x tolerance [-].
 TIGHTEN_TRIGGER = 0.5
@@ -56,7 +60,10 @@ class PlanSettings:
     periodic: steady-state cycle on a closed path (start/end must then be None).
     connections: "chain" | "zero" | "max" (see segments.py).
     limit_tolerance: allowed relative excess on the verification resample.
-    verify: run the verify-and-tighten loop (and report the ratios); baselines: compute them.
+    verify: "certified" (default: a certified bound of every limit on every grid interval,
+    planning/certify.py), "dense" (the 0.1 ms time resample) or "off"; True/False mean
+    "certified"/"off". The verify-and-tighten loop lowers the limits locally where the bound exceeds
+    1 + limit_tolerance and re-solves. baselines: compute the baselines (off by default).
     """
 
     grid_points: int
@@ -66,7 +73,7 @@ class PlanSettings:
     periodic: bool
     connections: Connections
     limit_tolerance: float
-    verify: bool
+    verify: VerifyMode
     verify_sample_time: float
     max_tighten_iterations: int
     baselines: bool
@@ -75,9 +82,9 @@ class PlanSettings:
     def __init__(self, grid_points: int = defaults.GRID_POINTS, limits: dict | None = None,
                  start: Union[str, float, None] = None, end: Union[str, float, None] = None,
                  periodic: bool = False, connections: str = Connections.CHAIN,
-                 limit_tolerance: float = defaults.LIMIT_TOLERANCE, verify: bool = True,
+                 limit_tolerance: float = defaults.LIMIT_TOLERANCE, verify: Union[str, bool] = VerifyMode.CERTIFIED,
                  verify_sample_time: float = defaults.VERIFY_SAMPLE_TIME,
-                 max_tighten_iterations: int = defaults.PLAN_MAX_TIGHTEN_ITERATIONS, baselines: bool = True,
+                 max_tighten_iterations: int = defaults.PLAN_MAX_TIGHTEN_ITERATIONS, baselines: bool = False,
                  fitted_margin: float = defaults.FITTED_PROFILE_MARGIN, **limit_keywords):
         choices = dict(limits or {})
         for cls in REGISTRY:
@@ -133,6 +140,10 @@ class PlanSettings:
         if self.periodic and (self.start is not None or self.end is not None):
             raise ScenarioError("periodic planning fixes both ends (equal theta_dot); leave start and end unset")
         object.__setattr__(self, "connections", parse_mode(Connections, self.connections, "connections"))
+        verify = self.verify
+        if isinstance(verify, (bool, np.bool_)):
+            verify = VerifyMode.CERTIFIED if verify else VerifyMode.OFF
+        object.__setattr__(self, "verify", parse_mode(VerifyMode, verify, "plan.verify"))
         if not self.limit_tolerance >= 0:
             raise ScenarioError(f"limit_tolerance must be >= 0, got {self.limit_tolerance}")
         if not (0 <= self.fitted_margin < 1):
@@ -194,15 +205,31 @@ def make_grid(path: JointPath, points: int) -> tuple[np.ndarray, tuple[int, ...]
         step = (hi - lo) / (points - 1)
         near = np.min(np.abs(grid[:, None] - special[None, :]), axis=1) < GRID_MERGE_FRACTION * step
         grid = np.union1d(grid[~near | (grid == lo) | (grid == hi)], special)
+    # spline knots (the third derivative jumps) are grid points too: no interval holds a kink of Phi''
+    grid = np.union1d(grid, [float(k) for k in getattr(path, "knots", ()) if lo < k < hi])
     step = grid[1] - grid[0]
     ends = np.array([lo, hi, *special])
     grade = step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1)
     extra = np.concatenate([ends[:, None] + grade[None, :], ends[:, None] - grade[None, :]]).ravel()
     grid = np.union1d(grid, extra[(extra > lo) & (extra < hi)])
+    grid = _drop_near_duplicates(grid, np.array([lo, hi, *special]), GRID_MIN_GAP * step)
     index = {float(t): i for i, t in enumerate(grid)}
     breaks = tuple(index[float(b)] for b in special)
     kinks = tuple(index[float(k)] for k in special if float(k) in {float(x) for x in path.kinks})
     return grid, breaks, kinks
+
+
+def _drop_near_duplicates(grid: np.ndarray, keep: np.ndarray, gap: float) -> np.ndarray:
+    """``grid`` without points closer than ``gap`` to their predecessor (rounding twins of a grading
+    point), the ``keep`` points (ends, breaks) always kept."""
+    close = np.concatenate([[False], np.diff(grid) < gap])
+    if not close.any():
+        return grid
+    kept = np.isin(grid, keep)
+    drop = close & ~kept
+    twin = np.nonzero(close & kept)[0] - 1  # a kept point's too-close predecessor goes instead
+    drop[twin[~kept[twin]]] = True
+    return grid[~drop]
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,8 +294,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
 
 
 def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args):
-    """Solve, verify on the dense resample, tighten the limits locally where it exceeds them, re-solve
-    (bounded by settings.max_tighten_iterations)."""
+    """Solve, bound every limit on every grid interval (certified or dense, settings.verify), tighten the
+    limits locally where a bound exceeds them, re-solve (bounded by settings.max_tighten_iterations)."""
     scale = limits.unit_scale(len(grid), robot.n)
     tol = settings.limit_tolerance
     ratios, x_ref = None, None
@@ -277,14 +304,11 @@ def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args
         problem, right, left, sol = _solve_rows(grid, samp, limits, scale, x_ref, chain_args)
         _check_bounded(grid, sol.x)
         traj = Trajectory(path, sol.profile, robot)
-        if not settings.verify:
+        if settings.verify == VerifyMode.OFF:
             break
-        samples, r = sample_ratios(traj, limits, settings.verify_sample_time, sol.jump_intervals)
         jumps = tuple(grid[k] for k in kinks if sol.x[k] > 0)
-        ratios = summarize(samples, r, limits, settings.verify_sample_time, jumps, robot.joint_names)
-        interval = np.clip(np.searchsorted(grid, samples.theta, side="right") - 1, 0, len(grid) - 2)
-        worst = worst_outside(samples, r, sol.jump_intervals)
-        free = outside(samples.theta, sol.jump_intervals)
+        bounds, ratios = _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, chain_args["breaks"])
+        worst = max((float(b.max()) for b in bounds.values() if b.size), default=0.0)
         if worst <= 1.0 + tol:
             break
         if iterations >= settings.max_tighten_iterations:
@@ -292,10 +316,53 @@ def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args
                 f"the planned motion still exceeds a limit by {100 * (worst - 1):.3g} % between grid points after "
                 f"{iterations} tightening iterations ({ratios.worst}); raise grid_points or limit_tolerance"
             )
-        scale = _tightened(scale, r, interval, free, tol, len(grid))
+        scale = _tightened(scale, bounds, tol)
         x_ref = sol.x
         iterations += 1
     return problem, right, left, sol, traj, ratios, iterations
+
+
+def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, breaks) -> tuple[dict, LimitRatios]:
+    """{name: (K - 1, m) bound of the ratio on each interval of the planner's ``grid``, outside the
+    profile's jump intervals} and the summary ratios (everywhere), by the certified interval bound or
+    the dense resample."""
+    if settings.verify == VerifyMode.DENSE:
+        dt = settings.verify_sample_time
+        samples, r = sample_ratios(traj, limits, dt, sol.jump_intervals)
+        ratios = summarize(samples, r, limits, dt, jumps, robot.joint_names)
+        theta = samples.theta
+    else:
+        ctx = _certify_context(traj.path, robot, sol.profile, limits, grid, samp, breaks)
+        r = certify(ctx, limits)
+        ratios = summarize_intervals(sol.profile, r, limits, jumps, robot.joint_names)
+        pgrid = sol.profile.grid
+        theta = 0.5 * (pgrid[:-1] + pgrid[1:])
+    free = outside(theta, sol.jump_intervals)
+    return interval_maxima(theta[free], {name: v[free] for name, v in r.items()}, grid), ratios
+
+
+def _certify_context(path, robot, profile, limits, grid, samp, breaks) -> CertifyContext:
+    """The certification's view of ``profile``: the planner's grid data, or, when the profile has its own
+    grid ("max" connections insert the intervals that carry the jumps), fresh path data on it."""
+    pgrid = profile.grid
+    if len(pgrid) == len(grid) and np.array_equal(pgrid, grid):
+        return CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque)
+    special = [float(b) for b in path.breaks if pgrid[0] < b < pgrid[-1]]
+    pbreaks = tuple(int(i) for i in np.searchsorted(pgrid, special))
+    right = PathPoints(robot, path, pgrid, *path.evaluate(pgrid, "right"))
+    left = PathPoints(robot, path, pgrid, *path.evaluate(pgrid, "left"), side="left")
+    return CertifyContext(path, robot, profile, right, left, pbreaks, limits.needs_torque)
+
+
+def certified_bounds(path: JointPath, robot: Robot, profile: Profile, settings: PlanSettings) -> dict:
+    """{name: (K - 1, m)} certified upper bound of every active limit's ratio on every interval of
+    ``profile``'s grid (planning/certify.py), with the path data evaluated afresh on that grid."""
+    limits = effective_limits(robot, settings)
+    pgrid = profile.grid
+    special = [float(b) for b in path.breaks if pgrid[0] < b < pgrid[-1]]
+    breaks = tuple(int(i) for i in np.searchsorted(pgrid, special))
+    samp = _sample(path, robot, pgrid, breaks)
+    return certify(CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque), limits)
 
 
 def _solve_rows(grid, samp, limits, scale, x_ref, chain_args):
@@ -325,16 +392,15 @@ def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:
             "velocity, acceleration or torque limit (limits.use_*) or give a tcp_speed limit")
 
 
-def _tightened(scale: dict, ratios: dict, interval: np.ndarray, free: np.ndarray, tol: float, k: int) -> dict:
-    """Scale each limit down at both ends of every interval whose samples exceed 1 + TIGHTEN_TRIGGER tol:
-    scale {name: (K, m)}, ratios {name: (N, m)} on samples in grid intervals ``interval`` (N,)."""
+def _tightened(scale: dict, bounds: dict, tol: float) -> dict:
+    """Scale each limit down at both ends of every interval whose bound exceeds 1 + TIGHTEN_TRIGGER tol:
+    scale {name: (K, m)}, bounds {name: (K - 1, m)} per grid interval."""
     new = {}
     for name, cur in scale.items():
-        r = ratios[name][free]
-        worst = np.ones((k - 1, r.shape[1]))
-        np.maximum.at(worst, interval[free], r)
-        factor = np.where(worst > 1.0 + TIGHTEN_TRIGGER * tol, (1.0 - TIGHTEN_TARGET * tol) / worst, 1.0)
-        point = np.ones((k, r.shape[1]))
+        worst = bounds[name]
+        factor = np.where(worst > 1.0 + TIGHTEN_TRIGGER * tol,
+                          (1.0 - TIGHTEN_TARGET * tol) / np.maximum(worst, 1.0), 1.0)
+        point = np.ones_like(cur)
         point[:-1] = np.minimum(point[:-1], factor)
         point[1:] = np.minimum(point[1:], factor)
         new[name] = cur * point

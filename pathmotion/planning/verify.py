@@ -1,4 +1,6 @@
-"""Verification of a trajectory against the limits on a dense time resample.
+"""Verification of a trajectory against the limits: the dense time resample (``verify = "dense"``
+and the independent check of planning/certify.py's certified interval bounds, the default), and the
+summary of either.
 
 ratio = max over samples and columns (joints, or the TCP) of |value| / limit, for every registered
 limit (planning/limits/; None where that limit is off). A ratio <= 1 + LIMIT_TOLERANCE passes.
@@ -20,14 +22,16 @@ from .trajectory import Samples, Trajectory, sample_times
 @dataclass(frozen=True)
 class LimitRatios:
     """max |value| / limit per registered limit name (None: limit off), e.g. ``ratios.torque`` or
-    ``ratios.values["torque"]``; ``sample_time`` [s] of the resample; ``worst``: where the largest
-    ratio occurs (kind, joint, t, theta); ``extra``: the limits' settings for summary.json
-    (e.g. {"torque_reserve": 0.2})."""
+    ``ratios.values["torque"]``; ``sample_time`` [s] of the resample (None for certified bounds);
+    ``worst``: where the largest ratio occurs (kind, joint, t, theta); ``extra``: the limits'
+    settings for summary.json (e.g. {"torque_reserve": 0.2}); ``method``: "dense" (sampled maxima)
+    or "certified" (upper bounds over every grid interval)."""
 
     values: dict
-    sample_time: float
+    sample_time: float | None
     worst: str
     extra: dict = field(default_factory=dict)
+    method: str = "dense"
 
     def __getattr__(self, name: str):
         if name != "values" and any(cls.name == name for cls in REGISTRY):
@@ -88,6 +92,31 @@ def summarize(s: Samples, ratios: dict, limits: EffectiveLimits, dt: float,
             worst = values[lim.name]
             worst_text = (f"{lim.name} of {lim.column_name(j, joint_names)} at t = {s.t[k]:.6g} s, "
                           f"theta = {s.theta[k]:.6g}: ratio {worst:.6g}")
+    return _with_jumps(LimitRatios(values, dt, worst_text), limits, velocity_jumps)
+
+
+def summarize_intervals(profile, bounds: dict, limits: EffectiveLimits, velocity_jumps: tuple[float, ...] = (),
+                        joint_names: tuple[str, ...] | None = None) -> LimitRatios:
+    """LimitRatios from certified bounds {name: (K - 1, m)} on the intervals of ``profile``'s grid
+    (planning/certify.py): each value is the largest bound, "worst" names its interval."""
+    grid, times = profile.grid, profile.times
+    values = {cls.name: None for cls in REGISTRY}
+    worst, worst_text = -1.0, "no limit active"
+    for lim in limits:
+        b = bounds[lim.name]
+        i, j = np.unravel_index(int(np.argmax(b)), b.shape)
+        values[lim.name] = float(b[i, j])
+        if values[lim.name] > worst:
+            worst = values[lim.name]
+            worst_text = (f"{lim.name} of {lim.column_name(j, joint_names)} for t in [{times[i]:.6g}, "
+                          f"{times[i + 1]:.6g}] s, theta in [{grid[i]:.6g}, {grid[i + 1]:.6g}]: ratio <= {worst:.6g}")
+    ratios = LimitRatios(values, None, worst_text, {}, "certified")
+    return _with_jumps(ratios, limits, velocity_jumps)
+
+
+def _with_jumps(ratios: LimitRatios, limits: EffectiveLimits, velocity_jumps) -> LimitRatios:
+    """``ratios`` with inf for every limit of order >= 2 when a kink is crossed at speed, and the extra keys."""
+    values, worst_text = dict(ratios.values), ratios.worst
     if velocity_jumps:
         jumped = [lim.name for lim in limits if lim.order >= 2]
         for name in jumped:
@@ -96,7 +125,21 @@ def summarize(s: Samples, ratios: dict, limits: EffectiveLimits, dt: float,
             worst_text = (f"joint velocity jumps at the kink theta = {velocity_jumps[0]:.6g} (crossed at non-zero "
                           "speed): unbounded acceleration and torque")
     extra = {key: value for lim in limits for key, value in lim.summary_values().items()}
-    return LimitRatios(values, dt, worst_text, extra)
+    return LimitRatios(values, ratios.sample_time, worst_text, extra, ratios.method)
+
+
+def interval_maxima(theta: np.ndarray, ratios: dict, grid: np.ndarray) -> dict:
+    """{name: (K - 1, m)} largest of the values ``ratios`` {name: (N, m)} at ``theta`` (N,) in each
+    interval of ``grid`` (K,) (0 where an interval holds no value; a value at a grid point counts for
+    the interval it starts)."""
+    k = np.clip(np.searchsorted(grid, theta, side="right") - 1, 0, len(grid) - 2)
+    out = {}
+    for name, r in ratios.items():
+        r = np.asarray(r, float).reshape(len(theta), -1)
+        acc = np.zeros((len(grid) - 1, r.shape[1]))
+        np.maximum.at(acc, k, r)
+        out[name] = acc
+    return out
 
 
 def worst_outside(s: Samples, ratios: dict, intervals) -> float:

@@ -28,6 +28,7 @@ import numpy as np
 from ...errors import ScenarioError
 from ...joint_path import JointPath
 from ...robot import Robot
+from ..certify import REFINE_SUBDIVISIONS
 from ..trajectory import Samples
 
 
@@ -184,6 +185,31 @@ class Limit:
     def ratios(self, samples: Samples, robot: Robot) -> np.ndarray:
         """|value| / limit (N, m) on a time resample."""
         raise NotImplementedError
+
+    def certify(self, ctx) -> np.ndarray:
+        """Certified upper bound (K - 1, m) of the ratio on every grid interval of the profile in
+        ``ctx`` (planning/certify.py's CertifyContext). Default: the sampled form, :meth:`ratios` at
+        a few points per interval plus the interpolation remainder. A limit may override it with a
+        cheaper bound (e.g. :meth:`certify_rows`); it must stay an upper bound over the interval."""
+        return ctx.sampled(lambda samples: self.ratios(samples, ctx.robot))
+
+    def certify_rows(self, ctx, a, b, c, limit, squared: bool = False) -> np.ndarray:
+        """The row form of the certified bound: |a u + b x + c| / limit on every interval, a, b, c
+        (right, left) pairs of (K, m) coefficients at the grid points (None for 0), ``limit`` (m,);
+        ``squared``: the value is the squared ratio (a speed limit, v = G x). Intervals the row form
+        cannot cover get the sampled form."""
+        bound, valid = ctx.row_bound(a, b, c)
+        bound = bound / np.asarray(limit, float)
+        if squared:
+            bound = np.sqrt(np.maximum(bound, 0.0))
+        if not valid.all():
+            idx = np.nonzero(~valid)[0]
+            bound[idx] = ctx.sampled(lambda samples: self.ratios(samples, ctx.robot), idx)
+        over = np.nonzero((bound > 1.0).any(axis=1) & valid)[0]
+        if over.size:  # both are upper bounds: where the row form is above the limit, take the tighter
+            finer = ctx.sampled(lambda samples: self.ratios(samples, ctx.robot), over, REFINE_SUBDIVISIONS)
+            bound[over] = np.minimum(bound[over], finer)
+        return bound
 
     def column_name(self, j: int, joint_names: tuple[str, ...] | None) -> str:
         """What column j is, in messages."""

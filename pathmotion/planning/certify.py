@@ -1,0 +1,232 @@
+"""Certified verification: an upper bound of every limit's ratio on every grid interval, at a cost
+that grows with the grid, not with the motion's duration (the dense 0.1 ms resample of verify.py
+does; it stays as the independent check and as ``verify = "dense"``).
+
+On grid interval i (width h) the profile is analytic: theta_ddot = u_i constant, x = theta_dot^2
+linear in theta, x' = 2 u_i. Each limit bounds itself (:meth:`Limit.certify`) by one of two means.
+
+Row form (velocity, acceleration, torque, TCP speed; no path evaluation, no RNEA): the limited value
+is v = a(theta) u + b(theta) x + c(theta) with path coefficients a, b, c known at the grid points
+(for a speed limit the squared ratio, v = G x with G = (gain / limit)^2). v is exact at both ends
+of the interval (the planner's grid data, each end seen from inside the interval), and between them
+|v| <= max(|v(theta_i)|, |v(theta_i+1)|) + h^2 / 8 max |v''| (the error of linear interpolation),
+v'' = a'' u + b'' x + 4 b' u + c''. The coefficients' derivatives come from the grid data: the slope
+s = (p_i+1 - p_i) / h equals p' somewhere in the interval; a second divided difference D at grid
+point k equals p'' somewhere in the two intervals around k (never taken across a segment
+connection). max |p''| on an interval is REMAINDER_SAFETY x the largest |D| at the four grid points
+around it, and |b'| <= |s| + h max |b''|.
+
+Safety argument: a, b, c are smooth functions of theta that vary on the scale of the path's segments
+and spline spans, not of one grid interval, so p'' changes across four grid intervals by much less
+than itself, and the factor 2 covers a doubling. Where p'' is not continuous (a spline knot: Phi'''
+jumps, so Phi'' has a kink of slope jump J) inside the interval, the kink splits J / h between the
+two second differences at its ends, and h^2 / 8 x 2 (D_i + D_i+1) = J h / 4 is the largest
+interpolation error of such a kink (so the sum of those two also enters the maximum). An interval with no
+second difference on either side (a segment one interval long) is sampled instead.
+
+Sampled form (the base class's default, e.g. the torque-speed envelope): the limit's own ``ratios``
+at S + 1 points uniform in theta (both ends reuse the grid data, tau = alpha u + beta x + gamma; each
+interior point costs one path evaluation and one RNEA), plus REMAINDER_SAFETY x the largest second
+difference of the samples (widened by the third difference) / 8.
+
+tests/test_planning_certify.py checks both forms against the dense resample, interval by interval,
+on random splines and limit sets.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from ..joint_path import JointPath
+from ..robot import Robot, rnea
+from .profile import Profile
+from .trajectory import Samples
+
+#: Sub-intervals per grid interval of the sampled form: S + 1 samples (both ends included) [-].
+CERTIFY_SUBDIVISIONS = 4
+#: Sub-intervals of the sampled form where the row form's bound is above the limit (few intervals) [-].
+REFINE_SUBDIVISIONS = 16
+#: Factor on the estimated second derivatives in the remainder terms [-].
+REMAINDER_SAFETY = 2.0
+
+
+@dataclass(frozen=True, eq=False)
+class IntervalSamples:
+    """Samples at S + 1 points of each grid interval in ``index`` (I,), flattened row-major:
+    ``samples`` has N = I (S + 1) rows; :meth:`per_interval` reshapes (N, m) to (I, S + 1, m)."""
+
+    samples: Samples
+    index: np.ndarray
+    points: int
+
+    @property
+    def intervals(self) -> int:
+        return len(self.index)
+
+    def per_interval(self, values: np.ndarray) -> np.ndarray:
+        return np.asarray(values).reshape(self.intervals, self.points, -1)
+
+
+@dataclass(eq=False)
+class CertifyContext:
+    """What a limit certifies itself from: the ``profile`` (its grid has K points), the grid data
+    ``right``/``left`` (PathPoints on that grid, seen from the interval after / before each point),
+    ``breaks`` (indices of segment connections on the grid), the path and the robot. ``only``:
+    restrict the sampled form to these intervals (None: all)."""
+
+    path: JointPath
+    robot: Robot | None
+    profile: Profile
+    right: object
+    left: object
+    breaks: tuple[int, ...]
+    needs_torque: bool
+    _samples: dict = field(default_factory=dict)
+
+    @property
+    def h(self) -> np.ndarray:
+        return np.diff(self.profile.grid)
+
+    def samples(self, index: np.ndarray | None = None, subdivisions: int = CERTIFY_SUBDIVISIONS) -> IntervalSamples:
+        """Interval samples (sampled form) on the intervals ``index`` (all when None), computed once."""
+        k1 = len(self.profile.grid) - 1
+        index = np.arange(k1) if index is None else np.asarray(index, int)
+        key = (index.tobytes(), subdivisions)
+        if key not in self._samples:
+            self._samples[key] = interval_samples(self, index, subdivisions)
+        return self._samples[key]
+
+    def sampled(self, ratios, index: np.ndarray | None = None, subdivisions: int = CERTIFY_SUBDIVISIONS) -> np.ndarray:
+        """Sampled-form bound (I, m) of ``ratios(samples)`` on the intervals ``index``."""
+        cs = self.samples(index, subdivisions)
+        return sampled_bound(cs.per_interval(ratios(cs.samples)))
+
+    @cached_property
+    def smooth_point(self) -> np.ndarray:
+        """(K,) True where the path is smooth through the grid point (not a segment connection or an end)."""
+        ok = np.ones(len(self.profile.grid), dtype=bool)
+        ok[[0, -1]] = False
+        ok[list(self.breaks)] = False
+        return ok
+
+    def row_bound(self, a, b, c) -> tuple[np.ndarray, np.ndarray]:
+        """Row-form bound (K - 1, m) of |a u + b x + c| on every interval, and a mask (K - 1,) of the
+        intervals it holds on (the rest need the sampled form). a, b, c: (right, left) pairs of (K, m)
+        arrays of the coefficient at the grid points, or None for 0."""
+        p = self.profile
+        h = self.h[:, None]
+        u = p.u[:, None]
+        x0, x1 = p.x[:-1, None], p.x[1:, None]
+        ends = [0.0, 0.0]
+        bend = 0.0
+        valid = np.ones(len(h), dtype=bool)
+        for coeff, w0, w1, kind in ((a, u, u, "a"), (b, x0, x1, "b"), (c, 1.0, 1.0, "c")):
+            if coeff is None:
+                continue
+            pr, pl = coeff
+            ends[0] = ends[0] + pr[:-1] * w0
+            ends[1] = ends[1] + pl[1:] * w1
+            slope = (pl[1:] - pr[:-1]) / h
+            m2, ok = self._second_derivative(slope)
+            valid &= ok
+            if kind == "a":
+                bend = bend + m2 * np.abs(u)
+            elif kind == "b":
+                bend = bend + m2 * np.maximum(x0, x1) + 4.0 * (np.abs(slope) + h * m2) * np.abs(u)
+            else:
+                bend = bend + m2
+        top = np.maximum(np.abs(ends[0]), np.abs(ends[1]))
+        return top + h**2 / 8.0 * bend, valid
+
+    def _second_derivative(self, slope: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """REMAINDER_SAFETY x max |D| over the grid points i - 1 .. i + 2 of each interval i (K - 1, m),
+        from the interval slopes (K - 1, m); mask of the intervals with a D at point i or i + 1."""
+        h = self.h
+        k1 = len(h)
+        smooth = self.smooth_point
+        d = np.zeros((k1 + 3, slope.shape[1]))  # d[j + 1] = |D| at grid point j (0: none)
+        d[2:-2] = np.abs(slope[1:] - slope[:-1]) / (0.5 * (h[1:] + h[:-1]))[:, None]
+        d[1:-1][~smooth] = 0.0
+        m2 = np.maximum(np.maximum(d[0:k1], d[1:k1 + 1]), np.maximum(d[2:k1 + 2], d[3:k1 + 3]))
+        m2 = np.maximum(m2, d[1:k1 + 1] + d[2:k1 + 2])  # a kink inside the interval splits its D in two
+        return REMAINDER_SAFETY * m2, smooth[:-1] | smooth[1:]
+
+
+def interval_state(profile: Profile, i: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(theta_dot, theta_ddot, t) at s = theta - theta_i inside interval i (arrays of one shape);
+    interval-aware, so the end of interval i uses u_i (not the next interval's)."""
+    x0 = profile.x[i]
+    u = profile.u[i]
+    x = np.maximum(x0 + 2.0 * u * s, 0.0)
+    v0, v = np.sqrt(x0), np.sqrt(x)
+    den = v0 + v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dt = np.where(den > 0, 2.0 * s / np.where(den > 0, den, 1.0), 0.0)
+    return v, np.broadcast_to(u, np.shape(s)), profile.times[i] + dt
+
+
+def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int = CERTIFY_SUBDIVISIONS
+                     ) -> IntervalSamples:
+    """Samples at the S + 1 points of the intervals ``index`` of the profile's grid; the ends come from
+    the grid data ``ctx.right``/``ctx.left``, torques only when ``ctx.needs_torque`` (and a robot)."""
+    grid, path, robot = ctx.profile.grid, ctx.path, ctx.robot
+    k1, S, n = len(index), int(subdivisions), path.n
+    frac = np.arange(S + 1) / S
+    i = np.repeat(index, S + 1).reshape(k1, S + 1)
+    s = (grid[index + 1] - grid[index])[:, None] * frac[None, :]
+    theta = grid[index, None] + s
+    theta[:, -1] = grid[index + 1]
+    q, dq, ddq = (np.empty((k1, S + 1, n)) for _ in range(3))
+    r, l = ctx.right, ctx.left
+    for arr, pr, pl in ((q, r.q, l.q), (dq, r.dq, l.dq), (ddq, r.ddq, l.ddq)):
+        arr[:, 0], arr[:, -1] = pr[index], pl[index + 1]
+    if S > 1:
+        qi, dqi, ddqi = path.evaluate(theta[:, 1:-1].ravel())
+        q[:, 1:-1], dq[:, 1:-1], ddq[:, 1:-1] = (a.reshape(k1, S - 1, n) for a in (qi, dqi, ddqi))
+    theta_dot, theta_ddot, t = interval_state(ctx.profile, i, s)
+    qd = dq * theta_dot[..., None]
+    qdd = dq * theta_ddot[..., None] + ddq * (theta_dot**2)[..., None]
+    tau = None
+    if ctx.needs_torque and robot is not None:
+        tau = np.empty((k1, S + 1, n))
+        if S > 1:
+            tau[:, 1:-1] = rnea(robot, q[:, 1:-1].reshape(-1, n), qd[:, 1:-1].reshape(-1, n),
+                                qdd[:, 1:-1].reshape(-1, n)).reshape(k1, S - 1, n)
+        tau[:, 0] = _grid_torque(r, index, theta_ddot[:, 0], theta_dot[:, 0] ** 2)
+        tau[:, -1] = _grid_torque(l, index + 1, theta_ddot[:, -1], theta_dot[:, -1] ** 2)
+    flat = lambda a: None if a is None else a.reshape(k1 * (S + 1), *a.shape[2:])  # noqa: E731
+    samples = Samples(flat(t), flat(theta), flat(theta_dot), flat(np.array(theta_ddot)), flat(q), flat(qd),
+                      flat(qdd), flat(tau))
+    return IntervalSamples(samples, index, S + 1)
+
+
+def _grid_torque(points, index: np.ndarray, u: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """tau = alpha u + beta x + gamma at the grid points ``index`` from the cached reduced dynamics."""
+    from .limits.torque import reduced
+
+    alpha, beta, gamma = reduced(points)
+    return alpha[index] * u[:, None] + beta[index] * x[:, None] + gamma[index]
+
+
+def sampled_bound(values: np.ndarray) -> np.ndarray:
+    """Upper bound (I, m) of a function sampled at S + 1 uniform points per interval, ``values``
+    (I, S + 1, m): the largest sample plus the interpolation remainder (module docstring)."""
+    v = np.asarray(values, float)
+    top = v.max(axis=1)
+    if v.shape[1] < 3:
+        return top
+    with np.errstate(invalid="ignore"):
+        d2 = v[:, :-2] - 2.0 * v[:, 1:-1] + v[:, 2:]
+        curv = np.abs(d2).max(axis=1)
+        if d2.shape[1] >= 2:
+            curv = curv + np.abs(np.diff(d2, axis=1)).max(axis=1)
+    bound = top + REMAINDER_SAFETY * curv / 8.0
+    return np.where(np.isfinite(top), bound, top)
+
+
+def certify(ctx: CertifyContext, limits) -> dict:
+    """{name: (K - 1, m) certified upper bound of the ratio on every interval} per active limit."""
+    return {lim.name: lim.certify(ctx) for lim in limits}
