@@ -40,6 +40,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .. import defaults
 from ..joint_path import JointPath
 from ..robot import Robot, rnea
 from .profile import Profile
@@ -47,8 +48,11 @@ from .trajectory import Samples
 
 #: Sub-intervals per grid interval of the sampled form: S + 1 samples (both ends included) [-].
 CERTIFY_SUBDIVISIONS = 4
-#: Sub-intervals of the sampled form where the row form's bound is above the limit (few intervals) [-].
+#: Sub-intervals of the sampled form where the row form's bound exceeds REFINE_ABOVE (few intervals) [-].
 REFINE_SUBDIVISIONS = 16
+#: Row-form bounds above this ratio are refined by the sampled form: half the default limit tolerance,
+#: where the verify-and-tighten loop would start to tighten (below it no refinement pays) [-].
+REFINE_ABOVE = 1.0 + 0.5 * defaults.LIMIT_TOLERANCE
 #: Factor on the estimated second derivatives in the remainder terms [-].
 REMAINDER_SAFETY = 2.0
 

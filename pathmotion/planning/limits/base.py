@@ -28,7 +28,7 @@ import numpy as np
 from ...errors import ScenarioError
 from ...joint_path import JointPath
 from ...robot import Robot
-from ..certify import REFINE_SUBDIVISIONS
+from ..certify import REFINE_ABOVE, REFINE_SUBDIVISIONS
 from ..trajectory import Samples
 
 
@@ -205,7 +205,7 @@ class Limit:
         if not valid.all():
             idx = np.nonzero(~valid)[0]
             bound[idx] = ctx.sampled(lambda samples: self.ratios(samples, ctx.robot), idx)
-        over = np.nonzero((bound > 1.0).any(axis=1) & valid)[0]
+        over = np.nonzero((bound > REFINE_ABOVE).any(axis=1) & valid)[0]
         if over.size:  # both are upper bounds: where the row form is above the limit, take the tighter
             finer = ctx.sampled(lambda samples: self.ratios(samples, ctx.robot), over, REFINE_SUBDIVISIONS)
             bound[over] = np.minimum(bound[over], finer)
