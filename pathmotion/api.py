@@ -24,6 +24,7 @@ from .geometry import Arc, Circle, FixedOrientation, Line, TaskPath, max_deviati
 from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
+from .io.files import read_input
 from .io.scenario import Scenario, load_scenario, parse_scenario
 from .joint_path import JointPath, SplineJointPath
 from .constraint import lift
@@ -181,8 +182,8 @@ def build(scenario: Scenario, base_dir: str | Path = ".", text: str = "") -> Set
 
 def load(scenario_path: str | Path, overrides: dict[str, Any] | None = None) -> Setup:
     """Read, validate and build a scenario file (``overrides``: key path -> value)."""
-    scenario, base_dir = load_scenario(scenario_path, overrides)
-    return build(scenario, base_dir, Path(scenario_path).read_text())
+    text = read_input(scenario_path, "scenario")
+    return build(parse_scenario(text, str(scenario_path), overrides), Path(scenario_path).parent, text)
 
 
 def load_text(text: str, base_dir: str | Path = ".", overrides: dict[str, Any] | None = None,
@@ -336,8 +337,15 @@ def simulate_scenario(setup: Setup, result: PlanResult):
     """Closed-loop simulation of the planned motion with the scenario's controller and plant."""
     from .simulation import simulate
 
-    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller,
-                    simulation_settings(setup))
+    settings = simulation_settings(setup)
+    laps = settings.laps if setup.path.closed else 1
+    budget = settings.time_budget_factor * result.profile.duration * laps + settings.time_budget_margin
+    count = budget / settings.sample_time + 1
+    if count > defaults.MAX_TRAJECTORY_SAMPLES:  # the closed loop holds arrays of this many samples
+        raise ScenarioError(f"simulate.sample_time = {settings.sample_time:g} s: the {budget:.4g} s closed-loop run "
+                            f"would need {count:.3g} samples, more than {defaults.MAX_TRAJECTORY_SAMPLES:,} "
+                            "(defaults.MAX_TRAJECTORY_SAMPLES); raise the sample time (the controller's is 0.004 s)")
+    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
 
 
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import functools
 import json
+import logging
 import os
+import re
 from pathlib import Path
 from typing import List, Optional
 
@@ -25,6 +27,7 @@ app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="
                   help="Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation.")
 console = Console(stderr=False)
 err_console = Console(stderr=True)
+logger = logging.getLogger(__name__)
 
 
 def _fail(message: str, code: int = 1):
@@ -40,12 +43,20 @@ def guarded(fn):
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        import warnings
+
+        from .io.files import os_reason
+
         try:
-            return fn(*args, **kwargs)
+            with warnings.catch_warnings():  # NumPy RuntimeWarnings etc. go to the debug log, never the terminal
+                warnings.showwarning = _log_warning
+                return fn(*args, **kwargs)
         except typer.Exit:
             raise
         except PathmotionError as exc:
             _fail(str(exc))
+        except OSError as exc:  # a file or folder the run uses: name it and say why
+            _fail(f"{exc.filename or 'a file'}: {os_reason(exc)}")
         except KeyboardInterrupt:
             err_console.print("[yellow]interrupted[/]: finished files are complete, nothing half-written remains")
             raise typer.Exit(130)
@@ -56,6 +67,29 @@ def guarded(fn):
                   "(PATHMOTION_DEBUG=1 shows the traceback)", code=3)
 
     return wrapper
+
+
+def _log_warning(message, category, filename, lineno, file=None, line=None):
+    logger.debug("%s: %s (%s:%s)", category.__name__, message, filename, lineno)
+
+
+def _out(out: Path) -> Path:
+    """``--out`` checked before any work: a creatable, writable folder (else a one-line error, exit 1)."""
+    from .io.files import check_output_dir
+
+    return check_output_dir(out)
+
+
+_SCHEDULER = re.compile(r"^((tcp|tls|ws|wss|ucx)://)?([A-Za-z0-9_.\-]+|\[[0-9a-fA-F:]+\]):(\d{1,5})/?$")
+
+
+def _scheduler(address: Optional[str]) -> Optional[str]:
+    """``--scheduler`` checked before any work: [PROTOCOL://]HOST:PORT."""
+    match = None if address is None else _SCHEDULER.match(address)
+    if address is not None and (match is None or not 0 < int(match.group(4)) < 65536):
+        _fail(f"--scheduler {address[:80]!r} is not a Dask scheduler address; give tcp://HOST:PORT, "
+              "e.g. tcp://127.0.0.1:8786")
+    return address
 
 
 def _overrides(sets: Optional[List[str]]) -> dict:
@@ -266,16 +300,19 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     Example: [bold]pathmotion plan scenarios/circle_max.toml --out out/circle[/]
     """
     from . import api
+    from .io.atomic import output_lock, result_folder
 
-    with _progress() as progress:
+    out = _out(out)
+    with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
         setup = api.load(scenario, _with_verify(_overrides(set_), verify))
         progress.update(task, advance=1, description="plan: time-optimal profile")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="plan: writing")
-        summary = api.write_plan(setup, result, out)
-        if figures:
-            _plan_figures(out)
+        with result_folder(out) as folder:  # the folder is replaced as one unit
+            summary = api.write_plan(setup, result, folder)
+            if figures:
+                _plan_figures(folder)
         progress.update(task, advance=1)
     console.print(_summary_table(f"plan {setup.name} -> {out}", summary))
 
@@ -292,24 +329,27 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     Example: [bold]pathmotion simulate scenarios/corner_g2.toml --out out/g2[/]
     """
     from . import api
+    from .io.atomic import output_lock, result_folder
 
+    out = _out(out)
     overrides = _with_verify(_overrides(set_), verify)
     if controller:
         overrides["simulate.controller"] = controller
-    with _progress() as progress:
+    with output_lock(out), _progress() as progress:
         task = progress.add_task("simulate: load", total=4)
         setup = api.load(scenario, overrides)
         progress.update(task, advance=1, description="simulate: plan")
         result = api.plan_scenario(setup)
-        api.write_plan(setup, result, Path(out) / "plan")
-        if figures:
-            _plan_figures(Path(out) / "plan")
         progress.update(task, advance=1, description="simulate: closed loop")
         sim = api.simulate_scenario(setup, result)
         progress.update(task, advance=1, description="simulate: writing")
-        summary = api.write_simulation(setup, result, sim, out)
-        if figures:
-            _simulation_figures(out)
+        with result_folder(out) as folder:  # plan and simulation files replace the folder as one unit
+            api.write_plan(setup, result, folder / "plan")
+            if figures:
+                _plan_figures(folder / "plan")
+            summary = api.write_simulation(setup, result, sim, folder)
+            if figures:
+                _simulation_figures(folder)
         progress.update(task, advance=1)
     summary.pop("plan", None)
     console.print(_summary_table(f"simulate {setup.name} -> {out}", summary))
@@ -330,11 +370,13 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
     Example: [bold]pathmotion sweep scenarios/corner_transition.toml --set "path.blends[0].radius=0.02,0.04,0.06" --out out/rt[/]
     """
+    from .io.atomic import output_lock
     from .study import run_study_sweep
     from .study.sweep import parse_sets
 
+    out, scheduler = _out(out), _scheduler(scheduler)
     grid = parse_sets(set_)
-    with _progress() as progress:
+    with output_lock(out), _progress() as progress:  # (a sweep's folder resumes in place: no swap)
         task = progress.add_task("sweep", total=None)
 
         def on_result(done, total):
@@ -375,16 +417,19 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
     """
     from . import api
     from .io import schema
+    from .io.atomic import output_lock, result_folder
 
+    out = _out(out)
     names = api.DEMO_SCENARIOS
     rows = []
-    with _progress() as progress:
+    with output_lock(out), _progress() as progress:
         task = progress.add_task("demo", total=len(names))
         for name in names:
             progress.update(task, description=f"demo: {name}")
-            rows.append(api.run_shipped(name, out / name))
-            _plan_figures(out / name / "plan")
-            _simulation_figures(out / name)
+            with result_folder(out / name) as folder:  # each scenario's folder replaced as one unit
+                rows.append(api.run_shipped(name, folder))
+                _plan_figures(folder / "plan")
+                _simulation_figures(folder)
             progress.advance(task)
     table_path = api.write_demo_table(rows, out)
     table = Table(title=f"The thesis' experiments on the IRB140 ({table_path})", title_justify="left")

@@ -201,3 +201,21 @@ REPORT_MIN_FRAME_TIME = 0.04
 #: most this many times, until the duration changes by less than this fraction [-].
 RELINEARIZE_ITERATIONS = 12
 RELINEARIZE_TOLERANCE = 1e-5
+
+# --- Input files and output folders (pathmotion.io.files) ------------------------------------------
+#: Largest scenario or limits file (TOML) read [bytes]; real ones are a few kB.
+MAX_TOML_BYTES = 10_000_000
+#: Largest URDF read [bytes] (meshes are separate files; a detailed arm's URDF is well below 1 MB).
+MAX_URDF_BYTES = 50_000_000
+#: Largest result file (CSV, JSON) the report reads [bytes]: 2e6 samples of 40 columns.
+MAX_RESULT_BYTES = 2_000_000_000
+#: Deepest TOML nesting (arrays / inline tables) and most parts of one dotted key [-]; a scenario needs 4.
+MAX_TOML_DEPTH = 32
+#: Most <link> (and most <joint>) elements of a URDF [-]: arms have tens; each costs parse time and memory.
+MAX_URDF_LINKS = 1000
+#: Longest file name component and whole path accepted [bytes] (Linux NAME_MAX and PATH_MAX).
+MAX_NAME_BYTES = 255
+MAX_PATH_BYTES = 4095
+#: Largest controller gain [rad/s or 1/s] accepted from a scenario: far above any sample rate a
+#: controller can realise (4 ms: Nyquist 785 rad/s), far below overflow of its LQR weights (w^4).
+MAX_GAIN = 1.0e4

@@ -51,6 +51,10 @@ class SimulationError(PathmotionError):
     """A closed-loop simulation could not be set up (not a tracking failure, which is a result)."""
 
 
+class OutputError(PathmotionError):
+    """An output folder or file cannot be written: not a folder, read-only, disk full, locked by another run."""
+
+
 def check_finite(name: str, value, where: str = "") -> None:
     """Raise a PathmotionError naming ``name`` (and ``where``) if ``value`` holds NaN or inf."""
     import numpy as np

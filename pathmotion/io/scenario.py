@@ -8,7 +8,6 @@ to write. Every error names the file, the key path and what is allowed, in one o
 from __future__ import annotations
 
 import math
-import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
@@ -17,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from .. import defaults
 from ..errors import ScenarioError
 from ..modes import BlendType, BoundaryMode, Connections, Controller, VerifyMode
+from .files import parse_toml, read_input
 
 Vec3 = tuple[float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
@@ -147,7 +147,7 @@ class PlanSpec(_Model):
 class RealismSpec(_Model):
     """Plant vs controller-model differences (all off by default); see pathmotion.simulation.Realism."""
 
-    seed: int = Field(0, description="seed of every random part")
+    seed: int = Field(0, ge=0, le=2**64 - 1, description="seed of every random part (0 .. 2^64 - 1)")
     inertia_error: float = Field(0.0, ge=0, lt=1, description="plant link mass/inertia error, e.g. 0.1 = 10 %")
     payload_mass: float = Field(0.0, ge=0, description="unmodelled payload at the flange [kg]")
     payload_com: Vec3 | None = Field(None, description="its centre of mass in the flange frame [m]")
@@ -167,7 +167,7 @@ class SimulateSpec(_Model):
                                                 "RK4) or mujoco (pip install \"pathmotion[mujoco]\")")
     laps: int = Field(1, ge=1, le=100, description="laps of a closed path")
     realism: RealismSpec = RealismSpec()
-    gains: dict[str, float] = Field({}, description="gains of the chosen controller overriding the defaults "
+    gains: dict[str, Annotated[float, Field(gt=0, le=defaults.MAX_GAIN)]] = Field({}, description="gains of the chosen controller overriding the defaults "
                                                     "(orbital: bandwidth, damping, speed_rate; others: bandwidth, damping)")
     failure_threshold: float = Field(defaults.TRACKING_FAILURE_THRESHOLD, gt=0, description="[rad]")
 
@@ -242,21 +242,13 @@ def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> 
     (e.g. ``{"path.blends[0].radius": 0.03}``) applied before validation. Returns the
     scenario and the folder relative paths in it refer to."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise ScenarioError(f"scenario file {path} does not exist") from None
-    except (IsADirectoryError, UnicodeDecodeError, PermissionError) as exc:
-        raise ScenarioError(f"scenario file {path} cannot be read: {exc}") from None
+    text = read_input(path, "scenario")
     return parse_scenario(text, str(path), overrides), path.parent
 
 
 def parse_scenario(text: str, where: str = "scenario", overrides: dict[str, Any] | None = None) -> Scenario:
     """Validate scenario TOML text (``where`` names it in errors), with key-path overrides."""
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{where}: not valid TOML: {exc}") from None
+    doc = parse_toml(text, where)
     for key, value in (overrides or {}).items():
         set_key(doc, key, value, where=where)
     return scenario_from_dict(doc, where=where)
@@ -315,10 +307,7 @@ def parse_value(text: str):
             raise ScenarioError(f"value {text!r} is not a finite number")
         return v
     if t[:1] in ("[", "{"):
-        try:
-            return tomllib.loads(f"v = {t}")["v"]
-        except tomllib.TOMLDecodeError as exc:
-            raise ScenarioError(f"value {text!r} is not a valid TOML array or table: {exc}") from None
+        return parse_toml(f"v = {t}", f"value {text[:60]!r}")["v"]
     return t
 
 

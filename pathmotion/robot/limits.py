@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import RobotModelError
+from ..io.files import parse_toml, read_input
 
 _KEYS = ("lower", "upper", "velocity", "acceleration", "torque")
 
@@ -71,14 +71,7 @@ def limits_from_toml(path: str | Path, joint_names: tuple[str, ...]) -> JointLim
     """Read a limits file (``[[joints]]`` tables with name, lower, upper, velocity, torque and
     optional acceleration and armature) and order it as ``joint_names``."""
     path = Path(path)
-    try:
-        doc = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise RobotModelError(f"limits file {path} does not exist") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise RobotModelError(f"limits file {path} cannot be read ({exc.__class__.__name__}); give a TOML file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise RobotModelError(f"limits file {path} is not valid TOML: {exc}") from None
+    doc = parse_toml(read_input(path, "limits"), f"limits file {path}", RobotModelError)
     return limits_from_dict(doc, joint_names, where=str(path))
 
 
@@ -111,7 +104,11 @@ def limits_from_dict(doc: dict, joint_names: tuple[str, ...], where: str = "limi
             if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
                 raise RobotModelError(f"{where}: joint '{name}' {key} = {v!r} is not a number")
             values[key].append(v)
-        sources[name] = dict(j.get("sources", {}))
+        src = j.get("sources", {})
+        if not isinstance(src, dict) or not all(isinstance(v, str) for v in src.values()):
+            raise RobotModelError(f"{where}: joint '{name}' sources = {src!r:.60}: give a table of quantity = "
+                                  "\"where it comes from\", e.g. sources = { velocity = \"datasheet\" }")
+        sources[name] = dict(src)
     for key in ("acceleration", "armature"):
         given = values[key]
         if any(a is None for a in given) and not all(a is None for a in given):

@@ -7,6 +7,8 @@ robots. It pickles (by its URDF text and parameters), so it can be shipped to wo
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import os
+import re
 from functools import cached_property
 from importlib import resources
 from xml.etree import ElementTree
@@ -17,6 +19,7 @@ import pinocchio as pin
 
 from .. import defaults
 from ..errors import RobotModelError, check_finite
+from ..io.files import captured_fd2, read_input
 from .limits import JointLimits, limits_from_model, limits_from_toml
 
 TCP_FRAME = "tcp"
@@ -181,11 +184,24 @@ def _replace(robot: Robot, **changes) -> Robot:
     return Robot(**kwargs)
 
 
+def _check_urdf_size(urdf_text: str, path: Path) -> None:
+    """RobotModelError when the URDF has more <link> or <joint> elements than defaults.MAX_URDF_LINKS,
+    counted on the text before any parser builds a tree of them."""
+    for tag in ("link", "joint"):
+        count = len(re.findall(rf"<{tag}[\s/>]", urdf_text))
+        if count > defaults.MAX_URDF_LINKS:
+            raise RobotModelError(f"URDF file {path} has {count:,} <{tag}> elements, more than "
+                                  f"{defaults.MAX_URDF_LINKS:,} (defaults.MAX_URDF_LINKS); give an arm's URDF")
+
+
 def _build_model(urdf_text: str, where: str) -> pin.Model:
-    try:
-        model = pin.buildModelFromXML(urdf_text)
+    try:  # urdfdom prints its own "Error:" lines on the C-level stderr: keep them for the message only
+        with captured_fd2() as parser_lines:
+            model = pin.buildModelFromXML(urdf_text)
     except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with parser text
-        raise RobotModelError(f"URDF of {where} cannot be parsed: {str(exc).strip().splitlines()[0]}") from None
+        said = [ln for ln in parser_lines if ln.lower().startswith("error")]
+        detail = (said[0] if said else str(exc).strip().splitlines()[0]).replace("\n", " ")
+        raise RobotModelError(f"URDF of {where} cannot be parsed: {detail}") from None
     if model.nq != model.nv:
         raise RobotModelError(
             f"URDF of {where}: only revolute/prismatic chains are supported (nq={model.nq}, nv={model.nv})"
@@ -317,15 +333,14 @@ def load_robot(
         name = display
     else:
         path = Path(name_or_urdf)
-        if not path.is_file():
+        plain = "\0" not in str(path) and len(os.fsencode(str(path))) <= defaults.MAX_PATH_BYTES
+        if plain and (not os.path.lexists(path) or os.path.isdir(path)):  # else read_input names the problem
             raise RobotModelError(
                 f"robot '{name_or_urdf}' is neither a built-in robot ({', '.join(builtin_robot_names())}) "
                 "nor an existing URDF file"
             )
-        try:
-            urdf_text = path.read_text()
-        except (OSError, UnicodeDecodeError) as exc:
-            raise RobotModelError(f"URDF file {path} cannot be read ({type(exc).__name__}: {exc})") from None
+        urdf_text = read_input(path, "urdf")
+        _check_urdf_size(urdf_text, path)
         default_limits = None
         name = path.stem
     urdf_text = _check_urdf_limits(urdf_text, name, limits_given=limits is not None or default_limits is not None)

@@ -1,0 +1,210 @@
+"""One rule for every file pathmotion reads, and one for every folder it writes into.
+
+:func:`read_input` reads scenario, limits, URDF and result files: only regular files (no FIFO, device,
+terminal, folder, ``/proc`` or ``/sys`` file), at most a stated number of bytes (``defaults.MAX_*_BYTES``;
+it reads at most cap + 1 bytes and never trusts a size from ``stat``), UTF-8 text. :func:`parse_toml`
+bounds nesting depth and dotted-key depth before ``tomllib`` sees the text. :func:`check_output_dir` checks
+an output folder before any work. Every breach is a one-line PathmotionError naming the file and the limit.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import re
+import stat
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+from .. import defaults
+from ..errors import OutputError, PathmotionError, RobotModelError, ScenarioError
+
+#: kind -> (what it is called in messages, name of its byte cap in defaults, error class)
+KINDS = {
+    "scenario": ("scenario file", "MAX_TOML_BYTES", ScenarioError),
+    "limits": ("limits file", "MAX_TOML_BYTES", RobotModelError),
+    "urdf": ("URDF file", "MAX_URDF_BYTES", RobotModelError),
+    "result": ("result file", "MAX_RESULT_BYTES", PathmotionError),
+}
+#: Pseudo file systems whose "regular" files report no true size or never end.
+_PSEUDO = ("/proc", "/sys", "/dev")
+
+_REASONS = {
+    errno.ENOSPC: "the disk is full; free space or choose another folder",
+    errno.EDQUOT: "the disk quota is exhausted; free space or choose another folder",
+    errno.EROFS: "the file system is read-only; choose another folder",
+    errno.EACCES: "permission denied; choose a folder you may write to",
+    errno.EPERM: "operation not permitted; choose a folder you may write to",
+    errno.ENOTDIR: "a part of the path is a file, not a folder",
+    errno.EISDIR: "a folder has that name; remove or rename it",
+    errno.ENAMETOOLONG: "the name is too long; choose a shorter path",
+    errno.ELOOP: "too many levels of symbolic links (a symlink loop)",
+    errno.ENOENT: "it does not exist",
+    errno.EEXIST: "it already exists",
+    errno.ENXIO: "it is not a regular file (no reader/device behind it)",
+}
+
+
+def os_reason(exc: OSError) -> str:
+    """A short reason for an OSError: its meaning and what to change ('disk full', 'read-only', ...)."""
+    return _REASONS.get(exc.errno, exc.strerror or type(exc).__name__)
+
+
+def _is_pseudo(path: Path) -> bool:
+    try:
+        real = os.path.realpath(path)
+    except (OSError, ValueError):
+        return False
+    return any(real == p or real.startswith(p + "/") for p in _PSEUDO)
+
+
+def _check_name(path: str, what: str, error: type) -> None:
+    if "\0" in path:
+        raise error(f"{what} {path!r} contains a NUL byte; give a plain file name")
+    if len(os.fsencode(path)) > defaults.MAX_PATH_BYTES or any(
+            len(os.fsencode(part)) > defaults.MAX_NAME_BYTES for part in Path(path).parts):
+        raise error(f"{what} {path[:60]}... is too long (more than {defaults.MAX_NAME_BYTES} bytes per name or "
+                    f"{defaults.MAX_PATH_BYTES} in all); give a shorter path")
+
+
+def read_input_bytes(path: str | Path, kind: str) -> bytes:
+    """The bytes of a regular file of ``kind`` (see KINDS), at most its cap; an error naming the file
+    and the limit otherwise (missing, not a regular file, special file, too large, unreadable)."""
+    what, cap_name, error = KINDS[kind]
+    cap = getattr(defaults, cap_name)
+    name = os.fspath(path)
+    _check_name(name, what, error)
+    if _is_pseudo(Path(name)):
+        raise error(f"{what} {name} is in /proc, /sys or /dev, not a regular file; give a file")
+    try:  # O_NONBLOCK: opening a FIFO with no writer must not hang; O_NOCTTY: a tty never becomes ours
+        fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY | getattr(os, "O_CLOEXEC", 0))
+    except OSError as exc:
+        if exc.errno == errno.ENOENT:
+            raise error(f"{what} {name} does not exist") from None
+        raise error(f"{what} {name} cannot be read: {os_reason(exc)}") from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise error(f"{what} {name} is a folder; give a file")
+        if not stat.S_ISREG(mode):
+            raise error(f"{what} {name} is not a regular file (a FIFO, device or socket); give a file")
+        chunks, total = [], 0
+        while total <= cap:
+            chunk = os.read(fd, min(1 << 20, cap + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+        if total > cap:
+            raise error(f"{what} {name} is larger than {cap:,} bytes (defaults.{cap_name}); give a smaller file")
+        return b"".join(chunks)
+    except OSError as exc:
+        raise error(f"{what} {name} cannot be read: {os_reason(exc)}") from None
+    finally:
+        os.close(fd)
+
+
+def read_input(path: str | Path, kind: str) -> str:
+    """:func:`read_input_bytes` decoded as UTF-8 (an error naming the file when it is not)."""
+    data = read_input_bytes(path, kind)
+    what, _, error = KINDS[kind]
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise error(f"{what} {os.fspath(path)} cannot be read: not UTF-8 text (byte {exc.start}); "
+                    "save it as UTF-8") from None
+
+
+# ------------------------------------------------------------------------------------------ TOML
+_STRINGS = re.compile(r'"""(?:[^"\\]|\\[\s\S]|"(?!""))*"{3,5}|\'\'\'[\s\S]*?\'{3,5}|"(?:[^"\\\n]|\\.)*"'
+                      r"|'[^'\n]*'|#[^\n]*")
+_KEY_BREAK = re.compile(r"[=,\n\[\]{}]")
+
+
+def toml_depth(text: str) -> tuple[int, int]:
+    """(deepest nesting of arrays and inline tables, most parts of one dotted key) of TOML text,
+    counted outside strings and comments in linear time (an upper bound: a float adds a key part)."""
+    import numpy as np
+
+    bare = _STRINGS.sub("s", text)
+    marks = np.frombuffer(re.sub(r"[^\[\]{}]", "", bare).encode("ascii"), dtype=np.uint8)
+    step = np.where((marks == ord("[")) | (marks == ord("{")), 1, -1)
+    nesting = int(np.cumsum(step).max()) if step.size else 0
+    keys = max((part.count(".") for part in _KEY_BREAK.split(bare)), default=0) + 1
+    return nesting, keys
+
+
+def parse_toml(text: str, where: str, error: type = ScenarioError) -> dict:
+    """``tomllib.loads`` with the depth limits checked first (defaults.MAX_TOML_DEPTH)."""
+    import tomllib
+
+    nesting, keys = toml_depth(text)
+    limit = defaults.MAX_TOML_DEPTH
+    if nesting > limit:
+        raise error(f"{where}: arrays or inline tables nested {nesting} deep, more than {limit} "
+                    "(defaults.MAX_TOML_DEPTH); flatten the document")
+    if keys > limit:
+        raise error(f"{where}: a dotted key of {keys} parts, more than {limit} (defaults.MAX_TOML_DEPTH); "
+                    "use shorter key paths")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{where}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise error(f"{where}: nested too deeply to parse (defaults.MAX_TOML_DEPTH); flatten the document") from None
+
+
+# ------------------------------------------------------------------------------------- outputs
+def check_output_dir(out: str | Path) -> Path:
+    """Check, before any work, that ``out`` is (or can be created as) a writable folder: not a file, not
+    under a file, not in /proc, /sys or /dev, not too long, on a writable file system. Creates nothing."""
+    name = os.fspath(out)
+    _check_name(name, "output folder", OutputError)
+    path = Path(name)
+    if len(os.fsencode(path.name)) > defaults.MAX_NAME_BYTES - 40:  # room for the temporary sibling's name
+        raise OutputError(f"output folder {name[:60]}...: its name is too long (more than "
+                          f"{defaults.MAX_NAME_BYTES - 40} bytes); give a shorter name")
+    if _is_pseudo(path.absolute()):
+        raise OutputError(f"output folder {name} is in /proc, /sys or /dev; choose a folder on a disk")
+    if path.exists() and not path.is_dir():
+        raise OutputError(f"output folder {name} is a file, not a folder; choose another --out")
+    ancestor = path.absolute().parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise OutputError(f"output folder {name} lies under {ancestor}, which is a file; choose another --out")
+    try:  # the only sure test of writability (root ignores permission bits, a read-only mount does not)
+        os.rmdir(tempfile.mkdtemp(prefix=".pathmotion-probe-", dir=ancestor))
+    except OSError as exc:
+        raise OutputError(f"output folder {name} cannot be created in {ancestor}: {os_reason(exc)}") from None
+    return path
+
+
+def output_error(exc: OSError, path: str | Path | None = None) -> OutputError:
+    """An OutputError naming the file (``path``, else the error's own) and the reason."""
+    name = os.fspath(path) if path is not None else (exc.filename or "an output file")
+    return OutputError(f"cannot write {name}: {os_reason(exc)}")
+
+
+@contextmanager
+def captured_fd2():
+    """Redirect the C-level stderr (file descriptor 2) into a temporary file while the block runs; yields
+    a list that holds the captured text lines afterwards (C libraries such as urdfdom print there)."""
+    import sys
+
+    lines: list[str] = []
+    try:
+        sys.stderr.flush()
+    except (AttributeError, ValueError, OSError):
+        pass
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield lines
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            lines.extend(ln.strip() for ln in tmp.read(1 << 16).decode("utf-8", "replace").splitlines() if ln.strip())
