@@ -117,9 +117,13 @@ def read_input(path: str | Path, kind: str) -> str:
 
 
 # ------------------------------------------------------------------------------------------ TOML
-_STRINGS = re.compile(r'"""(?:[^"\\]|\\[\s\S]|"(?!""))*"{3,5}|\'\'\'[\s\S]*?\'{3,5}|"(?:[^"\\\n]|\\.)*"'
-                      r"|'[^'\n]*'|#[^\n]*")
-_KEY_BREAK = re.compile(r"[=,\n\[\]{}]")
+# Strings and comments; each alternative, once started, always matches (an unterminated string runs to the
+# end of its line or of the text) and its loops are possessive, so the scan never backtracks: linear time.
+_STRINGS = re.compile(r'"""(?:[^"\\]|\\[\s\S]?|"(?!""))*+(?:"{3,5}|\Z)'
+                      r"|'''(?:[^']|'(?!''))*+(?:'{3,5}|\Z)"
+                      r'|"(?:[^"\\\n]|\\.?)*+(?:"|$)'
+                      r"|'[^'\n]*+(?:'|$)"
+                      r"|#[^\n]*+", re.M)
 
 
 def toml_depth(text: str) -> tuple[int, int]:
@@ -127,11 +131,15 @@ def toml_depth(text: str) -> tuple[int, int]:
     counted outside strings and comments in linear time (an upper bound: a float adds a key part)."""
     import numpy as np
 
-    bare = _STRINGS.sub("s", text)
-    marks = np.frombuffer(re.sub(r"[^\[\]{}]", "", bare).encode("ascii"), dtype=np.uint8)
-    step = np.where((marks == ord("[")) | (marks == ord("{")), 1, -1)
-    nesting = int(np.cumsum(step).max()) if step.size else 0
-    keys = max((part.count(".") for part in _KEY_BREAK.split(bare)), default=0) + 1
+    bare = np.frombuffer(_STRINGS.sub("s", text).encode("utf-8", "replace"), dtype=np.uint8)
+    if not bare.size:
+        return 0, 1
+    step = np.isin(bare, np.frombuffer(b"[{", np.uint8)).astype(np.int64)
+    step -= np.isin(bare, np.frombuffer(b"]}", np.uint8))
+    nesting = max(int(np.cumsum(step).max()), 0)
+    dots = np.concatenate(([0], np.cumsum(bare == ord("."))))
+    breaks = np.concatenate(([0], np.flatnonzero(np.isin(bare, np.frombuffer(b"=,\n[]{}", np.uint8))), [bare.size]))
+    keys = int(np.diff(dots[breaks]).max()) + 1  # dots between consecutive breaks
     return nesting, keys
 
 

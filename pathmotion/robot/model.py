@@ -200,7 +200,8 @@ def _build_model(urdf_text: str, where: str) -> pin.Model:
             model = pin.buildModelFromXML(urdf_text)
     except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with parser text
         said = [ln for ln in parser_lines if ln.lower().startswith("error")]
-        detail = (said[0] if said else str(exc).strip().splitlines()[0]).replace("\n", " ")
+        detail = said[0] if said else (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        detail = " ".join(re.sub(r"^error:\s*", "", detail, flags=re.I).split())
         raise RobotModelError(f"URDF of {where} cannot be parsed: {detail}") from None
     if model.nq != model.nv:
         raise RobotModelError(
