@@ -12,6 +12,7 @@ Each CLI subcommand is a few lines over these functions::
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -65,7 +66,8 @@ def build_robot(scenario: Scenario, base_dir: Path) -> Robot:
     spec = scenario.robot
     name = spec.name
     if name.lower() not in builtin_robot_names():
-        name = str((base_dir / name).resolve())  # a URDF path, relative to the scenario file
+        name = os.path.abspath(base_dir / name)  # a URDF path, relative to the scenario file (not resolved:
+        # a symlink loop must reach read_input, which names it)
     limits = None if spec.limits is None else str(base_dir / spec.limits)
     robot = load_robot(name, limits,
                        payload=Payload(spec.payload.mass, spec.payload.com, spec.payload.inertia),
