@@ -148,5 +148,5 @@ def test_run_point_records_errors():
 
 
 def test_unreadable_scenario(tmp_path):
-    with pytest.raises(ScenarioError, match="cannot be read"):
+    with pytest.raises(ScenarioError, match=r"missing.toml does not exist"):
         run_study_sweep(tmp_path / "missing.toml", {GRID: [300]}, tmp_path / "o")

@@ -78,7 +78,9 @@ def read_json(path: str | Path, default=None):
     if not path.is_file():
         return default
     try:
-        return json.loads(path.read_text())
+        from ..io.files import read_input
+
+        return json.loads(read_input(path, "result"))
     except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise PathmotionError(f"report: cannot read {path}: {exc}; re-run the command that wrote it") from None
 

@@ -194,11 +194,10 @@ def _csv_cell(v) -> str:
 # ----------------------------------------------------------------------------------- running
 def read_scenario(scenario_path: str | Path) -> tuple[str, str]:
     """(TOML text, absolute folder of the file) of a scenario, or a ScenarioError."""
+    from ..io.files import read_input
+
     scenario_path = Path(scenario_path)
-    try:
-        text = scenario_path.read_text()
-    except OSError as exc:
-        raise ScenarioError(f"scenario file {scenario_path} cannot be read: {exc}") from None
+    text = read_input(scenario_path, "scenario")
     return text, str(scenario_path.resolve().parent)
 
 
