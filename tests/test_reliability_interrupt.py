@@ -103,17 +103,17 @@ def signal_when(proc: subprocess.Popen, sig: int, marker, limit_s: float = 300.0
 #: (no timing): an atomic write has begun (the first temporary file); the new trajectory.csv is in place
 #: while the rest is still the previous run's; a figure is being rendered into its temporary file.
 KILL_POINTS = {
-    "first write": lambda out, before: bool(tmp_files(out)),
+    "first write": lambda out, before: bool(tmp_files(out.parent)),  # (the run writes into a sibling folder)
     "new trajectory in place": lambda out, before: file_ids(out).get("trajectory.csv") != before["trajectory.csv"],
     "rendering a figure": lambda out, before: any(p.name.startswith((".joints.png", ".phase_plane.png"))
-                                                  for p in tmp_files(out)),
+                                                  for p in tmp_files(out.parent)),
 }
 
 
 def check_old_or_new(out: Path, before: dict[str, bytes]) -> None:
     """Every file is the previous complete version or a complete new one; no temporary file is left;
     a new summary.json describes a trajectory that is already complete (it is written after it)."""
-    assert not tmp_files(out), tmp_files(out)
+    assert not tmp_files(out.parent), tmp_files(out.parent)  # nor a temporary sibling folder
     for name, data in snapshot(out).items():
         if data != before.get(name):
             assert complete(out / name), name
