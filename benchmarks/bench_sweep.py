@@ -18,7 +18,7 @@ from pathmotion.study import run_study_sweep
 
 
 def _throughput(rows, wall: float) -> float:
-    simulated = sum(r["simulated_duration_s"] or 0.0 for r in rows if r["error"] is None)
+    simulated = sum(r["cycle_time_s"] or 0.0 for r in rows if r["error"] is None)
     return simulated / wall
 
 

@@ -321,7 +321,8 @@ def simulation_settings(setup: Setup):
     if rs.payload_com is not None:
         realism_kwargs["payload_com"] = rs.payload_com
     kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
-                  failure_threshold=sim.failure_threshold, laps=sim.laps, plant=sim.plant)
+                  path_tolerance=sim.path_tolerance, joint_tolerance=sim.joint_tolerance,
+                  saturation_limit=sim.saturation_limit, laps=sim.laps, plant=sim.plant)
     if sim.gains:
         cls, field = (OrbitalGains, "orbital_gains") if sim.controller == "orbital" else (
             TrackingGains, "computed_torque_gains" if sim.controller == "computed_torque" else "pd_gains")

@@ -47,8 +47,15 @@ ROTATION_TOLERANCE = 1e-6
 SINGULARITY_THRESHOLD = 1e-3
 #: Fitted (thesis) profile: margin below the optimum [-].
 FITTED_PROFILE_MARGIN = 0.05
-#: Closed-loop tracking failure threshold on joint deviation |q - Phi(theta)| [rad].
-TRACKING_FAILURE_THRESHOLD = 0.05
+#: Closed-loop verdict (ISO 9283 terms): the TCP must stay within this distance of the PLANNED path, and
+#: arrives when it is this close to the end point [m].
+PATH_TOLERANCE = 1e-3
+#: Closed-loop verdict: joint deviation |q - Phi(theta)| (max over joints) beyond which tracking has failed
+#: [rad]; a coarse backstop behind the path tolerance (0.05 rad is 25 mm at 0.5 m of reach).
+JOINT_TOLERANCE = 0.05
+#: Closed-loop verdict: longest stretch a joint torque may stay clipped at its limit [s]. 50 ms is about the
+#: settling time of the 40 rad/s loops: a saturation that long means the feedback has lost authority.
+SATURATION_LIMIT = 0.05
 #: Plant integration sub-steps per controller sample (RK4): 2 ms steps at the 4 ms sample time. With the
 #: drives' armature in the model, the IRB140's state after 1 s of a torque that moves the joints by 4 rad
 #: is within 1.3e-9 rad of a DOP853 reference at rtol 1e-10 (2.2e-8 rad with one step per sample).
@@ -150,9 +157,8 @@ PD_DAMPING = 1.0
 #: Closed-loop time budget: factor on the planned duration [-] plus a margin [s].
 TIME_BUDGET_FACTOR = 3.0
 TIME_BUDGET_MARGIN = 1.0
-#: Open paths: the robot has arrived when |q - Phi(theta_end)| (max over joints) is below this [rad];
-#: the simulation then runs SETTLE_TIME longer, holding the final configuration [s].
-ARRIVAL_TOLERANCE = 1e-3
+#: Open paths ending at rest: after the TCP has arrived within PATH_TOLERANCE of the end point, the
+#: simulation runs this much longer, holding the final configuration, to measure the settling [s].
 SETTLE_TIME = 0.1
 #: Divergence: a joint speed above this multiple of its velocity limit ends the run as diverged [-].
 DIVERGENCE_SPEED_FACTOR = 10.0

@@ -88,8 +88,9 @@ def test_simulate_writes_results_and_the_plan(tmp_path):
     code, text = run("simulate", scenario_path("corner_g2"), "--out", out, "--set", "plan.grid_points=400")
     assert code == 0, text
     summary = json.loads((out / "summary.json").read_text())
-    for key in ("planned_duration_s", "simulated_duration_s", "max_joint_deviation_rad", "rms_joint_deviation_rad",
-                "max_path_deviation_m", "max_sharp_deviation_m", "max_torque_ratio", "tracking_ok"):
+    for key in ("planned_duration_s", "cycle_time_s", "settle_time_s", "max_joint_deviation_rad", "rms_joint_deviation_rad",
+                "path_accuracy_m", "max_sharp_deviation_m", "max_torque_ratio", "max_commanded_torque_ratio",
+                "tracking_ok"):
         assert key in summary, key
     assert summary["tracking_ok"] is True
     assert summary["max_sharp_deviation_m"] <= 0.0051

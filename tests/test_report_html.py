@@ -30,8 +30,8 @@ CHROMIUM_ARGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-q
 #: limits, planned TCP path, arm), sweep (trade-off).
 SIMULATION_FIGURES, PLAN_FIGURES, SWEEP_FIGURES = 5, 4, 1
 
-SWEEP_HEADER = ("path.blends[0].radius,cycle_time_s,planned_duration_s,simulated_duration_s,tracking_ok,failure_reason,"
-                "max_sharp_deviation_m,mean_sharp_deviation_m,max_path_deviation_m,some_future_column,error")
+SWEEP_HEADER = ("path.blends[0].radius,cycle_time_s,planned_duration_s,settle_time_s,tracking_ok,failure_reason,"
+                "max_sharp_deviation_m,mean_sharp_deviation_m,path_accuracy_m,some_future_column,error")
 #: A handmade sweep: two competing points (both on the Pareto front), one dominated, one whose
 #: tracking failed (no cycle time), one error row.
 SWEEP_ROWS = (
@@ -173,7 +173,7 @@ def test_report_of_sweeps_alone_tolerates_other_tables(tmp_path):
     _write_sweep(tmp_path / "a_new", best_index=None)  # no best.json: the study's score chooses
     old = _touch(tmp_path / "b_old")  # an older table: simulated duration and path deviation, wall time
     (old / "sweep.csv").write_text(
-        "k.x,controller,simulated_duration_s,max_path_deviation_m,tracking_ok,wall_time_s,error\n"
+        "k.x,controller,simulated_duration_s,path_accuracy_m,tracking_ok,wall_time_s,error\n"
         "1,orbital,2.0,0.004,true,3.1,\n2,orbital,1.5,0.009,true,3.0,\n")
     (_touch(tmp_path / "c_empty") / "sweep.csv").write_text(SWEEP_HEADER + "\n")
     text = build_report(tmp_path).read_text()
@@ -280,7 +280,7 @@ def test_report_page_content(results, report):
     assert '<p class="failure">Tracking FAILED: joint deviation 0.31 rad above the threshold' in text
     assert text.count('class="failure"') == 1
     summary = json.loads((results / "g2" / "summary.json").read_text())
-    assert f"{summary['simulated_duration_s']:.4g}" in text
+    assert f"{summary['cycle_time_s']:.4g}" in text
     assert f"{1e3 * summary['max_sharp_deviation_m']:.4g}" in text  # in mm
     assert "PathError: a transition circle of radius 0.2 m does not fit" in text
 

@@ -77,8 +77,8 @@ def test_orbital_nominal_meets_the_thesis_accuracy(irb140, spline, profile, desi
     s = r.summary()
     assert s["tracking_ok"] and s["failure"] is None
     assert s["max_joint_deviation_rad"] <= THESIS_MAX_DEVIATION
-    assert abs(s["simulated_duration_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
-    assert s["max_path_deviation_m"] < 1e-4
+    assert abs(s["cycle_time_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
+    assert s["path_accuracy_m"] < 1e-4
     assert s["saturation_time_s"] == 0.0 and s["max_sharp_deviation_m"] is None
     assert np.all(np.diff(r.theta) >= -1e-9)  # theta never runs backwards
     assert r.theta[-1] == pytest.approx(1.0, abs=1e-3)
@@ -87,11 +87,21 @@ def test_orbital_nominal_meets_the_thesis_accuracy(irb140, spline, profile, desi
     assert np.allclose(r.tcp_desired, r.tcp, atol=1e-3)
 
 
-@pytest.mark.parametrize("controller", ["computed_torque", "pd_gravity"])
-def test_baselines_track_the_same_plan(irb140, spline, profile, controller):
-    s = simulate(irb140, spline, profile, controller).summary()
-    assert s["tracking_ok"]
-    assert s["max_joint_deviation_rad"] < (THESIS_MAX_DEVIATION if controller == "computed_torque" else 0.05)
+def test_baselines_track_the_same_plan(irb140, spline, profile):
+    s = simulate(irb140, spline, profile, "computed_torque").summary()
+    assert s["tracking_ok"] and s["max_joint_deviation_rad"] < THESIS_MAX_DEVIATION
+
+
+def test_pd_gravity_is_judged_by_the_tcp_path_tolerance(irb140, spline, profile):
+    """The decentralized PD lags by millimetres: outside the default 1 mm path tolerance, with the distance the
+    run measured; inside a tolerance above its path accuracy, with a cycle time."""
+    s = simulate(irb140, spline, profile, "pd_gravity").summary()
+    assert not s["tracking_ok"] and s["failure"]["reason"] == "path_tolerance", s["failure"]
+    assert s["failure"]["value"] == pytest.approx(s["path_accuracy_m"], rel=0.05) and s["path_accuracy_m"] > 1e-3
+    wide = SimulationSettings(path_tolerance=2 * s["path_accuracy_m"])
+    s2 = simulate(irb140, spline, profile, "pd_gravity", wide).summary()
+    assert s2["tracking_ok"] and s2["path_accuracy_m"] <= wide.path_tolerance
+    assert s2["max_joint_deviation_rad"] < 0.05 and s2["cycle_time_s"] is not None
 
 
 def test_tracking_is_the_same_at_2_4_8_16_ms(irb140, spline, profile, design):
@@ -103,7 +113,7 @@ def test_tracking_is_the_same_at_2_4_8_16_ms(irb140, spline, profile, design):
         r = simulate(irb140, spline, profile, "orbital", SimulationSettings(sample_time=ts), design=design)
         s = r.summary()
         assert s["tracking_ok"], ts
-        assert abs(s["simulated_duration_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
+        assert abs(s["cycle_time_s"] - s["planned_duration_s"]) <= 0.01 * s["planned_duration_s"]
         knots = np.array([1 / 3, 2 / 3])
         assert np.all(np.diff(r.theta) >= -1e-9)
         assert np.all([np.any(r.theta < k) and np.any(r.theta > k) for k in knots])
@@ -121,7 +131,7 @@ def test_closed_path_period_and_accuracy(irb140):
     orbital = results["orbital"]
     assert orbital["tracking_ok"]
     assert orbital["planned_duration_s"] == pytest.approx(1 / 1.2)
-    assert abs(orbital["simulated_duration_s"] - orbital["planned_duration_s"]) <= 0.01 * orbital["planned_duration_s"]
+    assert abs(orbital["cycle_time_s"] - orbital["planned_duration_s"]) <= 0.01 * orbital["planned_duration_s"]
     assert orbital["max_joint_deviation_rad"] <= THESIS_MAX_DEVIATION
     assert orbital["max_joint_deviation_rad"] < 0.1 * results["pd_gravity"]["max_joint_deviation_rad"]
 
@@ -135,7 +145,7 @@ def test_realistic_plant_orbital_beats_pd_gravity(irb140, spline, profile, desig
     assert res["orbital"]["tracking_ok"] and res["computed_torque"]["tracking_ok"]
     assert res["orbital"]["max_joint_deviation_rad"] < res["pd_gravity"]["max_joint_deviation_rad"]
     assert res["orbital"]["max_joint_deviation_rad"] < res["computed_torque"]["max_joint_deviation_rad"]
-    assert res["orbital"]["max_path_deviation_m"] < res["pd_gravity"]["max_path_deviation_m"]
+    assert res["orbital"]["path_accuracy_m"] < res["pd_gravity"]["path_accuracy_m"]
 
 
 def test_realism_is_deterministic(irb140, spline, profile, design):
@@ -159,8 +169,9 @@ def test_a_profile_far_too_fast_is_a_reported_failure(irb140, spline, profile):
         s = r.summary()
         assert not s["tracking_ok"], c
         assert s["failure"]["reason"] in FAILURE_REASONS
-        assert s["simulated_duration_s"] is None
-        assert s["max_torque_ratio"] > 1.0 and s["saturation_time_s"] > 0
+        assert s["cycle_time_s"] is None
+        assert s["max_commanded_torque_ratio"] > 1.0 and s["saturation_time_s"] > 0
+        assert s["max_torque_ratio"] <= 1.0  # applied: saturated at the limit
         assert 0.0 <= s["failure"]["theta"] <= 1.0 and s["failure"]["t"] <= r.t[-1] + 1e-12
 
 

@@ -173,12 +173,15 @@ def test_closed_loop_on_both_plants_gives_the_same_verdict(overrides):
     assert (builtin["plant"], mujoco["plant"]) == ("builtin", "mujoco")
     assert builtin["tracking_ok"] == mujoco["tracking_ok"]
     if builtin["tracking_ok"]:
-        a, b = builtin["simulated_duration_s"], mujoco["simulated_duration_s"]
+        a, b = builtin["cycle_time_s"], mujoco["cycle_time_s"]
         assert abs(a - b) <= 0.01 * a
     else:
         fb, fm = builtin["failure"], mujoco["failure"]
         assert fb["reason"] == fm["reason"]
-        assert abs(fb["theta"] - fm["theta"]) <= 0.01 * 2 * np.pi * 0.1  # 1 % of the circle's length [m]
+        if fb["reason"] == "path_tolerance":  # where a slow drift grazes the tolerance is not sharp: how far is
+            assert abs(fb["value"] - fm["value"]) <= 0.1 * fb["value"]
+        else:
+            assert abs(fb["theta"] - fm["theta"]) <= 0.01 * 2 * np.pi * 0.1  # 1 % of the circle's length [m]
     ratio = mujoco["max_joint_deviation_rad"] / builtin["max_joint_deviation_rad"]
     assert 0.5 < ratio < 2.0
     if not overrides:

@@ -50,8 +50,8 @@ def test_corner_study_small(tmp_path):
     assert stop["max_sharp_deviation_m"] < 1e-3          # no blend: on the sharp path
     # the thesis' failure: the velocity jump at the corner throws the TCP centimetres off the path (at the
     # default grid this trips the 0.05 rad failure threshold; on this coarse grid it stays just below)
-    assert boundary["max_path_deviation_m"] > 0.01
-    assert boundary["max_path_deviation_m"] > 100 * by[("transition", 0.04)]["max_path_deviation_m"]
+    assert boundary["path_accuracy_m"] > 0.01
+    assert boundary["path_accuracy_m"] > 100 * by[("transition", 0.04)]["path_accuracy_m"]
     g2 = by[("g2", 0.005)]
     matched = next(r for r in study.rows if r["case"] == "matched")
     assert g2["max_sharp_deviation_m"] <= 0.005 + 5e-4

@@ -15,7 +15,7 @@ T, E, D = "cycle_time_s", "mean_sharp_deviation_m", "max_sharp_deviation_m"
 
 def _row(t, e, d, ok=True, error=None, **params):
     return {**params, T: t, E: e, D: d, "tracking_ok": ok, "error": error, "planned_duration_s": t,
-            "max_path_deviation_m": 0.0}
+            "path_accuracy_m": 0.0}
 
 
 TABLE = [

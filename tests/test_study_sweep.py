@@ -93,7 +93,7 @@ def test_resume_failure_and_tables(tmp_path):
         assert r["error"] is None and r["tracking_ok"] is True and r["cycle_time_s"] > 0
         # the TCP leaves the sharp path by about the blend's own deviation, and tracks the blend closely
         assert r["max_sharp_deviation_m"] == pytest.approx(r["blend_max_deviation_m"], abs=1e-3)
-        assert r["max_path_deviation_m"] < 1e-3
+        assert r["path_accuracy_m"] < 1e-3
     # larger r_t: larger deviation, shorter cycle (the thesis' trade-off)
     assert rows[2]["max_sharp_deviation_m"] > rows[0]["max_sharp_deviation_m"]
     assert rows[2]["cycle_time_s"] < rows[0]["cycle_time_s"]

@@ -169,7 +169,12 @@ class SimulateSpec(_Model):
     realism: RealismSpec = RealismSpec()
     gains: dict[str, Annotated[float, Field(gt=0, le=defaults.MAX_GAIN)]] = Field({}, description="gains of the chosen controller overriding the defaults "
                                                     "(orbital: bandwidth, damping, speed_rate; others: bandwidth, damping)")
-    failure_threshold: float = Field(defaults.TRACKING_FAILURE_THRESHOLD, gt=0, description="[rad]")
+    path_tolerance: float = Field(defaults.PATH_TOLERANCE, gt=0,
+                                  description="largest TCP distance from the planned path [m]")
+    joint_tolerance: float = Field(defaults.JOINT_TOLERANCE, gt=0,
+                                   description="largest joint deviation from the path [rad]")
+    saturation_limit: float = Field(defaults.SATURATION_LIMIT, ge=0,
+                                    description="longest stretch a torque may stay saturated [s]")
 
 
 # ----------------------------------------------------------------------------------------- rapid

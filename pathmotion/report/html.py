@@ -35,8 +35,8 @@ PLOTLY_CONFIG = {"displaylogo": False, "responsive": True,
 PLAN_KEYS = schema.display(schema.PLAN)
 SIMULATION_KEYS = schema.display(schema.SIMULATION)
 #: Sweep columns: the time (first present) and the deviation (first present) of the trade-off plot.
-TIME_KEYS = schema.keys((schema.CYCLE_TIME, schema.SIMULATED_DURATION))
-DEVIATION_KEYS = schema.keys((schema.MAX_SHARP_DEVIATION, schema.MAX_PATH_DEVIATION))
+TIME_KEYS = schema.keys((schema.CYCLE_TIME, schema.LEGACY_SIMULATED_DURATION))
+DEVIATION_KEYS = schema.keys((schema.MAX_SHARP_DEVIATION, schema.PATH_ACCURACY))
 #: Sweep columns shown in the table of points (when present), with (label, unit, scale).
 SWEEP_COLUMNS = schema.display(schema.SWEEP_TABLE, short=True)
 
@@ -294,7 +294,7 @@ def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section
         parts.append(_arm(data, desired, anchor, "simulated motion"))
         count += 1
     row = _plan_summary_row(plan_summary)
-    row.update(simulated=summary.get(schema.SIMULATED_DURATION.key), path_dev=summary.get(schema.MAX_PATH_DEVIATION.key),
+    row.update(simulated=summary.get(schema.CYCLE_TIME.key), path_dev=summary.get(schema.PATH_ACCURACY.key),
                sharp_dev=summary.get(schema.MAX_SHARP_DEVIATION.key), tracking=summary.get(schema.TRACKING_OK.key))
     return Section(anchor, f"Simulation: {result.label(root)}", "".join(parts), count, row)
 
@@ -401,8 +401,8 @@ def _summary_from_row(row: dict | None) -> dict:
     if row is None:
         return {}
     return {"planned": row.get(schema.PLANNED_DURATION.key),
-            "simulated": row.get(schema.CYCLE_TIME.key, row.get(schema.SIMULATED_DURATION.key)),
-            "baseline": row.get(schema.BASELINE_DURATION.key), "path_dev": row.get(schema.MAX_PATH_DEVIATION.key),
+            "simulated": row.get(schema.CYCLE_TIME.key, row.get(schema.LEGACY_SIMULATED_DURATION.key)),
+            "baseline": row.get(schema.BASELINE_DURATION.key), "path_dev": row.get(schema.PATH_ACCURACY.key),
             "sharp_dev": row.get(schema.MAX_SHARP_DEVIATION.key),
             "tracking": row.get(schema.TRACKING_OK.key)}
 

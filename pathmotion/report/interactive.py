@@ -35,8 +35,8 @@ LEGENDS = {"top": dict(orientation="h", yanchor="bottom", y=1.02, x=0, xanchor="
            "right": dict(orientation="v", yanchor="top", y=1, x=1.01, xanchor="left"),
            "bottom": dict(orientation="h", yanchor="top", y=-0.14, x=0, xanchor="left")}
 #: Axis titles of sweep columns.
-AXIS_TITLES = {k.key: f"{k.label} [{k.unit}]" for k in (schema.MAX_SHARP_DEVIATION, schema.MAX_PATH_DEVIATION,
-                                                          schema.CYCLE_TIME, schema.SIMULATED_DURATION)}
+AXIS_TITLES = {k.key: f"{k.label} [{k.unit}]" for k in (schema.MAX_SHARP_DEVIATION, schema.PATH_ACCURACY,
+                                                          schema.CYCLE_TIME, schema.LEGACY_SIMULATED_DURATION)}
 
 
 def _layout(fig: go.Figure, title: str, height: int, legend: str = "top", **kwargs) -> go.Figure:

@@ -8,10 +8,12 @@ Per sample k (t_k = k Ts) the loop does four things:
 3. step: the plant integrates the sample with the torque held (:class:`PlantModel`);
 4. record.
 
-A run ends with a :class:`~.metrics.Failure` (divergence, leaving the path's theta range, a deviation past
-the threshold, the time budget ``time_budget_factor`` x planned duration + ``time_budget_margin``) or an
-arrival (the end of an open path, crossed or reached at rest, or ``laps`` turns of a closed path).
-Failures are results, not exceptions; a run always ends (the sample count is bounded by the budget).
+A run ends with a :class:`~.metrics.Failure` (divergence, leaving the path's theta range, the TCP outside the
+path tolerance, a joint deviation past the joint tolerance, a torque saturated too long, the time budget
+``time_budget_factor`` x planned duration + ``time_budget_margin``) or an arrival (the TCP at the end of an
+open path within the path tolerance, or crossing it, or ``laps`` turns of a closed path). Of several failures
+the one that started first is reported. Failures are results, not exceptions; a run always ends (the sample
+count is bounded by the budget).
 """
 
 from __future__ import annotations
@@ -27,9 +29,10 @@ from ..control import (CONTROLLER_NAMES, ComputedTorqueController, OrbitalContro
 from ..errors import SimulationError
 from ..joint_path import JointPath
 from ..planning.profile import Profile
-from ..robot import Robot
+from ..robot import Robot, fk
 from .end_rules import FLAT_SPEED2, Sample, end_rules
-from .metrics import Failure, SimulationResult, original_path_deviation, polish_projection, tcp_path_deviation
+from .metrics import (Failure, SimulationResult, polyline_distance_local, cornering_deviation, line_window,
+                      original_path_deviation, planned_tcp_line, polish_projection, tcp_path_deviation)
 from .monitor import monitor_state
 from .plant import PLANT_NAMES, make_plant, saturate
 from .realism import Realism, Sensor
@@ -40,10 +43,12 @@ DOMAIN_MATCH = 1e-9
 
 @dataclass(frozen=True)
 class SimulationSettings:
-    """sample_time [s]; substeps: RK4 steps per sample; realism; gains of the three controllers;
-    failure_threshold [rad]; time budget = time_budget_factor * planned + time_budget_margin [s];
-    laps (closed paths); table_points of the controller's path table; arrival_tolerance [rad] and
-    settle_time [s] (open paths); plant: "builtin" or "mujoco" (see :func:`.plant.make_plant`)."""
+    """sample_time [s]; substeps: RK4 steps per sample; realism; gains of the three controllers; the verdict:
+    path_tolerance [m] (TCP from the planned path, and from the end point for the arrival), joint_tolerance
+    [rad], saturation_limit [s] (longest saturated stretch); time budget = time_budget_factor * planned +
+    time_budget_margin [s]; laps (closed paths); table_points of the controller's path table; settle_time [s]
+    observed after the arrival (open paths ending at rest); plant: "builtin" or "mujoco" (see
+    :func:`.plant.make_plant`)."""
 
     sample_time: float = defaults.SAMPLE_TIME
     substeps: int = defaults.PLANT_SUBSTEPS
@@ -51,21 +56,22 @@ class SimulationSettings:
     orbital_gains: OrbitalGains = field(default_factory=OrbitalGains)
     computed_torque_gains: TrackingGains = field(default_factory=TrackingGains)
     pd_gains: TrackingGains = field(default_factory=default_pd_gains)
-    failure_threshold: float = defaults.TRACKING_FAILURE_THRESHOLD
+    path_tolerance: float = defaults.PATH_TOLERANCE
+    joint_tolerance: float = defaults.JOINT_TOLERANCE
+    saturation_limit: float = defaults.SATURATION_LIMIT
     time_budget_factor: float = defaults.TIME_BUDGET_FACTOR
     time_budget_margin: float = defaults.TIME_BUDGET_MARGIN
     laps: int = 1
     table_points: int = defaults.PATH_TABLE_POINTS
-    arrival_tolerance: float = defaults.ARRIVAL_TOLERANCE
     settle_time: float = defaults.SETTLE_TIME
     plant: str = defaults.PLANT
 
     def __post_init__(self):
-        for name in ("sample_time", "failure_threshold", "time_budget_factor", "arrival_tolerance"):
+        for name in ("sample_time", "path_tolerance", "joint_tolerance", "time_budget_factor"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise SimulationError(f"SimulationSettings.{name} = {v!r}; it must be a number > 0")
-        for name in ("time_budget_margin", "settle_time"):
+        for name in ("time_budget_margin", "settle_time", "saturation_limit"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
                 raise SimulationError(f"SimulationSettings.{name} = {v!r}; it must be a number >= 0")
@@ -128,50 +134,75 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     _check_inputs(robot, path, profile)
     ts, substeps = settings.sample_time, settings.substeps
     table = design.table if design is not None else PathTable.from_path(path, settings.table_points)
-    lo, hi = path.domain
     budget = settings.time_budget_factor * profile.duration * (settings.laps if path.closed else 1) \
         + settings.time_budget_margin
     control = _Command(make_controller(controller, robot, path, profile, table, settings, budget + ts, design),
                        Sensor(settings.realism), settings.realism.delay)
     plant = make_plant(settings.plant, robot, settings.realism) if plant is None else plant
-    phi0, dphi0, _ = path.evaluate(lo)
+    phi0, dphi0, _ = path.evaluate(path.domain[0])
     q, qd = np.array(phi0, dtype=float), np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
     plant.check_step(q, ts, substeps)
-    rules = end_rules(table, profile, path.evaluate(hi, side="left")[0], budget, settings)
-    monitor = _Monitor(table, np.asarray(robot.limits.velocity, float), ts)
+    line = planned_tcp_line(robot, path, table.grid)
+    rules = end_rules(table, profile, line, budget, settings)
+    monitor = _Monitor(table, robot, line, ts)
     rec = _Record(int(np.ceil(budget / ts)) + 1, robot.n)
-    failure, duration, keep = None, None, True
+    failure, arrival, keep, sample = None, _Arrived(), True, None
     k = 0
     for k in range(rec.count):
-        t = k * ts
         rec.q[k], rec.qd[k] = q, qd
-        sample = monitor.measure(k, t, q, qd, duration is not None)  # measure (the true state)
+        sample = monitor.measure(k, k * ts, q, qd, arrival.time is not None)  # measure (the true state)
         rec.theta[k] = sample.theta
         verdict = _first(rule.check(sample) for rule in rules)
         if isinstance(verdict, Failure):
             failure = verdict
             break
-        if verdict is not None:
-            duration = verdict.time if verdict.time is not None else duration
-            if verdict.stop:
-                keep = verdict.keep
-                break
-        cmd = control(t, q, qd)  # control
+        if verdict is not None and arrival.update(verdict):
+            keep = verdict.keep
+            break
+        cmd = control(sample.t, q, qd)  # control
         rec.cmd[k] = cmd
         finite, clipped = saturate(cmd, plant.torque_limit, rec.tau[k])
         failure = _first(rule.check_torque(sample, cmd, rec.tau[k], finite, clipped) for rule in rules)
         if failure is not None:
-            rec.cmd[k], rec.tau[k] = 0.0, 0.0
+            if not finite:
+                rec.cmd[k], rec.tau[k] = 0.0, 0.0
             break
         rec.saturated += clipped
         q, qd = plant.step(q, qd, rec.tau[k], ts, substeps)  # step
-    return _result(robot, path, profile, controller, settings, table, rec, k + keep,
-                   duration if failure is None else None, failure)
+    failure = _earliest([failure, *(rule.finish(sample) for rule in rules)])
+    return _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure)
 
 
 def _first(verdicts):
     """The first verdict that is not None (None if all are)."""
     return next((v for v in verdicts if v is not None), None)
+
+
+def _earliest(failures: list[Failure | None]) -> Failure | None:
+    """The failure that started first (the first listed on a tie); its message says how the run ended when
+    another failure ended it."""
+    found = [f for f in failures if f is not None]
+    if not found:
+        return None
+    first = min(found, key=lambda f: f.t)
+    if found[0] is not first and failures[0] is not None:
+        end = failures[0]
+        first = Failure(first.reason, first.t, first.theta, f"{first.message} (the run ended at t = {end.t:.4g} s: "
+                        f"{end.reason})", first.value, first.limit, first.unit)
+    return first
+
+
+class _Arrived:
+    """The cycle and settle times the arrival verdicts have set."""
+
+    def __init__(self):
+        self.time, self.settle = None, None
+
+    def update(self, verdict) -> bool:
+        """Take an Arrival's times; True when it ends the run."""
+        self.time = verdict.time if verdict.time is not None else self.time
+        self.settle = verdict.settle if verdict.settle is not None else self.settle
+        return verdict.stop
 
 
 class _Command:
@@ -188,14 +219,17 @@ class _Command:
 
 
 class _Monitor:
-    """Projection of the true state onto the path, sample after sample (:func:`.monitor.monitor_state`)."""
+    """Projection of the true state onto the path, sample after sample (:func:`.monitor.monitor_state`), and
+    the TCP's distance from the planned TCP path ``line`` (M, 3) on table.grid and from its end point."""
 
-    def __init__(self, table: PathTable, velocity_limit: np.ndarray, sample_time: float):
+    def __init__(self, table: PathTable, robot: Robot, line: np.ndarray, sample_time: float):
         self.table, self.path, self.projection = table, table.arrays, table.projection()
-        self.speed_limit = defaults.DIVERGENCE_SPEED_FACTOR * velocity_limit
+        self.speed_limit = defaults.DIVERGENCE_SPEED_FACTOR * np.asarray(robot.limits.velocity, float)
         self.speed_eps = FLAT_SPEED2 * table.speed2_scale
         self.sample_time = sample_time
         self.theta, self.theta_dot = table.domain[0], 0.0
+        self.robot, self.line, self.window = robot, line, line_window(len(table.grid))
+        self.end = None if table.closed else line[-1]
 
     def measure(self, k: int, t: float, q: np.ndarray, qd: np.ndarray, arrived: bool) -> Sample:
         previous = self.theta
@@ -203,7 +237,19 @@ class _Monitor:
         theta, theta_dot, dev, along, speed2, ok = monitor_state(self.path, q, qd, guess, self.projection,
                                                                  self.speed_limit, self.speed_eps)
         self.theta, self.theta_dot = theta, theta_dot
-        return Sample(k, t, theta, theta_dot, dev, along, speed2, ok, q, qd, previous, arrived)
+        distance, to_end = self.tcp(q, theta) if ok else (np.inf, np.inf)
+        return Sample(k, t, theta, theta_dot, dev, along, speed2, ok, q, qd, previous, arrived, distance, to_end)
+
+    def tcp(self, q: np.ndarray, theta: float) -> tuple[float, float]:
+        """Distance [m] of the TCP at q from the planned TCP path near theta, and from the end point."""
+        grid = self.table.grid
+        tcp = fk(self.robot, q)[0]
+        lo, hi = self.table.domain
+        th = lo + (theta - lo) % (hi - lo) if self.table.closed else min(max(theta, lo), hi)
+        centre = np.array([min(max(int(np.searchsorted(grid, th)) - 1, 0), len(grid) - 2)], dtype=np.int64)
+        dist = polyline_distance_local(tcp[None, :], self.line, centre, self.window, bool(self.table.closed))[0]
+        to_end = np.inf if self.end is None else float(np.linalg.norm(tcp - self.end))
+        return float(dist[0]), to_end
 
 
 class _Record:
@@ -225,22 +271,23 @@ class _Record:
         return self.q[:last], self.qd[:last], self.tau[:last], self.cmd[:last], self.theta[:last]
 
 
-def _result(robot, path, profile, controller, settings, table, rec: _Record, last: int, duration, failure
-            ) -> SimulationResult:
+def _result(robot, path, profile, controller, settings, table, line, rec: _Record, last: int, arrival: _Arrived,
+            failure) -> SimulationResult:
     q, qd, tau, cmd, theta = rec.trimmed(last)
     saturation = rec.saturated * settings.sample_time
     t = np.arange(len(q)) * settings.sample_time
     finite = np.all(np.isfinite(q), axis=1)
     q_ok, th_ok = q[finite], theta[finite]
     theta_p, q_des = polish_projection(path, q_ok, th_ok) if len(q_ok) else (th_ok, q_ok.copy())
-    points = len(table.grid)
-    tcp, tcp_des, path_dev = tcp_path_deviation(robot, path, q_ok, theta_p, points)
+    tcp, tcp_des, path_dev = tcp_path_deviation(robot, path, q_ok, theta_p, table.grid, line)
     corner = original_path_deviation(path, tcp)
+    ok = failure is None
     return SimulationResult(
         controller=controller, sample_time=settings.sample_time, closed=path.closed, t=t[finite], theta=theta_p,
         q=q_ok, qd=qd[finite], tau=tau[finite], tau_command=cmd[finite], q_desired=q_des, tcp=tcp,
         tcp_desired=tcp_des, joint_deviation=np.max(np.abs(q_ok - q_des), axis=1) if len(q_ok) else np.zeros(0),
         path_deviation=path_dev, corner_deviation=corner, torque_limit=np.asarray(robot.limits.torque, float),
-        planned_duration=profile.duration, simulated_duration=duration, saturation_time=float(saturation),
-        failure=failure,
+        planned_duration=profile.duration, cycle_time=arrival.time if ok else None, saturation_time=float(saturation),
+        failure=failure, settle_time=arrival.settle if ok else None, path_tolerance=settings.path_tolerance,
+        cornering_deviation=cornering_deviation(path, tcp, theta_p),
     )

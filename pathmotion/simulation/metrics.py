@@ -9,10 +9,13 @@ Deviations are measured from the path, not from a clock-indexed point:
   joint path carries ``task_path``, else FK(Phi(theta))), minimized over the path near the current
   theta: a polyline through 4x the controller table's points, so the figure is exact to the chord
   sag (segment length)^2 * curvature / 8, below a micrometre for the paths here;
+* path accuracy (ISO 9283's path accuracy): the largest TCP path deviation over the run [m];
 * sharp deviation: distance to the original sharp task path (``original_task_path``, when a blend
   replaced a corner), the exact closest point over all its segments (:func:`sharp_path_deviation`);
   None without one;
-* torque ratio: max over samples and joints of |tau_commanded| / tau_limit (before saturation);
+* cornering deviation: per sharp corner of the sharp path (the original task path, else the task path
+  itself), the largest TCP distance from that path among the samples whose nearest corner point it is;
+* torque ratios: max over samples and joints of |tau| / tau_limit, applied (saturated, <= 1) and commanded;
 * saturation time: number of samples in which any joint was clipped, times the sample time.
 """
 
@@ -26,21 +29,30 @@ import numpy as np
 from ..joint_path import JointPath
 from ..robot import Robot, fk
 
+#: Corner points closer than this to a TCP sample count as equally near (split by theta) [m].
+CORNER_TIE = 1e-6
 #: Failure reasons, in the order they are checked each sample.
-FAILURE_REASONS = ("diverged", "left_path_range", "deviation", "timeout")
+FAILURE_REASONS = ("diverged", "left_path_range", "path_tolerance", "joint_tolerance", "saturation", "timeout")
 
 
 @dataclass(frozen=True)
 class Failure:
-    """Why, when [s] and where (theta, unwrapped on closed paths) tracking failed."""
+    """Why, when [s] and where (theta, unwrapped on closed paths) tracking failed; how far: ``value`` against
+    ``limit``, both in ``unit`` (the TCP's largest distance [m], the joint deviation [rad], the saturated
+    stretch [s], the fraction of the path reached), None where it does not apply."""
 
     reason: str
     t: float
     theta: float
     message: str
+    value: float | None = None
+    limit: float | None = None
+    unit: str = ""
 
     def as_dict(self) -> dict:
-        return {"reason": self.reason, "t": float(self.t), "theta": float(self.theta), "message": self.message}
+        return {"reason": self.reason, "t": float(self.t), "theta": float(self.theta), "message": self.message,
+                "value": None if self.value is None else float(self.value),
+                "limit": None if self.limit is None else float(self.limit), "unit": self.unit}
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,8 +62,11 @@ class SimulationResult:
     theta (K,) projection of the true q on the path; q, qd (K, n); tau (K, n) applied (saturated) and
     tau_command (K, n) as commanded [N m]; q_desired (K, n) = Phi(theta); tcp, tcp_desired (K, 3) [m];
     joint_deviation (K,) = max_j |q - Phi(theta)|; path_deviation (K,) [m]; corner_deviation (K,) [m]
-    the distance from the original sharp path, or None without blends. planned_duration [s]: the profile's duration (one period on a closed path);
-    simulated_duration [s]: time to arrive (open) or the mean period (closed), None if not reached.
+    or None; cornering_deviation (C,) [m] per sharp corner or None. planned_duration [s]: the profile's
+    duration (one period on a closed path); cycle_time [s]: when the TCP first reached the end of the path
+    within the path tolerance (open; the plan's own time inside that ball credited) or the mean period
+    (closed), None if not reached or tracking failed; settle_time [s]: when it entered that ball for good
+    (open paths ending at rest). path_tolerance [m]: the tolerance the verdict used.
     """
 
     controller: str
@@ -71,9 +86,12 @@ class SimulationResult:
     corner_deviation: np.ndarray | None
     torque_limit: np.ndarray
     planned_duration: float
-    simulated_duration: float | None
+    cycle_time: float | None
     saturation_time: float
     failure: Failure | None = None
+    settle_time: float | None = None
+    path_tolerance: float | None = None
+    cornering_deviation: np.ndarray | None = None
     extras: dict = field(default_factory=dict)
 
     @property
@@ -83,17 +101,23 @@ class SimulationResult:
     def summary(self) -> dict:
         """Headline figures (SI units), JSON-serializable."""
         e = self.q - self.q_desired
+        corner = self.cornering_deviation
         return {
             "controller": self.controller,
             "sample_time_s": self.sample_time,
             "planned_duration_s": self.planned_duration,
-            "simulated_duration_s": self.simulated_duration,
-            "max_joint_deviation_rad": float(np.max(np.abs(e))) if e.size else 0.0,
-            "rms_joint_deviation_rad": float(np.sqrt(np.mean(e**2))) if e.size else 0.0,
-            "max_path_deviation_m": float(np.max(self.path_deviation)) if self.path_deviation.size else 0.0,
+            "cycle_time_s": self.cycle_time,
+            "settle_time_s": self.settle_time,
+            "path_tolerance_m": self.path_tolerance,
+            "path_accuracy_m": float(np.max(self.path_deviation)) if self.path_deviation.size else 0.0,
             "max_sharp_deviation_m": (None if self.corner_deviation is None or not self.corner_deviation.size
                                       else float(np.max(self.corner_deviation))),
-            "max_torque_ratio": float(np.max(np.abs(self.tau_command) / self.torque_limit)) if e.size else 0.0,
+            "cornering_deviation_m": None if corner is None else [float(c) for c in corner],
+            "max_joint_deviation_rad": float(np.max(np.abs(e))) if e.size else 0.0,
+            "rms_joint_deviation_rad": float(np.sqrt(np.mean(e**2))) if e.size else 0.0,
+            "max_torque_ratio": float(np.max(np.abs(self.tau) / self.torque_limit)) if e.size else 0.0,
+            "max_commanded_torque_ratio": float(np.max(np.abs(self.tau_command) / self.torque_limit)) if e.size
+            else 0.0,
             "saturation_time_s": self.saturation_time,
             "tracking_ok": self.tracking_ok,
             "failure": None if self.failure is None else self.failure.as_dict(),
@@ -125,7 +149,7 @@ def polish_projection(path: JointPath, q: np.ndarray, theta: np.ndarray, iterati
 
 
 @numba.njit(cache=True)
-def _polyline_distance_local(points, line, centre, window, closed):
+def polyline_distance_local(points, line, centre, window, closed):
     """Distance (K,) and nearest point (K, 3) of points (K, 3) to the polyline line (S+1, 3), over
     segments centre-window .. centre+window (wrapped on closed polylines). Compiled: K x (2 window + 1)
     point-segment distances without (K, 2 window + 1, 3) temporaries."""
@@ -156,24 +180,31 @@ def _polyline_distance_local(points, line, centre, window, closed):
     return dist, near
 
 
-def tcp_path_deviation(robot: Robot, path: JointPath, q: np.ndarray, theta: np.ndarray,
-                       points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(tcp (K, 3), nearest desired TCP point (K, 3), distance (K,) [m]) for joint states q (K, n)."""
-    lo, hi = path.domain
-    grid = np.linspace(lo, hi, points)
+def planned_tcp_line(robot: Robot, path: JointPath, grid: np.ndarray) -> np.ndarray:
+    """The planned TCP path (M, 3) [m] at theta = grid (M,): the lift's task path when the joint path carries
+    ``task_path``, else FK(Phi(theta))."""
     task = getattr(path, "task_path", None)
     if task is not None:
-        line = task.evaluate(grid)[0]
-    else:
-        line = fk(robot, path.evaluate(grid)[0])[0]
+        return np.ascontiguousarray(task.evaluate(grid)[0], dtype=float)
+    return np.ascontiguousarray(fk(robot, path.evaluate(grid)[0])[0], dtype=float)
+
+
+def line_window(points: int) -> int:
+    """Segments searched on either side of the current theta's segment of a TCP polyline of ``points``."""
+    return max(2, points // 50)
+
+
+def tcp_path_deviation(robot: Robot, path: JointPath, q: np.ndarray, theta: np.ndarray, grid: np.ndarray,
+                       line: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(tcp (K, 3), nearest desired TCP point (K, 3), distance (K,) [m]) for joint states q (K, n) near theta
+    (K,), the planned TCP path being the polyline ``line`` (M, 3) at ``grid`` (M,) (:func:`planned_tcp_line`)."""
     tcp = fk(robot, q)[0] if len(q) else np.zeros((0, 3))
     if not len(q):
         return tcp, tcp.copy(), np.zeros(0)
     th = _wrap(path, theta)
-    centre = np.clip(np.searchsorted(grid, th) - 1, 0, points - 2)
-    window = max(2, points // 50)
-    dist, near = _polyline_distance_local(np.ascontiguousarray(tcp), np.ascontiguousarray(line),
-                                          centre.astype(np.int64), window, bool(path.closed))
+    centre = np.clip(np.searchsorted(grid, th) - 1, 0, len(grid) - 2)
+    dist, near = polyline_distance_local(np.ascontiguousarray(tcp), line, centre.astype(np.int64),
+                                          line_window(len(grid)), bool(path.closed))
     return tcp, near, dist
 
 
@@ -191,6 +222,33 @@ def sharp_path_deviation(task_path, points: np.ndarray) -> tuple[np.ndarray, np.
         best_d = np.where(better, d, best_d)
         best_p[better] = seg.evaluate(s)[0][better]
     return best_d, best_p
+
+
+def sharp_task_path(path: JointPath):
+    """The sharp task path the corners are measured against: ``original_task_path`` (before blends), else the
+    task path itself; None for a joint path."""
+    original = getattr(path, "original_task_path", None)
+    return original if original is not None else getattr(path, "task_path", None)
+
+
+def cornering_deviation(path: JointPath, tcp: np.ndarray, theta: np.ndarray) -> np.ndarray | None:
+    """Per sharp corner of :func:`sharp_task_path` (C,) [m]: the largest distance of the TCP (K, 3) from the
+    sharp path (exact, :func:`sharp_path_deviation`) among the samples whose nearest corner point it is
+    (corners at the same point, a path passing twice, split by theta (K,) mapped onto the sharp path in
+    proportion to its length); None without corners."""
+    sharp = sharp_task_path(path)
+    kinks = np.asarray(getattr(sharp, "kinks", ()), dtype=float)
+    if sharp is None or not len(kinks):
+        return None
+    points = np.atleast_2d(sharp.evaluate(kinks)[0])
+    out = np.zeros(len(kinks))
+    if len(tcp):
+        (lo, hi), (slo, shi) = path.domain, sharp.domain
+        mapped = slo + (np.asarray(theta) - lo) * (shi - slo) / (hi - lo)
+        distance = np.linalg.norm(tcp[:, None, :] - points[None], axis=2)
+        key = np.round(distance / CORNER_TIE) + np.abs(mapped[:, None] - kinks[None]) / (1.0 + shi - slo)
+        np.maximum.at(out, np.argmin(key, axis=1), sharp_path_deviation(sharp, tcp)[0])
+    return out
 
 
 def original_path_deviation(path: JointPath, tcp: np.ndarray) -> np.ndarray | None:

@@ -34,7 +34,7 @@ TOLERANCE_KEY = "path.blends[0].tolerance"
 SPEED_KEY = "plan.blend_speed_scale"
 #: Columns of corner_study.csv.
 CORNER_COLUMNS = ("case", "parameter", "value", schema.CYCLE_TIME.key, schema.PLANNED_DURATION.key, "gain_vs_stop",
-                  schema.MAX_SHARP_DEVIATION.key, schema.MEAN_SHARP_DEVIATION.key, schema.MAX_PATH_DEVIATION.key, schema.TRACKING_OK.key, "error")
+                  schema.MAX_SHARP_DEVIATION.key, schema.MEAN_SHARP_DEVIATION.key, schema.PATH_ACCURACY.key, schema.TRACKING_OK.key, "error")
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,5 +230,5 @@ def table_markdown(rows: list[dict]) -> str:
         par = f"{r['parameter']} = {r['value']:g}" if isinstance(r.get("value"), float) else (r.get("parameter") or "")
         lines.append(f"| {r['case']} | {par} | {cell(r['cycle_time_s'])} | {cell(r['planned_duration_s'])} | "
                      f"{cell(r['gain_vs_stop'], 100, '{:.1f} %')} | {cell(r['max_sharp_deviation_m'], 1000)} | "
-                     f"{cell(r['max_path_deviation_m'], 1000)} | {cell(r['tracking_ok'])} |")
+                     f"{cell(r[schema.PATH_ACCURACY.key], 1000)} | {cell(r['tracking_ok'])} |")
     return "\n".join(lines)

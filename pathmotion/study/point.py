@@ -4,12 +4,13 @@ The point's summary holds the simulation summary of :func:`pathmotion.api.simula
 (flattened: ``failure`` becomes ``failure_reason``) and the study's own figures, in the fixed order
 of :data:`SUMMARY_KEYS`:
 
-* ``cycle_time_s``: the simulated duration (time to arrive, closed loop), None if tracking failed;
+* ``cycle_time_s``: the closed-loop cycle time (the TCP at the end of the path within the path tolerance), None
+  if tracking failed;
 * ``max_sharp_deviation_m`` / ``mean_sharp_deviation_m``: largest / mean distance [m] of the TCP from
   the ORIGINAL sharp path (before blends; for a path without blends, the path itself): what the
   thesis calls the error in task space, intended blend deviation included;
 * ``mean_path_deviation_m``: mean distance of the TCP from the planned (blended) path, the tracking
-  error (its max is ``max_path_deviation_m``);
+  error (its max is ``path_accuracy_m``);
 * ``blend_max_deviation_m``: the planned blend's own largest distance from the sharp path (geometry).
 
 With ``traces=True`` the point also returns time series for figures (see :func:`trace_arrays`).
@@ -46,7 +47,6 @@ def point_summary(setup, result, sim) -> tuple[dict, dict]:
     plan = plan_summary(setup, result)
     summary[schema.BASELINE_DURATION.key] = plan[schema.BASELINE_DURATION.key]
     summary[schema.BLEND_MAX_DEVIATION.key] = plan.get(schema.BLEND_MAX_DEVIATION.key)
-    summary[schema.CYCLE_TIME.key] = summary[schema.SIMULATED_DURATION.key] if summary[schema.TRACKING_OK.key] else None
     summary[schema.MEAN_PATH_DEVIATION.key] = float(np.mean(sim.path_deviation)) if sim.path_deviation.size else 0.0
     sharp = _sharp_path(setup)
     if sharp is not None and len(sim.tcp):

@@ -31,7 +31,7 @@ ERROR_KEY = schema.MEAN_SHARP_DEVIATION.key
 DEVIATION_KEY = schema.MAX_SHARP_DEVIATION.key
 #: Metrics copied into a best-point record.
 BEST_METRICS = schema.keys((schema.CYCLE_TIME, schema.PLANNED_DURATION, schema.MEAN_SHARP_DEVIATION,
-                            schema.MAX_SHARP_DEVIATION, schema.MAX_PATH_DEVIATION, schema.TRACKING_OK))
+                            schema.MAX_SHARP_DEVIATION, schema.PATH_ACCURACY, schema.TRACKING_OK))
 
 
 def _number(v) -> float | None:
