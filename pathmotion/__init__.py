@@ -21,6 +21,7 @@ _EXPORTS = {
             "write_plan", "write_simulation"),
     "errors": ("InfeasibleError", "PathError", "PathmotionError", "RobotModelError", "ScenarioError",
                "SimulationError", "UnreachableError"),
+    "geometry": ("waypoint_path",),
     "joint_path": ("JointPath", "SplineJointPath"),
     "constraint": ("TaskJointPath", "lift"),
     "planning": ("PlanResult", "PlanSettings", "Profile", "Trajectory", "plan"),

@@ -20,13 +20,14 @@ from typing import Any
 import numpy as np
 
 from .io import schema
-from .errors import PathmotionError, ScenarioError
-from .geometry import Arc, Circle, FixedOrientation, Line, TaskPath, max_deviation, with_blends
+from .errors import PathmotionError, ScenarioError, UnreachableError
+from .geometry import Arc, Circle, FixedOrientation, Line, TaskPath, max_deviation, waypoint_path, with_blends
 from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
 from .io.files import read_input
 from .io.scenario import Scenario, load_scenario, parse_scenario
+from .io.waypoints import load_waypoints_csv
 from .joint_path import JointPath, SplineJointPath
 from .constraint import lift
 from .planning import PlanResult, PlanSettings, plan
@@ -71,7 +72,8 @@ def build_robot(scenario: Scenario, base_dir: Path) -> Robot:
     limits = None if spec.limits is None else str(base_dir / spec.limits)
     robot = load_robot(name, limits,
                        payload=Payload(spec.payload.mass, spec.payload.com, spec.payload.inertia),
-                       tool=Tool(spec.tool.translation, tuple(map(tuple, _rpy(spec.tool.rotation_rpy)))))
+                       tool=Tool(spec.tool.translation, tuple(map(tuple, _rpy(spec.tool.rotation_rpy)))),
+                       flange_frame=spec.flange_frame, locked_joints=dict(spec.locked_joints))
     lim = scenario.limits
     changes = {}
     for key in ("velocity", "acceleration", "torque"):
@@ -119,9 +121,41 @@ def _segments(specs) -> list:
     return segs
 
 
-def build_path(scenario: Scenario, robot: Robot) -> tuple[JointPath, TaskPath | None, TaskPath | None]:
-    """(joint path, task path or None, original task path before blends or None)."""
+def _waypoint_task_path(spec, base_dir: Path) -> tuple[TaskPath, TaskPath | None, str]:
+    """(task path, the path before blends or None, where) of a ``type = "waypoints"`` path."""
+    if spec.file is not None:
+        where = f"path.file {spec.file}"
+        points, orientations = load_waypoints_csv(base_dir / spec.file)
+    else:
+        where, points, orientations = "path.points", np.asarray(spec.points, float), None
+    fixed = None
+    if spec.orientation is not None:
+        if orientations is not None:
+            raise ScenarioError(f"{where}: the points carry orientations, so path.orientation must not be given too; "
+                                "remove one of them")
+        fixed = None if spec.orientation == "down" else np.asarray(spec.orientation, float)
+    try:
+        task = waypoint_path(points, orientations, spec.blend_tolerance, fixed, where=where)
+        original = (waypoint_path(points, orientations, 0.0, fixed, where=where)
+                    if spec.blend_tolerance > 0 else None)
+    except PathmotionError as exc:
+        raise ScenarioError(str(exc)) from None
+    return task, original, where
+
+
+def build_path(scenario: Scenario, robot: Robot,
+               base_dir: str | Path = ".") -> tuple[JointPath, TaskPath | None, TaskPath | None]:
+    """(joint path, task path or None, original task path before blends or None); ``base_dir``: the folder
+    relative file names (a waypoint file) refer to."""
     spec = scenario.path
+    if spec.type == "waypoints":
+        task, original, where = _waypoint_task_path(spec, Path(base_dir))
+        q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+        try:
+            return lift(robot, task, q_start, original=original), task, original
+        except UnreachableError as exc:
+            raise UnreachableError(f"{where}: {_near_waypoint(task, original, exc)}{exc}", index=exc.index,
+                                   reason=exc.reason) from None
     if spec.type == "joint":
         counts = [len(w) for w in spec.waypoints]
         if any(c != robot.n for c in counts):
@@ -161,6 +195,26 @@ def build_path(scenario: Scenario, robot: Robot) -> tuple[JointPath, TaskPath | 
     return path, task, original
 
 
+def _near_waypoint(task: TaskPath, original: TaskPath | None, exc: UnreachableError) -> str:
+    """Where a lift failure lies among the waypoints: 'at waypoint k: ' (within 1 mm of it) or 'between
+    waypoints k and k + 1: ' (0-based, the rows of the list), from the position the lift's message names."""
+    import re
+
+    found = re.search(r"position \(([-\d.e+]+), ([-\d.e+]+), ([-\d.e+]+)\) m", str(exc))
+    if not found:
+        return ""
+    pos = np.array([float(v) for v in found.groups()])
+    ref = original if original is not None else task
+    points = np.array([ref.segments[0].start_point] + [s.end_point for s in ref.segments])
+    near = np.linalg.norm(points - pos, axis=1)
+    if near.min() < 1e-3:
+        return f"at waypoint {int(np.argmin(near))}: "
+    a, b = points[:-1], points[1:]
+    t = np.clip(np.einsum("ij,ij->i", pos - a, b - a) / np.einsum("ij,ij->i", b - a, b - a), 0.0, 1.0)
+    k = int(np.argmin(np.linalg.norm(a + t[:, None] * (b - a) - pos, axis=1)))
+    return f"between waypoints {k} and {k + 1}: "
+
+
 def plan_settings(scenario: Scenario) -> PlanSettings:
     lim, p = scenario.limits, scenario.plan
     periodic = p.periodic
@@ -175,7 +229,7 @@ def build(scenario: Scenario, base_dir: str | Path = ".", text: str = "") -> Set
     """Turn a validated scenario into a :class:`Setup` (loads the robot, lifts the path)."""
     base_dir = Path(base_dir)
     robot = build_robot(scenario, base_dir)
-    path, task, original = build_path(scenario, robot)
+    path, task, original = build_path(scenario, robot, base_dir)
     if path.closed and not scenario.plan.periodic:
         # a closed path run once from rest to rest (or with given end speeds) is an open motion
         path = dataclasses.replace(path, closed=False)

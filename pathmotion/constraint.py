@@ -19,6 +19,10 @@ it exactly from Pinocchio's analytic derivatives of the frame acceleration.
 Construction samples the path densely (``defaults.LIFT_REFERENCE_STEP``) to fix the branch and
 the 2*pi turns of each joint, and checks reachability, joint ranges and the distance to
 singularity along the whole path, raising an error that names theta, the segment and the joint.
+
+Arms with more than 6 joints (:class:`RedundantJointPath`): Phi is the solution of an ODE in theta
+whose null-space part keeps joint speed low and pulls toward the start configuration;
+Phi' and Phi'' are exact there too (equations in :mod:`pathmotion.robot.redundancy`).
 """
 
 from __future__ import annotations
@@ -32,7 +36,8 @@ from . import defaults
 from .errors import PathError, UnreachableError
 from .joint_path import JointPath
 from .robot import Robot, fk, frame_acceleration_bias, jacobian
-from .robot.ik import ik_batch, ik_nearest
+from .robot import redundancy
+from .robot.ik import ik_batch, ik_dls, ik_nearest
 
 TWO_PI = 2.0 * np.pi
 _LOCAL = pin.ReferenceFrame.LOCAL
@@ -149,8 +154,9 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     the zero (calibration) configuration, clipped to the ranges). original: the path before blends replaced its corners
     (kept for deviation metrics). Raises UnreachableError / PathError naming theta and segment.
     """
-    if robot.n != 6:
-        raise PathError(f"task-space paths need a 6-joint arm; {robot.name} has {robot.n} joints")
+    if robot.n < 6:
+        raise PathError(f"task-space paths need an arm with at least 6 joints; {robot.name} has {robot.n} joints "
+                        f"{list(robot.joint_names)} (give a joint-space path instead)")
     lo, hi = task_path.domain
     steps = (hi - lo) / reference_step
     if not (np.isfinite(steps) and steps <= defaults.LIFT_MAX_REFERENCE_SAMPLES):
@@ -162,12 +168,14 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     theta = np.linspace(lo, hi, count)
     breaks = np.asarray(task_path.breaks, dtype=float)
     theta = np.unique(np.concatenate([theta, breaks[(breaks > lo) & (breaks < hi)]]))
-    p, dp, ddp, rot, w, dw = task_path.pose(theta)
     if q_start is None:
         q_start = np.clip(np.zeros(robot.n), robot.limits.lower, robot.limits.upper)
     q_start = np.asarray(q_start, dtype=float)
     if q_start.shape != (robot.n,):
         raise PathError(f"start configuration has {q_start.size} values, the robot has {robot.n} joints")
+    if robot.n > 6:
+        return _lift_redundant(robot, task_path, q_start, original, reference_step, singularity_threshold)
+    p, dp, ddp, rot, w, dw = task_path.pose(theta)
     try:
         q = ik_batch(robot, p, rot, q_start)
     except UnreachableError as exc:
@@ -186,6 +194,71 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     )
     return path
 
+
+@dataclass(frozen=True, eq=False)
+class RedundantJointPath(TaskJointPath):
+    """q = Phi(theta) for an arm with more than 6 joints: the solution of Phi' = f(theta, Phi) (see
+    :mod:`pathmotion.robot.redundancy`), held as a dense reference; build with :func:`lift`.
+
+    reference_dq_right / _left: f at each reference sample from the right / left of it (they differ
+    at kinks); q_ref (n,) and gain [1/m]: the null-space pull; weights_inv: diag(qd_max^2) (n,)."""
+
+    reference_dq_right: np.ndarray = field(default=None, repr=False)
+    reference_dq_left: np.ndarray = field(default=None, repr=False)
+    q_ref: np.ndarray = field(default=None, repr=False)
+    gain: float = defaults.REDUNDANCY_NULLSPACE_GAIN
+    weights_inv: np.ndarray = field(default=None, repr=False)
+
+    def evaluate(self, theta, side: str = "right"):
+        th, scalar = self._check_theta(theta)
+        p, dp, ddp, rot, w, dw = self.task_path.pose(th, side=side)
+        guess = redundancy.hermite(th, self.reference_theta, self.reference_q, self.reference_dq_right,
+                                   self.reference_dq_left, side)
+        q = redundancy.project_to_pose(self.robot, guess, p, rot, self.weights_inv)
+        dq, ddq = redundancy.resolved_derivatives(self.robot, q, np.concatenate([dp, w], axis=1),
+                                                  np.concatenate([ddp, dw], axis=1), self.q_ref, self.gain,
+                                                  self.weights_inv)
+        if scalar:
+            return q[0], dq[0], ddq[0]
+        return q, dq, ddq
+
+    def evaluate3(self, theta, side: str = "right"):
+        raise NotImplementedError(
+            f"Phi''' (jerk and torque-rate limits) is not available for {self.robot.name}, an arm with "
+            f"{self.robot.n} > 6 joints (its redundancy resolution gives exact Phi' and Phi'' only); "
+            "drop the jerk limit")
+
+
+def _lift_redundant(robot: Robot, task_path, q_start, original, reference_step: float,
+                    singularity_threshold: float) -> RedundantJointPath:
+    """The lift of a >6-joint arm: Phi(0) by DLS IK nearest to q_start, then the ODE (RK4) on a
+    reference grid of half the usual step, then the same range and singularity checks."""
+    lo, hi = task_path.domain
+    count = max(int(np.ceil(2.0 * (hi - lo) / reference_step)) + 1, 100)
+    theta = np.linspace(lo, hi, count)
+    breaks = np.asarray(task_path.breaks, dtype=float)
+    theta = np.unique(np.concatenate([theta, breaks[(breaks > lo) & (breaks < hi)]]))
+    p0, _, _, r0, _, _ = task_path.pose(theta[:1])
+    try:
+        q0 = ik_dls(robot, p0[0], r0[0], q_start)
+    except UnreachableError as exc:
+        raise UnreachableError(_where(task_path, theta[0], p0[0]) + f": {exc}", reason=exc.reason) from None
+    winv = redundancy.joint_weights(robot)
+    gain = defaults.REDUNDANCY_NULLSPACE_GAIN
+    try:
+        q, dq_r, dq_l = redundancy.integrate_path(robot, theta, task_path.pose, q0, q_start, gain, winv)
+    except UnreachableError as exc:
+        i = exc.index or 0
+        p_i = task_path.evaluate(theta[i])[0]
+        raise UnreachableError(_where(task_path, theta[i], p_i) + f": {exc}", reason=exc.reason) from None
+    p = task_path.evaluate(theta)[0]
+    check = _check_path(robot, task_path, theta, q, p, singularity_threshold)
+    closed = bool(getattr(task_path, "closed", False)) and bool(np.max(np.abs(q[-1] - q[0])) < 1e-6)
+    return RedundantJointPath(
+        n=robot.n, domain=(lo, hi), closed=closed, kinks=tuple(float(k) for k in task_path.kinks),
+        breaks=tuple(float(b) for b in task_path.breaks), joint_names=robot.joint_names, robot=robot,
+        task_path=task_path, original_task_path=original, reference_theta=theta, reference_q=q, check=check,
+        reference_dq_right=dq_r, reference_dq_left=dq_l, q_ref=q_start, gain=gain, weights_inv=winv)
 
 def _where(task_path, theta: float, p) -> str:
     seg = ""

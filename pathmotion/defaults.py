@@ -67,6 +67,13 @@ PLANT = "builtin"
 LIFT_REFERENCE_STEP = 0.002
 #: Most points of that dense reference: a longer path is far beyond any arm's reach [-].
 LIFT_MAX_REFERENCE_SAMPLES = 100_000
+#: Arms with more than 6 joints: rate [1/m of theta] at which the null-space motion pulls the joints
+#: toward the start configuration (pathmotion.robot.redundancy); 0 = pure minimum joint speed.
+REDUNDANCY_NULLSPACE_GAIN = 2.0
+#: Waypoint files (CSV): largest size [bytes]; a quaternion whose norm differs from 1 by more than
+#: the tolerance is an input error, not rounding [-].
+MAX_WAYPOINT_FILE_BYTES = 16 * 1024 * 1024
+QUATERNION_NORM_TOLERANCE = 1e-3
 
 # --- Task-space geometry (pathmotion.geometry) -------------------------------------------------
 #: Default tool orientation R (world_vector = R @ tool_vector; its columns are the tool x, y, z

@@ -9,12 +9,13 @@ from .library import (circle_with_radial_line, circle_with_radial_line_transitio
                       horizontal_circle, thesis_circle)
 from .orientation import FixedOrientation, SlerpOrientation, smoothstep5
 from .segments import Arc, BezierSegment, Circle, Line, Segment
+from .waypoints import waypoint_path
 
 __all__ = [
     "Arc", "BezierSegment", "Circle", "Connection", "Deviation", "FixedOrientation", "Line", "Segment",
     "SlerpOrientation", "TaskPath", "certified_max", "circle_with_radial_line", "circle_with_radial_line_transition",
     "circle_with_vertical_circle",
     "distance_to_segments", "g2_control_points", "g2_deviation", "horizontal_circle", "largest_g2_tolerance",
-    "largest_transition_radius", "max_deviation", "smoothstep5", "thesis_circle", "with_blends", "with_g2_blend",
+    "largest_transition_radius", "max_deviation", "smoothstep5", "thesis_circle", "waypoint_path", "with_blends", "with_g2_blend",
     "with_g2_blends", "with_transition", "with_transitions",
 ]

@@ -43,6 +43,10 @@ class RobotSpec(_Model):
     limits: str | None = Field(None, description="limits TOML file (default: the built-in one, or the URDF's)")
     payload: PayloadSpec = PayloadSpec()
     tool: ToolSpec = ToolSpec()
+    locked_joints: dict[str, float] = Field({}, description="joints fixed at a value [rad or m], e.g. gripper "
+                                            "fingers: {panda_finger_joint1 = 0.02}")
+    flange_frame: str | None = Field(None, description="URDF frame the tool and payload attach to "
+                                     "(default: the URDF's last frame)")
 
 
 # ------------------------------------------------------------------------------------------ path
@@ -101,7 +105,29 @@ class JointPathSpec(_Model):
     waypoints: list[tuple[float, ...]] = Field(min_length=2, description="joint waypoints [rad], one row per waypoint")
 
 
-PathSpec = Annotated[Union[TaskPathSpec, JointPathSpec], Field(discriminator="type")]
+class WaypointPathSpec(_Model):
+    """Straight lines through waypoints from a CSV file (pathmotion.io.waypoints) or given inline."""
+
+    type: Literal["waypoints"]
+    file: str | None = Field(None, description="CSV file (relative to the scenario): columns x, y, z [m], "
+                             "optionally qw, qx, qy, qz or roll, pitch, yaw [rad]")
+    points: list[Vec3] | None = Field(None, min_length=2, description="waypoints [m] instead of a file")
+    blend_tolerance: float = Field(0.0, ge=0, description="largest deviation of the G2 blend at each corner [m]; "
+                                   "0 = stop at each corner")
+    orientation: Literal["down"] | Mat3 | None = Field(None, description="fixed tool orientation when the points "
+                                                       "carry none: 'down' (default) or a rotation matrix")
+    start_configuration: tuple[float, ...] | None = Field(
+        None, description="joint configuration [rad] the IK branch stays continuous with (and, for arms with "
+                          "more than 6 joints, the null-space motion stays near)")
+
+    @model_validator(mode="after")
+    def _source(self):
+        if (self.file is None) == (self.points is None):
+            raise ValueError("give either file = \"points.csv\" or points = [[x, y, z], ...], exactly one")
+        return self
+
+
+PathSpec = Annotated[Union[TaskPathSpec, JointPathSpec, WaypointPathSpec], Field(discriminator="type")]
 
 
 # ---------------------------------------------------------------------------------------- limits
@@ -211,7 +237,7 @@ def _loc(loc: tuple) -> str:
     for part in loc:
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in ("line", "arc", "circle", "task", "joint", "float", "int", "str", "bool") or not str(
+        elif part in ("line", "arc", "circle", "task", "joint", "waypoints", "float", "int", "str", "bool") or not str(
                 part).isidentifier():
             continue  # discriminator and union-member tags that pydantic inserts (e.g. "literal['zero','max']")
         else:

@@ -67,11 +67,14 @@ class JointLimits:
         return len(self.names)
 
 
-def limits_from_toml(path: str | Path, joint_names: tuple[str, ...]) -> JointLimits:
+def limits_from_toml(path: str | Path, joint_names: tuple[str, ...], ignore: tuple[str, ...] = ()) -> JointLimits:
     """Read a limits file (``[[joints]]`` tables with name, lower, upper, velocity, torque and
-    optional acceleration and armature) and order it as ``joint_names``."""
+    optional acceleration and armature) and order it as ``joint_names``; entries named in
+    ``ignore`` (locked joints) are dropped."""
     path = Path(path)
     doc = parse_toml(read_input(path, "limits"), f"limits file {path}", RobotModelError)
+    if ignore and isinstance(doc.get("joints"), list):
+        doc["joints"] = [j for j in doc["joints"] if not (isinstance(j, dict) and j.get("name") in ignore)]
     return limits_from_dict(doc, joint_names, where=str(path))
 
 

@@ -84,6 +84,9 @@ class Robot:
     Build with :func:`load_robot`. ``model`` is the Pinocchio model with the payload merged into
     the last link, a ``"tcp"`` frame and, when the limits give one, the drives' armature
     (``model.armature``, reflected rotor inertia [kg m^2]); ``n`` is the number of joints.
+    ``locked_joints``: ((name, value [rad or m]), ...) joints of the URDF fixed at a value (e.g.
+    gripper fingers); the model is reduced (``pinocchio.buildReducedModel``), so ``n``, the joint
+    names and the limits cover only the moving joints.
     """
 
     name: str
@@ -93,10 +96,11 @@ class Robot:
     payload: Payload = field(default_factory=Payload)
     tool: Tool = field(default_factory=Tool)
     gravity: tuple[float, float, float] = defaults.GRAVITY
+    locked_joints: tuple[tuple[str, float], ...] = ()
 
     @cached_property
     def model(self) -> pin.Model:
-        model = _build_model(self.urdf_text, self.name)
+        model = reduced_model(_build_model(self.urdf_text, self.name), self.locked_joints, self.name)
         if not model.existFrame(self.flange_frame):
             frames = [f.name for f in model.frames]
             raise RobotModelError(f"robot {self.name}: no frame '{self.flange_frame}' (frames: {frames})")
@@ -212,6 +216,34 @@ def _build_model(urdf_text: str, where: str) -> pin.Model:
     return model
 
 
+def reduced_model(model: pin.Model, locked: tuple[tuple[str, float], ...], where: str) -> pin.Model:
+    """``model`` with the joints ``locked`` ((name, value), ...) fixed at their values; RobotModelError
+    naming a joint that does not exist or a value outside the joint's URDF range."""
+    if not locked:
+        return model
+    names = list(model.names[1:])
+    q = pin.neutral(model)
+    ids = []
+    for name, value in locked:
+        if name not in names:
+            raise RobotModelError(f"robot {where}: locked joint '{name}' is not a moving joint of the URDF {names}")
+        jid = model.getJointId(name)
+        joint = model.joints[jid]
+        if joint.nq != 1:
+            raise RobotModelError(f"robot {where}: locked joint '{name}' has {joint.nq} coordinates; only "
+                                  "revolute and prismatic joints can be locked")
+        lo, hi = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+        v = float(value)
+        if not np.isfinite(v) or (np.isfinite(lo) and np.isfinite(hi) and lo < hi and not lo - 1e-12 <= v <= hi + 1e-12):
+            raise RobotModelError(f"robot {where}: locked joint '{name}' = {value!r} is outside its range "
+                                  f"[{lo:g}, {hi:g}] (rad or m); give a value inside it")
+        q[joint.idx_q] = v
+        ids.append(jid)
+    if len(ids) == len(names):
+        raise RobotModelError(f"robot {where}: every joint is locked; leave at least one joint free")
+    return pin.buildReducedModel(model, ids, q)
+
+
 def _check_urdf_limits(urdf_text: str, where: str, limits_given: bool) -> str:
     """URDF text with a placeholder <limit/> in every revolute/prismatic joint that has none (the URDF
     parser needs one) when limits come from elsewhere; RobotModelError naming those joints when not."""
@@ -318,12 +350,15 @@ def load_robot(
     payload: Payload | None = None,
     tool: Tool | None = None,
     flange_frame: str | None = None,
+    locked_joints: dict[str, float] | None = None,
 ) -> Robot:
     """Load a built-in robot by name (``"irb140"``) or any arm from a URDF file.
 
     ``limits``: a limits TOML file or a :class:`JointLimits`; when None, a built-in robot uses its
     shipped limits file and a URDF its own ``<limit>`` tags (missing ones are an error naming them).
     ``flange_frame``: frame the payload and tool attach to (default: the last frame of the URDF).
+    ``locked_joints``: {joint name: value [rad or m]} joints fixed at a value (e.g. gripper fingers);
+    a limits file may list them too (their entries are ignored).
     """
     key = str(name_or_urdf).lower()
     if key in BUILTIN_ROBOTS:
@@ -345,14 +380,16 @@ def load_robot(
         default_limits = None
         name = path.stem
     urdf_text = _check_urdf_limits(urdf_text, name, limits_given=limits is not None or default_limits is not None)
-    model = _build_model(urdf_text, name)
+    locked = tuple((str(k), float(v)) for k, v in (locked_joints or {}).items())
+    model = reduced_model(_build_model(urdf_text, name), locked, name)
     names = tuple(model.names[1:])
+    ignore = tuple(k for k, _ in locked)
     if isinstance(limits, JointLimits):
         lim = limits
     elif limits is not None:
-        lim = limits_from_toml(limits, names)
+        lim = limits_from_toml(limits, names, ignore=ignore)
     elif default_limits is not None:
-        lim = limits_from_toml(Path(str(default_limits)), names)
+        lim = limits_from_toml(Path(str(default_limits)), names, ignore=ignore)
     else:
         lim = limits_from_model(model, where=f"URDF {name_or_urdf}")
     if lim.names != names:
@@ -360,4 +397,4 @@ def load_robot(
     if flange_frame is None:
         flange_frame = model.frames[len(model.frames) - 1].name
     return Robot(name=name, urdf_text=urdf_text, limits=lim, flange_frame=flange_frame,
-                 payload=payload or Payload(), tool=tool or Tool())
+                 payload=payload or Payload(), tool=tool or Tool(), locked_joints=locked)
