@@ -234,12 +234,14 @@ class Scenario(_Model):
 # ----------------------------------------------------------------------------------------- load
 def _loc(loc: tuple) -> str:
     out = ""
-    for part in loc:
+    for k, part in enumerate(loc):
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in ("line", "arc", "circle", "task", "joint", "waypoints", "float", "int", "str", "bool") or not str(
+        elif part in ("line", "arc", "circle", "task", "joint", "float", "int", "str", "bool") or not str(
                 part).isidentifier():
             continue  # discriminator and union-member tags that pydantic inserts (e.g. "literal['zero','max']")
+        elif part == "waypoints" and k > 0 and loc[k - 1] == "path":
+            continue  # the tag of [path] type = "waypoints" (a joint path's key of that name follows its tag)
         else:
             out += ("." if out else "") + str(part)
     return out or "(top level)"
