@@ -189,6 +189,17 @@ def build_path(scenario: Scenario, robot: Robot,
             chosen[c] = k
     blends = {c: (spec.blends[k].type, spec.blends[k].radius if spec.blends[k].type == "circle"
                   else spec.blends[k].tolerance) for c, k in chosen.items()}
+    optimal = {c: v for c, (kind, v) in blends.items() if kind == "optimal"}
+    if optimal:  # shapes searched with the other corners left sharp, then everything applied in one pass
+        from .planning.blend_search import optimal_blends
+
+        q0 = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+        try:
+            found = optimal_blends(robot, task, optimal, list(optimal), plan_settings(scenario), q0)
+        except PathmotionError as exc:
+            k = chosen[min(optimal)]
+            raise type(exc)(f"path.blends[{k}] (corner {min(optimal) + 1}): {exc}") from None
+        blends.update({c: ("g2_shape", found.shapes[c]) for c in optimal})
     task = with_blends(task, blends, {c: f"path.blends[{k}] (corner {c + 1})" for c, k in chosen.items()})
     q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
     path = lift(robot, task, q_start, original=original)

@@ -48,10 +48,12 @@ class Controller(StrEnum):
 
 
 class BlendType(StrEnum):
-    """Corner blend: the thesis' transition circle, or a curvature-continuous (G2) blend."""
+    """Corner blend: the thesis' transition circle, a curvature-continuous (G2) blend, or the
+    asymmetric G2 blend whose shape minimises the time-optimal duration (planning/blend_search.py)."""
 
     CIRCLE = "circle"
     G2 = "g2"
+    OPTIMAL = "optimal"
 
 
 E = TypeVar("E", bound=StrEnum)

@@ -334,8 +334,9 @@ def with_g2_blends(path: TaskPath, tolerance: float, corners: Iterable[int] | No
 
 def with_blends(path: TaskPath, blends: Mapping[int, tuple[str, float]],
                 names: Mapping[int, str] | None = None) -> TaskPath:
-    """Mixed blends in one pass: ``blends`` maps a connection index to ("circle", radius [m]) or
-    ("g2", tolerance [m]); the shared-segment rule of :func:`with_transitions` holds across kinds (a
+    """Mixed blends in one pass: ``blends`` maps a connection index to ("circle", radius [m]),
+    ("g2", tolerance [m]) or ("g2_shape", G2Shape) (an asymmetric blend found for this path with
+    the same shared flags, e.g. by planning/blend_search.py); the shared-segment rule of :func:`with_transitions` holds across kinds (a
     segment blended at both ends gives each blend at most SHARED_SEGMENT_FRACTION of its length).
     A PathError is prefixed with ``names[index]`` (e.g. the scenario key) when given."""
     chosen = set(blends)
@@ -343,8 +344,12 @@ def with_blends(path: TaskPath, blends: Mapping[int, tuple[str, float]],
     for k in sorted(chosen, reverse=True):
         kind, value = blends[k]
         try:
-            if kind not in ("circle", "g2"):
-                raise PathError(f"with_blends: blend type {kind!r} at connection {k}; give 'circle' or 'g2'")
+            if kind not in ("circle", "g2", "g2_shape"):
+                raise PathError(f"with_blends: blend type {kind!r} at connection {k}; give 'circle', 'g2' or "
+                                "'g2_shape'")
+            if kind == "g2_shape":
+                out = with_shaped_g2_blend(out, k, value)
+                continue
             kinds = ("corner",) if kind == "circle" else ("corner", "tangent")
             c = _corner(path, k, kinds, "with_blends", shared=(k - 1 in chosen, k + 1 in chosen))
             c = _Corner(out.connection(k), out.segments[k], out.segments[k + 1], c.max_a, c.max_b)
@@ -364,5 +369,91 @@ def largest_g2_tolerance(path: TaskPath, corner: int, shape: float = defaults.G2
     return g2_deviation(c.A, c.B, min(c.max_a, c.max_b), _check_shape(shape, "largest_g2_tolerance")).upper
 
 
-__all__ = ["g2_control_points", "g2_deviation", "largest_g2_tolerance", "largest_transition_radius",
-           "with_g2_blend", "with_g2_blends", "with_transition", "with_transitions"]
+# --- asymmetric (shaped) G2 blend ---------------------------------------------------------------
+@dataclass(frozen=True)
+class G2Shape:
+    """An asymmetric G2 blend: cut lengths ``entry`` (from the end of A) and ``exit`` (from the start
+    of B) [m] and the end-speed shapes ``shape_entry``, ``shape_exit`` in (0, 1] (lambda = 5/2 shape
+    cut on each side; the symmetric blend has entry = exit and one shape). ``deviation``: its
+    certified deviation bound [m]."""
+
+    entry: float
+    exit: float
+    shape_entry: float
+    shape_exit: float
+    deviation: float
+
+
+def g2_shaped_control_points(A: Segment, B: Segment, entry: float, exit: float, shape_entry: float,
+                             shape_exit: float) -> np.ndarray:
+    """Control points (6, 3) [m] of the quintic G2 blend cutting ``entry`` from the end of A and
+    ``exit`` from the start of B, with end speeds 5/2 shape cut on each side (module docstring; with
+    entry = exit and one shape this is :func:`g2_control_points`)."""
+    pA, tA, kA = (x[0] for x in A.evaluate(A.length - entry))
+    pB, tB, kB = (x[0] for x in B.evaluate(exit))
+    la, lb = 2.5 * shape_entry * entry, 2.5 * shape_exit * exit
+    return np.array([pA, pA + la / 5 * tA, pA + 2 * la / 5 * tA + la ** 2 / 20 * kA,
+                     pB - 2 * lb / 5 * tB + lb ** 2 / 20 * kB, pB - lb / 5 * tB, pB])
+
+
+def _shaped_deviation(A: Segment, B: Segment, b: np.ndarray, stop_above: float = np.inf) -> Deviation:
+    coef = BezierSegment._power_basis(b)
+    lip = 5.0 * float(np.max(np.linalg.norm(np.diff(b, axis=0), axis=1)))
+    return certified_max(lambda u: distance_to_segments(BezierSegment._polyval(coef, u), (A, B)),
+                         0.0, 1.0, lip, stop_above=stop_above)
+
+
+def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balance: float, shape_entry: float,
+                           shape_exit: float, shared: tuple[bool, bool] = (False, False)) -> G2Shape:
+    """The largest asymmetric G2 blend at connection ``corner`` with entry / (entry + exit) =
+    ``balance`` in (0, 1) whose certified deviation is <= ``tolerance`` [m] (or, if even the largest
+    the neighbours allow deviates less, that one). ``shared``: the neighbour before / after is
+    blended at its other end too (then a blend may use SHARED_SEGMENT_FRACTION of it)."""
+    what = "g2_shape_for_tolerance"
+    c = _corner(path, corner, ("corner", "tangent"), what, shared=shared)
+    tol = float(tolerance)
+    if not (np.isfinite(tol) and tol > 0):
+        raise PathError(f"{what}: tolerance must be a positive distance [m], got {tolerance!r}")
+    if not 0.0 < balance < 1.0:
+        raise PathError(f"{what}: balance (entry share of the blend) must be in (0, 1), got {balance!r}")
+    sa, sb = _check_shape(shape_entry, what), _check_shape(shape_exit, what)
+
+    def points(size):
+        return g2_shaped_control_points(c.A, c.B, balance * size, (1 - balance) * size, sa, sb)
+
+    size_max = min(c.max_a / balance, c.max_b / (1 - balance))
+    full = _shaped_deviation(c.A, c.B, points(size_max))
+    if full.upper <= tol:
+        size = size_max
+    else:
+        size = _largest(lambda x: _shaped_deviation(c.A, c.B, points(x), stop_above=tol).upper <= tol,
+                        size_max, bisections=36)
+        if size <= 0.0:
+            raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance")
+    dev = _shaped_deviation(c.A, c.B, points(size)).upper
+    return G2Shape(balance * size, (1 - balance) * size, sa, sb, dev)
+
+
+def with_shaped_g2_blend(path: TaskPath, corner: int, shape: G2Shape) -> TaskPath:
+    """``path`` with connection ``corner`` replaced by the asymmetric G2 blend ``shape``."""
+    c = _corner(path, corner, ("corner", "tangent"), "with_shaped_g2_blend")
+    if not (0 < shape.entry < c.A.length and 0 < shape.exit < c.B.length):
+        raise PathError(f"with_shaped_g2_blend: cuts {shape.entry:.6g} m / {shape.exit:.6g} m do not fit at "
+                        f"{c.where()} (neighbours {c.A.length:.6g} m and {c.B.length:.6g} m)")
+    b = g2_shaped_control_points(c.A, c.B, shape.entry, shape.exit, shape.shape_entry, shape.shape_exit)
+    return _replace(path, c, shape.entry, shape.exit, BezierSegment(b))
+
+
+def with_shaped_g2_blends(path: TaskPath, shapes: dict[int, G2Shape]) -> TaskPath:
+    """``path`` with each connection k of ``shapes`` replaced by the blend shapes[k] (applied from the
+    last to the first, so the indices stay valid; shapes computed on ``path`` with ``shared`` flags
+    for neighbouring blended corners never overlap)."""
+    out = path
+    for k in sorted(shapes, reverse=True):
+        out = with_shaped_g2_blend(out, k, shapes[k])
+    return out
+
+
+__all__ = ["G2Shape", "g2_control_points", "g2_deviation", "g2_shape_for_tolerance", "g2_shaped_control_points",
+           "largest_g2_tolerance", "largest_transition_radius", "with_g2_blend", "with_g2_blends",
+           "with_shaped_g2_blend", "with_shaped_g2_blends", "with_transition", "with_transitions"]

@@ -78,16 +78,17 @@ SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec], Field(discriminato
 
 class BlendSpec(_Model):
     corner: int | Literal["all"] = Field("all", description="connection index (1 = between segments 1 and 2) or 'all'")
-    type: BlendType = Field(description="'circle': the thesis' transition circle; 'g2': curvature-continuous blend")
+    type: BlendType = Field(description="'circle': the thesis' transition circle; 'g2': curvature-continuous blend; "
+                            "'optimal': the G2 blend shape with the shortest time-optimal duration")
     radius: float | None = Field(None, gt=0, description="transition circle radius r_t [m] (type circle)")
-    tolerance: float | None = Field(None, gt=0, description="largest deviation from the corner [m] (type g2)")
+    tolerance: float | None = Field(None, gt=0, description="largest deviation from the corner [m] (type g2, optimal)")
 
     @model_validator(mode="after")
     def _size(self):
         if self.type == BlendType.CIRCLE and self.radius is None:
             raise ValueError("a 'circle' blend needs radius = r_t in metres")
-        if self.type == BlendType.G2 and self.tolerance is None:
-            raise ValueError("a 'g2' blend needs tolerance = largest allowed deviation in metres")
+        if self.type in (BlendType.G2, BlendType.OPTIMAL) and self.tolerance is None:
+            raise ValueError(f"a '{self.type.value}' blend needs tolerance = largest allowed deviation in metres")
         return self
 
 

@@ -1,0 +1,155 @@
+"""The asymmetric G2 blend (geometry/blends.py) and the tolerance-optimal blend search
+(planning/blend_search.py): the certified deviation bound on a dense brute-force check, G2
+continuity, the symmetric special case, never slower than the symmetric G2 blend, the scenario key."""
+
+import numpy as np
+import pytest
+from geometry_support import incoming, outgoing
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.spatial import cKDTree
+
+from pathmotion.api import load_text, plan_summary, plan_scenario
+from pathmotion.errors import PathError, ScenarioError
+from pathmotion.geometry import FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend
+from pathmotion.geometry.blends import (g2_control_points, g2_shape_for_tolerance, g2_shaped_control_points,
+                                        with_shaped_g2_blend, with_shaped_g2_blends)
+from pathmotion.planning import PlanSettings
+from pathmotion.planning.blend_search import duration_with, optimal_blends
+from pathmotion.robot import load_robot
+
+TURN = ((0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45))  # issue 17's 90 degree turn
+
+
+def _dense_deviation(new: TaskPath, original: TaskPath, spacing: float) -> tuple[float, float]:
+    """(lower, upper) brackets of the largest distance of ``new`` from ``original`` by nearest
+    neighbours among original points ``spacing`` apart (independent of certified_max)."""
+    x = new.evaluate(np.linspace(0.0, new.length, 20001))[0]
+    pts = [seg.evaluate(np.minimum(np.arange(0.0, seg.length + spacing, spacing), seg.length))[0]
+           for seg in original.segments]
+    d = cKDTree(np.concatenate(pts)).query(x)[0]
+    return float(np.max(d) - spacing / 2), float(np.max(d))
+
+
+def test_shaped_points_reduce_to_the_symmetric_blend():
+    path = TaskPath((incoming("arc", 0.4, 0.3, True), outgoing("line", 0.5, 0.0, False, np.radians(70))))
+    A, B = path.segments
+    np.testing.assert_allclose(g2_shaped_control_points(A, B, 0.03, 0.03, 0.7, 0.7), g2_control_points(A, B, 0.03, 0.7),
+                               atol=1e-15)
+    sym = with_g2_blend(path, 0, 2e-3)
+    shape = g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7)
+    assert shape.entry == pytest.approx(path.segments[0].length - sym.segments[0].length, rel=1e-8)
+    assert shape.exit == pytest.approx(shape.entry, rel=1e-12)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(kinds=st.sampled_from(["line-line", "line-arc", "arc-line"]), deg=st.floats(15.0, 165.0),
+       balance=st.floats(0.1, 0.9), shapes=st.tuples(st.floats(0.2, 1.0), st.floats(0.2, 1.0)),
+       fraction=st.floats(0.05, 0.9))
+def test_shaped_blend_deviation_bound_holds_on_a_dense_check(kinds, deg, balance, shapes, fraction):
+    kin, kout = kinds.split("-")
+    path = TaskPath((incoming(kin, 0.3, 0.5, True), outgoing(kout, 0.3, 0.5, False, np.radians(deg))))
+    largest = g2_shape_for_tolerance(path, 0, 1.0, balance, *shapes).deviation  # the largest that fits
+    tol = fraction * largest
+    shape = g2_shape_for_tolerance(path, 0, tol, balance, *shapes)
+    assert shape.deviation <= tol
+    assert shape.entry / (shape.entry + shape.exit) == pytest.approx(balance, rel=1e-9)
+    new = with_shaped_g2_blend(path, 0, shape)
+    lower, upper = _dense_deviation(new, path, tol / 400)
+    assert lower <= tol * (1 + 1e-9)  # certified
+    assert upper >= 0.99 * tol  # and as large as the tolerance allows
+    assert [c.kind for c in new.connections] == ["smooth", "smooth"]  # G2 at both ends
+    a, blend, b = new.segments  # position, tangent and curvature vector continuous at both joins
+    for (p0, t0, k0), (p1, t1, k1) in ((a.end_frame, blend.start_frame), (blend.end_frame, b.start_frame)):
+        np.testing.assert_allclose(p0, p1, atol=1e-13)
+        np.testing.assert_allclose(t0, t1, atol=1e-12)
+        np.testing.assert_allclose(k0, k1, atol=1e-9 * max(1.0, float(np.linalg.norm(k0))))
+
+
+def test_shaped_blends_on_a_polyline_keep_the_bound():
+    pts = np.array([(0, 0, 0), (0.2, 0, 0), (0.2, 0.15, 0.05), (0.0, 0.2, 0.05)], float)
+    path = TaskPath(tuple(Line(a, b) for a, b in zip(pts[:-1], pts[1:])))
+    shapes = {k: g2_shape_for_tolerance(path, k, 0.01, b, 0.6, 0.9, shared=(k - 1 >= 0, k + 1 <= 1))
+              for k, b in ((0, 0.3), (1, 0.7))}
+    new = with_shaped_g2_blends(path, shapes)
+    assert new.kinks == ()
+    assert max_deviation(new, path, rel_tol=1e-6).upper <= 0.01 * (1 + 2e-6)
+
+
+def _turn(deg: float, length: float = 0.2) -> TaskPath:
+    """Two lines of ``length`` in the horizontal plane z = 0.45 m, turning by ``deg``."""
+    a = np.radians(deg)
+    p0, p1 = np.array([0.35, -0.1, 0.45]), np.array([0.35 + length, -0.1, 0.45])
+    p2 = p1 + length * np.array([np.cos(a), np.sin(a), 0.0])
+    return TaskPath((Line(p0, p1), Line(p1, p2)), FixedOrientation())
+
+
+ROBOT = None
+
+
+def _robot():
+    global ROBOT
+    if ROBOT is None:
+        ROBOT = load_robot("irb140")
+    return ROBOT
+
+
+SETTINGS = PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False, grid_points=400,
+                        verify=False, baselines=False)
+
+
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(deg=st.floats(30.0, 150.0), tol=st.floats(5e-4, 0.02))
+def test_optimal_blend_is_never_slower_than_the_symmetric_g2(deg, tol):
+    path = _turn(deg)
+    best = optimal_blends(_robot(), path, tol, settings=SETTINGS, cycles=1, steps=2, search_grid_points=200)
+    sym_shape = g2_shape_for_tolerance(path, 0, tol, 0.5, 0.7, 0.7)
+    symmetric = duration_with(_robot(), path, {0: sym_shape}, SETTINGS)
+    assert best.duration <= best.symmetric_duration
+    assert best.duration <= symmetric * (1 + 1e-6)  # the symmetric blend planned independently
+    assert max_deviation(best.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
+
+
+def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():
+    with pytest.raises(PathError, match="give a tolerance below"):
+        optimal_blends(_robot(), _turn(90, 0.05), 0.05, settings=SETTINGS)
+
+
+SCENARIO = """
+name = "turn_optimal"
+[robot]
+name = "irb140"
+[path]
+type = "task"
+[[path.segments]]
+type = "line"
+start = [0.4, -0.1, 0.45]
+end = [0.5, -0.1, 0.45]
+[[path.segments]]
+type = "line"
+end = [0.5, 0.1, 0.45]
+[[path.blends]]
+corner = "all"
+type = "%s"
+%s
+[plan]
+start = "zero"
+end = "zero"
+[limits]
+use_torque = false
+"""
+
+
+@pytest.mark.slow
+def test_optimal_blend_scenario_beats_g2_with_a_certified_deviation():
+    g2 = load_text(SCENARIO % ("g2", "tolerance = 0.003"))
+    opt = load_text(SCENARIO % ("optimal", "tolerance = 0.003"))
+    t_g2, t_opt = plan_scenario(g2).profile.duration, plan_scenario(opt).profile.duration
+    summary = plan_summary(opt, plan_scenario(opt))
+    assert summary["blend_max_deviation_m"] <= 0.003 * (1 + 1e-6)
+    assert t_opt < t_g2
+
+
+def test_optimal_blend_needs_a_tolerance():
+    with pytest.raises(ScenarioError, match="'optimal' blend needs tolerance"):
+        load_text(SCENARIO % ("optimal", ""))
