@@ -1,0 +1,480 @@
+"""The physical limit of cornering: the minimum-time motion of the whole arm whose TCP stays within
+``delta`` of a sharp polyline (a reference, not a planner; issue 17).
+
+Formulation (direct multiple shooting in time with an exact integrator). The motion is split into
+phases; phase i has its own duration T_i (free, > 0), N_i intervals of length h_i = T_i / N_i and
+a piecewise-constant joint acceleration u_k (6,) per interval, so with states (q_k, qd_k)
+
+    q_{k+1} = q_k + h qd_k + h^2 / 2 u_k        qd_{k+1} = qd_k + h u_k
+
+holds exactly in continuous time. Hence the velocity limit (qd is linear on each interval) and the
+acceleration limit (u is constant) hold everywhere when they hold at the nodes. The geometric
+constraints are imposed at every node and every interval midpoint (q(t) is quadratic there):
+
+* tool orientation fixed: vee(R_ref^T R(q) - R(q)^T R_ref) / 2 = 0 (3 smooth equations, zero at
+  R = R_ref);
+* the TCP p(q) within the phase's tube: each phase belongs to one line segment j of the polyline
+  (start P_j, unit direction t_j) and a progress range [s_lo, s_hi]; each constrained point has its
+  own progress variable s in that range and |p(q) - P_j - t_j s|^2 <= r^2 (r = 0: the equality
+  p(q) = P_j + t_j s). This is the capsule of segment j, smooth in (q, s); the union of capsules at
+  a corner is the union of the phases: the node shared by two phases lies in both capsules. (The
+  distance to the polyline itself is not differentiable at the corner; a time-optimal motion runs
+  through the capsules in order, so fixing the order loses nothing.)
+
+Variants: the *whole tube* (one phase per segment, r = delta over the whole segment) and the
+*corner-confined* tube (r = delta only within [L_j - a, L_j] before and [0, b] after each corner,
+r = 0 elsewhere: four phases per corner).
+
+Rest to rest: q_0, q_N are the IK solutions of the stop-at-corner plan at the path's ends, qd = 0
+there. The objective is sum T_i. The initial guess is pathmotion's own time-optimal stop at every
+corner (:func:`pathmotion.planning.plan`), sampled at the phase times.
+
+Convergence: solved on a sequence of meshes (each warm-started from the previous one); the
+reported value is the Richardson extrapolation of the last three durations, the convergence error
+its distance from the finest. Each solution is verified on a dense resample of the exact
+piecewise-quadratic q(t): joint velocity and acceleration ratios, TCP distance to the sharp path,
+orientation error.
+
+Units: SI (m, s, rad). CasADi is imported lazily (``pip install "pathmotion[optimal]"``).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import InfeasibleError, PathError, PathmotionError
+
+log = logging.getLogger(__name__)
+
+#: Meshes (total intervals) of the convergence sequence.
+MESHES = (25, 50, 100, 200)
+#: Interior points (fractions of an interval) where the tube is imposed, besides the nodes; the
+#: orientation is imposed at the nodes and the midpoint (more equations would overconstrain).
+TUBE_POINTS = (0.25, 0.5, 0.75)
+#: Dense resample of the verification: points per interval.
+VERIFY_POINTS_PER_INTERVAL = 16
+#: IPOPT: convergence tolerance and iteration cap.
+IPOPT_TOL = 1e-9
+IPOPT_MAX_ITER = 1500
+#: Node density of the corner-confined tube's stretches at a corner relative to the rest.
+CORNER_DENSITY = 4.0
+#: Smallest phase duration [s] and the fewest intervals a phase gets.
+MIN_PHASE_DURATION = 1e-4
+MIN_PHASE_INTERVALS = 3
+#: Clamp of the observed convergence order used by the extrapolation.
+ORDER_RANGE = (0.5, 4.0)
+#: Polyline segments shorter than this [m] are an error.
+MIN_SEGMENT_LENGTH = 1e-6
+
+
+def _casadi():
+    try:
+        import casadi
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise PathmotionError('the free-shape optimum needs CasADi: pip install "pathmotion[optimal]"') from None
+    return casadi
+
+
+# ----------------------------------------------------------------------------------- kinematics
+_AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0), "JointModelRZ": (0.0, 0.0, 1.0)}
+
+
+def _axis(joint) -> np.ndarray:
+    name = joint.shortname()
+    if name in _AXES:
+        return np.array(_AXES[name])
+    if name == "JointModelRevoluteUnaligned":
+        return np.asarray(joint.extract().axis, float)
+    raise PathmotionError(f"the free-shape solver handles chains of revolute joints; joint type {name} is not one")
+
+
+def _rodrigues(ca, axis: np.ndarray, angle):
+    """Rotation about the unit ``axis`` by ``angle`` (CasADi expression), (3, 3)."""
+    k = ca.DM(axis)
+    K = ca.skew(k)
+    return ca.DM.eye(3) + ca.sin(angle) * K + (1 - ca.cos(angle)) * (K @ K)
+
+
+def tcp_function(robot, frame: str | int | None = None):
+    """CasADi Function q (n,) -> (p (3,), R (3, 3)) of ``frame`` (default TCP) in the base frame,
+    built from the Pinocchio model's joint placements and axes (a chain of revolute joints)."""
+    ca = _casadi()
+    model = robot.model
+    fid = robot.frame_id(frame)
+    q = ca.SX.sym("q", robot.n)
+    poses: dict[int, tuple] = {0: (ca.SX.eye(3), ca.SX.zeros(3, 1))}
+    for i in range(1, model.njoints):
+        if model.joints[i].nq != 1:
+            raise PathmotionError(f"the free-shape solver handles one-coordinate joints; {model.names[i]} has "
+                                  f"{model.joints[i].nq}")
+        R0, p0 = poses[model.parents[i]]
+        placement = model.jointPlacements[i]
+        Rj = R0 @ ca.DM(placement.rotation)
+        pj = p0 + R0 @ ca.DM(placement.translation)
+        poses[i] = (Rj @ _rodrigues(ca, _axis(model.joints[i]), q[model.joints[i].idx_q]), pj)
+    frm = model.frames[fid]
+    parent = frm.parentJoint if hasattr(frm, "parentJoint") else frm.parent
+    R0, p0 = poses[parent]
+    p = p0 + R0 @ ca.DM(frm.placement.translation)
+    R = R0 @ ca.DM(frm.placement.rotation)
+    return ca.Function("tcp", [q], [p, R], ["q"], ["p", "R"])
+
+
+# ----------------------------------------------------------------------------------- problem
+@dataclass(frozen=True)
+class Phase:
+    """A stretch of the motion near segment ``segment`` of the polyline: progress s in [s_lo, s_hi]
+    [m] along it, TCP within ``radius`` [m] of that stretch (0: on it); ``density``: relative node
+    density (the stretches at a corner get more nodes, where the TCP turns fast)."""
+
+    segment: int
+    s_lo: float
+    s_hi: float
+    radius: float
+    density: float = 1.0
+
+
+@dataclass(frozen=True)
+class Polyline:
+    """Sharp path: points (m, 3) [m], with unit directions and lengths of its m - 1 line segments."""
+
+    points: np.ndarray
+
+    def __post_init__(self):
+        p = np.asarray(self.points, float)
+        if p.ndim != 2 or p.shape[1] != 3 or len(p) < 2:
+            raise PathError(f"free shape: the sharp path needs >= 2 points of 3 coordinates, got shape {p.shape}")
+        lengths = np.linalg.norm(np.diff(p, axis=0), axis=1)
+        if np.any(lengths < MIN_SEGMENT_LENGTH):
+            k = int(np.argmin(lengths))
+            raise PathError(f"free shape: segment {k + 1} of the sharp path has length {lengths[k]:.3g} m; "
+                            "remove repeated points")
+        object.__setattr__(self, "points", p)
+
+    @property
+    def lengths(self) -> np.ndarray:
+        return np.linalg.norm(np.diff(self.points, axis=0), axis=1)
+
+    @property
+    def directions(self) -> np.ndarray:
+        return np.diff(self.points, axis=0) / self.lengths[:, None]
+
+    def distance(self, pts: np.ndarray) -> np.ndarray:
+        """Distance [m] (N,) of points (N, 3) to the polyline."""
+        pts = np.atleast_2d(pts)
+        best = np.full(len(pts), np.inf)
+        for P, t, L in zip(self.points[:-1], self.directions, self.lengths):
+            s = np.clip((pts - P) @ t, 0.0, L)
+            best = np.minimum(best, np.linalg.norm(pts - P - s[:, None] * t, axis=1))
+        return best
+
+
+def tube_phases(line: Polyline, delta: float, spans: Sequence[tuple[float, float]] | None = None) -> list[Phase]:
+    """Phases of the whole tube (``spans`` None) or of the corner-confined one (``spans[c]`` = (a, b)
+    [m]: deviation allowed in the last a of the segment before corner c and the first b after it)."""
+    L = line.lengths
+    if spans is None:  # (splitting a segment's tube to refine the mesh at the corner stalled IPOPT)
+        return [Phase(j, 0.0, float(L[j]), delta) for j in range(len(L))]
+    if len(spans) != len(L) - 1:
+        raise PathError(f"free shape: {len(spans)} corner spans given for {len(L) - 1} corners")
+    phases = []
+    for j in range(len(L)):
+        lo = float(spans[j - 1][1]) if j > 0 else 0.0
+        hi = float(L[j] - spans[j][0]) if j < len(L) - 1 else float(L[j])
+        if lo < 0 or hi > L[j] or lo > hi:
+            raise PathError(f"free shape: corner spans {spans} do not fit segment {j + 1} ({L[j]:.6g} m)")
+        if j > 0 and lo > 0:
+            phases.append(Phase(j, 0.0, lo, delta, CORNER_DENSITY))
+        if hi > lo:
+            phases.append(Phase(j, lo, hi, 0.0))
+        if j < len(L) - 1 and hi < L[j]:
+            phases.append(Phase(j, hi, float(L[j]), delta, CORNER_DENSITY))
+    return phases
+
+
+@dataclass(frozen=True, eq=False)
+class Guess:
+    """A motion sampled per phase: t (N+1,) [s] node times, q, qd (N+1, n), u (N, n), and the node
+    index where each phase starts (len = phases + 1, last = N)."""
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    u: np.ndarray
+    breaks: tuple[int, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class FreeShapeSolution:
+    """One mesh's result: duration [s], solver status, success flag, the motion (a Guess) and its
+    dense verification (max ratios of |qd|/qd_max and |qdd|/qdd_max, max TCP distance to the sharp
+    path [m], max orientation error [rad], max excess of the distance over the allowed radius [m])."""
+
+    duration: float
+    status: str
+    success: bool
+    motion: Guess
+    verification: dict = field(default_factory=dict)
+    iterations: int = -1
+
+    @property
+    def intervals(self) -> int:
+        return len(self.motion.u)
+
+
+# ----------------------------------------------------------------------------------- initial guess
+def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = None):
+    """pathmotion's time-optimal plan that stops at every corner of ``line`` (velocity and
+    acceleration limits, tool orientation ``rotation`` (3, 3), default tool down): (JointPath, PlanResult)."""
+    from ..constraint import lift
+    from ..geometry import FixedOrientation, Line, TaskPath
+    from ..planning import PlanSettings, plan
+
+    segs = tuple(Line(a, b) for a, b in zip(line.points[:-1], line.points[1:]))
+    orient = FixedOrientation() if rotation is None else FixedOrientation(np.asarray(rotation, float))
+    path = lift(robot, TaskPath(segs, orient))
+    kw = {} if grid_points is None else {"grid_points": grid_points}
+    settings = PlanSettings(start="zero", end="zero", connections="zero", velocity=True, acceleration=True,
+                            torque=False, baselines=False, **kw)
+    return path, plan(path, robot, settings)
+
+
+def guess_from_plan(result, line: Polyline, phases: Sequence[Phase], intervals: int) -> Guess:
+    """The plan ``result`` (its trajectory runs along ``line`` with theta = arc length) sampled at
+    ``intervals`` uniform steps split over ``phases`` in proportion to their durations."""
+    prof, traj = result.profile, result.trajectory
+    offsets = np.concatenate([[0.0], np.cumsum(line.lengths)])
+    theta_b = [offsets[ph.segment] + ph.s_lo for ph in phases] + [offsets[phases[-1].segment] + phases[-1].s_hi]
+    t_b = np.interp(theta_b, prof.grid, prof.times)
+    t_b[0], t_b[-1] = 0.0, prof.duration
+    def at_time(t):
+        smp = traj.at_time(t)
+        return smp.q, smp.qd
+
+    return _resample(at_time, t_b, intervals, [ph.density for ph in phases])
+
+
+def _resample(at_time, t_b: np.ndarray, intervals: int, density: Sequence[float]) -> Guess:
+    """Uniform nodes per phase (phase i spans [t_b[i], t_b[i+1]]) of a motion given by at_time(t),
+    about ``intervals`` in all, in proportion to duration x density."""
+    dur = np.diff(t_b)
+    weight = dur * np.asarray(density, float)
+    counts = np.maximum(MIN_PHASE_INTERVALS, np.round(intervals * weight / weight.sum()).astype(int))
+    times, breaks = [np.array([0.0])], [0]
+    for i, n in enumerate(counts):
+        times.append(np.linspace(t_b[i], t_b[i + 1], n + 1)[1:])
+        breaks.append(breaks[-1] + int(n))
+    t = np.concatenate(times)
+    q, qd = (np.asarray(a, float) for a in at_time(t))
+    u = np.diff(qd, axis=0) / np.maximum(np.diff(t), MIN_PHASE_DURATION / max(counts))[:, None]
+    return Guess(t, q, qd, u, tuple(breaks))
+
+
+def _motion_at(motion: Guess):
+    """at_time(t) -> (q, qd) of the exact piecewise-quadratic motion."""
+    def at_time(t):
+        t = np.clip(np.asarray(t, float), motion.t[0], motion.t[-1])
+        k = np.clip(np.searchsorted(motion.t, t, side="right") - 1, 0, len(motion.u) - 1)
+        tau = (t - motion.t[k])[:, None]
+        u = motion.u[k]
+        return motion.q[k] + motion.qd[k] * tau + 0.5 * u * tau ** 2, motion.qd[k] + u * tau
+    return at_time
+
+
+def _phase_times(motion: Guess) -> np.ndarray:
+    return motion.t[list(motion.breaks)]
+
+
+# ----------------------------------------------------------------------------------- the NLP
+def _orientation_error(ca, R, R_ref):
+    E = ca.DM(R_ref).T @ R
+    return 0.5 * ca.vertcat(E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
+
+
+def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float):
+    """Constrain the TCP position expression p (3,) to the phase's capsule (with its own progress s)."""
+    s = opti.variable()
+    opti.subject_to(opti.bounded(ph.s_lo, s, ph.s_hi))
+    opti.set_initial(s, float(np.clip(s0, ph.s_lo, ph.s_hi)))
+    gap = p - ca.DM(line.points[ph.segment]) - ca.DM(line.directions[ph.segment]) * s
+    if ph.radius > 0:
+        opti.subject_to(ca.sumsqr(gap) <= ph.radius ** 2)
+    else:
+        opti.subject_to(gap == 0)
+
+
+def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rotation,
+               velocity_scale: float = 1.0, acceleration_scale: float = 1.0) -> FreeShapeSolution:
+    """Solve the minimum-time NLP on the mesh of ``guess`` (its node counts per phase), from it."""
+    ca = _casadi()
+    tcp = tcp_function(robot)
+    n = robot.n
+    lim = robot.limits
+    vmax, amax = lim.velocity * velocity_scale, lim.acceleration * acceleration_scale
+    opti = ca.Opti()
+    N = len(guess.u)
+    Q, QD, U = opti.variable(n, N + 1), opti.variable(n, N + 1), opti.variable(n, N)
+    T = opti.variable(len(phases))
+    opti.set_initial(Q, guess.q.T)
+    opti.set_initial(QD, guess.qd.T)
+    opti.set_initial(U, guess.u.T)
+    t_b = _phase_times(guess)
+    opti.set_initial(T, np.diff(t_b))
+    opti.subject_to(T >= MIN_PHASE_DURATION)
+    for j in range(n):
+        opti.subject_to(opti.bounded(-vmax[j], QD[j, :], vmax[j]))
+        opti.subject_to(opti.bounded(-amax[j], U[j, :], amax[j]))
+        opti.subject_to(opti.bounded(lim.lower[j], Q[j, :], lim.upper[j]))
+    opti.subject_to(Q[:, 0] == guess.q[0])
+    opti.subject_to(Q[:, N] == guess.q[-1])
+    opti.subject_to(QD[:, 0] == 0)
+    opti.subject_to(QD[:, N] == 0)
+    p_guess = _guess_positions(robot, guess)
+    for i, ph in enumerate(phases):
+        k0, k1 = guess.breaks[i], guess.breaks[i + 1]
+        h = T[i] / (k1 - k0)
+        P, t = line.points[ph.segment], line.directions[ph.segment]
+        for k in range(k0, k1):
+            opti.subject_to(Q[:, k + 1] == Q[:, k] + h * QD[:, k] + 0.5 * h ** 2 * U[:, k])
+            opti.subject_to(QD[:, k + 1] == QD[:, k] + h * U[:, k])
+            p_a, p_b = p_guess[k], p_guess[k + 1]
+            p, R = tcp(Q[:, k + 1])
+            opti.subject_to(_orientation_error(ca, R, rotation) == 0)
+            _tube(opti, ca, p, line, ph, (p_b - P) @ t)
+            if ph.radius == 0:  # on a line the nodes alone leave the NLP its degrees of freedom
+                continue
+            for f in TUBE_POINTS:
+                p, R = tcp(Q[:, k] + f * h * QD[:, k] + 0.5 * (f * h) ** 2 * U[:, k])
+                if f == 0.5:
+                    opti.subject_to(_orientation_error(ca, R, rotation) == 0)
+                _tube(opti, ca, p, line, ph, (p_a + f * (p_b - p_a) - P) @ t)
+    opti.minimize(ca.sum1(T))
+    opti.solver("ipopt", {"print_time": False, "expand": True}, {"print_level": 0, "tol": IPOPT_TOL, "max_iter": IPOPT_MAX_ITER,
+                                                "sb": "yes"})
+    try:
+        sol = opti.solve()
+        stats, value = sol.stats(), sol.value
+    except RuntimeError:
+        stats, value = opti.stats(), opti.debug.value
+    status = str(stats.get("return_status", "unknown"))
+    success = bool(stats.get("success", False))
+    Tv = np.atleast_1d(np.asarray(value(T), float)).ravel()
+    t = np.concatenate([[0.0]] + [np.linspace(0, Tv[i], guess.breaks[i + 1] - guess.breaks[i] + 1)[1:]
+                                  + Tv[:i].sum() for i in range(len(phases))])
+    motion = Guess(t, np.asarray(value(Q)).T, np.asarray(value(QD)).T, np.asarray(value(U)).T, guess.breaks)
+    return FreeShapeSolution(float(Tv.sum()), status, success, motion,
+                             verify(robot, line, phases, motion, rotation, vmax, amax), int(stats.get("iter_count", -1)))
+
+
+def _guess_positions(robot, guess: Guess) -> np.ndarray:
+    from ..robot import fk
+
+    return np.atleast_2d(fk(robot, guess.q)[0])
+
+
+def verify(robot, line: Polyline, phases: Sequence[Phase], motion: Guess, rotation, vmax, amax,
+           per_interval: int = VERIFY_POINTS_PER_INTERVAL) -> dict:
+    """Dense check of a motion (see FreeShapeSolution.verification)."""
+    from ..robot import fk
+
+    tau = np.linspace(0.0, 1.0, per_interval, endpoint=False)
+    t = np.concatenate([motion.t[k] + tau * (motion.t[k + 1] - motion.t[k]) for k in range(len(motion.u))]
+                       + [motion.t[-1:]])
+    q, qd = _motion_at(motion)(t)
+    pos, rot = fk(robot, q)
+    dist = line.distance(pos)
+    R_ref = np.asarray(rotation, float)
+    cosang = np.clip((np.einsum("ij,nij->n", R_ref, rot) - 1.0) / 2.0, -1.0, 1.0)
+    return {"max_velocity_ratio": float(np.max(np.abs(qd) / vmax)),
+            "max_acceleration_ratio": float(np.max(np.abs(motion.u) / amax)),
+            "max_deviation_m": float(np.max(dist)),
+            "max_excess_m": float(np.max(_excess(phases, line, pos))),
+            "max_orientation_error_rad": float(np.max(np.arccos(cosang))),
+            "samples": int(len(t))}
+
+
+def _excess(phases: Sequence[Phase], line: Polyline, pts: np.ndarray) -> np.ndarray:
+    """Distance [m] (N,) of each point (N, 3) outside the union of the phases' capsules (<= 0 inside)."""
+    out = np.full(len(pts), np.inf)
+    for ph in phases:
+        P, t = line.points[ph.segment], line.directions[ph.segment]
+        s = np.clip((pts - P) @ t, ph.s_lo, ph.s_hi)
+        out = np.minimum(out, np.linalg.norm(pts - P - s[:, None] * t, axis=1) - ph.radius)
+    return out
+
+
+# ----------------------------------------------------------------------------------- convergence
+@dataclass(frozen=True, eq=False)
+class FreeShapeOptimum:
+    """The converged reference: ``duration`` [s] (Richardson extrapolation over the meshes),
+    ``convergence_error`` [s] (|extrapolated - finest|), ``success`` (IPOPT converged on every mesh),
+    ``status`` (the first failing mesh's IPOPT status, else that of the finest), ``solutions`` (one
+    per mesh, coarsest first), ``delta`` [m], ``spans`` (None: whole tube)."""
+
+    duration: float
+    convergence_error: float
+    success: bool
+    status: str
+    solutions: tuple[FreeShapeSolution, ...]
+    delta: float
+    spans: tuple | None
+
+    @property
+    def durations(self) -> tuple[float, ...]:
+        return tuple(s.duration for s in self.solutions)
+
+
+def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, float]:
+    """Richardson extrapolation of durations on meshes refined by ``ratio``: (value, |value - finest|).
+    The order comes from the last three (clamped to ORDER_RANGE); with fewer, the finest and the
+    change of the last refinement."""
+    d = np.asarray(durations, float)
+    if len(d) < 2:
+        return float(d[-1]), float("nan")
+    if len(d) < 3:
+        return float(d[-1]), float(abs(d[-1] - d[-2]))
+    d1, d2 = d[-2] - d[-3], d[-1] - d[-2]
+    order = np.log(abs(d1 / d2)) / np.log(ratio) if d2 != 0 and d1 != 0 else ORDER_RANGE[1]
+    order = float(np.clip(order, *ORDER_RANGE)) if np.isfinite(order) else ORDER_RANGE[1]
+    value = d[-1] + d2 / (ratio ** order - 1.0)
+    return float(value), float(abs(value - d[-1]))
+
+
+def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float, float]] | None = None,
+                       meshes: Sequence[int] = MESHES, rotation=None) -> FreeShapeOptimum:
+    """The minimum-time rest-to-rest motion with the TCP within ``delta`` [m] of the polyline
+    ``points`` (m, 3) [m] (whole tube, or only within ``spans`` around each corner), fixed tool
+    ``rotation`` (default tool down), joint velocity and acceleration limits, converged over
+    ``meshes`` (total intervals, each twice the previous for the extrapolation)."""
+    from .. import defaults
+
+    delta = float(delta)
+    if not (np.isfinite(delta) and delta >= 0):
+        raise PathError(f"free shape: delta must be a distance >= 0 [m], got {delta!r}")
+    line = Polyline(points)
+    R_ref = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
+    phases = tube_phases(line, delta, spans)
+    _, plan_result = stop_plan(robot, line, R_ref)
+    guess = guess_from_plan(plan_result, line, phases, meshes[0])
+    solutions = []
+    for m in meshes:
+        if solutions:
+            prev = solutions[-1].motion
+            guess = _resample(_motion_at(prev), _phase_times(prev), m, [ph.density for ph in phases])
+        sol = solve_mesh(robot, line, phases, guess, R_ref)
+        log.info("free shape delta=%g spans=%s mesh %d: T = %.6f s (%s, %d iterations)", delta, spans, m, sol.duration,
+                 sol.status, sol.iterations)
+        solutions.append(sol)
+    ok = all(s.success for s in solutions)
+    status = next((s.status for s in solutions if not s.success), solutions[-1].status)
+    value, err = extrapolate([s.duration for s in solutions])
+    return FreeShapeOptimum(value, err, ok, status, tuple(solutions), delta,
+                            None if spans is None else tuple(map(tuple, spans)))
+
+
+__all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "extrapolate", "free_shape_optimum",
+           "solve_mesh", "stop_plan", "tcp_function", "tube_phases", "verify"]

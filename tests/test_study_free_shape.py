@@ -1,0 +1,82 @@
+"""The free-shape minimum-time reference (pathmotion/study/free_shape.py): its symbolic kinematics
+against Pinocchio, its extrapolation on an analytic sequence, and two cases with a known answer
+from pathmotion's own planner (delta = 0 at a corner: the time-optimal stop; a straight line:
+the time-optimal chain), each verified on a dense resample."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("casadi", reason='the free-shape reference needs CasADi: pip install "pathmotion[optimal]"')
+
+from pathmotion.planning import PlanSettings, plan  # noqa: E402
+from pathmotion.robot import fk, load_robot  # noqa: E402
+from pathmotion.study import free_shape as fs  # noqa: E402
+
+TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])  # issue 17's 90 degree turn
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("irb140")
+
+
+def test_symbolic_kinematics_match_pinocchio(robot):
+    f = fs.tcp_function(robot)
+    rng = np.random.default_rng(7)
+    for q in rng.uniform(robot.limits.lower, robot.limits.upper, (30, robot.n)):
+        p, R = fk(robot, q)
+        pc, Rc = f(q)
+        np.testing.assert_allclose(np.asarray(pc).ravel(), p, atol=1e-12)
+        np.testing.assert_allclose(np.asarray(Rc), R, atol=1e-12)
+
+
+def test_extrapolation_is_exact_for_a_first_order_sequence():
+    h = np.array([1.0, 0.5, 0.25, 0.125])
+    value, err = fs.extrapolate(0.7 - 0.3 * h)
+    assert value == pytest.approx(0.7, abs=1e-12)
+    assert err == pytest.approx(0.3 * 0.125, rel=1e-9)
+    value, _ = fs.extrapolate(0.5 + 0.2 * h ** 2)
+    assert value == pytest.approx(0.5, abs=1e-12)
+
+
+def test_tube_phases_cover_each_segment(robot):
+    line = fs.Polyline(TURN)
+    whole = fs.tube_phases(line, 0.002)
+    for j, L in enumerate(line.lengths):
+        mine = [p for p in whole if p.segment == j]
+        assert mine[0].s_lo == 0 and mine[-1].s_hi == pytest.approx(L)
+        assert all(a.s_hi == pytest.approx(b.s_lo) for a, b in zip(mine, mine[1:]))
+    confined = fs.tube_phases(line, 0.002, [(0.01, 0.02)])
+    assert [(p.segment, p.radius) for p in confined] == [(0, 0.0), (0, 0.002), (1, 0.002), (1, 0.0)]
+    assert confined[1].s_lo == pytest.approx(0.09) and confined[2].s_hi == pytest.approx(0.02)
+
+
+def _check_verified(opt, delta):
+    v = opt.solutions[-1].verification
+    assert v["max_velocity_ratio"] <= 1 + 1e-6 and v["max_acceleration_ratio"] <= 1 + 1e-6
+    assert v["max_orientation_error_rad"] < 1e-5
+    assert v["max_excess_m"] < 0.05 * max(delta, 1e-3)
+
+
+@pytest.mark.slow
+def test_delta_zero_reproduces_the_time_optimal_stop(robot):
+    _, stop = fs.stop_plan(robot, fs.Polyline(TURN))
+    opt = fs.free_shape_optimum(robot, TURN, 0.0)
+    assert opt.success, opt.status
+    assert opt.duration == pytest.approx(stop.profile.duration, rel=2e-3)
+    assert stop.profile.duration == pytest.approx(0.7196, abs=1e-4)  # the issue's figure
+    _check_verified(opt, 0.0)
+
+
+@pytest.mark.slow
+def test_straight_line_reproduces_the_planners_optimum(robot):
+    """Two collinear segments: the NLP starts from the stop in the middle and must find the chain."""
+    pts = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.6, -0.1, 0.45)])
+    path, stop = fs.stop_plan(robot, fs.Polyline(pts))
+    chain = plan(path, robot, PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False,
+                                           baselines=False))
+    assert stop.profile.duration > 1.05 * chain.profile.duration  # the guess is far from the answer
+    opt = fs.free_shape_optimum(robot, pts, 0.0, meshes=(25, 50, 100))
+    assert opt.success, opt.status
+    assert opt.duration == pytest.approx(chain.profile.duration, rel=2e-3)
+    _check_verified(opt, 0.0)
