@@ -22,7 +22,7 @@ singularity along the whole path, raising an error that names theta, the segment
 
 Arms with more than 6 joints (:class:`RedundantJointPath`): Phi is the solution of an ODE in theta
 whose null-space part keeps joint speed low and pulls toward the start configuration;
-Phi' and Phi'' are exact there too (equations in :mod:`pathmotion.robot.redundancy`).
+Phi', Phi'' and Phi''' are exact there too (equations in :mod:`pathmotion.robot.redundancy`).
 """
 
 from __future__ import annotations
@@ -223,10 +223,18 @@ class RedundantJointPath(TaskJointPath):
         return q, dq, ddq
 
     def evaluate3(self, theta, side: str = "right"):
-        raise NotImplementedError(
-            f"Phi''' (jerk and torque-rate limits) is not available for {self.robot.name}, an arm with "
-            f"{self.robot.n} > 6 joints (its redundancy resolution gives exact Phi' and Phi'' only); "
-            "drop the jerk limit")
+        """(Phi, Phi', Phi'', Phi''') at theta, each (N, n) or (n,); Phi''' exact (the ODE differentiated
+        twice, :func:`pathmotion.robot.redundancy.resolved_third_derivative`)."""
+        th, scalar = self._check_theta(theta)
+        p, dp, ddp, dddp, rot, w, dw, ddw = self.task_path.pose3(th, side=side)
+        guess = redundancy.hermite(th, self.reference_theta, self.reference_q, self.reference_dq_right,
+                                   self.reference_dq_left, side)
+        q = redundancy.project_to_pose(self.robot, guess, p, rot, self.weights_inv)
+        dq, ddq, dddq = redundancy.resolved_third_derivative(
+            self.robot, q, np.concatenate([dp, w], axis=1), np.concatenate([ddp, dw], axis=1),
+            np.concatenate([dddp, ddw], axis=1), self.q_ref, self.gain, self.weights_inv)
+        out = (q, dq, ddq, dddq)
+        return tuple(o[0] for o in out) if scalar else out
 
 
 def _lift_redundant(robot: Robot, task_path, q_start, original, reference_step: float,

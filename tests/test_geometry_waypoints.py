@@ -64,7 +64,8 @@ def test_blend_tolerance_rounds_every_corner_within_it():
     dev = max_deviation(blended, sharp).distance
     assert 0.9 * tol < dev <= tol * (1 + 1e-9)  # each blend uses the tolerance, none exceeds it
     # the ends stay at the first and last waypoints
-    assert np.allclose(blended.evaluate(0.0)[0], POINTS[0]) and np.allclose(blended.evaluate(blended.length)[0], POINTS[-1])
+    assert np.allclose(blended.evaluate(0.0)[0], POINTS[0])
+    assert np.allclose(blended.evaluate(blended.length)[0], POINTS[-1])
 
 
 def test_quaternion_and_rpy_columns_give_the_same_rotations(tmp_path):

@@ -78,7 +78,8 @@ def test_locked_joint_errors():
 
 
 def test_scenario_locked_joints_and_flange(tmp_path):
-    text = (f'[robot]\nname = "{PANDA_URDF}"\nlocked_joints = {{panda_finger_joint1 = 0.01, panda_finger_joint2 = 0.01}}\n'
+    locked = "{panda_finger_joint1 = 0.01, panda_finger_joint2 = 0.01}"
+    text = (f'[robot]\nname = "{PANDA_URDF}"\nlocked_joints = {locked}\n'
             'flange_frame = "panda_hand"\n[path]\ntype = "joint"\n'
             f"waypoints = [{PANDA_READY.tolist()}, {(PANDA_READY + 0.1).tolist()}]\n")
     setup = pm.load_text(text, tmp_path)
@@ -118,8 +119,19 @@ def test_redundant_lift_follows_the_path_with_exact_derivatives(panda, panda_cir
     qf = jp(fine)
     step = np.max(np.abs(np.diff(qf, axis=0)), axis=0)
     assert np.all(step <= 1.01 * np.max(np.abs(dq), axis=0) * (fine[1] - fine[0]))
-    with pytest.raises(NotImplementedError, match="Phi'''"):
-        jp.evaluate3(theta)
+    # Phi''' (exact, from the ODE differentiated twice) against central differences of Phi''
+    _, d1b, d2b, d3 = jp.evaluate3(inner)
+    assert np.max(np.abs(d1b - d1)) < 1e-12 and np.max(np.abs(d2b - d2)) < 1e-9
+    assert np.max(np.abs((hi[2] - lo[2]) / (2 * FD_STEP) - d3)) < 1e-5 * np.max(np.abs(d3))
+
+
+def test_jacobian_second_rate_matches_finite_differences(panda):
+    rng = np.random.default_rng(2)
+    q, v, a = rng.uniform(-1, 1, (3, 7))
+    h = 1e-4
+    at = (lambda t: q + v * t + 0.5 * a * t * t)
+    fd = (jacobian(panda, at(h)) - 2 * jacobian(panda, q) + jacobian(panda, at(-h))) / h**2
+    assert np.max(np.abs(fd - redundancy.jacobian_second_rate(panda, q, v, a)[0])) < 1e-6
 
 
 def test_null_space_motion_minimizes_weighted_speed_and_pulls_to_start(panda, panda_circle):

@@ -216,6 +216,10 @@ def _build_model(urdf_text: str, where: str) -> pin.Model:
     return model
 
 
+#: A locked joint's value may exceed its URDF range by this much (rounding of a copied limit) [rad or m].
+_LOCK_SLACK = 1e-12
+
+
 def reduced_model(model: pin.Model, locked: tuple[tuple[str, float], ...], where: str) -> pin.Model:
     """``model`` with the joints ``locked`` ((name, value), ...) fixed at their values; RobotModelError
     naming a joint that does not exist or a value outside the joint's URDF range."""
@@ -234,7 +238,8 @@ def reduced_model(model: pin.Model, locked: tuple[tuple[str, float], ...], where
                                   "revolute and prismatic joints can be locked")
         lo, hi = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
         v = float(value)
-        if not np.isfinite(v) or (np.isfinite(lo) and np.isfinite(hi) and lo < hi and not lo - 1e-12 <= v <= hi + 1e-12):
+        bounded = np.isfinite(lo) and np.isfinite(hi) and lo < hi
+        if not np.isfinite(v) or (bounded and not lo - _LOCK_SLACK <= v <= hi + _LOCK_SLACK):
             raise RobotModelError(f"robot {where}: locked joint '{name}' = {value!r} is outside its range "
                                   f"[{lo:g}, {hi:g}] (rad or m); give a value inside it")
         q[joint.idx_q] = v

@@ -27,8 +27,8 @@ holds exactly as well (the TCP's acceleration per unit theta^2 is the path's). W
 Phi'' as functions of (theta, Phi(theta)). What is numerical: Phi itself, the ODE's solution, held
 as a dense RK4 reference (step ``defaults.LIFT_REFERENCE_STEP`` / 2) with a cubic Hermite interpolant
 between samples; at every evaluation the interpolated q is projected back onto the pose (Gauss-Newton
-steps q += J# e, e = pose error) so that FK(Phi) is the path to rounding (1e-12 m). Phi''' is not
-provided for these arms (it would need the second derivative of J#).
+steps q += J# e, e = pose error) so that FK(Phi) is the path to rounding (1e-12 m). Phi''' (jerk
+limits) is exact too: :func:`resolved_third_derivative`, with J'' from :func:`jacobian_second_rate`.
 """
 
 from __future__ import annotations
@@ -103,6 +103,82 @@ def resolved_derivatives(robot: Robot, q, twist, dtwist, q_ref, gain: float, win
     ddq = (np.einsum("nij,nj->ni", pinv, dtwist) + np.einsum("nij,nj->ni", dpinv, twist)
            + np.einsum("nij,nj->ni", dnull, pull) - gain * np.einsum("nij,nj->ni", null, dq))
     return dq, ddq
+
+
+def _mv(m, v):
+    return np.einsum("nij,nj->ni", m, v)
+
+
+def jacobian_second_rate(robot: Robot, q, qd, qdd) -> np.ndarray:
+    """Jdd = d2J/dt2 (N, 6, n) of the LOCAL_WORLD_ALIGNED TCP Jacobian along q(t) with velocity qd and
+    acceleration qdd (N, n), exact (no finite differences).
+
+    Column i of J is [z_i x r_i; z_i] for a revolute joint (z_i its world axis, r_i = p_tcp - o_i from
+    the joint's origin o_i on the axis) and [z_i; 0] for a prismatic one. z_i is fixed in the joint's
+    frame, so z' = w_i x z and z'' = a_i x z + w_i x z', with w_i, a_i the frame's angular velocity and
+    acceleration; r' and r'' are differences of the classical velocities and accelerations of the two
+    points. Then (z x r)'' = z'' x r + 2 z' x r' + z x r''. All from one forwardKinematics(q, qd, qdd)."""
+    model, data = robot.model, robot.data
+    fid = robot.tcp_frame_id
+    q, qd, qdd = (np.atleast_2d(x) for x in (q, qd, qdd))
+    jac = jacobian(robot, q).reshape(len(q), 6, robot.n)
+    out = np.empty((len(q), 6, robot.n))
+    for k in range(len(q)):
+        pin.forwardKinematics(model, data, q[k], qd[k], qdd[k])
+        pin.updateFramePlacements(model, data)
+        p_t = data.oMf[fid].translation
+        v_t = pin.getFrameVelocity(model, data, fid, _LWA).linear
+        a_t = pin.getFrameClassicalAcceleration(model, data, fid, _LWA).linear
+        for i in range(robot.n):
+            jid = i + 1  # nq = nv = 1 per joint (checked when the model is built): joint i + 1 moves v[i]
+            vel = pin.getVelocity(model, data, jid, _LWA)
+            acc = pin.getClassicalAcceleration(model, data, jid, _LWA)
+            w_i, a_i = vel.angular, acc.angular
+            revolute = np.linalg.norm(jac[k, 3:, i]) > 0.5
+            z = jac[k, 3:, i] if revolute else jac[k, :3, i]
+            dz = np.cross(w_i, z)
+            ddz = np.cross(a_i, z) + np.cross(w_i, dz)
+            if revolute:
+                r, dr, ddr = p_t - data.oMi[jid].translation, v_t - vel.linear, a_t - acc.linear
+                out[k, :3, i] = np.cross(ddz, r) + 2.0 * np.cross(dz, dr) + np.cross(z, ddr)
+                out[k, 3:, i] = ddz
+            else:
+                out[k, :3, i], out[k, 3:, i] = ddz, 0.0
+    return out
+
+
+def resolved_third_derivative(robot: Robot, q, twist, dtwist, ddtwist, q_ref, gain: float,
+                              winv) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Phi', Phi'', Phi''') (N, n): :func:`resolved_derivatives` and its theta-derivative along the ODE,
+    with xi'' = [p'''; w''] (N, 6). With P = J#, A = J W^-1 J^T, p = k (q_ref - q) and ' = d/dtheta:
+
+        Phi''' = P xi'' + 2 P' xi' + P'' xi + N'' p + 2 N' p' + N p'',   p' = -k Phi', p'' = -k Phi''
+        A'' = J'' W^-1 J^T + 2 J' W^-1 J'^T + J W^-1 J''^T
+        P'' = W^-1 J''^T A^-1 - 2 W^-1 J'^T A^-1 A' A^-1 - P A'' A^-1 + 2 P A' A^-1 A' A^-1
+        N'' = -(P'' J + 2 P' J' + P J'')
+
+    with J' = Jd(Phi, Phi') and J'' = Jdd(Phi, Phi', Phi'') (:func:`jacobian_second_rate`); exact."""
+    q = np.atleast_2d(q)
+    dq, ddq = resolved_derivatives(robot, q, twist, dtwist, q_ref, gain, winv)
+    jac = jacobian(robot, q).reshape(len(q), 6, robot.n)
+    j1 = jacobian_rate(robot, q, dq)
+    j2 = jacobian_second_rate(robot, q, dq, ddq)
+    t = (lambda m: np.swapaxes(m, 1, 2))
+    w = winv[None, :, None]
+    a_inv = np.linalg.inv(jac @ (w * t(jac)))
+    a1 = j1 @ (w * t(jac)) + jac @ (w * t(j1))
+    a2 = j2 @ (w * t(jac)) + 2.0 * j1 @ (w * t(j1)) + jac @ (w * t(j2))
+    p0 = (w * t(jac)) @ a_inv
+    p1 = (w * t(j1)) @ a_inv - p0 @ a1 @ a_inv
+    p2 = ((w * t(j2)) @ a_inv - 2.0 * (w * t(j1)) @ a_inv @ a1 @ a_inv - p0 @ a2 @ a_inv
+          + 2.0 * p0 @ a1 @ a_inv @ a1 @ a_inv)
+    n0 = np.eye(robot.n)[None] - p0 @ jac
+    n1 = -(p1 @ jac + p0 @ j1)
+    n2 = -(p2 @ jac + 2.0 * p1 @ j1 + p0 @ j2)
+    pull = gain * (q_ref[None, :] - q)
+    dddq = (_mv(p0, ddtwist) + 2.0 * _mv(p1, dtwist) + _mv(p2, twist) + _mv(n2, pull)
+            - 2.0 * gain * _mv(n1, dq) - gain * _mv(n0, ddq))
+    return dq, ddq, dddq
 
 
 def project_to_pose(robot: Robot, q, positions, rotations, winv) -> np.ndarray:
