@@ -1,5 +1,7 @@
 """Exports: CSV/Parquet round trips, the ROS 2 JointTrajectory message parsed back, EGM stream, RAPID."""
 
+import os
+
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
@@ -102,3 +104,22 @@ def test_json_is_strict_with_inf_as_a_string_and_nan_as_null(tmp_path):
     data = json.loads(path.read_text(), parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
     assert data == {"k": 3, "v": None, "w": 2.0, "r": "inf", "s": "-inf"}
     assert float(data["r"]) == np.inf
+
+
+@pytest.mark.parametrize("umask, expected", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
+def test_written_files_respect_the_umask(tmp_path, samples, umask, expected):
+    """Every writer (text, JSON, Parquet) creates files as open() would: 0666 minus the umask."""
+    import stat
+
+
+    old = os.umask(umask)
+    try:
+        paths = [write_json(tmp_path / "s.json", {"a": 1}), exports.write_trajectory_csv(tmp_path / "t.csv", samples),
+                 exports.write_trajectory_parquet(tmp_path / "t.parquet", samples)]
+        reference = tmp_path / "plain.txt"
+        reference.write_text("x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(reference.stat().st_mode) == expected  # the independent reference: open()
+    for p in paths:
+        assert stat.S_IMODE(os.stat(p).st_mode) == expected, p
