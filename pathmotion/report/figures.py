@@ -29,6 +29,14 @@ def _joint_names(folder: Path, n: int) -> list[str]:
     return list(names) if names and len(names) == n else [f"joint {j + 1}" for j in range(n)]
 
 
+def phase_plane_labels(path_kind: str) -> tuple[str, str]:
+    """Axis labels of the phase plane: on a task path theta is the arc length [m] and theta_dot the TCP
+    speed [m/s]; on a joint path theta is a parameter on [0, 1] without a unit, theta_dot in [1/s]."""
+    if path_kind == "joint":
+        return "theta, path parameter [-]", "theta_dot [1/s]"
+    return "theta, arc length along the path [m]", "theta_dot, TCP speed [m/s]"
+
+
 def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     """theta_dot against theta (columns of phase_plane.csv): pointwise limit curve, controllable
     bound, optimum and baselines, with the durations of a plan's ``summary``."""
@@ -47,9 +55,11 @@ def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     if "theta_dot_constant_speed" in cols and constant is not None:
         ax.plot(th, cols["theta_dot_constant_speed"], color="C3", lw=1.3, label=f"constant TCP speed ({constant:.4f} s)")
     ax.set_ylim(0, top)
-    ax.set_xlabel("path coordinate theta")
-    ax.set_ylabel("theta_dot [1/s]")
-    ax.set_title("Phase plane")
+    xlabel, ylabel = phase_plane_labels(summary.get(schema.PATH_KIND.key, "task"))
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    name = summary.get(schema.SCENARIO.key)
+    ax.set_title(f"{name}: phase plane" if name else "Phase plane")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
     return ax
