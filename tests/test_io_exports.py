@@ -41,19 +41,20 @@ def test_parquet_round_trip(tmp_path, samples):
     np.testing.assert_array_equal(table.column("tau2").to_numpy(), samples.tau[:, 1])
 
 
-def test_ros2_yaml_parses_back(tmp_path, samples, irb140):
+def test_ros2_yaml_parses_back_one_point_per_cycle(tmp_path, samples, irb140):
     path = exports.write_ros2_yaml(tmp_path / "traj.yaml", samples, irb140.joint_names)
     msg = yaml.safe_load(path.read_text())
     assert set(msg) == {"header", "joint_names", "points"}
     assert msg["joint_names"] == list(irb140.joint_names)
-    times = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"] for p in msg["points"]])
-    np.testing.assert_allclose(times, samples.t, atol=1e-9)
-    assert np.all(np.diff(times) > 0)
+    ns = np.array([p["time_from_start"]["sec"] * 10**9 + p["time_from_start"]["nanosec"] for p in msg["points"]])
+    np.testing.assert_array_equal(np.diff(ns), 4_000_000)  # every point exactly one 4 ms cycle after the last
+    assert ns[0] == 0 and samples.t[-1] <= ns[-1] * 1e-9 < samples.t[-1] + 0.004
     assert all(0 <= p["time_from_start"]["nanosec"] < 1_000_000_000 for p in msg["points"])
-    k = len(times) // 2
-    np.testing.assert_allclose(msg["points"][k]["positions"], samples.q[k], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(msg["points"][k]["velocities"], samples.qd[k], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(msg["points"][k]["accelerations"], samples.qdd[k], rtol=0, atol=1e-15)
+    for k in (0, len(ns) // 2, len(ns) - 1):  # the samples at the same times; the last: the end state
+        i = min(k, len(samples.t) - 1)
+        np.testing.assert_allclose(msg["points"][k]["positions"], samples.q[i], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(msg["points"][k]["velocities"], samples.qd[i], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(msg["points"][k]["accelerations"], samples.qdd[i], rtol=0, atol=1e-9)
 
 
 def test_ros2_rejects_wrong_joint_names(samples):
@@ -61,13 +62,25 @@ def test_ros2_rejects_wrong_joint_names(samples):
         exports.ros2_joint_trajectory(samples, ["a", "b"])
 
 
-def test_egm_stream_is_4ms_degrees(tmp_path, samples):
+def test_egm_stream_rows_are_exactly_one_cycle_apart_and_read_cleanly(tmp_path, samples):
     path = exports.write_egm_csv(tmp_path / "egm.csv", samples, sample_time=0.004)
+    text = path.read_text()
     data = np.loadtxt(path, delimiter=",", skiprows=1)
-    np.testing.assert_allclose(np.diff(data[:-1, 0]), 0.004, atol=1e-12)
-    assert data[-1, 0] == pytest.approx(samples.t[-1])
-    np.testing.assert_allclose(data[:, 1:7], np.degrees(np.array(
-        [np.interp(data[:, 0], samples.t, samples.q[:, j]) for j in range(6)]).T), atol=1e-9)
+    k = np.arange(len(data))
+    np.testing.assert_array_equal(data[:, 0], np.round(k * 0.004, 9))  # the last row too
+    assert samples.t[-1] <= data[-1, 0] < samples.t[-1] + 0.004
+    rows = text.splitlines()[1:]
+    assert rows[1].startswith("0.004,") and rows[3].startswith("0.012,")  # not 0.0040000000000000001
+    assert ",-0.0," not in text and not any(r.endswith(",-0.0") for r in rows)
+    expected = np.degrees(np.array([np.interp(np.minimum(data[:, 0], samples.t[-1]), samples.t, samples.q[:, j])
+                                    for j in range(6)]).T)
+    np.testing.assert_allclose(data[:, 1:7], expected, atol=1e-9)
+    np.testing.assert_allclose(data[-1, 1:7], np.degrees(samples.q[-1]), atol=1e-9)  # the end state
+
+
+def test_tidy_rounds_and_removes_negative_zero():
+    out = exports.tidy(np.array([-1e-12, 0.1 + 0.2, -0.0]), 9)
+    assert [repr(v) for v in out.tolist()] == ["0.0", "0.3", "0.0"]
 
 
 def test_rapid_module_structure(samples):

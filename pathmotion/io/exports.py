@@ -95,63 +95,94 @@ def write_trajectory_parquet(path, samples) -> Path:
     return write_table_parquet(path, trajectory_columns(samples))
 
 
-def _duration(t: float) -> dict:
-    sec = int(np.floor(t))
-    nanosec = int(round((t - sec) * 1e9))
-    if nanosec >= 1_000_000_000:
-        sec, nanosec = sec + 1, nanosec - 1_000_000_000
-    return {"sec": sec, "nanosec": nanosec}
+def cycle_grid(duration: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """The controller's cycle times for a motion of ``duration`` [s]: k (K+1,) integers and t = k dt [s]
+    (rounded to the nanosecond), K = ceil(duration / dt), so every row is exactly one cycle after the
+    previous one; the last row (at most one cycle after ``duration``) holds the end state."""
+    count = int(np.ceil(duration / dt - 1e-9)) if duration > 0 else 0
+    k = np.arange(count + 1)
+    return k, np.round(k * dt, 9)
 
 
-def ros2_joint_trajectory(samples, joint_names) -> dict:
+def on_cycles(samples, dt: float) -> dict[str, np.ndarray]:
+    """t (K+1,) on :func:`cycle_grid` and q, qd, qdd (K+1, n) linearly interpolated from ``samples``
+    there (exact at the samples themselves); past the planned end the end state holds."""
+    t = samples.t
+    _, grid = cycle_grid(float(t[-1]), dt)
+    at = np.minimum(grid, t[-1])
+    out = {"t": grid}
+    for name in ("q", "qd", "qdd"):
+        arr = getattr(samples, name)
+        out[name] = np.column_stack([np.interp(at, t, arr[:, j]) for j in range(arr.shape[1])])
+    return out
+
+
+def tidy(values: np.ndarray, decimals: int) -> np.ndarray:
+    """``values`` rounded to ``decimals`` places, with -0 turned into 0 (for human-read exports)."""
+    return np.round(np.asarray(values, float), decimals) + 0.0
+
+
+def _csv_text(columns: dict[str, np.ndarray], comments=()) -> str:
+    """CSV with the shortest text that reads back each value (``repr``), after optional '# ' comment lines."""
+    names = list(columns)
+    data = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
+    lines = [f"# {c}" for c in comments] + [",".join(names)]
+    lines += [",".join(map(repr, row)) for row in data.tolist()]
+    return "\n".join(lines) + "\n"
+
+
+#: Decimal places of the human-read exports: times to the nanosecond; joint values [rad or deg] and
+#: their rates to 1e-9 (far below any encoder; the files stay readable).
+EXPORT_DECIMALS = 9
+
+
+def ros2_joint_trajectory(samples, joint_names, sample_time: float = defaults.SAMPLE_TIME) -> dict:
     """A ``trajectory_msgs/msg/JointTrajectory`` as a plain dict (YAML/JSON message form).
 
-    The first point is the start state at time_from_start 0 (the arm must already be there);
-    times strictly increase, as ros2_control's joint_trajectory_controller requires.
+    One point every ``sample_time`` [s] exactly (:func:`cycle_grid`), the first the start state at
+    time_from_start 0 (the arm must already be there); times strictly increase, as
+    ros2_control's joint_trajectory_controller requires.
     """
     joint_names = list(joint_names)
     if samples.q.shape[1] != len(joint_names):
         raise PathmotionError(f"{len(joint_names)} joint names for {samples.q.shape[1]} joints")
     if np.any(np.diff(samples.t) <= 0):
         raise PathmotionError("trajectory times must strictly increase for ROS 2 export")
-    points = []
-    for k in range(len(samples.t)):
-        points.append({
-            "positions": [float(v) for v in samples.q[k]],
-            "velocities": [float(v) for v in samples.qd[k]],
-            "accelerations": [float(v) for v in samples.qdd[k]],
-            "effort": [],
-            "time_from_start": _duration(float(samples.t[k])),
-        })
+    k, _ = cycle_grid(float(samples.t[-1]), sample_time)
+    cyc = on_cycles(samples, sample_time)
+    step_ns = int(round(sample_time * 1e9))
+    q, qd, qdd = (tidy(cyc[name], EXPORT_DECIMALS).tolist() for name in ("q", "qd", "qdd"))
+    points = [{"positions": q[i], "velocities": qd[i], "accelerations": qdd[i], "effort": [],
+               "time_from_start": {"sec": int(k[i]) * step_ns // 1_000_000_000,
+                                   "nanosec": int(k[i]) * step_ns % 1_000_000_000}}
+              for i in range(len(k))]
     return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""},
             "joint_names": joint_names, "points": points}
 
 
-def write_ros2_yaml(path, samples, joint_names) -> Path:
+def write_ros2_yaml(path, samples, joint_names, sample_time: float = defaults.SAMPLE_TIME, notes=()) -> Path:
     """Write the JointTrajectory message as YAML, e.g. for
     ``ros2 topic pub --once /joint_trajectory_controller/joint_trajectory
-    trajectory_msgs/msg/JointTrajectory "$(cat trajectory_ros2.yaml)"``."""
+    trajectory_msgs/msg/JointTrajectory "$(cat trajectory_ros2.yaml)"``; ``notes`` become '# ' lines
+    at the top."""
     import yaml
 
-    msg = ros2_joint_trajectory(samples, joint_names)
-    return write_text(path, yaml.safe_dump(msg, sort_keys=False, default_flow_style=None, width=1000))
+    msg = ros2_joint_trajectory(samples, joint_names, sample_time)
+    head = "".join(f"# {n}\n" for n in notes)
+    return write_text(path, head + yaml.safe_dump(msg, sort_keys=False, default_flow_style=None, width=1000))
 
 
-def write_egm_csv(path, samples, sample_time: float = 0.004) -> Path:
-    """ABB Externally Guided Motion joint stream: one row per controller cycle (default 4 ms),
-    columns t [s], j1..jn [deg], j1_speed..jn_speed [deg/s]. A streaming client (e.g. over
-    EgmSensor UDP messages) sends row k at cycle k."""
-    t = samples.t
-    grid = np.arange(0.0, t[-1] + 1e-12, sample_time)
-    if grid[-1] < t[-1] - 1e-12:
-        grid = np.append(grid, t[-1])
-    q = np.column_stack([np.interp(grid, t, samples.q[:, j]) for j in range(samples.q.shape[1])])
-    qd = np.column_stack([np.interp(grid, t, samples.qd[:, j]) for j in range(samples.qd.shape[1])])
-    n = q.shape[1]
-    cols = {"t": grid}
-    cols.update({f"j{j + 1}": np.degrees(q[:, j]) for j in range(n)})
-    cols.update({f"j{j + 1}_speed": np.degrees(qd[:, j]) for j in range(n)})
-    return write_table_csv(path, cols)
+def write_egm_csv(path, samples, sample_time: float = defaults.SAMPLE_TIME, notes=()) -> Path:
+    """ABB Externally Guided Motion joint stream: one row per controller cycle (default 4 ms), exactly
+    one cycle apart (:func:`cycle_grid`), columns t [s], j1..jn [deg], j1_speed..jn_speed [deg/s]; ``notes``
+    become '# ' lines before the header. A streaming client (e.g. over EgmSensor UDP messages) sends
+    row k at cycle k."""
+    cyc = on_cycles(samples, sample_time)
+    n = cyc["q"].shape[1]
+    cols = {"t": cyc["t"]}
+    cols.update({f"j{j + 1}": tidy(np.degrees(cyc["q"][:, j]), EXPORT_DECIMALS) for j in range(n)})
+    cols.update({f"j{j + 1}_speed": tidy(np.degrees(cyc["qd"][:, j]), EXPORT_DECIMALS) for j in range(n)})
+    return write_text(path, _csv_text(cols, notes))
 
 
 def rapid_module(samples, module: str = "PathmotionReplay", step: float = 0.05, zone: str = "z1") -> str:
