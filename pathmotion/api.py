@@ -315,18 +315,20 @@ def _rapid_estimate(setup: Setup) -> float:
                             [c.angle for c in path.connections])
 
 
-def write_plan(setup: Setup, result: PlanResult, out: str | Path) -> dict:
+def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list[str] | None = None,
+               force_exports: bool = False) -> dict:
     """Write trajectory.csv/.parquet, summary.json, phase_plane.csv, the exports and the data the
     report and the figures read (limits.json, arm.csv, tcp_path.csv, original_path.csv); figures are
-    drawn from these files by :mod:`pathmotion.report.figures`."""
+    drawn from these files by :mod:`pathmotion.report.figures`. ``failures`` (default
+    :func:`plan_failures`) go into summary.json; the exports of a failed plan are written only with
+    ``force_exports``, then with a warning header."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     samples = result.trajectory.sample(setup.scenario.plan.sample_time)
     exports.write_trajectory_csv(out / "trajectory.csv", samples)
     exports.write_trajectory_parquet(out / "trajectory.parquet", samples)
-    exports.write_ros2_yaml(out / "trajectory_ros2.yaml", samples, setup.robot.joint_names)
-    exports.write_egm_csv(out / "trajectory_egm.csv", samples)
-    exports.write_rapid(out / "trajectory_rapid.mod", samples)
+    failures = plan_failures(result) if failures is None else list(failures)
+    notes = _write_exports(setup, samples, out, failures, force_exports)
     exports.write_table_csv(out / "phase_plane.csv", phase_plane_columns(result))
     write_report_data(setup, out, samples.t, samples.q)
     idx = exports.decimate(len(samples.t))
@@ -336,8 +338,37 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path) -> dict:
     if setup.scenario_text:
         write_text(out / "scenario.toml", setup.scenario_text)
     summary = plan_summary(setup, result)
+    summary[schema.FAILURES.key] = failures
+    summary[schema.EXPORT_NOTES.key] = notes
     write_json(out / "summary.json", summary)
     return summary
+
+
+def plan_failures(result: PlanResult) -> list[str]:
+    """Why the planned motion must not be run as it is (empty when it may): a jump in the path speed
+    (theta_dot) at a connection, a limit exceeded by more than LIMIT_TOLERANCE on the verification
+    resample (a kink crossed at speed makes the acceleration and torque unbounded)."""
+    out = [f"the path speed jumps at theta = {a:.6g} .. {b:.6g} (a 'max' connection)"
+           for a, b in result.jump_intervals]
+    r = result.ratios
+    if r is not None and not r.within():
+        out.append(f"a limit is exceeded: {r.worst}")
+    return out
+
+
+def _write_exports(setup: Setup, samples, out: Path, failures: list[str], force: bool) -> list[str]:
+    """The ROS 2, EGM and RAPID exports, each headed by :func:`exports.export_notes`; for a failed plan
+    none (stale ones removed) unless ``force``. Returns the notes ([] when refused)."""
+    if failures and not force:
+        for name in exports.EXPORT_FILES:
+            (out / name).unlink(missing_ok=True)
+        return []
+    notes, abb = exports.export_notes(samples, failures), exports.export_notes(samples, failures, degrees=True)
+    ros, egm, rapid = (out / name for name in exports.EXPORT_FILES)
+    exports.write_ros2_yaml(ros, samples, setup.robot.joint_names, setup.scenario.plan.sample_time, notes=notes)
+    exports.write_egm_csv(egm, samples, notes=abb)
+    exports.write_rapid(rapid, samples, notes=abb)
+    return notes
 
 
 def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> None:

@@ -1,7 +1,9 @@
 """The ``pathmotion`` command: one subcommand per job, each a few lines over :mod:`pathmotion.api`.
 
 Errors are printed on one or two lines (never a traceback) and the exit code is non-zero:
-1 for a PathmotionError (bad input, infeasible limits, ...), 2 for usage errors, 130 when interrupted.
+1 for a PathmotionError (bad input, infeasible limits, ...), 2 for usage errors (Click's code), 3 for an
+internal error (a bug), 4 for a failed result (``plan``/``simulate``: a path-speed jump, a limit exceeded,
+tracking failed; every file is still written, the exports only with ``--force``), 130 when interrupted.
 Set PATHMOTION_DEBUG=1 to see the traceback of an internal error.
 """
 
@@ -28,6 +30,10 @@ app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="
 console = Console(stderr=False)
 err_console = Console(stderr=True)
 logger = logging.getLogger(__name__)
+
+
+#: Exit code of a failed result (Click uses 2 for usage errors; 1 bad input, 3 internal error, 130 interrupted).
+EXIT_FAILED_RESULT = 4
 
 
 def _fail(message: str, code: int = 1):
@@ -151,6 +157,22 @@ def _simulation_figures(folder: Path) -> None:
 SetOpt = typer.Option(None, "--set", help="override a scenario key, e.g. --set plan.grid_points=2000")
 VerifyOpt = typer.Option(None, "--verify", help="certified (default: a certified bound per grid interval) | dense "
                          "(the 0.1 ms resample) | off; sets plan.verify")
+ForceOpt = typer.Option(False, "--force", help="write the exports (ROS 2, EGM, RAPID) even of a failed plan, "
+                                               "with a warning header")
+
+
+def _result_verdict(failures: list[str], notes: list[str], forced: bool) -> None:
+    """Print the export notes and why the result failed; exit EXIT_FAILED_RESULT when it did."""
+    for note in notes:
+        if not note.startswith("WARNING"):
+            err_console.print(f"[yellow]note[/]: exports: {escape(note)}", highlight=False, soft_wrap=True)
+    if not failures:
+        return
+    for f in failures:
+        err_console.print(f"[bold red]failed[/]: {escape(f)}", highlight=False, soft_wrap=True)
+    err_console.print("exports (ROS 2, EGM, RAPID) " + ("written with a warning header (--force)" if forced else
+                      "not written: rerun with --force to write them with a warning header"), highlight=False)
+    raise typer.Exit(EXIT_FAILED_RESULT)
 
 
 @app.command()
@@ -294,8 +316,10 @@ def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
 @guarded
 def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
          out: Path = typer.Option(..., "--out", help="output folder"), set_: Optional[List[str]] = SetOpt,
-         figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt):
+         figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
+         force: bool = ForceOpt):
     """Plan the time-optimal motion: writes trajectory.csv/.parquet, summary.json, exports and figures.
+    A failed plan (a path-speed jump, a limit exceeded) exits 4 after writing its files.
 
     Example: [bold]pathmotion plan scenarios/circle_max.toml --out out/circle[/]
     """
@@ -310,11 +334,12 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="plan: writing")
         with result_folder(out) as folder:  # the folder is replaced as one unit
-            summary = api.write_plan(setup, result, folder)
+            summary = api.write_plan(setup, result, folder, force_exports=force)
             if figures:
                 _plan_figures(folder)
         progress.update(task, advance=1)
     console.print(_summary_table(f"plan {setup.name} -> {out}", summary))
+    _result_verdict(summary["failures"], summary["export_notes"], force)
 
 
 @app.command()
@@ -322,9 +347,11 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
              out: Path = typer.Option(..., "--out", help="output folder"), set_: Optional[List[str]] = SetOpt,
              controller: Optional[str] = typer.Option(None, help="orbital | computed_torque | pd_gravity"),
-             figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt):
+             figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
+             force: bool = ForceOpt):
     """Plan, then simulate the closed loop (controller at 4 ms, full arm dynamics); writes
-    simulation.csv, summary.json and figures; plus the plan's files in OUT/plan.
+    simulation.csv, summary.json and figures; plus the plan's files in OUT/plan. A failed result
+    (a failed plan, or tracking failed) exits 4 after writing every file.
 
     Example: [bold]pathmotion simulate scenarios/corner_g2.toml --out out/g2[/]
     """
@@ -344,17 +371,18 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         sim = api.simulate_scenario(setup, result)
         progress.update(task, advance=1, description="simulate: writing")
         with result_folder(out) as folder:  # plan and simulation files replace the folder as one unit
-            api.write_plan(setup, result, folder / "plan")
+            summary = api.write_simulation(setup, result, sim, folder)
+            failures = api.plan_failures(result)
+            if not summary.get("tracking_ok", True):
+                failures.append(f"tracking failed: {summary['failure']['message']}")
+            plan_summary = api.write_plan(setup, result, folder / "plan", failures, force_exports=force)
             if figures:
                 _plan_figures(folder / "plan")
-            summary = api.write_simulation(setup, result, sim, folder)
-            if figures:
                 _simulation_figures(folder)
         progress.update(task, advance=1)
     summary.pop("plan", None)
     console.print(_summary_table(f"simulate {setup.name} -> {out}", summary))
-    if not summary.get("tracking_ok", True):
-        err_console.print(f"[yellow]tracking failed[/]: {summary['failure']['message']}")
+    _result_verdict(failures, plan_summary["export_notes"], force)
 
 
 @app.command()

@@ -81,6 +81,14 @@ def test_plan_writes_the_contract_files(tmp_path):
     assert data[-1, 0] == pytest.approx(summary["duration_s"], abs=1e-9)
     ros = yaml.safe_load((out / "trajectory_ros2.yaml").read_text())
     assert len(ros["points"]) == len(data)
+    # circle_max starts at speed: every export says so, with the speeds of trajectory.csv's first row
+    qd0 = data[0, 10:16]
+    assert np.max(np.abs(qd0)) > 0.1
+    first = (out / "trajectory_ros2.yaml").read_text().splitlines()[0]
+    assert "the arm must already move at" in first and f"{qd0[0]:.4g}" in first
+    egm_first = (out / "trajectory_egm.csv").read_text().splitlines()[0]
+    assert "must already move at" in egm_first and f"[{np.degrees(qd0[0]):.4g}, " in egm_first
+    assert "must already move at" in text
 
 
 def test_simulate_writes_results_and_the_plan(tmp_path):
@@ -100,11 +108,47 @@ def test_simulate_writes_results_and_the_plan(tmp_path):
     assert (out / "tracking_task.png").is_file() and (out / "tracking_joints.png").is_file()
 
 
-def test_tracking_failure_is_a_result_not_an_error(tmp_path):
+EXPORTS = ("trajectory_ros2.yaml", "trajectory_egm.csv", "trajectory_rapid.mod")
+
+
+def test_tracking_failure_exits_4_writes_every_file_and_refuses_exports(tmp_path):
     code, text = run("simulate", scenario_path("corner_max"), "--out", tmp_path / "m")
-    assert code == 0, text
+    assert code == 4, text
+    assert "tracking failed" in text and "--force" in text
     summary = json.loads((tmp_path / "m" / "summary.json").read_text())
     assert summary["tracking_ok"] is False and summary["failure"]["reason"]
+    for name in ("simulation.csv", "tracking_task.png", "plan/trajectory.csv", "plan/summary.json"):
+        assert (tmp_path / "m" / name).is_file(), name
+    assert not any((tmp_path / "m" / "plan" / name).exists() for name in EXPORTS)
+    assert any(f.startswith("tracking failed") for f in json.loads((tmp_path / "m" / "plan" / "summary.json")
+                                                                   .read_text())["failures"])
+
+
+def test_failed_plan_exits_4_and_forced_exports_carry_a_warning(tmp_path):
+    """corner_max crosses its corner at speed: the plan itself fails (a velocity jump)."""
+    args = ("plan", scenario_path("corner_max"), "--set", "plan.grid_points=200", "--no-figures")
+    code, text = run(*args, "--out", tmp_path / "a")
+    assert code == 4, text
+    assert (tmp_path / "a" / "trajectory.csv").is_file()
+    assert not any((tmp_path / "a" / name).exists() for name in EXPORTS)
+    assert json.loads((tmp_path / "a" / "summary.json").read_text())["failures"]
+    code, text = run(*args, "--out", tmp_path / "b", "--force")
+    assert code == 4, text
+    first = {name: (tmp_path / "b" / name).read_text().splitlines()[:2] for name in EXPORTS}
+    assert first["trajectory_ros2.yaml"][0].startswith("# WARNING: exported with --force although the plan failed")
+    assert first["trajectory_egm.csv"][0].startswith("# WARNING")
+    assert first["trajectory_rapid.mod"][1].startswith("  ! WARNING")
+    lines = (tmp_path / "b" / "trajectory_egm.csv").read_text().splitlines()
+    body = [line for line in lines if not line.startswith("#")]
+    assert body[0].startswith("t,j1,") and np.loadtxt(body[1:], delimiter=",").shape[1] == 13
+
+
+def test_exit_codes_are_distinct():
+    from pathmotion.cli import EXIT_FAILED_RESULT
+
+    code, _ = run("plan", "--no-such-option")
+    assert code == 2  # Click's usage error
+    assert EXIT_FAILED_RESULT not in (0, 1, 2, 3, 130)
 
 
 @pytest.mark.parametrize("args, expected", [

@@ -59,6 +59,8 @@ KINKS = _k("kinks_theta", "sharp corners (θ)")
 BLEND_MAX_DEVIATION = _k("blend_max_deviation_m", "blend: largest distance from the sharp path", "mm", 1e3)
 MIN_SINGULAR_VALUE = _k("min_singular_value", "smallest singular value of the Jacobian", "-")
 RAPID_ESTIMATE = _k("rapid_estimate_s", "RAPID program at its programmed speeds (estimate)", "s")
+FAILURES = _k("failures", "why the plan must not be run (empty: it may)")
+EXPORT_NOTES = _k("export_notes", "notes at the top of the exports (ROS 2, EGM, RAPID)")
 JOINT_RANGE_MARGIN = _k("joint_range_margin_rad", "smallest joint-range margin", "rad")
 
 # ------------------------------------------------------------------------------- simulation
