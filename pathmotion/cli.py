@@ -37,10 +37,12 @@ EXIT_FAILED_RESULT = 4
 
 
 def _fail(message: str, code: int = 1):
-    from rich.markup import escape
-
-    first = message.strip().splitlines()[0] if message.strip() else "error"
-    err_console.print(f"[bold red]error:[/] {escape(first)}", highlight=False, soft_wrap=True)
+    """Print ``message`` (its first line after 'error:', any further lines, e.g. more validation
+    errors, indented below) and exit with ``code``."""
+    lines = message.strip().splitlines() or ["error"]
+    err_console.print(f"[bold red]error:[/] {escape(lines[0])}", highlight=False, soft_wrap=True)
+    for line in lines[1:]:
+        err_console.print(f"  {escape(line)}", highlight=False, soft_wrap=True)
     raise typer.Exit(code)
 
 

@@ -122,7 +122,7 @@ CASES = (
          ScenarioError, (r"plan\.start", "'zero' or 'max'")),
     # --- keys
     Case("unknown_key", "unknown key", JOINT + "sample_tme = 0.004\n", ScenarioError,
-         (r"plan\.sample_tme", "unknown key", "spelling")),
+         (r"plan\.sample_tme", "unknown key", "did you mean 'sample_time'")),
     Case("unknown_table", "unknown key", JOINT + "[planner]\ngrid_points = 10\n", ScenarioError,
          (r"planner", "unknown key")),
     Case("missing_path", "missing key", 'name = "x"\n', ScenarioError, (r"path: missing required key",)),

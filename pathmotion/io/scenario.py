@@ -248,8 +248,97 @@ def _loc(loc: tuple) -> str:
     return out or "(top level)"
 
 
-def scenario_from_dict(doc: dict, where: str = "scenario") -> Scenario:
-    """Validate a parsed scenario; ScenarioError names ``where``, the key path and what is allowed.
+def _models_in(annotation) -> list[type[BaseModel]]:
+    """The pydantic models an annotation may hold (through Annotated, Optional, Union, list, tuple, dict)."""
+    import typing
+
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [m for arg in typing.get_args(annotation) for m in _models_in(arg)]
+
+
+def _model_at(loc: tuple, doc) -> type[BaseModel] | None:
+    """The model whose keys apply at ``loc`` (a pydantic error location, its last part the key) in ``doc``;
+    a union of models (segment types, path types) is resolved by the document's ``type`` there."""
+    models, node = [Scenario], doc
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            node = node[part] if isinstance(node, (list, tuple)) and part < len(node) else None
+            continue
+        cls = _pick(models, node)
+        if cls is None or part not in cls.model_fields:
+            continue  # a union member tag pydantic inserts
+        node = node.get(part) if isinstance(node, dict) else None
+        models = _models_in(cls.model_fields[part].annotation)
+    return _pick(models, node)
+
+
+def _pick(models: list, node) -> type[BaseModel] | None:
+    """The one of ``models`` whose Literal ``type`` is the node's ``type`` (else the first)."""
+    kind = node.get("type") if isinstance(node, dict) else None
+    typed = [m for m in models if "type" in m.model_fields
+             and kind in typing_literal_values(m.model_fields["type"].annotation)]
+    return (typed or models or [None])[0]
+
+
+def typing_literal_values(annotation) -> tuple:
+    """The values of a Literal annotation (() for anything else)."""
+    import typing
+
+    return typing.get_args(annotation) if typing.get_origin(annotation) is Literal else ()
+
+
+def _did_you_mean(loc: tuple, doc) -> str:
+    """'; did you mean 'radius'?' for an unknown key whose closest allowed key (difflib) is close enough,
+    else the allowed keys."""
+    import difflib
+
+    cls = _model_at(loc, doc)
+    if cls is None:
+        return ""
+    allowed = list(cls.model_fields)
+    close = difflib.get_close_matches(str(loc[-1]), allowed, n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else f"; allowed here: {', '.join(allowed)}"
+
+
+def _error_line(err: dict, doc, where: str, overrides: dict) -> str:
+    loc = _loc(err["loc"])
+    given = next((k for k in overrides if loc == _loc(tuple(_parse_key(k))) or loc.startswith(
+        _loc(tuple(_parse_key(k))) + ".")), None)
+    place = f"--set {given}" if given is not None else where
+    loc = "" if given == loc else f" {loc}:"
+    msg = err["msg"]
+    if err["type"] == "extra_forbidden":
+        msg = f"unknown key {err['loc'][-1]!r}{_did_you_mean(err['loc'], doc)}"
+    elif err["type"] == "missing":
+        msg = "missing required key"
+    value = err.get("input")
+    shown = "" if err["type"] in ("missing", "extra_forbidden") or isinstance(value, dict) else f" (got {value!r:.60})"
+    return f"{place}:{loc} {msg}{shown}"
+
+
+def _merge_union_errors(errors: list[dict]) -> list[dict]:
+    """One error per key path: the errors pydantic reports per member of a union (``plan.start``:
+    'zero' or 'max', or a number >= 0) joined into one message ("...; or ...")."""
+    merged: dict[str, dict] = {}
+    for err in errors:
+        key = _loc(err["loc"])
+        if key in merged and err["type"] != "extra_forbidden":
+            first = merged[key]
+            first["msg"] = f"{first['msg']}; or {err['msg'][:1].lower()}{err['msg'][1:]}"
+        else:
+            merged.setdefault(key if err["type"] != "extra_forbidden" else f"{key}\0extra", dict(err))
+    return list(merged.values())
+
+
+#: Most validation errors one message lists (one a line), the rest counted.
+MAX_ERRORS_SHOWN = 4
+
+
+def scenario_from_dict(doc: dict, where: str = "scenario", overrides: dict | None = None) -> Scenario:
+    """Validate a parsed scenario; ScenarioError names ``where`` (or ``--set KEY`` for a key the
+    ``overrides`` set), the key path and what is allowed, one error a line: an unknown key first,
+    with the closest allowed key ("did you mean 'radius'?").
 
     Strict types: a string, a boolean or a fractional number where an integer belongs (``grid_points =
     "60"``, ``laps = true``) is an error, not a silent conversion; an integer is a valid float. (Validated
@@ -259,16 +348,11 @@ def scenario_from_dict(doc: dict, where: str = "scenario") -> Scenario:
     try:
         return Scenario.model_validate_json(json.dumps(doc, default=str), strict=True)
     except ValidationError as exc:
-        err = exc.errors()[0]
-        more = f" (+{exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
-        msg = err["msg"]
-        if err["type"] == "extra_forbidden":
-            msg = "unknown key; check the spelling (see `pathmotion init` for an example)"
-        elif err["type"] == "missing":
-            msg = "missing required key"
-        value = err.get("input")
-        shown = "" if err["type"] in ("missing",) or isinstance(value, dict) else f" (got {value!r:.60})"
-        raise ScenarioError(f"{where}: {_loc(err['loc'])}: {msg}{shown}{more}") from None
+        errors = sorted(_merge_union_errors(exc.errors()), key=lambda e: e["type"] != "extra_forbidden")
+        lines = [_error_line(e, doc, where, overrides or {}) for e in errors[:MAX_ERRORS_SHOWN]]
+        if len(errors) > MAX_ERRORS_SHOWN:
+            lines.append(f"... and {len(errors) - MAX_ERRORS_SHOWN} more")
+        raise ScenarioError("\n".join(lines)) from None
 
 
 def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> tuple[Scenario, Path]:
@@ -285,7 +369,7 @@ def parse_scenario(text: str, where: str = "scenario", overrides: dict[str, Any]
     doc = parse_toml(text, where)
     for key, value in (overrides or {}).items():
         set_key(doc, key, value, where=where)
-    return scenario_from_dict(doc, where=where)
+    return scenario_from_dict(doc, where=where, overrides=overrides)
 
 
 def _parse_key(key: str) -> list:
@@ -327,22 +411,30 @@ def set_key(doc: dict, key: str, value, where: str = "scenario") -> None:
 
 
 def parse_value(text: str):
-    """A command-line value (``--set KEY=VALUE``): true/false, an integer, a finite float, a TOML
-    array or inline table (``[0.5, 0.0, 0.5]``), else the string itself."""
+    """A command-line value (``--set KEY=VALUE``), read as a TOML value: ``true``, ``2000``, ``0.04``,
+    ``"text"`` (without its quotes), ``[0.5, 0.0, 0.5]``, an inline table; a bare word (``orbital``)
+    or anything else TOML does not read is the string itself. TRUE/False are booleans too, and
+    non-finite numbers are an error."""
+    import tomllib
+
     t = text.strip()
     if t.lower() in ("true", "false"):
         return t.lower() == "true"
-    for conv in (int, float):
+    if t[:1] in ("[", "{"):  # through the guarded reader (nesting depth, size)
+        value = parse_toml(f"v = {t}", f"value {text[:60]!r}")["v"]
+    else:
         try:
-            v = conv(t)
-        except ValueError:
-            continue
-        if isinstance(v, float) and not math.isfinite(v):
-            raise ScenarioError(f"value {text!r} is not a finite number")
-        return v
-    if t[:1] in ("[", "{"):
-        return parse_toml(f"v = {t}", f"value {text[:60]!r}")["v"]
-    return t
+            value = tomllib.loads(f"v = {t}")["v"]
+        except tomllib.TOMLDecodeError:
+            if t[:1] in ('"', "'"):
+                raise ScenarioError(f"value {text[:60]!r} is not a valid TOML string (an unclosed quote?)") from None
+            try:
+                value = float(t)  # Python spellings TOML does not take: 1., .5
+            except ValueError:
+                return t
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ScenarioError(f"value {text!r} is not a finite number")
+    return value
 
 
 def scenario_json_schema() -> dict:
