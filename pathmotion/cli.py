@@ -156,6 +156,26 @@ def _simulation_figures(folder: Path) -> None:
     simulation_figures(folder)
 
 
+def _version(value: bool) -> None:
+    if value:
+        from . import __version__
+
+        console.print(f"pathmotion {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                       help="print the version and exit")):
+    """Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation."""
+
+
+def _default_out(out: Optional[Path], setup) -> Path:
+    """``out``, or out/<scenario name> when not given."""
+    return Path("out") / setup.name if out is None else out
+
+
+OutOpt = typer.Option(None, "--out", help="output folder (default: out/<scenario name>)")
 SetOpt = typer.Option(None, "--set", help="override a scenario key, e.g. --set plan.grid_points=2000")
 VerifyOpt = typer.Option(None, "--verify", help="certified (default: a certified bound per grid interval) | dense "
                          "(the 0.1 ms resample) | off; sets plan.verify")
@@ -317,7 +337,7 @@ def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
 @app.command()
 @guarded
 def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
-         out: Path = typer.Option(..., "--out", help="output folder"), set_: Optional[List[str]] = SetOpt,
+         out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
          figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
          force: bool = ForceOpt):
     """Plan the time-optimal motion: writes trajectory.csv/.parquet, summary.json, exports and figures.
@@ -332,6 +352,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
         setup = api.load(scenario, _with_verify(_overrides(set_), verify))
+        out = _default_out(out, setup)
         progress.update(task, advance=1, description="plan: time-optimal profile")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="plan: writing")
@@ -347,7 +368,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 @app.command()
 @guarded
 def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
-             out: Path = typer.Option(..., "--out", help="output folder"), set_: Optional[List[str]] = SetOpt,
+             out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
              controller: Optional[str] = typer.Option(None, help="orbital | computed_torque | pd_gravity"),
              figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
              force: bool = ForceOpt):
@@ -367,6 +388,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     with output_lock(out), _progress() as progress:
         task = progress.add_task("simulate: load", total=4)
         setup = api.load(scenario, overrides)
+        out = _default_out(out, setup)
         progress.update(task, advance=1, description="simulate: plan")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="simulate: closed loop")
@@ -422,14 +444,15 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
 @app.command()
 @guarded
-def report(folder: Path = typer.Argument(..., help="a folder written by plan, simulate, sweep or demo")):
+def report(folder: Path = typer.Argument(..., help="a folder written by plan, simulate, sweep or demo"),
+           out: Optional[Path] = typer.Option(None, "--out", help="HTML file to write (default: FOLDER/report.html)")):
     """Turn results into one self-contained interactive HTML page (works offline).
 
-    Example: [bold]pathmotion report out/g2[/]
+    Example: [bold]pathmotion report out/g2[/]   or   [bold]pathmotion report out/g2 --out g2.html[/]
     """
     from .report.html import build_report
 
-    path = build_report(folder)
+    path = build_report(folder, out)
     console.print(f"wrote {path}")
 
 

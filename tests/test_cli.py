@@ -195,3 +195,21 @@ def test_every_shipped_scenario_checks():
         code, out = run("check", scenario_path(name))
         assert code == 0, (name, out)
     assert (ROOT / "scenarios").resolve() == scenario_path("corner_g2").parent.resolve()
+
+
+def test_version_is_the_installed_distribution_version():
+    from importlib.metadata import version
+
+    code, out = run("--version")
+    assert code == 0 and out.strip() == f"pathmotion {version('pathmotion')}"
+
+
+def test_plan_defaults_out_to_out_slash_the_scenario_name_and_report_takes_out(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, text = run("plan", scenario_path("circle_zero"), "--set", "plan.grid_points=100", "--no-figures")
+    assert code == 0, text
+    assert (tmp_path / "out" / "circle_zero" / "summary.json").is_file()
+    code, text = run("report", tmp_path / "out" / "circle_zero", "--out", tmp_path / "elsewhere" / "r.html")
+    assert code == 0, text
+    assert (tmp_path / "elsewhere" / "r.html").read_text().startswith("<!DOCTYPE html>")
+    assert not (tmp_path / "out" / "circle_zero" / "report.html").exists()

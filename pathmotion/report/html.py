@@ -544,10 +544,11 @@ def render_page(root: Path, sections: Sequence[Section]) -> str:
 """
 
 
-def build_report(folder: str | Path) -> Path:
-    """Write ``folder/report.html``: one self-contained interactive page of every result under
-    ``folder`` (see the module docstring); returns its path. PathmotionError when there is none."""
+def build_report(folder: str | Path, out: str | Path | None = None) -> Path:
+    """Write ``out`` (default ``folder/report.html``): one self-contained interactive page of every
+    result under ``folder`` (see the module docstring); returns its path. PathmotionError when there
+    is none."""
     root = Path(folder)
     results = discover(root)
     sections = [RENDERERS[r.kind](r, root, f"s{k + 1}") for k, r in enumerate(results)]
-    return write_text(root / "report.html", render_page(root, sections))
+    return write_text(root / "report.html" if out is None else Path(out), render_page(root, sections))
