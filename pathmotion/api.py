@@ -26,7 +26,7 @@ from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
 from .io.files import read_input
-from .io.scenario import Scenario, load_scenario, parse_scenario
+from .io.scenario import Scenario, load_scenario, parse_scenario, unit_slips
 from .io.waypoints import load_waypoints_csv
 from .joint_path import JointPath, SplineJointPath
 from .constraint import lift
@@ -236,10 +236,20 @@ def plan_settings(scenario: Scenario) -> PlanSettings:
     )
 
 
+def reach_bound(robot: Robot) -> float:
+    """An upper bound [m] of the TCP's distance from the base origin: the lengths of the kinematic chain
+    (every joint placement, the flange frame and the tool) added up."""
+    model = robot.model
+    links = sum(float(np.linalg.norm(model.jointPlacements[i].translation)) for i in range(1, model.njoints))
+    flange = model.frames[model.getFrameId(robot.flange_frame)].placement.translation
+    return links + float(np.linalg.norm(flange)) + float(np.linalg.norm(robot.tool.translation))
+
+
 def build(scenario: Scenario, base_dir: str | Path = ".", text: str = "") -> Setup:
     """Turn a validated scenario into a :class:`Setup` (loads the robot, lifts the path)."""
     base_dir = Path(base_dir)
     robot = build_robot(scenario, base_dir)
+    unit_slips(scenario, reach_bound(robot), defaults.RATED_PAYLOAD.get(scenario.robot.name.lower()), robot.name)
     path, task, original = build_path(scenario, robot, base_dir)
     if path.closed and not scenario.plan.periodic:
         # a closed path run once from rest to rest (or with given end speeds) is an open motion

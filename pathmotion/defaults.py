@@ -232,3 +232,7 @@ MAX_PATH_BYTES = 4095
 #: Largest controller gain [rad/s or 1/s] accepted from a scenario: far above any sample rate a
 #: controller can realise (4 ms: Nyquist 785 rad/s), far below overflow of its LQR weights (w^4).
 MAX_GAIN = 1.0e4
+
+#: Rated payload [kg] of the built-in robots, by name: a scenario payload above it is reported as a likely
+#: unit slip (grams for kg). IRB140: 6 kg (ABB IRB 140-6/0.8, official).
+RATED_PAYLOAD = {"irb140": 6.0}

@@ -64,3 +64,50 @@ def test_set_values_read_as_toml_with_a_bare_word_a_string(text, value):
 def test_set_values_that_cannot_be_meant_are_errors(text):
     with pytest.raises(ScenarioError):
         parse_value(text)
+
+
+# ------------------------------------------------------------------------------------ unit slips
+def _load_error(text):
+    from pathmotion import api
+
+    with pytest.raises(ScenarioError) as info:
+        api.load_text(text)
+    return str(info.value)
+
+
+@pytest.mark.parametrize("scenario, old, new, says", [
+    ("circle_max", "radius = 0.1", "radius = 100", ("path.segments[0].radius = 100", "mm? the unit is m", "0.1")),
+    ("circle_max", "center = [0.5, 0.0, 0.5]", "center = [500, 0, 500]",
+     ("path.segments[0].center = [500, 0, 500]", "beyond IRB140's reach", "mm? the unit is m", "[0.5, 0, 0.5]")),
+    ("corner_g2", "tolerance = 0.005", "tolerance = 5", ("path.blends[0].tolerance = 5", "mm? the unit is m")),
+    ("circle_max", "radius = 0.1", "radius = 0.1\nstart_angle = 90",
+     ("path.segments[0].start_angle = 90 rad", "degrees? the unit is rad", "1.5708")),
+    ("circle_max", '[robot]\nname = "irb140"', '[robot]\nname = "irb140"\n[robot.tool]\nrotation_rpy = [0, 0, 180]',
+     ("robot.tool.rotation_rpy[2] = 180 rad", "degrees? the unit is rad")),
+    ("circle_max", '[robot]\nname = "irb140"', '[robot]\nname = "irb140"\n[robot.payload]\nmass = 6.5',
+     ("robot.payload.mass = 6.5 kg", "rated payload 6 kg", "the unit is kg")),
+])
+def test_unit_slips_are_caught_and_name_the_key(scenario, old, new, says):
+    text = scenario_path(scenario).read_text()
+    assert old in text
+    message = _load_error(text.replace(old, new, 1))
+    for part in says:
+        assert part in message, (part, message)
+
+
+def test_values_in_the_right_units_pass_the_slip_checks():
+    """A full-turn arc, the rated payload and a point at the reach bound's edge are not slips."""
+    from pathmotion import api
+    from pathmotion.io.scenario import unit_slips
+
+    setup = api.load(scenario_path("circle_max"))
+    bound = api.reach_bound(setup.robot)
+    import numpy as np
+    from pathmotion.robot import fk
+
+    stretched = np.linalg.norm(fk(setup.robot, np.array([0.0, 0.0, -1.5, 0.0, 0.0, 0.0]))[0])
+    assert 0.8 < stretched <= bound < 2.0  # an upper bound of the reach, near the arm's size
+    unit_slips(setup.scenario.model_copy(), bound, 6.0)
+    text = scenario_path("circle_max").read_text().replace('[robot]\nname = "irb140"',
+                                                          '[robot]\nname = "irb140"\n[robot.payload]\nmass = 6.0')
+    api.load_text(text)

@@ -355,6 +355,63 @@ def scenario_from_dict(doc: dict, where: str = "scenario", overrides: dict | Non
         raise ScenarioError("\n".join(lines)) from None
 
 
+def unit_slips(scenario: Scenario, reach: float | None = None, rated_payload: float | None = None,
+               robot: str = "the robot") -> None:
+    """ScenarioError naming the key of the first value most likely given in the wrong unit: an angle
+    [rad] above 2 pi (degrees?), a length or point [m] beyond the arm's ``reach`` [m] (mm?), a payload
+    [kg] above ``rated_payload`` [kg] (grams, or outside the rating). None skips that check."""
+    for key, value in _angles(scenario):
+        if abs(value) > 2 * math.pi + 1e-9:
+            raise ScenarioError(f"{key} = {value:g} rad is more than a full turn (2 pi = 6.283 rad): degrees? the "
+                                f"unit is rad (e.g. {math.radians(value):.6g} rad = {value:g} deg)")
+    if reach is not None:
+        for key, value in _lengths(scenario):
+            size = math.hypot(*value) if isinstance(value, tuple) else abs(value)
+            if size > reach:
+                raise ScenarioError(f"{key} = {_show(value)} is {size:g} m, beyond {robot}'s reach ({reach:.3g} m): "
+                                    f"mm? the unit is m (e.g. {_show(value, 1e-3)})")
+    if rated_payload is not None:
+        for key, mass in (("robot.payload.mass", scenario.robot.payload.mass),
+                          ("simulate.realism.payload_mass", scenario.simulate.realism.payload_mass)):
+            if mass > rated_payload:
+                raise ScenarioError(f"{key} = {mass:g} kg is above {robot}'s rated payload {rated_payload:g} kg: "
+                                    "grams? the unit is kg (a heavier payload is outside the arm's rating)")
+
+
+def _show(value, scale: float = 1.0) -> str:
+    if isinstance(value, tuple):
+        return "[" + ", ".join(f"{v * scale:g}" for v in value) + "]"
+    return f"{value * scale:g}"
+
+
+def _angles(scenario: Scenario):
+    """(key, value [rad]) of the scenario's angles that are never more than a turn."""
+    path = scenario.path
+    for k, seg in enumerate(getattr(path, "segments", ())):
+        if seg.type == "arc":
+            yield f"path.segments[{k}].sweep", seg.sweep
+        if seg.type == "circle":
+            yield f"path.segments[{k}].start_angle", seg.start_angle
+    for i, v in enumerate(scenario.robot.tool.rotation_rpy):
+        yield f"robot.tool.rotation_rpy[{i}]", v
+
+
+def _lengths(scenario: Scenario):
+    """(key, value) of the scenario's points (tuples [m], measured from the base) and lengths [m]."""
+    path = scenario.path
+    for k, seg in enumerate(getattr(path, "segments", ())):
+        for name in ("start", "end", "center", "radius"):
+            value = getattr(seg, name, None)
+            if value is not None:
+                yield f"path.segments[{k}].{name}", tuple(value) if isinstance(value, tuple) else value
+    for k, blend in enumerate(getattr(path, "blends", ())):
+        for name in ("radius", "tolerance"):
+            if getattr(blend, name) is not None:
+                yield f"path.blends[{k}].{name}", getattr(blend, name)
+    yield "robot.tool.translation", tuple(scenario.robot.tool.translation)
+    yield "robot.payload.com", tuple(scenario.robot.payload.com)
+
+
 def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> tuple[Scenario, Path]:
     """Read and validate a scenario file; ``overrides`` maps dotted key paths to values
     (e.g. ``{"path.blends[0].radius": 0.03}``) applied before validation. Returns the
