@@ -355,19 +355,25 @@ def scenario_from_dict(doc: dict, where: str = "scenario", overrides: dict | Non
         raise ScenarioError("\n".join(lines)) from None
 
 
+#: A point this many times farther from the base than the arm reaches is taken for millimetres [-].
+MM_SLIP_FACTOR = 10.0
+
+
 def unit_slips(scenario: Scenario, reach: float | None = None, rated_payload: float | None = None,
                robot: str = "the robot") -> None:
     """ScenarioError naming the key of the first value most likely given in the wrong unit: an angle
-    [rad] above 2 pi (degrees?), a length or point [m] beyond the arm's ``reach`` [m] (mm?), a payload
-    [kg] above ``rated_payload`` [kg] (grams, or outside the rating). None skips that check."""
+    [rad] above 2 pi (degrees?), a length [m] beyond the arm's ``reach`` [m] or a point more than
+    MM_SLIP_FACTOR times beyond it (mm?; a point just out of reach gets the reachability error, which says
+    where), a payload [kg] above ``rated_payload`` [kg] (grams, or outside the rating). None skips that check."""
     for key, value in _angles(scenario):
         if abs(value) > 2 * math.pi + 1e-9:
             raise ScenarioError(f"{key} = {value:g} rad is more than a full turn (2 pi = 6.283 rad): degrees? the "
                                 f"unit is rad (e.g. {math.radians(value):.6g} rad = {value:g} deg)")
     if reach is not None:
         for key, value in _lengths(scenario):
-            size = math.hypot(*value) if isinstance(value, tuple) else abs(value)
-            if size > reach:
+            point = isinstance(value, tuple)
+            size = math.hypot(*value) if point else abs(value)
+            if size > (MM_SLIP_FACTOR * reach if point else reach):
                 raise ScenarioError(f"{key} = {_show(value)} is {size:g} m, beyond {robot}'s reach ({reach:.3g} m): "
                                     f"mm? the unit is m (e.g. {_show(value, 1e-3)})")
     if rated_payload is not None:
