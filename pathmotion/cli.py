@@ -170,9 +170,13 @@ def _main(version: bool = typer.Option(False, "--version", callback=_version, is
     """Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation."""
 
 
-def _default_out(out: Optional[Path], setup) -> Path:
-    """``out``, or out/<scenario name> when not given."""
-    return Path("out") / setup.name if out is None else out
+def _default_out(out: Optional[Path], scenario: Path, overrides: dict) -> Path:
+    """``out``, or out/<scenario name> when not given (the scenario validated for its name only)."""
+    if out is not None:
+        return out
+    from .io.scenario import load_scenario
+
+    return Path("out") / load_scenario(scenario, overrides)[0].name
 
 
 OutOpt = typer.Option(None, "--out", help="output folder (default: out/<scenario name>)")
@@ -348,11 +352,11 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from . import api
     from .io.atomic import output_lock, result_folder
 
-    out = _out(out)
+    overrides = _with_verify(_overrides(set_), verify)
+    out = _out(_default_out(out, scenario, overrides))
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
-        setup = api.load(scenario, _with_verify(_overrides(set_), verify))
-        out = _default_out(out, setup)
+        setup = api.load(scenario, overrides)
         progress.update(task, advance=1, description="plan: time-optimal profile")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="plan: writing")
@@ -381,14 +385,13 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from . import api
     from .io.atomic import output_lock, result_folder
 
-    out = _out(out)
     overrides = _with_verify(_overrides(set_), verify)
     if controller:
         overrides["simulate.controller"] = controller
+    out = _out(_default_out(out, scenario, overrides))
     with output_lock(out), _progress() as progress:
         task = progress.add_task("simulate: load", total=4)
         setup = api.load(scenario, overrides)
-        out = _default_out(out, setup)
         progress.update(task, advance=1, description="simulate: plan")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="simulate: closed loop")
