@@ -268,7 +268,7 @@ def test_interrupted_plans_leave_the_old_folder_or_the_new_one(joint, tmp_path):
     span = time.perf_counter() - started
     before = snapshot(out)
     for k in range(6):
-        proc = subprocess.Popen(cmd + ["--set", f"plan.grid_points={70 + k}"], stdout=subprocess.PIPE,
+        proc = subprocess.Popen(cmd + ["--set", f"plan.grid_points={70 + 20 * k}"], stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE)
         time.sleep((0.3 + 0.1 * k) * span)
         proc.send_signal(signal.SIGINT)
