@@ -254,11 +254,14 @@ def transverse_state(path, profile, basis, proj, q, qd, guess):
 @numba.njit(cache=True)
 def orbital_command(path, profile, basis, proj, gain, q, qd, guess, ts, xi, x_perp, v):
     """One sample of the orbital law. Writes the commanded acceleration v (n,) [rad/s^2] and the state
-    x_perp = (xi, z, z_dot, I) (gain.shape[2],); xi = (int z dt, int I dt) (n,) or (0,) is advanced by
-    ts (z, I) first (in place). Returns (theta, theta_dot); theta is unwrapped on closed paths.
+    x_perp = (xi, z, z_dot, I, dv_{k-delay}, ..., dv_{k-1}) (gain.shape[2],); xi = (int z dt, int I dt) (n,) or
+    (0,) is advanced by ts (z, I) first (in place); the commands in flight (the feedback parts dv = v - v* of
+    the last ``delay`` commands, a design for a delayed command) are shifted and the new one stored last.
+    Returns (theta, theta_dot); theta is unwrapped on closed paths.
 
     gain (M, n, d) on the path grid (linear in theta between grid points); the feedforward
-    v* = Phi' u* + Phi'' x* is taken at theta_m = theta + theta_dot ts / 2, the middle of the hold."""
+    v* = Phi' u* + Phi'' x* is taken at theta_m = theta + theta_dot ts (delay + 1/2), the middle of the hold
+    in which the command will act."""
     grid, closed = path.grid, path.closed
     lo, hi = grid[0], grid[-1]
     theta, theta_dot, z, zd, speed_error = transverse_state(path, profile, basis, proj, q, qd, guess)
@@ -277,16 +280,27 @@ def orbital_command(path, profile, basis, proj, gain, q, qd, guess, ts, xi, x_pe
     th = wrap(theta, lo, hi, closed)
     i = piece(grid, th)
     w = (th - grid[i]) / (grid[i + 1] - grid[i])
-    theta_m = theta + 0.5 * ts * theta_dot
+    # the command is applied from ``delay`` samples on (the commands in flight), over one hold: its middle
+    delay = (x_perp.shape[0] - (ni + 2 * m + 1)) // (m + 1)
+    theta_m = theta + (0.5 + delay) * ts * theta_dot
     if not closed:
         theta_m = min(theta_m, hi)
     ev_m = evaluate_at(path, theta_m)
     x_m, u_m = profile_state(profile, closed, theta_m)
-    for r in range(m + 1):
-        acc = ev_m[1, r] * u_m + ev_m[2, r] * x_m
+    n = m + 1
+    for r in range(n):
+        fb = 0.0
         for c in range(x_perp.shape[0]):
-            acc -= ((1.0 - w) * gain[i, r, c] + w * gain[i + 1, r, c]) * x_perp[c]
-        v[r] = acc
+            fb -= ((1.0 - w) * gain[i, r, c] + w * gain[i + 1, r, c]) * x_perp[c]
+        v[r] = ev_m[1, r] * u_m + ev_m[2, r] * x_m + fb
+    # commands in flight (a design for a delayed command): shift them, the newest feedback part last
+    core = ni + 2 * m + 1
+    size = x_perp.shape[0]
+    if size > core:
+        for c in range(core, size - n):
+            x_perp[c] = x_perp[c + n]
+        for r in range(n):
+            x_perp[size - n + r] = v[r] - (ev_m[1, r] * u_m + ev_m[2, r] * x_m)
     return theta, theta_dot
 
 

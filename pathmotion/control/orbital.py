@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solve_continuous_are
+from scipy.linalg import solve_continuous_are, solve_discrete_are
 
 from .. import defaults
 from ..errors import SimulationError
@@ -31,12 +31,14 @@ from .laws import computed_torque
 from .kernels import clock_command, orbital_command
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
-from .riccati import solve_riccati
+from .riccati import discretize, solve_discrete_riccati, solve_riccati, with_delay
 from .transverse import TransverseBasis, transverse_linearization
 
 #: Relative mismatch allowed between the profile's and the path's theta ends, and between the start and end
 #: speeds of a periodic profile [-].
 DOMAIN_MATCH = 1e-9
+#: An open segment's last sample shorter than this fraction of the sample time is merged into the one before [-].
+SAMPLE_MERGE = 0.25
 #: Floor of the speed scale a periodic profile's end mismatch is measured against [rad^2/s^2].
 SPEED2_FLOOR = 1e-12
 
@@ -126,7 +128,11 @@ class OrbitalDesign:
     zones: tuple[tuple[float, float], ...]
 
     @classmethod
-    def build(cls, table: PathTable, profile: Profile, gains: OrbitalGains = OrbitalGains()) -> "OrbitalDesign":
+    def build(cls, table: PathTable, profile: Profile, gains: OrbitalGains = OrbitalGains(),
+              sample_time: float | None = None, delay: int = 0) -> "OrbitalDesign":
+        """The design on ``table`` for ``profile``: continuous-time LQR gains (``sample_time`` None), or gains
+        of the sampled system at ``sample_time`` [s] with the command applied ``delay`` samples late (the gain
+        then also acts on the ``delay`` commands in flight: state (xi, z, z_dot, I, dv_{k-delay}, ..., dv_{k-1}))."""
         lookup = ProfileLookup(profile, closed=table.closed)
         lo, hi = table.domain
         if abs(profile.grid[0] - lo) > DOMAIN_MATCH * table.length or abs(profile.grid[-1] - hi) > DOMAIN_MATCH * table.length:
@@ -166,13 +172,17 @@ class OrbitalDesign:
             )
         m = table.n - 1
         ni = integral_size(gains, table.n)
-        d = ni + 2 * m + 1
+        d = ni + 2 * m + 1 + (delay * table.n if sample_time is not None else 0)
         gain = np.zeros((len(theta), table.n, d))
         riccati = np.zeros((len(theta), d, d))
         active = np.concatenate([np.arange(i0, i1) for i0, i1 in segments])
         basis = TransverseBasis.for_table(table, theta[active])
         for i0, i1 in segments:
             sl = slice(i0, i1)
+            if sample_time is not None:
+                gain[sl], riccati[sl] = discrete_segment(table, basis, lookup, gains, theta[sl], times[sl],
+                                                         sample_time, delay)
+                continue
             a, b = with_integral(*transverse_linearization(table, basis, lookup, theta[sl]), ni)
             _, dphi, _ = table.evaluate(theta[sl])
             x_star = np.array([lookup.state(t)[0] for t in theta[sl]])
@@ -212,6 +222,79 @@ class OrbitalDesign:
         return None
 
 
+def sample_grid(times: np.ndarray, sample_time: float, periodic: bool) -> np.ndarray:
+    """Planned times (N+1,) [s] of the samples over [times[0], times[-1]]: ``sample_time`` apart, the last
+    interval shorter (open), or N equal intervals nearest ``sample_time`` (one period of a closed path)."""
+    t0, t1 = float(times[0]), float(times[-1])
+    if periodic:
+        return np.linspace(t0, t1, max(1, int(round((t1 - t0) / sample_time))) + 1)
+    grid = np.arange(t0, t1, sample_time)
+    return np.append(grid, t1) if t1 - grid[-1] > SAMPLE_MERGE * sample_time else np.append(grid[:-1], t1)
+
+
+def sampled_system(table: PathTable, basis: TransverseBasis, lookup: ProfileLookup, gains: OrbitalGains,
+                   t: np.ndarray, delay: int):
+    """The transverse linearization (with its integral states) sampled at planned times t (N+1,) [s] with a
+    zero-order hold, the command ``delay`` samples late: (theta (N,), Phi (N, d, d), Gamma (N, d, n), Q (N, d, d)
+    per sample, R (n, n) per sample); sample k spans [t_k, t_k+1], its matrices frozen at its middle.
+    Weights: the continuous ones (:func:`lqr_weights`) times the sample length; zero on the commands in flight."""
+    steps = np.diff(t)
+    mid = 0.5 * (t[:-1] + t[1:])
+    theta = np.asarray(lookup.profile.state_at_time(mid)[0], dtype=float)
+    theta = np.maximum.accumulate(theta + 1e-12 * np.arange(len(theta)) * table.length)  # strictly increasing
+    ni = integral_size(gains, table.n)
+    a, b = with_integral(*transverse_linearization(table, basis, lookup, theta), ni)
+    _, dphi, _ = table.evaluate(theta)
+    x_star = np.array([lookup.state(th)[0] for th in theta])
+    q, r = lqr_weights(gains, dphi, x_star)
+    phi, gamma = np.empty_like(a), np.empty_like(b)
+    for h in np.unique(steps):  # all samples but the last one of an open segment have the same length
+        sel = steps == h
+        phi[sel], gamma[sel] = discretize(a[sel], b[sel], float(h))
+    phi, gamma = with_delay(phi, gamma, delay)
+    qa = np.zeros(phi.shape)
+    d = a.shape[1]
+    qa[:, :d, :d] = q * steps[:, None, None]
+    return theta, phi, gamma, qa, r * float(np.median(steps))
+
+
+def discrete_segment(table, basis, lookup, gains, theta, times, sample_time, delay):
+    """Gains (M, n, d) and Riccati matrices (M, d, d) of the sampled design on one orbital segment, at its grid
+    points ``theta`` (M,) with planned ``times`` (M,) [s], linear in theta between the samples."""
+    periodic = table.closed
+    t = sample_grid(times, sample_time, periodic)
+    th, phi, gamma, q, r = sampled_system(table, basis, lookup, gains, t, delay)
+    dim = phi.shape[1]
+    p_end = np.zeros((dim, dim))
+    if not periodic:  # the stationary solution at the end, on the states that stay meaningful there
+        p_end = _terminal_cost(phi[-1], gamma[-1], q[-1], r, gains, table.n, dim)
+    else:  # any start: the periodic recursion is attracted to the periodic solution
+        p_end = q[-1]
+    p, k = solve_discrete_riccati(phi, gamma, q, r, p_end, periodic=periodic)
+    idx = np.clip(np.searchsorted(th, theta, side="right") - 1, 0, len(th) - 2) if len(th) > 1 else \
+        np.zeros(len(theta), int)
+    if len(th) == 1:
+        return np.repeat(k, len(theta), axis=0), np.repeat(p[:1], len(theta), axis=0)
+    w = np.clip((theta - th[idx]) / (th[idx + 1] - th[idx]), 0.0, 1.0)[:, None, None]
+    return (1 - w) * k[idx] + w * k[idx + 1], (1 - w) * p[idx] + w * p[idx + 1]
+
+
+def _terminal_cost(phi, gamma, q, r, gains, n, dim):
+    """P at the end of an open segment: the discrete algebraic Riccati solution on (xi_z, z, z_dot, commands
+    in flight), zero on I and xi_I (as the continuous design)."""
+    m = n - 1
+    ni = integral_size(gains, n)
+    core = ni + 2 * m + 1
+    keep = np.concatenate([np.arange(min(ni, m)), ni + np.arange(2 * m), np.arange(core, dim)])
+    p_end = np.zeros((dim, dim))
+    sub = np.ix_(keep, keep)
+    try:
+        p_end[sub] = solve_discrete_are(phi[sub], gamma[keep], q[sub], r)
+    except (np.linalg.LinAlgError, ValueError):
+        pass  # no stationary solution there: start from zero, the recursion still converges over the segment
+    return p_end
+
+
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """[start, stop) index ranges of the runs of True in mask that have at least 3 points."""
     edges = np.diff(np.concatenate([[0], mask.astype(int), [0]]))
@@ -239,6 +322,7 @@ class OrbitalController:
         self.xi = np.zeros(integral_size(d.gains, n))  # (int z dt, int I dt) in orbital mode
         self.xi_q = np.zeros(n)  # integral of q - q_ref (clock play)
         self.x_perp = np.zeros(d.gain.shape[2])
+        self.torque_limit = np.asarray(robot.limits.torque, dtype=float)
         self.v = np.zeros(n)
         p = d.profile.profile
         self._path, self._plan, self._basis = d.table.arrays, d.profile.arrays, d.basis.arrays
@@ -278,7 +362,18 @@ class OrbitalController:
                 return self._play(plan, q, qd)
         self.theta, self.theta_dot = orbital_command(self._path, self._plan, self._basis, self._projection, d.gain,
                                                      q, qd, guess, self.sample_time, self.xi, self.x_perp, self.v)
-        return computed_torque(self.model, self.data, q, qd, self.v)
+        tau = computed_torque(self.model, self.data, q, qd, self.v)
+        if len(self.xi) and np.any(np.abs(tau) > self.torque_limit):
+            self._hold_integral()
+        return tau
+
+    def _hold_integral(self) -> None:
+        """Anti-windup by conditional integration: the command saturates, so this sample's integration of
+        (z, I) is taken back (the integral would only wind up against the limit)."""
+        m, ni = len(self.xi) - 1, len(self.xi)
+        self.xi[:m] -= self.sample_time * self.x_perp[ni:ni + m]
+        self.xi[m] -= self.sample_time * self.x_perp[ni + 2 * m]
+        self.x_perp[:ni] = self.xi
 
     def _play(self, t_ref: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """Tracking of the plan at planned time t_ref (after its end: hold Phi(theta_end)) with the orbital
@@ -303,3 +398,4 @@ class OrbitalController:
         if len(self.xi):
             self.xi[:-1] = self._frame(self.theta).T @ self.xi_q
             self.xi[-1] = 0.0
+        self.x_perp[len(self.xi) + 2 * (self.design.table.n - 1) + 1:] = 0.0  # no orbital command in flight

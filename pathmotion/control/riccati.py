@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.linalg import expm
 
 from .. import defaults
 from ..errors import SimulationError
@@ -73,4 +74,67 @@ def solve_riccati(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray
     raise SimulationError(
         f"periodic Riccati equation did not converge in {defaults.RICCATI_MAX_PERIODS} periods; "
         "the transverse linearization may not be stabilizable with these weights (raise the bandwidth)"
+    )
+
+
+def discretize(a: np.ndarray, b: np.ndarray, sample_time: float) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-order-hold discretization of dx/dt = A x + B u over one sample: (Phi (N, d, d), Gamma (N, d, m))
+    with Phi = e^(A Ts), Gamma = int_0^Ts e^(A s) ds B (Van Loan: the exponential of [[A, B], [0, 0]] Ts)."""
+    big, d, m = b.shape
+    block = np.zeros((big, d + m, d + m))
+    block[:, :d, :d], block[:, :d, d:] = a, b
+    ex = expm(block * sample_time)
+    return ex[:, :d, :d], ex[:, :d, d:]
+
+
+def with_delay(phi: np.ndarray, gamma: np.ndarray, delay: int) -> tuple[np.ndarray, np.ndarray]:
+    """The sampled system with the command applied ``delay`` samples late, its state augmented with the
+    commands still in flight: x_aug = (x, u_{k-delay}, ..., u_{k-1}), x+ = Phi x + Gamma u_{k-delay}; the new
+    command u_k enters the last slot. Shapes (N, d + delay m, d + delay m) and (N, d + delay m, m)."""
+    if delay == 0:
+        return phi, gamma
+    big, d, m = gamma.shape
+    size = d + delay * m
+    pa = np.zeros((big, size, size))
+    pa[:, :d, :d], pa[:, :d, d:d + m] = phi, gamma
+    for j in range(delay - 1):  # each command moves one slot towards the plant
+        pa[:, d + j * m + np.arange(m), d + (j + 1) * m + np.arange(m)] = 1.0
+    ga = np.zeros((big, size, m))
+    ga[:, size - m + np.arange(m), np.arange(m)] = 1.0
+    return pa, ga
+
+
+def solve_discrete_riccati(phi: np.ndarray, gamma: np.ndarray, q: np.ndarray, r: np.ndarray, p_end: np.ndarray,
+                           periodic: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Time-varying discrete Riccati recursion, backward from P_N = ``p_end``:
+
+        K_k = (R + G^T P_{k+1} G)^-1 G^T P_{k+1} F,   P_k = Q_k + F^T P_{k+1} (F - G K_k)
+
+    (F, G) = (phi[k], gamma[k]) (N, d, d), (N, d, m); q (N, d, d) per-sample weights; r (m, m). Periodic (the
+    sequence is one period): repeated until P_0 = P_N to ``defaults.RICCATI_TOLERANCE``. Returns (P (N+1, d, d),
+    K (N, m, d)); u_k = -K_k x_k."""
+    big = len(phi)
+    p = np.empty((big + 1, *p_end.shape))
+    k_gain = np.empty((big, gamma.shape[2], phi.shape[1]))
+
+    def sweep(p_final):
+        p[big] = p_final
+        for k in range(big - 1, -1, -1):
+            f, g, pn = phi[k], gamma[k], p[k + 1]
+            pg = pn @ g
+            k_gain[k] = np.linalg.solve(r + g.T @ pg, pg.T @ f)
+            pk = q[k] + f.T @ pn @ (f - g @ k_gain[k])
+            p[k] = 0.5 * (pk + pk.T)
+
+    sweep(p_end)
+    if not periodic:
+        return p, k_gain
+    for _ in range(defaults.RICCATI_MAX_PERIODS):
+        before = p[0].copy()
+        sweep(before)
+        if np.max(np.abs(p[0] - before)) <= defaults.RICCATI_TOLERANCE * max(np.max(np.abs(p[0])), TINY):
+            return p, k_gain
+    raise SimulationError(
+        f"periodic discrete Riccati equation did not converge in {defaults.RICCATI_MAX_PERIODS} periods; the sampled "
+        "transverse linearization may not be stabilizable at this sample time (shorten it or lower the bandwidth)"
     )

@@ -200,6 +200,8 @@ class SimulateSpec(_Model):
                                   description="largest TCP distance from the planned path [m]")
     joint_tolerance: float = Field(defaults.JOINT_TOLERANCE, gt=0,
                                    description="largest joint deviation from the path [rad]")
+    sampled_design: bool = Field(defaults.ORBITAL_SAMPLED_DESIGN, description="orbital gains designed at the "
+                                 "sample time with the delay in the model")
     saturation_limit: float = Field(defaults.SATURATION_LIMIT, ge=0,
                                     description="longest stretch a torque may stay saturated [s]")
 

@@ -47,7 +47,8 @@ class SimulationSettings:
     path_tolerance [m] (TCP from the planned path, and from the end point for the arrival), joint_tolerance
     [rad], saturation_limit [s] (longest saturated stretch); time budget = time_budget_factor * planned +
     time_budget_margin [s]; laps (closed paths); table_points of the controller's path table; settle_time [s]
-    observed after the arrival (open paths ending at rest); plant: "builtin" or "mujoco" (see
+    observed after the arrival (open paths ending at rest); sampled_design: the orbital gains designed on the
+    sampled transverse linearization at sample_time with the realism's delay in the model; plant: "builtin" or "mujoco" (see
     :func:`.plant.make_plant`)."""
 
     sample_time: float = defaults.SAMPLE_TIME
@@ -65,6 +66,7 @@ class SimulationSettings:
     table_points: int = defaults.PATH_TABLE_POINTS
     settle_time: float = defaults.SETTLE_TIME
     plant: str = defaults.PLANT
+    sampled_design: bool = defaults.ORBITAL_SAMPLED_DESIGN
 
     def __post_init__(self):
         for name in ("sample_time", "path_tolerance", "joint_tolerance", "time_budget_factor"):
@@ -99,7 +101,9 @@ def make_controller(name: str, robot: Robot, path: JointPath, profile: Profile, 
                     settings: SimulationSettings, horizon: float, design: OrbitalDesign | None = None):
     """A fresh running controller ``name`` (one of CONTROLLER_NAMES) on the nominal robot."""
     if name == "orbital":
-        design = design if design is not None else OrbitalDesign.build(table, profile, settings.orbital_gains)
+        sampled = (settings.sample_time, int(settings.realism.delay)) if settings.sampled_design else (None, 0)
+        design = design if design is not None else OrbitalDesign.build(table, profile, settings.orbital_gains,
+                                                                       *sampled)
         return OrbitalController(design, robot, settings.sample_time)
     if name in ("computed_torque", "pd_gravity"):
         ref = TimeReference.sample(path, profile, settings.sample_time, horizon)
@@ -206,16 +210,18 @@ class _Arrived:
 
 
 class _Command:
-    """The torque the controller commands for the sensor's view of (q, qd), one sample late with the delay."""
+    """The torque the controller commands for the sensor's view of (q, qd), ``delay`` samples late (until
+    then the first command is held)."""
 
-    def __init__(self, controller, sensor: Sensor, delay: bool):
-        self.controller, self.sensor, self.delay, self.pending = controller, sensor, delay, None
+    def __init__(self, controller, sensor: Sensor, delay: int):
+        self.controller, self.sensor, self.delay, self.pending = controller, sensor, int(delay), []
 
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         cmd = self.controller(t, *self.sensor.measure(q, qd))
-        if self.delay:
-            cmd, self.pending = (cmd if self.pending is None else self.pending), cmd
-        return cmd
+        if not self.delay:
+            return cmd
+        self.pending.append(cmd)
+        return self.pending.pop(0) if len(self.pending) > self.delay else self.pending[0]
 
 
 class _Monitor:

@@ -1,11 +1,11 @@
 """Realism switches of the closed-loop simulation (all off by default, all seeded).
 
 * model mismatch: the plant's links have mass and rotational inertia scaled by (1 +- inertia_error),
-  the sign drawn per link; an unmodelled payload is added at the flange. The controller keeps the
+  the sign drawn per link (or the same for all, ``inertia_sign``); an unmodelled payload is added at the flange. The controller keeps the
   nominal robot.
 * joint friction: tau_f = F_v qd + F_c tanh(qd / v_c) (smooth Coulomb, so RK4 stays accurate).
 * sensors: encoder quantization of q, Gaussian noise on q and qd.
-* a one-sample delay between measurement and torque.
+* a delay of ``delay`` samples between measurement and torque.
 
 Random draws use ``numpy.random.default_rng(seed)``: the same Realism gives the same run, bit for bit.
 """
@@ -20,6 +20,10 @@ import pinocchio as pin
 from .. import defaults
 from ..errors import SimulationError
 from ..robot import Payload, Robot
+
+
+#: Longest command delay the realism switch models [samples].
+MAX_DELAY = 4
 
 
 def _per_joint(name: str, value, n: int) -> np.ndarray:
@@ -38,7 +42,8 @@ class Realism:
     principal moments about its centre of mass (flange axes), viscous_friction [N m s/rad] and
     coulomb_friction [N m] (one value or one per joint), coulomb_smoothing [rad/s],
     encoder_resolution [rad] (0: none), position_noise [rad], velocity_noise [rad/s] (standard
-    deviations), delay: the torque computed from sample k is applied during sample k+1."""
+    deviations), delay: the torque computed from sample k is applied during sample k + delay (True: 1);
+    inertia_sign: +1 or -1 scales every link the same way, 0 draws the sign per link."""
 
     inertia_error: float = 0.0
     payload_mass: float = 0.0
@@ -50,8 +55,9 @@ class Realism:
     encoder_resolution: float = 0.0
     position_noise: float = 0.0
     velocity_noise: float = 0.0
-    delay: bool = False
+    delay: int = 0
     seed: int = 0
+    inertia_sign: int = 0
 
     def __post_init__(self):
         for name in ("inertia_error", "payload_mass", "encoder_resolution", "position_noise", "velocity_noise"):
@@ -60,6 +66,10 @@ class Realism:
                 raise SimulationError(f"Realism.{name} = {v!r}; it must be a finite number >= 0")
         if self.inertia_error >= 1:
             raise SimulationError(f"Realism.inertia_error = {self.inertia_error:g}; it must be < 1 (masses stay > 0)")
+        if self.inertia_sign not in (-1, 0, 1):
+            raise SimulationError(f"Realism.inertia_sign = {self.inertia_sign!r}; give -1, 0 (drawn per link) or 1")
+        if not (int(self.delay) == self.delay and 0 <= int(self.delay) <= MAX_DELAY):
+            raise SimulationError(f"Realism.delay = {self.delay!r}; give a whole number of samples 0..{MAX_DELAY}")
         if not self.coulomb_smoothing > 0:
             raise SimulationError(f"Realism.coulomb_smoothing = {self.coulomb_smoothing!r}; it must be > 0 rad/s")
 
@@ -80,6 +90,8 @@ class Realism:
 
     def link_scales(self, n: int) -> np.ndarray:
         """Mass/inertia factor of each of the n links, 1 +- inertia_error with seeded signs."""
+        if self.inertia_sign:
+            return np.full(n, 1.0 + self.inertia_error * self.inertia_sign)
         signs = np.random.default_rng([self.seed, 1]).choice([-1.0, 1.0], size=n)
         return 1.0 + self.inertia_error * signs
 

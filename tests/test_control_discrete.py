@@ -1,0 +1,124 @@
+"""The orbital controller designed for its sample time (issue 13): the transverse linearization sampled with a
+zero-order hold and the command applied one sample late, and a periodic discrete Riccati design on it.
+
+Independent check: the closed loop of the SAMPLED linearization -- integrated here with RK4 through each hold
+interval with A(theta*(t)), B(theta*(t)) varying inside it, not the design's frozen-midpoint matrix
+exponential -- with the gains the controller reads (``gain_at`` the sample's theta) and the delay, over one
+period of the thesis' periodic circle: the monodromy matrix must have spectral radius < 1. The gains designed
+in continuous time fail that test at 12 ms with the delay (the issue's divergence)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from pathmotion import api
+from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable
+from pathmotion.control.orbital import integral_size, with_integral
+from pathmotion.control.profile_lookup import ProfileLookup
+from pathmotion.control.riccati import discretize, solve_discrete_riccati, with_delay
+from pathmotion.control.transverse import transverse_linearization
+from pathmotion.planning import plan
+from pathmotion.scenarios import scenario_path
+
+#: RK4 steps per hold interval of the independent sampled model.
+SUBSTEPS = 4
+
+
+@pytest.fixture(scope="module")
+def periodic_circle():
+    setup = api.load(scenario_path("circle_periodic"))
+    result = plan(setup.path, setup.robot, dataclasses.replace(setup.plan_settings, baselines=False))
+    return PathTable.from_path(setup.path, 801), result.profile
+
+
+def sampled_transitions(design: OrbitalDesign, ts: int):
+    """(theta_k (N,), Phi_k (N, d, d), Gamma_k (N, d, n)) of the transverse linearization with its integral
+    states over each hold interval of one period, by RK4 on d/dt [Phi, Gamma] = A [Phi, Gamma] + [0, B]."""
+    lookup, table = design.profile, design.table
+    period = lookup.duration
+    count = int(round(period / ts))
+    h = period / count / SUBSTEPS
+    t = np.linspace(0.0, period, 2 * count * SUBSTEPS + 1)  # RK4 stages at the substep ends and middles
+    theta = lookup.profile.state_at_time(t)[0]
+    theta = np.maximum.accumulate(theta + 1e-12 * np.arange(len(theta)))
+    a, b = with_integral(*transverse_linearization(table, design.basis, lookup, theta), integral_size(design.gains,
+                                                                                                       table.n))
+    d, n = b.shape[1], b.shape[2]
+    phis, gammas = np.empty((count, d, d)), np.empty((count, d, n))
+    for k in range(count):
+        phi, gam = np.eye(d), np.zeros((d, n))
+        for s in range(SUBSTEPS):
+            i = 2 * (k * SUBSTEPS + s)
+
+            def f(j, p, g):
+                return a[j] @ p, a[j] @ g + b[j]
+
+            k1 = f(i, phi, gam)
+            k2 = f(i + 1, phi + 0.5 * h * k1[0], gam + 0.5 * h * k1[1])
+            k3 = f(i + 1, phi + 0.5 * h * k2[0], gam + 0.5 * h * k2[1])
+            k4 = f(i + 2, phi + h * k3[0], gam + h * k3[1])
+            phi = phi + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+            gam = gam + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        phis[k], gammas[k] = phi, gam
+    return theta[::2 * SUBSTEPS][:count], phis, gammas
+
+
+def monodromy_radius(design: OrbitalDesign, ts: float, delay: int) -> float:
+    """Spectral radius of one period of x_{k+1} = Phi x_k + Gamma u_{k-delay}, u_k = -K(theta_k) (x_k, commands in
+    flight) with the design's scheduled gain; a gain without columns for the commands in flight ignores them."""
+    theta, phis, gammas = sampled_transitions(design, ts)
+    d, n = gammas.shape[1], gammas.shape[2]
+    size = d + delay * n
+    total = np.eye(size)
+    for th, phi, gam in zip(theta, phis, gammas):
+        gain = design.gain_at(th)
+        k_full = np.zeros((n, size))
+        k_full[:, :gain.shape[1]] = gain
+        step = np.zeros((size, size))
+        step[:d, :d] = phi
+        if delay:
+            step[:d, d:d + n] = gam
+            for j in range(delay - 1):
+                step[d + j * n:d + (j + 1) * n, d + (j + 1) * n:d + (j + 2) * n] = np.eye(n)
+            step[size - n:, :] = -k_full
+        else:
+            step[:d, :] -= gam @ k_full
+        total = step @ total
+    return float(np.max(np.abs(np.linalg.eigvals(total))))
+
+
+@pytest.mark.parametrize("ts", [0.001, 0.004, 0.012])
+def test_the_sampled_design_stabilizes_the_sampled_linearization_with_a_delay(periodic_circle, ts):
+    table, profile = periodic_circle
+    design = OrbitalDesign.build(table, profile, OrbitalGains(), sample_time=ts, delay=1)
+    assert design.gain.shape[2] == 3 * table.n - 1 + table.n  # (xi, z, z_dot, I) and one command in flight
+    radius = monodromy_radius(design, ts, delay=1)
+    assert radius < 1.0, radius
+
+
+def test_the_continuous_design_does_not_at_12_ms_with_a_delay(periodic_circle):
+    """The test above can fail: the gains designed in continuous time, applied at 12 ms one sample late."""
+    table, profile = periodic_circle
+    design = OrbitalDesign.build(table, profile, OrbitalGains())
+    assert monodromy_radius(design, 0.012, delay=1) > 1.0
+
+
+def test_discrete_riccati_on_a_double_integrator_matches_the_algebraic_solution():
+    """Constant (Phi, Gamma) over a long horizon: the recursion converges to scipy's discrete algebraic Riccati
+    solution, and the periodic form (any period) gives it too."""
+    from scipy.linalg import solve_discrete_are
+
+    a = np.array([[[0.0, 1.0], [0.0, 0.0]]] * 400)
+    b = np.array([[[0.0], [1.0]]] * 400)
+    phi, gam = with_delay(*discretize(a, b, 0.01), 1)
+    q = np.zeros((400, 3, 3))
+    q[:, 0, 0], q[:, 1, 1] = 1.0, 0.1
+    r = np.array([[0.01]])
+    care = solve_discrete_are(phi[0], gam[0], q[0], r)
+    p, k = solve_discrete_riccati(phi, gam, q, r, np.zeros((3, 3)))
+    assert np.allclose(p[0], care, rtol=1e-6, atol=1e-9)
+    p2, _ = solve_discrete_riccati(phi[:50], gam[:50], q[:50], r, np.zeros((3, 3)), periodic=True)
+    assert np.allclose(p2[0], care, rtol=1e-6, atol=1e-9)
+    loop = phi[0] - gam[0] @ k[0]
+    assert np.max(np.abs(np.linalg.eigvals(loop))) < 1.0
