@@ -36,6 +36,8 @@ ORBITALS, BASELINES = CONTROLLERS[:2], CONTROLLERS[2:]
 SAMPLE_TIMES = (0.001, 0.004, 0.012)
 #: The path tolerance of the verdict [m] and the one the runs use so that they measure the whole lap [m].
 TOLERANCE, MEASURE_TOLERANCE = defaults.PATH_TOLERANCE, 0.5
+#: Longest plant integration step [s] (3x friction on the wrist needs it at 12 ms).
+PLANT_STEP = 0.002
 FRICTION = (np.asarray(defaults.REALISTIC_VISCOUS_FRICTION), np.asarray(defaults.REALISTIC_COULOMB_FRICTION))
 
 
@@ -65,7 +67,9 @@ def run_cell(setup, profile, realism: Realism, believed: float, ts: float, contr
     if believed > 0:  # the controllers model a payload the plant does not carry
         plant = Plant.from_robot(robot, realism)
         robot = robot.with_payload(Payload(believed, defaults.REALISTIC_PAYLOAD_COM))
-    settings = SimulationSettings(sample_time=ts, realism=realism, laps=1, path_tolerance=MEASURE_TOLERANCE,
+    substeps = max(defaults.PLANT_SUBSTEPS, int(round(ts / PLANT_STEP)))  # the plant at <= 2 ms steps
+    settings = SimulationSettings(sample_time=ts, substeps=substeps, realism=realism, laps=1,
+                                  path_tolerance=MEASURE_TOLERANCE,
                                   sampled_design=controller == "orbital_sampled")
     name = "orbital" if controller == "orbital_sampled" else controller
     s = simulate(robot, setup.path, profile, name, settings, plant=plant).summary()

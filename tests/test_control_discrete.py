@@ -122,3 +122,29 @@ def test_discrete_riccati_on_a_double_integrator_matches_the_algebraic_solution(
     assert np.allclose(p2[0], care, rtol=1e-6, atol=1e-9)
     loop = phi[0] - gam[0] @ k[0]
     assert np.max(np.abs(np.linalg.eigvals(loop))) < 1.0
+
+
+def test_the_integral_does_not_wind_up_while_the_torque_saturates(irb140):
+    """Conditional integration: a sample whose torque is clipped leaves the integral where it was; the same
+    sample with room to spare advances it by Ts (z, I)."""
+    from pathmotion.control import OrbitalController
+    from pathmotion.joint_path import SplineJointPath
+    from pathmotion.planning.profile import Profile
+
+    waypoints = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0], [0.5, 0.3, -0.2, 0.4, 0.8, 0.6],
+                          [1.0, 0.1, 0.2, -0.2, 0.4, 1.2]])
+    design = OrbitalDesign.build(PathTable.from_path(SplineJointPath.from_waypoints(waypoints)),
+                                 Profile(np.array([0.0, 0.2, 0.8, 1.0]), np.array([0.0, 0.6, 0.6, 0.0])))
+    phi, dphi, _ = design.table.evaluate_scalar(0.5)
+    q, qd = phi + np.array([0.0, 0.004, -0.003, 0.002, 0.0, 0.001]), dphi * np.sqrt(0.6)
+    runs = {}
+    for name, limit in (("room", 1e6), ("clipped", 1e-3)):
+        c = OrbitalController(design, irb140, 0.004)
+        c.clock, c.theta, c.theta_dot = None, 0.5, float(np.sqrt(0.6))
+        c.torque_limit = np.full(6, limit)
+        c(1.0, q, qd)
+        runs[name] = (c.xi.copy(), c.x_perp.copy())
+    xi_room, x_perp = runs["room"]
+    m = 5
+    assert np.allclose(xi_room[:m], 0.004 * x_perp[6:6 + m]) and np.any(np.abs(xi_room) > 1e-9)
+    assert np.allclose(runs["clipped"][0], 0.0, atol=1e-15)
