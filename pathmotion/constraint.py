@@ -35,7 +35,7 @@ import pinocchio as pin
 from . import defaults
 from .errors import PathError, UnreachableError
 from .joint_path import JointPath
-from .robot import Robot, fk, frame_acceleration_bias, jacobian
+from .robot import Robot, frame_acceleration_bias, jacobian
 from .robot import redundancy
 from .robot.ik import ik_batch, ik_dls, ik_nearest
 
@@ -297,8 +297,3 @@ def _check_path(robot, task_path, theta, q, p, threshold) -> PathCheck:
         )
     return PathCheck(float(sv[ks]), float(theta[ks]), float(margin[k, j]), float(theta[k]), lim.names[j],
                      tuple(float(x) for x in task_path.kinks), len(theta))
-
-
-def tcp_positions(robot: Robot, q) -> np.ndarray:
-    """TCP positions (N, 3) of configurations (N, n)."""
-    return fk(robot, q)[0]

@@ -205,14 +205,6 @@ class OrbitalDesign:
         gain = gain[fwd]
         return cls(table, lookup, basis, gains, theta, gain, riccati, zones)
 
-    def gain_at(self, theta: float) -> np.ndarray:
-        """K(theta) (n, 2n-1), linear in theta between grid points."""
-        theta = self.table.wrap(theta)
-        grid = self.theta
-        i = min(max(int(np.searchsorted(grid, theta, side="right")) - 1, 0), len(grid) - 2)
-        w = (theta - grid[i]) / (grid[i + 1] - grid[i])
-        return self.gain[i] + w * (self.gain[i + 1] - self.gain[i])
-
     def zone_at(self, planned_time: float, first: int = 0) -> int | None:
         """Index (>= first) of the clock zone containing ``planned_time`` [s], or None."""
         for i in range(first, len(self.zones)):

@@ -213,22 +213,3 @@ def _families(rows: list[dict], path: Path) -> Path:
     ax.legend(fontsize=8)
     f.tight_layout()
     return _save(f, path)
-
-
-def table_markdown(rows: list[dict]) -> str:
-    """The study table as Markdown (for docs): case, parameter, cycle time, deviations, tracking."""
-    def cell(v, scale=1.0, fmt="{:.4g}"):
-        if v is None:
-            return "-"
-        if isinstance(v, bool):
-            return "yes" if v else "NO"
-        return fmt.format(v * scale) if isinstance(v, (int, float)) else str(v)
-
-    lines = ["| case | parameter | cycle time [s] | planned [s] | gain vs stop | max dev. from sharp path [mm] | "
-             "max tracking error [mm] | tracking_ok |", "|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        par = f"{r['parameter']} = {r['value']:g}" if isinstance(r.get("value"), float) else (r.get("parameter") or "")
-        lines.append(f"| {r['case']} | {par} | {cell(r['cycle_time_s'])} | {cell(r['planned_duration_s'])} | "
-                     f"{cell(r['gain_vs_stop'], 100, '{:.1f} %')} | {cell(r['max_sharp_deviation_m'], 1000)} | "
-                     f"{cell(r[schema.PATH_ACCURACY.key], 1000)} | {cell(r['tracking_ok'])} |")
-    return "\n".join(lines)
