@@ -9,7 +9,8 @@ Arguments are packed into named tuples (numba compiles a NamedTuple of arrays an
 * :class:`Projection` the settings of the local projection onto the path;
 * :class:`Basis` the reflection axis sigma e_k of the transverse basis (see :mod:`.transverse`).
 
-The profile lookup, on a piece i of the grid, is one function, :func:`profile_x`:
+The profile lookup, on a piece i of the grid, is one function, :func:`pathmotion.planning.profile.piece_x`
+(compiled here as ``profile_x``):
 
     x*(theta) = max(x_i + 2 u_i (theta - theta_i), 0)
 """
@@ -20,6 +21,8 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+
+from ..planning.profile import piece_x
 
 #: |Phi'|^2 below which the projection treats Phi' as zero (clamped spline ends) and nudges theta [rad^2].
 ZERO_SPEED2 = 1e-24
@@ -156,10 +159,8 @@ def project(path, q, theta, proj):
 # --- profile ------------------------------------------------------------------------------------------------
 
 
-@numba.njit(cache=True)
-def profile_x(grid, x, u, i, theta):
-    """x*(theta) = max(x_i + 2 u_i (theta - theta_i), 0) on piece i: the one profile lookup."""
-    return max(x[i] + 2.0 * u[i] * (theta - grid[i]), 0.0)
+#: x*(theta) = max(x_i + 2 u_i (theta - theta_i), 0) on piece i: planning's own lookup, compiled.
+profile_x = numba.njit(cache=True)(piece_x)
 
 
 @numba.njit(cache=True)

@@ -7,7 +7,8 @@ so x(theta) = x_i + 2 u_i (theta - theta_i) exactly and time is analytic:
     theta(t) = theta_i + sqrt(x_i) tau + u_i tau^2 / 2,   tau = t - t_i
 
 This is the representation every time-optimal planner here returns and every consumer
-(trajectory sampling, controllers) reads.
+(trajectory sampling, controllers) reads. :func:`piece_x` is the one lookup of x on a piece; the
+controllers' compiled kernels (control/kernels.py) compile this same function.
 """
 
 from __future__ import annotations
@@ -18,6 +19,13 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import PathmotionError
+
+
+def piece_x(grid, x, u, i, theta):
+    """x(theta) = max(x_i + 2 u_i (theta - theta_i), 0) on piece i (scalars, or arrays of i and theta).
+
+    Plain numpy, so that control/kernels.py can compile it with numba as its scalar lookup."""
+    return np.maximum(x[i] + 2.0 * u[i] * (theta - grid[i]), 0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,7 +78,7 @@ class Profile:
         """x = theta_dot^2 at theta (linear interpolation is exact here)."""
         th = np.asarray(theta, dtype=float)
         i = self._interval(th)
-        return np.maximum(self.x[i] + 2.0 * self.u[i] * (th - self.grid[i]), 0.0)
+        return piece_x(self.grid, self.x, self.u, i, th)
 
     def theta_dot_at(self, theta) -> np.ndarray:
         return np.sqrt(self.x_at(theta))
@@ -87,7 +95,7 @@ class Profile:
         v0 = np.sqrt(self.x[i])
         u = self.u[i]
         theta = np.minimum(self.grid[i] + v0 * tau + 0.5 * u * tau**2, self.grid[i + 1])
-        theta_dot = np.sqrt(np.maximum(self.x[i] + 2.0 * u * (theta - self.grid[i]), 0.0))
+        theta_dot = np.sqrt(piece_x(self.grid, self.x, self.u, i, theta))
         return theta, theta_dot, u
 
     def scaled(self, factor: float) -> "Profile":
