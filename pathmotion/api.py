@@ -35,6 +35,13 @@ from .planning.limits import REGISTRY as LIMIT_REGISTRY, limit_choices
 from .robot import Payload, Robot, Tool, builtin_robot_names, fk, load_robot
 from .robot.arm import arm_points
 
+#: Largest difference between a circle's given radius and its centre-to-start distance [m]
+#: (a scenario's numbers are typed by hand: 1 um is far below any path tolerance, far above round-off).
+RADIUS_MATCH = 1e-6
+#: |dq/dtheta| / qd_max below which a path point is treated as not moving the joints [s/rad-of-theta]
+#: (its velocity-limited theta_dot is then 1e12, i.e. unlimited).
+STILL_PATH_SPEED = 1e-12
+
 
 @dataclass(frozen=True, eq=False)
 class Setup:
@@ -109,7 +116,7 @@ def _segments(specs) -> list:
                     seg = Circle(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float))
                 else:
                     seg = Circle.from_centre(s.center, s.radius, s.normal, s.start_angle)
-                if abs(seg.radius - s.radius) > 1e-6:
+                if abs(seg.radius - s.radius) > RADIUS_MATCH:
                     raise ScenarioError(f"{where}: the start point is {seg.radius:.6g} m from the centre, not the "
                                         f"radius {s.radius:.6g} m; fix radius or centre")
         except PathmotionError as exc:
@@ -537,7 +544,7 @@ def check_scenario(setup: Setup) -> dict:
     if setup.plan_settings.velocity:
         speed = np.abs(dq) / robot.limits.velocity / setup.plan_settings.velocity_scale
         peak = np.max(speed, axis=1)
-        vmax = 1.0 / np.maximum(peak, 1e-12)
+        vmax = 1.0 / np.maximum(peak, STILL_PATH_SPEED)
         out["min_velocity_limited_theta_dot"] = float(np.min(vmax))
     return out
 

@@ -37,7 +37,7 @@ from .errors import PathError, UnreachableError
 from .joint_path import JointPath
 from .robot import Robot, frame_acceleration_bias, jacobian
 from .robot import redundancy
-from .robot.ik import ik_batch, ik_dls, ik_nearest
+from .robot.ik import IK_RANGE_SLACK, ik_batch, ik_dls, ik_nearest
 
 TWO_PI = 2.0 * np.pi
 _LOCAL = pin.ReferenceFrame.LOCAL
@@ -277,8 +277,8 @@ def _where(task_path, theta: float, p) -> str:
 
 def _check_path(robot, task_path, theta, q, p, threshold) -> PathCheck:
     lim = robot.limits
-    below = q < lim.lower - 1e-9
-    above = q > lim.upper + 1e-9
+    below = q < lim.lower - IK_RANGE_SLACK
+    above = q > lim.upper + IK_RANGE_SLACK
     if np.any(below | above):
         k, j = np.argwhere(below | above)[0]
         raise UnreachableError(

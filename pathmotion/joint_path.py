@@ -20,6 +20,13 @@ from scipy.interpolate import CubicSpline
 
 from .errors import PathError, check_finite
 
+#: Slack of the theta-range check, relative to max(1, domain length): round-off of a caller's theta
+#: (e.g. a grid ending at hi computed as a sum) is clipped, a real overshoot is an error [-].
+DOMAIN_SLACK = 1e-9
+#: Largest joint difference [rad] at which two consecutive waypoints are the same point (the clamped
+#: spline through them would have a zero-length knot interval).
+SAME_WAYPOINT = 1e-12
+
 
 @dataclass(frozen=True, eq=False)
 class JointPath:
@@ -55,7 +62,7 @@ class JointPath:
         scalar = th.ndim == 0
         th = np.atleast_1d(th)
         lo, hi = self.domain
-        tol = 1e-9 * max(1.0, abs(hi - lo))
+        tol = DOMAIN_SLACK * max(1.0, abs(hi - lo))
         if np.any(th < lo - tol) or np.any(th > hi + tol):
             bad = th[(th < lo - tol) | (th > hi + tol)][0]
             raise PathError(f"theta = {bad:.6g} is outside the path's range [{lo:.6g}, {hi:.6g}]")
@@ -82,8 +89,9 @@ class SplineJointPath(JointPath):
         if wp.ndim != 2 or wp.shape[0] < 2:
             raise PathError(f"joint waypoints must be a (K >= 2, n) array, got shape {wp.shape}")
         check_finite("joint waypoints", wp)
-        if np.any(np.all(np.abs(np.diff(wp, axis=0)) < 1e-12, axis=1)):
-            k = int(np.argmax(np.all(np.abs(np.diff(wp, axis=0)) < 1e-12, axis=1)))
+        repeated = np.all(np.abs(np.diff(wp, axis=0)) < SAME_WAYPOINT, axis=1)
+        if np.any(repeated):
+            k = int(np.argmax(repeated))
             raise PathError(f"joint waypoints {k} and {k + 1} are identical; remove the repeated waypoint")
         knots = np.linspace(0.0, 1.0, len(wp))
         spline = CubicSpline(knots, wp, bc_type="clamped")

@@ -65,6 +65,11 @@ _MOVE_ARGS = {"movel": ("to", "speed", "zone", "tool"), "movej": ("to", "speed",
               "movec": ("via", "to", "speed", "zone", "tool")}
 _OPTIONAL = {"v", "t", "z", "wobj", "conc", "inpos", "id"}
 _SAME_ROTATION = 1e-6  # largest element difference of two rotation matrices taken as equal [-]
+_GIMBAL_LOCK = 1e-12  # cos(pitch) below which roll and yaw are one turn (all put in roll) [-]
+_COLLINEAR = 1e-9  # |ab x ac| / (longest side)^2 below which three circle points are a line [-]
+_STRAIGHT = 1e-9  # corner turn angle below which a zone is taken as a straight join [rad]
+_RIGHT_ANGLE_MARGIN = 1e-15  # keeps tan(half turn) finite at a full reversal [rad]
+_ZONE_ROUNDING = 1e-12  # a zone reduced by less than this is not reported as reduced [m]
 
 
 # ------------------------------------------------------------------------------------ plain data
@@ -142,7 +147,7 @@ def quaternion_matrix(q, where: str = "quaternion") -> np.ndarray:
 def matrix_rpy(r: np.ndarray) -> tuple[float, float, float]:
     """(roll, pitch, yaw) [rad] with R = Rz(yaw) Ry(pitch) Rx(roll), the scenario's tool convention."""
     pitch = math.atan2(-r[2, 0], math.hypot(r[0, 0], r[1, 0]))
-    if math.hypot(r[0, 0], r[1, 0]) < 1e-12:  # gimbal lock: put the whole turn in roll
+    if math.hypot(r[0, 0], r[1, 0]) < _GIMBAL_LOCK:  # gimbal lock: put the whole turn in roll
         return math.atan2(-r[1, 2], r[1, 1]), pitch, 0.0
     return math.atan2(r[2, 1], r[2, 2]), pitch, math.atan2(r[1, 0], r[0, 0])
 
@@ -491,7 +496,7 @@ def arc_through(p0, p1, p2, where: str = "MoveC") -> ArcThrough:
     ab, ac = b - a, c - a
     nvec = np.cross(ab, ac)
     n2 = float(nvec @ nvec)
-    if n2 <= 1e-18 * max(ab @ ab, ac @ ac) ** 2:  # |ab x ac| below 1e-9 of the squared side
+    if n2 <= _COLLINEAR**2 * max(ab @ ab, ac @ ac) ** 2:  # |ab x ac|^2 against the squared side^2
         raise ScenarioError(f"{where}: start, circle point and end point are collinear or coincide; move the circle "
                             "point off the line (or use MoveL)")
     center = a + (np.cross(nvec, ab) * (ac @ ac) + np.cross(ac, nvec) * (ab @ ab)) / (2.0 * n2)
@@ -562,8 +567,9 @@ def rapid_estimate_s(lengths, speeds, zones, turns) -> float:
         raise ScenarioError("rapid: lengths and speeds must be positive and zones non-negative")
     cut = np.minimum(z, 0.5 * np.minimum(L[:-1], L[1:]))
     half = 0.5 * d
-    blend = np.where(d < 1e-9, 2.0 * cut, d * cut / np.where(d < 1e-9, 1.0, np.tan(np.minimum(half, 0.5 * math.pi
-                                                                                             - 1e-15))))
+    straight_join = d < _STRAIGHT
+    tan_half = np.tan(np.minimum(half, 0.5 * math.pi - _RIGHT_ANGLE_MARGIN))
+    blend = np.where(straight_join, 2.0 * cut, d * cut / np.where(straight_join, 1.0, tan_half))
     straight = L.copy()
     straight[:-1] -= cut
     straight[1:] -= cut
@@ -603,7 +609,7 @@ def notes(program: RapidProgram) -> list[str]:
     warning = _orientation(program)[1]
     if warning:
         out.append(warning)
-    reduced = [(m.line, m.zone, z) for m, z in zip(program.moves[1:-1], effective_zones(program)) if z < m.zone - 1e-12]
+    reduced = [(m.line, m.zone, z) for m, z in zip(program.moves[1:-1], effective_zones(program)) if z < m.zone - _ZONE_ROUNDING]
     for line, zone, z in reduced:
         out.append(f"the zone at line {line} ({zone * 1000:g} mm) is reduced to {z * 1000:.4g} mm, half the distance "
                    "to a neighbouring position, as on the controller")

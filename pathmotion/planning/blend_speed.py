@@ -31,6 +31,10 @@ from .profile import Profile
 from .trajectory import Trajectory
 from .verify import limit_ratios
 
+#: Grid spacing, relative to max(1, path length), below which two pieces' end points are one shared
+#: point (the second copy is dropped) [-].
+SHARED_POINT = 1e-12
+
 
 def blend_ranges(task_path, original_task_path) -> tuple[tuple[float, float], ...]:
     """theta ranges [m] (a, b) of the segments of ``task_path`` that are not part of
@@ -75,7 +79,7 @@ def capped_profile(setup, result: PlanResult, ranges, scale: float) -> Profile:
             grids.append(prof.grid[inside])
             xs.append(scale**2 * prof.x[inside])
     grid, x = np.concatenate(grids), np.concatenate(xs)
-    keep = np.concatenate([[True], np.diff(grid) > 1e-12 * max(1.0, hi - lo)])  # shared end points
+    keep = np.concatenate([[True], np.diff(grid) > SHARED_POINT * max(1.0, hi - lo)])
     return Profile(grid[keep], x[keep])
 
 

@@ -14,7 +14,7 @@ import numpy as np  # noqa: E402
 
 from ..io import schema  # noqa: E402
 from ..io.atomic import atomic_path  # noqa: E402
-from .tables import joint_columns, read_columns, read_json  # noqa: E402
+from .tables import PLOT_FLOOR, PLOT_HEADROOM, joint_columns, read_columns, read_json  # noqa: E402
 
 
 def _save(fig, path: Path) -> Path:
@@ -44,7 +44,7 @@ def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     if own:
         fig, ax = plt.subplots(figsize=(8, 4.5))
     th = cols["theta"]
-    top = 1.6 * np.max(cols["theta_dot_optimal"]) + 1e-9
+    top = PLOT_HEADROOM * np.max(cols["theta_dot_optimal"]) + PLOT_FLOOR
     ax.plot(th, np.minimum(cols["theta_dot_max_pointwise"], top), color="0.6", lw=1, label="pointwise limit")
     ax.plot(th, np.minimum(cols["theta_dot_controllable"], top), color="0.3", lw=1, ls="--", label="controllable bound")
     ax.plot(th, cols["theta_dot_optimal"], color="C0", lw=2,

@@ -332,9 +332,15 @@ def _matching_row(rows: list[dict], best: dict | None, params: Sequence[str]) ->
     return next((i for i, r in enumerate(rows) if params and same(r)), None)
 
 
+#: Sweep parameter values read back from JSON/CSV that count as the same value (round trip of a float
+#: through text): relative and absolute tolerance [-], [unit of the value].
+SAME_VALUE_REL = 1e-12
+SAME_VALUE_ABS = 1e-15
+
+
 def _equal(a, b) -> bool:
     if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
-        return math.isclose(float(a), float(b), rel_tol=1e-12, abs_tol=1e-15)
+        return math.isclose(float(a), float(b), rel_tol=SAME_VALUE_REL, abs_tol=SAME_VALUE_ABS)
     return a == b
 
 

@@ -17,6 +17,10 @@ from plotly.subplots import make_subplots
 from ..io import schema
 from ..io.exports import decimate  # noqa: F401  (the report's figures decimate with it)
 from .. import defaults
+from .tables import PLOT_FLOOR, PLOT_HEADROOM
+
+#: Smallest scene span of a 3-D view [m], so that a single point still gets axes.
+SCENE_MIN_SPAN = 1e-6
 
 JOINT_COLORS = qualitative.D3
 COLORS = {"optimal": "#1f77b4", "fitted": "#2ca02c", "constant_speed": "#d62728", "limit": "#8c8c8c",
@@ -59,7 +63,7 @@ def phase_plane_figure(cols: dict[str, np.ndarray], durations: dict[str, float |
     theta = cols["theta"]
     idx = decimate(len(theta))
     profiles = [k for k in ("theta_dot_optimal", "theta_dot_fitted", "theta_dot_constant_speed") if k in cols]
-    top = 1.6 * max(float(np.max(cols[k])) for k in profiles) + 1e-9
+    top = PLOT_HEADROOM * max(float(np.max(cols[k])) for k in profiles) + PLOT_FLOOR
 
     def label(name, text):
         d = durations.get(name)
@@ -117,7 +121,7 @@ def scene_box(points: np.ndarray, min_fraction: float = 0.25, pad: float = 0.08)
     at least ``min_fraction`` of the largest span (a flat path keeps some depth), and the matching
     aspect ratio."""
     lo, hi = points.min(axis=0), points.max(axis=0)
-    span = np.maximum(hi - lo, min_fraction * float(np.max(hi - lo)) + 1e-6) * (1 + 2 * pad)
+    span = np.maximum(hi - lo, min_fraction * float(np.max(hi - lo)) + SCENE_MIN_SPAN) * (1 + 2 * pad)
     centre = 0.5 * (lo + hi)
     axes = {f"{a}axis": dict(range=[centre[k] - span[k] / 2, centre[k] + span[k] / 2], title=f"{a} [m]",
                              autorange=False, nticks=5) for k, a in enumerate("xyz")}

@@ -13,6 +13,11 @@ import numpy as np
 
 from ..errors import PathmotionError
 
+#: Both phase-plane plots (PNG and interactive) cut the limit curves at PLOT_HEADROOM times the fastest
+#: profile, plus PLOT_FLOOR so that a profile at rest still gets an axis [-], [unit of theta_dot].
+PLOT_HEADROOM = 1.6
+PLOT_FLOOR = 1e-9
+
 
 def read_columns(path: str | Path, required: Sequence[str] = ()) -> dict[str, np.ndarray]:
     """A numeric CSV with a header line (trajectory.csv, simulation.csv, phase_plane.csv) as

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from ..control.kernels import ZERO_SPEED2
 from ..joint_path import JointPath
 from ..robot import Robot, fk
 
@@ -141,7 +142,7 @@ def polish_projection(path: JointPath, q: np.ndarray, theta: np.ndarray, iterati
         d2 = np.sum(dphi * dphi, axis=1)
         curv = d2 - np.sum(ddphi * y, axis=1)
         den = np.where(curv > 0.5 * d2, curv, d2)
-        step = np.divide(np.sum(dphi * y, axis=1), den, out=np.zeros_like(den), where=d2 > 1e-24)
+        step = np.divide(np.sum(dphi * y, axis=1), den, out=np.zeros_like(den), where=d2 > ZERO_SPEED2)
         theta = theta + step
         if not path.closed:
             theta = np.clip(theta, *path.domain)

@@ -19,6 +19,7 @@ from the sharp path, tracking error, tracking_ok, gain over the stop) and the fi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -32,6 +33,8 @@ from .sweep import OnResult, load_trace, run_sweep, write_tables
 RADIUS_KEY = "path.blends[0].radius"
 TOLERANCE_KEY = "path.blends[0].tolerance"
 SPEED_KEY = "plan.blend_speed_scale"
+#: The transition-circle radius r_t of the thesis' corner experiment [m] (labelled in the figures).
+THESIS_RADIUS = 0.04
 #: Columns of corner_study.csv.
 CORNER_COLUMNS = ("case", "parameter", "value", schema.CYCLE_TIME.key, schema.PLANNED_DURATION.key, "gain_vs_stop",
                   schema.MAX_SHARP_DEVIATION.key, schema.MEAN_SHARP_DEVIATION.key, schema.PATH_ACCURACY.key, schema.TRACKING_OK.key, "error")
@@ -160,7 +163,7 @@ def _figures(out: Path, results: dict, rows: list[dict], speed_radius: float) ->
         written.append(fig.error_figure(rt, out / "rt_error.png",
                                         "Transition radius r_t: error vector TCP - nearest point of the sharp path"))
         corner = rt[0][1]["sharp_path"][0]
-        written.append(fig.corner_view_figure(rt, corner, 0.04, out / "rt_corner.png", "Corner region, top view"))
+        written.append(fig.corner_view_figure(rt, corner, THESIS_RADIUS, out / "rt_corner.png", "Corner region, top view"))
     sp = _runs(out, results, "speed", lambda o, r: f"blend speed x{o[SPEED_KEY]:g} (r_t = {speed_radius:g} m){tag(r)}")
     if sp:
         written.append(fig.y_figure(sp, out / "speed_y.png", "Transition segment speed: TCP y(t) against the desired path"))
@@ -172,7 +175,7 @@ def _figures(out: Path, results: dict, rows: list[dict], speed_radius: float) ->
     for i, r in enumerate(shown):
         if r["case"] == "stop":
             labels[i] = "stop at corner"
-        elif r["case"] == "transition" and r["value"] is not None and abs(r["value"] - 0.04) < 1e-12:
+        elif r["case"] == "transition" and r["value"] is not None and math.isclose(r["value"], THESIS_RADIUS):
             labels[i] = "thesis r_t = 0.04 m"
 
     def small(r):
