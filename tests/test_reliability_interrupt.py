@@ -265,3 +265,60 @@ def test_interrupted_parallel_sweep_stops_without_running_the_queued_points(tmp_
         except ProcessLookupError:
             pass
         proc.wait()
+
+
+def spin_point(text, base_dir, overrides, traces):
+    """A sweep point that never returns (pure Python, so it never blocks signals); it first leaves
+    started-PID in the folder named by the scenario text, so the test knows the worker runs it."""
+    Path(text.strip(), f"started-{os.getpid()}").touch()
+    while True:
+        pass
+
+
+def test_sigterm_stops_workers_in_the_middle_of_a_point(tmp_path):
+    """The parent's terminate() ends a worker wherever it is: a worker that kept the CLI's SIGTERM ->
+    KeyboardInterrupt handler returned the exception as the point's result and went on with the next
+    queued point, so the interrupted sweep waited for them (here: forever)."""
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(str(tmp_path) + "\n")
+    script = ("import signal, sys; sys.path.insert(0, sys.argv[1])\n"
+              "from pathmotion.cli import _terminate\n"
+              "from pathmotion.study.sweep import run_sweep\n"
+              "from test_reliability_interrupt import spin_point\n"
+              "signal.signal(signal.SIGTERM, _terminate)\n"
+              "try:\n"
+              "    run_sweep(sys.argv[2], {'a': [1, 2, 3, 4, 5, 6]}, sys.argv[3], workers=2, point_fn=spin_point)\n"
+              "except KeyboardInterrupt:\n"
+              "    sys.exit(130)\n")
+    proc = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent), str(scenario), str(tmp_path / "out")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    started = lambda: sorted(tmp_path.glob("started-*"))  # noqa: E731
+    try:
+        assert signal_when(proc, signal.SIGTERM, lambda: len(started()) >= 2)
+        _, err = proc.communicate(timeout=300)  # only a hang guard: without the fix this never returns
+        assert proc.returncode == 130, err.decode()
+        assert len(started()) == 2  # no queued point was started after the signal
+        assert finished_points(tmp_path / "out") == 0
+        for marker in started():  # the workers are gone (reaped by init once the parent has exited)
+            pid = int(marker.name.split("-")[1])
+            deadline = time.monotonic() + 60
+            while _alive(pid) and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert not _alive(pid)
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        proc.wait()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:  # a zombie has exited: only its process-table entry is left
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[1].split()[0] != "Z"
+    except OSError:
+        return False

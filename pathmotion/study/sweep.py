@@ -21,6 +21,7 @@ import hashlib
 import itertools
 import json
 import math
+import signal
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -247,8 +248,19 @@ def _lost(exc: BaseException) -> dict:
     return {"summary": summary, "error": f"worker failed: {type(exc).__name__}: {exc}", "trace": None}
 
 
+def _worker_signals() -> None:
+    """Start of a pool worker: SIGTERM ends it at once and Ctrl-C is left to the parent.
+
+    A forked worker inherits the CLI's SIGTERM -> KeyboardInterrupt handler, and ProcessPoolExecutor's
+    worker loop catches that exception as the point's result and starts the next queued point: an
+    interrupted sweep then waited for the queued points (minutes for a worker still compiling the numba
+    kernels under load). Only the parent records points, so killing a worker loses nothing finished."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a terminal's Ctrl-C reaches the whole process group
+
+
 def _run_processes(workers: int, args, todo, record, point_fn, traces) -> None:
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_signals)
     try:
         futures = {pool.submit(point_fn, *args, p.overrides, traces): p for p in todo}
         for fut in as_completed(futures):
