@@ -8,13 +8,20 @@ The flow (each arrow a function, each box an immutable value)::
 The public names below are imported on first use (PEP 562), so ``import pathmotion`` and the
 ``pathmotion`` command start fast and the command can take over Ctrl-C/SIGTERM before NumPy,
 Pinocchio and numba load.
+
+Logging: every module logs to ``logging.getLogger(__name__)`` under the ``pathmotion`` logger, which has
+only a NullHandler: a program shows the stages with e.g. ``logging.basicConfig(level=logging.INFO)``
+(INFO: the planner's and the loop's stages; DEBUG: their details), the command with ``-v`` / ``-vv``.
 """
 
 from __future__ import annotations
 
 import importlib
+import logging
 
 __version__ = "0.1.0"
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 _EXPORTS = {
     "api": ("Setup", "build", "check_scenario", "load", "load_text", "plan_scenario", "simulate_scenario",

@@ -12,6 +12,7 @@ Each CLI subcommand is a few lines over these functions::
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +35,8 @@ from .planning import PlanResult, PlanSettings, plan
 from .planning.limits import REGISTRY as LIMIT_REGISTRY, limit_choices
 from .robot import Payload, Robot, Tool, builtin_robot_names, fk, load_robot
 from .robot.arm import arm_points
+
+log = logging.getLogger(__name__)
 
 #: Largest difference between a circle's given radius and its centre-to-start distance [m]
 #: (a scenario's numbers are typed by hand: 1 um is far below any path tolerance, far above round-off).
@@ -92,6 +95,9 @@ def build_robot(scenario: Scenario, base_dir: Path) -> Robot:
             changes[key] = np.asarray(value, float)
     if changes:
         robot = robot.with_limits(dataclasses.replace(robot.limits, **changes))
+    log.info("robot %s loaded: %d joints %s", robot.name, robot.n, ", ".join(robot.joint_names))
+    if changes:
+        log.debug("scenario limit overrides: %s", {k: v.tolist() for k, v in changes.items()})
     return robot
 
 
@@ -209,7 +215,10 @@ def build_path(scenario: Scenario, robot: Robot,
         blends.update({c: ("g2_shape", found.shapes[c]) for c in optimal})
     task = with_blends(task, blends, {c: f"path.blends[{k}] (corner {c + 1})" for c, k in chosen.items()})
     q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    log.info("lift: IK along the task path (%d segments, %.4g m, %d blended corners)", len(task.segments),
+             task.length, len(blends))
     path = lift(robot, task, q_start, original=original)
+    log.debug("lifted joint path: theta in [%.6g, %.6g], %d kinks", *path.domain, len(path.kinks))
     return path, task, original
 
 
@@ -284,6 +293,7 @@ def plan_scenario(setup: Setup) -> PlanResult:
     if scale != 1.0:
         from .planning.blend_speed import cap_blend_speed
 
+        log.info("slowing the blends to %g of their optimal speed", scale)
         result = cap_blend_speed(setup, result, scale)
     return result
 
@@ -340,6 +350,7 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
     :func:`plan_failures`) go into summary.json; the exports of a failed plan are written only with
     ``force_exports``, then with a warning header."""
     out = Path(out)
+    log.info("writing the plan to %s", out)
     out.mkdir(parents=True, exist_ok=True)
     samples = result.trajectory.sample(setup.scenario.plan.sample_time)
     exports.write_trajectory_csv(out / "trajectory.csv", samples)
@@ -477,6 +488,7 @@ def write_simulation(setup: Setup, result: PlanResult, sim, out: str | Path) -> 
     """Write simulation.csv/.parquet, summary.json (plan and simulation keys) and the report's data
     (limits.json, arm.csv, original_path.csv; see :func:`write_report_data`)."""
     out = Path(out)
+    log.info("writing the simulation to %s", out)
     out.mkdir(parents=True, exist_ok=True)
     cols = simulation_columns(sim)
     exports.write_table_csv(out / "simulation.csv", cols)

@@ -35,6 +35,33 @@ logger = logging.getLogger(__name__)
 #: Exit code of a failed result (Click uses 2 for usage errors; 1 bad input, 3 internal error, 130 interrupted).
 EXIT_FAILED_RESULT = 4
 
+_LOG_HANDLER = None
+
+
+@app.callback()
+def _options(verbose: int = typer.Option(0, "--verbose", "-v", count=True,
+                                         help="show the stages on stderr: -v the planner's and the loop's stages, "
+                                              "-vv their details")):
+    """Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation."""
+    _configure_logging(verbose)
+
+
+def _configure_logging(verbose: int) -> None:
+    """The ``pathmotion`` logger to stderr through Rich at INFO (-v) or DEBUG (-vv); silent by default."""
+    global _LOG_HANDLER
+    package = logging.getLogger("pathmotion")
+    if _LOG_HANDLER is not None:  # a second invocation in one process (tests) starts afresh
+        package.removeHandler(_LOG_HANDLER)
+        _LOG_HANDLER = None
+    package.setLevel(logging.NOTSET)
+    if verbose <= 0:
+        return
+    from rich.logging import RichHandler
+
+    _LOG_HANDLER = RichHandler(console=err_console, show_path=verbose > 1, markup=False, rich_tracebacks=False)
+    package.addHandler(_LOG_HANDLER)
+    package.setLevel(logging.DEBUG if verbose > 1 else logging.INFO)
+
 
 def _fail(message: str, code: int = 1):
     """Print ``message`` (its first line after 'error:', any further lines, e.g. more validation

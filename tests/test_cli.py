@@ -1,6 +1,7 @@
 """The command line as a user meets it: every subcommand, its files, and one-line errors (never a traceback)."""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -180,6 +181,32 @@ def test_bad_input_is_one_line_and_exit_1(tmp_path, args, expected):
     assert "Traceback" not in out
     assert expected in out
     assert len(out.strip().splitlines()) <= 3
+
+
+def _cli_process(*args, tmp_path):
+    """The real command in a process, stderr apart from stdout; a wide terminal so log lines do not wrap."""
+    env = {**os.environ, "COLUMNS": "250"}
+    return subprocess.run([sys.executable, "-m", "pathmotion.cli", *map(str, args)], capture_output=True, text=True,
+                          timeout=600, env=env, cwd=tmp_path)
+
+
+def test_verbose_shows_the_stages_on_stderr_and_the_default_shows_none(tmp_path):
+    args = ("simulate", scenario_path("corner_g2"), "--set", "plan.grid_points=300", "--no-figures")
+    stages = ("robot IRB140 loaded", "lift: IK along the task path", "grid: 3", "solve pass 1", "verify pass 1",
+              "planned:", "baselines:", "closed-loop design: orbital", "loop start: orbital controller, builtin plant",
+              "loop end at t =", "arrived, cycle time", "writing the plan to", "writing the simulation to")
+    quiet = _cli_process(*args, "--out", tmp_path / "quiet", tmp_path=tmp_path)
+    assert quiet.returncode == 0, quiet.stderr
+    assert not any(s in quiet.stderr for s in stages) and "INFO" not in quiet.stderr, quiet.stderr
+    loud = _cli_process("-v", *args, "--out", tmp_path / "loud", tmp_path=tmp_path)
+    assert loud.returncode == 0, loud.stderr
+    missing = [s for s in stages if s not in loud.stderr]
+    assert not missing and "DEBUG" not in loud.stderr, (missing, loud.stderr)
+    assert not any(s in loud.stdout for s in stages)  # the results stay on stdout, the stages on stderr
+    assert json.loads((tmp_path / "quiet" / "summary.json").read_text())["tracking_ok"] is True
+    details = _cli_process("-vv", "check", scenario_path("corner_g2"), tmp_path=tmp_path)
+    assert details.returncode == 0, details.stderr
+    assert "DEBUG" in details.stderr and "lifted joint path" in details.stderr
 
 
 def test_real_process_prints_no_traceback_and_exits_nonzero(tmp_path):

@@ -10,6 +10,7 @@ exceeds them between grid points, re-solve (bounded) -> baselines.
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field, replace
 from typing import Union
@@ -32,6 +33,7 @@ from .topp import IntervalProblem, interval_problem, maximum_velocity_curve
 from .trajectory import Trajectory
 from .verify import LimitRatios, interval_maxima, outside, sample_ratios, summarize, summarize_intervals
 
+log = logging.getLogger(__name__)
 
 #: A closed path's closure is a kink when Phi' differs across it by more than this, relative [-].
 CLOSURE_KINK_TOLERANCE = 1e-6
@@ -272,6 +274,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         raise ScenarioError("periodic planning needs a closed path (start pose == end pose); set periodic = false")
     limits = effective_limits(robot, settings)
     grid, breaks, kinks = make_grid(path, settings.grid_points)
+    log.info("grid: %d points (%d breaks, %d kinks); limits: %s", len(grid), len(breaks), len(kinks),
+             ", ".join(lim.name for lim in limits) or "none")
     samp = _sample(path, robot, grid, breaks)
     for lim in limits:
         lim.check(samp.right, robot.joint_names)
@@ -285,10 +289,14 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     solve_time = time.perf_counter() - t0
     curves = LimitCurves(grid, np.minimum(maximum_velocity_curve(right), maximum_velocity_curve(left)),
                          sol.controllable_hi)
+    log.info("planned: %.6g s in %.3g s (%d tightening iterations)", sol.profile.duration, solve_time, iterations)
     base = None
     if settings.baselines:
+        log.info("baselines: fitted and constant TCP speed")
         base = compute_baselines(problem, sol, chain_args, tcp_gain(samp.right), tcp_gain(samp.left), path, robot,
                                  limits, settings)
+        log.debug("baselines: fitted %.6g s, constant speed %s", base.fitted.duration,
+                  f"{base.constant_speed.duration:.6g} s" if base.constant_speed else base.constant_speed_error)
     return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
                       iterations, sol.jump_intervals, settings)
 
@@ -301,14 +309,18 @@ def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args
     ratios, x_ref = None, None
     iterations = 0
     while True:
+        log.info("solve pass %d: %d grid points", iterations + 1, len(grid))
         problem, right, left, sol = _solve_rows(grid, samp, limits, scale, x_ref, chain_args)
         _check_bounded(grid, sol.x)
+        log.debug("solve pass %d: duration %.6g s", iterations + 1, sol.profile.duration)
         traj = Trajectory(path, sol.profile, robot)
         if settings.verify == VerifyMode.OFF:
             break
         jumps = tuple(grid[k] for k in kinks if sol.x[k] > 0)
         bounds, ratios = _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, chain_args["breaks"])
         worst = max((float(b.max()) for b in bounds.values() if b.size), default=0.0)
+        log.info("verify pass %d (%s): worst limit ratio %.4f (%s)", iterations + 1, settings.verify.value, worst,
+                 ratios.worst)
         if worst <= 1.0 + tol:
             break
         if iterations >= settings.max_tighten_iterations:
@@ -317,6 +329,7 @@ def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args
                 f"{iterations} tightening iterations ({ratios.worst}); raise grid_points or limit_tolerance"
             )
         scale = _tightened(scale, bounds, tol)
+        log.info("tightening the limits locally where they are exceeded, then solving again")
         x_ref = sol.x
         iterations += 1
     return problem, right, left, sol, traj, ratios, iterations
@@ -377,6 +390,7 @@ def _solve_rows(grid, samp, limits, scale, x_ref, chain_args):
         previous = sol.profile.duration
         problem, right, left = _build(grid, samp, limits, scale, sol.x)
         sol = solve_chain(problem, **chain_args)
+        log.debug("relinearized rows: duration %.9g s (was %.9g s)", sol.profile.duration, previous)
         if abs(previous - sol.profile.duration) <= defaults.RELINEARIZE_TOLERANCE * previous:
             break
     return problem, right, left, sol

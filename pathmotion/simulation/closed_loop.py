@@ -18,6 +18,7 @@ count is bounded by the budget).
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -36,6 +37,8 @@ from .metrics import (Failure, SimulationResult, polyline_distance_local, corner
 from .monitor import monitor_state
 from .plant import PLANT_NAMES, make_plant, saturate
 from .realism import Realism, Sensor
+
+log = logging.getLogger(__name__)
 
 #: Relative mismatch allowed between the profile's theta range and the path's domain [-].
 DOMAIN_MATCH = 1e-9
@@ -102,8 +105,10 @@ def make_controller(name: str, robot: Robot, path: JointPath, profile: Profile, 
     """A fresh running controller ``name`` (one of CONTROLLER_NAMES) on the nominal robot."""
     if name == "orbital":
         sampled = (settings.sample_time, int(settings.realism.delay)) if settings.sampled_design else (None, 0)
-        design = design if design is not None else OrbitalDesign.build(table, profile, settings.orbital_gains,
-                                                                       *sampled)
+        if design is None:
+            log.info("closed-loop design: orbital controller (transverse linearization, %s Riccati)",
+                     "sampled" if settings.sampled_design else "continuous")
+            design = OrbitalDesign.build(table, profile, settings.orbital_gains, *sampled)
         return OrbitalController(design, robot, settings.sample_time)
     if name in ("computed_torque", "pd_gravity"):
         ref = TimeReference.sample(path, profile, settings.sample_time, horizon)
@@ -148,6 +153,8 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     plant.check_step(q, ts, substeps)
     line = planned_tcp_line(robot, path, table.grid)
     rules = end_rules(table, profile, line, budget, settings)
+    log.info("loop start: %s controller, %s plant, Ts = %g s (%d sub-steps), time budget %.4g s", controller,
+             settings.plant, ts, substeps, budget)
     monitor = _Monitor(table, robot, line, ts)
     rec = _Record(int(np.ceil(budget / ts)) + 1, robot.n)
     failure, arrival, keep, sample = None, _Arrived(), True, None
@@ -174,6 +181,9 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         rec.saturated += clipped
         q, qd = plant.step(q, qd, rec.tau[k], ts, substeps)  # step
     failure = _earliest([failure, *(rule.finish(sample) for rule in rules)])
+    log.info("loop end at t = %.4g s: %s", k * ts, f"failed ({failure.reason}): {failure.message}"
+             if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
+             else "no arrival")
     return _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure)
 
 

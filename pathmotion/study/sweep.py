@@ -20,6 +20,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import logging
 import math
 import signal
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -34,6 +35,8 @@ from ..io.atomic import atomic_path, write_json, write_text
 from ..io import schema
 from ..io.scenario import parse_value
 from .point import SUMMARY_KEYS, run_point
+
+log = logging.getLogger(__name__)
 
 #: A sweep's progress callback: on_result(done, total) after each finished point (and once at the start).
 OnResult = Callable[[int, int], None]
@@ -217,12 +220,15 @@ def run_sweep(scenario_path: str | Path, grid: dict[str, list], out: str | Path,
     todo = [p for p in points if p.key not in finished or (traces and not finished[p.key].get("traced")
                                                             and finished[p.key]["error"] is None)]
     done = len(points) - len(todo)
+    log.info("sweep into %s: %d points, %d finished already, %d to run (%s)", out, len(points), done, len(todo),
+             f"Dask at {scheduler}" if scheduler else f"{workers} worker process(es)")
     if on_result:
         on_result(done, len(points))
 
     def record(point: SweepPoint, result: dict) -> None:
         nonlocal done
         finished[point.key] = _record(out, point, result)
+        log.debug("point %d %s: %s", point.index, dict(point.overrides), result["error"] or "ok")
         write_tables(out, table_rows(points, finished), names)
         done += 1
         if on_result:
