@@ -87,6 +87,16 @@ def file_ids(folder: Path) -> dict[str, int]:
     return {p.name: p.stat().st_ino for p in folder.iterdir() if p.is_file()} if folder.is_dir() else {}
 
 
+def kill_group(proc: subprocess.Popen) -> None:
+    """SIGKILL the process group of ``proc`` (started with start_new_session) and reap it: nothing of a
+    failed test keeps running."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait()
+
+
 def signal_when(proc: subprocess.Popen, sig: int, marker, limit_s: float = 300.0) -> bool:
     """Send ``sig`` to ``proc`` as soon as ``marker()`` is true (polled on the file system); True
     when it was sent before the process ended on its own. ``limit_s`` only guards against a hang."""
@@ -260,11 +270,7 @@ def test_interrupted_parallel_sweep_stops_without_running_the_queued_points(tmp_
         assert finished_points(out) <= at_signal + 1 < 200
         assert not tmp_files(out)
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        proc.wait()
+        kill_group(proc)
 
 
 def spin_point(text, base_dir, overrides, traces):
@@ -306,11 +312,7 @@ def test_sigterm_stops_workers_in_the_middle_of_a_point(tmp_path):
                 time.sleep(0.05)
             assert not _alive(pid)
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        proc.wait()
+        kill_group(proc)
 
 
 def _alive(pid: int) -> bool:
