@@ -40,6 +40,9 @@ from .robot import redundancy
 from .robot.ik import IK_RANGE_SLACK, ik_batch, ik_dls, ik_nearest
 
 TWO_PI = 2.0 * np.pi
+#: A redundant arm's lifted path is closed only when it returns to its start configuration within this
+#: [rad]: the null-space ODE need not come back to the same posture on a closed task path.
+CLOSURE_MATCH = 1e-6
 _LOCAL = pin.ReferenceFrame.LOCAL
 
 
@@ -261,7 +264,7 @@ def _lift_redundant(robot: Robot, task_path, q_start, original, reference_step: 
         raise UnreachableError(_where(task_path, theta[i], p_i) + f": {exc}", reason=exc.reason) from None
     p = task_path.evaluate(theta)[0]
     check = _check_path(robot, task_path, theta, q, p, singularity_threshold)
-    closed = bool(getattr(task_path, "closed", False)) and bool(np.max(np.abs(q[-1] - q[0])) < 1e-6)
+    closed = bool(getattr(task_path, "closed", False)) and bool(np.max(np.abs(q[-1] - q[0])) < CLOSURE_MATCH)
     return RedundantJointPath(
         n=robot.n, domain=(lo, hi), closed=closed, kinks=tuple(float(k) for k in task_path.kinks),
         breaks=tuple(float(b) for b in task_path.breaks), joint_names=robot.joint_names, robot=robot,
