@@ -39,6 +39,9 @@ from .transverse import TransverseBasis, transverse_linearization
 DOMAIN_MATCH = 1e-9
 #: An open segment's last sample shorter than this fraction of the sample time is merged into the one before [-].
 SAMPLE_MERGE = 0.25
+#: Sampled design: consecutive sample thetas are pushed apart by this times the path length (at rest the
+#: profile gives equal thetas; the design needs them strictly increasing) [-].
+SAMPLE_SEPARATION = 1e-12
 #: Floor of the speed scale a periodic profile's end mismatch is measured against [rad^2/s^2].
 SPEED2_FLOOR = 1e-12
 
@@ -233,7 +236,7 @@ def sampled_system(table: PathTable, basis: TransverseBasis, lookup: ProfileLook
     steps = np.diff(t)
     mid = 0.5 * (t[:-1] + t[1:])
     theta = np.asarray(lookup.profile.state_at_time(mid)[0], dtype=float)
-    theta = np.maximum.accumulate(theta + 1e-12 * np.arange(len(theta)) * table.length)  # strictly increasing
+    theta = np.maximum.accumulate(theta + SAMPLE_SEPARATION * np.arange(len(theta)) * table.length)  # strictly increasing
     ni = integral_size(gains, table.n)
     a, b = with_integral(*transverse_linearization(table, basis, lookup, theta), ni)
     _, dphi, _ = table.evaluate(theta)

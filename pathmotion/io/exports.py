@@ -114,11 +114,15 @@ def export_notes(samples, failures=(), degrees: bool = False) -> list[str]:
     return notes
 
 
+#: A duration within this many cycles of a whole number of cycles is that number (round-off of t / dt) [-].
+CYCLE_ROUNDING = 1e-9
+
+
 def cycle_grid(duration: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """The controller's cycle times for a motion of ``duration`` [s]: k (K+1,) integers and t = k dt [s]
     (rounded to the nanosecond), K = ceil(duration / dt), so every row is exactly one cycle after the
     previous one; the last row (at most one cycle after ``duration``) holds the end state."""
-    count = int(np.ceil(duration / dt - 1e-9)) if duration > 0 else 0
+    count = int(np.ceil(duration / dt - CYCLE_ROUNDING)) if duration > 0 else 0
     k = np.arange(count + 1)
     return k, np.round(k * dt, 9)
 

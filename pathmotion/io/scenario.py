@@ -359,6 +359,8 @@ def scenario_from_dict(doc: dict, where: str = "scenario", overrides: dict | Non
 
 #: A point this many times farther from the base than the arm reaches is taken for millimetres [-].
 MM_SLIP_FACTOR = 10.0
+#: An angle up to this above a full turn is 2 pi typed with rounding, not degrees [rad].
+FULL_TURN_SLACK = 1e-9
 
 
 def unit_slips(scenario: Scenario, reach: float | None = None, rated_payload: float | None = None,
@@ -368,7 +370,7 @@ def unit_slips(scenario: Scenario, reach: float | None = None, rated_payload: fl
     MM_SLIP_FACTOR times beyond it (mm?; a point just out of reach gets the reachability error, which says
     where), a payload [kg] above ``rated_payload`` [kg] (grams, or outside the rating). None skips that check."""
     for key, value in _angles(scenario):
-        if abs(value) > 2 * math.pi + 1e-9:
+        if abs(value) > 2 * math.pi + FULL_TURN_SLACK:
             raise ScenarioError(f"{key} = {value:g} rad is more than a full turn (2 pi = 6.283 rad): degrees? the "
                                 f"unit is rad (e.g. {math.radians(value):.6g} rad = {value:g} deg)")
     if reach is not None:
