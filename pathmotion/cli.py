@@ -38,14 +38,6 @@ EXIT_FAILED_RESULT = 4
 _LOG_HANDLER = None
 
 
-@app.callback()
-def _options(verbose: int = typer.Option(0, "--verbose", "-v", count=True,
-                                         help="show the stages on stderr: -v the planner's and the loop's stages, "
-                                              "-vv their details")):
-    """Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation."""
-    _configure_logging(verbose)
-
-
 def _configure_logging(verbose: int) -> None:
     """The ``pathmotion`` logger to stderr through Rich at INFO (-v) or DEBUG (-vv); silent by default."""
     global _LOG_HANDLER
@@ -193,8 +185,12 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _main(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
-                                       help="print the version and exit")):
+                                       help="print the version and exit"),
+          verbose: int = typer.Option(0, "--verbose", "-v", count=True,
+                                      help="show the stages on stderr: -v the planner's and the loop's stages, "
+                                           "-vv their details")):
     """Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation."""
+    _configure_logging(verbose)
 
 
 def _default_out(out: Optional[Path], scenario: Path, overrides: dict) -> Path:
