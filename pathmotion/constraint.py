@@ -20,9 +20,11 @@ Construction samples the path densely (``defaults.LIFT_REFERENCE_STEP``) to fix 
 the 2*pi turns of each joint, and checks reachability, joint ranges and the distance to
 singularity along the whole path, raising an error that names theta, the segment and the joint.
 
-Arms with more than 6 joints (:class:`RedundantJointPath`): Phi is the solution of an ODE in theta
-whose null-space part keeps joint speed low and pulls toward the start configuration;
-Phi', Phi'' and Phi''' are exact there too (equations in :mod:`pathmotion.robot.redundancy`).
+Arms without the closed form (:class:`ResolvedRateJointPath`): Phi is the solution of an ODE in theta,
+Phi' = J# xi + N k (q_ref - Phi). With more than 6 joints its null-space part keeps joint speed low
+and pulls toward the start configuration; with 6 (e.g. a UR arm) J# = J^-1 and N = 0, so it follows
+the IK branch reached from the start configuration. Phi', Phi'' and Phi''' are exact there too
+(equations in :mod:`pathmotion.robot.redundancy`).
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ from .errors import PathError, UnreachableError
 from .joint_path import JointPath
 from .robot import Robot, frame_acceleration_bias, jacobian
 from .robot import redundancy
-from .robot.ik import IK_RANGE_SLACK, ik_batch, ik_dls, ik_nearest
+from .robot.ik import IK_RANGE_SLACK, has_closed_form, ik_batch, ik_dls, ik_nearest
 
 TWO_PI = 2.0 * np.pi
 #: A redundant arm's lifted path is closed only when it returns to its start configuration within this
@@ -176,8 +178,8 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     q_start = np.asarray(q_start, dtype=float)
     if q_start.shape != (robot.n,):
         raise PathError(f"start configuration has {q_start.size} values, the robot has {robot.n} joints")
-    if robot.n > 6:
-        return _lift_redundant(robot, task_path, q_start, original, reference_step, singularity_threshold)
+    if robot.n > 6 or not has_closed_form(robot):
+        return _lift_ode(robot, task_path, q_start, original, reference_step, singularity_threshold)
     p, dp, ddp, rot, w, dw = task_path.pose(theta)
     try:
         q = ik_batch(robot, p, rot, q_start)
@@ -199,9 +201,10 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
 
 
 @dataclass(frozen=True, eq=False)
-class RedundantJointPath(TaskJointPath):
-    """q = Phi(theta) for an arm with more than 6 joints: the solution of Phi' = f(theta, Phi) (see
-    :mod:`pathmotion.robot.redundancy`), held as a dense reference; build with :func:`lift`.
+class ResolvedRateJointPath(TaskJointPath):
+    """q = Phi(theta) for an arm without closed-form IK (more than 6 joints, or 6 not of the OPW family):
+    the solution of Phi' = f(theta, Phi) (see :mod:`pathmotion.robot.redundancy`), held as a dense
+    reference; build with :func:`lift`.
 
     reference_dq_right / _left: f at each reference sample from the right / left of it (they differ
     at kinks); q_ref (n,) and gain [1/m]: the null-space pull; weights_inv: diag(qd_max^2) (n,)."""
@@ -240,10 +243,11 @@ class RedundantJointPath(TaskJointPath):
         return tuple(o[0] for o in out) if scalar else out
 
 
-def _lift_redundant(robot: Robot, task_path, q_start, original, reference_step: float,
-                    singularity_threshold: float) -> RedundantJointPath:
-    """The lift of a >6-joint arm: Phi(0) by DLS IK nearest to q_start, then the ODE (RK4) on a
-    reference grid of half the usual step, then the same range and singularity checks."""
+def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
+                    singularity_threshold: float) -> ResolvedRateJointPath:
+    """The lift of an arm without closed-form IK: Phi(0) by DLS IK from q_start, then the ODE (RK4) on a
+    reference grid of half the usual step, then the same range and singularity checks. For 6 joints the
+    null-space gain is 0 (N = 0 up to rounding)."""
     lo, hi = task_path.domain
     count = max(int(np.ceil(2.0 * (hi - lo) / reference_step)) + 1, 100)
     theta = np.linspace(lo, hi, count)
@@ -255,7 +259,7 @@ def _lift_redundant(robot: Robot, task_path, q_start, original, reference_step: 
     except UnreachableError as exc:
         raise UnreachableError(_where(task_path, theta[0], p0[0]) + f": {exc}", reason=exc.reason) from None
     winv = redundancy.joint_weights(robot)
-    gain = defaults.REDUNDANCY_NULLSPACE_GAIN
+    gain = defaults.REDUNDANCY_NULLSPACE_GAIN if robot.n > 6 else 0.0
     try:
         q, dq_r, dq_l = redundancy.integrate_path(robot, theta, task_path.pose, q0, q_start, gain, winv)
     except UnreachableError as exc:
@@ -265,7 +269,7 @@ def _lift_redundant(robot: Robot, task_path, q_start, original, reference_step: 
     p = task_path.evaluate(theta)[0]
     check = _check_path(robot, task_path, theta, q, p, singularity_threshold)
     closed = bool(getattr(task_path, "closed", False)) and bool(np.max(np.abs(q[-1] - q[0])) < CLOSURE_MATCH)
-    return RedundantJointPath(
+    return ResolvedRateJointPath(
         n=robot.n, domain=(lo, hi), closed=closed, kinks=tuple(float(k) for k in task_path.kinks),
         breaks=tuple(float(b) for b in task_path.breaks), joint_names=robot.joint_names, robot=robot,
         task_path=task_path, original_task_path=original, reference_theta=theta, reference_q=q, check=check,

@@ -15,8 +15,9 @@ import pytest
 
 import pathmotion as pm
 from pathmotion.errors import RobotModelError
-from pathmotion.geometry import distance_to_segments, horizontal_circle
-from pathmotion.robot import fk, has_closed_form, jacobian, load_robot
+from pathmotion.constraint import joint_derivatives, joint_third_derivative
+from pathmotion.geometry import FixedOrientation, distance_to_segments, horizontal_circle
+from pathmotion.robot import fk, has_closed_form, ik_nearest, jacobian, load_robot
 from pathmotion.robot import redundancy
 
 try:
@@ -150,6 +151,26 @@ def test_null_space_motion_minimizes_weighted_speed_and_pulls_to_start(panda, pa
         assert abs(basis[:, 0] @ (dq[k] / winv)) < 1e-10 * np.linalg.norm(dq[k] / winv)
     # the pull keeps the arm nearer to the start configuration
     assert np.max(np.linalg.norm(pulled - PANDA_READY, axis=1)) < np.max(np.linalg.norm(free - PANDA_READY, axis=1))
+
+
+def test_ur5_lift_agrees_with_point_by_point_dls():
+    """The UR5 (6 joints, no closed form) is lifted by the resolved-rate ODE; a second algorithm, damped least
+    squares IK at every point from the lift's own reference, lands on the same configurations."""
+    robot = load_robot(UR5_URDF, DATA / "ur5_limits.toml")
+    path = horizontal_circle((0.45, 0.11, 0.35), 0.1, orientation=FixedOrientation(UR5_DOWN))
+    jp = pm.lift(robot, path, UR5_START)
+    assert not has_closed_form(robot) and jp.gain == 0.0
+    theta = np.linspace(0.0, path.length, 97)
+    q, dq, ddq, dddq = jp.evaluate3(theta)
+    p, _, _, rot, _, _ = path.pose(theta)
+    q_dls = ik_nearest(robot, p, rot, np.column_stack([np.interp(theta, jp.reference_theta, c)
+                                                       for c in jp.reference_q.T]))
+    assert np.max(np.abs(q - q_dls)) < 1e-8
+    # the IRB140's formulas (J^-1, exact) give the same derivatives as the ODE's
+    d1, d2 = joint_derivatives(robot, q, *path.pose(theta)[1:3], *path.pose(theta)[4:6])
+    assert np.max(np.abs(d1 - dq)) < 1e-9 * np.max(np.abs(dq)) and np.max(np.abs(d2 - ddq)) < 1e-8 * np.max(np.abs(ddq))
+    d3 = joint_third_derivative(robot, q, dq, ddq, path.pose3(theta)[3], path.pose3(theta)[7])
+    assert np.max(np.abs(d3 - dddq)) < 1e-7 * np.max(np.abs(dddq))
 
 
 # ------------------------------------------------------------------------------------ whole flow

@@ -1,5 +1,7 @@
 """Redundancy resolution along a path for arms with more than 6 joints: Phi defined by an ODE in theta.
 
+The same ODE lifts 6-joint arms without closed-form IK (UR): then J# = J^-1 and N = 0 (gain 0).
+
 A TCP pose path p(theta), R(theta) has the twist per unit theta xi = [p'; w] (6,) and its
 derivative xi' = [p''; w'] (world axes; w is the tool's angular velocity per unit theta). For an
 arm with n > 6 joints, q = Phi(theta) is defined as the solution of
