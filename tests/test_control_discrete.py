@@ -64,6 +64,16 @@ def sampled_transitions(design: OrbitalDesign, ts: int):
     return theta[::2 * SUBSTEPS][:count], phis, gammas
 
 
+def gain_at(design: OrbitalDesign, theta: float) -> np.ndarray:
+    """K(theta) (n, 2n-1), linear in theta between the design's grid points (the test's own lookup, independent of
+    the compiled kernel's)."""
+    theta = design.table.wrap(theta)
+    grid = design.theta
+    i = min(max(int(np.searchsorted(grid, theta, side="right")) - 1, 0), len(grid) - 2)
+    w = (theta - grid[i]) / (grid[i + 1] - grid[i])
+    return design.gain[i] + w * (design.gain[i + 1] - design.gain[i])
+
+
 def monodromy_radius(design: OrbitalDesign, ts: float, delay: int) -> float:
     """Spectral radius of one period of x_{k+1} = Phi x_k + Gamma u_{k-delay}, u_k = -K(theta_k) (x_k, commands in
     flight) with the design's scheduled gain; a gain without columns for the commands in flight ignores them."""
@@ -72,7 +82,7 @@ def monodromy_radius(design: OrbitalDesign, ts: float, delay: int) -> float:
     size = d + delay * n
     total = np.eye(size)
     for th, phi, gam in zip(theta, phis, gammas):
-        gain = design.gain_at(th)
+        gain = gain_at(design, th)
         k_full = np.zeros((n, size))
         k_full[:, :gain.shape[1]] = gain
         step = np.zeros((size, size))
