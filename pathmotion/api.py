@@ -246,7 +246,7 @@ def plan_settings(scenario: Scenario) -> PlanSettings:
     lim, p = scenario.limits, scenario.plan
     periodic = p.periodic
     return PlanSettings(
-        grid_points=p.grid_points, limits=limit_choices(lim),
+        grid_points=p.grid_points, tolerance=p.tolerance, limits=limit_choices(lim),
         start=None if periodic else p.start, end=None if periodic else p.end,
         periodic=periodic, connections=p.connections, verify=p.verify, baselines=True,
     )
@@ -310,6 +310,7 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
         schema.DURATION.key: result.profile.duration,
         schema.SOLVE_TIME.key: result.solve_time_s,
         "grid_points": result.grid_points,
+        schema.DURATION_ERROR_ESTIMATE.key: result.duration_error_estimate,
         **({cls.summary_key(): None for cls in LIMIT_REGISTRY} if r is None else r.summary()),
         schema.WORST_LIMIT.key: None if r is None else r.worst,
         schema.VERIFY_METHOD.key: None if r is None else r.method,

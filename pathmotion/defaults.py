@@ -14,8 +14,20 @@ LIMIT_TOLERANCE = 1e-3
 #: Most samples one resample of a trajectory may hold (output files, verification): beyond it a
 #: motion is far longer than any real one at that sample time (usually a limit set far too small) [-].
 MAX_TRAJECTORY_SAMPLES = 2_000_000
-#: Planner grid points per path (whole chain) unless a scenario says otherwise.
+#: Planner grid points of a fixed grid (the ``grid_points`` override; without it the grid is adaptive),
+#: e.g. for tests and comparisons that want a given discretization.
 GRID_POINTS = 1000
+#: Adaptive planner grid: requested relative error of the duration (``plan.tolerance``) [-].
+PLAN_TOLERANCE = 5e-4
+#: Adaptive planner grid: uniform points of the initial grid (grading, breaks and knots added) [-].
+GRID_INITIAL_POINTS = 200
+#: Adaptive planner grid: most refinement iterations and most grid points; beyond either the plan is
+#: returned with its (larger) error estimate and a warning [-].
+GRID_MAX_REFINEMENTS = 16
+GRID_MAX_POINTS = 200_000
+#: Adaptive planner grid: rounds of halving the intervals whose certified limit bound exceeds the
+#: tolerance before the verify-and-tighten loop tightens limits instead [-].
+PLAN_MAX_REFINE_ROUNDS = 4
 #: Gravity vector [m/s^2].
 GRAVITY = (0.0, 0.0, -9.81)
 #: Inverse-kinematics position / orientation tolerance for FK(IK(pose)) [m], [rad].

@@ -157,7 +157,10 @@ Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]
 
 
 class PlanSpec(_Model):
-    grid_points: int = Field(defaults.GRID_POINTS, ge=10, le=1_000_000)
+    grid_points: int | None = Field(None, ge=10, le=1_000_000, description="a fixed planner grid of this many "
+                                    "points; absent: adaptive, refined until the duration is within tolerance")
+    tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=0.1, description="adaptive grid: requested relative "
+                             "error of the duration (0.0005 = 0.05 %)")
     start: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the start: 'zero', 'max' or a value [1/s]")
     end: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the end: 'zero', 'max' or a value")
     periodic: bool = Field(False, description="closed path: the steady-state cycle")

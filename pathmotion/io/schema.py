@@ -43,6 +43,8 @@ PATH_KIND = _k("path_kind", "path kind")
 DURATION = _k("duration_s", "time-optimal duration", "s")
 SOLVE_TIME = _k("solve_time_s", "planner solve time", "s")
 GRID_POINTS = _k("grid_points", "planner grid points")
+DURATION_ERROR_ESTIMATE = _k("duration_error_estimate", "estimated discretization error of the duration (adaptive "
+                             "grid; null on a fixed grid)", "ms", 1e3, short="duration error est.")
 MAX_VELOCITY_RATIO = _k("max_velocity_ratio", "largest joint velocity / limit", "-")
 MAX_ACCELERATION_RATIO = _k("max_acceleration_ratio", "largest joint acceleration / limit", "-")
 MAX_PLAN_TORQUE_RATIO = _k("max_torque_ratio", "largest joint torque / limit", "-")
@@ -100,7 +102,7 @@ WALL_TIME = _k("wall_time_s", "wall time", "s")
 #: Headline keys of a plan's summary.json, in display order.
 PLAN = (DURATION, FITTED_DURATION, BASELINE_DURATION, MAX_VELOCITY_RATIO, MAX_ACCELERATION_RATIO,
         MAX_PLAN_TORQUE_RATIO, MAX_TCP_SPEED_RATIO, WORST_LIMIT, PATH_LENGTH, BLEND_MAX_DEVIATION,
-        MIN_SINGULAR_VALUE, JOINT_RANGE_MARGIN, CONNECTIONS, GRID_POINTS, SOLVE_TIME)
+        MIN_SINGULAR_VALUE, JOINT_RANGE_MARGIN, CONNECTIONS, GRID_POINTS, DURATION_ERROR_ESTIMATE, SOLVE_TIME)
 #: Headline keys of a simulation's summary.json, in display order.
 SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK, PATH_TOLERANCE,
               PATH_ACCURACY, MAX_SHARP_DEVIATION, CORNERING_DEVIATION, MAX_JOINT_DEVIATION, RMS_JOINT_DEVIATION,

@@ -69,7 +69,8 @@ def capped_profile(setup, result: PlanResult, ranges, scale: float) -> Profile:
         if p1 > p0:  # the free piece between two blends (or a path end and a blend)
             start = settings.start if left_b is None else scale * float(np.sqrt(prof.x_at(p0)))
             end = settings.end if right_a is None else scale * float(np.sqrt(prof.x_at(p1)))
-            points = max(defaults.BLEND_PIECE_MIN_POINTS, int(round(settings.grid_points * (p1 - p0) / (hi - lo))))
+            points = None if settings.grid_points is None else max(  # None: adaptive, as the plan
+                defaults.BLEND_PIECE_MIN_POINTS, int(round(settings.grid_points * (p1 - p0) / (hi - lo))))
             piece = plan(_piece(path, p0, p1), setup.robot,
                          dataclasses.replace(settings, grid_points=points, start=start, end=end, baselines=False))
             grids.append(piece.profile.grid)

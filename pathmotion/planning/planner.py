@@ -1,11 +1,12 @@
 """The time-optimal planner: settings, result and :func:`plan`.
 
-Flow: grid (uniform in theta, plus every segment connection) -> path derivatives on both sides of
-each connection -> limit rows from every active limit object
+Flow: grid (adaptive, refined until the duration's estimated error is within ``tolerance``, grid.py;
+or fixed with ``grid_points``) -> path derivatives on both sides of each connection -> limit rows from every active limit object
 (limits/, limit_rows.py) -> reachability analysis
 (topp.py) with the boundary conditions (boundary.py) and connection mode (segments.py) ->
-verify on a dense time resample and tighten the limits locally where the continuous trajectory
-exceeds them between grid points, re-solve (bounded) -> baselines.
+verify (certified interval bounds or a dense time resample); where the continuous trajectory exceeds a
+limit between grid points, halve those intervals (adaptive grid) or tighten the limits locally there,
+re-solve (bounded) -> baselines.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from ..modes import BoundaryMode, Connections, VerifyMode, parse_mode
 from ..robot import Robot
 from .baselines import Baselines, compute_baselines
 from .certify import CertifyContext, certify
+from .grid import Grid, make_grid, refine
 from .boundary import X_CAP_FRACTION, Boundary
 from .limit_rows import LimitRows, limit_rows
 from .limits import REGISTRY, EffectiveLimits, LimitChoice, PathPoints, effective_limits_for, tcp_gain
@@ -37,22 +39,21 @@ log = logging.getLogger(__name__)
 
 #: A closed path's closure is a kink when Phi' differs across it by more than this, relative [-].
 CLOSURE_KINK_TOLERANCE = 1e-6
-#: Grid points nearer than this fraction of the grid step to a segment connection are dropped [-].
-GRID_MERGE_FRACTION = 0.3
-#: Grid points nearer than this fraction of the grid step to their predecessor are rounding twins
-#: (grading points that land on a break) and are dropped [-].
-GRID_MIN_GAP = 1e-9
 #: Tightening: an interval is tightened when its ratio exceeds 1 + this x tolerance, and its limits
 #: are scaled so that the ratio becomes 1 - TIGHTEN_TARGET x tolerance [-].
 TIGHTEN_TRIGGER = 0.5
 TIGHTEN_TARGET = 0.25
+#: Largest plan.tolerance accepted (a 10 % error in the duration is no longer an optimum) [-].
+MAX_TOLERANCE = 0.1
 
 
 @dataclass(frozen=True, init=False)
 class PlanSettings:
     """What to plan and under which limits.
 
-    grid_points: points of the uniform theta grid (segment connections are added).
+    grid_points: None (default): an adaptive grid, refined until the duration's estimated error is
+    within ``tolerance`` (relative; planning/grid.py); a number: a fixed grid of that many uniform
+    points (segment connections, spline knots and grading towards the ends are added).
     limits: {name: LimitChoice} for the registered limits (planning/limits/); each limit's keywords
     may be given instead (its ``settings_keys``): velocity / acceleration / torque: limit on or off;
     *_scale multiplies the robot's limit (acceleration is off anyway when the robot has no
@@ -68,7 +69,8 @@ class PlanSettings:
     1 + limit_tolerance and re-solves. baselines: compute the baselines (off by default).
     """
 
-    grid_points: int
+    grid_points: int | None
+    tolerance: float
     limits: dict
     start: Union[BoundaryMode, float, None]
     end: Union[BoundaryMode, float, None]
@@ -81,7 +83,8 @@ class PlanSettings:
     baselines: bool
     fitted_margin: float
 
-    def __init__(self, grid_points: int = defaults.GRID_POINTS, limits: dict | None = None,
+    def __init__(self, grid_points: int | None = None, tolerance: float = defaults.PLAN_TOLERANCE,
+                 limits: dict | None = None,
                  start: Union[str, float, None] = None, end: Union[str, float, None] = None,
                  periodic: bool = False, connections: str = Connections.CHAIN,
                  limit_tolerance: float = defaults.LIMIT_TOLERANCE, verify: Union[str, bool] = VerifyMode.CERTIFIED,
@@ -102,7 +105,7 @@ class PlanSettings:
         for cls in REGISTRY:
             if cls.name in choices:
                 choices[cls.name] = cls.check_choice(choices[cls.name])
-        values = dict(grid_points=grid_points, limits=choices, start=start, end=end, periodic=periodic,
+        values = dict(grid_points=grid_points, tolerance=tolerance, limits=choices, start=start, end=end, periodic=periodic,
                       connections=connections, limit_tolerance=limit_tolerance, verify=verify,
                       verify_sample_time=verify_sample_time, max_tighten_iterations=max_tighten_iterations,
                       baselines=baselines, fitted_margin=fitted_margin)
@@ -119,7 +122,7 @@ class PlanSettings:
         raise AttributeError(f"PlanSettings has no attribute {key!r}")
 
     def __hash__(self):
-        return hash((self.grid_points, tuple(sorted(self.limits.items())), self.start, self.end, self.periodic,
+        return hash((self.grid_points, self.tolerance, tuple(sorted(self.limits.items())), self.start, self.end, self.periodic,
                      self.connections, self.limit_tolerance, self.verify, self.verify_sample_time,
                      self.max_tighten_iterations, self.baselines, self.fitted_margin))
 
@@ -128,8 +131,13 @@ class PlanSettings:
         return self.limits.get(cls.name, cls.default_choice())
 
     def _validate(self):
-        if int(self.grid_points) != self.grid_points or self.grid_points < 3:
-            raise ScenarioError(f"planner grid_points must be an integer >= 3, got {self.grid_points}")
+        if self.grid_points is not None and (isinstance(self.grid_points, bool) or
+                                             int(self.grid_points) != self.grid_points or self.grid_points < 3):
+            raise ScenarioError(f"planner grid_points must be an integer >= 3 (or None: adaptive grid), "
+                                f"got {self.grid_points}")
+        if isinstance(self.tolerance, bool) or not (0 < self.tolerance < MAX_TOLERANCE):
+            raise ScenarioError(f"plan.tolerance (relative error of the duration on the adaptive grid) must be in "
+                                f"(0, {MAX_TOLERANCE}), got {self.tolerance!r}")
         for name in ("start", "end"):
             v = getattr(self, name)
             if v is None:
@@ -174,7 +182,9 @@ class LimitCurves:
 class PlanResult:
     """A plan: the optimal profile and trajectory, the per-segment profiles ("max" connections),
     the limit curves, verification ratios (None if verify was off), baselines (None if off),
-    solve time [s] (everything but the baselines), grid size and tighten iterations used."""
+    solve time [s] (everything but the baselines), grid size and tighten iterations used;
+    duration_error_estimate [s]: the adaptive grid's estimate of the duration's discretization error
+    (None on a fixed grid)."""
 
     profile: Profile
     trajectory: Trajectory
@@ -187,6 +197,7 @@ class PlanResult:
     tighten_iterations: int
     jump_intervals: tuple[tuple[float, float], ...]
     settings: PlanSettings = field(repr=False)
+    duration_error_estimate: float | None = None
 
     @property
     def duration(self) -> float:
@@ -196,42 +207,6 @@ class PlanResult:
 def effective_limits(robot: Robot, settings: PlanSettings) -> EffectiveLimits:
     """The limits ``plan`` enforces for ``robot`` under ``settings`` (robot limits times the scales)."""
     return effective_limits_for(robot, settings.limits)
-
-
-def make_grid(path: JointPath, points: int) -> tuple[np.ndarray, tuple[int, ...], tuple[int, ...]]:
-    """Uniform grid on the path's domain plus its breaks; returns grid, break and kink indices."""
-    lo, hi = path.domain
-    grid = np.linspace(lo, hi, int(points))
-    special = np.array(sorted({float(b) for b in (*path.breaks, *path.kinks) if lo < b < hi}))
-    if special.size:
-        step = (hi - lo) / (points - 1)
-        near = np.min(np.abs(grid[:, None] - special[None, :]), axis=1) < GRID_MERGE_FRACTION * step
-        grid = np.union1d(grid[~near | (grid == lo) | (grid == hi)], special)
-    # spline knots (the third derivative jumps) are grid points too: no interval holds a kink of Phi''
-    grid = np.union1d(grid, [float(k) for k in getattr(path, "knots", ()) if lo < k < hi])
-    step = grid[1] - grid[0]
-    ends = np.array([lo, hi, *special])
-    grade = step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1)
-    extra = np.concatenate([ends[:, None] + grade[None, :], ends[:, None] - grade[None, :]]).ravel()
-    grid = np.union1d(grid, extra[(extra > lo) & (extra < hi)])
-    grid = _drop_near_duplicates(grid, np.array([lo, hi, *special]), GRID_MIN_GAP * step)
-    index = {float(t): i for i, t in enumerate(grid)}
-    breaks = tuple(index[float(b)] for b in special)
-    kinks = tuple(index[float(k)] for k in special if float(k) in {float(x) for x in path.kinks})
-    return grid, breaks, kinks
-
-
-def _drop_near_duplicates(grid: np.ndarray, keep: np.ndarray, gap: float) -> np.ndarray:
-    """``grid`` without points closer than ``gap`` to their predecessor (rounding twins of a grading
-    point), the ``keep`` points (ends, breaks) always kept."""
-    close = np.concatenate([[False], np.diff(grid) < gap])
-    if not close.any():
-        return grid
-    kept = np.isin(grid, keep)
-    drop = close & ~kept
-    twin = np.nonzero(close & kept)[0] - 1  # a kept point's too-close predecessor goes instead
-    drop[twin[~kept[twin]]] = True
-    return grid[~drop]
 
 
 @dataclass(frozen=True, eq=False)
@@ -265,6 +240,19 @@ def _closure_is_kink(s: _Sampled) -> bool:
     return bool(np.linalg.norm(a - b) > CLOSURE_KINK_TOLERANCE * (1.0 + np.linalg.norm(a)))
 
 
+@dataclass(frozen=True, eq=False)
+class _Solved:
+    """One solve: the grid, its path data, the chain arguments, rows (problem, right, left) and solution."""
+
+    grid: Grid
+    samp: _Sampled
+    chain_args: dict
+    problem: IntervalProblem
+    right: LimitRows
+    left: LimitRows
+    sol: object
+
+
 def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings()) -> PlanResult:
     """Time-optimal motion along ``path`` for ``robot`` under ``settings`` (see PlanSettings)."""
     t0 = time.perf_counter()
@@ -273,66 +261,97 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     if settings.periodic and not path.closed:
         raise ScenarioError("periodic planning needs a closed path (start pose == end pose); set periodic = false")
     limits = effective_limits(robot, settings)
-    grid, breaks, kinks = make_grid(path, settings.grid_points)
-    log.info("grid: %d points (%d breaks, %d kinks); limits: %s", len(grid), len(breaks), len(kinks),
+    adaptive = settings.grid_points is None
+    estimate = None
+    if adaptive:
+        refined = refine(lambda g: _solve_on(path, robot, settings, limits, g),
+                         make_grid(path, defaults.GRID_INITIAL_POINTS), settings.tolerance)
+        solved, estimate = refined.solved, refined.error_estimate
+    else:
+        solved = _solve_on(path, robot, settings, limits, make_grid(path, settings.grid_points))[2]
+    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, solved, adaptive)
+    sol, grid = solved.sol, solved.grid.theta
+    log.info("grid: %d points (%d breaks, %d kinks%s); limits: %s", len(grid), len(solved.grid.breaks),
+             len(solved.grid.kinks), "" if estimate is None else f", estimated duration error {estimate:.3g} s",
              ", ".join(lim.name for lim in limits) or "none")
-    samp = _sample(path, robot, grid, breaks)
-    for lim in limits:
-        lim.check(samp.right, robot.joint_names)
-    stops = set(kinks)
-    if settings.periodic and _closure_is_kink(samp):
-        stops |= {0, len(grid) - 1}
-    chain_args = dict(start=settings.start_condition, end=settings.end_condition, periodic=settings.periodic,
-                      connections=settings.connections, breaks=breaks, stops=tuple(sorted(stops)))
-    problem, right, left, sol, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, grid,
-                                                                           kinks, samp, chain_args)
     solve_time = time.perf_counter() - t0
-    curves = LimitCurves(grid, np.minimum(maximum_velocity_curve(right), maximum_velocity_curve(left)),
+    curves = LimitCurves(grid, np.minimum(maximum_velocity_curve(solved.right), maximum_velocity_curve(solved.left)),
                          sol.controllable_hi)
     log.info("planned: %.6g s in %.3g s (%d tightening iterations)", sol.profile.duration, solve_time, iterations)
     base = None
     if settings.baselines:
         log.info("baselines: fitted and constant TCP speed")
-        base = compute_baselines(problem, sol, chain_args, tcp_gain(samp.right), tcp_gain(samp.left), path, robot,
-                                 limits, settings)
+        base = compute_baselines(solved.problem, sol, solved.chain_args, tcp_gain(solved.samp.right),
+                                 tcp_gain(solved.samp.left), path, robot, limits, settings)
         log.debug("baselines: fitted %.6g s, constant speed %s", base.fitted.duration,
                   f"{base.constant_speed.duration:.6g} s" if base.constant_speed else base.constant_speed_error)
     return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
-                      iterations, sol.jump_intervals, settings)
+                      iterations, sol.jump_intervals, settings, estimate)
 
 
-def _solve_verified(path, robot, settings, limits, grid, kinks, samp, chain_args):
-    """Solve, bound every limit on every grid interval (certified or dense, settings.verify), tighten the
-    limits locally where a bound exceeds them, re-solve (bounded by settings.max_tighten_iterations)."""
-    scale = limits.unit_scale(len(grid), robot.n)
+def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None = None, scale: dict | None = None,
+              x_ref: np.ndarray | None = None) -> tuple[float, np.ndarray, "_Solved"]:
+    """Solve on ``grid`` (path data sampled unless ``samp`` is given; unit limit scales unless ``scale``):
+    (duration [s], x on the grid (K,), the solve)."""
+    theta = grid.theta
+    if samp is None:
+        samp = _sample(path, robot, theta, grid.breaks)
+        for lim in limits:
+            lim.check(samp.right, robot.joint_names)
+    stops = set(grid.kinks)
+    if settings.periodic and _closure_is_kink(samp):
+        stops |= {0, len(theta) - 1}
+    chain_args = dict(start=settings.start_condition, end=settings.end_condition, periodic=settings.periodic,
+                      connections=settings.connections, breaks=grid.breaks, stops=tuple(sorted(stops)))
+    if scale is None:
+        scale = limits.unit_scale(len(theta), robot.n)
+    log.info("solve: %d grid points", len(theta))
+    problem, right, left, sol = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
+    _check_bounded(theta, sol.x)
+    log.debug("solve: duration %.6g s", sol.profile.duration)
+    return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol)
+
+
+def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
+    """Bound every limit on every grid interval of the solve ``s`` (certified or dense, settings.verify);
+    where a bound exceeds 1 + limit_tolerance, halve those intervals and re-solve (adaptive grid, at most
+    PLAN_MAX_REFINE_ROUNDS: refinement keeps the duration at the optimum), then tighten the limits
+    locally there and re-solve (bounded by settings.max_tighten_iterations).
+    Returns the final solve, its trajectory, ratios and the tighten iterations."""
     tol = settings.limit_tolerance
-    ratios, x_ref = None, None
-    iterations = 0
+    ratios, scale = None, None
+    iterations = rounds = 0
     while True:
-        log.info("solve pass %d: %d grid points", iterations + 1, len(grid))
-        problem, right, left, sol = _solve_rows(grid, samp, limits, scale, x_ref, chain_args)
-        _check_bounded(grid, sol.x)
-        log.debug("solve pass %d: duration %.6g s", iterations + 1, sol.profile.duration)
-        traj = Trajectory(path, sol.profile, robot)
+        traj = Trajectory(path, s.sol.profile, robot)
         if settings.verify == VerifyMode.OFF:
             break
-        jumps = tuple(grid[k] for k in kinks if sol.x[k] > 0)
-        bounds, ratios = _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, chain_args["breaks"])
+        theta = s.grid.theta
+        jumps = tuple(theta[k] for k in s.grid.kinks if s.sol.x[k] > 0)
+        bounds, ratios = _interval_bounds(settings, traj, limits, s.samp, s.sol, jumps, robot, theta, s.grid.breaks)
         worst = max((float(b.max()) for b in bounds.values() if b.size), default=0.0)
         log.info("verify pass %d (%s): worst limit ratio %.4f (%s)", iterations + 1, settings.verify.value, worst,
                  ratios.worst)
         if worst <= 1.0 + tol:
             break
+        if adaptive and scale is None and rounds < defaults.PLAN_MAX_REFINE_ROUNDS:
+            over = np.zeros(len(theta) - 1, bool)
+            for b in bounds.values():
+                if b.size:
+                    over |= (b > 1.0 + TIGHTEN_TRIGGER * tol).any(axis=1)
+            log.info("refining the %d grid intervals where a limit is exceeded, then solving again", int(over.sum()))
+            s = _solve_on(path, robot, settings, limits, s.grid.halved(over))[2]
+            rounds += 1
+            continue
         if iterations >= settings.max_tighten_iterations:
             raise InfeasibleError(
                 f"the planned motion still exceeds a limit by {100 * (worst - 1):.3g} % between grid points after "
                 f"{iterations} tightening iterations ({ratios.worst}); raise grid_points or limit_tolerance"
             )
-        scale = _tightened(scale, bounds, tol)
+        scale = _tightened(limits.unit_scale(len(theta), robot.n) if scale is None else scale, bounds, tol)
         log.info("tightening the limits locally where they are exceeded, then solving again")
-        x_ref = sol.x
+        s = _solve_on(path, robot, settings, limits, s.grid, s.samp, scale, s.sol.x)[2]
         iterations += 1
-    return problem, right, left, sol, traj, ratios, iterations
+    return s, traj, ratios, iterations
 
 
 def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, breaks) -> tuple[dict, LimitRatios]:
