@@ -1,0 +1,160 @@
+"""The adaptive planner grid (planning/grid.py): the method's convergence order, convergence of the
+adaptive duration to toppra's fine-grid optimum (a second algorithm, Richardson-extrapolated) within
+the requested tolerance, and an error estimate that shrinks with the tolerance and bounds the true
+error."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from pathmotion import api, defaults
+from pathmotion.errors import ScenarioError
+from pathmotion.joint_path import SplineJointPath
+from pathmotion.planning import PlanSettings, effective_limits, plan
+from pathmotion.planning.verify import sample_ratios
+from pathmotion.planning.grid import ORDER, Grid, make_grid, pieces_for
+
+ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
+CASES = [(1, 7), (2, 12), (3, 4)]  # (seed, waypoints) of random clamped splines
+CIRCLE = Path(api.__file__).parent / "scenarios" / "circle_zero.toml"
+
+
+@pytest.fixture(scope="module")
+def robot(irb140):
+    return irb140.with_limits(replace(irb140.limits, acceleration=ACC))
+
+
+def _spline(seed, n):
+    return SplineJointPath.from_waypoints(np.random.default_rng(seed).uniform(-1.5, 1.5, (n, 6)))
+
+
+class _ToppraPath:
+    """A pathmotion JointPath seen as a toppra geometric path (q, q', q'' at theta)."""
+
+    def __new__(cls, path):
+        import toppra.interpolator as interp
+
+        class Wrapped(interp.AbstractGeometricPath):
+            def __call__(self, ss, order=0):
+                return path.evaluate(np.clip(np.atleast_1d(ss), *path.domain), "right")[order]
+
+            @property
+            def dof(self):
+                return path.n
+
+            @property
+            def path_interval(self):
+                return np.array(path.domain)
+
+            @property
+            def waypoints(self):
+                return None
+
+        return Wrapped()
+
+
+def _toppra_t_star(path, robot, acc, torque: bool, points=(6000, 12000)) -> float:
+    """toppra's optimum, first-order Richardson from two fine uniform grids (interpolation everywhere)."""
+    import toppra.algorithm as algo
+    import toppra.constraint as constraint
+
+    lim = robot.limits
+    cons = [constraint.JointVelocityConstraint(np.vstack([-lim.velocity, lim.velocity]).T)]
+    if acc is not None:
+        cons.append(constraint.JointAccelerationConstraint(np.vstack([-acc, acc]).T))
+    if torque:
+        model, data = robot.model, robot.model.createData()
+        cons.append(constraint.JointTorqueConstraint(
+            lambda q, v, a: pin.rnea(model, data, q, v, a), np.vstack([-lim.torque, lim.torque]).T,
+            np.zeros(robot.n), discretization_scheme=constraint.DiscretizationType.Interpolation))
+    tpath = _ToppraPath(path)
+    t = [algo.TOPPRA(cons, tpath, gridpoints=np.linspace(*path.domain, n),
+                     parametrizer="ParametrizeConstAccel").compute_trajectory().duration for n in points]
+    return 2.0 * t[1] - t[0]
+
+
+def _assert_dense_within_limits(result, path, robot):
+    """No limit above 1 + limit_tolerance on the 0.1 ms resample (independent of the certification)."""
+    limits = effective_limits(robot, result.settings)
+    _, ratios = sample_ratios(result.trajectory, limits, defaults.VERIFY_SAMPLE_TIME, result.jump_intervals)
+    worst = max(float(np.max(v)) for v in ratios.values())
+    assert worst <= 1.0 + result.settings.limit_tolerance, worst
+
+
+def test_split_and_halve_insert_equal_parts_and_keep_the_special_points():
+    g = Grid(np.array([0.0, 1.0, 3.0, 4.0]), (1,), (2,))
+    s = g.split(np.array([1, 4, 2]))
+    np.testing.assert_allclose(s.theta, [0, 1, 1.5, 2, 2.5, 3, 3.5, 4])
+    assert s.theta[list(s.breaks)] == [1.0] and s.theta[list(s.kinks)] == [3.0]
+    np.testing.assert_allclose(g.halved().theta, [0, 0.5, 1, 2, 3, 3.5, 4])
+    np.testing.assert_allclose(g.halved([False, True, False]).theta, [0, 1, 2, 3, 4])
+
+
+def test_pieces_follow_the_square_root_of_the_change_and_meet_the_target():
+    change = np.array([0.0, 1e-6, 4e-6, 16e-6])
+    n = pieces_for(change, 1e-6)
+    assert n[0] == 1 and list(n[1:] / n[1]) == pytest.approx([1, 2, 4], rel=0.2)
+    assert float(np.sum(change / n)) <= 1e-6
+
+
+def test_measured_convergence_order_is_the_one_the_estimate_assumes(robot):
+    """Halving every interval of a fixed grid divides the duration's change by 2^ORDER."""
+    path = _spline(1, 7)
+    d = [plan(path, robot, PlanSettings(grid_points=n, verify="off")).duration for n in (400, 800, 1600, 3200)]
+    ratios = np.diff(d)[:-1] / np.diff(d)[1:]
+    assert np.all(np.abs(np.log2(ratios) - ORDER) < 0.25), ratios
+
+
+@pytest.mark.parametrize("seed, waypoints", CASES)
+def test_adaptive_duration_converges_to_toppras_optimum(robot, seed, waypoints):
+    path = _spline(seed, waypoints)
+    t_star = _toppra_t_star(path, robot, ACC, torque=False)
+    errors, estimates = [], []
+    for tol in (2e-3, 5e-4, 1.25e-4):
+        r = plan(path, robot, PlanSettings(tolerance=tol))
+        err = abs(r.duration - t_star)
+        assert err <= tol * t_star, (tol, err / t_star)
+        assert err <= r.duration_error_estimate, (tol, err, r.duration_error_estimate)
+        _assert_dense_within_limits(r, path, robot)
+        errors.append(err)
+        estimates.append(r.duration_error_estimate)
+    assert estimates[0] > estimates[1] > estimates[2]
+
+
+def test_adaptive_circle_scenario_within_tolerance_of_toppra(irb140):
+    setup = api.load(CIRCLE)
+    settings = replace(setup.plan_settings, baselines=False)
+    r = plan(setup.path, setup.robot, settings)
+    active = {lim.name for lim in effective_limits(setup.robot, settings)}
+    acc = setup.robot.limits.acceleration if "acceleration" in active else None
+    t_star = _toppra_t_star(setup.path, setup.robot, acc, torque=True)
+    assert abs(r.duration - t_star) <= settings.tolerance * t_star
+    assert abs(r.duration - t_star) <= r.duration_error_estimate
+
+
+def test_grid_points_gives_a_fixed_grid_without_estimate(robot):
+    path = _spline(1, 7)
+    r = plan(path, robot, PlanSettings(grid_points=300, verify="off"))
+    assert r.grid_points == len(make_grid(path, 300).theta)
+    assert r.duration_error_estimate is None
+
+
+@pytest.mark.parametrize("bad", [0.0, -1e-3, 0.5, True])
+def test_tolerance_out_of_range_names_the_key(bad):
+    with pytest.raises(ScenarioError, match="plan.tolerance"):
+        PlanSettings(tolerance=bad)
+
+
+def test_scenario_tolerance_reaches_the_plan_and_the_summary():
+    setup = api.load(CIRCLE, {"plan.tolerance": 2e-3})
+    assert setup.plan_settings.tolerance == 2e-3 and setup.plan_settings.grid_points is None
+    result = plan(setup.path, setup.robot, replace(setup.plan_settings, baselines=False))
+    summary = api.plan_summary(setup, result)
+    assert 0 < summary["duration_error_estimate"] <= 2e-3 * result.duration
+    fixed = api.load(CIRCLE, {"plan.grid_points": 300})
+    assert fixed.plan_settings.grid_points == 300
