@@ -1,24 +1,38 @@
-"""Benchmark: pathmotion's time-optimal planner against toppra at equal accuracy.
+"""Benchmark: pathmotion's time-optimal planner against toppra at equal accuracy (issue 14).
 
-Input (identical for both): a 6-joint clamped cubic spline through 5 waypoints drawn with
-numpy.random.default_rng(42).uniform(-1.5, 1.5, size=(5, 6)), knots evenly spaced on [0, 1];
-IRB140 velocity limits; accelerations (10, 10, 12, 20, 20, 25) rad/s^2; a second run adds the
-IRB140 torque limits (toppra: JointTorqueConstraint with Pinocchio's RNEA as inv_dyn).
+Cases: random 6-joint clamped cubic splines through 4, 7 and 12 waypoints drawn with
+numpy.random.default_rng(seed).uniform(-1.5, 1.5), knots evenly spaced on [0, 1]; three limit sets:
+  vel+acc   IRB140 velocity limits, accelerations ACC = (10, 10, 12, 20, 20, 25) rad/s^2;
+  torque    the same plus the IRB140 torque limits;
+  binding   torque limits with a 6 kg payload 0.2 m off the flange and doubled accelerations (the
+            torque ratio is printed: it must be 1, i.e. torque binds).
+toppra gets the same limits (JointTorqueConstraint with Pinocchio's RNEA on the same model,
+interpolation discretization like ours) and the ParametrizeConstAccel output, whose duration is that
+of its discretized optimum.
 
-Method: the converged optimum T* is estimated by refinement (our planner on very fine grids, with
-first-order Richardson extrapolation; toppra's value on its finest grid is printed next to it).
-Each side then gets the smallest grid of a fixed sequence whose duration is within 0.1 % of T*,
-and is timed there (median of several runs, after a warm-up run so numba compilation and caches
-are excluded). toppra uses its own default discretization per constraint (interpolation for
-acceleration, collocation for torque) and the "ParametrizeConstAccel" output, whose duration is
-that of its discretized optimum; the acceleration excess of its default "ParametrizeSpline" output
-is printed too. Our timing is given for the bare solve (verify=False, like toppra) and for the full
-plan with the verify-and-tighten loop. Run: python benchmarks/bench_planner_vs_toppra.py
+Method, per case:
+  * T* by first-order Richardson extrapolation from BOTH tools on uniform grids of N and 2N points
+    (both values and their agreement are printed; T* is their mean).
+  * The same grid search for both tools: the smallest N of GRIDS (x sqrt 2 steps) whose duration is
+    within ACCURACY (0.1 %) of T* (ours: N uniform points plus its grading towards the ends).
+  * Timing after a warm-up, interleaved in a random order, REPEATS repetitions of each: toppra on its
+    own grid, toppra on our grid, ours bare (verify off), ours verified (certified) on the searched
+    grid, ours adaptive at tolerance 0.1 % (verified) and ours at default settings (adaptive 0.05 %,
+    verified). Medians per case; over cases medians with min-max ranges.
+  * Accuracy of the default settings against T*, and the largest limit ratio of the default plan on
+    the 0.1 ms resample (every active limit).
+Machine load (os.getloadavg) is printed at start and end.
+
+    python benchmarks/bench_planner_vs_toppra.py            # 4 seeds x (4, 7, 12) waypoints
+    python benchmarks/bench_planner_vs_toppra.py --quick    # 1 seed x (4, 7, 12), fewer repetitions
 """
 
 from __future__ import annotations
 
+import argparse
 import logging
+import os
+import random
 import statistics
 import time
 from dataclasses import replace
@@ -28,120 +42,153 @@ import pinocchio as pin
 
 from pathmotion import defaults
 from pathmotion.joint_path import SplineJointPath
-from pathmotion.planning import PlanSettings, plan
+from pathmotion.planning import PlanSettings, effective_limits, plan
+from pathmotion.planning.grid import make_grid
+from pathmotion.planning.verify import sample_ratios
 from pathmotion.robot import load_robot
+from pathmotion.robot.model import Payload
 
 ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
-OUR_GRIDS = [50, 75, 100, 150, 200, 300, 400, 600, 800, 1000, 1500, 2000, 3000, 4000, 6000, 8000]
-TOPPRA_GRIDS = [100, 200, 400, 800, 1600, 3200, 6400, 12800, 25600, 51200]
-REPEATS = 5
+GRIDS = [int(round(100 * 2 ** (k / 2))) for k in range(17)]  # 100 ... 25600, x sqrt(2)
 ACCURACY = 1e-3
+T_STAR_POINTS = (8000, 16000)
 
 
-def median_time(fn, repeats=REPEATS):
-    fn()  # warm-up
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
+def robots():
+    irb = load_robot("irb140")
+    base = irb.with_limits(replace(irb.limits, acceleration=ACC))
+    heavy = irb.with_payload(Payload(mass=6.0, com=(0.0, 0.0, 0.2)))
+    heavy = heavy.with_limits(replace(heavy.limits, acceleration=2 * ACC))
+    return {"vel+acc": (base, False), "torque": (base, True), "binding": (heavy, True)}
 
 
-def toppra_setup(robot, wp, torque):
-    import toppra as ta
-    import toppra.algorithm as algo
-    import toppra.constraint as constraint
-
-    lim = robot.limits
-    path = ta.SplineInterpolator(np.linspace(0, 1, len(wp)), wp, bc_type="clamped")
-
-    def make(n, parametrizer="ParametrizeConstAccel"):
-        cons = [constraint.JointVelocityConstraint(np.vstack([-lim.velocity, lim.velocity]).T),
-                constraint.JointAccelerationConstraint(np.vstack([-ACC, ACC]).T)]
-        if torque:
-            model, data = robot.model, robot.model.createData()
-            cons.append(constraint.JointTorqueConstraint(
-                lambda q, v, a: pin.rnea(model, data, q, v, a), np.vstack([-lim.torque, lim.torque]).T, np.zeros(6)))
-        inst = algo.TOPPRA(cons, path, gridpoints=np.linspace(0, 1, n), parametrizer=parametrizer)
-        return inst.compute_trajectory()
-
-    return make
-
-
-def toppra_acc_excess(jt, dt=defaults.VERIFY_SAMPLE_TIME):
-    t = np.arange(0.0, jt.duration, dt)
-    return float(np.max(np.abs(jt(t, 2)) / ACC))
-
-
-def run(robot, path, wp, torque):
-    label = "with torque limits" if torque else "velocity + acceleration limits"
-    print(f"\n=== {label} ===")
-    base = PlanSettings(torque=torque, baselines=False, verify=False)
-    ours = lambda n, **kw: plan(path, robot, replace(base, grid_points=n, **kw))  # noqa: E731
-    t16, t32 = ours(16000).duration, ours(32000).duration
-    t_star = 2.0 * t32 - t16
-    make = toppra_setup(robot, wp, torque)
-    t_toppra_fine = make(TOPPRA_GRIDS[-1]).duration
-    print(f"converged optimum T* = {t_star:.6f} s (ours 16000 / 32000 points: {t16:.6f} / {t32:.6f} s, "
-          f"Richardson); toppra at {TOPPRA_GRIDS[-1]} points: {t_toppra_fine:.6f} s")
-
-    default = plan(path, robot, PlanSettings(torque=torque, baselines=False))
-    print(f"ours at default settings ({defaults.GRID_POINTS} points + grading, verified): {default.duration:.6f} s, "
-          f"{100 * (default.duration - t_star) / t_star:+.4f} % from T*; acceleration ratio on the "
-          f"{defaults.VERIFY_SAMPLE_TIME * 1e3:g} ms resample {default.ratios.acceleration:.6f}"
-          + (f", torque ratio {default.ratios.torque:.6f}" if torque else ""))
-
-    n_ours = next(n for n in OUR_GRIDS if abs(ours(n).duration - t_star) / t_star < ACCURACY)
-    n_toppra = next((n for n in TOPPRA_GRIDS if abs(make(n).duration - t_star) / t_star < ACCURACY), None)
-    res = ours(n_ours)
-    t_ours = median_time(lambda: ours(n_ours))
-    t_ours_verified = median_time(lambda: ours(n_ours, verify=True))
-    verified = ours(n_ours, verify=True)
-    print(f"ours:   {n_ours:6d} points -> {res.duration:.6f} s ({100 * (res.duration - t_star) / t_star:+.4f} %), "
-          f"solve {1e3 * t_ours:8.2f} ms (full plan with verify-and-tighten: {1e3 * t_ours_verified:.2f} ms, "
-          f"acceleration ratio {verified.ratios.acceleration:.6f})")
-    if n_toppra is None:
-        print(f"toppra: not within {100 * ACCURACY:g} % of T* on any grid up to {TOPPRA_GRIDS[-1]} points")
-        return
-    jt = make(n_toppra)
-    t_toppra = median_time(lambda: make(n_toppra), repeats=3 if n_toppra > 5000 else REPEATS)
-    jt_spline = make(n_toppra, "ParametrizeSpline")
-    print(f"toppra: {n_toppra:6d} points -> {jt.duration:.6f} s ({100 * (jt.duration - t_star) / t_star:+.4f} %), "
-          f"solve {1e3 * t_toppra:8.2f} ms; acceleration ratio on the 0.1 ms resample: "
-          f"{toppra_acc_excess(jt):.6f} (ConstAccel output), {toppra_acc_excess(jt_spline):.6f} (default spline output)")
-    print(f"speed-up at equal accuracy ({100 * ACCURACY:g} %): {t_toppra / t_ours:.1f}x (bare solve), "
-          f"{t_toppra / t_ours_verified:.1f}x (ours with verification)")
-    grid = res.curves.grid  # same grid for both: isolates the solver speed from the grid choice
+def toppra_solver(robot, wp, torque):
+    """f(grid) -> toppra's ConstAccel trajectory on that grid (theta in [0, 1])."""
     import toppra as ta
     import toppra.algorithm as algo
     import toppra.constraint as constraint
 
     lim = robot.limits
     cons = [constraint.JointVelocityConstraint(np.vstack([-lim.velocity, lim.velocity]).T),
-            constraint.JointAccelerationConstraint(np.vstack([-ACC, ACC]).T)]
+            constraint.JointAccelerationConstraint(np.vstack([-lim.acceleration, lim.acceleration]).T)]
     if torque:
         model, data = robot.model, robot.model.createData()
         cons.append(constraint.JointTorqueConstraint(
-            lambda q, v, a: pin.rnea(model, data, q, v, a), np.vstack([-lim.torque, lim.torque]).T, np.zeros(6),
-            discretization_scheme=constraint.DiscretizationType.Interpolation))
-    tpath = ta.SplineInterpolator(np.linspace(0, 1, len(wp)), wp, bc_type="clamped")
-    same = lambda: algo.TOPPRA(cons, tpath, gridpoints=grid,  # noqa: E731
-                               parametrizer="ParametrizeConstAccel").compute_trajectory()
-    t_same = median_time(same)
-    print(f"on our graded grid ({len(grid)} points, interpolation everywhere): toppra {same().duration:.6f} s in "
-          f"{1e3 * t_same:.2f} ms vs ours {res.duration:.6f} s in {1e3 * t_ours:.2f} ms ({t_same / t_ours:.1f}x)")
+            lambda q, v, a: pin.rnea(model, data, q, v, a), np.vstack([-lim.torque, lim.torque]).T,
+            np.zeros(robot.n), discretization_scheme=constraint.DiscretizationType.Interpolation))
+    path = ta.SplineInterpolator(np.linspace(0, 1, len(wp)), wp, bc_type="clamped")
+    return lambda grid: algo.TOPPRA(cons, path, gridpoints=grid, parametrizer="ParametrizeConstAccel") \
+        .compute_trajectory()
+
+
+def interleaved(fns: dict, repeats: int) -> dict:
+    """{name: median wall time [s]}: one warm-up each, then ``repeats`` rounds in a random order."""
+    for fn in fns.values():
+        fn()
+    times = {k: [] for k in fns}
+    rng = random.Random(0)
+    for _ in range(repeats):
+        order = list(fns)
+        rng.shuffle(order)
+        for k in order:
+            t = time.perf_counter()
+            fns[k]()
+            times[k].append(time.perf_counter() - t)
+    return {k: statistics.median(v) for k, v in times.items()}
+
+
+def dense_worst(result, path, robot) -> float:
+    limits = effective_limits(robot, result.settings)
+    _, r = sample_ratios(result.trajectory, limits, defaults.VERIFY_SAMPLE_TIME, result.jump_intervals)
+    return max(float(np.max(v)) for v in r.values())
+
+
+def run_case(label, robot, torque, seed, n_wp, repeats):
+    wp = np.random.default_rng(seed).uniform(-1.5, 1.5, size=(n_wp, 6))
+    path = SplineJointPath.from_waypoints(wp)
+    bare = PlanSettings(torque=torque, verify="off")
+    ours = lambda n, **kw: plan(path, robot, replace(bare, grid_points=n, **kw))  # noqa: E731
+    tp = toppra_solver(robot, wp, torque)
+    uniform = lambda n: np.linspace(0.0, 1.0, n)  # noqa: E731
+    a, b = (ours(n).duration for n in T_STAR_POINTS)
+    c, d = (tp(uniform(n)).duration for n in T_STAR_POINTS)
+    t_ours, t_toppra = 2 * b - a, 2 * d - c
+    t_star = 0.5 * (t_ours + t_toppra)
+    within = lambda t: abs(t - t_star) <= ACCURACY * t_star  # noqa: E731
+    n_ours = next((n for n in GRIDS if within(ours(n).duration)), None)
+    n_tp = next((n for n in GRIDS if within(tp(uniform(n)).duration)), None)
+    default = plan(path, robot, PlanSettings(torque=torque))
+    coarse = plan(path, robot, PlanSettings(torque=torque, tolerance=ACCURACY))
+    verified = ours(n_ours, verify="certified")
+    our_grid = make_grid(path, n_ours).theta
+    fns = {"toppra own grid": lambda: tp(uniform(n_tp)), "toppra our grid": lambda: tp(our_grid),
+           "ours bare": lambda: ours(n_ours), "ours verified": lambda: ours(n_ours, verify="certified"),
+           "ours adaptive 0.1%": lambda: plan(path, robot, PlanSettings(torque=torque, tolerance=ACCURACY)),
+           "ours default": lambda: plan(path, robot, PlanSettings(torque=torque))}
+    if n_tp is None:
+        del fns["toppra own grid"]
+    times = interleaved(fns, repeats)
+    row = dict(label=label, seed=seed, wp=n_wp, t_star=t_star, t_ours=t_ours, t_toppra=t_toppra, n_ours=n_ours,
+               n_tp=n_tp, default_err=(default.duration - t_star) / t_star, default_est=default.duration_error_estimate
+               / t_star, default_pts=default.grid_points, coarse_err=(coarse.duration - t_star) / t_star,
+               dense=dense_worst(default, path, robot), torque_ratio=default.ratios.torque,
+               verified_err=(verified.duration - t_star) / t_star, tighten=verified.tighten_iterations,
+               toppra_same=tp(our_grid).duration - ours(n_ours).duration, **times)
+    return row
+
+
+def print_row(r):
+    ms = lambda k: f"{1e3 * r[k]:8.2f}" if k in r else "     n/a"  # noqa: E731
+    print(f"{r['label']:8s} seed {r['seed']:2d} wp {r['wp']:2d}: T* {r['t_star']:.6f} s (ours {r['t_ours']:.6f}, toppra "
+          f"{r['t_toppra']:.6f}, agree {100 * (r['t_ours'] - r['t_toppra']) / r['t_star']:+.4f} %); grids ours "
+          f"{r['n_ours']} toppra {r['n_tp']}; toppra on our grid {r['toppra_same']:+.1e} s from ours")
+    print(f"    ms: toppra own {ms('toppra own grid')} | toppra our grid {ms('toppra our grid')} | ours bare "
+          f"{ms('ours bare')} | verified {ms('ours verified')} (+{100 * r['verified_err']:.3f} %, tighten "
+          f"{r['tighten']}) | adaptive 0.1% {ms('ours adaptive 0.1%')} ({100 * r['coarse_err']:+.3f} %) | default "
+          f"{ms('ours default')}")
+    tr = "" if r["torque_ratio"] is None else f", torque ratio {r['torque_ratio']:.5f}"
+    print(f"    default: {r['default_pts']} points, {100 * r['default_err']:+.4f} % from T* (estimate "
+          f"{100 * r['default_est']:.4f} %), dense 0.1 ms worst ratio {r['dense']:.5f}{tr}")
+
+
+def summarize(rows):
+    def rng(vals):
+        return f"{statistics.median(vals):7.1f}x ({min(vals):.1f}-{max(vals):.1f})"
+
+    print("\nspeed-up = toppra on its own grid / ours; median (min-max) over cases")
+    for label in sorted({r["label"] for r in rows}) + ["all"]:
+        sel = [r for r in rows if (label == "all" or r["label"] == label) and "toppra own grid" in r]
+        if not sel:
+            continue
+        sp = lambda k: [r["toppra own grid"] / r[k] for r in sel]  # noqa: E731
+        same = [r["toppra our grid"] / r["ours bare"] for r in sel]
+        print(f"{label:8s} verified {rng(sp('ours verified'))} | bare {rng(sp('ours bare'))} | adaptive 0.1% "
+              f"{rng(sp('ours adaptive 0.1%'))} | default {rng(sp('ours default'))} | same grid, solver only "
+              f"{rng(same)} | grid (toppra own / toppra ours) {rng([r['toppra own grid'] / r['toppra our grid'] for r in sel])}")
+    worst_err = max(abs(r["default_err"]) for r in rows)
+    print(f"default settings: largest |error| {100 * worst_err:.4f} % of T* (target 0.05 %); every estimate bounds "
+          f"its error: {all(abs(r['default_err']) <= r['default_est'] for r in rows)}; largest dense ratio "
+          f"{max(r['dense'] for r in rows):.5f} (target 1.001)")
+    binding = [r["torque_ratio"] for r in rows if r["label"] == "binding"]
+    if binding:
+        print(f"binding set: torque ratio {min(binding):.5f}-{max(binding):.5f}")
 
 
 def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="one seed per waypoint count, 3 repetitions")
+    args = ap.parse_args()
     logging.disable(logging.WARNING)
-    irb = load_robot("irb140")
-    robot = irb.with_limits(replace(irb.limits, acceleration=ACC))
-    wp = np.random.default_rng(42).uniform(-1.5, 1.5, size=(5, 6))
-    path = SplineJointPath.from_waypoints(wp)
-    print("pathmotion planner vs toppra: clamped spline, 5 random waypoints (seed 42), IRB140 limits")
-    for torque in (False, True):
-        run(robot, path, wp, torque)
+    seeds, repeats = ((1,), 3) if args.quick else ((1, 2, 3, 4), 7)
+    print(f"load average at start: {os.getloadavg()} on {os.cpu_count()} cores")
+    rows = []
+    for label, (robot, torque) in robots().items():
+        for n_wp in (4, 7, 12):
+            for seed in seeds:
+                rows.append(run_case(label, robot, torque, seed, n_wp, repeats))
+                print_row(rows[-1])
+    summarize(rows)
+    print(f"load average at end: {os.getloadavg()}")
 
 
 if __name__ == "__main__":

@@ -217,13 +217,41 @@ class _Sampled:
     left: PathPoints
 
 
-def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, ...]) -> _Sampled:
+class _Reusing(PathPoints):
+    """PathPoints whose derived quantities (reduced dynamics, TCP gain...) are copied from ``donor``
+    (right-side points of an earlier grid) where a grid point is also one of the donor's, and
+    computed only at the new points: the adaptive grid's refinements keep their parents' points."""
+
+    def __init__(self, robot, path, theta, q, dq, ddq, donor: PathPoints):
+        super().__init__(robot, path, theta, q, dq, ddq)
+        pos = np.clip(np.searchsorted(donor.theta, theta), 0, len(donor.theta) - 1)
+        self._shared = donor.theta[pos] == theta
+        self._donor, self._donor_index = donor, pos[self._shared]
+
+    def cached(self, key, compute):
+        if key not in self._cache and key in self._donor._cache:
+            new = np.nonzero(~self._shared)[0]
+            fresh = compute(self.robot, self.q[new], self.dq[new], self.ddq[new]) if new.size else None
+            value = []
+            for j, old in enumerate(self._donor._cache[key]):
+                v = np.empty((len(self.theta),) + old.shape[1:], old.dtype)
+                v[self._shared] = old[self._donor_index]
+                if fresh is not None:
+                    v[new] = fresh[j]
+                value.append(v)
+            self._cache[key] = tuple(value)
+        return super().cached(key, compute)
+
+
+def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, ...],
+            donor: PathPoints | None = None) -> _Sampled:
     q, dq, ddq = path.evaluate(grid, "right")
     dq_l, ddq_l = dq.copy(), ddq.copy()
     idx = np.array(list(breaks) + [len(grid) - 1], dtype=int)
     _, dql, ddql = path.evaluate(grid[idx], "left")
     dq_l[idx], ddq_l[idx] = dql, ddql
-    right = PathPoints(robot, path, grid, q, dq, ddq)
+    right = PathPoints(robot, path, grid, q, dq, ddq) if donor is None else \
+        _Reusing(robot, path, grid, q, dq, ddq, donor)
     return _Sampled(right, PathPoints(robot, path, grid, q, dq_l, ddq_l, base=right, changed=idx, side="left"))
 
 
@@ -264,8 +292,14 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     adaptive = settings.grid_points is None
     estimate = None
     if adaptive:
-        refined = refine(lambda g: _solve_on(path, robot, settings, limits, g),
-                         make_grid(path, defaults.GRID_INITIAL_POINTS), settings.tolerance)
+        last = []  # the latest solve: its path data seeds the next grid's
+
+        def solve(g: Grid):
+            out = _solve_on(path, robot, settings, limits, g, donor=last[-1].samp.right if last else None)
+            last[:] = [out[2]]
+            return out
+
+        refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.tolerance)
         solved, estimate = refined.solved, refined.error_estimate
     else:
         solved = _solve_on(path, robot, settings, limits, make_grid(path, settings.grid_points))[2]
@@ -290,12 +324,12 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
 
 
 def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None = None, scale: dict | None = None,
-              x_ref: np.ndarray | None = None) -> tuple[float, np.ndarray, "_Solved"]:
-    """Solve on ``grid`` (path data sampled unless ``samp`` is given; unit limit scales unless ``scale``):
-    (duration [s], x on the grid (K,), the solve)."""
+              x_ref: np.ndarray | None = None, donor: PathPoints | None = None) -> tuple[float, np.ndarray, "_Solved"]:
+    """Solve on ``grid`` (path data sampled unless ``samp`` is given, reusing ``donor``'s at shared points;
+    unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
     theta = grid.theta
     if samp is None:
-        samp = _sample(path, robot, theta, grid.breaks)
+        samp = _sample(path, robot, theta, grid.breaks, donor)
         for lim in limits:
             lim.check(samp.right, robot.joint_names)
     stops = set(grid.kinks)
@@ -339,7 +373,7 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
                 if b.size:
                     over |= (b > 1.0 + TIGHTEN_TRIGGER * tol).any(axis=1)
             log.info("refining the %d grid intervals where a limit is exceeded, then solving again", int(over.sum()))
-            s = _solve_on(path, robot, settings, limits, s.grid.halved(over))[2]
+            s = _solve_on(path, robot, settings, limits, s.grid.halved(over), donor=s.samp.right)[2]
             rounds += 1
             continue
         if iterations >= settings.max_tighten_iterations:
