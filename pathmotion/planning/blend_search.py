@@ -164,7 +164,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
 
 def replace_settings(settings: PlanSettings, **changes) -> PlanSettings:
     """A copy of ``settings`` with ``changes`` (PlanSettings validates in __init__)."""
-    kw = {"grid_points": settings.grid_points, "limits": settings.limits, "start": settings.start,
+    kw = {"grid_points": settings.grid_points, "tolerance": settings.tolerance, "limits": settings.limits,
+          "start": settings.start,
           "end": settings.end, "periodic": settings.periodic, "connections": settings.connections,
           "limit_tolerance": settings.limit_tolerance, "verify": settings.verify,
           "verify_sample_time": settings.verify_sample_time,
