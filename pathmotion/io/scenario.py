@@ -159,8 +159,6 @@ Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]
 class PlanSpec(_Model):
     grid_points: int | None = Field(None, ge=10, le=1_000_000, description="a fixed planner grid of this many "
                                     "points; absent: adaptive, refined until the duration is within tolerance")
-    tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=0.1, description="adaptive grid: requested relative "
-                             "error of the duration (0.0005 = 0.05 %)")
     start: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the start: 'zero', 'max' or a value [1/s]")
     end: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the end: 'zero', 'max' or a value")
     periodic: bool = Field(False, description="closed path: the steady-state cycle")
@@ -171,6 +169,8 @@ class PlanSpec(_Model):
                                "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
+    tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=0.1, description="adaptive grid: requested relative "
+                             "error of the duration (0.0005 = 0.05 %)")
 
 
 # ------------------------------------------------------------------------------------ simulation

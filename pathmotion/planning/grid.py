@@ -146,6 +146,8 @@ def refine(solve: Callable[[Grid], tuple[float, np.ndarray, Any]], initial: Grid
            max_points: int = defaults.GRID_MAX_POINTS) -> Refined:
     """Refine ``initial`` until the Richardson estimate of the duration's error is within
     ``tolerance`` (relative). ``solve(grid)`` returns (duration [s], x on the grid (K,), anything)."""
+    if max_iterations < 1:
+        raise ValueError(f"refine: max_iterations must be >= 1, got {max_iterations}")
     coarse = initial
     t_coarse, x_coarse, _ = solve(coarse)
     for iteration in range(1, max_iterations + 1):
@@ -163,4 +165,4 @@ def refine(solve: Callable[[Grid], tuple[float, np.ndarray, Any]], initial: Grid
         target = TARGET_FRACTION * tolerance * t_fine * (2.0 ** ORDER - 1.0) / ERROR_SAFETY
         coarse = coarse.split(pieces_for(change, target))
         t_coarse, x_coarse, _ = solve(coarse)
-    raise AssertionError("unreachable")
+    raise AssertionError("the last iteration returns")  # the loop runs at least once and returns on its last

@@ -339,10 +339,9 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
                       connections=settings.connections, breaks=grid.breaks, stops=tuple(sorted(stops)))
     if scale is None:
         scale = limits.unit_scale(len(theta), robot.n)
-    log.info("solve: %d grid points", len(theta))
     problem, right, left, sol = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
     _check_bounded(theta, sol.x)
-    log.debug("solve: duration %.6g s", sol.profile.duration)
+    log.debug("solve on %d grid points: duration %.9g s", len(theta), sol.profile.duration)
     return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol)
 
 
@@ -356,6 +355,8 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
     ratios, scale = None, None
     iterations = rounds = 0
     while True:
+        log.info("solve pass %d: %d grid points, duration %.6g s", iterations + rounds + 1, len(s.grid.theta),
+                 s.sol.profile.duration)
         traj = Trajectory(path, s.sol.profile, robot)
         if settings.verify == VerifyMode.OFF:
             break
@@ -363,8 +364,8 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
         jumps = tuple(theta[k] for k in s.grid.kinks if s.sol.x[k] > 0)
         bounds, ratios = _interval_bounds(settings, traj, limits, s.samp, s.sol, jumps, robot, theta, s.grid.breaks)
         worst = max((float(b.max()) for b in bounds.values() if b.size), default=0.0)
-        log.info("verify pass %d (%s): worst limit ratio %.4f (%s)", iterations + 1, settings.verify.value, worst,
-                 ratios.worst)
+        log.info("verify pass %d (%s): worst limit ratio %.4f (%s)", iterations + rounds + 1, settings.verify.value,
+                 worst, ratios.worst)
         if worst <= 1.0 + tol:
             break
         if adaptive and scale is None and rounds < defaults.PLAN_MAX_REFINE_ROUNDS:
