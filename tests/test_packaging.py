@@ -1,0 +1,27 @@
+"""What a new clone meets on install and in the test run: no deprecation warning from the project."""
+
+import tomllib
+import warnings
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SOURCES = sorted((ROOT / "pathmotion").rglob("*.py")) + sorted((ROOT / "tests").glob("*.py")) + sorted(
+    (ROOT / "benchmarks").glob("*.py"))
+
+
+def test_pyproject_license_is_an_spdx_string_with_a_setuptools_that_reads_it():
+    doc = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert doc["project"]["license"] == "MIT"  # a table is deprecated since setuptools 77
+    requires = doc["build-system"]["requires"]
+    assert any(r.replace(" ", "").startswith("setuptools>=") and int(r.split(">=")[1].split(".")[0]) >= 77
+               for r in requires), requires
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=[str(p.relative_to(ROOT)) for p in SOURCES])
+def test_sources_compile_without_warnings(path):
+    """Invalid escapes ('\\.' in a non-raw string) and the like warn at compile time."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        compile(path.read_text(), str(path), "exec")
