@@ -3,7 +3,7 @@ worker processes started here), the same sweep, printed as simulated seconds per
 their ratio. The tables are checked equal. The local pool is created per sweep (its process start-up,
 imports and JIT compilation count); the Dask workers live on (their start-up is printed apart).
 
-    /work/venv/bin/python benchmarks/bench_sweep.py [--points 6] [--grid-points 300]
+    .venv/bin/python benchmarks/bench_sweep.py [--points 6] [--grid-points 300]
 """
 
 from __future__ import annotations

@@ -25,3 +25,13 @@ def test_sources_compile_without_warnings(path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         compile(path.read_text(), str(path), "exec")
+
+
+def test_documented_commands_use_the_readme_environment_not_a_machine_path():
+    """Commands in the README, docs and benchmark headers run from a clone (.venv/bin/..., pathmotion ...)."""
+    import re
+
+    texts = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "benchmarks").glob("*.py"))]
+    for path in texts:
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            assert not re.search(r"(^|[\s`\"'(])/(work|home|root|Users)/", line), f"{path.name}:{n}: {line}"
