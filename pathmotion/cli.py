@@ -251,6 +251,12 @@ def robots():
         console.print(table)
 
 
+def _example_scenario(path: Path, template: str) -> str:
+    """The example template for ``path``: its commands name the file, its ``name`` is the file's stem."""
+    name = json.dumps(path.stem)[1:-1]  # a TOML basic string's content (quotes, backslashes escaped)
+    return template.replace("{file}", str(path)).replace("{name}", name)
+
+
 @app.command()
 @guarded
 def init(path: Path = typer.Argument(Path("scenario.toml"), help="file to write"),
@@ -270,7 +276,7 @@ def init(path: Path = typer.Argument(Path("scenario.toml"), help="file to write"
     if from_:
         text = scenario_path(from_).read_text()
     else:
-        text = (resources.files("pathmotion.io") / "templates" / "example.toml").read_text()
+        text = _example_scenario(path, (resources.files("pathmotion.io") / "templates" / "example.toml").read_text())
     write_text(path, text)
     console.print(f"wrote {path}; next: [bold]pathmotion check {path}[/]")
 

@@ -46,6 +46,17 @@ def test_init_writes_a_scenario_that_checks(tmp_path):
     assert "min_singular_value" in out
 
 
+def test_init_template_uses_the_given_file_name(tmp_path):
+    import tomllib
+
+    target = tmp_path / "my_corner.toml"
+    code, _ = run("init", target)
+    assert code == 0
+    text = target.read_text()
+    assert tomllib.loads(text)["name"] == "my_corner"
+    assert f"pathmotion check {target}" in text and "example" not in text and "{" not in text.split("\n\n")[0]
+
+
 def test_init_from_a_shipped_scenario(tmp_path):
     code, _ = run("init", tmp_path / "c.toml", "--from", "corner_g2")
     assert code == 0
