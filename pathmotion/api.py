@@ -520,6 +520,15 @@ def simulation_columns(sim) -> dict[str, np.ndarray]:
 
 
 # ------------------------------------------------------------------------------------ check
+def path_is_closed(setup: Setup) -> bool:
+    """Whether the path ends where it starts (a full circle does), whether or not it is planned as a
+    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion)."""
+    if setup.task_path is not None:
+        return bool(setup.task_path.closed)
+    q = setup.path.evaluate(np.array(setup.path.domain, float))[0]
+    return bool(np.allclose(q[0], q[-1], rtol=0, atol=defaults.PATH_GAP_TOLERANCE))
+
+
 def check_scenario(setup: Setup) -> dict:
     """What ``pathmotion check`` reports: the path lifted (reachable, in range, away from
     singularities: errors otherwise), its corners, and pointwise feasibility (gravity torque below
@@ -529,7 +538,8 @@ def check_scenario(setup: Setup) -> dict:
     path, robot = setup.path, setup.robot
     out: dict[str, Any] = {"scenario": setup.name, "robot": robot.name, "joints": robot.n,
                            "path_kind": "task" if setup.task_path is not None else "joint",
-                           "path_length": float(path.length), "closed": bool(path.closed)}
+                           "path_length": float(path.length), "closed": path_is_closed(setup),
+                           "periodic": bool(setup.scenario.plan.periodic)}
     if setup.task_path is not None:
         out["segments"] = len(setup.task_path.segments)
         out["connections"] = [c.describe() for c in setup.task_path.connections]

@@ -137,17 +137,60 @@ def _progress() -> Progress:
                     transient=True)
 
 
-def _summary_table(title: str, summary: dict) -> Table:
+_NUMBER = re.compile(r"^[-+]?(\d[\d,_]*\.?\d*|\.\d+)([eE][-+]?\d+)?( \.\. [-+]?\d+\.?\d*)?$")
+
+
+def _fit(table: Table) -> Table:
+    """Never cut a number or a heading: each column is at least as wide as its heading's longest word
+    and its longest number (yes/NO, '-' included); longer text folds onto more lines instead of '...'."""
+    for col in table.columns:
+        cells = [c for c in col.cells if isinstance(c, str)]
+        words = [w.replace("\\[", "[") for w in re.findall(r"\\?\[[^\]]*\]|\S+", str(col.header)) if table.show_header]
+        whole = [c for c in cells if _NUMBER.match(c) or c in ("yes", "NO", "-")]
+        widths = [len(w) for w in words + whole]
+        col.min_width = max([col.min_width or 0, *widths])
+        col.overflow = "fold"
+    return table
+
+
+def _grid_note(setup, summary: dict) -> dict:
+    """Why the reported grid_points differs from plan.grid_points (empty when it does not)."""
+    asked = setup.scenario.plan.grid_points
+    if summary.get("grid_points") == asked:
+        return {}
+    return {"grid_points": f"plan.grid_points = {asked} uniform points, plus the path's connections and spline "
+                           "knots and finer points next to the ends and connections, and any the limit check added"}
+
+
+def _print_table(table: Table, to: Console | None = None) -> None:
+    """Print ``table`` (see :func:`_fit`) without cropping: a table wider than a narrow terminal or a
+    pipe's 80 columns runs past the edge instead of losing its right-hand columns."""
+    (to or console).print(_fit(table), crop=False)
+
+
+def _shown(v) -> str:
+    """A summary value as text: lists and tables written out (key: value; ...), floats to 6 digits."""
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    if isinstance(v, dict):
+        return "; ".join(f"{k}: {_shown(x)}" for k, x in v.items()) or "-"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_shown(x) for x in v) + "]" if all(not isinstance(x, str) for x in v) else (
+            "; ".join(_shown(x) for x in v) or "-")
+    return str(v)
+
+
+def _summary_table(title: str, summary: dict, notes: dict | None = None) -> Table:
+    """Key / value rows of ``summary`` (every list and table written out), with an optional note per key."""
     table = Table(title=title, show_header=False, title_justify="left")
     table.add_column("key", style="bold")
     table.add_column("value")
     for k, v in summary.items():
-        if isinstance(v, (dict, list)):
-            v = json.dumps(v) if len(json.dumps(v)) < 80 else f"({len(v)} items)"
-        elif isinstance(v, float):
-            v = f"{v:.6g}"
-        table.add_row(k, str(v))
-    return table
+        text = _shown(v)
+        if notes and k in notes:
+            text += f" ({notes[k]})"
+        table.add_row(k, escape(text))
+    return _fit(table)
 
 
 def _format_cell(v, scale: float = 1.0) -> str:
@@ -240,15 +283,30 @@ def robots():
         lim = robot.limits
         table = Table(title=f"{robot.name} ({name}): {robot.n} joints, flange frame {robot.flange_frame}",
                       title_justify="left")
-        for col in ("joint", "range [deg]", "speed [deg/s]", "accel [rad/s^2]", "torque [N m]", "sources"):
-            table.add_column(col)
+        for col in ("joint", "range [deg]", "speed [deg/s]", "accel [rad/s^2]", "torque [N m]"):
+            table.add_column(escape(col), justify="left" if col == "joint" else "right")
         for j, jn in enumerate(lim.names):
-            src = lim.sources.get(jn, {})
             table.add_row(jn, f"{np.degrees(lim.lower[j]):.0f} .. {np.degrees(lim.upper[j]):.0f}",
                           f"{np.degrees(lim.velocity[j]):.0f}",
-                          "-" if lim.acceleration is None else f"{lim.acceleration[j]:g}",
-                          f"{lim.torque[j]:g}", ", ".join(f"{k}: {v}" for k, v in src.items()))
-        console.print(table)
+                          "-" if lim.acceleration is None else f"{lim.acceleration[j]:g}", f"{lim.torque[j]:g}")
+        _print_table(table)
+        console.print(escape(_sources_line(lim)), highlight=False, soft_wrap=True)
+
+
+def _sources_line(lim) -> str:
+    """Where the figures come from, once: 'sources: range official, ...' when every joint agrees,
+    else per quantity the joints of each status."""
+    quantities = list(dict.fromkeys(q for jn in lim.names for q in lim.sources.get(jn, {})))
+    parts = []
+    for q in quantities:
+        by_status: dict[str, list[str]] = {}
+        for jn in lim.names:
+            by_status.setdefault(lim.sources.get(jn, {}).get(q, "not given"), []).append(jn)
+        if len(by_status) == 1:
+            parts.append(f"{q} {next(iter(by_status))}")
+        else:
+            parts.append(f"{q} " + ", ".join(f"{st} ({' '.join(js)})" for st, js in by_status.items()))
+    return "sources: " + ("; ".join(parts) if parts else "not given") + " (docs/robot.md)"
 
 
 def _example_scenario(path: Path, template: str) -> str:
@@ -357,7 +415,9 @@ def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_:
     from . import api
 
     report = api.check_scenario(api.load(scenario, _overrides(set_)))
-    console.print(_summary_table(f"check {scenario}: OK", report))
+    notes = {"closed": "it ends where it starts; " + ("planned as a periodic cycle" if report["periodic"] else
+                                                      "run once; plan.periodic = true plans the cycle")}
+    _print_table(_summary_table(f"check {scenario}: OK", report, notes if report["closed"] else None))
 
 
 def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
@@ -394,7 +454,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
             if figures:
                 _plan_figures(folder)
         progress.update(task, advance=1)
-    console.print(_summary_table(f"plan {setup.name} -> {out}", summary))
+    _print_table(_summary_table(f"plan {setup.name} -> {out}", summary, _grid_note(setup, summary)))
     _result_verdict(summary["failures"], summary["export_notes"], force)
 
 
@@ -437,7 +497,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
                 _simulation_figures(folder)
         progress.update(task, advance=1)
     summary.pop("plan", None)
-    console.print(_summary_table(f"simulate {setup.name} -> {out}", summary))
+    _print_table(_summary_table(f"simulate {setup.name} -> {out}", summary))
     _result_verdict(failures, plan_summary["export_notes"], force)
 
 
@@ -471,7 +531,7 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     failed = sum(1 for r in outcome.rows if r.get("error"))
     console.print(f"{len(outcome.rows)} points, {failed} failed -> {out}/sweep.csv")
     if outcome.best is not None:
-        console.print(_summary_table("best point (best.json)", outcome.best))
+        _print_table(_summary_table("best point (best.json)", outcome.best))
 
 
 @app.command()
@@ -522,7 +582,7 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
         table.add_column(escape(entry.heading), no_wrap=k == 0, justify="left" if k == 0 else "right")
     for r in rows:
         table.add_row(*[_format_cell(r.get(e.key), e.scale) for e in schema.DEMO])
-    console.print(table)
+    _print_table(table)
     if study:
         from .study import corner_study
 
@@ -532,7 +592,7 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
                                   on_result=lambda done, total: progress.update(task, completed=done, total=total))
         console.print(f"corner study: {len(result.rows)} runs, figures in {result.out}")
         if result.best is not None:
-            console.print(_summary_table("best trade-off (least mean deviation + shortest cycle)", result.best))
+            _print_table(_summary_table("best trade-off (least mean deviation + shortest cycle)", result.best))
     from .report.html import build_report
 
     console.print(f"report: {build_report(out)}")

@@ -251,3 +251,58 @@ def test_plan_defaults_out_to_out_slash_the_scenario_name_and_report_takes_out(t
     assert code == 0, text
     assert (tmp_path / "elsewhere" / "r.html").read_text().startswith("<!DOCTYPE html>")
     assert not (tmp_path / "out" / "circle_zero" / "report.html").exists()
+
+
+def test_robots_shows_units_on_every_column_and_the_sources_once():
+    code, out = run("robots")
+    assert code == 0
+    for unit in ("range [deg]", "speed [deg/s]", "accel [rad/s^2]", "torque [N m]"):
+        assert unit in out, unit
+    assert out.count("sources:") == 1 and out.count("official") <= 3
+    assert "velocity official" in out and "torque estimate" in out
+
+
+@pytest.mark.parametrize("width", [40, 60, 120])
+def test_tables_never_cut_numbers_on_narrow_or_piped_consoles(width):
+    import io
+
+    from rich.console import Console
+    from rich.table import Table
+
+    from pathmotion.cli import _format_cell, _print_table, _summary_table
+
+    summary = {"max_path_deviation_m": 0.022123456789, "a_rather_long_key_name_for_the_table": 1234567.891,
+               "failures": ["the path speed jumps at theta = 0.628319", "a limit is exceeded"],
+               "connections": {"kind": "corner", "angle_deg": 90.0}, "ok": True}
+    table = Table("scenario", "planned [s]", "simulated [s]", "joint dev [mrad]", "path dev [mm]", "sharp dev [mm]")
+    table.add_row("corner_transition_long_name", *[_format_cell(v) for v in (1.33123, 1.33145, 0.0541, 0.02212, 18.7)])
+    for tab in (_summary_table("t", summary), table):
+        buf = io.StringIO()
+        _print_table(tab, Console(file=buf, width=width, force_terminal=False))
+        text = buf.getvalue()
+        assert "…" not in text and "..." not in text
+        for number in ("0.0221235", "1.23457e+06", "1.331", "0.0541", "0.02212", "18.7", "90"):
+            if number in "".join(str(c) for col in tab.columns for c in col.cells):
+                assert number in text, (number, text)
+    assert "the path speed jumps at theta = 0.628319; a limit is exceeded" in list(
+        _summary_table("t", summary).columns[1].cells)[2]
+
+
+def test_check_reports_a_full_circle_as_closed_and_explains_periodic():
+    code, out = run("check", scenario_path("circle_max"))
+    assert code == 0, out
+    row = next(line for line in out.splitlines() if " closed " in line)
+    assert "True" in row and "ends where it starts" in out and "plan.periodic" in out
+    code, out = run("check", scenario_path("corner_g2"))
+    assert "False" in next(line for line in out.splitlines() if " closed " in line)
+    assert "items)" not in out and "connection 0 at theta" in out
+
+
+def test_plan_explains_the_reported_grid_points():
+    from pathmotion import api
+    from pathmotion.cli import _grid_note
+
+    setup = api.load(scenario_path("circle_zero"), {"plan.grid_points": 100})
+    assert _grid_note(setup, {"grid_points": 100}) == {}
+    note = _grid_note(setup, {"grid_points": 117})["grid_points"]
+    assert note.startswith("plan.grid_points = 100 uniform points, plus the path's connections")
