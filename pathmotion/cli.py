@@ -528,8 +528,10 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
         outcome = run_study_sweep(scenario, grid, out, workers=workers, scheduler=scheduler,
                                   on_result=on_result, figures=figures)
-    failed = sum(1 for r in outcome.rows if r.get("error"))
-    console.print(f"{len(outcome.rows)} points, {failed} failed -> {out}/sweep.csv")
+    errors = sum(1 for r in outcome.rows if r.get("error"))
+    failed = sum(1 for r in outcome.rows if not r.get("error") and r.get("tracking_ok") is False)
+    console.print(f"{len(outcome.rows)} points: {len(outcome.rows) - errors - failed} tracked, {failed} tracking "
+                  f"failed, {errors} error(s) -> {out}/sweep.csv")
     if outcome.best is not None:
         _print_table(_summary_table("best point (best.json)", outcome.best))
 

@@ -181,8 +181,8 @@ def test_report_of_sweeps_alone_tolerates_other_tables(tmp_path):
     assert sections == [("1", "Sweep: a_new"), ("1", "Sweep: b_old"), ("1", "Sweep: c_empty")]
     assert "best score (the study's score, no best.json)" in text  # the legend (JSON in the script)
     # score = time + 100 s/m * mean deviation: 1.45 s (#0) < 1.47 s (#1) < 1.57 s (#2)
-    assert "Best point (the study&#x27;s score, no best.json): #0" in text
-    assert "over k.x: 2 points, 0 failed" in text
+    assert "Best score (the study&#x27;s score, no best.json): point #0, path.blends[0].radius = 0.03" in text
+    assert "over k.x: 2 points: 2 tracked, 0 tracking failed, 0 errors" in text
     assert "largest TCP distance from the original sharp path [mm]" in text
 
 
@@ -276,13 +276,39 @@ def test_report_page_content(results, report):
     for anchor in re.findall(r'href="#(s\d+)"', text):  # the table of contents points at sections
         assert f'id="{anchor}"' in text
     sections = re.findall(r'<section id="s\d+" data-figures="\d+"><h2>([^<]+)</h2>', text)
-    assert sections == ["Simulation: g2", "Simulation: g2_failed", "Plan: plan_only", "Sweep: sweep"]
+    assert sections == ["Simulation: corner_g2 (g2)", "Simulation: corner_g2 (g2_failed)",
+                        "Plan: corner_g2 (plan_only)", "Sweep: sweep"]
+    assert "5 points: 3 tracked, 1 tracking failed, 1 error" in text  # a failed tracking is not an error
     assert '<p class="failure">Tracking FAILED: joint deviation 0.31 rad above the threshold' in text
     assert text.count('class="failure"') == 1
     summary = json.loads((results / "g2" / "summary.json").read_text())
     assert f"{summary['cycle_time_s']:.4g}" in text
     assert f"{1e3 * summary['max_sharp_deviation_m']:.4g}" in text  # in mm
     assert "PathError: a transition circle of radius 0.2 m does not fit" in text
+
+
+def test_report_titles_name_the_scenario_and_a_demo_folder_keeps_its_study_order(results, tmp_path):
+    import shutil as sh
+
+    own = build_report(results / "plan_only", tmp_path / "own.html").read_text()
+    assert "<h2>Plan: corner_g2 (plan_only)</h2>" in own and ": .</" not in own
+    demo = tmp_path / "demo"
+    for name in ("zz_first", "aa_second"):
+        sh.copytree(results / "plan_only", demo / name / "plan")
+    (demo / "demo.csv").write_text("scenario,planned_duration_s\nzz_first,1.0\naa_second,1.1\n")
+    text = build_report(demo).read_text()
+    sections = re.findall(r'<section id="s\d+" data-figures="\d+"><h2>([^<]+)</h2>', text)
+    assert sections == ["Plan: corner_g2 (zz_first/plan)", "Plan: corner_g2 (aa_second/plan)"]
+
+
+def test_best_point_without_varying_parameters_reads_as_a_sentence(tmp_path):
+    folder = tmp_path / "one"
+    folder.mkdir()
+    header, row = SWEEP_HEADER.split(",", 1)[1], SWEEP_ROWS[0].split(",", 1)[1]  # no parameter column
+    (folder / "sweep.csv").write_text(f"{header}\n{row}\n")
+    (folder / "best.json").write_text(json.dumps({"index": 0}))
+    text = build_report(folder).read_text()
+    assert "Best score (best.json): point #0 (no parameter varies)." in text
 
 
 def test_report_is_rewritten_atomically(results, report):

@@ -223,6 +223,15 @@ def _plan_summary_row(summary: dict) -> dict:
             "baseline": summary.get(schema.BASELINE_DURATION.key)}
 
 
+def _title(kind: str, result: ResultFolder, root: Path, scenario) -> str:
+    """'Plan: corner_g2 (out/g2)': the scenario's name and the folder (the root by its own name, not '.')."""
+    label = result.label(root)
+    folder = root.resolve().name if label == "." else label
+    if scenario and str(scenario) != folder:
+        return f"{kind}: {scenario} ({folder})"
+    return f"{kind}: {folder}"
+
+
 def plan_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """Key figures, phase plane, joint limits, the planned TCP path and the arm of a plan folder."""
     folder = result.path
@@ -245,7 +254,7 @@ def plan_section(result: ResultFolder, root: Path, anchor: str) -> Section:
                   _arm(data, tcp, anchor, "planned motion")]
         count += 3
     row = _plan_summary_row(summary)
-    return Section(anchor, f"Plan: {result.label(root)}", "".join(parts), count, row)
+    return Section(anchor, _title("Plan", result, root, summary.get("scenario")), "".join(parts), count, row)
 
 
 def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section:
@@ -296,7 +305,8 @@ def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section
     row = _plan_summary_row(plan_summary)
     row.update(simulated=summary.get(schema.CYCLE_TIME.key), path_dev=summary.get(schema.PATH_ACCURACY.key),
                sharp_dev=summary.get(schema.MAX_SHARP_DEVIATION.key), tracking=summary.get(schema.TRACKING_OK.key))
-    return Section(anchor, f"Simulation: {result.label(root)}", "".join(parts), count, row)
+    return Section(anchor, _title("Simulation", result, root, plan_summary.get("scenario")), "".join(parts), count,
+                   row)
 
 
 def sweep_parameters(names: Sequence[str], spec: dict | None) -> list[str]:
@@ -399,7 +409,11 @@ def _varying(rows: list[dict], params: Sequence[str]) -> list[str]:
 
 
 def _points_text(rows: list[dict], errors: list[int], noun: str = "point") -> str:
-    return f"{len(rows)} {noun}{'s' if len(rows) != 1 else ''}, {len(errors)} failed"
+    """'12 points: 9 tracked, 2 tracking failed, 1 error': a failed tracking is a result, an error is not."""
+    failed = sum(1 for i, r in enumerate(rows) if i not in set(errors) and r.get(schema.TRACKING_OK.key) is False)
+    tracked = len(rows) - failed - len(errors)
+    return (f"{len(rows)} {noun}{'s' if len(rows) != 1 else ''}: {tracked} tracked, {failed} tracking failed, "
+            f"{len(errors)} error{'s' if len(errors) != 1 else ''}")
 
 
 def _summary_from_row(row: dict | None) -> dict:
@@ -440,15 +454,17 @@ def sweep_section(result: ResultFolder, root: Path, anchor: str) -> Section:
              + f": {_points_text(rows, errors)}.")
     if best_index is not None:
         rule = best.get("rule", "") if isinstance(best, dict) else ""
-        intro += (f" Best point ({escape(source)}): #{best_index}, "
-                  + escape(", ".join(f"{p} = {_fmt(best.get(p))}" for p in varying))
+        values = ", ".join(f"{p} = {_fmt(best.get(p))}" for p in varying)
+        intro += (f" Best score ({escape(source)}): point #{best_index}"
+                  + (f", {escape(values)}" if values else " (no parameter varies)")
                   + (f" <span class=\"muted\">({escape(rule)})</span>" if rule else "") + ".")
     intro += "</p>"
     parts = [intro, *parts, _rows_table(rows, params, {best_index} if best_index is not None else set(),
                                         "Points (sweep.csv); the best point is highlighted")]
     row = _summary_from_row(rows[best_index] if best_index is not None else rows[0] if len(rows) == 1 else None)
     row.update(scenario=scenario and Path(str(scenario)).stem, points=_points_text(rows, errors))
-    return Section(anchor, f"Sweep: {result.label(root)}", "".join(parts), count, row)
+    return Section(anchor, _title("Sweep", result, root, scenario and Path(str(scenario)).stem), "".join(parts),
+                   count, row)
 
 
 def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
@@ -473,7 +489,7 @@ def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
                          "Runs (corner_study.csv); the best-scored run is highlighted")]
     row = _summary_from_row(rows[best_index] if best_index is not None else None)
     row["points"] = _points_text(rows, errors, "run")
-    return Section(anchor, f"Corner study: {result.label(root)}", "".join(parts), count, row)
+    return Section(anchor, _title("Corner study", result, root, None), "".join(parts), count, row)
 
 
 RENDERERS = {"plan": plan_section, "simulation": simulation_section, "sweep": sweep_section, "study": study_section}
@@ -550,11 +566,25 @@ def render_page(root: Path, sections: Sequence[Section]) -> str:
 """
 
 
+def _in_study_order(results, root: Path):
+    """The results of a demo folder in the order of its table (demo.csv: the thesis' experiments in
+    study order), the others (the corner study) after them; any other folder in name order."""
+    if not (root / "demo.csv").is_file():
+        return results
+    order = [str(r.get(schema.SCENARIO.key)) for r in read_rows(root / "demo.csv")[1]]
+
+    def rank(result):
+        top = result.path.relative_to(root).parts[:1]
+        return order.index(top[0]) if top and top[0] in order else len(order)
+
+    return tuple(sorted(results, key=rank))  # stable: the name order within a rank
+
+
 def build_report(folder: str | Path, out: str | Path | None = None) -> Path:
     """Write ``out`` (default ``folder/report.html``): one self-contained interactive page of every
     result under ``folder`` (see the module docstring); returns its path. PathmotionError when there
     is none."""
     root = Path(folder)
-    results = discover(root)
+    results = _in_study_order(discover(root), root)
     sections = [RENDERERS[r.kind](r, root, f"s{k + 1}") for k, r in enumerate(results)]
     return write_text(root / "report.html" if out is None else Path(out), render_page(root, sections))
