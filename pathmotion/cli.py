@@ -32,6 +32,9 @@ err_console = Console(stderr=True)
 logger = logging.getLogger(__name__)
 
 
+#: The study's best score: the lowest score, not the fastest run within a deviation ("best within 10 mm").
+BEST_SCORE_TITLE = "best score: least cycle time + weight x mean deviation from the sharp path"
+
 #: Exit code of a failed result (Click uses 2 for usage errors; 1 bad input, 3 internal error, 130 interrupted).
 EXIT_FAILED_RESULT = 4
 
@@ -533,7 +536,7 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     console.print(f"{len(outcome.rows)} points: {len(outcome.rows) - errors - failed} tracked, {failed} tracking "
                   f"failed, {errors} error(s) -> {out}/sweep.csv")
     if outcome.best is not None:
-        _print_table(_summary_table("best point (best.json)", outcome.best))
+        _print_table(_summary_table(f"{BEST_SCORE_TITLE} (best.json)", outcome.best))
 
 
 @app.command()
@@ -558,7 +561,7 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
     """The main job: the thesis' experiments on the IRB140 (circle at boundary-level speed; the 90 degree
     corner stopped at, taken at boundary-level speed, with a transition circle and with a G2 blend),
     planned and simulated; then the corner study (sweeps over r_t, the blend speed and the G2
-    tolerance, with the thesis-style figures and the best trade-off); a comparison table and report.
+    tolerance, with the thesis-style figures and the best-scored trade-off); a comparison table and report.
 
     Example: [bold]pathmotion demo --out out/demo[/]
     """
@@ -594,7 +597,7 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
                                   on_result=lambda done, total: progress.update(task, completed=done, total=total))
         console.print(f"corner study: {len(result.rows)} runs, figures in {result.out}")
         if result.best is not None:
-            _print_table(_summary_table("best trade-off (least mean deviation + shortest cycle)", result.best))
+            _print_table(_summary_table(f"{BEST_SCORE_TITLE} (corner_study.json)", result.best))
     from .report.html import build_report
 
     console.print(f"report: {build_report(out)}")

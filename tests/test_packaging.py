@@ -35,3 +35,17 @@ def test_documented_commands_use_the_readme_environment_not_a_machine_path():
     for path in texts:
         for n, line in enumerate(path.read_text().splitlines(), 1):
             assert not re.search(r"(^|[\s`\"'(])/(work|home|root|Users)/", line), f"{path.name}:{n}: {line}"
+
+
+def test_every_best_says_which_best():
+    """Two rules pick a 'best' run: the study's score (time + weight x deviation) and the fastest run
+    within 10 mm of the sharp path; the README, docs and the CLI's words name which one they mean."""
+    import re
+
+    named = re.compile(r"best[ -]scor|best within|best\.json|choose_best|outcome\.best|result\.best|best_|"
+                       r"loc=\"best\"|best baseline|refined around the best|at best\b", re.I)
+    for path in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), ROOT / "pathmotion" / "cli.py"]:
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            for m in re.finditer(r"\bbest\b", line, flags=re.I):
+                around = line[max(0, m.start() - 25): m.end() + 30]
+                assert named.search(around), f"{path.name}:{n}: which best? {line.strip()}"
