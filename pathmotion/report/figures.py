@@ -24,6 +24,22 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+#: Characters per line of a figure title: longer titles wrap instead of widening the saved figure.
+TITLE_WIDTH = 90
+
+
+def _wrapped(title: str, width: int = TITLE_WIDTH) -> str:
+    """``title`` wrapped onto lines of at most ``width`` characters."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(str(title), width)) or str(title)
+
+
+def _legend_outside(ax, **kwargs):
+    """The legend right of the axes, never over the curves."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8, **kwargs)
+
+
 def _joint_names(folder: Path, n: int) -> list[str]:
     names = (read_json(folder / "limits.json", {}) or {}).get("joint_names")
     return list(names) if names and len(names) == n else [f"joint {j + 1}" for j in range(n)]
@@ -59,8 +75,8 @@ def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     name = summary.get(schema.SCENARIO.key)
-    ax.set_title(f"{name}: phase plane" if name else "Phase plane")
-    ax.legend(loc="best", fontsize=8)
+    ax.set_title(_wrapped(f"{name}: phase plane" if name else "Phase plane"))
+    _legend_outside(ax)
     ax.grid(alpha=0.3)
     return ax
 
@@ -76,7 +92,8 @@ def plan_figures(folder: str | Path) -> list[Path]:
     lim = read_json(out / "limits.json", {}) or {}
     q = joint_columns(traj, "q")
     names = _joint_names(out, q.shape[1])
-    rows = [("q [rad]", q, None), ("qd / limit", joint_columns(traj, "qd"), lim.get("velocity"))]
+    rows = [("q in range", _in_range(q, lim), "range") if lim.get("lower") is not None else ("q [rad]", q, None),
+            ("qd / limit", joint_columns(traj, "qd"), lim.get("velocity"))]
     qdd, tau = joint_columns(traj, "qdd"), joint_columns(traj, "tau")
     if qdd is not None and lim.get("acceleration") is not None:
         rows.append(("qdd / limit", qdd, lim["acceleration"]))
@@ -86,18 +103,29 @@ def plan_figures(folder: str | Path) -> list[Path]:
     fig, axes = plt.subplots(len(rows), 1, figsize=(9, 2.2 * len(rows)), sharex=True)
     for ax, (label, arr, limit) in zip(np.atleast_1d(axes), rows):
         for j in range(arr.shape[1]):
-            ax.plot(traj["t"], arr[:, j] if limit is None else arr[:, j] / limit[j], lw=1, label=names[j])
-        if limit is not None:
+            ratio = arr[:, j] if limit is None or isinstance(limit, str) else arr[:, j] / limit[j]
+            ax.plot(traj["t"], ratio, lw=1, label=names[j])
+        if isinstance(limit, str):  # the joint range: 0 = lower, 1 = upper end
+            for y in (0, 1):
+                ax.axhline(y, color="k", lw=0.8, ls="--")
+        elif limit is not None:
             ax.axhline(1, color="k", lw=0.8, ls="--")
             ax.axhline(-1, color="k", lw=0.8, ls="--")
         ax.set_ylabel(label if limit is not None else label.replace(" / limit", ""))  # no limits.json: raw values
         ax.grid(alpha=0.3)
     axes = np.atleast_1d(axes)
-    axes[0].legend(ncol=min(6, len(names)), fontsize=7, loc="upper right")
+    _legend_outside(axes[0])
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle(f"{summary.get(schema.SCENARIO.key, out.name)}: planned joint motion against the limits")
+    fig.suptitle(_wrapped(f"{summary.get(schema.SCENARIO.key, out.name)}: planned joint motion against the limits "
+                          "(dashed: the limits; q: 0 = lower, 1 = upper end of its range)"))
     paths.append(_save(fig, out / "joints.png"))
     return paths
+
+
+def _in_range(q: np.ndarray, lim: dict) -> np.ndarray:
+    """q (N, n) [rad] as the fraction of each joint's range [-]: 0 at its lower, 1 at its upper limit."""
+    lower, upper = np.asarray(lim["lower"], float), np.asarray(lim["upper"], float)
+    return (q - lower) / (upper - lower)
 
 
 def _tracking_joints(out: Path, summary: dict, sim: dict[str, np.ndarray]) -> Path:
@@ -107,7 +135,7 @@ def _tracking_joints(out: Path, summary: dict, sim: dict[str, np.ndarray]) -> Pa
     for j in range(err.shape[1]):
         axes[0].plot(sim["t"], err[:, j], lw=1, label=names[j])
     axes[0].set_ylabel("q - Phi(theta) [rad]")
-    axes[0].legend(ncol=6, fontsize=7)
+    _legend_outside(axes[0])
     axes[0].grid(alpha=0.3)
     axes[1].plot(sim["t"], sim["theta"], lw=1.2)
     axes[1].set_ylabel("theta")
@@ -117,7 +145,7 @@ def _tracking_joints(out: Path, summary: dict, sim: dict[str, np.ndarray]) -> Pa
     ok = summary.get(schema.TRACKING_OK.key, True)
     status = "tracking ok" if ok else f"tracking FAILED: {failure.get('message', '')}"
     name = (summary.get("plan") or {}).get(schema.SCENARIO.key, out.name)
-    fig.suptitle(f"{name}: joint tracking ({summary.get(schema.CONTROLLER.key)}) - {status}", fontsize=10)
+    fig.suptitle(_wrapped(f"{name}: joint tracking ({summary.get(schema.CONTROLLER.key)}) - {status}"), fontsize=10)
     return _save(fig, out / "tracking_joints.png")
 
 
@@ -133,13 +161,18 @@ def simulation_figures(folder: str | Path) -> list[Path]:
     if (out / "original_path.csv").is_file():
         p0 = read_columns(out / "original_path.csv", ("x", "y"))
         ax.plot(p0["x"], p0["y"], color="0.6", lw=1, ls=":", label="original (sharp) path")
-    ax.plot(sim["tcp_desired_x"], sim["tcp_desired_y"], "k--", lw=1, label="desired")
+    planned = out / "plan" / "tcp_path.csv"
+    if planned.is_file():  # the whole planned path, every segment, also where a failed run stopped early
+        p1 = read_columns(planned, ("tcp_x", "tcp_y"))
+        ax.plot(p1["tcp_x"], p1["tcp_y"], "k--", lw=1, label="desired (planned path)")
+    else:
+        ax.plot(sim["tcp_desired_x"], sim["tcp_desired_y"], "k--", lw=1, label="desired")
     ax.plot(sim["tcp_x"], sim["tcp_y"], color="C0", lw=1.2, label="simulated TCP")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title("TCP path, top view")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2)
     ax.grid(alpha=0.3)
     ax = axes[1]
     ax.plot(sim["t"], 1e3 * sim["path_deviation"], lw=1.2, label="distance to the desired path")
@@ -148,9 +181,9 @@ def simulation_figures(folder: str | Path) -> list[Path]:
     ax.set_xlabel("t [s]")
     ax.set_ylabel("TCP deviation [mm]")
     ax.set_title("Task-space error")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15))
     ax.grid(alpha=0.3)
     name = (summary.get("plan") or {}).get(schema.SCENARIO.key, out.name)
-    fig.suptitle(f"{name}: task-space tracking ({summary.get(schema.CONTROLLER.key)})", fontsize=10)
+    fig.suptitle(_wrapped(f"{name}: task-space tracking ({summary.get(schema.CONTROLLER.key)})"), fontsize=10)
     paths.append(_save(fig, out / "tracking_task.png"))
     return paths

@@ -36,7 +36,7 @@ def _save(fig, path: Path) -> Path:
 
     path = Path(path)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
+        fig.savefig(tmp, dpi=120, format="png", bbox_inches="tight")
     _plt().close(fig)
     return path
 
@@ -63,23 +63,55 @@ def tradeoff_figure(rows: Sequence[dict], front: Sequence[int], best: dict | Non
         r = rows[best["index"]]
         ax.scatter([r[x_key] * MM], [r[y_key]], marker="*", s=220, color="tab:red", zorder=4,
                    label=f"best score {best['score']:.4g}")
-    if point_label is not None:
-        for i in ok:
-            ax.annotate(point_label(rows[i]), (rows[i][x_key] * MM, rows[i][y_key]), fontsize=7,
-                        xytext=(4, -9), textcoords="offset points", color="0.35")
-    for i, text in (labels or {}).items():
-        if i in ok:
-            ax.annotate(text, (rows[i][x_key] * MM, rows[i][y_key]), fontsize=9, weight="bold",
-                        xytext=(6, 6), textcoords="offset points")
+    named = [(text, rows[i][x_key] * MM, rows[i][y_key]) for i, text in (labels or {}).items() if i in ok]
+    small = [] if point_label is None else [(point_label(rows[i]), rows[i][x_key] * MM, rows[i][y_key]) for i in ok
+                                            if i not in (labels or {})]
+    _place_labels(ax, named + small, fontsize=8, color="0.25")  # named points first: they get a place
     if failed:
         ax.plot([], [], " ", label=f"{failed} point(s) failed or lost tracking (not shown)")
     ax.set_xlabel("largest TCP distance from the sharp path [mm]")
     ax.set_ylabel("cycle time (closed loop) [s]")
-    ax.set_title(title or "Deviation vs cycle time")
+    ax.set_title(_wrapped(title or "Deviation vs cycle time", 70))
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    _legend_outside(ax, fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _wrapped(title: str, width: int = 90) -> str:
+    """``title`` on lines of at most ``width`` characters (a long title must not widen the figure)."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(str(title), width)) or str(title)
+
+
+def _legend_outside(ax, **kwargs):
+    """The legend right of the axes, never over the curves."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kwargs)
+
+
+def _place_labels(ax, points: Sequence[tuple[str, float, float]], **style) -> list:
+    """Annotate ``points`` (text, x, y in data units), each at the first of eight offsets around its
+    point where its box overlaps no label placed before and no point marker; a label with no free
+    place is left out. Returns the placed annotations."""
+    fig = ax.figure
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    marks = [ax.transData.transform((x, y)) for _, x, y in points]
+    placed, boxes = [], []
+    offsets = [(5, 4), (5, -11), (-5, 4), (-5, -11), (0, 10), (0, -16), (10, -4), (-10, -4)]
+    for text, x, y in points:
+        for dx, dy in offsets:
+            ann = ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points",
+                              ha="left" if dx >= 0 else "right", **style)
+            box = ann.get_window_extent(renderer).expanded(1.05, 1.1)
+            hits_mark = any(box.contains(mx, my) for mx, my in marks)
+            if not hits_mark and not any(box.overlaps(b) for b in boxes):
+                placed.append(ann)
+                boxes.append(box)
+                break
+            ann.remove()
+    return placed
 
 
 def _finite(v) -> bool:
@@ -90,7 +122,7 @@ def _panels(n: int):
     plt = _plt()
     cols = 2 if n > 1 else 1
     rows = int(math.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False, sharex=True)
     for ax in axes.ravel()[n:]:
         ax.set_visible(False)
     return fig, axes.ravel()
@@ -108,8 +140,8 @@ def y_figure(runs: Sequence[tuple[str, dict]], path: str | Path, title: str) -> 
         ax.set_xlabel("t [s]")
         ax.set_ylabel("y [mm]")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7, loc="best")
-    fig.suptitle(title)
+    _legend_outside(axes[min(1, len(axes) - 1)] if len(runs) > 1 else axes[0], fontsize=7)
+    fig.suptitle(_wrapped(title))
     fig.tight_layout()
     return _save(fig, path)
 
@@ -126,10 +158,25 @@ def error_figure(runs: Sequence[tuple[str, dict]], path: str | Path, title: str)
         ax.set_xlabel("t [s]")
         ax.set_ylabel("error [mm]")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7, loc="best", ncol=2)
-    fig.suptitle(title)
+    _legend_outside(axes[min(1, len(axes) - 1)] if len(runs) > 1 else axes[0], fontsize=7)
+    fig.suptitle(_wrapped(title))
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _frame(runs, sharp, corner: np.ndarray, half_width: float, margin: float = 0.08):
+    """x and y limits [m]: the box of every curve's points within ``half_width`` of the corner, plus
+    ``margin`` of its size (the curves fill the frame; empty window: the whole window)."""
+    curves = [tr[k] for _, tr in runs for k in ("tcp", "planned_path") if k in tr]
+    if sharp is not None:
+        curves.append(sharp)
+    pts = np.concatenate([np.asarray(cv, float)[:, :2] for cv in curves]) if curves else np.empty((0, 2))
+    near = pts[np.all(np.abs(pts - corner[:2]) <= half_width, axis=1)]
+    if len(near) < 2:
+        return (corner[0] - half_width, corner[0] + half_width), (corner[1] - half_width, corner[1] + half_width)
+    lo, hi = near.min(axis=0), near.max(axis=0)
+    pad = margin * max(float(np.max(hi - lo)), 1e-6)
+    return (lo[0] - pad, hi[0] + pad), (lo[1] - pad, hi[1] + pad)
 
 
 def corner_view_figure(runs: Sequence[tuple[str, dict]], corner: Sequence[float], half_width: float,
@@ -148,13 +195,14 @@ def corner_view_figure(runs: Sequence[tuple[str, dict]], corner: Sequence[float]
         if "planned_path" in tr:
             ax.plot(tr["planned_path"][:, 0] * MM, tr["planned_path"][:, 1] * MM, "--", color=col, lw=0.9)
         ax.plot(tr["tcp"][:, 0] * MM, tr["tcp"][:, 1] * MM, color=col, lw=1.5, label=label)
-    ax.set_xlim((c[0] - half_width) * MM, (c[0] + half_width) * MM)
-    ax.set_ylim((c[1] - half_width) * MM, (c[1] + half_width) * MM)
+    (x0, x1), (y0, y1) = _frame(runs, sharp, c, half_width)
+    ax.set_xlim(x0 * MM, x1 * MM)
+    ax.set_ylim(y0 * MM, y1 * MM)
     ax.set_aspect("equal")
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
-    ax.set_title(title)
+    _legend_outside(ax, fontsize=8)
+    ax.set_title(_wrapped(title, 60))
     fig.tight_layout()
     return _save(fig, path)
