@@ -253,3 +253,7 @@ MAX_GAIN = 1.0e4
 #: Rated payload [kg] of the built-in robots, by name: a scenario payload above it is reported as a likely
 #: unit slip (grams for kg). IRB140: 6 kg (ABB IRB 140-6/0.8, official).
 RATED_PAYLOAD = {"irb140": 6.0}
+#: Planner, third-order limits (jerk, torque rate): sequential LP stops when the duration changes by
+#: less than this fraction, or after this many LPs [-].
+THIRD_ORDER_TOLERANCE = 1e-5
+THIRD_ORDER_ITERATIONS = 60

@@ -147,7 +147,7 @@ def test_scenario_limits_become_settings():
 
 def test_unknown_limit_keyword_is_refused():
     with pytest.raises(ScenarioError, match="unknown keyword"):
-        PlanSettings(jerk=True)
+        PlanSettings(snap=True)  # jerk is a limit since issue 12; snap is not
 
 
 def test_modes_are_enums_validated_once():

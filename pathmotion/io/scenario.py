@@ -151,6 +151,14 @@ class LimitsSpec(_Model):
     torque_speed: dict[str, float | tuple[float, ...]] | None = Field(
         None, description="torque-speed envelope {knee, at_max_speed}, fractions in (0, 1] (scalar or per joint); "
                           "off when absent")
+    jerk: tuple[float, ...] | None = Field(None, description="joint jerk limits [rad/s^3] (default: the robot's)")
+    use_jerk: bool | None = Field(None, description="enforce the jerk limits (default: when [limits] jerk is given)")
+    jerk_scale: float = Field(1.0, gt=0)
+    torque_rate: tuple[float, ...] | None = Field(None, description="joint torque-rate limits [N m/s] (default: "
+                                                  "the robot's)")
+    use_torque_rate: bool | None = Field(None, description="enforce the torque-rate limits (default: when "
+                                                           "[limits] torque_rate is given)")
+    torque_rate_scale: float = Field(1.0, gt=0)
 
 
 Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]

@@ -31,6 +31,7 @@ from .limit_rows import LimitRows, limit_rows
 from .limits import REGISTRY, EffectiveLimits, LimitChoice, PathPoints, effective_limits_for, tcp_gain
 from .profile import Profile
 from .segments import solve_chain
+from .third_order import solve_third_order
 from .topp import IntervalProblem, interval_problem, maximum_velocity_curve
 from .trajectory import Trajectory
 from .verify import LimitRatios, interval_maxima, outside, sample_ratios, summarize, summarize_intervals
@@ -329,7 +330,11 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
     theta = grid.theta
     if samp is None:
-        samp = _sample(path, robot, theta, grid.breaks, donor)
+        sides = grid.breaks
+        if limits.third_order:  # spline knots: Phi''' jumps, so the third-order rows need both sides
+            knots = np.searchsorted(theta, [k for k in getattr(path, "knots", ()) if theta[0] < k < theta[-1]])
+            sides = tuple(sorted(set(grid.breaks) | {int(i) for i in knots}))
+        samp = _sample(path, robot, theta, sides, donor)
         for lim in limits:
             lim.check(samp.right, robot.joint_names)
     stops = set(grid.kinks)
@@ -393,7 +398,9 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
     """{name: (K - 1, m) bound of the ratio on each interval of the planner's ``grid``, outside the
     profile's jump intervals} and the summary ratios (everywhere), by the certified interval bound or
     the dense resample."""
-    if settings.verify == VerifyMode.DENSE:
+    if settings.verify == VerifyMode.DENSE or sol.profile.smooth:
+        # the certified bounds assume theta_ddot constant per interval; a smooth (third-order) profile
+        # is verified on the dense resample, which evaluates it exactly
         dt = settings.verify_sample_time
         samples, r = sample_ratios(traj, limits, dt, sol.jump_intervals)
         ratios = summarize(samples, r, limits, dt, jumps, robot.joint_names)
@@ -436,18 +443,42 @@ def _solve_rows(grid, samp, limits, scale, x_ref, chain_args):
     """Build the rows and solve. With rows linearized around x_ref (``relinearize`` limits: inner
     bounds, exact at x_ref) re-solve with x_ref = the previous x until the duration changes by less
     than RELINEARIZE_TOLERANCE: the previous x stays feasible, so the duration never increases."""
-    problem, right, left = _build(grid, samp, limits, scale, x_ref)
+    problem, right, left = _build(grid, samp, limits, scale, None if limits.third_order else x_ref)
     sol = solve_chain(problem, **chain_args)
-    if not limits.relinearize:
-        return problem, right, left, sol
-    for _ in range(defaults.RELINEARIZE_ITERATIONS):
+    for _ in range(defaults.RELINEARIZE_ITERATIONS if limits.relinearize else 0):
         previous = sol.profile.duration
         problem, right, left = _build(grid, samp, limits, scale, sol.x)
         sol = solve_chain(problem, **chain_args)
         log.debug("relinearized rows: duration %.9g s (was %.9g s)", sol.profile.duration, previous)
         if abs(previous - sol.profile.duration) <= defaults.RELINEARIZE_TOLERANCE * previous:
             break
+    if limits.third_order:
+        sol = _smooth(grid, samp, limits, scale, sol, chain_args, x_ref)
     return problem, right, left, sol
+
+
+def _smooth(grid, samp, limits, scale, sol, chain_args, x_ref):
+    """The third-order (jerk, torque-rate) solution, linearized first around ``x_ref`` (the previous
+    smooth solution, when re-solving after tightening) or the second-order optimum ``sol.x``."""
+    k = len(grid)
+    rest = np.zeros(k, dtype=bool)
+    rest[list(chain_args["stops"])] = True
+    connections = chain_args["connections"]
+    if connections == Connections.MAX:
+        raise ScenarioError("jerk and torque-rate limits need a continuous profile: connections = 'max' makes "
+                            "theta_dot jump at segment connections; use 'chain' or 'zero'")
+    if connections == Connections.ZERO:
+        rest[list(chain_args["breaks"])] = True
+    fixed = {}
+    if not chain_args["periodic"]:
+        for idx, cond in ((0, chain_args["start"]), (k - 1, chain_args["end"])):
+            if cond == BoundaryMode.ZERO or (not isinstance(cond, str) and float(cond) == 0.0):
+                rest[idx] = True
+            elif not isinstance(cond, str):
+                fixed[idx] = float(cond) ** 2
+    start = sol.x if x_ref is None or len(x_ref) != k else x_ref
+    profile, _ = solve_third_order(grid, samp, limits, scale, start, rest, fixed, chain_args["periodic"])
+    return replace(sol, profile=profile, segment_profiles=(profile,), x=profile.x)
 
 
 def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:

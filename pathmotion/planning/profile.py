@@ -9,6 +9,14 @@ so x(theta) = x_i + 2 u_i (theta - theta_i) exactly and time is analytic:
 This is the representation every time-optimal planner here returns and every consumer
 (trajectory sampling, controllers) reads. :func:`piece_x` is the one lookup of x on a piece; the
 controllers' compiled kernels (control/kernels.py) compile this same function.
+
+Smooth profiles (third-order limits: jerk, torque rate) also carry ``u_nodes`` (K,): theta_ddot at
+the grid points, linear between them in a per-interval coordinate xi (planning/smooth.py: the cube
+root of the distance to the nearest rest point on that side, so the constant-jerk S-curve start
+x ~ s^(4/3) is represented exactly; theta itself where no rest point is near). x follows in closed
+form, theta_dddot = du/dtheta theta_dot, times by Gauss-Legendre quadrature in xi, theta(t) by
+Newton's method. ``u`` stays the chord (x_{i+1} - x_i) / (2 Delta_i) for consumers that read
+piecewise-linear x (the controllers).
 """
 
 from __future__ import annotations
@@ -19,6 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import PathmotionError
+from . import smooth
 
 
 def piece_x(grid, x, u, i, theta):
@@ -34,6 +43,7 @@ class Profile:
 
     grid: np.ndarray
     x: np.ndarray
+    u_nodes: np.ndarray | None = None
 
     def __post_init__(self):
         grid = np.asarray(self.grid, dtype=float)
@@ -54,6 +64,21 @@ class Profile:
             )
         object.__setattr__(self, "grid", grid)
         object.__setattr__(self, "x", x)
+        if self.u_nodes is not None:
+            un = np.asarray(self.u_nodes, dtype=float)
+            if un.shape != x.shape or not np.all(np.isfinite(un)):
+                raise PathmotionError(f"profile: u_nodes {un.shape} must be finite and shaped like x {x.shape}")
+            object.__setattr__(self, "u_nodes", un)
+
+    @cached_property
+    def coords(self) -> tuple[np.ndarray, np.ndarray]:
+        """Smooth profiles: (origin, sign) of each interval's xi (planning/smooth.py)."""
+        return _coords(self)
+
+    @property
+    def smooth(self) -> bool:
+        """theta_ddot is continuous (piecewise linear in theta; see the module docstring)."""
+        return self.u_nodes is not None
 
     @cached_property
     def u(self) -> np.ndarray:
@@ -63,8 +88,11 @@ class Profile:
     @cached_property
     def times(self) -> np.ndarray:
         """Time at each grid point [s], (K,), starting at 0."""
-        sq = np.sqrt(self.x)
-        dt = 2.0 * np.diff(self.grid) / (sq[:-1] + sq[1:])
+        if self.smooth:
+            dt = _smooth_interval_times(self)
+        else:
+            sq = np.sqrt(self.x)
+            dt = 2.0 * np.diff(self.grid) / (sq[:-1] + sq[1:])
         return np.concatenate([[0.0], np.cumsum(dt)])
 
     @property
@@ -78,6 +106,8 @@ class Profile:
         """x = theta_dot^2 at theta (linear interpolation is exact here)."""
         th = np.asarray(theta, dtype=float)
         i = self._interval(th)
+        if self.smooth:
+            return _smooth_state(self, i, th)[0]
         return piece_x(self.grid, self.x, self.u, i, th)
 
     def theta_dot_at(self, theta) -> np.ndarray:
@@ -85,19 +115,86 @@ class Profile:
 
     def theta_ddot_at(self, theta) -> np.ndarray:
         """u on the interval containing theta (right-continuous)."""
-        return self.u[self._interval(np.asarray(theta, dtype=float))]
+        th = np.asarray(theta, dtype=float)
+        if self.smooth:
+            i = self._interval(th)
+            return _smooth_state(self, i, th)[1]
+        return self.u[self._interval(th)]
 
     def state_at_time(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(theta, theta_dot, theta_ddot) at times t [s] (clipped to [0, duration])."""
+        return self.state3_at_time(t)[:3]
+
+    def state3_at_time(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(theta, theta_dot, theta_ddot, theta_dddot) at times t [s] (clipped to [0, duration]);
+        theta_dddot is 0 inside the intervals of a non-smooth profile."""
         t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         i = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.grid) - 2)
         tau = t - self.times[i]
+        if self.smooth:
+            return _smooth_at_time(self, i, tau)
         v0 = np.sqrt(self.x[i])
         u = self.u[i]
         theta = np.minimum(self.grid[i] + v0 * tau + 0.5 * u * tau**2, self.grid[i + 1])
         theta_dot = np.sqrt(piece_x(self.grid, self.x, self.u, i, theta))
-        return theta, theta_dot, u
+        return theta, theta_dot, u, np.zeros_like(theta)
 
     def scaled(self, factor: float) -> "Profile":
         """The same shape with theta_dot multiplied by ``factor`` (x by factor^2)."""
-        return Profile(self.grid, self.x * factor**2)
+        return Profile(self.grid, self.x * factor**2, None if self.u_nodes is None else self.u_nodes * factor**2)
+
+
+#: Gauss-Legendre nodes and weights on [0, 1] for the smooth profile's interval times.
+_GL_T, _GL_W = np.polynomial.legendre.leggauss(8)
+_GL_T, _GL_W = 0.5 * (_GL_T + 1.0), 0.5 * _GL_W
+#: Newton iterations for theta(t) inside a smooth interval.
+NEWTON_STEPS = 8
+
+
+def _coords(p: Profile):
+    return smooth.coordinates(p.grid, p.x <= 0.0)
+
+
+def _smooth_state(p: Profile, i, theta):
+    """(x, u, theta_dddot) at theta in interval i."""
+    origin, sign = p.coords
+    return smooth.state(p.grid, p.x, p.u_nodes, origin, sign, i, theta)
+
+
+def _rate(p: Profile, i, lam):
+    """(theta, dt/dlambda) at the fraction lambda of interval i's xi range: integrand of its time."""
+    origin, sign = p.coords
+    o, sg = origin[i], sign[i]
+    xi0 = smooth.xi_of(o, sg, p.grid[i])
+    dxi = smooth.xi_of(o, sg, p.grid[i + 1]) - xi0
+    xi = xi0 + lam * dxi
+    th = np.clip(smooth.theta_of(o, sg, xi), p.grid[i], p.grid[i + 1])
+    x = _smooth_state(p, i, th)[0]
+    dth = smooth.dtheta_dxi(sg, xi) * dxi
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return th, dth / np.sqrt(x)
+
+
+def _smooth_interval_times(p: Profile) -> np.ndarray:
+    """Duration of every interval (K-1,) [s], by Gauss-Legendre quadrature in its xi (the integrand
+    stays finite at a rest point, where x ~ xi^4 and d theta / d xi ~ xi^2)."""
+    i = np.repeat(np.arange(len(p.grid) - 1)[:, None], len(_GL_T), 1)
+    _, rate = _rate(p, i, np.broadcast_to(_GL_T, i.shape))
+    return np.sum(_GL_W * rate, axis=1)
+
+
+def _smooth_at_time(p: Profile, i: np.ndarray, tau: np.ndarray):
+    """(theta, theta_dot, theta_ddot, theta_dddot) at tau after the start of interval i: Newton's
+    method on the fraction lambda of the interval's xi range (t(lambda) by quadrature)."""
+    period = np.diff(p.times)[i]
+    lam = np.clip(tau / np.where(period > 0, period, 1.0), 0.0, 1.0)
+    for _ in range(NEWTON_STEPS):
+        _, rate = _rate(p, i[:, None], lam[:, None] * _GL_T[None, :])
+        t_lam = lam * np.sum(_GL_W * rate, axis=1)
+        _, r_end = _rate(p, i, lam)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = (t_lam - tau) / r_end
+        lam = np.clip(lam - np.where(np.isfinite(step), step, 0.0), 0.0, 1.0)
+    theta, _ = _rate(p, i, lam)
+    x, u, jerk = _smooth_state(p, i, theta)
+    return theta, np.sqrt(x), u, jerk

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import pinocchio as pin
+
 from ..robot import Robot, rnea
 
 
@@ -45,3 +47,40 @@ def reduced_dynamics(robot: Robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarra
     alpha = rnea(robot, q, zero, dq) - gamma
     beta = rnea(robot, q, dq, ddq) - gamma
     return ReducedDynamics(alpha, beta, gamma)
+
+
+def _rnea_derivatives(model, data, q, v, a) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(dtau/dq, dtau/dqd, M) (n, n) at one point (Pinocchio's analytic RNEA derivatives; M
+    symmetrized, armature included)."""
+    dq, dv, m = pin.computeRNEADerivatives(model, data, q, v, a)
+    m = np.triu(m) + np.triu(m, 1).T
+    return np.array(dq), np.array(dv), m
+
+
+def torque_derivative(robot: Robot, q, qd, qdd, qddd) -> np.ndarray:
+    """d tau / dt (N, n) [N m/s] = dtau/dq qd + dtau/dqd qdd + M qddd along a motion; inputs (N, n)."""
+    model, data = robot.model, robot.data
+    out = np.empty_like(np.asarray(q, float))
+    for k in range(len(out)):
+        dq, dv, m = _rnea_derivatives(model, data, q[k], qd[k], qdd[k])
+        out[k] = dq @ qd[k] + dv @ qdd[k] + m @ qddd[k]
+    return out
+
+
+def reduced_derivatives(robot: Robot, q, dq, ddq, dddq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(alpha', beta', gamma') (N, n): the theta-derivatives of the reduced dynamics, exact from the
+    RNEA derivatives and Phi''' (gamma' = d_q RNEA(Phi, 0, 0) Phi'; alpha' = d_q RNEA(Phi, 0, Phi')
+    Phi' + M Phi'' - gamma'; beta' = d_q RNEA(Phi, Phi', Phi'') Phi' + d_qd RNEA(...) Phi'' + M Phi''' - gamma')."""
+    model, data = robot.model, robot.data
+    n = robot.n
+    out = np.empty((3,) + np.shape(q))
+    zero = np.zeros(n)
+    for k in range(len(q)):
+        g_q, _, m = _rnea_derivatives(model, data, q[k], zero, zero)
+        gamma_p = g_q @ dq[k]
+        a_q, _, _ = _rnea_derivatives(model, data, q[k], zero, dq[k])
+        b_q, b_v, _ = _rnea_derivatives(model, data, q[k], dq[k], ddq[k])
+        out[0, k] = a_q @ dq[k] + m @ ddq[k] - gamma_p
+        out[1, k] = b_q @ dq[k] + b_v @ ddq[k] + m @ dddq[k] - gamma_p
+        out[2, k] = gamma_p
+    return out[0], out[1], out[2]

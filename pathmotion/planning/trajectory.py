@@ -10,12 +10,14 @@ from .. import defaults
 from ..errors import PathmotionError
 from ..joint_path import JointPath
 from ..robot import Robot, rnea
+from .reduced import torque_derivative
 from .profile import Profile
 
 
 @dataclass(frozen=True)
 class Samples:
-    """Trajectory samples: t (N,) [s]; theta, theta_dot, theta_ddot (N,); q, qd, qdd, tau (N, n)."""
+    """Trajectory samples: t (N,) [s]; theta, theta_dot, theta_ddot (N,); q, qd, qdd, tau (N, n);
+    theta_dddot (N,), qddd (N, n) [rad/s^3] and tau_dot (N, n) [N m/s] when asked for (else None)."""
 
     t: np.ndarray
     theta: np.ndarray
@@ -25,6 +27,9 @@ class Samples:
     qd: np.ndarray
     qdd: np.ndarray
     tau: np.ndarray | None
+    theta_dddot: np.ndarray | None = None
+    qddd: np.ndarray | None = None
+    tau_dot: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,15 +44,28 @@ class Trajectory:
     def duration(self) -> float:
         return self.profile.duration
 
-    def at_time(self, t) -> Samples:
-        """Samples at the given times [s] (clipped to [0, duration])."""
+    def at_time(self, t, third: bool = False, torque_rate: bool = False) -> Samples:
+        """Samples at the given times [s] (clipped to [0, duration]); ``third``: also theta_dddot
+        and the joint jerk qddd = Phi' theta_dddot + 3 Phi'' theta_dot theta_ddot + Phi''' theta_dot^3
+        (exact Phi'''); ``torque_rate``: also tau_dot = dtau/dq qd + dtau/dqd qdd + M qddd."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        theta, theta_dot, theta_ddot = self.profile.state_at_time(t)
-        q, dq, ddq = self.path.evaluate(theta)
+        theta, theta_dot, theta_ddot, theta_dddot = self.profile.state3_at_time(t)
+        third = third or torque_rate
+        if third:
+            q, dq, ddq, dddq = self.path.evaluate3(theta)
+        else:
+            q, dq, ddq = self.path.evaluate(theta)
         qd = dq * theta_dot[:, None]
         qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
         tau = None if self.robot is None else rnea(self.robot, q, qd, qdd)
-        return Samples(t, theta, theta_dot, np.broadcast_to(theta_ddot, t.shape).copy(), q, qd, qdd, tau)
+        qddd = tau_dot = None
+        if third:
+            qddd = (dq * theta_dddot[:, None] + 3.0 * ddq * (theta_dot * theta_ddot)[:, None]
+                    + dddq * (theta_dot**3)[:, None])
+        if torque_rate and self.robot is not None:
+            tau_dot = torque_derivative(self.robot, q, qd, qdd, qddd)
+        return Samples(t, theta, theta_dot, np.broadcast_to(theta_ddot, t.shape).copy(), q, qd, qdd, tau,
+                       theta_dddot if third else None, qddd, tau_dot)
 
     def sample(self, dt: float = defaults.SAMPLE_TIME) -> Samples:
         """Samples every ``dt`` seconds from 0, the last one at exactly the duration."""

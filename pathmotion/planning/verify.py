@@ -66,7 +66,7 @@ def sample_ratios(trajectory: Trajectory, limits: EffectiveLimits, dt: float,
     if jump_intervals:
         i = np.searchsorted(prof.grid, [a for a, _ in jump_intervals])
         t = np.sort(np.concatenate([t, 0.5 * (prof.times[i] + prof.times[i + 1])]))
-    s = traj.at_time(t)
+    s = traj.at_time(t, third=limits.third_order, torque_rate=limits.needs_torque_rate)
     return s, {lim.name: lim.ratios(s, trajectory.robot) for lim in limits}
 
 

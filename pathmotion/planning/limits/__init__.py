@@ -15,13 +15,16 @@ import numpy as np
 from ...robot import Robot
 from .acceleration import AccelerationLimit
 from .base import Limit, LimitChoice, PathPoints, Rows
+from .jerk import JerkLimit
 from .tcp_speed import TcpSpeedLimit, tcp_gain
 from .torque import TorqueLimit
+from .torque_rate import TorqueRateLimit
 from .torque_speed import TorqueSpeedLimit
 from .velocity import VelocityLimit
 
 #: Every limit class, in output order.
-REGISTRY: list[type[Limit]] = [VelocityLimit, AccelerationLimit, TorqueLimit, TcpSpeedLimit, TorqueSpeedLimit]
+REGISTRY: list[type[Limit]] = [VelocityLimit, AccelerationLimit, TorqueLimit, TcpSpeedLimit, TorqueSpeedLimit, JerkLimit,
+                              TorqueRateLimit]
 
 
 class EffectiveLimits:
@@ -39,6 +42,15 @@ class EffectiveLimits:
 
     def get(self, name: str) -> Limit | None:
         return next((lim for lim in self.active if lim.name == name), None)
+
+    @property
+    def third_order(self) -> bool:
+        """Some active limit is of order 3 (jerk, torque rate): the smooth planner runs."""
+        return any(lim.order == 3 for lim in self.active)
+
+    @property
+    def needs_torque_rate(self) -> bool:
+        return any(lim.order == 3 and lim.needs_torque for lim in self.active)
 
     @property
     def relinearize(self) -> bool:
@@ -83,6 +95,6 @@ def limit_choices(source, keys: str = "scenario_keys") -> dict[str, LimitChoice]
 
 
 __all__ = [
-    "AccelerationLimit", "EffectiveLimits", "Limit", "LimitChoice", "PathPoints", "REGISTRY", "Rows",
+    "AccelerationLimit", "EffectiveLimits", "JerkLimit", "TorqueRateLimit", "Limit", "LimitChoice", "PathPoints", "REGISTRY", "Rows",
     "TcpSpeedLimit", "TorqueLimit", "TorqueSpeedLimit", "VelocityLimit", "limit_choices", "effective_limits_for", "tcp_gain",
 ]

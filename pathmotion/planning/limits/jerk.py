@@ -1,0 +1,33 @@
+"""Joint jerk limit: |q'''_j| <= J_j with q''' = Phi''' theta_dot^3 + 3 Phi'' theta_dot theta_ddot
++ Phi' theta_dddot = sqrt(x) (Phi''' x + 3 Phi'' u + Phi' u'), u' = d theta_ddot / d theta (order 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Rows3
+from .third import PerJointThirdOrder
+
+
+class JerkLimit(PerJointThirdOrder):
+    """J [rad/s^3] (n,): ``[limits] jerk`` or the robot's, times ``jerk_scale``; on with ``use_jerk``."""
+
+    name = "jerk"
+    robot_key = "jerk"
+    unit = "rad/s^3"
+    settings_keys = {"jerk": "on", "jerk_scale": "scale", "jerk_limit": "value"}
+    scenario_keys = {"use_jerk": "on", "jerk_scale": "scale", "jerk": "value"}
+
+    def __init__(self, jerk: np.ndarray):
+        self.jerk = np.asarray(jerk, float)
+
+    @classmethod
+    def from_robot(cls, robot, choice):
+        value = cls.values_for(robot, choice)
+        return None if value is None else cls(value)
+
+    def rows3(self, points, scale):
+        return Rows3(points.dq, 3.0 * points.ddq, points.dddq, np.zeros_like(points.dq), self.jerk * scale)
+
+    def ratios(self, samples, robot):
+        return np.abs(samples.qddd) / self.jerk

@@ -1,0 +1,47 @@
+"""Joint torque-rate limit: |d tau_j / dt| <= R_j with d tau / dt = sqrt(x) (alpha u' + (alpha' + 2 beta) u
++ beta' x + gamma') (order 3); alpha', beta', gamma' exact from the RNEA derivatives and Phi'''."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..reduced import reduced_derivatives
+from .base import Rows3
+from .third import PerJointThirdOrder
+from .torque import reduced
+
+
+def _derivatives(points):
+    """(alpha', beta', gamma') (K, n) at ``points``, computed once per side."""
+    cache = points._cache
+    if "reduced_derivatives" not in cache:
+        cache["reduced_derivatives"] = reduced_derivatives(points.robot, points.q, points.dq, points.ddq,
+                                                           points.dddq)
+    return cache["reduced_derivatives"]
+
+
+class TorqueRateLimit(PerJointThirdOrder):
+    """R [N m/s] (n,): ``[limits] torque_rate`` or the robot's; on with ``use_torque_rate``."""
+
+    name = "torque_rate"
+    robot_key = "torque_rate"
+    unit = "N m/s"
+    needs_torque = True
+    settings_keys = {"torque_rate": "on", "torque_rate_scale": "scale", "torque_rate_limit": "value"}
+    scenario_keys = {"use_torque_rate": "on", "torque_rate_scale": "scale", "torque_rate": "value"}
+
+    def __init__(self, rate: np.ndarray):
+        self.rate = np.asarray(rate, float)
+
+    @classmethod
+    def from_robot(cls, robot, choice):
+        value = cls.values_for(robot, choice)
+        return None if value is None else cls(value)
+
+    def rows3(self, points, scale):
+        alpha, beta, _ = reduced(points)
+        alpha_p, beta_p, gamma_p = _derivatives(points)
+        return Rows3(alpha, alpha_p + 2.0 * beta, beta_p, gamma_p, self.rate * scale)
+
+    def ratios(self, samples, robot):
+        return np.abs(samples.tau_dot) / self.rate

@@ -1,0 +1,89 @@
+"""The smooth profile's interpolation: theta_ddot = u linear in a stretched coordinate xi per interval.
+
+Next to a point where the motion rests (x = 0), the time-optimal jerk-limited start is the
+constant-jerk S-curve, theta - a ~ t^3, so u ~ (theta - a)^(1/3) and x ~ (theta - a)^(4/3): scale-
+free, and no refinement of a grid in theta makes u linear in theta represent it (the jerk of the
+interpolant is off by ~1/(3k) on the k-th interval from rest). With xi = (theta - a)^(1/3) it is
+exactly linear. So on every interval, u is linear in
+
+    xi = (theta - a)^(1/3)   (sign +1: the interval lies in the half of its stretch nearer the rest point a before it)
+    xi = (b - theta)^(1/3)   (sign -1: nearer the rest point b after it)
+    xi = theta               (sign 0: no rest point on that side)
+
+and x = x_i + 2 int u dtheta is exact in closed form; every relation stays linear in (x, u):
+x_{i+1} = x_i + 2 (w0_i u_i + w1_i u_{i+1}), du/dtheta = (u_{i+1} - u_i) / (xi_{i+1} - xi_i) dxi/dtheta.
+Away from a rest point the interpolant is O(Delta^2) accurate like linear-in-theta.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def coordinates(grid: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(origin, sign) per interval (K-1,): the rest point the interval's xi is measured from, and
+    +1 / -1 / 0 (see the module docstring). ``rest`` (K,) marks the points at rest."""
+    k = len(grid)
+    idx = np.arange(k)
+    prev = np.maximum.accumulate(np.where(rest, idx, -1))[:-1]  # last rest point <= i
+    nxt = np.minimum.accumulate(np.where(rest, idx, k)[::-1])[::-1][1:]  # first rest point >= i + 1
+    has_a, has_b = prev >= 0, nxt < k
+    centre = 0.5 * (grid[:-1] + grid[1:])
+    ta = grid[np.maximum(prev, 0)]
+    tb = grid[np.minimum(nxt, k - 1)]
+    nearer_a = np.where(has_a & has_b, centre - ta <= tb - centre, has_a)
+    sign = np.where(nearer_a & has_a, 1, np.where(has_b, -1, 0))
+    origin = np.where(sign > 0, ta, np.where(sign < 0, tb, 0.0))
+    return origin, sign
+
+
+def xi_of(origin, sign, theta):
+    """xi at theta (arrays broadcast together)."""
+    return np.where(sign > 0, np.cbrt(np.maximum(theta - origin, 0.0)),
+                    np.where(sign < 0, np.cbrt(np.maximum(origin - theta, 0.0)), theta))
+
+
+def theta_of(origin, sign, xi):
+    return np.where(sign > 0, origin + xi**3, np.where(sign < 0, origin - xi**3, xi))
+
+
+def dtheta_dxi(sign, xi):
+    """d theta / d xi: 3 xi^2 (sign +1), -3 xi^2 (sign -1), 1 (sign 0)."""
+    return np.where(sign == 0, 1.0, 3.0 * sign * xi**2)
+
+
+def xi_integral(origin, sign, theta0, theta):
+    """int_{theta0}^{theta} (xi - xi(theta0)) d theta."""
+    x0 = xi_of(origin, sign, theta0)
+    d0, d1 = np.abs(theta0 - origin), np.abs(theta - origin)
+    cube = np.where(sign > 0, 0.75 * (d1 ** (4 / 3) - d0 ** (4 / 3)), 0.75 * (d0 ** (4 / 3) - d1 ** (4 / 3)))
+    lin = np.where(sign == 0, 0.5 * (theta - theta0) ** 2, cube - x0 * (theta - theta0))
+    return lin
+
+
+def weights(grid: np.ndarray, origin: np.ndarray, sign: np.ndarray):
+    """(xi_lo, xi_hi, w0, w1) per interval (K-1,): xi at its ends, and x_{i+1} - x_i = 2 (w0 u_i + w1 u_{i+1})."""
+    lo, hi = grid[:-1], grid[1:]
+    xi_lo, xi_hi = xi_of(origin, sign, lo), xi_of(origin, sign, hi)
+    w1 = xi_integral(origin, sign, lo, hi) / (xi_hi - xi_lo)
+    return xi_lo, xi_hi, (hi - lo) - w1, w1
+
+
+def state(grid, x, u, origin, sign, i, theta):
+    """(x, u, du/dtheta * sqrt(x) = theta_dddot) at theta in interval i (arrays of one shape)."""
+    xi_lo = xi_of(origin[i], sign[i], grid[i])
+    xi_hi = xi_of(origin[i], sign[i], grid[i + 1])
+    g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
+    xi = xi_of(origin[i], sign[i], theta)
+    uu = u[i] + g * (xi - xi_lo)
+    xx = np.maximum(x[i] + 2.0 * (u[i] * (theta - grid[i]) + g * xi_integral(origin[i], sign[i], grid[i], theta)),
+                    0.0)
+    # theta_dddot = g sqrt(x) / (dtheta/dxi); at a rest point (xi = 0) its limit sqrt(x) / xi^2 is that
+    # of the S-curve x = x_end (xi / xi_end)^4
+    slope = dtheta_dxi(sign[i], xi)
+    far = np.where(np.abs(xi_lo) > np.abs(xi_hi), xi_lo, xi_hi)
+    x_far = np.where(np.abs(xi_lo) > np.abs(xi_hi), x[i], x[i + 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        jerk = np.where(slope != 0, g * np.sqrt(xx) / np.where(slope != 0, slope, 1.0),
+                        g * np.sqrt(x_far) / (3.0 * sign[i] * np.where(far != 0, far, 1.0) ** 2))
+    return xx, uu, jerk

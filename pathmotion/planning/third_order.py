@@ -1,0 +1,296 @@
+"""Third-order limits (joint jerk, torque rate): sequential linear programming over the whole grid.
+
+Variables x_k = theta_dot^2 and u_k = theta_ddot at the grid points, u linear between them in the
+stretched coordinate xi of planning/smooth.py (the cube root of the distance to a rest point next
+to one, theta elsewhere): x_{k+1} = x_k + 2 (w0_k u_k + w1_k u_{k+1}) and du/dtheta at each end of
+an interval are linear in u, and the constant-jerk S-curve start from rest (x ~ s^(4/3), zero
+acceleration at rest) is represented exactly (profile.py's smooth profile).
+
+Third-order rows |sqrt(x) L(x, u, u')| <= lim, L linear, i.e. |L| <= lim / sqrt(x): the right side
+is convex in x, so its tangent at x_ref lies below it, and
+    |L| <= lim (1.5 / sqrt(x_ref) - 0.5 x / x_ref^1.5)
+is a conservative linear form, exact at x_ref: every iterate meets the true limits at the grid
+points. The first x_ref is the second-order (TOPP-RA) optimum (an upper bound of every profile
+that also meets the third-order limits). Each LP minimizes the duration linearized at x_ref
+(sum w_k x_k, w = dT/dx) with the trust region x <= (1 + rho) x_ref, solved by HiGHS (sparse);
+a step that lengthens the motion is rejected and rho shrinks. Stop when the duration changes by
+less than THIRD_ORDER_TOLERANCE.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from scipy.optimize import linprog
+from scipy.sparse import coo_matrix, diags
+
+from .. import defaults
+from ..errors import InfeasibleError
+from .limit_rows import limit_rows
+from .limits import EffectiveLimits
+from . import smooth
+from .profile import Profile
+
+log = logging.getLogger(__name__)
+
+#: x_ref below this fraction of its largest value is raised to it (keeps the tangents finite) [-].
+X_REF_FLOOR = 1e-6
+#: After the first LP, x_ref is the incumbent itself, raised only to this fraction of its largest value
+#: where it is smaller (x next to a rest point can be 1e-12 of it on the graded grid) [-].
+X_REF_MIN = 1e-14
+#: Trust region: x_k <= (1 + rho) x_ref_k, rho starts here and shrinks by RHO_SHRINK on a rejected step.
+RHO_START = 1.0
+RHO_SHRINK = 0.25
+RHO_MIN = 1e-3
+#: HiGHS primal and dual feasibility tolerance on the scaled, row-normalized LP: rows next to a rest
+#: point span many decades, and at the default 1e-7 an incumbent could exceed its jerk row by 20 %.
+LP_TOLERANCE = 1e-10
+
+
+class _Problem:
+    """The LP data that do not change between iterations (for one set of limit scales)."""
+
+    def __init__(self, grid, samp, limits: EffectiveLimits, scale, rest, fixed, periodic):
+        self.grid, self.samp, self.limits, self.scale = grid, samp, limits, scale
+        self.k = k = len(grid)
+        self.d = d = np.diff(grid)
+        self.rest = rest
+        start_rest, end_rest = rest[:-1], rest[1:]
+        both = np.nonzero(start_rest & end_rest)[0]
+        if both.size:
+            i = int(both[0])
+            raise InfeasibleError(f"the motion must stop at both theta = {grid[i]:.6g} and {grid[i + 1]:.6g} with "
+                                  "no grid point between; raise grid_points")
+        self.right3 = [lim.rows3(samp.right, scale[lim.name]) for lim in limits if lim.order == 3]
+        self.left3 = [lim.rows3(samp.left, scale[lim.name]) for lim in limits if lim.order == 3]
+        origin, sign = smooth.coordinates(grid, rest)
+        xi_lo, xi_hi, w0, w1 = smooth.weights(grid, origin, sign)
+        self.origin, self.sign, self.xi_lo, self.xi_hi = origin, sign, xi_lo, xi_hi
+        # d u / d theta at each end of each interval, per unit of (u_{i+1} - u_i)
+        with np.errstate(divide="ignore"):  # infinite at a rest point, where no row is imposed
+            self.du_lo = 1.0 / (smooth.dtheta_dxi(sign, xi_lo) * (xi_hi - xi_lo))
+            self.du_hi = 1.0 / (smooth.dtheta_dxi(sign, xi_hi) * (xi_hi - xi_lo))
+        # equalities: x_{i+1} = x_i + 2 (w0 u_i + w1 u_{i+1}), and periodicity
+        i = np.arange(k - 1)
+        rows = [i, i, i, i]
+        cols = [i + 1, i, k + i, k + i + 1]
+        vals = [np.ones(k - 1), -np.ones(k - 1), -2.0 * w0, -2.0 * w1]
+        n_eq = k - 1
+        if periodic:
+            rows += [np.array([n_eq, n_eq, n_eq + 1, n_eq + 1])]
+            cols += [np.array([0, k - 1, k, 2 * k - 1])]
+            vals += [np.array([1.0, -1.0, 1.0, -1.0])]
+            n_eq += 2
+        self.a_eq = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                               shape=(n_eq, 2 * k)).tocsr()
+        self.b_eq = np.zeros(n_eq)
+        # bounds on x: the order-1 limits, rests and fixed ends
+        right = limit_rows(samp.right, limits, scale, defaults.PLANNER_X_CAP)
+        left = limit_rows(samp.left, limits, scale, defaults.PLANNER_X_CAP)
+        x_hi = np.minimum(right.x_max, left.x_max)
+        self.x_lo, self.x_hi = np.zeros(k), x_hi
+        self.x_lo[rest] = self.x_hi[rest] = 0.0
+        for idx, value in fixed.items():
+            if value > x_hi[idx] * (1 + 1e-9):
+                raise InfeasibleError(f"the boundary theta_dot {np.sqrt(value):.6g} at theta = {grid[idx]:.6g} "
+                                      f"exceeds the largest the limits allow there ({np.sqrt(x_hi[idx]):.6g})")
+            self.x_lo[idx] = self.x_hi[idx] = value
+        rest_theta = grid[rest]
+        length = grid[-1] - grid[0]
+        self.rest_distance = (np.min(np.abs(grid[:, None] - rest_theta[None, :]), axis=1) if rest_theta.size
+                              else np.full(k, length))
+        self.rest_distance = np.clip(self.rest_distance, np.min(d), length)
+        self.u_lo = np.where(rest, 0.0, -np.inf)
+        self.u_hi = np.where(rest, 0.0, np.inf)
+
+    def order2(self, x_ref):
+        """Inequality blocks (rows, cols, vals, rhs) of the order-2 limits at every moving point."""
+        k, moving = self.k, ~self.rest
+        out = []
+        for pts, idx in ((self.samp.right, np.arange(k - 1)), (self.samp.left, np.arange(1, k))):
+            rows = limit_rows(pts, self.limits, self.scale, defaults.PLANNER_X_CAP, x_ref)
+            sel = idx[moving[idx]]
+            a, b, c, lo, hi = (v[sel] for v in (rows.a, rows.b, rows.c, rows.lo, rows.hi))
+            for sign, rhs in ((1.0, hi - c), (-1.0, c - lo)):
+                keep = np.isfinite(rhs) & ((a != 0) | (b != 0))
+                kk = np.broadcast_to(sel[:, None], a.shape)[keep]
+                out.append(((sign * b)[keep], kk, (sign * a)[keep], k + kk, rhs[keep]))
+        return out
+
+    def order3(self, x_ref):
+        """Inequality blocks of the tangent-linearized third-order rows at both ends of every interval
+        (not at a rest point, where x = 0 makes them vacuous)."""
+        k = self.k
+        i_all = np.arange(k - 1)
+        out = []
+        for rr, rl in zip(self.right3, self.left3):
+            for rows3, node, du in ((rr, i_all, self.du_lo), (rl, i_all + 1, self.du_hi)):
+                keep = ~self.rest[node]
+                node, i, du = node[keep], i_all[keep], du[keep]
+                xr = x_ref[node][:, None]
+                lim = rows3.lim[node]
+                big, slope = 1.5 * lim / np.sqrt(xr), 0.5 * lim / xr**1.5
+                a3 = rows3.a3[node] * du[:, None]
+                a, b, c = rows3.a[node], rows3.b[node], rows3.c[node]
+                m = a3.shape[1]
+                nn = np.repeat(node[:, None], m, 1)
+                ii = np.repeat(i[:, None], m, 1)
+                for sign in (1.0, -1.0):
+                    out.append((np.stack([sign * a3, -sign * a3, sign * a, sign * b + slope], -1),
+                                np.stack([k + ii + 1, k + ii, k + nn, nn], -1), big - sign * c))
+        return out
+
+
+def _assemble(p: _Problem, x_ref):
+    """Sparse A_ub, b_ub of every inequality row."""
+    rows, cols, vals, rhs = [], [], [], []
+    n = 0
+    for bx, kx, bu, ku, r in p.order2(x_ref):
+        idx = n + np.arange(len(r))
+        rows += [idx, idx]
+        cols += [kx, ku]
+        vals += [bx, bu]
+        rhs.append(r)
+        n += len(r)
+    for coef, col, r in p.order3(x_ref):
+        cnt = coef.shape[0] * coef.shape[1]
+        idx = n + np.arange(cnt)
+        rows.append(np.repeat(idx, 4))
+        cols.append(col.reshape(-1))
+        vals.append(coef.reshape(-1))
+        rhs.append(r.reshape(-1))
+        n += cnt
+    a = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, 2 * p.k)).tocsr()
+    return a, np.concatenate(rhs)
+
+
+#: Gauss-Legendre nodes and weights on [0, 1] for the duration gradient.
+_GL_T, _GL_W = np.polynomial.legendre.leggauss(8)
+_GL_T, _GL_W = 0.5 * (_GL_T + 1.0), 0.5 * _GL_W
+
+
+def _exact_gradient(p: _Problem, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """(dT/dx, dT/du) (2K,) of the smooth profile's duration T = sum_i int dtheta / sqrt(x(theta)),
+    by quadrature in each interval's xi. x(theta) is written from the interval's end nearer to its
+    rest point (the equality rows make both forms equal; this one stays finite next to a rest
+    point, where x ~ xi^4). Entries of points at rest are 0 (those variables are fixed)."""
+    k = p.k
+    i = np.repeat(np.arange(k - 1)[:, None], len(_GL_T), 1)
+    o, sg = p.origin[i], p.sign[i]
+    lo, hi = p.grid[i], p.grid[i + 1]
+    dxi = (p.xi_hi - p.xi_lo)[i]
+    xi = p.xi_lo[i] + _GL_T[None, :] * dxi
+    th = np.clip(smooth.theta_of(o, sg, xi), lo, hi)
+    xx = smooth.state(p.grid, x, u, p.origin, p.sign, i, th)[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = -0.5 * _GL_W * smooth.dtheta_dxi(sg, xi) * dxi / xx**1.5
+    f = np.where(np.isfinite(f), f, 0.0)
+    right = sg < 0
+    xl = smooth.xi_integral(o, sg, lo, th)
+    xr_ = smooth.xi_integral(o, sg, hi, th)
+    d_x = (np.where(right, 0.0, f).sum(1), np.where(right, f, 0.0).sum(1))  # to x_i, x_{i+1}
+    d_ulo = np.where(right, -2.0 * xr_ / dxi, 2.0 * (th - lo) - 2.0 * xl / dxi)
+    d_uhi = np.where(right, -2.0 * (hi - th) + 2.0 * xr_ / dxi, 2.0 * xl / dxi)
+    gx, gu = np.zeros(k), np.zeros(k)
+    idx = np.arange(k - 1)
+    np.add.at(gx, idx, d_x[0])
+    np.add.at(gx, idx + 1, d_x[1])
+    np.add.at(gu, idx, (f * d_ulo).sum(1))
+    np.add.at(gu, idx + 1, (f * d_uhi).sum(1))
+    gx[p.rest] = gu[p.rest] = 0.0
+    return np.concatenate([gx, gu])
+
+
+def _solve_scaled(p: _Problem, a_ub, b_ub, w, bounds, x_ref):
+    """The LP in scaled variables x_k = x_ref_k y_k, u_k = x_ref_k / r_k v_k (r_k the distance to the
+    nearest rest point: u ~ x / r on an S-curve), so that x near a rest point (1e-9 and less on the
+    graded grid) is resolved to the solver's relative tolerance; rows rescaled to unit largest
+    coefficient. Returns linprog's result with x in the original variables."""
+    col = np.concatenate([x_ref, x_ref / p.rest_distance])
+    cd = diags(col)
+    a_ub = _unit_rows(a_ub @ cd, b_ub)
+    a_eq = _unit_rows(p.a_eq @ cd, p.b_eq)
+    c = w * col
+    c = c / max(np.max(np.abs(c)), 1e-300)
+    res = linprog(c, A_ub=a_ub[0], b_ub=a_ub[1], A_eq=a_eq[0], b_eq=a_eq[1], bounds=bounds / col[:, None],
+                  method="highs", options={"primal_feasibility_tolerance": LP_TOLERANCE,
+                                           "dual_feasibility_tolerance": LP_TOLERANCE})
+    if res.status == 0:
+        res.x = res.x * col
+    return res
+
+
+def _unit_rows(a, b):
+    """(a, b) with every row of the sparse ``a`` scaled to unit largest |coefficient|."""
+    norm = np.asarray(abs(a).max(axis=1).todense()).ravel()
+    norm = np.where(norm > 0, norm, 1.0)
+    return diags(1.0 / norm) @ a, b / norm
+
+
+def _s_curve_cap(p: _Problem) -> np.ndarray:
+    """x (K,) of the constant-jerk S-curve from the nearest rest point, x = (4.5 j d^2)^(2/3) with the
+    path jerk j = min_j J_j / |Phi'_j| at that rest point (inf where no jerk row bounds it): the
+    linearization point starts below it, near the exact start (far above it, the first tangents
+    would crush the profile next to rest into a poorer local optimum)."""
+    cap = np.full(p.k, np.inf)
+    for rows3 in p.right3:
+        for r in np.nonzero(p.rest)[0]:
+            with np.errstate(divide="ignore"):
+                j = np.min(rows3.lim[r] / np.abs(rows3.a3[r]))
+            if np.isfinite(j):
+                cap = np.minimum(cap, (4.5 * j * (p.grid - p.grid[r]) ** 2) ** (2.0 / 3.0))
+    return cap
+
+
+def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start: np.ndarray, rest: np.ndarray,
+                      fixed: dict, periodic: bool, tolerance: float = defaults.THIRD_ORDER_TOLERANCE,
+                      max_iterations: int = defaults.THIRD_ORDER_ITERATIONS) -> tuple[Profile, int]:
+    """The smooth time-optimal profile (Profile with u_nodes) and the LP count.
+
+    x_start (K,): the linearization point of the first LP (the second-order optimum); rest (K,) bool:
+    points where the motion is at rest (x = u = 0); fixed {index: x}: boundary values."""
+    p = _Problem(grid, samp, limits, scale, rest, fixed, periodic)
+    x_start = np.minimum(x_start, _s_curve_cap(p))
+    x_ref = np.where(rest, 0.0, np.maximum(np.minimum(x_start, p.x_hi), X_REF_FLOOR * max(np.max(x_start), 1e-12)))
+    best, best_t, rho = None, np.inf, RHO_START
+    lps = 0
+    for _ in range(max_iterations):
+        xr = np.where(rest, 1.0, x_ref)
+        a_ub, b_ub = _assemble(p, xr)
+        x_lo = p.x_lo
+        if best is None:
+            # first LP, from the second-order optimum (no consistent u, not feasible): keep its shape,
+            # every point's x counts relative to x_ref (a linearized duration would trade regions
+            # against each other far outside its range of validity)
+            w = np.concatenate([np.where(rest, 0.0, -1.0 / xr), np.zeros(p.k)])
+        else:
+            w = _exact_gradient(p, best[0], best[1])
+            x_lo = np.maximum(p.x_lo, np.where(rest, 0.0, x_ref / (1.0 + rho)))
+        x_hi = np.where(rest, 0.0, np.minimum(p.x_hi, (1.0 + rho) * x_ref))
+        x_hi = np.maximum(x_hi, x_lo)
+        bounds = np.column_stack([np.concatenate([x_lo, p.u_lo]), np.concatenate([x_hi, p.u_hi])])
+        res = _solve_scaled(p, a_ub, b_ub, w, bounds, xr)
+        lps += 1
+        if res.status != 0:
+            log.debug("third-order LP %d: %s", lps, res.message)
+            if best is not None:
+                break
+            raise InfeasibleError(f"third-order limits: no smooth profile meets the limits ({res.message}); "
+                                  "relax the jerk or torque-rate limits")
+        x, u = np.maximum(res.x[:p.k], 0.0), res.x[p.k:]
+        x[rest] = 0.0
+        u[rest] = 0.0
+        t = Profile(grid, x, u).duration
+        if t < best_t:
+            change = (best_t - t) / t
+            best, best_t, x_ref = (x, u), t, np.where(rest, 0.0, np.maximum(x, X_REF_MIN * np.max(x)))
+            log.debug("third-order LP %d: duration %.6g s (rho %.3g)", lps, t, rho)
+            if change < tolerance:
+                break
+        else:
+            log.debug("third-order LP %d: duration %.6g s rejected (rho %.3g)", lps, t, rho)
+            rho *= RHO_SHRINK
+            if rho < RHO_MIN:
+                break
+    return Profile(grid, best[0], best[1]), lps
