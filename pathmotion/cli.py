@@ -159,6 +159,9 @@ def _fit(table: Table) -> Table:
 def _grid_note(setup, summary: dict) -> dict:
     """Why the reported grid_points differs from plan.grid_points (empty when it does not)."""
     asked = setup.scenario.plan.grid_points
+    if asked is None:
+        return {"grid_points": "adaptive grid: refined until the duration is within plan.tolerance "
+                               "(plan.grid_points fixes the grid)"}
     if summary.get("grid_points") == asked:
         return {}
     return {"grid_points": f"plan.grid_points = {asked} uniform points, plus the path's connections and spline "

@@ -306,3 +306,6 @@ def test_plan_explains_the_reported_grid_points():
     assert _grid_note(setup, {"grid_points": 100}) == {}
     note = _grid_note(setup, {"grid_points": 117})["grid_points"]
     assert note.startswith("plan.grid_points = 100 uniform points, plus the path's connections")
+    adaptive = api.load(scenario_path("circle_zero"))
+    assert adaptive.scenario.plan.grid_points is None
+    assert _grid_note(adaptive, {"grid_points": 517})["grid_points"].startswith("adaptive grid: refined until")
