@@ -544,6 +544,42 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
 @app.command()
 @guarded
+def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [deg], comma-separated"),
+            tolerances: str = typer.Option("0.0001,0.001,0.005,0.01,0.05", help="tolerances [m], comma-separated"),
+            out: Path = typer.Option(..., "--out", help="output folder (a re-run resumes; optima are cached there)"),
+            meshes: str = typer.Option("25,50,100", help="free-shape NLP meshes (intervals), each twice the last"),
+            scheduler: Optional[str] = typer.Option(None, help="Dask scheduler, tcp://HOST:PORT"),
+            workers: int = typer.Option(2, min=1, help="local worker processes"),
+            figures: bool = typer.Option(True, help="write tdelta.png and gain_vs_angle.png")):
+    """The corner atlas: every way to take a corner (stop, zone, circle, G2, optimal blend) against
+    the free-shape optimum, per turn angle and tolerance; writes corners.csv. Needs CasADi
+    (pip install "pathmotion[optimal]").
+
+    Example: [bold]pathmotion corners --angles 60,90,120 --tolerances 0.001,0.01 --out out/corners[/]
+    """
+    from .study.atlas import corner_atlas
+
+    def numbers(text: str, what: str) -> list:
+        try:
+            return [float(v) for v in text.split(",") if v.strip()]
+        except ValueError:
+            _fail(f"--{what} {text!r}: give comma-separated numbers", code=2)
+
+    with _progress() as progress:
+        task = progress.add_task("corners", total=None)
+
+        def on_result(done, total):
+            progress.update(task, completed=done, total=total)
+
+        atlas = corner_atlas(out, numbers(angles, "angles"), numbers(tolerances, "tolerances"),
+                             meshes=[int(m) for m in numbers(meshes, "meshes")], workers=workers,
+                             scheduler=scheduler, on_result=on_result, figures=figures)
+    failed = sum(1 for r in atlas.rows if r.get("error") or r.get("status") != "ok")
+    console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum -> {out}/corners.csv")
+
+
+@app.command()
+@guarded
 def report(folder: Path = typer.Argument(..., help="a folder written by plan, simulate, sweep or demo"),
            out: Optional[Path] = typer.Option(None, "--out", help="HTML file to write (default: FOLDER/report.html)")):
     """Turn results into one self-contained interactive HTML page (works offline).

@@ -1,0 +1,327 @@
+"""The corner atlas (issue 17): for each turn angle and tolerance, the duration of every way to take
+the corner, against the physical limit.
+
+Geometry: two lines of ATLAS_SEGMENT_LENGTH in the horizontal plane z = ATLAS_HEIGHT, the first along
++x ending at ATLAS_CORNER, the second turning left by ``angle_deg`` (0 = straight on, 180 = back).
+The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (torque off, as in
+the issue's reference). Per row (``corners.csv``, ATLAS_COLUMNS):
+
+* ``stop_s``: the time-optimal stop at the corner; ``circle_s``: the transition circle whose deviation
+  is the tolerance; ``g2_s``: the symmetric G2 blend; ``optimal_s``: the tolerance-optimal blend
+  (planning/blend_search.py; its entry / exit cuts in ``optimal_entry_m`` / ``optimal_exit_m``);
+* ``industrial_zone_s``: a constant TCP speed (the planner's constant_speed baseline: the highest
+  speed held everywhere, trapezoid ramps at the ends) on the path with an ABB-style parabolic zone:
+  a parabola from the entry to the exit point at distance z from the corner, z such that its
+  deviation z sin(angle) / 4 is the tolerance, capped at half the segments as ABB does;
+* ``free_shape_optimum_s`` (whole tube) and ``corner_optimum_s`` (deviation only within the optimal
+  blend's own span), from :mod:`.free_shape`, with their convergence errors (``*_error_s``);
+  None when an NLP did not converge: ``status`` then says which;
+* ``gain_vs_stop`` = 1 - optimal_s / stop_s; ``gap_to_optimum`` = optimal_s / free_shape_optimum_s - 1;
+  ``capture`` = (stop_s - optimal_s) / (stop_s - free_shape_optimum_s), the share of the whole-tube
+  gain the optimal blend takes.
+
+Each row is one point of the sweep machinery (:func:`~pathmotion.study.sweep.run_sweep` with this
+module's point function), so it runs in local processes or on a Dask cluster and resumes; the free-
+shape optima are cached on disk in ``out/optimum_cache`` keyed by their inputs (a shared folder
+when the workers are remote).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import time
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import PathError, PathmotionError
+from ..io.atomic import write_json, write_text
+
+log = logging.getLogger(__name__)
+
+ATLAS_SEGMENT_LENGTH = 0.2
+ATLAS_CORNER = (0.5, -0.05, 0.45)
+#: Columns of corners.csv.
+ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "status", "stop_s", "circle_s", "g2_s", "optimal_s",
+                 "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
+                 "industrial_zone_s", "gain_vs_stop", "gap_to_optimum", "capture", "optimal_entry_m",
+                 "optimal_exit_m", "error")
+#: Bump when the free-shape formulation changes, so cached optima are recomputed.
+OPTIMUM_VERSION = 1
+#: Smallest angle from 0 and 180 degrees a corner may have [deg].
+ANGLE_MARGIN_DEG = 1.0
+
+
+def corner_points(angle_deg: float, length: float = ATLAS_SEGMENT_LENGTH) -> np.ndarray:
+    """The atlas' sharp path (3, 3) [m]: start, corner, end (a left turn by ``angle_deg``)."""
+    a = float(angle_deg)
+    if not ANGLE_MARGIN_DEG <= a <= 180.0 - ANGLE_MARGIN_DEG:
+        raise PathError(f"corner atlas: angle {a:g} deg is not a corner; give turn angles strictly between "
+                        f"{ANGLE_MARGIN_DEG:g} and {180 - ANGLE_MARGIN_DEG:g} deg (0 = straight on, 180 = reversal)")
+    c = np.asarray(ATLAS_CORNER, float)
+    r = np.radians(a)
+    return np.array([c - (length, 0.0, 0.0), c, c + length * np.array([np.cos(r), np.sin(r), 0.0])])
+
+
+def _task(points: np.ndarray):
+    from ..geometry import FixedOrientation, Line, TaskPath
+
+    return TaskPath(tuple(Line(a, b) for a, b in zip(points[:-1], points[1:])), FixedOrientation())
+
+
+def check_inputs(angles: Sequence[float], tolerances: Sequence[float]) -> None:
+    """PathError for an angle of (about) 0 or 180 deg, or a tolerance that is not positive or not
+    below half a segment. (A tolerance that no G2 blend can use up at some angle is that row's
+    error, with the largest that fits.)"""
+    for a in angles:
+        corner_points(a)
+    half = 0.5 * ATLAS_SEGMENT_LENGTH
+    for tol in tolerances:
+        if not (np.isfinite(tol) and 0 < tol < half):
+            raise PathError(f"corner atlas: tolerance {tol!r} m must be a positive distance below half a segment "
+                            f"({half:g} m)")
+
+
+# ------------------------------------------------------------------------------------ one row
+def _settings(**kw):
+    from ..planning import PlanSettings
+
+    return PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False, **kw)
+
+
+def _duration(robot, task, original=None, **kw) -> float:
+    from ..constraint import lift
+    from ..planning import plan
+
+    return float(plan(lift(robot, task, original=original), robot, _settings(baselines=False, **kw)).profile.duration)
+
+
+def parabolic_zone(task, tolerance: float):
+    """``task`` (two lines) with an ABB-style parabolic zone at its corner: a quadratic Bezier from the
+    point z before the corner over the corner to the point z after it (degree-elevated to the
+    quintic BezierSegment), z = 4 tolerance / sin(angle) capped at half the shorter segment."""
+    from ..geometry.blends import _corner, _replace
+    from ..geometry.segments import BezierSegment
+
+    c = _corner(task, 0, ("corner",), "parabolic_zone")
+    z = min(4.0 * tolerance / max(np.sin(c.conn.angle), 1e-12), 0.5 * min(c.A.length, c.B.length))
+    q0 = c.A.evaluate(c.A.length - z)[0][0]
+    q1 = c.A.end_frame[0]
+    q2 = c.B.evaluate(z)[0][0]
+    # degree elevation 2 -> 5: b_i = sum_j C(2, j) C(3, i - j) / C(5, i) Q_j
+    from math import comb
+
+    Q = (q0, q1, q2)
+    b = np.array([sum(comb(2, j) * comb(3, i - j) * Q[j] for j in range(3) if 0 <= i - j <= 3) / comb(5, i)
+                  for i in range(6)])
+    return _replace(task, c, z, z, BezierSegment(b))
+
+
+def industrial_zone_duration(robot, task, tolerance: float) -> float:
+    """Constant-TCP-speed duration [s] on ``task`` with the parabolic zone (see parabolic_zone)."""
+    from ..constraint import lift
+    from ..planning import plan
+
+    zoned = parabolic_zone(task, tolerance)
+    result = plan(lift(robot, zoned, original=task), robot, _settings(baselines=True))
+    return float(result.baselines.constant_speed.profile.duration)
+
+
+def _optimum_key(robot, points, delta, spans, meshes) -> str:
+    text = json.dumps({"v": OPTIMUM_VERSION, "robot": robot.name, "velocity": list(map(float, robot.limits.velocity)),
+                       "acceleration": list(map(float, robot.limits.acceleration)),
+                       "points": np.round(points, 12).tolist(), "delta": float(delta),
+                       "spans": None if spans is None else np.round(spans, 12).tolist(), "meshes": list(meshes)},
+                      sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None) -> dict:
+    """The free-shape optimum's record {duration, convergence_error, success, status, durations,
+    verification}, read from ``cache`` or solved and written there."""
+    from . import free_shape as fs
+
+    meshes = tuple(meshes or fs.MESHES)
+    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes)}.json"
+    if f.is_file():
+        return json.loads(f.read_text())
+    opt = fs.free_shape_optimum(robot, points, delta, spans, meshes)
+    rec = {"duration": opt.duration, "convergence_error": opt.convergence_error, "success": opt.success,
+           "status": opt.status, "durations": list(opt.durations), "delta": delta,
+           "spans": None if spans is None else [list(map(float, s)) for s in spans], "meshes": list(meshes),
+           "verification": opt.solutions[-1].verification}
+    write_json(f, rec)
+    return rec
+
+
+def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None) -> dict:
+    """One row of corners.csv (ATLAS_COLUMNS except ``error``)."""
+    from ..geometry import with_g2_blend, with_transition
+    from ..planning.blend_search import optimal_blends
+    from .corner import transition_radius_for_deviation
+
+    pts = corner_points(angle_deg)
+    task = _task(pts)
+    row = {"angle_deg": float(angle_deg), "tolerance_m": float(tolerance)}
+    row["stop_s"] = _duration(robot, task, connections="zero")
+    row["g2_s"] = _duration(robot, with_g2_blend(task, 0, tolerance), task)  # first: its error names the largest
+    radius = transition_radius_for_deviation(task, 0, tolerance)
+    row["circle_s"] = _duration(robot, with_transition(task, 0, radius), task)
+    best = optimal_blends(robot, task, tolerance, settings=_settings(verify=False, baselines=False))
+    row["optimal_s"] = _duration(robot, best.path, task)
+    shape = best.shapes[0]
+    row["optimal_entry_m"], row["optimal_exit_m"] = shape.entry, shape.exit
+    row["industrial_zone_s"] = industrial_zone_duration(robot, task, tolerance)
+    status = []
+    for name, spans in (("free_shape_optimum", None), ("corner_optimum", [(shape.entry, shape.exit)])):
+        rec = cached_optimum(cache, robot, pts, tolerance, spans, meshes)
+        ok = rec["success"]
+        row[f"{name}_s"] = rec["duration"] if ok else None
+        row[name.replace("_optimum", "") + "_error_s"] = rec["convergence_error"] if ok else None
+        if not ok:
+            status.append(f"{name}: NLP not converged ({rec['status']})")
+    row["status"] = "; ".join(status) or "ok"
+    row["gain_vs_stop"] = 1.0 - row["optimal_s"] / row["stop_s"]
+    fso = row["free_shape_optimum_s"]
+    row["gap_to_optimum"] = None if fso is None else row["optimal_s"] / fso - 1.0
+    row["capture"] = None if fso is None else (row["stop_s"] - row["optimal_s"]) / (row["stop_s"] - fso)
+    return row
+
+
+# ------------------------------------------------------------------------------------ the sweep
+def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> dict:
+    """Sweep point function (see sweep.run_sweep): ``text`` is the atlas spec (TOML: robot, meshes,
+    cache folder), ``overrides`` the pairs (angle_deg, a), (tolerance_m, t). A failure is the row's
+    ``error``, never a stopped atlas."""
+    t0 = time.perf_counter()
+    spec = tomllib.loads(text)
+    given = dict(overrides)
+    summary = {k: None for k in ATLAS_COLUMNS}
+    summary.update(angle_deg=given["angle_deg"], tolerance_m=given["tolerance_m"])
+    try:
+        from ..robot import load_robot
+
+        robot = load_robot(spec["robot"])
+        summary.update(atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]),
+                                 spec.get("meshes")))
+        error = None
+    except PathmotionError as exc:
+        error = f"{type(exc).__name__}: {exc}"
+        summary["status"] = "error"
+    return {"summary": summary, "error": error, "trace": None, "wall_time_s": time.perf_counter() - t0}
+
+
+@dataclass(frozen=True, eq=False)
+class CornerAtlas:
+    """rows: one dict per (angle, tolerance) with ATLAS_COLUMNS; out: folder; figures: PNGs written."""
+
+    rows: list[dict]
+    out: Path
+    figures: tuple[Path, ...]
+
+
+def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, robot: str = "irb140",
+                 meshes: Sequence[int] | None = None, workers: int = 2, scheduler: str | None = None,
+                 on_result=None, figures: bool = True) -> CornerAtlas:
+    """Run the atlas into ``out`` (corners.csv / .parquet, tdelta.png, gain_vs_angle.png; the points
+    and the optimum cache under ``out``); resumes. Bad angles or tolerances raise before any work."""
+    from .free_shape import MESHES
+    from .sweep import load_finished, run_sweep, write_tables
+
+    angles, tolerances = [float(a) for a in angles], [float(t) for t in tolerances]
+    check_inputs(angles, tolerances)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    meshes = list(meshes or MESHES)
+    spec = out / "atlas_spec.toml"
+    write_text(spec, f'robot = "{robot}"\nmeshes = {meshes}\ncache = "{(out / "optimum_cache").resolve()}"\n')
+    points, _ = run_sweep(spec, {"angle_deg": angles, "tolerance_m": tolerances}, out / "points_sweep",
+                          workers=workers, scheduler=scheduler, on_result=on_result, point_fn=atlas_point)
+    finished = load_finished(out / "points_sweep")
+    rows = []
+    for p in points:
+        rec = finished.get(p.key)
+        if rec is not None:
+            rows.append({**{k: rec["summary"].get(k) for k in ATLAS_COLUMNS}, "error": rec["error"]})
+    write_tables(out, rows, list(ATLAS_COLUMNS), stem="corners")
+    written: tuple[Path, ...] = ()
+    if figures and rows:
+        written = (tdelta_figure(rows, out / "tdelta.png"), gain_figure(rows, out / "gain_vs_angle.png"))
+    return CornerAtlas(rows, out, written)
+
+
+_CURVES = (("stop_s", "stop at the corner", "k--"), ("industrial_zone_s", "constant speed, parabolic zone", "x:"),
+           ("circle_s", "transition circle", "o-"), ("g2_s", "G2 blend", "s-"), ("optimal_s", "optimal blend", "D-"),
+           ("corner_optimum_s", "corner-confined optimum", "^-."), ("free_shape_optimum_s", "whole-tube optimum", "v-."))
+
+
+def tdelta_figure(rows: list[dict], path: Path) -> Path:
+    """T(delta): duration against tolerance, one panel per angle, every method."""
+    from .figures import MM, _plt, _save
+
+    plt = _plt()
+    angles = sorted({r["angle_deg"] for r in rows})
+    f, axes = plt.subplots(1, len(angles), figsize=(3.6 * len(angles), 3.8), squeeze=False)
+    for ax, a in zip(axes[0], angles):
+        mine = sorted((r for r in rows if r["angle_deg"] == a), key=lambda r: r["tolerance_m"])
+        for key, label, style in _CURVES:
+            pts = [(r["tolerance_m"] * MM, r[key]) for r in mine if r.get(key) is not None]
+            if pts:
+                ax.plot(*zip(*pts), style, label=label, ms=4)
+        ax.set_xscale("log")
+        ax.set_title(f"{a:g} deg turn")
+        ax.set_xlabel("tolerance delta [mm]")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("duration, rest to rest [s]")
+    axes[0][-1].legend(fontsize=7)
+    f.tight_layout()
+    return _save(f, path)
+
+
+def gain_figure(rows: list[dict], path: Path) -> Path:
+    """Gain over the stop against the turn angle: the optimal blend (solid) and the whole-tube
+    optimum (dashed), one colour per tolerance."""
+    from .figures import MM, _plt, _save
+
+    plt = _plt()
+    f, ax = plt.subplots(figsize=(7, 4.5))
+    for i, tol in enumerate(sorted({r["tolerance_m"] for r in rows})):
+        mine = sorted((r for r in rows if r["tolerance_m"] == tol and r.get("stop_s")), key=lambda r: r["angle_deg"])
+        for key, style in (("optimal_s", "-"), ("free_shape_optimum_s", "--")):
+            pts = [(r["angle_deg"], 100 * (1 - r[key] / r["stop_s"])) for r in mine if r.get(key) is not None]
+            if pts:
+                ax.plot(*zip(*pts), style, color=f"C{i}", marker="o", ms=3,
+                        label=f"{tol * MM:g} mm" + (" optimal blend" if key == "optimal_s" else " whole-tube optimum"))
+    ax.set_xlabel("turn angle [deg]")
+    ax.set_ylabel("time saved against the stop [%]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    f.tight_layout()
+    return _save(f, path)
+
+
+def table_markdown(rows: list[dict]) -> str:
+    """corners.csv as a Markdown table (durations in s, gains and gaps in %)."""
+    def s(v):
+        return "-" if v is None else f"{v:.4f}"
+
+    def pct(v):
+        return "-" if v is None else f"{100 * v:.1f} %"
+
+    lines = ["| angle | tolerance | stop | zone (const. speed) | circle | G2 | optimal | corner opt. | whole-tube opt. "
+             "| gain vs stop | gap to opt. | capture | status |", "|" + "---|" * 13]
+    for r in rows:
+        lines.append(f"| {r['angle_deg']:g} deg | {r['tolerance_m'] * 1000:g} mm | {s(r['stop_s'])} | "
+                     f"{s(r['industrial_zone_s'])} | {s(r['circle_s'])} | {s(r['g2_s'])} | {s(r['optimal_s'])} | "
+                     f"{s(r['corner_optimum_s'])} | {s(r['free_shape_optimum_s'])} | {pct(r['gain_vs_stop'])} | "
+                     f"{pct(r['gap_to_optimum'])} | {pct(r['capture'])} | {r.get('status') or r.get('error')} |")
+    return "\n".join(lines)
+
+
+__all__ = ["ATLAS_COLUMNS", "CornerAtlas", "atlas_point", "atlas_row", "cached_optimum", "check_inputs",
+           "corner_atlas", "corner_points", "industrial_zone_duration", "parabolic_zone", "table_markdown"]

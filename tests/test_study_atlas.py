@@ -1,0 +1,79 @@
+"""The corner atlas (pathmotion/study/atlas.py): bad input, the parabolic zone's deviation against
+its closed form, the optimum cache, and one real row through the sweep machinery and the CLI."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from pathmotion.errors import PathError
+from pathmotion.geometry import max_deviation
+from pathmotion.study import atlas
+
+
+@pytest.mark.parametrize("angle", [0.0, 180.0, -10.0, 200.0])
+def test_angles_of_0_or_180_degrees_are_errors(angle):
+    with pytest.raises(PathError, match="not a corner"):
+        atlas.check_inputs([angle], [0.001])
+
+
+def test_tolerance_beyond_half_a_segment_is_an_error():
+    with pytest.raises(PathError, match="below half a segment"):
+        atlas.check_inputs([90.0], [0.15])
+
+
+def test_too_large_tolerance_for_a_g2_blend_is_the_rows_error_with_the_largest_that_fits():
+    result = atlas.atlas_point('robot = "irb140"\ncache = "/nonexistent"\n', ".",
+                               (("angle_deg", 30.0), ("tolerance_m", 0.05)))
+    assert result["summary"]["status"] == "error"
+    assert "give a tolerance below" in result["error"]
+
+
+@pytest.mark.parametrize("angle", [30.0, 90.0, 150.0])
+def test_parabolic_zone_deviation_is_z_sin_angle_over_4(angle):
+    task = atlas._task(atlas.corner_points(angle))
+    tol = 0.004
+    zoned = atlas.parabolic_zone(task, tol)
+    z = 4 * tol / np.sin(np.radians(angle))
+    expected = tol if z <= 0.1 else 0.1 * np.sin(np.radians(angle)) / 4
+    assert max_deviation(zoned, task, rel_tol=1e-7).distance == pytest.approx(expected, rel=1e-5)
+    assert [c.kind for c in zoned.connections] == ["tangent", "tangent"]  # G1: the curvature jumps
+
+
+def test_optimum_cache_is_keyed_by_its_inputs(tmp_path):
+    pytest.importorskip("casadi", reason='needs CasADi: pip install "pathmotion[optimal]"')
+    from pathmotion.robot import load_robot
+
+    robot = load_robot("irb140")
+    pts = atlas.corner_points(90.0)
+    first = atlas.cached_optimum(tmp_path, robot, pts, 0.0, meshes=(10, 20))
+    assert len(list(tmp_path.glob("*.json"))) == 1
+    assert atlas.cached_optimum(tmp_path, robot, pts, 0.0, meshes=(10, 20)) == first  # read back
+    atlas.cached_optimum(tmp_path, robot, pts, 0.0, meshes=(10, 20, 40))
+    assert len(list(tmp_path.glob("*.json"))) == 2  # other inputs, another entry
+
+
+@pytest.mark.slow
+def test_one_atlas_row_through_the_cli(tmp_path):
+    pytest.importorskip("casadi", reason='needs CasADi: pip install "pathmotion[optimal]"')
+    from typer.testing import CliRunner
+
+    from pathmotion.cli import app
+
+    res = CliRunner().invoke(app, ["corners", "--angles", "90", "--tolerances", "0.005", "--meshes", "10,20,40",
+                                   "--workers", "1", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    rows = list(csv.DictReader((tmp_path / "corners.csv").open()))
+    assert len(rows) == 1 and list(rows[0]) == list(atlas.ATLAS_COLUMNS)
+    r = {k: float(v) for k, v in rows[0].items() if k not in ("status", "error") and v != ""}
+    assert r["optimal_s"] <= r["g2_s"] < r["stop_s"]
+    assert r["circle_s"] < r["stop_s"]
+    assert r["gain_vs_stop"] == pytest.approx(1 - r["optimal_s"] / r["stop_s"])
+    if rows[0]["status"] == "ok":  # a converged reference is below every blend (within its error)
+        assert r["free_shape_optimum_s"] <= r["optimal_s"] + r["free_shape_error_s"]
+    else:
+        assert "not converged" in rows[0]["status"]
+    assert (tmp_path / "tdelta.png").is_file() and (tmp_path / "gain_vs_angle.png").is_file()
+    spec = json.loads((tmp_path / "points_sweep" / "sweep_spec.json").read_text())
+    assert spec["grid"] == {"angle_deg": [90.0], "tolerance_m": [0.005]}
