@@ -63,3 +63,24 @@ def check_finite(name: str, value, where: str = "") -> None:
     if not np.all(np.isfinite(arr)):
         loc = f" in {where}" if where else ""
         raise PathmotionError(f"{name}{loc} contains NaN or inf ({arr.tolist()}); give finite numbers")
+
+
+def require_finite(values, what: str, change: str, error: type = PathmotionError, columns=None) -> None:
+    """Raise ``error`` in one line if ``values`` (any shape) holds NaN or inf.
+
+    The message names ``what``, the first bad entry (row index, and column name from ``columns``
+    when given) and ``change``: what the user can change. Cheap when all is finite.
+    """
+    import numpy as np
+
+    arr = np.asarray(values, dtype=float)
+    if np.isfinite(arr).all():
+        return
+    idx = np.unravel_index(int(np.argmax(~np.isfinite(arr))), arr.shape) if arr.ndim else ()
+    where = ""
+    if arr.ndim == 1:
+        where = f" at index {idx[0]}"
+    elif arr.ndim >= 2:
+        col = columns[idx[-1]] if columns is not None and idx[-1] < len(columns) else f"column {idx[-1]}"
+        where = f" at point {idx[0]} ({col})"
+    raise error(f"{what} is not finite{where} (value {arr[idx]!r}); {change}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 
 from .. import defaults
 from ..errors import SimulationError
@@ -12,6 +13,27 @@ def _check_positive(owner: str, **values) -> None:
     for name, value in values.items():
         if not (isinstance(value, (int, float)) and value > 0):
             raise SimulationError(f"{owner}.{name} = {value!r}; it must be a number > 0")
+
+
+def _check_products(owner: str, **products) -> None:
+    """The derived gains (weights, stiffness) must be finite: a bandwidth of 1e100 overflows w^4."""
+    for name, value in products.items():
+        if not all(math.isfinite(v) for v in value):
+            raise SimulationError(f"{owner}: the derived {name} overflow ({value}); give a bandwidth of at most "
+                                  f"{defaults.MAX_GAIN:g} rad/s and moderate rates")
+
+
+class _no_overflow_error:
+    """Python floats raise OverflowError on ** overflow; report it as the non-finite gain it is."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        if kind is OverflowError:
+            raise SimulationError(f"controller gains overflow ({exc}); give a bandwidth of at most "
+                                  f"{defaults.MAX_GAIN:g} rad/s and moderate rates") from None
+        return False
 
 
 class _SecondOrder:
@@ -62,6 +84,8 @@ class OrbitalGains(_SecondOrder):
             raise SimulationError(f"OrbitalGains.integral_rate = {self.integral_rate!r}; give a rate >= 0 rad/s (0: off)")
         if not self.terminal_time_to_go >= 0:
             raise SimulationError(f"OrbitalGains.terminal_time_to_go = {self.terminal_time_to_go!r}; give a time >= 0 s")
+        with _no_overflow_error():
+            _check_products("OrbitalGains", chain_weights=self.chain_weights, clock_gains=self.clock_gains)
 
     @property
     def chain_weights(self) -> tuple[float, float, float]:
@@ -91,6 +115,8 @@ class TrackingGains(_SecondOrder):
 
     def __post_init__(self):
         _check_positive("TrackingGains", bandwidth=self.bandwidth, damping=self.damping)
+        with _no_overflow_error():
+            _check_products("TrackingGains", gains=(self.stiffness, self.velocity_gain))
 
 
 

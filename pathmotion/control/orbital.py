@@ -23,7 +23,7 @@ import numpy as np
 from scipy.linalg import solve_continuous_are, solve_discrete_are
 
 from .. import defaults
-from ..errors import SimulationError
+from ..errors import SimulationError, require_finite
 from ..planning.profile import Profile
 from ..robot import Robot
 from .gains import OrbitalGains
@@ -206,6 +206,8 @@ class OrbitalDesign:
         first = active[0]
         fwd[fwd < 0] = first
         gain = gain[fwd]
+        require_finite(gain.reshape(len(theta), -1), "orbital feedback gain K(theta)", "lower simulate.gains "
+                       "(bandwidth, speed_rate, integral_rate) or check the plan's speed profile", SimulationError)
         return cls(table, lookup, basis, gains, theta, gain, riccati, zones)
 
     def zone_at(self, planned_time: float, first: int = 0) -> int | None:

@@ -19,7 +19,12 @@ import numpy as np
 
 import pinocchio as pin
 
+from ..errors import InfeasibleError, PathError, require_finite
 from ..robot import Robot, rnea
+
+#: What to change when a coefficient overflows (one place for the three checks).
+_CHANGE_DYNAMICS = ("lower the payload mass or move its centre of mass nearer the flange (robot.payload), or check the "
+                    "URDF's masses and inertias")
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,10 +47,18 @@ def reduced_dynamics(robot: Robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarra
     q = np.atleast_2d(np.asarray(q, dtype=float))
     dq = np.atleast_2d(np.asarray(dq, dtype=float))
     ddq = np.atleast_2d(np.asarray(ddq, dtype=float))
+    names = robot.joint_names
+    for value, what in ((q, "Phi(theta)"), (dq, "Phi'(theta)"), (ddq, "Phi''(theta)")):
+        require_finite(value, f"the joint path's {what}", "the path passes a singularity or its points are not "
+                       "finite; move the path away from it or sample it differently", PathError, names)
     zero = np.zeros_like(q)
-    gamma = rnea(robot, q, zero, zero)
-    alpha = rnea(robot, q, zero, dq) - gamma
-    beta = rnea(robot, q, dq, ddq) - gamma
+    with np.errstate(all="ignore"):
+        gamma = rnea(robot, q, zero, zero)
+        alpha = rnea(robot, q, zero, dq) - gamma
+        beta = rnea(robot, q, dq, ddq) - gamma
+    require_finite(gamma, "reduced dynamics gamma (gravity torque)", _CHANGE_DYNAMICS, InfeasibleError, names)
+    require_finite(alpha, "reduced dynamics alpha (M Phi')", _CHANGE_DYNAMICS, InfeasibleError, names)
+    require_finite(beta, "reduced dynamics beta (M Phi'' + C Phi')", _CHANGE_DYNAMICS, InfeasibleError, names)
     return ReducedDynamics(alpha, beta, gamma)
 
 

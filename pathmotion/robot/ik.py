@@ -357,7 +357,12 @@ def ik_dls(robot: Robot, position, rotation, q_ref, *, damping: float = defaults
         if np.max(np.abs(err)) < tolerance:
             return q
         jac = jacobian(robot, q)
-        dq = np.linalg.solve(jac.T @ jac + lam**2 * eye, jac.T @ err)
+        try:  # a far tool (|t| ~ 1e9 m) makes J^T J + lambda^2 I singular in floating point
+            dq = np.linalg.solve(jac.T @ jac + lam**2 * eye, jac.T @ err)
+        except np.linalg.LinAlgError:
+            break
+        if not np.all(np.isfinite(dq)):
+            break
         norm = np.linalg.norm(dq)
         if norm > defaults.DLS_MAX_STEP:
             dq *= defaults.DLS_MAX_STEP / norm

@@ -25,6 +25,9 @@ from .limits import JointLimits, limits_from_model, limits_from_toml
 TCP_FRAME = "tcp"
 #: Payload inertia: an eigenvalue down to -this is rounding of a positive semi-definite matrix [kg m^2].
 INERTIA_ROUNDING = 1e-12
+#: Payload inertia: an asymmetry max|I - I^T| up to this fraction of max|I| is rounding, and the matrix
+#: is symmetrised as (I + I^T)/2 (Pinocchio refuses any asymmetry); beyond it the input is refused [-].
+INERTIA_SYMMETRY = 1e-6
 #: Tool rotation: max |R^T R - I| allowed [-].
 ORTHONORMALITY = 1e-9
 #: A URDF joint axis shorter than this has no direction [-].
@@ -52,8 +55,21 @@ class Payload:
         if np.shape(self.com) != (3,) or np.shape(self.inertia) != (3, 3):
             raise RobotModelError("payload: com must have 3 values [m] and inertia a 3x3 matrix [kg m^2]")
         inertia = np.asarray(self.inertia, float)
-        if not np.allclose(inertia, inertia.T) or np.min(np.linalg.eigvalsh(inertia)) < -INERTIA_ROUNDING:
+        asym = float(np.max(np.abs(inertia - inertia.T)))
+        if asym > INERTIA_SYMMETRY * float(np.max(np.abs(inertia))):
+            raise RobotModelError(f"payload inertia must be symmetric positive semi-definite (it is asymmetric by "
+                                  f"{asym:.3g} kg m^2); give robot.payload.inertia with I[i][j] = I[j][i]")
+        inertia = 0.5 * (inertia + inertia.T)
+        object.__setattr__(self, "inertia", tuple(map(tuple, inertia.tolist())))
+        if np.min(np.linalg.eigvalsh(inertia)) < -INERTIA_ROUNDING:
             raise RobotModelError("payload inertia must be symmetric positive semi-definite")
+        com = np.asarray(self.com, float)
+        with np.errstate(over="ignore", invalid="ignore"):
+            products = (self.mass * com, self.mass * float(com @ com))
+        for value, what in zip(products, ("mass x com", "mass x |com|^2")):
+            if not np.all(np.isfinite(value)):
+                raise RobotModelError(f"payload {what} overflows (mass {self.mass:g} kg, com {com.tolist()} m); "
+                                      "give robot.payload a centre of mass within metres of the flange")
 
 
 @dataclass(frozen=True)

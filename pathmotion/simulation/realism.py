@@ -70,6 +70,13 @@ class Realism:
             raise SimulationError(f"Realism.inertia_sign = {self.inertia_sign!r}; give -1, 0 (drawn per link) or 1")
         if not (int(self.delay) == self.delay and 0 <= int(self.delay) <= MAX_DELAY):
             raise SimulationError(f"Realism.delay = {self.delay!r}; give a whole number of samples 0..{MAX_DELAY}")
+        from ..errors import RobotModelError
+        from ..robot.model import Payload
+
+        try:  # the unmodelled payload passes the planning payload's checks (finite products, lever)
+            Payload(float(self.payload_mass), tuple(np.asarray(self.payload_com, float).tolist()))
+        except (RobotModelError, ValueError, TypeError) as exc:
+            raise SimulationError(f"Realism payload (simulate.realism.payload_*): {exc}") from None
         if not self.coulomb_smoothing > 0:
             raise SimulationError(f"Realism.coulomb_smoothing = {self.coulomb_smoothing!r}; it must be > 0 rad/s")
 
