@@ -187,13 +187,17 @@ def build_path(scenario: Scenario, robot: Robot,
     task = TaskPath(tuple(_segments(spec.segments)), orientation)
     original = task if spec.blends else None
     chosen: dict[int, int] = {}  # connection index (0-based) -> k of path.blends[k]
+    conns = list(task.connections) + ([task.closure] if task.closure is not None else [])
     for k, blend in enumerate(spec.blends):
         if blend.corner == "all":
-            corners = [c.index for c in task.connections if c.kind == "corner"]
+            corners = [i for i, c in enumerate(conns) if c.kind == "corner"]
         else:
-            if not 1 <= blend.corner <= len(task.connections):
-                raise ScenarioError(f"path.blends[{k}].corner = {blend.corner}: the path has {len(task.connections)} "
-                                    f"connection(s), numbered 1..{len(task.connections)} (1 = between segments 1 and 2)")
+            if not 1 <= blend.corner <= len(conns):
+                closing = (f", {len(conns)} = the closing corner between the last and the first segment"
+                           if task.closure is not None else "")
+                raise ScenarioError(f"path.blends[{k}].corner = {blend.corner}: the path has {len(conns)} "
+                                    f"connection(s), numbered 1..{len(conns)} (1 = between segments 1 and 2"
+                                    f"{closing})")
             corners = [blend.corner - 1]
         for c in corners:
             if c in chosen:
@@ -202,6 +206,8 @@ def build_path(scenario: Scenario, robot: Robot,
             chosen[c] = k
     blends = {c: (spec.blends[k].type, spec.blends[k].radius if spec.blends[k].type == "circle"
                   else spec.blends[k].tolerance) for c, k in chosen.items()}
+    if task.closure is not None and len(task.connections) in blends:
+        task = _split_first_segment(task, len(task.connections))
     optimal = {c: v for c, (kind, v) in blends.items() if kind == "optimal"}
     if optimal:  # shapes searched with the other corners left sharp, then everything applied in one pass
         from .planning.blend_search import optimal_blends
@@ -220,6 +226,21 @@ def build_path(scenario: Scenario, robot: Robot,
     path = lift(robot, task, q_start, original=original)
     log.debug("lifted joint path: theta in [%.6g, %.6g], %d kinks", *path.domain, len(path.kinks))
     return path, task, original
+
+
+def _split_first_segment(task: TaskPath, closing: int) -> TaskPath:
+    """A closed path whose closing corner (connection ``closing``, 0-based) is to be blended, made to start
+    and end in the middle of its first segment: the closing corner becomes an interior connection with the
+    same number (segments [second half of 1, 2, ..., N, first half of 1]), and the new closure is smooth.
+    Each half of segment 1 is half its length, the share a segment blended at both ends gives each blend."""
+    if task.tool_orientation.key_thetas():
+        raise ScenarioError(f"path.blends: blending the closing corner (corner {closing + 1}) moves the path's start "
+                            "to the middle of segment 1, which would shift the orientation keys; blend the interior "
+                            "corners only, or start the path in the middle of a segment")
+    first = task.segments[0]
+    half = 0.5 * first.length
+    segs = (first.trimmed(half, first.length),) + task.segments[1:] + (first.trimmed(0.0, half),)
+    return TaskPath(segs, task.tool_orientation)
 
 
 def _near_waypoint(task: TaskPath, original: TaskPath | None, exc: UnreachableError) -> str:
@@ -467,6 +488,12 @@ def simulate_scenario(setup: Setup, result: PlanResult):
     from .simulation import simulate
 
     settings = simulation_settings(setup)
+    simulation_budget(setup, settings, result)
+    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
+
+
+def simulation_budget(setup: Setup, settings, result: PlanResult) -> None:
+    """A ScenarioError when the closed loop at ``settings.sample_time`` would hold too many samples."""
     laps = settings.laps if setup.path.closed else 1
     budget = settings.time_budget_factor * result.profile.duration * laps + settings.time_budget_margin
     count = budget / settings.sample_time + 1
@@ -474,7 +501,6 @@ def simulate_scenario(setup: Setup, result: PlanResult):
         raise ScenarioError(f"simulate.sample_time = {settings.sample_time:g} s: the {budget:.4g} s closed-loop run "
                             f"would need {count:.3g} samples, more than {defaults.MAX_TRAJECTORY_SAMPLES:,} "
                             "(defaults.MAX_TRAJECTORY_SAMPLES); raise the sample time (the controller's is 0.004 s)")
-    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
 
 
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:
@@ -531,8 +557,9 @@ def path_is_closed(setup: Setup) -> bool:
 
 def check_scenario(setup: Setup) -> dict:
     """What ``pathmotion check`` reports: the path lifted (reachable, in range, away from
-    singularities: errors otherwise), its corners, and pointwise feasibility (gravity torque below
-    the limits, the largest admissible speed > 0 everywhere), without planning a profile."""
+    singularities: errors otherwise), its corners, pointwise feasibility (gravity torque below the
+    limits, the largest admissible speed > 0 everywhere), and every test plan and simulate run before
+    they write (the plan is solved, nothing is written): an OK means plan and simulate start."""
     from .planning.reduced import reduced_dynamics
 
     path, robot = setup.path, setup.robot
@@ -569,7 +596,21 @@ def check_scenario(setup: Setup) -> dict:
         peak = np.max(speed, axis=1)
         vmax = 1.0 / np.maximum(peak, STILL_PATH_SPEED)
         out["min_velocity_limited_theta_dot"] = float(np.min(vmax))
+    out.update(_check_like_plan_and_simulate(setup))
     return out
+
+
+def _check_like_plan_and_simulate(setup: Setup) -> dict:
+    """Every test ``plan`` and ``simulate`` run before they write, so that check's OK means OK: the plan
+    itself (its boundary, limit and tightening checks), the trajectory's sample count at
+    plan.sample_time, the simulation settings (gains, realism) and the closed loop's sample budget."""
+    from .planning.trajectory import sample_times
+
+    result = plan_scenario(setup)
+    sample_times(result.profile.duration, setup.scenario.plan.sample_time)
+    simulation_budget(setup, simulation_settings(setup), result)
+    return {"duration_s": float(result.profile.duration),
+            "worst_limit": None if result.ratios is None else result.ratios.worst}
 
 
 # ------------------------------------------------------------------------------------- demo

@@ -1,0 +1,71 @@
+"""check means OK (issue 15): every scenario of the bad-input catalogue that load, plan, the plan's
+writing or the simulation settings refuse, ``check`` refuses too, with the same error class; and closed
+polygons: ``corner = "all"`` blends the closing corner too, which ``corner = N`` names."""
+
+import numpy as np
+import pytest
+
+from pathmotion import api
+from pathmotion.errors import PathmotionError, ScenarioError
+
+from reliability_cases import CASES
+from test_reliability_inputs import write_case
+
+SQUARE = """name = "square"
+[path]
+type = "task"
+[[path.segments]]
+type = "line"
+start = [0.5, -0.1, 0.5]
+end = [0.5, 0.1, 0.5]
+[[path.segments]]
+type = "line"
+end = [0.6, 0.1, 0.5]
+[[path.segments]]
+type = "line"
+end = [0.6, -0.1, 0.5]
+[[path.segments]]
+type = "line"
+end = [0.5, -0.1, 0.5]
+[[path.blends]]
+corner = CORNER
+type = "circle"
+radius = 0.02
+[plan]
+grid_points = 120
+periodic = true
+"""
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+def test_check_refuses_what_plan_and_simulate_refuse(case, tmp_path):
+    path = write_case(case, tmp_path)
+    with pytest.raises(PathmotionError) as info:
+        api.check_scenario(api.load(path, dict(case.overrides)))
+    assert type(info.value) is case.error, f"{case.id}: {type(info.value).__name__}: {info.value}"
+
+
+def test_corner_all_blends_the_closing_corner_of_a_closed_square():
+    setup = api.load_text(SQUARE.replace("CORNER", '"all"'))
+    task = setup.task_path
+    # four blended corners; the path starts in the middle of segment 1, where its closure is smooth
+    assert sum(type(s).__name__ == "Arc" for s in task.segments) == 4
+    assert [c.kind for c in task.connections].count("corner") == 0 and task.closure.kind == "smooth"
+    np.testing.assert_allclose(task.segments[0].start_point, (0.5, 0.0, 0.5), atol=1e-12)
+    assert setup.path.closed and not setup.path.kinks
+    # the closing corner is cut exactly like the others: its blend stays 0.02 m (1/sin 45 deg - 1) away
+    p, _, _ = task.evaluate(np.linspace(*task.domain, 4001))
+    corner = np.array([0.5, -0.1, 0.5])
+    assert np.min(np.linalg.norm(p - corner, axis=1)) == pytest.approx(0.02 * (np.sqrt(2) - 1), rel=1e-3)
+    result = api.plan_scenario(setup)
+    assert result.ratios.max_ratio <= 1.0 + 1e-3
+    report = api.check_scenario(setup)
+    assert report["duration_s"] == pytest.approx(result.profile.duration)
+
+
+def test_corner_n_names_the_closing_corner_and_n_plus_1_is_refused():
+    only = api.load_text(SQUARE.replace("CORNER", "4")).task_path
+    assert sum(type(s).__name__ == "Arc" for s in only.segments) == 1
+    assert [c.kind for c in only.connections].count("corner") == 3  # the three interior ones stay sharp
+    with pytest.raises(ScenarioError, match=r"numbered 1\.\.4 .*4 = the closing corner"):
+        api.load_text(SQUARE.replace("CORNER", "5"))
