@@ -324,3 +324,36 @@ def _alive(pid: int) -> bool:
         return Path(f"/proc/{pid}/stat").read_text().split(")")[1].split()[0] != "Z"
     except OSError:
         return False
+
+
+@pytest.mark.slow
+def test_ctrl_c_to_a_parallel_sweeps_process_group_prints_one_line(tmp_path):
+    """Ctrl-C at a terminal sends SIGINT to the whole process group, workers included: the workers ignore
+    it, the parent prints one line and exits 130 (it printed ~147 lines of worker tracebacks before)."""
+    scenario = fast_joint_scenario(tmp_path)
+    out = tmp_path / "sweep"
+    values = ",".join(f"{v:.3f}" for v in np.linspace(0.0, 0.45, 100))
+    proc = subprocess.Popen(cli("sweep", scenario, "--set", f"plan.end={values}", "--out", out, "--workers", "2",
+                                "--no-figures"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 300
+        while proc.poll() is None and finished_points(out) < 2 and time.monotonic() < deadline:
+            time.sleep(0.005)
+        assert proc.poll() is None, "the sweep ended before it could be interrupted"
+        os.killpg(proc.pid, signal.SIGINT)  # the parent and both workers, as a terminal's Ctrl-C
+        _, err = proc.communicate(timeout=300)
+        lines = [ln for ln in err.decode().splitlines() if ln.strip()]
+        assert proc.returncode == 130 and len(lines) == 1 and lines[0].startswith("interrupted"), err.decode()
+        assert "Traceback" not in err.decode() and not tmp_files(out)
+    finally:
+        kill_group(proc)
+
+
+@pytest.mark.parametrize("address", ["garbage", "tcp://", "xyz://host:1", 8786])
+def test_a_bad_dask_address_is_a_scenario_error_for_api_callers(tmp_path, address):
+    from pathmotion.errors import ScenarioError
+    from pathmotion.study.sweep import _run_dask
+
+    with pytest.raises(ScenarioError, match="tcp://HOST:PORT"):
+        _run_dask(address, ("", "."), [], lambda *a: None, None, False)

@@ -292,8 +292,13 @@ def _run_dask(address: str, args, todo, record, point_fn, traces) -> None:
         from distributed import as_completed as dask_completed
     except ImportError:  # pragma: no cover - dask is a runtime dependency
         raise PathmotionError("--scheduler needs dask distributed: pip install 'dask[distributed]'") from None
+    if not isinstance(address, str):
+        raise ScenarioError(f"scheduler address {address!r} is not a string; give tcp://HOST:PORT")
     try:
         client = Client(address, timeout="10s")
+    except (ValueError, TypeError) as exc:  # malformed: no port, unknown scheme
+        raise ScenarioError(f"scheduler address {address[:80]!r} is not a Dask scheduler address ({exc}); give "
+                            "tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786") from None
     except (OSError, TimeoutError) as exc:
         raise PathmotionError(f"cannot reach the Dask scheduler at {address}: {exc}; is it running "
                               "(dask scheduler) with workers (dask worker ADDRESS)?") from None

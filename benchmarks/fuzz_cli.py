@@ -1,0 +1,536 @@
+"""The project's own command-line fuzzer (issue 15): hostile scenario documents through ``check`` and
+``plan``, each run in a forked child of a warm server (pathmotion imported once), under a memory limit
+(RLIMIT_AS) and a timeout. One reproducer per escape goes into OUT/escapes.
+
+Escapes: internal error (exit 3), any other exit code than 0/1/2, a traceback, a hang (timeout), a memory
+kill (a signal or MemoryError), an error that is not one ``error: ...`` line, a run that exits 0 without
+a complete finite contract file (summary.json, trajectory.csv), a temporary file or folder left behind,
+or a folder written by a run that failed.
+
+    .venv/bin/python benchmarks/fuzz_cli.py --docs 500 --seed 1 [--out out/fuzz] [--workers 2]
+
+Each document runs one command (``check`` or ``plan --no-figures``, picked by the seed) on a coarse grid
+(plan.grid_points = 50 unless the document sets it): check already solves the plan, so both cover the
+flow up to writing; ``simulate`` is left out (minutes per document). Prints the table: documents per
+class, escapes per class, documents per second.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import random
+import resource
+import shutil
+import signal
+import stat
+import sys
+import tempfile
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the server forks: no BLAS threads in the parent
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+#: Valid bases, coarse. SQUARE is closed with every corner blended (the closing one included).
+JOINT = """name = "joint"
+[path]
+type = "joint"
+waypoints = [[0, 0, 0, 0, 0.5, 0], [0.3, 0.2, -0.2, 0.3, 0.8, 0.5], [0.5, 0.1, 0.0, 0.0, 0.6, 1.0]]
+[plan]
+grid_points = 50
+"""
+LINE = """name = "line"
+[path]
+type = "task"
+[[path.segments]]
+type = "line"
+start = [0.5, -0.1, 0.5]
+end = [0.5, 0.1, 0.5]
+[plan]
+grid_points = 50
+"""
+SQUARE = """name = "square"
+[path]
+type = "task"
+[[path.segments]]
+type = "line"
+start = [0.5, -0.1, 0.5]
+end = [0.5, 0.1, 0.5]
+[[path.segments]]
+type = "line"
+end = [0.6, 0.1, 0.5]
+[[path.segments]]
+type = "line"
+end = [0.6, -0.1, 0.5]
+[[path.segments]]
+type = "line"
+end = [0.5, -0.1, 0.5]
+[[path.blends]]
+corner = "all"
+type = "circle"
+radius = 0.02
+[plan]
+grid_points = 50
+"""
+BASES = {"joint": JOINT, "line": LINE, "square": SQUARE}
+
+#: Keys a document may carry (valid or not): renames and insertions draw from these.
+KEYS = ["name", "path", "type", "segments", "waypoints", "plan", "limits", "robot", "simulate", "grid_points",
+        "start", "end", "velocity", "torque", "radius", "center", "blends", "corner", "tolerance", "periodic",
+        "sample_time", "payload", "mass", "com", "inertia", "tool", "translation", "rotation", "gains",
+        "bandwidth", "seed", "realism", "use_torque", "tcp_speed", "torque_scale", "orientation", "normal", "sweep"]
+EXTREME = [0, -1, -0.0, 1e-300, 1e-9, 1e9, 1e300, 1e308, -1e308, "nan", "inf", "-inf", 2**63, -2**63, 10**30]
+#: Where extreme numbers go (key path -> how to build the value from a number).
+NUMERIC_SITES = {
+    "robot.payload": lambda x: f"mass = 1.0\ncom = [{x}, 0, 0]",
+    "robot.payload ": lambda x: f"mass = {x}",
+    "robot.payload  ": lambda x: f"mass = 1.0\ninertia = [[1, {x}, 0], [0, 1, 0], [0, 0, 1]]",
+    "robot.tool": lambda x: f"translation = [{x}, 0, 0]",
+    "simulate": lambda x: f"sample_time = {x}",
+    "simulate ": lambda x: f"gains = {{bandwidth = {x}}}",
+    "simulate.realism": lambda x: f"seed = {x}",
+    "limits": lambda x: f"tcp_speed = {x}",
+    "limits ": lambda x: f"torque_scale = {x}",
+    "limits  ": lambda x: f"velocity = [{x}, 1, 1, 1, 1, 1]",
+    "plan": lambda x: f"sample_time = {x}",
+    "plan ": lambda x: f"end = {x}",
+}
+CLASSES = ("dropped key", "duplicated key", "renamed key", "wrong type", "garbage bytes", "bad geometry",
+           "special file", "deep nesting", "extreme value", "bad --out folder", "closed polygon")
+
+
+@dataclass
+class Doc:
+    """One hostile document: its class, scenario bytes (or a special path), files beside it, the command."""
+
+    index: int
+    klass: str
+    data: bytes = b""
+    special: str | None = None  # the scenario argument is this special path instead of a file
+    files: dict = field(default_factory=dict)  # name -> bytes, or "fifo" / "dir" / "loop"
+    command: str = "check"
+    out_kind: str = "fresh"  # how --out is prepared (bad --out folder class)
+
+
+# ------------------------------------------------------------------------------------ generation
+def _lines(text: str) -> list[str]:
+    return text.splitlines()
+
+
+def _toml_value(rng: random.Random, depth: int = 0):
+    pick = rng.randrange(9 if depth < 2 else 6)
+    if pick == 0:
+        return rng.choice(["true", "false"])
+    if pick == 1:
+        return str(rng.choice([0, 1, -1, 7, 60, 10**9, -(10**9)]))
+    if pick == 2:
+        return repr(rng.choice([0.5, -0.5, 1e-12, 3.0, 1e12]))
+    if pick in (3, 4):
+        return json.dumps(rng.choice(["", "x", "all", "zero", "max", "down", "line", "irb140", "orbital", "g2"]))
+    if pick == 5:
+        return rng.choice(["nan", "inf", "-inf"])
+    if pick == 6:
+        return "[" + ", ".join(_toml_value(rng, depth + 1) for _ in range(rng.randrange(4))) + "]"
+    if pick == 7:
+        return "{" + ", ".join(f"{rng.choice(KEYS)}_{i} = {_toml_value(rng, depth + 1)}"
+                               for i in range(rng.randrange(3))) + "}"
+    return "[[0, 0, 0], [0, 0, 0], [0, 0, 0]]"
+
+
+def _value_lines(text: str) -> list[int]:
+    return [i for i, ln in enumerate(_lines(text)) if "=" in ln and not ln.startswith("[")]
+
+
+def _replace_value(text: str, rng: random.Random, make) -> str:
+    lines = _lines(text)
+    i = rng.choice(_value_lines(text))
+    key = lines[i].split("=", 1)[0]
+    lines[i] = f"{key}= {make()}"
+    return "\n".join(lines) + "\n"
+
+
+def _add_to_table(text: str, table: str, body: str) -> str:
+    return text + f"[{table.strip()}]\n{body}\n"
+
+
+def generate(index: int, rng: random.Random) -> Doc:
+    klass = CLASSES[index % len(CLASSES)]
+    base_name = rng.choice(sorted(BASES))
+    text = BASES[base_name]
+    doc = Doc(index, klass, command=rng.choice(["check", "plan"]))
+    lines = _lines(text)
+    if klass == "dropped key":
+        drop = rng.sample(range(len(lines)), rng.randrange(1, 4))
+        text = "\n".join(ln for i, ln in enumerate(lines) if i not in drop) + "\n"
+    elif klass == "duplicated key":
+        i = rng.randrange(len(lines))
+        lines.insert(i, lines[i])
+        text = "\n".join(lines) + "\n"
+    elif klass == "renamed key":
+        i = rng.choice(_value_lines(text))
+        key, value = lines[i].split("=", 1)
+        new = rng.choice([key.strip()[:-1], key.strip() + "s", key.strip().upper(), rng.choice(KEYS), "\"\"",
+                          "\"a.b\"", key.strip().replace("_", "-")])
+        lines[i] = f"{new} ={value}"
+        text = "\n".join(lines) + "\n"
+    elif klass == "wrong type":
+        text = _replace_value(text, rng, lambda: _toml_value(rng))
+    elif klass == "garbage bytes":
+        data = bytearray(text.encode())
+        for _ in range(rng.randrange(1, 8)):
+            pos = rng.randrange(len(data) + 1)
+            data[pos:pos + rng.randrange(3)] = bytes(rng.randrange(256) for _ in range(rng.randrange(1, 6)))
+        if rng.random() < 0.2:
+            data = bytearray(rng.randbytes(rng.randrange(1, 4000)))
+        doc.data = bytes(data)
+        return doc
+    elif klass == "bad geometry":
+        text = _bad_geometry(base_name, text, rng)
+    elif klass == "special file":
+        _special(doc, text, rng)
+        return doc
+    elif klass == "deep nesting":
+        text = _deep(text, rng)
+    elif klass == "extreme value":
+        site = rng.choice(sorted(NUMERIC_SITES))
+        x = rng.choice(EXTREME)
+        text = _add_to_table(text, site, NUMERIC_SITES[site](x))
+    elif klass == "bad --out folder":
+        doc.command = "plan"
+        doc.out_kind = rng.choice(["file", "under file", "/dev/null", "/sys", "too long", "read-only",
+                                   "result name is a folder", "nul byte", "existing ok"])
+    elif klass == "closed polygon":
+        corner = rng.choice(['"all"', "0", "1", "3", "4", "5", "-1", "1.5", '"none"'])
+        text = SQUARE.replace('corner = "all"', f"corner = {corner}")
+        text = text.replace("radius = 0.02", f"radius = {rng.choice([0.001, 0.02, 0.05, 0.099, 0.1, 0.2])}")
+        if rng.random() < 0.5:
+            text = text.replace("grid_points = 50", "grid_points = 50\nperiodic = true")
+        if rng.random() < 0.3:
+            text = text.replace('type = "circle"\nradius', 'type = "g2"\ntolerance')
+    doc.data = text.encode()
+    return doc
+
+
+def _bad_geometry(base: str, text: str, rng: random.Random) -> str:
+    if base == "joint":
+        choice = rng.randrange(4)
+        if choice == 0:  # a repeated waypoint
+            return text.replace("[[0, 0, 0, 0, 0.5, 0],", "[[0, 0, 0, 0, 0.5, 0], [0, 0, 0, 0, 0.5, 0],")
+        if choice == 1:  # outside the ranges
+            return text.replace("[0.5, 0.1, 0.0, 0.0, 0.6, 1.0]", f"[{rng.choice([4, 10, -7])}, 0.1, 0, 0, 0.6, 1]")
+        if choice == 2:
+            return text.replace("waypoints = [", "waypoints = [[0, 0, 0, 0, 0, 0]] + [")
+        return text.replace("waypoints = [[0, 0, 0, 0, 0.5, 0], ", "waypoints = [")[:-1] + "\n"
+    end = rng.choice(["[0.5, -0.1, 0.5]", "[5.0, 0.1, 0.5]", "[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.8]",
+                      "[0.5, 0.1, 0.5000000001]", "[1e-9, 0, 0]", "[0.52, 0.0, 0.5]"])
+    choice = rng.randrange(5)
+    if choice == 0:
+        return text.replace("end = [0.5, 0.1, 0.5]", f"end = {end}", 1)
+    if choice == 1:  # a degenerate arc
+        return text.replace('type = "line"\nstart = [0.5, -0.1, 0.5]\nend = [0.5, 0.1, 0.5]',
+                            f'type = "arc"\nstart = [0.5, -0.1, 0.5]\ncenter = {end}\nnormal = '
+                            f'{rng.choice(["[0, 0, 0]", "[0, 0, 1]", "[1, 0, 0]"])}\nsweep = '
+                            f'{rng.choice([0, 1e-12, 3.1, 6.3, 100])}', 1)
+    if choice == 2:  # a circle of odd radius
+        return text.replace('type = "line"\nstart = [0.5, -0.1, 0.5]\nend = [0.5, 0.1, 0.5]',
+                            f'type = "circle"\ncenter = [0.5, 0, 0.5]\nradius = {rng.choice([0, 1e-12, 0.3, 5, 1e9])}')
+    if choice == 3:  # a tool orientation that is not a rotation
+        return text.replace("[plan]", f"orientation = {rng.choice(['[[1,0,0],[0,1,0],[0,0,0]]', '[[2,0,0],[0,1,0],[0,0,1]]', '[[1,0,0],[0,1,0],[0,0,-1]]'])}\n[plan]")
+    # through the wrist singularity / a reversal with a blend
+    return text.replace("[plan]", '[[path.segments]]\ntype = "line"\nend = [0.5, -0.1, 0.5]\n'
+                        '[[path.blends]]\ncorner = 1\ntype = "circle"\nradius = 0.01\n[plan]')
+
+
+def _special(doc: Doc, text: str, rng: random.Random) -> None:
+    where = rng.choice(["scenario", "limits", "urdf"])
+    kind = rng.choice(["/dev/zero", "/dev/urandom", "/dev/null", "/proc/self/status", "/dev/tty", "fifo", "dir",
+                       "loop", "missing", "long name", "nul"])
+    if where == "scenario":
+        if kind.startswith("/"):
+            doc.special = kind
+        elif kind in ("fifo", "dir", "loop"):
+            doc.files["s.toml"] = kind
+        elif kind == "long name":
+            doc.special = "x" * 300 + ".toml"
+        elif kind == "nul":
+            doc.special = "a\0b.toml"
+        return
+    key = "limits" if where == "limits" else "name"
+    target = kind if kind.startswith("/") else ("x" * 300 if kind == "long name" else "f.dat")
+    if kind in ("fifo", "dir", "loop"):
+        doc.files["f.dat"] = kind
+    value = json.dumps(target).replace("\\u0000", "")
+    doc.data = (text + f"[robot]\n{key} = {value}\n").encode()
+
+
+def _deep(text: str, rng: random.Random) -> str:
+    depth = rng.choice([20, 40, 200, 5000, 100000])
+    choice = rng.randrange(3)
+    if choice == 0:
+        return text + "x = " + "[" * depth + "]" * depth + "\n"
+    if choice == 1:
+        return text + "a" + ".a" * depth + " = 1\n"
+    return text + "x = " + "{a = " * depth + "1" + "}" * depth + "\n"
+
+
+# ------------------------------------------------------------------------------------ running
+@dataclass
+class Run:
+    doc: Doc
+    folder: Path
+    args: list
+    out: Path | None
+    pid: int
+    started: float
+
+
+def _prepare(doc: Doc, folder: Path) -> tuple[list, Path | None]:
+    """Files of ``doc`` in ``folder`` and the command's arguments."""
+    folder.mkdir(parents=True)
+    for name, content in doc.files.items():
+        path = folder / name
+        if content == "fifo":
+            os.mkfifo(path)
+        elif content == "dir":
+            path.mkdir()
+        elif content == "loop":
+            os.symlink(path, path)
+        else:
+            path.write_bytes(content)
+    scenario = folder / "s.toml"
+    if "s.toml" not in doc.files and doc.special is None:
+        scenario.write_bytes(doc.data)
+    scen_arg = doc.special if doc.special is not None else str(scenario)
+    if doc.command == "check":
+        return ["check", scen_arg], None
+    out = folder / "out"
+    kind = doc.out_kind
+    if kind == "file":
+        out.write_text("x")
+    elif kind == "under file":
+        (folder / "f").write_text("x")
+        out = folder / "f" / "out"
+    elif kind == "/dev/null":
+        out = Path("/dev/null")
+    elif kind == "/sys":
+        out = Path("/sys/pathmotion-fuzz")
+    elif kind == "too long":
+        out = folder / ("o" * 300)
+    elif kind == "read-only":
+        ro = folder / "ro"
+        ro.mkdir()
+        ro.chmod(stat.S_IRUSR | stat.S_IXUSR)
+        out = ro / "out"
+    elif kind == "result name is a folder":
+        (out / "summary.json").mkdir(parents=True)
+    elif kind == "nul byte":
+        out = Path(str(folder) + "/o\0ut")
+    if kind != "/dev/null" and kind != "nul byte":
+        scenario.write_bytes(doc.data or JOINT.encode())
+    return ["plan", scen_arg, "--out", str(out), "--no-figures"], out
+
+
+def _child(args: list, folder: Path, mem_bytes: int) -> None:
+    """In the forked child: limits, output to files, the CLI; never returns."""
+    code = 70
+    try:
+        os.setpgid(0, 0)
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_DFL)
+        soft = _vm_bytes() + mem_bytes
+        resource.setrlimit(resource.RLIMIT_AS, (soft, soft))
+        fd_out = os.open(folder / "stdout.txt", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        fd_err = os.open(folder / "stderr.txt", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        os.dup2(fd_out, 1)
+        os.dup2(fd_err, 2)
+        os.chdir(folder)
+        from pathmotion.cli import main
+
+        sys.argv = ["pathmotion", *args]
+        try:
+            main()
+            code = 0
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+        except MemoryError:
+            code = 137
+    except BaseException:  # noqa: BLE001 - anything escaping the CLI is the escape being looked for
+        import traceback
+
+        traceback.print_exc()
+        code = 99
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
+
+
+def _vm_bytes() -> int:
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("VmSize:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def _finite_json(path: Path) -> None:
+    def refuse(name):
+        raise ValueError(f"non-finite {name} in {path.name}")
+
+    json.loads(path.read_text(), parse_constant=refuse)
+
+
+def _finite_csv(path: Path) -> None:
+    import numpy as np
+
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if not data.size or not np.all(np.isfinite(data)):
+        raise ValueError(f"{path.name} is empty or not finite")
+
+
+def verdict(run: Run, status: int | None, elapsed: float) -> str | None:
+    """None when the run behaved, else what escaped."""
+    if status is None:
+        return f"hang (over {elapsed:.0f} s)"
+    if os.WIFSIGNALED(status):
+        return f"killed by signal {os.WTERMSIG(status)} (memory kill?)"
+    code = os.WEXITSTATUS(status)
+    err = (run.folder / "stderr.txt").read_text(errors="replace")
+    out = (run.folder / "stdout.txt").read_text(errors="replace")
+    if code == 137:
+        return "MemoryError (memory kill)"
+    if code not in (0, 1, 2):
+        return f"exit {code}" + (" (internal error)" if code == 3 else "") + f": {err.strip()[-300:]}"
+    if "Traceback" in err or "Traceback" in out:
+        return "traceback"
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    one_line = len(lines) == 1 and lines[0].startswith("error: ")
+    usage = code == 2 and any("Usage" in ln for ln in lines)  # Typer's own usage error (exit 2)
+    if code and not (one_line or usage):
+        return f"error not one line ({len(lines)} lines): {err.strip()[:300]}"
+    if code == 0 and lines:
+        return f"stderr on success: {err.strip()[:300]}"
+    leftovers = [str(p) for p in run.folder.rglob("*") if p.name.endswith(".tmp")]
+    if leftovers:
+        return f"temporary left behind: {leftovers[:3]}"
+    if run.out is not None and run.out.parent == run.folder and run.doc.out_kind in ("fresh", "too long"):
+        if code == 0:
+            try:
+                _finite_json(run.out / "summary.json")
+                _finite_csv(run.out / "trajectory.csv")
+            except (OSError, ValueError) as exc:
+                return f"contract file missing or not finite: {exc}"
+        elif run.out.exists():
+            return "a failed run left its --out folder"
+    return None
+
+
+def _reproduce(escapes: Path, run: Run, what: str) -> None:
+    escapes.mkdir(parents=True, exist_ok=True)
+    stem = escapes / f"{run.doc.index:06d}-{run.doc.klass.replace(' ', '_').replace('--', '')}"
+    if run.doc.data:
+        stem.with_suffix(".toml").write_bytes(run.doc.data)
+    stem.with_suffix(".txt").write_text(
+        f"class: {run.doc.klass}\nescape: {what}\ncommand: pathmotion {' '.join(map(repr, run.args))}\n"
+        f"special: {run.doc.special!r}\nfiles: {sorted(run.doc.files)}\nout: {run.doc.out_kind}\n"
+        f"--- stderr\n{(run.folder / 'stderr.txt').read_text(errors='replace')[-4000:]}\n")
+
+
+def _cleanup(folder: Path) -> None:
+    for p in [folder, *folder.rglob("*")]:
+        try:
+            if p.is_dir() and not p.is_symlink():
+                p.chmod(0o755)
+        except OSError:
+            pass
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120.0,
+         mem_mb: int = 2048) -> dict:
+    """Run ``docs`` documents; returns {"per_class": Counter, "escapes": Counter, "found": [...], "seconds"}."""
+    import pathmotion.api  # noqa: F401 - warm the server once: every child starts with it imported
+    import pathmotion.cli  # noqa: F401
+    from pathmotion import load_robot
+
+    load_robot("irb140").model  # noqa: B018 - the built-in model, parsed once
+
+    rng = random.Random(seed)
+    work = Path(tempfile.mkdtemp(prefix="fuzz-", dir=out))
+    escapes = out / "escapes"
+    per_class, escaped, found = Counter(), Counter(), []
+    running: dict[int, Run] = {}
+    t0 = time.monotonic()
+    queue = iter(range(docs))
+    pending = True
+    while pending or running:
+        while pending and len(running) < workers:
+            i = next(queue, None)
+            if i is None:
+                pending = False
+                break
+            doc = generate(i, random.Random(rng.getrandbits(64)))
+            folder = work / f"d{i:06d}"
+            args, out_path = _prepare(doc, folder)
+            per_class[doc.klass] += 1
+            pid = os.fork()
+            if pid == 0:
+                _child(args, folder, mem_mb << 20)
+            running[pid] = Run(doc, folder, args, out_path, pid, time.monotonic())
+        time.sleep(0.01)
+        for pid, run in list(running.items()):
+            done, status = os.waitpid(pid, os.WNOHANG)
+            elapsed = time.monotonic() - run.started
+            if done == 0 and elapsed < timeout:
+                continue
+            if done == 0:
+                os.killpg(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                status = None
+            del running[pid]
+            what = verdict(run, status, elapsed)
+            if what is not None:
+                escaped[run.doc.klass] += 1
+                found.append((run.doc.index, run.doc.klass, what))
+                _reproduce(escapes, run, what)
+            _cleanup(run.folder)
+    shutil.rmtree(work, ignore_errors=True)
+    return {"per_class": per_class, "escapes": escaped, "found": found, "seconds": time.monotonic() - t0}
+
+
+def table(result: dict) -> str:
+    rows = [f"{'class':<20} {'documents':>9} {'escapes':>8}"]
+    for klass in CLASSES:
+        rows.append(f"{klass:<20} {result['per_class'][klass]:>9} {result['escapes'][klass]:>8}")
+    total = sum(result["per_class"].values())
+    rows.append(f"{'total':<20} {total:>9} {sum(result['escapes'].values()):>8}")
+    rows.append(f"{total / max(result['seconds'], 1e-9):.2f} documents/s, {result['seconds']:.0f} s")
+    return "\n".join(rows)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--docs", type=int, default=500)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=Path("out/fuzz"), help="reproducers go to OUT/escapes")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--timeout", type=float, default=120.0, help="seconds per document before it counts as a hang")
+    ap.add_argument("--mem-mb", type=int, default=2048, help="address space a child may add [MiB]")
+    args = ap.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    result = fuzz(args.docs, args.seed, args.out.resolve(), args.workers, args.timeout, args.mem_mb)
+    print(table(result))
+    for index, klass, what in result["found"]:
+        print(f"escape: document {index} ({klass}): {what.splitlines()[0][:200]}")
+    sys.exit(1 if result["found"] else 0)
+
+
+if __name__ == "__main__":
+    main()
