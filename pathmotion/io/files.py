@@ -27,6 +27,7 @@ KINDS = {
     "urdf": ("URDF file", "MAX_URDF_BYTES", RobotModelError),
     "result": ("result file", "MAX_RESULT_BYTES", PathmotionError),
     "waypoints": ("waypoint file", "MAX_WAYPOINT_FILE_BYTES", ScenarioError),
+    "rapid": ("RAPID file", "MAX_TOML_BYTES", ScenarioError),
 }
 #: Pseudo file systems whose "regular" files report no true size or never end.
 _PSEUDO = ("/proc", "/sys", "/dev")

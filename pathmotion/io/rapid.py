@@ -464,11 +464,10 @@ def parse_rapid(text: str, source: str = "program.mod") -> RapidProgram:
 
 def read_rapid(path: str | Path) -> RapidProgram:
     """Read and parse a RAPID module file (see :func:`parse_rapid`)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-        raise ScenarioError(f"RAPID file {path} cannot be read: {exc}") from None
+    from .files import read_input_bytes
+
+    path = Path(path)  # regular files only, at most defaults.MAX_TOML_BYTES (a FIFO or /dev/zero is refused)
+    text = read_input_bytes(path, "rapid").decode("utf-8", errors="replace")
     return parse_rapid(text, str(path))
 
 

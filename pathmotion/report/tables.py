@@ -4,6 +4,7 @@ and JSON. Every read error is a PathmotionError that names the file."""
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from pathlib import Path
@@ -12,6 +13,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import PathmotionError
+from ..io.files import read_input
 
 #: Both phase-plane plots (PNG and interactive) cut the limit curves at PLOT_HEADROOM times the fastest
 #: profile, plus PLOT_FLOOR so that a profile at rest still gets an axis [-], [unit of theta_dot].
@@ -24,11 +26,12 @@ def read_columns(path: str | Path, required: Sequence[str] = ()) -> dict[str, np
     {column: (N,) float array}; PathmotionError when a ``required`` column is missing or the table
     has no rows while columns are required."""
     path = Path(path)
+    text = read_input(path, "result")  # a regular file under the result cap (a FIFO would hang)
     try:
-        with path.open(newline="") as fh:
-            header = fh.readline().strip().split(",")
-            data = np.loadtxt(fh, delimiter=",", ndmin=2) if header != [""] else np.empty((0, 0))
-    except (OSError, ValueError) as exc:
+        fh = io.StringIO(text, newline="")
+        header = fh.readline().strip().split(",")
+        data = np.loadtxt(fh, delimiter=",", ndmin=2) if header != [""] else np.empty((0, 0))
+    except ValueError as exc:
         raise PathmotionError(f"report: cannot read the table {path}: {exc}; "
                               "re-run the command that wrote it") from None
     if header == [""] or (data.size and data.shape[1] != len(header)):
@@ -66,12 +69,12 @@ def _cell(text: str):
 def read_rows(path: str | Path) -> tuple[list[str], list[dict]]:
     """A CSV with mixed cell types (sweep.csv, corner_study.csv): (column names, one dict per row)."""
     path = Path(path)
+    text = read_input(path, "result")
     try:
-        with path.open(newline="") as fh:
-            reader = csv.reader(fh)
-            names = next(reader, [])
-            rows = [dict(zip(names, map(_cell, line))) for line in reader if line]
-    except (OSError, csv.Error, UnicodeDecodeError) as exc:
+        reader = csv.reader(io.StringIO(text, newline=""))
+        names = next(reader, [])
+        rows = [dict(zip(names, map(_cell, line))) for line in reader if line]
+    except csv.Error as exc:
         raise PathmotionError(f"report: cannot read the table {path}: {exc}; "
                               "re-run the command that wrote it") from None
     return names, rows
