@@ -350,7 +350,7 @@ def test_ctrl_c_to_a_parallel_sweeps_process_group_prints_one_line(tmp_path):
         kill_group(proc)
 
 
-@pytest.mark.parametrize("address", ["garbage", "tcp://", "xyz://host:1", 8786])
+@pytest.mark.parametrize("address", ["garbage", "tcp://", "xyz://host:1", "tcp://host:99999", 8786])
 def test_a_bad_dask_address_is_a_scenario_error_for_api_callers(tmp_path, address):
     from pathmotion.errors import ScenarioError
     from pathmotion.study.sweep import _run_dask

@@ -22,6 +22,7 @@ import itertools
 import json
 import logging
 import math
+import re
 import signal
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -37,6 +38,9 @@ from ..io.scenario import parse_value
 from .point import SUMMARY_KEYS, run_point
 
 log = logging.getLogger(__name__)
+
+#: [PROTOCOL://]HOST:PORT of a Dask scheduler (the form --scheduler accepts).
+_DASK_ADDRESS = re.compile(r"^((tcp|tls|ws|wss|ucx)://)?([A-Za-z0-9_.\-]+|\[[0-9a-fA-F:]+\]):(\d{1,5})/?$")
 
 #: A sweep's progress callback: on_result(done, total) after each finished point (and once at the start).
 OnResult = Callable[[int, int], None]
@@ -292,8 +296,10 @@ def _run_dask(address: str, args, todo, record, point_fn, traces) -> None:
         from distributed import as_completed as dask_completed
     except ImportError:  # pragma: no cover - dask is a runtime dependency
         raise PathmotionError("--scheduler needs dask distributed: pip install 'dask[distributed]'") from None
-    if not isinstance(address, str):
-        raise ScenarioError(f"scheduler address {address!r} is not a string; give tcp://HOST:PORT")
+    match = _DASK_ADDRESS.match(address) if isinstance(address, str) else None
+    if match is None or not 0 < int(match.group(4)) < 65536:  # checked here: distributed may assert on it
+        raise ScenarioError(f"scheduler address {str(address)[:80]!r} is not a Dask scheduler address; give "
+                            "tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786")
     try:
         client = Client(address, timeout="10s")
     except (ValueError, TypeError) as exc:  # malformed: no port, unknown scheme
