@@ -46,6 +46,13 @@ def _corner(blend: str, end: str = "[0.6, 0.1, 0.5]") -> str:
     return _then(f'[[path.segments]]\ntype = "line"\nend = {end}\n[[path.blends]]\ncorner = 1\n{blend}')
 
 
+def _square(corner: str, radius: str = "0.02") -> str:
+    """A closed 0.2 m x 0.1 m rectangle (4 lines) with one circle blend at ``corner``."""
+    sides = "".join(f'[[path.segments]]\ntype = "line"\nend = {e}\n'
+                    for e in ("[0.6, 0.1, 0.5]", "[0.6, -0.1, 0.5]", "[0.5, -0.1, 0.5]"))
+    return _then(sides + f'[[path.blends]]\ncorner = {corner}\ntype = "circle"\nradius = {radius}')
+
+
 def _plan(extra: str) -> str:
     return JOINT + extra + "\n"
 
@@ -317,6 +324,21 @@ CASES = (
          PathmotionError, ("needs 5.*e\\+08 samples", "raise the sample time"), stage="write"),
     Case("tcp_speed_far_too_small", "output far too large", _limits("tcp_speed = 1e-9"), PathmotionError,
          ("samples, more than", "tcp_speed"), stage="plan"),
+    # --- non-finite intermediate results (issue 15): refused by name before they reach a limit or a file
+    Case("payload_com_overflow", "non-finite intermediate result", JOINT + "[robot.payload]\nmass = 1.0\ncom = [1e308, 0, 0]\n",
+         RobotModelError, (r"payload mass x \|com\|\^2 overflows", "robot.payload")),
+    Case("payload_com_huge", "non-finite intermediate result", JOINT + "[robot.payload]\nmass = 1.0\ncom = [1e150, 0, 0]\n",
+         ScenarioError, (r"robot\.payload\.com", "beyond IRB140's reach")),
+    Case("payload_inertia_asymmetric", "non-finite intermediate result",
+         JOINT + "[robot.payload]\nmass = 1.0\ninertia = [[1, 1e-3, 0], [0, 1, 0], [0, 0, 1]]\n", RobotModelError,
+         ("asymmetric by 0.001", r"I\[i\]\[j\] = I\[j\]\[i\]")),
+    Case("tool_translation_huge", "non-finite intermediate result", LINE + "[robot.tool]\ntranslation = [1e9, 0, 0]\n",
+         UnreachableError, ("theta = 0", r"position error 1e\+09 m")),
+    # --- closed polygons (issue 15): corner N is the closing corner
+    Case("closing_corner_number_too_high", "closed polygon", _square("5"), ScenarioError,
+         (r"numbered 1\.\.4", "4 = the closing corner")),
+    Case("closing_corner_blend_too_large", "closed polygon", _square("4", "0.3"), PathError,
+         ("corner 4", "does not fit")),
 )
 
 CLASSES = tuple(dict.fromkeys(c.klass for c in CASES))
