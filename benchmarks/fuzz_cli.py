@@ -3,7 +3,8 @@
 (RLIMIT_AS) and a timeout. One reproducer per escape goes into OUT/escapes.
 
 Escapes: internal error (exit 3), any other exit code than 0/1/2, a traceback, a hang (timeout), a memory
-kill (a signal or MemoryError), an error that is not one ``error: ...`` line, a run that exits 0 without
+kill (a signal or MemoryError), an error that is not one ``error: ...`` line (further validation errors of the same document
+indented below it), a run that exits 0 without
 a complete finite contract file (summary.json, trajectory.csv), a temporary file or folder left behind,
 or a folder written by a run that failed.
 
@@ -411,11 +412,12 @@ def verdict(run: Run, status: int | None, elapsed: float) -> str | None:
     if "Traceback" in err or "Traceback" in out:
         return "traceback"
     lines = [ln for ln in err.splitlines() if ln.strip()]
-    one_line = len(lines) == 1 and lines[0].startswith("error: ")
+    # one error: line; several validation errors of one document follow it indented (the CLI's _fail)
+    one_line = bool(lines) and lines[0].startswith("error: ") and all(ln.startswith("  ") for ln in lines[1:])
     usage = code == 2 and any("Usage" in ln for ln in lines)  # Typer's own usage error (exit 2)
     if code and not (one_line or usage):
         return f"error not one line ({len(lines)} lines): {err.strip()[:300]}"
-    if code == 0 and lines:
+    if code == 0 and any(not ln.startswith("note: ") for ln in lines):  # notes (e.g. a periodic start) are fine
         return f"stderr on success: {err.strip()[:300]}"
     leftovers = [str(p) for p in run.folder.rglob("*") if p.name.endswith(".tmp")]
     if leftovers:

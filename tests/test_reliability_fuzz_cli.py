@@ -64,3 +64,9 @@ def test_the_seeded_500_document_slice_has_no_escape(tmp_path):
     result = fuzz_cli.fuzz(500, 1, tmp_path, workers=2, timeout=300.0)
     assert sum(result["per_class"].values()) == 500
     assert not result["found"], "\n".join(f"{i} ({k}): {w[:300]}" for i, k, w in result["found"])
+
+
+def test_several_validation_errors_may_follow_the_error_line_indented(tmp_path):
+    text = "error: s.toml: path.segments[0].x: unknown key\n  s.toml: path.segments[0].end: missing required key\n"
+    assert fuzz_cli.verdict(_run(tmp_path, text), _exit(1), 1.0) is None
+    assert "not one line" in fuzz_cli.verdict(_run(tmp_path, text + "Error: urdf\n"), _exit(1), 1.0)
