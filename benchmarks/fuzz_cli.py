@@ -422,7 +422,7 @@ def verdict(run: Run, status: int | None, elapsed: float) -> str | None:
     leftovers = [str(p) for p in run.folder.rglob("*") if p.name.endswith(".tmp")]
     if leftovers:
         return f"temporary left behind: {leftovers[:3]}"
-    if run.out is not None and run.out.parent == run.folder and run.doc.out_kind in ("fresh", "too long"):
+    if run.out is not None and run.out.parent == run.folder and run.doc.out_kind == "fresh":
         if code == 0:
             try:
                 _finite_json(run.out / "summary.json")
