@@ -96,7 +96,7 @@ def test_every_builtin_limit_figure_is_marked_official_or_estimate():
     doc = tomllib.loads((resources.files("pathmotion.robot") / "data" / "irb140_limits.toml").read_text())
     for joint in doc["joints"]:
         src = joint["sources"]
-        assert set(src) == {"range", "velocity", "acceleration", "torque", "armature"}, joint["name"]
+        assert set(src) == {"range", "velocity", "acceleration", "torque", "jerk", "torque_rate", "armature"}, joint["name"]
         assert src["range"] == "official" and src["velocity"] == "official"
         assert src["acceleration"] == "estimate" and src["torque"] == "estimate" and src["armature"] == "estimate"
     lim = load_robot("irb140").limits

@@ -11,6 +11,8 @@ from ..errors import RobotModelError
 from ..io.files import parse_toml, read_input
 
 _KEYS = ("lower", "upper", "velocity", "acceleration", "torque")
+#: Keys a limits file may leave out (all joints or none); None in JointLimits when absent.
+_OPTIONAL = ("acceleration", "jerk", "torque_rate", "armature")
 
 
 @dataclass(frozen=True)
@@ -18,7 +20,8 @@ class JointLimits:
     """Per-joint limits, arrays of shape (n,), SI units.
 
     lower, upper [rad]; velocity [rad/s] (> 0); acceleration [rad/s^2] (> 0) or None when
-    not given; torque [N m] (> 0); armature [kg m^2] (>= 0) or None: the reflected rotor inertia
+    not given; torque [N m] (> 0); jerk [rad/s^3] and torque_rate [N m/s] (> 0) or None when not given
+    (used by the third-order limits when ``use_jerk`` / ``use_torque_rate`` is on); armature [kg m^2] (>= 0) or None: the reflected rotor inertia
     J_motor N^2 of each drive, added to the diagonal of the mass matrix (the torques are joint-side,
     so they include the torque that accelerates the rotors). ``sources`` maps each quantity to
     "official"/"estimate"/...
@@ -32,10 +35,12 @@ class JointLimits:
     acceleration: np.ndarray | None = None
     sources: dict = field(default_factory=dict)
     armature: np.ndarray | None = None
+    jerk: np.ndarray | None = None
+    torque_rate: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.names)
-        for key in (*_KEYS, "armature"):
+        for key in (*_KEYS, *_OPTIONAL[1:]):
             v = getattr(self, key)
             if v is None:
                 continue
@@ -45,7 +50,7 @@ class JointLimits:
             if not np.all(np.isfinite(arr)):
                 raise RobotModelError(f"limits: '{key}' contains NaN or inf: {arr.tolist()}")
             object.__setattr__(self, key, arr)
-        for key in ("velocity", "torque", "acceleration"):
+        for key in ("velocity", "torque", "acceleration", "jerk", "torque_rate"):
             v = getattr(self, key)
             if v is not None and np.any(v <= 0):
                 j = int(np.argmax(v <= 0))
@@ -69,7 +74,7 @@ class JointLimits:
 
 def limits_from_toml(path: str | Path, joint_names: tuple[str, ...], ignore: tuple[str, ...] = ()) -> JointLimits:
     """Read a limits file (``[[joints]]`` tables with name, lower, upper, velocity, torque and
-    optional acceleration and armature) and order it as ``joint_names``; entries named in
+    optional acceleration, jerk, torque_rate and armature) and order it as ``joint_names``; entries named in
     ``ignore`` (locked joints) are dropped."""
     path = Path(path)
     doc = parse_toml(read_input(path, "limits"), f"limits file {path}", RobotModelError)
@@ -94,15 +99,15 @@ def limits_from_dict(doc: dict, joint_names: tuple[str, ...], where: str = "limi
         if name not in joint_names:
             raise RobotModelError(f"{where}: joints[{k}] names '{name}', not a joint of the robot {list(joint_names)}")
         by_name[name] = j
-    values: dict[str, list] = {key: [] for key in (*_KEYS, "armature")}
+    values: dict[str, list] = {key: [] for key in (*_KEYS, *_OPTIONAL[1:])}
     sources = {}
     for name in joint_names:
         if name not in by_name:
             raise RobotModelError(f"{where}: no [[joints]] entry for joint '{name}'")
         j = by_name[name]
-        for key in (*_KEYS, "armature"):
+        for key in (*_KEYS, *_OPTIONAL[1:]):
             v = j.get(key)
-            if v is None and key not in ("acceleration", "armature"):
+            if v is None and key not in _OPTIONAL:
                 raise RobotModelError(f"{where}: joint '{name}' has no '{key}' limit; add it")
             if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
                 raise RobotModelError(f"{where}: joint '{name}' {key} = {v!r} is not a number")
@@ -112,21 +117,20 @@ def limits_from_dict(doc: dict, joint_names: tuple[str, ...], where: str = "limi
             raise RobotModelError(f"{where}: joint '{name}' sources = {src!r:.60}: give a table of quantity = "
                                   "\"where it comes from\", e.g. sources = { velocity = \"datasheet\" }")
         sources[name] = dict(src)
-    for key in ("acceleration", "armature"):
+    for key in _OPTIONAL:
         given = values[key]
         if any(a is None for a in given) and not all(a is None for a in given):
             missing = [n for n, a in zip(joint_names, given) if a is None]
             raise RobotModelError(f"{where}: {key} given for some joints but not for {missing}; give all or none")
-    acc, arm = values["acceleration"], values["armature"]
+    optional = {key: None if values[key][0] is None else values[key] for key in _OPTIONAL}
     return JointLimits(
         names=tuple(joint_names),
         lower=values["lower"],
         upper=values["upper"],
         velocity=values["velocity"],
         torque=values["torque"],
-        acceleration=None if acc[0] is None else acc,
         sources=sources,
-        armature=None if arm[0] is None else arm,
+        **optional,
     )
 
 
