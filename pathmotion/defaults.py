@@ -159,6 +159,9 @@ ORBITAL_INTEGRAL_RATE = 20.0
 #: model error take: with 40 ms a realistic plant (Realism.realistic) stalled short of the end of a clamped
 #: spline; 0.1 s brings the clock play in first.
 TERMINAL_TIME_TO_GO = 0.1
+#: Closed loop: keep the controller's path table and orbital design in an on-disk cache ($PATHMOTION_CACHE_DIR,
+#: else $XDG_CACHE_HOME/pathmotion or ~/.cache/pathmotion), keyed by the path, plan, gains and settings.
+DESIGN_CACHE = True
 #: Points of the controller's path table (quintic Hermite in theta, breaks added) [-].
 PATH_TABLE_POINTS = 2001
 #: Path projection: most Newton iterations per sample [-] (it stops at the step tolerance, usually after
@@ -171,6 +174,10 @@ PROJECTION_MAX_STEP = 0.02
 #: and the most periods iterated for a closed path.
 RICCATI_TOLERANCE = 1e-7
 RICCATI_MAX_PERIODS = 50
+#: Riccati differential equation: planned time between its knots [s], one compiled RK4 step each (the gains are
+#: linear in theta between knots). The closed-loop poles are ~20-60 rad/s, so h * lambda <= 0.12 and the gains
+#: stay within ~1e-4 of an adaptive RK45 on the full table grid (tests/test_control_riccati.py).
+RICCATI_KNOT_TIME = 2e-3
 #: Time-indexed computed-torque baseline: natural frequency [rad/s] and damping ratio [-].
 COMPUTED_TORQUE_BANDWIDTH = 40.0
 COMPUTED_TORQUE_DAMPING = 1.0

@@ -173,6 +173,15 @@ def profile_state(profile, closed, theta):
 
 
 @numba.njit(cache=True)
+def profile_states(profile, closed, theta):
+    """(N, 2) rows (x*, u*) of :func:`profile_state` at each theta (N,)."""
+    out = np.empty((len(theta), 2))
+    for k in range(len(theta)):
+        out[k, 0], out[k, 1] = profile_state(profile, closed, theta[k])
+    return out
+
+
+@numba.njit(cache=True)
 def profile_time(profile, closed, theta):
     """Planned time t*(theta) [s] = t_i + 2 (theta - theta_i) / (sqrt(x_i) + sqrt(x*(theta))) (exact for a
     piecewise-linear x; within one period if closed)."""

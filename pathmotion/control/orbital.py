@@ -160,7 +160,7 @@ class OrbitalDesign:
         if table.closed:
             times[-1] = lookup.duration
         _, dphi_grid, _ = table.evaluate(theta)
-        x_grid = np.array([lookup.state(t)[0] for t in theta])
+        x_grid = lookup.states(theta)[:, 0]
         joint_speed = np.linalg.norm(dphi_grid, axis=1) * np.sqrt(x_grid)
         zones = () if table.closed else clock_zones(times, joint_speed, gains.min_speed, gains.terminal_time_to_go,
                                                     lookup.duration)
@@ -186,20 +186,7 @@ class OrbitalDesign:
                 gain[sl], riccati[sl] = discrete_segment(table, basis, lookup, gains, theta[sl], times[sl],
                                                          sample_time, delay)
                 continue
-            a, b = with_integral(*transverse_linearization(table, basis, lookup, theta[sl]), ni)
-            _, dphi, _ = table.evaluate(theta[sl])
-            x_star = np.array([lookup.state(t)[0] for t in theta[sl]])
-            q, r = lqr_weights(gains, dphi, x_star)
-            # (xi_z, z, z_dot): the algebraic Riccati solution at the end; zero on I and xi_I (open paths)
-            zz = np.concatenate([np.arange(min(ni, m)), ni + np.arange(2 * m)])
-            p_end = np.zeros((d, d))
-            p_end[np.ix_(zz, zz)] = solve_continuous_are(a[-1][np.ix_(zz, zz)], b[-1][zz], q[-1][np.ix_(zz, zz)], r)
-            if table.closed:  # a start for the periodic iteration
-                p_end[-1, -1] = q[-1][-1, -1] / max(gains.speed_rate, 1.0)
-                if ni:
-                    p_end[m, m] = q[-1][m, m] / max(gains.integral_rate, 1.0)
-            riccati[sl] = solve_riccati(times[sl], a, b, q, r, p_end, periodic=table.closed)
-            gain[sl] = np.linalg.solve(r, np.transpose(b, (0, 2, 1))) @ riccati[sl]  # R^-1 B^T P
+            gain[sl], riccati[sl] = continuous_segment(table, basis, lookup, gains, theta[sl], times[sl])
         # outside the segments: hold the nearest segment-end gain (used only at zone edges)
         idx = np.where(~in_zone, np.arange(len(theta)), -1)
         fwd = np.maximum.accumulate(idx)
@@ -217,6 +204,49 @@ class OrbitalDesign:
             if z0 <= planned_time <= z1:
                 return i
         return None
+
+
+def design_knots(times: np.ndarray, spacing: float) -> np.ndarray:
+    """Indices into ``times`` (M,) [s] of the Riccati knots: the first and last point and the points where
+    t // spacing changes, so consecutive knots are about ``spacing`` [s] apart (all points when denser)."""
+    cell = np.floor((times - times[0]) / spacing)
+    keep = np.concatenate([[True], cell[1:] != cell[:-1]])
+    keep[-1] = True
+    return np.nonzero(keep)[0]
+
+
+def continuous_segment(table, basis, lookup, gains, theta, times):
+    """Gains K = R^-1 B^T P (M, n, d) and P (M, d, d) of the continuous-time design on one orbital segment at
+    its grid points ``theta`` (M,) with planned ``times`` (M,) [s]: the Riccati equation is integrated on knots
+    ``defaults.RICCATI_KNOT_TIME`` apart (:func:`design_knots`), K and P linear in theta in between."""
+    ni = integral_size(gains, table.n)
+    m = table.n - 1
+    knots = design_knots(times, defaults.RICCATI_KNOT_TIME)
+    th = theta[knots]
+    a, b = with_integral(*transverse_linearization(table, basis, lookup, th), ni)
+    _, dphi, _ = table.evaluate(th)
+    q, r = lqr_weights(gains, dphi, lookup.states(th)[:, 0])
+    d = a.shape[1]
+    # (xi_z, z, z_dot): the algebraic Riccati solution at the end; zero on I and xi_I (open paths)
+    zz = np.concatenate([np.arange(min(ni, m)), ni + np.arange(2 * m)])
+    p_end = np.zeros((d, d))
+    p_end[np.ix_(zz, zz)] = solve_continuous_are(a[-1][np.ix_(zz, zz)], b[-1][zz], q[-1][np.ix_(zz, zz)], r)
+    if table.closed:  # a start for the periodic iteration
+        p_end[-1, -1] = q[-1][-1, -1] / max(gains.speed_rate, 1.0)
+        if ni:
+            p_end[m, m] = q[-1][m, m] / max(gains.integral_rate, 1.0)
+    p = solve_riccati(times[knots], a, b, q, r, p_end, periodic=table.closed)
+    k = np.linalg.solve(r, np.transpose(b, (0, 2, 1))) @ p  # R^-1 B^T P
+    return _interpolate(th, theta, k), _interpolate(th, theta, p)
+
+
+def _interpolate(knots: np.ndarray, theta: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """values (K, ...) given at increasing ``knots`` (K,), linear in theta at ``theta`` (M,) (clipped)."""
+    if len(knots) == 1:
+        return np.repeat(values, len(theta), axis=0)
+    i = np.clip(np.searchsorted(knots, theta, side="right") - 1, 0, len(knots) - 2)
+    w = np.clip((theta - knots[i]) / (knots[i + 1] - knots[i]), 0.0, 1.0).reshape(-1, *([1] * (values.ndim - 1)))
+    return (1 - w) * values[i] + w * values[i + 1]
 
 
 def sample_grid(times: np.ndarray, sample_time: float, periodic: bool) -> np.ndarray:
@@ -242,7 +272,7 @@ def sampled_system(table: PathTable, basis: TransverseBasis, lookup: ProfileLook
     ni = integral_size(gains, table.n)
     a, b = with_integral(*transverse_linearization(table, basis, lookup, theta), ni)
     _, dphi, _ = table.evaluate(theta)
-    x_star = np.array([lookup.state(th)[0] for th in theta])
+    x_star = lookup.states(theta)[:, 0]
     q, r = lqr_weights(gains, dphi, x_star)
     phi, gamma = np.empty_like(a), np.empty_like(b)
     for h in np.unique(steps):  # all samples but the last one of an open segment have the same length

@@ -40,6 +40,24 @@ _HERMITE5 = np.array(
 )
 
 
+def _interval_ends(path: JointPath, grid: np.ndarray, breaks: list) -> tuple[tuple, tuple]:
+    """(Phi, Phi', Phi'') at the start (right-sided) and end (left-sided) of each interval of ``grid`` (M,), each
+    (M-1, n). The path is evaluated once per grid point: both sides only at ``breaks`` and at the domain's end
+    (elsewhere the path is smooth and the end of one interval is the start of the next), halving the cost of a
+    path lifted by inverse kinematics."""
+    start = path.evaluate(grid[:-1], side="right")
+    two_sided = np.nonzero(np.isin(grid[1:], breaks))[0]
+    ends_at = np.append(two_sided, len(grid) - 2)  # intervals whose end needs the left-sided value
+    end_values = path.evaluate(grid[1:][ends_at], side="left")
+    ends = []
+    for s, e in zip(start, end_values):
+        out = np.empty_like(s)
+        out[:-1] = s[1:]
+        out[ends_at] = e
+        ends.append(out)
+    return start, tuple(ends)
+
+
 @dataclass(frozen=True, eq=False)
 class PathTable:
     """Tabulated q = Phi(theta).
@@ -68,8 +86,7 @@ class PathTable:
             near = np.min(np.abs(grid[:, None] - np.asarray(extra)[None, :]), axis=1)
             is_break = np.isin(grid, extra)
             grid = grid[(near > BREAK_MERGE * (hi - lo)) | is_break]
-        left = path.evaluate(grid[:-1], side="right")  # start of each interval
-        right = path.evaluate(grid[1:], side="left")  # end of each interval
+        left, right = _interval_ends(path, grid, extra)
         h = np.diff(grid)[:, None]
         data = np.stack(
             [left[0], left[1] * h, left[2] * h**2, right[0], right[1] * h, right[2] * h**2], axis=1

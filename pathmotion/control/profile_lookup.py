@@ -15,7 +15,7 @@ from functools import cached_property
 import numpy as np
 
 from ..planning.profile import Profile
-from .kernels import ProfileArrays, profile_state, profile_time, profile_times
+from .kernels import ProfileArrays, profile_state, profile_states, profile_time, profile_times
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,6 +43,10 @@ class ProfileLookup:
         """(x*, u*) at theta: planned theta_dot^2 and theta_ddot (right-continuous)."""
         x, u = profile_state(self.arrays, self.closed, float(theta))
         return float(x), float(u)
+
+    def states(self, theta: np.ndarray) -> np.ndarray:
+        """:meth:`state` of each theta (N,): (N, 2) rows (x*, u*)."""
+        return profile_states(self.arrays, self.closed, np.ascontiguousarray(theta, dtype=float))
 
     def time(self, theta: float) -> float:
         """Planned time t*(theta) [s] from the start of the profile (within one period if closed)."""

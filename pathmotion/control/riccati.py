@@ -11,6 +11,7 @@ Bittanti, Colaneri, De Nicolao, "The periodic Riccati equation", 1991).
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
@@ -34,33 +35,61 @@ def _interpolator(times: np.ndarray, values: np.ndarray):
     return at
 
 
+@numba.njit(cache=True)
+def _riccati_rate(p, a, s, q):
+    """dP/dt = -(A^T P + P A - P S P + Q), S = B R^-1 B^T."""
+    pa = p @ a
+    return -(pa + pa.T - p @ s @ p + q)
+
+
+@numba.njit(cache=True)
+def _rk4_sweep(times, a, s, q, p_final, max_step):
+    """P at ``times`` (M, d, d), integrated backward from P(times[-1]) = p_final with classical RK4, at least
+    one step per interval and steps <= max_step [s]; A, S, Q linear in t inside each interval."""
+    big = len(times)
+    out = np.empty((big, p_final.shape[0], p_final.shape[1]))
+    p = p_final.copy()
+    out[big - 1] = p
+    for i in range(big - 2, -1, -1):
+        span = times[i + 1] - times[i]
+        steps = max(1, int(np.ceil(span / max_step)))
+        h = span / steps
+        da, ds, dq = a[i + 1] - a[i], s[i + 1] - s[i], q[i + 1] - q[i]
+        for j in range(steps):  # from w1 down to w0 (fractions of the interval)
+            w1 = 1.0 - j / steps
+            wm = w1 - 0.5 / steps
+            w0 = w1 - 1.0 / steps
+            a1, s1, q1 = a[i] + w1 * da, s[i] + w1 * ds, q[i] + w1 * dq
+            am, sm, qm = a[i] + wm * da, s[i] + wm * ds, q[i] + wm * dq
+            a0, s0, q0 = a[i] + w0 * da, s[i] + w0 * ds, q[i] + w0 * dq
+            k1 = _riccati_rate(p, a1, s1, q1)
+            k2 = _riccati_rate(p - 0.5 * h * k1, am, sm, qm)
+            k3 = _riccati_rate(p - 0.5 * h * k2, am, sm, qm)
+            k4 = _riccati_rate(p - h * k3, a0, s0, q0)
+            p = p - h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            p = 0.5 * (p + p.T)
+        out[i] = p
+    return out
+
+
 def solve_riccati(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray,
                   p_end: np.ndarray, periodic: bool = False) -> np.ndarray:
-    """P at ``times`` (M, d, d). a, q (M, d, d); b (M, d, m); r (m, m) positive definite."""
+    """P at ``times`` (M, d, d). a, q (M, d, d); b (M, d, m); r (m, m) positive definite. Compiled classical RK4
+    with one step per interval of ``times`` (at most ``defaults.RICCATI_KNOT_TIME`` long) (tests/test_control_riccati.py checks it against scipy's
+    adaptive RK45 at ``defaults.RICCATI_TOLERANCE``)."""
     times = np.asarray(times, dtype=float)
     if np.any(np.diff(times) <= 0):
         raise SimulationError("Riccati equation: the times of the planned motion must increase")
-    d = a.shape[1]
     r_inv = np.linalg.inv(r)
     s = b @ r_inv[None] @ np.transpose(b, (0, 2, 1))  # B R^-1 B^T, (M, d, d)
-    a_at, s_at, q_at = _interpolator(times, a), _interpolator(times, s), _interpolator(times, q)
-
-    def rhs(t, p_flat):
-        p = p_flat.reshape(d, d)
-        at = a_at(t)
-        pa = p @ at
-        dp = -(pa + pa.T - p @ s_at(t) @ p + q_at(t))
-        return dp.ravel()
-
-    scale = max(float(np.max(np.abs(q))), 1.0)
+    a, s, q = (np.ascontiguousarray(x, dtype=float) for x in (a, s, q))
 
     def sweep(p_final: np.ndarray) -> np.ndarray:
-        sol = solve_ivp(rhs, (times[-1], times[0]), p_final.ravel(), t_eval=times[::-1], method="RK45",
-                        rtol=defaults.RICCATI_TOLERANCE, atol=defaults.RICCATI_TOLERANCE * scale * ABSOLUTE_FRACTION)
-        if not sol.success:
-            raise SimulationError(f"Riccati equation could not be integrated: {sol.message}")
-        p = sol.y.T[::-1].reshape(len(times), d, d)
-        return 0.5 * (p + np.transpose(p, (0, 2, 1)))
+        p = _rk4_sweep(times, a, s, q, np.ascontiguousarray(p_final, dtype=float), defaults.RICCATI_KNOT_TIME)
+        if not np.all(np.isfinite(p)):
+            raise SimulationError("Riccati equation could not be integrated (P became infinite); lower the "
+                                  "orbital gains' bandwidth or shorten defaults.RICCATI_KNOT_TIME")
+        return p
 
     p = sweep(p_end)
     if not periodic:
@@ -75,6 +104,26 @@ def solve_riccati(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray
         f"periodic Riccati equation did not converge in {defaults.RICCATI_MAX_PERIODS} periods; "
         "the transverse linearization may not be stabilizable with these weights (raise the bandwidth)"
     )
+
+
+def solve_riccati_adaptive(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray,
+                           p_end: np.ndarray) -> np.ndarray:
+    """The open-horizon P at ``times`` (M, d, d) by scipy's adaptive RK45 at ``defaults.RICCATI_TOLERANCE``: the
+    independent reference of :func:`solve_riccati` (slow: a Python right-hand side)."""
+    d = a.shape[1]
+    s = b @ np.linalg.inv(r)[None] @ np.transpose(b, (0, 2, 1))
+    a_at, s_at, q_at = _interpolator(times, a), _interpolator(times, s), _interpolator(times, q)
+
+    def rhs(t, p_flat):
+        p = p_flat.reshape(d, d)
+        pa = p @ a_at(t)
+        return (-(pa + pa.T - p @ s_at(t) @ p + q_at(t))).ravel()
+
+    scale = max(float(np.max(np.abs(q))), 1.0)
+    sol = solve_ivp(rhs, (times[-1], times[0]), p_end.ravel(), t_eval=times[::-1], method="RK45",
+                    rtol=defaults.RICCATI_TOLERANCE, atol=defaults.RICCATI_TOLERANCE * scale * ABSOLUTE_FRACTION)
+    p = sol.y.T[::-1].reshape(len(times), d, d)
+    return 0.5 * (p + np.transpose(p, (0, 2, 1)))
 
 
 def discretize(a: np.ndarray, b: np.ndarray, sample_time: float) -> tuple[np.ndarray, np.ndarray]:

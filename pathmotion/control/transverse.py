@@ -122,7 +122,7 @@ def transverse_linearization(table: PathTable, basis: TransverseBasis, profile: 
     dde = np.gradient(de, theta, axis=0)
     n = table.n
     m = n - 1
-    xu = np.array([profile.state(th) for th in theta])
+    xu = profile.states(theta)
     x_star, u_star = xu[:, 0], xu[:, 1]
     theta_dot = np.sqrt(x_star)
     p = dphi / np.sum(dphi * dphi, axis=1, keepdims=True)

@@ -27,6 +27,7 @@ import numpy as np
 from .. import defaults
 from ..control import (CONTROLLER_NAMES, ComputedTorqueController, OrbitalController, OrbitalDesign, OrbitalGains,
                        PathTable, PDGravityController, TimeReference, TrackingGains, default_pd_gains)
+from ..control.design_cache import cached_design, cached_table
 from ..errors import SimulationError
 from ..joint_path import JointPath
 from ..planning.profile import Profile
@@ -51,7 +52,8 @@ class SimulationSettings:
     [rad], saturation_limit [s] (longest saturated stretch); time budget = time_budget_factor * planned +
     time_budget_margin [s]; laps (closed paths); table_points of the controller's path table; settle_time [s]
     observed after the arrival (open paths ending at rest); sampled_design: the orbital gains designed on the
-    sampled transverse linearization at sample_time with the realism's delay in the model; plant: "builtin" or "mujoco" (see
+    sampled transverse linearization at sample_time with the realism's delay in the model; design_cache: read and
+    write the path table and the orbital design in the on-disk cache (:mod:`pathmotion.control.design_cache`); plant: "builtin" or "mujoco" (see
     :func:`.plant.make_plant`)."""
 
     sample_time: float = defaults.SAMPLE_TIME
@@ -70,6 +72,7 @@ class SimulationSettings:
     settle_time: float = defaults.SETTLE_TIME
     plant: str = defaults.PLANT
     sampled_design: bool = defaults.ORBITAL_SAMPLED_DESIGN
+    design_cache: bool = defaults.DESIGN_CACHE
 
     def __post_init__(self):
         for name in ("sample_time", "path_tolerance", "joint_tolerance", "time_budget_factor"):
@@ -104,11 +107,10 @@ def make_controller(name: str, robot: Robot, path: JointPath, profile: Profile, 
                     settings: SimulationSettings, horizon: float, design: OrbitalDesign | None = None):
     """A fresh running controller ``name`` (one of CONTROLLER_NAMES) on the nominal robot."""
     if name == "orbital":
-        sampled = (settings.sample_time, int(settings.realism.delay)) if settings.sampled_design else (None, 0)
         if design is None:
             log.info("closed-loop design: orbital controller (transverse linearization, %s Riccati)",
                      "sampled" if settings.sampled_design else "continuous")
-            design = OrbitalDesign.build(table, profile, settings.orbital_gains, *sampled)
+            design = OrbitalDesign.build(table, profile, settings.orbital_gains, *_sampling(settings))
         return OrbitalController(design, robot, settings.sample_time)
     if name in ("computed_torque", "pd_gravity"):
         ref = TimeReference.sample(path, profile, settings.sample_time, horizon)
@@ -116,6 +118,11 @@ def make_controller(name: str, robot: Robot, path: JointPath, profile: Profile, 
             return ComputedTorqueController(ref, robot, settings.computed_torque_gains)
         return PDGravityController(ref, robot, settings.pd_gains)
     raise SimulationError(f"unknown controller '{name}'; choose one of {', '.join(CONTROLLER_NAMES)}")
+
+
+def _sampling(settings: SimulationSettings) -> tuple[float | None, int]:
+    """(sample_time, delay) of the orbital design: (None, 0) for the continuous-time one."""
+    return (settings.sample_time, int(settings.realism.delay)) if settings.sampled_design else (None, 0)
 
 
 class PlantModel(Protocol):
@@ -142,7 +149,15 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     """
     _check_inputs(robot, path, profile)
     ts, substeps = settings.sample_time, settings.substeps
-    table = design.table if design is not None else PathTable.from_path(path, settings.table_points)
+    if design is None and settings.design_cache:
+        if controller == "orbital":
+            design = cached_design(path, profile, settings.orbital_gains, *_sampling(settings),
+                                   points=settings.table_points)
+            table = design.table
+        else:
+            table = cached_table(path, settings.table_points)[0]
+    else:
+        table = design.table if design is not None else PathTable.from_path(path, settings.table_points)
     budget = settings.time_budget_factor * profile.duration * (settings.laps if path.closed else 1) \
         + settings.time_budget_margin
     control = _Command(make_controller(controller, robot, path, profile, table, settings, budget + ts, design),
