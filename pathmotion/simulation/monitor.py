@@ -5,7 +5,9 @@ controller, :func:`pathmotion.control.kernels.project`), and returns what the en
 (docs/control.md, "Failure rules"). At a kink of the path (Phi' jumps, e.g. a sharp corner the plan stops
 at) the local projection cannot pass from one side to the other when the two tangents make more than 90
 degrees in joint space: near a kink it also projects from just past it on either side and keeps the
-nearest point.
+nearest point. A point behind the current theta is taken only if it is at most BACKWARD_RATIO of the
+distance: where a path turns back over its own configurations (a pick or place point reached and left along
+the same line) both halves are equally near, and round-off must not send theta back along the outbound half.
 """
 
 from __future__ import annotations
@@ -17,6 +19,9 @@ from ..control.kernels import project, wrap
 
 #: How far past a kink the extra projections start, as a fraction of the projection's largest step [-].
 KINK_OFFSET = 1e-6
+#: A projection across a kink to a smaller theta replaces the current one only when its squared distance is
+#: below this fraction of the current one (half the distance) [-].
+BACKWARD_RATIO = 0.25
 
 
 @numba.njit(cache=True)
@@ -47,7 +52,7 @@ def monitor_state(path, q, qd, guess, proj, speed_limit, speed_eps):
                 th2, ev2 = project(path, q, start, proj)
                 y2 = q - ev2[0]
                 d2 = np.dot(y2, y2)
-                if d2 < best:
+                if d2 < best and (th2 >= theta or d2 < BACKWARD_RATIO * best):
                     theta, ev, y, best = th2, ev2, y2, d2
     dphi = ev[1]
     speed2 = np.dot(dphi, dphi)
