@@ -415,14 +415,19 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
     return interval_maxima(theta[free], {name: v[free] for name, v in r.items()}, grid), ratios
 
 
+def _grid_breaks(path: JointPath, pgrid: np.ndarray) -> tuple[int, ...]:
+    """Indices in ``pgrid`` of the path's interior breaks (segment joins, spline knots)."""
+    special = [float(b) for b in path.breaks if pgrid[0] < b < pgrid[-1]]
+    return tuple(int(i) for i in np.searchsorted(pgrid, special))
+
+
 def _certify_context(path, robot, profile, limits, grid, samp, breaks) -> CertifyContext:
     """The certification's view of ``profile``: the planner's grid data, or, when the profile has its own
     grid ("max" connections insert the intervals that carry the jumps), fresh path data on it."""
     pgrid = profile.grid
     if len(pgrid) == len(grid) and np.array_equal(pgrid, grid):
         return CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque)
-    special = [float(b) for b in path.breaks if pgrid[0] < b < pgrid[-1]]
-    pbreaks = tuple(int(i) for i in np.searchsorted(pgrid, special))
+    pbreaks = _grid_breaks(path, pgrid)
     right = PathPoints(robot, path, pgrid, *path.evaluate(pgrid, "right"))
     left = PathPoints(robot, path, pgrid, *path.evaluate(pgrid, "left"), side="left")
     return CertifyContext(path, robot, profile, right, left, pbreaks, limits.needs_torque)
@@ -433,8 +438,7 @@ def certified_bounds(path: JointPath, robot: Robot, profile: Profile, settings: 
     ``profile``'s grid (planning/certify.py), with the path data evaluated afresh on that grid."""
     limits = effective_limits(robot, settings)
     pgrid = profile.grid
-    special = [float(b) for b in path.breaks if pgrid[0] < b < pgrid[-1]]
-    breaks = tuple(int(i) for i in np.searchsorted(pgrid, special))
+    breaks = _grid_breaks(path, pgrid)
     samp = _sample(path, robot, pgrid, breaks)
     return certify(CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque), limits)
 

@@ -82,16 +82,10 @@ def limit_ratios(trajectory: Trajectory, limits: EffectiveLimits, dt: float = de
 def summarize(s: Samples, ratios: dict, limits: EffectiveLimits, dt: float,
               velocity_jumps: tuple[float, ...] = (), joint_names: tuple[str, ...] | None = None) -> LimitRatios:
     """LimitRatios from sampled ratio arrays (see :func:`sample_ratios`)."""
-    values = {cls.name: None for cls in REGISTRY}
-    worst, worst_text = -1.0, "no limit active"
-    for lim in limits:
-        r = ratios[lim.name]
-        k, j = np.unravel_index(int(np.argmax(r)), r.shape)
-        values[lim.name] = float(r[k, j])
-        if values[lim.name] > worst:
-            worst = values[lim.name]
-            worst_text = (f"{lim.name} of {lim.column_name(j, joint_names)} at t = {s.t[k]:.6g} s, "
-                          f"theta = {s.theta[k]:.6g}: ratio {worst:.6g}")
+    def where(lim, k, j, ratio):
+        return (f"{lim.name} of {lim.column_name(j, joint_names)} at t = {s.t[k]:.6g} s, "
+                f"theta = {s.theta[k]:.6g}: ratio {ratio:.6g}")
+    values, worst_text = _largest(ratios, limits, where)
     return _with_jumps(LimitRatios(values, dt, worst_text), limits, velocity_jumps)
 
 
@@ -100,18 +94,28 @@ def summarize_intervals(profile, bounds: dict, limits: EffectiveLimits, velocity
     """LimitRatios from certified bounds {name: (K - 1, m)} on the intervals of ``profile``'s grid
     (planning/certify.py): each value is the largest bound, "worst" names its interval."""
     grid, times = profile.grid, profile.times
+
+    def where(lim, i, j, ratio):
+        return (f"{lim.name} of {lim.column_name(j, joint_names)} for t in [{times[i]:.6g}, "
+                f"{times[i + 1]:.6g}] s, theta in [{grid[i]:.6g}, {grid[i + 1]:.6g}]: ratio <= {ratio:.6g}")
+    values, worst_text = _largest(bounds, limits, where)
+    ratios = LimitRatios(values, None, worst_text, {}, "certified")
+    return _with_jumps(ratios, limits, velocity_jumps)
+
+
+def _largest(arrays: dict, limits: EffectiveLimits, where) -> tuple[dict, str]:
+    """Per limit, the largest entry of its (K, m) array {name: array}; and ``where(lim, k, j, ratio)``'s text for the
+    largest over all limits ("no limit active" when none is)."""
     values = {cls.name: None for cls in REGISTRY}
     worst, worst_text = -1.0, "no limit active"
     for lim in limits:
-        b = bounds[lim.name]
-        i, j = np.unravel_index(int(np.argmax(b)), b.shape)
-        values[lim.name] = float(b[i, j])
+        r = arrays[lim.name]
+        k, j = np.unravel_index(int(np.argmax(r)), r.shape)
+        values[lim.name] = float(r[k, j])
         if values[lim.name] > worst:
             worst = values[lim.name]
-            worst_text = (f"{lim.name} of {lim.column_name(j, joint_names)} for t in [{times[i]:.6g}, "
-                          f"{times[i + 1]:.6g}] s, theta in [{grid[i]:.6g}, {grid[i + 1]:.6g}]: ratio <= {worst:.6g}")
-    ratios = LimitRatios(values, None, worst_text, {}, "certified")
-    return _with_jumps(ratios, limits, velocity_jumps)
+            worst_text = where(lim, k, j, worst)
+    return values, worst_text
 
 
 def _with_jumps(ratios: LimitRatios, limits: EffectiveLimits, velocity_jumps) -> LimitRatios:
