@@ -349,6 +349,10 @@ def _child(args: list, folder: Path, mem_bytes: int) -> None:
         fd_err = os.open(folder / "stderr.txt", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         os.dup2(fd_out, 1)
         os.dup2(fd_err, 2)
+        # Python-level streams onto the new descriptors too: under pytest (or any host that swapped
+        # sys.stdout/sys.stderr for its own capture objects) the CLI would otherwise write elsewhere
+        sys.stdout = open(1, "w", encoding="utf-8", errors="replace", closefd=False, buffering=1)
+        sys.stderr = open(2, "w", encoding="utf-8", errors="replace", closefd=False, buffering=1)
         os.chdir(folder)
         from pathmotion.cli import main
 
