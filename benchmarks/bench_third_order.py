@@ -44,32 +44,13 @@ def cases(robot) -> dict[str, dict]:
 
 def toppra_seconds(path, robot, gridpoints: int = 1000, repeat: int = 3) -> float:
     """Best of ``repeat`` wall times of toppra's acceleration-only solve (ParametrizeConstAccel)."""
-    import toppra as ta
-    import toppra.algorithm as algo
-    import toppra.constraint as constraint
-
-    class _Path(ta.interpolator.AbstractGeometricPath):
-        def __call__(self, s, order=0):
-            res = path.evaluate(np.atleast_1d(s))[order]
-            return res[0] if np.ndim(s) == 0 else res
-
-        @property
-        def dof(self):
-            return path.n
-
-        @property
-        def path_interval(self):
-            return np.array(path.domain)
+    from reference_topp import toppra_instance
 
     lim = robot.limits
-    cons = [constraint.JointVelocityConstraint(np.vstack([-lim.velocity, lim.velocity]).T),
-            constraint.JointAccelerationConstraint(np.vstack([-lim.acceleration, lim.acceleration]).T)]
     best = np.inf
     for _ in range(repeat):
         t0 = time.perf_counter()
-        inst = algo.TOPPRA(cons, _Path(), gridpoints=np.linspace(*path.domain, gridpoints),
-                           parametrizer="ParametrizeConstAccel")
-        inst.compute_trajectory()
+        toppra_instance(path, lim.velocity, lim.acceleration, gridpoints).compute_trajectory()
         best = min(best, time.perf_counter() - t0)
     return best
 

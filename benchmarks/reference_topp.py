@@ -330,15 +330,16 @@ def converged_duration(path, robot, limits: ReferenceLimits, grids=GRIDS, table_
     return T, p, profiles
 
 
-def toppra_duration(path, robot, velocity, acceleration, gridpoints: int = 4001) -> float:
-    """toppra's acceleration-only optimum (ParametrizeConstAccel) on a ``path`` with evaluate3."""
+def toppra_instance(path, velocity, acceleration, gridpoints: int):
+    """toppra's acceleration-only TOPPRA problem (ParametrizeConstAccel output) on ``path`` (any object with
+    evaluate(s) -> (q, q', q'', ...), n and domain), on a uniform grid of ``gridpoints``."""
     import toppra as ta
     import toppra.algorithm as algo
     import toppra.constraint as constraint
 
     class _Path(ta.interpolator.AbstractGeometricPath):
         def __call__(self, s, order=0):
-            res = path.evaluate3(np.atleast_1d(s))[order]
+            res = path.evaluate(np.atleast_1d(s))[order]
             return res[0] if np.ndim(s) == 0 else res
 
         @property
@@ -351,9 +352,13 @@ def toppra_duration(path, robot, velocity, acceleration, gridpoints: int = 4001)
 
     cons = [constraint.JointVelocityConstraint(np.vstack([-velocity, velocity]).T),
             constraint.JointAccelerationConstraint(np.vstack([-acceleration, acceleration]).T)]
-    inst = algo.TOPPRA(cons, _Path(), gridpoints=np.linspace(*path.domain, gridpoints),
+    return algo.TOPPRA(cons, _Path(), gridpoints=np.linspace(*path.domain, gridpoints),
                        parametrizer="ParametrizeConstAccel")
-    return float(inst.compute_trajectory().duration)
+
+
+def toppra_duration(path, robot, velocity, acceleration, gridpoints: int = 4001) -> float:
+    """toppra's acceleration-only optimum (ParametrizeConstAccel) on ``path``."""
+    return float(toppra_instance(path, velocity, acceleration, gridpoints).compute_trajectory().duration)
 
 
 # ------------------------------------------------------------------------------------ the table
