@@ -15,19 +15,8 @@ class JerkLimit(PerJointThirdOrder):
     name = "jerk"
     robot_key = "jerk"
     unit = "rad/s^3"
-    settings_keys = {"jerk": "on", "jerk_scale": "scale", "jerk_limit": "value"}
-    scenario_keys = {"use_jerk": "on", "jerk_scale": "scale", "jerk": "value"}
-
-    def __init__(self, jerk: np.ndarray):
-        self.jerk = np.asarray(jerk, float)
-
-    @classmethod
-    def from_robot(cls, robot, choice):
-        value = cls.values_for(robot, choice)
-        return None if value is None else cls(value)
-
     def rows3(self, points, scale):
-        return Rows3(points.dq, 3.0 * points.ddq, points.dddq, np.zeros_like(points.dq), self.jerk * scale)
+        return Rows3(points.dq, 3.0 * points.ddq, points.dddq, np.zeros_like(points.dq), self.values * scale)
 
     def ratios(self, samples, robot):
-        return np.abs(samples.qddd) / self.jerk
+        return np.abs(samples.qddd) / self.values

@@ -18,6 +18,21 @@ class PerJointThirdOrder(Limit):
     order = 3
     robot_key: str = ""
 
+    def __init_subclass__(cls, **kwargs):
+        """The keys follow from ``robot_key``: ``[limits] <key>``, ``use_<key>``, ``<key>_scale``."""
+        super().__init_subclass__(**kwargs)
+        key = cls.robot_key
+        cls.settings_keys = {key: "on", f"{key}_scale": "scale", f"{key}_limit": "value"}
+        cls.scenario_keys = {f"use_{key}": "on", f"{key}_scale": "scale", key: "value"}
+
+    def __init__(self, values: np.ndarray):
+        self.values = np.asarray(values, float)  # (n,) in the limit's unit
+
+    @classmethod
+    def from_robot(cls, robot, choice):
+        value = cls.values_for(robot, choice)
+        return None if value is None else cls(value)
+
     @classmethod
     def default_choice(cls) -> LimitChoice:
         return LimitChoice(on=None, value=None)

@@ -27,21 +27,10 @@ class TorqueRateLimit(PerJointThirdOrder):
     robot_key = "torque_rate"
     unit = "N m/s"
     needs_torque = True
-    settings_keys = {"torque_rate": "on", "torque_rate_scale": "scale", "torque_rate_limit": "value"}
-    scenario_keys = {"use_torque_rate": "on", "torque_rate_scale": "scale", "torque_rate": "value"}
-
-    def __init__(self, rate: np.ndarray):
-        self.rate = np.asarray(rate, float)
-
-    @classmethod
-    def from_robot(cls, robot, choice):
-        value = cls.values_for(robot, choice)
-        return None if value is None else cls(value)
-
     def rows3(self, points, scale):
         alpha, beta, _ = reduced(points)
         alpha_p, beta_p, gamma_p = _derivatives(points)
-        return Rows3(alpha, alpha_p + 2.0 * beta, beta_p, gamma_p, self.rate * scale)
+        return Rows3(alpha, alpha_p + 2.0 * beta, beta_p, gamma_p, self.values * scale)
 
     def ratios(self, samples, robot):
-        return np.abs(samples.tau_dot) / self.rate
+        return np.abs(samples.tau_dot) / self.values
