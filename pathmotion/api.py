@@ -66,6 +66,10 @@ class Setup:
 
 
 # ------------------------------------------------------------------------------------- building
+#: Largest share of a neighbouring segment a RAPID zone may cut (below half: two zones never meet).
+RAPID_ZONE_CUT = 0.49
+
+
 def _rpy(rpy) -> np.ndarray:
     import pinocchio as pin
 
@@ -351,6 +355,26 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
     if check is not None:
         out[schema.MIN_SINGULAR_VALUE.key] = check.min_singular_value
         out[schema.JOINT_RANGE_MARGIN.key] = check.range_margin
+    return out
+
+
+def rapid_zone_tolerances(program) -> list:
+    """G2 blend tolerance [m] per corner of an imported RAPID program (io.rapid.RapidProgram): the deviation of
+    the blend that starts at the zone radius from the target (ABB's corner path starts where the TCP enters the
+    zone), the cut kept below RAPID_ZONE_CUT of each neighbour so a segment between two zones keeps a straight
+    middle; None at fine points and where the moves join without a corner."""
+    from .geometry.blends import g2_deviation
+    from .io.rapid import effective_zones, segments
+
+    segs = [Line(start, mv.point) if arc is None else Arc(arc.center, start, arc.normal, arc.sweep)
+            for mv, start, arc, _ in segments(program)]
+    path = TaskPath(tuple(segs), FixedOrientation())
+    out = []
+    for k, zone in enumerate(effective_zones(program)):
+        A, B = path.segments[k], path.segments[k + 1]
+        cut = min(zone, RAPID_ZONE_CUT * A.length, RAPID_ZONE_CUT * B.length)
+        usable = path.connections[k].kind in ("corner", "tangent") and cut > 0
+        out.append(g2_deviation(A, B, cut).upper if usable else None)
     return out
 
 

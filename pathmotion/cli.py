@@ -362,27 +362,6 @@ def schema(out: Optional[Path] = typer.Option(None, "--out", help="write to this
         print(json.dumps(scenario_json_schema(), indent=2))
 
 
-def _zone_tolerances(program) -> list:
-    """G2 blend tolerance [m] per corner of an imported RAPID program: the deviation of the blend that
-    starts at the zone radius from the target (ABB's corner path starts where the TCP enters the zone),
-    the cut kept below 49 % of each neighbour so a segment between two zones keeps a straight middle;
-    None at fine points and where the moves join without a corner."""
-    from .geometry import Arc, FixedOrientation, Line, TaskPath
-    from .geometry.blends import g2_deviation
-    from .io.rapid import effective_zones, segments
-
-    segs = [Line(start, mv.point) if arc is None else Arc(arc.center, start, arc.normal, arc.sweep)
-            for mv, start, arc, _ in segments(program)]
-    path = TaskPath(tuple(segs), FixedOrientation())
-    out = []
-    for k, zone in enumerate(effective_zones(program)):
-        A, B = path.segments[k], path.segments[k + 1]
-        cut = min(zone, 0.49 * A.length, 0.49 * B.length)
-        usable = path.connections[k].kind in ("corner", "tangent") and cut > 0
-        out.append(g2_deviation(A, B, cut).upper if usable else None)
-    return out
-
-
 @app.command("import-rapid")
 @guarded
 def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)"),
@@ -394,6 +373,7 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
 
     Example: [bold]pathmotion import-rapid tests/data/abb_cycle.mod --out cycle.toml[/]
     """
+    from .api import rapid_zone_tolerances
     from .io.atomic import write_text
     from .io.rapid import read_rapid, scenario_toml
     from .io.scenario import parse_scenario
@@ -403,7 +383,7 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
         listed = "; ".join(f"line {ln}: {text}" for ln, text in prog.unsupported)
         _fail(f"{program}: {len(prog.unsupported)} unsupported instruction(s), rerun with --skip-unsupported to skip "
               f"them: {listed}")
-    text = scenario_toml(prog, _zone_tolerances(prog), robot=robot)
+    text = scenario_toml(prog, rapid_zone_tolerances(prog), robot=robot)
     parse_scenario(text, str(out))  # the written scenario must load
     write_text(out, text)
     for ln, stmt in prog.unsupported:
