@@ -14,14 +14,14 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .io import schema
-from .errors import PathmotionError, ScenarioError, UnreachableError
+from .errors import InfeasibleError, PathmotionError, ScenarioError, UnreachableError
 from .geometry import Arc, Circle, FixedOrientation, Line, TaskPath, max_deviation, waypoint_path, with_blends
 from . import defaults
 from .io import exports
@@ -35,6 +35,7 @@ from .planning import PlanResult, PlanSettings, plan
 from .planning.limits import REGISTRY as LIMIT_REGISTRY, limit_choices
 from .robot import Payload, Robot, Tool, builtin_robot_names, fk, load_robot
 from .robot.arm import arm_points
+from .reserve_search import AUTO, ReserveSearch, ReserveTrial, Verdict, search_reserve
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +50,10 @@ STILL_PATH_SPEED = 1e-12
 @dataclass(frozen=True, eq=False)
 class Setup:
     """A validated scenario turned into objects: robot, joint path (and the task path it came
-    from, and the path before blends), planner and simulation settings."""
+    from, and the path before blends), planner and simulation settings. With ``torque_reserve = "auto"``
+    the plan settings hold the reserve the search chose (:func:`resolve_torque_reserve`),
+    ``reserve_search`` its record and ``reserve_run`` the (plan, simulation or None) of that reserve, which
+    :func:`plan_scenario` and :func:`simulate_scenario` return instead of running again."""
 
     scenario: Scenario
     scenario_text: str
@@ -59,6 +63,8 @@ class Setup:
     task_path: TaskPath | None
     original_task_path: TaskPath | None
     plan_settings: PlanSettings
+    reserve_search: ReserveSearch | None = None
+    reserve_run: tuple | None = field(default=None, repr=False)
 
     @property
     def name(self) -> str:
@@ -267,8 +273,12 @@ def _near_waypoint(task: TaskPath, original: TaskPath | None, exc: UnreachableEr
     return f"between waypoints {k} and {k + 1}: "
 
 
-def plan_settings(scenario: Scenario) -> PlanSettings:
+def plan_settings(scenario: Scenario, torque_reserve: float | None = None) -> PlanSettings:
+    """The planner's settings from the scenario; ``torque_reserve`` [-] replaces the scenario's (a
+    ``"auto"`` reserve is planned at 0, the search's first run, until :func:`resolve_torque_reserve`)."""
     lim, p = scenario.limits, scenario.plan
+    if torque_reserve is not None or lim.torque_reserve == AUTO:
+        lim = lim.model_copy(update={"torque_reserve": 0.0 if torque_reserve is None else float(torque_reserve)})
     periodic = p.periodic
     return PlanSettings(
         grid_points=p.grid_points, tolerance=p.tolerance, limits=limit_choices(lim),
@@ -295,7 +305,8 @@ def build(scenario: Scenario, base_dir: str | Path = ".", text: str = "") -> Set
     if path.closed and not scenario.plan.periodic:
         # a closed path run once from rest to rest (or with given end speeds) is an open motion
         path = dataclasses.replace(path, closed=False)
-    return Setup(scenario, text, base_dir, robot, path, task, original, plan_settings(scenario))
+    setup = Setup(scenario, text, base_dir, robot, path, task, original, plan_settings(scenario))
+    return resolve_torque_reserve(setup) if scenario.limits.torque_reserve == AUTO else setup
 
 
 def load(scenario_path: str | Path, overrides: dict[str, Any] | None = None) -> Setup:
@@ -312,7 +323,10 @@ def load_text(text: str, base_dir: str | Path = ".", overrides: dict[str, Any] |
 # ------------------------------------------------------------------------------------- planning
 def plan_scenario(setup: Setup) -> PlanResult:
     """The time-optimal plan of the scenario (with baselines and verification); with
-    ``plan.blend_speed_scale`` < 1 the blends are then slowed to that fraction (verified)."""
+    ``plan.blend_speed_scale`` < 1 the blends are then slowed to that fraction (verified). A setup whose
+    reserve search ran returns the plan of the chosen reserve, planned then."""
+    if setup.reserve_run is not None:
+        return setup.reserve_run[0]
     result = plan(setup.path, setup.robot, setup.plan_settings)
     scale = setup.scenario.plan.blend_speed_scale
     if scale != 1.0:
@@ -321,6 +335,54 @@ def plan_scenario(setup: Setup) -> PlanResult:
         log.info("slowing the blends to %g of their optimal speed", scale)
         result = cap_blend_speed(setup, result, scale)
     return result
+
+
+# ---------------------------------------------------------------------- torque_reserve = "auto"
+def resolve_torque_reserve(setup: Setup) -> Setup:
+    """``torque_reserve = "auto"``: ``setup`` with the smallest reserve whose plan tracks in the scenario's
+    own closed loop (its controller, realism and tolerances), found by :func:`search_reserve` over plan +
+    simulate runs. When none tracks: the largest reserve that could be planned, and the search's failure,
+    which :func:`plan_failures` reports (a failed result)."""
+    runs: dict[float, tuple] = {}
+    log.info("torque_reserve = auto: searching [0, %g] in steps of %g with the scenario's closed loop (%s)",
+             defaults.AUTO_RESERVE_MAX, defaults.AUTO_RESERVE_STEP, setup.scenario.simulate.controller)
+    search = search_reserve(lambda reserve: _reserve_trial(setup, reserve, runs))
+    reserve = search.applied
+    return dataclasses.replace(setup, plan_settings=plan_settings(setup.scenario, reserve), reserve_search=search,
+                               reserve_run=runs[reserve])
+
+
+def _reserve_trial(setup: Setup, reserve: float, runs: dict) -> ReserveTrial:
+    """Plan and simulate ``setup`` with the torque reserve ``reserve`` [-]; (plan, simulation or None) go
+    into ``runs[reserve]``. An infeasible plan is a verdict above reserve 0 (less reserve is needed); at 0
+    it is the scenario's own error and propagates, as do errors of the simulation's set-up."""
+    trial = dataclasses.replace(setup, plan_settings=plan_settings(setup.scenario, reserve))
+    try:
+        result = plan_scenario(trial)
+    except InfeasibleError as exc:
+        if reserve == 0:
+            raise
+        return ReserveTrial(reserve, Verdict.INFEASIBLE, reason=str(exc))
+    failures = plan_failures(result)
+    if failures:
+        runs[reserve] = (result, None)
+        return ReserveTrial(reserve, Verdict.FAILS, "the plan failed: " + "; ".join(failures), result.duration)
+    sim = simulate_scenario(trial, result)
+    runs[reserve] = (result, sim)
+    summary = sim.summary()
+    ok = bool(summary[schema.TRACKING_OK.key])
+    failure = summary[schema.FAILURE.key]
+    reason = "" if ok else "tracking failed" + (f": {failure['message']}" if failure else "")
+    return ReserveTrial(reserve, Verdict.TRACKS if ok else Verdict.FAILS, reason, result.duration,
+                        summary[schema.CYCLE_TIME.key], summary[schema.PATH_ACCURACY.key])
+
+
+def reserve_summary(setup: Setup) -> dict:
+    """summary.json's record of a reserve search ({} without one): the reserve applied and every run."""
+    search = setup.reserve_search
+    if search is None:
+        return {}
+    return {"torque_reserve": search.applied, schema.TORQUE_RESERVE_SEARCH.key: search.records()}
 
 
 def plan_summary(setup: Setup, result: PlanResult) -> dict:
@@ -355,6 +417,7 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
     if check is not None:
         out[schema.MIN_SINGULAR_VALUE.key] = check.min_singular_value
         out[schema.JOINT_RANGE_MARGIN.key] = check.range_margin
+    out.update(reserve_summary(setup))
     return out
 
 
@@ -401,7 +464,7 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
     samples = result.trajectory.sample(setup.scenario.plan.sample_time)
     exports.write_trajectory_csv(out / "trajectory.csv", samples)
     exports.write_trajectory_parquet(out / "trajectory.parquet", samples)
-    failures = plan_failures(result) if failures is None else list(failures)
+    failures = plan_failures(result, setup) if failures is None else list(failures)
     notes = _write_exports(setup, samples, out, failures, force_exports)
     exports.write_table_csv(out / "phase_plane.csv", phase_plane_columns(result))
     write_report_data(setup, out, samples.t, samples.q)
@@ -418,15 +481,18 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
     return summary
 
 
-def plan_failures(result: PlanResult) -> list[str]:
+def plan_failures(result: PlanResult, setup: Setup | None = None) -> list[str]:
     """Why the planned motion must not be run as it is (empty when it may): a jump in the path speed
     (theta_dot) at a connection, a limit exceeded by more than LIMIT_TOLERANCE on the verification
-    resample (a kink crossed at speed makes the acceleration and torque unbounded)."""
+    resample (a kink crossed at speed makes the acceleration and torque unbounded), and with ``setup``:
+    a ``torque_reserve = "auto"`` search that found no reserve with which the closed loop tracks."""
     out = [f"the path speed jumps at theta = {a:.6g} .. {b:.6g} (a 'max' connection)"
            for a, b in result.jump_intervals]
     r = result.ratios
     if r is not None and not r.within():
         out.append(f"a limit is exceeded: {r.worst}")
+    if setup is not None and setup.reserve_search is not None and not setup.reserve_search.ok:
+        out.append(setup.reserve_search.failure())
     return out
 
 
@@ -508,9 +574,13 @@ def simulation_settings(setup: Setup):
 
 
 def simulate_scenario(setup: Setup, result: PlanResult):
-    """Closed-loop simulation of the planned motion with the scenario's controller and plant."""
+    """Closed-loop simulation of the planned motion with the scenario's controller and plant (the reserve
+    search's run when ``result`` is the plan it chose)."""
     from .simulation import simulate
 
+    run = setup.reserve_run
+    if run is not None and result is run[0] and run[1] is not None:
+        return run[1]
     settings = simulation_settings(setup)
     simulation_budget(setup, settings, result)
     return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
@@ -532,6 +602,7 @@ def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:
     summary["controller"] = setup.scenario.simulate.controller
     summary[schema.PLANT.key] = setup.scenario.simulate.plant
     summary[schema.PLANNED_DURATION.key] = result.profile.duration
+    summary.update(reserve_summary(setup))
     return summary
 
 
@@ -634,7 +705,7 @@ def _check_like_plan_and_simulate(setup: Setup) -> dict:
     sample_times(result.profile.duration, setup.scenario.plan.sample_time)
     simulation_budget(setup, simulation_settings(setup), result)
     return {"duration_s": float(result.profile.duration),
-            "worst_limit": None if result.ratios is None else result.ratios.worst}
+            "worst_limit": None if result.ratios is None else result.ratios.worst, **reserve_summary(setup)}
 
 
 # ------------------------------------------------------------------------------------- demo

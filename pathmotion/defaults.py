@@ -238,6 +238,13 @@ REPORT_MIN_FRAME_TIME = 0.04
 #: most this many times, until the duration changes by less than this fraction [-].
 RELINEARIZE_ITERATIONS = 12
 RELINEARIZE_TOLERANCE = 1e-5
+#: Feedback reserve ([limits] torque_reserve): the fraction of each torque limit kept free stays below this [-].
+MAX_TORQUE_RESERVE = 0.5
+#: torque_reserve = "auto": the reserves searched are 0, AUTO_RESERVE_STEP, 2 AUTO_RESERVE_STEP, ...,
+#: AUTO_RESERVE_MAX [-] (a bisection: at most 6 plan + closed-loop runs for 0.45 in steps of 0.025; a step
+#: of 2.5 % of the torque changes the plan's duration by about 1.5 % on the IRB140 circle).
+AUTO_RESERVE_MAX = 0.45
+AUTO_RESERVE_STEP = 0.025
 
 # --- Input files and output folders (pathmotion.io.files) ------------------------------------------
 #: Largest scenario or limits file (TOML) read [bytes]; real ones are a few kB.

@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .. import defaults
 from ..errors import ScenarioError
@@ -147,7 +147,9 @@ class LimitsSpec(_Model):
     torque_scale: float = Field(1.0, gt=0)
     tcp_speed: float | None = Field(None, gt=0, description="TCP speed limit [m/s] (off when absent)")
     torque_reserve: float | Literal["auto"] = Field(0.0, description="fraction of each torque limit kept free for "
-                                                    "feedback, in [0, 0.5) (the planner enforces (1 - r) tau_max)")
+                                                    "feedback, in [0, 0.5) (the planner enforces (1 - r) tau_max); "
+                                                    "\"auto\": the smallest with which the scenario's closed loop "
+                                                    "tracks (a search over plan + simulate runs)")
     torque_speed: dict[str, float | tuple[float, ...]] | None = Field(
         None, description="torque-speed envelope {knee, at_max_speed}, fractions in (0, 1] (scalar or per joint); "
                           "off when absent")
@@ -159,6 +161,17 @@ class LimitsSpec(_Model):
     use_torque_rate: bool | None = Field(None, description="enforce the torque-rate limits (default: when "
                                                            "[limits] torque_rate is given)")
     torque_rate_scale: float = Field(1.0, gt=0)
+
+    @field_validator("torque_reserve", mode="before")
+    @classmethod
+    def _reserve(cls, value):
+        """One message for every bad reserve (a union's per-member errors say less)."""
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if value == "auto" or (number and math.isfinite(value) and 0 <= value < defaults.MAX_TORQUE_RESERVE):
+            return value
+        raise ValueError(f"give a fraction of each torque limit kept free for feedback, in [0, "
+                         f"{defaults.MAX_TORQUE_RESERVE:g}) (e.g. 0.2), or \"auto\" (the smallest reserve with which "
+                         "the scenario's closed loop tracks)")
 
 
 Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]

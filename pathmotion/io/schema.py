@@ -64,6 +64,8 @@ RAPID_ESTIMATE = _k("rapid_estimate_s", "RAPID program at its programmed speeds 
 FAILURES = _k("failures", "why the plan must not be run (empty: it may)")
 EXPORT_NOTES = _k("export_notes", "notes at the top of the exports (ROS 2, EGM, RAPID)")
 JOINT_RANGE_MARGIN = _k("joint_range_margin_rad", "smallest joint-range margin", "rad")
+TORQUE_RESERVE_SEARCH = _k("torque_reserve_search", 'torque_reserve = "auto": the reserves tried, in order, with '
+                           "their verdicts (tracks / fails / infeasible) and closed-loop figures")
 
 # ------------------------------------------------------------------------------- simulation
 CONTROLLER = _k("controller", "controller")

@@ -131,8 +131,9 @@ class Profile:
         t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         i = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.grid) - 2)
         tau = t - self.times[i]
-        if self.smooth:
-            return _smooth_at_time(self, i, tau)
+        if self.smooth:  # vectorized over intervals: a scalar time goes through as one element
+            out = _smooth_at_time(self, np.atleast_1d(i), np.atleast_1d(tau))
+            return tuple(v.reshape(t.shape) for v in out)
         v0 = np.sqrt(self.x[i])
         u = self.u[i]
         theta = np.minimum(self.grid[i] + v0 * tau + 0.5 * u * tau**2, self.grid[i + 1])

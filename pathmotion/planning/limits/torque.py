@@ -12,12 +12,13 @@ from dataclasses import replace
 
 import numpy as np
 
+from ... import defaults
 from ...errors import InfeasibleError, ScenarioError
 from ..reduced import reduced_dynamics
 from .base import Limit, LimitChoice, PathPoints, Rows
 
 #: The reserve must stay below this fraction of the torque limit [-].
-MAX_RESERVE = 0.5
+MAX_RESERVE = defaults.MAX_TORQUE_RESERVE
 
 
 def _reduced_arrays(robot, q, dq, ddq):
