@@ -95,7 +95,6 @@ def test_per_joint_envelope():
 
 @pytest.mark.parametrize("key, value", [
     ("torque_reserve", 0.5), ("torque_reserve", 0.7), ("torque_reserve", -0.1), ("torque_reserve", float("nan")),
-    ("torque_reserve", "auto"),
     ("torque_speed", {"knee": 0.0, "at_max_speed": 0.5}), ("torque_speed", {"knee": 1.2, "at_max_speed": 0.5}),
     ("torque_speed", {"knee": 0.5, "at_max_speed": 0.0}), ("torque_speed", {"knee": 0.5, "at_max_speed": -1}),
     ("torque_speed", {"knee": float("nan"), "at_max_speed": 0.5}), ("torque_speed", {"knee": 0.5, "speed": 0.5}),
