@@ -17,7 +17,8 @@ from pathmotion.errors import PathmotionError, RobotModelError, UnreachableError
 from pathmotion.robot import (
     Tool, fk, has_closed_form, ik, ik_all, ik_batch, ik_dls, load_robot, opw_geometry,
 )
-from pathmotion.robot.opw import solve
+from pathmotion.robot.ik import continuous_wrist
+from pathmotion.robot.opw import flip_wrist, solve
 
 TWO_PI = 2 * np.pi
 #: Round-trip tolerance [rad] at the range boundaries. Away from singularities the closed form is
@@ -305,17 +306,43 @@ def test_batch_reports_first_unreachable_point(robot):
     assert "reaches" in str(info.value)
 
 
-def test_batch_reports_the_wrist_singularity_crossing(robot):
+def test_batch_follows_a_joint_path_through_the_wrist_singularity(robot):
+    # a straight joint-space line on which q5 changes sign while q4 and q6 move: the closed form's
+    # wrist branch 0 (q5 >= 0) would flip q4 and q6 by pi there; the batch changes wrist branch instead
     s = np.linspace(0, 1, 1001)[:, None]
     a = np.array([0.2, 0.3, -0.5, 0.5, 0.8, 1.0])
     b = np.array([0.8, 0.6, -1.2, 2.0, -0.3, 5.0])
     qs = a + (b - a) * s
-    crossing = int(np.argmax(qs[:, 4] < 0))
     pos, rot = fk(robot, qs)
-    with pytest.raises(UnreachableError, match="wrist singularity") as info:
-        ik_batch(robot, pos, rot, qs[0])
-    assert info.value.reason == "singular"
-    assert info.value.index == crossing
+    got = ik_batch(robot, pos, rot, qs[0])
+    d = got - qs
+    np.testing.assert_allclose(d[:, [0, 1, 2, 4]], 0, atol=1e-9)
+    np.testing.assert_allclose(got[:, 3] + got[:, 5], qs[:, 3] + qs[:, 5], atol=1e-9)
+    # q4 alone only up to rounding / |sin q5| (the split is undetermined at q5 = 0)
+    assert np.all(np.abs(d[:, 3]) < 1e-12 / np.abs(np.sin(qs[:, 4])) + 1e-9)
+
+
+def test_batch_starting_on_the_flipped_wrist_follows_it_back(robot):
+    # the same line backwards: point 0 is on wrist branch 1 (q5 < 0), the crossing returns to branch 0
+    s = np.linspace(1, 0, 801)[:, None]
+    a = np.array([0.2, 0.3, -0.5, 0.5, 0.8, 1.0])
+    b = np.array([0.8, 0.6, -1.2, 2.0, -0.3, 5.0])
+    qs = a + (b - a) * s
+    pos, rot = fk(robot, qs)
+    got = ik_batch(robot, pos, rot, qs[0])
+    np.testing.assert_allclose(got[:, [0, 1, 2, 4]], qs[:, [0, 1, 2, 4]], atol=1e-9)
+    assert np.all(np.abs(got[:, 3] - qs[:, 3]) < 1e-12 / np.abs(np.sin(qs[:, 4])) + 1e-9)
+
+
+def test_continuous_wrist_never_flips_away_from_the_singularity(robot):
+    qs = smooth_joint_path(3000)  # q5 >= 0.2 throughout: both wrist choices are far apart
+    geo = opw_geometry(robot)
+    pos, rot = fk(robot, qs)
+    t = geo.to_t(qs)
+    sol = solve(geo, pos, rot, t[:, 0], t[:, 3], branches=(0,))
+    got = continuous_wrist(geo, sol.q[:, 0], 0)
+    np.testing.assert_array_equal(got, sol.q[:, 0])
+    np.testing.assert_allclose(continuous_wrist(geo, sol.q[:, 0], 1), flip_wrist(geo, sol.q[:, 0]))
 
 
 def test_batch_reports_the_point_leaving_a_joint_range(robot):

@@ -31,7 +31,7 @@ from .. import defaults
 from ..errors import PathmotionError, RobotModelError, UnreachableError
 from .kinematics import fk, jacobian
 from .model import Robot
-from .opw import TWO_PI, OPWGeometry, OPWSolutions, branch_name, solve, wrap
+from .opw import TWO_PI, OPWGeometry, OPWSolutions, branch_name, flip_wrist, solve, wrap
 
 #: Slack of the joint-range test [rad]: a closed-form solution up to this far beyond a limit counts
 #: as on it and is clamped to it. Away from singularities the closed form is exact to ~1e-15 rad, but
@@ -242,12 +242,35 @@ def _forward_fill(values: np.ndarray, degenerate: np.ndarray, first: float) -> n
     return np.where(idx < 0, first, values[np.maximum(idx, 0)])
 
 
+def continuous_wrist(geo: OPWGeometry, q: np.ndarray, first: int) -> np.ndarray:
+    """Configurations (N, 6) on one shoulder/elbow branch with the wrist branch chosen for continuity.
+
+    q: the solutions on wrist branch 0 (t5 >= 0); ``first``: the wrist branch (0 or 1) at point 0.
+    Between consecutive points the wrist branch changes when the flipped solution (:func:`flip_wrist`)
+    is nearer (Euclidean, joints wrapped) than the unflipped one: minimum joint motion. Away from
+    q5 = 0 the flip moves q4 and q6 by pi, so it is never nearer; where q5 passes through 0 it is the
+    continuation (q5 changes sign, q4 and q6 stay smooth). The flip is an isometry and an
+    involution, so one comparison per pair decides for either current branch.
+    """
+    flipped = flip_wrist(geo, q)
+    if len(q) < 2:
+        return flipped if first else q
+    with np.errstate(invalid="ignore"):
+        same = np.linalg.norm(wrap(np.diff(q, axis=0)), axis=1)
+        other = np.linalg.norm(wrap(flipped[1:] - q[:-1]), axis=1)
+        toggle = other < same
+    parity = (first + np.concatenate([[0], np.cumsum(toggle)])) % 2
+    return np.where(parity[:, None] == 1, flipped, q)
+
+
 def ik_batch(robot: Robot, positions, rotations, q_ref, *,
              max_joint_step: float | None = defaults.IK_MAX_JOINT_STEP) -> np.ndarray:
     """Configurations (N, n) [rad] reaching N TCP poses (positions (N, 3), rotations (N, 3, 3)).
 
-    The branch is the one nearest to ``q_ref`` (n,) at point 0 and is kept for all points; each
-    joint takes the 2*pi turn continuous with the previous point. A joint change above
+    The shoulder and elbow branch are the ones nearest to ``q_ref`` (n,) at point 0, kept for all
+    points; the wrist branch follows :func:`continuous_wrist` (it changes where q5 passes through 0,
+    so a path through the wrist singularity stays continuous); each joint takes the 2*pi turn
+    continuous with the previous point. A joint change above
     ``max_joint_step`` [rad] between consecutive points is reported as a singularity (the path
     crosses it, or passes nearer than the point spacing resolves); None disables that check.
     Raises UnreachableError with ``index`` = first bad point. Arms without the closed form use
@@ -266,17 +289,19 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
     except UnreachableError as exc:
         raise UnreachableError(str(exc), index=0, reason=exc.reason) from None
     t0 = geo.to_t(q0)
-    sol = solve(geo, p, r, np.full(n_pts, t0[0]), np.full(n_pts, t0[3]), branches=(branch,))
+    base = branch & ~1  # the wrist bit is chosen per point below
+    t4_first = t0[3] if branch == base else t0[3] - np.pi
+    sol = solve(geo, p, r, np.full(n_pts, t0[0]), np.full(n_pts, t4_first), branches=(base,))
     # exact singularities: take the redundant angle from the previous regular point
     shoulder_deg = sol.shoulder_radius < defaults.IK_DEGENERATE
-    wrist_deg = np.abs(sol.sin_wrist[:, branch]) < defaults.IK_DEGENERATE
+    wrist_deg = np.abs(sol.sin_wrist[:, base]) < defaults.IK_DEGENERATE
     if shoulder_deg.any() or wrist_deg.any():
-        t = geo.to_t(sol.q[:, branch])
+        t = geo.to_t(sol.q[:, base])
         t1 = _forward_fill(t[:, 0], shoulder_deg, t0[0])
-        t4 = _forward_fill(t[:, 3], wrist_deg, t0[3])
-        sol = solve(geo, p, r, t1, t4, branches=(branch,))
-    qb = sol.q[:, branch]
-    bad_reach = ~sol.reach_ok[:, branch]
+        t4 = _forward_fill(t[:, 3], wrist_deg, t4_first)
+        sol = solve(geo, p, r, t1, t4, branches=(base,))
+    qb = continuous_wrist(geo, sol.q[:, base], branch & 1)
+    bad_reach = ~sol.reach_ok[:, base]
     i_reach = int(np.argmax(bad_reach)) if bad_reach.any() else n_pts
     step = wrap(np.diff(qb, axis=0))
     i_jump = n_pts
@@ -298,13 +323,13 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
     where = f"point {i_bad}, {_fmt_pose(p[i_bad], r[i_bad])}"
     name = branch_name(branch)
     if i_bad == i_reach:
-        raise UnreachableError(f"{where}: {_reach_message(geo, sol, i_bad, (branch,))} (branch {name})",
+        raise UnreachableError(f"{where}: {_reach_message(geo, sol, i_bad, (base,))} (branch {name})",
                                index=i_bad, reason="reach")
     if i_bad == i_jump:
-        raise UnreachableError(f"{where}: {_singular_message(robot, geo, sol, qb, branch, i_bad)}",
+        raise UnreachableError(f"{where}: {_singular_message(robot, geo, sol, qb, base, i_bad)}",
                                index=i_bad, reason="singular")
     raise UnreachableError(
-        f"{where}: {_range_violation(robot, q[i_bad])} on the branch followed from point 0 ({name}); "
+        f"{where}: {_range_violation(robot, q[i_bad])} on the branch followed from point 0 ({name}, wrist continuous); "
         "start from another q_ref or move the path", index=i_bad, reason="joint_range")
 
 

@@ -24,7 +24,8 @@ Inverse (all angles vectorized over N poses):
 
 Branch index 4 * shoulder + 2 * elbow + wrist: shoulder 0 = front (cx1 > 0), 1 = back;
 elbow 0 = up (elbow above the shoulder-wrist line: e = +1 in front, -1 at the back), 1 = down;
-wrist 0 = t5 >= 0, 1 = flipped (t5 < 0). Degenerate cases (wrist centre on axis 1, t5 = 0) take
+wrist 0 = t5 >= 0, 1 = flipped (t5 < 0); :func:`flip_wrist` maps one wrist branch to the other (a path
+through t5 = 0 changes wrist branch to stay continuous, see :func:`pathmotion.robot.ik.ik_batch`). Degenerate cases (wrist centre on axis 1, t5 = 0) take
 the redundant angle (t1, respectively t4) from a reference, so the solution stays continuous.
 
 The OPW parameters of a robot are extracted from its Pinocchio model at q = 0 (axis directions and
@@ -90,6 +91,16 @@ class OPWGeometry:
 
     def to_t(self, q: np.ndarray) -> np.ndarray:
         return self.sign * np.asarray(q, float) + self.offset
+
+
+def flip_wrist(geo: OPWGeometry, q: np.ndarray) -> np.ndarray:
+    """The other wrist branch of configurations q (..., 6): t4 + pi, -t5, t6 + pi is the same pose
+    (Rz(t4 + pi) Ry(-t5) Rz(t6 + pi) = Rz(t4) Ry(t5) Rz(t6)); joints wrapped to [-pi, pi]."""
+    t = geo.to_t(np.asarray(q, float)).copy()
+    t[..., 3] += np.pi
+    t[..., 4] = -t[..., 4]
+    t[..., 5] += np.pi
+    return geo.to_q(t)
 
 
 def wrap(x):
