@@ -417,6 +417,10 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
     if check is not None:
         out[schema.MIN_SINGULAR_VALUE.key] = check.min_singular_value
         out[schema.JOINT_RANGE_MARGIN.key] = check.range_margin
+        prof = result.profile
+        out[schema.WRIST_CROSSINGS.key] = [
+            {**ps.summary(), "planned_speed_m_s": float(np.sqrt(np.interp(ps.theta, prof.grid, prof.x)))}
+            for ps in check.wrist_passages]
     out.update(reserve_summary(setup))
     return out
 
@@ -672,6 +676,7 @@ def check_scenario(setup: Setup) -> dict:
         out["min_singular_value_theta"] = check.min_singular_theta
         out[schema.JOINT_RANGE_MARGIN.key] = check.range_margin
         out["joint_range_margin_joint"] = check.range_margin_joint
+        out[schema.WRIST_CROSSINGS.key] = [ps.summary() for ps in check.wrist_passages]
     theta = np.linspace(*path.domain, 400)
     q, dq, ddq = path.evaluate(theta)
     if setup.plan_settings.torque:

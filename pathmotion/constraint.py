@@ -29,12 +29,12 @@ the IK branch reached from the start configuration. Phi', Phi'' and Phi''' are e
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
 
-from . import defaults
+from . import defaults, wrist_crossing
 from .errors import PathError, UnreachableError
 from .joint_path import JointPath
 from .robot import Robot, frame_acceleration_bias, jacobian
@@ -54,7 +54,9 @@ class PathCheck:
 
     min_singular_value: smallest singular value of the TCP Jacobian along the path and its theta;
     range_margin: smallest distance of any joint to its range limits [rad], with theta and joint;
-    kinks: theta of the sharp corners (the planner must stop there).
+    kinks: theta of the sharp corners (the planner must stop there);
+    wrist_passages: :class:`~pathmotion.wrist_crossing.WristPassage` per stretch near q5 = 0 (crossings
+    on the smooth branch included; the singular-value check skips their interpolation windows).
     """
 
     min_singular_value: float
@@ -64,11 +66,17 @@ class PathCheck:
     range_margin_joint: str
     kinks: tuple[float, ...]
     samples: int
+    wrist_passages: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
 class TaskJointPath(JointPath):
-    """q = Phi(theta) for a task-space path, on one IK branch. Build with :func:`lift`."""
+    """q = Phi(theta) for a task-space path, on one IK branch (the wrist branch continuous through
+    q5 = 0). Build with :func:`lift`.
+
+    wrist_windows: :class:`~pathmotion.wrist_crossing.WristWindow` intervals around wrist singularity
+    crossings, where Phi and its derivatives come from a certified interpolant of the continuous IK
+    (J is singular at the crossing); elsewhere Phi is the closed form and its derivatives J^-1 (...)."""
 
     robot: Robot | None = None
     task_path: object = None
@@ -76,29 +84,54 @@ class TaskJointPath(JointPath):
     reference_theta: np.ndarray = field(default=None, repr=False)
     reference_q: np.ndarray = field(default=None, repr=False)
     check: PathCheck | None = None
+    wrist_windows: tuple = ()
 
     def _reference_at(self, theta: np.ndarray) -> np.ndarray:
         ref_t, ref_q = self.reference_theta, self.reference_q
         return np.column_stack([np.interp(theta, ref_t, ref_q[:, j]) for j in range(self.n)])
 
+    def _ik(self, theta: np.ndarray) -> np.ndarray:
+        """The closed-form IK (M, n) at theta (M,) on the reference's branch and turns."""
+        p, _, _, rot, _, _ = self.task_path.pose(theta)
+        return ik_nearest(self.robot, p, rot, self._reference_at(theta))
+
+    def _lifted(self, th: np.ndarray, side: str, order: int) -> list[np.ndarray]:
+        """[Phi, Phi', ..., Phi^(order)] (order 2 or 3) at theta (N,): closed form and J^-1, or a wrist window."""
+        pose = self.task_path.pose3(th, side=side) if order == 3 else self.task_path.pose(th, side=side)
+        p, rot = pose[0], pose[4 if order == 3 else 3]
+        out = [ik_nearest(self.robot, p, rot, self._reference_at(th))]
+        out += [np.empty_like(out[0]) for _ in range(order)]
+        inside = np.full(len(th), -1)
+        for i, window in enumerate(self.wrist_windows):
+            inside[(inside < 0) & window.contains(th, side)] = i
+        reg = inside < 0
+        if reg.any():
+            part = [x[reg] for x in pose]
+            dp, ddp = part[1], part[2]
+            w, dw = (part[5], part[6]) if order == 3 else (part[4], part[5])
+            q = out[0][reg]
+            dq, ddq = joint_derivatives(self.robot, q, dp, ddp, w, dw)
+            out[1][reg], out[2][reg] = dq, ddq
+            if order == 3:
+                out[3][reg] = joint_third_derivative(self.robot, q, dq, ddq, part[3], part[7])
+        for i, window in enumerate(self.wrist_windows):
+            m = inside == i
+            if m.any():
+                for k, values in enumerate(window.evaluate(th[m], order)):
+                    out[k][m] = values
+        return out
+
     def evaluate(self, theta, side: str = "right"):
         th, scalar = self._check_theta(theta)
-        p, dp, ddp, rot, w, dw = self.task_path.pose(th, side=side)
-        q = ik_nearest(self.robot, p, rot, self._reference_at(th))
-        dq, ddq = joint_derivatives(self.robot, q, dp, ddp, w, dw)
-        if scalar:
-            return q[0], dq[0], ddq[0]
-        return q, dq, ddq
+        out = self._lifted(th, side, 2)
+        return tuple(o[0] for o in out) if scalar else tuple(out)
 
     def evaluate3(self, theta, side: str = "right"):
-        """(Phi, Phi', Phi'', Phi''') at theta, each (N, n) or (n,); Phi''' [rad/m^3] exact."""
+        """(Phi, Phi', Phi'', Phi''') at theta, each (N, n) or (n,); Phi''' [rad/m^3] exact (from the
+        certified interpolant inside a wrist window)."""
         th, scalar = self._check_theta(theta)
-        p, dp, ddp, dddp, rot, w, dw, ddw = self.task_path.pose3(th, side=side)
-        q = ik_nearest(self.robot, p, rot, self._reference_at(th))
-        dq, ddq = joint_derivatives(self.robot, q, dp, ddp, w, dw)
-        dddq = joint_third_derivative(self.robot, q, dq, ddq, dddp, ddw)
-        out = (q, dq, ddq, dddq)
-        return tuple(o[0] for o in out) if scalar else out
+        out = self._lifted(th, side, 3)
+        return tuple(o[0] for o in out) if scalar else tuple(out)
 
 
 def joint_derivatives(robot: Robot, q, dp, ddp, w, dw) -> tuple[np.ndarray, np.ndarray]:
@@ -190,14 +223,19 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
         raise UnreachableError(_where(task_path, theta[idx], p[idx]) + f": {exc}") from None
     # continuity: unwrap every joint along the dense reference
     q = np.unwrap(q, axis=0)
-    check = _check_path(robot, task_path, theta, q, p, singularity_threshold)
     path = TaskJointPath(
         n=robot.n, domain=(lo, hi), closed=bool(getattr(task_path, "closed", False)),
         kinks=tuple(float(k) for k in task_path.kinks), breaks=tuple(float(b) for b in task_path.breaks),
         joint_names=robot.joint_names, robot=robot, task_path=task_path, original_task_path=original,
-        reference_theta=theta, reference_q=q, check=check,
+        reference_theta=theta, reference_q=q,
     )
-    return path
+    passages = wrist_crossing.find_passages(robot, task_path, theta, q, path._ik, singularity_threshold, q_start)
+    windows = wrist_crossing.crossing_windows(robot, task_path, theta, q, passages, path._ik,
+                                              path.evaluate3)
+    path = replace(path, wrist_windows=windows)
+    check = _check_path(robot, task_path, theta, q, p, singularity_threshold, windows)
+    passages = tuple(wrist_crossing.with_speed_limits(ps, path, robot.limits.velocity, theta) for ps in passages)
+    return replace(path, check=replace(check, wrist_passages=passages))
 
 
 @dataclass(frozen=True, eq=False)
@@ -282,7 +320,7 @@ def _where(task_path, theta: float, p) -> str:
     return f"path point at theta = {theta:.4f} m{seg}, position ({p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}) m"
 
 
-def _check_path(robot, task_path, theta, q, p, threshold) -> PathCheck:
+def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathCheck:
     lim = robot.limits
     below = q < lim.lower - IK_RANGE_SLACK
     above = q > lim.upper + IK_RANGE_SLACK
@@ -297,10 +335,15 @@ def _check_path(robot, task_path, theta, q, p, threshold) -> PathCheck:
     k, j = np.unravel_index(np.argmin(margin), margin.shape)
     sv = np.linalg.svd(jacobian(robot, q), compute_uv=False)[:, -1]
     ks = int(np.argmin(sv))
-    if sv[ks] < threshold:
+    crossing = np.zeros(len(theta), dtype=bool)
+    for window in windows:  # a wrist crossing: Phi is the smooth branch's interpolant there
+        crossing |= (theta >= window.lo) & (theta <= window.hi)
+    checked = np.where(crossing, np.inf, sv)
+    kc = int(np.argmin(checked))
+    if checked[kc] < threshold:
         raise UnreachableError(
-            f"{_where(task_path, theta[ks], p[ks])}: the arm is (near) singular there (smallest Jacobian singular "
-            f"value {sv[ks]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity"
+            f"{_where(task_path, theta[kc], p[kc])}: the arm is (near) singular there (smallest Jacobian singular "
+            f"value {sv[kc]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity"
         )
     return PathCheck(float(sv[ks]), float(theta[ks]), float(margin[k, j]), float(theta[k]), lim.names[j],
                      tuple(float(x) for x in task_path.kinks), len(theta))

@@ -57,6 +57,24 @@ ROTATION_TOLERANCE = 1e-6
 #: Singularity measure threshold: smallest singular value of the 6x6 Jacobian below which a
 #: configuration is reported as (near) singular [m or rad per rad].
 SINGULARITY_THRESHOLD = 1e-3
+#: Wrist singularity (q5 = 0) along a lifted path (pathmotion.wrist_crossing). A path that passes it
+#: closer than WRIST_CROSSING_TOLERANCE [rad of q5] crosses it: the lift takes the smooth branch (q5
+#: changes sign; the pose error of treating it as exact is at most this, below IK_TOLERANCE). Farther,
+#: q4 and q6 must turn by about pi nearby (a wrist flip).
+WRIST_CROSSING_TOLERANCE = 1e-12
+#: |q5| [rad] below which Phi and its derivatives come from the certified local interpolant of the
+#: continuous IK instead of J^-1 (the Jacobian's condition number grows like 1/|q5|).
+WRIST_WINDOW = 0.05
+#: Largest half-width [m of theta] of that window (a tangential touch of q5 = 0 has q5' = 0).
+WRIST_WINDOW_MAX = 0.05
+#: The interpolant's TCP pose must match the path between its nodes to this [m, rad].
+WRIST_FIT_TOLERANCE = 1e-10
+#: Reported wrist passages: stretches of the path with |sin q5| below this [-].
+WRIST_PASSAGE = 0.1
+#: A suggested tool rotation must keep |sin q5| at least this far from 0 along the whole path [-].
+WRIST_CLEARANCE = 0.05
+#: Largest tool rotation [deg] the flip error searches for that suggestion (in 1 deg steps).
+WRIST_MAX_TOOL_ROTATION = 45
 #: Fitted (thesis) profile: margin below the optimum [-].
 FITTED_PROFILE_MARGIN = 0.05
 #: Closed-loop verdict (ISO 9283 terms): the TCP must stay within this distance of the PLANNED path, and

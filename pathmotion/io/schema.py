@@ -60,6 +60,9 @@ VELOCITY_JUMPS = _k("velocity_jumps", "velocity jumps (θ intervals)")
 KINKS = _k("kinks_theta", "sharp corners (θ)")
 BLEND_MAX_DEVIATION = _k("blend_max_deviation_m", "blend: largest distance from the sharp path", "mm", 1e3)
 MIN_SINGULAR_VALUE = _k("min_singular_value", "smallest singular value of the Jacobian", "-")
+WRIST_CROSSINGS = _k("wrist_singularity_crossings", "wrist passages near q5 = 0: crossed on the smooth branch or "
+                     "passed, each with its speed cost (velocity-limited path speed in it vs at its edges, planned "
+                     "speed)")
 RAPID_ESTIMATE = _k("rapid_estimate_s", "RAPID program at its programmed speeds (estimate)", "s")
 FAILURES = _k("failures", "why the plan must not be run (empty: it may)")
 EXPORT_NOTES = _k("export_notes", "notes at the top of the exports (ROS 2, EGM, RAPID)")
