@@ -301,7 +301,7 @@ def with_speed_limits(passage: WristPassage, path, velocity: np.ndarray, theta: 
     """The passage with its speed cost: velocity-limited path speed min_j v_j / |Phi'_j| [m/s] over the
     reference samples theta in its region plus theta*, and at the region's edges."""
     lo, hi = passage.region
-    inner = np.unique(np.concatenate([theta[(theta > lo) & (theta < hi)], [passage.theta]]))
+    inner = np.unique(np.concatenate([theta[(theta >= lo) & (theta <= hi)], [lo, hi, passage.theta]]))
     dq = path.evaluate(inner)[1]
     with np.errstate(divide="ignore"):
         bound = velocity / np.abs(dq)
