@@ -175,6 +175,11 @@ CASES = (
     Case("wrist_singular", "unreachable or singular path",
          LINE.replace("start = [0.5, -0.1, 0.5]", "start = [0.0, 0.0, 0.5]").replace("end = [0.5, 0.1, 0.5]", "end = [0.0, 0.0, 0.9]"),
          UnreachableError, ("theta = 0", "segment 1")),
+    Case("wrist_flip", "unreachable or singular path",
+         LINE.replace("[path]\n", "[path]\norientation = [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]\n")
+         .replace("start = [0.5, -0.1, 0.5]", "start = [0.515, -0.05, 0.713]")
+         .replace("end = [0.5, 0.1, 0.5]", "end = [0.515, 0.05, 0.713]"),
+         UnreachableError, (r"theta = 0\.0500 m", "segment 1", "wrist flip", r"rotating the tool frame by [+-]\d+ deg")),
     Case("joint_range_waypoint", "unreachable or singular path", JOINT.replace("[[0, 0, 0,", "[[0, 3, 0,"),
          ScenarioError, (r"path\.waypoints\[0\]", "joint_2", "outside its range")),
     # --- degenerate geometry
