@@ -231,7 +231,7 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     )
     passages = wrist_crossing.find_passages(robot, task_path, theta, q, path._ik, singularity_threshold, q_start)
     windows = wrist_crossing.crossing_windows(robot, task_path, theta, q, passages, path._ik,
-                                              path.evaluate3)
+                                              path.evaluate3, q_start)
     path = replace(path, wrist_windows=windows)
     check = _check_path(robot, task_path, theta, q, p, singularity_threshold, windows)
     passages = tuple(wrist_crossing.with_speed_limits(ps, path, robot.limits.velocity, theta) for ps in passages)

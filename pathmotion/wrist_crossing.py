@@ -45,14 +45,25 @@ from .robot.opw import opw_fk
 
 log = logging.getLogger(__name__)
 
-#: Degree of the window fit, and of the second fit it is checked against [-].
-WRIST_FIT_DEGREE = 9
-WRIST_FIT_CHECK_DEGREE = 11
-#: The two fits' Phi', Phi'', Phi''' must agree to this, relative to max(1, |Phi^(k)|) [-].
-WRIST_FIT_DERIVATIVE_TOLERANCE = 1e-4
-#: A window edge counts as regular (checked against J^-1) when |sin q5| there is at least this
-#: fraction of WRIST_WINDOW [-].
-REGULAR_EDGE = 0.5
+#: Least-squares weight of an IK node: |sin q5| / max + WEIGHT_FLOOR (the floor keeps the nodes next to
+#: theta* in a one-sided window, at a path's end or a corner there) [-].
+WEIGHT_FLOOR = 0.0
+#: Degrees of the window fit, each with the degree of the second fit it is checked against, tried in turn
+#: (a lower degree amplifies the IK's rounding less: short windows, little freedom) [-].
+WRIST_FIT_DEGREES = ((9, 11), (7, 9), (5, 7), (3, 5))
+#: The two fits' Phi', Phi'', Phi''' must agree to these, relative to max(1, |Phi^(k)|) [-]: far below what
+#: the limits need (verification allows 1e-3 over a limit; Phi''' enters only jerk and torque-rate limits).
+WRIST_FIT_DERIVATIVE_TOLERANCE = (1e-7, 1e-5, 1e-3)
+#: A window edge takes Phi .. Phi''' from J^-1 (Hermite conditions: the lift stays C3 there) when
+#: |sin q5| there is at least this [-]: J^-1's Phi''' is then accurate to ~1e-7 (relative).
+REGULAR_EDGE = 1e-3
+#: theta* this near a segment break or path end [relative to max(1, path length)] is taken to be on it [-].
+SNAP = 1e-9
+#: Largest joint difference [rad] between the two sides of a corner at q5 = 0 (both sides' fits evaluated
+#: there; they are certified far below this) that still counts as continuous.
+WRIST_CORNER_JUMP = 1e-6
+#: Times the window is halved when its fit is not certified (a smaller window is nearer a polynomial) [-].
+WRIST_FIT_HALVINGS = 3
 #: A segment break nearer to theta* than this fraction of the window's half-width splits the window
 #: there (two one-sided fits); farther, the window shrinks to stay inside the segment [-].
 SPLIT_FRACTION = 0.1
@@ -188,7 +199,7 @@ def _locate(robot: Robot, theta, t5, k: int, ik_at: IkAt) -> tuple[float, float,
 
 
 def crossing_windows(robot: Robot, task_path, theta, q, passages, ik_at: IkAt,
-                     derivatives_at: Callable) -> tuple[WristWindow, ...]:
+                     derivatives_at: Callable, q_start: np.ndarray) -> tuple[WristWindow, ...]:
     """Certified interpolation windows around each passage that reaches q5 = 0 (min |q5| within
     WRIST_CROSSING_TOLERANCE). derivatives_at(theta (M,), side) -> (Phi, Phi', Phi'', Phi''') by J^-1."""
     lo, hi = task_path.domain
@@ -202,25 +213,63 @@ def crossing_windows(robot: Robot, task_path, theta, q, passages, ik_at: IkAt,
         a_i, b_i = max(k - 2, 0), min(k + 1, len(theta) - 1)
         slope = abs(t5[b_i] - t5[a_i]) / (theta[b_i] - theta[a_i])
         h = min(defaults.WRIST_WINDOW / max(slope, 1e-300), defaults.WRIST_WINDOW_MAX)
-        for a, b in _pieces(ps.theta, h, cuts):
-            windows.append(_fit(robot, a, b, ik_at, derivatives_at, ps.theta))
+        star = ps.theta
+        nearest = float(cuts[np.argmin(np.abs(cuts - star))])
+        if abs(nearest - star) <= SNAP * max(1.0, hi - lo):  # at a path end or a corner (up to rounding)
+            star = nearest
+        for _ in range(WRIST_FIT_HALVINGS + 1):  # a smaller window is nearer a polynomial
+            fits = [_fit(robot, a, b, ik_at, derivatives_at, star) for a, b in _pieces(star, h, cuts)]
+            if all(f[0] is not None for f in fits):
+                break
+            h *= 0.5
+        else:
+            if lo < star < hi and np.any(cuts == star):  # a corner at q5 = 0: the split need not match
+                _corner_error(robot, task_path, theta, star, None, q_start)
+            raise PathError(
+                f"the wrist singularity crossing at theta = {star:.6f} m could not be resolved to the accuracy the "
+                f"planner needs (TCP pose error {max(f[1] for f in fits):.2e} m, derivative disagreement "
+                f"{max(f[2] for f in fits):.2e} x its tolerance, window half-width down to {2 * h:.2g} m): the path is "
+                "not smooth enough there (a segment end, orientation key or another singularity next to it); move "
+                "that off the crossing or the path off the singularity")
+        _check_corner(robot, task_path, theta, star, [f[0] for f in fits], q_start)
+        windows += [f[0] for f in fits]
     return tuple(windows)
+
+
+def _check_corner(robot: Robot, task_path, theta, star: float, fits: list[WristWindow], q_start) -> None:
+    """A corner at q5 = 0 whose two sides arrive with different q4 (and q6): the wrist would have to turn
+    with the TCP at rest, which no q = Phi(theta) can do; UnreachableError with a tool rotation."""
+    left = [w for w in fits if w.hi == star]
+    right = [w for w in fits if w.lo == star]
+    if not (left and right):
+        return
+    q_left = left[0].evaluate(np.array([star]), 0)[0][0]
+    q_right = right[0].evaluate(np.array([star]), 0)[0][0]
+    if float(np.max(np.abs(q_right - q_left))) > WRIST_CORNER_JUMP:
+        _corner_error(robot, task_path, theta, star, q_right - q_left, q_start)
+
+
+def _corner_error(robot: Robot, task_path, theta, star: float, jump, q_start) -> None:
+    """Raise the error for a corner at q5 = 0 whose sides need different q4/q6 splits (jump (6,) or None)."""
+    seg = int(task_path.segment_index(star)) + 1 if hasattr(task_path, "segment_index") else 0
+    p = task_path.evaluate(star)[0]
+    size = ("" if jump is None else
+            f" by {jump[3]:+.3f} rad (q6 by {jump[5]:+.3f} rad)")
+    raise UnreachableError(
+        f"path point at theta = {star:.4f} m (segment {seg}), position ({p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}) m: "
+        f"the path has a corner exactly at the wrist singularity (q5 = 0) where q4 would have to jump{size} with "
+        f"the TCP at rest, which no path-following motion can do; "
+        f"{suggest_tool_rotation(robot, task_path, theta, q_start)}, or move the corner off the singularity",
+        reason="singular")
 
 
 def _pieces(star: float, h: float, cuts: np.ndarray) -> list[tuple[float, float]]:
     """[star - h, star + h] clipped to the domain (cuts[0], cuts[-1]) and cut at every segment break and
-    orientation key inside it; the piece holding star is also cut there unless star is its centre (the
-    first-kind Chebyshev nodes of an even count avoid the centre and the ends, never star)."""
+    orientation key inside it (Phi is analytic within each piece; star itself needs no cut: the fit
+    weights a node by |sin q5|, so a node at or next to star does not count)."""
     a, b = max(star - h, cuts[0]), min(star + h, cuts[-1])
     pts = np.concatenate([[a], cuts[(cuts > a) & (cuts < b)], [b]])
-    out = []
-    for lo, hi in zip(pts[:-1], pts[1:]):
-        centred = abs(star - 0.5 * (lo + hi)) <= 1e-12 * (hi - lo)
-        if lo < star < hi and not centred:
-            out += [(lo, star), (star, hi)]
-        else:
-            out.append((lo, hi))
-    return [(float(lo), float(hi)) for lo, hi in out]
+    return [(float(lo), float(hi)) for lo, hi in zip(pts[:-1], pts[1:])]
 
 
 def _orientation_keys(task_path) -> np.ndarray:
@@ -228,32 +277,39 @@ def _orientation_keys(task_path) -> np.ndarray:
     return np.asarray(keys, dtype=float).reshape(-1)
 
 
-def _fit(robot: Robot, a: float, b: float, ik_at: IkAt, derivatives_at: Callable, star: float) -> WristWindow:
-    """Phi on [a, b] as a Chebyshev series, certified (see the module docstring): Hermite conditions
-    (Phi .. Phi''' by J^-1) at the regular edges, closed-form IK values at interior Chebyshev nodes.
-    Two fits with different node counts must agree (values to WRIST_FIT_TOLERANCE, derivatives to
-    WRIST_FIT_DERIVATIVE_TOLERANCE relative) and the values must match the IK between the nodes."""
+def _fit(robot: Robot, a: float, b: float, ik_at: IkAt, derivatives_at: Callable,
+         star: float) -> tuple[WristWindow | None, float, float]:
+    """Phi on [a, b] as a Chebyshev series (see the module docstring): Hermite conditions (Phi .. Phi'''
+    by J^-1) at each edge that is not theta* and has |sin q5| >= REGULAR_EDGE, closed-form IK values at
+    interior Chebyshev nodes. Certified when its TCP pose matches the IK's between the nodes to
+    WRIST_FIT_TOLERANCE and its derivatives agree with a fit of a higher degree (relative
+    WRIST_FIT_DERIVATIVE_TOLERANCE); the degrees of WRIST_FIT_DEGREES are tried in turn. Returns (the
+    window or None, pose error, derivative disagreement relative to its tolerance)."""
     edges = []
     for x, side in ((a, "right"), (b, "left")):
         q = ik_at(np.array([x]))
-        if abs(np.sin(signed_t5(robot, q)[0])) >= REGULAR_EDGE * defaults.WRIST_WINDOW:
+        if x != star and abs(np.sin(signed_t5(robot, q)[0])) >= REGULAR_EDGE:
             edges.append((x, [d[0] for d in derivatives_at(np.array([x]), side)]))
-    count = 3 * WRIST_FIT_CHECK_DEGREE
+    count = 3 * max(c for _, c in WRIST_FIT_DEGREES)
     checks = 0.5 * (a + b) + 0.5 * (b - a) * np.cos(np.pi * (np.arange(count) + 0.25) / count)  # not the centre
     t5_of = lambda q: signed_t5(robot, q)  # noqa: E731
-    first = _hermite_fit(a, b, edges, ik_at, WRIST_FIT_CHECK_DEGREE, t5_of)
-    second = _hermite_fit(a, b, edges, ik_at, WRIST_FIT_DEGREE, t5_of)
-    value_err = _pose_error(robot, second.evaluate(checks, 0)[0], ik_at(checks))
-    one, two = first.evaluate(checks, 3), second.evaluate(checks, 3)
-    deriv_err = max(float(np.max(np.abs(one[k] - two[k])) / max(1.0, np.max(np.abs(two[k])))) for k in (1, 2, 3))
-    if value_err <= defaults.WRIST_FIT_TOLERANCE and deriv_err <= WRIST_FIT_DERIVATIVE_TOLERANCE:
-        log.debug("wrist window [%.6g, %.6g]: value error %.2e rad, derivative agreement %.2e", a, b, value_err,
-                  deriv_err)
-        return second
-    raise PathError(
-        f"the wrist singularity crossing at theta = {star:.6f} m could not be interpolated (value error "
-        f"{value_err:.2e} rad, derivatives {deriv_err:.2e}): the path is not smooth enough there; move a segment "
-        "break or orientation key away from it")
+    worst = (np.inf, np.inf)
+    for degree, check_degree in WRIST_FIT_DEGREES:
+        if degree < 4 * len(edges) + 1:  # the edge conditions need the freedom
+            continue
+        fit = _hermite_fit(a, b, edges, ik_at, degree, t5_of)
+        other = _hermite_fit(a, b, edges, ik_at, check_degree, t5_of)
+        value_err = _pose_error(robot, fit.evaluate(checks, 0)[0], ik_at(checks))
+        one, two = fit.evaluate(checks, 3), other.evaluate(checks, 3)
+        # disagreement of Phi^(k), relative to max(1, |Phi^(k)|) and to its tolerance (<= 1: certified)
+        deriv_err = max(float(np.max(np.abs(one[k] - two[k])) / max(1.0, np.max(np.abs(one[k]))))
+                        / WRIST_FIT_DERIVATIVE_TOLERANCE[k - 1] for k in (1, 2, 3))
+        log.debug("wrist window [%.6g, %.6g], degree %d: pose error %.2e, derivative disagreement %.2e", a, b,
+                  degree, value_err, deriv_err)
+        if value_err <= defaults.WRIST_FIT_TOLERANCE and deriv_err <= 1.0:
+            return fit, value_err, deriv_err
+        worst = min(worst, (value_err, deriv_err), key=lambda e: e[1])
+    return None, worst[0], worst[1]
 
 
 def _pose_error(robot: Robot, q: np.ndarray, q_ik: np.ndarray) -> float:
@@ -268,15 +324,16 @@ def _pose_error(robot: Robot, q: np.ndarray, q_ik: np.ndarray) -> float:
 
 def _hermite_fit(a: float, b: float, edges, ik_at: IkAt, degree: int, signed_t5_of) -> WristWindow:
     """Chebyshev series of ``degree`` matching Phi^(k) (k = 0..3) at each edge in ``edges``
-    [(theta, [Phi, .., Phi'''])] exactly and, in the least-squares sense, the IK at 2 * degree first-kind Chebyshev nodes of [a, b] (averages the IK's
-    rounding instead of interpolating it)."""
+    [(theta, [Phi, .., Phi'''])] exactly and, in the least-squares sense, the IK at 2 * degree first-kind
+    Chebyshev nodes of [a, b], weighted by |sin q5| (averages the IK's rounding instead of
+    interpolating it)."""
     half = 0.5 * (b - a)
     count = 2 * degree
     x_nodes = np.cos(np.pi * (np.arange(count) + 0.5) / count)
     values = ik_at(0.5 * (a + b) + half * x_nodes)
     # q4 and q6 alone are rounded to ~eps / |q5| (their sum is exact): weight each node by |sin q5|
     weight = np.abs(np.sin(signed_t5_of(values)))[:, None]
-    weight /= max(float(weight.max()), 1e-300)
+    weight = weight / max(float(weight.max()), 1e-300) + WEIGHT_FLOOR
     fit_rows, fit_rhs = weight * np.polynomial.chebyshev.chebvander(x_nodes, degree), weight * values
     unit = np.eye(degree + 1)
     rows, rhs = [], []
@@ -313,7 +370,8 @@ def with_speed_limits(passage: WristPassage, path, velocity: np.ndarray, theta: 
             outside = float(np.min(velocity / np.abs(path.evaluate(np.array(edges))[1])))
     q_star = path.evaluate(passage.theta)[0]  # the smooth branch's split at q5 = 0 (the IK's is arbitrary)
     return replace(passage, q4=float(q_star[3]), q6=float(q_star[5]), speed_limit=float(bound[k, j]),
-                   speed_limit_theta=float(inner[k]), speed_limit_joint=path.joint_names[j], speed_limit_outside=outside)
+                   speed_limit_theta=float(inner[k]), speed_limit_joint=path.joint_names[j],
+                   speed_limit_outside=outside)
 
 
 # ----------------------------------------------------------------------------------------------

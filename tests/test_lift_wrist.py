@@ -181,3 +181,26 @@ def test_a_wider_miss_is_planned_slowly_and_its_speed_cost_reported(irb140):
     assert abs(ps.q4_turn) > 2.5 and ps.speed_limit_joint == "joint_4"
     assert ps.speed_cost > 0.9  # the passage costs over 90 % of the speed its edges allow
     assert not path.wrist_windows
+
+
+def test_a_path_starting_at_the_singularity_leaves_it_smoothly(irb140):
+    # the reference's first point is exactly singular: its q4/q6 split is the path's limit, not q_start's
+    p, r = fk(irb140, np.zeros(6))
+    task = TaskPath((Line(p, p + (0.0, 0.06, 0.0)),), FixedOrientation(r))
+    path = lift(irb140, task)
+    theta = np.linspace(*task.domain, 4001)
+    q, dq, _ = path.evaluate(theta)
+    assert np.abs(fk(irb140, q)[0] - task.pose(theta)[0]).max() < 1e-9
+    step = np.abs(np.diff(q, axis=0))
+    assert np.all(step <= np.maximum(np.abs(dq[:-1]), np.abs(dq[1:])) * np.diff(theta)[:, None] * 1.01 + 1e-9)
+    assert abs(abs(q[0, 3]) - np.pi / 2) < 1e-6  # the limit along y, as on the line through the pose
+
+
+def test_a_corner_at_the_singularity_needing_a_wrist_turn_at_rest_is_refused(irb140):
+    # arrive along y, leave along z: the two sides reach q5 = 0 with q4 = +-pi/2 and q4 = 0 (or pi)
+    p, r = fk(irb140, np.zeros(6))
+    task = TaskPath((Line(p - (0.0, 0.04, 0.0), p), Line(p, p + (0.0, 0.0, 0.04))), FixedOrientation(r))
+    with pytest.raises(UnreachableError, match=r"theta = 0\.0400 m .*corner exactly at the wrist singularity.*"
+                                               r"q4 would have to jump.*rotating the tool frame by") as info:
+        lift(irb140, task)
+    assert "\n" not in str(info.value)

@@ -235,10 +235,13 @@ def ik_all(robot: Robot, position, rotation) -> np.ndarray:
 
 
 def _forward_fill(values: np.ndarray, degenerate: np.ndarray, first: float) -> np.ndarray:
-    """values with every degenerate entry replaced by the last non-degenerate one before it
-    (``first`` when there is none)."""
+    """values with every degenerate entry replaced by the last non-degenerate one before it; leading
+    degenerate entries take the first non-degenerate value (the limit along the path: a path that starts
+    exactly at a singularity continues smoothly), ``first`` when every entry is degenerate."""
     idx = np.where(degenerate, -1, np.arange(len(values)))
     idx = np.maximum.accumulate(idx)
+    if not degenerate.all():
+        idx = np.where(idx < 0, int(np.argmin(degenerate)), idx)
     return np.where(idx < 0, first, values[np.maximum(idx, 0)])
 
 
@@ -292,7 +295,7 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
     base = branch & ~1  # the wrist bit is chosen per point below
     t4_first = t0[3] if branch == base else t0[3] - np.pi
     sol = solve(geo, p, r, np.full(n_pts, t0[0]), np.full(n_pts, t4_first), branches=(base,))
-    # exact singularities: take the redundant angle from the previous regular point
+    # exact singularities: take the redundant angle from the previous regular point (the first one at the start)
     shoulder_deg = sol.shoulder_radius < defaults.IK_DEGENERATE
     wrist_deg = np.abs(sol.sin_wrist[:, base]) < defaults.IK_DEGENERATE
     if shoulder_deg.any() or wrist_deg.any():
