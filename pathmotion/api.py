@@ -470,7 +470,8 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
     exports.write_trajectory_parquet(out / "trajectory.parquet", samples)
     failures = plan_failures(result, setup) if failures is None else list(failures)
     notes = _write_exports(setup, samples, out, failures, force_exports)
-    exports.write_table_csv(out / "phase_plane.csv", phase_plane_columns(result))
+    second = second_order_plan(setup, result)
+    exports.write_table_csv(out / schema.PHASE_PLANE_FILE, phase_plane_columns(result, setup, second))
     write_report_data(setup, out, samples.t, samples.q)
     idx = exports.decimate(len(samples.t))
     tcp = fk(setup.robot, samples.q[idx])[0]
@@ -479,6 +480,7 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
     if setup.scenario_text:
         write_text(out / "scenario.toml", setup.scenario_text)
     summary = plan_summary(setup, result)
+    summary[schema.SECOND_ORDER_DURATION.key] = None if second is None else second.duration
     summary[schema.FAILURES.key] = failures
     summary[schema.EXPORT_NOTES.key] = notes
     write_json(out / "summary.json", summary)
@@ -523,7 +525,9 @@ def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> 
     scales = {"velocity": ps.velocity_scale if ps.velocity else None,
               "acceleration": ps.acceleration_scale if ps.acceleration else None,
               "torque": ps.torque_scale if ps.torque else None}
-    write_json(out / "limits.json", exports.limits_record(setup.robot.joint_names, setup.robot.limits, scales))
+    record = exports.limits_record(setup.robot.joint_names, setup.robot.limits, scales)
+    record["enforced"] = enforced_limits(setup.robot, ps)
+    write_json(out / "limits.json", record)
     idx = exports.decimate(len(t), defaults.REPORT_ARM_FRAMES)
     exports.write_table_csv(out / "arm.csv", exports.arm_columns(t[idx], arm_points(setup.robot, q[idx])))
     task = setup.original_task_path
@@ -532,19 +536,65 @@ def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> 
         exports.write_table_csv(out / "original_path.csv", {a: points[:, k] for k, a in enumerate("xyz")})
 
 
-def phase_plane_columns(result: PlanResult) -> dict[str, np.ndarray]:
-    """theta, the limit curves and the profiles (optimal, fitted, constant speed) as theta_dot."""
+#: The attribute of each limit object (planning/limits/) that holds the value it enforces, by limit name.
+ENFORCED_VALUE = {"velocity": "qd_max", "acceleration": "qdd_max", "torque": "tau_max", "tcp_speed": "v_max",
+                  "jerk": "values", "torque_rate": "values"}
+
+
+def enforced_limits(robot: Robot, settings: PlanSettings) -> dict:
+    """limits.json's "enforced": {limit name: what the plan enforced} for every active limit, SI units:
+    per-joint lists (velocity, acceleration, torque with its reserve and scale, jerk, torque rate), one
+    number (TCP speed), {"knee", "at_max_speed"} per joint (the torque-speed envelope)."""
+    from .planning import effective_limits
+
+    out: dict[str, Any] = {}
+    for lim in effective_limits(robot, settings):
+        if lim.name == "torque_speed":
+            out[lim.name] = {"knee": lim.knee.tolist(), "at_max_speed": lim.at_max_speed.tolist()}
+        elif lim.name in ENFORCED_VALUE:
+            out[lim.name] = np.asarray(getattr(lim, ENFORCED_VALUE[lim.name]), float).tolist()
+    return out
+
+
+def phase_plane_columns(result: PlanResult, setup: Setup | None = None,
+                        second: PlanResult | None = None) -> dict[str, np.ndarray]:
+    """phase_plane.csv (column names in io/schema.py): theta (the planner's grid), the planner's limit
+    curves, the profiles (optimal, fitted, constant speed) as theta_dot; with ``setup``, each active
+    limit's own maximum-velocity curve (planning/limit_curves.py); with ``second`` (the plan without
+    the third-order limits, :func:`second_order_plan`), its profile."""
     grid = result.profile.grid
-    cols = {"theta": grid, "theta_dot_optimal": np.sqrt(result.profile.x)}
+    cols = {schema.PHASE_THETA: grid, schema.PHASE_OPTIMAL: np.sqrt(result.profile.x)}
     c = result.curves
-    cols["theta_dot_max_pointwise"] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_max, 1e12)), 0))
-    cols["theta_dot_controllable"] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_controllable, 1e12)), 0))
+    cols[schema.PHASE_POINTWISE] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_max, 1e12)), 0))
+    cols[schema.PHASE_CONTROLLABLE] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_controllable, 1e12)),
+                                                         0))
     b = result.baselines
     if b is not None:
-        for name, base in (("fitted", b.fitted), ("constant_speed", b.constant_speed)):
+        for key, base in ((schema.PHASE_FITTED, b.fitted), (schema.PHASE_CONSTANT_SPEED, b.constant_speed)):
             if base is not None:
-                cols[f"theta_dot_{name}"] = base.profile.theta_dot_at(grid)
+                cols[key] = base.profile.theta_dot_at(grid)
+    if second is not None:
+        cols[schema.PHASE_SECOND_ORDER] = second.profile.theta_dot_at(grid)
+    if setup is not None:
+        from .planning.limit_curves import limit_curves
+
+        for name, curve in limit_curves(setup.path, setup.robot, result.settings, grid).items():
+            cols[schema.limit_curve_column(name)] = curve
     return cols
+
+
+def second_order_plan(setup: Setup, result: PlanResult) -> PlanResult | None:
+    """With jerk or torque-rate limits on: the verified plan under the same limits and grid without them
+    (what those limits cost, for the phase plane and the summary); None when none is on."""
+    from .planning import effective_limits
+
+    settings = result.settings
+    if not effective_limits(setup.robot, settings).third_order:
+        return None
+    limits = {cls.name: dataclasses.replace(settings.choice(cls), on=False) if cls.order == 3 else settings.choice(cls)
+              for cls in LIMIT_REGISTRY}
+    log.info("the plan without the jerk and torque-rate limits, for comparison")
+    return plan(setup.path, setup.robot, dataclasses.replace(settings, limits=limits, baselines=False))
 
 
 # ----------------------------------------------------------------------------------- simulation

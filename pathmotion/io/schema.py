@@ -49,6 +49,12 @@ MAX_VELOCITY_RATIO = _k("max_velocity_ratio", "largest joint velocity / limit", 
 MAX_ACCELERATION_RATIO = _k("max_acceleration_ratio", "largest joint acceleration / limit", "-")
 MAX_PLAN_TORQUE_RATIO = _k("max_torque_ratio", "largest joint torque / limit", "-")
 MAX_TCP_SPEED_RATIO = _k("max_tcp_speed_ratio", "largest TCP speed / limit", "-")
+MAX_TORQUE_SPEED_RATIO = _k("max_torque_speed_ratio", "largest joint torque / torque-speed envelope", "-")
+MAX_JERK_RATIO = _k("max_jerk_ratio", "largest joint jerk / limit", "-")
+MAX_TORQUE_RATE_RATIO = _k("max_torque_rate_ratio", "largest joint torque rate / limit", "-")
+TORQUE_RESERVE = _k("torque_reserve", "torque reserve kept free for feedback (fraction of each torque limit)", "-")
+SECOND_ORDER_DURATION = _k("second_order_duration_s", "time-optimal duration without the jerk and torque-rate "
+                           "limits", "s", short="without jerk / torque rate")
 WORST_LIMIT = _k("worst_limit", "where the largest ratio is")
 VERIFY_METHOD = _k("verify_method", "limit ratios from (certified interval bounds or dense resample)")
 BASELINE_DURATION = _k("baseline_constant_speed_duration_s", "baseline: constant TCP speed duration", "s",
@@ -105,8 +111,9 @@ ERROR = _k("error", "error")
 WALL_TIME = _k("wall_time_s", "wall time", "s")
 
 #: Headline keys of a plan's summary.json, in display order.
-PLAN = (DURATION, FITTED_DURATION, BASELINE_DURATION, MAX_VELOCITY_RATIO, MAX_ACCELERATION_RATIO,
-        MAX_PLAN_TORQUE_RATIO, MAX_TCP_SPEED_RATIO, WORST_LIMIT, PATH_LENGTH, BLEND_MAX_DEVIATION,
+PLAN = (DURATION, SECOND_ORDER_DURATION, FITTED_DURATION, BASELINE_DURATION, MAX_VELOCITY_RATIO,
+        MAX_ACCELERATION_RATIO, MAX_PLAN_TORQUE_RATIO, MAX_TCP_SPEED_RATIO, MAX_TORQUE_SPEED_RATIO, MAX_JERK_RATIO,
+        MAX_TORQUE_RATE_RATIO, TORQUE_RESERVE, WORST_LIMIT, PATH_LENGTH, BLEND_MAX_DEVIATION,
         MIN_SINGULAR_VALUE, JOINT_RANGE_MARGIN, CONNECTIONS, GRID_POINTS, DURATION_ERROR_ESTIMATE, SOLVE_TIME)
 #: Headline keys of a simulation's summary.json, in display order.
 SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK, PATH_TOLERANCE,
@@ -123,6 +130,32 @@ SWEEP_TABLE = (CYCLE_TIME, PLANNED_DURATION, MAX_SHARP_DEVIATION, MEAN_SHARP_DEV
 #: The demo's comparison table (demo.csv and the terminal), in column order.
 DEMO = (SCENARIO, PLANNED_DURATION, CYCLE_TIME, TRACKING_OK, MAX_JOINT_DEVIATION, PATH_ACCURACY,
         MAX_SHARP_DEVIATION, BASELINE_DURATION)
+
+
+# ------------------------------------------------------------------------------- phase plane
+#: phase_plane.csv, written with the plan: theta (the planner's grid) and theta_dot columns.
+PHASE_PLANE_FILE = "phase_plane.csv"
+PHASE_THETA = "theta"
+#: The plan's profile, the planner's curves (all limits together), the baselines.
+PHASE_OPTIMAL = "theta_dot_optimal"
+PHASE_POINTWISE = "theta_dot_max_pointwise"
+PHASE_CONTROLLABLE = "theta_dot_controllable"
+PHASE_FITTED = "theta_dot_fitted"
+PHASE_CONSTANT_SPEED = "theta_dot_constant_speed"
+#: With jerk or torque-rate limits on: the optimum under the same limits without them.
+PHASE_SECOND_ORDER = "theta_dot_second_order"
+#: Each active limit's own maximum-velocity curve: this prefix + the limit's name ("torque", ...).
+PHASE_LIMIT_PREFIX = "theta_dot_limit_"
+
+
+def limit_curve_column(name: str) -> str:
+    """phase_plane.csv column of one limit's maximum-velocity curve (e.g. "theta_dot_limit_torque")."""
+    return PHASE_LIMIT_PREFIX + name
+
+
+def limit_curve_names(columns) -> list[str]:
+    """The limit names of the limit-curve columns among ``columns``, in their order."""
+    return [c[len(PHASE_LIMIT_PREFIX):] for c in columns if c.startswith(PHASE_LIMIT_PREFIX)]
 
 
 def keys(entries) -> tuple[str, ...]:

@@ -14,7 +14,8 @@ import numpy as np  # noqa: E402
 
 from ..io import schema  # noqa: E402
 from ..io.atomic import atomic_path  # noqa: E402
-from .tables import PLOT_FLOOR, PLOT_HEADROOM, joint_columns, read_columns, read_json  # noqa: E402
+from .tables import (PLOT_FLOOR, PLOT_HEADROOM, THIRD_ORDER_NOTE, joint_columns, limit_curve_label,  # noqa: E402
+                     read_columns, read_json)
 
 
 def _save(fig, path: Path) -> Path:
@@ -53,23 +54,45 @@ def phase_plane_labels(path_kind: str) -> tuple[str, str]:
     return "theta, arc length along the path [m]", "theta_dot, TCP speed [m/s]"
 
 
+#: Colour of each limit's own curve in the phase plane (by limit name; others take the next free colour).
+LIMIT_COLORS = {"velocity": "tab:purple", "acceleration": "tab:orange", "torque": "tab:brown",
+                "torque_speed": "tab:pink", "tcp_speed": "tab:olive"}
+
+
 def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
-    """theta_dot against theta (columns of phase_plane.csv): pointwise limit curve, controllable
-    bound, optimum and baselines, with the durations of a plan's ``summary``."""
+    """theta_dot against theta (columns of phase_plane.csv, names in io/schema.py): the planner's
+    curve of all limits together (wide grey), each active limit's own curve, the controllable bound,
+    the optimum, the optimum without the third-order limits (when they are on) and the baselines,
+    with the durations of a plan's ``summary``."""
     own = ax is None
     if own:
         fig, ax = plt.subplots(figsize=(8, 4.5))
-    th = cols["theta"]
-    top = PLOT_HEADROOM * np.max(cols["theta_dot_optimal"]) + PLOT_FLOOR
-    ax.plot(th, np.minimum(cols["theta_dot_max_pointwise"], top), color="0.6", lw=1, label="pointwise limit")
-    ax.plot(th, np.minimum(cols["theta_dot_controllable"], top), color="0.3", lw=1, ls="--", label="controllable bound")
-    ax.plot(th, cols["theta_dot_optimal"], color="C0", lw=2,
-            label=f"time-optimal ({summary.get(schema.DURATION.key, float('nan')):.4f} s)")
+    th = cols[schema.PHASE_THETA]
+    profiles = [k for k in (schema.PHASE_OPTIMAL, schema.PHASE_SECOND_ORDER) if k in cols]
+    top = PLOT_HEADROOM * max(float(np.max(cols[k])) for k in profiles) + PLOT_FLOOR
+    ax.plot(th, np.minimum(cols[schema.PHASE_POINTWISE], top), color="0.6", lw=4, alpha=0.45,
+            solid_capstyle="butt", label="all limits (planner's curve)")
+    spare = iter(c for c in ("tab:gray", "tab:cyan", "gold") if c not in LIMIT_COLORS.values())
+    for name in schema.limit_curve_names(cols):
+        color = LIMIT_COLORS.get(name) or next(spare, "0.3")
+        ax.plot(th, np.minimum(cols[schema.limit_curve_column(name)], top), color=color, lw=1.1,
+                label=limit_curve_label(name, summary))
+    ax.plot(th, np.minimum(cols[schema.PHASE_CONTROLLABLE], top), color="0.3", lw=1, ls="--",
+            label="controllable bound")
+    if schema.PHASE_SECOND_ORDER in cols:
+        second = summary.get(schema.SECOND_ORDER_DURATION.key)
+        ax.plot(th, cols[schema.PHASE_SECOND_ORDER], color="C0", lw=1.3, ls=(0, (4, 2)),
+                label="without jerk / torque-rate limits" + ("" if second is None else f" ({second:.4f} s)"))
+    third = schema.PHASE_SECOND_ORDER in cols
+    ax.plot(th, cols[schema.PHASE_OPTIMAL], color="C0", lw=2,
+            label=("time-optimal, jerk-limited" if third else "time-optimal")
+            + f" ({summary.get(schema.DURATION.key, float('nan')):.4f} s)")
     fitted, constant = summary.get(schema.FITTED_DURATION.key), summary.get(schema.BASELINE_DURATION.key)
-    if "theta_dot_fitted" in cols and fitted is not None:
-        ax.plot(th, cols["theta_dot_fitted"], color="C2", lw=1.3, label=f"fitted ({fitted:.4f} s)")
-    if "theta_dot_constant_speed" in cols and constant is not None:
-        ax.plot(th, cols["theta_dot_constant_speed"], color="C3", lw=1.3, label=f"constant TCP speed ({constant:.4f} s)")
+    if schema.PHASE_FITTED in cols and fitted is not None:
+        ax.plot(th, cols[schema.PHASE_FITTED], color="C2", lw=1.3, label=f"fitted ({fitted:.4f} s)")
+    if schema.PHASE_CONSTANT_SPEED in cols and constant is not None:
+        ax.plot(th, cols[schema.PHASE_CONSTANT_SPEED], color="C3", lw=1.3,
+                label=f"constant TCP speed ({constant:.4f} s)")
     ax.set_ylim(0, top)
     xlabel, ylabel = phase_plane_labels(summary.get(schema.PATH_KIND.key, "task"))
     ax.set_xlabel(xlabel)
@@ -77,6 +100,11 @@ def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     name = summary.get(schema.SCENARIO.key)
     ax.set_title(_wrapped(f"{name}: phase plane" if name else "Phase plane"))
     _legend_outside(ax)
+    if third:
+        import textwrap
+
+        ax.annotate("\n".join(textwrap.wrap(THIRD_ORDER_NOTE, 60)), xy=(0, 0), xycoords="axes fraction",
+                    xytext=(0, -48), textcoords="offset points", va="top", fontsize=8, color="0.25")
     ax.grid(alpha=0.3)
     return ax
 
@@ -86,7 +114,7 @@ def plan_figures(folder: str | Path) -> list[Path]:
     out = Path(folder)
     summary = read_json(out / "summary.json", {})
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    phase_plane(read_columns(out / "phase_plane.csv", ("theta", "theta_dot_optimal")), summary, ax)
+    phase_plane(read_columns(out / schema.PHASE_PLANE_FILE, (schema.PHASE_THETA, schema.PHASE_OPTIMAL)), summary, ax)
     paths = [_save(fig, out / "phase_plane.png")]
     traj = read_columns(out / "trajectory.csv", ("t", "q1"))
     lim = read_json(out / "limits.json", {}) or {}

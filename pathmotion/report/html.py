@@ -152,7 +152,7 @@ class FolderData:
 
 # ------------------------------------------------------------------------------------ figures
 #: Columns the report needs in each table.
-PHASE_PLANE_COLUMNS = ("theta", "theta_dot_optimal")
+PHASE_PLANE_COLUMNS = (schema.PHASE_THETA, schema.PHASE_OPTIMAL)
 TRAJECTORY_COLUMNS = ("t", "q1", "qd1")
 SIMULATION_COLUMNS = ("t", "q1", "q_desired1", *(f"tcp_{a}" for a in "xyz"), *(f"tcp_desired_{a}" for a in "xyz"),
                       "path_deviation")
@@ -166,11 +166,12 @@ def _plan_keys(summary: dict) -> dict:
 
 
 def _phase_plane(plan_dir: Path, plan_summary: dict, anchor: str) -> str:
-    cols = read_columns(plan_dir / "phase_plane.csv", PHASE_PLANE_COLUMNS)
+    cols = read_columns(plan_dir / schema.PHASE_PLANE_FILE, PHASE_PLANE_COLUMNS)
     durations = {"optimal": plan_summary.get(schema.DURATION.key),
+                 "second_order": plan_summary.get(schema.SECOND_ORDER_DURATION.key),
                  "fitted": plan_summary.get(schema.FITTED_DURATION.key),
                  "constant_speed": plan_summary.get(schema.BASELINE_DURATION.key)}
-    return _figure_html(fig.phase_plane_figure(cols, durations, plan_summary.get("path_kind", "task")),
+    return _figure_html(fig.phase_plane_figure(cols, durations, plan_summary.get("path_kind", "task"), plan_summary),
                         f"{anchor}-phase")
 
 
@@ -209,6 +210,41 @@ def _arm(data: FolderData, reference: np.ndarray | None, anchor: str, what: str)
     return _figure_html(fig.arm_animation_figure(t, points, reference, title, frame_time), f"{anchor}-arm")
 
 
+#: Unit of each enforced limit in limits.json (SI), by limit name.
+LIMIT_UNITS = {"velocity": "rad/s", "acceleration": "rad/s²", "torque": "N m", "tcp_speed": "m/s",
+               "jerk": "rad/s³", "torque_rate": "N m/s", "torque_speed": "knee / at top speed"}
+
+
+def _enforced_table(limits: dict | None, summary: dict) -> str:
+    """The limits the plan enforced (limits.json's "enforced"), one row per limit, one column per joint,
+    with the largest ratio of each (summary.json's max_<limit>_ratio)."""
+    enforced = (limits or {}).get("enforced")
+    if not enforced:
+        return ""
+    names = list((limits or {}).get("joint_names") or [])
+    width = max([len(names)] + [len(v) for v in enforced.values() if isinstance(v, list)])
+    names += [f"joint {j + 1}" for j in range(len(names), width)]
+    head = "".join(f"<th>{escape(n)}</th>" for n in names[:width])
+    rows = []
+    for name, value in enforced.items():
+        if isinstance(value, dict):  # the envelope: knee / at_max_speed per joint (or one for all)
+            knee, low = (list(value.get(k) or []) for k in ("knee", "at_max_speed"))
+            knee, low = ((v * width if len(v) == 1 else v) for v in (knee, low))
+            cells = "".join(f"<td>{_fmt(a)} / {_fmt(b)}</td>" for a, b in zip(knee, low))
+        elif isinstance(value, list):
+            cells = "".join(_cell(v) for v in value)
+        else:
+            cells = f'<td colspan="{width}">{_fmt(value)}</td>'
+        label = name.replace("_", " ")
+        if name == "torque" and summary.get(schema.TORQUE_RESERVE.key):
+            label += f" (with {100 * summary[schema.TORQUE_RESERVE.key]:.3g} % reserve)"
+        ratio = summary.get(f"max_{name}_ratio")
+        rows.append(f'<tr><th title="{escape(name)}">{escape(label)} [{escape(LIMIT_UNITS.get(name, "-"))}]</th>'
+                    f"{cells}{_cell(ratio)}</tr>")
+    return ('<table class="limits"><caption>Limits the plan enforced (limits.json) and the largest ratio of each '
+            f'(summary.json)</caption><tr><th>limit</th>{head}<th>largest ratio</th></tr>{"".join(rows)}</table>')
+
+
 # ----------------------------------------------------------------------------------- sections
 def _failure_html(summary: dict) -> str:
     failure = summary.get("failure")
@@ -237,8 +273,8 @@ def plan_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     folder = result.path
     summary = read_json(folder / "summary.json", {})
     data = FolderData.read(folder)
-    parts = [_key_table(summary, _plan_keys(summary), "Plan (summary.json)"), _other_values(summary, PLAN_KEYS),
-             _phase_plane(folder, summary, anchor)]
+    parts = [_key_table(summary, _plan_keys(summary), "Plan (summary.json)"), _enforced_table(data.limits, summary),
+             _other_values(summary, PLAN_KEYS), _phase_plane(folder, summary, anchor)]
     count = 1
     if not data.complete or not (folder / TCP_FILE).is_file():
         parts.append(_note(data.note or f"no {TCP_FILE} in this folder: the planned TCP path and the arm view are "

@@ -17,7 +17,7 @@ from plotly.subplots import make_subplots
 from ..io import schema
 from ..io.exports import decimate  # noqa: F401  (the report's figures decimate with it)
 from .. import defaults
-from .tables import PLOT_FLOOR, PLOT_HEADROOM
+from .tables import PLOT_FLOOR, PLOT_HEADROOM, THIRD_ORDER_NOTE, limit_curve_label
 
 #: Smallest scene span of a 3-D view [m], so that a single point still gets axes.
 SCENE_MIN_SPAN = 1e-6
@@ -55,39 +55,60 @@ def _layout(fig: go.Figure, title: str, height: int, legend: str = "top", **kwar
 
 
 # ------------------------------------------------------------------------------------ phase plane
-def phase_plane_figure(cols: dict[str, np.ndarray], durations: dict[str, float | None], path_kind: str) -> go.Figure:
-    """theta_dot against theta (columns of phase_plane.csv): the pointwise limit curve, the
-    controllable bound, the time-optimal profile and the fitted and constant-TCP-speed baselines.
-    ``durations``: {"optimal"/"fitted"/"constant_speed": duration [s] or None} for the legend;
-    ``path_kind``: "task" (theta is arc length [m], theta_dot [m/s]) or "joint" (theta [-], [1/s])."""
-    theta = cols["theta"]
+#: Colour of each limit's own curve in the phase plane (by limit name; others get a spare colour).
+LIMIT_COLORS = {"velocity": "#9467bd", "acceleration": "#ff7f0e", "torque": "#8c564b", "torque_speed": "#e377c2",
+                "tcp_speed": "#bcbd22"}
+
+
+def phase_plane_figure(cols: dict[str, np.ndarray], durations: dict[str, float | None], path_kind: str,
+                       summary: dict | None = None) -> go.Figure:
+    """theta_dot against theta (columns of phase_plane.csv, names in io/schema.py): the planner's curve
+    of all limits together, each active limit's own curve, the controllable bound, the time-optimal
+    profile, the optimum without the third-order limits (when they are on) and the fitted and
+    constant-TCP-speed baselines. ``durations``: {"optimal"/"second_order"/"fitted"/"constant_speed":
+    duration [s] or None} for the legend; ``path_kind``: "task" (theta is arc length [m], theta_dot
+    [m/s]) or "joint" (theta [-], [1/s]); ``summary``: the plan's summary.json (the torque reserve for
+    the legend)."""
+    theta = cols[schema.PHASE_THETA]
     idx = decimate(len(theta))
-    profiles = [k for k in ("theta_dot_optimal", "theta_dot_fitted", "theta_dot_constant_speed") if k in cols]
+    profiles = [k for k in (schema.PHASE_OPTIMAL, schema.PHASE_SECOND_ORDER, schema.PHASE_FITTED,
+                            schema.PHASE_CONSTANT_SPEED) if k in cols]
     top = PLOT_HEADROOM * max(float(np.max(cols[k])) for k in profiles) + PLOT_FLOOR
+    third = schema.PHASE_SECOND_ORDER in cols
 
     def label(name, text):
         d = durations.get(name)
         return text if d is None else f"{text}: {d:.4g} s"
 
-    lines = [
-        ("theta_dot_max_pointwise", "pointwise limit (fastest admissible speed)",
-         dict(color=COLORS["limit"], width=1.5)),
-        ("theta_dot_controllable", "controllable bound (can still slow down in time)",
-         dict(color=COLORS["controllable"], width=1.2, dash="dash")),
-        ("theta_dot_constant_speed", label("constant_speed", "baseline, constant TCP speed"),
-         dict(color=COLORS["constant_speed"], width=1.8)),
-        ("theta_dot_fitted", label("fitted", "baseline, fitted profile"), dict(color=COLORS["fitted"], width=1.8)),
-        ("theta_dot_optimal", label("optimal", "time-optimal (chosen)"), dict(color=COLORS["optimal"], width=3)),
+    spare = iter(c for c in ("#7f7f7f", "#17becf") if c not in LIMIT_COLORS.values())
+    lines = [(schema.PHASE_POINTWISE, "all limits together (the planner's curve)",
+              dict(color=COLORS["limit"], width=6), 0.4)]
+    lines += [(schema.limit_curve_column(name), limit_curve_label(name, summary or {}),
+               dict(color=LIMIT_COLORS.get(name) or next(spare, "#333333"), width=1.3), 1.0)
+              for name in schema.limit_curve_names(cols)]
+    lines += [
+        (schema.PHASE_CONTROLLABLE, "controllable bound (can still slow down in time)",
+         dict(color=COLORS["controllable"], width=1.2, dash="dash"), 1.0),
+        (schema.PHASE_CONSTANT_SPEED, label("constant_speed", "baseline, constant TCP speed"),
+         dict(color=COLORS["constant_speed"], width=1.8), 1.0),
+        (schema.PHASE_FITTED, label("fitted", "baseline, fitted profile"), dict(color=COLORS["fitted"], width=1.8), 1.0),
+        (schema.PHASE_SECOND_ORDER, label("second_order", "without jerk / torque-rate limits"),
+         dict(color=COLORS["optimal"], width=1.8, dash="dash"), 1.0),
+        (schema.PHASE_OPTIMAL, label("optimal", "time-optimal, jerk-limited (chosen)" if third
+                                     else "time-optimal (chosen)"), dict(color=COLORS["optimal"], width=3), 1.0),
     ]
     fig = go.Figure()
-    for key, name, line in lines:
+    for key, name, line, opacity in lines:
         if key in cols:
             y = np.minimum(cols[key][idx], 2 * top)  # the limit curve is ~1e6 where no limit binds
-            fig.add_trace(go.Scatter(x=theta[idx], y=y, mode="lines", name=name, line=line))
+            fig.add_trace(go.Scatter(x=theta[idx], y=y, mode="lines", name=name, line=line, opacity=opacity))
     task = path_kind == "task"
     fig.update_xaxes(title_text="θ, arc length along the path [m]" if task else "θ, path parameter [-]")
     fig.update_yaxes(title_text="θ̇, TCP speed [m/s]" if task else "θ̇ [1/s]", range=[0, top])
-    return _layout(fig, "Phase plane: path speed θ̇ against path position θ", 430)
+    title = "Phase plane: path speed θ̇ against path position θ"
+    if third:
+        title += f"<br><sup>{THIRD_ORDER_NOTE}</sup>"
+    return _layout(fig, title, 470 if third else 430, legend="right")
 
 
 # ---------------------------------------------------------------------------------- joint limits

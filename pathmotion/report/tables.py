@@ -20,6 +20,23 @@ from ..io.files import read_input
 PLOT_HEADROOM = 1.6
 PLOT_FLOOR = 1e-9
 
+#: Legend text of each limit's own maximum-velocity curve in the phase plane (by limit name).
+LIMIT_CURVE_LABELS = {"velocity": "joint velocity limit", "acceleration": "joint acceleration limit",
+                      "torque": "joint torque limit", "tcp_speed": "TCP speed limit",
+                      "torque_speed": "torque-speed envelope"}
+#: What the phase plane says about third-order limits, which have no maximum-velocity curve.
+THIRD_ORDER_NOTE = ("jerk and torque-rate limits bound how fast the speed may change, not the speed itself: they have "
+                    "no curve here; the dashed profile is the optimum without them")
+
+
+def limit_curve_label(name: str, summary: dict) -> str:
+    """Legend text of limit ``name``'s curve; the torque limits name the reserve of a plan's ``summary``."""
+    text = LIMIT_CURVE_LABELS.get(name, name.replace("_", " ") + " limit")
+    reserve = summary.get("torque_reserve")
+    if name in ("torque", "torque_speed") and reserve:
+        text += f" ({100 * reserve:.3g} % kept free)"
+    return text
+
 
 def read_columns(path: str | Path, required: Sequence[str] = ()) -> dict[str, np.ndarray]:
     """A numeric CSV with a header line (trajectory.csv, simulation.csv, phase_plane.csv) as
