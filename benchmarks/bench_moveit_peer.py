@@ -169,7 +169,7 @@ class Smoothed:
 
 
 def _ruckig_segment(otg, inp, traj, cur, nxt, vmax, amax):
-    from ruckig import Result
+    from ruckig import Result, RuckigError
 
     inp.current_position, inp.target_position = cur[0].tolist(), nxt[0].tolist()
     inp.current_velocity = np.clip(cur[1], -vmax, vmax).tolist()
@@ -178,8 +178,8 @@ def _ruckig_segment(otg, inp, traj, cur, nxt, vmax, amax):
     inp.target_acceleration = np.clip(nxt[2], -amax, amax).tolist()
     try:
         result = otg.calculate(inp, traj)
-    except RuntimeError:  # Ruckig's input validation (a target it cannot hold, ...): a failure, as in C++
-        return False
+    except RuckigError:  # input validation (a target it cannot hold, ...): MoveIt's C++ Ruckig (throw_error
+        return False  # off) returns ErrorInvalidInput instead, a failure alike
     return result in (Result.Working, Result.Finished)
 
 
@@ -214,6 +214,53 @@ def moveit_ruckig(times, q, qd, qdd, vmax, amax, jmax) -> Smoothed:
                 break
             idx += 1
     return Smoothed(np.cumsum(dur), q, qd, qdd, segments, factor, ok and complete)
+
+
+def _average_segment(dur: np.ndarray) -> float:
+    """RobotTrajectory::getAverageSegmentDuration: the total duration over the number of waypoints."""
+    return float(np.sum(dur) / len(dur))
+
+
+def moveit_ruckig_humble(times, q, qd, qdd, vmax, amax, jmax) -> Smoothed:
+    """The Humble-era runRuckig (see the module docstring): Ruckig.update with the average segment duration
+    as its cycle must reach every next waypoint within one cycle (Result.Finished); otherwise every duration
+    is stretched from the original by the growing factor, the velocities divided by it, the accelerations
+    recomputed as differences, and the loop starts again from the first waypoint."""
+    from ruckig import InputParameter, OutputParameter, Result, Ruckig, RuckigError
+
+    n_wp, dof = q.shape
+    original = np.diff(times, prepend=times[0])
+    dur, qd0 = original.copy(), qd.copy()
+    qd, qdd = qd.copy(), qdd.copy()
+    timestep = _average_segment(dur)
+    factor, complete, result = 1.0, False, None
+    inp, out = InputParameter(dof), OutputParameter(dof)
+    inp.max_velocity, inp.max_acceleration, inp.max_jerk = vmax.tolist(), amax.tolist(), jmax.tolist()
+    while factor < MAX_DURATION_EXTENSION_FACTOR and not complete:
+        otg = Ruckig(dof, timestep)
+        for idx in range(n_wp - 1):
+            inp.current_position, inp.target_position = q[idx].tolist(), q[idx + 1].tolist()
+            inp.current_velocity = np.clip(qd[idx], -vmax, vmax).tolist()
+            inp.current_acceleration = np.clip(qdd[idx], -amax, amax).tolist()
+            inp.target_velocity = np.clip(qd[idx + 1], -vmax, vmax).tolist()
+            inp.target_acceleration = np.clip(qdd[idx + 1], -amax, amax).tolist()
+            try:
+                result = otg.update(inp, out)
+            except RuckigError:  # ErrorInvalidInput in MoveIt's C++ Ruckig
+                result = None
+            if idx == n_wp - 2 and result == Result.Finished:
+                complete = True
+                break
+            if result != Result.Finished:
+                factor *= DURATION_EXTENSION_FRACTION
+                dur = original.copy()
+                for i in range(1, n_wp):  # the average is taken while the durations are being stretched
+                    dur[i] = factor * original[i]
+                    timestep = _average_segment(dur)
+                    qd[i] = qd0[i] / factor
+                    qdd[i] = (qd[i] - qd[i - 1]) / timestep
+                break
+    return Smoothed(np.cumsum(dur), q, qd, qdd, [], factor, complete)
 
 
 # ------------------------------------------------------------------------------- playing motions
@@ -329,33 +376,42 @@ def interleaved(fns: dict, repeats: int) -> dict[str, float]:
 
 
 # ------------------------------------------------------------------------------------- the run
-def run_case(case: Case, dt: float, repeats: int) -> list[tuple]:
+def run_case(case: Case, dts: list[float], repeats: int) -> list[tuple]:
+    """The table's rows of one case: toppra alone, MoveIt's variants at each waypoint spacing, pathmotion."""
     lim = case.robot.limits
+    kinematic = (lim.velocity, lim.acceleration, lim.jerk)
+    smoothers = {"main": moveit_ruckig, "Humble": moveit_ruckig_humble}
 
-    def moveit():
+    def moveit(smoother, dt):
         traj = toppra_trajectory(case)
-        return traj, moveit_ruckig(*waypoints(traj, dt), lim.velocity, lim.acceleration, lim.jerk)
+        return traj, smoother(*waypoints(traj, dt), *kinematic)
 
-    def ours():
-        return plan(case.path, case.robot, case.settings)
-
-    wall = interleaved({"moveit": moveit, "ours": ours}, repeats)
-    traj, smoothed = moveit()
-    result = ours()
+    fns = {"toppra": lambda: toppra_trajectory(case), "ours": lambda: plan(case.path, case.robot, case.settings)}
+    for dt in dts:
+        for name, smoother in smoothers.items():
+            fns[(name, dt)] = lambda smoother=smoother, dt=dt: moveit(smoother, dt)
+    wall = interleaved(fns, repeats)
     intended = IntendedPath(case)
+    traj = fns["toppra"]()
+    motions = [("toppra alone (no jerk limit)", toppra_motion(traj), wall["toppra"], "")]
+    for dt in dts:
+        for name in smoothers:
+            smoothed = fns[(name, dt)]()[1]
+            note = "" if smoothed.factor == 1 else f"stretched, factor {smoothed.factor:.3g}"
+            if not smoothed.ok:
+                note = f"smoothing failed (factor {smoothed.factor:.3g} reached)"
+            plays = [("played", quintic)] + ([("Ruckig's segments", ruckig_segments)] if name == "main" else [])
+            for how, play in plays:
+                motions.append((f"MoveIt {name}, {how} (dt {dt:g} s)", play(smoothed) if smoothed.ok else None,
+                                wall[(name, dt)], note))
+    motions.append(("pathmotion", pathmotion_motion(fns["ours"]()), wall["ours"], ""))
     rows = []
-    for label, motion, wall_time in (
-            ("toppra (no jerk limit)", toppra_motion(traj), None),
-            (f"MoveIt, played (dt {dt:g} s)", quintic(smoothed), wall["moveit"]),
-            (f"MoveIt, Ruckig segments (dt {dt:g} s)", ruckig_segments(smoothed) if smoothed.ok else None,
-             wall["moveit"]),
-            ("pathmotion", pathmotion_motion(result), wall["ours"])):
+    for label, motion, wall_time, note in motions:
         if motion is None:
-            rows.append((case.name, label, None, None, {}, wall_time, "Ruckig failed"))
-            continue
-        note = f"stretch x{smoothed.factor:.3g}" if label.startswith("MoveIt") and smoothed.factor > 1 else ""
-        rows.append((case.name, label, motion.duration, intended.deviation(case.robot, motion.q),
-                     ratios(motion, case), wall_time, note))
+            rows.append((case.name, label, None, None, {}, wall_time, note))
+        else:
+            rows.append((case.name, label, motion.duration, intended.deviation(case.robot, motion.q),
+                         ratios(motion, case), wall_time, note))
     return rows
 
 
@@ -379,7 +435,8 @@ def print_table(rows: list[tuple], torque: bool) -> None:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dt", type=float, default=0.01, help="MoveIt's waypoint spacing in time [s]")
+    parser.add_argument("--dt", type=float, nargs="+", default=[0.1, 0.01],
+                        help="MoveIt's waypoint spacings in time [s] (0.1: MoveIt's resample_dt default)")
     parser.add_argument("--grid", type=int, default=200, help="pathmotion's fixed grid (points)")
     parser.add_argument("--repeats", type=int, default=3, help="timed repetitions (medians)")
     parser.add_argument("--quick", action="store_true", help="the circle only, one repetition")

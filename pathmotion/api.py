@@ -399,6 +399,7 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
         "grid_points": result.grid_points,
         schema.DURATION_ERROR_ESTIMATE.key: result.duration_error_estimate,
         **({cls.summary_key(): None for cls in LIMIT_REGISTRY} if r is None else r.summary()),
+        **limit_settings_summary(setup.robot, result.settings),
         schema.WORST_LIMIT.key: None if r is None else r.worst,
         schema.VERIFY_METHOD.key: None if r is None else r.method,
         schema.BASELINE_DURATION.key: (None if b is None or b.constant_speed is None
@@ -422,6 +423,17 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
             {**ps.summary(), "planned_speed_m_s": float(np.sqrt(np.interp(ps.theta, prof.grid, prof.x)))}
             for ps in check.wrist_passages]
     out.update(reserve_summary(setup))
+    return out
+
+
+def limit_settings_summary(robot: Robot, settings: PlanSettings) -> dict:
+    """The limits' settings keys of summary.json (e.g. torque_reserve), from the limits the plan enforced,
+    verified or not; null where the limit is off."""
+    from .planning import effective_limits
+
+    out = {key: None for cls in LIMIT_REGISTRY for key in cls.extra_summary_keys}
+    for lim in effective_limits(robot, settings):
+        out.update(lim.summary_values())
     return out
 
 

@@ -212,7 +212,9 @@ def _arm(data: FolderData, reference: np.ndarray | None, anchor: str, what: str)
 
 #: Unit of each enforced limit in limits.json (SI), by limit name.
 LIMIT_UNITS = {"velocity": "rad/s", "acceleration": "rad/s²", "torque": "N m", "tcp_speed": "m/s",
-               "jerk": "rad/s³", "torque_rate": "N m/s", "torque_speed": "knee / at top speed"}
+               "torque_speed": "knee / at top speed", "jerk": "rad/s³", "torque_rate": "N m/s"}
+#: Row labels of the enforced-limits table where the limit's name with spaces would not do.
+LIMIT_ROW_LABELS = {"tcp_speed": "TCP speed", "torque_speed": "torque-speed envelope"}
 
 
 def _enforced_table(limits: dict | None, summary: dict) -> str:
@@ -226,7 +228,8 @@ def _enforced_table(limits: dict | None, summary: dict) -> str:
     names += [f"joint {j + 1}" for j in range(len(names), width)]
     head = "".join(f"<th>{escape(n)}</th>" for n in names[:width])
     rows = []
-    for name, value in enforced.items():
+    order = list(LIMIT_UNITS)
+    for name, value in sorted(enforced.items(), key=lambda kv: order.index(kv[0]) if kv[0] in order else len(order)):
         if isinstance(value, dict):  # the envelope: knee / at_max_speed per joint (or one for all)
             knee, low = (list(value.get(k) or []) for k in ("knee", "at_max_speed"))
             knee, low = ((v * width if len(v) == 1 else v) for v in (knee, low))
@@ -235,7 +238,7 @@ def _enforced_table(limits: dict | None, summary: dict) -> str:
             cells = "".join(_cell(v) for v in value)
         else:
             cells = f'<td colspan="{width}">{_fmt(value)}</td>'
-        label = name.replace("_", " ")
+        label = LIMIT_ROW_LABELS.get(name, name.replace("_", " "))
         if name == "torque" and summary.get(schema.TORQUE_RESERVE.key):
             label += f" (with {100 * summary[schema.TORQUE_RESERVE.key]:.3g} % reserve)"
         ratio = summary.get(f"max_{name}_ratio")
@@ -541,7 +544,7 @@ nav ol{columns:2;font-size:.95em} a{color:#1f5fa0}
 table{border-collapse:collapse;margin:.6em 1.5em .6em 0;font-size:.9em;background:#fff}
 caption{text-align:left;font-weight:600;padding:.3em 0}
 th,td{border:1px solid #ddd;padding:.25em .6em;text-align:left;vertical-align:top}
-table.rows th{background:#f0f4f8} table.keys th{font-weight:500;background:#f6f8fa}
+table.rows th{background:#f0f4f8} table.keys th,table.limits th{font-weight:500;background:#f6f8fa}
 td.ok{color:#1a7f37;font-weight:600} td.bad{color:#c62828;font-weight:600}
 td.error{min-width:26em;font-weight:400}
 tr.best td{background:#fff6d5}

@@ -26,7 +26,7 @@ LIMIT_CURVE_LABELS = {"velocity": "joint velocity limit", "acceleration": "joint
                       "torque_speed": "torque-speed envelope"}
 #: What the phase plane says about third-order limits, which have no maximum-velocity curve.
 THIRD_ORDER_NOTE = ("jerk and torque-rate limits bound how fast the speed may change, not the speed itself: they have "
-                    "no curve here; the dashed profile is the optimum without them")
+                    "no curve here; the blue dashed profile is the optimum without them")
 
 
 def limit_curve_label(name: str, summary: dict) -> str:
