@@ -291,7 +291,7 @@ def quintic(s: Smoothed) -> Motion:
     p0, v0, a0, p1, v1, a1 = s.q[k], s.qd[k], s.qdd[k], s.q[k + 1], s.qd[k + 1], s.qdd[k + 1]
     c3 = (20 * (p1 - p0) - (8 * v1 + 12 * v0) * h - (3 * a0 - a1) * h**2) / (2 * h**3)
     c4 = (30 * (p0 - p1) + (14 * v1 + 16 * v0) * h + (3 * a0 - 2 * a1) * h**2) / (2 * h**4)
-    c5 = (12 * (p1 - p0) - 6 * (v1 + v0) * h - (a1 - a0) * h**2) / (2 * h**5)
+    c5 = (12 * (p1 - p0) - 6 * (v1 + v0) * h + (a1 - a0) * h**2) / (2 * h**5)
     q = p0 + v0 * tau + 0.5 * a0 * tau**2 + c3 * tau**3 + c4 * tau**4 + c5 * tau**5
     qd = v0 + a0 * tau + 3 * c3 * tau**2 + 4 * c4 * tau**3 + 5 * c5 * tau**4
     qdd = a0 + 6 * c3 * tau + 12 * c4 * tau**2 + 20 * c5 * tau**3
@@ -419,16 +419,19 @@ def _fmt(v, spec):
     return "-" if v is None else format(v, spec)
 
 
-def print_table(rows: list[tuple], torque: bool) -> None:
+def print_header(torque: bool) -> None:
     head = ("| case | pipeline | duration [s] | path dev. [mm] | jerk ratio | acc. ratio | vel. ratio |"
             + (" torque ratio |" if torque else "") + " wall [ms] | note |")
     print(head)
-    print("|" + "---|" * (head.count("|") - 1))
+    print("|" + "---|" * (head.count("|") - 1), flush=True)
+
+
+def print_rows(rows: list[tuple], torque: bool) -> None:
     for name, label, dur, dev, r, wall, note in rows:
         cells = [name, label, _fmt(dur, ".4f"), _fmt(None if dev is None else 1e3 * dev, ".3g"),
-                 _fmt(r.get("jerk"), ".3g"), _fmt(r.get("acc"), ".3g"), _fmt(r.get("vel"), ".3g")]
+                 _fmt(r.get("jerk"), ".4g"), _fmt(r.get("acc"), ".4g"), _fmt(r.get("vel"), ".4g")]
         if torque:
-            cells.append(_fmt(r.get("torque"), ".3g"))
+            cells.append(_fmt(r.get("torque"), ".4g"))
         cells += [_fmt(None if wall is None else 1e3 * wall, ".0f"), note]
         print("| " + " | ".join(cells) + " |", flush=True)
 
@@ -443,11 +446,11 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     repeats = 1 if args.quick else args.repeats
     print(f"load average at start: {os.getloadavg()}", flush=True)
-    rows = []
     all_cases = cases(args.grid, args.quick)
+    torque = any(c.torque for c in all_cases)
+    print_header(torque)
     for case in all_cases:
-        rows += run_case(case, args.dt, repeats)
-    print_table(rows, any(c.torque for c in all_cases))
+        print_rows(run_case(case, args.dt, repeats), torque)
     print(f"load average at end: {os.getloadavg()}")
 
 
