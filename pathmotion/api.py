@@ -572,8 +572,9 @@ def phase_plane_columns(result: PlanResult, setup: Setup | None = None,
                         second: PlanResult | None = None) -> dict[str, np.ndarray]:
     """phase_plane.csv (column names in io/schema.py): theta (the planner's grid), the planner's limit
     curves, the profiles (optimal, fitted, constant speed) as theta_dot; with ``setup``, each active
-    limit's own maximum-velocity curve (planning/limit_curves.py); with ``second`` (the plan without
-    the third-order limits, :func:`second_order_plan`), its profile."""
+    limit's own maximum-velocity curve and each third-order limit's steady-speed curve
+    (planning/limit_curves.py); with ``second`` (the plan without the third-order limits,
+    :func:`second_order_plan`), its profile."""
     grid = result.profile.grid
     cols = {schema.PHASE_THETA: grid, schema.PHASE_OPTIMAL: np.sqrt(result.profile.x)}
     c = result.curves
@@ -588,10 +589,12 @@ def phase_plane_columns(result: PlanResult, setup: Setup | None = None,
     if second is not None:
         cols[schema.PHASE_SECOND_ORDER] = second.profile.theta_dot_at(grid)
     if setup is not None:
-        from .planning.limit_curves import limit_curves
+        from .planning.limit_curves import limit_curves, steady_curves
 
         for name, curve in limit_curves(setup.path, setup.robot, result.settings, grid).items():
             cols[schema.limit_curve_column(name)] = curve
+        for name, curve in steady_curves(setup.path, setup.robot, result.settings, grid).items():
+            cols[schema.steady_curve_column(name)] = curve
     return cols
 
 

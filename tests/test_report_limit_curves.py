@@ -111,6 +111,7 @@ def test_the_plan_folder_holds_every_limit_curve_and_the_second_order_optimum(wr
     setup, result, out = written
     cols = read_columns(out / schema.PHASE_PLANE_FILE, (schema.PHASE_THETA, schema.PHASE_SECOND_ORDER))
     assert schema.limit_curve_names(cols) == ["velocity", "acceleration", "torque", "torque_speed"]
+    assert schema.steady_curve_names(cols) == ["jerk"]
     again = limit_curves(setup.path, setup.robot, setup.plan_settings, cols[schema.PHASE_THETA])
     for name, curve in again.items():
         assert np.allclose(cols[schema.limit_curve_column(name)], curve, rtol=1e-12)
@@ -134,7 +135,7 @@ def test_both_phase_planes_draw_and_name_every_curve(written):
     summary = read_json(out / "summary.json")
     labels = [t.get_text() for t in figures.phase_plane(cols, summary).get_legend().get_texts()]
     expected = ["joint velocity limit", "joint acceleration limit", "joint torque limit (20 % kept free)",
-                "torque-speed envelope (20 % kept free)"]
+                "torque-speed envelope (20 % kept free)", "jerk limit at constant speed"]
     assert all(e in labels for e in expected), labels
     assert any(lab.startswith("without jerk / torque-rate limits (") for lab in labels)
     fig = interactive.phase_plane_figure(cols, {"optimal": summary[schema.DURATION.key]}, "joint", summary)
@@ -152,3 +153,40 @@ def test_report_lists_the_new_limits_and_their_ratios(written, tmp_path):
     for row in ("jerk [rad/s³]", "torque (with 20 % reserve) [N m]", "torque-speed envelope [knee / at top speed]"):
         assert row in html, row
     assert "0.5 / 0.5" in html
+
+
+def _constant_speed_ratio(robot, path, theta0: float, speed: float, which: str, limit) -> float:
+    """Largest |jerk| / limit or |torque rate| / limit over the joints of the motion theta(t) = theta0 +
+    speed t at t = 0, by central differences in time of q (jerk) or of RNEA's torque (torque rate)."""
+    h = 2e-3 / speed
+
+    def q_at(t):
+        return path.evaluate(theta0 + speed * np.asarray(t, float))[0]
+
+    if which == "jerk":
+        q = q_at([2 * h, h, -h, -2 * h])
+        value = (q[0] - 2 * q[1] + 2 * q[2] - q[3]) / (2 * h**3)
+    else:
+        h = 1e-5 / speed
+        t = np.array([h, -h])
+        q, dq, ddq = path.evaluate(theta0 + speed * t)
+        tau = rnea(robot, q, dq * speed, ddq * speed**2)
+        value = (tau[0] - tau[1]) / (2 * h)
+    return float(np.max(np.abs(value) / limit))
+
+
+def test_steady_speed_curves_are_where_constant_speed_reaches_the_third_order_limits(smooth):
+    from pathmotion.planning import PlanSettings
+    from pathmotion.planning.limit_curves import steady_curves
+
+    path, robot = smooth.path, smooth.robot
+    settings = PlanSettings(acceleration=False, jerk=True, torque_rate=True, torque_rate_scale=0.05)
+    theta = path.domain[0] + np.array(FRACTIONS) * (path.domain[1] - path.domain[0])
+    curves = steady_curves(path, robot, settings, theta)
+    assert list(curves) == ["jerk", "torque_rate"]
+    limits = {"jerk": robot.limits.jerk, "torque_rate": 0.05 * robot.limits.torque_rate}
+    for name, curve in curves.items():
+        for k, th in enumerate(theta):
+            assert _constant_speed_ratio(robot, path, th, curve[k], name, limits[name]) == pytest.approx(1, rel=2e-3)
+            for below in (0.3, 0.7, 0.95):  # and within the limit at every slower constant speed
+                assert _constant_speed_ratio(robot, path, th, below * curve[k], name, limits[name]) <= 1.0

@@ -158,6 +158,21 @@ def limit_curve_names(columns) -> list[str]:
     return [c[len(PHASE_LIMIT_PREFIX):] for c in columns if c.startswith(PHASE_LIMIT_PREFIX)]
 
 
+#: Each active third-order limit's steady-speed curve (the largest constant path speed within it; not a
+#: bound on the motion): this prefix + the limit's name ("jerk", "torque_rate").
+PHASE_STEADY_PREFIX = "theta_dot_steady_"
+
+
+def steady_curve_column(name: str) -> str:
+    """phase_plane.csv column of one third-order limit's steady-speed curve (e.g. "theta_dot_steady_jerk")."""
+    return PHASE_STEADY_PREFIX + name
+
+
+def steady_curve_names(columns) -> list[str]:
+    """The limit names of the steady-speed columns among ``columns``, in their order."""
+    return [c[len(PHASE_STEADY_PREFIX):] for c in columns if c.startswith(PHASE_STEADY_PREFIX)]
+
+
 def keys(entries) -> tuple[str, ...]:
     """The stored key names of ``entries`` (Key objects)."""
     return tuple(e.key for e in entries)

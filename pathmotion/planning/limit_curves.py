@@ -13,7 +13,12 @@ stays feasible for the exact envelope and cannot fall, so it converges up to the
 
 Third-order limits (jerk, torque rate) bound how fast theta_ddot may change, not the speed at a point:
 they have no such curve (the figure shows their effect as the second-order optimum next to the
-jerk-limited one instead).
+jerk-limited one). What they do bound is the speed of steady motion: at a constant path speed
+(theta_ddot = theta_dddot = 0) joint jerk is Phi''' theta_dot^3 and torque rate sqrt(x) (beta' x +
+gamma'). :func:`steady_curves` gives, per third-order limit, the largest constant speed up to which
+that stays within the limit (a fine geometric scan in x, refined by bisection). It is not a bound (the
+motion may pass above it while it speeds up or slows down), but where the path stays curved the
+jerk-limited optimum cannot stay above it for long.
 """
 
 from __future__ import annotations
@@ -51,14 +56,20 @@ def _side_curve(points: PathPoints, limits: EffectiveLimits) -> np.ndarray:
     return x
 
 
-def limit_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: np.ndarray) -> dict[str, np.ndarray]:
-    """{limit name: theta_dot_max (K,)} at ``theta`` (K,) for every active limit of order 1 or 2, in
-    registry order; theta_dot_max is sqrt(X_UNBOUNDED) where the limit alone does not bound the speed."""
+def _sides(path: JointPath, robot: Robot, theta: np.ndarray) -> list[PathPoints]:
+    """Path points at ``theta`` (K,) seen from the interval after and before each point."""
     theta = np.asarray(theta, float)
     sides = []
     for side in ("right", "left"):
         q, dq, ddq = path.evaluate(theta, side)
         sides.append(PathPoints(robot, path, theta, q, dq, ddq, side=side))
+    return sides
+
+
+def limit_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: np.ndarray) -> dict[str, np.ndarray]:
+    """{limit name: theta_dot_max (K,)} at ``theta`` (K,) for every active limit of order 1 or 2, in
+    registry order; theta_dot_max is sqrt(X_UNBOUNDED) where the limit alone does not bound the speed."""
+    sides = _sides(path, robot, theta)
     out = {}
     for lim in effective_limits(robot, settings):
         if lim.order > 2:
@@ -66,4 +77,46 @@ def limit_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: n
         single = EffectiveLimits((lim,))
         x = np.minimum(*(_side_curve(points, single) for points in sides))
         out[lim.name] = np.sqrt(np.clip(x, 0.0, X_UNBOUNDED))
+    return out
+
+
+#: The steady-speed scan: x from STEADY_X_MIN to X_UNBOUNDED in this many geometric steps, then bisections.
+STEADY_X_MIN = 1e-10
+STEADY_SCAN = 400
+STEADY_BISECTIONS = 60
+
+
+def _steady_side(points: PathPoints, lim) -> np.ndarray:
+    """x (K,): the largest x with |sqrt(x') (b x' + c)| <= lim for every x' in [0, x] (the limit's value at
+    constant speed: its rows3 with u = u' = 0), smallest over its columns; X_UNBOUNDED where never reached."""
+    k, n = len(points.theta), points.q.shape[1]
+    rows = lim.rows3(points, np.ones((k, lim.columns(n))))
+    b, c = rows.b[..., None], rows.c[..., None]
+    bound = np.broadcast_to(rows.lim, rows.b.shape)[..., None]
+
+    def within(x):
+        return np.abs(np.sqrt(x) * (b * x + c)) <= bound
+
+    scan = np.geomspace(STEADY_X_MIN, X_UNBOUNDED, STEADY_SCAN)
+    ok = within(scan)  # (K, m, S)
+    reached = ~ok.all(axis=2)
+    first = np.argmin(ok, axis=2)  # the first x of the scan over the limit (where reached)
+    hi = scan[first]
+    lo = np.where(first > 0, scan[np.maximum(first - 1, 0)], 0.0)
+    for _ in range(STEADY_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        good = within(mid[..., None])[..., 0]
+        lo, hi = np.where(good, mid, lo), np.where(good, hi, mid)
+    return np.where(reached, lo, X_UNBOUNDED).min(axis=1)
+
+
+def steady_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: np.ndarray) -> dict[str, np.ndarray]:
+    """{limit name: theta_dot (K,)} at ``theta`` (K,) for every active third-order limit: the largest
+    constant path speed within that limit (see the module docstring; not a bound on the motion)."""
+    sides = _sides(path, robot, theta)
+    out = {}
+    for lim in effective_limits(robot, settings):
+        if lim.order == 3:
+            x = np.minimum(*(_steady_side(points, lim) for points in sides))
+            out[lim.name] = np.sqrt(np.clip(x, 0.0, X_UNBOUNDED))
     return out

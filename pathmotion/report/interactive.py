@@ -17,7 +17,7 @@ from plotly.subplots import make_subplots
 from ..io import schema
 from ..io.exports import decimate  # noqa: F401  (the report's figures decimate with it)
 from .. import defaults
-from .tables import PLOT_FLOOR, PLOT_HEADROOM, THIRD_ORDER_NOTE, limit_curve_label
+from .tables import PLOT_FLOOR, PLOT_HEADROOM, THIRD_ORDER_NOTE, limit_curve_label, steady_curve_label
 
 #: Smallest scene span of a 3-D view [m], so that a single point still gets axes.
 SCENE_MIN_SPAN = 1e-6
@@ -57,7 +57,7 @@ def _layout(fig: go.Figure, title: str, height: int, legend: str = "top", **kwar
 # ------------------------------------------------------------------------------------ phase plane
 #: Colour of each limit's own curve in the phase plane (by limit name; others get a spare colour).
 LIMIT_COLORS = {"velocity": "#9467bd", "acceleration": "#ff7f0e", "torque": "#8c564b", "torque_speed": "#e377c2",
-                "tcp_speed": "#bcbd22"}
+                "tcp_speed": "#bcbd22", "jerk": "#111111", "torque_rate": "#17becf"}
 
 
 def phase_plane_figure(cols: dict[str, np.ndarray], durations: dict[str, float | None], path_kind: str,
@@ -80,12 +80,15 @@ def phase_plane_figure(cols: dict[str, np.ndarray], durations: dict[str, float |
         d = durations.get(name)
         return text if d is None else f"{text}: {d:.4g} s"
 
-    spare = iter(c for c in ("#7f7f7f", "#17becf") if c not in LIMIT_COLORS.values())
+    spare = iter(c for c in ("#7f7f7f", "#aec7e8") if c not in LIMIT_COLORS.values())
     lines = [(schema.PHASE_POINTWISE, "all limits together (the planner's curve)",
               dict(color=COLORS["limit"], width=6), 0.4)]
     lines += [(schema.limit_curve_column(name), limit_curve_label(name, summary or {}),
                dict(color=LIMIT_COLORS.get(name) or next(spare, "#333333"), width=1.3), 1.0)
               for name in schema.limit_curve_names(cols)]
+    lines += [(schema.steady_curve_column(name), steady_curve_label(name),
+               dict(color=LIMIT_COLORS.get(name, "#333333"), width=1.5, dash="dot"), 1.0)
+              for name in schema.steady_curve_names(cols)]
     lines += [
         (schema.PHASE_CONTROLLABLE, "controllable bound (can still slow down in time)",
          dict(color=COLORS["controllable"], width=1.2, dash="dash"), 1.0),
@@ -107,8 +110,10 @@ def phase_plane_figure(cols: dict[str, np.ndarray], durations: dict[str, float |
     fig.update_yaxes(title_text="θ̇, TCP speed [m/s]" if task else "θ̇ [1/s]", range=[0, top])
     title = "Phase plane: path speed θ̇ against path position θ"
     if third:
-        title += f"<br><sup>{THIRD_ORDER_NOTE}</sup>"
-    return _layout(fig, title, 470 if third else 430, legend="right")
+        import textwrap
+
+        title += "".join(f"<br><sup>{line}</sup>" for line in textwrap.wrap(THIRD_ORDER_NOTE, 140))
+    return _layout(fig, title, 490 if third else 430, legend="right")
 
 
 # ---------------------------------------------------------------------------------- joint limits

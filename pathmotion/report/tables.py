@@ -25,8 +25,16 @@ LIMIT_CURVE_LABELS = {"velocity": "joint velocity limit", "acceleration": "joint
                       "torque": "joint torque limit", "tcp_speed": "TCP speed limit",
                       "torque_speed": "torque-speed envelope"}
 #: What the phase plane says about third-order limits, which have no maximum-velocity curve.
-THIRD_ORDER_NOTE = ("jerk and torque-rate limits bound how fast the speed may change, not the speed itself: they have "
-                    "no curve here; the blue dashed profile is the optimum without them")
+THIRD_ORDER_NOTE = ("jerk and torque-rate limits bound how fast the speed may change, not the speed itself, so they "
+                    "have no limit curve; dotted: the fastest constant speed within them (the motion may pass above "
+                    "it while it speeds up or slows down); blue dashed: the optimum without them")
+#: Legend text of each third-order limit's steady-speed curve (by limit name).
+STEADY_CURVE_LABELS = {"jerk": "jerk limit at constant speed", "torque_rate": "torque-rate limit at constant speed"}
+
+
+def steady_curve_label(name: str) -> str:
+    """Legend text of third-order limit ``name``'s steady-speed curve."""
+    return STEADY_CURVE_LABELS.get(name, name.replace("_", " ") + " limit at constant speed")
 
 
 def limit_curve_label(name: str, summary: dict) -> str:
