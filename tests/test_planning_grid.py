@@ -155,3 +155,31 @@ def test_scenario_tolerance_reaches_the_plan_and_the_summary():
     assert 0 < summary["duration_error_estimate"] <= 2e-3 * result.duration
     fixed = api.load(CIRCLE, {"plan.grid_points": 300})
     assert fixed.plan_settings.grid_points == 300
+
+
+def test_refinement_nests_its_grids_and_splits_by_the_error(robot):
+    """Every grid the refinement solves contains the previous one (so path data is reused at the shared
+    points), the first refinement halves every interval, and the estimate it returns is the one of the
+    last grid, within the tolerance."""
+    from pathmotion.planning.grid import refine
+    from pathmotion.planning.planner import _solve_on
+
+    path = _spline(2, 7)
+    settings = PlanSettings(tolerance=5e-4)
+    limits = effective_limits(robot, settings)
+    seen = []
+
+    def solve(g):
+        seen.append(g.theta)
+        return _solve_on(path, robot, settings, limits, g)
+
+    initial = make_grid(path, 200)
+    out = refine(solve, initial, 5e-4)
+    assert len(seen) >= 3 and len(seen[1]) == 2 * len(seen[0]) - 1
+    for coarse, fine in zip(seen, seen[1:]):
+        assert np.all(np.isin(coarse, fine)), "a refinement dropped a point of its parent"
+    assert np.array_equal(out.grid.theta, seen[-1])
+    assert 0 < out.error_estimate <= 5e-4 * out.solved.sol.profile.duration
+    # the second refinement is not uniform: it splits each interval by its estimated error
+    parts = np.diff(np.searchsorted(seen[2], seen[1]))
+    assert parts.min() == 1 and parts.max() > 2

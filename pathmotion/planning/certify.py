@@ -26,7 +26,7 @@ second difference on either side (a segment one interval long) is sampled instea
 
 Sampled form (the base class's default, e.g. the torque-speed envelope): the limit's own ``ratios``
 at S + 1 points uniform in theta (both ends reuse the grid data, tau = alpha u + beta x + gamma; each
-interior point costs one path evaluation and one RNEA), plus REMAINDER_SAFETY x the largest second
+interior point costs one path evaluation and one RNEA, compiled and batched in fast_rnea.py), plus REMAINDER_SAFETY x the largest second
 difference of the samples (widened by the third difference) / 8.
 
 tests/test_planning_certify.py checks both forms against the dense resample, interval by interval,
@@ -35,7 +35,7 @@ on random splines and limit sets.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -43,6 +43,7 @@ import numpy as np
 from .. import defaults
 from ..joint_path import JointPath
 from ..robot import Robot, rnea
+from .fast_rnea import rnea_batch, supported
 from .profile import Profile
 from .trajectory import Samples
 
@@ -95,18 +96,27 @@ class CertifyContext:
         return np.diff(self.profile.grid)
 
     def samples(self, index: np.ndarray | None = None, subdivisions: int = CERTIFY_SUBDIVISIONS) -> IntervalSamples:
-        """Interval samples (sampled form) on the intervals ``index`` (all when None), computed once."""
+        """Interval samples (sampled form) on the intervals ``index`` (all when None), computed once
+        (torques only when ``needs_torque``)."""
         k1 = len(self.profile.grid) - 1
         index = np.arange(k1) if index is None else np.asarray(index, int)
-        key = (index.tobytes(), subdivisions)
+        key = (index.tobytes(), subdivisions, self.needs_torque)
         if key not in self._samples:
             self._samples[key] = interval_samples(self, index, subdivisions)
         return self._samples[key]
 
     def sampled(self, ratios, index: np.ndarray | None = None, subdivisions: int = CERTIFY_SUBDIVISIONS) -> np.ndarray:
-        """Sampled-form bound (I, m) of ``ratios(samples)`` on the intervals ``index``."""
-        cs = self.samples(index, subdivisions)
-        return sampled_bound(cs.per_interval(ratios(cs.samples)))
+        """Sampled-form bound (I, m) of ``ratios(samples)`` on the intervals ``index``. More than
+        CERTIFY_SUBDIVISIONS: first at CERTIFY_SUBDIVISIONS, then at ``subdivisions`` only on the
+        intervals whose bound exceeds REFINE_ABOVE (both are upper bounds; the smaller is kept)."""
+        coarse = min(subdivisions, CERTIFY_SUBDIVISIONS)
+        cs = self.samples(index, coarse)
+        bound = sampled_bound(cs.per_interval(ratios(cs.samples)))
+        over = np.nonzero((bound > REFINE_ABOVE).any(axis=1))[0]
+        if subdivisions > coarse and over.size:
+            fine = self.samples(cs.index[over], subdivisions)
+            bound[over] = np.minimum(bound[over], sampled_bound(fine.per_interval(ratios(fine.samples))))
+        return bound
 
     @cached_property
     def smooth_point(self) -> np.ndarray:
@@ -197,8 +207,9 @@ def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int =
     if ctx.needs_torque and robot is not None:
         tau = np.empty((k1, S + 1, n))
         if S > 1:
-            tau[:, 1:-1] = rnea(robot, q[:, 1:-1].reshape(-1, n), qd[:, 1:-1].reshape(-1, n),
-                                qdd[:, 1:-1].reshape(-1, n)).reshape(k1, S - 1, n)
+            inverse = rnea_batch if supported(robot) else rnea
+            tau[:, 1:-1] = inverse(robot, q[:, 1:-1].reshape(-1, n), qd[:, 1:-1].reshape(-1, n),
+                                   qdd[:, 1:-1].reshape(-1, n)).reshape(k1, S - 1, n)
         tau[:, 0] = _grid_torque(r, index, theta_ddot[:, 0], theta_dot[:, 0] ** 2)
         tau[:, -1] = _grid_torque(l, index + 1, theta_ddot[:, -1], theta_dot[:, -1] ** 2)
     flat = lambda a: None if a is None else a.reshape(k1 * (S + 1), *a.shape[2:])  # noqa: E731
@@ -232,5 +243,6 @@ def sampled_bound(values: np.ndarray) -> np.ndarray:
 
 
 def certify(ctx: CertifyContext, limits) -> dict:
-    """{name: (K - 1, m) certified upper bound of the ratio on every interval} per active limit."""
-    return {lim.name: lim.certify(ctx) for lim in limits}
+    """{name: (K - 1, m) certified upper bound of the ratio on every interval} per active limit; the
+    samples carry torques only for the limits that need them (the views share one sample cache)."""
+    return {lim.name: lim.certify(replace(ctx, needs_torque=ctx.needs_torque and lim.needs_torque)) for lim in limits}

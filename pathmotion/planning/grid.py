@@ -37,7 +37,7 @@ ORDER = 1
 #: instead of 2) makes the plain estimate up to ~5 % short, more on coarse grids; the factor covers that [-].
 ERROR_SAFETY = 1.5
 #: The next grid aims at this fraction of the tolerance, so that one redistribution usually suffices [-].
-TARGET_FRACTION = 0.7
+TARGET_FRACTION = 0.9
 #: At most this many parts per interval in one redistribution [-].
 MAX_PIECES = 64
 
@@ -114,18 +114,20 @@ def interval_times(theta: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.where(den > 0, 2.0 * np.diff(theta) / np.where(den > 0, den, 1.0), 0.0)
 
 
-def change_per_interval(coarse: Grid, x_coarse: np.ndarray, fine: Grid, x_fine: np.ndarray) -> np.ndarray:
-    """|time on each interval of ``coarse`` - time on its two halves in ``fine``| (K - 1,) [s];
-    ``fine`` is ``coarse`` with every interval halved."""
+def change_per_interval(coarse: Grid, x_coarse: np.ndarray, fine: Grid, x_fine: np.ndarray,
+                        pieces: np.ndarray) -> np.ndarray:
+    """|time on each interval of ``coarse`` - time on its parts in ``fine``| (K - 1,) [s]; ``fine`` is
+    ``coarse.split(pieces)``."""
     t_fine = interval_times(fine.theta, x_fine)
-    return np.abs(interval_times(coarse.theta, x_coarse) - (t_fine[0::2] + t_fine[1::2]))
+    first = np.concatenate([[0], np.cumsum(pieces)[:-1]])
+    return np.abs(interval_times(coarse.theta, x_coarse) - np.add.reduceat(t_fine, first))
 
 
-def pieces_for(change: np.ndarray, target: float) -> np.ndarray:
-    """Parts (K - 1,) to split each interval into so that the summed change becomes ``target`` [s]:
-    an interval's error is first order in its step over its length, so n parts divide its ``change``
-    by n; the fewest parts in total (Lagrange) take n_i proportional to sqrt(change_i)."""
-    root = np.sqrt(np.maximum(change, 0.0))
+def pieces_for(error: np.ndarray, target: float) -> np.ndarray:
+    """Parts (K - 1,) to split each interval into so that the summed error becomes ``target`` [s]:
+    an interval's error is first order in its step over its length, so n parts divide its ``error``
+    by n; the fewest parts in total (Lagrange) take n_i proportional to sqrt(error_i)."""
+    root = np.sqrt(np.maximum(error, 0.0))
     n = np.ceil(root * root.sum() / max(target, 1e-300))
     return np.clip(n, 1, MAX_PIECES).astype(int)
 
@@ -144,25 +146,30 @@ class Refined:
 def refine(solve: Callable[[Grid], tuple[float, np.ndarray, Any]], initial: Grid, tolerance: float,
            max_iterations: int = defaults.GRID_MAX_REFINEMENTS,
            max_points: int = defaults.GRID_MAX_POINTS) -> Refined:
-    """Refine ``initial`` until the Richardson estimate of the duration's error is within
-    ``tolerance`` (relative). ``solve(grid)`` returns (duration [s], x on the grid (K,), anything)."""
+    """Refine ``initial`` until the estimate of the duration's error is within ``tolerance`` (relative).
+    ``solve(grid)`` returns (duration [s], x on the grid (K,), anything). Every grid contains the
+    previous one (module docstring), so ``solve`` may reuse path data at the shared points."""
     if max_iterations < 1:
         raise ValueError(f"refine: max_iterations must be >= 1, got {max_iterations}")
-    coarse = initial
-    t_coarse, x_coarse, _ = solve(coarse)
+    grid = initial
+    _, x, _ = solve(grid)
+    prior = np.full(len(grid.theta) - 1, np.inf)  # error estimate per interval [s]; unknown at first
+    pieces = np.full(len(grid.theta) - 1, 2)
     for iteration in range(1, max_iterations + 1):
-        fine = coarse.halved()
+        fine = grid.split(pieces)
         t_fine, x_fine, solved = solve(fine)
-        estimate = ERROR_SAFETY * abs(t_coarse - t_fine) / (2.0 ** ORDER - 1.0)
-        log.debug("adaptive grid: %d / %d points, durations %.9g / %.9g s, error estimate %.3g %%",
-                  len(coarse.theta), len(fine.theta), t_coarse, t_fine, 100 * estimate / t_fine)
+        change = change_per_interval(grid, x, fine, x_fine, pieces)
+        # an interval split into n parts: its change is e (1 - 1/n), e its error before; unsplit ones keep theirs
+        error = np.where(pieces > 1, change / np.maximum(pieces ** ORDER - 1.0, 1.0), prior)
+        estimate = ERROR_SAFETY * float(error.sum())
+        log.debug("adaptive grid: %d -> %d points, duration %.9g s, error estimate %.3g %%",
+                  len(grid.theta), len(fine.theta), t_fine, 100 * estimate / t_fine)
         if estimate <= tolerance * t_fine or len(fine.theta) >= max_points or iteration == max_iterations:
             if estimate > tolerance * t_fine:
                 log.warning("adaptive grid stopped at %d points with an estimated duration error of %.3g %% "
                             "(requested %.3g %%)", len(fine.theta), 100 * estimate / t_fine, 100 * tolerance)
             return Refined(fine, solved, estimate, iteration)
-        change = change_per_interval(coarse, x_coarse, fine, x_fine)
-        target = TARGET_FRACTION * tolerance * t_fine * (2.0 ** ORDER - 1.0) / ERROR_SAFETY
-        coarse = coarse.split(pieces_for(change, target))
-        t_coarse, x_coarse, _ = solve(coarse)
+        prior = np.repeat(error / pieces, pieces)  # the parts share their interval's error
+        grid, x = fine, x_fine
+        pieces = pieces_for(prior, TARGET_FRACTION * tolerance * t_fine / ERROR_SAFETY)
     raise AssertionError("the last iteration returns")  # the loop runs at least once and returns on its last

@@ -410,6 +410,8 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
         r = certify(ctx, limits)
         ratios = summarize_intervals(sol.profile, r, limits, jumps, robot.joint_names)
         pgrid = sol.profile.grid
+        if not sol.jump_intervals and len(pgrid) == len(grid) and np.array_equal(pgrid, grid):
+            return r, ratios  # the bounds are already per interval of the planner's grid
         theta = 0.5 * (pgrid[:-1] + pgrid[1:])
     free = outside(theta, sol.jump_intervals)
     return interval_maxima(theta[free], {name: v[free] for name, v in r.items()}, grid), ratios

@@ -8,7 +8,9 @@ dynamics is affine in (theta_ddot, theta_dot^2). Three RNEA calls per point give
     beta  = RNEA(Phi, Phi', Phi'') - gamma   (= M(Phi) Phi'' + C(Phi, Phi') Phi')
 
 The second uses that RNEA is linear in qdd at qd = 0; the third that it is quadratic in qd and
-linear in qdd, so RNEA(Phi, Phi' s, Phi'' s^2) - gamma = s^2 beta for any s.
+linear in qdd, so RNEA(Phi, Phi' s, Phi'' s^2) - gamma = s^2 beta for any s. The three run as one
+compiled batch (fast_rnea.py: gravity alone, then the two gravity-free passes, sharing the kinematics)
+where the model allows, else as Pinocchio calls point by point.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import pinocchio as pin
 
 from ..errors import InfeasibleError, PathError, require_finite
 from ..robot import Robot, rnea
+from .fast_rnea import reduced_batch, supported
 
 #: What to change when a coefficient overflows (one place for the three checks).
 _CHANGE_DYNAMICS = ("lower the payload mass or move its centre of mass nearer the flange (robot.payload), or check the "
@@ -51,11 +54,14 @@ def reduced_dynamics(robot: Robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarra
     for value, what in ((q, "Phi(theta)"), (dq, "Phi'(theta)"), (ddq, "Phi''(theta)")):
         require_finite(value, f"the joint path's {what}", "the path passes a singularity or its points are not "
                        "finite; move the path away from it or sample it differently", PathError, names)
-    zero = np.zeros_like(q)
     with np.errstate(all="ignore"):
-        gamma = rnea(robot, q, zero, zero)
-        alpha = rnea(robot, q, zero, dq) - gamma
-        beta = rnea(robot, q, dq, ddq) - gamma
+        if supported(robot):
+            alpha, beta, gamma = reduced_batch(robot, q, dq, ddq)
+        else:
+            zero = np.zeros_like(q)
+            gamma = rnea(robot, q, zero, zero)
+            alpha = rnea(robot, q, zero, dq) - gamma
+            beta = rnea(robot, q, dq, ddq) - gamma
     require_finite(gamma, "reduced dynamics gamma (gravity torque)", _CHANGE_DYNAMICS, InfeasibleError, names)
     require_finite(alpha, "reduced dynamics alpha (M Phi')", _CHANGE_DYNAMICS, InfeasibleError, names)
     require_finite(beta, "reduced dynamics beta (M Phi'' + C Phi')", _CHANGE_DYNAMICS, InfeasibleError, names)

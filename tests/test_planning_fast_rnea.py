@@ -1,0 +1,86 @@
+"""The compiled batched RNEA (planning/fast_rnea.py) against Pinocchio's rnea, point by point: the IRB140
+with and without a payload, the UR5 and the Panda (example-robot-data, dev extra; the Panda with its
+fingers locked), and the fallback for a joint type the kernels do not handle."""
+
+from __future__ import annotations
+
+import importlib.metadata
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from pathmotion.planning.fast_rnea import chain_data, reduced_batch, rnea_batch, supported
+from pathmotion.planning.reduced import reduced_dynamics
+from pathmotion.robot import load_robot
+from pathmotion.robot.model import Payload
+
+DATA = Path(__file__).parent / "data"
+try:
+    ROBOTS = Path(str(importlib.metadata.distribution("example-robot-data").locate_file(
+        "cmeel.prefix/share/example-robot-data/robots")))
+except importlib.metadata.PackageNotFoundError:  # pragma: no cover - the dev extra installs it
+    ROBOTS = None
+
+
+def _robots(irb140):
+    out = [irb140, irb140.with_payload(Payload(mass=6.0, com=(0.05, -0.02, 0.2),
+                                               inertia=((0.02, 0.001, 0.0), (0.001, 0.03, 0.0), (0.0, 0.0, 0.01))))]
+    if ROBOTS is not None:
+        out.append(load_robot(ROBOTS / "ur_description/urdf/ur5_robot.urdf", DATA / "ur5_limits.toml"))
+        out.append(load_robot(ROBOTS / "panda_description/urdf/panda.urdf", DATA / "panda_limits.toml",
+                              locked_joints={"panda_finger_joint1": 0.02, "panda_finger_joint2": 0.02}))
+    return out
+
+
+def _pinocchio(robot, q, qd, qdd):
+    data = robot.model.createData()
+    return np.array([pin.rnea(robot.model, data, a, b, c) for a, b, c in zip(q, qd, qdd)])
+
+
+def test_rnea_batch_matches_pinocchio(irb140):
+    rng = np.random.default_rng(4)
+    for robot in _robots(irb140):
+        assert supported(robot), robot.name
+        q, qd, qdd = (rng.uniform(-2.5, 2.5, (50, robot.n)) for _ in range(3))
+        expected = _pinocchio(robot, q, qd, qdd)
+        assert np.allclose(rnea_batch(robot, q, qd, qdd), expected, rtol=1e-12, atol=1e-10 * np.abs(expected).max())
+
+
+def test_reduced_batch_is_the_three_rnea_combinations(irb140):
+    """alpha = RNEA(q, 0, Phi') - G, beta = RNEA(q, Phi', Phi'') - G, gamma = RNEA(q, 0, 0), by Pinocchio."""
+    rng = np.random.default_rng(5)
+    for robot in _robots(irb140):
+        q, dq, ddq = (rng.uniform(-2.0, 2.0, (40, robot.n)) for _ in range(3))
+        zero = np.zeros_like(q)
+        gamma = _pinocchio(robot, q, zero, zero)
+        expected = (_pinocchio(robot, q, zero, dq) - gamma, _pinocchio(robot, q, dq, ddq) - gamma, gamma)
+        for got, want in zip(reduced_batch(robot, q, dq, ddq), expected):
+            assert np.allclose(got, want, rtol=1e-12, atol=1e-10 * np.abs(want).max())
+
+
+def test_unsupported_joint_falls_back_to_pinocchio():
+    """A free-flyer base (nq 7, nv 6) is not a chain of 1-dof joints: no kernel data, so reduced.py and
+    certify.py take Pinocchio's point-by-point path."""
+    model = pin.buildSampleModelHumanoidRandom()
+    assert chain_data(model) is None
+
+    class Stub:  # the one attribute supported() reads
+        pass
+
+    stub = Stub()
+    stub.model = model
+    assert not supported(stub)
+
+
+def test_reduced_dynamics_uses_the_kernel_consistently(irb140):
+    """planning/reduced.py's result equals the kernel's and Pinocchio's mass matrix times Phi'."""
+    rng = np.random.default_rng(6)
+    q, dq, ddq = (rng.uniform(-1.5, 1.5, (20, 6)) for _ in range(3))
+    r = reduced_dynamics(irb140, q, dq, ddq)
+    data = irb140.model.createData()
+    for k in range(len(q)):
+        m = pin.crba(irb140.model, data, q[k])
+        m = np.triu(m) + np.triu(m, 1).T
+        assert np.allclose(r.alpha[k], m @ dq[k], rtol=1e-12, atol=1e-9)
