@@ -85,23 +85,32 @@ def interval_problem(grid: np.ndarray, start: LimitRows, end: LimitRows,
                      x_max_right: np.ndarray, x_max_left: np.ndarray) -> IntervalProblem:
     """Build the interval rows. ``start`` holds the constraints at points 0..K-2 as seen from the
     interval they start (K-1 rows), ``end`` at points 1..K-1 as seen from the interval they end."""
-    k2 = 0.5 / np.diff(grid)[:, None]  # 1 / (2 Delta)
-    a_s, b_s = start.a, start.b
-    a_e, b_e = end.a, end.b
-    # start row: a u + b x_i = (b - a k2) x_i + a k2 x_{i+1};  end row: -a k2 x_i + (a k2 + b) x_{i+1}
-    p_s, q_s = b_s - a_s * k2, a_s * k2
-    p_e, q_e = -a_e * k2, a_e * k2 + b_e
-    P = np.concatenate([p_s, -p_s, p_e, -p_e], axis=1)
-    Q = np.concatenate([q_s, -q_s, q_e, -q_e], axis=1)
-    R = np.concatenate([start.hi - start.c, start.c - start.lo, end.hi - end.c, end.c - end.lo], axis=1)
-    norm = np.abs(P) + np.abs(Q)
-    scale = np.where(norm > 0, 1.0 / np.where(norm > 0, norm, 1.0), 1.0)
-    R = R * scale
-    R = R + ROW_SLACK_REL * np.abs(R) + ROW_SLACK
-    return IntervalProblem(np.asarray(grid, float), np.ascontiguousarray(P * scale),
-                           np.ascontiguousarray(Q * scale), np.ascontiguousarray(R),
-                           np.minimum(x_max_right, x_max_left), np.asarray(x_max_right, float),
+    grid = np.asarray(grid, float)
+    P, Q, R = _interval_rows(grid, start.a, start.b, start.c, start.lo, start.hi, end.a, end.b, end.c, end.lo, end.hi)
+    return IntervalProblem(grid, P, Q, R, np.minimum(x_max_right, x_max_left), np.asarray(x_max_right, float),
                            np.asarray(x_max_left, float))
+
+
+@njit(cache=True)
+def _interval_rows(grid, a_s, b_s, c_s, lo_s, hi_s, a_e, b_e, c_e, lo_e, hi_e):
+    """P, Q, R (K - 1, 4 m) of interval_problem: per interval the start rows (<= hi, >= lo) then the end
+    rows, each normalized to |P| + |Q| = 1 (or 0) with the round-off slack added to R."""
+    k1, m = a_s.shape
+    P, Q, R = np.empty((k1, 4 * m)), np.empty((k1, 4 * m)), np.empty((k1, 4 * m))
+    for i in range(k1):
+        k2 = 0.5 / (grid[i + 1] - grid[i])  # 1 / (2 Delta)
+        for j in range(m):
+            # start row: a u + b x_i = (b - a k2) x_i + a k2 x_{i+1};  end row: -a k2 x_i + (a k2 + b) x_{i+1}
+            p_s, q_s = b_s[i, j] - a_s[i, j] * k2, a_s[i, j] * k2
+            p_e, q_e = -a_e[i, j] * k2, a_e[i, j] * k2 + b_e[i, j]
+            for col, p, q, r in ((j, p_s, q_s, hi_s[i, j] - c_s[i, j]), (m + j, -p_s, -q_s, c_s[i, j] - lo_s[i, j]),
+                                 (2 * m + j, p_e, q_e, hi_e[i, j] - c_e[i, j]),
+                                 (3 * m + j, -p_e, -q_e, c_e[i, j] - lo_e[i, j])):
+                norm = abs(p) + abs(q)
+                scale = 1.0 / norm if norm > 0 else 1.0
+                r = r * scale
+                P[i, col], Q[i, col], R[i, col] = p * scale, q * scale, r + ROW_SLACK_REL * abs(r) + ROW_SLACK
+    return P, Q, R
 
 
 @njit(cache=True)
