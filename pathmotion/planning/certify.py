@@ -39,6 +39,7 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
+from numba import njit
 
 from .. import defaults
 from ..joint_path import JointPath
@@ -131,42 +132,51 @@ class CertifyContext:
         intervals it holds on (the rest need the sampled form). a, b, c: (right, left) pairs of (K, m)
         arrays of the coefficient at the grid points, or None for 0."""
         p = self.profile
-        h = self.h[:, None]
-        u = p.u[:, None]
-        x0, x1 = p.x[:-1, None], p.x[1:, None]
-        ends = [0.0, 0.0]
-        bend = 0.0
-        valid = np.ones(len(h), dtype=bool)
-        for coeff, w0, w1, kind in ((a, u, u, "a"), (b, x0, x1, "b"), (c, 1.0, 1.0, "c")):
-            if coeff is None:
-                continue
-            pr, pl = coeff
-            ends[0] = ends[0] + pr[:-1] * w0
-            ends[1] = ends[1] + pl[1:] * w1
-            slope = (pl[1:] - pr[:-1]) / h
-            m2, ok = self._second_derivative(slope)
-            valid &= ok
-            if kind == "a":
-                bend = bend + m2 * np.abs(u)
-            elif kind == "b":
-                bend = bend + m2 * np.maximum(x0, x1) + 4.0 * (np.abs(slope) + h * m2) * np.abs(u)
-            else:
-                bend = bend + m2
-        top = np.maximum(np.abs(ends[0]), np.abs(ends[1]))
-        return top + h**2 / 8.0 * bend, valid
-
-    def _second_derivative(self, slope: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """REMAINDER_SAFETY x max |D| over the grid points i - 1 .. i + 2 of each interval i (K - 1, m),
-        from the interval slopes (K - 1, m); mask of the intervals with a D at point i or i + 1."""
-        h = self.h
-        k1 = len(h)
+        h, k1 = self.h, len(self.profile.grid) - 1
+        m = next(pair[0].shape[1] for pair in (a, b, c) if pair is not None)
+        ends0, ends1, bend = np.zeros((k1, m)), np.zeros((k1, m)), np.zeros((k1, m))
         smooth = self.smooth_point
-        d = np.zeros((k1 + 3, slope.shape[1]))  # d[j + 1] = |D| at grid point j (0: none)
-        d[2:-2] = np.abs(slope[1:] - slope[:-1]) / (0.5 * (h[1:] + h[:-1]))[:, None]
-        d[1:-1][~smooth] = 0.0
-        m2 = np.maximum(np.maximum(d[0:k1], d[1:k1 + 1]), np.maximum(d[2:k1 + 2], d[3:k1 + 3]))
-        m2 = np.maximum(m2, d[1:k1 + 1] + d[2:k1 + 2])  # a kink inside the interval splits its D in two
-        return REMAINDER_SAFETY * m2, smooth[:-1] | smooth[1:]
+        for kind, coeff in enumerate((a, b, c)):
+            if coeff is not None:
+                _row_terms(kind, np.asarray(coeff[0], float), np.asarray(coeff[1], float), h, p.u, p.x, smooth,
+                           REMAINDER_SAFETY, ends0, ends1, bend)
+        top = np.maximum(np.abs(ends0), np.abs(ends1))
+        return top + (h**2 / 8.0)[:, None] * bend, smooth[:-1] | smooth[1:]
+
+
+@njit(cache=True)
+def _row_terms(kind, pr, pl, h, u, x, smooth, safety, ends0, ends1, bend):
+    """Add one coefficient's part (kind 0: a, times u; 1: b, times x; 2: c) to the end values
+    ``ends0``/``ends1`` and the curvature term ``bend`` (K - 1, m) of the row form (module docstring):
+    p'' on interval i is ``safety`` x the largest second difference D at the grid points i - 1 .. i + 2
+    (or the sum of the two at its ends: a kink inside); D is 0 at the ends and segment connections."""
+    k1, m = ends0.shape
+    d = np.zeros(k1 + 1)
+    slope = np.empty(k1)
+    for j in range(m):
+        for i in range(k1):
+            slope[i] = (pl[i + 1, j] - pr[i, j]) / h[i]
+        for g in range(1, k1):
+            d[g] = abs(slope[g] - slope[g - 1]) / (0.5 * (h[g] + h[g - 1])) if smooth[g] else 0.0
+        for i in range(k1):
+            m2 = d[i] + d[i + 1]
+            if i > 0 and d[i - 1] > m2:
+                m2 = d[i - 1]
+            if i + 2 <= k1 and d[i + 2] > m2:
+                m2 = d[i + 2]
+            m2 *= safety
+            if kind == 0:
+                ends0[i, j] += pr[i, j] * u[i]
+                ends1[i, j] += pl[i + 1, j] * u[i]
+                bend[i, j] += m2 * abs(u[i])
+            elif kind == 1:
+                ends0[i, j] += pr[i, j] * x[i]
+                ends1[i, j] += pl[i + 1, j] * x[i + 1]
+                bend[i, j] += m2 * max(x[i], x[i + 1]) + 4.0 * (abs(slope[i]) + h[i] * m2) * abs(u[i])
+            else:
+                ends0[i, j] += pr[i, j]
+                ends1[i, j] += pl[i + 1, j]
+                bend[i, j] += m2
 
 
 def interval_state(profile: Profile, i: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
