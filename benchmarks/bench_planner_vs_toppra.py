@@ -21,6 +21,8 @@ Method, per case:
     verified). Medians per case; over cases medians with min-max ranges.
   * Accuracy of the default settings against T*, and the largest limit ratio of the default plan on
     the 0.1 ms resample (every active limit).
+  * The certification's cost: verified / bare on the same grid, in CPU time of the process (medians of
+    the same interleaved runs; on a loaded machine the wall time of a millisecond call is mostly waiting).
 Machine load (os.getloadavg) is printed at start and end.
 
     python benchmarks/bench_planner_vs_toppra.py            # 4 seeds x (4, 7, 12) waypoints
@@ -81,20 +83,23 @@ def toppra_solver(robot, wp, torque):
         .compute_trajectory()
 
 
-def interleaved(fns: dict, repeats: int) -> dict:
-    """{name: median wall time [s]}: one warm-up each, then ``repeats`` rounds in a random order."""
+def interleaved(fns: dict, repeats: int) -> tuple[dict, dict]:
+    """({name: median wall time [s]}, {name: median CPU time of this process [s]}): one warm-up each,
+    then ``repeats`` rounds in a random order. The CPU time leaves out the time the process waits for
+    a core, which on a shared machine is most of the wall time of a millisecond call."""
     for fn in fns.values():
         fn()
-    times = {k: [] for k in fns}
+    wall, cpu = {k: [] for k in fns}, {k: [] for k in fns}
     rng = random.Random(0)
     for _ in range(repeats):
         order = list(fns)
         rng.shuffle(order)
         for k in order:
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             fns[k]()
-            times[k].append(time.perf_counter() - t)
-    return {k: statistics.median(v) for k, v in times.items()}
+            wall[k].append(time.perf_counter() - t)
+            cpu[k].append(time.process_time() - c)
+    return ({k: statistics.median(v) for k, v in wall.items()}, {k: statistics.median(v) for k, v in cpu.items()})
 
 
 def dense_worst(result, path, robot) -> float:
@@ -127,13 +132,14 @@ def run_case(label, robot, torque, seed, n_wp, repeats):
            "ours default": lambda: plan(path, robot, PlanSettings(torque=torque))}
     if n_tp is None:
         del fns["toppra own grid"]
-    times = interleaved(fns, repeats)
+    times, cpu = interleaved(fns, repeats)
     row = dict(label=label, seed=seed, wp=n_wp, t_star=t_star, t_ours=t_ours, t_toppra=t_toppra, n_ours=n_ours,
                n_tp=n_tp, default_err=(default.duration - t_star) / t_star, default_est=default.duration_error_estimate
                / t_star, default_pts=default.grid_points, coarse_err=(coarse.duration - t_star) / t_star,
                dense=dense_worst(default, path, robot), torque_ratio=default.ratios.torque,
                verified_err=(verified.duration - t_star) / t_star, tighten=verified.tighten_iterations,
-               toppra_same=tp(our_grid).duration - ours(n_ours).duration, **times)
+               toppra_same=tp(our_grid).duration - ours(n_ours).duration,
+               certify_cost_cpu=cpu["ours verified"] / cpu["ours bare"], **times)
     return row
 
 
@@ -148,12 +154,13 @@ def print_row(r):
           f"{ms('ours default')}")
     tr = "" if r["torque_ratio"] is None else f", torque ratio {r['torque_ratio']:.5f}"
     print(f"    default: {r['default_pts']} points, {100 * r['default_err']:+.4f} % from T* (estimate "
-          f"{100 * r['default_est']:.4f} %), dense 0.1 ms worst ratio {r['dense']:.5f}{tr}")
+          f"{100 * r['default_est']:.4f} %), dense 0.1 ms worst ratio {r['dense']:.5f}{tr}; certified / bare "
+          f"(CPU time) {r['certify_cost_cpu']:.2f}")
 
 
 def summarize(rows):
-    def rng(vals):
-        return f"{statistics.median(vals):7.1f}x ({min(vals):.1f}-{max(vals):.1f})"
+    def rng(vals, digits=1):
+        return f"{statistics.median(vals):7.{digits}f}x ({min(vals):.{digits}f}-{max(vals):.{digits}f})"
 
     print("\nspeed-up = toppra on its own grid / ours; median (min-max) over cases")
     for label in sorted({r["label"] for r in rows}) + ["all"]:
@@ -165,6 +172,14 @@ def summarize(rows):
         print(f"{label:8s} verified {rng(sp('ours verified'))} | bare {rng(sp('ours bare'))} | adaptive 0.1% "
               f"{rng(sp('ours adaptive 0.1%'))} | default {rng(sp('ours default'))} | same grid, solver only "
               f"{rng(same)} | grid (toppra own / toppra ours) {rng([r['toppra own grid'] / r['toppra our grid'] for r in sel])}")
+    torque = [r["certify_cost_cpu"] for r in rows if r["label"] != "vel+acc"]
+    if torque:
+        print(f"certification cost with torque (verified / bare on the same grid, CPU time): {rng(torque, 2)} "
+              f"(target 1.5x); vel+acc: {rng([r['certify_cost_cpu'] for r in rows if r['label'] == 'vel+acc'] or [0], 2)}")
+    for key, target in (("ours adaptive 0.1%", 3.0), ("ours verified", 3.0)):
+        slow = [f"{r['label']} seed {r['seed']} wp {r['wp']} ({r['toppra own grid'] / r[key]:.1f}x)" for r in rows
+                if "toppra own grid" in r and r["toppra own grid"] / r[key] < target]
+        print(f"{key}: cases below {target:g}x: {', '.join(slow) or 'none'}")
     worst_err = max(abs(r["default_err"]) for r in rows)
     print(f"default settings: largest |error| {100 * worst_err:.4f} % of T* (target 0.05 %); every estimate bounds "
           f"its error: {all(abs(r['default_err']) <= r['default_est'] for r in rows)}; largest dense ratio "
