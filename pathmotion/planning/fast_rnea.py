@@ -113,17 +113,12 @@ def reduced_batch(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tupl
 
 
 @njit(cache=True)
-def _cross(a, b, out):
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
-
-
-@njit(cache=True)
-def _joint_rotation(kind, axis, angle, rot0, out):
-    """out = rot0 @ R(axis, angle) for a revolute joint, rot0 for a prismatic one (3, 3)."""
+def _joint_rotation(kind, axis, angle, rot0, out, b):
+    """out[b] = rot0 @ R(axis, angle) for a revolute joint, rot0 for a prismatic one (3, 3)."""
     if kind != 0:
-        out[:, :] = rot0
+        for i in range(3):
+            for j in range(3):
+                out[b, i, j] = rot0[i, j]
         return
     c, s = np.cos(angle), np.sin(angle)
     t = 1.0 - c
@@ -133,114 +128,128 @@ def _joint_rotation(kind, axis, angle, rot0, out):
     r20, r21, r22 = t * x * z - s * y, t * y * z + s * x, t * z * z + c
     for i in range(3):
         a0, a1, a2 = rot0[i, 0], rot0[i, 1], rot0[i, 2]
-        out[i, 0] = a0 * r00 + a1 * r10 + a2 * r20
-        out[i, 1] = a0 * r01 + a1 * r11 + a2 * r21
-        out[i, 2] = a0 * r02 + a1 * r12 + a2 * r22
-
-
-@njit(cache=True)
-def _body_pass(parent, kind, axis, mass, com, inertia, armature, qd, qdd, g, R, P, work, tau):
-    """One RNEA at one point: qd, qdd (B,), base acceleration -g (3,); R (B, 3, 3), P (B, 3) the joint
-    transforms at q (precomputed); work (9, B + 1, 3) scratch; writes tau (B,)."""
-    nb = len(parent)
-    work[:] = 0.0
-    w, v, aw, av, fl, fn = work[0], work[1], work[2], work[3], work[4], work[5]  # row 0: the base
-    tmp, tmp2, s = work[6, 0], work[7, 0], work[8, 0]
-    hl, hn = work[6, 1], work[7, 1]
-    for k in range(3):
-        av[0, k] = -g[k]
-    for b in range(nb):
-        i, lam = b + 1, parent[b]
-        r, p = R[b], P[b]
-        # parent's motion at this body's origin, in this body's frame: R^T (v + w x p), R^T w
-        _cross(w[lam], p, tmp)
-        _cross(aw[lam], p, tmp2)
-        for k in range(3):
-            w[i, k] = r[0, k] * w[lam, 0] + r[1, k] * w[lam, 1] + r[2, k] * w[lam, 2]
-            v[i, k] = r[0, k] * (v[lam, 0] + tmp[0]) + r[1, k] * (v[lam, 1] + tmp[1]) + r[2, k] * (v[lam, 2] + tmp[2])
-            aw[i, k] = r[0, k] * aw[lam, 0] + r[1, k] * aw[lam, 1] + r[2, k] * aw[lam, 2]
-            av[i, k] = r[0, k] * (av[lam, 0] + tmp2[0]) + r[1, k] * (av[lam, 1] + tmp2[1]) + r[2, k] * (av[lam, 2] + tmp2[2])
-        # joint motion S qd, S qdd; a += v x (S qd)
-        for k in range(3):
-            s[k] = axis[b, k] * qd[b]
-        if kind[b] == 0:
-            _cross(w[i], s, tmp)
-            _cross(v[i], s, tmp2)
-            for k in range(3):
-                aw[i, k] += tmp[k] + axis[b, k] * qdd[b]
-                av[i, k] += tmp2[k]
-                w[i, k] += s[k]
-        else:
-            _cross(w[i], s, tmp)
-            for k in range(3):
-                av[i, k] += tmp[k] + axis[b, k] * qdd[b]
-                v[i, k] += s[k]
-        # f = I a + v x* (I v), I at the body origin: h = m (v + w x c), n = Ic w + c x h
-        _inertia_times(mass[b], com[b], inertia[b], av[i], aw[i], fl[i], fn[i])
-        _inertia_times(mass[b], com[b], inertia[b], v[i], w[i], hl, hn)
-        _cross(w[i], hl, tmp)
-        _cross(w[i], hn, tmp2)
-        for k in range(3):
-            fl[i, k] += tmp[k]
-            fn[i, k] += tmp2[k]
-        _cross(v[i], hl, tmp)
-        for k in range(3):
-            fn[i, k] += tmp[k]
-    for b in range(nb - 1, -1, -1):
-        i, lam = b + 1, parent[b]
-        if kind[b] == 0:
-            tau[b] = axis[b, 0] * fn[i, 0] + axis[b, 1] * fn[i, 1] + axis[b, 2] * fn[i, 2]
-        else:
-            tau[b] = axis[b, 0] * fl[i, 0] + axis[b, 1] * fl[i, 1] + axis[b, 2] * fl[i, 2]
-        tau[b] += armature[b] * qdd[b]
-        if lam > 0:
-            r, p = R[b], P[b]
-            for k in range(3):
-                tmp[k] = r[k, 0] * fl[i, 0] + r[k, 1] * fl[i, 1] + r[k, 2] * fl[i, 2]
-                tmp2[k] = r[k, 0] * fn[i, 0] + r[k, 1] * fn[i, 1] + r[k, 2] * fn[i, 2]
-            _cross(p, tmp, hl)
-            for k in range(3):
-                fl[lam, k] += tmp[k]
-                fn[lam, k] += tmp2[k] + hl[k]
-
-
-@njit(cache=True)
-def _inertia_times(m, c, ic, lin, ang, out_l, out_n):
-    """Spatial inertia (mass m, com c, inertia ic about the com) times the motion (lin, ang), at the origin."""
-    t0 = ang[1] * c[2] - ang[2] * c[1]
-    t1 = ang[2] * c[0] - ang[0] * c[2]
-    t2 = ang[0] * c[1] - ang[1] * c[0]
-    out_l[0], out_l[1], out_l[2] = m * (lin[0] + t0), m * (lin[1] + t1), m * (lin[2] + t2)
-    out_n[0] = ic[0, 0] * ang[0] + ic[0, 1] * ang[1] + ic[0, 2] * ang[2] + c[1] * out_l[2] - c[2] * out_l[1]
-    out_n[1] = ic[1, 0] * ang[0] + ic[1, 1] * ang[1] + ic[1, 2] * ang[2] + c[2] * out_l[0] - c[0] * out_l[2]
-    out_n[2] = ic[2, 0] * ang[0] + ic[2, 1] * ang[1] + ic[2, 2] * ang[2] + c[0] * out_l[1] - c[1] * out_l[0]
+        out[b, i, 0] = a0 * r00 + a1 * r10 + a2 * r20
+        out[b, i, 1] = a0 * r01 + a1 * r11 + a2 * r21
+        out[b, i, 2] = a0 * r02 + a1 * r12 + a2 * r22
 
 
 @njit(cache=True)
 def _transforms(kind, axis, rot, pos, q, R, P):
+    """R (B, 3, 3), P (B, 3): each joint's rotation and translation in its parent's frame at q (B,)."""
     for b in range(len(kind)):
-        _joint_rotation(kind[b], axis[b], q[b], rot[b], R[b])
+        _joint_rotation(kind[b], axis[b], q[b], rot[b], R, b)
         for k in range(3):
-            P[b, k] = pos[b, k] + (axis[b, 0] * rot[b, k, 0] + axis[b, 1] * rot[b, k, 1] + axis[b, 2] * rot[b, k, 2]) \
-                * q[b] if kind[b] == 1 else pos[b, k]
+            P[b, k] = pos[b, k]
+            if kind[b] == 1:
+                P[b, k] += (axis[b, 0] * rot[b, k, 0] + axis[b, 1] * rot[b, k, 1] + axis[b, 2] * rot[b, k, 2]) * q[b]
+
+
+@njit(cache=True)
+def _body_pass(parent, kind, axis, mass, com, inertia, armature, qd, qdd, g0, g1, g2, R, P, M, F, tau, n):
+    """One RNEA at one point: qd, qdd (B,) rows ``n`` of (N, B) arrays, base acceleration -g; R, P the joint
+    transforms at q (precomputed); scratch M (B + 1, 12) (angular and linear velocity, angular and
+    linear acceleration, body frame; row 0 the base) and F (B + 1, 6) (force, moment about the body
+    origin); writes tau[n] (B,). Scalar indexing only: array views cost reference counting."""
+    nb = len(parent)
+    for k in range(12):
+        M[0, k] = 0.0
+    M[0, 9], M[0, 10], M[0, 11] = -g0, -g1, -g2
+    for b in range(nb):
+        i, lam = b + 1, parent[b]
+        p0, p1, p2 = P[b, 0], P[b, 1], P[b, 2]
+        # the parent's motion at this body's origin: linear + angular x p; then R^T
+        pw0, pw1, pw2 = M[lam, 0], M[lam, 1], M[lam, 2]
+        pv0 = M[lam, 3] + pw1 * p2 - pw2 * p1
+        pv1 = M[lam, 4] + pw2 * p0 - pw0 * p2
+        pv2 = M[lam, 5] + pw0 * p1 - pw1 * p0
+        pa0, pa1, pa2 = M[lam, 6], M[lam, 7], M[lam, 8]
+        pl0 = M[lam, 9] + pa1 * p2 - pa2 * p1
+        pl1 = M[lam, 10] + pa2 * p0 - pa0 * p2
+        pl2 = M[lam, 11] + pa0 * p1 - pa1 * p0
+        for k in range(3):
+            r0, r1, r2 = R[b, 0, k], R[b, 1, k], R[b, 2, k]
+            M[i, k] = r0 * pw0 + r1 * pw1 + r2 * pw2
+            M[i, 3 + k] = r0 * pv0 + r1 * pv1 + r2 * pv2
+            M[i, 6 + k] = r0 * pa0 + r1 * pa1 + r2 * pa2
+            M[i, 9 + k] = r0 * pl0 + r1 * pl1 + r2 * pl2
+        s0, s1, s2 = axis[b, 0] * qd[n, b], axis[b, 1] * qd[n, b], axis[b, 2] * qd[n, b]
+        w0, w1, w2 = M[i, 0], M[i, 1], M[i, 2]
+        v0, v1, v2 = M[i, 3], M[i, 4], M[i, 5]
+        if kind[b] == 0:  # revolute: a += (v x s, w x s) + (0, axis qdd); w += s
+            M[i, 6] += w1 * s2 - w2 * s1 + axis[b, 0] * qdd[n, b]
+            M[i, 7] += w2 * s0 - w0 * s2 + axis[b, 1] * qdd[n, b]
+            M[i, 8] += w0 * s1 - w1 * s0 + axis[b, 2] * qdd[n, b]
+            M[i, 9] += v1 * s2 - v2 * s1
+            M[i, 10] += v2 * s0 - v0 * s2
+            M[i, 11] += v0 * s1 - v1 * s0
+            w0, w1, w2 = w0 + s0, w1 + s1, w2 + s2
+            M[i, 0], M[i, 1], M[i, 2] = w0, w1, w2
+        else:  # prismatic: a += (w x s + axis qdd, 0); v += s
+            M[i, 9] += w1 * s2 - w2 * s1 + axis[b, 0] * qdd[n, b]
+            M[i, 10] += w2 * s0 - w0 * s2 + axis[b, 1] * qdd[n, b]
+            M[i, 11] += w0 * s1 - w1 * s0 + axis[b, 2] * qdd[n, b]
+            v0, v1, v2 = v0 + s0, v1 + s1, v2 + s2
+            M[i, 3], M[i, 4], M[i, 5] = v0, v1, v2
+        # f = I a + v x* (I v); I (mass m, com c, inertia ic about c) times (lin, ang): h = m (lin + ang x c),
+        # n = ic ang + c x h; v x* (h, n) = (w x h, w x n + v x h)
+        m, c0, c1, c2 = mass[b], com[b, 0], com[b, 1], com[b, 2]
+        a0, a1, a2, l0, l1, l2 = M[i, 6], M[i, 7], M[i, 8], M[i, 9], M[i, 10], M[i, 11]
+        f0 = m * (l0 + a1 * c2 - a2 * c1)
+        f1 = m * (l1 + a2 * c0 - a0 * c2)
+        f2 = m * (l2 + a0 * c1 - a1 * c0)
+        n0 = inertia[b, 0, 0] * a0 + inertia[b, 0, 1] * a1 + inertia[b, 0, 2] * a2 + c1 * f2 - c2 * f1
+        n1 = inertia[b, 1, 0] * a0 + inertia[b, 1, 1] * a1 + inertia[b, 1, 2] * a2 + c2 * f0 - c0 * f2
+        n2 = inertia[b, 2, 0] * a0 + inertia[b, 2, 1] * a1 + inertia[b, 2, 2] * a2 + c0 * f1 - c1 * f0
+        h0 = m * (v0 + w1 * c2 - w2 * c1)
+        h1 = m * (v1 + w2 * c0 - w0 * c2)
+        h2 = m * (v2 + w0 * c1 - w1 * c0)
+        k0 = inertia[b, 0, 0] * w0 + inertia[b, 0, 1] * w1 + inertia[b, 0, 2] * w2 + c1 * h2 - c2 * h1
+        k1 = inertia[b, 1, 0] * w0 + inertia[b, 1, 1] * w1 + inertia[b, 1, 2] * w2 + c2 * h0 - c0 * h2
+        k2 = inertia[b, 2, 0] * w0 + inertia[b, 2, 1] * w1 + inertia[b, 2, 2] * w2 + c0 * h1 - c1 * h0
+        F[i, 0] = f0 + w1 * h2 - w2 * h1
+        F[i, 1] = f1 + w2 * h0 - w0 * h2
+        F[i, 2] = f2 + w0 * h1 - w1 * h0
+        F[i, 3] = n0 + w1 * k2 - w2 * k1 + v1 * h2 - v2 * h1
+        F[i, 4] = n1 + w2 * k0 - w0 * k2 + v2 * h0 - v0 * h2
+        F[i, 5] = n2 + w0 * k1 - w1 * k0 + v0 * h1 - v1 * h0
+    for b in range(nb - 1, -1, -1):
+        i, lam = b + 1, parent[b]
+        off = 3 if kind[b] == 0 else 0
+        tau[n, b] = axis[b, 0] * F[i, off] + axis[b, 1] * F[i, off + 1] + axis[b, 2] * F[i, off + 2] \
+            + armature[b] * qdd[n, b]
+        if lam > 0:  # the parent takes (R f, R n + p x R f)
+            p0, p1, p2 = P[b, 0], P[b, 1], P[b, 2]
+            t0 = R[b, 0, 0] * F[i, 0] + R[b, 0, 1] * F[i, 1] + R[b, 0, 2] * F[i, 2]
+            t1 = R[b, 1, 0] * F[i, 0] + R[b, 1, 1] * F[i, 1] + R[b, 1, 2] * F[i, 2]
+            t2 = R[b, 2, 0] * F[i, 0] + R[b, 2, 1] * F[i, 1] + R[b, 2, 2] * F[i, 2]
+            F[lam, 0] += t0
+            F[lam, 1] += t1
+            F[lam, 2] += t2
+            F[lam, 3] += R[b, 0, 0] * F[i, 3] + R[b, 0, 1] * F[i, 4] + R[b, 0, 2] * F[i, 5] + p1 * t2 - p2 * t1
+            F[lam, 4] += R[b, 1, 0] * F[i, 3] + R[b, 1, 1] * F[i, 4] + R[b, 1, 2] * F[i, 5] + p2 * t0 - p0 * t2
+            F[lam, 5] += R[b, 2, 0] * F[i, 3] + R[b, 2, 1] * F[i, 4] + R[b, 2, 2] * F[i, 5] + p0 * t1 - p1 * t0
 
 
 @njit(cache=True)
 def _rnea_kernel(parent, kind, axis, rot, pos, mass, com, inertia, armature, gravity, q, qd, qdd, out):
     nb = len(parent)
-    R, P, work = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((9, nb + 1, 3))
+    R, P, M, F = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb + 1, 12)), np.empty((nb + 1, 6))
     for n in range(q.shape[0]):
         _transforms(kind, axis, rot, pos, q[n], R, P)
-        _body_pass(parent, kind, axis, mass, com, inertia, armature, qd[n], qdd[n], gravity, R, P, work, out[n])
+        _body_pass(parent, kind, axis, mass, com, inertia, armature, qd, qdd, gravity[0], gravity[1], gravity[2],
+                   R, P, M, F, out, n)
 
 
 @njit(cache=True)
 def _reduced_kernel(parent, kind, axis, rot, pos, mass, com, inertia, armature, gravity, q, dq, ddq, alpha, beta, gamma):
     nb = len(parent)
-    R, P, work = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((9, nb + 1, 3))
-    zero, nog = np.zeros(nb), np.zeros(3)
+    R, P, M, F = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb + 1, 12)), np.empty((nb + 1, 6))
+    zero = np.zeros((1, nb))
     for n in range(q.shape[0]):
         _transforms(kind, axis, rot, pos, q[n], R, P)
-        _body_pass(parent, kind, axis, mass, com, inertia, armature, zero, zero, gravity, R, P, work, gamma[n])
-        _body_pass(parent, kind, axis, mass, com, inertia, armature, zero, dq[n], nog, R, P, work, alpha[n])
-        _body_pass(parent, kind, axis, mass, com, inertia, armature, dq[n], ddq[n], nog, R, P, work, beta[n])
+        # gravity alone (row 0 of zero: no velocity, no acceleration), then the two gravity-free passes
+        _body_pass(parent, kind, axis, mass, com, inertia, armature, zero, zero, gravity[0], gravity[1], gravity[2],
+                   R, P, M, F, gamma[n:n + 1], 0)
+        _body_pass(parent, kind, axis, mass, com, inertia, armature, zero, dq[n:n + 1], 0.0, 0.0, 0.0,
+                   R, P, M, F, alpha[n:n + 1], 0)
+        _body_pass(parent, kind, axis, mass, com, inertia, armature, dq, ddq, 0.0, 0.0, 0.0, R, P, M, F, beta, n)
