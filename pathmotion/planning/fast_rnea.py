@@ -50,8 +50,8 @@ _CACHE: dict[int, ChainData | None] = {}
 
 
 def chain_data(model) -> ChainData | None:
-    """The kernels' view of a Pinocchio ``model`` (computed once per model), or None when a joint type
-    is not supported."""
+    """The kernels' view of a Pinocchio ``model`` (computed once per model object, which must not change
+    afterwards: a Robot's model does not), or None when a joint type is not supported."""
     key = id(model)
     if key not in _CACHE:
         _CACHE[key] = _extract(model)
