@@ -160,19 +160,20 @@ def tcp_jerk_bias(robot: Robot, q, qd, qdd) -> np.ndarray:
     model, data = robot.model, robot.data
     fid = robot.frame_id(None)
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
-    out = np.empty((len(q), 6))
-    for k in range(len(q)):
+    n = len(q)
+    vel, acc, dacc, rot = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 3, 3))
+    for k in range(n):  # Pinocchio per point; the vector algebra below for all points at once
         pin.computeForwardKinematicsDerivatives(model, data, q[k], qd[k], qdd[k])
         pin.updateFramePlacements(model, data)
         _, da_dq, da_dv, _ = pin.getFrameAccelerationDerivatives(model, data, fid, _LOCAL)
-        vel = pin.getFrameVelocity(model, data, fid, _LOCAL)
-        acc = pin.getFrameAcceleration(model, data, fid, _LOCAL)
-        dacc = da_dq @ qd[k] + da_dv @ qdd[k]
-        v, w, dv, dw, ddv, ddw = vel.linear, vel.angular, acc.linear, acc.angular, dacc[:3], dacc[3:]
-        rot = data.oMf[fid].rotation
-        out[k, :3] = rot @ (np.cross(w, dv + np.cross(w, v)) + ddv + np.cross(dw, v) + np.cross(w, dv))
-        out[k, 3:] = rot @ (np.cross(w, dw) + ddw)
-    return out
+        vel[k] = pin.getFrameVelocity(model, data, fid, _LOCAL).vector
+        acc[k] = pin.getFrameAcceleration(model, data, fid, _LOCAL).vector
+        dacc[k] = da_dq @ qd[k] + da_dv @ qdd[k]
+        rot[k] = data.oMf[fid].rotation
+    v, w, dv, dw, ddv, ddw = vel[:, :3], vel[:, 3:], acc[:, :3], acc[:, 3:], dacc[:, :3], dacc[:, 3:]
+    lin = np.cross(w, dv + np.cross(w, v)) + ddv + np.cross(dw, v) + np.cross(w, dv)
+    ang = np.cross(w, dw) + ddw
+    return np.concatenate([np.einsum("kij,kj->ki", rot, lin), np.einsum("kij,kj->ki", rot, ang)], axis=1)
 
 
 def joint_third_derivative(robot: Robot, q, dq, ddq, dddp, ddw) -> np.ndarray:

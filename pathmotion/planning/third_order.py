@@ -20,10 +20,12 @@ less than THIRD_ORDER_TOLERANCE.
 from __future__ import annotations
 
 import logging
+import os
+import sys
 
+import highspy
 import numpy as np
-from scipy.optimize import linprog
-from scipy.sparse import coo_matrix, diags
+from scipy.sparse import coo_matrix, diags, vstack
 
 from .. import defaults
 from ..errors import InfeasibleError
@@ -46,6 +48,14 @@ RHO_MIN = 1e-3
 #: HiGHS primal and dual feasibility tolerance on the scaled, row-normalized LP: rows next to a rest
 #: point span many decades, and at the default 1e-7 an incumbent could exceed its jerk row by 20 %.
 LP_TOLERANCE = 1e-10
+#: Row generation: a pool row enters the LP when its slack at a solution is below this, in units of its
+#: largest coefficient on the scaled variables (which are ~1 at the linearization point) [-].
+ROW_MARGIN = 0.02
+#: Row generation: at most this many solves of one LP (each adds the rows its solution violates) [-].
+MAX_ROW_ROUNDS = 50
+#: HiGHS's Devex pricing: dual steepest edge (its default) first computes a weight for every row of a
+#: hot-started basis, which costs more than the few pivots that then remain.
+DEVEX = 1
 
 
 class _Problem:
@@ -143,8 +153,8 @@ class _Problem:
 
 
 def _assemble(p: _Problem, x_ref):
-    """Sparse A_ub, b_ub of every inequality row."""
-    rows, cols, vals, rhs = [], [], [], []
+    """Sparse A_ub, b_ub of every inequality row, and the grid point (node) of each row."""
+    rows, cols, vals, rhs, nodes = [], [], [], [], []
     n = 0
     for bx, kx, bu, ku, r in p.order2(x_ref):
         idx = n + np.arange(len(r))
@@ -152,6 +162,7 @@ def _assemble(p: _Problem, x_ref):
         cols += [kx, ku]
         vals += [bx, bu]
         rhs.append(r)
+        nodes.append(kx)
         n += len(r)
     for coef, col, r in p.order3(x_ref):
         cnt = coef.shape[0] * coef.shape[1]
@@ -160,9 +171,10 @@ def _assemble(p: _Problem, x_ref):
         cols.append(col.reshape(-1))
         vals.append(coef.reshape(-1))
         rhs.append(r.reshape(-1))
+        nodes.append(col[..., 3].reshape(-1))
         n += cnt
     a = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, 2 * p.k)).tocsr()
-    return a, np.concatenate(rhs)
+    return a, np.concatenate(rhs), np.concatenate(nodes)
 
 
 #: Gauss-Legendre nodes and weights on [0, 1] for the duration gradient.
@@ -202,23 +214,123 @@ def _exact_gradient(p: _Problem, x: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.concatenate([gx, gu])
 
 
-def _solve_scaled(p: _Problem, a_ub, b_ub, w, bounds, x_ref):
+class _Lp:
+    """The sequence of LPs of one solve, on one HiGHS instance, by row generation with hot starts.
+
+    Every LP has the same pool of inequality rows (only their values change with the linearization
+    point), and few of them are ever near active (one joint's jerk at a time, the torque of a few).
+    Each LP is solved on the rows generated so far (all equalities, the pool rows that were ever
+    violated or within ROW_MARGIN of active); rows the solution violates are added and it is solved
+    again until it meets the whole pool, so the result is the optimum of the full LP. Each solve
+    starts from the previous optimal basis (the new rows basic): a few dual simplex pivots."""
+
+    def __init__(self):
+        self.highs = _silent_highs()
+        for key, value in (("primal_feasibility_tolerance", LP_TOLERANCE), ("dual_feasibility_tolerance", LP_TOLERANCE),
+                           ("threads", 1), ("presolve", "off"),
+                           ("simplex_dual_edge_weight_strategy", DEVEX)):
+            self.highs.setOptionValue(key, value)
+        self.active = None  # (pool,) bool: the rows in the LP
+        self.col_status = self.eq_status = self.pool_status = None
+        self.status = ""
+
+    def solve(self, c, a_eq, b_eq, a_ub, b_ub, nodes, col_lo, col_hi) -> np.ndarray | None:
+        """argmin c.z s.t. a_eq z = b_eq, a_ub z <= b_ub (pool), col_lo <= z <= col_hi; None unless optimal.
+        a_eq, a_ub: CSR with rows scaled to unit largest coefficient (ROW_MARGIN is in those units);
+        nodes (pool,): the grid point of each pool row (each round adds at most one row per point)."""
+        n_pool = a_ub.shape[0]
+        if self.active is None or len(self.active) != n_pool:
+            self.active, self.pool_status = np.zeros(n_pool, bool), np.full(n_pool, _BASIC, np.int8)
+            self.col_status = None
+        for _ in range(MAX_ROW_ROUNDS):
+            z = self._run(c, a_eq, b_eq, a_ub, b_ub, col_lo, col_hi)
+            if z is None:
+                return None
+            slack = b_ub - a_ub @ z
+            if not (slack[~self.active] < -LP_TOLERANCE).any():
+                return z
+            cand = np.nonzero(~self.active & (slack < ROW_MARGIN))[0]
+            order = cand[np.lexsort((slack[cand], nodes[cand]))]
+            new = order[np.unique(nodes[order], return_index=True)[1]]  # the tightest row of each point
+            self.active[new] = True
+            self.pool_status[new] = _BASIC
+        self.status = f"not settled after {MAX_ROW_ROUNDS} rounds of row generation"
+        return None
+
+    def _run(self, c, a_eq, b_eq, a_ub, b_ub, col_lo, col_hi) -> np.ndarray | None:
+        rows = np.nonzero(self.active)[0]
+        a = vstack([a_eq, a_ub[rows]], format="csr")
+        n_row, n_col = a.shape
+        lp = highspy.HighsLp()
+        lp.num_col_, lp.num_row_ = n_col, n_row
+        lp.col_cost_, lp.col_lower_, lp.col_upper_ = c, col_lo, col_hi
+        lp.row_lower_ = np.concatenate([b_eq, np.full(len(rows), -np.inf)])
+        lp.row_upper_ = np.concatenate([b_eq, b_ub[rows]])
+        m = lp.a_matrix_
+        m.format_, m.num_col_, m.num_row_ = highspy.MatrixFormat.kRowwise, n_col, n_row
+        m.start_, m.index_, m.value_ = a.indptr, a.indices, a.data
+        h = self.highs
+        h.passModel(lp)
+        if self.col_status is not None:
+            basis = highspy.HighsBasis()
+            basis.col_status = [_STATUS[s] for s in self.col_status]
+            basis.row_status = [_STATUS[s] for s in np.concatenate([self.eq_status, self.pool_status[rows]])]
+            basis.valid = True
+            h.setBasis(basis)
+        h.run()
+        status = h.getModelStatus()
+        self.status = h.modelStatusToString(status)
+        if status != highspy.HighsModelStatus.kOptimal:
+            return None
+        basis = h.getBasis()
+        self.col_status = np.array([int(s) for s in basis.col_status], np.int8)
+        row_status = np.array([int(s) for s in basis.row_status], np.int8)
+        n_eq = len(b_eq)
+        self.eq_status = row_status[:n_eq]
+        self.pool_status[rows] = row_status[n_eq:]
+        return np.array(h.getSolution().col_value)
+
+
+_STATUS = [highspy.HighsBasisStatus(i) for i in range(5)]
+_BASIC = int(highspy.HighsBasisStatus.kBasic)
+
+
+_BANNER_SHOWN = []
+
+
+def _silent_highs() -> "highspy.Highs":
+    """A HiGHS instance with its output off. Its first construction in a process prints a banner on the
+    standard output before any option can be set; that one is sent to the null device."""
+    if _BANNER_SHOWN:
+        h = highspy.Highs()
+    else:
+        sys.stdout.flush()
+        saved = os.dup(1)
+        try:
+            with open(os.devnull, "w") as null:
+                os.dup2(null.fileno(), 1)
+                h = highspy.Highs()
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+        _BANNER_SHOWN.append(True)
+    h.setOptionValue("output_flag", False)
+    return h
+
+
+def _solve_scaled(p: _Problem, lp: _Lp, a_ub, b_ub, nodes, w, bounds, x_ref):
     """The LP in scaled variables x_k = x_ref_k y_k, u_k = x_ref_k / r_k v_k (r_k the distance to the
     nearest rest point: u ~ x / r on an S-curve), so that x near a rest point (1e-9 and less on the
     graded grid) is resolved to the solver's relative tolerance; rows rescaled to unit largest
-    coefficient. Returns linprog's result with x in the original variables."""
+    coefficient. Returns the solution in the original variables, None unless optimal."""
     col = np.concatenate([x_ref, x_ref / p.rest_distance])
     cd = diags(col)
-    a_ub = _unit_rows(a_ub @ cd, b_ub)
-    a_eq = _unit_rows(p.a_eq @ cd, p.b_eq)
+    a_ub, b_ub = _unit_rows(a_ub @ cd, b_ub)
+    a_eq, b_eq = _unit_rows(p.a_eq @ cd, p.b_eq)
     c = w * col
     c = c / max(np.max(np.abs(c)), 1e-300)
-    res = linprog(c, A_ub=a_ub[0], b_ub=a_ub[1], A_eq=a_eq[0], b_eq=a_eq[1], bounds=bounds / col[:, None],
-                  method="highs", options={"primal_feasibility_tolerance": LP_TOLERANCE,
-                                           "dual_feasibility_tolerance": LP_TOLERANCE})
-    if res.status == 0:
-        res.x = res.x * col
-    return res
+    z = lp.solve(c, a_eq.tocsr(), b_eq, a_ub.tocsr(), b_ub, nodes, bounds[:, 0] / col, bounds[:, 1] / col)
+    return None if z is None else z * col
 
 
 def _unit_rows(a, b):
@@ -254,10 +366,10 @@ def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start:
     x_start = np.minimum(x_start, _s_curve_cap(p))
     x_ref = np.where(rest, 0.0, np.maximum(np.minimum(x_start, p.x_hi), X_REF_FLOOR * max(np.max(x_start), 1e-12)))
     best, best_t, rho = None, np.inf, RHO_START
-    lps = 0
+    lps, lp = 0, _Lp()
     for _ in range(max_iterations):
         xr = np.where(rest, 1.0, x_ref)
-        a_ub, b_ub = _assemble(p, xr)
+        a_ub, b_ub, nodes = _assemble(p, xr)
         x_lo = p.x_lo
         if best is None:
             # first LP, from the second-order optimum (no consistent u, not feasible): keep its shape,
@@ -270,15 +382,15 @@ def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start:
         x_hi = np.where(rest, 0.0, np.minimum(p.x_hi, (1.0 + rho) * x_ref))
         x_hi = np.maximum(x_hi, x_lo)
         bounds = np.column_stack([np.concatenate([x_lo, p.u_lo]), np.concatenate([x_hi, p.u_hi])])
-        res = _solve_scaled(p, a_ub, b_ub, w, bounds, xr)
+        z = _solve_scaled(p, lp, a_ub, b_ub, nodes, w, bounds, xr)
         lps += 1
-        if res.status != 0:
-            log.debug("third-order LP %d: %s", lps, res.message)
+        if z is None:
+            log.debug("third-order LP %d: %s", lps, lp.status)
             if best is not None:
                 break
-            raise InfeasibleError(f"third-order limits: no smooth profile meets the limits ({res.message}); "
+            raise InfeasibleError(f"third-order limits: no smooth profile meets the limits (the LP is {lp.status}); "
                                   "relax the jerk or torque-rate limits")
-        x, u = np.maximum(res.x[:p.k], 0.0), res.x[p.k:]
+        x, u = np.maximum(z[:p.k], 0.0), z[p.k:]
         x[rest] = 0.0
         u[rest] = 0.0
         t = Profile(grid, x, u).duration
