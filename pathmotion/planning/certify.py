@@ -45,7 +45,9 @@ from .. import defaults
 from ..joint_path import JointPath
 from ..robot import Robot, rnea
 from .fast_rnea import rnea_batch, supported
+from . import smooth
 from .profile import Profile
+from .reduced import torque_derivative
 from .trajectory import Samples
 
 #: Sub-intervals per grid interval of the sampled form: S + 1 samples (both ends included) [-].
@@ -55,6 +57,8 @@ REFINE_SUBDIVISIONS = 16
 #: Row-form bounds above this ratio are refined by the sampled form: half the default limit tolerance,
 #: where the verify-and-tighten loop would start to tighten (below it no refinement pays) [-].
 REFINE_ABOVE = 1.0 + 0.5 * defaults.LIMIT_TOLERANCE
+#: Sub-intervals per grid interval of a smooth (third-order) profile's sampled form, uniform in xi [-].
+SMOOTH_SUBDIVISIONS = 4
 #: Factor on the estimated second derivatives in the remainder terms [-].
 REMAINDER_SAFETY = 2.0
 
@@ -91,6 +95,8 @@ class CertifyContext:
     breaks: tuple[int, ...]
     needs_torque: bool
     _samples: dict = field(default_factory=dict)
+    #: A smooth profile's samples also carry the torque rate (a torque-rate limit is active).
+    torque_rate: bool = False
 
     @property
     def h(self) -> np.ndarray:
@@ -103,7 +109,8 @@ class CertifyContext:
         index = np.arange(k1) if index is None else np.asarray(index, int)
         key = (index.tobytes(), subdivisions, self.needs_torque)
         if key not in self._samples:
-            self._samples[key] = interval_samples(self, index, subdivisions)
+            make = smooth_interval_samples if self.profile.smooth else interval_samples
+            self._samples[key] = make(self, index, subdivisions)
         return self._samples[key]
 
     def sampled(self, ratios, index: np.ndarray | None = None, subdivisions: int = CERTIFY_SUBDIVISIONS) -> np.ndarray:
@@ -228,6 +235,50 @@ def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int =
     return IntervalSamples(samples, index, S + 1)
 
 
+def smooth_interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int = SMOOTH_SUBDIVISIONS
+                            ) -> IntervalSamples:
+    """Samples of a smooth (third-order) profile at S + 1 points of each interval in ``index``, uniform
+    in the interval's stretched coordinate xi (planning/smooth.py), in which theta_ddot is linear and
+    the S-curve next to a rest point is a polynomial: every limit's value is a smooth function of xi
+    there, as the sampled form's remainder needs. The profile's state (x, theta_ddot, theta_dddot) is
+    exact at every sample; the ends reuse the grid data (Phi''' from both sides of a knot), interior
+    points evaluate the path to third order (joint jerk qddd), the torque, and the torque rate when
+    ``ctx.torque_rate``. ``t`` is the interval's start time (the ratios do not read it)."""
+    p, path, robot = ctx.profile, ctx.path, ctx.robot
+    grid = p.grid
+    k1, S, n = len(index), int(subdivisions), path.n
+    origin, sign = p.coords
+    o, sg = origin[index, None], sign[index, None]
+    xi0, xi1 = smooth.xi_of(o, sg, grid[index, None]), smooth.xi_of(o, sg, grid[index + 1, None])
+    xi = xi0 + (xi1 - xi0) * (np.arange(S + 1) / S)[None, :]
+    theta = np.clip(smooth.theta_of(o, sg, xi), grid[index, None], grid[index + 1, None])
+    theta[:, 0], theta[:, -1] = grid[index], grid[index + 1]
+    i = np.repeat(index[:, None], S + 1, 1)
+    x, u, jerk = smooth.state(grid, p.x, p.u_nodes, origin, sign, i, theta)
+    q, dq, ddq, dddq = (np.empty((k1, S + 1, n)) for _ in range(4))
+    r, l = ctx.right, ctx.left
+    for arr, pr, pl in ((q, r.q, l.q), (dq, r.dq, l.dq), (ddq, r.ddq, l.ddq), (dddq, r.dddq, l.dddq)):
+        arr[:, 0], arr[:, -1] = pr[index], pl[index + 1]
+    if S > 1:
+        inner = path.evaluate3(theta[:, 1:-1].ravel())
+        for arr, value in zip((q, dq, ddq, dddq), inner):
+            arr[:, 1:-1] = value.reshape(k1, S - 1, n)
+    v = np.sqrt(x)
+    qd = dq * v[..., None]
+    qdd = dq * u[..., None] + ddq * x[..., None]
+    qddd = dq * jerk[..., None] + 3.0 * ddq * (v * u)[..., None] + dddq * (x * v)[..., None]
+    flat = lambda a: None if a is None else a.reshape(k1 * (S + 1), *a.shape[2:])  # noqa: E731
+    tau = tau_dot = None
+    if ctx.needs_torque and robot is not None:
+        tau = rnea(robot, flat(q), flat(qd), flat(qdd))
+        if ctx.torque_rate:
+            tau_dot = torque_derivative(robot, flat(q), flat(qd), flat(qdd), flat(qddd))
+    t = np.broadcast_to(p.times[index, None], theta.shape)
+    samples = Samples(flat(t), flat(theta), flat(v), flat(u), flat(q), flat(qd), flat(qdd), tau, flat(jerk),
+                      flat(qddd), tau_dot)
+    return IntervalSamples(samples, index, S + 1)
+
+
 def _grid_torque(points, index: np.ndarray, u: np.ndarray, x: np.ndarray) -> np.ndarray:
     """tau = alpha u + beta x + gamma at the grid points ``index`` from the cached reduced dynamics."""
     from .limits.torque import reduced
@@ -252,7 +303,34 @@ def sampled_bound(values: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(top), bound, top)
 
 
+def smooth_sampled_bound(values: np.ndarray) -> np.ndarray:
+    """Upper bound (I, m) of a function sampled at S + 1 >= 4 uniform points per interval, ``values``
+    (I, S + 1, m), sub-interval by sub-interval: the larger end value plus the interpolation remainder
+    where the function may be concave there. Linear interpolation's error is -f''/2 (s - a)(b - s), so
+    f rises above the chord only where f'' < 0, by at most max(-f'', 0) / 8 (a unit sub-interval); f''
+    on a sub-interval is the larger of the second differences at its two ends (one end only at the
+    interval's ends) widened by the largest third difference, times REMAINDER_SAFETY. A function that
+    grows like xi^3 from a rest point (the joint jerk where Phi' = 0 at the path's end) is then bounded
+    by its end value, where the whole-interval form adds a curvature term of 9 %."""
+    v = np.asarray(values, float)
+    with np.errstate(invalid="ignore"):
+        d2 = v[:, :-2] - 2.0 * v[:, 1:-1] + v[:, 2:]  # at the interior samples 1 .. S - 1
+        d3 = np.abs(np.diff(d2, axis=1)).max(axis=1, keepdims=True)
+        left = np.concatenate([d2[:, :1], d2], axis=1)  # sub-interval k: samples k, k + 1
+        right = np.concatenate([d2, d2[:, -1:]], axis=1)
+        concave = np.maximum(np.maximum(-left, -right) + d3, 0.0)
+        top = np.maximum(v[:, :-1], v[:, 1:]) + REMAINDER_SAFETY * concave / 8.0
+    bound = top.max(axis=1)
+    return np.where(np.isfinite(v.max(axis=1)), bound, v.max(axis=1))
+
+
 def certify(ctx: CertifyContext, limits) -> dict:
     """{name: (K - 1, m) certified upper bound of the ratio on every interval} per active limit; the
-    samples carry torques only for the limits that need them (the views share one sample cache)."""
+    samples carry torques only for the limits that need them (the views share one sample cache). A smooth
+    profile (theta_ddot not constant per interval: the row form does not apply) takes the sampled form
+    for every limit, on :func:`smooth_interval_samples`."""
+    if ctx.profile.smooth:
+        ctx.torque_rate = ctx.torque_rate or any(lim.order == 3 and lim.needs_torque for lim in limits)
+        cs = ctx.samples(subdivisions=SMOOTH_SUBDIVISIONS)
+        return {lim.name: smooth_sampled_bound(cs.per_interval(lim.ratios(cs.samples, ctx.robot))) for lim in limits}
     return {lim.name: lim.certify(replace(ctx, needs_torque=ctx.needs_torque and lim.needs_torque)) for lim in limits}

@@ -290,7 +290,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     if settings.periodic and not path.closed:
         raise ScenarioError("periodic planning needs a closed path (start pose == end pose); set periodic = false")
     limits = effective_limits(robot, settings)
-    adaptive = settings.grid_points is None
+    # third-order limits: one SLP on a fixed grid (its smooth interpolation needs no adaptive refinement)
+    adaptive = settings.grid_points is None and not limits.third_order
     estimate = None
     if adaptive:
         last = []  # the latest solve: its path data seeds the next grid's
@@ -303,7 +304,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.tolerance)
         solved, estimate = refined.solved, refined.error_estimate
     else:
-        solved = _solve_on(path, robot, settings, limits, make_grid(path, settings.grid_points))[2]
+        points = settings.grid_points or defaults.THIRD_ORDER_GRID_POINTS
+        solved = _solve_on(path, robot, settings, limits, make_grid(path, points))[2]
     solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, solved, adaptive)
     sol, grid = solved.sol, solved.grid.theta
     log.info("grid: %d points (%d breaks, %d kinks%s); limits: %s", len(grid), len(solved.grid.breaks),
@@ -330,10 +332,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
     theta = grid.theta
     if samp is None:
-        sides = grid.breaks
-        if limits.third_order:  # spline knots: Phi''' jumps, so the third-order rows need both sides
-            knots = np.searchsorted(theta, [k for k in getattr(path, "knots", ()) if theta[0] < k < theta[-1]])
-            sides = tuple(sorted(set(grid.breaks) | {int(i) for i in knots}))
+        sides = _with_knots(path, theta, grid.breaks) if limits.third_order else grid.breaks
         samp = _sample(path, robot, theta, sides, donor)
         for lim in limits:
             lim.check(samp.right, robot.joint_names)
@@ -398,9 +397,7 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
     """{name: (K - 1, m) bound of the ratio on each interval of the planner's ``grid``, outside the
     profile's jump intervals} and the summary ratios (everywhere), by the certified interval bound or
     the dense resample."""
-    if settings.verify == VerifyMode.DENSE or sol.profile.smooth:
-        # the certified bounds assume theta_ddot constant per interval; a smooth (third-order) profile
-        # is verified on the dense resample, which evaluates it exactly
+    if settings.verify == VerifyMode.DENSE:
         dt = settings.verify_sample_time
         samples, r = sample_ratios(traj, limits, dt, sol.jump_intervals)
         ratios = summarize(samples, r, limits, dt, jumps, robot.joint_names)
@@ -415,6 +412,13 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
         theta = 0.5 * (pgrid[:-1] + pgrid[1:])
     free = outside(theta, sol.jump_intervals)
     return interval_maxima(theta[free], {name: v[free] for name, v in r.items()}, grid), ratios
+
+
+def _with_knots(path: JointPath, theta: np.ndarray, breaks: tuple[int, ...]) -> tuple[int, ...]:
+    """``breaks`` and the indices of the path's spline knots on ``theta``: Phi''' jumps there, so
+    third-order rows and a smooth profile's certification need the path data from both sides."""
+    knots = np.searchsorted(theta, [k for k in getattr(path, "knots", ()) if theta[0] < k < theta[-1]])
+    return tuple(sorted(set(breaks) | {int(i) for i in knots}))
 
 
 def _grid_breaks(path: JointPath, pgrid: np.ndarray) -> tuple[int, ...]:
@@ -441,7 +445,7 @@ def certified_bounds(path: JointPath, robot: Robot, profile: Profile, settings: 
     limits = effective_limits(robot, settings)
     pgrid = profile.grid
     breaks = _grid_breaks(path, pgrid)
-    samp = _sample(path, robot, pgrid, breaks)
+    samp = _sample(path, robot, pgrid, _with_knots(path, pgrid, breaks) if profile.smooth else breaks)
     return certify(CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque), limits)
 
 
@@ -451,7 +455,9 @@ def _solve_rows(grid, samp, limits, scale, x_ref, chain_args):
     than RELINEARIZE_TOLERANCE: the previous x stays feasible, so the duration never increases."""
     problem, right, left = _build(grid, samp, limits, scale, None if limits.third_order else x_ref)
     sol = solve_chain(problem, **chain_args)
-    for _ in range(defaults.RELINEARIZE_ITERATIONS if limits.relinearize else 0):
+    # a third-order re-solve (x_ref given) starts from x_ref, not from this second-order solution
+    relinearize = limits.relinearize and not (limits.third_order and x_ref is not None)
+    for _ in range(defaults.RELINEARIZE_ITERATIONS if relinearize else 0):
         previous = sol.profile.duration
         problem, right, left = _build(grid, samp, limits, scale, sol.x)
         sol = solve_chain(problem, **chain_args)

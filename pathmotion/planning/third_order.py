@@ -25,7 +25,7 @@ import sys
 
 import highspy
 import numpy as np
-from scipy.sparse import coo_matrix, diags, vstack
+from scipy.sparse import coo_matrix, csr_matrix, vstack
 
 from .. import defaults
 from ..errors import InfeasibleError
@@ -273,8 +273,8 @@ class _Lp:
         h.passModel(lp)
         if self.col_status is not None:
             basis = highspy.HighsBasis()
-            basis.col_status = [_STATUS[s] for s in self.col_status]
-            basis.row_status = [_STATUS[s] for s in np.concatenate([self.eq_status, self.pool_status[rows]])]
+            basis.col_status = [_STATUS[s] for s in self.col_status.tolist()]
+            basis.row_status = [_STATUS[s] for s in np.concatenate([self.eq_status, self.pool_status[rows]]).tolist()]
             basis.valid = True
             h.setBasis(basis)
         h.run()
@@ -324,20 +324,23 @@ def _solve_scaled(p: _Problem, lp: _Lp, a_ub, b_ub, nodes, w, bounds, x_ref):
     graded grid) is resolved to the solver's relative tolerance; rows rescaled to unit largest
     coefficient. Returns the solution in the original variables, None unless optimal."""
     col = np.concatenate([x_ref, x_ref / p.rest_distance])
-    cd = diags(col)
-    a_ub, b_ub = _unit_rows(a_ub @ cd, b_ub)
-    a_eq, b_eq = _unit_rows(p.a_eq @ cd, p.b_eq)
+    a_ub, b_ub = _unit_rows(a_ub, b_ub, col)
+    a_eq, b_eq = _unit_rows(p.a_eq, p.b_eq, col)
     c = w * col
     c = c / max(np.max(np.abs(c)), 1e-300)
-    z = lp.solve(c, a_eq.tocsr(), b_eq, a_ub.tocsr(), b_ub, nodes, bounds[:, 0] / col, bounds[:, 1] / col)
+    z = lp.solve(c, a_eq, b_eq, a_ub, b_ub, nodes, bounds[:, 0] / col, bounds[:, 1] / col)
     return None if z is None else z * col
 
 
-def _unit_rows(a, b):
-    """(a, b) with every row of the sparse ``a`` scaled to unit largest |coefficient|."""
-    norm = np.asarray(abs(a).max(axis=1).todense()).ravel()
+def _unit_rows(a: csr_matrix, b: np.ndarray, col: np.ndarray) -> tuple[csr_matrix, np.ndarray]:
+    """(a diag(col), b), every row scaled to unit largest |coefficient| (on the CSR arrays directly)."""
+    data = a.data * col[a.indices]
+    norm = np.ones(a.shape[0])
+    filled = np.diff(a.indptr) > 0
+    norm[filled] = np.maximum.reduceat(np.abs(data), a.indptr[:-1][filled])
     norm = np.where(norm > 0, norm, 1.0)
-    return diags(1.0 / norm) @ a, b / norm
+    data /= np.repeat(norm, np.diff(a.indptr))
+    return csr_matrix((data, a.indices, a.indptr), shape=a.shape), b / norm
 
 
 def _s_curve_cap(p: _Problem) -> np.ndarray:

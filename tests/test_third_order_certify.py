@@ -1,0 +1,71 @@
+"""Certified verification of smooth (third-order) profiles against the independent dense resample:
+on random splines, jerk / torque-rate / torque / envelope limit sets and grids, the certified bound of
+every limit on every grid interval is never below the 0.1 ms-class resample's maximum there; the
+default (certified) plan with jerk limits passes the dense resample."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from pathmotion.joint_path import SplineJointPath
+from pathmotion.planning import PlanSettings, Trajectory, effective_limits, plan
+from pathmotion.planning.planner import certified_bounds
+from pathmotion.planning.verify import sample_ratios
+from pathmotion.robot import load_robot
+
+ROBOT = load_robot("irb140")
+ACC = ROBOT.limits.acceleration
+#: Limit sets (PlanSettings keywords); the jerk limits are multiples of the acceleration estimates.
+LIMIT_SETS = {
+    "jerk 3x": dict(torque=False, jerk_limit=tuple(3.0 * ACC)),
+    "jerk 10x + torque": dict(jerk_limit=tuple(10.0 * ACC)),
+    "torque rate": dict(acceleration=False, torque_rate=True, torque_scale=0.6),
+    "jerk + reserve + envelope": dict(acceleration=False, jerk_limit=tuple(10.0 * ACC), torque_reserve=0.2,
+                                      torque_speed={"knee": 0.5, "at_max_speed": 0.5}),
+}
+DENSE_DT = 1e-4
+
+
+def _dense_interval_max(path, profile, limits) -> dict:
+    """{name: (K - 1, m)} largest resampled ratio in each interval (the interval found from the time)."""
+    samples, r = sample_ratios(Trajectory(path, profile, ROBOT), limits, DENSE_DT)
+    k = np.clip(np.searchsorted(profile.times, samples.t, side="right") - 1, 0, len(profile.grid) - 2)
+    out = {}
+    for name, v in r.items():
+        acc = np.full((len(profile.grid) - 1, v.shape[1]), -np.inf)
+        np.maximum.at(acc, k, v)
+        out[name] = acc
+    return out
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), limit_set=st.sampled_from(sorted(LIMIT_SETS)),
+       grid_points=st.sampled_from([40, 100, 200]))
+def test_certified_bound_covers_the_dense_resample_of_smooth_profiles(seed, limit_set, grid_points):
+    path = SplineJointPath.from_waypoints(np.random.default_rng(seed).uniform(-1.2, 1.2, (4, 6)))
+    s = PlanSettings(grid_points=grid_points, verify="off", **LIMIT_SETS[limit_set])
+    res = plan(path, ROBOT, s)
+    assert res.profile.smooth
+    bounds = certified_bounds(path, ROBOT, res.profile, s)
+    dense = _dense_interval_max(path, res.profile, effective_limits(ROBOT, s))
+    for name, d in dense.items():
+        b = bounds[name]
+        assert b.shape == d.shape, name
+        seen = np.isfinite(d)
+        short = d[seen] - b[seen]
+        assert short.max() <= 1e-9, (limit_set, name, float(short.max()))
+        # not vacuous: the largest bound is near the resample's largest value (closer on finer grids)
+        slack = 0.05 if grid_points >= 100 else 0.15
+        assert b.max() <= d.max() + slack * max(d.max(), 1.0), (limit_set, name, float(b.max()), float(d.max()))
+
+
+def test_default_jerk_plan_is_certified_and_passes_the_dense_resample():
+    path = SplineJointPath.from_waypoints(np.random.default_rng(21).uniform(-1.2, 1.2, (5, 6)))
+    s = PlanSettings(**LIMIT_SETS["jerk 10x + torque"])
+    res = plan(path, ROBOT, s)
+    assert res.ratios.method == "certified" and res.profile.smooth
+    _, r = sample_ratios(res.trajectory, effective_limits(ROBOT, s), DENSE_DT)
+    worst = max(float(v.max()) for v in r.values())
+    assert worst <= 1.0 + s.limit_tolerance
+    assert worst <= res.ratios.max_ratio + 1e-9  # the certified summary bounds the resample
