@@ -1,24 +1,34 @@
-"""The planner against the CasADi + IPOPT reference on circle_zero (issue 12's table), and its speed.
+"""The jerk planner's speed against toppra, and its optimality against the CasADi + IPOPT reference.
 
-For every case of issue 12's table the planner solves at the given grids (default: its default
-1000 points and 2000); each duration is compared with the converged reference of
-``benchmarks/reference_topp.py`` (recorded below from its run over 200..6400 intervals with
-Richardson extrapolation; ``--reference 200 400 800`` recomputes it on those grids instead). The
-solve time is the verified plan (``PlanResult.solve_time_s``, baselines off), next to toppra's
-acceleration-only solve on the same machine in the same run.
+Speed: the verified plan (``plan``, certified verification, baselines off; ``PlanResult.solve_time_s``
+is the same span) on ``scenarios/circle_smooth.toml`` (jerk, torque with a 0.2 reserve, the
+torque-speed envelope; acceleration estimates off) at its default grid and at fixed grids, timed
+interleaved with toppra's acceleration-only solve (``reference_topp.toppra_instance``, 1000 points,
+``compute_trajectory``) on the same path, in the same process: one warm-up of each, then
+``--repeat`` rounds of (toppra, each grid). Medians with their ranges, the machine's load average
+before and after, and the ratio of the medians are printed.
 
-Run: ``.venv/bin/python benchmarks/bench_third_order.py`` (several minutes on a loaded 2-core machine);
-``--quick``: one coarse grid (150 points), a check that it runs, not a measurement.
+Optimality: the planner at its default grid (and ``--grids``) against the converged reference
+(``benchmarks/reference_topp.py``) on issue 12's circle_zero table (recorded below from its run over
+200..6400 intervals; ``--reference 200 400 800`` recomputes it), and on ``--splines`` random joint
+splines (seeded, 4 waypoints uniform in [-1.2, 1.2] rad, velocity + acceleration + jerk 10x the
+acceleration limits), whose reference is converged over ``--spline-grids`` (Richardson). Target:
+within 1 %.
+
+Run: ``.venv/bin/python benchmarks/bench_third_order.py`` (minutes on a loaded 2-core machine, most
+of it the splines' references); ``--quick``: fewer repeats, no splines, a check that it runs.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
-
 import numpy as np
 
+from pathmotion import defaults
 from pathmotion.api import load
+from pathmotion.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, plan
 
 #: Converged optima from benchmarks/reference_topp.py (its module docstring), in seconds.
@@ -29,6 +39,8 @@ RECORDED_REFERENCE = {
     "vel + torque, acc off": 0.466664,
     "vel + torque, reserve 0.2": 0.497121,
 }
+#: toppra's grid for the timing baseline [points].
+TOPPRA_POINTS = 1000
 
 
 def cases(robot) -> dict[str, dict]:
@@ -42,50 +54,127 @@ def cases(robot) -> dict[str, dict]:
     }
 
 
-def toppra_seconds(path, robot, gridpoints: int = 1000, repeat: int = 3) -> float:
-    """Best of ``repeat`` wall times of toppra's acceleration-only solve (ParametrizeConstAccel)."""
+def _stats(values) -> str:
+    v = 1e3 * np.asarray(values)
+    return f"{np.median(v):8.1f} ms [{v.min():.1f}, {v.max():.1f}]"
+
+
+def speed(scenario: str, grids: list, repeat: int) -> None:
+    """Interleaved timing of the verified jerk plan and toppra's acceleration-only solve."""
     from reference_topp import toppra_instance
 
+    setup = load(scenario)
+    path, robot = setup.path, setup.robot
+    base = setup.plan_settings
     lim = robot.limits
-    best = np.inf
-    for _ in range(repeat):
+    labels = ["default"] + [str(g) for g in grids]
+    settings = {lab: _with_grid(base, None if lab == "default" else int(lab)) for lab in labels}
+
+    def run_toppra():
         t0 = time.perf_counter()
-        toppra_instance(path, lim.velocity, lim.acceleration, gridpoints).compute_trajectory()
-        best = min(best, time.perf_counter() - t0)
-    return best
+        toppra_instance(path, lim.velocity, lim.acceleration, TOPPRA_POINTS).compute_trajectory()
+        return time.perf_counter() - t0
+
+    def run_plan(lab):
+        t0 = time.perf_counter()
+        res = plan(path, robot, settings[lab])
+        return time.perf_counter() - t0, res
+
+    load_before = os.getloadavg()
+    run_toppra()
+    results = {lab: run_plan(lab)[1] for lab in labels}  # warm-up (numba, caches)
+    times = {"toppra": [], **{lab: [] for lab in labels}}
+    for _ in range(repeat):
+        times["toppra"].append(run_toppra())
+        for lab in labels:
+            dt, results[lab] = run_plan(lab)
+            times[lab].append(dt)
+    load_after = os.getloadavg()
+    t_toppra = float(np.median(times["toppra"]))
+    print(f"speed: {scenario} (jerk + torque, reserve, envelope), verified ({base.verify.value}), "
+          f"{repeat} interleaved rounds after a warm-up; load average {load_before[0]:.1f} before, "
+          f"{load_after[0]:.1f} after ({os.cpu_count()} cores)")
+    print(f"  {'toppra acc-only, ' + str(TOPPRA_POINTS) + ' points':34s} {_stats(times['toppra'])}")
+    for lab in labels:
+        res = results[lab]
+        print(f"  {'pathmotion, grid ' + lab + f' ({res.grid_points} points)':34s} {_stats(times[lab])}  "
+              f"ratio {np.median(times[lab]) / t_toppra:5.2f}  T = {res.duration:.6f} s  "
+              f"max ratio {res.ratios.max_ratio:.5f} ({res.ratios.method}), {res.tighten_iterations} tightening")
+
+
+def _with_grid(settings: PlanSettings, grid_points):
+    """``settings`` with ``grid_points`` and the baselines off (PlanSettings is frozen with a custom init)."""
+    values = {k: getattr(settings, k) for k in ("tolerance", "limits", "start", "end", "periodic", "connections",
+                                                "limit_tolerance", "verify", "verify_sample_time",
+                                                "max_tighten_iterations", "fitted_margin")}
+    return PlanSettings(grid_points=grid_points, baselines=False, **values)
+
+
+def optimality_circle(scenario: str, grids: list, reference_grids) -> list:
+    setup = load(scenario)
+    path, robot = setup.path, setup.robot
+    reference = dict(RECORDED_REFERENCE)
+    if reference_grids:
+        import reference_topp as ref
+
+        for label, limits in ref.circle_cases(robot).items():
+            reference[label] = ref.converged_duration(path, robot, limits, reference_grids)[0]
+    labels = ["default"] + [str(g) for g in grids]
+    print(f"\noptimality: {scenario} against the converged reference (recorded: reference_topp.py)")
+    print(f"  {'limits':28s} {'reference [s]':>13s}" + "".join(f" {'grid ' + lab:>16s} {'diff':>8s}" for lab in labels))
+    diffs = []
+    for label, kwargs in cases(robot).items():
+        line = f"  {label:28s} {reference[label]:13.6f}"
+        for lab in labels:
+            res = plan(path, robot, PlanSettings(grid_points=None if lab == "default" else int(lab), baselines=False,
+                                                 **kwargs))
+            diff = 100 * (res.duration / reference[label] - 1)
+            if lab == "default":
+                diffs.append(diff)
+            line += f" {res.duration:16.6f} {diff:+7.3f}%"
+        print(line, flush=True)
+    return diffs
+
+
+def optimality_splines(count: int, reference_grids, robot) -> list:
+    import reference_topp as ref
+
+    lim = robot.limits
+    limits = ref.ReferenceLimits(velocity=lim.velocity, acceleration=lim.acceleration, jerk=10.0 * lim.acceleration)
+    print(f"\noptimality: {count} random splines (seeds 0..{count - 1}), vel + acc + jerk 10x acc, default grid "
+          f"({defaults.THIRD_ORDER_GRID_POINTS} points); reference converged over {list(reference_grids)} intervals")
+    print(f"  {'seed':>4s} {'reference [s]':>13s} {'order':>6s} {'pathmotion [s]':>14s} {'diff':>8s} {'solve':>9s}")
+    diffs = []
+    for seed in range(count):
+        path = SplineJointPath.from_waypoints(np.random.default_rng(seed).uniform(-1.2, 1.2, (4, 6)))
+        t_ref, order, _ = ref.converged_duration(path, robot, limits, reference_grids)
+        res = plan(path, robot, PlanSettings(torque=False, baselines=False, jerk_limit=tuple(10.0 * lim.acceleration)))
+        diff = 100 * (res.duration / t_ref - 1)
+        diffs.append(diff)
+        print(f"  {seed:4d} {t_ref:13.6f} {order:6.2f} {res.duration:14.6f} {diff:+7.3f}% {1e3 * res.solve_time_s:7.0f} ms",
+              flush=True)
+    return diffs
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--speed-scenario", default="scenarios/circle_smooth.toml")
     parser.add_argument("--scenario", default="pathmotion/scenarios/circle_zero.toml")
-    parser.add_argument("--grids", type=int, nargs="+", default=[1000, 2000])
+    parser.add_argument("--grids", type=int, nargs="*", default=[200, 400])
+    parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--reference", type=int, nargs="*", default=None,
-                        help="recompute the reference on these interval counts (default: the recorded values)")
-    parser.add_argument("--quick", action="store_true", help="one coarse grid (150 points): checks that it runs")
+                        help="recompute the circle reference on these interval counts (default: the recorded values)")
+    parser.add_argument("--splines", type=int, default=5)
+    parser.add_argument("--spline-grids", type=int, nargs="+", default=[200, 400, 800])
+    parser.add_argument("--quick", action="store_true", help="3 rounds, no fixed grids, no splines: checks that it runs")
     args = parser.parse_args(argv)
     if args.quick:
-        args.grids = [150]
-    setup = load(args.scenario)
-    path, robot = setup.path, setup.robot
-    reference = dict(RECORDED_REFERENCE)
-    if args.reference:
-        import reference_topp as ref
-
-        for label, limits in ref.circle_cases(robot).items():
-            reference[label] = ref.converged_duration(path, robot, limits, args.reference)[0]
-    t_toppra = toppra_seconds(path, robot)
-    header = f"{'limits':28s} {'reference [s]':>13s}" + "".join(
-        f" {f'grid {g} [s]':>14s} {'diff':>8s} {'solve':>8s} {'max ratio':>9s}" for g in args.grids)
-    print(header)
-    for label, kwargs in cases(robot).items():
-        line = f"{label:28s} {reference[label]:13.6f}"
-        for g in args.grids:
-            res = plan(path, robot, PlanSettings(grid_points=g, baselines=False, **kwargs))
-            diff = 100 * (res.duration / reference[label] - 1)
-            line += (f" {res.duration:14.6f} {diff:+7.3f}% {res.solve_time_s:7.2f}s "
-                     f"{res.ratios.max_ratio:9.5f}")
-        print(line, flush=True)
-    print(f"\ntoppra acceleration-only solve at 1000 points: {1e3 * t_toppra:.1f} ms (same run)")
+        args.grids, args.repeat, args.splines = [], 3, 0
+    speed(args.speed_scenario, args.grids, args.repeat)
+    diffs = optimality_circle(args.scenario, args.grids, args.reference)
+    if args.splines:
+        diffs += optimality_splines(args.splines, args.spline_grids, load(args.scenario).robot)
+    print(f"\nlargest difference from the reference at the default grid: {max(diffs, key=abs):+.3f} % (target: 1 %)")
 
 
 if __name__ == "__main__":

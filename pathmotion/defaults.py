@@ -287,7 +287,7 @@ MAX_GAIN = 1.0e4
 RATED_PAYLOAD = {"irb140": 6.0}
 #: Planner, third-order limits (jerk, torque rate): sequential LP stops when the duration changes by
 #: less than this fraction, or after this many LPs [-].
-THIRD_ORDER_TOLERANCE = 1e-5
+THIRD_ORDER_TOLERANCE = 1e-4
 THIRD_ORDER_ITERATIONS = 60
 #: Planner, third-order limits: uniform grid points of the default grid (grid_points unset), plus the
 #: usual grading towards the ends and connections. The smooth profile's duration on it is within 0.6 %
