@@ -260,7 +260,7 @@ def smooth_interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions
     for arr, pr, pl in ((q, r.q, l.q), (dq, r.dq, l.dq), (ddq, r.ddq, l.ddq), (dddq, r.dddq, l.dddq)):
         arr[:, 0], arr[:, -1] = pr[index], pl[index + 1]
     if S > 1:
-        inner = path.evaluate3(theta[:, 1:-1].ravel())
+        inner = _interior_path(ctx, theta[:, 1:-1].ravel())
         for arr, value in zip((q, dq, ddq, dddq), inner):
             arr[:, 1:-1] = value.reshape(k1, S - 1, n)
     v = np.sqrt(x)
@@ -277,6 +277,16 @@ def smooth_interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions
     samples = Samples(flat(t), flat(theta), flat(v), flat(u), flat(q), flat(qd), flat(qdd), tau, flat(jerk),
                       flat(qddd), tau_dot)
     return IntervalSamples(samples, index, S + 1)
+
+
+def _interior_path(ctx: CertifyContext, theta: np.ndarray) -> tuple:
+    """path.evaluate3 at ``theta`` (the samples inside the intervals), kept with the grid data
+    (``ctx.right``'s cache): a verify-and-tighten re-solve on the same grid samples the same points."""
+    cache = getattr(ctx.right, "_cache", {})
+    key = ("smooth_certify_interior", theta.tobytes())
+    if key not in cache:
+        cache[key] = ctx.path.evaluate3(theta)
+    return cache[key]
 
 
 def _grid_torque(points, index: np.ndarray, u: np.ndarray, x: np.ndarray) -> np.ndarray:

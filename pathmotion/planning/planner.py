@@ -488,8 +488,9 @@ def _smooth(grid, samp, limits, scale, sol, chain_args, x_ref):
                 rest[idx] = True
             elif not isinstance(cond, str):
                 fixed[idx] = float(cond) ** 2
-    start = sol.x if x_ref is None or len(x_ref) != k else x_ref
-    profile, _ = solve_third_order(grid, samp, limits, scale, start, rest, fixed, chain_args["periodic"])
+    resolve = x_ref is not None and len(x_ref) == k
+    profile, _ = solve_third_order(grid, samp, limits, scale, x_ref if resolve else sol.x, rest, fixed,
+                                   chain_args["periodic"], smooth_start=resolve)
     return replace(sol, profile=profile, segment_profiles=(profile,), x=profile.x)
 
 

@@ -77,6 +77,7 @@ class _Problem:
         origin, sign = smooth.coordinates(grid, rest)
         xi_lo, xi_hi, w0, w1 = smooth.weights(grid, origin, sign)
         self.origin, self.sign, self.xi_lo, self.xi_hi = origin, sign, xi_lo, xi_hi
+        self.w0, self.w1 = w0, w1
         # d u / d theta at each end of each interval, per unit of (u_{i+1} - u_i)
         with np.errstate(divide="ignore"):  # infinite at a rest point, where no row is imposed
             self.du_lo = 1.0 / (smooth.dtheta_dxi(sign, xi_lo) * (xi_hi - xi_lo))
@@ -343,6 +344,19 @@ def _unit_rows(a: csr_matrix, b: np.ndarray, col: np.ndarray) -> tuple[csr_matri
     return csr_matrix((data, a.indices, a.indptr), shape=a.shape), b / norm
 
 
+def _chain_u(p: _Problem, x: np.ndarray) -> np.ndarray | None:
+    """u (K,) of a smooth profile from its x (K,) on this grid: the equality rows solved forward from
+    the first point (at rest: u = 0), u_{i+1} = ((x_{i+1} - x_i) / 2 - w0_i u_i) / w1_i, u = 0 at rest
+    points. None when the first point is not at rest (u_0 unknown) or x has another length."""
+    if len(x) != p.k or not p.rest[0]:
+        return None
+    u = np.zeros(p.k)
+    for i in range(p.k - 1):
+        if not p.rest[i + 1]:
+            u[i + 1] = (0.5 * (x[i + 1] - x[i]) - p.w0[i] * u[i]) / p.w1[i]
+    return u if np.all(np.isfinite(u)) else None
+
+
 def _s_curve_cap(p: _Problem) -> np.ndarray:
     """x (K,) of the constant-jerk S-curve from the nearest rest point, x = (4.5 j d^2)^(2/3) with the
     path jerk j = min_j J_j / |Phi'_j| at that rest point (inf where no jerk row bounds it): the
@@ -360,13 +374,18 @@ def _s_curve_cap(p: _Problem) -> np.ndarray:
 
 def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start: np.ndarray, rest: np.ndarray,
                       fixed: dict, periodic: bool, tolerance: float = defaults.THIRD_ORDER_TOLERANCE,
-                      max_iterations: int = defaults.THIRD_ORDER_ITERATIONS) -> tuple[Profile, int]:
+                      max_iterations: int = defaults.THIRD_ORDER_ITERATIONS, smooth_start: bool = False
+                      ) -> tuple[Profile, int]:
     """The smooth time-optimal profile (Profile with u_nodes) and the LP count.
 
-    x_start (K,): the linearization point of the first LP (the second-order optimum); rest (K,) bool:
+    x_start (K,): the linearization point of the first LP (the second-order optimum, or with
+    ``smooth_start`` a smooth solution on this grid, e.g. before the limits were tightened: then the
+    first LP already minimizes the linearized duration from it, in the trust region); rest (K,) bool:
     points where the motion is at rest (x = u = 0); fixed {index: x}: boundary values."""
     p = _Problem(grid, samp, limits, scale, rest, fixed, periodic)
-    x_start = np.minimum(x_start, _s_curve_cap(p))
+    u_start = _chain_u(p, x_start) if smooth_start else None
+    if u_start is None:
+        x_start = np.minimum(x_start, _s_curve_cap(p))
     x_ref = np.where(rest, 0.0, np.maximum(np.minimum(x_start, p.x_hi), X_REF_FLOOR * max(np.max(x_start), 1e-12)))
     best, best_t, rho = None, np.inf, RHO_START
     lps, lp = 0, _Lp()
@@ -374,7 +393,10 @@ def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start:
         xr = np.where(rest, 1.0, x_ref)
         a_ub, b_ub, nodes = _assemble(p, xr)
         x_lo = p.x_lo
-        if best is None:
+        if best is None and u_start is not None:  # from a smooth profile: its linearized duration
+            w = _exact_gradient(p, x_start, u_start)
+            x_lo = np.maximum(p.x_lo, np.where(rest, 0.0, x_ref / (1.0 + rho)))
+        elif best is None:
             # first LP, from the second-order optimum (no consistent u, not feasible): keep its shape,
             # every point's x counts relative to x_ref (a linearized duration would trade regions
             # against each other far outside its range of validity)
