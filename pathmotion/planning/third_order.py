@@ -53,6 +53,8 @@ LP_TOLERANCE = 1e-10
 ROW_MARGIN = 0.02
 #: Row generation: at most this many solves of one LP (each adds the rows its solution violates) [-].
 MAX_ROW_ROUNDS = 50
+#: Row generation: at most this many rows per grid point enter in one round [-].
+ROWS_PER_ROUND = 4
 #: HiGHS's Devex pricing: dual steepest edge (its default) first computes a weight for every row of a
 #: hot-started basis, which costs more than the few pivots that then remain.
 DEVEX = 1
@@ -220,10 +222,11 @@ class _Lp:
 
     Every LP has the same pool of inequality rows (only their values change with the linearization
     point), and few of them are ever near active (one joint's jerk at a time, the torque of a few).
-    Each LP is solved on the rows generated so far (all equalities, the pool rows that were ever
-    violated or within ROW_MARGIN of active); rows the solution violates are added and it is solved
-    again until it meets the whole pool, so the result is the optimum of the full LP. Each solve
-    starts from the previous optimal basis (the new rows basic): a few dual simplex pivots."""
+    Each LP is solved on the rows generated so far (all equalities and the pool rows that were ever
+    added); while its solution violates a pool row, the tightest rows within ROW_MARGIN of each grid
+    point are added to the model in place (HiGHS keeps its basis, the new rows basic) and it is solved
+    again, so the result is the optimum of the full LP. A new LP (new values) is passed whole and
+    starts from the previous LP's optimal basis: a few dual simplex pivots."""
 
     def __init__(self):
         self.highs = _silent_highs()
@@ -231,35 +234,48 @@ class _Lp:
                            ("threads", 1), ("presolve", "off"),
                            ("simplex_dual_edge_weight_strategy", DEVEX)):
             self.highs.setOptionValue(key, value)
-        self.active = None  # (pool,) bool: the rows in the LP
-        self.col_status = self.eq_status = self.pool_status = None
+        self.order = np.zeros(0, int)  # pool rows in the model, in the model's order
+        self.pool_size = None
+        self.basis = None  # the last optimal HighsBasis
         self.status = ""
 
     def solve(self, c, a_eq, b_eq, a_ub, b_ub, nodes, col_lo, col_hi) -> np.ndarray | None:
         """argmin c.z s.t. a_eq z = b_eq, a_ub z <= b_ub (pool), col_lo <= z <= col_hi; None unless optimal.
         a_eq, a_ub: CSR with rows scaled to unit largest coefficient (ROW_MARGIN is in those units);
         nodes (pool,): the grid point of each pool row (each round adds at most one row per point)."""
-        n_pool = a_ub.shape[0]
-        if self.active is None or len(self.active) != n_pool:
-            self.active, self.pool_status = np.zeros(n_pool, bool), np.full(n_pool, _BASIC, np.int8)
-            self.col_status = None
+        if self.pool_size != a_ub.shape[0]:
+            self.order, self.pool_size, self.basis = np.zeros(0, int), a_ub.shape[0], None
+        active = np.zeros(self.pool_size, bool)
+        active[self.order] = True
+        self._pass(c, a_eq, b_eq, a_ub, b_ub, col_lo, col_hi)
+        h = self.highs
         for _ in range(MAX_ROW_ROUNDS):
-            z = self._run(c, a_eq, b_eq, a_ub, b_ub, col_lo, col_hi)
-            if z is None:
+            h.run()
+            status = h.getModelStatus()
+            self.status = h.modelStatusToString(status)
+            if status != highspy.HighsModelStatus.kOptimal:
                 return None
+            z = np.array(h.getSolution().col_value)
             slack = b_ub - a_ub @ z
-            if not (slack[~self.active] < -LP_TOLERANCE).any():
+            if not (slack[~active] < -LP_TOLERANCE).any():
+                self.basis = h.getBasis()
                 return z
-            cand = np.nonzero(~self.active & (slack < ROW_MARGIN))[0]
+            cand = np.nonzero(~active & (slack < ROW_MARGIN))[0]
             order = cand[np.lexsort((slack[cand], nodes[cand]))]
-            new = order[np.unique(nodes[order], return_index=True)[1]]  # the tightest row of each point
-            self.active[new] = True
-            self.pool_status[new] = _BASIC
+            first = np.unique(nodes[order], return_index=True)[1]
+            rank = np.arange(len(order)) - np.repeat(first, np.diff(np.append(first, len(order))))
+            new = order[rank < ROWS_PER_ROUND]  # the tightest rows of each point
+            active[new] = True
+            self.order = np.concatenate([self.order, new])
+            block = a_ub[new]
+            h.addRows(len(new), np.full(len(new), -np.inf), b_ub[new], block.nnz, block.indptr[:-1], block.indices,
+                      block.data)
         self.status = f"not settled after {MAX_ROW_ROUNDS} rounds of row generation"
         return None
 
-    def _run(self, c, a_eq, b_eq, a_ub, b_ub, col_lo, col_hi) -> np.ndarray | None:
-        rows = np.nonzero(self.active)[0]
+    def _pass(self, c, a_eq, b_eq, a_ub, b_ub, col_lo, col_hi) -> None:
+        """Pass the LP on the equalities and the pool rows ``self.order``, with the last optimal basis."""
+        rows = self.order
         a = vstack([a_eq, a_ub[rows]], format="csr")
         n_row, n_col = a.shape
         lp = highspy.HighsLp()
@@ -270,30 +286,11 @@ class _Lp:
         m = lp.a_matrix_
         m.format_, m.num_col_, m.num_row_ = highspy.MatrixFormat.kRowwise, n_col, n_row
         m.start_, m.index_, m.value_ = a.indptr, a.indices, a.data
-        h = self.highs
-        h.passModel(lp)
-        if self.col_status is not None:
-            basis = highspy.HighsBasis()
-            basis.col_status = [_STATUS[s] for s in self.col_status.tolist()]
-            basis.row_status = [_STATUS[s] for s in np.concatenate([self.eq_status, self.pool_status[rows]]).tolist()]
-            basis.valid = True
-            h.setBasis(basis)
-        h.run()
-        status = h.getModelStatus()
-        self.status = h.modelStatusToString(status)
-        if status != highspy.HighsModelStatus.kOptimal:
-            return None
-        basis = h.getBasis()
-        self.col_status = np.array([int(s) for s in basis.col_status], np.int8)
-        row_status = np.array([int(s) for s in basis.row_status], np.int8)
-        n_eq = len(b_eq)
-        self.eq_status = row_status[:n_eq]
-        self.pool_status[rows] = row_status[n_eq:]
-        return np.array(h.getSolution().col_value)
+        self.highs.passModel(lp)
+        if self.basis is not None:
+            self.highs.setBasis(self.basis)
 
 
-_STATUS = [highspy.HighsBasisStatus(i) for i in range(5)]
-_BASIC = int(highspy.HighsBasisStatus.kBasic)
 
 
 _BANNER_SHOWN = []
