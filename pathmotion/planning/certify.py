@@ -35,6 +35,7 @@ on random splines and limit sets.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -314,23 +315,35 @@ def sampled_bound(values: np.ndarray) -> np.ndarray:
 
 
 def smooth_sampled_bound(values: np.ndarray) -> np.ndarray:
-    """Upper bound (I, m) of a function sampled at S + 1 >= 4 uniform points per interval, ``values``
-    (I, S + 1, m), sub-interval by sub-interval: the larger end value plus the interpolation remainder
-    where the function may be concave there. Linear interpolation's error is -f''/2 (s - a)(b - s), so
-    f rises above the chord only where f'' < 0, by at most max(-f'', 0) / 8 (a unit sub-interval); f''
-    on a sub-interval is the larger of the second differences at its two ends (one end only at the
-    interval's ends) widened by the largest third difference, times REMAINDER_SAFETY. A function that
-    grows like xi^3 from a rest point (the joint jerk where Phi' = 0 at the path's end) is then bounded
-    by its end value, where the whole-interval form adds a curvature term of 9 %."""
+    """Upper bound (I, m) of |f| from |f| sampled at S + 1 >= 4 uniform points per interval, ``values``
+    (I, S + 1, m), f smooth on the interval.
+
+    The ratios are absolute values, and |f| has a kink where f crosses zero, which second differences
+    of |f| mistake for strong curvature (a jerk falling through zero inside an interval gave a 13 %
+    remainder and an endless tightening loop). So the signs are recovered first: of the 2^S sign
+    patterns (the first sample +), the one with the smallest largest second difference, i.e. the
+    smoothest f. Then for g = f and g = -f, sub-interval by sub-interval: the larger end value plus the
+    interpolation remainder where g may be concave. Linear interpolation's error is -g''/2 (s - a)(b - s),
+    so g rises above the chord only where g'' < 0, by at most max(-g'', 0) / 8 (a unit sub-interval);
+    g'' on a sub-interval is the larger of the second differences at its two ends (one end only at the
+    interval's ends) widened by the largest third difference, times REMAINDER_SAFETY."""
     v = np.asarray(values, float)
+    s1 = v.shape[1]
+    signs = np.array([(1,) + p for p in itertools.product((1.0, -1.0), repeat=s1 - 1)])  # (P, S + 1)
     with np.errstate(invalid="ignore"):
-        d2 = v[:, :-2] - 2.0 * v[:, 1:-1] + v[:, 2:]  # at the interior samples 1 .. S - 1
-        d3 = np.abs(np.diff(d2, axis=1)).max(axis=1, keepdims=True)
-        left = np.concatenate([d2[:, :1], d2], axis=1)  # sub-interval k: samples k, k + 1
-        right = np.concatenate([d2, d2[:, -1:]], axis=1)
-        concave = np.maximum(np.maximum(-left, -right) + d3, 0.0)
-        top = np.maximum(v[:, :-1], v[:, 1:]) + REMAINDER_SAFETY * concave / 8.0
-    bound = top.max(axis=1)
+        f = signs[:, None, :, None] * v[None]  # (P, I, S + 1, m)
+        rough = np.abs(f[:, :, :-2] - 2.0 * f[:, :, 1:-1] + f[:, :, 2:]).max(axis=2)  # (P, I, m)
+        pick = np.argmin(np.where(np.isfinite(rough), rough, np.inf), axis=0)  # (I, m)
+        f = np.take_along_axis(f, pick[None, :, None, :], axis=0)[0]  # (I, S + 1, m)
+        tops = []
+        for g in (f, -f):
+            d2 = g[:, :-2] - 2.0 * g[:, 1:-1] + g[:, 2:]  # at the interior samples 1 .. S - 1
+            d3 = np.abs(np.diff(d2, axis=1)).max(axis=1, keepdims=True)
+            left = np.concatenate([d2[:, :1], d2], axis=1)  # sub-interval k: samples k, k + 1
+            right = np.concatenate([d2, d2[:, -1:]], axis=1)
+            concave = np.maximum(np.maximum(-left, -right) + d3, 0.0)
+            tops.append((np.maximum(g[:, :-1], g[:, 1:]) + REMAINDER_SAFETY * concave / 8.0).max(axis=1))
+    bound = np.maximum(*tops)
     return np.where(np.isfinite(v.max(axis=1)), bound, v.max(axis=1))
 
 
