@@ -116,13 +116,22 @@ class _Problem:
         self.rest_distance = np.clip(self.rest_distance, np.min(d), length)
         self.u_lo = np.where(rest, 0.0, -np.inf)
         self.u_hi = np.where(rest, 0.0, np.inf)
+        self.pool = None  # the inequality pool's CSR layout (_assemble)
 
     def order2(self, x_ref):
         """Inequality blocks (rows, cols, vals, rhs) of the order-2 limits at every moving point."""
         k, moving = self.k, ~self.rest
         out = []
-        for pts, idx in ((self.samp.right, np.arange(k - 1)), (self.samp.left, np.arange(1, k))):
-            rows = limit_rows(pts, self.limits, self.scale, defaults.PLANNER_X_CAP, x_ref)
+        right = limit_rows(self.samp.right, self.limits, self.scale, defaults.PLANNER_X_CAP, x_ref)
+        left = limit_rows(self.samp.left, self.limits, self.scale, defaults.PLANNER_X_CAP, x_ref)
+        # u and x are one value at a grid point: the left rows repeat the right ones except where the
+        # path data differ (breaks, knots) and at the last point
+        same = np.ones(k, bool)
+        for r, l in ((right.a, left.a), (right.b, left.b), (right.c, left.c), (right.lo, left.lo), (right.hi, left.hi)):
+            same &= np.all((r == l) | (np.isnan(r) & np.isnan(l)), axis=1)
+        same[-1] = False
+        for rows, idx in ((right, np.arange(k - 1)), (left, np.nonzero(~same)[0])):
+            idx = idx[idx > 0] if rows is left else idx
             sel = idx[moving[idx]]
             a, b, c, lo, hi = (v[sel] for v in (rows.a, rows.b, rows.c, rows.lo, rows.hi))
             for sign, rhs in ((1.0, hi - c), (-1.0, c - lo)):
@@ -176,8 +185,16 @@ def _assemble(p: _Problem, x_ref):
         rhs.append(r.reshape(-1))
         nodes.append(col[..., 3].reshape(-1))
         n += cnt
-    a = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, 2 * p.k)).tocsr()
-    return a, np.concatenate(rhs), np.concatenate(nodes)
+    rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+    ncol = 2 * p.k
+    key = rows * ncol + cols
+    if p.pool is None or not np.array_equal(key, p.pool[0]):  # the CSR structure, once per pool layout
+        unique, inverse = np.unique(key, return_inverse=True)
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // ncol, minlength=n))])
+        p.pool = (key, inverse, indptr, unique % ncol)
+    _, inverse, indptr, indices = p.pool
+    data = np.bincount(inverse, weights=vals, minlength=len(indices))  # duplicates add up, as in COO
+    return csr_matrix((data, indices, indptr), shape=(n, ncol)), np.concatenate(rhs), np.concatenate(nodes)
 
 
 #: Gauss-Legendre nodes and weights on [0, 1] for the duration gradient.
