@@ -23,7 +23,6 @@ import logging
 import os
 import sys
 
-import highspy
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix, vstack
 
@@ -270,7 +269,7 @@ class _Lp:
             h.run()
             status = h.getModelStatus()
             self.status = h.modelStatusToString(status)
-            if status != highspy.HighsModelStatus.kOptimal:
+            if status != _highspy().HighsModelStatus.kOptimal:
                 return None
             z = np.array(h.getSolution().col_value)
             slack = b_ub - a_ub @ z
@@ -295,13 +294,14 @@ class _Lp:
         rows = self.order
         a = vstack([a_eq, a_ub[rows]], format="csr")
         n_row, n_col = a.shape
-        lp = highspy.HighsLp()
+        hs = _highspy()
+        lp = hs.HighsLp()
         lp.num_col_, lp.num_row_ = n_col, n_row
         lp.col_cost_, lp.col_lower_, lp.col_upper_ = c, col_lo, col_hi
         lp.row_lower_ = np.concatenate([b_eq, np.full(len(rows), -np.inf)])
         lp.row_upper_ = np.concatenate([b_eq, b_ub[rows]])
         m = lp.a_matrix_
-        m.format_, m.num_col_, m.num_row_ = highspy.MatrixFormat.kRowwise, n_col, n_row
+        m.format_, m.num_col_, m.num_row_ = hs.MatrixFormat.kRowwise, n_col, n_row
         m.start_, m.index_, m.value_ = a.indptr, a.indices, a.data
         self.highs.passModel(lp)
         if self.basis is not None:
@@ -313,18 +313,25 @@ class _Lp:
 _BANNER_SHOWN = []
 
 
-def _silent_highs() -> "highspy.Highs":
+def _highspy():
+    """highspy, imported on first use (only plans with third-order limits need it)."""
+    import highspy
+
+    return highspy
+
+
+def _silent_highs():
     """A HiGHS instance with its output off. Its first construction in a process prints a banner on the
     standard output before any option can be set; that one is sent to the null device."""
     if _BANNER_SHOWN:
-        h = highspy.Highs()
+        h = _highspy().Highs()
     else:
         sys.stdout.flush()
         saved = os.dup(1)
         try:
             with open(os.devnull, "w") as null:
                 os.dup2(null.fileno(), 1)
-                h = highspy.Highs()
+                h = _highspy().Highs()
         finally:
             os.dup2(saved, 1)
             os.close(saved)
