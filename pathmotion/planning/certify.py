@@ -271,7 +271,7 @@ def smooth_interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions
     flat = lambda a: None if a is None else a.reshape(k1 * (S + 1), *a.shape[2:])  # noqa: E731
     tau = tau_dot = None
     if ctx.needs_torque and robot is not None:
-        tau = rnea(robot, flat(q), flat(qd), flat(qdd))
+        tau = (rnea_batch if supported(robot) else rnea)(robot, flat(q), flat(qd), flat(qdd))
         if ctx.torque_rate:
             tau_dot = torque_derivative(robot, flat(q), flat(qd), flat(qdd), flat(qddd))
     t = np.broadcast_to(p.times[index, None], theta.shape)
