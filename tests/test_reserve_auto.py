@@ -156,3 +156,22 @@ def test_a_smooth_profile_takes_a_scalar_time():
     assert np.shape(theta) == () and float(theta) == pytest.approx(0.6) and float(theta_dot) == pytest.approx(2.0)
     array = prof.state3_at_time(np.array([0.1, 0.3]))
     assert array[0] == pytest.approx([0.2, 0.6]) and array[1] == pytest.approx([2.0, 2.0])
+
+
+def test_the_realistic_plant_is_expressible_as_scenario_keys():
+    """docs/control.md's realistic plant (per-joint friction) as [simulate.realism], the closed loop "auto"
+    searches in: the same Realism as Realism.realistic(seed=0); a negative joint's friction is refused."""
+    from pathmotion.simulation import Realism
+
+    keys = {"inertia_error": defaults.REALISTIC_INERTIA_ERROR, "payload_mass": defaults.REALISTIC_PAYLOAD_MASS,
+            "payload_com": list(defaults.REALISTIC_PAYLOAD_COM),
+            "viscous_friction": list(defaults.REALISTIC_VISCOUS_FRICTION),
+            "coulomb_friction": list(defaults.REALISTIC_COULOMB_FRICTION),
+            "encoder_resolution": defaults.REALISTIC_ENCODER_RESOLUTION,
+            "position_noise": defaults.REALISTIC_POSITION_NOISE, "velocity_noise": defaults.REALISTIC_VELOCITY_NOISE,
+            "delay": True, "seed": 0}
+    setup = api.load(scenario_path("circle_zero"), {f"simulate.realism.{k}": v for k, v in keys.items()})
+    assert api.simulation_settings(setup).realism == Realism.realistic(seed=0)
+    text = scenario_path("circle_zero").read_text()
+    with pytest.raises(ScenarioError, match=r"simulate\.realism\.coulomb_friction\[1\]"):
+        parse_scenario(text, "c.toml", {"simulate.realism.coulomb_friction": [1.0, -1.0, 1, 1, 1, 1]})

@@ -195,6 +195,9 @@ class PlanSpec(_Model):
 
 
 # ------------------------------------------------------------------------------------ simulation
+_NonNegative = Annotated[float, Field(ge=0)]
+
+
 class RealismSpec(_Model):
     """Plant vs controller-model differences (all off by default); see pathmotion.simulation.Realism."""
 
@@ -202,8 +205,10 @@ class RealismSpec(_Model):
     inertia_error: float = Field(0.0, ge=0, lt=1, description="plant link mass/inertia error, e.g. 0.1 = 10 %")
     payload_mass: float = Field(0.0, ge=0, description="unmodelled payload at the flange [kg]")
     payload_com: Vec3 | None = Field(None, description="its centre of mass in the flange frame [m]")
-    viscous_friction: float = Field(0.0, ge=0, description="[N m s/rad], every joint")
-    coulomb_friction: float = Field(0.0, ge=0, description="[N m], every joint")
+    viscous_friction: _NonNegative | tuple[_NonNegative, ...] = Field(0.0, description="[N m s/rad], one value for "
+                                                                     "every joint or one per joint")
+    coulomb_friction: _NonNegative | tuple[_NonNegative, ...] = Field(0.0, description="[N m], one value for every "
+                                                                     "joint or one per joint")
     encoder_resolution: float = Field(0.0, ge=0, description="quantization step [rad] (0 = off)")
     position_noise: float = Field(0.0, ge=0, description="measurement noise std [rad]")
     velocity_noise: float = Field(0.0, ge=0, description="measurement noise std [rad/s]")
