@@ -9,11 +9,11 @@ friction on every axis, 20-bit encoder, noise, one-sample delay), given as the s
 * smooth: ``circle_smooth`` as shipped: jerk limits (the IRB140 estimates), reserve 0.2, torque-speed envelope;
 * smooth, auto: ``circle_smooth`` with ``torque_reserve = "auto"``;
 * plain, auto: ``circle_zero`` on torque alone with ``torque_reserve = "auto"`` (the reserve without jerk limits);
-* smooth, jerk x k (``--jerk-scales``): ``circle_smooth`` with ``limits.jerk_scale = k``.
+* smooth, jerk x k (``--jerk-scales``): ``circle_smooth`` with ``limits.jerk_scale = k``, reserve 0.2 and "auto".
 
 A run that fails the verdict stops where it fails, so it has no cycle time; the columns "relaxed" run the
 same plan to the end with the verdict widened (path tolerance 0.5 m, joint tolerance 1 rad, no saturation
-limit, 1 s observed after the arrival) and give the time from which the TCP stays within 1 mm of the end
+limit, 3 s observed after the arrival) and give the time from which the TCP stays within 1 mm of the end
 point, and the largest TCP distance from the planned path: how long the motion takes, and how far the TCP
 strays, when nothing stops it.
 
@@ -45,7 +45,7 @@ REALISM = {
 }
 #: The widened verdict of the "relaxed" columns: path tolerance [m], joint tolerance [rad], saturation limit [s],
 #: time observed after the arrival [s]; and the distance from the end point [m] within which the TCP has arrived.
-RELAXED = {"path_tolerance": 0.5, "joint_tolerance": 1.0, "saturation_limit": 1e3, "settle_time": 1.0}
+RELAXED = {"path_tolerance": 0.5, "joint_tolerance": 1.0, "saturation_limit": 1e3, "settle_time": 3.0}
 ARRIVED = defaults.PATH_TOLERANCE
 TORQUE_ONLY = {"limits.use_acceleration": False}
 
@@ -56,7 +56,10 @@ def cases(jerk_scales: list[float]) -> list[tuple[str, str, dict]]:
            ("smooth (jerk + reserve 0.2 + envelope)", "circle_smooth", {}),
            ("smooth, reserve auto", "circle_smooth", {"limits.torque_reserve": "auto"}),
            ("plain, reserve auto", "circle_zero", {**TORQUE_ONLY, "limits.torque_reserve": "auto"})]
-    out += [(f"smooth, jerk x {k:g}", "circle_smooth", {"limits.jerk_scale": k}) for k in jerk_scales]
+    for k in jerk_scales:
+        out += [(f"smooth, jerk x {k:g}", "circle_smooth", {"limits.jerk_scale": k}),
+                (f"smooth, jerk x {k:g}, reserve auto", "circle_smooth",
+                 {"limits.jerk_scale": k, "limits.torque_reserve": "auto"})]
     return out
 
 
@@ -107,7 +110,6 @@ def row(label: str, name: str, overrides: dict, loop: dict) -> list[str]:
     return [label, f"{reserve:g}{tried}" if reserve is not None else "-", _s(planned), _s(cycle),
             "-" if cycle is None else f"{cycle / planned:.3f}", _mm(s["path_accuracy_m"]), verdict,
             f"{s['max_commanded_torque_ratio']:.2f}", _s(rc) if rc is not None else _never(relaxed),
-            "-" if rc is None else f"{rc / planned:.3f}",
             _mm(relaxed["path_accuracy_m"]), f"{time.perf_counter() - start:.0f}"]
 
 
@@ -122,7 +124,7 @@ def main() -> None:
     probe = api.simulation_settings(api.load(scenario_path("circle_zero"), loop)).realism
     assert probe == Realism.realistic(seed=0), "REALISM must be docs/control.md's realistic plant"
     head = ["case", "torque reserve (runs)", "planned [s]", "cycle [s]", "cycle / planned", "path accuracy [mm]",
-            "tracks within 1 mm", "max commanded torque / limit", "relaxed: cycle [s]", "relaxed: cycle / planned",
+            "tracks within 1 mm", "max commanded torque / limit", "relaxed: within 1 mm of the end from [s]",
             "relaxed: path accuracy [mm]", "wall [s]"]
     print(f"orbital controller, 4 ms, sampled_design = {str(args.sampled_design).lower()}, gains "
           f"{gains or 'default'}; realism: Realism.realistic(seed=0)")
