@@ -35,7 +35,8 @@ def check_reserve(value) -> float:
     """The reserve as a float in [0, MAX_RESERVE), or a ScenarioError naming the key."""
     if isinstance(value, str):
         raise ScenarioError(f"limits.torque_reserve = {value!r}: the planner takes a number in [0, {MAX_RESERVE}); "
-                            "'auto' is resolved by the scenario layer before planning")
+                            "'auto' is resolved before planning, by pathmotion.api.resolve_torque_reserve (a search "
+                            "over closed-loop runs)")
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not (
             np.isfinite(value) and 0.0 <= value < MAX_RESERVE):
         raise ScenarioError(f"limits.torque_reserve must be a number in [0, {MAX_RESERVE}) (a fraction of each "
