@@ -35,7 +35,6 @@ on random splines and limit sets.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -320,16 +319,18 @@ def smooth_sampled_bound(values: np.ndarray) -> np.ndarray:
 
     The ratios are absolute values, and |f| has a kink where f crosses zero, which second differences
     of |f| mistake for strong curvature (a jerk falling through zero inside an interval gave a 13 %
-    remainder and an endless tightening loop). So the signs are recovered first: of the 2^S sign
-    patterns (the first sample +), the one with the smallest largest second difference, i.e. the
-    smoothest f. Then for g = f and g = -f, sub-interval by sub-interval: the larger end value plus the
+    remainder and an endless tightening loop). So the signs are recovered first: of the S + 1 sign
+    patterns with at most one change (the first sample +), the one with the smallest largest second
+    difference, i.e. the smoothest f. Then for g = f and g = -f, sub-interval by sub-interval: the larger end value plus the
     interpolation remainder where g may be concave. Linear interpolation's error is -g''/2 (s - a)(b - s),
     so g rises above the chord only where g'' < 0, by at most max(-g'', 0) / 8 (a unit sub-interval);
     g'' on a sub-interval is the larger of the second differences at its two ends (one end only at the
     interval's ends) widened by the largest third difference, times REMAINDER_SAFETY."""
     v = np.asarray(values, float)
     s1 = v.shape[1]
-    signs = np.array([(1,) + p for p in itertools.product((1.0, -1.0), repeat=s1 - 1)])  # (P, S + 1)
+    # (P, S + 1): no sign change, or one after sample k (a smooth f crosses zero at most once in so short
+    # an interval; a second crossing lies where |f| is small, and a wrong pattern only widens the bound)
+    signs = np.array([[1.0] * k + [-1.0] * (s1 - k) for k in range(1, s1 + 1)])
     with np.errstate(invalid="ignore"):
         f = signs[:, None, :, None] * v[None]  # (P, I, S + 1, m)
         rough = np.abs(f[:, :, :-2] - 2.0 * f[:, :, 1:-1] + f[:, :, 2:]).max(axis=2)  # (P, I, m)
@@ -355,5 +356,10 @@ def certify(ctx: CertifyContext, limits) -> dict:
     if ctx.profile.smooth:
         ctx.torque_rate = ctx.torque_rate or any(lim.order == 3 and lim.needs_torque for lim in limits)
         cs = ctx.samples(subdivisions=SMOOTH_SUBDIVISIONS)
-        return {lim.name: smooth_sampled_bound(cs.per_interval(lim.ratios(cs.samples, ctx.robot))) for lim in limits}
+        values = [cs.per_interval(lim.ratios(cs.samples, ctx.robot)) for lim in limits]
+        if not values:
+            return {}
+        bound = smooth_sampled_bound(np.concatenate(values, axis=2))  # every limit's columns in one pass
+        cut = np.cumsum([v.shape[2] for v in values])[:-1]
+        return {lim.name: b for lim, b in zip(limits, np.split(bound, cut, axis=1))}
     return {lim.name: lim.certify(replace(ctx, needs_torque=ctx.needs_torque and lim.needs_torque)) for lim in limits}
