@@ -254,6 +254,10 @@ def _swap_in(new: Path, out: Path) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
+def _new_sibling(out: Path) -> Path:
+    return out.parent / f".{out.name}.pm-new-{secrets.token_hex(6)}.tmp"
+
+
 @contextmanager
 def result_folder(out: str | Path):
     """Yield a new temporary sibling folder of ``out`` to write a run's files into; when the block ends
@@ -267,11 +271,21 @@ def result_folder(out: str | Path):
     with output_lock(out):
         try:
             _clean_stale(out)
-            new = Path(tempfile.mkdtemp(prefix=f".{out.name}.pm-new-", suffix=".tmp", dir=out.parent))
-            os.chmod(new, 0o777 & ~umask())  # mkdtemp makes 0700
         except OSError as exc:
             raise output_error(exc, out) from None
+        # the name is chosen before the folder exists, so an interrupt at any moment from its creation on
+        # (even inside the call that creates it) finds the name and removes the folder
+        new = _new_sibling(out)
         try:
+            try:
+                while True:
+                    try:  # mode 0o777: the kernel applies the umask, as for any folder a program creates
+                        os.mkdir(new, 0o777)
+                        break
+                    except FileExistsError:  # another run's name (48 random bits: practically never)
+                        new = _new_sibling(out)
+            except OSError as exc:
+                raise output_error(exc, out) from None
             yield new
             try:
                 _swap_in(new, out)
