@@ -29,9 +29,9 @@ from pathmotion.robot import Payload
 from pathmotion.scenarios import scenario_path
 from pathmotion.simulation import Plant, Realism, SimulationSettings, simulate
 
-#: The orbital controller with its gains designed in continuous time (the default) and on the sampled system
-#: with the delay in the model ([simulate] sampled_design), then the two baselines.
-CONTROLLERS = ("orbital", "orbital_sampled", "computed_torque", "pd_gravity")
+#: The orbital controller with its gains designed on the sampled system with the delay in the model (the default,
+#: [simulate] sampled_design = true) and in continuous time (sampled_design = false), then the two baselines.
+CONTROLLERS = ("orbital", "orbital_continuous", "computed_torque", "pd_gravity")
 ORBITALS, BASELINES = CONTROLLERS[:2], CONTROLLERS[2:]
 SAMPLE_TIMES = (0.001, 0.004, 0.012)
 #: The path tolerance of the verdict [m] and the one the runs use so that they measure the whole lap [m].
@@ -70,8 +70,8 @@ def run_cell(setup, profile, realism: Realism, believed: float, ts: float, contr
     substeps = max(defaults.PLANT_SUBSTEPS, int(round(ts / PLANT_STEP)))  # the plant at <= 2 ms steps
     settings = SimulationSettings(sample_time=ts, substeps=substeps, realism=realism, laps=1,
                                   path_tolerance=MEASURE_TOLERANCE,
-                                  sampled_design=controller == "orbital_sampled")
-    name = "orbital" if controller == "orbital_sampled" else controller
+                                  sampled_design=controller != "orbital_continuous")
+    name = "orbital" if controller == "orbital_continuous" else controller
     s = simulate(robot, setup.path, profile, name, settings, plant=plant).summary()
     accuracy = s["path_accuracy_m"]
     ok = bool(s["tracking_ok"]) and accuracy <= TOLERANCE
@@ -123,7 +123,7 @@ def _assess(out: dict, plant_names, sample_times, orbital: str) -> list[str]:
 
 
 def markdown(out: dict, plant_names, sample_times) -> str:
-    head = "| plant | " + " | ".join(f"{ts * 1e3:.0f} ms: orbital / sampled / CT / PD [mm]" for ts in sample_times) + " |"
+    head = "| plant | " + " | ".join(f"{ts * 1e3:.0f} ms: orbital / continuous / CT / PD [mm]" for ts in sample_times) + " |"
     rows = [head, "|---" * (len(sample_times) + 1) + "|"]
     for name in plant_names:
         cells = []

@@ -164,10 +164,11 @@ ORBITAL_DAMPING = 1.0
 ORBITAL_SPEED_RATE = 20.0
 ORBITAL_MIN_SPEED = 0.05
 #: Orbital controller: design the gains on the transverse linearization sampled at the controller's sample
-#: time with its command delay in the model (discrete periodic/time-varying Riccati), instead of in continuous
-#: time. Off by default: with the same weights the sampled design is stable at 12 ms with a one-sample delay
-#: where the continuous one diverges, but 20-50 % less accurate at 4 ms (docs/control.md, robustness matrix).
-ORBITAL_SAMPLED_DESIGN = False
+#: time with its command delay in the model (discrete periodic/time-varying Riccati on the exactly sampled
+#: continuous cost, so the gains tend to the continuous design's as the sample time goes to 0), instead of in
+#: continuous time (False: the continuous design, sampled as it is). Stable at 12 ms with a delay of one or two
+#: samples where the continuous design diverges (docs/control.md, robustness matrix).
+ORBITAL_SAMPLED_DESIGN = True
 #: Orbital controller: rate [rad/s] of the integral action on the transverse error (closed-loop pole of
 #: the integrator; 0 turns it off). Rejects constant unmodelled torques such as a payload's gravity.
 ORBITAL_INTEGRAL_RATE = 20.0

@@ -132,8 +132,12 @@ def test_realistic_plant_orbital_beats_both_baselines_on_tcp_deviation():
     """The issue's conditions on the thesis' horizontal circle (periodic plan, one lap): 10 % link mass and
     inertia error, a 6 kg payload the controllers do not know, 4 ms sampling with a one-sample delay, encoder
     quantization, position and velocity noise, joint friction. Every controller must still track; the orbital
-    one, with its integral action, must deviate least from the TCP path (measured: 1.9 mm against 6.1 mm and
-    7.2 mm, so within a 10 mm path tolerance; at the default 1 mm all three fail)."""
+    one, with its integral action, must deviate least from the TCP path (measured: 2.9 mm with the default
+    sampled design, 1.9 mm with the continuous one, against 6.1 mm and 7.2 mm, so within a 10 mm path
+    tolerance; at the default 1 mm all three fail). The period: 1.010 s sampled, 1.005 s continuous, planned
+    0.980 s; the sampled design holds the designed poles on the sampled system with the delay (gains about
+    0.8-0.9x the continuous ones at 4 ms, and a prediction of the command in flight that assumes the nominal
+    inertia), so the unknown payload leaves it more speed lag."""
     setup, result = planned("circle_periodic")
     realism = Realism.realistic(seed=0)
     assert realism.inertia_error == 0.1 and realism.payload_mass == 6.0 and realism.delay
@@ -148,4 +152,22 @@ def test_realistic_plant_orbital_beats_both_baselines_on_tcp_deviation():
         assert orbital["path_accuracy_m"] < 0.5 * res[c]["path_accuracy_m"], (c, res)
         assert orbital["max_joint_deviation_rad"] < res[c]["max_joint_deviation_rad"], (c, res)
     # the orbit, not the clock, is stabilized; the speed integral keeps the period close to the plan
-    assert abs(orbital["cycle_time_s"] - orbital["planned_duration_s"]) <= 0.03 * orbital["planned_duration_s"]
+    assert abs(orbital["cycle_time_s"] - orbital["planned_duration_s"]) <= 0.04 * orbital["planned_duration_s"]
+
+
+@pytest.mark.parametrize("sampled", [True, False], ids=["sampled", "continuous"])
+def test_strong_friction_does_not_stall_the_orbital_controller_before_the_end(circle_zero, sampled):
+    """Issue 13: with 2 N m s/rad + 2 N m friction on every joint the orbital controller stopped at 95 % of the
+    circle (timeout) while the baselines finished: the Riccati solution ended at zero on I and int I, so the
+    speed feedback faded out over the last 1/speed_rate of the orbital segment, and the robot, slowed by
+    friction and facing the plan's deceleration as feedforward, stopped short of the clock play that takes
+    over near the end. With the stationary solution as the end condition it arrives (cycle measured 1.140 s
+    sampled / 1.146 s continuous against 1.088 s planned; path accuracy 1.2-1.7 mm, so a 5 mm tolerance lets the
+    run measure the arrival)."""
+    setup, result = circle_zero
+    realism = Realism(viscous_friction=2.0, coulomb_friction=2.0)
+    settings = dataclasses.replace(api.simulation_settings(setup), realism=realism, path_tolerance=0.005,
+                                   sampled_design=sampled)
+    s = simulate(setup.robot, setup.path, result.profile, "orbital", settings).summary()
+    assert s["tracking_ok"], s["failure"]
+    assert s["cycle_time_s"] <= 1.1 * s["planned_duration_s"]

@@ -31,7 +31,7 @@ from .laws import computed_torque
 from .kernels import clock_command, orbital_command
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
-from .riccati import discretize, solve_discrete_riccati, solve_riccati, with_delay
+from .riccati import sampled_cost, solve_discrete_riccati, solve_riccati, with_delay
 from .transverse import TransverseBasis, transverse_linearization
 
 #: Relative mismatch allowed between the profile's and the path's theta ends, and between the start and end
@@ -220,21 +220,15 @@ def continuous_segment(table, basis, lookup, gains, theta, times):
     its grid points ``theta`` (M,) with planned ``times`` (M,) [s]: the Riccati equation is integrated on knots
     ``defaults.RICCATI_KNOT_TIME`` apart (:func:`design_knots`), K and P linear in theta in between."""
     ni = integral_size(gains, table.n)
-    m = table.n - 1
     knots = design_knots(times, defaults.RICCATI_KNOT_TIME)
     th = theta[knots]
     a, b = with_integral(*transverse_linearization(table, basis, lookup, th), ni)
     _, dphi, _ = table.evaluate(th)
     q, r = lqr_weights(gains, dphi, lookup.states(th)[:, 0])
     d = a.shape[1]
-    # (xi_z, z, z_dot): the algebraic Riccati solution at the end; zero on I and xi_I (open paths)
-    zz = np.concatenate([np.arange(min(ni, m)), ni + np.arange(2 * m)])
-    p_end = np.zeros((d, d))
-    p_end[np.ix_(zz, zz)] = solve_continuous_are(a[-1][np.ix_(zz, zz)], b[-1][zz], q[-1][np.ix_(zz, zz)], r)
-    if table.closed:  # a start for the periodic iteration
-        p_end[-1, -1] = q[-1][-1, -1] / max(gains.speed_rate, 1.0)
-        if ni:
-            p_end[m, m] = q[-1][m, m] / max(gains.integral_rate, 1.0)
+    # the stationary solution at the end (closed paths: a start the periodic iteration is attracted from)
+    p_end = _stationary(lambda keep: solve_continuous_are(a[-1][keep], b[-1][keep[0][:, 0]], q[-1][keep], r),
+                        d, _end_states(gains, table.n, d))
     p = solve_riccati(times[knots], a, b, q, r, p_end, periodic=table.closed)
     k = np.linalg.solve(r, np.transpose(b, (0, 2, 1))) @ p  # R^-1 B^T P
     return _interpolate(th, theta, k), _interpolate(th, theta, p)
@@ -259,66 +253,93 @@ def sample_grid(times: np.ndarray, sample_time: float, periodic: bool) -> np.nda
     return np.append(grid, t1) if t1 - grid[-1] > SAMPLE_MERGE * sample_time else np.append(grid[:-1], t1)
 
 
+def _strictly_increasing(theta: np.ndarray, length: float) -> np.ndarray:
+    """theta (N,) pushed apart by SAMPLE_SEPARATION x ``length`` per index (at rest the profile gives equal thetas)."""
+    return np.maximum.accumulate(theta + SAMPLE_SEPARATION * np.arange(len(theta)) * length)
+
+
 def sampled_system(table: PathTable, basis: TransverseBasis, lookup: ProfileLookup, gains: OrbitalGains,
                    t: np.ndarray, delay: int):
     """The transverse linearization (with its integral states) sampled at planned times t (N+1,) [s] with a
-    zero-order hold, the command ``delay`` samples late: (theta (N,), Phi (N, d, d), Gamma (N, d, n), Q (N, d, d)
-    per sample, R (n, n) per sample); sample k spans [t_k, t_k+1], its matrices frozen at its middle.
-    Weights: the continuous ones (:func:`lqr_weights`) times the sample length; zero on the commands in flight."""
+    zero-order hold, the command ``delay`` samples late, and the continuous cost int x^T Q x + dv^T R dv dt
+    (:func:`lqr_weights`) integrated exactly over each hold (:func:`.riccati.sampled_cost`); sample k spans
+    [t_k, t_k+1], its matrices frozen at its middle. Returns (theta_k (N,) at the sample starts, Phi (N, D, D),
+    Gamma (N, D, n), Q (N, D, D), R (N, n, n), S (N, D, n)), D = d + delay n. Without a delay the held command
+    is the new one: Q = W_xx, S = W_xu, R = R Ts + W_uu. With one, the held command is the oldest in flight: W
+    weighs (x, dv_k-delay), S = 0, and the new command carries R Ts (every command is held exactly once), so the
+    sampled cost is the continuous one and the gains tend to the continuous design's as Ts -> 0."""
     steps = np.diff(t)
-    mid = 0.5 * (t[:-1] + t[1:])
-    theta = np.asarray(lookup.profile.state_at_time(mid)[0], dtype=float)
-    theta = np.maximum.accumulate(theta + SAMPLE_SEPARATION * np.arange(len(theta)) * table.length)  # strictly increasing
+    mid = _strictly_increasing(np.asarray(lookup.profile.state_at_time(0.5 * (t[:-1] + t[1:]))[0], float),
+                               table.length)
+    start = _strictly_increasing(np.asarray(lookup.profile.state_at_time(t[:-1])[0], float), table.length)
     ni = integral_size(gains, table.n)
-    a, b = with_integral(*transverse_linearization(table, basis, lookup, theta), ni)
-    _, dphi, _ = table.evaluate(theta)
-    x_star = lookup.states(theta)[:, 0]
-    q, r = lqr_weights(gains, dphi, x_star)
-    phi, gamma = np.empty_like(a), np.empty_like(b)
+    a, b = with_integral(*transverse_linearization(table, basis, lookup, mid), ni)
+    _, dphi, _ = table.evaluate(mid)
+    q, r = lqr_weights(gains, dphi, lookup.states(mid)[:, 0])
+    big, d, n = b.shape
+    phi, gamma, w = np.empty_like(a), np.empty_like(b), np.empty((big, d + n, d + n))
     for h in np.unique(steps):  # all samples but the last one of an open segment have the same length
         sel = steps == h
-        phi[sel], gamma[sel] = discretize(a[sel], b[sel], float(h))
+        phi[sel], gamma[sel], w[sel] = sampled_cost(a[sel], b[sel], q[sel], float(h))
+    r_k = r[None] * steps[:, None, None]
     phi, gamma = with_delay(phi, gamma, delay)
-    qa = np.zeros(phi.shape)
-    d = a.shape[1]
-    qa[:, :d, :d] = q * steps[:, None, None]
-    return theta, phi, gamma, qa, r * float(np.median(steps))
+    size = phi.shape[1]
+    q_k, s_k = np.zeros((big, size, size)), np.zeros((big, size, n))
+    if delay == 0:
+        q_k[:], s_k[:] = w[:, :d, :d], w[:, :d, d:]
+        r_k = r_k + w[:, d:, d:]
+    else:
+        q_k[:, :d + n, :d + n] = w
+    return start, phi, gamma, q_k, r_k, s_k
 
 
 def discrete_segment(table, basis, lookup, gains, theta, times, sample_time, delay):
     """Gains (M, n, d) and Riccati matrices (M, d, d) of the sampled design on one orbital segment, at its grid
-    points ``theta`` (M,) with planned ``times`` (M,) [s], linear in theta between the samples."""
+    points ``theta`` (M,) with planned ``times`` (M,) [s], linear in theta between the sample starts (where the
+    controller applies them)."""
     periodic = table.closed
     t = sample_grid(times, sample_time, periodic)
-    th, phi, gamma, q, r = sampled_system(table, basis, lookup, gains, t, delay)
+    th, phi, gamma, q, r, s = sampled_system(table, basis, lookup, gains, t, delay)
     dim = phi.shape[1]
-    p_end = np.zeros((dim, dim))
-    if not periodic:  # the stationary solution at the end, on the states that stay meaningful there
-        p_end = _terminal_cost(phi[-1], gamma[-1], q[-1], r, gains, table.n, dim)
-    else:  # any start: the periodic recursion is attracted to the periodic solution
+    if periodic:  # any start: the periodic recursion is attracted to the periodic solution
         p_end = q[-1]
-    p, k = solve_discrete_riccati(phi, gamma, q, r, p_end, periodic=periodic)
-    idx = np.clip(np.searchsorted(th, theta, side="right") - 1, 0, len(th) - 2) if len(th) > 1 else \
-        np.zeros(len(theta), int)
+    else:  # the stationary solution at the end
+        p_end = _stationary(lambda keep: solve_discrete_are(phi[-1][keep], gamma[-1][keep[0][:, 0]], q[-1][keep],
+                                                            r[-1], s=s[-1][keep[0][:, 0]]),
+                            dim, _end_states(gains, table.n, dim))
+    p, k = solve_discrete_riccati(phi, gamma, q, r, p_end, periodic=periodic, cross=s)
     if len(th) == 1:
         return np.repeat(k, len(theta), axis=0), np.repeat(p[:1], len(theta), axis=0)
-    w = np.clip((theta - th[idx]) / (th[idx + 1] - th[idx]), 0.0, 1.0)[:, None, None]
-    return (1 - w) * k[idx] + w * k[idx + 1], (1 - w) * p[idx] + w * p[idx + 1]
+    return _interpolate(th, theta, k), _interpolate(th, theta, p[:-1])
 
 
-def _terminal_cost(phi, gamma, q, r, gains, n, dim):
-    """P at the end of an open segment: the discrete algebraic Riccati solution on (xi_z, z, z_dot, commands
-    in flight), zero on I and xi_I (as the continuous design)."""
+def _end_states(gains: OrbitalGains, n: int, dim: int) -> list[np.ndarray]:
+    """Candidate state sets for the stationary Riccati solution at the end of an open segment, preferred first:
+    the whole state; then without I and xi_I (where the frozen end is not stabilizable through the speed)."""
     m = n - 1
     ni = integral_size(gains, n)
     core = ni + 2 * m + 1
-    keep = np.concatenate([np.arange(min(ni, m)), ni + np.arange(2 * m), np.arange(core, dim)])
+    partial = np.concatenate([np.arange(min(ni, m)), ni + np.arange(2 * m), np.arange(core, dim)])
+    return [np.arange(dim), partial]
+
+
+def _stationary(solve, dim: int, candidates: list[np.ndarray]) -> np.ndarray:
+    """P_end (dim, dim): ``solve(np.ix_(keep, keep))`` -- an algebraic Riccati solution of the frozen end on the
+    states ``keep`` -- for the first candidate that has a finite one, zero elsewhere; zero if none has.
+
+    Why the whole state: with P_end zero on I and xi_I the speed feedback fades out over the last 1/speed_rate of
+    the segment, and a robot slowed by friction stopped just short of the clock play near the end (issue 13:
+    circle_zero with 2 N m Coulomb friction stalled at 95 % of the path)."""
     p_end = np.zeros((dim, dim))
-    sub = np.ix_(keep, keep)
-    try:
-        p_end[sub] = solve_discrete_are(phi[sub], gamma[keep], q[sub], r)
-    except (np.linalg.LinAlgError, ValueError):
-        pass  # no stationary solution there: start from zero, the recursion still converges over the segment
+    for keep in candidates:
+        sub = np.ix_(keep, keep)
+        try:
+            value = solve(sub)
+        except (np.linalg.LinAlgError, ValueError):
+            continue
+        if np.all(np.isfinite(value)):
+            p_end[sub] = 0.5 * (value + value.T)
+            return p_end
     return p_end
 
 

@@ -136,6 +136,31 @@ def discretize(a: np.ndarray, b: np.ndarray, sample_time: float) -> tuple[np.nda
     return ex[:, :d, :d], ex[:, :d, d:]
 
 
+def sampled_cost(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ZOH discretization and the exact sampled cost of the state weight over one sample (Van Loan 1978,
+    "Computing integrals involving the matrix exponential"): with x(s) = Phi(s) x_k + Gamma(s) u held,
+
+        int_0^Ts x^T Q x ds = [x_k; u]^T W [x_k; u],   W = int_0^Ts [Phi(s), Gamma(s)]^T Q [Phi(s), Gamma(s)] ds
+
+    from the exponential of [[-C^T, Q_c], [0, C]] Ts, C = [[A, B], [0, 0]], Q_c = diag(Q, 0). a, q (N, d, d),
+    b (N, d, m). Returns (Phi (N, d, d), Gamma (N, d, m), W (N, d + m, d + m)); the command's own weight
+    (R Ts for a constant R) is not in W."""
+    big, d, m = b.shape
+    k = d + m
+    c = np.zeros((big, k, k))
+    c[:, :d, :d], c[:, :d, d:] = a, b
+    scale = np.maximum(np.max(np.abs(q), axis=(1, 2)), TINY)[:, None, None]  # W is linear in Q: keep the norm small
+    block = np.zeros((big, 2 * k, 2 * k))
+    block[:, :k, :k] = -np.transpose(c, (0, 2, 1))
+    block[:, :d, k:k + d] = q / scale
+    block[:, k:, k:] = c
+    ex = expm(block * sample_time)
+    f22 = ex[:, k:, k:]
+    w = scale * (np.transpose(f22, (0, 2, 1)) @ ex[:, :k, k:])
+    return f22[:, :d, :d], f22[:, :d, d:], 0.5 * (w + np.transpose(w, (0, 2, 1)))
+
+
 def with_delay(phi: np.ndarray, gamma: np.ndarray, delay: int) -> tuple[np.ndarray, np.ndarray]:
     """The sampled system with the command applied ``delay`` samples late, its state augmented with the
     commands still in flight: x_aug = (x, u_{k-delay}, ..., u_{k-1}), x+ = Phi x + Gamma u_{k-delay}; the new
@@ -154,25 +179,30 @@ def with_delay(phi: np.ndarray, gamma: np.ndarray, delay: int) -> tuple[np.ndarr
 
 
 def solve_discrete_riccati(phi: np.ndarray, gamma: np.ndarray, q: np.ndarray, r: np.ndarray, p_end: np.ndarray,
-                           periodic: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Time-varying discrete Riccati recursion, backward from P_N = ``p_end``:
+                           periodic: bool = False, cross: np.ndarray | None = None
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """Time-varying discrete Riccati recursion of the cost sum x^T Q_k x + 2 x^T S_k u + u^T R_k u, backward from
+    P_N = ``p_end``:
 
-        K_k = (R + G^T P_{k+1} G)^-1 G^T P_{k+1} F,   P_k = Q_k + F^T P_{k+1} (F - G K_k)
+        K_k = (R_k + G^T P_{k+1} G)^-1 (G^T P_{k+1} F + S_k^T),   P_k = Q_k + F^T P_{k+1} F - (F^T P_{k+1} G + S_k) K_k
 
-    (F, G) = (phi[k], gamma[k]) (N, d, d), (N, d, m); q (N, d, d) per-sample weights; r (m, m). Periodic (the
-    sequence is one period): repeated until P_0 = P_N to ``defaults.RICCATI_TOLERANCE``. Returns (P (N+1, d, d),
-    K (N, m, d)); u_k = -K_k x_k."""
+    (F, G) = (phi[k], gamma[k]) (N, d, d), (N, d, m); q (N, d, d) per-sample weights; r (m, m) or (N, m, m);
+    cross S (N, d, m) or None (zero). Periodic (the sequence is one period): repeated until P_0 = P_N to
+    ``defaults.RICCATI_TOLERANCE``. Returns (P (N+1, d, d), K (N, m, d)); u_k = -K_k x_k."""
     big = len(phi)
     p = np.empty((big + 1, *p_end.shape))
     k_gain = np.empty((big, gamma.shape[2], phi.shape[1]))
+    r = np.broadcast_to(r, (big, *r.shape[-2:]))
+    cross = np.zeros(gamma.shape) if cross is None else cross
 
     def sweep(p_final):
         p[big] = p_final
         for k in range(big - 1, -1, -1):
-            f, g, pn = phi[k], gamma[k], p[k + 1]
+            f, g, pn, s = phi[k], gamma[k], p[k + 1], cross[k]
             pg = pn @ g
-            k_gain[k] = np.linalg.solve(r + g.T @ pg, pg.T @ f)
-            pk = q[k] + f.T @ pn @ (f - g @ k_gain[k])
+            fpg_s = f.T @ pg + s
+            k_gain[k] = np.linalg.solve(r[k] + g.T @ pg, fpg_s.T)
+            pk = q[k] + f.T @ pn @ f - fpg_s @ k_gain[k]
             p[k] = 0.5 * (pk + pk.T)
 
     sweep(p_end)
