@@ -140,3 +140,25 @@ def test_the_run_stops_at_the_kink_and_goes_on(irb140):
     assert s["tracking_ok"] and s["max_joint_deviation_rad"] < 1e-3
     assert abs(s["cycle_time_s"] - profile.duration) <= 0.01 * profile.duration
     assert r.theta[-1] == pytest.approx(2.0, abs=1e-3)
+
+
+def test_a_smooth_profile_runs_through_the_clock_zones(irb140):
+    """A jerk-limited (smooth, u_nodes given) profile: the controller looks its zones up with the profile's own
+    state_at_time, which takes arrays (a scalar raised IndexError: circle_smooth, issue 12's executable motion,
+    could not be simulated). The zone thetas equal the profile's, and a run from rest to rest arrives on time."""
+    grid = np.linspace(0.0, 1.0, 41)
+    x = 0.6 * np.sin(np.pi * grid)  # theta_dot^2, at rest at both ends
+    profile = Profile(grid, x, u_nodes=0.3 * np.pi * np.cos(np.pi * grid))  # u = x' / 2
+    assert profile.smooth
+    path = SplineJointPath.from_waypoints(WAYPOINTS)
+    r = simulate(irb140, path, profile, "orbital", SimulationSettings(design_cache=False))
+    s = r.summary()
+    assert s["tracking_ok"], s["failure"]
+    assert abs(s["cycle_time_s"] - profile.duration) <= 0.01 * profile.duration
+    from pathmotion.control import OrbitalController
+
+    design = OrbitalDesign.build(PathTable.from_path(path), profile, OrbitalGains(), 0.004)
+    c = OrbitalController(design, irb140, 0.004)
+    starts = [z0 for z0, _ in design.zones]
+    assert len(starts) == 2
+    assert np.allclose(c._zone_theta, [profile.state_at_time(np.array([t]))[0][0] for t in starts], rtol=0, atol=1e-12)

@@ -377,7 +377,7 @@ class OrbitalController:
         self._projection = d.table.projection()
         self._clock_gains = d.gains.clock_gains
         # zones are entered by theta: t*(theta) is increasing, so zone i starts at theta*(start of zone i)
-        self._zone_theta = np.asarray([float(p.state_at_time(z0)[0]) for z0, _ in d.zones])
+        self._zone_theta = np.asarray(p.state_at_time(np.asarray([z0 for z0, _ in d.zones], float))[0], float)
         zone = design.zone_at(0.0)
         # clock play: (zone index, clock time at entry, planned time at entry); zones are passed in order
         # and never re-entered, so measurement noise near a stop cannot restart the clock
@@ -394,8 +394,8 @@ class OrbitalController:
             t_ref = plan0 + (t - t0)
             if t_ref <= z1 or z1 >= d.profile.duration:
                 return self._play(t_ref, q, qd)
-            th, thd, _ = d.profile.profile.state_at_time(t_ref)  # leave the zone: back to orbital
-            self.theta, self.theta_dot, self.clock = float(th), float(thd), None
+            th, thd, _ = d.profile.profile.state_at_time(np.array([t_ref]))  # leave the zone: back to orbital
+            self.theta, self.theta_dot, self.clock = float(th[0]), float(thd[0]), None
             self._integral_to_transverse()
         table = d.table
         guess = table.next_guess(self.theta, self.theta_dot, self.sample_time)
