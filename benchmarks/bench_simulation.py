@@ -29,7 +29,7 @@ import pinocchio as pin
 from scipy.integrate import solve_ivp
 
 from pathmotion import defaults
-from pathmotion.control import OrbitalDesign, PathTable, design_cache
+from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable, design_cache
 from pathmotion.joint_path import SplineJointPath
 from pathmotion.planning.profile import Profile
 from pathmotion.robot import load_robot
@@ -84,7 +84,9 @@ def main(repeat: int = 7) -> None:
     profile = Profile(np.array([0.0, ta, 1 - ta, 1.0]), np.array([0.0, v * v, v * v, 0.0]))
     ts = defaults.SAMPLE_TIME
     settings = SimulationSettings(sample_time=ts)
-    t_design, design = median_of(lambda: OrbitalDesign.build(PathTable.from_path(path), profile), repeat)
+    sampling = (ts, int(settings.realism.delay)) if settings.sampled_design else (None, 0)  # the default design
+    t_design, design = median_of(lambda: OrbitalDesign.build(PathTable.from_path(path), profile, OrbitalGains(),
+                                                             *sampling), repeat)
     simulate(robot, path, profile, "orbital", settings, design=design)  # warm-up (numba cache, imports)
     t_sim, result = median_of(lambda: simulate(robot, path, profile, "orbital", settings, design=design), repeat,
                               "loop")
