@@ -227,3 +227,20 @@ def test_the_sampled_design_tends_to_the_continuous_design(periodic_circle):
         sampled = OrbitalDesign.build(table, profile, OrbitalGains(), sample_time=ts, delay=0)
         errors.append(np.max(np.abs(sampled.gain - cont.gain) / scale))
     assert errors[1] < 0.035 and errors[1] < 0.35 * errors[0], errors
+
+
+def test_the_batched_exponential_equals_scipys():
+    """expm_batched against scipy.linalg.expm on a stack with 1-norms from 1e-3 to 30 (no squaring to six),
+    including a nilpotent block (exact Taylor) and the zero matrix."""
+    from scipy.linalg import expm
+
+    from pathmotion.control.riccati import expm_batched
+
+    rng = np.random.default_rng(5)
+    stack = rng.normal(size=(6, 9, 9)) * np.array([1e-4, 1e-2, 0.1, 0.5, 1.0, 3.0])[:, None, None]
+    stack[0] = np.diag(np.ones(8), 1)  # nilpotent: e^N = sum N^k / k!
+    stack[1] = 0.0
+    for m in (stack, stack[2:3] * 1e-3):
+        got = expm_batched(m)
+        want = np.array([expm(x) for x in m])
+        assert np.allclose(got, want, rtol=1e-12, atol=1e-12 * np.max(np.abs(want)))

@@ -126,6 +126,29 @@ def solve_riccati_adaptive(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: n
     return 0.5 * (p + np.transpose(p, (0, 2, 1)))
 
 
+#: Batched matrix exponential: Taylor order, and the 1-norm each matrix is scaled below before the squarings. The
+#: truncation error is at most 0.5^13 / 13! = 2e-14 relative.
+EXPM_ORDER = 12
+EXPM_NORM = 0.5
+
+
+def expm_batched(m: np.ndarray) -> np.ndarray:
+    """e^M for a stack of matrices m (N, k, k): scaling and squaring of a Taylor polynomial, with one scaling for the
+    whole stack (by its largest 1-norm) and batched matrix products. Several times faster than scipy.linalg.expm
+    on the stacks of small matrices the sampled design needs (one per sample); tests/test_control_discrete.py
+    checks it against scipy."""
+    norm = float(np.max(np.sum(np.abs(m), axis=-2))) if m.size else 0.0
+    squarings = int(max(0, np.ceil(np.log2(max(norm, TINY) / EXPM_NORM))))
+    x = m / 2.0**squarings
+    eye = np.broadcast_to(np.eye(m.shape[-1]), m.shape)
+    out = eye + x / EXPM_ORDER
+    for j in range(EXPM_ORDER - 1, 0, -1):  # Horner: I + x (I + x/2 (I + x/3 (...)))
+        out = eye + (x @ out) / j
+    for _ in range(squarings):
+        out = out @ out
+    return out
+
+
 def discretize(a: np.ndarray, b: np.ndarray, sample_time: float) -> tuple[np.ndarray, np.ndarray]:
     """Zero-order-hold discretization of dx/dt = A x + B u over one sample: (Phi (N, d, d), Gamma (N, d, m))
     with Phi = e^(A Ts), Gamma = int_0^Ts e^(A s) ds B (Van Loan: the exponential of [[A, B], [0, 0]] Ts)."""
@@ -155,7 +178,7 @@ def sampled_cost(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time: float
     block[:, :k, :k] = -np.transpose(c, (0, 2, 1))
     block[:, :d, k:k + d] = q / scale
     block[:, k:, k:] = c
-    ex = expm(block * sample_time)
+    ex = expm_batched(block * sample_time)
     f22 = ex[:, k:, k:]
     w = scale * (np.transpose(f22, (0, 2, 1)) @ ex[:, :k, k:])
     return f22[:, :d, :d], f22[:, :d, d:], 0.5 * (w + np.transpose(w, (0, 2, 1)))
