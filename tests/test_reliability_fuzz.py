@@ -8,6 +8,8 @@ Example counts are stated in the settings below (issue 8 asks for them in its no
 import math
 import string
 import tomllib
+
+import pytest
 from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
@@ -179,3 +181,15 @@ def test_command_line_with_arbitrary_set_values_exits_0_or_1_with_one_line(comma
         lines = [ln for ln in res.output.splitlines() if ln.strip()]
         assert len(lines) == 1 and lines[0].startswith("error: "), res.output
     assert not list(tmp_path.rglob("*.tmp"))
+
+
+@pytest.mark.parametrize("char", ["\x1e", "\u2028", "\x85", "\r", "\x0c"])
+def test_error_with_a_line_breaking_character_in_the_users_value_stays_one_line(char, tmp_path):
+    """splitlines() and terminals break lines at more than "\\n": the CLI writes such characters escaped."""
+    scenario = tmp_path / "joint.toml"
+    scenario.write_text(JOINT.replace("grid_points = 60", "grid_points = 30"))
+    res = runner.invoke(app, ["check", str(scenario), f"--set=plan.start=ze{char}ro"])
+    assert res.exit_code == 1, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), res.output
+    assert repr(char)[1:-1] in lines[0]

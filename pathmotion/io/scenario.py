@@ -185,7 +185,7 @@ class PlanSpec(_Model):
     periodic: bool = Field(False, description="closed path: the steady-state cycle")
     connections: Connections = Field(
         Connections.CHAIN, description="'chain': plan the whole path at once; 'zero'/'max': segment by segment")
-    sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, description="output sample time [s]")
+    sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, le=1.0, description="output sample time [s]")
     verify: VerifyMode = Field(VerifyMode.CERTIFIED, description="'certified': a certified bound of every limit "
                                "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
