@@ -29,6 +29,7 @@ the IK branch reached from the start configuration. Phi', Phi'' and Phi''' are e
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -41,10 +42,15 @@ from .robot import Robot, frame_acceleration_bias, jacobian
 from .robot import redundancy
 from .robot.ik import IK_RANGE_SLACK, has_closed_form, ik_batch, ik_dls, ik_nearest
 
+log = logging.getLogger(__name__)
 TWO_PI = 2.0 * np.pi
 #: A redundant arm's lifted path is closed only when it returns to its start configuration within this
 #: [rad]: the null-space ODE need not come back to the same posture on a closed task path.
 CLOSURE_MATCH = 1e-6
+#: A closed-form arm's lifted loop is closed when its ends differ by at most this [rad] (modulo 2*pi): a loop
+#: that starts at q5 = 0 has q4 and q6 there from the wrist window's limit, known to ~1e-6; a wrist branch
+#: that changed along the loop differs by pi.
+LOOP_CLOSURE = 1e-4
 _LOCAL = pin.ReferenceFrame.LOCAL
 
 
@@ -236,7 +242,23 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     path = replace(path, wrist_windows=windows)
     check = _check_path(robot, task_path, theta, q, p, singularity_threshold, windows)
     passages = tuple(wrist_crossing.with_speed_limits(ps, path, robot.limits.velocity, theta) for ps in passages)
-    return replace(path, check=replace(check, wrist_passages=passages))
+    return replace(path, check=replace(check, wrist_passages=passages), closed=_closes(path))
+
+
+def _closes(path: TaskJointPath) -> bool:
+    """A closed task path lifts to a closed joint path unless the wrist branch differs at the two ends (a
+    loop that crosses q5 = 0 an odd number of times ends with q4 + pi, -q5, q6 + pi: the same pose);
+    whole turns of a joint (2*pi) still close."""
+    if not path.closed:
+        return False
+    ends = path.evaluate(np.array(path.domain))[0]
+    gap = np.abs(np.angle(np.exp(1j * (ends[1] - ends[0]))))
+    if np.max(gap) <= LOOP_CLOSURE:
+        return True
+    log.warning("the closed path's joint path does not close: joint %s differs by %.3f rad at its ends (the wrist "
+                "branch changes along the loop); it is planned as an open motion only",
+                path.joint_names[int(np.argmax(gap))], float(np.max(gap)))
+    return False
 
 
 @dataclass(frozen=True, eq=False)

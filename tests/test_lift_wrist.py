@@ -204,3 +204,19 @@ def test_a_corner_at_the_singularity_needing_a_wrist_turn_at_rest_is_refused(irb
                                                r"q4 would have to jump.*rotating the tool frame by") as info:
         lift(irb140, task)
     assert "\n" not in str(info.value)
+
+
+def test_a_loop_through_the_singularity_ends_on_the_other_wrist_branch_and_is_not_closed(irb140):
+    # a horizontal circle starting at the zero pose: the wrist branch differs at its two ends (q4 + pi,
+    # q6 - pi: the same pose), so the joint path is open (a periodic plan would jump there)
+    p, r = fk(irb140, np.zeros(6))
+    from pathmotion.geometry import horizontal_circle
+
+    task = horizontal_circle(centre=tuple(p - (0.05, 0.0, 0.0)), radius=0.05, orientation=FixedOrientation(r))
+    assert task.closed
+    path = lift(irb140, task)
+    ends = path.evaluate(np.array(task.domain))[0]
+    assert abs(abs(ends[1, 3] - ends[0, 3]) - np.pi) < 1e-5  # really the other wrist branch
+    assert np.abs(fk(irb140, ends)[0][1] - fk(irb140, ends)[0][0]).max() < 1e-9  # at the same pose
+    assert not path.closed
+    assert lift(irb140, horizontal_circle()).closed  # an ordinary loop still closes
