@@ -637,7 +637,16 @@ def main():
     import signal
 
     signal.signal(signal.SIGTERM, _terminate)
-    app(prog_name="pathmotion")
+    try:
+        app(prog_name="pathmotion")
+    except KeyboardInterrupt:  # outside a command (argument parsing, start-up): nothing was written yet
+        err_console.print("[yellow]interrupted[/]")
+        raise SystemExit(130) from None
+    finally:
+        # the run is over (files complete, or the temporary ones removed): a late Ctrl-C or SIGTERM during
+        # interpreter shutdown (numba's and llvmlite's exit handlers) must not print a traceback
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 if __name__ == "__main__":
