@@ -246,7 +246,7 @@ CASES = (
          _plan("").replace("grid_points = 60", "grid_points = 60\nstart = -1.0"), ScenarioError, (r"plan\.start",)),
     Case("periodic_open_path", "impossible boundary velocity",
          _plan("").replace("grid_points = 60", "grid_points = 60\nperiodic = true"), ScenarioError,
-         ("periodic planning needs a closed path", "periodic = false"), stage="plan"),
+         ("periodic planning needs a joint path that ends where it starts", "periodic = false"), stage="plan"),
     # --- blends
     Case("transition_too_large", "blend that does not fit", _corner('type = "circle"\nradius = 0.5'), PathError,
          ("radius 0.5 m does not fit", "connection 0", "theta = 0.2")),

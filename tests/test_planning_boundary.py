@@ -66,7 +66,7 @@ def test_periodic_cycle(irb140):
     # largest such: starting and ending slightly faster is infeasible
     with pytest.raises(InfeasibleError):
         plan(path, irb140, PlanSettings(start=1.001 * np.sqrt(cyc.profile.x[0]), end=1.001 * np.sqrt(cyc.profile.x[0]), **FAST))
-    with pytest.raises(ScenarioError, match="closed path"):
+    with pytest.raises(ScenarioError, match="ends where it starts"):
         plan(PolylinePath.through(LINE), irb140, PlanSettings(periodic=True))
 
 

@@ -282,13 +282,26 @@ class _Solved:
     sol: object
 
 
+def _not_closed_message(path: JointPath) -> str:
+    """Why a periodic plan of ``path`` is refused: its joint positions at the two ends (a closed task loop can
+    still end on the other wrist branch, q4 + pi, -q5, q6 + pi: the same pose, another joint position)."""
+    lo, hi = path.domain
+    ends = np.asarray(path(np.array([lo, hi])))
+    gap = np.abs(ends[1] - ends[0])
+    j = int(np.argmax(gap))
+    name = path.joint_names[j] if path.joint_names else f"joint {j + 1}"
+    return (f"periodic planning needs a joint path that ends where it starts; {name} differs by "
+            f"{gap[j]:.4g} rad between theta = {lo:.6g} and {hi:.6g} (an open path, or a loop whose wrist branch "
+            "changes as it crosses q5 = 0); set plan.periodic = false, or change the path or tool orientation")
+
+
 def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings()) -> PlanResult:
     """Time-optimal motion along ``path`` for ``robot`` under ``settings`` (see PlanSettings)."""
     t0 = time.perf_counter()
     if path.n != robot.n:
         raise ScenarioError(f"path has {path.n} joints, robot {robot.name} has {robot.n}")
     if settings.periodic and not path.closed:
-        raise ScenarioError("periodic planning needs a closed path (start pose == end pose); set periodic = false")
+        raise ScenarioError(_not_closed_message(path))
     limits = effective_limits(robot, settings)
     # third-order limits: one SLP on a fixed grid (its smooth interpolation needs no adaptive refinement)
     adaptive = settings.grid_points is None and not limits.third_order
