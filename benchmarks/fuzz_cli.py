@@ -1,14 +1,24 @@
 """The project's own command-line fuzzer (issue 15): hostile scenario documents through ``check`` and
 ``plan``, each run in a forked child of a warm server (pathmotion imported once), under a memory limit
-(RLIMIT_AS) and a timeout. One reproducer per escape goes into OUT/escapes.
+(RLIMIT_AS) and a CPU-time limit. One reproducer per escape goes into OUT/escapes.
 
-Escapes: internal error (exit 3), any other exit code than 0/1/2, a traceback, a hang (timeout), a memory
+Escapes: internal error (exit 3), any other exit code than 0/1/2, a traceback, a hang, a memory
 kill (a signal or MemoryError), an error that is not one ``error: ...`` line (further validation errors of the same document
 indented below it), a run that exits 0 without
 a complete finite contract file (summary.json, trajectory.csv), a temporary file or folder left behind,
 or a folder written by a run that failed.
 
+A hang is judged on the child's own CPU time, not on the wall clock, so that a machine loaded by other jobs
+gives no false hangs: RLIMIT_CPU (``--timeout`` seconds of CPU) ends a child that computes too long; a child
+that takes no CPU for ``--idle`` seconds while not runnable (blocked, e.g. on a FIFO) is a hang too; a wall
+time of ``--wall-cap`` seconds is only the backstop.
+
     .venv/bin/python benchmarks/fuzz_cli.py --docs 500 --seed 1 [--out out/fuzz] [--workers 2]
+    .venv/bin/python benchmarks/fuzz_cli.py --docs 10000 --seed 1 --resume   # resumable, in pieces
+
+Every finished document appends one line to OUT/results-seed{S}-g{GENERATOR}.jsonl; ``--resume`` skips the
+documents already there (each document's content depends on the generator, the seed and its index only),
+``--start N`` begins at document N. The table printed at the end covers every recorded document of the range.
 
 Each document runs one command (``check`` or ``plan --no-figures``, picked by the seed) on a coarse grid
 (plan.grid_points = 50 unless the document sets it): check already solves the plan, so both cover the
@@ -101,6 +111,9 @@ NUMERIC_SITES = {
     "plan": lambda x: f"sample_time = {x}",
     "plan ": lambda x: f"end = {x}",
 }
+#: Version of the document generator: part of the results file's name, so that a resumed run never mixes
+#: documents of two generators. Bump it when a change alters the documents of a (seed, index).
+GENERATOR = 1
 CLASSES = ("dropped key", "duplicated key", "renamed key", "wrong type", "garbage bytes", "bad geometry",
            "special file", "deep nesting", "extreme value", "bad --out folder", "closed polygon")
 
@@ -287,7 +300,10 @@ class Run:
     args: list
     out: Path | None
     pid: int
-    started: float
+    started: float  # monotonic wall clock [s]
+    cpu: float = 0.0  # the child's CPU time so far [s]
+    progressed: float = 0.0  # monotonic time its CPU time last grew [s]
+    hang: str | None = None  # why the parent ended it, when it did
 
 
 def _prepare(doc: Doc, folder: Path) -> tuple[list, Path | None]:
@@ -336,15 +352,18 @@ def _prepare(doc: Doc, folder: Path) -> tuple[list, Path | None]:
     return ["plan", scen_arg, "--out", str(out), "--no-figures"], out
 
 
-def _child(args: list, folder: Path, mem_bytes: int) -> None:
-    """In the forked child: limits, output to files, the CLI; never returns."""
+def _child(args: list, folder: Path, mem_bytes: int, cpu_s: float) -> None:
+    """In the forked child: limits (address space, CPU seconds), output to files, the CLI; never returns."""
     code = 70
     try:
         os.setpgid(0, 0)
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGXCPU):
             signal.signal(sig, signal.SIG_DFL)
         soft = _vm_bytes() + mem_bytes
         resource.setrlimit(resource.RLIMIT_AS, (soft, soft))
+        used = sum(os.times()[:2])  # the server's CPU time, inherited by the fork
+        cpu = math.ceil(used + cpu_s)
+        resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))  # SIGXCPU, then SIGKILL 5 s later
         fd_out = os.open(folder / "stdout.txt", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         fd_err = os.open(folder / "stderr.txt", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         os.dup2(fd_out, 1)
@@ -400,12 +419,26 @@ def _finite_csv(path: Path) -> None:
         raise ValueError(f"{path.name} is empty or not finite")
 
 
-def verdict(run: Run, status: int | None, elapsed: float) -> str | None:
-    """None when the run behaved, else what escaped."""
+def _proc_stat(pid: int) -> tuple[str, float] | None:
+    """(state letter, user + system CPU time [s]) of a running process, from /proc; None once it is gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            fields = fh.read().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return fields[0], (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_limit: float = 120.0) -> str | None:
+    """None when the run behaved, else what escaped. ``status`` is None when the parent ended a hang;
+    ``cpu`` is the child's CPU time [s], ``cpu_limit`` its RLIMIT_CPU budget [s]."""
     if status is None:
-        return f"hang (over {elapsed:.0f} s)"
+        return f"hang ({run.hang or 'ended'}; {elapsed:.0f} s wall, {cpu:.1f} s CPU)"
     if os.WIFSIGNALED(status):
-        return f"killed by signal {os.WTERMSIG(status)} (memory kill?)"
+        sig = os.WTERMSIG(status)
+        if sig == signal.SIGXCPU or (sig == signal.SIGKILL and cpu >= cpu_limit):
+            return f"hang (over {cpu_limit:.0f} s of CPU; {elapsed:.0f} s wall)"
+        return f"killed by signal {sig} (memory kill?)"
     code = os.WEXITSTATUS(status)
     err = (run.folder / "stderr.txt").read_text(errors="replace")
     out = (run.folder / "stdout.txt").read_text(errors="replace")
@@ -459,56 +492,121 @@ def _cleanup(folder: Path) -> None:
     shutil.rmtree(folder, ignore_errors=True)
 
 
-def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120.0,
-         mem_mb: int = 2048) -> dict:
-    """Run ``docs`` documents; returns {"per_class": Counter, "escapes": Counter, "found": [...], "seconds"}."""
+def _results_file(out: Path, seed: int) -> Path:
+    return out / f"results-seed{seed}-g{GENERATOR}.jsonl"
+
+
+def _recorded(path: Path) -> dict[int, dict]:
+    """Documents already run (index -> record) in a results file; a torn last line is ignored."""
+    done = {}
+    if path.exists():
+        for line in path.read_text().splitlines():
+            try:
+                rec = json.loads(line)
+            except ValueError:
+                continue
+            done[rec["index"]] = rec
+    return done
+
+
+def _doc_rng(seed: int, index: int) -> random.Random:
+    """Each document's generator depends on the seed and its index only (so a run can resume anywhere)."""
+    return random.Random(f"pathmotion-fuzz-{seed}-{index}")
+
+
+def _watch(run: Run, now: float, idle: float, wall_cap: float) -> str | None:
+    """Why a running child counts as hung (None while it is fine): blocked without CPU progress, or the
+    wall-clock backstop. CPU-bound hangs end themselves through RLIMIT_CPU."""
+    stat_ = _proc_stat(run.pid)
+    if stat_ is not None:
+        state, cpu = stat_
+        if cpu > run.cpu:
+            run.cpu, run.progressed = cpu, now
+        if state not in "R" and now - run.progressed > idle:
+            return f"blocked (state {state}) without CPU progress for {now - run.progressed:.0f} s"
+    if now - run.started > wall_cap:
+        return f"over the {wall_cap:.0f} s wall-clock backstop"
+    return None
+
+
+def _launch(doc: Doc, work: Path, mem_mb: int, timeout: float) -> Run:
+    folder = work / f"d{doc.index:06d}"
+    if folder.exists():
+        _cleanup(folder)
+    args, out_path = _prepare(doc, folder)
+    pid = os.fork()
+    if pid == 0:
+        _child(args, folder, mem_mb << 20, timeout)
+    now = time.monotonic()
+    return Run(doc, folder, args, out_path, pid, now, 0.0, now)
+
+
+def _finish(run: Run, status: int | None, cpu: float, timeout: float, escapes: Path) -> dict:
+    """Judge a finished child, keep a reproducer if it escaped, clean up; returns its record."""
+    elapsed = time.monotonic() - run.started
+    what = verdict(run, status, elapsed, cpu, timeout)
+    if what is not None:
+        _reproduce(escapes, run, what)
+    _cleanup(run.folder)
+    return {"index": run.doc.index, "class": run.doc.klass, "command": run.doc.command, "escape": what,
+            "cpu_s": round(cpu, 3), "wall_s": round(elapsed, 3)}
+
+
+def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120.0, mem_mb: int = 2048,
+         start: int = 0, resume: bool = False, idle: float = 120.0, wall_cap: float = 3600.0) -> dict:
+    """Run documents ``start`` .. ``docs - 1`` (skipping those already in the results file when ``resume``);
+    ``timeout`` is CPU seconds per document. Returns {"per_class": Counter, "escapes": Counter, "found":
+    [(index, class, what)], "seconds": wall time of this call, "ran": documents run by this call, "cpu_s"}
+    over every recorded document of the range."""
     import pathmotion.api  # noqa: F401 - warm the server once: every child starts with it imported
     import pathmotion.cli  # noqa: F401
     from pathmotion import load_robot
 
     load_robot("irb140").model  # noqa: B018 - the built-in model, parsed once
 
-    rng = random.Random(seed)
+    results = _results_file(out, seed)
+    records = _recorded(results) if resume else {}
+    if not resume and results.exists():
+        results.unlink()
     work = Path(tempfile.mkdtemp(prefix="fuzz-", dir=out))
     escapes = out / "escapes"
-    per_class, escaped, found = Counter(), Counter(), []
     running: dict[int, Run] = {}
     t0 = time.monotonic()
-    queue = iter(range(docs))
-    pending = True
-    while pending or running:
-        while pending and len(running) < workers:
-            i = next(queue, None)
-            if i is None:
-                pending = False
-                break
-            doc = generate(i, random.Random(rng.getrandbits(64)))
-            folder = work / f"d{i:06d}"
-            args, out_path = _prepare(doc, folder)
-            per_class[doc.klass] += 1
-            pid = os.fork()
-            if pid == 0:
-                _child(args, folder, mem_mb << 20)
-            running[pid] = Run(doc, folder, args, out_path, pid, time.monotonic())
-        time.sleep(0.01)
-        for pid, run in list(running.items()):
-            done, status = os.waitpid(pid, os.WNOHANG)
-            elapsed = time.monotonic() - run.started
-            if done == 0 and elapsed < timeout:
-                continue
-            if done == 0:
-                os.killpg(pid, signal.SIGKILL)
-                os.waitpid(pid, 0)
-                status = None
-            del running[pid]
-            what = verdict(run, status, elapsed)
-            if what is not None:
-                escaped[run.doc.klass] += 1
-                found.append((run.doc.index, run.doc.klass, what))
-                _reproduce(escapes, run, what)
-            _cleanup(run.folder)
+    queue = (i for i in range(start, docs) if i not in records)
+    pending, ran = True, 0
+    with open(results, "a") as log:
+        while pending or running:
+            while pending and len(running) < workers:
+                i = next(queue, None)
+                if i is None:
+                    pending = False
+                    break
+                run = _launch(generate(i, _doc_rng(seed, i)), work, mem_mb, timeout)
+                running[run.pid] = run
+            time.sleep(0.02)
+            now = time.monotonic()
+            for pid, run in list(running.items()):
+                done, status, usage = os.wait4(pid, os.WNOHANG)
+                if done == 0:
+                    run.hang = _watch(run, now, idle, wall_cap)
+                    if run.hang is None:
+                        continue
+                    os.killpg(pid, signal.SIGKILL)
+                    _, _, usage = os.wait4(pid, 0)
+                    status = None
+                del running[pid]
+                rec = _finish(run, status, usage.ru_utime + usage.ru_stime, timeout, escapes)
+                records[rec["index"]] = rec
+                log.write(json.dumps(rec) + "\n")
+                log.flush()
+                ran += 1
     shutil.rmtree(work, ignore_errors=True)
-    return {"per_class": per_class, "escapes": escaped, "found": found, "seconds": time.monotonic() - t0}
+    mine = [records[i] for i in sorted(records) if start <= i < docs]
+    return {"per_class": Counter(r["class"] for r in mine),
+            "escapes": Counter(r["class"] for r in mine if r["escape"]),
+            "found": [(r["index"], r["class"], r["escape"]) for r in mine if r["escape"]],
+            "seconds": time.monotonic() - t0, "ran": ran,
+            "cpu_s": sum(r["cpu_s"] for r in mine)}
 
 
 def table(result: dict) -> str:
@@ -517,7 +615,8 @@ def table(result: dict) -> str:
         rows.append(f"{klass:<20} {result['per_class'][klass]:>9} {result['escapes'][klass]:>8}")
     total = sum(result["per_class"].values())
     rows.append(f"{'total':<20} {total:>9} {sum(result['escapes'].values()):>8}")
-    rows.append(f"{total / max(result['seconds'], 1e-9):.2f} documents/s, {result['seconds']:.0f} s")
+    rows.append(f"{result.get('ran', total)} documents run now in {result['seconds']:.0f} s wall; "
+                f"{result.get('cpu_s', 0.0):.0f} s of child CPU over all {total}")
     return "\n".join(rows)
 
 
@@ -527,11 +626,18 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("out/fuzz"), help="reproducers go to OUT/escapes")
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--timeout", type=float, default=120.0, help="seconds per document before it counts as a hang")
+    ap.add_argument("--timeout", type=float, default=120.0, help="CPU seconds per document before it is a hang")
+    ap.add_argument("--idle", type=float, default=120.0,
+                    help="seconds blocked without CPU progress before it is a hang")
+    ap.add_argument("--wall-cap", type=float, default=3600.0, help="wall-clock backstop per document [s]")
     ap.add_argument("--mem-mb", type=int, default=2048, help="address space a child may add [MiB]")
+    ap.add_argument("--start", type=int, default=0, help="first document index")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep OUT/results-seed{S}-g{GENERATOR}.jsonl and skip the documents it already holds")
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    result = fuzz(args.docs, args.seed, args.out.resolve(), args.workers, args.timeout, args.mem_mb)
+    result = fuzz(args.docs, args.seed, args.out.resolve(), args.workers, args.timeout, args.mem_mb,
+                  args.start, args.resume, args.idle, args.wall_cap)
     print(table(result))
     for index, klass, what in result["found"]:
         print(f"escape: document {index} ({klass}): {what.splitlines()[0][:200]}")

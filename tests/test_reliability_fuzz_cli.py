@@ -2,8 +2,12 @@
 they must, and CI's seeded 500-document slice finds no escape (about 5 minutes on 2 loaded cores)."""
 
 import importlib.util
+import json
 import os
+import signal
+import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -35,7 +39,9 @@ def test_the_escape_rules(tmp_path):
     assert "not one line" in v(_run(tmp_path, "warning: y\nerror: x\n"), _exit(1), 1.0)
     assert v(_run(tmp_path, "Traceback (most recent call last):\n"), _exit(1), 1.0) == "traceback"
     assert v(_run(tmp_path), None, 120.0).startswith("hang")
-    assert "signal 9" in v(_run(tmp_path), 9, 1.0)
+    assert "signal 9" in v(_run(tmp_path), 9, 1.0)  # SIGKILL well inside the CPU budget: memory
+    assert v(_run(tmp_path), signal.SIGXCPU, 30.0, cpu=120.5, cpu_limit=120.0).startswith("hang (over 120 s of CPU")
+    assert v(_run(tmp_path), signal.SIGKILL, 30.0, cpu=125.0, cpu_limit=120.0).startswith("hang")
     out = tmp_path / "d" / "out"
     out.mkdir()
     (out / "summary.json").write_text('{"duration_s": NaN}')
@@ -49,13 +55,48 @@ def test_the_escape_rules(tmp_path):
 
 
 def test_documents_cover_every_class_and_are_seeded():
-    import random
-
-    docs = [fuzz_cli.generate(i, random.Random(i)) for i in range(33)]
+    n = 3 * len(fuzz_cli.CLASSES)
+    docs = [fuzz_cli.generate(i, fuzz_cli._doc_rng(1, i)) for i in range(n)]
     assert {d.klass for d in docs} == set(fuzz_cli.CLASSES)
-    again = [fuzz_cli.generate(i, random.Random(i)) for i in range(33)]
+    again = [fuzz_cli.generate(i, fuzz_cli._doc_rng(1, i)) for i in range(n)]
     assert [(d.data, d.special, d.files, d.out_kind) for d in docs] == [
         (d.data, d.special, d.files, d.out_kind) for d in again]
+
+
+def test_a_blocked_child_is_a_hang_and_a_computing_one_is_not(tmp_path):
+    """The hang watch goes by the child's CPU time and state, so a loaded machine (a runnable child that
+    waits for a core) gives no false hang, while a child blocked without CPU progress (a FIFO) is one."""
+    blocked = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.5)
+        runs = {p: _run(tmp_path) for p in (blocked, busy)}
+        for p, run in runs.items():
+            run.pid, run.started = p.pid, time.monotonic()
+            run.progressed = run.started
+            assert fuzz_cli._watch(run, run.started, idle=0.3, wall_cap=1e9) is None
+        time.sleep(1.0)
+        later = time.monotonic()
+        assert "blocked (state S)" in fuzz_cli._watch(runs[blocked], later, idle=0.3, wall_cap=1e9)
+        assert fuzz_cli._watch(runs[busy], later, idle=0.3, wall_cap=1e9) is None
+        assert "backstop" in fuzz_cli._watch(runs[busy], later, idle=0.3, wall_cap=0.5)
+    finally:
+        for p in (blocked, busy):
+            p.kill()
+            p.wait()
+
+
+def test_a_run_resumes_where_it_stopped(tmp_path):
+    first = fuzz_cli.fuzz(3, 7, tmp_path, workers=2, resume=True)
+    assert first["ran"] == 3 and sum(first["per_class"].values()) == 3
+    again = fuzz_cli.fuzz(3, 7, tmp_path, workers=2, resume=True)
+    assert again["ran"] == 0 and again["per_class"] == first["per_class"] and again["found"] == first["found"]
+    more = fuzz_cli.fuzz(5, 7, tmp_path, workers=2, resume=True)
+    assert more["ran"] == 2 and sum(more["per_class"].values()) == 5
+    lines = (tmp_path / f"results-seed7-g{fuzz_cli.GENERATOR}.jsonl").read_text().splitlines()
+    assert sorted(json.loads(ln)["index"] for ln in lines) == [0, 1, 2, 3, 4]
+    tail = fuzz_cli.fuzz(5, 7, tmp_path, workers=2, start=3, resume=True)
+    assert tail["ran"] == 0 and sum(tail["per_class"].values()) == 2
 
 
 @pytest.mark.slow
