@@ -768,12 +768,17 @@ def check_scenario(setup: Setup) -> dict:
 def _check_like_plan_and_simulate(setup: Setup) -> dict:
     """Every test ``plan`` and ``simulate`` run before they write, so that check's OK means OK: the plan
     itself (its boundary, limit and tightening checks), the trajectory's sample count at
-    plan.sample_time, the simulation settings (gains, realism) and the closed loop's sample budget."""
+    plan.sample_time, the simulation settings (gains, realism), the closed loop's sample budget and
+    the loop's set-up (the controller's design, e.g. the orbital Riccati sweep, through the design
+    cache, which simulate then reads; the plant)."""
     from .planning.trajectory import sample_times
+    from .simulation import prepare_loop
 
     result = plan_scenario(setup)
     sample_times(result.profile.duration, setup.scenario.plan.sample_time)
-    simulation_budget(setup, simulation_settings(setup), result)
+    settings = simulation_settings(setup)
+    simulation_budget(setup, settings, result)
+    prepare_loop(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
     return {"duration_s": float(result.profile.duration),
             "worst_limit": None if result.ratios is None else result.ratios.worst, **reserve_summary(setup)}
 

@@ -69,3 +69,60 @@ def test_corner_n_names_the_closing_corner_and_n_plus_1_is_refused():
     assert [c.kind for c in only.connections].count("corner") == 3  # the three interior ones stay sharp
     with pytest.raises(ScenarioError, match=r"numbered 1\.\.4 .*4 = the closing corner"):
         api.load_text(SQUARE.replace("CORNER", "5"))
+
+
+DESIGN_FAILS = """name = "design_fails"
+[path]
+type = "joint"
+waypoints = [[0, 0, 0, 0, 0.5, 0], [0.3, 0.2, -0.2, 0.3, 0.8, 0.5]]
+[plan]
+grid_points = 50
+[simulate]
+controller = "orbital"
+gains = { terminal_time_to_go = 1000.0 }
+"""
+
+
+def test_check_fails_where_the_simulation_design_fails(tmp_path):
+    """The orbital controller's design (the Riccati sweep, here refused: every point of the motion is within
+    terminal_time_to_go of a stop) runs in check too: check fails with simulate's message, and simulate
+    writes nothing."""
+    from typer.testing import CliRunner
+
+    from pathmotion.cli import app
+
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(DESIGN_FAILS)
+    runner = CliRunner()
+    env = {"PATHMOTION_CACHE_DIR": str(tmp_path / "cache")}
+    checked = runner.invoke(app, ["check", str(scenario)], env=env)
+    simulated = runner.invoke(app, ["simulate", str(scenario), "--out", str(tmp_path / "out"), "--no-figures"],
+                              env=env)
+    assert checked.exit_code == simulated.exit_code == 1, (checked.output, simulated.output)
+    error = [ln for ln in checked.output.splitlines() if ln.startswith("error:")]
+    assert len(error) == 1 and "too short for orbital stabilization" in error[0]
+    assert error == [ln for ln in simulated.output.splitlines() if ln.startswith("error:")]
+    assert not (tmp_path / "out").exists()
+    # the same scenario with the default terminal time passes check, and the design it built is cached
+    scenario.write_text(DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", ""))
+    assert runner.invoke(app, ["check", str(scenario)], env=env).exit_code == 0
+    assert list((tmp_path / "cache").glob("design-*.npz"))
+
+
+def test_a_smooth_profile_answers_a_scalar_time_like_an_array():
+    """The orbital controller asks a profile for the state at one time; a smooth (jerk-limited) profile used
+    to fail there with an IndexError (found when check began to build the design: circle_smooth)."""
+    from pathmotion.planning.profile import Profile
+
+    grid = np.linspace(0.0, 1.0, 6)
+    profile = Profile(grid, np.array([0.0, 0.5, 1.0, 1.0, 0.5, 0.0]), np.array([0.3, 0.4, 0.0, -0.2, -0.4, -0.3]))
+    assert profile.smooth
+    times = np.linspace(0.0, profile.duration, 9)
+    along = profile.state3_at_time(times)
+    for k, t in enumerate(times):
+        one = profile.state3_at_time(float(t))
+        assert all(np.shape(v) == () for v in one)
+        np.testing.assert_allclose([float(v) for v in one], [v[k] for v in along], rtol=1e-12, atol=1e-12)
+    # and at the times the profile reaches its grid points (by quadrature), theta is that grid point
+    for theta, t in zip(grid, profile.times):
+        assert float(profile.state3_at_time(float(t))[0]) == pytest.approx(theta, abs=1e-9)

@@ -137,16 +137,14 @@ class PlantModel(Protocol):
     def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None: ...
 
 
-def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
-             settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None,
-             plant: PlantModel | None = None) -> SimulationResult:
-    """Run ``controller`` on ``robot`` along q = Phi(theta) with the planned ``profile``.
-
-    The run starts on the plan: q = Phi(theta_start), qd = Phi'(theta_start) sqrt(x*(theta_start)).
-    ``design``: a prebuilt OrbitalDesign on this path and profile (reused across runs), optional.
-    ``plant``: a prebuilt plant (:class:`PlantModel`); default ``make_plant(settings.plant, robot, settings.realism)``.
-    Raises SimulationError only for unusable inputs; tracking failures are in the result.
-    """
+def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
+                 settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None,
+                 plant: PlantModel | None = None) -> tuple:
+    """Everything :func:`simulate` sets up before its loop, raising the SimulationError it would raise (the
+    inputs, the path table and the orbital design, through the on-disk cache when settings.design_cache,
+    the controller, the plant and its first step, the end rules). ``pathmotion check`` runs it, so that
+    its OK means that simulate starts. Returns (table, command, plant, planned TCP line, end rules,
+    time budget [s])."""
     _check_inputs(robot, path, profile)
     ts, substeps = settings.sample_time, settings.substeps
     if design is None and settings.design_cache:
@@ -163,11 +161,25 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     control = _Command(make_controller(controller, robot, path, profile, table, settings, budget + ts, design),
                        Sensor(settings.realism), settings.realism.delay)
     plant = make_plant(settings.plant, robot, settings.realism) if plant is None else plant
+    plant.check_step(np.array(path.evaluate(path.domain[0])[0], dtype=float), ts, substeps)
+    line = planned_tcp_line(robot, path, table.grid)
+    return table, control, plant, line, end_rules(table, profile, line, budget, settings), budget
+
+
+def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
+             settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None,
+             plant: PlantModel | None = None) -> SimulationResult:
+    """Run ``controller`` on ``robot`` along q = Phi(theta) with the planned ``profile``.
+
+    The run starts on the plan: q = Phi(theta_start), qd = Phi'(theta_start) sqrt(x*(theta_start)).
+    ``design``: a prebuilt OrbitalDesign on this path and profile (reused across runs), optional.
+    ``plant``: a prebuilt plant (:class:`PlantModel`); default ``make_plant(settings.plant, robot, settings.realism)``.
+    Raises SimulationError only for unusable inputs; tracking failures are in the result.
+    """
+    table, control, plant, line, rules, budget = prepare_loop(robot, path, profile, controller, settings, design, plant)
+    ts, substeps = settings.sample_time, settings.substeps
     phi0, dphi0, _ = path.evaluate(path.domain[0])
     q, qd = np.array(phi0, dtype=float), np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
-    plant.check_step(q, ts, substeps)
-    line = planned_tcp_line(robot, path, table.grid)
-    rules = end_rules(table, profile, line, budget, settings)
     log.info("loop start: %s controller, %s plant, Ts = %g s (%d sub-steps), time budget %.4g s", controller,
              settings.plant, ts, substeps, budget)
     monitor = _Monitor(table, robot, line, ts)
