@@ -113,9 +113,12 @@ NUMERIC_SITES = {
 }
 #: Version of the document generator: part of the results file's name, so that a resumed run never mixes
 #: documents of two generators. Bump it when a change alters the documents of a (seed, index).
-GENERATOR = 1
+GENERATOR = 2
 CLASSES = ("dropped key", "duplicated key", "renamed key", "wrong type", "garbage bytes", "bad geometry",
-           "special file", "deep nesting", "extreme value", "bad --out folder", "closed polygon")
+           "special file", "deep nesting", "extreme value", "bad --out folder", "closed polygon", "robot files",
+           "half a result")
+#: The built-in robot's files, the bases of the "robot files" class.
+ROBOT_DATA = Path(__file__).resolve().parents[1] / "pathmotion" / "robot" / "data"
 
 
 @dataclass
@@ -128,7 +131,9 @@ class Doc:
     special: str | None = None  # the scenario argument is this special path instead of a file
     files: dict = field(default_factory=dict)  # name -> bytes, or "fifo" / "dir" / "loop"
     command: str = "check"
-    out_kind: str = "fresh"  # how --out is prepared (bad --out folder class)
+    out_kind: str = "fresh"  # how --out is prepared (bad --out folder, half a result classes)
+    signal: int = 0  # half a result: send this signal to the run ...
+    signal_cpu: float = 0.0  # ... once it has used this much CPU time [s]
 
 
 # ------------------------------------------------------------------------------------ generation
@@ -226,6 +231,15 @@ def generate(index: int, rng: random.Random) -> Doc:
             text = text.replace("grid_points = 50", "grid_points = 50\nperiodic = true")
         if rng.random() < 0.3:
             text = text.replace('type = "circle"\nradius', 'type = "g2"\ntolerance')
+    elif klass == "robot files":
+        text = _robot_files(doc, text, rng)
+    elif klass == "half a result":
+        doc.command = "plan"
+        doc.out_kind = rng.choice(["previous result", "previous result", "locked"])
+        if doc.out_kind == "previous result":
+            doc.signal = rng.choice([signal.SIGINT, signal.SIGTERM])
+            doc.signal_cpu = rng.choice([0.01, 0.05, 0.1, 0.2, 0.3, 0.4, 0.6])
+        text = BASES[rng.choice(["joint", "line"])]
     doc.data = text.encode()
     return doc
 
@@ -282,6 +296,76 @@ def _special(doc: Doc, text: str, rng: random.Random) -> None:
     doc.data = (text + f"[robot]\n{key} = {value}\n").encode()
 
 
+def _robot_files(doc: Doc, text: str, rng: random.Random) -> str:
+    """A hostile limits file or URDF beside the scenario (which names it in [robot])."""
+    if rng.random() < 0.5:
+        lines = (ROBOT_DATA / "irb140_limits.toml").read_text().splitlines()
+        joint_lines = [i for i, ln in enumerate(lines) if "=" in ln and not ln.startswith(("#", "robot", "urdf"))]
+        choice = rng.randrange(6)
+        if choice == 0:  # a value of the wrong type or out of range (sources of the wrong type included)
+            i = rng.choice(joint_lines)
+            lines[i] = lines[i].split("=", 1)[0] + "= " + rng.choice(
+                ["5", '"x"', "-1.0", "0", "nan", "inf", "1e308", "[]", "{range = 3}", "true", "-1e308"])
+        elif choice == 1:  # a line dropped or duplicated
+            i = rng.choice(joint_lines)
+            lines.insert(i, lines[i]) if rng.random() < 0.5 else lines.pop(i)
+        elif choice == 2:  # a joint block (11 lines) less or more
+            i = rng.choice([i for i, ln in enumerate(lines) if ln == "[[joints]]"])
+            if rng.random() < 0.5:
+                lines[i:i] = lines[i:i + 11]
+            else:
+                del lines[i:i + 11]
+        elif choice == 3:  # lower above upper
+            lines = [ln.replace("lower = -", "lower = ") for ln in lines]
+        elif choice == 4:  # sources of the wrong type everywhere
+            lines = [("sources = " + rng.choice(["5", '"official"', "[1, 2]", "{range = 1}"])) if ln.startswith(
+                "sources") else ln for ln in lines]
+        else:  # garbage bytes inside
+            data = bytearray("\n".join(lines).encode())
+            for _ in range(rng.randrange(1, 6)):
+                pos = rng.randrange(len(data))
+                data[pos:pos + 2] = rng.randbytes(rng.randrange(1, 4))
+            doc.files["lim.toml"] = bytes(data)
+            return text + '[robot]\nlimits = "lim.toml"\n'
+        doc.files["lim.toml"] = ("\n".join(lines) + "\n").encode()
+        return text + '[robot]\nlimits = "lim.toml"\n'
+    urdf = (ROBOT_DATA / "irb140.urdf").read_text()
+    choice = rng.randrange(6)
+    if choice == 0:  # many links: a chain of fixed joints after tool0
+        n = rng.choice([1000, 1001, 20000])
+        chain = "".join(f'<link name="x{k}"/><joint name="jx{k}" type="fixed"><parent link="'
+                        f'{"tool0" if k == 0 else f"x{k - 1}"}"/><child link="x{k}"/></joint>\n' for k in range(n))
+        urdf = urdf.replace("</robot>", chain + "</robot>")
+    elif choice == 1:  # over the byte cap: a sparse file of NUL bytes after the text
+        doc.files["r.urdf"] = ("sparse", urdf.encode(), rng.choice([50_000_001, 200_000_000]))
+        return text + '[robot]\nname = "r.urdf"\n'
+    elif choice == 2:  # a mass, inertia, axis or limit that is not physical
+        old, new = rng.choice([('mass value="15.99"', f'mass value="{rng.choice(["-1", "0", "nan", "1e308"])}"'),
+                               ('ixx="0.3286"', f'ixx="{rng.choice(["-5", "nan", "1e300", "0"])}"'),
+                               ('axis xyz="0 1 0"', f'axis xyz="{rng.choice(["0 0 0", "nan 0 0", "1e308 0 0"])}"'),
+                               ('effort="350"', f'effort="{rng.choice(["0", "-1", "nan", "inf"])}"'),
+                               ('velocity="3.49065850399"', f'velocity="{rng.choice(["0", "-1", "nan"])}"')])
+        urdf = urdf.replace(old, new, 1)
+    elif choice == 3:  # a structure error: a duplicate or missing link, a loop, a missing robot tag
+        old, new = rng.choice([('<link name="link_3">', '<link name="link_2">'),
+                               ('<child link="link_4"/>', '<child link="nowhere"/>'),
+                               ('<parent link="base_link"/>', '<parent link="link_6"/>'),
+                               ("</robot>", ""), ('type="revolute"', 'type="spherical"')])
+        urdf = urdf.replace(old, new, 1)
+    elif choice == 4:  # garbage bytes
+        data = bytearray(urdf.encode())
+        for _ in range(rng.randrange(1, 6)):
+            pos = rng.randrange(len(data))
+            data[pos:pos + 2] = rng.randbytes(rng.randrange(1, 4))
+        doc.files["r.urdf"] = bytes(data)
+        return text + '[robot]\nname = "r.urdf"\n'
+    else:  # deep XML nesting
+        depth = rng.choice([100, 10000, 100000])
+        urdf = urdf.replace("</robot>", "<a>" * depth + "</a>" * depth + "</robot>")
+    doc.files["r.urdf"] = urdf.encode()
+    return text + '[robot]\nname = "r.urdf"\n'
+
+
 def _deep(text: str, rng: random.Random) -> str:
     depth = rng.choice([20, 40, 200, 5000, 100000])
     choice = rng.randrange(3)
@@ -304,6 +388,8 @@ class Run:
     cpu: float = 0.0  # the child's CPU time so far [s]
     progressed: float = 0.0  # monotonic time its CPU time last grew [s]
     hang: str | None = None  # why the parent ended it, when it did
+    signalled: bool = False  # half a result: the signal was sent
+    lock_fd: int | None = None  # half a result, "locked": the parent holds the --out folder's lock
 
 
 def _prepare(doc: Doc, folder: Path) -> tuple[list, Path | None]:
@@ -317,6 +403,10 @@ def _prepare(doc: Doc, folder: Path) -> tuple[list, Path | None]:
             path.mkdir()
         elif content == "loop":
             os.symlink(path, path)
+        elif isinstance(content, tuple):  # ("sparse", head bytes, size): head, then a hole of NUL bytes
+            with open(path, "wb") as fh:
+                fh.write(content[1])
+                fh.truncate(content[2])
         else:
             path.write_bytes(content)
     scenario = folder / "s.toml"
@@ -347,9 +437,18 @@ def _prepare(doc: Doc, folder: Path) -> tuple[list, Path | None]:
         (out / "summary.json").mkdir(parents=True)
     elif kind == "nul byte":
         out = Path(str(folder) + "/o\0ut")
+    elif kind in ("previous result", "locked"):
+        out.mkdir()
+        for name, content in PREVIOUS.items():
+            (out / name).write_text(content)
     if doc.klass == "bad --out folder":  # (other classes wrote theirs above; a FIFO must not be written)
         scenario.write_bytes(doc.data or JOINT.encode())
     return ["plan", scen_arg, "--out", str(out), "--no-figures"], out
+
+
+#: The complete earlier result an interrupted or locked-out run must leave intact (or replace as a whole).
+PREVIOUS = {"summary.json": '{"scenario": "previous", "duration_s": 1.0}\n', "trajectory.csv": "t,q1\n0,0\n1,0\n",
+            "previous.marker": "the earlier run's folder\n"}
 
 
 def _child(args: list, folder: Path, mem_bytes: int, cpu_s: float) -> None:
@@ -357,8 +456,9 @@ def _child(args: list, folder: Path, mem_bytes: int, cpu_s: float) -> None:
     code = 70
     try:
         os.setpgid(0, 0)
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGXCPU):
+        for sig in (signal.SIGTERM, signal.SIGXCPU):
             signal.signal(sig, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C as in a fresh interpreter
         soft = _vm_bytes() + mem_bytes
         resource.setrlimit(resource.RLIMIT_AS, (soft, soft))
         used = sum(os.times()[:2])  # the server's CPU time, inherited by the fork
@@ -444,7 +544,8 @@ def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_
     out = (run.folder / "stdout.txt").read_text(errors="replace")
     if code == 137:
         return "MemoryError (memory kill)"
-    if code not in (0, 1, 2):
+    interrupted = code == 130 and run.signalled
+    if code not in (0, 1, 2, 4) and not interrupted:  # 4: a failed plan, its files written
         return f"exit {code}" + (" (internal error)" if code == 3 else "") + f": {err.strip()[-300:]}"
     if "Traceback" in err or "Traceback" in out:
         return "traceback"
@@ -452,23 +553,47 @@ def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_
     # one error: line; several validation errors of one document follow it indented (the CLI's _fail)
     one_line = bool(lines) and lines[0].startswith("error: ") and all(ln.startswith("  ") for ln in lines[1:])
     usage = code == 2 and any("Usage" in ln for ln in lines)  # Typer's own usage error (exit 2)
-    if code and not (one_line or usage):
+    if interrupted and not (len(lines) == 1 and lines[0].startswith("interrupted")):
+        return f"interrupt not reported in one line ({len(lines)} lines): {err.strip()[:300]}"
+    if code and not interrupted and not (one_line or usage):
         return f"error not one line ({len(lines)} lines): {err.strip()[:300]}"
     if code == 0 and any(not ln.startswith("note: ") for ln in lines):  # notes (e.g. a periodic start) are fine
         return f"stderr on success: {err.strip()[:300]}"
     leftovers = [str(p) for p in run.folder.rglob("*") if p.name.endswith(".tmp")]
     if leftovers:
         return f"temporary left behind: {leftovers[:3]}"
-    if run.out is not None and run.out.parent == run.folder and run.doc.out_kind == "fresh":
-        if code == 0:
-            try:
-                _finite_json(run.out / "summary.json")
-                _finite_csv(run.out / "trajectory.csv")
-            except (OSError, ValueError) as exc:
-                return f"contract file missing or not finite: {exc}"
-        elif run.out.exists():
-            return "a failed run left its --out folder"
+    if run.out is not None and run.out.parent == run.folder:
+        return _judge_folder(run, code, err)
     return None
+
+
+def _contract(out: Path) -> str | None:
+    try:
+        _finite_json(out / "summary.json")
+        _finite_csv(out / "trajectory.csv")
+    except (OSError, ValueError) as exc:
+        return f"contract file missing or not finite: {exc}"
+    return None
+
+
+def _judge_folder(run: Run, code: int, err: str) -> str | None:
+    """The --out folder after the run: a complete finite result when it succeeded (0) or wrote a failed plan
+    (4); else no folder (a fresh --out), or the previous result untouched, file for file."""
+    kind = run.doc.out_kind
+    if kind == "locked" and not (code == 1 and "another pathmotion run" in err):
+        return f"a run into a locked folder was not refused (exit {code}): {err.strip()[:200]}"
+    if kind not in ("fresh", "previous result", "locked"):
+        return None
+    if kind != "fresh" and (run.out / "previous.marker").exists():
+        now = {p.name: p.read_text(errors="replace") for p in run.out.iterdir() if p.is_file()}
+        if now != PREVIOUS or any(p.is_dir() for p in run.out.iterdir()):
+            return f"half a result: the previous folder holds {sorted(now)}, changed"
+        return None if code not in (0, 4) else f"exit {code} but the previous result is still in --out"
+    if code in (0, 4):
+        return _contract(run.out)
+    if run.out.exists():
+        return "a failed run left its --out folder" if kind == "fresh" else "the previous result was removed"
+    return None if kind == "fresh" else "the previous result was removed"
 
 
 def _reproduce(escapes: Path, run: Run, what: str) -> None:
@@ -534,30 +659,51 @@ def _launch(doc: Doc, work: Path, mem_mb: int, timeout: float) -> Run:
     if folder.exists():
         _cleanup(folder)
     args, out_path = _prepare(doc, folder)
+    lock_fd = _hold_lock(out_path) if doc.out_kind == "locked" else None
     pid = os.fork()
     if pid == 0:
         _child(args, folder, mem_mb << 20, timeout)
     now = time.monotonic()
-    return Run(doc, folder, args, out_path, pid, now, 0.0, now)
+    return Run(doc, folder, args, out_path, pid, now, 0.0, now, lock_fd=lock_fd)
+
+
+def _hold_lock(out: Path) -> int:
+    """Hold the lock another pathmotion run holds while it writes ``out`` (io/atomic.py: an flock on
+    .NAME.lock beside it, holding the pid)."""
+    import fcntl
+
+    fd = os.open(out.parent / f".{out.name}.lock", os.O_RDWR | os.O_CREAT, 0o644)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    os.write(fd, f"{os.getpid()}\n".encode())
+    return fd
 
 
 def _finish(run: Run, status: int | None, cpu: float, timeout: float, escapes: Path) -> dict:
     """Judge a finished child, keep a reproducer if it escaped, clean up; returns its record."""
     elapsed = time.monotonic() - run.started
+    if run.lock_fd is not None:
+        os.close(run.lock_fd)
     what = verdict(run, status, elapsed, cpu, timeout)
     if what is not None:
         _reproduce(escapes, run, what)
+    try:
+        first = (run.folder / "stderr.txt").read_text(errors="replace").strip().splitlines()[0][:160]
+    except (OSError, IndexError):
+        first = ""
     _cleanup(run.folder)
+    code = None if status is None else (os.WEXITSTATUS(status) if os.WIFEXITED(status) else -os.WTERMSIG(status))
     return {"index": run.doc.index, "class": run.doc.klass, "command": run.doc.command, "escape": what,
-            "cpu_s": round(cpu, 3), "wall_s": round(elapsed, 3)}
+            "exit": code, "stderr": first, "signalled": run.signalled, "cpu_s": round(cpu, 3),
+            "wall_s": round(elapsed, 3)}
 
 
 def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120.0, mem_mb: int = 2048,
-         start: int = 0, resume: bool = False, idle: float = 120.0, wall_cap: float = 3600.0) -> dict:
+         start: int = 0, resume: bool = False, idle: float = 120.0, wall_cap: float = 3600.0,
+         classes: tuple | None = None) -> dict:
     """Run documents ``start`` .. ``docs - 1`` (skipping those already in the results file when ``resume``);
     ``timeout`` is CPU seconds per document. Returns {"per_class": Counter, "escapes": Counter, "found":
     [(index, class, what)], "seconds": wall time of this call, "ran": documents run by this call, "cpu_s"}
-    over every recorded document of the range."""
+    over every recorded document of the range (of ``classes`` only, when given)."""
     import pathmotion.api  # noqa: F401 - warm the server once: every child starts with it imported
     import pathmotion.cli  # noqa: F401
     from pathmotion import load_robot
@@ -572,7 +718,8 @@ def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120
     escapes = out / "escapes"
     running: dict[int, Run] = {}
     t0 = time.monotonic()
-    queue = (i for i in range(start, docs) if i not in records)
+    wanted = set(CLASSES if classes is None else classes)
+    queue = (i for i in range(start, docs) if i not in records and CLASSES[i % len(CLASSES)] in wanted)
     pending, ran = True, 0
     with open(results, "a") as log:
         while pending or running:
@@ -589,6 +736,9 @@ def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120
                 done, status, usage = os.wait4(pid, os.WNOHANG)
                 if done == 0:
                     run.hang = _watch(run, now, idle, wall_cap)
+                    if run.doc.signal and not run.signalled and run.cpu >= run.doc.signal_cpu:
+                        os.killpg(pid, run.doc.signal)  # half a result: interrupt it at this CPU time
+                        run.signalled = True
                     if run.hang is None:
                         continue
                     os.killpg(pid, signal.SIGKILL)
@@ -601,7 +751,7 @@ def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120
                 log.flush()
                 ran += 1
     shutil.rmtree(work, ignore_errors=True)
-    mine = [records[i] for i in sorted(records) if start <= i < docs]
+    mine = [records[i] for i in sorted(records) if start <= i < docs and records[i]["class"] in wanted]
     return {"per_class": Counter(r["class"] for r in mine),
             "escapes": Counter(r["class"] for r in mine if r["escape"]),
             "found": [(r["index"], r["class"], r["escape"]) for r in mine if r["escape"]],
@@ -612,6 +762,8 @@ def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120
 def table(result: dict) -> str:
     rows = [f"{'class':<20} {'documents':>9} {'escapes':>8}"]
     for klass in CLASSES:
+        if not result["per_class"][klass]:
+            continue
         rows.append(f"{klass:<20} {result['per_class'][klass]:>9} {result['escapes'][klass]:>8}")
     total = sum(result["per_class"].values())
     rows.append(f"{'total':<20} {total:>9} {sum(result['escapes'].values()):>8}")
@@ -634,10 +786,11 @@ def main() -> None:
     ap.add_argument("--start", type=int, default=0, help="first document index")
     ap.add_argument("--resume", action="store_true",
                     help="keep OUT/results-seed{S}-g{GENERATOR}.jsonl and skip the documents it already holds")
+    ap.add_argument("--only", action="append", choices=CLASSES, help="run only this class (repeatable)")
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     result = fuzz(args.docs, args.seed, args.out.resolve(), args.workers, args.timeout, args.mem_mb,
-                  args.start, args.resume, args.idle, args.wall_cap)
+                  args.start, args.resume, args.idle, args.wall_cap, tuple(args.only) if args.only else None)
     print(table(result))
     for index, klass, what in result["found"]:
         print(f"escape: document {index} ({klass}): {what.splitlines()[0][:200]}")

@@ -19,13 +19,13 @@ sys.modules["fuzz_cli"] = fuzz_cli  # dataclasses look their module up
 spec.loader.exec_module(fuzz_cli)
 
 
-def _run(tmp_path, stderr="", stdout="", out=None, command="check"):
+def _run(tmp_path, stderr="", stdout="", out=None, command="check", out_kind="fresh", signalled=False):
     folder = tmp_path / "d"
     folder.mkdir(exist_ok=True)
     (folder / "stderr.txt").write_text(stderr)
     (folder / "stdout.txt").write_text(stdout)
-    doc = fuzz_cli.Doc(0, "wrong type", command=command)
-    return fuzz_cli.Run(doc, folder, [], out, 0, 0.0)
+    doc = fuzz_cli.Doc(0, "wrong type", command=command, out_kind=out_kind)
+    return fuzz_cli.Run(doc, folder, [], out, 0, 0.0, signalled=signalled)
 
 
 def _exit(code):
@@ -52,6 +52,41 @@ def test_the_escape_rules(tmp_path):
     assert "left its --out" in v(_run(tmp_path, "error: no\n", out=out, command="plan"), _exit(1), 1.0)
     (tmp_path / "d" / ".out.pm-new-x.tmp").mkdir()
     assert "temporary" in v(_run(tmp_path, "error: no\n", command="check"), _exit(1), 1.0)
+
+
+def test_the_half_a_result_rules(tmp_path):
+    """An interrupted run (exit 130, one 'interrupted' line) leaves the previous result file for file, or a
+    complete new one; a run into a folder another run holds is refused and changes nothing."""
+    v = fuzz_cli.verdict
+    out = tmp_path / "d" / "out"
+    out.mkdir(parents=True)
+
+    def previous():
+        for p in out.iterdir():
+            p.unlink()
+        for name, text in fuzz_cli.PREVIOUS.items():
+            (out / name).write_text(text)
+
+    def run(stderr, kind="previous result", signalled=True):
+        return _run(tmp_path, stderr, out=out, command="plan", out_kind=kind, signalled=signalled)
+
+    said = "interrupted: finished files are complete, nothing half-written remains\n"
+    previous()
+    assert v(run(said), _exit(130), 1.0) is None
+    assert "exit 130" in v(run(said, signalled=False), _exit(130), 1.0)  # nobody interrupted it
+    assert "one line" in v(run("Aborted!\n" + said), _exit(130), 1.0)
+    (out / "trajectory.csv").write_text("t,q1\n0,0\n0.5,0\n")  # a new file beside the old summary
+    assert "half a result" in v(run(said), _exit(130), 1.0)
+    previous()
+    assert "still in --out" in v(run(""), _exit(0), 1.0)
+    (out / "previous.marker").unlink()
+    (out / "summary.json").write_text('{"duration_s": 0.5}')
+    assert v(run(""), _exit(0), 1.0) is None  # replaced as a whole by a complete result
+    assert "removed" in v(run("error: no\n"), _exit(1), 1.0)
+    previous()
+    refused = "error: another pathmotion run (pid 7) is writing to out (lock .out.lock); wait\n"
+    assert v(run(refused, "locked", False), _exit(1), 1.0) is None
+    assert "not refused" in v(run("", "locked", False), _exit(0), 1.0)
 
 
 def test_documents_cover_every_class_and_are_seeded():
