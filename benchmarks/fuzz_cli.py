@@ -16,14 +16,15 @@ time of ``--wall-cap`` seconds is only the backstop.
     .venv/bin/python benchmarks/fuzz_cli.py --docs 500 --seed 1 [--out out/fuzz] [--workers 2]
     .venv/bin/python benchmarks/fuzz_cli.py --docs 10000 --seed 1 --resume   # resumable, in pieces
 
-Every finished document appends one line to OUT/results-seed{S}-g{GENERATOR}.jsonl; ``--resume`` skips the
-documents already there (each document's content depends on the generator, the seed and its index only),
-``--start N`` begins at document N. The table printed at the end covers every recorded document of the range.
+Every finished document appends one line to OUT/results-seed{S}-g{GENERATOR}.jsonl (each document depends on
+the generator, the seed and its index only); ``--resume`` skips the documents already there without an escape
+(one that escaped runs again, to confirm its fix), ``--start N`` begins at document N. The table printed at the
+end covers every recorded document of the range: escapes found once, and escapes now.
 
 Each document runs one command (``check`` or ``plan --no-figures``, picked by the seed) on a coarse grid
-(plan.grid_points = 50 unless the document sets it): check already solves the plan, so both cover the
-flow up to writing; ``simulate`` is left out (minutes per document). Prints the table: documents per
-class, escapes per class, documents per second.
+(plan.grid_points = 50 unless the document sets it): check solves the plan and builds the closed loop's set-up,
+so both cover the flow up to writing; ``simulate``'s loop is left out (minutes per document). Prints the
+table: documents, escapes found once and escapes now per class, wall and CPU time.
 """
 
 from __future__ import annotations
@@ -553,7 +554,9 @@ def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_
     # one error: line; several validation errors of one document follow it indented (the CLI's _fail)
     one_line = bool(lines) and lines[0].startswith("error: ") and all(ln.startswith("  ") for ln in lines[1:])
     usage = code == 2 and any("Usage" in ln for ln in lines)  # Typer's own usage error (exit 2)
-    if interrupted and not (len(lines) == 1 and lines[0].startswith("interrupted")):
+    # interrupted: the CLI's one 'interrupted' line, or nothing when Typer took the Ctrl-C before the command
+    # started (no file written yet)
+    if interrupted and not (not lines or (len(lines) == 1 and lines[0].startswith("interrupted"))):
         return f"interrupt not reported in one line ({len(lines)} lines): {err.strip()[:300]}"
     if code and not interrupted and not (one_line or usage):
         return f"error not one line ({len(lines)} lines): {err.strip()[:300]}"
@@ -589,11 +592,11 @@ def _judge_folder(run: Run, code: int, err: str) -> str | None:
         if now != PREVIOUS or any(p.is_dir() for p in run.out.iterdir()):
             return f"half a result: the previous folder holds {sorted(now)}, changed"
         return None if code not in (0, 4) else f"exit {code} but the previous result is still in --out"
-    if code in (0, 4):
+    if code in (0, 4) or (kind != "fresh" and run.out.exists()):  # (an interrupt after the swap: the new one)
         return _contract(run.out)
     if run.out.exists():
-        return "a failed run left its --out folder" if kind == "fresh" else "the previous result was removed"
-    return None if kind == "fresh" else "the previous result was removed"
+        return "a failed run left its --out folder"
+    return None if kind == "fresh" else f"exit {code} and no --out folder: the previous result was removed"
 
 
 def _reproduce(escapes: Path, run: Run, what: str) -> None:
@@ -621,9 +624,10 @@ def _results_file(out: Path, seed: int) -> Path:
     return out / f"results-seed{seed}-g{GENERATOR}.jsonl"
 
 
-def _recorded(path: Path) -> dict[int, dict]:
-    """Documents already run (index -> record) in a results file; a torn last line is ignored."""
-    done = {}
+def _recorded(path: Path) -> tuple[dict[int, dict], dict[int, dict]]:
+    """(latest record of each document run, first escaping record of each document that ever escaped) in
+    a results file; a torn last line is ignored."""
+    done, escaped = {}, {}
     if path.exists():
         for line in path.read_text().splitlines():
             try:
@@ -631,7 +635,9 @@ def _recorded(path: Path) -> dict[int, dict]:
             except ValueError:
                 continue
             done[rec["index"]] = rec
-    return done
+            if rec["escape"]:
+                escaped.setdefault(rec["index"], rec)
+    return done, escaped
 
 
 def _doc_rng(seed: int, index: int) -> random.Random:
@@ -711,7 +717,7 @@ def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120
     load_robot("irb140").model  # noqa: B018 - the built-in model, parsed once
 
     results = _results_file(out, seed)
-    records = _recorded(results) if resume else {}
+    records, ever = _recorded(results) if resume else ({}, {})
     if not resume and results.exists():
         results.unlink()
     work = Path(tempfile.mkdtemp(prefix="fuzz-", dir=out))
@@ -719,7 +725,9 @@ def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120
     running: dict[int, Run] = {}
     t0 = time.monotonic()
     wanted = set(CLASSES if classes is None else classes)
-    queue = (i for i in range(start, docs) if i not in records and CLASSES[i % len(CLASSES)] in wanted)
+    # a resumed run runs again the documents that escaped (to confirm a fix), and those not run yet
+    queue = (i for i in range(start, docs) if (i not in records or records[i]["escape"])
+             and CLASSES[i % len(CLASSES)] in wanted)
     pending, ran = True, 0
     with open(results, "a") as log:
         while pending or running:
@@ -747,6 +755,8 @@ def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120
                 del running[pid]
                 rec = _finish(run, status, usage.ru_utime + usage.ru_stime, timeout, escapes)
                 records[rec["index"]] = rec
+                if rec["escape"]:
+                    ever.setdefault(rec["index"], rec)
                 log.write(json.dumps(rec) + "\n")
                 log.flush()
                 ran += 1
@@ -754,19 +764,21 @@ def fuzz(docs: int, seed: int, out: Path, workers: int = 2, timeout: float = 120
     mine = [records[i] for i in sorted(records) if start <= i < docs and records[i]["class"] in wanted]
     return {"per_class": Counter(r["class"] for r in mine),
             "escapes": Counter(r["class"] for r in mine if r["escape"]),
+            "found_ever": Counter(r["class"] for i, r in ever.items() if start <= i < docs and r["class"] in wanted),
             "found": [(r["index"], r["class"], r["escape"]) for r in mine if r["escape"]],
             "seconds": time.monotonic() - t0, "ran": ran,
             "cpu_s": sum(r["cpu_s"] for r in mine)}
 
 
 def table(result: dict) -> str:
-    rows = [f"{'class':<20} {'documents':>9} {'escapes':>8}"]
+    ever = result.get("found_ever", result["escapes"])
+    rows = [f"{'class':<20} {'documents':>9} {'escaped once':>12} {'escape now':>10}"]
     for klass in CLASSES:
         if not result["per_class"][klass]:
             continue
-        rows.append(f"{klass:<20} {result['per_class'][klass]:>9} {result['escapes'][klass]:>8}")
+        rows.append(f"{klass:<20} {result['per_class'][klass]:>9} {ever[klass]:>12} {result['escapes'][klass]:>10}")
     total = sum(result["per_class"].values())
-    rows.append(f"{'total':<20} {total:>9} {sum(result['escapes'].values()):>8}")
+    rows.append(f"{'total':<20} {total:>9} {sum(ever.values()):>12} {sum(result['escapes'].values()):>10}")
     rows.append(f"{result.get('ran', total)} documents run now in {result['seconds']:.0f} s wall; "
                 f"{result.get('cpu_s', 0.0):.0f} s of child CPU over all {total}")
     return "\n".join(rows)

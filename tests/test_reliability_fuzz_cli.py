@@ -4,6 +4,7 @@ they must, and CI's seeded 500-document slice finds no escape (about 5 minutes o
 import importlib.util
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -75,6 +76,7 @@ def test_the_half_a_result_rules(tmp_path):
     assert v(run(said), _exit(130), 1.0) is None
     assert "exit 130" in v(run(said, signalled=False), _exit(130), 1.0)  # nobody interrupted it
     assert "one line" in v(run("Aborted!\n" + said), _exit(130), 1.0)
+    assert v(run(""), _exit(130), 1.0) is None  # Typer took the Ctrl-C before the command began
     (out / "trajectory.csv").write_text("t,q1\n0,0\n0.5,0\n")  # a new file beside the old summary
     assert "half a result" in v(run(said), _exit(130), 1.0)
     previous()
@@ -82,7 +84,12 @@ def test_the_half_a_result_rules(tmp_path):
     (out / "previous.marker").unlink()
     (out / "summary.json").write_text('{"duration_s": 0.5}')
     assert v(run(""), _exit(0), 1.0) is None  # replaced as a whole by a complete result
+    assert v(run(said), _exit(130), 1.0) is None  # interrupted after the swap: the new result is whole
+    (out / "trajectory.csv").unlink()
+    assert "contract" in v(run(said), _exit(130), 1.0)
+    shutil.rmtree(out)
     assert "removed" in v(run("error: no\n"), _exit(1), 1.0)
+    out.mkdir()
     previous()
     refused = "error: another pathmotion run (pid 7) is writing to out (lock .out.lock); wait\n"
     assert v(run(refused, "locked", False), _exit(1), 1.0) is None
@@ -132,6 +139,13 @@ def test_a_run_resumes_where_it_stopped(tmp_path):
     assert sorted(json.loads(ln)["index"] for ln in lines) == [0, 1, 2, 3, 4]
     tail = fuzz_cli.fuzz(5, 7, tmp_path, workers=2, start=3, resume=True)
     assert tail["ran"] == 0 and sum(tail["per_class"].values()) == 2
+    # a document that escaped runs again on resume (to confirm its fix); the table keeps that it escaped once
+    escaped = dict(json.loads(lines[1]), escape="exit 3 (internal error): pretend")
+    with open(tmp_path / f"results-seed7-g{fuzz_cli.GENERATOR}.jsonl", "a") as fh:
+        fh.write(json.dumps(escaped) + "\n")
+    again = fuzz_cli.fuzz(5, 7, tmp_path, workers=2, resume=True)
+    assert again["ran"] == 1 and not again["found"]
+    assert again["found_ever"] == {escaped["class"]: 1}
 
 
 @pytest.mark.slow
