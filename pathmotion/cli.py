@@ -14,6 +14,7 @@ import json
 import logging
 import os
 import re
+import sys
 from pathlib import Path
 from typing import List, Optional
 
@@ -633,10 +634,34 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt(f"signal {signum}")
 
 
+#: Delay before an interrupt swallowed in a C callback is delivered again [s] (see _unraisable).
+INTERRUPT_REDELIVERY_DELAY = 0.05
+
+
+def _unraisable(args) -> None:
+    """sys.unraisablehook: an exception Python cannot raise where it occurred (in a C callback, a __del__)
+    goes to the debug log, never the terminal. A KeyboardInterrupt among them (Ctrl-C or SIGTERM landing in
+    numba's compiler callback: printed as a traceback and swallowed, the run went on; found by
+    benchmarks/fuzz_cli.py) is delivered again to the main thread, a moment later (delivered at once, it
+    would be raised inside this hook, still in the callback, and swallowed again), so the run stops as
+    interrupted."""
+    if args.exc_type is not None and issubclass(args.exc_type, KeyboardInterrupt):
+        import _thread
+        import threading
+
+        timer = threading.Timer(INTERRUPT_REDELIVERY_DELAY, _thread.interrupt_main)
+        timer.daemon = True
+        timer.start()
+        return
+    logger.debug("ignored %s in %r: %s", getattr(args.exc_type, "__name__", "exception"), args.object,
+                 args.exc_value)
+
+
 def main():
     import signal
 
     signal.signal(signal.SIGTERM, _terminate)
+    sys.unraisablehook = _unraisable
     try:
         app(prog_name="pathmotion")
     except KeyboardInterrupt:  # outside a command (argument parsing, start-up): nothing was written yet

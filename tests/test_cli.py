@@ -4,6 +4,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -309,3 +310,39 @@ def test_plan_explains_the_reported_grid_points():
     adaptive = api.load(scenario_path("circle_zero"))
     assert adaptive.scenario.plan.grid_points is None
     assert _grid_note(adaptive, {"grid_points": 517})["grid_points"].startswith("adaptive grid: refined until")
+
+
+def test_an_interrupt_swallowed_in_a_c_callback_is_delivered_again(capsys):
+    """SIGTERM/Ctrl-C landing in a C callback (numba's compiler calls back into Python) used to print an
+    'Exception ignored' traceback and be lost, the run going on (found by benchmarks/fuzz_cli.py). The CLI's
+    unraisable hook delivers it again, outside the callback, and prints nothing."""
+    import ctypes
+    import signal
+
+    from pathmotion import cli
+
+    def compare(a, b):
+        raise KeyboardInterrupt("signal 15")
+
+    cmp = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int))(compare)
+    values = (ctypes.c_int * 3)(3, 1, 2)
+    qsort = ctypes.CDLL(None).qsort
+    before = sys.unraisablehook
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    sys.unraisablehook = cli._unraisable
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            qsort(values, len(values), ctypes.sizeof(ctypes.c_int), cmp)  # the callback's exception is swallowed
+            time.sleep(5.0)  # ... and raised again here, in the main thread, a moment later
+    finally:
+        sys.unraisablehook = before
+        signal.signal(signal.SIGINT, previous)
+    assert capsys.readouterr().err == ""
+    # other unraisable exceptions go to the debug log only
+    sys.unraisablehook = cli._unraisable
+    try:
+        qsort(values, len(values), ctypes.sizeof(ctypes.c_int), ctypes.CFUNCTYPE(
+            ctypes.c_int, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int))(lambda a, b: 1 / 0))
+    finally:
+        sys.unraisablehook = before
+    assert capsys.readouterr().err == ""
