@@ -30,6 +30,7 @@ table: documents, escapes found once and escapes now per class, wall and CPU tim
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import json
 import math
 import os
@@ -473,6 +474,7 @@ def _child(args: list, folder: Path, mem_bytes: int, cpu_s: float) -> None:
         # sys.stdout/sys.stderr for its own capture objects) the CLI would otherwise write elsewhere
         sys.stdout = open(1, "w", encoding="utf-8", errors="replace", closefd=False, buffering=1)
         sys.stderr = open(2, "w", encoding="utf-8", errors="replace", closefd=False, buffering=1)
+        faulthandler.enable(file=sys.stderr)  # a crash (SIGSEGV, SIGABRT) leaves its Python stack in stderr.txt
         os.chdir(folder)
         from pathmotion.cli import main
 
