@@ -49,10 +49,15 @@ ATLAS_CORNER = (0.5, -0.05, 0.45)
 #: Columns of corners.csv.
 ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "status", "stop_s", "circle_s", "g2_s", "optimal_s",
                  "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
-                 "industrial_zone_s", "gain_vs_stop", "gap_to_optimum", "capture", "optimal_entry_m",
-                 "optimal_exit_m", "error")
+                 "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2", "gap_to_optimum",
+                 "gap_to_corner_optimum", "capture", "optimal_entry_m", "optimal_exit_m", "closed_loop_ok",
+                 "closed_loop_path_accuracy_m", "closed_loop_cornering_deviation_m", "closed_loop_cycle_s", "error")
 #: Bump when the free-shape formulation changes, so cached optima are recomputed.
-OPTIMUM_VERSION = 1
+OPTIMUM_VERSION = 2
+#: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached).
+ROW_VERSION = 2
+#: Largest distance [m] of the simulated TCP from the planned path for the closed-loop check.
+CLOSED_LOOP_PATH_ACCURACY = 1e-3
 #: Smallest angle from 0 and 180 degrees a corner may have [deg].
 ANGLE_MARGIN_DEG = 1.0
 
@@ -141,55 +146,90 @@ def _optimum_key(robot, points, delta, spans, meshes) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
-def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None) -> dict:
+def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None, warm=None) -> dict:
     """The free-shape optimum's record {duration, convergence_error, success, status, durations,
-    verification}, read from ``cache`` or solved and written there."""
+    statuses, iterations, verification}, read from ``cache`` or solved (from the feasible motion
+    ``warm``, a PlanResult, when given: the start does not change the answer, so it is not in the
+    key) and written there."""
     from . import free_shape as fs
 
     meshes = tuple(meshes or fs.MESHES)
     f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes)}.json"
     if f.is_file():
         return json.loads(f.read_text())
-    opt = fs.free_shape_optimum(robot, points, delta, spans, meshes)
+    t0 = time.process_time()
+    opt = fs.free_shape_optimum(robot, points, delta, spans, meshes, warm=warm)
     rec = {"duration": opt.duration, "convergence_error": opt.convergence_error, "success": opt.success,
-           "status": opt.status, "durations": list(opt.durations), "delta": delta,
+           "status": opt.status, "durations": list(opt.durations), "statuses": [s.status for s in opt.solutions],
+           "iterations": [s.iterations for s in opt.solutions], "delta": delta,
            "spans": None if spans is None else [list(map(float, s)) for s in spans], "meshes": list(meshes),
-           "verification": opt.solutions[-1].verification}
+           "verification": opt.solutions[-1].verification, "cpu_s": time.process_time() - t0}
     write_json(f, rec)
     return rec
 
 
-def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None) -> dict:
-    """One row of corners.csv (ATLAS_COLUMNS except ``error``)."""
+def closed_loop_check(robot, path, profile, tolerance: float) -> dict:
+    """The planned motion simulated (orbital controller, SAMPLE_TIME): ``closed_loop_ok`` when it
+    tracked (no failure), the TCP stayed within CLOSED_LOOP_PATH_ACCURACY of the planned path and
+    the cornering deviation from the sharp path is within ``tolerance`` plus that tracking error;
+    with ``closed_loop_path_accuracy_m`` and ``closed_loop_cornering_deviation_m`` [m]."""
+    from .. import defaults
+    from ..simulation import SimulationSettings, simulate
+
+    sim = simulate(robot, path, profile, "orbital", SimulationSettings(sample_time=defaults.SAMPLE_TIME))
+    acc = float(np.max(sim.path_deviation)) if sim.path_deviation.size else 0.0
+    corner = None if sim.cornering_deviation is None else float(np.max(sim.cornering_deviation))
+    ok = (sim.tracking_ok and acc <= CLOSED_LOOP_PATH_ACCURACY and corner is not None
+          and corner <= tolerance + acc)
+    return {"closed_loop_ok": bool(ok), "closed_loop_path_accuracy_m": acc,
+            "closed_loop_cornering_deviation_m": corner, "closed_loop_cycle_s": sim.cycle_time}
+
+
+def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
+              closed_loop: bool = True) -> dict:
+    """One row of corners.csv (ATLAS_COLUMNS except ``error``), filled into ``row`` as it goes (so a
+    row that fails part way keeps what it had)."""
+    from ..constraint import lift
     from ..geometry import with_g2_blend, with_transition
+    from ..planning import plan
     from ..planning.blend_search import optimal_blends
     from .corner import transition_radius_for_deviation
 
     pts = corner_points(angle_deg)
     task = _task(pts)
-    row = {"angle_deg": float(angle_deg), "tolerance_m": float(tolerance)}
+    row = {} if row is None else row
+    row.update(angle_deg=float(angle_deg), tolerance_m=float(tolerance))
     row["stop_s"] = _duration(robot, task, connections="zero")
-    row["g2_s"] = _duration(robot, with_g2_blend(task, 0, tolerance), task)  # first: its error names the largest
+    row["industrial_zone_s"] = industrial_zone_duration(robot, task, tolerance)
+    row["g2_s"] = _duration(robot, with_g2_blend(task, 0, tolerance), task)  # its error names the largest that fits
     radius = transition_radius_for_deviation(task, 0, tolerance)
     row["circle_s"] = _duration(robot, with_transition(task, 0, radius), task)
     best = optimal_blends(robot, task, tolerance, settings=_settings(verify=False, baselines=False))
-    row["optimal_s"] = _duration(robot, best.path, task)
+    blended = lift(robot, best.path, original=task)
+    warm = plan(blended, robot, _settings(baselines=False))
+    row["optimal_s"] = float(warm.profile.duration)
     shape = best.shapes[0]
     row["optimal_entry_m"], row["optimal_exit_m"] = shape.entry, shape.exit
-    row["industrial_zone_s"] = industrial_zone_duration(robot, task, tolerance)
+    row["gain_vs_stop"] = 1.0 - row["optimal_s"] / row["stop_s"]
+    row["gain_vs_zone"] = 1.0 - row["optimal_s"] / row["industrial_zone_s"]
+    row["gain_vs_g2"] = 1.0 - row["optimal_s"] / row["g2_s"]
     status = []
     for name, spans in (("free_shape_optimum", None), ("corner_optimum", [(shape.entry, shape.exit)])):
-        rec = cached_optimum(cache, robot, pts, tolerance, spans, meshes)
+        rec = cached_optimum(cache, robot, pts, tolerance, spans, meshes, warm=warm)
         ok = rec["success"]
-        row[f"{name}_s"] = rec["duration"] if ok else None
-        row[name.replace("_optimum", "") + "_error_s"] = rec["convergence_error"] if ok else None
+        err = name.replace("_optimum", "") + "_error_s"
+        row[f"{name}_s"], row[err] = (rec["duration"], rec["convergence_error"]) if ok else (None, None)
         if not ok:
-            status.append(f"{name}: NLP not converged ({rec['status']})")
-    row["status"] = "; ".join(status) or "ok"
-    row["gain_vs_stop"] = 1.0 - row["optimal_s"] / row["stop_s"]
-    fso = row["free_shape_optimum_s"]
+            status.append(f"{name}: NLP not converged ({', '.join(rec.get('statuses', [rec['status']]))})")
+    fso, co = row["free_shape_optimum_s"], row["corner_optimum_s"]
     row["gap_to_optimum"] = None if fso is None else row["optimal_s"] / fso - 1.0
+    row["gap_to_corner_optimum"] = None if co is None else row["optimal_s"] / co - 1.0
     row["capture"] = None if fso is None else (row["stop_s"] - row["optimal_s"]) / (row["stop_s"] - fso)
+    if closed_loop:
+        row.update(closed_loop_check(robot, blended, warm.profile, tolerance))
+        if not row["closed_loop_ok"]:
+            status.append("closed loop: out of tolerance")
+    row["status"] = "; ".join(status) or "ok"
     return row
 
 
@@ -207,8 +247,8 @@ def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> di
         from ..robot import load_robot
 
         robot = load_robot(spec["robot"])
-        summary.update(atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]),
-                                 spec.get("meshes")))
+        atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]), spec.get("meshes"),
+                  row=summary, closed_loop=spec.get("closed_loop", True))
         error = None
     except PathmotionError as exc:
         error = f"{type(exc).__name__}: {exc}"
@@ -227,7 +267,7 @@ class CornerAtlas:
 
 def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, robot: str = "irb140",
                  meshes: Sequence[int] | None = None, workers: int = 2, scheduler: str | None = None,
-                 on_result=None, figures: bool = True) -> CornerAtlas:
+                 on_result=None, figures: bool = True, closed_loop: bool = True) -> CornerAtlas:
     """Run the atlas into ``out`` (corners.csv / .parquet, tdelta.png, gain_vs_angle.png; the points
     and the optimum cache under ``out``); resumes. Bad angles or tolerances raise before any work."""
     from .free_shape import MESHES
@@ -239,7 +279,8 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     out.mkdir(parents=True, exist_ok=True)
     meshes = list(meshes or MESHES)
     spec = out / "atlas_spec.toml"
-    write_text(spec, f'robot = "{robot}"\nmeshes = {meshes}\ncache = "{(out / "optimum_cache").resolve()}"\n')
+    write_text(spec, f'version = {ROW_VERSION}\nrobot = "{robot}"\nmeshes = {meshes}\nclosed_loop = '
+                     f'{str(closed_loop).lower()}\ncache = "{(out / "optimum_cache").resolve()}"\n')
     points, _ = run_sweep(spec, {"angle_deg": angles, "tolerance_m": tolerances}, out / "points_sweep",
                           workers=workers, scheduler=scheduler, on_result=on_result, point_fn=atlas_point)
     finished = load_finished(out / "points_sweep")

@@ -60,6 +60,9 @@ VERIFY_POINTS_PER_INTERVAL = 16
 #: IPOPT: convergence tolerance and iteration cap.
 IPOPT_TOL = 1e-9
 IPOPT_MAX_ITER = 1500
+#: IPOPT options when starting from a feasible motion near the optimum: a small initial barrier
+#: parameter and bound push keep the start (whose accelerations sit on their limits) where it is.
+WARM_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-8, "bound_frac": 1e-8, "max_iter": 800}
 #: Node density of the corner-confined tube's stretches at a corner relative to the rest.
 CORNER_DENSITY = 4.0
 #: Smallest phase duration [s] and the fewest intervals a phase gets.
@@ -258,6 +261,36 @@ def guess_from_plan(result, line: Polyline, phases: Sequence[Phase], intervals: 
     return _resample(at_time, t_b, intervals, [ph.density for ph in phases])
 
 
+def guess_from_motion(robot, result, line: Polyline, phases: Sequence[Phase], intervals: int,
+                      samples: int = 4000) -> Guess:
+    """A plan ``result`` whose TCP runs within the phases' tube along ANY path (e.g. a blended one)
+    sampled like :func:`guess_from_plan`; the phase boundaries are the times where the TCP crosses
+    them: the progress s_hi along the segment, or, between segments, the corner's bisector plane
+    (a point inside the corner on it is equally far from both lines, so in both capsules)."""
+    from ..robot import fk
+
+    traj, T = result.trajectory, float(result.profile.duration)
+    t = np.linspace(0.0, T, samples)
+    pos = np.atleast_2d(fk(robot, traj.at_time(t).q)[0])
+    t_b = [0.0]
+    for a, b in zip(phases[:-1], phases[1:]):
+        if a.segment == b.segment:
+            f = (pos - line.points[a.segment]) @ line.directions[a.segment] - a.s_hi
+        else:
+            f = (pos - line.points[b.segment]) @ (line.directions[a.segment] + line.directions[b.segment])
+        k = int(np.argmax(f >= 0)) if np.any(f >= 0) else len(t) - 1
+        k = max(k, 1)
+        tc = t[k - 1] + (t[k] - t[k - 1]) * (-f[k - 1]) / (f[k] - f[k - 1]) if f[k] != f[k - 1] else t[k]
+        t_b.append(float(np.clip(tc, t_b[-1] + MIN_PHASE_DURATION, T)))
+    t_b.append(T)
+
+    def at_time(tt):
+        smp = traj.at_time(tt)
+        return smp.q, smp.qd
+
+    return _resample(at_time, np.array(t_b), intervals, [ph.density for ph in phases])
+
+
 def _resample(at_time, t_b: np.ndarray, intervals: int, density: Sequence[float]) -> Guess:
     """Uniform nodes per phase (phase i spans [t_b[i], t_b[i+1]]) of a motion given by at_time(t),
     about ``intervals`` in all, in proportion to duration x density."""
@@ -301,14 +334,15 @@ def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float):
     opti.subject_to(opti.bounded(ph.s_lo, s, ph.s_hi))
     opti.set_initial(s, float(np.clip(s0, ph.s_lo, ph.s_hi)))
     gap = p - ca.DM(line.points[ph.segment]) - ca.DM(line.directions[ph.segment]) * s
-    if ph.radius > 0:
-        opti.subject_to(ca.sumsqr(gap) <= ph.radius ** 2)
+    if ph.radius > 0:  # scaled to O(1): r^2 is 1e-8 at 0.1 mm, far below IPOPT's tolerances
+        opti.subject_to(ca.sumsqr(gap / ph.radius) <= 1.0)
     else:
         opti.subject_to(gap == 0)
 
 
 def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rotation,
-               velocity_scale: float = 1.0, acceleration_scale: float = 1.0) -> FreeShapeSolution:
+               velocity_scale: float = 1.0, acceleration_scale: float = 1.0,
+               ipopt: dict | None = None) -> FreeShapeSolution:
     """Solve the minimum-time NLP on the mesh of ``guess`` (its node counts per phase), from it."""
     ca = _casadi()
     tcp = tcp_function(robot)
@@ -353,8 +387,8 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                     opti.subject_to(_orientation_error(ca, R, rotation) == 0)
                 _tube(opti, ca, p, line, ph, (p_a + f * (p_b - p_a) - P) @ t)
     opti.minimize(ca.sum1(T))
-    opti.solver("ipopt", {"print_time": False, "expand": True}, {"print_level": 0, "tol": IPOPT_TOL, "max_iter": IPOPT_MAX_ITER,
-                                                "sb": "yes"})
+    opti.solver("ipopt", {"print_time": False, "expand": True},
+                {"print_level": 0, "tol": IPOPT_TOL, "max_iter": IPOPT_MAX_ITER, "sb": "yes", **(ipopt or {})})
     try:
         sol = opti.solve()
         stats, value = sol.stats(), sol.value
@@ -444,8 +478,29 @@ def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, 
     return float(value), float(abs(value - d[-1]))
 
 
+def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, intervals: int, start,
+                         previous: FreeShapeSolution | None) -> FreeShapeSolution:
+    """One mesh, tried from up to three starts until IPOPT converges: the feasible motion ``start``
+    (m -> Guess) on this mesh with a small initial barrier (it is near the optimum: the default
+    barrier pushes it far away first), the previous mesh's solution resampled (continuation), and
+    ``start`` again with IPOPT's defaults. The first converged (else the last) solution."""
+    density = [ph.density for ph in phases]
+    tries = [(lambda: start(intervals), WARM_IPOPT)]
+    if previous is not None:
+        prev = previous.motion
+        tries.append((lambda: _resample(_motion_at(prev), _phase_times(prev), intervals, density), WARM_IPOPT))
+    tries.append((lambda: start(intervals), {}))
+    for i, (guess, options) in enumerate(tries):
+        sol = solve_mesh(robot, line, phases, guess(), R_ref, ipopt=options)
+        if sol.success:
+            break
+        log.info("free shape mesh %d: start %d of %d ended %s after %d iterations", intervals, i + 1, len(tries),
+                 sol.status, sol.iterations)
+    return sol
+
+
 def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float, float]] | None = None,
-                       meshes: Sequence[int] = MESHES, rotation=None) -> FreeShapeOptimum:
+                       meshes: Sequence[int] = MESHES, rotation=None, warm=None) -> FreeShapeOptimum:
     """The minimum-time rest-to-rest motion with the TCP within ``delta`` [m] of the polyline
     ``points`` (m, 3) [m] (whole tube, or only within ``spans`` around each corner), fixed tool
     ``rotation`` (default tool down), joint velocity and acceleration limits, converged over
@@ -458,14 +513,14 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     line = Polyline(points)
     R_ref = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
     phases = tube_phases(line, delta, spans)
-    _, plan_result = stop_plan(robot, line, R_ref)
-    guess = guess_from_plan(plan_result, line, phases, meshes[0])
-    solutions = []
+    if warm is None:
+        _, warm = stop_plan(robot, line, R_ref)
+        start = lambda m: guess_from_plan(warm, line, phases, m)  # noqa: E731
+    else:
+        start = lambda m: guess_from_motion(robot, warm, line, phases, m)  # noqa: E731
+    solutions: list[FreeShapeSolution] = []
     for m in meshes:
-        if solutions:
-            prev = solutions[-1].motion
-            guess = _resample(_motion_at(prev), _phase_times(prev), m, [ph.density for ph in phases])
-        sol = solve_mesh(robot, line, phases, guess, R_ref)
+        sol = _solve_with_restarts(robot, line, phases, R_ref, m, start, solutions[-1] if solutions else None)
         log.info("free shape delta=%g spans=%s mesh %d: T = %.6f s (%s, %d iterations)", delta, spans, m, sol.duration,
                  sol.status, sol.iterations)
         solutions.append(sol)
