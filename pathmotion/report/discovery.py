@@ -6,7 +6,8 @@ Recognized folders (files written by :mod:`pathmotion.api` and :mod:`pathmotion.
 * ``plan``: trajectory.csv + phase_plane.csv + summary.json (not listed separately when it is the
   ``plan`` folder of a simulation folder: it belongs to that section);
 * ``sweep``: sweep.csv (with sweep_spec.json and best.json when written by ``pathmotion sweep``);
-* ``study``: corner_study.csv (the chapter-7 corner study, whose parts are sweep folders below it).
+* ``study``: corner_study.csv (the chapter-7 corner study, whose parts are sweep folders below it);
+* ``atlas``: corners.csv (``pathmotion corners``; its per-point sweep folder is part of it).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from pathlib import Path
 
 from ..errors import PathmotionError
 
-KINDS = ("simulation", "plan", "sweep", "study")
+KINDS = ("simulation", "plan", "sweep", "study", "atlas")
 #: Folders never searched: a sweep's per-point files.
 SKIPPED_FOLDERS = ("points",)
 
@@ -53,6 +54,10 @@ def is_study(folder: Path) -> bool:
     return (folder / "corner_study.csv").is_file()
 
 
+def is_atlas(folder: Path) -> bool:
+    return (folder / "corners.csv").is_file()
+
+
 def classify(folder: Path) -> ResultFolder | None:
     """The result in ``folder`` itself (not below it), or None."""
     if is_simulation(folder):
@@ -60,6 +65,8 @@ def classify(folder: Path) -> ResultFolder | None:
         return ResultFolder("simulation", folder, plan if is_plan(plan) else None)
     if is_plan(folder):
         return ResultFolder("plan", folder)
+    if is_atlas(folder):
+        return ResultFolder("atlas", folder)
     if is_sweep(folder):
         return ResultFolder("sweep", folder)
     if is_study(folder):
@@ -88,6 +95,8 @@ def discover(root: str | Path) -> tuple[ResultFolder, ...]:
         found.append(result)
         if result.plan_path is not None:
             claimed.add(result.plan_path)
+        if result.kind == "atlas":
+            claimed.add(folder / "points_sweep")
     if not found:
         raise PathmotionError(f"report: no plan, simulation or sweep results under {root}; "
                               "run pathmotion plan/simulate/sweep first")

@@ -531,7 +531,15 @@ def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     return Section(anchor, _title("Corner study", result, root, None), "".join(parts), count, row)
 
 
-RENDERERS = {"plan": plan_section, "simulation": simulation_section, "sweep": sweep_section, "study": study_section}
+def atlas_section(result: ResultFolder, root: Path, anchor: str) -> Section:
+    """The corner atlas (report/atlas.py)."""
+    from .atlas import atlas_section as section
+
+    return section(result, root, anchor)
+
+
+RENDERERS = {"plan": plan_section, "simulation": simulation_section, "sweep": sweep_section, "study": study_section,
+             "atlas": atlas_section}
 
 
 # ---------------------------------------------------------------------------------------- page
