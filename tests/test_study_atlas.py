@@ -66,14 +66,18 @@ def test_one_atlas_row_through_the_cli(tmp_path):
     assert res.exit_code == 0, res.output
     rows = list(csv.DictReader((tmp_path / "corners.csv").open()))
     assert len(rows) == 1 and list(rows[0]) == list(atlas.ATLAS_COLUMNS)
-    r = {k: float(v) for k, v in rows[0].items() if k not in ("status", "error") and v != ""}
+    r = {k: float(v) for k, v in rows[0].items() if k not in ("status", "error", "closed_loop_ok") and v != ""}
     assert r["optimal_s"] <= r["g2_s"] < r["stop_s"]
     assert r["circle_s"] < r["stop_s"]
     assert r["gain_vs_stop"] == pytest.approx(1 - r["optimal_s"] / r["stop_s"])
     if rows[0]["status"] == "ok":  # a converged reference is below every blend (within its error)
         assert r["free_shape_optimum_s"] <= r["optimal_s"] + r["free_shape_error_s"]
     else:
-        assert "not converged" in rows[0]["status"]
+        assert "not converged" in rows[0]["status"] or "closed loop" in rows[0]["status"]
+    assert rows[0]["closed_loop_ok"] in ("true", "false")
+    if rows[0]["closed_loop_ok"] == "true":  # within delta plus the tracking error of the planned path
+        assert r["closed_loop_path_accuracy_m"] <= atlas.CLOSED_LOOP_PATH_ACCURACY
+        assert r["closed_loop_cornering_deviation_m"] <= 0.005 + r["closed_loop_path_accuracy_m"]
     assert (tmp_path / "tdelta.png").is_file() and (tmp_path / "gain_vs_angle.png").is_file()
     spec = json.loads((tmp_path / "points_sweep" / "sweep_spec.json").read_text())
     assert spec["grid"] == {"angle_deg": [90.0], "tolerance_m": [0.005]}
