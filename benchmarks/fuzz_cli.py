@@ -609,7 +609,16 @@ def _reproduce(escapes: Path, run: Run, what: str) -> None:
     stem.with_suffix(".txt").write_text(
         f"class: {run.doc.klass}\nescape: {what}\ncommand: pathmotion {' '.join(map(repr, run.args))}\n"
         f"special: {run.doc.special!r}\nfiles: {sorted(run.doc.files)}\nout: {run.doc.out_kind}\n"
-        f"--- stderr\n{(run.folder / 'stderr.txt').read_text(errors='replace')[-4000:]}\n")
+        f"--- stderr\n{_head_and_tail(run.folder / 'stderr.txt')}\n")
+
+
+def _head_and_tail(path: Path, keep: int = 6000) -> str:
+    """The text of ``path``, its middle cut when longer than ``keep`` characters (a crash's faulthandler stack
+    starts with the crashing frame: the head matters as much as the tail)."""
+    text = path.read_text(errors="replace")
+    if len(text) <= keep:
+        return text
+    return text[:keep // 2] + f"\n[... {len(text) - keep} characters cut ...]\n" + text[-keep // 2:]
 
 
 def _cleanup(folder: Path) -> None:
