@@ -629,13 +629,39 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
     console.print(f"report: {build_report(out)}")
 
 
-def _terminate(signum, frame):
-    """SIGTERM -> KeyboardInterrupt: the same clean exit as Ctrl-C (temporary files removed, code 130)."""
+#: Delay before an interrupt that could not be raised (inside numba's compiler, or swallowed in a C
+#: callback) is delivered again [s].
+INTERRUPT_REDELIVERY_DELAY = 0.05
+
+
+def _interrupt(signum, frame):
+    """SIGINT or SIGTERM -> KeyboardInterrupt: the clean exit of Ctrl-C (temporary files removed, code 130).
+
+    Not inside numba's or llvmlite's compiler: an exception there can leave a half-built compiled function
+    that the caller may still run (a segmentation fault, found by benchmarks/fuzz_cli.py); the signal is
+    delivered again INTERRUPT_REDELIVERY_DELAY later, until the compiler has returned."""
+    if _in_compiler(frame):
+        _redeliver(signum)
+        return
     raise KeyboardInterrupt(f"signal {signum}")
 
 
-#: Delay before an interrupt swallowed in a C callback is delivered again [s] (see _unraisable).
-INTERRUPT_REDELIVERY_DELAY = 0.05
+def _in_compiler(frame) -> bool:
+    while frame is not None:
+        if frame.f_globals.get("__name__", "").startswith(("numba.", "llvmlite.")):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _redeliver(signum: int) -> None:
+    """Deliver ``signum`` to the main thread again (through its Python handler) after a short delay."""
+    import _thread
+    import threading
+
+    timer = threading.Timer(INTERRUPT_REDELIVERY_DELAY, _thread.interrupt_main, args=(signum,))
+    timer.daemon = True
+    timer.start()
 
 
 def _unraisable(args) -> None:
@@ -646,12 +672,9 @@ def _unraisable(args) -> None:
     would be raised inside this hook, still in the callback, and swallowed again), so the run stops as
     interrupted."""
     if args.exc_type is not None and issubclass(args.exc_type, KeyboardInterrupt):
-        import _thread
-        import threading
+        import signal
 
-        timer = threading.Timer(INTERRUPT_REDELIVERY_DELAY, _thread.interrupt_main)
-        timer.daemon = True
-        timer.start()
+        _redeliver(signal.SIGINT)
         return
     logger.debug("ignored %s in %r: %s", getattr(args.exc_type, "__name__", "exception"), args.object,
                  args.exc_value)
@@ -660,7 +683,8 @@ def _unraisable(args) -> None:
 def main():
     import signal
 
-    signal.signal(signal.SIGTERM, _terminate)
+    signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)
     sys.unraisablehook = _unraisable
     try:
         app(prog_name="pathmotion")

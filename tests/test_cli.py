@@ -346,3 +346,26 @@ def test_an_interrupt_swallowed_in_a_c_callback_is_delivered_again(capsys):
     finally:
         sys.unraisablehook = before
     assert capsys.readouterr().err == ""
+
+
+def test_an_interrupt_inside_numbas_compiler_is_delivered_after_it_returns():
+    """Raised inside numba's compiler, a KeyboardInterrupt can leave a half-built compiled function that
+    the caller still runs (a segmentation fault under benchmarks/fuzz_cli.py): the handler defers it."""
+    import signal
+    import time
+
+    from pathmotion import cli
+
+    namespace = {"__name__": "numba.core.fake_compiler", "cli": cli, "signal": signal, "sys": sys}
+    exec("def compile_step():\n"
+         "    cli._interrupt(signal.SIGINT, sys._getframe())\n"
+         "    return 'compiled'\n", namespace)
+    previous = signal.signal(signal.SIGINT, cli._interrupt)
+    try:
+        assert namespace["compile_step"]() == "compiled"  # not raised inside the "compiler"
+        with pytest.raises(KeyboardInterrupt):
+            time.sleep(5.0)  # ... but here, outside it, a moment later
+        with pytest.raises(KeyboardInterrupt):  # outside the compiler it is raised at once
+            cli._interrupt(signal.SIGTERM, sys._getframe())
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -288,10 +288,10 @@ def test_sigterm_stops_workers_in_the_middle_of_a_point(tmp_path):
     scenario = tmp_path / "s.toml"
     scenario.write_text(str(tmp_path) + "\n")
     script = ("import signal, sys; sys.path.insert(0, sys.argv[1])\n"
-              "from pathmotion.cli import _terminate\n"
+              "from pathmotion.cli import _interrupt\n"
               "from pathmotion.study.sweep import run_sweep\n"
               "from test_reliability_interrupt import spin_point\n"
-              "signal.signal(signal.SIGTERM, _terminate)\n"
+              "signal.signal(signal.SIGTERM, _interrupt)\n"
               "try:\n"
               "    run_sweep(sys.argv[2], {'a': [1, 2, 3, 4, 5, 6]}, sys.argv[3], workers=2, point_fn=spin_point)\n"
               "except KeyboardInterrupt:\n"
