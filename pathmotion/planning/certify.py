@@ -3,7 +3,8 @@ that grows with the grid, not with the motion's duration (the dense 0.1 ms resam
 does; it stays as the independent check and as ``verify = "dense"``).
 
 On grid interval i (width h) the profile is analytic: theta_ddot = u_i constant, x = theta_dot^2
-linear in theta, x' = 2 u_i. Each limit bounds itself (:meth:`Limit.certify`) by one of two means.
+linear in theta, x' = 2 u_i. Each limit is bounded by one of two means (its
+:meth:`Limit.certify_row_form`, or the sampled form where that gives none or does not hold).
 
 Row form (velocity, acceleration, torque, TCP speed; no path evaluation, no RNEA): the limited value
 is v = a(theta) u + b(theta) x + c(theta) with path coefficients a, b, c known at the grid points
@@ -28,6 +29,11 @@ Sampled form (the base class's default, e.g. the torque-speed envelope): the lim
 at S + 1 points uniform in theta (both ends reuse the grid data, tau = alpha u + beta x + gamma; each
 interior point costs one path evaluation and one RNEA, compiled and batched in fast_rnea.py), plus REMAINDER_SAFETY x the largest second
 difference of the samples (widened by the third difference) / 8.
+
+The sampled form runs once per pass for all limits together (:func:`certify`): on the union of the
+intervals any limit samples, each limit reading its intervals' rows. Every sample and every
+interval's bound depends on its own interval only, so this equals sampling each limit on its own
+(bit for bit), at one path evaluation and one RNEA batch per pass instead of one per limit.
 
 tests/test_planning_certify.py checks both forms against the dense resample, interval by interval,
 on random splines and limit sets.
@@ -102,29 +108,20 @@ class CertifyContext:
     def h(self) -> np.ndarray:
         return np.diff(self.profile.grid)
 
-    def samples(self, index: np.ndarray | None = None, subdivisions: int = CERTIFY_SUBDIVISIONS) -> IntervalSamples:
+    def samples(self, index: np.ndarray | None = None, subdivisions: int = CERTIFY_SUBDIVISIONS,
+                torque: np.ndarray | None = None) -> IntervalSamples:
         """Interval samples (sampled form) on the intervals ``index`` (all when None), computed once
-        (torques only when ``needs_torque``)."""
+        (torques only when ``needs_torque``; on a piecewise-constant profile only on the intervals
+        ``index[torque]`` when given, NaN elsewhere)."""
         k1 = len(self.profile.grid) - 1
         index = np.arange(k1) if index is None else np.asarray(index, int)
-        key = (index.tobytes(), subdivisions, self.needs_torque)
+        key = (index.tobytes(), subdivisions, self.needs_torque, None if torque is None else torque.tobytes())
         if key not in self._samples:
-            make = smooth_interval_samples if self.profile.smooth else interval_samples
-            self._samples[key] = make(self, index, subdivisions)
+            if self.profile.smooth:
+                self._samples[key] = smooth_interval_samples(self, index, subdivisions)
+            else:
+                self._samples[key] = interval_samples(self, index, subdivisions, torque)
         return self._samples[key]
-
-    def sampled(self, ratios, index: np.ndarray | None = None, subdivisions: int = CERTIFY_SUBDIVISIONS) -> np.ndarray:
-        """Sampled-form bound (I, m) of ``ratios(samples)`` on the intervals ``index``. More than
-        CERTIFY_SUBDIVISIONS: first at CERTIFY_SUBDIVISIONS, then at ``subdivisions`` only on the
-        intervals whose bound exceeds REFINE_ABOVE (both are upper bounds; the smaller is kept)."""
-        coarse = min(subdivisions, CERTIFY_SUBDIVISIONS)
-        cs = self.samples(index, coarse)
-        bound = sampled_bound(cs.per_interval(ratios(cs.samples)))
-        over = np.nonzero((bound > REFINE_ABOVE).any(axis=1))[0]
-        if subdivisions > coarse and over.size:
-            fine = self.samples(cs.index[over], subdivisions)
-            bound[over] = np.minimum(bound[over], sampled_bound(fine.per_interval(ratios(fine.samples))))
-        return bound
 
     @cached_property
     def smooth_point(self) -> np.ndarray:
@@ -199,10 +196,11 @@ def interval_state(profile: Profile, i: np.ndarray, s: np.ndarray) -> tuple[np.n
     return v, np.broadcast_to(u, np.shape(s)), profile.times[i] + dt
 
 
-def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int = CERTIFY_SUBDIVISIONS
-                     ) -> IntervalSamples:
+def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int = CERTIFY_SUBDIVISIONS,
+                     torque: np.ndarray | None = None) -> IntervalSamples:
     """Samples at the S + 1 points of the intervals ``index`` of the profile's grid; the ends come from
-    the grid data ``ctx.right``/``ctx.left``, torques only when ``ctx.needs_torque`` (and a robot)."""
+    the grid data ``ctx.right``/``ctx.left``, torques only when ``ctx.needs_torque`` (and a robot), and
+    then only on the intervals ``index[torque]`` when given (NaN on the others)."""
     grid, path, robot = ctx.profile.grid, ctx.path, ctx.robot
     k1, S, n = len(index), int(subdivisions), path.n
     frac = np.arange(S + 1) / S
@@ -222,13 +220,14 @@ def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int =
     qdd = dq * theta_ddot[..., None] + ddq * (theta_dot**2)[..., None]
     tau = None
     if ctx.needs_torque and robot is not None:
-        tau = np.empty((k1, S + 1, n))
+        w = slice(None) if torque is None else np.asarray(torque, int)
+        tau = np.empty((k1, S + 1, n)) if torque is None else np.full((k1, S + 1, n), np.nan)
         if S > 1:
             inverse = rnea_batch if supported(robot) else rnea
-            tau[:, 1:-1] = inverse(robot, q[:, 1:-1].reshape(-1, n), qd[:, 1:-1].reshape(-1, n),
-                                   qdd[:, 1:-1].reshape(-1, n)).reshape(k1, S - 1, n)
-        tau[:, 0] = _grid_torque(r, index, theta_ddot[:, 0], theta_dot[:, 0] ** 2)
-        tau[:, -1] = _grid_torque(l, index + 1, theta_ddot[:, -1], theta_dot[:, -1] ** 2)
+            tau[w, 1:-1] = inverse(robot, q[w, 1:-1].reshape(-1, n), qd[w, 1:-1].reshape(-1, n),
+                                   qdd[w, 1:-1].reshape(-1, n)).reshape(-1, S - 1, n)
+        tau[w, 0] = _grid_torque(r, index[w], theta_ddot[w, 0], theta_dot[w, 0] ** 2)
+        tau[w, -1] = _grid_torque(l, index[w] + 1, theta_ddot[w, -1], theta_dot[w, -1] ** 2)
     flat = lambda a: None if a is None else a.reshape(k1 * (S + 1), *a.shape[2:])  # noqa: E731
     samples = Samples(flat(t), flat(theta), flat(theta_dot), flat(np.array(theta_ddot)), flat(q), flat(qd),
                       flat(qdd), flat(tau))
@@ -362,4 +361,67 @@ def certify(ctx: CertifyContext, limits) -> dict:
         bound = smooth_sampled_bound(np.concatenate(values, axis=2))  # every limit's columns in one pass
         cut = np.cumsum([v.shape[2] for v in values])[:-1]
         return {lim.name: b for lim, b in zip(limits, np.split(bound, cut, axis=1))}
-    return {lim.name: lim.certify(replace(ctx, needs_torque=ctx.needs_torque and lim.needs_torque)) for lim in limits}
+    return _certify_piecewise(ctx, limits)
+
+
+def _certify_piecewise(ctx: CertifyContext, limits) -> dict:
+    """:func:`certify` of a piecewise-constant theta_ddot profile. Each limit's row form where it holds
+    (:meth:`Limit.certify_row_form`); the sampled form, CERTIFY_SUBDIVISIONS, where it does not, on every
+    interval for a limit without one, and where the row form exceeds REFINE_ABOVE; REFINE_SUBDIVISIONS
+    where that sampled bound exceeds it too (the smallest of the upper bounds is kept). Each pass samples
+    the union of the intervals the limits need once (:func:`_sampled_union`)."""
+    k1 = len(ctx.profile.grid) - 1
+    rows, sampled, over = {}, {}, {}
+    for lim in limits:
+        form = lim.certify_row_form(ctx)
+        if form is None:
+            rows[lim.name], sampled[lim.name] = None, np.arange(k1)
+            continue
+        bound, valid = form
+        rows[lim.name], over[lim.name] = bound, np.nonzero((bound > REFINE_ABOVE).any(axis=1) & valid)[0]
+        sampled[lim.name] = np.union1d(np.nonzero(~valid)[0], over[lim.name])
+    coarse = _sampled_union(ctx, limits, sampled, CERTIFY_SUBDIVISIONS)
+    refine = {}
+    for name, idx in over.items():
+        if idx.size:
+            b = coarse[name][np.searchsorted(sampled[name], idx)]
+            refine[name] = idx[(b > REFINE_ABOVE).any(axis=1)]
+    fine = _sampled_union(ctx, limits, refine, REFINE_SUBDIVISIONS)
+    out = {}
+    for lim in limits:
+        name, bound = lim.name, rows[lim.name]
+        if bound is None:
+            out[name] = coarse[name]
+            continue
+        if sampled[name].size:
+            b = coarse[name]
+            if name in fine:
+                pos = np.searchsorted(sampled[name], refine[name])
+                b[pos] = np.minimum(b[pos], fine[name])
+            hit = np.isin(sampled[name], over[name])
+            bound[sampled[name][~hit]] = b[~hit]  # the row form does not hold there
+            bound[sampled[name][hit]] = np.minimum(bound[sampled[name][hit]], b[hit])  # both are upper bounds
+        out[name] = bound
+    return out
+
+
+def _sampled_union(ctx: CertifyContext, limits, wanted: dict, subdivisions: int) -> dict:
+    """{name: (I, m) sampled-form bound on the intervals ``wanted[name]`` (sorted, I,)} for the limits
+    with any: one sampling of the union of those intervals (torques only on the intervals of the limits
+    that need them), every limit's ratios on it and one :func:`sampled_bound` for all (both act sample by
+    sample and column by column), each limit's rows taken from it."""
+    users = [lim for lim in limits if wanted.get(lim.name) is not None and wanted[lim.name].size]
+    if not users:
+        return {}
+    union = np.unique(np.concatenate([wanted[lim.name] for lim in users]))
+    heavy = [wanted[lim.name] for lim in users if lim.needs_torque] if ctx.needs_torque else []
+    torque = None
+    if heavy:
+        need = np.unique(np.concatenate(heavy))
+        torque = None if len(need) == len(union) else np.searchsorted(union, need)
+    every = replace(ctx, needs_torque=bool(heavy)).samples(union, subdivisions, torque)
+    values = [every.per_interval(lim.ratios(every.samples, ctx.robot)) for lim in users]
+    bound = sampled_bound(np.concatenate(values, axis=2))
+    cut = np.cumsum([v.shape[2] for v in values])[:-1]
+    return {lim.name: b[np.searchsorted(union, wanted[lim.name])]
+            for lim, b in zip(users, np.split(bound, cut, axis=1))}

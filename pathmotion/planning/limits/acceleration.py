@@ -29,9 +29,9 @@ class AccelerationLimit(Limit):
         lim = self.qdd_max * scale
         return Rows(points.dq, points.ddq, np.zeros_like(points.dq), -lim, lim)
 
-    def certify(self, ctx):
+    def certify_row_form(self, ctx):
         r, l = ctx.right, ctx.left
-        return self.certify_rows(ctx, (r.dq, l.dq), (r.ddq, l.ddq), None, self.qdd_max)
+        return self.row_form(ctx, (r.dq, l.dq), (r.ddq, l.ddq), None, self.qdd_max)
 
     def ratios(self, samples, robot):
         return np.abs(samples.qdd) / self.qdd_max

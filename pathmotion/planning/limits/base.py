@@ -28,7 +28,6 @@ import numpy as np
 from ...errors import ScenarioError
 from ...joint_path import JointPath
 from ...robot import Robot
-from ..certify import REFINE_ABOVE, REFINE_SUBDIVISIONS
 from ..trajectory import Samples
 
 
@@ -186,30 +185,23 @@ class Limit:
         """|value| / limit (N, m) on a time resample."""
         raise NotImplementedError
 
-    def certify(self, ctx) -> np.ndarray:
-        """Certified upper bound (K - 1, m) of the ratio on every grid interval of the profile in
-        ``ctx`` (planning/certify.py's CertifyContext). Default: the sampled form, :meth:`ratios` at
-        a few points per interval plus the interpolation remainder. A limit may override it with a
-        cheaper bound (e.g. :meth:`certify_rows`); it must stay an upper bound over the interval."""
-        return ctx.sampled(lambda samples: self.ratios(samples, ctx.robot))
+    def certify_row_form(self, ctx) -> "tuple[np.ndarray, np.ndarray] | None":
+        """The row form of this limit's certified bound on the profile in ``ctx`` (planning/certify.py's
+        CertifyContext): (bound (K - 1, m), mask (K - 1,) of the intervals it holds on), e.g. by
+        :meth:`row_form`. None (the default): the sampled form (:meth:`ratios` at a few points per
+        interval plus the interpolation remainder) on every interval. certify.certify samples where the
+        row form does not hold or exceeds REFINE_ABOVE, for all limits at once."""
+        return None
 
-    def certify_rows(self, ctx, a, b, c, limit, squared: bool = False) -> np.ndarray:
-        """The row form of the certified bound: |a u + b x + c| / limit on every interval, a, b, c
+    def row_form(self, ctx, a, b, c, limit, squared: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Row-form bound of |a u + b x + c| / limit on every interval and the mask where it holds: a, b, c
         (right, left) pairs of (K, m) coefficients at the grid points (None for 0), ``limit`` (m,);
-        ``squared``: the value is the squared ratio (a speed limit, v = G x). Intervals the row form
-        cannot cover get the sampled form."""
+        ``squared``: the value is the squared ratio (a speed limit, v = G x)."""
         bound, valid = ctx.row_bound(a, b, c)
         bound = bound / np.asarray(limit, float)
         if squared:
             bound = np.sqrt(np.maximum(bound, 0.0))
-        if not valid.all():
-            idx = np.nonzero(~valid)[0]
-            bound[idx] = ctx.sampled(lambda samples: self.ratios(samples, ctx.robot), idx)
-        over = np.nonzero((bound > REFINE_ABOVE).any(axis=1) & valid)[0]
-        if over.size:  # both are upper bounds: where the row form is above the limit, take the tighter
-            finer = ctx.sampled(lambda samples: self.ratios(samples, ctx.robot), over, REFINE_SUBDIVISIONS)
-            bound[over] = np.minimum(bound[over], finer)
-        return bound
+        return bound, valid
 
     def column_name(self, j: int, joint_names: tuple[str, ...] | None) -> str:
         """What column j is, in messages."""

@@ -43,9 +43,9 @@ class TcpSpeedLimit(Limit):
     def bound(self, points, scale):
         return safe_ratio_bound((self.v_max * scale[:, 0]) ** 2, tcp_gain(points))
 
-    def certify(self, ctx):
+    def certify_row_form(self, ctx):
         g = tuple((tcp_gain(pts) / self.v_max)[:, None] ** 2 for pts in (ctx.right, ctx.left))
-        return self.certify_rows(ctx, None, g, None, 1.0, squared=True)
+        return self.row_form(ctx, None, g, None, 1.0, squared=True)
 
     def ratios(self, samples, robot):
         return (_linear_speed(robot, samples.q, samples.qd) / self.v_max)[:, None]

@@ -102,9 +102,9 @@ class TorqueLimit(Limit):
                 "on it); lower the payload or the torque reserve, raise the torque limit or move the path"
             )
 
-    def certify(self, ctx):
+    def certify_row_form(self, ctx):
         (ar, br, gr), (al, bl, gl) = reduced(ctx.right), reduced(ctx.left)
-        return self.certify_rows(ctx, (ar, al), (br, bl), (gr, gl), self.tau_max)
+        return self.row_form(ctx, (ar, al), (br, bl), (gr, gl), self.tau_max)
 
     def ratios(self, samples, robot):
         return np.abs(samples.tau) / self.tau_max

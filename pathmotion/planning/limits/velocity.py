@@ -25,9 +25,9 @@ class VelocityLimit(Limit):
     def bound(self, points, scale):
         return safe_ratio_bound((self.qd_max * scale) ** 2, points.dq).min(axis=1)
 
-    def certify(self, ctx):
+    def certify_row_form(self, ctx):
         g = tuple((pts.dq / self.qd_max) ** 2 for pts in (ctx.right, ctx.left))
-        return self.certify_rows(ctx, None, g, None, 1.0, squared=True)
+        return self.row_form(ctx, None, g, None, 1.0, squared=True)
 
     def ratios(self, samples, robot):
         return np.abs(samples.qd) / self.qd_max
