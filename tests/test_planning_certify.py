@@ -114,3 +114,30 @@ def test_verify_modes_parse():
     assert PlanSettings().verify == VerifyMode.CERTIFIED and PlanSettings().baselines is False
     with pytest.raises(ScenarioError, match="verify"):
         PlanSettings(verify="sometimes")
+
+
+@pytest.mark.parametrize("limit_set, robot_payload, grid_points", [
+    ("torque-binding", False, 120), ("payload", True, 150), ("tcp", False, 150), ("envelope", False, 150)])
+def test_union_sampling_equals_each_limit_alone(irb140, limit_set, robot_payload, grid_points):
+    """certify() samples the union of the intervals all limits need once per pass; the bounds must be
+    bit for bit those of certifying each limit on its own (samples and bounds are per interval)."""
+    from pathmotion.planning.certify import CertifyContext, certify
+    from pathmotion.planning.planner import _grid_breaks, _sample
+
+    robot = irb140.with_payload(Payload(mass=6.0, com=np.array([0.0, 0.0, 0.1]))) if robot_payload else irb140
+    for path in (_spline(4, 4), _spline(9, 7)):
+        s = PlanSettings(grid_points=grid_points, verify="off", **LIMIT_SETS[limit_set])
+        profile = plan(path, robot, s).profile
+        limits = effective_limits(robot, s)
+        breaks = _grid_breaks(path, profile.grid)
+        samp = _sample(path, robot, profile.grid, breaks)
+
+        def context():
+            return CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque)
+
+        together = context()
+        union = certify(together, limits)
+        assert {key[1] for key in together._samples} >= {4, 16}, "both passes must sample for the test to bite"
+        for lim in limits:
+            alone = certify(context(), [lim])[lim.name]
+            assert np.array_equal(union[lim.name], alone), (limit_set, lim.name)
