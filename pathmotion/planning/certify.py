@@ -375,53 +375,50 @@ def _certify_piecewise(ctx: CertifyContext, limits) -> dict:
     for lim in limits:
         form = lim.certify_row_form(ctx)
         if form is None:
-            rows[lim.name], sampled[lim.name] = None, np.arange(k1)
+            rows[lim.name], sampled[lim.name] = None, np.ones(k1, bool)
             continue
         bound, valid = form
-        rows[lim.name], over[lim.name] = bound, np.nonzero((bound > REFINE_ABOVE).any(axis=1) & valid)[0]
-        sampled[lim.name] = np.union1d(np.nonzero(~valid)[0], over[lim.name])
+        rows[lim.name], over[lim.name] = bound, (bound > REFINE_ABOVE).any(axis=1) & valid
+        sampled[lim.name] = over[lim.name] | ~valid
     coarse = _sampled_union(ctx, limits, sampled, CERTIFY_SUBDIVISIONS)
-    refine = {}
-    for name, idx in over.items():
-        if idx.size:
-            b = coarse[name][np.searchsorted(sampled[name], idx)]
-            refine[name] = idx[(b > REFINE_ABOVE).any(axis=1)]
+    refine = {name: o & (coarse[name] > REFINE_ABOVE).any(axis=1) for name, o in over.items() if name in coarse}
     fine = _sampled_union(ctx, limits, refine, REFINE_SUBDIVISIONS)
     out = {}
     for lim in limits:
         name, bound = lim.name, rows[lim.name]
-        if bound is None:
-            out[name] = coarse[name]
-            continue
-        if sampled[name].size:
+        if bound is not None and name in coarse:
             b = coarse[name]
             if name in fine:
-                pos = np.searchsorted(sampled[name], refine[name])
-                b[pos] = np.minimum(b[pos], fine[name])
-            hit = np.isin(sampled[name], over[name])
-            bound[sampled[name][~hit]] = b[~hit]  # the row form does not hold there
-            bound[sampled[name][hit]] = np.minimum(bound[sampled[name][hit]], b[hit])  # both are upper bounds
-        out[name] = bound
+                r = refine[name]
+                b[r] = np.minimum(b[r], fine[name][r])
+            o, invalid = over[name], sampled[name] & ~over[name]
+            bound[invalid] = b[invalid]  # the row form does not hold there
+            bound[o] = np.minimum(bound[o], b[o])  # both are upper bounds
+        out[name] = coarse[name] if bound is None else bound
     return out
 
 
 def _sampled_union(ctx: CertifyContext, limits, wanted: dict, subdivisions: int) -> dict:
-    """{name: (I, m) sampled-form bound on the intervals ``wanted[name]`` (sorted, I,)} for the limits
-    with any: one sampling of the union of those intervals (torques only on the intervals of the limits
-    that need them), every limit's ratios on it and one :func:`sampled_bound` for all (both act sample by
-    sample and column by column), each limit's rows taken from it."""
-    users = [lim for lim in limits if wanted.get(lim.name) is not None and wanted[lim.name].size]
+    """{name: (K - 1, m) sampled-form bound on the intervals where the mask ``wanted[name]`` (K - 1,) is
+    True (NaN elsewhere)} for the limits with any: one sampling of the union of those intervals (torques
+    only on the intervals of the limits that need them), every limit's ratios on it and one
+    :func:`sampled_bound` for all (both act sample by sample and column by column)."""
+    users = [lim for lim in limits if lim.name in wanted and wanted[lim.name].any()]
     if not users:
         return {}
-    union = np.unique(np.concatenate([wanted[lim.name] for lim in users]))
+    mask = np.logical_or.reduce([wanted[lim.name] for lim in users])
+    union = np.nonzero(mask)[0]
     heavy = [wanted[lim.name] for lim in users if lim.needs_torque] if ctx.needs_torque else []
     torque = None
     if heavy:
-        need = np.unique(np.concatenate(heavy))
-        torque = None if len(need) == len(union) else np.searchsorted(union, need)
+        need = np.logical_or.reduce(heavy)[union]
+        torque = None if need.all() else np.nonzero(need)[0]
     every = replace(ctx, needs_torque=bool(heavy)).samples(union, subdivisions, torque)
     values = [every.per_interval(lim.ratios(every.samples, ctx.robot)) for lim in users]
     bound = sampled_bound(np.concatenate(values, axis=2))
-    cut = np.cumsum([v.shape[2] for v in values])[:-1]
-    return {lim.name: b[np.searchsorted(union, wanted[lim.name])]
-            for lim, b in zip(users, np.split(bound, cut, axis=1))}
+    out, start = {}, 0
+    for lim, v in zip(users, values):
+        full = np.full((len(mask), v.shape[2]), np.nan)
+        full[union] = bound[:, start:start + v.shape[2]]
+        out[lim.name], start = full, start + v.shape[2]
+    return out
