@@ -378,23 +378,34 @@ def _certify_piecewise(ctx: CertifyContext, limits) -> dict:
             rows[lim.name], sampled[lim.name] = None, np.ones(k1, bool)
             continue
         bound, valid = form
-        rows[lim.name], over[lim.name] = bound, (bound > REFINE_ABOVE).any(axis=1) & valid
-        sampled[lim.name] = over[lim.name] | ~valid
+        rows[lim.name], over[lim.name] = (bound, valid), (bound > REFINE_ABOVE).any(axis=1) & valid
+        sampled[lim.name] = over[lim.name] if valid.all() else over[lim.name] | ~valid
     coarse = _sampled_union(ctx, limits, sampled, CERTIFY_SUBDIVISIONS)
-    refine = {name: o & (coarse[name] > REFINE_ABOVE).any(axis=1) for name, o in over.items() if name in coarse}
-    fine = _sampled_union(ctx, limits, refine, REFINE_SUBDIVISIONS)
+    refine = {}
+    for name, o in over.items():
+        if name in coarse:
+            r = o & (coarse[name] > REFINE_ABOVE).any(axis=1)
+            if r.any():
+                refine[name] = r
+    fine = _sampled_union(ctx, limits, refine, REFINE_SUBDIVISIONS) if refine else {}
     out = {}
     for lim in limits:
-        name, bound = lim.name, rows[lim.name]
-        if bound is not None and name in coarse:
+        name = lim.name
+        if rows[name] is None:
+            out[name] = coarse[name]
+            continue
+        bound, valid = rows[name]
+        if name in coarse:
             b = coarse[name]
             if name in fine:
-                r = refine[name]
+                r = np.nonzero(refine[name])[0]
                 b[r] = np.minimum(b[r], fine[name][r])
-            o, invalid = over[name], sampled[name] & ~over[name]
-            bound[invalid] = b[invalid]  # the row form does not hold there
+            if not valid.all():
+                invalid = np.nonzero(~valid)[0]
+                bound[invalid] = b[invalid]  # the row form does not hold there
+            o = np.nonzero(over[name])[0]
             bound[o] = np.minimum(bound[o], b[o])  # both are upper bounds
-        out[name] = coarse[name] if bound is None else bound
+        out[name] = bound
     return out
 
 
@@ -406,14 +417,16 @@ def _sampled_union(ctx: CertifyContext, limits, wanted: dict, subdivisions: int)
     users = [lim for lim in limits if lim.name in wanted and wanted[lim.name].any()]
     if not users:
         return {}
-    mask = np.logical_or.reduce([wanted[lim.name] for lim in users])
+    mask, need = wanted[users[0].name].copy(), None
+    for lim in users[1:]:
+        mask |= wanted[lim.name]
     union = np.nonzero(mask)[0]
-    heavy = [wanted[lim.name] for lim in users if lim.needs_torque] if ctx.needs_torque else []
-    torque = None
-    if heavy:
-        need = np.logical_or.reduce(heavy)[union]
-        torque = None if need.all() else np.nonzero(need)[0]
-    every = replace(ctx, needs_torque=bool(heavy)).samples(union, subdivisions, torque)
+    for lim in users if ctx.needs_torque else ():
+        if lim.needs_torque:
+            need = wanted[lim.name].copy() if need is None else need | wanted[lim.name]
+    torque = None if need is None or need.sum() == len(union) else np.nonzero(need[union])[0]
+    view = ctx if ctx.needs_torque == (need is not None) else replace(ctx, needs_torque=need is not None)
+    every = view.samples(union, subdivisions, torque)
     values = [every.per_interval(lim.ratios(every.samples, ctx.robot)) for lim in users]
     bound = sampled_bound(np.concatenate(values, axis=2))
     out, start = {}, 0
