@@ -1,4 +1,5 @@
-"""Small joint paths for the planner tests (straight lines, polylines with kinks, periodic splines)."""
+"""Small joint paths for the planner tests (straight lines, polylines with kinks, periodic splines), and the
+dense resample that certified bounds are checked against."""
 
 from __future__ import annotations
 
@@ -57,3 +58,29 @@ class PeriodicSplinePath(JointPath):
         s = self.spline
         out = (s(th), s(th, 1), s(th, 2))
         return tuple(o[0] for o in out) if scalar else out
+
+
+def dense_interval_max(path, robot, profile, limits, dt) -> dict:
+    """{name: (K - 1, m)} largest ratio of each limit on a ``dt`` time resample, per grid interval (the
+    interval found from the sample's time)."""
+    from pathmotion.planning import Trajectory
+    from pathmotion.planning.verify import sample_ratios
+
+    samples, r = sample_ratios(Trajectory(path, profile, robot), limits, dt)
+    k = np.clip(np.searchsorted(profile.times, samples.t, side="right") - 1, 0, len(profile.grid) - 2)
+    out = {}
+    for name, v in r.items():
+        acc = np.full((len(profile.grid) - 1, v.shape[1]), -np.inf)
+        np.maximum.at(acc, k, v)
+        out[name] = acc
+    return out
+
+
+def assert_bounds_cover(bounds: dict, dense: dict, label) -> None:
+    """Every certified interval bound is at least the dense resample's largest ratio there (to 1e-9)."""
+    for name, d in dense.items():
+        b = bounds[name]
+        assert b.shape == d.shape, name
+        seen = np.isfinite(d)
+        short = d[seen] - b[seen]
+        assert short.max() <= 1e-9, (label, name, float(short.max()))
