@@ -84,3 +84,18 @@ def assert_bounds_cover(bounds: dict, dense: dict, label) -> None:
         seen = np.isfinite(d)
         short = d[seen] - b[seen]
         assert short.max() <= 1e-9, (label, name, float(short.max()))
+
+
+#: A 6-joint spline's waypoints for the controller tests [rad], shape (4, 6).
+CONTROL_WAYPOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0],
+                              [0.5, 0.3, -0.2, 0.4, 0.8, 0.6],
+                              [1.0, 0.1, 0.2, -0.2, 0.4, 1.2],
+                              [1.4, -0.2, 0.4, 0.1, 0.9, 1.6]])
+
+
+def trapezoid(v=0.9, a=2.0):
+    """Rest-to-rest trapezoid in theta on [0, 1]: top speed ``v`` [1/s], acceleration ``a`` [1/s^2]."""
+    from pathmotion.planning.profile import Profile
+
+    ta = v * v / (2 * a)
+    return Profile(np.array([0.0, ta, 1 - ta, 1.0]), np.array([0.0, v * v, v * v, 0.0]))

@@ -19,15 +19,7 @@ from pathmotion.planning.profile import Profile
 from pathmotion.simulation import SimulationSettings, simulate
 from pathmotion.simulation.monitor import monitor_state
 
-WAYPOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0],
-                      [0.5, 0.3, -0.2, 0.4, 0.8, 0.6],
-                      [1.0, 0.1, 0.2, -0.2, 0.4, 1.2],
-                      [1.4, -0.2, 0.4, 0.1, 0.9, 1.6]])
-
-
-def trapezoid(v=0.9, a=2.0):
-    ta = v * v / (2 * a)
-    return Profile(np.array([0.0, ta, 1 - ta, 1.0]), np.array([0.0, v * v, v * v, 0.0]))
+from tests.planning_paths import CONTROL_WAYPOINTS as WAYPOINTS, trapezoid
 
 
 @pytest.fixture(scope="module")
