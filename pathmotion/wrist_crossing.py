@@ -11,9 +11,11 @@ there the pose fixes only t4 + t6, and the TCP Jacobian loses rank.
   pose) by minimum joint motion. Here theta* is located (root of the signed t5 on that branch) and,
   where |t5| < ``defaults.WRIST_WINDOW``, Phi and Phi', Phi'', Phi''' come from a Chebyshev interpolant
   of the continuous closed-form IK: J^-1 [dp; w] is undetermined at theta* (dt4/dtheta there depends
-  on u', i.e. on the path's second derivative) and ill-conditioned nearby. The interpolant is
-  certified: it must match the IK between its nodes to ``WRIST_FIT_TOLERANCE`` and J^-1 [dp; w] at the
-  window's regular edges, or its degree doubles.
+  on u', i.e. on the path's second derivative) and ill-conditioned nearby. The interpolant takes
+  Phi .. Phi''' from J^-1 [dp; w] at the window's regular edges (Hermite conditions) and is certified:
+  its TCP pose matches the IK's between its nodes to ``defaults.WRIST_FIT_TOLERANCE`` and its Phi',
+  Phi'', Phi''' agree with a fit of higher degree (``WRIST_FIT_DERIVATIVE_TOLERANCE``); otherwise the
+  lower degrees of ``WRIST_FIT_DEGREES`` are tried, then the window is halved (``WRIST_FIT_HALVINGS``).
 * **Near pass / flip.** A path that misses the singularity by d > ``WRIST_CROSSING_TOLERANCE`` (in t5)
   has a continuous lift in which q4 and q6 turn by about pi over a theta interval ~ d / |u|; the branch
   on either side is fixed by continuity, so no branch choice removes the turn. When the Jacobian's
@@ -45,9 +47,6 @@ from .robot.opw import opw_fk
 
 log = logging.getLogger(__name__)
 
-#: Least-squares weight of an IK node: |sin q5| / max + WEIGHT_FLOOR (the floor keeps the nodes next to
-#: theta* in a one-sided window, at a path's end or a corner there) [-].
-WEIGHT_FLOOR = 0.0
 #: Degrees of the window fit, each with the degree of the second fit it is checked against, tried in turn
 #: (a lower degree amplifies the IK's rounding less: short windows, little freedom) [-].
 WRIST_FIT_DEGREES = ((9, 11), (7, 9), (5, 7), (3, 5))
@@ -64,9 +63,6 @@ SNAP = 1e-9
 WRIST_CORNER_JUMP = 1e-6
 #: Times the window is halved when its fit is not certified (a smaller window is nearer a polynomial) [-].
 WRIST_FIT_HALVINGS = 3
-#: A segment break nearer to theta* than this fraction of the window's half-width splits the window
-#: there (two one-sided fits); farther, the window shrinks to stay inside the segment [-].
-SPLIT_FRACTION = 0.1
 #: Most reference samples the tool-rotation search lifts per candidate (a subsample beyond) [-].
 SUGGESTION_SAMPLES = 2000
 _AXES = "xyz"
@@ -190,8 +186,8 @@ def _locate(robot: Robot, theta, t5, k: int, ik_at: IkAt) -> tuple[float, float,
     if t5[a_i] * t5[b_i] < 0:
         star = brentq(f, theta[a_i], theta[b_i], xtol=1e-15, maxiter=200)
         return star, abs(f(star)), True
-    if t5[k] == 0.0:
-        return float(theta[k]), 0.0, bool(t5[a_i] * t5[b_i] < 0)
+    if t5[k] == 0.0:  # exactly on q5 = 0 at sample k, no sign change across its neighbours (handled above)
+        return float(theta[k]), 0.0, False
     res = minimize_scalar(lambda x: abs(f(x)), bounds=(theta[a_i], theta[b_i]), method="bounded",
                           options={"xatol": 1e-14})
     star = float(res.x) if abs(f(res.x)) < abs(t5[k]) else float(theta[k])
@@ -333,7 +329,7 @@ def _hermite_fit(a: float, b: float, edges, ik_at: IkAt, degree: int, signed_t5_
     values = ik_at(0.5 * (a + b) + half * x_nodes)
     # q4 and q6 alone are rounded to ~eps / |q5| (their sum is exact): weight each node by |sin q5|
     weight = np.abs(np.sin(signed_t5_of(values)))[:, None]
-    weight = weight / max(float(weight.max()), 1e-300) + WEIGHT_FLOOR
+    weight = weight / max(float(weight.max()), 1e-300)
     fit_rows, fit_rhs = weight * np.polynomial.chebyshev.chebvander(x_nodes, degree), weight * values
     unit = np.eye(degree + 1)
     rows, rhs = [], []
