@@ -663,7 +663,8 @@ def simulation_budget(setup: Setup, settings, result: PlanResult) -> None:
     if count > defaults.MAX_TRAJECTORY_SAMPLES:  # the closed loop holds arrays of this many samples
         raise ScenarioError(f"simulate.sample_time = {settings.sample_time:g} s: the {budget:.4g} s closed-loop run "
                             f"would need {count:.3g} samples, more than {defaults.MAX_TRAJECTORY_SAMPLES:,} "
-                            "(defaults.MAX_TRAJECTORY_SAMPLES); raise the sample time (the controller's is 0.004 s)")
+                            "(defaults.MAX_TRAJECTORY_SAMPLES); raise the sample time (the default is "
+                            f"{defaults.SAMPLE_TIME:g} s)")
 
 
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:
@@ -779,8 +780,8 @@ def _check_like_plan_and_simulate(setup: Setup) -> dict:
     settings = simulation_settings(setup)
     simulation_budget(setup, settings, result)
     prepare_loop(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
-    return {"duration_s": float(result.profile.duration),
-            "worst_limit": None if result.ratios is None else result.ratios.worst, **reserve_summary(setup)}
+    return {schema.DURATION.key: float(result.profile.duration),
+            schema.WORST_LIMIT.key: None if result.ratios is None else result.ratios.worst, **reserve_summary(setup)}
 
 
 # ------------------------------------------------------------------------------------- demo

@@ -144,3 +144,22 @@ def test_a_vanishing_bandwidth_is_no_internal_error(bandwidth, sampled, tmp_path
     except PathmotionError:
         return
     assert report["duration_s"] > 0
+
+
+def test_check_refuses_a_closed_loop_too_long_for_its_sample_budget():
+    """simulate.sample_time = 1e-9 s: the closed loop of a ~1 s plan would hold ~1e9 samples, far above
+    defaults.MAX_TRAJECTORY_SAMPLES; check (like simulate) refuses it before any array is built, and says
+    how many samples and which setting to raise."""
+    from pathmotion import defaults
+
+    text = DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9")
+    setup = api.load_text(text)
+    settings = api.simulation_settings(setup)
+    duration = api.plan_scenario(setup).profile.duration
+    samples = (settings.time_budget_factor * duration + settings.time_budget_margin) / 1e-9 + 1
+    assert samples > 100 * defaults.MAX_TRAJECTORY_SAMPLES
+    with pytest.raises(ScenarioError, match=r"simulate\.sample_time = 1e-09 s") as info:
+        api.check_scenario(setup)
+    message = str(info.value)
+    assert f"{samples:.3g} samples" in message and "raise the sample time" in message
+    assert f"the default is {defaults.SAMPLE_TIME:g} s" in message
