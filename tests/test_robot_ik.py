@@ -306,12 +306,17 @@ def test_batch_reports_first_unreachable_point(robot):
     assert "reaches" in str(info.value)
 
 
-def test_batch_follows_a_joint_path_through_the_wrist_singularity(robot):
-    # a straight joint-space line on which q5 changes sign while q4 and q6 move: the closed form's
-    # wrist branch 0 (q5 >= 0) would flip q4 and q6 by pi there; the batch changes wrist branch instead
-    s = np.linspace(0, 1, 1001)[:, None]
-    a = np.array([0.2, 0.3, -0.5, 0.5, 0.8, 1.0])
-    b = np.array([0.8, 0.6, -1.2, 2.0, -0.3, 5.0])
+#: A straight joint-space line on which q5 changes sign while q4 and q6 move.
+_WRIST_LINE = (np.array([0.2, 0.3, -0.5, 0.5, 0.8, 1.0]), np.array([0.8, 0.6, -1.2, 2.0, -0.3, 5.0]))
+
+
+@pytest.mark.parametrize("forward", [True, False], ids=["from_branch_0", "from_flipped_branch"])
+def test_batch_follows_a_joint_path_through_the_wrist_singularity(robot, forward):
+    # the closed form's wrist branch 0 (q5 >= 0) would flip q4 and q6 by pi at the crossing; the batch
+    # changes wrist branch instead. Backwards, point 0 is on wrist branch 1 (q5 < 0) and the crossing
+    # returns to branch 0.
+    s = (np.linspace(0, 1, 1001) if forward else np.linspace(1, 0, 801))[:, None]
+    a, b = _WRIST_LINE
     qs = a + (b - a) * s
     pos, rot = fk(robot, qs)
     got = ik_batch(robot, pos, rot, qs[0])
@@ -320,18 +325,6 @@ def test_batch_follows_a_joint_path_through_the_wrist_singularity(robot):
     np.testing.assert_allclose(got[:, 3] + got[:, 5], qs[:, 3] + qs[:, 5], atol=1e-9)
     # q4 alone only up to rounding / |sin q5| (the split is undetermined at q5 = 0)
     assert np.all(np.abs(d[:, 3]) < 1e-12 / np.abs(np.sin(qs[:, 4])) + 1e-9)
-
-
-def test_batch_starting_on_the_flipped_wrist_follows_it_back(robot):
-    # the same line backwards: point 0 is on wrist branch 1 (q5 < 0), the crossing returns to branch 0
-    s = np.linspace(1, 0, 801)[:, None]
-    a = np.array([0.2, 0.3, -0.5, 0.5, 0.8, 1.0])
-    b = np.array([0.8, 0.6, -1.2, 2.0, -0.3, 5.0])
-    qs = a + (b - a) * s
-    pos, rot = fk(robot, qs)
-    got = ik_batch(robot, pos, rot, qs[0])
-    np.testing.assert_allclose(got[:, [0, 1, 2, 4]], qs[:, [0, 1, 2, 4]], atol=1e-9)
-    assert np.all(np.abs(got[:, 3] - qs[:, 3]) < 1e-12 / np.abs(np.sin(qs[:, 4])) + 1e-9)
 
 
 def test_continuous_wrist_never_flips_away_from_the_singularity(robot):
