@@ -47,5 +47,10 @@ def test_theta_goes_back_across_the_turn_only_when_clearly_nearer(ratio, back):
     assert ok
     if back:  # distance ratio below sqrt(BACKWARD_RATIO): the first half, theta = s, distance h
         assert ratio**2 < BACKWARD_RATIO and th == pytest.approx(0.98, abs=1e-9) and dev == pytest.approx(h, rel=1e-6)
-    else:  # stays on the second half
-        assert th > 1.0 and dev > h
+    else:  # stays on the second half, at the foot of the perpendicular from q (exact geometry)
+        d2 = np.array([-np.cos(ALPHA), np.sin(ALPHA), 0, 0, 0, 0])
+        along = (q - np.eye(6)[0]) @ d2
+        foot = np.eye(6)[0] + along * d2
+        assert np.linalg.norm(q - foot) == pytest.approx(h / ratio, rel=1e-9)  # the construction's distance
+        assert th == pytest.approx(1.0 + along, abs=1e-9) and th > 1.0
+        assert dev == pytest.approx(np.max(np.abs(q - foot)), rel=1e-6) and dev > h
