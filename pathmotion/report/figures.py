@@ -14,8 +14,8 @@ import numpy as np  # noqa: E402
 
 from ..io import schema  # noqa: E402
 from ..io.atomic import atomic_path  # noqa: E402
-from .tables import (PLOT_FLOOR, PLOT_HEADROOM, THIRD_ORDER_NOTE, joint_columns, limit_curve_label,  # noqa: E402
-                     read_columns, read_json, steady_curve_label)
+from .tables import (FALLBACK_LIMIT_COLOR, LIMIT_COLORS, PLOT_FLOOR, PLOT_HEADROOM, SPARE_LIMIT_COLORS,  # noqa: E402
+                     THIRD_ORDER_NOTE, joint_columns, limit_curve_label, read_columns, read_json, steady_curve_label)
 
 
 def _save(fig, path: Path) -> Path:
@@ -54,11 +54,6 @@ def phase_plane_labels(path_kind: str) -> tuple[str, str]:
     return "theta, arc length along the path [m]", "theta_dot, TCP speed [m/s]"
 
 
-#: Colour of each limit's own curve in the phase plane (by limit name; others take the next free colour).
-LIMIT_COLORS = {"velocity": "tab:purple", "acceleration": "tab:orange", "torque": "tab:brown",
-                "torque_speed": "tab:pink", "tcp_speed": "tab:olive", "jerk": "black", "torque_rate": "tab:cyan"}
-
-
 def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     """theta_dot against theta (columns of phase_plane.csv, names in io/schema.py): the planner's
     curve of all limits together (wide grey), each active limit's own curve, the controllable bound,
@@ -72,14 +67,14 @@ def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     top = PLOT_HEADROOM * max(float(np.max(cols[k])) for k in profiles) + PLOT_FLOOR
     ax.plot(th, np.minimum(cols[schema.PHASE_POINTWISE], top), color="0.6", lw=4, alpha=0.45,
             solid_capstyle="butt", label="all limits (planner's curve)")
-    spare = iter(c for c in ("tab:gray", "gold", "tab:blue") if c not in LIMIT_COLORS.values())
+    spare = iter(SPARE_LIMIT_COLORS)
     for name in schema.limit_curve_names(cols):
-        color = LIMIT_COLORS.get(name) or next(spare, "0.3")
+        color = LIMIT_COLORS.get(name) or next(spare, FALLBACK_LIMIT_COLOR)
         ax.plot(th, np.minimum(cols[schema.limit_curve_column(name)], top), color=color, lw=1.1,
                 label=limit_curve_label(name, summary))
     for name in schema.steady_curve_names(cols):
-        ax.plot(th, np.minimum(cols[schema.steady_curve_column(name)], top), color=LIMIT_COLORS.get(name, "0.2"),
-                lw=1.2, ls=":", label=steady_curve_label(name))
+        ax.plot(th, np.minimum(cols[schema.steady_curve_column(name)], top),
+                color=LIMIT_COLORS.get(name, FALLBACK_LIMIT_COLOR), lw=1.2, ls=":", label=steady_curve_label(name))
     ax.plot(th, np.minimum(cols[schema.PHASE_CONTROLLABLE], top), color="0.3", lw=1, ls="--",
             label="controllable bound")
     if schema.PHASE_SECOND_ORDER in cols:

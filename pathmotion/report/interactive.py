@@ -17,7 +17,8 @@ from plotly.subplots import make_subplots
 from ..io import schema
 from ..io.exports import decimate  # noqa: F401  (the report's figures decimate with it)
 from .. import defaults
-from .tables import PLOT_FLOOR, PLOT_HEADROOM, THIRD_ORDER_NOTE, limit_curve_label, steady_curve_label
+from .tables import (FALLBACK_LIMIT_COLOR, LIMIT_COLORS, PLOT_FLOOR, PLOT_HEADROOM, SPARE_LIMIT_COLORS,
+                     THIRD_ORDER_NOTE, limit_curve_label, steady_curve_label)
 
 #: Smallest scene span of a 3-D view [m], so that a single point still gets axes.
 SCENE_MIN_SPAN = 1e-6
@@ -55,11 +56,6 @@ def _layout(fig: go.Figure, title: str, height: int, legend: str = "top", **kwar
 
 
 # ------------------------------------------------------------------------------------ phase plane
-#: Colour of each limit's own curve in the phase plane (by limit name; others get a spare colour).
-LIMIT_COLORS = {"velocity": "#9467bd", "acceleration": "#ff7f0e", "torque": "#8c564b", "torque_speed": "#e377c2",
-                "tcp_speed": "#bcbd22", "jerk": "#111111", "torque_rate": "#17becf"}
-
-
 def phase_plane_figure(cols: dict[str, np.ndarray], durations: dict[str, float | None], path_kind: str,
                        summary: dict | None = None) -> go.Figure:
     """theta_dot against theta (columns of phase_plane.csv, names in io/schema.py): the planner's curve
@@ -80,14 +76,14 @@ def phase_plane_figure(cols: dict[str, np.ndarray], durations: dict[str, float |
         d = durations.get(name)
         return text if d is None else f"{text}: {d:.4g} s"
 
-    spare = iter(c for c in ("#7f7f7f", "#aec7e8") if c not in LIMIT_COLORS.values())
+    spare = iter(SPARE_LIMIT_COLORS)
     lines = [(schema.PHASE_POINTWISE, "all limits together (the planner's curve)",
               dict(color=COLORS["limit"], width=6), 0.4)]
     lines += [(schema.limit_curve_column(name), limit_curve_label(name, summary or {}),
-               dict(color=LIMIT_COLORS.get(name) or next(spare, "#333333"), width=1.3), 1.0)
+               dict(color=LIMIT_COLORS.get(name) or next(spare, FALLBACK_LIMIT_COLOR), width=1.3), 1.0)
               for name in schema.limit_curve_names(cols)]
     lines += [(schema.steady_curve_column(name), steady_curve_label(name),
-               dict(color=LIMIT_COLORS.get(name, "#333333"), width=1.5, dash="dot"), 1.0)
+               dict(color=LIMIT_COLORS.get(name, FALLBACK_LIMIT_COLOR), width=1.5, dash="dot"), 1.0)
               for name in schema.steady_curve_names(cols)]
     lines += [
         (schema.PHASE_CONTROLLABLE, "controllable bound (can still slow down in time)",

@@ -20,6 +20,13 @@ from ..io.files import read_input
 PLOT_HEADROOM = 1.6
 PLOT_FLOOR = 1e-9
 
+#: Colour of each limit's own curve in both phase-plane plots (PNG and interactive), by limit name; a limit
+#: not named here takes the SPARE_LIMIT_COLORS in turn, then FALLBACK_LIMIT_COLOR.
+LIMIT_COLORS = {"velocity": "#9467bd", "acceleration": "#ff7f0e", "torque": "#8c564b", "torque_speed": "#e377c2",
+                "tcp_speed": "#bcbd22", "jerk": "#111111", "torque_rate": "#17becf"}
+SPARE_LIMIT_COLORS = ("#7f7f7f", "#aec7e8")
+FALLBACK_LIMIT_COLOR = "#333333"
+
 #: Legend text of each limit's own maximum-velocity curve in the phase plane (by limit name).
 LIMIT_CURVE_LABELS = {"velocity": "joint velocity limit", "acceleration": "joint acceleration limit",
                       "torque": "joint torque limit", "tcp_speed": "TCP speed limit",
