@@ -24,7 +24,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
-from .errors import PathmotionError
+from .errors import PathmotionError, ScenarioError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="rich",
                   help="Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation.")
@@ -117,15 +117,15 @@ def _out(out: Path) -> Path:
     return check_output_dir(out)
 
 
-_SCHEDULER = re.compile(r"^((tcp|tls|ws|wss|ucx)://)?([A-Za-z0-9_.\-]+|\[[0-9a-fA-F:]+\]):(\d{1,5})/?$")
-
-
 def _scheduler(address: Optional[str]) -> Optional[str]:
-    """``--scheduler`` checked before any work: [PROTOCOL://]HOST:PORT."""
-    match = None if address is None else _SCHEDULER.match(address)
-    if address is not None and (match is None or not 0 < int(match.group(4)) < 65536):
-        _fail(f"--scheduler {address[:80]!r} is not a Dask scheduler address; give tcp://HOST:PORT, "
-              "e.g. tcp://127.0.0.1:8786")
+    """``--scheduler`` checked before any work (study.sweep.check_scheduler_address): [PROTOCOL://]HOST:PORT."""
+    if address is not None:
+        from .study.sweep import check_scheduler_address
+
+        try:
+            check_scheduler_address(address)
+        except ScenarioError as exc:
+            _fail(f"--scheduler: {exc}")
     return address
 
 

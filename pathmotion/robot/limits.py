@@ -13,6 +13,8 @@ from ..io.files import parse_toml, read_input
 _KEYS = ("lower", "upper", "velocity", "acceleration", "torque")
 #: Keys a limits file may leave out (all joints or none); None in JointLimits when absent.
 _OPTIONAL = ("acceleration", "jerk", "torque_rate", "armature")
+#: Every per-joint key of a limits file, required first (acceleration is in both).
+_ALL_KEYS = tuple(dict.fromkeys((*_KEYS, *_OPTIONAL)))
 
 
 @dataclass(frozen=True)
@@ -40,7 +42,7 @@ class JointLimits:
 
     def __post_init__(self):
         n = len(self.names)
-        for key in (*_KEYS, *_OPTIONAL[1:]):
+        for key in _ALL_KEYS:
             v = getattr(self, key)
             if v is None:
                 continue
@@ -99,13 +101,13 @@ def limits_from_dict(doc: dict, joint_names: tuple[str, ...], where: str = "limi
         if name not in joint_names:
             raise RobotModelError(f"{where}: joints[{k}] names '{name}', not a joint of the robot {list(joint_names)}")
         by_name[name] = j
-    values: dict[str, list] = {key: [] for key in (*_KEYS, *_OPTIONAL[1:])}
+    values: dict[str, list] = {key: [] for key in _ALL_KEYS}
     sources = {}
     for name in joint_names:
         if name not in by_name:
             raise RobotModelError(f"{where}: no [[joints]] entry for joint '{name}'")
         j = by_name[name]
-        for key in (*_KEYS, *_OPTIONAL[1:]):
+        for key in _ALL_KEYS:
             v = j.get(key)
             if v is None and key not in _OPTIONAL:
                 raise RobotModelError(f"{where}: joint '{name}' has no '{key}' limit; add it")

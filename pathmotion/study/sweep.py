@@ -290,21 +290,32 @@ def _run_processes(workers: int, args, todo, record, point_fn, traces) -> None:
     pool.shutdown(wait=True)
 
 
+def _bad_address(address, detail: str = "") -> ScenarioError:
+    """The error for a --scheduler value that is not [PROTOCOL://]HOST:PORT (``detail``: Dask's reason)."""
+    return ScenarioError(f"scheduler address {str(address)[:80]!r} is not a Dask scheduler address{detail}; give "
+                         "tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786")
+
+
+def check_scheduler_address(address) -> str:
+    """``address`` when it has the form [PROTOCOL://]HOST:PORT of a Dask scheduler (PORT 1..65535), else a
+    ScenarioError; checked before any work (distributed itself may assert on a malformed one)."""
+    match = _DASK_ADDRESS.match(address) if isinstance(address, str) else None
+    if match is None or not 0 < int(match.group(4)) < 65536:
+        raise _bad_address(address)
+    return address
+
+
 def _run_dask(address: str, args, todo, record, point_fn, traces) -> None:
     try:
         from distributed import Client
         from distributed import as_completed as dask_completed
     except ImportError:  # pragma: no cover - dask is a runtime dependency
         raise PathmotionError("--scheduler needs dask distributed: pip install 'dask[distributed]'") from None
-    match = _DASK_ADDRESS.match(address) if isinstance(address, str) else None
-    if match is None or not 0 < int(match.group(4)) < 65536:  # checked here: distributed may assert on it
-        raise ScenarioError(f"scheduler address {str(address)[:80]!r} is not a Dask scheduler address; give "
-                            "tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786")
+    check_scheduler_address(address)
     try:
         client = Client(address, timeout="10s")
     except (ValueError, TypeError) as exc:  # malformed: no port, unknown scheme
-        raise ScenarioError(f"scheduler address {address[:80]!r} is not a Dask scheduler address ({exc}); give "
-                            "tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786") from None
+        raise _bad_address(address, f" ({exc})") from None
     except (OSError, TimeoutError) as exc:
         raise PathmotionError(f"cannot reach the Dask scheduler at {address}: {exc}; is it running "
                               "(dask scheduler) with workers (dask worker ADDRESS)?") from None
