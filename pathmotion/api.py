@@ -575,12 +575,13 @@ def phase_plane_columns(result: PlanResult, setup: Setup | None = None,
     limit's own maximum-velocity curve and each third-order limit's steady-speed curve
     (planning/limit_curves.py); with ``second`` (the plan without the third-order limits,
     :func:`second_order_plan`), its profile."""
+    from .planning.limit_curves import X_UNBOUNDED, limit_curves, steady_curves
+
     grid = result.profile.grid
     cols = {schema.PHASE_THETA: grid, schema.PHASE_OPTIMAL: np.sqrt(result.profile.x)}
     c = result.curves
-    cols[schema.PHASE_POINTWISE] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_max, 1e12)), 0))
-    cols[schema.PHASE_CONTROLLABLE] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(c.x_controllable, 1e12)),
-                                                         0))
+    for key, x in ((schema.PHASE_POINTWISE, c.x_max), (schema.PHASE_CONTROLLABLE, c.x_controllable)):
+        cols[key] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(x, X_UNBOUNDED)), 0))
     b = result.baselines
     if b is not None:
         for key, base in ((schema.PHASE_FITTED, b.fitted), (schema.PHASE_CONSTANT_SPEED, b.constant_speed)):
@@ -589,8 +590,6 @@ def phase_plane_columns(result: PlanResult, setup: Setup | None = None,
     if second is not None:
         cols[schema.PHASE_SECOND_ORDER] = second.profile.theta_dot_at(grid)
     if setup is not None:
-        from .planning.limit_curves import limit_curves, steady_curves
-
         for name, curve in limit_curves(setup.path, setup.robot, result.settings, grid).items():
             cols[schema.limit_curve_column(name)] = curve
         for name, curve in steady_curves(setup.path, setup.robot, result.settings, grid).items():
