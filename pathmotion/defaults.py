@@ -19,6 +19,8 @@ MAX_TRAJECTORY_SAMPLES = 2_000_000
 GRID_POINTS = 1000
 #: Adaptive planner grid: requested relative error of the duration (``plan.tolerance``) [-].
 PLAN_TOLERANCE = 5e-4
+#: Largest plan.tolerance accepted, exclusive (a 10 % error in the duration is no longer an optimum) [-].
+MAX_PLAN_TOLERANCE = 0.1
 #: Adaptive planner grid: uniform points of the initial grid (grading, breaks and knots added) [-].
 GRID_INITIAL_POINTS = 200
 #: Adaptive planner grid: most refinement iterations and most grid points; beyond either the plan is

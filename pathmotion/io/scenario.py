@@ -190,7 +190,7 @@ class PlanSpec(_Model):
                                "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
-    tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=0.1, description="adaptive grid: requested relative "
+    tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE, description="adaptive grid: requested relative "
                              "error of the duration (0.0005 = 0.05 %)")
 
 

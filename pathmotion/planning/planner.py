@@ -44,8 +44,6 @@ CLOSURE_KINK_TOLERANCE = 1e-6
 #: are scaled so that the ratio becomes 1 - TIGHTEN_TARGET x tolerance [-].
 TIGHTEN_TRIGGER = 0.5
 TIGHTEN_TARGET = 0.25
-#: Largest plan.tolerance accepted (a 10 % error in the duration is no longer an optimum) [-].
-MAX_TOLERANCE = 0.1
 
 
 @dataclass(frozen=True, init=False)
@@ -136,9 +134,9 @@ class PlanSettings:
                                              int(self.grid_points) != self.grid_points or self.grid_points < 3):
             raise ScenarioError(f"planner grid_points must be an integer >= 3 (or None: adaptive grid), "
                                 f"got {self.grid_points}")
-        if isinstance(self.tolerance, bool) or not (0 < self.tolerance < MAX_TOLERANCE):
+        if isinstance(self.tolerance, bool) or not (0 < self.tolerance < defaults.MAX_PLAN_TOLERANCE):
             raise ScenarioError(f"plan.tolerance (relative error of the duration on the adaptive grid) must be in "
-                                f"(0, {MAX_TOLERANCE}), got {self.tolerance!r}")
+                                f"(0, {defaults.MAX_PLAN_TOLERANCE}), got {self.tolerance!r}")
         for name in ("start", "end"):
             v = getattr(self, name)
             if v is None:
