@@ -277,14 +277,18 @@ def test_tables_never_cut_numbers_on_narrow_or_piped_consoles(width):
                "connections": {"kind": "corner", "angle_deg": 90.0}, "ok": True}
     table = Table("scenario", "planned [s]", "simulated [s]", "joint dev [mrad]", "path dev [mm]", "sharp dev [mm]")
     table.add_row("corner_transition_long_name", *[_format_cell(v) for v in (1.33123, 1.33145, 0.0541, 0.02212, 18.7)])
-    for tab in (_summary_table("t", summary), table):
+    # every number each table holds (written out here, so that a change of the formatting fails the test
+    # instead of skipping the check) must appear whole in the printed text
+    expected = {"summary": ("0.0221235", "1.23457e+06", "90"), "columns": ("1.331", "0.0541", "0.02212", "18.7")}
+    for (kind, numbers), tab in zip(expected.items(), (_summary_table("t", summary), table)):
         buf = io.StringIO()
         _print_table(tab, Console(file=buf, width=width, force_terminal=False))
         text = buf.getvalue()
         assert "…" not in text and "..." not in text
-        for number in ("0.0221235", "1.23457e+06", "1.331", "0.0541", "0.02212", "18.7", "90"):
-            if number in "".join(str(c) for col in tab.columns for c in col.cells):
-                assert number in text, (number, text)
+        cells = " ".join(str(c) for col in tab.columns for c in col.cells)
+        for number in numbers:
+            assert number in cells, (kind, number, cells)
+            assert number in text, (kind, number, text)
     assert "the path speed jumps at theta = 0.628319; a limit is exceeded" in list(
         _summary_table("t", summary).columns[1].cells)[2]
 
