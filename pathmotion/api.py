@@ -370,11 +370,18 @@ def _reserve_trial(setup: Setup, reserve: float, runs: dict) -> ReserveTrial:
     sim = simulate_scenario(trial, result)
     runs[reserve] = (result, sim)
     summary = sim.summary()
-    ok = bool(summary[schema.TRACKING_OK.key])
-    failure = summary[schema.FAILURE.key]
-    reason = "" if ok else "tracking failed" + (f": {failure['message']}" if failure else "")
-    return ReserveTrial(reserve, Verdict.TRACKS if ok else Verdict.FAILS, reason, result.duration,
+    reason = tracking_failure(summary)
+    return ReserveTrial(reserve, Verdict.FAILS if reason else Verdict.TRACKS, reason, result.duration,
                         summary[schema.CYCLE_TIME.key], summary[schema.PATH_ACCURACY.key])
+
+
+def tracking_failure(sim_summary: dict) -> str:
+    """Why a simulation summary's closed loop failed, "tracking failed: <its failure message>" ("" when it
+    tracked): the line that joins a simulate run's failures and the reserve search's reasons."""
+    if sim_summary.get(schema.TRACKING_OK.key, True):
+        return ""
+    failure = sim_summary.get(schema.FAILURE.key)
+    return "tracking failed" + (f": {failure['message']}" if failure else "")
 
 
 def reserve_summary(setup: Setup) -> dict:

@@ -481,9 +481,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         progress.update(task, advance=1, description="simulate: writing")
         with result_folder(out) as folder:  # plan and simulation files replace the folder as one unit
             summary = api.write_simulation(setup, result, sim, folder)
-            failures = api.plan_failures(result, setup)
-            if not summary.get("tracking_ok", True):
-                failures.append(f"tracking failed: {summary['failure']['message']}")
+            failures = api.plan_failures(result, setup) + [r for r in (api.tracking_failure(summary),) if r]
             plan_summary = api.write_plan(setup, result, folder / "plan", failures, force_exports=force)
             if figures:
                 _plan_figures(folder / "plan")
