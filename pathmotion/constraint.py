@@ -37,6 +37,7 @@ import pinocchio as pin
 
 from . import defaults, wrist_crossing
 from .errors import PathError, UnreachableError
+from .geometry import describe_point
 from .joint_path import JointPath
 from .robot import Robot, frame_acceleration_bias, jacobian
 from .robot import redundancy
@@ -227,7 +228,7 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
         idx = getattr(exc, "index", None)
         if idx is None:
             raise
-        raise UnreachableError(_where(task_path, theta[idx], p[idx]) + f": {exc}") from None
+        raise UnreachableError(describe_point(task_path, theta[idx], p[idx]) + f": {exc}") from None
     # continuity: unwrap every joint along the dense reference
     q = np.unwrap(q, axis=0)
     path = TaskJointPath(
@@ -318,7 +319,7 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
     try:
         q0 = ik_dls(robot, p0[0], r0[0], q_start)
     except UnreachableError as exc:
-        raise UnreachableError(_where(task_path, theta[0], p0[0]) + f": {exc}", reason=exc.reason) from None
+        raise UnreachableError(describe_point(task_path, theta[0], p0[0]) + f": {exc}", reason=exc.reason) from None
     winv = redundancy.joint_weights(robot)
     gain = defaults.REDUNDANCY_NULLSPACE_GAIN if robot.n > 6 else 0.0
     try:
@@ -326,7 +327,7 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
     except UnreachableError as exc:
         i = exc.index or 0
         p_i = task_path.evaluate(theta[i])[0]
-        raise UnreachableError(_where(task_path, theta[i], p_i) + f": {exc}", reason=exc.reason) from None
+        raise UnreachableError(describe_point(task_path, theta[i], p_i) + f": {exc}", reason=exc.reason) from None
     p = task_path.evaluate(theta)[0]
     check = _check_path(robot, task_path, theta, q, p, singularity_threshold)
     closed = bool(getattr(task_path, "closed", False)) and bool(np.max(np.abs(q[-1] - q[0])) < CLOSURE_MATCH)
@@ -336,13 +337,6 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
         task_path=task_path, original_task_path=original, reference_theta=theta, reference_q=q, check=check,
         reference_dq_right=dq_r, reference_dq_left=dq_l, q_ref=q_start, gain=gain, weights_inv=winv)
 
-def _where(task_path, theta: float, p) -> str:
-    seg = ""
-    if hasattr(task_path, "segment_index"):
-        seg = f" (segment {int(task_path.segment_index(theta)) + 1})"
-    return f"path point at theta = {theta:.4f} m{seg}, position ({p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}) m"
-
-
 def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathCheck:
     lim = robot.limits
     below = q < lim.lower - IK_RANGE_SLACK
@@ -350,7 +344,7 @@ def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathChe
     if np.any(below | above):
         k, j = np.argwhere(below | above)[0]
         raise UnreachableError(
-            f"{_where(task_path, theta[k], p[k])}: joint {lim.names[j]} would be at {q[k, j]:.4f} rad, outside "
+            f"{describe_point(task_path, theta[k], p[k])}: joint {lim.names[j]} would be at {q[k, j]:.4f} rad, outside "
             f"its range [{lim.lower[j]:.4f}, {lim.upper[j]:.4f}] on this IK branch; move the path or give "
             "path.start_configuration for another branch"
         )
@@ -365,8 +359,8 @@ def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathChe
     kc = int(np.argmin(checked))
     if checked[kc] < threshold:
         raise UnreachableError(
-            f"{_where(task_path, theta[kc], p[kc])}: the arm is (near) singular there (smallest Jacobian singular "
-            f"value {sv[kc]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity"
+            f"{describe_point(task_path, theta[kc], p[kc])}: the arm is (near) singular there (smallest Jacobian "
+            f"singular value {sv[kc]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity"
         )
     return PathCheck(float(sv[ks]), float(theta[ks]), float(margin[k, j]), float(theta[k]), lim.names[j],
                      tuple(float(x) for x in task_path.kinks), len(theta))

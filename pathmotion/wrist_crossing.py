@@ -41,6 +41,7 @@ from scipy.spatial.transform import Rotation
 
 from . import defaults
 from .errors import PathError, UnreachableError
+from .geometry import describe_point
 from .robot import Robot, jacobian
 from .robot.ik import ik_batch, opw_geometry
 from .robot.opw import opw_fk
@@ -247,12 +248,10 @@ def _check_corner(robot: Robot, task_path, theta, star: float, fits: list[WristW
 
 def _corner_error(robot: Robot, task_path, theta, star: float, jump, q_start) -> None:
     """Raise the error for a corner at q5 = 0 whose sides need different q4/q6 splits (jump (6,) or None)."""
-    seg = int(task_path.segment_index(star)) + 1 if hasattr(task_path, "segment_index") else 0
-    p = task_path.evaluate(star)[0]
     size = ("" if jump is None else
             f" by {jump[3]:+.3f} rad (q6 by {jump[5]:+.3f} rad)")
     raise UnreachableError(
-        f"path point at theta = {star:.4f} m (segment {seg}), position ({p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}) m: "
+        f"{describe_point(task_path, star, task_path.evaluate(star)[0])}: "
         f"the path has a corner exactly at the wrist singularity (q5 = 0) where q4 would have to jump{size} with "
         f"the TCP at rest, which no path-following motion can do; "
         f"{suggest_tool_rotation(robot, task_path, theta, q_start)}, or move the corner off the singularity",
@@ -377,10 +376,6 @@ def with_speed_limits(passage: WristPassage, path, velocity: np.ndarray, theta: 
 def _flip_message(robot: Robot, task_path, theta, passage: WristPassage, q_star: np.ndarray, sigma: float,
                   threshold: float, sign_change: bool, q_start) -> str:
     """The one-line flip error: where, how far from q5 = 0, the turn and its speed, a tool rotation."""
-    seg = ""
-    if hasattr(task_path, "segment_index"):
-        seg = f" (segment {int(task_path.segment_index(passage.theta)) + 1})"
-    p = passage.position
     turn = "about pi between two reference samples" if sign_change else f"{abs(passage.q4_turn):.2f} rad"
     # joint rates per metre of path there: J^-1 is ill-conditioned, but its size is the point
     _, dp, _, _, w, _ = task_path.pose(np.array([passage.theta]))
@@ -388,7 +383,7 @@ def _flip_message(robot: Robot, task_path, theta, passage: WristPassage, q_star:
     with np.errstate(divide="ignore"):
         bound = robot.limits.velocity / rate
     j = int(np.argmin(bound))
-    return (f"path point at theta = {passage.theta:.4f} m{seg}, position ({p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}) m: "
+    return (f"{describe_point(task_path, passage.theta, passage.position)}: "
             f"the path passes {passage.min_abs_q5:.2e} rad from the wrist singularity (q5 = 0) without crossing it, "
             f"so q4 and q6 must turn by {turn} there, q4 at {rate[3]:.2g} rad per m of path ({robot.joint_names[j]}'s "
             f"velocity limit allows {bound[j]:.2g} m/s; smallest Jacobian singular value {sigma:.2e} < {threshold:g}): "

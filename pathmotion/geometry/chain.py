@@ -229,3 +229,12 @@ class TaskPath:
             lines.append(f"  [{k}] theta {self.offsets[k]:.6g}..{self.offsets[k + 1]:.6g}: {seg.describe()}")
         lines += [f"  {c.describe()}" for c in self.connections]
         return "\n".join(lines)
+
+
+def describe_point(task_path, theta: float, p) -> str:
+    """'path point at theta = ... m (segment k), position (x, y, z) m' for error messages: theta [m], p (3,)
+    [m] the TCP position there; the segment (1-based) only for paths that have segments."""
+    seg = ""
+    if hasattr(task_path, "segment_index"):
+        seg = f" (segment {int(task_path.segment_index(theta)) + 1})"
+    return f"path point at theta = {theta:.4f} m{seg}, position ({p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}) m"
