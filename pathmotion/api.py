@@ -397,13 +397,13 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
     r = result.ratios
     b = result.baselines
     out = {
-        "scenario": setup.name,
-        "robot": setup.robot.name,
-        "path_length": float(setup.path.length),
-        "path_kind": "task" if setup.task_path is not None else "joint",
+        schema.SCENARIO.key: setup.name,
+        schema.ROBOT.key: setup.robot.name,
+        schema.PATH_LENGTH.key: float(setup.path.length),
+        schema.PATH_KIND.key: "task" if setup.task_path is not None else "joint",
         schema.DURATION.key: result.profile.duration,
         schema.SOLVE_TIME.key: result.solve_time_s,
-        "grid_points": result.grid_points,
+        schema.GRID_POINTS.key: result.grid_points,
         schema.DURATION_ERROR_ESTIMATE.key: result.duration_error_estimate,
         **({cls.summary_key(): None for cls in LIMIT_REGISTRY} if r is None else r.summary()),
         **limit_settings_summary(setup.robot, result.settings),
@@ -734,9 +734,9 @@ def check_scenario(setup: Setup) -> dict:
     from .planning.reduced import reduced_dynamics
 
     path, robot = setup.path, setup.robot
-    out: dict[str, Any] = {"scenario": setup.name, "robot": robot.name, "joints": robot.n,
-                           "path_kind": "task" if setup.task_path is not None else "joint",
-                           "path_length": float(path.length), "closed": path_is_closed(setup),
+    out: dict[str, Any] = {schema.SCENARIO.key: setup.name, schema.ROBOT.key: robot.name, "joints": robot.n,
+                           schema.PATH_KIND.key: "task" if setup.task_path is not None else "joint",
+                           schema.PATH_LENGTH.key: float(path.length), "closed": path_is_closed(setup),
                            "periodic": bool(setup.scenario.plan.periodic)}
     if setup.task_path is not None:
         out["segments"] = len(setup.task_path.segments)
