@@ -247,6 +247,11 @@ CASES = (
     Case("periodic_open_path", "impossible boundary velocity",
          _plan("").replace("grid_points = 60", "grid_points = 60\nperiodic = true"), ScenarioError,
          ("periodic planning needs a joint path that ends where it starts", "periodic = false"), stage="plan"),
+    Case("jerk_with_max_connections", "impossible boundary velocity",
+         _then('[[path.segments]]\ntype = "line"\nend = [0.6, 0.1, 0.5]').replace(
+             "grid_points = 60", 'grid_points = 60\nconnections = "max"') + "[limits]\nuse_jerk = true\n",
+         ScenarioError, ("jerk and torque-rate limits need a continuous profile", "connections = 'max'",
+                         "use 'chain' or 'zero'"), stage="plan"),
     # --- blends
     Case("transition_too_large", "blend that does not fit", _corner('type = "circle"\nradius = 0.5'), PathError,
          ("radius 0.5 m does not fit", "connection 0", "theta = 0.2")),

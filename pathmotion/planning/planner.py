@@ -301,6 +301,9 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     if settings.periodic and not path.closed:
         raise ScenarioError(_not_closed_message(path))
     limits = effective_limits(robot, settings)
+    if limits.third_order and settings.connections == Connections.MAX:  # refused before any solve
+        raise ScenarioError("jerk and torque-rate limits need a continuous profile: connections = 'max' makes "
+                            "theta_dot jump at segment connections; use 'chain' or 'zero'")
     # third-order limits: one SLP on a fixed grid (its smooth interpolation needs no adaptive refinement)
     adaptive = settings.grid_points is None and not limits.third_order
     estimate = None
@@ -486,11 +489,7 @@ def _smooth(grid, samp, limits, scale, sol, chain_args, x_ref):
     k = len(grid)
     rest = np.zeros(k, dtype=bool)
     rest[list(chain_args["stops"])] = True
-    connections = chain_args["connections"]
-    if connections == Connections.MAX:
-        raise ScenarioError("jerk and torque-rate limits need a continuous profile: connections = 'max' makes "
-                            "theta_dot jump at segment connections; use 'chain' or 'zero'")
-    if connections == Connections.ZERO:
+    if chain_args["connections"] == Connections.ZERO:
         rest[list(chain_args["breaks"])] = True
     fixed = {}
     if not chain_args["periodic"]:
