@@ -519,10 +519,9 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
         outcome = run_study_sweep(scenario, grid, out, workers=workers, scheduler=scheduler,
                                   on_result=on_result, figures=figures)
-    errors = sum(1 for r in outcome.rows if r.get("error"))
-    failed = sum(1 for r in outcome.rows if not r.get("error") and r.get("tracking_ok") is False)
-    console.print(f"{len(outcome.rows)} points: {len(outcome.rows) - errors - failed} tracked, {failed} tracking "
-                  f"failed, {errors} error(s) -> {out}/sweep.csv")
+    from .study.score import outcome_text
+
+    console.print(f"{outcome_text(outcome.rows)} -> {out}/sweep.csv")
     if outcome.best is not None:
         _print_table(_summary_table(f"{BEST_SCORE_TITLE} (best.json)", outcome.best))
 

@@ -75,3 +75,12 @@ def test_against_brute_force(rows, weight):
     low = min(scores.values())
     assert best["index"] == min(i for i in ok if scores[i] == low)
     assert math.isclose(best["score"], low)
+
+
+def test_outcome_text_counts_an_error_once_and_a_failed_tracking_as_a_result():
+    from pathmotion.study.score import outcome_text
+
+    rows = [{"tracking_ok": True}, {"tracking_ok": False}, {"error": "PathError: x", "tracking_ok": False},
+            {"tracking_ok": True, "error": ""}]
+    assert outcome_text(rows) == "4 points: 2 tracked, 1 tracking failed, 1 error"
+    assert outcome_text(rows[:1], "run") == "1 run: 1 tracked, 0 tracking failed, 0 errors"

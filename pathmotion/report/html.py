@@ -447,14 +447,6 @@ def _varying(rows: list[dict], params: Sequence[str]) -> list[str]:
     return varying or list(params)
 
 
-def _points_text(rows: list[dict], errors: list[int], noun: str = "point") -> str:
-    """'12 points: 9 tracked, 2 tracking failed, 1 error': a failed tracking is a result, an error is not."""
-    failed = sum(1 for i, r in enumerate(rows) if i not in set(errors) and r.get(schema.TRACKING_OK.key) is False)
-    tracked = len(rows) - failed - len(errors)
-    return (f"{len(rows)} {noun}{'s' if len(rows) != 1 else ''}: {tracked} tracked, {failed} tracking failed, "
-            f"{len(errors)} error{'s' if len(errors) != 1 else ''}")
-
-
 def _summary_from_row(row: dict | None) -> dict:
     """The summary-table cells a sweep or study row can fill (its best or only point)."""
     if row is None:
@@ -469,7 +461,7 @@ def _summary_from_row(row: dict | None) -> dict:
 def sweep_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """The trade-off plot (deviation against time, Pareto front, failed points, best point) and the
     table of points of a sweep folder."""
-    from ..study.score import choose_best
+    from ..study.score import choose_best, outcome_text
 
     folder = result.path
     names, rows = read_rows(folder / "sweep.csv")
@@ -483,14 +475,14 @@ def sweep_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     best_index = _matching_row(rows, best, params)
     scenario = spec.get("scenario") if spec else None
     title = f"Trade-off: deviation against time ({len(rows)} point{'s' if len(rows) != 1 else ''})"
-    parts, count, errors = _tradeoff_section(
+    parts, count, _ = _tradeoff_section(
         rows, names, varying, best_index, anchor, title, f"best score ({source})")
     fixed = [p for p in params if p not in varying]
     fixed_text = ", ".join(f"{p} = {_fmt(rows[0].get(p))}" for p in fixed) if rows else ""
     intro = (f"<p>Sweep of {escape(Path(str(scenario)).name if scenario else 'a scenario')} over "
              f"{escape(', '.join(varying) or 'no named parameter')}"
              + (f" (fixed: {escape(fixed_text)})" if fixed_text else "")
-             + f": {_points_text(rows, errors)}.")
+             + f": {outcome_text(rows)}.")
     if best_index is not None:
         rule = best.get("rule", "") if isinstance(best, dict) else ""
         values = ", ".join(f"{p} = {_fmt(best.get(p))}" for p in varying)
@@ -501,13 +493,15 @@ def sweep_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     parts = [intro, *parts, _rows_table(rows, params, {best_index} if best_index is not None else set(),
                                         "Points (sweep.csv); the best point is highlighted")]
     row = _summary_from_row(rows[best_index] if best_index is not None else rows[0] if len(rows) == 1 else None)
-    row.update(scenario=scenario and Path(str(scenario)).stem, points=_points_text(rows, errors))
+    row.update(scenario=scenario and Path(str(scenario)).stem, points=outcome_text(rows))
     return Section(anchor, _title("Sweep", result, root, scenario and Path(str(scenario)).stem), "".join(parts),
                    count, row)
 
 
 def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """The corner study's combined trade-off (every case, coloured by case) and its table."""
+    from ..study.score import outcome_text
+
     folder = result.path
     names, rows = read_rows(folder / "corner_study.csv")
     record = read_json(folder / "corner_study.json", {}) or {}
@@ -519,7 +513,7 @@ def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
         return f"{row.get('case')}: {row.get('parameter') or ''}{value}"
 
     title = f"Corner study: deviation from the sharp path against cycle time ({len(rows)} runs)"
-    parts, count, errors = _tradeoff_section(rows, names, [], best_index, anchor, title,
+    parts, count, _ = _tradeoff_section(rows, names, [], best_index, anchor, title,
                                              "best score (corner_study.json)", group_key="case", label=label)
     first = [c for c in ("case", "parameter", "value", "gain_vs_stop") if c in names]
     parts = [f"<p>The chapter-7 corner study: {len(rows)} runs in {len(set(r.get('case') for r in rows))} cases; "
@@ -527,7 +521,7 @@ def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
              _rows_table(rows, first, {best_index} if best_index is not None else set(),
                          "Runs (corner_study.csv); the best-scored run is highlighted")]
     row = _summary_from_row(rows[best_index] if best_index is not None else None)
-    row["points"] = _points_text(rows, errors, "run")
+    row["points"] = outcome_text(rows, "run")
     return Section(anchor, _title("Corner study", result, root, None), "".join(parts), count, row)
 
 

@@ -97,3 +97,12 @@ def pareto_front(rows: Sequence[dict], *, x_key: str = DEVIATION_KEY, y_key: str
             best_y = y_min
         k = j
     return front
+
+
+def outcome_text(rows: Sequence[dict], noun: str = "point") -> str:
+    """'12 points: 9 tracked, 2 tracking failed, 1 error' for sweep rows: an error (row "error" set) is a
+    point that did not run to a result; a failed tracking (tracking_ok false) is a result."""
+    errors = sum(1 for r in rows if r.get("error"))
+    failed = sum(1 for r in rows if not r.get("error") and r.get(schema.TRACKING_OK.key) is False)
+    return (f"{len(rows)} {noun}{'s' if len(rows) != 1 else ''}: {len(rows) - failed - errors} tracked, "
+            f"{failed} tracking failed, {errors} error{'s' if errors != 1 else ''}")
