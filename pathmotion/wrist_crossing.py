@@ -198,7 +198,9 @@ def _locate(robot: Robot, theta, t5, k: int, ik_at: IkAt) -> tuple[float, float,
 def crossing_windows(robot: Robot, task_path, theta, q, passages, ik_at: IkAt,
                      derivatives_at: Callable, q_start: np.ndarray) -> tuple[WristWindow, ...]:
     """Certified interpolation windows around each passage that reaches q5 = 0 (min |q5| within
-    WRIST_CROSSING_TOLERANCE). derivatives_at(theta (M,), side) -> (Phi, Phi', Phi'', Phi''') by J^-1."""
+    WRIST_CROSSING_TOLERANCE), on the lifted reference theta (N,) [m], q (N, 6) [rad]; ik_at as in
+    :func:`find_passages`; derivatives_at(theta (M,), side) -> (Phi, Phi', Phi'', Phi''') by J^-1, each
+    (M, 6)."""
     lo, hi = task_path.domain
     cuts = np.unique(np.concatenate([[lo, hi], np.asarray(task_path.breaks, float), _orientation_keys(task_path)]))
     t5 = signed_t5(robot, q)
@@ -268,6 +270,7 @@ def _pieces(star: float, h: float, cuts: np.ndarray) -> list[tuple[float, float]
 
 
 def _orientation_keys(task_path) -> np.ndarray:
+    """theta (K,) [m] of the tool orientation's keys (Phi is analytic between them; none when fixed)."""
     keys = getattr(getattr(task_path, "tool_orientation", None), "key_thetas", lambda: ())()
     return np.asarray(keys, dtype=float).reshape(-1)
 
@@ -395,7 +398,8 @@ def _flip_message(robot: Robot, task_path, theta, passage: WristPassage, q_star:
 def suggest_tool_rotation(robot: Robot, task_path, theta: np.ndarray, q_start: np.ndarray) -> str:
     """The smallest rotation of the tool frame about one of its own axes (1 deg steps, up to
     WRIST_MAX_TOOL_ROTATION) whose path, every orientation R -> R Rot(axis, angle), lifts on the branch
-    from q_start inside the joint ranges with |sin q5| >= WRIST_CLEARANCE throughout; a sentence."""
+    from q_start (6,) [rad] inside the joint ranges with |sin q5| >= WRIST_CLEARANCE at the reference
+    samples theta (N,) [m] (at most SUGGESTION_SAMPLES of them) and the segment breaks; a sentence."""
     th = theta if len(theta) <= SUGGESTION_SAMPLES else np.linspace(theta[0], theta[-1], SUGGESTION_SAMPLES)
     th = np.unique(np.concatenate([th, np.asarray(task_path.breaks, float)]))
     p, _, _, rot, _, _ = task_path.pose(th)
