@@ -14,9 +14,6 @@ LIMIT_TOLERANCE = 1e-3
 #: Most samples one resample of a trajectory may hold (output files, verification): beyond it a
 #: motion is far longer than any real one at that sample time (usually a limit set far too small) [-].
 MAX_TRAJECTORY_SAMPLES = 2_000_000
-#: Planner grid points of a fixed grid (the ``grid_points`` override; without it the grid is adaptive),
-#: e.g. for tests and comparisons that want a given discretization.
-GRID_POINTS = 1000
 #: Adaptive planner grid: requested relative error of the duration (``plan.tolerance``) [-].
 PLAN_TOLERANCE = 5e-4
 #: Largest plan.tolerance accepted, exclusive (a 10 % error in the duration is no longer an optimum) [-].

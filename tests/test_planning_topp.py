@@ -124,11 +124,16 @@ def test_same_optimum_as_toppra(bench_robot, spline_path):
 
 
 def test_grid_convergence(bench_robot, spline_path):
-    """Default grid vs a 4x finer one: duration changes by less than 0.1 %."""
+    """The default (adaptive) plan is within plan.tolerance of the optimum extrapolated from two fixed
+    fine grids (first order in the step: T* = 2 T(h / 2) - T(h)), and its error estimate bounds its
+    true error (measured: 0.036 % against 0.05 %, estimate 1.14 ms against 0.94 ms)."""
     base = PlanSettings(torque=False, baselines=False, verify=False)
-    coarse = plan(spline_path, bench_robot, base).duration
-    fine = plan(spline_path, bench_robot, replace(base, grid_points=4 * defaults.GRID_POINTS)).duration
-    assert abs(coarse - fine) / fine < 1e-3
+    adaptive = plan(spline_path, bench_robot, base)
+    coarse, fine = (plan(spline_path, bench_robot, replace(base, grid_points=n)).duration for n in (4000, 8000))
+    t_star = 2.0 * fine - coarse
+    error = abs(adaptive.duration - t_star)
+    assert error <= base.tolerance * t_star, error / t_star
+    assert error <= adaptive.duration_error_estimate, (error, adaptive.duration_error_estimate)
 
 
 def test_verify_and_tighten_on_a_coarse_grid(bench_robot, spline_path):
