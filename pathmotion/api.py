@@ -27,7 +27,7 @@ from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
 from .io.files import read_input
-from .io.scenario import Scenario, load_scenario, parse_scenario, unit_slips
+from .io.scenario import Scenario, parse_scenario, unit_slips
 from .io.waypoints import load_waypoints_csv
 from .joint_path import JointPath, SplineJointPath
 from .constraint import lift

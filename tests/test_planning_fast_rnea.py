@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import pytest
 
 from pathmotion.planning.fast_rnea import chain_data, reduced_batch, rnea_batch, supported
 from pathmotion.planning.reduced import reduced_dynamics
