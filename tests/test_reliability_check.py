@@ -8,33 +8,12 @@ import pytest
 from pathmotion import api
 from pathmotion.errors import PathmotionError, ScenarioError
 
-from reliability_cases import CASES
+from reliability_cases import CASES, _square
 from test_reliability_inputs import write_case
 
-SQUARE = """name = "square"
-[path]
-type = "task"
-[[path.segments]]
-type = "line"
-start = [0.5, -0.1, 0.5]
-end = [0.5, 0.1, 0.5]
-[[path.segments]]
-type = "line"
-end = [0.6, 0.1, 0.5]
-[[path.segments]]
-type = "line"
-end = [0.6, -0.1, 0.5]
-[[path.segments]]
-type = "line"
-end = [0.5, -0.1, 0.5]
-[[path.blends]]
-corner = CORNER
-type = "circle"
-radius = 0.02
-[plan]
-grid_points = 120
-periodic = true
-"""
+#: reliability_cases' closed 0.2 m x 0.1 m rectangle, planned as a periodic cycle; CORNER is replaced per test.
+SQUARE = _square("CORNER").replace('name = "line"', 'name = "square"').replace(
+    "grid_points = 60", "grid_points = 120\nperiodic = true")
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
