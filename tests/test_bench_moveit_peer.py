@@ -1,21 +1,15 @@
 """The MoveIt reproduction of benchmarks/bench_moveit_peer.py: its quintic playback and its Ruckig loop
 checked on cases whose answer is known."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 pytest.importorskip("ruckig", reason="the peer benchmark needs ruckig (dev extra: pip install -e '.[dev]')")
 pytest.importorskip("toppra", reason="the peer benchmark needs toppra (dev extra)")
 
-_SPEC = importlib.util.spec_from_file_location(
-    "bench_moveit_peer", Path(__file__).resolve().parents[1] / "benchmarks" / "bench_moveit_peer.py")
-bench = importlib.util.module_from_spec(_SPEC)
-sys.modules.setdefault("bench_moveit_peer", bench)  # dataclasses look their module up there
-_SPEC.loader.exec_module(bench)
+from benchmark_modules import load_benchmark  # noqa: E402
+
+bench = load_benchmark("bench_moveit_peer")
 
 
 def test_quintic_playback_reproduces_a_quintic_exactly():

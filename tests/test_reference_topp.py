@@ -1,10 +1,6 @@
 """The CasADi + IPOPT reference (benchmarks/reference_topp.py) against toppra (acceleration only) and
 against the closed-form jerk-limited S-curve on a straight joint-space line."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -14,11 +10,9 @@ from pathmotion.constraint import lift  # noqa: E402
 from pathmotion.geometry import Arc, TaskPath  # noqa: E402
 from pathmotion.joint_path import JointPath  # noqa: E402
 
-_SPEC = importlib.util.spec_from_file_location(
-    "reference_topp", Path(__file__).resolve().parents[1] / "benchmarks" / "reference_topp.py")
-ref = importlib.util.module_from_spec(_SPEC)
-sys.modules.setdefault("reference_topp", ref)  # dataclasses look their module up there
-_SPEC.loader.exec_module(ref)
+from benchmark_modules import load_benchmark  # noqa: E402
+
+ref = load_benchmark("reference_topp")
 
 TOLERANCE = 2e-3  # issue 12: the reference agrees with toppra to 0.2 % in the acceleration-only case
 GRIDS = (100, 200, 400)

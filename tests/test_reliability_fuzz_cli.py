@@ -1,7 +1,6 @@
 """The project's own command-line fuzzer (benchmarks/fuzz_cli.py, issue 15): its escape rules catch what
 they must, and CI's seeded 500-document slice finds no escape (about 5 minutes on 2 loaded cores)."""
 
-import importlib.util
 import json
 import os
 import shutil
@@ -9,15 +8,12 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-spec = importlib.util.spec_from_file_location("fuzz_cli", ROOT / "benchmarks" / "fuzz_cli.py")
-fuzz_cli = importlib.util.module_from_spec(spec)
-sys.modules["fuzz_cli"] = fuzz_cli  # dataclasses look their module up
-spec.loader.exec_module(fuzz_cli)
+from benchmark_modules import load_benchmark
+
+fuzz_cli = load_benchmark("fuzz_cli")
 
 
 def _run(tmp_path, stderr="", stdout="", out=None, command="check", out_kind="fresh", signalled=False):
