@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 
 from ..io import schema  # noqa: E402
 from ..io.atomic import atomic_path  # noqa: E402
+from .style import TITLE_WIDTH, legend_outside, wrapped  # noqa: E402,F401 (TITLE_WIDTH: the figures' width)
 from .tables import (FALLBACK_LIMIT_COLOR, LIMIT_COLORS, PLOT_FLOOR, PLOT_HEADROOM, SPARE_LIMIT_COLORS,  # noqa: E402
                      THIRD_ORDER_NOTE, joint_columns, limit_curve_label, read_columns, read_json, steady_curve_label)
 
@@ -23,22 +24,6 @@ def _save(fig, path: Path) -> Path:
         fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight")
     plt.close(fig)
     return path
-
-
-#: Characters per line of a figure title: longer titles wrap instead of widening the saved figure.
-TITLE_WIDTH = 90
-
-
-def _wrapped(title: str, width: int = TITLE_WIDTH) -> str:
-    """``title`` wrapped onto lines of at most ``width`` characters."""
-    import textwrap
-
-    return "\n".join(textwrap.wrap(str(title), width)) or str(title)
-
-
-def _legend_outside(ax, **kwargs):
-    """The legend right of the axes, never over the curves."""
-    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8, **kwargs)
 
 
 def _joint_names(folder: Path, n: int) -> list[str]:
@@ -96,8 +81,8 @@ def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     name = summary.get(schema.SCENARIO.key)
-    ax.set_title(_wrapped(f"{name}: phase plane" if name else "Phase plane"))
-    _legend_outside(ax)
+    ax.set_title(wrapped(f"{name}: phase plane" if name else "Phase plane"))
+    legend_outside(ax)
     if third:
         import textwrap
 
@@ -140,9 +125,9 @@ def plan_figures(folder: str | Path) -> list[Path]:
         ax.set_ylabel(label if limit is not None else label.replace(" / limit", ""))  # no limits.json: raw values
         ax.grid(alpha=0.3)
     axes = np.atleast_1d(axes)
-    _legend_outside(axes[0])
+    legend_outside(axes[0])
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle(_wrapped(f"{summary.get(schema.SCENARIO.key, out.name)}: planned joint motion against the limits "
+    fig.suptitle(wrapped(f"{summary.get(schema.SCENARIO.key, out.name)}: planned joint motion against the limits "
                           "(dashed: the limits; q: 0 = lower, 1 = upper end of its range)"))
     paths.append(_save(fig, out / "joints.png"))
     return paths
@@ -161,7 +146,7 @@ def _tracking_joints(out: Path, summary: dict, sim: dict[str, np.ndarray]) -> Pa
     for j in range(err.shape[1]):
         axes[0].plot(sim["t"], err[:, j], lw=1, label=names[j])
     axes[0].set_ylabel("q - Phi(theta) [rad]")
-    _legend_outside(axes[0])
+    legend_outside(axes[0])
     axes[0].grid(alpha=0.3)
     axes[1].plot(sim["t"], sim["theta"], lw=1.2)
     axes[1].set_ylabel("theta")
@@ -171,7 +156,7 @@ def _tracking_joints(out: Path, summary: dict, sim: dict[str, np.ndarray]) -> Pa
     ok = summary.get(schema.TRACKING_OK.key, True)
     status = "tracking ok" if ok else f"tracking FAILED: {failure.get('message', '')}"
     name = (summary.get("plan") or {}).get(schema.SCENARIO.key, out.name)
-    fig.suptitle(_wrapped(f"{name}: joint tracking ({summary.get(schema.CONTROLLER.key)}) - {status}"), fontsize=10)
+    fig.suptitle(wrapped(f"{name}: joint tracking ({summary.get(schema.CONTROLLER.key)}) - {status}"), fontsize=10)
     return _save(fig, out / "tracking_joints.png")
 
 
@@ -210,6 +195,6 @@ def simulation_figures(folder: str | Path) -> list[Path]:
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15))
     ax.grid(alpha=0.3)
     name = (summary.get("plan") or {}).get(schema.SCENARIO.key, out.name)
-    fig.suptitle(_wrapped(f"{name}: task-space tracking ({summary.get(schema.CONTROLLER.key)})"), fontsize=10)
+    fig.suptitle(wrapped(f"{name}: task-space tracking ({summary.get(schema.CONTROLLER.key)})"), fontsize=10)
     paths.append(_save(fig, out / "tracking_task.png"))
     return paths

@@ -18,6 +18,7 @@ from typing import Sequence
 import numpy as np
 
 from ..io import schema
+from ..report.style import legend_outside, wrapped
 
 MM = 1000.0
 
@@ -71,23 +72,11 @@ def tradeoff_figure(rows: Sequence[dict], front: Sequence[int], best: dict | Non
         ax.plot([], [], " ", label=f"{failed} point(s) failed or lost tracking (not shown)")
     ax.set_xlabel("largest TCP distance from the sharp path [mm]")
     ax.set_ylabel("cycle time (closed loop) [s]")
-    ax.set_title(_wrapped(title or "Deviation vs cycle time", 70))
+    ax.set_title(wrapped(title or "Deviation vs cycle time", 70))
     ax.grid(alpha=0.3)
-    _legend_outside(ax, fontsize=8)
+    legend_outside(ax, fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
-
-
-def _wrapped(title: str, width: int = 90) -> str:
-    """``title`` on lines of at most ``width`` characters (a long title must not widen the figure)."""
-    import textwrap
-
-    return "\n".join(textwrap.wrap(str(title), width)) or str(title)
-
-
-def _legend_outside(ax, **kwargs):
-    """The legend right of the axes, never over the curves."""
-    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kwargs)
 
 
 def _place_labels(ax, points: Sequence[tuple[str, float, float]], **style) -> list:
@@ -140,8 +129,8 @@ def y_figure(runs: Sequence[tuple[str, dict]], path: str | Path, title: str) -> 
         ax.set_xlabel("t [s]")
         ax.set_ylabel("y [mm]")
         ax.grid(alpha=0.3)
-    _legend_outside(axes[min(1, len(axes) - 1)] if len(runs) > 1 else axes[0], fontsize=7)
-    fig.suptitle(_wrapped(title))
+    legend_outside(axes[min(1, len(axes) - 1)] if len(runs) > 1 else axes[0], fontsize=7)
+    fig.suptitle(wrapped(title))
     fig.tight_layout()
     return _save(fig, path)
 
@@ -158,8 +147,8 @@ def error_figure(runs: Sequence[tuple[str, dict]], path: str | Path, title: str)
         ax.set_xlabel("t [s]")
         ax.set_ylabel("error [mm]")
         ax.grid(alpha=0.3)
-    _legend_outside(axes[min(1, len(axes) - 1)] if len(runs) > 1 else axes[0], fontsize=7)
-    fig.suptitle(_wrapped(title))
+    legend_outside(axes[min(1, len(axes) - 1)] if len(runs) > 1 else axes[0], fontsize=7)
+    fig.suptitle(wrapped(title))
     fig.tight_layout()
     return _save(fig, path)
 
@@ -202,7 +191,7 @@ def corner_view_figure(runs: Sequence[tuple[str, dict]], corner: Sequence[float]
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.grid(alpha=0.3)
-    _legend_outside(ax, fontsize=8)
-    ax.set_title(_wrapped(title, 60))
+    legend_outside(ax, fontsize=8)
+    ax.set_title(wrapped(title, 60))
     fig.tight_layout()
     return _save(fig, path)
