@@ -126,40 +126,26 @@ def solve_riccati_adaptive(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: n
     return 0.5 * (p + np.transpose(p, (0, 2, 1)))
 
 
-#: Batched matrix exponential: the 1-norm each matrix is scaled below before the squarings [-]; the degree-12 Taylor
-#: polynomial then has a truncation error of at most 0.5^13 / 13! = 2e-14 relative.
-EXPM_NORM = 0.5
-#: 1/j!, j = 0..12: the Taylor coefficients of the exponential.
-_TAYLOR = 1.0 / np.cumprod(np.concatenate([[1.0], np.arange(1.0, 13.0)]))
+#: Sampled cost: each hold is cut into 2^s equal parts, s the least with theta = (|C h|_1 + |C h|_inf) / 2^s at most
+#: this [-] (per sample); the Taylor series on one part are then summed to SERIES_TOLERANCE and doubled s times.
+SERIES_NORM = 0.5
+#: Bound on the truncated tail of the series relative to the largest term kept (|Q| h or 1) [-]: the unit round-off.
+SERIES_TOLERANCE = 2.0**-53
+#: Most terms the series may need (theta <= SERIES_NORM needs 13) [-].
+MAX_TERMS = 40
 
 
-def expm_batched(m: np.ndarray) -> np.ndarray:
-    """e^M for a stack of matrices m (N, k, k): scaling and squaring of the degree-12 Taylor polynomial, evaluated
-    Paterson-Stockmeyer style in powers of X^4 (five batched products), with one scaling for the whole stack (by
-    its largest 1-norm). Several times faster than scipy.linalg.expm on the stacks of small matrices the sampled
-    design needs (one per sample); tests/test_control_discrete.py checks it against scipy."""
-    norm = float(np.max(np.sum(np.abs(m), axis=-2))) if m.size else 0.0
-    squarings = int(max(0, np.ceil(np.log2(max(norm, TINY) / EXPM_NORM))))
-    x = m / 2.0**squarings
-    x2 = x @ x
-    x3 = x2 @ x
-    x4 = x2 @ x2
-    diag = np.arange(m.shape[-1])
-    c = _TAYLOR
-
-    def block(j: int, top: np.ndarray | None = None) -> np.ndarray:
-        """c_j I + c_j+1 X + c_j+2 X^2 + c_j+3 X^3 (+ top), in place on one new array."""
-        out = np.multiply(x3, c[j + 3]) if top is None else np.add(top, np.multiply(x3, c[j + 3]), out=top)
-        out += c[j + 1] * x
-        out += c[j + 2] * x2
-        out[..., diag, diag] += c[j]
-        return out
-
-    inner = block(4, x4 @ block(8, np.multiply(x4, c[12])))
-    out = block(0, x4 @ inner)
-    for _ in range(squarings):
-        out = out @ out
-    return out
+def series_terms(theta: float) -> int:
+    """Least p with the tail of sum_n theta^n / (n+1)! beyond n = p at most SERIES_TOLERANCE: the certified
+    truncation of the series of :func:`sampled_cost` for an operator of norm ``theta`` [-]. The tail is bounded by
+    its first term times the geometric factor 1 / (1 - theta / (p+3))."""
+    term = 1.0  # theta^n / (n+1)! at n = p + 1
+    for p in range(MAX_TERMS):
+        term *= theta / (p + 2)
+        if theta < p + 3 and term / (1.0 - theta / (p + 3)) <= SERIES_TOLERANCE:
+            return p
+    raise SimulationError(f"sampled cost: the series for a scaled norm of {theta:g} needs more than {MAX_TERMS} "
+                          "terms (the scaling should keep it below SERIES_NORM)")
 
 
 def discretize(a: np.ndarray, b: np.ndarray, sample_time: float) -> tuple[np.ndarray, np.ndarray]:
@@ -172,29 +158,100 @@ def discretize(a: np.ndarray, b: np.ndarray, sample_time: float) -> tuple[np.nda
     return ex[:, :d, :d], ex[:, :d, d:]
 
 
-def sampled_cost(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The ZOH discretization and the exact sampled cost of the state weight over one sample (Van Loan 1978,
-    "Computing integrals involving the matrix exponential"): with x(s) = Phi(s) x_k + Gamma(s) u held,
+def sampled_cost(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ZOH discretization and the exact sampled cost of the state weight over one sample: with
+    x(s) = Phi(s) x_k + Gamma(s) u held,
 
-        int_0^Ts x^T Q x ds = [x_k; u]^T W [x_k; u],   W = int_0^Ts [Phi(s), Gamma(s)]^T Q [Phi(s), Gamma(s)] ds
+        int_0^Ts x^T Q x ds = [x_k; u]^T W [x_k; u],   W = int_0^Ts e^(C^T s) Q_c e^(C s) ds
 
-    from the exponential of [[-C^T, Q_c], [0, C]] Ts, C = [[A, B], [0, 0]], Q_c = diag(Q, 0). a, q (N, d, d),
-    b (N, d, m). Returns (Phi (N, d, d), Gamma (N, d, m), W (N, d + m, d + m)); the command's own weight
-    (R Ts for a constant R) is not in W."""
+    C = [[A, B], [0, 0]], Q_c = diag(Q, 0), e^(C Ts) = [[Phi, Gamma], [0, I]] (Van Loan 1978, "Computing integrals
+    involving the matrix exponential", without his doubled block matrix). Scaling and squaring on the pair
+    (G, W): on h0 = Ts / 2^s, with Y = C h0 and L(Z) = Y^T Z + Z Y,
+
+        W(h0) = h0 sum_n L^n(Q_c) / (n+1)!,   G(h0) = [[I + X Psi, Psi B h0], [0, I]],  Psi = sum_j X^j / (j+1)!
+
+    (X = A h0; one product per term of W, L^n(Q_c) symmetric), both truncated where :func:`series_terms` bounds
+    the tail by the round-off (|L| <= theta = |Y|_1 + |Y|_inf), then s times W(2h) = W(h) + G^T W(h) G, G(2h) = G^2.
+    s is chosen per sample. a, q (N, d, d), b (N, d, m); sample_time [s] scalar or (N,). Returns (Phi (N, d, d),
+    Gamma (N, d, m), W (N, d + m, d + m)); the command's own weight (R Ts for a constant R) is not in W.
+    :func:`sampled_cost_van_loan` is the reference (tests/test_control_discrete.py)."""
     big, d, m = b.shape
     k = d + m
+    h = np.broadcast_to(np.asarray(sample_time, dtype=float), (big,))
     c = np.zeros((big, k, k))
     c[:, :d, :d], c[:, :d, d:] = a, b
-    scale = np.maximum(np.max(np.abs(q), axis=(1, 2)), TINY)[:, None, None]  # W is linear in Q: keep the norm small
-    block = np.zeros((big, 2 * k, 2 * k))
-    block[:, :k, :k] = -np.transpose(c, (0, 2, 1))
-    block[:, :d, k:k + d] = q / scale
-    block[:, k:, k:] = c
-    ex = expm_batched(block * sample_time)
-    f22 = ex[:, k:, k:]
-    w = scale * (np.transpose(f22, (0, 2, 1)) @ ex[:, :k, k:])
-    return f22[:, :d, :d], f22[:, :d, d:], 0.5 * (w + np.transpose(w, (0, 2, 1)))
+    norm = h * (np.max(np.sum(np.abs(c), axis=-2), axis=-1) + np.max(np.sum(np.abs(c), axis=-1), axis=-1))
+    halvings = np.maximum(np.ceil(np.log2(np.maximum(norm, TINY) / SERIES_NORM)), 0).astype(int)
+    h0 = h / 2.0**halvings
+    terms = series_terms(float(np.max(norm / 2.0**halvings, initial=0.0)))
+    y = c * h0[:, None, None]
+    w = _cost_series(y, 0.5 * (q + np.transpose(q, (0, 2, 1))), terms)  # x^T Q x sees only Q's symmetric part
+    w *= h0[:, None, None]
+    g = _transition_series(y, d, terms)
+    for j in range(int(np.max(halvings, initial=0))):  # doublings of the samples cut more than j times
+        sel = np.nonzero(halvings > j)[0]
+        gs, ws = g[sel], w[sel]
+        w[sel] = ws + np.transpose(gs, (0, 2, 1)) @ (ws @ gs)
+        g[sel] = gs @ gs
+    return g[:, :d, :d], g[:, :d, d:], 0.5 * (w + np.transpose(w, (0, 2, 1)))
+
+
+def _cost_series(y: np.ndarray, q: np.ndarray, terms: int) -> np.ndarray:
+    """sum_n L^n(Q_c) / (n+1)!, n = 0..terms, L(Z) = Y^T Z + Z Y, for y (N, k, k) and a symmetric q (N, d, d) in the
+    top-left corner of Q_c (N, k, k). In place on preallocated stacks: a fresh 1.6 MB array per operation cost
+    four times the arithmetic (page faults)."""
+    big, d, k = len(y), q.shape[1], y.shape[1]
+    z, zy = np.zeros((big, k, k)), np.empty((big, k, k))
+    z[:, :d, :d] = q
+    w = z.copy()
+    for n in range(1, terms + 1):  # z = L^n(Q_c) / (n+1)! = L(previous z) / (n+1); z symmetric: Y^T Z = (Z Y)^T
+        np.matmul(z, y, out=zy)
+        np.add(zy, np.transpose(zy, (0, 2, 1)), out=z)
+        z *= 1.0 / (n + 1)
+        w += z
+    return w
+
+
+def _transition_series(y: np.ndarray, d: int, terms: int) -> np.ndarray:
+    """G = e^Y (N, k, k) for Y = [[X, V], [0, 0]] (N, k, k), X (d, d): [[I + X Psi, Psi V], [0, I]] with
+    Psi = sum_j X^j / (j+1)!, j = 0..terms, by Horner (Psi = I + X/2 (I + X/3 (I + ...)))."""
+    big, k = len(y), y.shape[1]
+    x, eye = np.ascontiguousarray(y[:, :d, :d]), np.eye(d)
+    psi, xpsi = np.empty_like(x), np.empty_like(x)
+    psi[:] = eye
+    if terms:
+        np.multiply(x, 1.0 / (terms + 1), out=psi)
+        psi += eye
+    for j in range(terms - 1, 0, -1):
+        np.matmul(x, psi, out=xpsi)
+        np.multiply(xpsi, 1.0 / (j + 1), out=psi)
+        psi += eye
+    g = np.zeros((big, k, k))
+    np.matmul(x, psi, out=xpsi)
+    g[:, :d, :d] = xpsi + eye
+    g[:, :d, d:] = psi @ y[:, :d, d:]
+    g[:, d + np.arange(k - d), d + np.arange(k - d)] = 1.0
+    return g
+
+
+def sampled_cost_van_loan(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time: float
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The reference of :func:`sampled_cost` (slow: scipy.linalg.expm per sample on Van Loan's block): Phi, Gamma
+    and W from the exponential of [[-C^T, Q_c], [0, C]] Ts (F22 = e^(C Ts), W = F22^T F12)."""
+    big, d, m = b.shape
+    k = d + m
+    h = np.broadcast_to(np.asarray(sample_time, dtype=float), (big,))
+    phi, gamma, w = np.empty((big, d, d)), np.empty((big, d, m)), np.empty((big, k, k))
+    for i in range(big):
+        c = np.zeros((k, k))
+        c[:d, :d], c[:d, d:] = a[i], b[i]
+        scale = max(float(np.max(np.abs(q[i]))), TINY)  # W is linear in Q: keep the block's norm small
+        block = np.zeros((2 * k, 2 * k))
+        block[:k, :k], block[:d, k:k + d], block[k:, k:] = -c.T, q[i] / scale, c
+        ex = expm(block * h[i])
+        f22 = ex[k:, k:]
+        phi[i], gamma[i], w[i] = f22[:d, :d], f22[:d, d:], scale * (f22.T @ ex[:k, k:])
+    return phi, gamma, 0.5 * (w + np.transpose(w, (0, 2, 1)))
 
 
 def with_delay(phi: np.ndarray, gamma: np.ndarray, delay: int) -> tuple[np.ndarray, np.ndarray]:
