@@ -28,6 +28,7 @@ from .. import defaults
 from ..control import (CONTROLLER_NAMES, ComputedTorqueController, OrbitalController, OrbitalDesign, OrbitalGains,
                        PathTable, PDGravityController, TimeReference, TrackingGains, default_pd_gains)
 from ..control.design_cache import cached_design, cached_table
+from ..control.threads import blas_single_threaded
 from ..errors import SimulationError
 from ..joint_path import JointPath
 from ..planning.profile import Profile
@@ -137,6 +138,7 @@ class PlantModel(Protocol):
     def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None: ...
 
 
+@blas_single_threaded
 def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
                  settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None,
                  plant: PlantModel | None = None) -> tuple:
@@ -166,6 +168,7 @@ def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: st
     return table, control, plant, line, end_rules(table, profile, line, budget, settings), budget
 
 
+@blas_single_threaded
 def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
              settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None,
              plant: PlantModel | None = None) -> SimulationResult:
