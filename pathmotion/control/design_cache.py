@@ -10,24 +10,23 @@ Entries are .npz files in :func:`cache_dir`, named by a SHA-256 key of everythin
 * both: this format's version, every number in :mod:`pathmotion.defaults` and the source of the control
   package (a change of either invalidates every entry).
 
-Writes are atomic (a temporary file renamed into place). A read checks the key stored inside, the shapes and
-that every number is finite; an entry that fails (corrupt, truncated, foreign) is ignored with a warning and
-rebuilt. ``PATHMOTION_CACHE_DIR`` chooses the folder; the value ``off`` turns the cache off.
+Writes are atomic (a temporary file renamed into place; not fsynced, see :func:`_write`). A read checks the key
+stored inside, the shapes and that every number is finite; an entry that fails (corrupt, truncated, foreign) is
+ignored with a warning and rebuilt. ``PATHMOTION_CACHE_DIR`` chooses the folder; the value ``off`` turns the cache off.
 """
 
 from __future__ import annotations
 
 import hashlib
-import io
 import logging
 import os
+import tempfile
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from .. import defaults
-from ..io.atomic import write_bytes
 from .gains import OrbitalGains
 from .orbital import OrbitalDesign
 from .path_table import PathTable
@@ -118,14 +117,23 @@ def _read(folder: Path | None, name: str, key: str) -> dict | None:
 
 
 def _write(folder: Path | None, name: str, key: str, **arrays) -> None:
+    """Entry ``name``: the arrays saved straight into a temporary file in ``folder``, renamed into place. Not
+    fsynced (a design entry is ~10 MB; the fsync and an in-memory copy cost more than the loop of a 1 s motion):
+    an entry a system crash leaves torn fails :func:`_read`'s checks and is rebuilt."""
     if folder is None:
         return
-    buf = io.BytesIO()
-    np.savez(buf, key=np.array(key), **arrays)
+    file = folder / f"{name}.npz"
+    tmp = None
     try:
-        write_bytes(folder / f"{name}.npz", buf.getvalue())
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=f".{name}.", suffix=".tmp", delete=False) as fh:
+            tmp = Path(fh.name)
+            np.savez(fh, key=np.array(key), **arrays)
+        os.replace(tmp, file)
     except Exception as exc:  # noqa: BLE001 - a cache that cannot be written only costs time
-        log.warning("could not write the controller cache entry %s (%s)", folder / f"{name}.npz", exc)
+        log.warning("could not write the controller cache entry %s (%s)", file, exc)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
 
 
 def cached_table(path, points: int = defaults.PATH_TABLE_POINTS, folder: Path | None = None) -> tuple[PathTable, str]:
