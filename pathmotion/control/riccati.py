@@ -180,11 +180,12 @@ def sampled_cost(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time) -> tu
     h = np.broadcast_to(np.asarray(sample_time, dtype=float), (big,))
     c = np.zeros((big, k, k))
     c[:, :d, :d], c[:, :d, d:] = a, b
-    norm = h * (np.max(np.sum(np.abs(c), axis=-2), axis=-1) + np.max(np.sum(np.abs(c), axis=-1), axis=-1))
+    size = np.abs(c)
+    norm = h * (np.max(np.sum(size, axis=-2), axis=-1) + np.max(np.sum(size, axis=-1), axis=-1))
     halvings = np.maximum(np.ceil(np.log2(np.maximum(norm, TINY) / SERIES_NORM)), 0).astype(int)
     h0 = h / 2.0**halvings
     terms = series_terms(float(np.max(norm / 2.0**halvings, initial=0.0)))
-    y = c * h0[:, None, None]
+    y = np.multiply(c, h0[:, None, None], out=c)
     w = _cost_series(y, 0.5 * (q + np.transpose(q, (0, 2, 1))), terms)  # x^T Q x sees only Q's symmetric part
     w *= h0[:, None, None]
     g = _transition_series(y, d, terms)
