@@ -180,3 +180,23 @@ def test_time_budget_ends_the_run(irb140, spline, profile, design):
                  design=design).summary()
     assert not s["tracking_ok"] and s["failure"]["reason"] == "timeout"
     assert s["failure"]["t"] == pytest.approx(0.5 * profile.duration, abs=0.005)
+
+
+def test_the_monitor_measures_the_tcp_with_robot_fk(irb140, spline):
+    """The loop's monitor computes the TCP frame alone (forwardKinematics + updateFramePlacement) on its own Pinocchio
+    data; its distances from the planned TCP path and from its end equal those of robot.fk (every frame), bit for
+    bit, at configurations off the path."""
+    from pathmotion.robot import fk
+    from pathmotion.simulation.closed_loop import _Monitor
+    from pathmotion.simulation.metrics import line_window, planned_tcp_line, polyline_distance_local
+
+    table = PathTable.from_path(spline, 401)
+    line = planned_tcp_line(irb140, spline, table.grid)
+    monitor = _Monitor(table, irb140, line, 0.004)
+    rng = np.random.default_rng(2)
+    for theta in (0.0, 0.3, 0.77, 1.0):
+        q = spline.evaluate(theta)[0] + rng.normal(0.0, 0.02, 6)
+        tcp = fk(irb140, q)[0]
+        centre = np.array([min(max(int(np.searchsorted(table.grid, theta)) - 1, 0), len(table.grid) - 2)])
+        want = polyline_distance_local(tcp[None, :], line, centre, line_window(len(table.grid)), False)[0][0]
+        assert monitor.tcp(q, theta) == (float(want), float(np.linalg.norm(tcp - line[-1])))

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
+import pinocchio as pin
 
 from .. import defaults
 from ..control import (CONTROLLER_NAMES, ComputedTorqueController, OrbitalController, OrbitalDesign, OrbitalGains,
@@ -32,7 +33,7 @@ from ..control.threads import blas_single_threaded
 from ..errors import SimulationError
 from ..joint_path import JointPath
 from ..planning.profile import Profile
-from ..robot import Robot, fk
+from ..robot import Robot
 from .end_rules import FLAT_SPEED2, Sample, end_rules
 from .metrics import (Failure, SimulationResult, polyline_distance_local, cornering_deviation, line_window,
                       original_path_deviation, planned_tcp_line, polish_projection, tcp_path_deviation)
@@ -193,7 +194,7 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         rec.q[k], rec.qd[k] = q, qd
         sample = monitor.measure(k, k * ts, q, qd, arrival.time is not None)  # measure (the true state)
         rec.theta[k] = sample.theta
-        verdict = _first(rule.check(sample) for rule in rules)
+        verdict = _first_check(rules, sample)
         if isinstance(verdict, Failure):
             failure = verdict
             break
@@ -215,6 +216,15 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
              if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
              else "no arrival")
     return _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure)
+
+
+def _first_check(rules, sample: Sample):
+    """The first rule's verdict on ``sample`` that is not None (None if all are); a plain loop, per sample."""
+    for rule in rules:
+        verdict = rule.check(sample)
+        if verdict is not None:
+            return verdict
+    return None
 
 
 def _first(verdicts):
@@ -274,7 +284,8 @@ class _Monitor:
         self.speed_eps = FLAT_SPEED2 * table.speed2_scale
         self.sample_time = sample_time
         self.theta, self.theta_dot = table.domain[0], 0.0
-        self.robot, self.line, self.window = robot, line, line_window(len(table.grid))
+        self.line, self.window = line, line_window(len(table.grid))
+        self.model, self.data, self.tcp_frame = robot.model, robot.model.createData(), robot.frame_id(None)
         self.end = None if table.closed else line[-1]
 
     def measure(self, k: int, t: float, q: np.ndarray, qd: np.ndarray, arrived: bool) -> Sample:
@@ -289,7 +300,8 @@ class _Monitor:
     def tcp(self, q: np.ndarray, theta: float) -> tuple[float, float]:
         """Distance [m] of the TCP at q from the planned TCP path near theta, and from the end point."""
         grid = self.table.grid
-        tcp = fk(self.robot, q)[0]
+        pin.forwardKinematics(self.model, self.data, q)  # the TCP frame alone: robot.fk updates every frame
+        tcp = pin.updateFramePlacement(self.model, self.data, self.tcp_frame).translation
         lo, hi = self.table.domain
         th = lo + (theta - lo) % (hi - lo) if self.table.closed else min(max(theta, lo), hi)
         centre = np.array([min(max(int(np.searchsorted(grid, th)) - 1, 0), len(grid) - 2)], dtype=np.int64)
