@@ -34,8 +34,8 @@ def fk(robot: Robot, q, frame: str | int | None = None):
     pos = np.empty((len(qs), 3))
     rot = np.empty((len(qs), 3, 3))
     for k, qk in enumerate(qs):
-        pin.framesForwardKinematics(model, data, qk)
-        placement = data.oMf[fid]
+        pin.forwardKinematics(model, data, qk)
+        placement = pin.updateFramePlacement(model, data, fid)  # this frame alone (half the time of all frames)
         pos[k] = placement.translation
         rot[k] = placement.rotation
     return (pos[0], rot[0]) if single else (pos, rot)
