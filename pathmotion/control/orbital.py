@@ -32,6 +32,7 @@ from .kernels import clock_command, orbital_command
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
 from .riccati import sampled_cost, solve_discrete_riccati, solve_riccati, with_delay
+from .threads import blas_single_threaded
 from .transverse import TransverseBasis, transverse_linearization
 
 #: Relative mismatch allowed between the profile's and the path's theta ends, and between the start and end
@@ -131,6 +132,7 @@ class OrbitalDesign:
     zones: tuple[tuple[float, float], ...]
 
     @classmethod
+    @blas_single_threaded
     def build(cls, table: PathTable, profile: Profile, gains: OrbitalGains = OrbitalGains(),
               sample_time: float | None = None, delay: int = 0) -> "OrbitalDesign":
         """The design on ``table`` for ``profile``: continuous-time LQR gains (``sample_time`` None), or gains
@@ -280,10 +282,7 @@ def sampled_system(table: PathTable, basis: TransverseBasis, lookup: ProfileLook
     _, dphi, _ = table.evaluate(mid)
     q, r = lqr_weights(gains, dphi, lookup.states(mid)[:, 0])
     big, d, n = b.shape
-    phi, gamma, w = np.empty_like(a), np.empty_like(b), np.empty((big, d + n, d + n))
-    for h in np.unique(steps):  # all samples but the last one of an open segment have the same length
-        sel = steps == h
-        phi[sel], gamma[sel], w[sel] = sampled_cost(a[sel], b[sel], q[sel], float(h))
+    phi, gamma, w = sampled_cost(a, b, q, steps)  # each sample its own hold (an open segment's last is shorter)
     r_k = r[None] * steps[:, None, None]
     phi, gamma = with_delay(phi, gamma, delay)
     size = phi.shape[1]
