@@ -8,11 +8,12 @@ straightforward closed-loop simulation would do it). Second peer (when ``mujoco`
 stepping the same arm (its own parse of the same URDF, RK4, same step) under a plain joint PD
 (tau = Kp (q_ref - q) + Kd (qd_ref - qd), Kp/Kd from defaults.PD_BANDWIDTH/PD_DAMPING and the diagonal of
 M at the start), a Python loop calling mj_step per sample along the states the orbital run recorded.
-Loop-only rows time the sample loop alone; end-to-end rows include the set-up (our orbital design: path
-table + Riccati gains, built into an empty cache folder or read from the disk cache; MuJoCo: parsing the URDF
-into an MjModel). Our rows also give the process CPU time, which a loaded machine inflates less. The target is >= 20x real time end to end
-(set-up, controller, monitor, plant and the metrics after the run). Each timing is the median of
-``repeat`` runs (the machine may be shared), with the load average printed.
+Loop-only rows time the sample loop alone; end-to-end rows are one simulate() call in a warm process with its
+set-up inside (our orbital design: path table + sampled Riccati gains, built into an empty cache folder or read
+from the disk cache; MuJoCo: parsing the URDF into an MjModel), not the CLI's imports, plan or figures. The target
+is >= 20x real time end to end with the cache empty. Every row gives the median and the range (min-max) of
+``repeat`` runs, wall clock and process CPU time (a shared machine inflates the wall clock by about its load
+average / 2; the load before and after is printed).
 Run: python benchmarks/bench_simulation.py [repeat]
 """
 
@@ -28,55 +29,78 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import solve_ivp
 
-from pathmotion import defaults
+from pathmotion import api, defaults
 from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable, design_cache
 from pathmotion.joint_path import SplineJointPath
 from pathmotion.planning.profile import Profile
 from pathmotion.robot import load_robot
+from pathmotion.scenarios import scenario_path
 from pathmotion.simulation import Plant, SimulationSettings, simulate
 
+#: Shipped scenarios whose simulate stage is timed too (1-1.5 s motions on lifted task paths).
+SCENARIOS = ("corner_g2", "circle_zero")
 WAYPOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0],
                       [0.5, 0.3, -0.2, 0.4, 0.8, 0.6],
                       [1.0, 0.1, 0.2, -0.2, 0.4, 1.2],
                       [1.4, -0.2, 0.4, 0.1, 0.9, 1.6]])
 
 
-CPU = {}  # label -> median process CPU time [s] of the last median_of call with that label
+class Timing:
+    """Wall-clock and process CPU times [s] of ``repeat`` runs of one row."""
+
+    def __init__(self, wall: list[float], cpu: list[float]):
+        self.wall, self.cpu = np.array(wall), np.array(cpu)
+
+    def row(self, label: str, simulated: float | None = None) -> str:
+        """label, median [min-max] wall and CPU in ms, and x real time of ``simulated`` seconds (median [range])."""
+        text = f"{label:46s}{_ms(self.wall)}   CPU {_ms(self.cpu)}"
+        if simulated is not None:
+            text += f"   -> {_factor(simulated, self.wall)} x real time (CPU {_factor(simulated, self.cpu)} x)"
+        return text
 
 
-def median_of(fn, repeat, label=None):
-    """(median wall-clock time [s], last result); the median process CPU time goes to CPU[label]."""
-    times, cpu = [], []
-    out = None
+def _ms(seconds: np.ndarray) -> str:
+    return f"{np.median(seconds) * 1e3:7.1f} ms [{seconds.min() * 1e3:6.1f}-{seconds.max() * 1e3:6.1f}]"
+
+
+def _factor(simulated: float, seconds: np.ndarray) -> str:
+    return f"{simulated / np.median(seconds):5.1f} [{simulated / seconds.max():5.1f}-{simulated / seconds.min():5.1f}]"
+
+
+def timed(fn, repeat: int, before=None) -> tuple[Timing, object]:
+    """(Timing of ``repeat`` calls of fn, the last result); ``before`` runs untimed before each call."""
+    wall, cpu, out = [], [], None
     for _ in range(repeat):
+        if before is not None:
+            before()
         t0, c0 = time.perf_counter(), time.process_time()
         out = fn()
-        times.append(time.perf_counter() - t0)
+        wall.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
-    if label:
-        CPU[label] = float(np.median(cpu))
-    return float(np.median(times)), out
+    return Timing(wall, cpu), out
 
 
-def end_to_end(robot, path, profile, settings, repeat):
-    """simulate() with its set-up (path table + orbital design) inside: (cold: the cache folder empty each time,
-    warm: a cache hit), median wall-clock seconds each."""
+def end_to_end(robot, path, profile, settings, repeat) -> tuple[Timing, Timing]:
+    """simulate() with its set-up (path table + orbital design) inside: (cold: the cache folder emptied before
+    each run, warm: a cache hit)."""
     with tempfile.TemporaryDirectory() as folder:
         os.environ[design_cache.ENV] = folder
 
-        def cold():
-            for f in Path(folder).glob("*.npz"):
+        def empty():
+            for f in Path(folder).iterdir():
                 f.unlink()
+
+        def run():
             return simulate(robot, path, profile, "orbital", settings)
 
-        t_cold, _ = median_of(cold, repeat, "cold")
-        t_warm, _ = median_of(lambda: simulate(robot, path, profile, "orbital", settings), repeat, "warm")
+        cold, _ = timed(run, repeat, before=empty)
+        warm, _ = timed(run, repeat)
     os.environ.pop(design_cache.ENV)
-    return t_cold, t_warm
+    return cold, warm
 
 
 def main(repeat: int = 7) -> None:
-    load0 = os.getloadavg()[0]
+    load0 = os.getloadavg()
     robot = load_robot("irb140")
     path = SplineJointPath.from_waypoints(WAYPOINTS)
     v, a = 0.9, 2.0
@@ -85,11 +109,13 @@ def main(repeat: int = 7) -> None:
     ts = defaults.SAMPLE_TIME
     settings = SimulationSettings(sample_time=ts)
     sampling = (ts, int(settings.realism.delay)) if settings.sampled_design else (None, 0)  # the default design
-    t_design, design = median_of(lambda: OrbitalDesign.build(PathTable.from_path(path), profile, OrbitalGains(),
-                                                             *sampling), repeat)
+    def build():
+        return OrbitalDesign.build(PathTable.from_path(path), profile, OrbitalGains(), *sampling)
+
+    build()  # warm-up (numba cache, the BLAS thread controller)
+    t_design, design = timed(build, repeat)
     simulate(robot, path, profile, "orbital", settings, design=design)  # warm-up (numba cache, imports)
-    t_sim, result = median_of(lambda: simulate(robot, path, profile, "orbital", settings, design=design), repeat,
-                              "loop")
+    t_loop, result = timed(lambda: simulate(robot, path, profile, "orbital", settings, design=design), repeat)
     t_cold, t_warm = end_to_end(robot, path, profile, settings, repeat)
     simulated = result.t[-1] + ts
 
@@ -103,7 +129,7 @@ def main(repeat: int = 7) -> None:
             q, qd = plant.step(q, qd, tau, ts, settings.substeps)
         return q
 
-    t_plant, q_own = median_of(own_plant, repeat)
+    t_plant, q_own = timed(own_plant, repeat)
 
     model, data = robot.model, robot.model.createData()
     n = robot.n
@@ -116,31 +142,53 @@ def main(repeat: int = 7) -> None:
             x = sol.y[:, -1]
         return x[:n]
 
-    t_peer, q_peer = median_of(peer, repeat)
+    t_peer, q_peer = timed(peer, repeat)
     mujoco_rows = mujoco_peer(robot, result, settings, repeat)
-    rtf_sim, rtf_plant, rtf_peer = simulated / t_sim, simulated / t_plant, simulated / t_peer
-    print(f"load average (1 min) before / after  {load0:.2f} / {os.getloadavg()[0]:.2f} (2 cores)")
-    print(f"simulated time                              {simulated:8.3f} s ({len(result.t)} samples of {ts * 1e3:g} ms)")
-    print(f"orbital design (table + Riccati), once      {t_design * 1e3:8.1f} ms")
-    print(f"closed loop (controller + plant + metrics)  {t_sim * 1e3:8.1f} ms  -> {rtf_sim:6.1f} x real time")
-    print(f"plant alone, RK4 x {settings.substeps}, same torques         {t_plant * 1e3:8.1f} ms  -> {rtf_plant:6.1f} x real time")
-    print(f"peer: ABA in solve_ivp (RK45), same torques {t_peer * 1e3:8.1f} ms  -> {rtf_peer:6.1f} x real time")
-    print(f"ratio closed loop / peer                    {rtf_sim / rtf_peer:8.2f}")
-    print(f"ratio plant / peer                          {rtf_plant / rtf_peer:8.2f}")
-    print(f"final-state difference own plant vs peer    {np.max(np.abs(q_own - q_peer)):.2e} rad")
-    for label, seconds, key in (("end to end, set-up built (cache empty)", t_cold, "cold"),
-                                ("end to end, set-up from the disk cache", t_warm, "warm"),
-                                ("loop only (design given)", t_sim, "loop")):
-        print(f"{label:44s}{seconds * 1e3:8.1f} ms  -> {simulated / seconds:6.1f} x real time "
-              f"(CPU {CPU[key] * 1e3:6.1f} ms -> {simulated / CPU[key]:6.1f} x)")
-    for label, seconds in mujoco_rows:
-        print(f"{label:44s}{seconds * 1e3:8.1f} ms  -> {simulated / seconds:6.1f} x real time")
-    print(f"target >= 20x real time end to end (cache empty): {'met' if simulated / t_cold >= 20 else 'NOT met'} "
-          f"(wall clock; CPU time {'met' if simulated / CPU['cold'] >= 20 else 'NOT met'})")
+    scenario_rows = [row for name in SCENARIOS for row in scenario_peer(name, repeat)]
+    load1 = os.getloadavg()
+    print(f"load average (1, 5 min) before {load0[0]:.2f}, {load0[1]:.2f} / after {load1[0]:.2f}, {load1[1]:.2f} "
+          f"({os.cpu_count()} cores); median [min-max] of {repeat} runs")
+    print(f"simulated time {simulated:.3f} s ({len(result.t)} samples of {ts * 1e3:g} ms)")
+    print(t_design.row("orbital design (table + sampled Riccati), once"))
+    print(t_plant.row(f"plant alone, RK4 x {settings.substeps}, same torques", simulated))
+    print(t_peer.row("peer: ABA in solve_ivp (RK45), same torques", simulated))
+    print(f"ratio plant / peer (medians)                  {np.median(t_peer.wall) / np.median(t_plant.wall):6.2f}")
+    print(f"final-state difference own plant vs peer      {np.max(np.abs(q_own - q_peer)):.2e} rad")
+    print(t_cold.row("end to end, set-up built (cache empty)", simulated))
+    print(t_warm.row("end to end, set-up from the disk cache", simulated))
+    print(t_loop.row("loop only (design given)", simulated))
+    for label, timing in mujoco_rows:
+        print(timing.row(label, simulated))
+    for label, timing, seconds in scenario_rows:
+        print(timing.row(label, seconds))
+    wall, cpu = simulated / np.median(t_cold.wall), simulated / np.median(t_cold.cpu)
+    print(f"target >= 20x real time end to end (cache empty), medians: wall clock {wall:.1f}x "
+          f"{'met' if wall >= 20 else 'NOT met'}, CPU time {cpu:.1f}x {'met' if cpu >= 20 else 'NOT met'}")
 
 
-def mujoco_peer(robot, result, settings, repeat: int) -> list[tuple[str, float]]:
-    """(label, seconds) rows for MuJoCo: the plant alone on the same torques, and MuJoCo + a plain PD
+def scenario_peer(name: str, repeat: int) -> list[tuple[str, Timing, float]]:
+    """(label, Timing, simulated seconds) rows of the simulate stage of ``pathmotion simulate scenarios/NAME.toml``
+    (api.simulate_scenario after the plan, which is not timed): cache empty, and from the disk cache. A shipped
+    task path is lifted by inverse kinematics, so its path table costs more than the test spline's."""
+    setup = api.load(scenario_path(name))
+    plan_result = api.plan_scenario(setup)
+    with tempfile.TemporaryDirectory() as folder:
+        os.environ[design_cache.ENV] = folder
+
+        def empty():
+            for f in Path(folder).iterdir():
+                f.unlink()
+
+        cold, sim = timed(lambda: api.simulate_scenario(setup, plan_result), repeat, before=empty)
+        warm, _ = timed(lambda: api.simulate_scenario(setup, plan_result), repeat)
+    os.environ.pop(design_cache.ENV)
+    seconds = float(sim.t[-1] + sim.sample_time)
+    return [(f"{name} ({seconds:.2f} s), simulate stage, cache empty", cold, seconds),
+            (f"{name} ({seconds:.2f} s), simulate stage, from the cache", warm, seconds)]
+
+
+def mujoco_peer(robot, result, settings, repeat: int) -> list[tuple[str, Timing]]:
+    """(label, Timing) rows for MuJoCo: the plant alone on the same torques, and MuJoCo + a plain PD
     loop-only and end to end (model build included); [] when mujoco is not installed."""
     try:
         import mujoco
@@ -158,7 +206,7 @@ def mujoco_peer(robot, result, settings, repeat: int) -> list[tuple[str, float]]
             q, qd = plant.step(q, qd, tau, ts, substeps)
         return q
 
-    t_replay, _ = median_of(replay, repeat)
+    t_replay, _ = timed(replay, repeat)
     w, zeta = defaults.PD_BANDWIDTH, defaults.PD_DAMPING
     inertia = np.diag(pin.crba(robot.model, robot.data, result.q[0]))
     kp, kd = w * w * inertia, 2.0 * zeta * w * inertia
@@ -173,8 +221,8 @@ def mujoco_peer(robot, result, settings, repeat: int) -> list[tuple[str, float]]
         return data.qpos.copy()
 
     model = build_model(robot, timestep=ts / substeps)
-    t_loop, _ = median_of(lambda: pd_loop(model), repeat)
-    t_e2e, _ = median_of(lambda: pd_loop(build_model(robot, timestep=ts / substeps)), repeat)
+    t_loop, _ = timed(lambda: pd_loop(model), repeat)
+    t_e2e, _ = timed(lambda: pd_loop(build_model(robot, timestep=ts / substeps)), repeat)
     return [(f"MuJoCo plant alone, RK4 x {substeps}, same torques", t_replay),
             ("MuJoCo + plain PD, loop only", t_loop),
             ("MuJoCo + plain PD, end to end (URDF parse)", t_e2e)]
