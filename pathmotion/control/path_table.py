@@ -118,11 +118,16 @@ class PathTable:
         return Projection(int(iterations), defaults.PROJECTION_TOLERANCE * self.length,
                           defaults.PROJECTION_MAX_STEP * self.length)
 
+    @cached_property
+    def _guess_limits(self) -> tuple[float, float, float]:
+        """(largest move of :meth:`next_guess`, domain start, domain end)."""
+        return defaults.PROJECTION_MAX_STEP * self.length, float(self.domain[0]), float(self.domain[1])
+
     def next_guess(self, theta: float, theta_dot: float, dt: float) -> float:
         """theta + theta_dot dt, the move limited to PROJECTION_MAX_STEP of the length, inside an open domain."""
-        limit = defaults.PROJECTION_MAX_STEP * self.length
+        limit, lo, hi = self._guess_limits
         guess = theta + min(max(theta_dot * dt, -limit), limit)
-        return guess if self.closed else min(max(guess, self.domain[0]), self.domain[1])
+        return guess if self.closed else min(max(guess, lo), hi)
 
     def wrap(self, theta: float) -> float:
         """theta mapped into the domain: modulo the period for closed paths, clipped for open ones."""

@@ -19,6 +19,7 @@ count is bounded by the budget).
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -203,14 +204,15 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
             break
         cmd = control(sample.t, q, qd)  # control
         rec.cmd[k] = cmd
-        finite, clipped = saturate(cmd, plant.torque_limit, rec.tau[k])
-        failure = _first(rule.check_torque(sample, cmd, rec.tau[k], finite, clipped) for rule in rules)
+        tau = rec.tau[k]
+        finite, clipped = saturate(cmd, plant.torque_limit, tau)
+        failure = _first_torque_check(rules, sample, cmd, tau, finite, clipped)
         if failure is not None:
             if not finite:
                 rec.cmd[k], rec.tau[k] = 0.0, 0.0
             break
         rec.saturated += clipped
-        q, qd = plant.step(q, qd, rec.tau[k], ts, substeps)  # step
+        q, qd = plant.step(q, qd, tau, ts, substeps)  # step
     failure = _earliest([failure, *(rule.finish(sample) for rule in rules)])
     log.info("loop end at t = %.4g s: %s", k * ts, f"failed ({failure.reason}): {failure.message}"
              if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
@@ -224,6 +226,15 @@ def _first_check(rules, sample: Sample):
         verdict = rule.check(sample)
         if verdict is not None:
             return verdict
+    return None
+
+
+def _first_torque_check(rules, sample: Sample, cmd: np.ndarray, tau: np.ndarray, finite: bool, clipped: bool):
+    """The first rule's failure on this sample's commanded and applied torque (None if no rule fails)."""
+    for rule in rules:
+        failure = rule.check_torque(sample, cmd, tau, finite, clipped)
+        if failure is not None:
+            return failure
     return None
 
 
@@ -286,6 +297,7 @@ class _Monitor:
         self.theta, self.theta_dot = table.domain[0], 0.0
         self.line, self.window = line, line_window(len(table.grid))
         self.model, self.data, self.tcp_frame = robot.model, robot.model.createData(), robot.frame_id(None)
+        self.centre = np.zeros(1, dtype=np.int64)  # the TCP's segment of the line, reused each sample
         self.end = None if table.closed else line[-1]
 
     def measure(self, k: int, t: float, q: np.ndarray, qd: np.ndarray, arrived: bool) -> Sample:
@@ -304,9 +316,10 @@ class _Monitor:
         tcp = pin.updateFramePlacement(self.model, self.data, self.tcp_frame).translation
         lo, hi = self.table.domain
         th = lo + (theta - lo) % (hi - lo) if self.table.closed else min(max(theta, lo), hi)
-        centre = np.array([min(max(int(np.searchsorted(grid, th)) - 1, 0), len(grid) - 2)], dtype=np.int64)
-        dist = polyline_distance_local(tcp[None, :], self.line, centre, self.window, bool(self.table.closed))[0]
-        to_end = np.inf if self.end is None else float(np.linalg.norm(tcp - self.end))
+        self.centre[0] = min(max(int(grid.searchsorted(th)) - 1, 0), len(grid) - 2)
+        dist = polyline_distance_local(tcp[None, :], self.line, self.centre, self.window, self.table.closed)[0]
+        gap = None if self.end is None else tcp - self.end
+        to_end = np.inf if gap is None else math.sqrt(gap @ gap)  # np.linalg.norm's own formula
         return float(dist[0]), to_end
 
 
