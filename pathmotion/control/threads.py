@@ -15,7 +15,6 @@ import contextlib
 import functools
 import logging
 
-
 log = logging.getLogger(__name__)
 
 

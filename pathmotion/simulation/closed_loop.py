@@ -312,7 +312,7 @@ class _Monitor:
     def tcp(self, q: np.ndarray, theta: float) -> tuple[float, float]:
         """Distance [m] of the TCP at q from the planned TCP path near theta, and from the end point."""
         grid = self.table.grid
-        pin.forwardKinematics(self.model, self.data, q)  # the TCP frame alone: robot.fk updates every frame
+        pin.forwardKinematics(self.model, self.data, q)  # the TCP frame alone, without robot.fk's batch handling
         tcp = pin.updateFramePlacement(self.model, self.data, self.tcp_frame).translation
         lo, hi = self.table.domain
         th = lo + (theta - lo) % (hi - lo) if self.table.closed else min(max(theta, lo), hi)
