@@ -9,29 +9,37 @@ linear in theta, x' = 2 u_i. Each limit is bounded by one of two means (its
 Row form (velocity, acceleration, torque, TCP speed; no path evaluation, no RNEA): the limited value
 is v = a(theta) u + b(theta) x + c(theta) with path coefficients a, b, c known at the grid points
 (for a speed limit the squared ratio, v = G x with G = (gain / limit)^2). v is exact at both ends
-of the interval (the planner's grid data, each end seen from inside the interval), and between them
-|v| <= max(|v(theta_i)|, |v(theta_i+1)|) + h^2 / 8 max |v''| (the error of linear interpolation),
-v'' = a'' u + b'' x + 4 b' u + c''. The coefficients' derivatives come from the grid data: the slope
-s = (p_i+1 - p_i) / h equals p' somewhere in the interval; a second divided difference D at grid
-point k equals p'' somewhere in the two intervals around k (never taken across a segment
-connection). max |p''| on an interval is REMAINDER_SAFETY x the largest |D| at the four grid points
-around it, and |b'| <= |s| + h max |b''|.
+of the interval (the planner's grid data, each end seen from inside the interval), and with
+|v''| <= M between them, v and -v each lie below their chord plus M s (h - s) / 2 (s = theta - theta_i),
+so |v| is at most the largest value of that parabola: the larger end value where the chord rises by
+more than M h^2 / 2, else its vertex (:func:`_chord_bound`); never more than the form that ignores
+the ends' difference, max(|v(theta_i)|, |v(theta_i+1)|) + h^2 / 8 M. v'' = a'' u + b'' x + 4 b' u + c''.
+The coefficients' derivatives come from the grid data: the slope s = (p_i+1 - p_i) / h equals p'
+somewhere in the interval; a second divided difference D at grid point k equals p'' somewhere in the
+two intervals around k (never taken across a segment connection). max |p''| on an interval is
+REMAINDER_SAFETY x the largest |D| at the four grid points around it, and |b'| <= |s| + h max |b''|.
 
 Safety argument: a, b, c are smooth functions of theta that vary on the scale of the path's segments
 and spline spans, not of one grid interval, so p'' changes across four grid intervals by much less
 than itself, and the factor 2 covers a doubling. Where p'' is not continuous (a spline knot: Phi'''
 jumps, so Phi'' has a kink of slope jump J) inside the interval, the kink splits J / h between the
 two second differences at its ends, and h^2 / 8 x 2 (D_i + D_i+1) = J h / 4 is the largest
-interpolation error of such a kink (so the sum of those two also enters the maximum). An interval with no
-second difference on either side (a segment one interval long) is sampled instead.
+interpolation error of such a kink (so the sum of those two also enters the maximum). The planner's
+grids hold every knot, so no interval holds one inside; the second difference at a knot then measures
+the kink, not the curvature on either side. It is left out only for a coefficient linear between knots
+(``RowForm.knot_linear``: Phi'' of the acceleration, whose p'' is 0 there). beta of the torque kinks
+too, but its p'' can change 2.5x within an interval next to a knot on a coarse grid
+(test_knot_next_to_a_fast_changing_torque_curvature), so its knot differences stay as the cover. An
+interval with no second difference on either side (a segment one interval long) is sampled instead.
 
 Sampled form (the base class's default, e.g. the torque-speed envelope): the limit's own ``ratios``
 at S + 1 points uniform in theta (both ends reuse the grid data, tau = alpha u + beta x + gamma; each
 interior point costs one path evaluation and one RNEA, compiled and batched in fast_rnea.py), plus REMAINDER_SAFETY x the largest second
 difference of the samples (widened by the third difference) / 8.
 
-The sampled form runs once per pass for all limits together (:func:`certify`): on the union of the
-intervals any limit samples, each limit reading its intervals' rows. Every sample and every
+Each limit's row form is one compiled kernel call (:func:`row_bounds`). The sampled form runs once
+per pass for all limits together (:func:`certify`): on the union of the intervals any limit samples,
+each limit reading its intervals' rows. Every sample and every
 interval's bound depends on its own interval only, so this equals sampling each limit on its own
 (bit for bit), at one path evaluation and one RNEA batch per pass instead of one per limit.
 
@@ -131,56 +139,102 @@ class CertifyContext:
         ok[list(self.breaks)] = False
         return ok
 
-    def row_bound(self, a, b, c) -> tuple[np.ndarray, np.ndarray]:
-        """Row-form bound (K - 1, m) of |a u + b x + c| on every interval, and a mask (K - 1,) of the
-        intervals it holds on (the rest need the sampled form). a, b, c: (right, left) pairs of (K, m)
-        arrays of the coefficient at the grid points, or None for 0."""
-        p = self.profile
-        h, k1 = self.h, len(self.profile.grid) - 1
-        m = next(pair[0].shape[1] for pair in (a, b, c) if pair is not None)
-        ends0, ends1, bend = np.zeros((k1, m)), np.zeros((k1, m)), np.zeros((k1, m))
-        smooth = self.smooth_point
-        for kind, coeff in enumerate((a, b, c)):
-            if coeff is not None:
-                _row_terms(kind, np.asarray(coeff[0], float), np.asarray(coeff[1], float), h, p.u, p.x, smooth,
-                           REMAINDER_SAFETY, ends0, ends1, bend)
-        top = np.maximum(np.abs(ends0), np.abs(ends1))
-        return top + (h**2 / 8.0)[:, None] * bend, smooth[:-1] | smooth[1:]
+    @cached_property
+    def knot_point(self) -> np.ndarray:
+        """(K,) True at the path's spline knots on the grid (``path.knots``; the planner's grids hold them
+        all, planning/grid.py): the third derivative Phi''' jumps there."""
+        grid = self.profile.grid
+        knots = np.asarray(getattr(self.path, "knots", ()), float)
+        at = np.minimum(np.searchsorted(grid, knots), len(grid) - 1)
+        on = np.zeros(len(grid), dtype=bool)
+        on[at[grid[at] == knots]] = True
+        return on
+
+
+def row_bounds(ctx: CertifyContext, forms: dict) -> dict:
+    """{name: (bound (K - 1, m), valid (K - 1,))}: the row-form bound of every limit's ratio on every
+    interval and the intervals it holds on (the rest need the sampled form), for the row forms ``forms``
+    {name: RowForm}; one :func:`_row_kernel` call per limit (all its coefficients in one pass). A
+    coefficient linear between knots (``RowForm.knot_linear``) takes no second difference at a knot."""
+    p, smooth, knot = ctx.profile, ctx.smooth_point, ctx.knot_point
+    h = np.diff(p.grid)
+    plain = smooth[:-1] | smooth[1:]
+    apart = smooth & ~knot
+    out = {}
+    for name, f in forms.items():
+        pairs = [f.a, f.b, f.c]
+        some = next(pair for pair in pairs if pair is not None)  # stands in for the absent ones (not read)
+        arrays = [np.ascontiguousarray(side, dtype=float) for pair in pairs for side in (pair or some)]
+        linear = [pair is not None and k for pair, k in zip(pairs, f.knot_linear)]
+        where = np.array([apart if k else smooth for k in linear])
+        valid = plain & (apart[:-1] | apart[1:]) if any(linear) else plain
+        bound = np.empty((len(h), arrays[0].shape[1]))
+        _row_kernel(*arrays, f.a is not None, f.b is not None, f.c is not None, h, p.u, p.x, where,
+                    REMAINDER_SAFETY, bound)
+        bound /= np.asarray(f.limit, float)
+        out[name] = (np.sqrt(np.maximum(bound, 0.0)) if f.squared else bound, valid)
+    return out
 
 
 @njit(cache=True)
-def _row_terms(kind, pr, pl, h, u, x, smooth, safety, ends0, ends1, bend):
-    """Add one coefficient's part (kind 0: a, times u; 1: b, times x; 2: c) to the end values
-    ``ends0``/``ends1`` and the curvature term ``bend`` (K - 1, m) of the row form (module docstring):
-    p'' on interval i is ``safety`` x the largest second difference D at the grid points i - 1 .. i + 2
-    (or the sum of the two at its ends: a kink inside); D is 0 at the ends and segment connections."""
-    k1, m = ends0.shape
-    d = np.zeros(k1 + 1)
-    slope = np.empty(k1)
-    for j in range(m):
-        for i in range(k1):
-            slope[i] = (pl[i + 1, j] - pr[i, j]) / h[i]
+def _row_kernel(ar, al, br, bl, cr, cl, use_a, use_b, use_c, h, u, x, smooth, safety, out):
+    """Row-form bound ``out`` (K - 1, m) of |a u + b x + c| on every interval (module docstring) from the
+    coefficients' (right, left) values (K, m) at the grid points (``use_*`` False: that coefficient is 0
+    and its arrays are not read); ``smooth`` (3, K): where each of a, b, c takes second differences.
+    :func:`_chord_bound` of the two end values and the curvature term
+    a''|u| + b'' max x + 4 |b'| |u| + c'', each p'' ``safety`` x the largest second difference D at the grid
+    points i - 1 .. i + 2 (or the sum of the two at its ends: a kink inside); D is 0 where ``smooth`` is
+    False, |b'| <= |slope| + h max |b''|. One function: numba did not inline helpers
+    taking arrays, and their calls cost 5x the arithmetic."""
+    k1, m = out.shape
+    use = (use_a, use_b, use_c)
+    inv_h = 1.0 / h
+    inv_mid = np.zeros((3, k1 + 1))  # 1 / the mean step where coefficient q takes a second difference
+    for q in range(3):
         for g in range(1, k1):
-            d[g] = abs(slope[g] - slope[g - 1]) / (0.5 * (h[g] + h[g - 1])) if smooth[g] else 0.0
+            if smooth[q, g]:
+                inv_mid[q, g] = 2.0 / (h[g] + h[g - 1])
+    slope, d, m2 = np.zeros((3, k1)), np.zeros((3, k1 + 1)), np.zeros(3)
+    for j in range(m):
+        for q in range(3):
+            if use[q]:
+                pr, pl = (ar, al) if q == 0 else ((br, bl) if q == 1 else (cr, cl))
+                for i in range(k1):
+                    slope[q, i] = (pl[i + 1, j] - pr[i, j]) * inv_h[i]
+                for g in range(1, k1):
+                    d[q, g] = abs(slope[q, g] - slope[q, g - 1]) * inv_mid[q, g]
         for i in range(k1):
-            m2 = d[i] + d[i + 1]
-            if i > 0 and d[i - 1] > m2:
-                m2 = d[i - 1]
-            if i + 2 <= k1 and d[i + 2] > m2:
-                m2 = d[i + 2]
-            m2 *= safety
-            if kind == 0:
-                ends0[i, j] += pr[i, j] * u[i]
-                ends1[i, j] += pl[i + 1, j] * u[i]
-                bend[i, j] += m2 * abs(u[i])
-            elif kind == 1:
-                ends0[i, j] += pr[i, j] * x[i]
-                ends1[i, j] += pl[i + 1, j] * x[i + 1]
-                bend[i, j] += m2 * max(x[i], x[i + 1]) + 4.0 * (abs(slope[i]) + h[i] * m2) * abs(u[i])
-            else:
-                ends0[i, j] += pr[i, j]
-                ends1[i, j] += pl[i + 1, j]
-                bend[i, j] += m2
+            for q in range(3):
+                top = d[q, i] + d[q, i + 1]
+                if i > 0 and d[q, i - 1] > top:
+                    top = d[q, i - 1]
+                if i + 2 <= k1 and d[q, i + 2] > top:
+                    top = d[q, i + 2]
+                m2[q] = safety * top
+            v0 = v1 = 0.0
+            if use_a:
+                v0 += ar[i, j] * u[i]
+                v1 += al[i + 1, j] * u[i]
+            if use_b:
+                v0 += br[i, j] * x[i]
+                v1 += bl[i + 1, j] * x[i + 1]
+            if use_c:
+                v0 += cr[i, j]
+                v1 += cl[i + 1, j]
+            au = abs(u[i])
+            bend = m2[0] * au + m2[1] * max(x[i], x[i + 1]) + 4.0 * (abs(slope[1, i]) + h[i] * m2[1]) * au + m2[2]
+            out[i, j] = _chord_bound(v0, v1, 0.5 * bend * h[i] * h[i])
+
+
+@njit(cache=True)
+def _chord_bound(v0, v1, a):
+    """max over t in [0, 1] of |v| for v with end values v0, v1 and |v''| <= 2 ``a`` (in t): each of v and
+    -v lies below its chord plus a t (1 - t), whose maximum is the larger end where the chord's rise
+    exceeds a, else the parabola's vertex, e0 + (d + a)^2 / (4 a). At most max(|v0|, |v1|) + a / 4."""
+    d = v1 - v0
+    if a > abs(d):
+        return max(v0 + (d + a) ** 2 / (4.0 * a), -v0 + (a - d) ** 2 / (4.0 * a))
+    return max(abs(v0), abs(v1))
 
 
 def interval_state(profile: Profile, i: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -347,11 +401,13 @@ def smooth_sampled_bound(values: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(v.max(axis=1)), bound, v.max(axis=1))
 
 
-def certify(ctx: CertifyContext, limits) -> dict:
+def certify(ctx: CertifyContext, limits, accept: float | None = None) -> dict:
     """{name: (K - 1, m) certified upper bound of the ratio on every interval} per active limit; the
     samples carry torques only for the limits that need them (the views share one sample cache). A smooth
     profile (theta_ddot not constant per interval: the row form does not apply) takes the sampled form
-    for every limit, on :func:`smooth_interval_samples`."""
+    for every limit, on :func:`smooth_interval_samples`. ``accept`` (the verify-and-tighten loop's
+    1 + limit_tolerance; piecewise-constant profiles): row-form bounds in (REFINE_ABOVE, accept] are left
+    unrefined when every bound ends at or below ``accept`` (see :func:`_certify_piecewise`)."""
     if ctx.profile.smooth:
         ctx.torque_rate = ctx.torque_rate or any(lim.order == 3 and lim.needs_torque for lim in limits)
         cs = ctx.samples(subdivisions=SMOOTH_SUBDIVISIONS)
@@ -361,52 +417,55 @@ def certify(ctx: CertifyContext, limits) -> dict:
         bound = smooth_sampled_bound(np.concatenate(values, axis=2))  # every limit's columns in one pass
         cut = np.cumsum([v.shape[2] for v in values])[:-1]
         return {lim.name: b for lim, b in zip(limits, np.split(bound, cut, axis=1))}
-    return _certify_piecewise(ctx, limits)
+    return _certify_piecewise(ctx, limits, accept)
 
 
-def _certify_piecewise(ctx: CertifyContext, limits) -> dict:
+def _certify_piecewise(ctx: CertifyContext, limits, accept: float | None = None) -> dict:
     """:func:`certify` of a piecewise-constant theta_ddot profile. Each limit's row form where it holds
-    (:meth:`Limit.certify_row_form`); the sampled form, CERTIFY_SUBDIVISIONS, where it does not, on every
-    interval for a limit without one, and where the row form exceeds REFINE_ABOVE; REFINE_SUBDIVISIONS
-    where that sampled bound exceeds it too (the smallest of the upper bounds is kept). Each pass samples
-    the union of the intervals the limits need once (:func:`_sampled_union`)."""
-    k1 = len(ctx.profile.grid) - 1
-    rows, sampled, over = {}, {}, {}
+    (:func:`row_bounds`, all limits in one kernel call); the sampled form, CERTIFY_SUBDIVISIONS, where it
+    does not (every interval for a limit without one) and where the row form exceeds REFINE_ABOVE;
+    REFINE_SUBDIVISIONS where that sampled bound exceeds it too (the smallest of the upper bounds is kept).
+    Each pass samples the union of the intervals the limits need once (:func:`_sampled_union`).
+
+    With ``accept`` (> REFINE_ABOVE), the intervals above ``accept`` go first; those in (REFINE_ABOVE,
+    accept] only when some bound is still above ``accept`` afterwards. The planner tightens (or refines
+    the grid) only then, and then on every interval above REFINE_ABOVE: its decisions and the final bounds
+    it acts on are those of refining everything at once (every bound is per interval), while a plan that
+    passes skips the sampling that could only lower bounds already within its tolerance."""
+    k1, n = len(ctx.profile.grid) - 1, ctx.path.n
+    forms = {lim.name: f for lim in limits if (f := lim.certify_row_form(ctx)) is not None}
+    out, rowed = {}, {}
+    for name, (bound, valid) in row_bounds(ctx, forms).items():
+        out[name], rowed[name] = np.where(valid[:, None], bound, np.inf), valid
     for lim in limits:
-        form = lim.certify_row_form(ctx)
-        if form is None:
-            rows[lim.name], sampled[lim.name] = None, np.ones(k1, bool)
-            continue
-        bound, valid = form
-        rows[lim.name], over[lim.name] = (bound, valid), (bound > REFINE_ABOVE).any(axis=1) & valid
-        sampled[lim.name] = over[lim.name] if valid.all() else over[lim.name] | ~valid
-    coarse = _sampled_union(ctx, limits, sampled, CERTIFY_SUBDIVISIONS)
-    refine = {}
-    for name, o in over.items():
-        if name in coarse:
-            r = o & (coarse[name] > REFINE_ABOVE).any(axis=1)
-            if r.any():
-                refine[name] = r
-    fine = _sampled_union(ctx, limits, refine, REFINE_SUBDIVISIONS) if refine else {}
-    out = {}
-    for lim in limits:
-        name = lim.name
-        if rows[name] is None:
-            out[name] = coarse[name]
-            continue
-        bound, valid = rows[name]
-        if name in coarse:
-            b = coarse[name]
-            if name in fine:
-                r = np.nonzero(refine[name])[0]
-                b[r] = np.minimum(b[r], fine[name][r])
-            if not valid.all():
-                invalid = np.nonzero(~valid)[0]
-                bound[invalid] = b[invalid]  # the row form does not hold there
-            o = np.nonzero(over[name])[0]
-            bound[o] = np.minimum(bound[o], b[o])  # both are upper bounds
-        out[name] = bound
+        if lim.name not in out:
+            out[lim.name], rowed[lim.name] = np.full((k1, lim.columns(n)), np.inf), np.zeros(k1, bool)
+    done = {name: np.zeros(k1, bool) for name in out}
+    levels = (accept, REFINE_ABOVE) if accept is not None and accept > REFINE_ABOVE else (REFINE_ABOVE,)
+    for level in levels:
+        if level != levels[0] and max((float(b.max()) for b in out.values() if b.size), default=0.0) <= accept:
+            break
+        wanted = {name: ~done[name] & (b > level).any(axis=1) for name, b in out.items()}
+        _refine(ctx, limits, wanted, rowed, out)
+        for name, w in wanted.items():
+            done[name] |= w
     return out
+
+
+def _refine(ctx: CertifyContext, limits, wanted: dict, rowed: dict, out: dict) -> None:
+    """Lower the bounds ``out`` {name: (K - 1, m)} to the sampled form's (CERTIFY_SUBDIVISIONS) on the
+    intervals ``wanted`` {name: (K - 1,)}, then to REFINE_SUBDIVISIONS' where a row form held (``rowed``)
+    and the bound still exceeds REFINE_ABOVE (the smaller of two upper bounds is kept)."""
+    fine = {}
+    for name, b in _sampled_union(ctx, limits, wanted, CERTIFY_SUBDIVISIONS).items():
+        w = np.nonzero(wanted[name])[0]
+        out[name][w] = np.minimum(out[name][w], b[w])
+        again = wanted[name] & rowed[name] & (out[name] > REFINE_ABOVE).any(axis=1)
+        if again.any():
+            fine[name] = again
+    for name, b in (_sampled_union(ctx, limits, fine, REFINE_SUBDIVISIONS) if fine else {}).items():
+        f = np.nonzero(fine[name])[0]
+        out[name][f] = np.minimum(out[name][f], b[f])
 
 
 def _sampled_union(ctx: CertifyContext, limits, wanted: dict, subdivisions: int) -> dict:

@@ -418,7 +418,7 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
         theta = samples.theta
     else:
         ctx = _certify_context(traj.path, robot, sol.profile, limits, grid, samp, breaks)
-        r = certify(ctx, limits)
+        r = certify(ctx, limits, accept=1.0 + settings.limit_tolerance)
         ratios = summarize_intervals(sol.profile, r, limits, jumps, robot.joint_names)
         pgrid = sol.profile.grid
         if not sol.jump_intervals and len(pgrid) == len(grid) and np.array_equal(pgrid, grid):

@@ -14,7 +14,7 @@ import numpy as np
 
 from ...robot import Robot
 from .acceleration import AccelerationLimit
-from .base import Limit, LimitChoice, PathPoints, Rows
+from .base import Limit, LimitChoice, PathPoints, RowForm, Rows
 from .jerk import JerkLimit
 from .tcp_speed import TcpSpeedLimit, tcp_gain
 from .torque import TorqueLimit
@@ -95,6 +95,6 @@ def limit_choices(source, keys: str = "scenario_keys") -> dict[str, LimitChoice]
 
 
 __all__ = [
-    "AccelerationLimit", "EffectiveLimits", "JerkLimit", "TorqueRateLimit", "Limit", "LimitChoice", "PathPoints", "REGISTRY", "Rows",
+    "AccelerationLimit", "EffectiveLimits", "JerkLimit", "TorqueRateLimit", "Limit", "LimitChoice", "PathPoints", "REGISTRY", "RowForm", "Rows",
     "TcpSpeedLimit", "TorqueLimit", "TorqueSpeedLimit", "VelocityLimit", "limit_choices", "effective_limits_for", "tcp_gain",
 ]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Limit, LimitChoice, Rows
+from .base import Limit, LimitChoice, RowForm, Rows
 
 
 class AccelerationLimit(Limit):
@@ -31,7 +31,7 @@ class AccelerationLimit(Limit):
 
     def certify_row_form(self, ctx):
         r, l = ctx.right, ctx.left
-        return self.row_form(ctx, (r.dq, l.dq), (r.ddq, l.ddq), None, self.qdd_max)
+        return RowForm((r.dq, l.dq), (r.ddq, l.ddq), None, self.qdd_max, knot_linear=(False, True, False))
 
     def ratios(self, samples, robot):
         return np.abs(samples.qdd) / self.qdd_max

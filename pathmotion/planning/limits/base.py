@@ -52,6 +52,25 @@ class Rows3(NamedTuple):
     lim: np.ndarray
 
 
+class RowForm(NamedTuple):
+    """A limit's value on a grid interval as v = a u + b x + c (u = theta_ddot, x = theta_dot^2), for
+    the certified row form (planning/certify.py): ``a``, ``b``, ``c`` are (right, left) pairs of (K, m)
+    coefficients at the grid points, seen from the interval after / before each point (None for 0);
+    the ratio is |v| / ``limit`` (m,), or sqrt(|v|) when ``squared`` (a speed limit, v = G x with
+    G = (gain / limit)^2 and ``limit`` 1). ``knot_linear`` (for a, b, c): the coefficient is linear between
+    the path's spline knots (Phi'' of a cubic spline, whose knots ``path.knots`` lists and the planner's
+    grids hold), so its only second difference is its kink at a knot, which no interval holds inside: the
+    certification takes none there (elsewhere its second differences are its true curvature, 0).
+    The reduced dynamics' beta = M Phi'' + ... also kinks at knots but is not linear between them."""
+
+    a: "tuple[np.ndarray, np.ndarray] | None"
+    b: "tuple[np.ndarray, np.ndarray] | None"
+    c: "tuple[np.ndarray, np.ndarray] | None"
+    limit: np.ndarray
+    squared: bool = False
+    knot_linear: tuple[bool, bool, bool] = (False, False, False)
+
+
 @dataclass(frozen=True)
 class LimitChoice:
     """A user's choice for one limit: ``on`` (use it), ``scale`` (> 0, multiplies the robot's
@@ -185,23 +204,13 @@ class Limit:
         """|value| / limit (N, m) on a time resample."""
         raise NotImplementedError
 
-    def certify_row_form(self, ctx) -> "tuple[np.ndarray, np.ndarray] | None":
-        """The row form of this limit's certified bound on the profile in ``ctx`` (planning/certify.py's
-        CertifyContext): (bound (K - 1, m), mask (K - 1,) of the intervals it holds on), e.g. by
-        :meth:`row_form`. None (the default): the sampled form (:meth:`ratios` at a few points per
-        interval plus the interpolation remainder) on every interval. certify.certify samples where the
-        row form does not hold or exceeds REFINE_ABOVE, for all limits at once."""
+    def certify_row_form(self, ctx) -> "RowForm | None":
+        """This limit's value in the row form of planning/certify.py (|a u + b x + c| / limit on every grid
+        interval of the profile in ``ctx``, a CertifyContext), or None (the default): the sampled form
+        (:meth:`ratios` at a few points per interval plus the interpolation remainder) on every interval.
+        certify.certify bounds every limit's row form in one kernel call and samples where it does not
+        hold or exceeds its refinement threshold, for all limits at once."""
         return None
-
-    def row_form(self, ctx, a, b, c, limit, squared: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """Row-form bound of |a u + b x + c| / limit on every interval and the mask where it holds: a, b, c
-        (right, left) pairs of (K, m) coefficients at the grid points (None for 0), ``limit`` (m,);
-        ``squared``: the value is the squared ratio (a speed limit, v = G x)."""
-        bound, valid = ctx.row_bound(a, b, c)
-        bound = bound / np.asarray(limit, float)
-        if squared:
-            bound = np.sqrt(np.maximum(bound, 0.0))
-        return bound, valid
 
     def column_name(self, j: int, joint_names: tuple[str, ...] | None) -> str:
         """What column j is, in messages."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import jacobian
-from .base import Limit, LimitChoice, PathPoints, safe_ratio_bound
+from .base import Limit, LimitChoice, PathPoints, RowForm, safe_ratio_bound
 
 
 def _linear_speed(robot, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
@@ -45,7 +45,7 @@ class TcpSpeedLimit(Limit):
 
     def certify_row_form(self, ctx):
         g = tuple((tcp_gain(pts) / self.v_max)[:, None] ** 2 for pts in (ctx.right, ctx.left))
-        return self.row_form(ctx, None, g, None, 1.0, squared=True)
+        return RowForm(None, g, None, np.ones(1), squared=True)
 
     def ratios(self, samples, robot):
         return (_linear_speed(robot, samples.q, samples.qd) / self.v_max)[:, None]

@@ -15,7 +15,7 @@ import numpy as np
 from ... import defaults
 from ...errors import InfeasibleError, ScenarioError
 from ..reduced import reduced_dynamics
-from .base import Limit, LimitChoice, PathPoints, Rows
+from .base import Limit, LimitChoice, PathPoints, RowForm, Rows
 
 #: The reserve must stay below this fraction of the torque limit [-].
 MAX_RESERVE = defaults.MAX_TORQUE_RESERVE
@@ -104,7 +104,7 @@ class TorqueLimit(Limit):
 
     def certify_row_form(self, ctx):
         (ar, br, gr), (al, bl, gl) = reduced(ctx.right), reduced(ctx.left)
-        return self.row_form(ctx, (ar, al), (br, bl), (gr, gl), self.tau_max)
+        return RowForm((ar, al), (br, bl), (gr, gl), self.tau_max)
 
     def ratios(self, samples, robot):
         return np.abs(samples.tau) / self.tau_max

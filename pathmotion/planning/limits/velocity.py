@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Limit, LimitChoice, safe_ratio_bound
+from .base import Limit, LimitChoice, RowForm, safe_ratio_bound
 
 
 class VelocityLimit(Limit):
@@ -27,7 +27,7 @@ class VelocityLimit(Limit):
 
     def certify_row_form(self, ctx):
         g = tuple((pts.dq / self.qd_max) ** 2 for pts in (ctx.right, ctx.left))
-        return self.row_form(ctx, None, g, None, 1.0, squared=True)
+        return RowForm(None, g, None, np.ones(len(self.qd_max)), squared=True)
 
     def ratios(self, samples, robot):
         return np.abs(samples.qd) / self.qd_max
