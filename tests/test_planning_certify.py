@@ -128,16 +128,16 @@ def test_union_sampling_equals_each_limit_alone(irb140, limit_set, robot_payload
             assert np.array_equal(union[lim.name], alone), (limit_set, lim.name)
 
 
-def _row_reference(form, grid, u, x, smooth, knot, safety):
+def _row_reference(form, grid, u, x, smooth, knots, safety):
     """Row-form bound (K - 1, m) written out with numpy, interval by interval (the kernel's reference):
-    the end values, each coefficient's second differences (none at the ends, breaks, and for a
-    ``knot_linear`` coefficient at knots), its curvature estimate, and the chord-plus-parabola maximum
-    found by dense evaluation of |chord| + a t (1 - t) over t in [0, 1]."""
+    the end values, each coefficient's second differences (none at the ends and breaks; at the grid
+    points ``knots`` less the coefficient's slope jump), its curvature estimate, and the chord-plus-parabola
+    maximum found by dense evaluation of |chord| + a t (1 - t) over t in [0, 1]."""
     h = np.diff(grid)
     k1, m = len(h), len(np.atleast_1d(form.limit))
     v0, v1, bend = np.zeros((k1, m)), np.zeros((k1, m)), np.zeros((k1, m))
     t = np.linspace(0.0, 1.0, 20001)
-    for kind, (pair, linear) in enumerate(zip((form.a, form.b, form.c), form.knot_linear)):
+    for kind, (pair, jump) in enumerate(zip((form.a, form.b, form.c), form.knot_jumps)):
         if pair is None:
             continue
         pr, pl = pair
@@ -147,10 +147,10 @@ def _row_reference(form, grid, u, x, smooth, knot, safety):
         v1 += pl[1:] * factor1
         slope = (pl[1:] - pr[:-1]) / h[:, None]
         d = np.zeros((k1 + 1, m))
-        inner = smooth & ~knot if linear else smooth
         for g in range(1, k1):
-            if inner[g]:
-                d[g] = np.abs(slope[g] - slope[g - 1]) / (0.5 * (h[g] + h[g - 1]))
+            if smooth[g]:
+                kink = jump[list(knots).index(g)] if jump is not None and g in knots else 0.0
+                d[g] = np.abs(slope[g] - slope[g - 1] - kink) / (0.5 * (h[g] + h[g - 1]))
         for i in range(k1):
             cand = [d[i] + d[i + 1]] + ([d[i - 1]] if i > 0 else []) + ([d[i + 2]] if i + 2 <= k1 else [])
             m2 = safety * np.max(cand, axis=0)
@@ -169,7 +169,8 @@ def _row_reference(form, grid, u, x, smooth, knot, safety):
 @pytest.mark.parametrize("seed", range(6))
 def test_row_kernel_equals_the_numpy_reference(seed):
     """row_bounds (one compiled kernel call per limit) against the numpy reference above, on random
-    coefficients, an uneven grid with a break and a knot, absent coefficients and a squared form."""
+    coefficients, an uneven grid with a break and two knots, absent coefficients, a squared form and a
+    coefficient whose slope jumps at the knots."""
     from types import SimpleNamespace
 
     from pathmotion.planning.certify import REMAINDER_SAFETY, CertifyContext, row_bounds
@@ -179,10 +180,10 @@ def test_row_kernel_equals_the_numpy_reference(seed):
     k, m = 40, 3
     grid = np.sort(np.concatenate([[0.0, 1.0], rng.uniform(0.0, 1.0, k - 2)]))
     u, x = rng.normal(0.0, 2.0, k - 1), rng.uniform(0.0, 3.0, k)
-    breaks, knot_at = (13,), 27
-    path = SimpleNamespace(knots=(float(grid[knot_at]),), n=m)
+    breaks, knots = (13,), (8, 27)
     profile = SimpleNamespace(grid=grid, u=u, x=x)
-    ctx = CertifyContext(path, None, profile, None, None, breaks, False)
+    ctx = CertifyContext(SimpleNamespace(n=m), None, profile, None, None, breaks, False)
+    ctx.__dict__["knots"] = (np.array(knots), None)  # the cached property, as the path would give it
 
     def pair():
         right = rng.normal(size=(k, m))
@@ -192,19 +193,15 @@ def test_row_kernel_equals_the_numpy_reference(seed):
 
     forms = {"abc": RowForm(pair(), pair(), pair(), rng.uniform(0.5, 2.0, m)),
              "b only, squared": RowForm(None, tuple(np.abs(p) for p in pair()), None, np.ones(m), squared=True),
-             "knot-linear b": RowForm(pair(), pair(), None, rng.uniform(0.5, 2.0, m), knot_linear=(False, True, False))}
+             "b kinked at knots": RowForm(pair(), pair(), None, rng.uniform(0.5, 2.0, m),
+                                          knot_jumps=(None, rng.normal(0.0, 30.0, (len(knots), m)), None))}
     smooth = np.ones(k, bool)
     smooth[[0, -1, *breaks]] = False
-    knot = np.zeros(k, bool)
-    knot[knot_at] = True
     for name, (bound, valid) in row_bounds(ctx, forms).items():
-        ref = _row_reference(forms[name], grid, u, x, smooth, knot, REMAINDER_SAFETY)
+        ref = _row_reference(forms[name], grid, u, x, smooth, knots, REMAINDER_SAFETY)
         # the reference maximizes on a t grid of step 5e-5: below the exact maximum by at most ~1e-8 relative
         assert np.all(bound >= ref - 1e-12) and np.allclose(bound, ref, rtol=1e-7, atol=1e-12), name
-        expect_valid = smooth[:-1] | smooth[1:]
-        if forms[name].knot_linear[1]:
-            expect_valid &= (smooth & ~knot)[:-1] | (smooth & ~knot)[1:]
-        assert np.array_equal(valid, expect_valid), name
+        assert np.array_equal(valid, smooth[:-1] | smooth[1:]), name
 
 
 def test_chord_bound_is_the_parabola_maximum():
@@ -223,8 +220,8 @@ def test_chord_bound_is_the_parabola_maximum():
 
 def test_knot_next_to_a_fast_changing_torque_curvature(irb140):
     """Regression: a 12-waypoint spline on a 60-point grid, where the reduced dynamics' beta changes its
-    second derivative 2.5x within one interval next to a knot. Skipping beta's second difference at the
-    knot (as for Phi'', which is linear between knots) undercut the dense maximum there by 1e-4."""
+    second derivative 2.6x within one interval next to a knot. Skipping beta's second difference at the
+    knot altogether (rather than subtracting its kink) undercut the dense maximum there by 1e-4."""
     _check_bounds(_spline(35227, 12), irb140, "torque-binding", 60)
 
 
@@ -257,3 +254,32 @@ def test_accept_leaves_bounds_within_it_or_refines_all(irb140, limit_set, grid_p
             else:
                 assert lazy[name].max() <= accept
     assert True in seen, "no case needed the full refinement: the test would not bite"
+
+
+def test_knot_jumps_match_one_sided_finite_differences(irb140):
+    """The slope jumps the acceleration and torque limits give at spline knots (Phi''' and M Phi''' jumps)
+    equal those of Phi'' and of beta measured by one-sided finite differences on either side of each knot."""
+    from pathmotion.planning.certify import CertifyContext
+    from pathmotion.planning.planner import _grid_breaks, _sample
+    from pathmotion.planning.reduced import reduced_dynamics
+
+    path, robot = _spline(3, 7), irb140
+    s = PlanSettings(grid_points=200, verify="off")
+    profile = plan(path, robot, s).profile
+    limits = effective_limits(robot, s)
+    breaks = _grid_breaks(path, profile.grid)
+    samp = _sample(path, robot, profile.grid, breaks)
+    ctx = CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque)
+    index = ctx.knots[0]
+    assert len(index) == 5 and np.allclose(profile.grid[index], path.knots)
+    eps = 1e-5
+
+    def one_sided_slope(f, theta, sign):  # second order: (-3 f0 + 4 f1 - f2) / (2 eps), f1 = f(theta + sign eps)
+        return sign * (-3.0 * f(theta) + 4.0 * f(theta + sign * eps) - f(theta + 2 * sign * eps)) / (2.0 * eps)
+
+    for name, coeff in (("acceleration", lambda th: path.evaluate(np.atleast_1d(th))[2]),
+                        ("torque", lambda th: reduced_dynamics(robot, *path.evaluate(np.atleast_1d(th))).beta)):
+        jump = limits.get(name).certify_row_form(ctx).knot_jumps[1]
+        for n, theta in enumerate(profile.grid[index]):
+            measured = one_sided_slope(coeff, theta, 1.0) - one_sided_slope(coeff, theta, -1.0)
+            assert np.allclose(jump[n], measured[0], rtol=1e-4, atol=1e-6 * np.abs(jump).max()), (name, n)

@@ -26,10 +26,9 @@ jumps, so Phi'' has a kink of slope jump J) inside the interval, the kink splits
 two second differences at its ends, and h^2 / 8 x 2 (D_i + D_i+1) = J h / 4 is the largest
 interpolation error of such a kink (so the sum of those two also enters the maximum). The planner's
 grids hold every knot, so no interval holds one inside; the second difference at a knot then measures
-the kink, not the curvature on either side. It is left out only for a coefficient linear between knots
-(``RowForm.knot_linear``: Phi'' of the acceleration, whose p'' is 0 there). beta of the torque kinks
-too, but its p'' can change 2.5x within an interval next to a knot on a coarse grid
-(test_knot_next_to_a_fast_changing_torque_curvature), so its knot differences stay as the cover. An
+the kink besides the curvature. Where a limit knows its coefficient's slope jump there
+(``RowForm.knot_jumps``: Phi'''s jump for the acceleration's Phi'', M times it for the torque's beta)
+it is subtracted, and D is the curvature on the two sides again. An
 interval with no second difference on either side (a segment one interval long) is sampled instead.
 
 Sampled form (the base class's default, e.g. the torque-speed envelope): the limit's own ``ratios``
@@ -140,60 +139,64 @@ class CertifyContext:
         return ok
 
     @cached_property
-    def knot_point(self) -> np.ndarray:
-        """(K,) True at the path's spline knots on the grid (``path.knots``; the planner's grids hold them
-        all, planning/grid.py): the third derivative Phi''' jumps there."""
+    def knots(self) -> tuple[np.ndarray, np.ndarray]:
+        """The path's spline knots on the grid (``path.knots``; the planner's grids hold them all,
+        planning/grid.py): their indices (k,) and the jump of Phi''' there (k, n), right minus left."""
         grid = self.profile.grid
         knots = np.asarray(getattr(self.path, "knots", ()), float)
         at = np.minimum(np.searchsorted(grid, knots), len(grid) - 1)
-        on = np.zeros(len(grid), dtype=bool)
-        on[at[grid[at] == knots]] = True
-        return on
+        index = at[(grid[at] == knots) & (at > 0) & (at < len(grid) - 1)]
+        if not index.size:
+            return index, np.zeros((0, self.path.n))
+        theta = grid[index]
+        jump = self.path.evaluate3(theta, "right")[3] - self.path.evaluate3(theta, "left")[3]
+        return index, np.atleast_2d(jump)
 
 
 def row_bounds(ctx: CertifyContext, forms: dict) -> dict:
     """{name: (bound (K - 1, m), valid (K - 1,))}: the row-form bound of every limit's ratio on every
     interval and the intervals it holds on (the rest need the sampled form), for the row forms ``forms``
-    {name: RowForm}; one :func:`_row_kernel` call per limit (all its coefficients in one pass). A
-    coefficient linear between knots (``RowForm.knot_linear``) takes no second difference at a knot."""
-    p, smooth, knot = ctx.profile, ctx.smooth_point, ctx.knot_point
+    {name: RowForm}; one :func:`_row_kernel` call per limit (all its coefficients in one pass)."""
+    p, smooth = ctx.profile, ctx.smooth_point
     h = np.diff(p.grid)
-    plain = smooth[:-1] | smooth[1:]
-    apart = smooth & ~knot
+    valid = smooth[:-1] | smooth[1:]
     out = {}
     for name, f in forms.items():
         pairs = [f.a, f.b, f.c]
         some = next(pair for pair in pairs if pair is not None)  # stands in for the absent ones (not read)
         arrays = [np.ascontiguousarray(side, dtype=float) for pair in pairs for side in (pair or some)]
-        linear = [pair is not None and k for pair, k in zip(pairs, f.knot_linear)]
-        where = np.array([apart if k else smooth for k in linear])
-        valid = plain & (apart[:-1] | apart[1:]) if any(linear) else plain
-        bound = np.empty((len(h), arrays[0].shape[1]))
-        _row_kernel(*arrays, f.a is not None, f.b is not None, f.c is not None, h, p.u, p.x, where,
-                    REMAINDER_SAFETY, bound)
+        m = arrays[0].shape[1]
+        index = ctx.knots[0] if any(j is not None for j in f.knot_jumps) else np.zeros(0, np.int64)
+        jumps = np.zeros((3, len(index), m))
+        for q, j in enumerate(f.knot_jumps):
+            if j is not None and len(index):
+                jumps[q] = j
+        bound = np.empty((len(h), m))
+        _row_kernel(*arrays, f.a is not None, f.b is not None, f.c is not None, h, p.u, p.x, smooth,
+                    index.astype(np.int64), jumps, REMAINDER_SAFETY, bound)
         bound /= np.asarray(f.limit, float)
         out[name] = (np.sqrt(np.maximum(bound, 0.0)) if f.squared else bound, valid)
     return out
 
 
 @njit(cache=True)
-def _row_kernel(ar, al, br, bl, cr, cl, use_a, use_b, use_c, h, u, x, smooth, safety, out):
+def _row_kernel(ar, al, br, bl, cr, cl, use_a, use_b, use_c, h, u, x, smooth, knots, jumps, safety, out):
     """Row-form bound ``out`` (K - 1, m) of |a u + b x + c| on every interval (module docstring) from the
     coefficients' (right, left) values (K, m) at the grid points (``use_*`` False: that coefficient is 0
-    and its arrays are not read); ``smooth`` (3, K): where each of a, b, c takes second differences.
+    and its arrays are not read); ``smooth`` (K,): where second differences are taken; ``jumps`` (3, k, m):
+    the slope jump of a, b, c at the grid points ``knots`` (k,), subtracted from the second difference there.
     :func:`_chord_bound` of the two end values and the curvature term
     a''|u| + b'' max x + 4 |b'| |u| + c'', each p'' ``safety`` x the largest second difference D at the grid
     points i - 1 .. i + 2 (or the sum of the two at its ends: a kink inside); D is 0 where ``smooth`` is
-    False, |b'| <= |slope| + h max |b''|. One function: numba did not inline helpers
+    False; |b'| <= |slope| + h max |b''|. One function: numba did not inline helpers
     taking arrays, and their calls cost 5x the arithmetic."""
     k1, m = out.shape
     use = (use_a, use_b, use_c)
     inv_h = 1.0 / h
-    inv_mid = np.zeros((3, k1 + 1))  # 1 / the mean step where coefficient q takes a second difference
-    for q in range(3):
-        for g in range(1, k1):
-            if smooth[q, g]:
-                inv_mid[q, g] = 2.0 / (h[g] + h[g - 1])
+    inv_mid = np.zeros(k1 + 1)  # 1 / the mean step at each grid point where a second difference is taken
+    for g in range(1, k1):
+        if smooth[g]:
+            inv_mid[g] = 2.0 / (h[g] + h[g - 1])
     slope, d, m2 = np.zeros((3, k1)), np.zeros((3, k1 + 1)), np.zeros(3)
     for j in range(m):
         for q in range(3):
@@ -202,7 +205,10 @@ def _row_kernel(ar, al, br, bl, cr, cl, use_a, use_b, use_c, h, u, x, smooth, sa
                 for i in range(k1):
                     slope[q, i] = (pl[i + 1, j] - pr[i, j]) * inv_h[i]
                 for g in range(1, k1):
-                    d[q, g] = abs(slope[q, g] - slope[q, g - 1]) * inv_mid[q, g]
+                    d[q, g] = abs(slope[q, g] - slope[q, g - 1]) * inv_mid[g]
+                for n in range(len(knots)):
+                    g = knots[n]
+                    d[q, g] = abs(slope[q, g] - slope[q, g - 1] - jumps[q, n, j]) * inv_mid[g]
         for i in range(k1):
             for q in range(3):
                 top = d[q, i] + d[q, i + 1]

@@ -31,7 +31,8 @@ class AccelerationLimit(Limit):
 
     def certify_row_form(self, ctx):
         r, l = ctx.right, ctx.left
-        return RowForm((r.dq, l.dq), (r.ddq, l.ddq), None, self.qdd_max, knot_linear=(False, True, False))
+        # b = Phi'': its slope jumps with Phi''' at a knot
+        return RowForm((r.dq, l.dq), (r.ddq, l.ddq), None, self.qdd_max, knot_jumps=(None, ctx.knots[1], None))
 
     def ratios(self, samples, robot):
         return np.abs(samples.qdd) / self.qdd_max

@@ -57,18 +57,16 @@ class RowForm(NamedTuple):
     the certified row form (planning/certify.py): ``a``, ``b``, ``c`` are (right, left) pairs of (K, m)
     coefficients at the grid points, seen from the interval after / before each point (None for 0);
     the ratio is |v| / ``limit`` (m,), or sqrt(|v|) when ``squared`` (a speed limit, v = G x with
-    G = (gain / limit)^2 and ``limit`` 1). ``knot_linear`` (for a, b, c): the coefficient is linear between
-    the path's spline knots (Phi'' of a cubic spline, whose knots ``path.knots`` lists and the planner's
-    grids hold), so its only second difference is its kink at a knot, which no interval holds inside: the
-    certification takes none there (elsewhere its second differences are its true curvature, 0).
-    The reduced dynamics' beta = M Phi'' + ... also kinks at knots but is not linear between them."""
+    G = (gain / limit)^2 and ``limit`` 1). ``knot_jumps`` (for a, b, c): the jump of the coefficient's
+    slope at each of the path's spline knots on the grid (``ctx.knots``), right minus left, (k, m); None
+    where it is continuous. A coefficient linear in Phi'' jumps there, with Phi'''."""
 
     a: "tuple[np.ndarray, np.ndarray] | None"
     b: "tuple[np.ndarray, np.ndarray] | None"
     c: "tuple[np.ndarray, np.ndarray] | None"
     limit: np.ndarray
     squared: bool = False
-    knot_linear: tuple[bool, bool, bool] = (False, False, False)
+    knot_jumps: tuple = (None, None, None)
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,15 @@ def torque_reserve(choices) -> float:
     return 0.0 if choice is None or choice.value is None else float(choice.value)
 
 
+def _beta_jump(ctx) -> np.ndarray:
+    """The jump of beta' = (M Phi'' + C(Phi, Phi') Phi')' at the path's knots on the grid (k, n): M(Phi) times
+    the jump of Phi''' (the only term with Phi'''), i.e. alpha = M Phi' evaluated with Phi' := that jump."""
+    index, jump = ctx.knots
+    if not len(index):
+        return jump
+    return reduced_dynamics(ctx.robot, ctx.right.q[index], jump, np.zeros_like(jump)).alpha
+
+
 class TorqueLimit(Limit):
     """tau_max [N m] (n,): the robot's joint torque limits times ``torque_scale`` times
     (1 - ``torque_reserve``)."""
@@ -104,7 +113,7 @@ class TorqueLimit(Limit):
 
     def certify_row_form(self, ctx):
         (ar, br, gr), (al, bl, gl) = reduced(ctx.right), reduced(ctx.left)
-        return RowForm((ar, al), (br, bl), (gr, gl), self.tau_max)
+        return RowForm((ar, al), (br, bl), (gr, gl), self.tau_max, knot_jumps=(None, _beta_jump(ctx), None))
 
     def ratios(self, samples, robot):
         return np.abs(samples.tau) / self.tau_max
