@@ -141,16 +141,18 @@ class CertifyContext:
     @cached_property
     def knots(self) -> tuple[np.ndarray, np.ndarray]:
         """The path's spline knots on the grid (``path.knots``; the planner's grids hold them all,
-        planning/grid.py): their indices (k,) and the jump of Phi''' there (k, n), right minus left."""
+        planning/grid.py): their indices (k,) and the jump of Phi''' there (k, n), right minus left, from
+        the grid data: Phi'' of a cubic spline is linear between knots, so the slopes of Phi'' over the two
+        intervals at a knot are Phi''' on its two sides (exact; two path evaluations cost more than the rest
+        of the row form)."""
         grid = self.profile.grid
         knots = np.asarray(getattr(self.path, "knots", ()), float)
         at = np.minimum(np.searchsorted(grid, knots), len(grid) - 1)
-        index = at[(grid[at] == knots) & (at > 0) & (at < len(grid) - 1)]
-        if not index.size:
-            return index, np.zeros((0, self.path.n))
-        theta = grid[index]
-        jump = self.path.evaluate3(theta, "right")[3] - self.path.evaluate3(theta, "left")[3]
-        return index, np.atleast_2d(jump)
+        g = at[(grid[at] == knots) & (at > 0) & (at < len(grid) - 1)]
+        r, l = self.right.ddq, self.left.ddq
+        after = (l[g + 1] - r[g]) / (grid[g + 1] - grid[g])[:, None]
+        before = (l[g] - r[g - 1]) / (grid[g] - grid[g - 1])[:, None]
+        return g, after - before
 
 
 def row_bounds(ctx: CertifyContext, forms: dict) -> dict:
