@@ -25,8 +25,15 @@ Method, per case:
     the same interleaved runs; on a loaded machine the wall time of a millisecond call is mostly waiting).
 Machine load (os.getloadavg) is printed at start and end.
 
+Direct mode (``--direct``): the certification's cost alone, on the searched grid of each selected case:
+plan() bare (verify off) and verified (certified) called alternately in a random order, ROUNDS rounds
+after WARMUP calls of each; CPU time of the process and wall time; per case the ratio of the medians and
+its range over BLOCKS consecutive blocks of rounds, the machine load before and after.
+
     python benchmarks/bench_planner_vs_toppra.py            # 4 seeds x (4, 7, 12) waypoints
     python benchmarks/bench_planner_vs_toppra.py --quick    # 1 seed x (4, 7, 12), fewer repetitions
+    python benchmarks/bench_planner_vs_toppra.py --sets binding torque --waypoints 4   # a subset
+    python benchmarks/bench_planner_vs_toppra.py --direct --sets binding --waypoints 4  # certification cost
 """
 
 from __future__ import annotations
@@ -54,6 +61,10 @@ ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
 GRIDS = [int(round(100 * 2 ** (k / 2))) for k in range(17)]  # 100 ... 25600, x sqrt(2)
 ACCURACY = 1e-3
 T_STAR_POINTS = (8000, 16000)
+#: Direct mode: calls of each before timing, timed rounds (one bare and one verified call each, in a
+#: random order) and the blocks of consecutive rounds whose ratios give the range.
+WARMUP, ROUNDS, BLOCKS = 10, 150, 5
+SEEDS, WAYPOINTS = (1, 2, 3, 4), (4, 7, 12)
 
 
 def robots():
@@ -108,7 +119,9 @@ def dense_worst(result, path, robot) -> float:
     return max(float(np.max(v)) for v in r.values())
 
 
-def run_case(label, robot, torque, seed, n_wp, repeats):
+def search_case(robot, torque, seed, n_wp) -> dict:
+    """One case's path, toppra solver, T* (Richardson from both tools) and both tools' searched grids
+    (the smallest of GRIDS within ACCURACY of T*; None when none is)."""
     wp = np.random.default_rng(seed).uniform(-1.5, 1.5, size=(n_wp, 6))
     path = SplineJointPath.from_waypoints(wp)
     bare = PlanSettings(torque=torque, verify="off")
@@ -120,8 +133,15 @@ def run_case(label, robot, torque, seed, n_wp, repeats):
     t_ours, t_toppra = 2 * b - a, 2 * d - c
     t_star = 0.5 * (t_ours + t_toppra)
     within = lambda t: abs(t - t_star) <= ACCURACY * t_star  # noqa: E731
-    n_ours = next((n for n in GRIDS if within(ours(n).duration)), None)
-    n_tp = next((n for n in GRIDS if within(tp(uniform(n)).duration)), None)
+    return dict(path=path, ours=ours, tp=tp, uniform=uniform, t_ours=t_ours, t_toppra=t_toppra, t_star=t_star,
+                n_ours=next((n for n in GRIDS if within(ours(n).duration)), None),
+                n_tp=next((n for n in GRIDS if within(tp(uniform(n)).duration)), None))
+
+
+def run_case(label, robot, torque, seed, n_wp, repeats):
+    c = search_case(robot, torque, seed, n_wp)
+    path, ours, tp, uniform, t_star, n_ours, n_tp = (c[k] for k in ("path", "ours", "tp", "uniform", "t_star",
+                                                                   "n_ours", "n_tp"))
     default = plan(path, robot, PlanSettings(torque=torque))
     coarse = plan(path, robot, PlanSettings(torque=torque, tolerance=ACCURACY))
     verified = ours(n_ours, verify="certified")
@@ -133,14 +153,63 @@ def run_case(label, robot, torque, seed, n_wp, repeats):
     if n_tp is None:
         del fns["toppra own grid"]
     times, cpu = interleaved(fns, repeats)
-    row = dict(label=label, seed=seed, wp=n_wp, t_star=t_star, t_ours=t_ours, t_toppra=t_toppra, n_ours=n_ours,
-               n_tp=n_tp, default_err=(default.duration - t_star) / t_star, default_est=default.duration_error_estimate
-               / t_star, default_pts=default.grid_points, coarse_err=(coarse.duration - t_star) / t_star,
-               dense=dense_worst(default, path, robot), torque_ratio=default.ratios.torque,
-               verified_err=(verified.duration - t_star) / t_star, tighten=verified.tighten_iterations,
-               toppra_same=tp(our_grid).duration - ours(n_ours).duration,
+    row = dict(label=label, seed=seed, wp=n_wp, t_star=t_star, t_ours=c["t_ours"], t_toppra=c["t_toppra"],
+               n_ours=n_ours, n_tp=n_tp, default_err=(default.duration - t_star) / t_star,
+               default_est=default.duration_error_estimate / t_star, default_pts=default.grid_points,
+               coarse_err=(coarse.duration - t_star) / t_star, dense=dense_worst(default, path, robot),
+               torque_ratio=default.ratios.torque, verified_err=(verified.duration - t_star) / t_star,
+               tighten=verified.tighten_iterations, toppra_same=tp(our_grid).duration - ours(n_ours).duration,
                certify_cost_cpu=cpu["ours verified"] / cpu["ours bare"], **times)
     return row
+
+
+def direct_case(label, robot, torque, seed, n_wp, rounds=ROUNDS) -> dict:
+    """Certification cost on the case's searched grid: bare and verified plan() alternately in a random
+    order after WARMUP calls each; {"cpu": ratio of medians, "cpu_blocks": ratio per block, "wall": ...}."""
+    c = search_case(robot, torque, seed, n_wp)
+    n, path = c["n_ours"], c["path"]
+    settings = {"bare": PlanSettings(torque=torque, verify="off", grid_points=n),
+                "verified": PlanSettings(torque=torque, verify="certified", grid_points=n)}
+    res = plan(path, robot, settings["verified"])
+    for _ in range(WARMUP):
+        for s in settings.values():
+            plan(path, robot, s)
+    load0 = os.getloadavg()[0]
+    cpu, wall = {k: [] for k in settings}, {k: [] for k in settings}
+    rng = random.Random(seed)
+    for _ in range(rounds):
+        order = list(settings)
+        rng.shuffle(order)
+        for k in order:
+            t, p = time.perf_counter(), time.process_time()
+            plan(path, robot, settings[k])
+            cpu[k].append(time.process_time() - p)
+            wall[k].append(time.perf_counter() - t)
+    ratio = lambda v, a=0, b=None: (statistics.median(v["verified"][a:b])  # noqa: E731
+                                    / statistics.median(v["bare"][a:b]))
+    size = rounds // BLOCKS
+    return dict(label=label, seed=seed, wp=n_wp, points=res.grid_points, n=n, tighten=res.tighten_iterations,
+                bare_ms=1e3 * statistics.median(cpu["bare"]), verified_ms=1e3 * statistics.median(cpu["verified"]),
+                cpu=ratio(cpu), wall=ratio(wall), cpu_blocks=[ratio(cpu, i * size, (i + 1) * size) for i in range(BLOCKS)],
+                load=(load0, os.getloadavg()[0]), torque_ratio=res.ratios.torque)
+
+
+def print_direct(r):
+    b = r["cpu_blocks"]
+    tr = "" if r["torque_ratio"] is None else f", certified torque ratio {r['torque_ratio']:.5f}"
+    print(f"{r['label']:8s} seed {r['seed']:2d} wp {r['wp']:2d}: grid {r['n']} ({r['points']} points), CPU bare "
+          f"{r['bare_ms']:.3f} ms, verified {r['verified_ms']:.3f} ms: verified / bare {r['cpu']:.3f}x (blocks of "
+          f"{ROUNDS // BLOCKS} rounds {min(b):.3f}-{max(b):.3f}), wall {r['wall']:.3f}x; tighten {r['tighten']}{tr}; "
+          f"load {r['load'][0]:.1f} -> {r['load'][1]:.1f}")
+
+
+def summarize_direct(rows):
+    cpu = [r["cpu"] for r in rows]
+    blocks = [b for r in rows for b in r["cpu_blocks"]]
+    print(f"\nverified / bare (CPU time, ratio of medians of {ROUNDS} interleaved rounds) over {len(rows)} cases: "
+          f"median {statistics.median(cpu):.3f}x, cases {min(cpu):.3f}-{max(cpu):.3f}x, blocks of "
+          f"{ROUNDS // BLOCKS} rounds {min(blocks):.3f}-{max(blocks):.3f}x (target 1.5x); wall "
+          f"{statistics.median([r['wall'] for r in rows]):.3f}x")
 
 
 def print_row(r):
@@ -192,17 +261,29 @@ def summarize(rows):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="one seed per waypoint count, 3 repetitions")
+    ap.add_argument("--sets", nargs="+", choices=list(robots()), help="limit sets (default: all three)")
+    ap.add_argument("--waypoints", nargs="+", type=int, help=f"waypoint counts (default: {WAYPOINTS})")
+    ap.add_argument("--seeds", nargs="+", type=int, help=f"seeds (default: {SEEDS}; --quick: 1)")
+    ap.add_argument("--direct", action="store_true", help="time only bare vs verified plan() on the searched "
+                    f"grid, {ROUNDS} interleaved rounds per case (the certification's cost)")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
-    seeds, repeats = ((1,), 3) if args.quick else ((1, 2, 3, 4), 7)
+    seeds, repeats = ((1,), 3) if args.quick else (SEEDS, 7)
+    seeds = tuple(args.seeds or seeds)
     print(f"load average at start: {os.getloadavg()} on {os.cpu_count()} cores")
     rows = []
     for label, (robot, torque) in robots().items():
-        for n_wp in (4, 7, 12):
+        if args.sets and label not in args.sets:
+            continue
+        for n_wp in args.waypoints or WAYPOINTS:
             for seed in seeds:
-                rows.append(run_case(label, robot, torque, seed, n_wp, repeats))
-                print_row(rows[-1])
-    summarize(rows)
+                if args.direct:
+                    rows.append(direct_case(label, robot, torque, seed, n_wp))
+                    print_direct(rows[-1])
+                else:
+                    rows.append(run_case(label, robot, torque, seed, n_wp, repeats))
+                    print_row(rows[-1])
+    (summarize_direct if args.direct else summarize)(rows)
     print(f"load average at end: {os.getloadavg()}")
 
 
