@@ -245,17 +245,14 @@ def _chord_bound(v0, v1, a):
     return max(abs(v0), abs(v1))
 
 
-def interval_state(profile: Profile, i: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(theta_dot, theta_ddot, t) at s = theta - theta_i inside interval i (arrays of one shape);
-    interval-aware, so the end of interval i uses u_i (not the next interval's)."""
-    x0 = profile.x[i]
-    u = profile.u[i]
-    x = np.maximum(x0 + 2.0 * u * s, 0.0)
-    v0, v = np.sqrt(x0), np.sqrt(x)
-    den = v0 + v
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dt = np.where(den > 0, 2.0 * s / np.where(den > 0, den, 1.0), 0.0)
-    return v, np.broadcast_to(u, np.shape(s)), profile.times[i] + dt
+def interval_state(profile: Profile, index: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(theta_dot, theta_ddot, t), each (I, P), at s = theta - theta_i (I, P) inside the intervals ``index``
+    (I,); interval-aware, so the end of interval i uses u_i (not the next interval's)."""
+    x0, u = profile.x[index][:, None], profile.u[index][:, None]
+    v0, v = np.sqrt(x0), np.sqrt(np.maximum(x0 + 2.0 * u * s, 0.0))
+    den = v0 + v  # 0 only where both speeds are (s = 0 at a stop): dt 0 there
+    dt = 2.0 * s / np.where(den > 0, den, np.inf)
+    return v, np.repeat(u, s.shape[1], axis=1), profile.times[index][:, None] + dt
 
 
 def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int = CERTIFY_SUBDIVISIONS,
@@ -265,19 +262,18 @@ def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int =
     then only on the intervals ``index[torque]`` when given (NaN on the others)."""
     grid, path, robot = ctx.profile.grid, ctx.path, ctx.robot
     k1, S, n = len(index), int(subdivisions), path.n
-    frac = np.arange(S + 1) / S
-    i = np.repeat(index, S + 1).reshape(k1, S + 1)
-    s = (grid[index + 1] - grid[index])[:, None] * frac[None, :]
+    s = (grid[index + 1] - grid[index])[:, None] * (np.arange(S + 1) / S)[None, :]
     theta = grid[index, None] + s
     theta[:, -1] = grid[index + 1]
-    q, dq, ddq = (np.empty((k1, S + 1, n)) for _ in range(3))
+    q, dq, ddq = np.empty((3, k1, S + 1, n))
     r, l = ctx.right, ctx.left
     for arr, pr, pl in ((q, r.q, l.q), (dq, r.dq, l.dq), (ddq, r.ddq, l.ddq)):
         arr[:, 0], arr[:, -1] = pr[index], pl[index + 1]
     if S > 1:
-        qi, dqi, ddqi = path.evaluate(theta[:, 1:-1].ravel())
-        q[:, 1:-1], dq[:, 1:-1], ddq[:, 1:-1] = (a.reshape(k1, S - 1, n) for a in (qi, dqi, ddqi))
-    theta_dot, theta_ddot, t = interval_state(ctx.profile, i, s)
+        inner = path.evaluate(theta[:, 1:-1].ravel())
+        for arr, value in zip((q, dq, ddq), inner):
+            arr[:, 1:-1] = value.reshape(k1, S - 1, n)
+    theta_dot, theta_ddot, t = interval_state(ctx.profile, index, s)
     qd = dq * theta_dot[..., None]
     qdd = dq * theta_ddot[..., None] + ddq * (theta_dot**2)[..., None]
     tau = None
@@ -290,9 +286,10 @@ def interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions: int =
                                    qdd[w, 1:-1].reshape(-1, n)).reshape(-1, S - 1, n)
         tau[w, 0] = _grid_torque(r, index[w], theta_ddot[w, 0], theta_dot[w, 0] ** 2)
         tau[w, -1] = _grid_torque(l, index[w] + 1, theta_ddot[w, -1], theta_dot[w, -1] ** 2)
-    flat = lambda a: None if a is None else a.reshape(k1 * (S + 1), *a.shape[2:])  # noqa: E731
-    samples = Samples(flat(t), flat(theta), flat(theta_dot), flat(np.array(theta_ddot)), flat(q), flat(qd),
-                      flat(qdd), flat(tau))
+    size = k1 * (S + 1)
+    samples = Samples(t.reshape(size), theta.reshape(size), theta_dot.reshape(size), theta_ddot.reshape(size),
+                      q.reshape(size, n), qd.reshape(size, n), qdd.reshape(size, n),
+                      None if tau is None else tau.reshape(size, n))
     return IntervalSamples(samples, index, S + 1)
 
 
@@ -444,10 +441,13 @@ def _certify_piecewise(ctx: CertifyContext, limits, accept: float | None = None)
     forms = {lim.name: f for lim in limits if (f := lim.certify_row_form(ctx)) is not None}
     out, rowed = {}, {}
     for name, (bound, valid) in row_bounds(ctx, forms).items():
-        out[name], rowed[name] = np.where(valid[:, None], bound, np.inf), valid
+        out[name], rowed[name] = (bound if valid.all() else np.where(valid[:, None], bound, np.inf)), valid
     for lim in limits:
         if lim.name not in out:
             out[lim.name], rowed[lim.name] = np.full((k1, lim.columns(n)), np.inf), np.zeros(k1, bool)
+    top = max((float(b.max()) for b in out.values() if b.size), default=0.0)
+    if top <= REFINE_ABOVE or (accept is not None and top <= accept):
+        return out  # nothing above the first level: no interval would be sampled
     done = {name: np.zeros(k1, bool) for name in out}
     levels = (accept, REFINE_ABOVE) if accept is not None and accept > REFINE_ABOVE else (REFINE_ABOVE,)
     for level in levels:

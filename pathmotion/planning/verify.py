@@ -105,17 +105,18 @@ def summarize_intervals(profile, bounds: dict, limits: EffectiveLimits, velocity
 
 def _largest(arrays: dict, limits: EffectiveLimits, where) -> tuple[dict, str]:
     """Per limit, the largest entry of its (K, m) array {name: array}; and ``where(lim, k, j, ratio)``'s text for the
-    largest over all limits ("no limit active" when none is)."""
+    largest over all limits ("no limit active" when none is; formatted once, for that one)."""
     values = {cls.name: None for cls in REGISTRY}
-    worst, worst_text = -1.0, "no limit active"
+    worst, worst_lim = -1.0, None
     for lim in limits:
-        r = arrays[lim.name]
-        k, j = np.unravel_index(int(np.argmax(r)), r.shape)
-        values[lim.name] = float(r[k, j])
+        values[lim.name] = float(arrays[lim.name].max())
         if values[lim.name] > worst:
-            worst = values[lim.name]
-            worst_text = where(lim, k, j, worst)
-    return values, worst_text
+            worst, worst_lim = values[lim.name], lim
+    if worst_lim is None:
+        return values, "no limit active"
+    r = arrays[worst_lim.name]
+    k, j = np.unravel_index(int(np.argmax(r)), r.shape)
+    return values, where(worst_lim, k, j, worst)
 
 
 def _with_jumps(ratios: LimitRatios, limits: EffectiveLimits, velocity_jumps) -> LimitRatios:

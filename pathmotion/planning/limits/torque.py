@@ -14,6 +14,7 @@ import numpy as np
 
 from ... import defaults
 from ...errors import InfeasibleError, ScenarioError
+from ..fast_rnea import reduced_batch, supported
 from ..reduced import reduced_dynamics
 from .base import Limit, LimitChoice, PathPoints, RowForm, Rows
 
@@ -56,7 +57,10 @@ def _beta_jump(ctx) -> np.ndarray:
     index, jump = ctx.knots
     if not len(index):
         return jump
-    return reduced_dynamics(ctx.robot, ctx.right.q[index], jump, np.zeros_like(jump)).alpha
+    q = ctx.right.q[index]
+    if supported(ctx.robot):  # finite inputs (the grid data): the compiled batch without reduced_dynamics' checks
+        return reduced_batch(ctx.robot, q, jump, np.zeros_like(jump))[0]
+    return reduced_dynamics(ctx.robot, q, jump, np.zeros_like(jump)).alpha
 
 
 class TorqueLimit(Limit):
