@@ -27,9 +27,9 @@ two second differences at its ends, and h^2 / 8 x 2 (D_i + D_i+1) = J h / 4 is t
 interpolation error of such a kink (so the sum of those two also enters the maximum). The planner's
 grids hold every knot, so no interval holds one inside; the second difference at a knot then measures
 the kink besides the curvature. Where a limit knows its coefficient's slope jump there
-(``RowForm.knot_jumps``: Phi'''s jump for the acceleration's Phi'', M times it for the torque's beta)
-it is subtracted, and D is the curvature on the two sides again. An
-interval with no second difference on either side (a segment one interval long) is sampled instead.
+(``RowForm.knot_jumps``: the jump of Phi''' for the acceleration's Phi'', M times it for the torque's
+beta) it is subtracted, and D is the curvature on the two sides again. An interval with no second
+difference on either side (a segment one interval long) is sampled instead.
 
 Sampled form (the base class's default, e.g. the torque-speed envelope): the limit's own ``ratios``
 at S + 1 points uniform in theta (both ends reuse the grid data, tau = alpha u + beta x + gamma; each
@@ -427,7 +427,7 @@ def certify(ctx: CertifyContext, limits, accept: float | None = None) -> dict:
 
 def _certify_piecewise(ctx: CertifyContext, limits, accept: float | None = None) -> dict:
     """:func:`certify` of a piecewise-constant theta_ddot profile. Each limit's row form where it holds
-    (:func:`row_bounds`, all limits in one kernel call); the sampled form, CERTIFY_SUBDIVISIONS, where it
+    (:func:`row_bounds`, one kernel call per limit); the sampled form, CERTIFY_SUBDIVISIONS, where it
     does not (every interval for a limit without one) and where the row form exceeds REFINE_ABOVE;
     REFINE_SUBDIVISIONS where that sampled bound exceeds it too (the smallest of the upper bounds is kept).
     Each pass samples the union of the intervals the limits need once (:func:`_sampled_union`).
