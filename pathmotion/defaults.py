@@ -171,6 +171,11 @@ ORBITAL_SAMPLED_DESIGN = True
 #: Orbital controller: rate [rad/s] of the integral action on the transverse error (closed-loop pole of
 #: the integrator; 0 turns it off). Rejects constant unmodelled torques such as a payload's gravity.
 ORBITAL_INTEGRAL_RATE = 20.0
+#: Orbital controller: the disturbance observer (pathmotion.control.observer) gets the largest gain with which the
+#: sampled loop, with its delay, stays stable for any plant inertia between 1/F and F times the model's, F this
+#: [-]. 3 covers the IRB140's rated 6 kg at 0.1 m beyond the flange unknown to the model (up to 2.6x the
+#: modelled inertia) or believed in but absent (down to 0.39x). inf: no observer.
+ORBITAL_OBSERVER_RANGE = 3.0
 #: Orbital controller: planned time [s] by which the clock play is widened on each side of a slow stretch
 #: (planned joint speed below ORBITAL_MIN_SPEED: stops, ends of open paths). Near a stop the speed channel's
 #: authority (about speed_rate x planned joint speed / 2 in joint acceleration) falls below what friction and

@@ -62,6 +62,9 @@ class OrbitalGains(_SecondOrder):
     which that weight stops growing and (open paths) the plan is played on the clock, as near stops;
     terminal_time_to_go [s]: open paths, how much longer (planned time) the clock play lasts on each
     side of such a slow stretch; at the end of the path the final configuration is then held.
+    observer_range [-]: the disturbance observer's gain is the largest with which the sampled, delayed loop stays
+    stable for every plant inertia between 1/observer_range and observer_range times the model's
+    (:func:`.observer.observer_gain`; inf: no observer).
     integral_rate [rad/s]: integral action on z (0: none). The transverse state is augmented with
     xi = int z dt and weighted so that a decoupled triple integrator closes with the poles
     (s + integral_rate)(s^2 + 2 zeta w s + w^2): a constant unmodelled torque (payload gravity)
@@ -74,6 +77,7 @@ class OrbitalGains(_SecondOrder):
     min_speed: float = defaults.ORBITAL_MIN_SPEED
     terminal_time_to_go: float = defaults.TERMINAL_TIME_TO_GO
     integral_rate: float = defaults.ORBITAL_INTEGRAL_RATE
+    observer_range: float = defaults.ORBITAL_OBSERVER_RANGE
 
     def __post_init__(self):
         _check_positive("OrbitalGains", bandwidth=self.bandwidth, damping=self.damping,
@@ -82,6 +86,9 @@ class OrbitalGains(_SecondOrder):
             raise SimulationError(f"OrbitalGains.damping = {self.damping:g}; the LQR form needs damping >= 0.7072")
         if not (isinstance(self.integral_rate, (int, float)) and self.integral_rate >= 0):
             raise SimulationError(f"OrbitalGains.integral_rate = {self.integral_rate!r}; give a rate >= 0 rad/s (0: off)")
+        if not (isinstance(self.observer_range, (int, float)) and self.observer_range >= 1):
+            raise SimulationError(f"OrbitalGains.observer_range = {self.observer_range!r}; give a factor >= 1 on the "
+                                  "plant's inertia (inf: no disturbance observer)")
         if not self.terminal_time_to_go >= 0:
             raise SimulationError(f"OrbitalGains.terminal_time_to_go = {self.terminal_time_to_go!r}; give a time >= 0 s")
         with _no_overflow_error():

@@ -28,6 +28,7 @@ from ..planning.profile import Profile
 from ..robot import Robot
 from .gains import OrbitalGains
 from .laws import computed_torque
+from .observer import DisturbanceObserver, observer_gain
 from .kernels import clock_command, orbital_command
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
@@ -360,7 +361,8 @@ class OrbitalController:
 
     name = "orbital"
 
-    def __init__(self, design: OrbitalDesign, robot: Robot, sample_time: float = defaults.SAMPLE_TIME):
+    def __init__(self, design: OrbitalDesign, robot: Robot, sample_time: float = defaults.SAMPLE_TIME,
+                 delay: int | None = None, sampled: bool = True):
         d = design
         self.design = design
         self.model = robot.model
@@ -374,6 +376,11 @@ class OrbitalController:
         self.x_perp = np.zeros(d.gain.shape[2])
         self.torque_limit = np.asarray(robot.limits.torque, dtype=float)
         self.v = np.zeros(n)
+        core = integral_size(d.gains, n) + 2 * n - 1
+        self.delay = (d.gain.shape[2] - core) // n if delay is None else int(delay)
+        self.observer = DisturbanceObserver(self.model, self.sample_time,
+                                            observer_gain(d.gains, self.sample_time, self.delay, sampled), self.delay,
+                                            self.torque_limit)
         p = d.profile.profile
         self._path, self._plan, self._basis = d.table.arrays, d.profile.arrays, d.basis.arrays
         self._projection = d.table.projection()
@@ -390,6 +397,11 @@ class OrbitalController:
         d = self.design
         q = np.ascontiguousarray(q, dtype=float)
         qd = np.ascontiguousarray(qd, dtype=float)
+        self.observer.measure(q, qd)
+        return self.observer.command(self._law(t, q, qd))
+
+    def _law(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        d = self.design
         if self.clock is not None:
             zone, t0, plan0 = self.clock
             z1 = d.zones[zone][1]
@@ -413,7 +425,7 @@ class OrbitalController:
         self.theta, self.theta_dot = orbital_command(self._path, self._plan, self._basis, self._projection, d.gain,
                                                      q, qd, guess, self.sample_time, self.xi, self.x_perp, self.v)
         tau = computed_torque(self.model, self.data, q, qd, self.v)
-        if len(self.xi) and np.any(np.abs(tau) > self.torque_limit):
+        if len(self.xi) and np.any(np.abs(tau + self.observer.estimate) > self.torque_limit):
             self._hold_integral()
         return tau
 
@@ -449,3 +461,4 @@ class OrbitalController:
             self.xi[:-1] = self._frame(self.theta).T @ self.xi_q
             self.xi[-1] = 0.0
         self.x_perp[len(self.xi) + 2 * (self.design.table.n - 1) + 1:] = 0.0  # no orbital command in flight
+

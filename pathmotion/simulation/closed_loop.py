@@ -114,7 +114,7 @@ def make_controller(name: str, robot: Robot, path: JointPath, profile: Profile, 
             log.info("closed-loop design: orbital controller (transverse linearization, %s Riccati)",
                      "sampled" if settings.sampled_design else "continuous")
             design = OrbitalDesign.build(table, profile, settings.orbital_gains, *_sampling(settings))
-        return OrbitalController(design, robot, settings.sample_time)
+        return OrbitalController(design, robot, settings.sample_time, int(settings.realism.delay), settings.sampled_design)
     if name in ("computed_torque", "pd_gravity"):
         ref = TimeReference.sample(path, profile, settings.sample_time, horizon)
         if name == "computed_torque":
