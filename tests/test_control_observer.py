@@ -13,11 +13,12 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from scipy.linalg import solve_discrete_are
 
 from pathmotion import api, defaults
 from pathmotion.control import OrbitalGains
 from pathmotion.control.observer import (ESTIMATE, DisturbanceObserver, _chain_step, chain_feedback, chain_loop,
-                                         loop_radius, observer_gain)
+                                         loop_radius, observer_gain, stationary_riccati)
 from pathmotion.planning import plan
 from pathmotion.robot import Payload
 from pathmotion.scenarios import scenario_path
@@ -48,6 +49,28 @@ def test_continuous_chain_gains_are_the_clock_gains_and_the_sampled_ones_tend_to
     assert np.allclose(chain_feedback(gains, 0.004, 2, False), [ki, kp, kd, 0.0, 0.0])
     sampled = chain_feedback(gains, 1e-4, 0, True)
     assert np.allclose(sampled, [ki, kp, kd], rtol=0.01), sampled
+
+
+@pytest.mark.parametrize("delay", [0, 2])
+def test_doubling_riccati_equals_scipy_with_cross_term_and_singular_delay_blocks(delay):
+    rng = np.random.default_rng(delay)
+    d, m = 3, 1
+    a = np.eye(d) + 0.05 * rng.normal(size=(d, d))
+    b = rng.normal(size=(d, m))
+    a_aug = np.zeros((d + delay, d + delay))  # the delayed command: singular shift blocks
+    a_aug[:d, :d] = a
+    b_aug = np.zeros((d + delay, m))
+    if delay:
+        a_aug[:d, d] = b[:, 0]
+        a_aug[d:-1, d + 1:] = np.eye(delay - 1)
+        b_aug[-1, 0] = 1.0
+    else:
+        b_aug = b
+    root = rng.normal(size=(d + delay + m, d + delay + m))
+    joint = root @ root.T + 0.1 * np.eye(d + delay + m)  # [[Q, S], [S^T, R]] positive definite
+    q, s, r = joint[:-m, :-m], joint[:-m, -m:], joint[-m:, -m:]
+    expected = solve_discrete_are(a_aug, b_aug, q, r, s=s)
+    assert np.allclose(stationary_riccati(a_aug, b_aug, q, r, s), expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
 
 
 def test_loop_map_is_bilinear_in_the_gain_and_the_inverse_inertia_ratio():
