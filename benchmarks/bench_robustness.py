@@ -30,7 +30,9 @@ from pathmotion.scenarios import scenario_path
 from pathmotion.simulation import Plant, Realism, SimulationSettings, simulate
 
 #: The orbital controller with its gains designed on the sampled system with the delay in the model (the default,
-#: [simulate] sampled_design = true) and in continuous time (sampled_design = false), then the two baselines.
+#: [simulate] sampled_design = true) and in continuous time (sampled_design = false), each with the disturbance
+#: observer its default gains design for the sample time and delay (pathmotion/control/observer.py), then the
+#: two baselines.
 CONTROLLERS = ("orbital", "orbital_continuous", "computed_torque", "pd_gravity")
 ORBITALS, BASELINES = CONTROLLERS[:2], CONTROLLERS[2:]
 SAMPLE_TIMES = (0.001, 0.004, 0.012)

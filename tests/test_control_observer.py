@@ -173,3 +173,11 @@ def test_an_observer_designed_for_too_narrow_an_inertia_range_makes_a_phantom_pa
     narrow = _lap(setup, profile, OrbitalGains(observer_range=2.0), believed=defaults.REALISTIC_PAYLOAD_MASS)
     assert robust["path_accuracy_m"] < defaults.PATH_TOLERANCE and robust["saturation_time_s"] == 0.0, robust
     assert narrow["max_commanded_torque_ratio"] > 1.0 and narrow["saturation_time_s"] > 0.0, narrow
+
+
+@pytest.mark.parametrize("value", [0.5, 0.0, -1.0, float("nan")])
+def test_observer_range_below_one_is_refused(value):
+    from pathmotion.errors import SimulationError
+
+    with pytest.raises(SimulationError, match="observer_range"):
+        OrbitalGains(observer_range=value)
