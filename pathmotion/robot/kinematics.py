@@ -11,8 +11,12 @@ import numpy as np
 import pinocchio as pin
 
 from .model import Robot
+from .serial_batch import acceleration_bias_batch, chain_of, jacobian_batch
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+#: Batches of at least this many configurations of a serial revolute chain use :mod:`.serial_batch`'s array
+#: recursions instead of one Pinocchio call per configuration (equal to round-off; faster from ~20 points).
+SERIAL_BATCH_MIN = 32
 
 
 def _as_batch(q, n):
@@ -46,6 +50,9 @@ def jacobian(robot: Robot, q, frame: str | int | None = None) -> np.ndarray:
     model, data = robot.model, robot.data
     fid = robot.frame_id(frame)
     qs, single = _as_batch(q, robot.n)
+    chain = chain_of(model, fid) if len(qs) >= SERIAL_BATCH_MIN else None
+    if chain is not None:
+        return jacobian_batch(chain, qs)
     out = np.empty((len(qs), 6, robot.n))
     for k, qk in enumerate(qs):
         out[k] = pin.computeFrameJacobian(model, data, qk, fid, _LWA)
@@ -61,6 +68,9 @@ def frame_acceleration_bias(robot: Robot, q, qd, frame: str | int | None = None)
     fid = robot.frame_id(frame)
     qs, single = _as_batch(q, robot.n)
     qds, _ = _as_batch(qd, robot.n)
+    chain = chain_of(model, fid) if len(qs) >= SERIAL_BATCH_MIN else None
+    if chain is not None:
+        return acceleration_bias_batch(chain, qs, qds)
     zero = np.zeros(robot.n)
     out = np.empty((len(qs), 6))
     for k in range(len(qs)):
