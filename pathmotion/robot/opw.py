@@ -251,6 +251,19 @@ class OPWSolutions:
     sin_wrist: np.ndarray
 
 
+def _rows_rot_z_inv(t: np.ndarray, rows: tuple) -> tuple:
+    """Rows of Rz(t)^T M from the rows (each (N, 3)) of M (N, 3, 3), t (N,): element-wise, no stacked 3 x 3
+    products."""
+    c, s = np.cos(t)[:, None], np.sin(t)[:, None]
+    return c * rows[0] + s * rows[1], c * rows[1] - s * rows[0], rows[2]
+
+
+def _rows_rot_y_inv(t: np.ndarray, rows: tuple) -> tuple:
+    """Rows of Ry(t)^T M from the rows (each (N, 3)) of M (N, 3, 3), t (N,)."""
+    c, s = np.cos(t)[:, None], np.sin(t)[:, None]
+    return c * rows[0] - s * rows[2], rows[1], s * rows[0] + c * rows[2]
+
+
 def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
           t1_ref: np.ndarray, t4_ref: np.ndarray, branches=range(8)) -> OPWSolutions:
     """Closed-form IK of N TCP poses, all 8 branches.
@@ -271,6 +284,8 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
     reach_ok = np.zeros((n_pts, 8), dtype=bool)
     sin_wrist = np.full((n_pts, 8), np.nan)
     arm_distance = np.empty((n_pts, 2))
+    g = rotations @ geo.tcp_rotation.T
+    g = (g[:, 0], g[:, 1], g[:, 2])  # rows (N, 3) of R R_c^T
     for shoulder in (0, 1):
         cx1 = radius if shoulder == 0 else -radius
         degenerate = radius < defaults.IK_DEGENERATE
@@ -286,15 +301,15 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
         acos3 = np.arccos(np.clip(cos3, -1.0, 1.0))
         acos2 = np.arccos(np.clip(np.nan_to_num(cos2), -1.0, 1.0))
         gamma = np.arctan2(dx, dz)
+        h = _rows_rot_z_inv(t1, g)  # Rz(t1)^T g
         for elbow in (0, 1):
             if not wanted & {4 * shoulder + 2 * elbow, 4 * shoulder + 2 * elbow + 1}:
                 continue
             e = (1.0 if elbow == 0 else -1.0) * (1.0 if shoulder == 0 else -1.0)
             t3 = e * acos3 - geo.psi3
             t2 = gamma - e * acos2
-            r0c = rot_z(t1) @ rot_y(t2 + t3)
-            m = np.swapaxes(r0c, 1, 2) @ rotations @ geo.tcp_rotation.T
-            m13, m23 = m[:, 0, 2], m[:, 1, 2]
+            m = _rows_rot_y_inv(t2 + t3, h)  # rows of (Rz(t1) Ry(t2 + t3))^T R R_c^T
+            m13, m23 = m[0][:, 2], m[1][:, 2]
             wrist_degenerate = np.hypot(m13, m23) < defaults.IK_DEGENERATE
             t4p = np.where(wrist_degenerate, t4_ref, np.arctan2(m23, m13))
             for wrist in (0, 1):
@@ -304,10 +319,10 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
                 t4 = t4p if wrist == 0 else t4p + np.pi
                 if wrist == 1:
                     t4 = np.where(wrist_degenerate, t4_ref, t4)
-                mp = rot_z(-t4) @ m
-                t5 = np.arctan2(mp[:, 0, 2], mp[:, 2, 2])
-                x = rot_y(-t5) @ mp
-                t6 = np.arctan2(x[:, 1, 0], x[:, 0, 0])
+                mp0, mp1, mp2 = _rows_rot_z_inv(t4, m)
+                t5 = np.arctan2(mp0[:, 2], mp2[:, 2])
+                # the first column of Ry(t5)^T Rz(t4)^T m
+                t6 = np.arctan2(mp1[:, 0], np.cos(t5) * mp0[:, 0] - np.sin(t5) * mp2[:, 0])
                 t = np.column_stack([t1, t2, t3, t4, t5, t6])
                 q[:, br] = np.where(ok[:, None], geo.to_q(t), np.nan)
                 reach_ok[:, br] = ok
