@@ -75,3 +75,19 @@ def test_smooth_step_refuses_a_break_in_reach(lifted):
     start = np.array([b - 1e-9, b - 3e-9, b, b + 1e-9])
     step = np.array([2e-9, 1e-9, 1e-9, 1e-9])
     assert metrics._smooth_step(path, start, step).tolist() == [False, True, False, True]
+
+
+def test_table_of_a_lifted_path_equals_the_pinocchio_one(lifted, monkeypatch):
+    """The controller's table of a lifted path, its Phi' and Phi'' from the batched chain kinematics, equals the
+    table built with one Pinocchio call per point."""
+    from pathmotion.control import PathTable
+    from pathmotion.robot import kinematics
+
+    path = lifted["corner_g2"]
+    fast = PathTable.from_path(path)
+    with monkeypatch.context() as m:
+        m.setattr(kinematics, "SERIAL_BATCH_MIN", 10**9)
+        reference = PathTable.from_path(path)
+    assert np.array_equal(fast.grid, reference.grid)
+    scale = np.max(np.abs(reference.coeffs))
+    assert np.max(np.abs(fast.coeffs - reference.coeffs) / scale) <= 1e-12
