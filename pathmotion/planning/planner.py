@@ -243,14 +243,19 @@ class _Reusing(PathPoints):
 
 
 def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, ...],
-            donor: PathPoints | None = None) -> _Sampled:
-    q, dq, ddq = path.evaluate(grid, "right")
+            donor: PathPoints | None = None, third: bool = False) -> _Sampled:
+    """Path data on ``grid``, from both sides of ``breaks``; ``third``: Phi''' too, from the same
+    evaluation (third-order limits need it; path.evaluate3 repeats path.evaluate's work)."""
+    data = path.evaluate3(grid, "right") if third else path.evaluate(grid, "right")
+    q, dq, ddq = data[:3]
     dq_l, ddq_l = dq.copy(), ddq.copy()
     idx = np.array(list(breaks) + [len(grid) - 1], dtype=int)
     _, dql, ddql = path.evaluate(grid[idx], "left")
     dq_l[idx], ddq_l[idx] = dql, ddql
     right = PathPoints(robot, path, grid, q, dq, ddq) if donor is None else \
         _Reusing(robot, path, grid, q, dq, ddq, donor)
+    if third:
+        right._cache["dddq"] = np.atleast_2d(data[3])
     return _Sampled(right, PathPoints(robot, path, grid, q, dq_l, ddq_l, base=right, changed=idx, side="left"))
 
 
@@ -347,7 +352,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     theta = grid.theta
     if samp is None:
         sides = _with_knots(path, theta, grid.breaks) if limits.third_order else grid.breaks
-        samp = _sample(path, robot, theta, sides, donor)
+        samp = _sample(path, robot, theta, sides, donor, third=limits.third_order)
         for lim in limits:
             lim.check(samp.right, robot.joint_names)
     stops = set(grid.kinks)
@@ -459,7 +464,8 @@ def certified_bounds(path: JointPath, robot: Robot, profile: Profile, settings: 
     limits = effective_limits(robot, settings)
     pgrid = profile.grid
     breaks = _grid_breaks(path, pgrid)
-    samp = _sample(path, robot, pgrid, _with_knots(path, pgrid, breaks) if profile.smooth else breaks)
+    samp = _sample(path, robot, pgrid, _with_knots(path, pgrid, breaks) if profile.smooth else breaks,
+                   third=profile.smooth)
     return certify(CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque), limits)
 
 
@@ -470,7 +476,7 @@ def _solve_rows(grid, samp, limits, scale, x_ref, chain_args):
     problem, right, left = _build(grid, samp, limits, scale, None if limits.third_order else x_ref)
     sol = solve_chain(problem, **chain_args)
     # a third-order re-solve (x_ref given) starts from x_ref, not from this second-order solution
-    relinearize = limits.relinearize and not (limits.third_order and x_ref is not None)
+    relinearize = limits.relinearize and not limits.third_order
     for _ in range(defaults.RELINEARIZE_ITERATIONS if relinearize else 0):
         previous = sol.profile.duration
         problem, right, left = _build(grid, samp, limits, scale, sol.x)
@@ -499,7 +505,7 @@ def _smooth(grid, samp, limits, scale, sol, chain_args, x_ref):
             elif not isinstance(cond, str):
                 fixed[idx] = float(cond) ** 2
     resolve = x_ref is not None and len(x_ref) == k
-    profile, _ = solve_third_order(grid, samp, limits, scale, x_ref if resolve else sol.x, rest, fixed,
+    profile, _, _ = solve_third_order(grid, samp, limits, scale, x_ref if resolve else sol.x, rest, fixed,
                                    chain_args["periodic"], smooth_start=resolve)
     return replace(sol, profile=profile, segment_profiles=(profile,), x=profile.x)
 

@@ -24,12 +24,12 @@ import os
 import sys
 
 import numpy as np
-from scipy.sparse import coo_matrix, csr_matrix, vstack
+from scipy.sparse import coo_matrix, csr_matrix
 
 from .. import defaults
 from ..errors import InfeasibleError
 from .limit_rows import limit_rows
-from .limits import EffectiveLimits
+from .limits import EffectiveLimits, PathPoints
 from . import smooth
 from .profile import Profile
 
@@ -53,10 +53,43 @@ ROW_MARGIN = 0.02
 #: Row generation: at most this many solves of one LP (each adds the rows its solution violates) [-].
 MAX_ROW_ROUNDS = 50
 #: Row generation: at most this many rows per grid point enter in one round [-].
-ROWS_PER_ROUND = 4
+ROWS_PER_ROUND = 16
+#: The duration's discretization error is estimated as this times the change from the nested coarse grid
+#: (every other point) to the grid: Richardson's 1 / (2^p - 1) with the order p = 0.5 measured on issue 12's
+#: circle cases (benchmarks/bench_third_order.py), times a safety of 1.5 [-].
+ERROR_FACTOR = 1.5 / (np.sqrt(2.0) - 1.0)
 #: HiGHS's Devex pricing: dual steepest edge (its default) first computes a weight for every row of a
 #: hot-started basis, which costs more than the few pivots that then remain.
 DEVEX = 1
+
+
+class _Points:
+    """Points where the LP imposes the limits. Point p lies in grid interval ``interval[p]``, and x, u and
+    u' = du/dtheta there are linear in that interval's three variables ``cols[p]`` = (x at one of its
+    ends, u_i, u_{i+1}) with the coefficients ``cx``, ``cu``, ``cd`` (P, 3). ``src`` (PathPoints) and
+    ``src_scale`` {name: (M, m)} hold the path data and the limits' scales, the points being ``src``'s
+    rows ``idx`` (P,); ``group`` (P,): an id per point (row generation adds a few rows per point)."""
+
+    def __init__(self, cols, cx, cu, cd, src, src_scale, idx, group, interval):
+        self.cols, self.cx, self.cu, self.cd = cols, cx, cu, cd
+        self.src, self.src_scale, self.idx, self.group, self.interval = src, src_scale, idx, group, interval
+
+    def x_of(self, z: np.ndarray) -> np.ndarray:
+        """x (P,) at the points for the LP variables z = (x, u) (2K,)."""
+        return np.einsum("pj,pj->p", self.cx, z[self.cols])
+
+
+def _node_points(p: "_Problem", src, scale: dict, side: str, idx: np.ndarray) -> _Points:
+    """The grid points ``idx`` as an end of an interval: ``side`` "right" (interval idx after each point,
+    path data ``src`` = the right side) or "left" (interval idx - 1 before it, ``src`` the left side)."""
+    k, n = p.k, len(idx)
+    i = idx if side == "right" else idx - 1
+    du = (p.du_lo if side == "right" else p.du_hi)[i]
+    cx, cu = np.zeros((n, 3)), np.zeros((n, 3))
+    cx[:, 0] = 1.0
+    cu[:, 1 if side == "right" else 2] = 1.0
+    cd = np.column_stack([np.zeros(n), -du, du])
+    return _Points(np.column_stack([idx, k + i, k + i + 1]), cx, cu, cd, src, scale, idx, idx, i)
 
 
 class _Problem:
@@ -73,8 +106,6 @@ class _Problem:
             i = int(both[0])
             raise InfeasibleError(f"the motion must stop at both theta = {grid[i]:.6g} and {grid[i + 1]:.6g} with "
                                   "no grid point between; raise grid_points")
-        self.right3 = [lim.rows3(samp.right, scale[lim.name]) for lim in limits if lim.order == 3]
-        self.left3 = [lim.rows3(samp.left, scale[lim.name]) for lim in limits if lim.order == 3]
         origin, sign = smooth.coordinates(grid, rest)
         xi_lo, xi_hi, w0, w1 = smooth.weights(grid, origin, sign)
         self.origin, self.sign, self.xi_lo, self.xi_hi = origin, sign, xi_lo, xi_hi
@@ -83,20 +114,7 @@ class _Problem:
         with np.errstate(divide="ignore"):  # infinite at a rest point, where no row is imposed
             self.du_lo = 1.0 / (smooth.dtheta_dxi(sign, xi_lo) * (xi_hi - xi_lo))
             self.du_hi = 1.0 / (smooth.dtheta_dxi(sign, xi_hi) * (xi_hi - xi_lo))
-        # equalities: x_{i+1} = x_i + 2 (w0 u_i + w1 u_{i+1}), and periodicity
-        i = np.arange(k - 1)
-        rows = [i, i, i, i]
-        cols = [i + 1, i, k + i, k + i + 1]
-        vals = [np.ones(k - 1), -np.ones(k - 1), -2.0 * w0, -2.0 * w1]
-        n_eq = k - 1
-        if periodic:
-            rows += [np.array([n_eq, n_eq, n_eq + 1, n_eq + 1])]
-            cols += [np.array([0, k - 1, k, 2 * k - 1])]
-            vals += [np.array([1.0, -1.0, 1.0, -1.0])]
-            n_eq += 2
-        self.a_eq = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                               shape=(n_eq, 2 * k)).tocsr()
-        self.b_eq = np.zeros(n_eq)
+        self._equalities(periodic)
         # bounds on x: the order-1 limits, rests and fixed ends
         right = limit_rows(samp.right, limits, scale, defaults.PLANNER_X_CAP)
         left = limit_rows(samp.left, limits, scale, defaults.PLANNER_X_CAP)
@@ -115,85 +133,102 @@ class _Problem:
         self.rest_distance = np.clip(self.rest_distance, np.min(d), length)
         self.u_lo = np.where(rest, 0.0, -np.inf)
         self.u_hi = np.where(rest, 0.0, np.inf)
-        self.pool = None  # the inequality pool's CSR layout (_assemble)
+        self._row_points(samp, scale, right, left)
 
-    def order2(self, x_ref):
-        """Inequality blocks (rows, cols, vals, rhs) of the order-2 limits at every moving point."""
+    def _equalities(self, periodic: bool) -> None:
+        """x_{i+1} = x_i + 2 (w0 u_i + w1 u_{i+1}), and periodicity: a_eq (CSR), b_eq."""
+        k = self.k
+        i = np.arange(k - 1)
+        rows = [i, i, i, i]
+        cols = [i + 1, i, k + i, k + i + 1]
+        vals = [np.ones(k - 1), -np.ones(k - 1), -2.0 * self.w0, -2.0 * self.w1]
+        n_eq = k - 1
+        if periodic:
+            rows += [np.array([n_eq, n_eq, n_eq + 1, n_eq + 1])]
+            cols += [np.array([0, k - 1, k, 2 * k - 1])]
+            vals += [np.array([1.0, -1.0, 1.0, -1.0])]
+            n_eq += 2
+        self.a_eq = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                               shape=(n_eq, 2 * k)).tocsr()
+        self.b_eq = np.zeros(n_eq)
+
+    def _row_points(self, samp, scale, right, left) -> None:
+        """The points of the inequality rows and the rows that stay fixed (limits not linearized at x_ref):
+        the order-2 rows at every moving grid point (the left side's only where its path data differ:
+        breaks, knots, the last point) and at the interior points, the order-1 bounds there; the
+        third-order rows' x_ref-free part (a3 u' + a u + b x) at both ends of every interval and inside."""
         k, moving = self.k, ~self.rest
-        out = []
-        right = limit_rows(self.samp.right, self.limits, self.scale, defaults.PLANNER_X_CAP, x_ref)
-        left = limit_rows(self.samp.left, self.limits, self.scale, defaults.PLANNER_X_CAP, x_ref)
-        # u and x are one value at a grid point: the left rows repeat the right ones except where the
-        # path data differ (breaks, knots) and at the last point
+        self.nodes_r = _node_points(self, samp.right, scale, "right", np.nonzero(moving[:-1])[0])
+        left_idx = np.arange(1, k)
+        self.nodes_l = _node_points(self, samp.left, scale, "left", left_idx[moving[1:]])
         same = np.ones(k, bool)
         for r, l in ((right.a, left.a), (right.b, left.b), (right.c, left.c), (right.lo, left.lo), (right.hi, left.hi)):
             same &= np.all((r == l) | (np.isnan(r) & np.isnan(l)), axis=1)
         same[-1] = False
-        for rows, idx in ((right, np.arange(k - 1)), (left, np.nonzero(~same)[0])):
-            idx = idx[idx > 0] if rows is left else idx
-            sel = idx[moving[idx]]
-            a, b, c, lo, hi = (v[sel] for v in (rows.a, rows.b, rows.c, rows.lo, rows.hi))
+        self.left_differs = ~same[self.nodes_l.idx]
+        self.fixed_limits = [lim for lim in self.limits if lim.order < 3 and not lim.relinearize]
+        self.moving_limits = [lim for lim in self.limits if lim.order < 3 and lim.relinearize]
+        self.static = self._order2(self.fixed_limits, None)
+        self.third = [(pts, lim.rows3(pts.src, pts.src_scale[lim.name]))
+                      for lim in self.limits if lim.order == 3 for pts in (self.nodes_r, self.nodes_l)]
+        self.third = [(pts, _third_base(pts, r3)) for pts, r3 in self.third]
+
+    def _order2(self, limits, x_ref) -> list:
+        """Row blocks (cols, coef, rhs, group) of the order-2 ``limits`` at the moving grid points (the
+        left side's only where its path data differ: breaks, knots, the last point); x_ref (K,) or None."""
+        if not limits:
+            return []
+        out = []
+        for pts in (self.nodes_r, self.nodes_l):
+            rows = limit_rows(pts.src, limits, pts.src_scale, defaults.PLANNER_X_CAP, x_ref)
+            sel = pts.idx
+            keep_pt = self.left_differs if pts is self.nodes_l else np.ones(len(sel), bool)
+            a, b, c, lo, hi = (v[sel][keep_pt] for v in (rows.a, rows.b, rows.c, rows.lo, rows.hi))
+            cx, cu, cols, group = pts.cx[keep_pt], pts.cu[keep_pt], pts.cols[keep_pt], pts.group[keep_pt]
             for sign, rhs in ((1.0, hi - c), (-1.0, c - lo)):
                 keep = np.isfinite(rhs) & ((a != 0) | (b != 0))
-                kk = np.broadcast_to(sel[:, None], a.shape)[keep]
-                out.append(((sign * b)[keep], kk, (sign * a)[keep], k + kk, rhs[keep]))
+                coef = sign * (b[..., None] * cx[:, None, :] + a[..., None] * cu[:, None, :])
+                pick = np.nonzero(keep)
+                out.append((cols[pick[0]], coef[keep], rhs[keep], group[pick[0]]))
         return out
 
-    def order3(self, x_ref):
-        """Inequality blocks of the tangent-linearized third-order rows at both ends of every interval
-        (not at a rest point, where x = 0 makes them vacuous)."""
-        k = self.k
-        i_all = np.arange(k - 1)
-        out = []
-        for rr, rl in zip(self.right3, self.left3):
-            for rows3, node, du in ((rr, i_all, self.du_lo), (rl, i_all + 1, self.du_hi)):
-                keep = ~self.rest[node]
-                node, i, du = node[keep], i_all[keep], du[keep]
-                xr = x_ref[node][:, None]
-                lim = rows3.lim[node]
-                big, slope = 1.5 * lim / np.sqrt(xr), 0.5 * lim / xr**1.5
-                a3 = rows3.a3[node] * du[:, None]
-                a, b, c = rows3.a[node], rows3.b[node], rows3.c[node]
-                m = a3.shape[1]
-                nn = np.repeat(node[:, None], m, 1)
-                ii = np.repeat(i[:, None], m, 1)
-                for sign in (1.0, -1.0):
-                    out.append((np.stack([sign * a3, -sign * a3, sign * a, sign * b + slope], -1),
-                                np.stack([k + ii + 1, k + ii, k + nn, nn], -1), big - sign * c))
+    def _order1(self) -> list:
+        """x <= x_max at the interior points (at the grid points x_max bounds the variables)."""
+        pts = self.inner
+        x_max = limit_rows(pts.src, [lim for lim in self.limits if lim.order == 1], pts.src_scale, np.inf).x_max
+        keep = np.isfinite(x_max)
+        return [(pts.cols[keep], pts.cx[keep], x_max[keep], pts.group[keep])]
+
+    def blocks(self, x_ref: np.ndarray) -> list:
+        """Every inequality row block (cols, coef, rhs, group) at the linearization point x_ref (K,) (1 at
+        rest points)."""
+        out = list(self.static)
+        out += self._order2(self.moving_limits, x_ref)
+        for pts, (base, c, lim) in self.third:
+            xr = x_ref[pts.idx][:, None]
+            big, slope = 1.5 * lim / np.sqrt(xr), 0.5 * lim / xr**1.5
+            tangent = slope[..., None] * pts.cx[:, None, :]
+            cols = np.broadcast_to(pts.cols[:, None, :], base.shape).reshape(-1, 3)
+            group = np.broadcast_to(pts.group[:, None], c.shape).ravel()
+            for sign in (1.0, -1.0):
+                out.append((cols, (sign * base + tangent).reshape(-1, 3), (big - sign * c).ravel(), group))
         return out
 
 
-def _assemble(p: _Problem, x_ref):
-    """Sparse A_ub, b_ub of every inequality row, and the grid point (node) of each row."""
-    rows, cols, vals, rhs, nodes = [], [], [], [], []
-    n = 0
-    for bx, kx, bu, ku, r in p.order2(x_ref):
-        idx = n + np.arange(len(r))
-        rows += [idx, idx]
-        cols += [kx, ku]
-        vals += [bx, bu]
-        rhs.append(r)
-        nodes.append(kx)
-        n += len(r)
-    for coef, col, r in p.order3(x_ref):
-        cnt = coef.shape[0] * coef.shape[1]
-        idx = n + np.arange(cnt)
-        rows.append(np.repeat(idx, 4))
-        cols.append(col.reshape(-1))
-        vals.append(coef.reshape(-1))
-        rhs.append(r.reshape(-1))
-        nodes.append(col[..., 3].reshape(-1))
-        n += cnt
-    rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-    ncol = 2 * p.k
-    key = rows * ncol + cols
-    if p.pool is None or not np.array_equal(key, p.pool[0]):  # the CSR structure, once per pool layout
-        unique, inverse = np.unique(key, return_inverse=True)
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // ncol, minlength=n))])
-        p.pool = (key, inverse, indptr, unique % ncol)
-    _, inverse, indptr, indices = p.pool
-    data = np.bincount(inverse, weights=vals, minlength=len(indices))  # duplicates add up, as in COO
-    return csr_matrix((data, indices, indptr), shape=(n, ncol)), np.concatenate(rhs), np.concatenate(nodes)
+def _third_base(pts: _Points, rows3) -> tuple:
+    """(base (P, m, 3), c (P, m), lim (P, m)): a third-order row |sqrt(x) L| <= lim at the points, L = a3 u'
+    + a u + b x + c, with a3 u' + a u + b x written on the points' three variables (coefficients base)."""
+    sel = pts.idx
+    a3, a, b, c, lim = (np.asarray(v)[sel] for v in rows3)
+    base = a3[..., None] * pts.cd[:, None, :] + a[..., None] * pts.cu[:, None, :] + b[..., None] * pts.cx[:, None, :]
+    return base, c, lim
+
+
+def _assemble(p: _Problem, x_ref: np.ndarray):
+    """The inequality pool coef . z[cols] <= rhs: cols, coef (R, 3) (every row has three entries, on
+    the variables of its point), rhs (R,) and each row's group (R,)."""
+    blocks = p.blocks(x_ref)
+    return tuple(np.concatenate([b[j] for b in blocks]) for j in range(4))
 
 
 #: Gauss-Legendre nodes and weights on [0, 1] for the duration gradient.
@@ -255,15 +290,16 @@ class _Lp:
         self.basis = None  # the last optimal HighsBasis
         self.status = ""
 
-    def solve(self, c, a_eq, b_eq, a_ub, b_ub, nodes, col_lo, col_hi) -> np.ndarray | None:
-        """argmin c.z s.t. a_eq z = b_eq, a_ub z <= b_ub (pool), col_lo <= z <= col_hi; None unless optimal.
-        a_eq, a_ub: CSR with rows scaled to unit largest coefficient (ROW_MARGIN is in those units);
-        nodes (pool,): the grid point of each pool row (each round adds at most one row per point)."""
-        if self.pool_size != a_ub.shape[0]:
-            self.order, self.pool_size, self.basis = np.zeros(0, int), a_ub.shape[0], None
+    def solve(self, c, a_eq, b_eq, cols, coef, b_ub, nodes, col_lo, col_hi) -> np.ndarray | None:
+        """argmin c.z s.t. a_eq z = b_eq, the pool coef . z[cols] <= b_ub, col_lo <= z <= col_hi; None
+        unless optimal. a_eq: (indptr, indices, data) of a CSR matrix; cols, coef (R, 3); every row
+        scaled to unit largest coefficient (ROW_MARGIN is in those units); nodes (R,): the group (grid
+        point) of each pool row (each round adds at most ROWS_PER_ROUND rows per group)."""
+        if self.pool_size != len(b_ub):
+            self.order, self.pool_size, self.basis = np.zeros(0, int), len(b_ub), None
         active = np.zeros(self.pool_size, bool)
         active[self.order] = True
-        self._pass(c, a_eq, b_eq, a_ub, b_ub, col_lo, col_hi)
+        self._pass(c, a_eq, b_eq, cols, coef, b_ub, col_lo, col_hi)
         h = self.highs
         for _ in range(MAX_ROW_ROUNDS):
             h.run()
@@ -272,7 +308,7 @@ class _Lp:
             if status != _highspy().HighsModelStatus.kOptimal:
                 return None
             z = np.array(h.getSolution().col_value)
-            slack = b_ub - a_ub @ z
+            slack = b_ub - np.einsum("rj,rj->r", coef, z[cols])
             if not (slack[~active] < -LP_TOLERANCE).any():
                 self.basis = h.getBasis()
                 return z
@@ -283,17 +319,17 @@ class _Lp:
             new = order[rank < ROWS_PER_ROUND]  # the tightest rows of each point
             active[new] = True
             self.order = np.concatenate([self.order, new])
-            block = a_ub[new]
-            h.addRows(len(new), np.full(len(new), -np.inf), b_ub[new], block.nnz, block.indptr[:-1], block.indices,
-                      block.data)
+            start, index, value = _csr_rows(cols[new], coef[new])
+            h.addRows(len(new), np.full(len(new), -np.inf), b_ub[new], len(value), start, index, value)
         self.status = f"not settled after {MAX_ROW_ROUNDS} rounds of row generation"
         return None
 
-    def _pass(self, c, a_eq, b_eq, a_ub, b_ub, col_lo, col_hi) -> None:
+    def _pass(self, c, a_eq, b_eq, cols, coef, b_ub, col_lo, col_hi) -> None:
         """Pass the LP on the equalities and the pool rows ``self.order``, with the last optimal basis."""
         rows = self.order
-        a = vstack([a_eq, a_ub[rows]], format="csr")
-        n_row, n_col = a.shape
+        start, index, value = _csr_rows(cols[rows], coef[rows])
+        eq_start, eq_index, eq_value = a_eq
+        n_row, n_col = len(b_eq) + len(rows), len(c)
         hs = _highspy()
         lp = hs.HighsLp()
         lp.num_col_, lp.num_row_ = n_col, n_row
@@ -302,7 +338,8 @@ class _Lp:
         lp.row_upper_ = np.concatenate([b_eq, b_ub[rows]])
         m = lp.a_matrix_
         m.format_, m.num_col_, m.num_row_ = hs.MatrixFormat.kRowwise, n_col, n_row
-        m.start_, m.index_, m.value_ = a.indptr, a.indices, a.data
+        m.start_ = np.concatenate([eq_start[:-1], eq_start[-1] + start, [eq_start[-1] + len(value)]])
+        m.index_, m.value_ = np.concatenate([eq_index, index]), np.concatenate([eq_value, value])
         self.highs.passModel(lp)
         if self.basis is not None:
             self.highs.setBasis(self.basis)
@@ -311,6 +348,8 @@ class _Lp:
 
 
 _BANNER_SHOWN = []
+#: Key of the solve's _Lp in the grid data's cache (PathPoints._cache).
+_LP_KEY = "third_order_lp"
 
 
 def _highspy():
@@ -340,17 +379,21 @@ def _silent_highs():
     return h
 
 
-def _solve_scaled(p: _Problem, lp: _Lp, a_ub, b_ub, nodes, w, bounds, x_ref):
+def _solve_scaled(p: _Problem, lp: _Lp, cols, coef, b_ub, nodes, w, bounds, x_ref):
     """The LP in scaled variables x_k = x_ref_k y_k, u_k = x_ref_k / r_k v_k (r_k the distance to the
     nearest rest point: u ~ x / r on an S-curve), so that x near a rest point (1e-9 and less on the
     graded grid) is resolved to the solver's relative tolerance; rows rescaled to unit largest
     coefficient. Returns the solution in the original variables, None unless optimal."""
     col = np.concatenate([x_ref, x_ref / p.rest_distance])
-    a_ub, b_ub = _unit_rows(a_ub, b_ub, col)
+    coef = coef * col[cols]
+    norm = np.abs(coef).max(axis=1)
+    norm = np.where(norm > 0, norm, 1.0)
+    coef /= norm[:, None]
     a_eq, b_eq = _unit_rows(p.a_eq, p.b_eq, col)
     c = w * col
     c = c / max(np.max(np.abs(c)), 1e-300)
-    z = lp.solve(c, a_eq, b_eq, a_ub, b_ub, nodes, bounds[:, 0] / col, bounds[:, 1] / col)
+    z = lp.solve(c, (a_eq.indptr, a_eq.indices, a_eq.data), b_eq, cols, coef, b_ub / norm, nodes, bounds[:, 0] / col,
+                 bounds[:, 1] / col)
     return None if z is None else z * col
 
 
@@ -363,6 +406,13 @@ def _unit_rows(a: csr_matrix, b: np.ndarray, col: np.ndarray) -> tuple[csr_matri
     norm = np.where(norm > 0, norm, 1.0)
     data /= np.repeat(norm, np.diff(a.indptr))
     return csr_matrix((data, a.indices, a.indptr), shape=a.shape), b / norm
+
+
+def _csr_rows(cols: np.ndarray, coef: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(start, index, value) of pool rows cols, coef (R, 3) in row-wise sparse form, zeros left out."""
+    nonzero = coef != 0
+    start = np.concatenate([[0], np.cumsum(nonzero.sum(axis=1))[:-1]]) if len(coef) else np.zeros(0, int)
+    return start, cols[nonzero], coef[nonzero]
 
 
 def _chain_u(p: _Problem, x: np.ndarray) -> np.ndarray | None:
@@ -384,7 +434,7 @@ def _s_curve_cap(p: _Problem) -> np.ndarray:
     linearization point starts below it, near the exact start (far above it, the first tangents
     would crush the profile next to rest into a poorer local optimum)."""
     cap = np.full(p.k, np.inf)
-    for rows3 in p.right3:
+    for rows3 in (lim.rows3(p.samp.right, p.scale[lim.name]) for lim in p.limits if lim.order == 3):
         for r in np.nonzero(p.rest)[0]:
             with np.errstate(divide="ignore"):
                 j = np.min(rows3.lim[r] / np.abs(rows3.a3[r]))
@@ -396,27 +446,104 @@ def _s_curve_cap(p: _Problem) -> np.ndarray:
 def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start: np.ndarray, rest: np.ndarray,
                       fixed: dict, periodic: bool, tolerance: float = defaults.THIRD_ORDER_TOLERANCE,
                       max_iterations: int = defaults.THIRD_ORDER_ITERATIONS, smooth_start: bool = False
-                      ) -> tuple[Profile, int]:
-    """The smooth time-optimal profile (Profile with u_nodes) and the LP count.
+                      ) -> tuple[Profile, int, float | None]:
+    """The smooth time-optimal profile (Profile with u_nodes), the LP count and the estimate of the
+    duration's discretization error [s] (:func:`_nested_estimate`; None with ``smooth_start``, or where
+    the grid is too small to nest).
 
     x_start (K,): the linearization point of the first LP (the second-order optimum, or with
     ``smooth_start`` a smooth solution on this grid, e.g. before the limits were tightened: then the
     first LP already minimizes the linearized duration from it, in the trust region); rest (K,) bool:
     points where the motion is at rest (x = u = 0); fixed {index: x}: boundary values."""
     p = _Problem(grid, samp, limits, scale, rest, fixed, periodic)
+    # one HiGHS instance per grid's path data: a re-solve after tightening (same grid, same rows, other
+    # values) starts from the last optimal basis and the rows generated so far
+    lp = samp.right._cache.setdefault(_LP_KEY, _Lp())
     u_start = _chain_u(p, x_start) if smooth_start else None
-    if u_start is None:
-        x_start = np.minimum(x_start, _s_curve_cap(p))
-    x_ref = np.where(rest, 0.0, np.maximum(np.minimum(x_start, p.x_hi), X_REF_FLOOR * max(np.max(x_start), 1e-12)))
+    if u_start is not None:
+        return (*_slp(p, lp, x_start, u_start, tolerance, max_iterations), None)
+    profile, lps = _slp(p, lp, np.minimum(x_start, _s_curve_cap(p)), None, tolerance, max_iterations)
+    estimate, c_lps = _nested_estimate(p, samp, limits, scale, fixed, periodic, profile, tolerance, max_iterations)
+    return profile, lps + c_lps, estimate
+
+
+def _nested_estimate(p: _Problem, samp, limits, scale, fixed, periodic, profile: Profile, tolerance,
+                     max_iterations) -> tuple[float | None, int]:
+    """(error estimate [s], LP count): the profile solved again on the nested coarse grid (every other
+    point, and every point where the motion rests or the path data differ on the two sides), from
+    ``profile`` there; the estimate is ERROR_FACTOR times the change of the duration. (None, 0) when
+    the coarse grid would not be smaller by a third, or has no solution."""
+    keep = np.zeros(p.k, bool)
+    keep[::2] = True
+    keep[[0, -1]] = True
+    keep |= p.rest
+    keep[list(fixed)] = True
+    r, l = samp.right, samp.left
+    keep |= np.any((r.dq != l.dq) | (r.ddq != l.ddq) | (r.dddq != l.dddq), axis=1)
+    idx = np.nonzero(keep)[0]
+    if len(idx) > 2 * p.k // 3 or len(idx) < 5:
+        return None, 0
+    sides = _Sides(_subset(r, idx), _subset(l, idx))
+    c_fixed = {int(np.searchsorted(idx, i)): v for i, v in fixed.items()}
+    try:
+        cp = _Problem(p.grid[idx], sides, limits, {n: v[idx] for n, v in scale.items()}, p.rest[idx], c_fixed,
+                      periodic)
+        coarse, lps = _slp(cp, _Lp(), profile.x[idx], profile.u_nodes[idx], tolerance, max_iterations,
+                           own_grid=False)
+    except InfeasibleError as err:
+        log.debug("third-order: no profile on the nested coarse grid (%s): no error estimate", err)
+        return None, 0
+    estimate = ERROR_FACTOR * abs(coarse.duration - profile.duration)
+    log.debug("third-order: %d points %.6g s, nested %d points %.6g s: error estimate %.3g s", p.k, profile.duration,
+              len(idx), coarse.duration, estimate)
+    return estimate, lps
+
+
+class _Sides:
+    """Path data seen from both sides of each grid point (as the planner's sampled grid data)."""
+
+    def __init__(self, right, left):
+        self.right, self.left = right, left
+
+
+def _subset(points: PathPoints, idx: np.ndarray) -> PathPoints:
+    """``points`` at the grid points ``idx``, with every per-point quantity already derived (the third
+    derivative, reduced dynamics, ...) taken from its cache."""
+    k = len(points.theta)
+    points.dddq  # noqa: B018 (computed once, kept in the cache)
+    out = PathPoints(points.robot, points.path, points.theta[idx], points.q[idx], points.dq[idx], points.ddq[idx],
+                     side=points.side)
+
+    def per_point(v):
+        return isinstance(v, np.ndarray) and v.ndim >= 1 and v.shape[0] == k
+
+    for key, value in points._cache.items():
+        if per_point(value):
+            out._cache[key] = value[idx]
+        elif isinstance(value, tuple) and value and all(per_point(v) for v in value):
+            out._cache[key] = tuple(v[idx] for v in value)
+    return out
+
+
+def _slp(p: _Problem, lp: _Lp, x_start: np.ndarray, u_start: np.ndarray | None, tolerance: float,
+         max_iterations: int, own_grid: bool = True) -> tuple[Profile, int]:
+    """The sequential LP on ``p`` from x_start (K,), with u_start (K,) a smooth start (else the first LP
+    keeps x_start's shape): (profile, LP count). ``own_grid`` False: the smooth start comes from another
+    grid (it need not nearly meet this grid's rows), and the first LP's trust region does not bound x
+    from below."""
+    rest = p.rest
+    floor = X_REF_FLOOR * max(np.max(x_start), 1e-12)
+    x_ref = np.where(rest, 0.0, np.maximum(np.minimum(x_start, p.x_hi), floor))
     best, best_t, rho = None, np.inf, RHO_START
-    lps, lp = 0, _Lp()
+    lps = 0
     for _ in range(max_iterations):
         xr = np.where(rest, 1.0, x_ref)
-        a_ub, b_ub, nodes = _assemble(p, xr)
+        cols, coef, b_ub, nodes = _assemble(p, xr)
         x_lo = p.x_lo
         if best is None and u_start is not None:  # from a smooth profile: its linearized duration
             w = _exact_gradient(p, x_start, u_start)
-            x_lo = np.maximum(p.x_lo, np.where(rest, 0.0, x_ref / (1.0 + rho)))
+            if own_grid:
+                x_lo = np.maximum(p.x_lo, np.where(rest, 0.0, x_ref / (1.0 + rho)))
         elif best is None:
             # first LP, from the second-order optimum (no consistent u, not feasible): keep its shape,
             # every point's x counts relative to x_ref (a linearized duration would trade regions
@@ -428,7 +555,7 @@ def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start:
         x_hi = np.where(rest, 0.0, np.minimum(p.x_hi, (1.0 + rho) * x_ref))
         x_hi = np.maximum(x_hi, x_lo)
         bounds = np.column_stack([np.concatenate([x_lo, p.u_lo]), np.concatenate([x_hi, p.u_hi])])
-        z = _solve_scaled(p, lp, a_ub, b_ub, nodes, w, bounds, xr)
+        z = _solve_scaled(p, lp, cols, coef, b_ub, nodes, w, bounds, xr)
         lps += 1
         if z is None:
             log.debug("third-order LP %d: %s", lps, lp.status)
@@ -439,7 +566,7 @@ def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start:
         x, u = np.maximum(z[:p.k], 0.0), z[p.k:]
         x[rest] = 0.0
         u[rest] = 0.0
-        t = Profile(grid, x, u).duration
+        t = Profile(p.grid, x, u).duration
         if t < best_t:
             change = (best_t - t) / t
             best, best_t, x_ref = (x, u), t, np.where(rest, 0.0, np.maximum(x, X_REF_MIN * np.max(x)))
@@ -451,4 +578,7 @@ def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start:
             rho *= RHO_SHRINK
             if rho < RHO_MIN:
                 break
-    return Profile(grid, best[0], best[1]), lps
+    if best is None:
+        raise InfeasibleError(f"third-order limits: none of {lps} LPs gave a profile with a finite duration; "
+                              "raise grid_points or relax the jerk or torque-rate limits")
+    return Profile(p.grid, best[0], best[1]), lps
