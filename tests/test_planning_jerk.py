@@ -179,3 +179,38 @@ def test_bad_third_order_inputs_name_the_key(key, value):
     with pytest.raises(ScenarioError, match=f"limits.{key}"):
         setup = api.load("pathmotion/scenarios/circle_zero.toml", {f"limits.{key}": value, "plan.grid_points": 50})
         plan(setup.path, setup.robot, setup.plan_settings)
+
+
+#: Issue 12's converged optima on circle_zero (an independent direct transcription over 200-6400
+#: intervals): velocity + acceleration + jerk (factor x the acceleration limits) [s].
+CIRCLE_OPTIMUM = {10.0: 1.2131, 4.0: 1.5543}
+
+
+@pytest.mark.parametrize("factor", sorted(CIRCLE_OPTIMUM))
+def test_circle_is_within_one_percent_of_the_optimum_and_the_error_estimate_covers_it(factor):
+    setup = api.load("pathmotion/scenarios/circle_zero.toml")
+    jerk = tuple(factor * ROBOT.limits.acceleration)
+    res = plan(setup.path, ROBOT, PlanSettings(torque=False, jerk_limit=jerk))
+    optimum = CIRCLE_OPTIMUM[factor]
+    assert abs(res.duration / optimum - 1.0) <= 0.01
+    assert res.ratios.max_ratio <= 1.001
+    est = res.duration_error_estimate
+    # a pessimistic estimate on the circle (6-9x its error; splines 1.4-2.5x): bounded, not vacuous
+    assert est is not None and abs(res.duration - optimum) <= est <= 0.1 * res.duration
+
+
+def test_spline_error_estimate_covers_the_change_to_a_fine_grid():
+    """The default grid's estimate bounds its difference from a solve on a 4x finer grid (which is
+    itself nearer the optimum), and is no vacuous bound."""
+    path = SplineJointPath.from_waypoints(np.random.default_rng(0).uniform(-1.2, 1.2, (4, 6)))
+    common = dict(torque=False, baselines=False, jerk_limit=tuple(10.0 * ROBOT.limits.acceleration))
+    res = plan(path, ROBOT, PlanSettings(**common))
+    fine = plan(path, ROBOT, PlanSettings(grid_points=400, **common))
+    est = res.duration_error_estimate
+    assert est is not None and abs(res.duration - fine.duration) <= est <= 0.05 * res.duration
+    assert fine.duration_error_estimate is not None
+
+
+def test_second_order_fixed_grid_still_has_no_error_estimate():
+    path = SplineJointPath.from_waypoints(np.random.default_rng(0).uniform(-1.2, 1.2, (4, 6)))
+    assert plan(path, ROBOT, PlanSettings(grid_points=100, torque=False)).duration_error_estimate is None

@@ -44,7 +44,8 @@ DURATION = _k("duration_s", "time-optimal duration", "s")
 SOLVE_TIME = _k("solve_time_s", "planner solve time", "s")
 GRID_POINTS = _k("grid_points", "planner grid points")
 DURATION_ERROR_ESTIMATE = _k("duration_error_estimate", "estimated discretization error of the duration (adaptive "
-                             "grid; null on a fixed grid)", "ms", 1e3, short="duration error est.")
+                             "grid, or jerk / torque-rate plans' nested coarse grids; null on a fixed grid "
+                             "otherwise)", "ms", 1e3, short="duration error est.")
 MAX_VELOCITY_RATIO = _k("max_velocity_ratio", "largest joint velocity / limit", "-")
 MAX_ACCELERATION_RATIO = _k("max_acceleration_ratio", "largest joint acceleration / limit", "-")
 MAX_PLAN_TORQUE_RATIO = _k("max_torque_ratio", "largest joint torque / limit", "-")

@@ -182,8 +182,9 @@ class PlanResult:
     """A plan: the optimal profile and trajectory, the per-segment profiles ("max" connections),
     the limit curves, verification ratios (None if verify was off), baselines (None if off),
     solve time [s] (everything but the baselines), grid size and tighten iterations used;
-    duration_error_estimate [s]: the adaptive grid's estimate of the duration's discretization error
-    (None on a fixed grid)."""
+    duration_error_estimate [s]: the estimate of the duration's discretization error, from the adaptive
+    grid, or with third-order limits from the nested coarse grid (planning/third_order.py) plus the
+    tightening's change; None on a fixed grid without third-order limits."""
 
     profile: Profile
     trajectory: Trajectory
@@ -274,7 +275,8 @@ def _closure_is_kink(s: _Sampled) -> bool:
 
 @dataclass(frozen=True, eq=False)
 class _Solved:
-    """One solve: the grid, its path data, the chain arguments, rows (problem, right, left) and solution."""
+    """One solve: the grid, its path data, the chain arguments, rows (problem, right, left) and solution;
+    error_estimate [s]: a third-order solve's estimate of the duration's discretization error (or None)."""
 
     grid: Grid
     samp: _Sampled
@@ -283,6 +285,7 @@ class _Solved:
     right: LimitRows
     left: LimitRows
     sol: object
+    error_estimate: float | None = None
 
 
 def _not_closed_message(path: JointPath) -> str:
@@ -325,7 +328,10 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     else:
         points = settings.grid_points or defaults.THIRD_ORDER_GRID_POINTS
         solved = _solve_on(path, robot, settings, limits, make_grid(path, points))[2]
+        first, estimate = solved.sol.profile.duration, solved.error_estimate
     solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, solved, adaptive)
+    if not adaptive and estimate is not None:  # the tightening's change is part of the discretization error
+        estimate += abs(solved.sol.profile.duration - first)
     sol, grid = solved.sol, solved.grid.theta
     log.info("grid: %d points (%d breaks, %d kinks%s); limits: %s", len(grid), len(solved.grid.breaks),
              len(solved.grid.kinks), "" if estimate is None else f", estimated duration error {estimate:.3g} s",
@@ -362,10 +368,10 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
                       connections=settings.connections, breaks=grid.breaks, stops=tuple(sorted(stops)))
     if scale is None:
         scale = limits.unit_scale(len(theta), robot.n)
-    problem, right, left, sol = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
+    problem, right, left, sol, estimate = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
     _check_bounded(theta, sol.x)
     log.debug("solve on %d grid points: duration %.9g s", len(theta), sol.profile.duration)
-    return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol)
+    return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol, estimate)
 
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
@@ -484,14 +490,16 @@ def _solve_rows(grid, samp, limits, scale, x_ref, chain_args):
         log.debug("relinearized rows: duration %.9g s (was %.9g s)", sol.profile.duration, previous)
         if abs(previous - sol.profile.duration) <= defaults.RELINEARIZE_TOLERANCE * previous:
             break
+    estimate = None
     if limits.third_order:
-        sol = _smooth(grid, samp, limits, scale, sol, chain_args, x_ref)
-    return problem, right, left, sol
+        sol, estimate = _smooth(grid, samp, limits, scale, sol, chain_args, x_ref)
+    return problem, right, left, sol, estimate
 
 
 def _smooth(grid, samp, limits, scale, sol, chain_args, x_ref):
     """The third-order (jerk, torque-rate) solution, linearized first around ``x_ref`` (the previous
-    smooth solution, when re-solving after tightening) or the second-order optimum ``sol.x``."""
+    smooth solution, when re-solving after tightening) or the second-order optimum ``sol.x``, and the
+    estimate of its duration's discretization error [s] (None when re-solving)."""
     k = len(grid)
     rest = np.zeros(k, dtype=bool)
     rest[list(chain_args["stops"])] = True
@@ -505,9 +513,9 @@ def _smooth(grid, samp, limits, scale, sol, chain_args, x_ref):
             elif not isinstance(cond, str):
                 fixed[idx] = float(cond) ** 2
     resolve = x_ref is not None and len(x_ref) == k
-    profile, _, _ = solve_third_order(grid, samp, limits, scale, x_ref if resolve else sol.x, rest, fixed,
-                                   chain_args["periodic"], smooth_start=resolve)
-    return replace(sol, profile=profile, segment_profiles=(profile,), x=profile.x)
+    profile, _, estimate = solve_third_order(grid, samp, limits, scale, x_ref if resolve else sol.x, rest, fixed,
+                                             chain_args["periodic"], smooth_start=resolve)
+    return replace(sol, profile=profile, segment_profiles=(profile,), x=profile.x), estimate
 
 
 def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:
