@@ -53,7 +53,7 @@ ROW_MARGIN = 0.02
 #: Row generation: at most this many solves of one LP (each adds the rows its solution violates) [-].
 MAX_ROW_ROUNDS = 50
 #: Row generation: at most this many rows per grid point enter in one round [-].
-ROWS_PER_ROUND = 16
+ROWS_PER_ROUND = 4
 #: The duration's discretization error is estimated as this times the larger change of the duration from
 #: the grid to its two nested coarse grids (even and odd points; _nested_estimate) [-]. Measured
 #: (benchmarks/bench_third_order.py; verified plans, the planner adds the tightening's change): the error
@@ -293,14 +293,19 @@ class _Lp:
         self.basis = None  # the last optimal HighsBasis
         self.status = ""
 
-    def solve(self, c, a_eq, b_eq, cols, coef, b_ub, nodes, col_lo, col_hi) -> np.ndarray | None:
+    def solve(self, c, a_eq, b_eq, cols, coef, b_ub, nodes, col_lo, col_hi, z0=None) -> np.ndarray | None:
         """argmin c.z s.t. a_eq z = b_eq, the pool coef . z[cols] <= b_ub, col_lo <= z <= col_hi; None
         unless optimal. a_eq: (indptr, indices, data) of a CSR matrix; cols, coef (R, 3); every row
         scaled to unit largest coefficient (ROW_MARGIN is in those units); nodes (R,): the group (grid
-        point) of each pool row (each round adds at most ROWS_PER_ROUND rows per group)."""
+        point) of each pool row (each round adds at most ROWS_PER_ROUND rows per group). z0: a point
+        near the solution (scaled variables), or None: on a model without pool rows, the rows nearly
+        active there enter before the first solve (fewer rounds)."""
         if self.pool_size != len(b_ub):
             self.order, self.pool_size, self.basis = np.zeros(0, int), len(b_ub), None
         active = np.zeros(self.pool_size, bool)
+        if z0 is not None and not len(self.order):
+            self.order = _tightest(np.nonzero(b_ub - np.einsum("rj,rj->r", coef, z0[cols]) < ROW_MARGIN)[0],
+                                   b_ub - np.einsum("rj,rj->r", coef, z0[cols]), nodes)
         active[self.order] = True
         self._pass(c, a_eq, b_eq, cols, coef, b_ub, col_lo, col_hi)
         h = self.highs
@@ -315,11 +320,7 @@ class _Lp:
             if not (slack[~active] < -LP_TOLERANCE).any():
                 self.basis = h.getBasis()
                 return z
-            cand = np.nonzero(~active & (slack < ROW_MARGIN))[0]
-            order = cand[np.lexsort((slack[cand], nodes[cand]))]
-            first = np.unique(nodes[order], return_index=True)[1]
-            rank = np.arange(len(order)) - np.repeat(first, np.diff(np.append(first, len(order))))
-            new = order[rank < ROWS_PER_ROUND]  # the tightest rows of each point
+            new = _tightest(np.nonzero(~active & (slack < ROW_MARGIN))[0], slack, nodes)
             active[new] = True
             self.order = np.concatenate([self.order, new])
             start, index, value = _csr_rows(cols[new], coef[new])
@@ -350,16 +351,29 @@ class _Lp:
 
 
 
+def _tightest(cand: np.ndarray, slack: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """The ROWS_PER_ROUND rows of least slack of each group among the pool rows ``cand``."""
+    order = cand[np.lexsort((slack[cand], nodes[cand]))]
+    first = np.unique(nodes[order], return_index=True)[1]
+    rank = np.arange(len(order)) - np.repeat(first, np.diff(np.append(first, len(order))))
+    return order[rank < ROWS_PER_ROUND]
+
+
 _BANNER_SHOWN = []
 #: Key of the solve's _Lp in the grid data's cache (PathPoints._cache).
 _LP_KEY = "third_order_lp"
 
 
+_HIGHSPY = []
+
+
 def _highspy():
     """highspy, imported on first use (only plans with third-order limits need it)."""
-    import highspy
+    if not _HIGHSPY:
+        import highspy
 
-    return highspy
+        _HIGHSPY.append(highspy)
+    return _HIGHSPY[0]
 
 
 def _silent_highs():
@@ -382,7 +396,7 @@ def _silent_highs():
     return h
 
 
-def _solve_scaled(p: _Problem, lp: _Lp, cols, coef, b_ub, nodes, w, bounds, x_ref):
+def _solve_scaled(p: _Problem, lp: _Lp, cols, coef, b_ub, nodes, w, bounds, x_ref, z0=None):
     """The LP in scaled variables x_k = x_ref_k y_k, u_k = x_ref_k / r_k v_k (r_k the distance to the
     nearest rest point: u ~ x / r on an S-curve), so that x near a rest point (1e-9 and less on the
     graded grid) is resolved to the solver's relative tolerance; rows rescaled to unit largest
@@ -396,7 +410,7 @@ def _solve_scaled(p: _Problem, lp: _Lp, cols, coef, b_ub, nodes, w, bounds, x_re
     c = w * col
     c = c / max(np.max(np.abs(c)), 1e-300)
     z = lp.solve(c, (a_eq.indptr, a_eq.indices, a_eq.data), b_eq, cols, coef, b_ub / norm, nodes, bounds[:, 0] / col,
-                 bounds[:, 1] / col)
+                 bounds[:, 1] / col, None if z0 is None else z0 / col)
     return None if z is None else z * col
 
 
@@ -560,7 +574,11 @@ def _slp(p: _Problem, lp: _Lp, x_start: np.ndarray, u_start: np.ndarray | None, 
         x_hi = np.where(rest, 0.0, np.minimum(p.x_hi, (1.0 + rho) * x_ref))
         x_hi = np.maximum(x_hi, x_lo)
         bounds = np.column_stack([np.concatenate([x_lo, p.u_lo]), np.concatenate([x_hi, p.u_hi])])
-        z = _solve_scaled(p, lp, cols, coef, b_ub, nodes, w, bounds, xr)
+        z0 = None
+        if best is None:  # the rows nearly active at the start enter the LP before its first solve
+            u0 = u_start if u_start is not None else np.where(rest, 0.0, 0.5 * np.gradient(x_ref, p.grid))
+            z0 = np.concatenate([x_ref, u0])
+        z = _solve_scaled(p, lp, cols, coef, b_ub, nodes, w, bounds, xr, z0)
         lps += 1
         if z is None:
             log.debug("third-order LP %d: %s", lps, lp.status)
