@@ -214,3 +214,40 @@ def test_spline_error_estimate_covers_the_change_to_a_fine_grid():
 def test_second_order_fixed_grid_still_has_no_error_estimate():
     path = SplineJointPath.from_waypoints(np.random.default_rng(0).uniform(-1.2, 1.2, (4, 6)))
     assert plan(path, ROBOT, PlanSettings(grid_points=100, torque=False)).duration_error_estimate is None
+
+
+def test_slp_duration_and_gradient_match_the_profile_and_finite_differences():
+    """The SLP's quadrature at fixed nodes (third_order._Quadrature) against the Profile's duration (its own
+    quadrature, profile.py) and central differences of it, on a converged circle profile."""
+    from pathmotion.planning import third_order
+    from pathmotion.planning.limits import effective_limits_for
+    from pathmotion.planning.planner import _sample
+
+    setup = api.load("pathmotion/scenarios/circle_zero.toml")
+    s = PlanSettings(grid_points=40, torque=False, jerk_limit=tuple(10.0 * ROBOT.limits.acceleration), verify="off")
+    res = plan(setup.path, ROBOT, s)
+    prof = res.profile
+    limits = effective_limits_for(ROBOT, s.limits)
+    samp = _sample(setup.path, ROBOT, prof.grid, (), third=True)
+    rest = prof.x <= 0
+    p = third_order._Problem(prof.grid, samp, limits, limits.unit_scale(len(prof.grid), ROBOT.n), rest, {}, False)
+    x, u = prof.x, prof.u_nodes
+    assert p.quadrature.duration(x, u) == pytest.approx(prof.duration, rel=1e-9)
+    g = p.quadrature.gradient(x, u)
+    # differences of the duration along a direction that keeps the equality rows (x from the chain of u),
+    # away from the graded ends (x there is tiny) and with x at the end still 0
+    k = len(u)
+    du = np.zeros(k)
+    du[16:k - 16] = np.random.default_rng(0).normal(size=k - 32)
+    a = np.zeros(k)  # x at the end = a . du
+    a[:-1] += 2.0 * p.w0
+    a[1:] += 2.0 * p.w1
+    du -= (a @ du) / (a[16:k - 16] @ a[16:k - 16]) * np.where(np.arange(k) % (k - 16) >= 16, a, 0.0)
+    du *= 1e-5 * np.abs(u).max() / np.abs(du).max()
+    dx = np.concatenate([[0.0], np.cumsum(2.0 * (p.w0 * du[:-1] + p.w1 * du[1:]))])
+    assert abs(dx[-1]) <= 1e-12 * x.max()
+    dx[rest] = 0.0  # exactly: the Profile finds its rest points where x = 0
+    dz = np.concatenate([dx, du])
+    t_plus = Profile(prof.grid, x + dx, u + du).duration
+    t_minus = Profile(prof.grid, x - dx, u - du).duration
+    assert g @ dz == pytest.approx((t_plus - t_minus) / 2.0, rel=1e-4)

@@ -137,6 +137,7 @@ class _Problem:
         self.u_lo = np.where(rest, 0.0, -np.inf)
         self.u_hi = np.where(rest, 0.0, np.inf)
         self._row_points(samp, scale, right, left)
+        self.quadrature = _Quadrature(self)
 
     def _equalities(self, periodic: bool) -> None:
         """x_{i+1} = x_i + 2 (w0 u_i + w1 u_{i+1}), and periodicity: a_eq (CSR), b_eq."""
@@ -234,41 +235,49 @@ def _assemble(p: _Problem, x_ref: np.ndarray):
     return tuple(np.concatenate([b[j] for b in blocks]) for j in range(4))
 
 
-#: Gauss-Legendre nodes and weights on [0, 1] for the duration gradient.
+#: Gauss-Legendre nodes and weights on [0, 1] for the duration and its gradient.
 _GL_T, _GL_W = np.polynomial.legendre.leggauss(8)
 _GL_T, _GL_W = 0.5 * (_GL_T + 1.0), 0.5 * _GL_W
 
 
-def _exact_gradient(p: _Problem, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """(dT/dx, dT/du) (2K,) of the smooth profile's duration T = sum_i int dtheta / sqrt(x(theta)),
-    by quadrature in each interval's xi. x(theta) is written from the interval's end nearer to its
-    rest point (the equality rows make both forms equal; this one stays finite next to a rest
-    point, where x ~ xi^4). Entries of points at rest are 0 (those variables are fixed)."""
-    k = p.k
-    i = np.repeat(np.arange(k - 1)[:, None], len(_GL_T), 1)
-    o, sg = p.origin[i], p.sign[i]
-    lo, hi = p.grid[i], p.grid[i + 1]
-    dxi = (p.xi_hi - p.xi_lo)[i]
-    xi = p.xi_lo[i] + _GL_T[None, :] * dxi
-    th = np.clip(smooth.theta_of(o, sg, xi), lo, hi)
-    xx = smooth.state(p.grid, x, u, p.origin, p.sign, i, th)[0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        f = -0.5 * _GL_W * smooth.dtheta_dxi(sg, xi) * dxi / xx**1.5
-    f = np.where(np.isfinite(f), f, 0.0)
-    right = sg < 0
-    xl = smooth.xi_integral(o, sg, lo, th)
-    xr_ = smooth.xi_integral(o, sg, hi, th)
-    d_x = (np.where(right, 0.0, f).sum(1), np.where(right, f, 0.0).sum(1))  # to x_i, x_{i+1}
-    d_ulo = np.where(right, -2.0 * xr_ / dxi, 2.0 * (th - lo) - 2.0 * xl / dxi)
-    d_uhi = np.where(right, -2.0 * (hi - th) + 2.0 * xr_ / dxi, 2.0 * xl / dxi)
-    gx, gu = np.zeros(k), np.zeros(k)
-    idx = np.arange(k - 1)
-    np.add.at(gx, idx, d_x[0])
-    np.add.at(gx, idx + 1, d_x[1])
-    np.add.at(gu, idx, (f * d_ulo).sum(1))
-    np.add.at(gu, idx + 1, (f * d_uhi).sum(1))
-    gx[p.rest] = gu[p.rest] = 0.0
-    return np.concatenate([gx, gu])
+class _Quadrature:
+    """The smooth profile's duration T = sum_i int dtheta / sqrt(x(theta)) by Gauss-Legendre quadrature
+    in each interval's xi (as profile.py), at fixed nodes: x at node q is linear in its interval's
+    three variables, x_q = cx_q . z[cols_q], written from the interval's end nearer to its rest point
+    (the equality rows make both forms equal; this one stays finite next to a rest point, where
+    x ~ xi^4), and T = sum_q wq_q / sqrt(x_q)."""
+
+    def __init__(self, p: "_Problem"):
+        k, g = p.k, len(_GL_T)
+        i = np.repeat(np.arange(k - 1), g)
+        o, sg, lo, dxi = p.origin[i], p.sign[i], p.grid[i], (p.xi_hi - p.xi_lo)[i]
+        xi = p.xi_lo[i] + np.tile(_GL_T, k - 1) * dxi
+        th = np.clip(smooth.theta_of(o, sg, xi), lo, p.grid[i + 1])
+        self.wq = np.tile(_GL_W, k - 1) * smooth.dtheta_dxi(sg, xi) * dxi
+        integral = 2.0 * smooth.xi_integral(o, sg, lo, th) / dxi
+        self.cx = np.column_stack([np.ones_like(th), 2.0 * (th - lo) - integral, integral])
+        right = sg < 0  # next to a rest point after the interval: from x_{i+1}
+        self.cx[right, 1] -= 2.0 * p.w0[i[right]]
+        self.cx[right, 2] -= 2.0 * p.w1[i[right]]
+        self.cols = np.column_stack([np.where(right, i + 1, i), k + i, k + i + 1])
+        self.rest, self.n = p.rest, 2 * k
+
+    def _rate(self, z: np.ndarray, power: float) -> np.ndarray:
+        x = np.einsum("qj,qj->q", self.cx, z[self.cols])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = self.wq / np.maximum(x, 0.0) ** power
+        return np.where(np.isfinite(f), f, 0.0) if power > 1 else f
+
+    def duration(self, x: np.ndarray, u: np.ndarray) -> float:
+        return float(np.sum(self._rate(np.concatenate([x, u]), 0.5)))
+
+    def gradient(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """(dT/dx, dT/du) (2K,); entries of points at rest are 0 (those variables are fixed)."""
+        f = -0.5 * self._rate(np.concatenate([x, u]), 1.5)
+        g = np.bincount(self.cols.ravel(), weights=(f[:, None] * self.cx).ravel(), minlength=self.n)
+        g[:self.n // 2][self.rest] = 0.0
+        g[self.n // 2:][self.rest] = 0.0
+        return g
 
 
 class _Lp:
@@ -560,7 +569,7 @@ def _slp(p: _Problem, lp: _Lp, x_start: np.ndarray, u_start: np.ndarray | None, 
         cols, coef, b_ub, nodes = _assemble(p, xr)
         x_lo = p.x_lo
         if best is None and u_start is not None:  # from a smooth profile: its linearized duration
-            w = _exact_gradient(p, x_start, u_start)
+            w = p.quadrature.gradient(x_start, u_start)
             if own_grid:
                 x_lo = np.maximum(p.x_lo, np.where(rest, 0.0, x_ref / (1.0 + rho)))
         elif best is None:
@@ -569,7 +578,7 @@ def _slp(p: _Problem, lp: _Lp, x_start: np.ndarray, u_start: np.ndarray | None, 
             # against each other far outside its range of validity)
             w = np.concatenate([np.where(rest, 0.0, -1.0 / xr), np.zeros(p.k)])
         else:
-            w = _exact_gradient(p, best[0], best[1])
+            w = p.quadrature.gradient(best[0], best[1])
             x_lo = np.maximum(p.x_lo, np.where(rest, 0.0, x_ref / (1.0 + rho)))
         x_hi = np.where(rest, 0.0, np.minimum(p.x_hi, (1.0 + rho) * x_ref))
         x_hi = np.maximum(x_hi, x_lo)
@@ -589,7 +598,7 @@ def _slp(p: _Problem, lp: _Lp, x_start: np.ndarray, u_start: np.ndarray | None, 
         x, u = np.maximum(z[:p.k], 0.0), z[p.k:]
         x[rest] = 0.0
         u[rest] = 0.0
-        t = Profile(p.grid, x, u).duration
+        t = p.quadrature.duration(x, u)
         if t < best_t:
             change = (best_t - t) / t
             best, best_t, x_ref = (x, u), t, np.where(rest, 0.0, np.maximum(x, X_REF_MIN * np.max(x)))
