@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 import os
 import sys
+from types import SimpleNamespace
 
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
@@ -76,10 +77,6 @@ class _Points:
     def __init__(self, cols, cx, cu, cd, src, src_scale, idx, group, interval):
         self.cols, self.cx, self.cu, self.cd = cols, cx, cu, cd
         self.src, self.src_scale, self.idx, self.group, self.interval = src, src_scale, idx, group, interval
-
-    def x_of(self, z: np.ndarray) -> np.ndarray:
-        """x (P,) at the points for the LP variables z = (x, u) (2K,)."""
-        return np.einsum("pj,pj->p", self.cx, z[self.cols])
 
 
 def _node_points(p: "_Problem", src, scale: dict, side: str, idx: np.ndarray) -> _Points:
@@ -159,8 +156,8 @@ class _Problem:
     def _row_points(self, samp, scale, right, left) -> None:
         """The points of the inequality rows and the rows that stay fixed (limits not linearized at x_ref):
         the order-2 rows at every moving grid point (the left side's only where its path data differ:
-        breaks, knots, the last point) and at the interior points, the order-1 bounds there; the
-        third-order rows' x_ref-free part (a3 u' + a u + b x) at both ends of every interval and inside."""
+        breaks, knots, the last point), from the rows ``right``, ``left`` already built; the third-order
+        rows' x_ref-free part (a3 u' + a u + b x) at both ends of every interval."""
         k, moving = self.k, ~self.rest
         self.nodes_r = _node_points(self, samp.right, scale, "right", np.nonzero(moving[:-1])[0])
         left_idx = np.arange(1, k)
@@ -172,19 +169,21 @@ class _Problem:
         self.left_differs = ~same[self.nodes_l.idx]
         self.fixed_limits = [lim for lim in self.limits if lim.order < 3 and not lim.relinearize]
         self.moving_limits = [lim for lim in self.limits if lim.order < 3 and lim.relinearize]
-        self.static = self._order2(self.fixed_limits, None)
+        fixed = np.isin(right.row_kind, [lim.name for lim in self.fixed_limits])
+        self.static = self._order2(self.fixed_limits, None, [_columns(rows, fixed) for rows in (right, left)])
         self.third = [(pts, lim.rows3(pts.src, pts.src_scale[lim.name]))
                       for lim in self.limits if lim.order == 3 for pts in (self.nodes_r, self.nodes_l)]
         self.third = [(pts, _third_base(pts, r3)) for pts, r3 in self.third]
 
-    def _order2(self, limits, x_ref) -> list:
+    def _order2(self, limits, x_ref, given=None) -> list:
         """Row blocks (cols, coef, rhs, group) of the order-2 ``limits`` at the moving grid points (the
-        left side's only where its path data differ: breaks, knots, the last point); x_ref (K,) or None."""
+        left side's only where its path data differ: breaks, knots, the last point); x_ref (K,) or None;
+        given: their rows (a, b, c, lo, hi) on the right and left sides, when already built."""
         if not limits:
             return []
         out = []
-        for pts in (self.nodes_r, self.nodes_l):
-            rows = limit_rows(pts.src, limits, pts.src_scale, defaults.PLANNER_X_CAP, x_ref)
+        for side, pts in enumerate((self.nodes_r, self.nodes_l)):
+            rows = given[side] if given else limit_rows(pts.src, limits, pts.src_scale, defaults.PLANNER_X_CAP, x_ref)
             sel = pts.idx
             keep_pt = self.left_differs if pts is self.nodes_l else np.ones(len(sel), bool)
             a, b, c, lo, hi = (v[sel][keep_pt] for v in (rows.a, rows.b, rows.c, rows.lo, rows.hi))
@@ -195,13 +194,6 @@ class _Problem:
                 pick = np.nonzero(keep)
                 out.append((cols[pick[0]], coef[keep], rhs[keep], group[pick[0]]))
         return out
-
-    def _order1(self) -> list:
-        """x <= x_max at the interior points (at the grid points x_max bounds the variables)."""
-        pts = self.inner
-        x_max = limit_rows(pts.src, [lim for lim in self.limits if lim.order == 1], pts.src_scale, np.inf).x_max
-        keep = np.isfinite(x_max)
-        return [(pts.cols[keep], pts.cx[keep], x_max[keep], pts.group[keep])]
 
     def blocks(self, x_ref: np.ndarray) -> list:
         """Every inequality row block (cols, coef, rhs, group) at the linearization point x_ref (K,) (1 at
@@ -217,6 +209,11 @@ class _Problem:
             for sign in (1.0, -1.0):
                 out.append((cols, (sign * base + tangent).reshape(-1, 3), (big - sign * c).ravel(), group))
         return out
+
+
+def _columns(rows, mask: np.ndarray):
+    """The LimitRows ``rows``' columns ``mask`` (m,) as (a, b, c, lo, hi)."""
+    return SimpleNamespace(**{n: getattr(rows, n)[:, mask] for n in ("a", "b", "c", "lo", "hi")})
 
 
 def _third_base(pts: _Points, rows3) -> tuple:
