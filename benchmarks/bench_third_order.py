@@ -13,7 +13,9 @@ Optimality: the planner at its default grid (and ``--grids``) against the conver
 200..6400 intervals; ``--reference 200 400 800`` recomputes it), and on ``--splines`` random joint
 splines (seeded, 4 waypoints uniform in [-1.2, 1.2] rad, velocity + acceleration + jerk 10x the
 acceleration limits), whose references were converged over 200, 400, 800 intervals (Richardson;
-recorded below, ``--spline-reference 200 400 800`` recomputes them). Target: within 1 %.
+recorded below, ``--spline-reference 200 400 800`` recomputes them). Target: within 1 %. Each default-grid
+line also shows the plan's ``duration_error_estimate`` and the error / estimate ratio (at most 1 when the
+estimate bounds the error).
 
 Run: ``.venv/bin/python benchmarks/bench_third_order.py`` (about a minute on a loaded 2-core machine);
 ``--quick``: fewer repeats, no fixed grids, no splines, a check that it runs.
@@ -56,6 +58,11 @@ def cases(robot) -> dict[str, dict]:
         "vel + torque, acc off": dict(acceleration=False),
         "vel + torque, reserve 0.2": dict(acceleration=False, torque_reserve=0.2),
     }
+
+
+def _ms(value) -> str:
+    """A duration [s] in ms, or "none"."""
+    return "none" if value is None else f"{1e3 * value:.2f} ms"
 
 
 def _stats(values) -> str:
@@ -103,7 +110,8 @@ def speed(scenario: str, grids: list, repeat: int) -> None:
         res = results[lab]
         print(f"  {'pathmotion, grid ' + lab + f' ({res.grid_points} points)':34s} {_stats(times[lab])}  "
               f"ratio {np.median(times[lab]) / t_toppra:5.2f}  T = {res.duration:.6f} s  "
-              f"max ratio {res.ratios.max_ratio:.5f} ({res.ratios.method}), {res.tighten_iterations} tightening")
+              f"max ratio {res.ratios.max_ratio:.5f} ({res.ratios.method}), {res.tighten_iterations} tightening, "
+              f"error estimate {_ms(res.duration_error_estimate)}")
 
 
 def _with_grid(settings: PlanSettings, grid_points):
@@ -125,7 +133,8 @@ def optimality_circle(scenario: str, grids: list, reference_grids) -> list:
             reference[label] = ref.converged_duration(path, robot, limits, reference_grids)[0]
     labels = ["default"] + [str(g) for g in grids]
     print(f"\noptimality: {scenario} against the converged reference (recorded: reference_topp.py)")
-    print(f"  {'limits':28s} {'reference [s]':>13s}" + "".join(f" {'grid ' + lab:>16s} {'diff':>8s}" for lab in labels))
+    print(f"  {'limits':28s} {'reference [s]':>13s}" + "".join(f" {'grid ' + lab:>16s} {'diff':>8s}" for lab in labels)
+          + "   (est.: the default grid's duration_error_estimate, and |diff| / est.)")
     diffs = []
     for label, kwargs in cases(robot).items():
         line = f"  {label:28s} {reference[label]:13.6f}"
@@ -135,7 +144,10 @@ def optimality_circle(scenario: str, grids: list, reference_grids) -> list:
             diff = 100 * (res.duration / reference[label] - 1)
             if lab == "default":
                 diffs.append(diff)
+                est, err = res.duration_error_estimate, abs(res.duration - reference[label])
             line += f" {res.duration:16.6f} {diff:+7.3f}%"
+        if est is not None:
+            line += f"   est. {_ms(est)} ({err / est:.2f})"
         print(line, flush=True)
     return diffs
 
@@ -149,7 +161,8 @@ def optimality_splines(count: int, reference_grids, robot) -> list:
     print(f"\noptimality: {count} random splines (seeds 0..{count - 1}), vel + acc + jerk 10x acc, default grid "
           f"({defaults.THIRD_ORDER_GRID_POINTS} points); reference "
           + (f"converged over {list(reference_grids)} intervals" if reference_grids else "recorded (200, 400, 800)"))
-    print(f"  {'seed':>4s} {'reference [s]':>13s} {'order':>6s} {'pathmotion [s]':>14s} {'diff':>8s} {'solve':>9s}")
+    print(f"  {'seed':>4s} {'reference [s]':>13s} {'order':>6s} {'pathmotion [s]':>14s} {'diff':>8s} {'solve':>9s}"
+          f"  error estimate (|diff| / estimate)")
     diffs = []
     for seed in range(count):
         path = SplineJointPath.from_waypoints(np.random.default_rng(seed).uniform(-1.2, 1.2, (4, 6)))
@@ -161,8 +174,10 @@ def optimality_splines(count: int, reference_grids, robot) -> list:
         diff = 100 * (res.duration / t_ref - 1)
         diffs.append(diff)
         order_text = f"{order:6.2f}" if np.isfinite(order) else f"{'rec.':>6s}"
+        est = res.duration_error_estimate
         print(f"  {seed:4d} {t_ref:13.6f} {order_text} {res.duration:14.6f} {diff:+7.3f}% "
-              f"{1e3 * res.solve_time_s:7.0f} ms", flush=True)
+              f"{1e3 * res.solve_time_s:7.0f} ms  {_ms(est)}"
+              + ("" if est is None else f" ({abs(res.duration - t_ref) / est:.2f})"), flush=True)
     return diffs
 
 
