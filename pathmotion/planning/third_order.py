@@ -25,7 +25,6 @@ import sys
 from types import SimpleNamespace
 
 import numpy as np
-from scipy.sparse import coo_matrix, csr_matrix
 
 from .. import defaults
 from ..errors import InfeasibleError
@@ -137,21 +136,16 @@ class _Problem:
         self.quadrature = _Quadrature(self)
 
     def _equalities(self, periodic: bool) -> None:
-        """x_{i+1} = x_i + 2 (w0 u_i + w1 u_{i+1}), and periodicity: a_eq (CSR), b_eq."""
+        """x_{i+1} = x_i + 2 (w0 u_i + w1 u_{i+1}), and periodicity, as eq_cols, eq_coef (E, 4) (every row
+        has four entries), b_eq (E,) = 0."""
         k = self.k
         i = np.arange(k - 1)
-        rows = [i, i, i, i]
-        cols = [i + 1, i, k + i, k + i + 1]
-        vals = [np.ones(k - 1), -np.ones(k - 1), -2.0 * self.w0, -2.0 * self.w1]
-        n_eq = k - 1
+        cols = np.column_stack([i, i + 1, k + i, k + i + 1])
+        coef = np.column_stack([-np.ones(k - 1), np.ones(k - 1), -2.0 * self.w0, -2.0 * self.w1])
         if periodic:
-            rows += [np.array([n_eq, n_eq, n_eq + 1, n_eq + 1])]
-            cols += [np.array([0, k - 1, k, 2 * k - 1])]
-            vals += [np.array([1.0, -1.0, 1.0, -1.0])]
-            n_eq += 2
-        self.a_eq = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                               shape=(n_eq, 2 * k)).tocsr()
-        self.b_eq = np.zeros(n_eq)
+            cols = np.vstack([cols, [[0, k - 1, 0, 0], [k, 2 * k - 1, k, k]]])
+            coef = np.vstack([coef, [[1.0, -1.0, 0.0, 0.0], [1.0, -1.0, 0.0, 0.0]]])
+        self.eq_cols, self.eq_coef, self.b_eq = cols, coef, np.zeros(len(cols))
 
     def _row_points(self, samp, scale, right, left) -> None:
         """The points of the inequality rows and the rows that stay fixed (limits not linearized at x_ref):
@@ -301,7 +295,7 @@ class _Lp:
 
     def solve(self, c, a_eq, b_eq, cols, coef, b_ub, nodes, col_lo, col_hi, z0=None) -> np.ndarray | None:
         """argmin c.z s.t. a_eq z = b_eq, the pool coef . z[cols] <= b_ub, col_lo <= z <= col_hi; None
-        unless optimal. a_eq: (indptr, indices, data) of a CSR matrix; cols, coef (R, 3); every row
+        unless optimal. a_eq: (cols, coef) (E, 4) of the equality rows; cols, coef (R, 3); every row
         scaled to unit largest coefficient (ROW_MARGIN is in those units); nodes (R,): the group (grid
         point) of each pool row (each round adds at most ROWS_PER_ROUND rows per group). z0: a point
         near the solution (scaled variables), or None: on a model without pool rows, the rows nearly
@@ -338,7 +332,8 @@ class _Lp:
         """Pass the LP on the equalities and the pool rows ``self.order``, with the last optimal basis."""
         rows = self.order
         start, index, value = _csr_rows(cols[rows], coef[rows])
-        eq_start, eq_index, eq_value = a_eq
+        eq_start, eq_index, eq_value = _csr_rows(*a_eq)
+        eq_start = np.append(eq_start, len(eq_value))
         n_row, n_col = len(b_eq) + len(rows), len(c)
         hs = _highspy()
         lp = hs.HighsLp()
@@ -412,27 +407,17 @@ def _solve_scaled(p: _Problem, lp: _Lp, cols, coef, b_ub, nodes, w, bounds, x_re
     norm = np.abs(coef).max(axis=1)
     norm = np.where(norm > 0, norm, 1.0)
     coef /= norm[:, None]
-    a_eq, b_eq = _unit_rows(p.a_eq, p.b_eq, col)
+    eq_coef = p.eq_coef * col[p.eq_cols]
+    eq_coef /= np.abs(eq_coef).max(axis=1, keepdims=True)
     c = w * col
     c = c / max(np.max(np.abs(c)), 1e-300)
-    z = lp.solve(c, (a_eq.indptr, a_eq.indices, a_eq.data), b_eq, cols, coef, b_ub / norm, nodes, bounds[:, 0] / col,
+    z = lp.solve(c, (p.eq_cols, eq_coef), p.b_eq, cols, coef, b_ub / norm, nodes, bounds[:, 0] / col,
                  bounds[:, 1] / col, None if z0 is None else z0 / col)
     return None if z is None else z * col
 
 
-def _unit_rows(a: csr_matrix, b: np.ndarray, col: np.ndarray) -> tuple[csr_matrix, np.ndarray]:
-    """(a diag(col), b), every row scaled to unit largest |coefficient| (on the CSR arrays directly)."""
-    data = a.data * col[a.indices]
-    norm = np.ones(a.shape[0])
-    filled = np.diff(a.indptr) > 0
-    norm[filled] = np.maximum.reduceat(np.abs(data), a.indptr[:-1][filled])
-    norm = np.where(norm > 0, norm, 1.0)
-    data /= np.repeat(norm, np.diff(a.indptr))
-    return csr_matrix((data, a.indices, a.indptr), shape=a.shape), b / norm
-
-
 def _csr_rows(cols: np.ndarray, coef: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(start, index, value) of pool rows cols, coef (R, 3) in row-wise sparse form, zeros left out."""
+    """(start, index, value) of rows cols, coef (R, m) in row-wise sparse form, zeros left out."""
     nonzero = coef != 0
     start = np.concatenate([[0], np.cumsum(nonzero.sum(axis=1))[:-1]]) if len(coef) else np.zeros(0, int)
     return start, cols[nonzero], coef[nonzero]
