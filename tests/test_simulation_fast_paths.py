@@ -91,3 +91,31 @@ def test_table_of_a_lifted_path_equals_the_pinocchio_one(lifted, monkeypatch):
     assert np.array_equal(fast.grid, reference.grid)
     scale = np.max(np.abs(reference.coeffs))
     assert np.max(np.abs(fast.coeffs - reference.coeffs) / scale) <= 1e-12
+
+
+def test_design_keeps_the_riccati_knots_only(lifted, tmp_path):
+    """The sampled design keeps P at its knots (the controller reads K only); P on the grid, built on demand, and
+    the cache entry's knots give the same stack, and the entry holds no grid-sized P."""
+    from pathmotion.control import OrbitalGains, design_cache
+    from pathmotion.control.orbital import _interpolate
+
+    path = lifted["corner_g2"]
+    profile = api.plan_scenario(api.load(scenario_path("corner_g2"))).profile
+    design = design_cache.cached_design(path, profile, OrbitalGains(), 0.004, 1, folder=tmp_path)
+    assert "riccati" not in vars(design)  # nothing built on the grid yet
+    m, d = len(design.theta), design.gain.shape[2]
+    p = design.riccati
+    assert p.shape == (m, d, d)
+    for seg in design.riccati_knots:
+        inside = slice(seg.start, seg.stop)
+        assert np.array_equal(p[inside], _interpolate(seg.knots, design.theta[inside], seg.values))
+        assert len(seg.knots) < (seg.stop - seg.start) / 2  # the 4 ms samples are sparser than the table
+    outside = np.ones(m, bool)
+    for seg in design.riccati_knots:
+        outside[seg.start:seg.stop] = False
+    assert not np.any(p[outside])
+    cached = design_cache.cached_design(path, profile, OrbitalGains(), 0.004, 1, folder=tmp_path)
+    assert cached is not design and np.array_equal(cached.riccati, p) and np.array_equal(cached.gain, design.gain)
+    (entry,) = tmp_path.glob("design-*.npz")
+    with np.load(entry) as z:
+        assert "riccati" not in z.files and z["riccati_values"].size < m * d * d / 2

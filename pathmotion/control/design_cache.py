@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import defaults
 from .gains import OrbitalGains
-from .orbital import OrbitalDesign
+from .orbital import OrbitalDesign, RiccatiKnots
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
 from .transverse import TransverseBasis
@@ -164,9 +164,10 @@ def cached_design(path, profile, gains: OrbitalGains = OrbitalGains(), sample_ti
     data = _read(folder, f"design-{key}", key)
     if data is not None:
         m, n = len(table.grid), table.n
-        gain, riccati, zones = data["gain"], data["riccati"], data["zones"].reshape(-1, 2)
+        gain, zones = data["gain"], data["zones"].reshape(-1, 2)
         d = gain.shape[2] if gain.ndim == 3 else -1
-        if gain.shape == (m, n, d) and riccati.shape == (m, d, d) and np.array_equal(data["theta"], table.grid):
+        riccati = _riccati_knots(data, m, d)
+        if gain.shape == (m, n, d) and riccati is not None and np.array_equal(data["theta"], table.grid):
             basis = TransverseBasis(int(data["basis_k"]), float(data["basis_sigma"]))
             log.info("closed-loop design: orbital controller read from the cache (%s)", folder / f"design-{key}.npz")
             return OrbitalDesign(table, ProfileLookup(profile, closed=table.closed), basis, gains, table.grid, gain,
@@ -175,7 +176,27 @@ def cached_design(path, profile, gains: OrbitalGains = OrbitalGains(), sample_ti
     log.info("closed-loop design: orbital controller (transverse linearization, %s Riccati)",
              "continuous" if sample_time is None else "sampled")
     design = OrbitalDesign.build(table, profile, gains, sample_time, delay)
-    _write(folder, f"design-{key}", key, theta=design.theta, gain=design.gain, riccati=design.riccati,
+    knots = design.riccati_knots
+    _write(folder, f"design-{key}", key, theta=design.theta, gain=design.gain,
+           riccati_segments=np.array([[s.start, s.stop, len(s.knots)] for s in knots], dtype=np.int64).reshape(-1, 3),
+           riccati_knots=np.concatenate([s.knots for s in knots]),
+           riccati_values=np.concatenate([s.values for s in knots]),
            zones=np.asarray(design.zones, float).reshape(-1, 2), basis_k=np.array(design.basis.k),
            basis_sigma=np.array(design.basis.sigma))
     return design
+
+
+def _riccati_knots(data: dict, m: int, d: int) -> tuple[RiccatiKnots, ...] | None:
+    """The design's Riccati knots from a cache entry (grid of ``m`` points, state size ``d``), None when absent or
+    inconsistent."""
+    try:
+        rows, knots, values = data["riccati_segments"], data["riccati_knots"], data["riccati_values"]
+    except KeyError:
+        return None
+    counts = rows[:, 2] if rows.ndim == 2 and rows.shape[1] == 3 else None
+    if counts is None or np.any(counts < 1) or knots.shape != (counts.sum(),) or values.shape != (len(knots), d, d) \
+            or np.any(rows[:, 0] < 0) or np.any(rows[:, 1] > m) or np.any(rows[:, 0] >= rows[:, 1]):
+        return None
+    ends = np.cumsum(counts)
+    return tuple(RiccatiKnots(int(a), int(b), knots[e - c:e], values[e - c:e])
+                 for (a, b, c), e in zip(rows, ends))

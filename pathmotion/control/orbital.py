@@ -18,6 +18,7 @@ across the switches (xi = E^T xi_q one way, xi_q = E xi the other).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.linalg import solve_continuous_are, solve_discrete_are
@@ -113,11 +114,23 @@ def clock_zones(times: np.ndarray, joint_speed: np.ndarray, min_speed: float,
 
 
 @dataclass(frozen=True, eq=False)
+class RiccatiKnots:
+    """P(theta) of one orbital segment: the design grid's points start..stop-1 take P linear in theta between
+    ``knots`` (K,) with values ``values`` (K, d, d) (held beyond the first and last knot)."""
+
+    start: int
+    stop: int
+    knots: np.ndarray
+    values: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
 class OrbitalDesign:
     """Everything the orbital controller precomputes: path table, profile, basis and gain schedule.
 
     theta (M,) gain grid (the table grid); gain (M, n, 2n-1) K(theta) (outside the orbital segments
-    the nearest segment's end value); riccati (M, 2n-1, 2n-1) P(theta) (zero outside the segments);
+    the nearest segment's end value); riccati_knots: P(theta) per orbital segment at its Riccati knots (the
+controller reads K only; :attr:`riccati` puts P on the grid when asked);
     zones: planned-time intervals [s] where the planned joint speed is below ``min_speed`` (rest points,
     path ends, clamped spline ends where Phi' = 0), widened by ``terminal_time_to_go``: there the transverse
     coordinates degenerate and the plan is played on the clock.
@@ -129,8 +142,18 @@ class OrbitalDesign:
     gains: OrbitalGains
     theta: np.ndarray
     gain: np.ndarray
-    riccati: np.ndarray
+    riccati_knots: tuple[RiccatiKnots, ...]
     zones: tuple[tuple[float, float], ...]
+
+    @cached_property
+    def riccati(self) -> np.ndarray:
+        """P(theta) (M, d, d) on the grid, zero outside the orbital segments: interpolated from the knots on first
+        use (an 8.5 MB stack at 4 ms with one sample of delay that the controller never reads)."""
+        d = self.gain.shape[2]
+        out = np.zeros((len(self.theta), d, d))
+        for seg in self.riccati_knots:
+            out[seg.start:seg.stop] = _interpolate(seg.knots, self.theta[seg.start:seg.stop], seg.values)
+        return out
 
     @classmethod
     @blas_single_threaded
@@ -180,16 +203,16 @@ class OrbitalDesign:
         ni = integral_size(gains, table.n)
         d = ni + 2 * m + 1 + (delay * table.n if sample_time is not None else 0)
         gain = np.zeros((len(theta), table.n, d))
-        riccati = np.zeros((len(theta), d, d))
+        riccati = []
         active = np.concatenate([np.arange(i0, i1) for i0, i1 in segments])
         basis = TransverseBasis.for_table(table, theta[active])
         for i0, i1 in segments:
             sl = slice(i0, i1)
             if sample_time is not None:
-                gain[sl], riccati[sl] = discrete_segment(table, basis, lookup, gains, theta[sl], times[sl],
-                                                         sample_time, delay)
-                continue
-            gain[sl], riccati[sl] = continuous_segment(table, basis, lookup, gains, theta[sl], times[sl])
+                gain[sl], p = discrete_segment(table, basis, lookup, gains, theta[sl], times[sl], sample_time, delay)
+            else:
+                gain[sl], p = continuous_segment(table, basis, lookup, gains, theta[sl], times[sl])
+            riccati.append(RiccatiKnots(i0, i1, *p))
         # outside the segments: hold the nearest segment-end gain (used only at zone edges)
         idx = np.where(~in_zone, np.arange(len(theta)), -1)
         fwd = np.maximum.accumulate(idx)
@@ -198,7 +221,7 @@ class OrbitalDesign:
         gain = gain[fwd]
         require_finite(gain.reshape(len(theta), -1), "orbital feedback gain K(theta)", "lower simulate.gains "
                        "(bandwidth, speed_rate, integral_rate) or check the plan's speed profile", SimulationError)
-        return cls(table, lookup, basis, gains, theta, gain, riccati, zones)
+        return cls(table, lookup, basis, gains, theta, gain, tuple(riccati), zones)
 
     def zone_at(self, planned_time: float, first: int = 0) -> int | None:
         """Index (>= first) of the clock zone containing ``planned_time`` [s], or None."""
@@ -219,9 +242,10 @@ def design_knots(times: np.ndarray, spacing: float) -> np.ndarray:
 
 
 def continuous_segment(table, basis, lookup, gains, theta, times):
-    """Gains K = R^-1 B^T P (M, n, d) and P (M, d, d) of the continuous-time design on one orbital segment at
-    its grid points ``theta`` (M,) with planned ``times`` (M,) [s]: the Riccati equation is integrated on knots
-    ``defaults.RICCATI_KNOT_TIME`` apart (:func:`design_knots`), K and P linear in theta in between."""
+    """Gains K = R^-1 B^T P (M, n, d) of the continuous-time design on one orbital segment at its grid points
+    ``theta`` (M,) with planned ``times`` (M,) [s], and (knots (K,), P (K, d, d)): the Riccati equation is
+    integrated on knots ``defaults.RICCATI_KNOT_TIME`` apart (:func:`design_knots`), K and P linear in theta in
+    between."""
     ni = integral_size(gains, table.n)
     knots = design_knots(times, defaults.RICCATI_KNOT_TIME)
     th = theta[knots]
@@ -234,7 +258,7 @@ def continuous_segment(table, basis, lookup, gains, theta, times):
                         d, _end_states(gains, table.n, d))
     p = solve_riccati(times[knots], a, b, q, r, p_end, periodic=table.closed)
     k = np.linalg.solve(r, np.transpose(b, (0, 2, 1))) @ p  # R^-1 B^T P
-    return _interpolate(th, theta, k), _interpolate(th, theta, p)
+    return _interpolate(th, theta, k), (th, p)
 
 
 def _interpolate(knots: np.ndarray, theta: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -297,9 +321,9 @@ def sampled_system(table: PathTable, basis: TransverseBasis, lookup: ProfileLook
 
 
 def discrete_segment(table, basis, lookup, gains, theta, times, sample_time, delay):
-    """Gains (M, n, d) and Riccati matrices (M, d, d) of the sampled design on one orbital segment, at its grid
-    points ``theta`` (M,) with planned ``times`` (M,) [s], linear in theta between the sample starts (where the
-    controller applies them)."""
+    """Gains (M, n, d) of the sampled design on one orbital segment at its grid points ``theta`` (M,) with planned
+    ``times`` (M,) [s], linear in theta between the sample starts (where the controller applies them), and
+    (sample starts (K,), Riccati matrices (K, d, d) there)."""
     periodic = table.closed
     t = sample_grid(times, sample_time, periodic)
     th, phi, gamma, q, r, s = sampled_system(table, basis, lookup, gains, t, delay)
@@ -312,8 +336,8 @@ def discrete_segment(table, basis, lookup, gains, theta, times, sample_time, del
                             dim, _end_states(gains, table.n, dim))
     p, k = solve_discrete_riccati(phi, gamma, q, r, p_end, periodic=periodic, cross=s)
     if len(th) == 1:
-        return np.repeat(k, len(theta), axis=0), np.repeat(p[:1], len(theta), axis=0)
-    return _interpolate(th, theta, k), _interpolate(th, theta, p[:-1])
+        return np.repeat(k, len(theta), axis=0), (th, p[:1])
+    return _interpolate(th, theta, k), (th, p[:-1])
 
 
 def _end_states(gains: OrbitalGains, n: int, dim: int) -> list[np.ndarray]:
