@@ -40,7 +40,8 @@ from .errors import PathError, UnreachableError
 from .geometry import describe_point
 from .joint_path import JointPath
 from .robot import Robot, frame_acceleration_bias, jacobian
-from .robot import redundancy
+from .robot import kinematics, redundancy
+from .robot.serial_batch import chain_of, jerk_bias_batch
 from .robot.ik import IK_RANGE_SLACK, has_closed_form, ik_batch, ik_dls, ik_nearest
 
 log = logging.getLogger(__name__)
@@ -162,12 +163,17 @@ def tcp_jerk_bias(robot: Robot, q, qd, qdd) -> np.ndarray:
         d3p/dt3 = R (w x (dv + w x v) + ddv + dw x v + w x dv),    d2w/dt2 = R (w x dw + ddw)
 
     with dA/dt = dA/dq qd + dA/dv qdd (+ dA/da * 0) from ``getFrameAccelerationDerivatives``
-    (analytic partial derivatives, no finite differences).
+    (analytic partial derivatives, no finite differences). Batches of a serial revolute chain (at least
+    ``SERIAL_BATCH_MIN`` points) use the compiled recursion of :mod:`.robot.serial_batch` instead (equal to
+    round-off); other models keep Pinocchio.
     """
     model, data = robot.model, robot.data
     fid = robot.frame_id(None)
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
     n = len(q)
+    chain = chain_of(model, fid) if n >= kinematics.SERIAL_BATCH_MIN else None
+    if chain is not None:
+        return jerk_bias_batch(chain, q, qd, qdd)
     vel, acc, dacc, rot = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 3, 3))
     for k in range(n):  # Pinocchio per point; the vector algebra below for all points at once
         pin.computeForwardKinematicsDerivatives(model, data, q[k], qd[k], qdd[k])

@@ -66,3 +66,37 @@ def test_other_models_are_left_to_pinocchio():
     joint = model.addJoint(0, pin.JointModelPX(), pin.SE3.Identity(), "slide")
     frame = model.addFrame(pin.Frame("tip", joint, 0, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
     assert chain_of(model, frame) is None  # prismatic
+
+
+@pytest.mark.parametrize("name, make", list(_arms()), ids=[a[0] for a in _arms()])
+def test_jerk_bias_equals_pinocchio_point_by_point(name, make, monkeypatch):
+    """The compiled third-order recursion against tcp_jerk_bias's Pinocchio derivatives, point by point."""
+    from pathmotion.constraint import tcp_jerk_bias
+
+    robot = make()
+    rng = np.random.default_rng(3)
+    q, qd, qdd = rng.uniform(-3.0, 3.0, (200, robot.n)), rng.uniform(-2.0, 2.0, (200, robot.n)), \
+        rng.uniform(-5.0, 5.0, (200, robot.n))
+    batch = tcp_jerk_bias(robot, q, qd, qdd)
+    with monkeypatch.context() as m:
+        m.setattr(kinematics, "SERIAL_BATCH_MIN", 10**9)
+        ref = tcp_jerk_bias(robot, q, qd, qdd)
+    assert np.max(np.abs(batch - ref)) <= 1e-12 * max(1.0, np.max(np.abs(ref)))
+
+
+def test_jerk_bias_is_the_rate_of_the_acceleration():
+    """Along q(t) = q + qd t + qdd t^2 / 2 the classical acceleration is J qdd + Jdot qd; its central difference
+    at t = 0 is the batched jerk bias (independent of Pinocchio's derivatives)."""
+    from pathmotion.constraint import tcp_jerk_bias
+
+    robot = load_robot("irb140")
+    rng = np.random.default_rng(4)
+    q, qd, qdd = rng.uniform(-2.0, 2.0, (64, 6)), rng.uniform(-1.0, 1.0, (64, 6)), rng.uniform(-2.0, 2.0, (64, 6))
+
+    def acc(t):
+        qt, qdt = q + qd * t + 0.5 * qdd * t * t, qd + qdd * t
+        return np.einsum("kij,kj->ki", jacobian(robot, qt), qdd) + frame_acceleration_bias(robot, qt, qdt)
+
+    h = 1e-4
+    expected = (acc(h) - acc(-h)) / (2 * h)
+    assert np.max(np.abs(tcp_jerk_bias(robot, q, qd, qdd) - expected)) <= 1e-6

@@ -10,8 +10,15 @@ joints, each the child of the one before, the same quantities follow from N-poin
     w_i = w_{i-1} + z_i qd_i,  dw_i = dw_{i-1} + w_{i-1} x z_i qd_i       (qdd = 0)
     a_i = a_{i-1} + dw_{i-1} x r_i + w_{i-1} x (w_{i-1} x r_i),  r_i = p_i - p_{i-1}
 
-so Jdot qd (the classical acceleration of the frame at qdd = 0) is (a at p, dw_n). Equal to Pinocchio's
-to round-off (tests/test_robot_kinematics.py). :func:`chain_of` returns None for any other model, and
+so Jdot qd (the classical acceleration of the frame at qdd = 0) is (a at p, dw_n). One order higher, with qdd
+and zero joint jerk (z_i turns with w_{i-1}, r_i with w_{i-1}):
+
+    dw_i  = dw_{i-1} + (w_{i-1} x z_i) qd_i + z_i qdd_i
+    ddw_i = ddw_{i-1} + (dw_{i-1} x z_i + w_{i-1} x (w_{i-1} x z_i)) qd_i + 2 (w_{i-1} x z_i) qdd_i
+    j_i   = j_{i-1} + ddw x r + 2 dw x (w x r) + w x (dw x r + w x (w x r))   (body i-1's w, dw, ddw)
+
+so the classical jerk at zero joint jerk, 2 Jdot qdd + Jddot qd, is (j at p, ddw_n). Equal to Pinocchio's
+to round-off (tests/test_robot_serial_batch.py). :func:`chain_of` returns None for any other model, and
 the callers then use Pinocchio.
 """
 
@@ -151,6 +158,64 @@ def _bias(origins, axes, tip, qd):
     return out
 
 
+@numba.njit(cache=True)
+def _cross(a, b, out):
+    """out = a x b for 3-vectors (out distinct from a and b)."""
+    out[0], out[1], out[2] = a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+
+
+@numba.njit(cache=True)
+def _jerk_step(jerk, ddw, dw, w, r, u, t, s):
+    """jerk += ddw x r + 2 dw x (w x r) + w x (dw x r + w x (w x r)): the jerk of a point r further on the
+    same body (in place; u, t, s scratch 3-vectors)."""
+    _cross(w, r, u)  # w x r
+    _cross(dw, r, t)  # dw x r
+    _cross(w, u, s)  # w x (w x r)
+    for j in range(3):
+        t[j] += s[j]
+    _cross(w, t, s)
+    for j in range(3):
+        jerk[j] += s[j]
+    _cross(dw, u, s)
+    for j in range(3):
+        jerk[j] += 2.0 * s[j]
+    _cross(ddw, r, s)
+    for j in range(3):
+        jerk[j] += s[j]
+
+
+@numba.njit(cache=True)
+def _jerk_bias(origins, axes, tip, qd, qdd):
+    """2 Jdot qdd + Jddot qd (N, 6) from :func:`_frames`' output, qd and qdd (N, n) (module docstring)."""
+    count, n = origins.shape[0], origins.shape[1]
+    out = np.empty((count, 6))
+    w, dw, ddw, jerk, r, prev = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    z, wz, s, u, t = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    for k in range(count):
+        w[:], dw[:], ddw[:], jerk[:], prev[:] = 0.0, 0.0, 0.0, 0.0, 0.0
+        for i in range(n):
+            for j in range(3):
+                r[j] = origins[k, i, j] - prev[j]
+                z[j] = axes[k, i, j]
+            _jerk_step(jerk, ddw, dw, w, r, u, t, s)
+            v, a = qd[k, i], qdd[k, i]
+            _cross(w, z, wz)
+            _cross(dw, z, t)
+            _cross(w, wz, s)
+            for j in range(3):
+                ddw[j] += (t[j] + s[j]) * v + 2.0 * wz[j] * a
+            for j in range(3):
+                dw[j] += wz[j] * v + z[j] * a
+                w[j] += z[j] * v
+                prev[j] = origins[k, i, j]
+        for j in range(3):
+            r[j] = tip[k, j] - prev[j]
+        _jerk_step(jerk, ddw, dw, w, r, u, t, s)
+        for j in range(3):
+            out[k, j], out[k, 3 + j] = jerk[j], ddw[j]
+    return out
+
+
 def jacobian_batch(chain: Chain, q: np.ndarray) -> np.ndarray:
     """LOCAL_WORLD_ALIGNED Jacobians (N, 6, n) of the chain's frame at q (N, n)."""
     return _jacobian(*_frames(chain.rot, chain.trans, chain.axis, chain.tool_trans, np.ascontiguousarray(q, float)))
@@ -161,3 +226,10 @@ def acceleration_bias_batch(chain: Chain, q: np.ndarray, qd: np.ndarray) -> np.n
     world axes, at q, qd (N, n)."""
     frames = _frames(chain.rot, chain.trans, chain.axis, chain.tool_trans, np.ascontiguousarray(q, float))
     return _bias(*frames, np.ascontiguousarray(qd, float))
+
+
+def jerk_bias_batch(chain: Chain, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    """2 Jdot(q, qd) qdd + Jddot(q, qd, qdd) qd (N, 6) of the chain's frame: its classical jerk at zero joint
+    jerk (d3p/dt3 of the origin, then d2w/dt2), world axes, at q, qd, qdd (N, n)."""
+    frames = _frames(chain.rot, chain.trans, chain.axis, chain.tool_trans, np.ascontiguousarray(q, float))
+    return _jerk_bias(*frames, np.ascontiguousarray(qd, float), np.ascontiguousarray(qdd, float))
