@@ -555,24 +555,13 @@ def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> 
         exports.write_table_csv(out / "original_path.csv", {a: points[:, k] for k, a in enumerate("xyz")})
 
 
-#: The attribute of each limit object (planning/limits/) that holds the value it enforces, by limit name.
-ENFORCED_VALUE = {"velocity": "qd_max", "acceleration": "qdd_max", "torque": "tau_max", "tcp_speed": "v_max",
-                  "jerk": "values", "torque_rate": "values"}
-
-
 def enforced_limits(robot: Robot, settings: PlanSettings) -> dict:
-    """limits.json's "enforced": {limit name: what the plan enforced} for every active limit, SI units:
+    """limits.json's "enforced": {limit name: ``Limit.enforced()``} for every active limit, SI units:
     per-joint lists (velocity, acceleration, torque with its reserve and scale, jerk, torque rate), one
     number (TCP speed), {"knee", "at_max_speed"} per joint (the torque-speed envelope)."""
     from .planning import effective_limits
 
-    out: dict[str, Any] = {}
-    for lim in effective_limits(robot, settings):
-        if lim.name == "torque_speed":
-            out[lim.name] = {"knee": lim.knee.tolist(), "at_max_speed": lim.at_max_speed.tolist()}
-        elif lim.name in ENFORCED_VALUE:
-            out[lim.name] = np.asarray(getattr(lim, ENFORCED_VALUE[lim.name]), float).tolist()
-    return out
+    return {lim.name: lim.enforced() for lim in effective_limits(robot, settings)}
 
 
 def phase_plane_columns(result: PlanResult, setup: Setup | None = None,

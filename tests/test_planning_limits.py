@@ -9,17 +9,18 @@ check is the analytic trapezoid in theta: with |theta_dot| <= v and |theta_ddot|
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from pathmotion import defaults
+from pathmotion import api, defaults
 from pathmotion.errors import ScenarioError
 from pathmotion.io.scenario import LimitsSpec, parse_scenario
 from pathmotion.modes import BoundaryMode, Connections
-from pathmotion.planning import REGISTRY, PlanSettings, plan
+from pathmotion.planning import REGISTRY, PlanSettings, effective_limits, plan
 from pathmotion.planning.limits import Limit, LimitChoice, Rows, limit_choices
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -56,6 +57,9 @@ class PathSpeedLimit(Limit):
     def ratios(self, samples, robot):
         return (np.abs(samples.theta_dot) / self.v_max)[:, None]
 
+    def enforced(self):
+        return float(self.v_max)
+
     def column_name(self, j, joint_names):
         return "path"
 
@@ -72,6 +76,9 @@ class PathAccelerationLimit(Limit):
 
     def __init__(self, a_max):
         self.a_max = a_max
+
+    def enforced(self):
+        return float(self.a_max)
 
     @classmethod
     def default_choice(cls):
@@ -157,3 +164,30 @@ def test_modes_are_enums_validated_once():
     for bad in (dict(connections="smooth"), dict(start="fast"), dict(end="stop")):
         with pytest.raises(ScenarioError, match="must be one of"):
             PlanSettings(**bad)
+
+
+def test_every_registered_limit_says_what_it_enforces():
+    """Each class implements ``enforced`` (the base refuses), so limits.json cannot silently omit one."""
+    missing = [cls.__name__ for cls in REGISTRY if cls.enforced is Limit.enforced]
+    assert not missing, f"limits without enforced(): {missing}"
+    with pytest.raises(NotImplementedError, match="enforced"):
+        Limit.enforced(PathAccelerationLimit(1.0))
+
+
+def test_limits_json_lists_every_active_limit_with_its_values(irb140):
+    """All seven limits on: "enforced" names each active limit, JSON-ready, and its values follow from the
+    robot's limits and the settings (scales, reserve, user values)."""
+    settings = PlanSettings(velocity_scale=0.5, torque_scale=0.9, torque_reserve=0.2, tcp_speed_limit=1.2,
+                            torque_speed=((0.4,), (0.6,)), jerk=True, torque_rate=True, jerk_scale=0.5)
+    active = [lim.name for lim in effective_limits(irb140, settings)]
+    assert active == [cls.name for cls in REGISTRY]
+    enforced = json.loads(json.dumps(api.enforced_limits(irb140, settings)))
+    assert list(enforced) == active
+    lim = irb140.limits
+    assert enforced["velocity"] == pytest.approx((0.5 * lim.velocity).tolist())
+    assert enforced["acceleration"] == pytest.approx(lim.acceleration.tolist())
+    assert enforced["torque"] == pytest.approx((0.9 * 0.8 * lim.torque).tolist())
+    assert enforced["tcp_speed"] == 1.2
+    assert enforced["torque_speed"] == {"knee": [0.4] * 6, "at_max_speed": [0.6] * 6}
+    assert enforced["jerk"] == pytest.approx((0.5 * lim.jerk).tolist())
+    assert enforced["torque_rate"] == pytest.approx(lim.torque_rate.tolist())

@@ -34,5 +34,9 @@ class AccelerationLimit(Limit):
         # b = Phi'': its slope jumps with Phi''' at a knot
         return RowForm((r.dq, l.dq), (r.ddq, l.ddq), None, self.qdd_max, knot_jumps=(None, ctx.knots[1], None))
 
+    def enforced(self) -> list[float]:
+        """qdd_max [rad/s^2] per joint."""
+        return self.qdd_max.tolist()
+
     def ratios(self, samples, robot):
         return np.abs(samples.qdd) / self.qdd_max

@@ -12,7 +12,7 @@ the user gave) and produces, at K path points:
   limit whose bounds depend on the speed (a torque-speed envelope tau_max(qd)) does the same: its
   ``lo``/``hi`` are evaluated at ``x_ref`` so that they are inner (safe) bounds.
 
-Every limit also gives its ratio |value| / limit on a time resample (``ratios``, (N, m)), the
+Every limit also gives what it enforces (``enforced``, for limits.json), its ratio |value| / limit on a time resample (``ratios``, (N, m)), the
 summary key of its largest ratio, the keys that set it in a scenario's ``[limits]`` table and in
 :class:`~pathmotion.planning.PlanSettings`, and accepts point-wise scale factors (K, m) (<= 1) that
 the verify-and-tighten loop lowers where the continuous motion exceeds it between grid points.
@@ -124,7 +124,8 @@ class PathPoints:
 
 class Limit:
     """Base class of a limit (see the module docstring). Subclasses set the class attributes and
-    implement :meth:`from_robot`, :meth:`ratios` and one of :meth:`bound` (order 1) or :meth:`rows`."""
+    implement :meth:`from_robot`, :meth:`ratios`, :meth:`enforced` and one of :meth:`bound` (order 1) or
+    :meth:`rows`."""
 
     #: Name: key in ratios and scale dicts, and the kind in messages ("torque").
     name: ClassVar[str]
@@ -190,6 +191,12 @@ class Limit:
     def rows3(self, points: PathPoints, scale: np.ndarray) -> "Rows3 | None":
         """Order 3: rows |sqrt(x) (a3 u' + a u + b x + c)| <= lim, u' = d theta_ddot / d theta."""
         return None
+
+    def enforced(self) -> "list[float] | float | dict":
+        """What this limit enforces, JSON-ready in SI units (limits.json's "enforced"): a per-joint list,
+        one number, or a dict of them. Every limit implements it."""
+        raise NotImplementedError(f"limit {self.name!r} ({type(self).__name__}) does not implement enforced(); "
+                                  "give it one (planning/limits/base.py) so that limits.json lists it")
 
     def summary_values(self) -> dict:
         """Extra summary.json entries of this limit's settings (e.g. {"torque_reserve": 0.2})."""

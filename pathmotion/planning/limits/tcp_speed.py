@@ -47,6 +47,10 @@ class TcpSpeedLimit(Limit):
         g = tuple((tcp_gain(pts) / self.v_max)[:, None] ** 2 for pts in (ctx.right, ctx.left))
         return RowForm(None, g, None, np.ones(1), squared=True)
 
+    def enforced(self) -> float:
+        """v_max [m/s]."""
+        return self.v_max
+
     def ratios(self, samples, robot):
         return (_linear_speed(robot, samples.q, samples.qd) / self.v_max)[:, None]
 

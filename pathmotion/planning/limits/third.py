@@ -28,6 +28,10 @@ class PerJointThirdOrder(Limit):
     def __init__(self, values: np.ndarray):
         self.values = np.asarray(values, float)  # (n,) in the limit's unit
 
+    def enforced(self) -> list[float]:
+        """The per-joint values in the limit's unit (``unit``), scale applied."""
+        return self.values.tolist()
+
     @classmethod
     def from_robot(cls, robot, choice):
         value = cls.values_for(robot, choice)

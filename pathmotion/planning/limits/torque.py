@@ -95,6 +95,10 @@ class TorqueLimit(Limit):
         reserve = 0.0 if choice.value is None else float(choice.value)
         return cls(robot.limits.torque * choice.scale * (1.0 - reserve), reserve)
 
+    def enforced(self) -> list[float]:
+        """tau_max [N m] per joint, scale and reserve applied."""
+        return self.tau_max.tolist()
+
     def summary_values(self) -> dict:
         return {"torque_reserve": self.reserve}
 

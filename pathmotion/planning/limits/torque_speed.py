@@ -123,6 +123,10 @@ class TorqueSpeedLimit(Limit):
                     np.concatenate([-big, -open_side, -t0], axis=1),
                     np.concatenate([big, t0, open_side], axis=1))
 
+    def enforced(self) -> dict:
+        """{"knee", "at_max_speed"}: the envelope's fractions [-] per joint."""
+        return {"knee": self.knee.tolist(), "at_max_speed": self.at_max_speed.tolist()}
+
     def ratios(self, samples, robot):
         g = self.envelope(samples.qd)
         with np.errstate(divide="ignore"):

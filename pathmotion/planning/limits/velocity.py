@@ -29,5 +29,9 @@ class VelocityLimit(Limit):
         g = tuple((pts.dq / self.qd_max) ** 2 for pts in (ctx.right, ctx.left))
         return RowForm(None, g, None, np.ones(len(self.qd_max)), squared=True)
 
+    def enforced(self) -> list[float]:
+        """qd_max [rad/s] per joint."""
+        return self.qd_max.tolist()
+
     def ratios(self, samples, robot):
         return np.abs(samples.qd) / self.qd_max
