@@ -11,6 +11,10 @@ SAMPLE_TIME = 0.004
 VERIFY_SAMPLE_TIME = 1e-4
 #: Allowed relative excess over a limit on the verification resample [-].
 LIMIT_TOLERANCE = 1e-3
+#: Verify-and-tighten (planning/planner.py): an interval whose limit ratio exceeds 1 + this x the limit
+#: tolerance is tightened; the certification (planning/certify.py) refines its bounds above the same
+#: level (below it no refinement pays) [-].
+TIGHTEN_TRIGGER = 0.5
 #: Most samples one resample of a trajectory may hold (output files, verification): beyond it a
 #: motion is far longer than any real one at that sample time (usually a limit set far too small) [-].
 MAX_TRAJECTORY_SAMPLES = 2_000_000

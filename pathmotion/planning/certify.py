@@ -67,9 +67,9 @@ from .trajectory import Samples
 CERTIFY_SUBDIVISIONS = 4
 #: Sub-intervals of the sampled form where the row form's bound exceeds REFINE_ABOVE (few intervals) [-].
 REFINE_SUBDIVISIONS = 16
-#: Row-form bounds above this ratio are refined by the sampled form: half the default limit tolerance,
-#: where the verify-and-tighten loop would start to tighten (below it no refinement pays) [-].
-REFINE_ABOVE = 1.0 + 0.5 * defaults.LIMIT_TOLERANCE
+#: Row-form bounds above this ratio are refined by the sampled form: where the verify-and-tighten loop
+#: starts to tighten at the default limit tolerance (below it no refinement pays) [-].
+REFINE_ABOVE = 1.0 + defaults.TIGHTEN_TRIGGER * defaults.LIMIT_TOLERANCE
 #: Sub-intervals per grid interval of a smooth (third-order) profile's sampled form, uniform in xi [-].
 SMOOTH_SUBDIVISIONS = 4
 #: Factor on the estimated second derivatives in the remainder terms [-].

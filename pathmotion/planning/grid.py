@@ -1,8 +1,8 @@
 """Planner grids: the graded initial grid and its adaptive refinement (issue 14).
 
 The discretized optimum converges to the continuous one at first order in the grid step (measured:
-halving every interval divides the duration's change by 1.95-2.05 on random splines, with and
-without torque limits; tests/test_planning_grid.py measures it again). The error is concentrated
+halving every interval divides the duration's change by 1.95-2.05, i.e. order 0.96-1.04, on random
+splines, with and without torque limits; tests/test_planning_grid.py measures it again). The error is concentrated
 where the profile switches between limit curves, at kinks of the limit curves and at the ends.
 
 Refinement (Richardson, interval by interval, on nested grids): solve on G0 and on G1 = G0 with every
@@ -38,7 +38,8 @@ GRID_MIN_GAP = 1e-9
 ORDER = 1
 #: The summed per-interval estimate times this is reported: on the 36 cases of
 #: benchmarks/bench_planner_vs_toppra.py the plain sum was 0.72-1.05 of the true error (the measured
-#: order is 1.95-2.05, not 2, and intervals left unsplit keep an older estimate); the factor covers that [-].
+#: halving ratio is 1.95-2.05, i.e. order 0.96-1.04, not exactly ORDER, and intervals left unsplit keep an older
+#: estimate); the factor covers that [-].
 ERROR_SAFETY = 1.5
 #: The next grid aims at this fraction of the tolerance (its predicted estimate; the estimate measured on it
 #: came out lower, 0.5-0.95 of the tolerance on the benchmark cases, so one redistribution usually suffices) [-].
