@@ -40,9 +40,9 @@ log = logging.getLogger(__name__)
 
 #: A closed path's closure is a kink when Phi' differs across it by more than this, relative [-].
 CLOSURE_KINK_TOLERANCE = 1e-6
-#: Tightening: an interval is tightened when its ratio exceeds 1 + this x tolerance, and its limits
-#: are scaled so that the ratio becomes 1 - TIGHTEN_TARGET x tolerance [-].
-TIGHTEN_TRIGGER = 0.5
+#: Tightening: an interval is tightened when its ratio exceeds 1 + defaults.TIGHTEN_TRIGGER x tolerance
+#: (shared with the certification's refinement), and its limits are scaled so that the ratio becomes
+#: 1 - TIGHTEN_TARGET x tolerance [-].
 TIGHTEN_TARGET = 0.25
 
 
@@ -228,10 +228,11 @@ class _Reusing(PathPoints):
         self._shared = donor.theta[pos] == theta
         self._donor, self._donor_index = donor, pos[self._shared]
 
-    def cached(self, key, compute):
+    def cached(self, key, compute, third=False):
         if key not in self._cache and key in self._donor._cache:
             new = np.nonzero(~self._shared)[0]
-            fresh = compute(self.robot, self.q[new], self.dq[new], self.ddq[new]) if new.size else None
+            data = (self.q, self.dq, self.ddq) + ((self.dddq,) if third else ())
+            fresh = compute(self.robot, *(d[new] for d in data)) if new.size else None
             value = []
             for j, old in enumerate(self._donor._cache[key]):
                 v = np.empty((len(self.theta),) + old.shape[1:], old.dtype)
@@ -240,7 +241,7 @@ class _Reusing(PathPoints):
                     v[new] = fresh[j]
                 value.append(v)
             self._cache[key] = tuple(value)
-        return super().cached(key, compute)
+        return super().cached(key, compute, third)
 
 
 def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, ...],
@@ -401,7 +402,7 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
             over = np.zeros(len(theta) - 1, bool)
             for b in bounds.values():
                 if b.size:
-                    over |= (b > 1.0 + TIGHTEN_TRIGGER * tol).any(axis=1)
+                    over |= (b > 1.0 + defaults.TIGHTEN_TRIGGER * tol).any(axis=1)
             log.info("refining the %d grid intervals where a limit is exceeded, then solving again", int(over.sum()))
             s = _solve_on(path, robot, settings, limits, s.grid.halved(over), donor=s.samp.right)[2]
             rounds += 1
@@ -529,12 +530,12 @@ def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:
 
 
 def _tightened(scale: dict, bounds: dict, tol: float) -> dict:
-    """Scale each limit down at both ends of every interval whose bound exceeds 1 + TIGHTEN_TRIGGER tol:
+    """Scale each limit down at both ends of every interval whose bound exceeds 1 + defaults.TIGHTEN_TRIGGER tol:
     scale {name: (K, m)}, bounds {name: (K - 1, m)} per grid interval."""
     new = {}
     for name, cur in scale.items():
         worst = bounds[name]
-        factor = np.where(worst > 1.0 + TIGHTEN_TRIGGER * tol,
+        factor = np.where(worst > 1.0 + defaults.TIGHTEN_TRIGGER * tol,
                           (1.0 - TIGHTEN_TARGET * tol) / np.maximum(worst, 1.0), 1.0)
         point = np.ones_like(cur)
         point[:-1] = np.minimum(point[:-1], factor)

@@ -107,16 +107,18 @@ class PathPoints:
             self._cache["dddq"] = np.atleast_2d(value)
         return self._cache["dddq"]
 
-    def cached(self, key: str, compute: Callable[[Robot, np.ndarray, np.ndarray, np.ndarray], tuple]) -> tuple:
-        """``compute(robot, q, dq, ddq)`` -> tuple of arrays with leading axis K, computed once per key."""
+    def cached(self, key: str, compute: Callable[..., tuple], third: bool = False) -> tuple:
+        """``compute(robot, q, dq, ddq)`` (with ``third``: ``compute(robot, q, dq, ddq, dddq)``) -> tuple of
+        arrays with leading axis K, computed once per key; ``compute`` must act point by point."""
         if key not in self._cache:
+            data = (self.q, self.dq, self.ddq) + ((self.dddq,) if third else ())
             if self._base is None:
-                value = tuple(compute(self.robot, self.q, self.dq, self.ddq))
+                value = tuple(compute(self.robot, *data))
             else:
-                value = tuple(v.copy() for v in self._base.cached(key, compute))
+                value = tuple(v.copy() for v in self._base.cached(key, compute, third))
                 i = self._changed
                 if i is not None and len(i):
-                    for v, w in zip(value, compute(self.robot, self.q[i], self.dq[i], self.ddq[i])):
+                    for v, w in zip(value, compute(self.robot, *(d[i] for d in data))):
                         v[i] = w
             self._cache[key] = value
         return self._cache[key]

@@ -15,6 +15,7 @@ class JerkLimit(PerJointThirdOrder):
     name = "jerk"
     robot_key = "jerk"
     unit = "rad/s^3"
+
     def rows3(self, points, scale):
         return Rows3(points.dq, 3.0 * points.ddq, points.dddq, np.zeros_like(points.dq), self.values * scale)
 

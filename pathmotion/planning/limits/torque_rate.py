@@ -13,11 +13,7 @@ from .torque import reduced
 
 def _derivatives(points):
     """(alpha', beta', gamma') (K, n) at ``points``, computed once per side."""
-    cache = points._cache
-    if "reduced_derivatives" not in cache:
-        cache["reduced_derivatives"] = reduced_derivatives(points.robot, points.q, points.dq, points.ddq,
-                                                           points.dddq)
-    return cache["reduced_derivatives"]
+    return points.cached("reduced_derivatives", reduced_derivatives, third=True)
 
 
 class TorqueRateLimit(PerJointThirdOrder):
@@ -27,6 +23,7 @@ class TorqueRateLimit(PerJointThirdOrder):
     robot_key = "torque_rate"
     unit = "N m/s"
     needs_torque = True
+
     def rows3(self, points, scale):
         alpha, beta, _ = reduced(points)
         alpha_p, beta_p, gamma_p = _derivatives(points)
