@@ -15,11 +15,12 @@ import pytest
 from pathmotion import api
 from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable
 from pathmotion.control.orbital import integral_size, with_integral
-from pathmotion.control.profile_lookup import ProfileLookup
-from pathmotion.control.riccati import discretize, solve_discrete_riccati, with_delay
+from pathmotion.control.riccati import solve_discrete_riccati, with_delay
 from pathmotion.control.transverse import transverse_linearization
 from pathmotion.planning import plan
 from pathmotion.scenarios import scenario_path
+
+from control_reference import discretize, sampled_cost_van_loan
 
 #: RK4 steps per hold interval of the independent sampled model.
 SUBSTEPS = 4
@@ -234,7 +235,7 @@ def test_the_series_sampled_cost_equals_van_loans_exponential():
     sampled_cost_van_loan (scipy.linalg.expm of Van Loan's doubled block, one sample at a time) on a stack whose
     |C h| runs from 1e-5 to 40 (no doubling to seven), with a zero system, a nilpotent chain and hold lengths
     that differ per sample: Phi, Gamma and W within 1e-12 of each sample's largest entry (measured 6e-14)."""
-    from pathmotion.control.riccati import sampled_cost, sampled_cost_van_loan
+    from pathmotion.control.riccati import sampled_cost
 
     rng = np.random.default_rng(11)
     scales = np.array([0.0, 1e-3, 0.1, 1.0, 10.0, 50.0, 300.0, 1000.0, 1.0])
@@ -272,7 +273,6 @@ def test_the_design_equals_the_van_loan_reference_design(monkeypatch, delay):
     sampled cost against the same design built with the reference sampled_cost_van_loan: within 1e-9 of each
     gain column's largest value (the two differ by round-off: measured 4e-13 on K, 6e-14 on P)."""
     from pathmotion.control import orbital
-    from pathmotion.control.riccati import sampled_cost_van_loan
     from pathmotion.joint_path import SplineJointPath
 
     from tests.planning_paths import CONTROL_WAYPOINTS, trapezoid

@@ -13,9 +13,11 @@ from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable
 from pathmotion.control.orbital import integral_size, lqr_weights, with_integral
 from pathmotion.control.path_table import _HERMITE5
 from pathmotion.control.profile_lookup import ProfileLookup
-from pathmotion.control.riccati import solve_riccati, solve_riccati_adaptive
+from pathmotion.control.riccati import solve_riccati
 from pathmotion.control.transverse import TransverseBasis, transverse_linearization
 from pathmotion.joint_path import JointPath, SplineJointPath
+
+from control_reference import solve_riccati_adaptive
 
 from tests.planning_paths import CONTROL_WAYPOINTS as WAYPOINTS, trapezoid
 

@@ -13,26 +13,12 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.linalg import expm
 
 from .. import defaults
 from ..errors import SimulationError
 
-#: Absolute tolerance of the integration relative to the relative one times the scale of Q [-].
-ABSOLUTE_FRACTION = 1e-3
 #: Floor of the norm a change of P is measured against (P = 0) [-].
 TINY = 1e-300
-
-
-def _interpolator(times: np.ndarray, values: np.ndarray):
-    def at(t: float) -> np.ndarray:
-        i = min(max(int(np.searchsorted(times, t, side="right")) - 1, 0), len(times) - 2)
-        w = (t - times[i]) / (times[i + 1] - times[i])
-        w = min(max(w, 0.0), 1.0)
-        return values[i] + w * (values[i + 1] - values[i])
-
-    return at
 
 
 @numba.njit(cache=True)
@@ -106,26 +92,6 @@ def solve_riccati(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray
     )
 
 
-def solve_riccati_adaptive(times: np.ndarray, a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray,
-                           p_end: np.ndarray) -> np.ndarray:
-    """The open-horizon P at ``times`` (M, d, d) by scipy's adaptive RK45 at ``defaults.RICCATI_TOLERANCE``: the
-    independent reference of :func:`solve_riccati` (slow: a Python right-hand side)."""
-    d = a.shape[1]
-    s = b @ np.linalg.inv(r)[None] @ np.transpose(b, (0, 2, 1))
-    a_at, s_at, q_at = _interpolator(times, a), _interpolator(times, s), _interpolator(times, q)
-
-    def rhs(t, p_flat):
-        p = p_flat.reshape(d, d)
-        pa = p @ a_at(t)
-        return (-(pa + pa.T - p @ s_at(t) @ p + q_at(t))).ravel()
-
-    scale = max(float(np.max(np.abs(q))), 1.0)
-    sol = solve_ivp(rhs, (times[-1], times[0]), p_end.ravel(), t_eval=times[::-1], method="RK45",
-                    rtol=defaults.RICCATI_TOLERANCE, atol=defaults.RICCATI_TOLERANCE * scale * ABSOLUTE_FRACTION)
-    p = sol.y.T[::-1].reshape(len(times), d, d)
-    return 0.5 * (p + np.transpose(p, (0, 2, 1)))
-
-
 #: Sampled cost: each hold is cut into 2^s equal parts, s the least with theta = (|C h|_1 + |C h|_inf) / 2^s at most
 #: this [-] (per sample); the Taylor series on one part are then summed to SERIES_TOLERANCE and doubled s times.
 SERIES_NORM = 0.5
@@ -148,16 +114,6 @@ def series_terms(theta: float) -> int:
                           "terms (the scaling should keep it below SERIES_NORM)")
 
 
-def discretize(a: np.ndarray, b: np.ndarray, sample_time: float) -> tuple[np.ndarray, np.ndarray]:
-    """Zero-order-hold discretization of dx/dt = A x + B u over one sample: (Phi (N, d, d), Gamma (N, d, m))
-    with Phi = e^(A Ts), Gamma = int_0^Ts e^(A s) ds B (Van Loan: the exponential of [[A, B], [0, 0]] Ts)."""
-    big, d, m = b.shape
-    block = np.zeros((big, d + m, d + m))
-    block[:, :d, :d], block[:, :d, d:] = a, b
-    ex = expm(block * sample_time)
-    return ex[:, :d, :d], ex[:, :d, d:]
-
-
 def sampled_cost(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The ZOH discretization and the exact sampled cost of the state weight over one sample: with
     x(s) = Phi(s) x_k + Gamma(s) u held,
@@ -174,7 +130,7 @@ def sampled_cost(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time) -> tu
     the tail by the round-off (|L| <= theta = |Y|_1 + |Y|_inf), then s times W(2h) = W(h) + G^T W(h) G, G(2h) = G^2.
     s is chosen per sample. a, q (N, d, d), b (N, d, m); sample_time [s] scalar or (N,). Returns (Phi (N, d, d),
     Gamma (N, d, m), W (N, d + m, d + m)); the command's own weight (R Ts for a constant R) is not in W.
-    :func:`sampled_cost_van_loan` is the reference (tests/test_control_discrete.py)."""
+    tests/control_reference.py's ``sampled_cost_van_loan`` is the reference."""
     big, d, m = b.shape
     k = d + m
     h = np.broadcast_to(np.asarray(sample_time, dtype=float), (big,))
@@ -233,26 +189,6 @@ def _transition_series(y: np.ndarray, d: int, terms: int) -> np.ndarray:
     g[:, :d, d:] = psi @ y[:, :d, d:]
     g[:, d + np.arange(k - d), d + np.arange(k - d)] = 1.0
     return g
-
-
-def sampled_cost_van_loan(a: np.ndarray, b: np.ndarray, q: np.ndarray, sample_time: float
-                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The reference of :func:`sampled_cost` (slow: scipy.linalg.expm per sample on Van Loan's block): Phi, Gamma
-    and W from the exponential of [[-C^T, Q_c], [0, C]] Ts (F22 = e^(C Ts), W = F22^T F12)."""
-    big, d, m = b.shape
-    k = d + m
-    h = np.broadcast_to(np.asarray(sample_time, dtype=float), (big,))
-    phi, gamma, w = np.empty((big, d, d)), np.empty((big, d, m)), np.empty((big, k, k))
-    for i in range(big):
-        c = np.zeros((k, k))
-        c[:d, :d], c[:d, d:] = a[i], b[i]
-        scale = max(float(np.max(np.abs(q[i]))), TINY)  # W is linear in Q: keep the block's norm small
-        block = np.zeros((2 * k, 2 * k))
-        block[:k, :k], block[:d, k:k + d], block[k:, k:] = -c.T, q[i] / scale, c
-        ex = expm(block * h[i])
-        f22 = ex[k:, k:]
-        phi[i], gamma[i], w[i] = f22[:d, :d], f22[:d, d:], scale * (f22.T @ ex[:k, k:])
-    return phi, gamma, 0.5 * (w + np.transpose(w, (0, 2, 1)))
 
 
 def with_delay(phi: np.ndarray, gamma: np.ndarray, delay: int) -> tuple[np.ndarray, np.ndarray]:

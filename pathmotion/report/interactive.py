@@ -16,7 +16,6 @@ from plotly.subplots import make_subplots
 
 from ..io import schema
 from ..io.exports import decimate  # noqa: F401  (the report's figures decimate with it)
-from .. import defaults
 from .tables import (FALLBACK_LIMIT_COLOR, LIMIT_COLORS, PLOT_FLOOR, PLOT_HEADROOM, SPARE_LIMIT_COLORS,
                      THIRD_ORDER_NOTE, limit_curve_label, steady_curve_label)
 
