@@ -16,18 +16,21 @@ from pathmotion.errors import ScenarioError
 from pathmotion.io.scenario import parse_scenario
 from pathmotion.planning.limits.torque import check_reserve
 from pathmotion.planning.profile import Profile
+from pathmotion.robot import load_robot
 from pathmotion.reserve_search import ReserveTrial, Verdict, search_reserve
 from pathmotion.scenarios import scenario_path
 from pathmotion.simulation import simulate
 
 STEP, TOP = defaults.AUTO_RESERVE_STEP, defaults.AUTO_RESERVE_MAX
 COUNT = round(TOP / STEP)  # grid indices 0 .. COUNT
-#: circle_zero on torque alone (acceleration estimates off): on the nominal plant its plan, at 100 % torque,
-#: saturates the orbital controller's command for longer than the saturation limit (reserve 0 fails). That
-#: needs a plan near the optimum: at the default plan.tolerance (0.05 %) the adaptive grid's plan is
-#: 0.013 % slower than one on a finer grid, which already leaves the controller enough headroom; at
-#: 0.02 % it does not.
-TORQUE_ONLY = {"limits.use_acceleration": False, "limits.torque_reserve": "auto", "plan.tolerance": 2e-4}
+#: Unmodelled Coulomb friction in the plant, as a share of each joint's torque limit [-].
+FRICTION = 0.05
+#: circle_zero on torque alone (acceleration estimates off), on a plant with FRICTION x tau_max of unmodelled
+#: Coulomb friction per joint: a plan with reserve r leaves r x tau_max for feedback, so by physics every
+#: reserve <= FRICTION leaves no torque beyond the friction (the command saturates while the plan runs at
+#: its torque limit) and fails; a reserve a little above it tracks.
+TORQUE_ONLY = {"limits.use_acceleration": False, "limits.torque_reserve": "auto",
+               "simulate.realism.coulomb_friction": [float(v) for v in FRICTION * load_robot("irb140").limits.torque]}
 
 
 # ----------------------------------------------------------------------------- the bisection
@@ -82,9 +85,11 @@ def auto():
 def test_auto_picks_the_smallest_reserve_that_tracks(auto):
     search = auto.reserve_search
     chosen = search.chosen
-    assert chosen is not None and chosen > 0  # reserve 0 failed: its plan saturates the controller
+    assert chosen is not None and chosen > FRICTION  # the friction's share alone leaves no torque for feedback
     by_reserve = {t.reserve: t for t in search.trials}
     assert by_reserve[0.0].verdict == Verdict.FAILS and "saturated" in by_reserve[0.0].reason
+    low = [t for t in search.trials if t.reserve <= FRICTION]
+    assert low and all(t.verdict == Verdict.FAILS and "saturated" in t.reason for t in low)
     # the reserve one step below the chosen one was tried and failed (or is 0, which failed)
     assert by_reserve[round(chosen - STEP, 12)].verdict == Verdict.FAILS or chosen == STEP
     result = api.plan_scenario(auto)
