@@ -5,7 +5,7 @@ continuity, the symmetric special case, never slower than the symmetric G2 blend
 import numpy as np
 import pytest
 from geometry_support import incoming, outgoing
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
@@ -22,9 +22,16 @@ TURN = ((0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45))  # issue 17's 90
 
 
 def _dense_deviation(new: TaskPath, original: TaskPath, spacing: float) -> tuple[float, float]:
-    """(lower, upper) brackets of the largest distance of ``new`` from ``original`` by nearest
-    neighbours among original points ``spacing`` apart (independent of certified_max)."""
-    x = new.evaluate(np.linspace(0.0, new.length, 20001))[0]
+    """(lower, upper) brackets of the largest distance of ``new``'s samples from ``original`` by nearest
+    neighbours among original points ``spacing`` apart (independent of certified_max). ``new`` is sampled
+    everywhere at 20001 points and on its blend (segment 1, the only part off the original) every
+    ``spacing``: the maximum sits where the nearest original point jumps from A to B, a kink of the
+    distance, so coarser samples miss it by up to half their spacing (3e-5 m on these 0.6 m paths, 7 % of
+    a 0.4 mm tolerance)."""
+    a, blend = new.segments[0].length, new.segments[1].length
+    theta = np.concatenate([np.linspace(0.0, new.length, 20001),
+                            np.linspace(a, a + blend, int(np.ceil(blend / spacing)) + 1)])
+    x = new.evaluate(np.minimum(theta, new.length))[0]
     pts = [seg.evaluate(np.minimum(np.arange(0.0, seg.length + spacing, spacing), seg.length))[0]
            for seg in original.segments]
     d = cKDTree(np.concatenate(pts)).query(x)[0]
@@ -43,6 +50,7 @@ def test_shaped_points_reduce_to_the_symmetric_blend():
 
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@example(kinds="arc-line", deg=154.0, balance=0.21901, shapes=(0.9781, 0.91195), fraction=0.0508)  # was 0.976 tol
 @given(kinds=st.sampled_from(["line-line", "line-arc", "arc-line"]), deg=st.floats(15.0, 165.0),
        balance=st.floats(0.1, 0.9), shapes=st.tuples(st.floats(0.2, 1.0), st.floats(0.2, 1.0)),
        fraction=st.floats(0.05, 0.9))
@@ -57,9 +65,11 @@ def test_shaped_blend_deviation_bound_holds_on_a_dense_check(kinds, deg, balance
     new = with_shaped_g2_blend(path, 0, shape)
     lower, upper = _dense_deviation(new, path, tol / 400)
     assert lower <= tol * (1 + 1e-9)  # certified
-    # and nearly as large as the tolerance allows: the size is the largest whose CERTIFIED bound fits, and that
-    # bound may sit up to ~2 % above the true maximum (Hypothesis found 1.1 % at a 114 degree line-line, balance 0.25)
-    assert upper >= 0.98 * tol
+    # and nearly as large as the tolerance allows: the size is the largest whose certified bound fits, and that
+    # bound is within DEVIATION_RELATIVE_ACCURACY (1e-4) of the maximum; the samples miss it by at most half a
+    # spacing (0.125 % of tol). Measured upper / tol >= 0.9990 on 150 random cases of this space; the earlier
+    # "bound ~2 % loose" (0.976 at the @example) was the test sampling the blend every 3e-5 m, not the bound.
+    assert upper >= 0.995 * tol
     assert [c.kind for c in new.connections] == ["smooth", "smooth"]  # G2 at both ends
     a, blend, b = new.segments  # position, tangent and curvature vector continuous at both joins
     for (p0, t0, k0), (p1, t1, k1) in ((a.end_frame, blend.start_frame), (blend.end_frame, b.start_frame)):
