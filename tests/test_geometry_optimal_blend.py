@@ -1,19 +1,19 @@
-"""The asymmetric G2 blend (geometry/blends.py) and the tolerance-optimal blend search
-(planning/blend_search.py): the certified deviation bound on a dense brute-force check, G2
-continuity, the symmetric special case, never slower than the symmetric G2 blend, the scenario key."""
+"""The asymmetric G2 blend and its racing-line form (geometry/blends.py) and the tolerance-optimal
+blend search (planning/blend_search.py): the certified deviation bound on a dense brute-force check,
+G2 continuity, the symmetric special case, never slower than the symmetric G2 blend, the scenario key."""
 
 import numpy as np
 import pytest
 from geometry_support import incoming, outgoing
-from hypothesis import HealthCheck, example, given, settings
+from hypothesis import HealthCheck, example, given, reject, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 from pathmotion.api import load_text, plan_summary, plan_scenario
 from pathmotion.errors import PathError, ScenarioError
 from pathmotion.geometry import FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend
-from pathmotion.geometry.blends import (g2_control_points, g2_shape_for_tolerance, g2_shaped_control_points,
-                                        with_shaped_g2_blend, with_shaped_g2_blends)
+from pathmotion.geometry.blends import (g2_blend_pieces, g2_control_points, g2_shape_for_tolerance,
+                                        g2_shaped_control_points, with_shaped_g2_blend, with_shaped_g2_blends)
 from pathmotion.planning import PlanSettings
 from pathmotion.planning.blend_search import duration_with, optimal_blends
 from pathmotion.robot import load_robot
@@ -78,6 +78,82 @@ def test_shaped_blend_deviation_bound_holds_on_a_dense_check(kinds, deg, balance
         np.testing.assert_allclose(k0, k1, atol=1e-9 * max(1.0, float(np.linalg.norm(k0))))
 
 
+def _assert_g2_joins(new: TaskPath):
+    """Position, tangent and curvature vector continuous at every join of ``new``."""
+    for a, b in zip(new.segments[:-1], new.segments[1:]):
+        (p0, t0, k0), (p1, t1, k1) = a.end_frame, b.start_frame
+        np.testing.assert_allclose(p0, p1, atol=1e-12)
+        np.testing.assert_allclose(t0, t1, atol=1e-11)
+        np.testing.assert_allclose(k0, k1, atol=1e-8 * max(1.0, float(np.linalg.norm(k0))))
+
+
+def _blend_deviation(new: TaskPath, original: TaskPath, shape, spacing: float) -> tuple[float, float]:
+    """(lower, upper) brackets like _dense_deviation, over the blend's own stretch only: its nearest
+    original points lie within the cuts plus the tolerance of the corner, so only those are sampled."""
+    A, B = original.segments
+    t0 = A.length - shape.entry
+    blend_len = new.length - (original.length - shape.entry - shape.exit)
+    x = new.evaluate(np.linspace(t0, t0 + blend_len, 20001))[0]
+    reach = shape.deviation + spacing
+    pts = [A.evaluate(np.arange(max(0.0, t0 - reach), A.length + spacing, spacing).clip(0, A.length))[0],
+           B.evaluate(np.arange(0.0, min(B.length, shape.exit + reach) + spacing, spacing).clip(0, B.length))[0]]
+    d = cKDTree(np.concatenate(pts)).query(x)[0]
+    return float(np.max(d) - spacing / 2), float(np.max(d))
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(deg=st.floats(15.0, 165.0), balance=st.floats(0.2, 0.8), shapes=st.tuples(st.floats(0.3, 1.0), st.floats(0.3, 1.0)),
+       offsets=st.tuples(st.floats(0.0, 0.8), st.floats(0.0, 0.8)), runs=st.tuples(st.floats(0.5, 3.0), st.floats(0.5, 3.0)),
+       tol=st.floats(2e-4, 0.02))
+def test_racing_blend_deviation_bound_holds_on_a_dense_check(deg, balance, shapes, offsets, runs, tol):
+    """The racing line (S-curve out, corner quintic between the offset lines, S-curve back): its
+    certified bound holds against a brute-force nearest-neighbour check, it uses the tolerance, it
+    leaves the lines OUTSIDE the turn by its offsets, and it is G2 at every join."""
+    path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(deg))))
+    w = (offsets[0] * tol, offsets[1] * tol)
+    ell = (runs[0] * np.sqrt(tol * 0.64), runs[1] * np.sqrt(tol * 0.64))
+    try:
+        shape = g2_shape_for_tolerance(path, 0, tol, balance, *shapes, offsets=w, runs=ell)
+    except PathError:  # offsets whose outer corner is already beyond the tolerance, or runs too long
+        reject()
+    assert shape.deviation <= tol
+    new = with_shaped_g2_blend(path, 0, shape)
+    lower, upper = _blend_deviation(new, path, shape, tol / 400)
+    assert lower <= tol * (1 + 1e-9)  # certified
+    # as large as fits (or as the segments allow): the certified bound may sit ~2 % above the true maximum
+    assert upper >= 0.97 * tol or shape.entry >= 0.29 or shape.exit >= 0.29
+    assert len(new.segments) == 2 + 1 + (w[0] > 0) + (w[1] > 0)
+    _assert_g2_joins(new)
+    # outside the turn (the turn is to the left, +y for the incoming line along +x) by the entry offset
+    x = new.evaluate(np.linspace(0.0, new.length, 20001))[0]
+    if w[0] > 0:
+        before = x[x[:, 0] < -shape.entry + ell[0]]
+        assert np.min(before[:, 1]) == pytest.approx(-w[0], rel=1e-6, abs=1e-12)
+
+
+def test_racing_blend_without_offsets_is_the_quintic():
+    path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
+    A, B = path.segments
+    pieces, entry, exit = g2_blend_pieces(A, B, 0.02, 0.03, 0.6, 0.8, (0.0, 0.0), (0.05, 0.05))
+    assert (entry, exit) == (0.02, 0.03) and len(pieces) == 1
+    np.testing.assert_array_equal(pieces[0], g2_shaped_control_points(A, B, 0.02, 0.03, 0.6, 0.8))
+    plain = g2_shape_for_tolerance(path, 0, 2e-3, 0.4, 0.6, 0.8)
+    assert not plain.racing and plain == g2_shape_for_tolerance(path, 0, 2e-3, 0.4, 0.6, 0.8, runs=(0.05, 0.05))
+
+
+def test_racing_blend_bad_inputs():
+    path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
+    with pytest.raises(PathError, match="offset must be in"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, offsets=(2e-3, 0.0), runs=(0.05, 0.0))
+    with pytest.raises(PathError, match="needs a positive run"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, offsets=(1e-3, 0.0))
+    with pytest.raises(PathError, match="leave no room"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, offsets=(1e-3, 1e-3), runs=(0.35, 0.05))
+    arc = TaskPath((incoming("arc", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
+    with pytest.raises(PathError, match="needs two line neighbours"):
+        g2_shape_for_tolerance(arc, 0, 2e-3, 0.5, 0.7, 0.7, offsets=(1e-3, 1e-3), runs=(0.05, 0.05))
+
+
 def test_shaped_blends_on_a_polyline_keep_the_bound():
     pts = np.array([(0, 0, 0), (0.2, 0, 0), (0.2, 0.15, 0.05), (0.0, 0.2, 0.05)], float)
     path = TaskPath(tuple(Line(a, b) for a, b in zip(pts[:-1], pts[1:])))
@@ -114,10 +190,13 @@ SETTINGS = PlanSettings(start="zero", end="zero", velocity=True, acceleration=Tr
 @given(deg=st.floats(30.0, 150.0), tol=st.floats(5e-4, 0.02))
 def test_optimal_blend_is_never_slower_than_the_symmetric_g2(deg, tol):
     path = _turn(deg)
-    best = optimal_blends(_robot(), path, tol, settings=SETTINGS, cycles=1, steps=2, search_grid_points=200)
+    best = optimal_blends(_robot(), path, tol, settings=SETTINGS, cycles=1, steps=2, racing_steps=2,
+                          search_grid_points=200)
     sym_shape = g2_shape_for_tolerance(path, 0, tol, 0.5, 0.7, 0.7)
     symmetric = duration_with(_robot(), path, {0: sym_shape}, SETTINGS)
     assert best.duration <= best.symmetric_duration
+    assert best.duration <= best.quintic_duration  # the racing line is kept only when it is faster
+    assert best.duration == pytest.approx(duration_with(_robot(), path, best.shapes, SETTINGS), rel=1e-12)
     assert best.duration <= symmetric * (1 + 1e-6)  # the symmetric blend planned independently
     assert max_deviation(best.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
 

@@ -60,7 +60,7 @@ from .. import defaults
 from ..errors import PathError
 from .chain import Connection, TaskPath
 from .deviation import Deviation, certified_max, distance_to_segments
-from .segments import Arc, BezierSegment, Segment, _fmt
+from .segments import Arc, BezierSegment, Line, Segment, _fmt
 
 _FULL = 1.0 - 1e-6  # a single blend may use all of a neighbour but this sliver
 #: |t_A x t_B| below this: the tangents are (anti)parallel, the path reverses at the corner [-].
@@ -103,18 +103,20 @@ def _corner(path: TaskPath, index: int, kinds: tuple[str, ...], what: str,
     return _Corner(conn, A, B, fa * A.length, fb * B.length)
 
 
-def _replace(path: TaskPath, corner: _Corner, a: float, b: float, blend: Segment) -> TaskPath:
-    """``path`` with the last ``a`` of A and the first ``b`` of B replaced by ``blend``."""
+def _replace(path: TaskPath, corner: _Corner, a: float, b: float, blend: Segment | tuple[Segment, ...]) -> TaskPath:
+    """``path`` with the last ``a`` of A and the first ``b`` of B replaced by ``blend`` (one segment,
+    or a tuple of consecutive ones)."""
     i, A, B = corner.conn.index, corner.A, corner.B
     t0, t1 = corner.conn.theta - a, corner.conn.theta + b
-    new_len = blend.length
+    pieces = tuple(blend) if isinstance(blend, tuple) else (blend,)
+    new_len = sum(seg.length for seg in pieces)
 
     def theta_map(th):
         th = np.asarray(th, float)
         return np.where(th <= t0, th, np.where(th >= t1, th + new_len - (t1 - t0),
                                                t0 + (th - t0) * new_len / (t1 - t0)))
 
-    segs = (path.segments[:i] + (A.trimmed(0.0, A.length - a), blend, B.trimmed(b, B.length))
+    segs = (path.segments[:i] + (A.trimmed(0.0, A.length - a),) + pieces + (B.trimmed(b, B.length),)
             + path.segments[i + 2:])
     return path.with_segments(segs, theta_map)
 
@@ -193,6 +195,23 @@ def _largest(ok, start: float, bisections: int = 50) -> float:
     for _ in range(bisections):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
+
+
+def _largest_between(ok, lo: float, hi: float, scan: int = 24, bisections: int = 36) -> float:
+    """Largest x in (lo, hi) with ok(x), where ok may fail near lo too (a racing blend's outer corner
+    can be out of tolerance while its corner quintic is small): the largest ok point of a geometric
+    scan from hi down towards lo, refined by bisection against the next scan point; lo if none."""
+    if lo <= 0.0:
+        return _largest(ok, hi, bisections)
+    xs = lo + (hi - lo) * np.geomspace(1.0, 1e-6, scan)
+    for k, x in enumerate(xs[1:], start=1):
+        if ok(x):
+            good, bad = x, xs[k - 1]
+            for _ in range(bisections):
+                mid = 0.5 * (good + bad)
+                good, bad = (mid, bad) if ok(mid) else (good, mid)
+            return float(good)
     return lo
 
 
@@ -369,19 +388,35 @@ def largest_g2_tolerance(path: TaskPath, corner: int, shape: float = defaults.G2
     return g2_deviation(c.A, c.B, min(c.max_a, c.max_b), _check_shape(shape, "largest_g2_tolerance")).upper
 
 
-# --- asymmetric (shaped) G2 blend ---------------------------------------------------------------
+# --- asymmetric (shaped) G2 blend, and its racing-line form --------------------------------------
 @dataclass(frozen=True)
 class G2Shape:
-    """An asymmetric G2 blend: cut lengths ``entry`` (from the end of A) and ``exit`` (from the start
-    of B) [m] and the end-speed shapes ``shape_entry``, ``shape_exit`` in (0, 1] (lambda = 5/2 shape
-    cut on each side; the symmetric blend has entry = exit and one shape). ``deviation``: its
-    certified deviation bound [m]."""
+    """An asymmetric G2 blend: it replaces the last ``entry`` [m] of A and the first ``exit`` [m] of
+    B; ``shape_entry``, ``shape_exit`` in (0, 1] are the end-speed shapes of its corner quintic
+    (lambda = 5/2 shape cut on each side; the symmetric blend has entry = exit and one shape);
+    ``deviation``: its certified deviation bound [m].
+
+    With ``offset_entry`` = ``offset_exit`` = 0 it is one quintic. Otherwise (two lines only) it is
+    the racing line: a quintic S-curve of length ``run_entry`` [m] from A to the parallel line A'
+    ``offset_entry`` [m] OUTSIDE the turn, the corner quintic between A' and B' (B' likewise), and
+    an S-curve of length ``run_exit`` back onto B. Every piece is G2 at its joins (the S-curves start
+    and end with zero curvature, as the quintic does on lines), so the blend is G2 and its corner
+    quintic may be larger for the same deviation (see :func:`g2_blend_pieces`)."""
 
     entry: float
     exit: float
     shape_entry: float
     shape_exit: float
     deviation: float
+    offset_entry: float = 0.0
+    offset_exit: float = 0.0
+    run_entry: float = 0.0
+    run_exit: float = 0.0
+
+    @property
+    def racing(self) -> bool:
+        """The blend leaves the lines outwards first (S-curves before and after the corner)."""
+        return self.offset_entry > 0.0 or self.offset_exit > 0.0
 
 
 def g2_shaped_control_points(A: Segment, B: Segment, entry: float, exit: float, shape_entry: float,
@@ -396,6 +431,68 @@ def g2_shaped_control_points(A: Segment, B: Segment, entry: float, exit: float, 
                      pB - 2 * lb / 5 * tB + lb ** 2 / 20 * kB, pB - lb / 5 * tB, pB])
 
 
+@dataclass(frozen=True)
+class _Racing:
+    """The offset lines of a racing blend at a line-line corner: A' = A moved ``w_a`` outward, B'
+    likewise; their corner ``corner`` (3,) [m] lies ``shift_a`` [m] along t_A from A's end point
+    (projected) and ``shift_b`` along t_B from B's start; ``A``, ``B``: A' and B' as Lines."""
+
+    A: Line
+    B: Line
+    out_a: np.ndarray
+    out_b: np.ndarray
+    shift_a: float
+    shift_b: float
+
+
+def _racing_lines(A: Segment, B: Segment, w_a: float, w_b: float, what: str) -> _Racing:
+    if not (isinstance(A, Line) and isinstance(B, Line)):
+        raise PathError(f"{what}: a racing blend (offset > 0) needs two line neighbours, got {A.kind} and {B.kind}; "
+                        "give offsets 0 there")
+    c, tA, tB = A.end, A.direction, B.direction
+    m = np.cross(tA, tB)
+    if np.linalg.norm(m) < REVERSAL_SINE:
+        raise PathError(f"{what}: a racing blend needs a corner that turns (the lines are parallel)")
+    m = m / np.linalg.norm(m)
+    out_a, out_b = -np.cross(m, tA), -np.cross(m, tB)  # outside the turn
+    # c + w_a out_a + s tA = c + w_b out_b + t tB
+    s, t = np.linalg.lstsq(np.column_stack([tA, -tB]), w_b * out_b - w_a * out_a, rcond=None)[0]
+    cp = c + w_a * out_a + s * tA
+    reach = 2.0 * (A.length + B.length)  # longer than any cut, so evaluating A', B' never clamps
+    return _Racing(Line(cp - reach * tA, cp), Line(cp, cp + reach * tB), out_a, out_b, float(s), float(-t))
+
+
+def _s_curve(start: np.ndarray, t: np.ndarray, side: np.ndarray, run: float) -> np.ndarray:
+    """Control points (6, 3) of the quintic S-curve from ``start`` along the unit ``t`` over ``run``
+    [m] to the parallel line moved by ``side`` [m] (3,): points 0-2 on the first line, 3-5 on the
+    second, evenly spaced, so it starts and ends tangent to t with zero curvature."""
+    return np.array([start + (i / 5.0) * run * t + (side if i >= 3 else 0.0) for i in range(6)])
+
+
+def g2_blend_pieces(A: Segment, B: Segment, inner_entry: float, inner_exit: float, shape_entry: float,
+                    shape_exit: float, offsets: tuple[float, float] = (0.0, 0.0),
+                    runs: tuple[float, float] = (0.0, 0.0), what: str = "g2_blend_pieces"):
+    """(control points of each quintic piece, (6, 3) [m] each, in path order; entry, exit [m]): the
+    blend's pieces and its total cuts on A and B. Without offsets, one quintic cutting
+    ``inner_entry`` / ``inner_exit``. With ``offsets`` (w_A, w_B) [m] (two lines only), the corner
+    quintic cuts ``inner_entry`` / ``inner_exit`` from the offset lines A', B' (see G2Shape), and the
+    S-curves of ``runs`` (l_A, l_B) [m] join A to A' and B' to B; a side with offset 0 has no S-curve."""
+    w_a, w_b = offsets
+    if w_a == 0.0 and w_b == 0.0:
+        return (g2_shaped_control_points(A, B, inner_entry, inner_exit, shape_entry, shape_exit),), inner_entry, inner_exit
+    r = _racing_lines(A, B, w_a, w_b, what)
+    corner = g2_shaped_control_points(r.A, r.B, inner_entry, inner_exit, shape_entry, shape_exit)
+    pieces, entry, exit = [corner], inner_entry - r.shift_a, inner_exit - r.shift_b
+    if w_a > 0.0:
+        pieces.insert(0, _s_curve(corner[0] - runs[0] * A.direction - w_a * r.out_a, A.direction, w_a * r.out_a,
+                                  runs[0]))
+        entry += runs[0]
+    if w_b > 0.0:
+        pieces.append(_s_curve(corner[5], B.direction, -w_b * r.out_b, runs[1]))
+        exit += runs[1]
+    return tuple(pieces), float(entry), float(exit)
+
+
 def _shaped_deviation(A: Segment, B: Segment, b: np.ndarray, stop_above: float = np.inf) -> Deviation:
     coef = BezierSegment._power_basis(b)
     lip = 5.0 * float(np.max(np.linalg.norm(np.diff(b, axis=0), axis=1)))
@@ -403,11 +500,37 @@ def _shaped_deviation(A: Segment, B: Segment, b: np.ndarray, stop_above: float =
                          0.0, 1.0, lip, stop_above=stop_above)
 
 
+def _pieces_deviation(A: Segment, B: Segment, pieces, stop_above: float = np.inf) -> float:
+    """Certified upper bound [m] of the pieces' largest distance from A u B: the largest of each
+    piece's certified bound (stops once one is above ``stop_above``)."""
+    upper = 0.0
+    for b in pieces:
+        upper = max(upper, _shaped_deviation(A, B, b, stop_above=stop_above).upper)
+        if upper > stop_above:
+            break
+    return upper
+
+
+def _check_racing(offsets, runs, tol: float, what: str) -> tuple[tuple[float, float], tuple[float, float]]:
+    w = tuple(float(v) for v in offsets)
+    ell = tuple(float(v) for v in runs)
+    for side, wv, lv in (("entry", w[0], ell[0]), ("exit", w[1], ell[1])):
+        if not (np.isfinite(wv) and 0.0 <= wv < tol):
+            raise PathError(f"{what}: the {side} offset must be in [0, tolerance = {tol:.6g} m), got {wv!r} m")
+        if wv > 0.0 and not (np.isfinite(lv) and lv > 0.0):
+            raise PathError(f"{what}: the {side} S-curve needs a positive run [m] with offset {wv:.6g} m, got {lv!r}")
+    return w, (ell[0] if w[0] > 0 else 0.0, ell[1] if w[1] > 0 else 0.0)  # no S-curve, no run
+
+
 def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balance: float, shape_entry: float,
-                           shape_exit: float, shared: tuple[bool, bool] = (False, False)) -> G2Shape:
-    """The largest asymmetric G2 blend at connection ``corner`` with entry / (entry + exit) =
-    ``balance`` in (0, 1) whose certified deviation is <= ``tolerance`` [m] (or, if even the largest
-    the neighbours allow deviates less, that one). ``shared``: the neighbour before / after is
+                           shape_exit: float, shared: tuple[bool, bool] = (False, False),
+                           offsets: tuple[float, float] = (0.0, 0.0),
+                           runs: tuple[float, float] = (0.0, 0.0)) -> G2Shape:
+    """The largest asymmetric G2 blend at connection ``corner`` whose corner quintic has
+    entry / (entry + exit) = ``balance`` in (0, 1) and whose certified deviation is <= ``tolerance``
+    [m] (or, if even the largest the neighbours allow deviates less, that one). ``offsets`` (w_A,
+    w_B) in [0, tolerance) [m] and ``runs`` (l_A, l_B) [m]: the racing line of :class:`G2Shape` (its
+    corner quintic is sized; the S-curves are fixed). ``shared``: the neighbour before / after is
     blended at its other end too (then a blend may use SHARED_SEGMENT_FRACTION of it)."""
     what = "g2_shape_for_tolerance"
     c = _corner(path, corner, ("corner", "tangent"), what, shared=shared)
@@ -417,31 +540,53 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
     if not 0.0 < balance < 1.0:
         raise PathError(f"{what}: balance (entry share of the blend) must be in (0, 1), got {balance!r}")
     sa, sb = _check_shape(shape_entry, what), _check_shape(shape_exit, what)
+    offsets, runs = _check_racing(offsets, runs, tol, what)
 
-    def points(size):
-        return g2_shaped_control_points(c.A, c.B, balance * size, (1 - balance) * size, sa, sb)
+    def build(size):
+        return g2_blend_pieces(c.A, c.B, balance * size, (1 - balance) * size, sa, sb, offsets, runs, what)
 
-    size_max = min(c.max_a / balance, c.max_b / (1 - balance))
-    full = _shaped_deviation(c.A, c.B, points(size_max))
-    if full.upper <= tol:
-        size = size_max
-    else:
-        size = _largest(lambda x: _shaped_deviation(c.A, c.B, points(x), stop_above=tol).upper <= tol,
-                        size_max, bisections=36)
-        if size <= 0.0:
-            raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance")
-    dev = _shaped_deviation(c.A, c.B, points(size)).upper
-    return G2Shape(balance * size, (1 - balance) * size, sa, sb, dev)
+    if offsets == (0.0, 0.0):
+        size_min, size_max = 0.0, min(c.max_a / balance, c.max_b / (1 - balance))
+    else:  # the total cuts are affine in the size: entry(size) = e0 + balance size, exit(size) = x0 + (1 - balance) size
+        _, e0, x0 = build(0.0)
+        size_min = max(0.0, -e0 / balance, -x0 / (1 - balance))  # both cuts > 0
+        size_max = min((c.max_a - e0) / balance, (c.max_b - x0) / (1 - balance))
+    if not size_max > size_min:
+        raise PathError(f"{what}: the S-curves ({runs[0]:.6g} m, {runs[1]:.6g} m) leave no room for a blend at "
+                        f"{c.where()} (cuts <= {c.max_a:.6g} m and {c.max_b:.6g} m); give shorter runs")
+
+    def ok(size):
+        return _pieces_deviation(c.A, c.B, build(size)[0], stop_above=tol) <= tol
+
+    size = size_max if ok(size_max) else _largest_between(ok, size_min, size_max)
+    if size <= size_min:
+        raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance"
+                        + (" or smaller offsets" if offsets != (0.0, 0.0) else ""))
+    pieces, entry, exit = build(size)
+    return G2Shape(entry, exit, sa, sb, _pieces_deviation(c.A, c.B, pieces), *offsets, *runs)
+
+
+def _shape_pieces(c: _Corner, shape: G2Shape, what: str):
+    """The pieces of ``shape`` at corner ``c`` (its corner quintic's cuts recovered from the totals)."""
+    offsets, runs = (shape.offset_entry, shape.offset_exit), (shape.run_entry, shape.run_exit)
+    if offsets == (0.0, 0.0):
+        return g2_blend_pieces(c.A, c.B, shape.entry, shape.exit, shape.shape_entry, shape.shape_exit)[0]
+    r = _racing_lines(c.A, c.B, *offsets, what)
+    inner = (shape.entry - (runs[0] if offsets[0] > 0 else 0.0) + r.shift_a,
+             shape.exit - (runs[1] if offsets[1] > 0 else 0.0) + r.shift_b)
+    return g2_blend_pieces(c.A, c.B, *inner, shape.shape_entry, shape.shape_exit, offsets, runs, what)[0]
 
 
 def with_shaped_g2_blend(path: TaskPath, corner: int, shape: G2Shape) -> TaskPath:
-    """``path`` with connection ``corner`` replaced by the asymmetric G2 blend ``shape``."""
-    c = _corner(path, corner, ("corner", "tangent"), "with_shaped_g2_blend")
+    """``path`` with connection ``corner`` replaced by the asymmetric G2 blend ``shape`` (one quintic,
+    or the racing line's S-curve, corner quintic and S-curve)."""
+    what = "with_shaped_g2_blend"
+    c = _corner(path, corner, ("corner", "tangent"), what)
     if not (0 < shape.entry < c.A.length and 0 < shape.exit < c.B.length):
-        raise PathError(f"with_shaped_g2_blend: cuts {shape.entry:.6g} m / {shape.exit:.6g} m do not fit at "
+        raise PathError(f"{what}: cuts {shape.entry:.6g} m / {shape.exit:.6g} m do not fit at "
                         f"{c.where()} (neighbours {c.A.length:.6g} m and {c.B.length:.6g} m)")
-    b = g2_shaped_control_points(c.A, c.B, shape.entry, shape.exit, shape.shape_entry, shape.shape_exit)
-    return _replace(path, c, shape.entry, shape.exit, BezierSegment(b))
+    pieces = _shape_pieces(c, shape, what)
+    return _replace(path, c, shape.entry, shape.exit, tuple(BezierSegment(b) for b in pieces))
 
 
 def with_shaped_g2_blends(path: TaskPath, shapes: dict[int, G2Shape]) -> TaskPath:
@@ -454,6 +599,6 @@ def with_shaped_g2_blends(path: TaskPath, shapes: dict[int, G2Shape]) -> TaskPat
     return out
 
 
-__all__ = ["G2Shape", "g2_control_points", "g2_deviation", "g2_shape_for_tolerance", "g2_shaped_control_points",
+__all__ = ["G2Shape", "g2_blend_pieces", "g2_control_points", "g2_deviation", "g2_shape_for_tolerance", "g2_shaped_control_points",
            "largest_g2_tolerance", "largest_transition_radius", "with_g2_blend", "with_g2_blends",
            "with_shaped_g2_blend", "with_shaped_g2_blends", "with_transition", "with_transitions"]

@@ -1,90 +1,120 @@
-"""The tolerance-optimal blend: the asymmetric G2 blend shape that minimises the time-optimal
-duration of the whole path within a certified deviation bound (issue 17).
+"""The tolerance-optimal blend: the G2 blend shape that minimises the time-optimal duration of the
+whole path within a certified deviation bound (issue 17).
 
-Each corner's blend is a quintic G2 Bezier (geometry/blends.py) described by three numbers: the
-balance entry / (entry + exit) (where the apex sits), and the end-speed shapes of its entry and
-exit sides; its size is then the largest whose certified deviation is <= the tolerance
-(:func:`~pathmotion.geometry.blends.g2_shape_for_tolerance`), so ``blend_max_deviation_m`` stays
-certified whatever the search picks. The search is cyclic coordinate descent with a golden-section
-step per coordinate on the duration of fast plans (coarse grid, no verification), a few dozen plans
-per corner. It starts from the symmetric G2 blend (balance 1/2, default shape) and keeps the best
-shape seen, so the result is never slower than the symmetric blend on the search's own grid; the
-final choice is re-planned on the full grid against the symmetric one and the faster is kept.
+Each corner's blend (geometry/blends.py, :class:`~pathmotion.geometry.blends.G2Shape`) is a quintic
+G2 Bezier described by the balance entry / (entry + exit) (where the apex sits) and the end-speed
+shapes of its entry and exit sides, and, at a corner between two lines, its racing-line form: an
+S-curve out to a parallel line offset w_A outside the turn over a run l_A, the corner quintic
+between the offset lines, and an S-curve back (w_B, l_B). Its size is then the largest whose
+certified deviation is <= the tolerance (:func:`~pathmotion.geometry.blends.g2_shape_for_tolerance`),
+so ``blend_max_deviation_m`` stays certified whatever the search picks.
+
+The search runs fast plans (coarse grid, no verification) and keeps the best shape seen, a golden-
+section step per coordinate:
+
+1. the quintic (balance, shape_entry, shape_exit), from the symmetric G2 blend (balance 1/2,
+   default shape), SEARCH_CYCLES cycles;
+2. at a line-line corner, the racing line from that best quintic (offsets 0): both offsets
+   together, both runs together, then each offset, each run and the balance alone.
+
+Offsets are searched in units of the tolerance, runs in units of sqrt(tolerance RUN_SCALE_LENGTH)
+(an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w) keeps it alike across
+tolerances). The symmetric blend, the best quintic and the best racing line are then re-planned on
+the full grid and the fastest is kept, so the result is never slower than the symmetric G2 blend.
+About 60-70 plans per corner.
 """
 
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from .. import defaults
 from ..constraint import lift
 from ..errors import PathmotionError
-from ..geometry import TaskPath
-from ..geometry.blends import with_blends
-from ..geometry.blends import G2Shape, g2_shape_for_tolerance, with_shaped_g2_blends
+from ..geometry import Line, TaskPath
+from ..geometry.blends import G2Shape, g2_shape_for_tolerance, with_blends, with_shaped_g2_blends
 from .planner import PlanSettings, plan
 
 log = logging.getLogger(__name__)
 
-#: Search box of the coordinates (balance, shape_entry, shape_exit).
+#: Search box of the quintic's coordinates (balance, shape_entry, shape_exit).
 BALANCE_RANGE = (0.2, 0.8)
 SHAPE_RANGE = (0.25, 1.0)
-#: Golden-section steps per coordinate and cycles over the coordinates.
+#: Search box of the racing line's offsets [tolerance] and runs [sqrt(tolerance RUN_SCALE_LENGTH)];
+#: the runs start at 1.
+OFFSET_RANGE = (0.0, 0.95)
+RUN_RANGE = (0.3, 2.0)
+RUN_SCALE_LENGTH = 0.64
+#: Golden-section steps per coordinate: the quintic's (and its cycles), the racing line's.
 GOLDEN_STEPS = 6
-SEARCH_CYCLES = 2
+SEARCH_CYCLES = 1
+RACING_STEPS = 4
 #: Grid points of the search's fast plans.
 SEARCH_GRID_POINTS = 300
 
 _GOLD = (np.sqrt(5.0) - 1.0) / 2.0
+#: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
+#: run_entry, run_exit [run unit].
+_BALANCE, _SHAPE_A, _SHAPE_B, _W_A, _W_B, _L_A, _L_B = range(7)
 
 
 @dataclass(frozen=True)
 class OptimalBlend:
     """The chosen blends: ``shapes`` {connection index: G2Shape}, the blended ``path``, its full-grid
-    ``duration`` [s], the symmetric G2 blend's ``symmetric_duration`` [s], and ``plans`` run."""
+    ``duration`` [s], the symmetric G2 blend's ``symmetric_duration`` [s], the best quintic's
+    ``quintic_duration`` [s] (full grid), and ``plans`` run."""
 
     shapes: dict
     path: TaskPath
     duration: float
     symmetric_duration: float
     plans: int
-
-
-def _params(shape: G2Shape) -> np.ndarray:
-    return np.array([shape.entry / (shape.entry + shape.exit), shape.shape_entry, shape.shape_exit])
+    quintic_duration: float = float("nan")
 
 
 class _Objective:
-    """Duration of the path with the blend parameters x at one corner (others fixed), cached."""
+    """Duration of the path with the blend coordinates x (7,) at one corner (others fixed), cached."""
 
     def __init__(self, robot, original: TaskPath, shapes: dict, corner: int, tolerance: float,
                  settings: PlanSettings, q_start):
         self.robot, self.original, self.shapes, self.corner = robot, original, dict(shapes), corner
         self.tolerance, self.settings, self.q_start = tolerance, settings, q_start
+        self.run_unit = float(np.sqrt(tolerance * RUN_SCALE_LENGTH))
         chosen = set(shapes)
         self.shared = (corner - 1 in chosen, corner + 1 in chosen)
-        self.cache: dict[tuple, tuple[float, G2Shape]] = {}
+        self.cache: dict[tuple, tuple[float, G2Shape | None]] = {}
         self.plans = 0
 
     def shape(self, x) -> G2Shape:
-        return g2_shape_for_tolerance(self.original, self.corner, self.tolerance, float(x[0]), float(x[1]),
-                                      float(x[2]), shared=self.shared)
+        w = (x[_W_A] * self.tolerance, x[_W_B] * self.tolerance)
+        runs = tuple(x[i] * self.run_unit if w[j] > 0 else 0.0 for j, i in enumerate((_L_A, _L_B)))
+        return g2_shape_for_tolerance(self.original, self.corner, self.tolerance, float(x[_BALANCE]),
+                                      float(x[_SHAPE_A]), float(x[_SHAPE_B]), shared=self.shared, offsets=w,
+                                      runs=runs)
 
     def __call__(self, x) -> float:
         key = tuple(np.round(np.asarray(x, float), 12))
         if key not in self.cache:
-            shape = self.shape(x)
+            try:
+                shape = self.shape(x)
+            except PathmotionError as exc:  # e.g. S-curves too long for the segments
+                log.debug("blend search: coordinates %s rejected (%s)", key, exc)
+                self.cache[key] = (float("inf"), None)
+                return float("inf")
             self.cache[key] = (duration_with(self.robot, self.original, {**self.shapes, self.corner: shape},
                                              self.settings, self.q_start), shape)
             self.plans += 1
         return self.cache[key][0]
 
-    def best(self) -> tuple[float, G2Shape]:
-        return min(self.cache.values(), key=lambda v: v[0])
+    def best(self, quintic_only: bool = False) -> tuple[float, G2Shape, tuple]:
+        """(duration, shape, x) of the fastest coordinates seen (only offsets 0 if ``quintic_only``)."""
+        found = [(v[0], v[1], k) for k, v in self.cache.items()
+                 if v[1] is not None and not (quintic_only and v[1].racing)]
+        return min(found, key=lambda r: r[0])
 
 
 def duration_with(robot, original: TaskPath, shapes: dict, settings: PlanSettings, q_start=None) -> float:
@@ -98,68 +128,90 @@ def duration_with(robot, original: TaskPath, shapes: dict, settings: PlanSetting
         return float("inf")
 
 
-def _golden(f, x: np.ndarray, i: int, lo: float, hi: float, steps: int) -> None:
-    """Golden-section search of f along coordinate i of x on [lo, hi] (f caches every point)."""
-    def at(v):
-        y = x.copy()
-        y[i] = v
-        return f(y)
-
+def _golden(f: Callable, x: np.ndarray, set_t: Callable, lo: float, hi: float, steps: int) -> None:
+    """Golden-section search of f over t in [lo, hi] along the line t -> set_t(x, t) (f caches every
+    point, so the best one seen is kept whatever the bracket converges to)."""
     a, b = lo, hi
     c, d = b - _GOLD * (b - a), a + _GOLD * (b - a)
-    fc, fd = at(c), at(d)
+    fc, fd = f(set_t(x, c)), f(set_t(x, d))
     for _ in range(steps):
         if fc <= fd:
             b, d, fd = d, c, fc
             c = b - _GOLD * (b - a)
-            fc = at(c)
+            fc = f(set_t(x, c))
         else:
             a, c, fc = c, d, fd
             d = a + _GOLD * (b - a)
-            fd = at(d)
+            fd = f(set_t(x, d))
 
 
-def _search_corner(objective: _Objective, start: np.ndarray, cycles: int, steps: int) -> G2Shape:
+def _setter(*indices: int) -> Callable:
+    """set_t for _golden: x with the coordinates ``indices`` set to t."""
+    def set_t(x, t):
+        y = np.array(x, float)
+        y[list(indices)] = t
+        return y
+    return set_t
+
+
+#: The racing stage's moves: (coordinates set together, range).
+_RACING_MOVES = (((_W_A, _W_B), OFFSET_RANGE), ((_L_A, _L_B), RUN_RANGE), ((_W_A,), OFFSET_RANGE),
+                 ((_W_B,), OFFSET_RANGE), ((_L_A,), RUN_RANGE), ((_L_B,), RUN_RANGE), ((_BALANCE,), BALANCE_RANGE))
+
+
+def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int) -> None:
+    """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
+    racing-line stage from the best quintic (module docstring)."""
+    start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
-    boxes = (BALANCE_RANGE, SHAPE_RANGE, SHAPE_RANGE)
     for _ in range(cycles):
-        for i, (lo, hi) in enumerate(boxes):
-            x = _params(objective.best()[1])
-            _golden(objective, x, i, lo, hi, steps)
-    return objective.best()[1]
+        for i, box in ((_BALANCE, BALANCE_RANGE), (_SHAPE_A, SHAPE_RANGE), (_SHAPE_B, SHAPE_RANGE)):
+            _golden(objective, np.array(objective.best()[2]), _setter(i), *box, steps)
+    if not racing:
+        return
+    for indices, box in _RACING_MOVES:
+        _golden(objective, np.array(objective.best()[2]), _setter(*indices), *box, racing_steps)
+
+
+def _racing_possible(path: TaskPath, corner: int) -> bool:
+    """A racing line needs a sharp corner between two lines."""
+    return (path.connection(corner).kind == "corner" and isinstance(path.segments[corner], Line)
+            and isinstance(path.segments[corner + 1], Line))
 
 
 def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: Sequence[int] | None = None,
                    settings: PlanSettings | None = None, q_start=None, *, cycles: int = SEARCH_CYCLES,
-                   steps: int = GOLDEN_STEPS, search_grid_points: int = SEARCH_GRID_POINTS) -> OptimalBlend:
-    """The asymmetric G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners``
-    (connection indices, default every sharp corner) of ``original`` that minimise the time-optimal duration under ``settings``
-    (see the module docstring). PathError as :func:`~pathmotion.geometry.with_g2_blends` when the
-    tolerance does not fit."""
+                   steps: int = GOLDEN_STEPS, racing_steps: int = RACING_STEPS, racing: bool = True,
+                   search_grid_points: int = SEARCH_GRID_POINTS) -> OptimalBlend:
+    """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
+    indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
+    under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only). PathError
+    as :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
     tol = dict(tolerance) if isinstance(tolerance, dict) else {k: float(tolerance) for k in chosen}
     # the symmetric blends, and their errors (a tolerance too large: the largest that fits)
     symmetric = with_blends(original, {k: ("g2", tol[k]) for k in chosen})
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
-    start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE])
-    shapes = {}
-    for k in chosen:
-        shared = (k - 1 in chosen, k + 1 in chosen)
-        shapes[k] = g2_shape_for_tolerance(original, k, tol[k], *start, shared=shared)
-    initial, plans = dict(shapes), 0
+    shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
+                                        shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
+    initial, quintic, plans = dict(shapes), dict(shapes), 0
     for k in chosen:
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start)
-        shapes[k] = _search_corner(obj, start, cycles, steps)
+        _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps)
+        quintic[k], shapes[k] = obj.best(quintic_only=True)[1], obj.best()[1]
         plans += obj.plans
         log.info("blend search: corner %d: %d plans, shape %s", k, obj.plans, shapes[k])
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
-    opt_path = with_shaped_g2_blends(original, shapes)
-    opt_T = duration_with(robot, original, shapes, full, q_start)
-    if not opt_T < sym_T:  # keep the symmetric blend when the search found nothing faster on the full grid
-        return OptimalBlend(initial, symmetric, sym_T, sym_T, plans + 2)
-    return OptimalBlend(shapes, opt_path, opt_T, sym_T, plans + 2)
+    candidates = [(sym_T, initial, symmetric)]
+    for found in ([quintic, shapes] if shapes != quintic else [quintic]):
+        candidates.append((duration_with(robot, original, found, full, q_start), found, None))
+    plans += len(candidates)
+    quintic_T = candidates[1][0]
+    T, found, path = min(candidates, key=lambda c: c[0])  # the first (symmetric) wins ties
+    return OptimalBlend(found, symmetric if path is not None else with_shaped_g2_blends(original, found), T, sym_T,
+                        plans, quintic_T)
 
 
 def replace_settings(settings: PlanSettings, **changes) -> PlanSettings:
