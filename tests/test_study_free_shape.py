@@ -92,8 +92,10 @@ def _optimal_blend_motion(robot, deg: float, delta: float):
 
     pts = atlas.corner_points(deg)
     task = atlas._task(pts)
+    # the quintic (racing=False): its spans are a few mm, the case the warm start is for (the atlas starts a racing
+    # line's corner-confined tube from the stop)
     best = optimal_blends(robot, task, delta, settings=atlas._settings(verify=False, baselines=False), cycles=1,
-                          steps=3)
+                          steps=3, racing=False)
     return pts, best.shapes[0], plan(lift(robot, best.path, original=task), robot, atlas._settings(baselines=False))
 
 
