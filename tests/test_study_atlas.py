@@ -54,6 +54,20 @@ def test_optimum_cache_is_keyed_by_its_inputs(tmp_path):
     assert len(list(tmp_path.glob("*.json"))) == 2  # other inputs, another entry
 
 
+def test_reference_value_is_never_a_silent_number():
+    ok = {"success": True, "duration": 0.7, "convergence_error": 0.002, "status": "Solve_Succeeded",
+          "statuses": ["Solve_Succeeded"] * 3, "durations": [0.69, 0.695, 0.698]}
+    assert atlas.reference_value(ok) == (0.7, 0.002, None)
+    coarse_failed = {**ok, "success": False, "statuses": ["Maximum_Iterations_Exceeded", "Solve_Succeeded",
+                                                          "Solved_To_Acceptable_Level"]}
+    value, error, note = atlas.reference_value(coarse_failed)
+    assert (value, error) == (0.698, pytest.approx(0.003))  # the finest, its change from the 50-interval mesh
+    assert "coarsest mesh not converged (Maximum_Iterations_Exceeded)" in note
+    fine_failed = {**ok, "success": False, "statuses": ["Solve_Succeeded", "Solve_Succeeded", "Restoration_Failed"]}
+    assert atlas.reference_value(fine_failed) == (None, None, "NLP not converged (Solve_Succeeded, Solve_Succeeded, "
+                                                              "Restoration_Failed)")
+
+
 @pytest.mark.slow
 def test_one_atlas_row_through_the_cli(tmp_path):
     pytest.importorskip("casadi", reason='needs CasADi: pip install "pathmotion[optimal]"')

@@ -60,7 +60,9 @@ ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "status", "stop_s", "circle_s", "g2
 OPTIMUM_VERSION = 2
 CORNER_OPTIMUM_VERSION = 3
 #: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached).
-ROW_VERSION = 3
+ROW_VERSION = 4
+#: IPOPT statuses counted as converged.
+CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 #: Largest distance [m] of the simulated TCP from the planned path for the closed-loop check.
 CLOSED_LOOP_PATH_ACCURACY = 1e-3
 #: Smallest angle from 0 and 180 degrees a corner may have [deg].
@@ -173,6 +175,23 @@ def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=
     return rec
 
 
+def reference_value(rec: dict) -> tuple[float | None, float | None, str | None]:
+    """(duration [s], convergence error [s], note) of a cached optimum record: the extrapolation when
+    every mesh converged (note None); when all but the coarsest did, the extrapolation over the finer
+    ones (two: the finest, its change from the other as the error) and a note saying so; else
+    (None, None, "NLP not converged (statuses)")."""
+    from .free_shape import extrapolate
+
+    statuses = rec.get("statuses", [rec["status"]])
+    if rec["success"]:
+        return rec["duration"], rec["convergence_error"], None
+    if len(statuses) >= 3 and all(s in CONVERGED_STATUSES for s in statuses[1:]):
+        value, error = extrapolate(rec["durations"][1:])
+        return value, error, (f"coarsest mesh not converged ({statuses[0]}); value of the {len(statuses) - 1} finer "
+                              "meshes")
+    return None, None, f"NLP not converged ({', '.join(statuses)})"
+
+
 def closed_loop_check(robot, path, profile, tolerance: float) -> dict:
     """The planned motion simulated (orbital controller, SAMPLE_TIME): ``closed_loop_ok`` when it
     tracked (no failure), the TCP stayed within CLOSED_LOOP_PATH_ACCURACY of the planned path and
@@ -228,11 +247,10 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
         # from the stop 711 / 68 / 151 on 25 / 50 / 100, 13 s CPU)
         rec = cached_optimum(cache, robot, pts, tolerance, spans, meshes,
                              warm=None if spans is None or shape.racing else warm)
-        ok = rec["success"]
-        err = name.replace("_optimum", "") + "_error_s"
-        row[f"{name}_s"], row[err] = (rec["duration"], rec["convergence_error"]) if ok else (None, None)
-        if not ok:
-            status.append(f"{name}: NLP not converged ({', '.join(rec.get('statuses', [rec['status']]))})")
+        value, error, note = reference_value(rec)
+        row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = value, error
+        if note:
+            status.append(f"{name}: {note}")
     fso, co = row["free_shape_optimum_s"], row["corner_optimum_s"]
     row["gap_to_optimum"] = None if fso is None else row["optimal_s"] / fso - 1.0
     row["gap_to_corner_optimum"] = None if co is None else row["optimal_s"] / co - 1.0
@@ -377,4 +395,5 @@ def table_markdown(rows: list[dict]) -> str:
 
 
 __all__ = ["ATLAS_COLUMNS", "CornerAtlas", "atlas_point", "atlas_row", "cached_optimum", "check_inputs",
-           "corner_atlas", "corner_points", "industrial_zone_duration", "parabolic_zone", "table_markdown"]
+           "corner_atlas", "corner_points", "industrial_zone_duration", "parabolic_zone", "reference_value",
+           "table_markdown"]
