@@ -418,7 +418,6 @@ class OrbitalController:
         self.next_zone = 0 if zone is None else zone + 1
 
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        d = self.design
         q = np.ascontiguousarray(q, dtype=float)
         qd = np.ascontiguousarray(qd, dtype=float)
         self.observer.measure(q, qd)

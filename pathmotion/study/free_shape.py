@@ -49,7 +49,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import InfeasibleError, PathError, PathmotionError
+from ..errors import PathError, PathmotionError
 
 log = logging.getLogger(__name__)
 
