@@ -646,20 +646,7 @@ def simulate_scenario(setup: Setup, result: PlanResult):
     if run is not None and result is run[0] and run[1] is not None:
         return run[1]
     settings = simulation_settings(setup)
-    simulation_budget(setup, settings, result)
     return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
-
-
-def simulation_budget(setup: Setup, settings, result: PlanResult) -> None:
-    """A ScenarioError when the closed loop at ``settings.sample_time`` would hold too many samples."""
-    laps = settings.laps if setup.path.closed else 1
-    budget = settings.time_budget_factor * result.profile.duration * laps + settings.time_budget_margin
-    count = budget / settings.sample_time + 1
-    if count > defaults.MAX_TRAJECTORY_SAMPLES:  # the closed loop holds arrays of this many samples
-        raise ScenarioError(f"simulate.sample_time = {settings.sample_time:g} s: the {budget:.4g} s closed-loop run "
-                            f"would need {count:.3g} samples, more than {defaults.MAX_TRAJECTORY_SAMPLES:,} "
-                            "(defaults.MAX_TRAJECTORY_SAMPLES); raise the sample time (the default is "
-                            f"{defaults.SAMPLE_TIME:g} s)")
 
 
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:
@@ -773,7 +760,6 @@ def _check_like_plan_and_simulate(setup: Setup) -> dict:
     result = plan_scenario(setup)
     sample_times(result.profile.duration, setup.scenario.plan.sample_time)
     settings = simulation_settings(setup)
-    simulation_budget(setup, settings, result)
     prepare_loop(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
     return {schema.DURATION.key: float(result.profile.duration),
             schema.WORST_LIMIT.key: None if result.ratios is None else result.ratios.worst, **reserve_summary(setup)}

@@ -142,3 +142,22 @@ def test_check_refuses_a_closed_loop_too_long_for_its_sample_budget():
     message = str(info.value)
     assert f"{samples:.3g} samples" in message and "raise the sample time" in message
     assert f"the default is {defaults.SAMPLE_TIME:g} s" in message
+
+
+def test_library_simulate_refuses_a_sample_budget_before_building_anything(monkeypatch):
+    """The same guard holds for a library call of simulation.simulate (not only for the CLI's check and
+    simulate): the budget's sample count is checked in prepare_loop before the controller's table or gains
+    are built (the design is never reached)."""
+    from dataclasses import replace
+
+    from pathmotion import simulation
+    from pathmotion.simulation import closed_loop
+
+    setup = api.load_text(DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9"))
+    settings = replace(api.simulation_settings(setup), design_cache=False)
+    profile = api.plan_scenario(setup).profile
+    built = []
+    monkeypatch.setattr(closed_loop.PathTable, "from_path", lambda *a, **k: built.append(a))
+    with pytest.raises(ScenarioError, match=r"simulate\.sample_time = 1e-09 s.*MAX_TRAJECTORY_SAMPLES"):
+        simulation.simulate(setup.robot, setup.path, profile, "pd_gravity", settings)
+    assert built == []

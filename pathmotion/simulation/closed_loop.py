@@ -31,7 +31,7 @@ from ..control import (CONTROLLER_NAMES, ComputedTorqueController, OrbitalContro
                        PathTable, PDGravityController, TimeReference, TrackingGains, default_pd_gains)
 from ..control.design_cache import cached_design, cached_table
 from ..control.threads import blas_single_threaded
-from ..errors import SimulationError
+from ..errors import ScenarioError, SimulationError
 from ..joint_path import JointPath
 from ..planning.profile import Profile
 from ..robot import Robot
@@ -150,6 +150,7 @@ def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: st
     its OK means that simulate starts. Returns (table, command, plant, planned TCP line, end rules,
     time budget [s])."""
     _check_inputs(robot, path, profile)
+    budget = time_budget(settings, profile.duration, path.closed)
     ts, substeps = settings.sample_time, settings.substeps
     if design is None and settings.design_cache:
         if controller == "orbital":
@@ -160,14 +161,26 @@ def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: st
             table = cached_table(path, settings.table_points)[0]
     else:
         table = design.table if design is not None else PathTable.from_path(path, settings.table_points)
-    budget = settings.time_budget_factor * profile.duration * (settings.laps if path.closed else 1) \
-        + settings.time_budget_margin
     control = _Command(make_controller(controller, robot, path, profile, table, settings, budget + ts, design),
                        Sensor(settings.realism), settings.realism.delay)
     plant = make_plant(settings.plant, robot, settings.realism) if plant is None else plant
     plant.check_step(np.array(path.evaluate(path.domain[0])[0], dtype=float), ts, substeps)
     line = planned_tcp_line(robot, path, table.grid)
     return table, control, plant, line, end_rules(table, profile, line, budget, settings), budget
+
+
+def time_budget(settings: SimulationSettings, duration: float, closed: bool) -> float:
+    """The closed loop's time budget [s]: ``time_budget_factor`` x the planned duration [s] (x ``laps`` on a
+    closed path) + ``time_budget_margin``. A ScenarioError, before any array is built, when the run at
+    ``settings.sample_time`` would hold more than ``defaults.MAX_TRAJECTORY_SAMPLES`` samples."""
+    budget = settings.time_budget_factor * duration * (settings.laps if closed else 1) + settings.time_budget_margin
+    count = budget / settings.sample_time + 1
+    if count > defaults.MAX_TRAJECTORY_SAMPLES:  # the closed loop holds arrays of this many samples
+        raise ScenarioError(f"simulate.sample_time = {settings.sample_time:g} s: the {budget:.4g} s closed-loop run "
+                            f"would need {count:.3g} samples, more than {defaults.MAX_TRAJECTORY_SAMPLES:,} "
+                            "(defaults.MAX_TRAJECTORY_SAMPLES); raise the sample time (the default is "
+                            f"{defaults.SAMPLE_TIME:g} s)")
+    return budget
 
 
 @blas_single_threaded
