@@ -48,9 +48,9 @@ from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
-from threadpoolctl import threadpool_limits
 
 from pathmotion import defaults
+from pathmotion.control.threads import single_blas_thread
 from pathmotion.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, effective_limits, plan
 from pathmotion.planning.grid import make_grid
@@ -272,26 +272,25 @@ def main():
                     f"grid, {ROUNDS} interleaved rounds per case (the certification's cost)")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
-    # both tools run with BLAS on one thread: OpenBLAS's second thread otherwise spins after a call and its CPU
-    # time lands in whichever sub-millisecond call comes next (process CPU time counts every thread)
-    limit = threadpool_limits(1)
     seeds, repeats = ((1,), 3) if args.quick else (SEEDS, 7)
     seeds = tuple(args.seeds or seeds)
     print(f"load average at start: {os.getloadavg()} on {os.cpu_count()} cores")
-    rows = []
-    for label, (robot, torque) in robots().items():
-        if args.sets and label not in args.sets:
-            continue
-        for n_wp in args.waypoints or WAYPOINTS:
-            for seed in seeds:
-                if args.direct:
-                    rows.append(direct_case(label, robot, torque, seed, n_wp))
-                    print_direct(rows[-1])
-                else:
-                    rows.append(run_case(label, robot, torque, seed, n_wp, repeats))
-                    print_row(rows[-1])
+    # both tools run with BLAS on one thread: OpenBLAS's second thread otherwise spins after a call and its CPU
+    # time lands in whichever sub-millisecond call comes next (process CPU time counts every thread)
+    with single_blas_thread():
+        rows = []
+        for label, (robot, torque) in robots().items():
+            if args.sets and label not in args.sets:
+                continue
+            for n_wp in args.waypoints or WAYPOINTS:
+                for seed in seeds:
+                    if args.direct:
+                        rows.append(direct_case(label, robot, torque, seed, n_wp))
+                        print_direct(rows[-1])
+                    else:
+                        rows.append(run_case(label, robot, torque, seed, n_wp, repeats))
+                        print_row(rows[-1])
     (summarize_direct if args.direct else summarize)(rows)
-    limit.restore_original_limits()
     print(f"load average at end: {os.getloadavg()}")
 
 

@@ -5,36 +5,26 @@ scipy's algebraic Riccati solver for its end, the numba kernels' solves). OpenBL
 its threads anyway; each then waits for a second thread, which on a loaded machine is not scheduled for a while:
 scipy's discrete algebraic Riccati solver took 17 ms of CPU with two threads and 2 ms with one on the 2-core
 development machine (load 6), the whole sampled design 86 ms and 46 ms. :func:`single_blas_thread` limits every
-loaded BLAS to one thread inside a ``with`` block and restores the previous limits after it (``threadpoolctl``;
-without it the block runs unchanged).
+loaded BLAS to one thread inside a ``with`` block and restores the previous limits after it (``threadpoolctl``,
+a dependency).
 """
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import logging
 
-log = logging.getLogger(__name__)
+from threadpoolctl import ThreadpoolController
 
 
 @functools.lru_cache(maxsize=1)
-def _controller():
-    """threadpoolctl's view of the loaded BLAS libraries (found once per process, ~20 ms), or None."""
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:
-        log.debug("threadpoolctl not installed: the controller set-up runs with the BLAS default threads")
-        return None
+def _controller() -> ThreadpoolController:
+    """threadpoolctl's view of the loaded BLAS libraries (found once per process, ~20 ms)."""
     return ThreadpoolController()
 
 
 def single_blas_thread():
-    """Context manager: BLAS limited to one thread inside the block (a no-op without threadpoolctl)."""
-    controller = _controller()
-    if controller is None:
-        return contextlib.nullcontext()
-    return controller.limit(limits=1, user_api="blas")
+    """Context manager: BLAS limited to one thread inside the block."""
+    return _controller().limit(limits=1, user_api="blas")
 
 
 def blas_single_threaded(function):
