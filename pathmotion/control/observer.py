@@ -159,32 +159,41 @@ def observer_gain(gains: OrbitalGains, sample_time: float, delay: int, sampled: 
 
 class DisturbanceObserver:
     """Running estimate delta_hat (n,) [N m] of the torque the nominal model lacks (module docstring), with the
-    per-sample ``gain`` (0: off) and the command applied ``delay`` samples late. Per sample: :meth:`measure` with
-    the sensor's (q, qd), then :meth:`command` with the law's torque."""
+    per-sample ``gain`` (0: off) and the command applied ``delay`` samples late. With a ``payload`` estimator
+    (:class:`.payload.PayloadEstimator`) the residual first updates the payload estimate, and the observer sees
+    only what the estimated payload does not explain (the controller's model is then nominal + payload). Per
+    sample: :meth:`measure` with the sensor's (q, qd), then :meth:`command` with the law's torque."""
 
-    def __init__(self, model: pin.Model, sample_time: float, gain: float, delay: int, torque_limit: np.ndarray):
+    def __init__(self, model: pin.Model, sample_time: float, gain: float, delay: int, torque_limit: np.ndarray,
+                 payload=None):
         self.model, self.data = model, model.createData()
         self.ts, self.gain, self.delay, self.limit = float(sample_time), float(gain), int(delay), torque_limit
+        self.payload = payload
+        self.active = self.gain > 0.0 or payload is not None
         self.estimate = np.zeros(len(torque_limit))
         self.previous: tuple[np.ndarray, np.ndarray] | None = None
         self.applied: list[np.ndarray] = []  # the commands still to act, oldest (acting now) first
 
     def measure(self, q: np.ndarray, qd: np.ndarray) -> None:
-        """Update the estimate with the sample that just ended (nothing on the first call)."""
-        if self.gain == 0.0:
+        """Update the estimates with the sample that just ended (nothing on the first call)."""
+        if not self.active:
             return
         if self.previous is not None and self.applied:
             q0, qd0 = self.previous
             acc = (qd - qd0) / self.ts
-            delta = self.applied[0] - pin.rnea(self.model, self.data, 0.5 * (q + q0), 0.5 * (qd + qd0), acc)
-            self.estimate += self.gain * (delta - self.estimate)
+            q_mid, qd_mid = 0.5 * (q + q0), 0.5 * (qd + qd0)
+            delta = self.applied[0] - pin.rnea(self.model, self.data, q_mid, qd_mid, acc)
+            if self.payload is not None:
+                delta = self.payload.update(q_mid, qd_mid, acc, delta)
+            if self.gain > 0.0:
+                self.estimate += self.gain * (delta - self.estimate)
             if len(self.applied) > self.delay:
                 self.applied.pop(0)
         self.previous = (q.copy(), qd.copy())
 
     def command(self, tau: np.ndarray) -> np.ndarray:
         """The law's torque tau (n,) plus the estimate; its saturated value is kept for the sample it acts in."""
-        if self.gain == 0.0:
+        if not self.active:
             return tau
         tau = tau + self.estimate
         self.applied.append(np.clip(tau, -self.limit, self.limit))

@@ -30,6 +30,7 @@ from ..robot import Robot
 from .gains import OrbitalGains
 from .laws import computed_torque
 from .observer import DisturbanceObserver, observer_gain
+from .payload import PayloadEstimator
 from .kernels import clock_command, orbital_command
 from .path_table import PathTable
 from .profile_lookup import ProfileLookup
@@ -386,7 +387,8 @@ class OrbitalController:
     name = "orbital"
 
     def __init__(self, design: OrbitalDesign, robot: Robot, sample_time: float = defaults.SAMPLE_TIME,
-                 delay: int | None = None, sampled: bool = True):
+                 delay: int | None = None, sampled: bool = True,
+                 identify_payload: bool = defaults.PAYLOAD_IDENTIFICATION):
         d = design
         self.design = design
         self.model = robot.model
@@ -402,9 +404,11 @@ class OrbitalController:
         self.v = np.zeros(n)
         core = integral_size(d.gains, n) + 2 * n - 1
         self.delay = (d.gain.shape[2] - core) // n if delay is None else int(delay)
+        self.payload = (PayloadEstimator.for_robot(robot, self.sample_time, d.gains.payload_memory,
+                                                   d.gains.payload_noise) if identify_payload else None)
         self.observer = DisturbanceObserver(self.model, self.sample_time,
                                             observer_gain(d.gains, self.sample_time, self.delay, sampled), self.delay,
-                                            self.torque_limit)
+                                            self.torque_limit, self.payload)
         p = d.profile.profile
         self._path, self._plan, self._basis = d.table.arrays, d.profile.arrays, d.basis.arrays
         self._projection = d.table.projection()
@@ -447,7 +451,7 @@ class OrbitalController:
                 return self._play(plan, q, qd)
         self.theta, self.theta_dot = orbital_command(self._path, self._plan, self._basis, self._projection, d.gain,
                                                      q, qd, guess, self.sample_time, self.xi, self.x_perp, self.v)
-        tau = computed_torque(self.model, self.data, q, qd, self.v)
+        tau = self._model_torque(q, qd, self.v)
         if len(self.xi) and np.any(np.abs(tau + self.observer.estimate) > self.torque_limit):
             self._hold_integral()
         return tau
@@ -465,7 +469,14 @@ class OrbitalController:
         law's closed-loop poles and integral action on the joint error."""
         kp, kd, ki = self._clock_gains
         clock_command(self._path, self._plan, t_ref, self.sample_time, q, qd, kp, kd, ki, self.xi_q, self.v)
-        return computed_torque(self.model, self.data, q, qd, self.v)
+        return self._model_torque(q, qd, self.v)
+
+    def _model_torque(self, q: np.ndarray, qd: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Computed torque on the controller's model: the nominal RNEA plus the identified payload's Y d_pi_hat."""
+        tau = computed_torque(self.model, self.data, q, qd, v)
+        if self.payload is not None:
+            tau += self.payload.torque(q, qd, v)
+        return tau
 
     def _frame(self, theta: float) -> np.ndarray:
         """E(theta) (n, n-1)."""

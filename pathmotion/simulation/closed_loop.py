@@ -76,6 +76,7 @@ class SimulationSettings:
     plant: str = defaults.PLANT
     sampled_design: bool = defaults.ORBITAL_SAMPLED_DESIGN
     design_cache: bool = defaults.DESIGN_CACHE
+    identify_payload: bool = defaults.PAYLOAD_IDENTIFICATION
 
     def __post_init__(self):
         for name in ("sample_time", "path_tolerance", "joint_tolerance", "time_budget_factor"):
@@ -114,7 +115,8 @@ def make_controller(name: str, robot: Robot, path: JointPath, profile: Profile, 
             log.info("closed-loop design: orbital controller (transverse linearization, %s Riccati)",
                      "sampled" if settings.sampled_design else "continuous")
             design = OrbitalDesign.build(table, profile, settings.orbital_gains, *_sampling(settings))
-        return OrbitalController(design, robot, settings.sample_time, int(settings.realism.delay), settings.sampled_design)
+        return OrbitalController(design, robot, settings.sample_time, int(settings.realism.delay), settings.sampled_design,
+                                 settings.identify_payload)
     if name in ("computed_torque", "pd_gravity"):
         ref = TimeReference.sample(path, profile, settings.sample_time, horizon)
         if name == "computed_torque":
