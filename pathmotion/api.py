@@ -623,7 +623,7 @@ def simulation_settings(setup: Setup):
     kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
                   path_tolerance=sim.path_tolerance, joint_tolerance=sim.joint_tolerance,
                   saturation_limit=sim.saturation_limit, laps=sim.laps, plant=sim.plant,
-                  sampled_design=sim.sampled_design)
+                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload)
     if sim.gains:
         cls, field = (OrbitalGains, "orbital_gains") if sim.controller == "orbital" else (
             TrackingGains, "computed_torque_gains" if sim.controller == "computed_torque" else "pd_gains")

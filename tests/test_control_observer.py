@@ -145,12 +145,15 @@ def periodic_circle():
     return setup, plan(setup.path, setup.robot, dataclasses.replace(setup.plan_settings, baselines=False)).profile
 
 
-def _lap(setup, profile, gains: OrbitalGains, realism: Realism = Realism(), believed: float = 0.0) -> dict:
+def _lap(setup, profile, gains: OrbitalGains, realism: Realism = Realism(), believed: float = 0.0,
+         identify: bool = False) -> dict:
+    """One lap's summary; the observer alone unless ``identify`` (the payload identification on)."""
     robot, plant = setup.robot, None
     if believed:
         plant = Plant.from_robot(robot, realism)
         robot = robot.with_payload(Payload(believed, defaults.REALISTIC_PAYLOAD_COM))
-    settings = SimulationSettings(realism=realism, laps=1, path_tolerance=0.5, orbital_gains=gains, design_cache=False)
+    settings = SimulationSettings(realism=realism, laps=1, path_tolerance=0.5, orbital_gains=gains, design_cache=False,
+                                  identify_payload=identify)
     return simulate(robot, setup.path, profile, "orbital", settings, plant=plant).summary()
 
 

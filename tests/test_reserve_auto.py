@@ -27,8 +27,10 @@ COUNT = round(TOP / STEP)  # grid indices 0 .. COUNT
 FRICTION = 0.05
 #: circle_zero on torque alone (acceleration estimates off), on a plant with FRICTION x tau_max of unmodelled
 #: Coulomb friction per joint: a plan with reserve r leaves r x tau_max for feedback, so by physics every
-#: reserve <= FRICTION leaves no torque beyond the friction (the command saturates while the plan runs at
-#: its torque limit) and fails; a reserve a little above it tracks.
+#: reserve < FRICTION leaves less torque than the friction takes (the command saturates while the plan runs at
+#: its torque limit) and fails; from FRICTION on (tanh(qd / v_c) F_c < F_c: a sliver beyond the friction at
+#: exactly FRICTION) a controller that knows the friction can track. The orbital controller identifies the
+#: friction online (pathmotion/control/payload.py) and tracks from 0.05; with the observer alone it needed 0.075.
 TORQUE_ONLY = {"limits.use_acceleration": False, "limits.torque_reserve": "auto",
                "simulate.realism.coulomb_friction": [float(v) for v in FRICTION * load_robot("irb140").limits.torque]}
 
@@ -85,10 +87,10 @@ def auto():
 def test_auto_picks_the_smallest_reserve_that_tracks(auto):
     search = auto.reserve_search
     chosen = search.chosen
-    assert chosen is not None and chosen > FRICTION  # the friction's share alone leaves no torque for feedback
+    assert chosen is not None and chosen >= FRICTION  # below the friction's share no torque is left for feedback
     by_reserve = {t.reserve: t for t in search.trials}
     assert by_reserve[0.0].verdict == Verdict.FAILS and "saturated" in by_reserve[0.0].reason
-    low = [t for t in search.trials if t.reserve <= FRICTION]
+    low = [t for t in search.trials if t.reserve < FRICTION - 1e-12]
     assert low and all(t.verdict == Verdict.FAILS and "saturated" in t.reason for t in low)
     # the reserve one step below the chosen one was tried and failed (or is 0, which failed)
     assert by_reserve[round(chosen - STEP, 12)].verdict == Verdict.FAILS or chosen == STEP
@@ -117,11 +119,13 @@ def test_auto_is_reported_in_the_summaries_and_by_check(auto):
 
 
 def test_no_reserve_tracks_is_a_failed_result(tmp_path):
-    """An unmodelled 6 kg payload sags the TCP beyond 1 mm in the first 30 ms, before the plan moves: no
-    reserve helps, every run fails; plan writes its files and exits 4 naming the largest reserve tried."""
+    """An unmodelled 6 kg payload, and a controller that does not identify it (the observer alone), sags the TCP
+    beyond 1 mm in the first 30 ms, before the plan moves: no reserve helps, every run fails; plan writes its files
+    and exits 4 naming the largest reserve tried."""
     out = tmp_path / "out"
     sets = ["limits.use_acceleration=false", "limits.torque_reserve=auto", "plan.grid_points=100",
-            "simulate.realism.payload_mass=6", "simulate.realism.payload_com=[0, 0, 0.1]"]
+            "simulate.realism.payload_mass=6", "simulate.realism.payload_com=[0, 0, 0.1]",
+            "simulate.identify_payload=false"]
     args = ["plan", str(scenario_path("circle_zero")), "--out", str(out), "--no-figures"]
     for s in sets:
         args += ["--set", s]

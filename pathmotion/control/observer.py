@@ -173,6 +173,7 @@ class DisturbanceObserver:
         self.estimate = np.zeros(len(torque_limit))
         self.previous: tuple[np.ndarray, np.ndarray] | None = None
         self.applied: list[np.ndarray] = []  # the commands still to act, oldest (acting now) first
+        self.offsets: list[np.ndarray] = []  # the law's torque offsets beyond the model in them (friction)
 
     def measure(self, q: np.ndarray, qd: np.ndarray) -> None:
         """Update the estimates with the sample that just ended (nothing on the first call)."""
@@ -184,17 +185,21 @@ class DisturbanceObserver:
             q_mid, qd_mid = 0.5 * (q + q0), 0.5 * (qd + qd0)
             delta = self.applied[0] - pin.rnea(self.model, self.data, q_mid, qd_mid, acc)
             if self.payload is not None:
-                delta = self.payload.update(q_mid, qd_mid, acc, delta)
+                delta = self.payload.update(q_mid, qd_mid, acc, delta) - self.offsets[0]
             if self.gain > 0.0:
                 self.estimate += self.gain * (delta - self.estimate)
             if len(self.applied) > self.delay:
                 self.applied.pop(0)
+                self.offsets.pop(0)
         self.previous = (q.copy(), qd.copy())
 
-    def command(self, tau: np.ndarray) -> np.ndarray:
-        """The law's torque tau (n,) plus the estimate; its saturated value is kept for the sample it acts in."""
+    def command(self, tau: np.ndarray, offset: np.ndarray | None = None) -> np.ndarray:
+        """The law's torque tau (n,) plus the estimate; its saturated value is kept for the sample it acts in, with
+        ``offset`` (n,) [N m], the part of tau that is not the model's torque at the measured state (the friction
+        compensated at the planned velocity): the observer estimates what the law's model AND offset miss."""
         if not self.active:
             return tau
         tau = tau + self.estimate
         self.applied.append(np.clip(tau, -self.limit, self.limit))
+        self.offsets.append(np.zeros(len(tau)) if offset is None else offset)
         return tau

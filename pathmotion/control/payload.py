@@ -1,34 +1,41 @@
-"""Online identification of the payload the controller's model lacks (a structured disturbance model).
+"""Online identification of the payload and the joint friction the controller's model lacks (a structured
+disturbance model; docs/control.md, "Payload identification").
 
-A payload rigidly fixed to the flange body changes the joint torques linearly in that body's ten inertial
-parameters pi = (m, m c_x, m c_y, m c_z, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz) (Pinocchio's dynamic parameters,
-in the body's joint frame, I about the joint frame's origin):
+A payload rigidly fixed to the flange body changes the joint torques linearly in that body's inertial parameters
+(Pinocchio's dynamic parameters in the body's joint frame: m, m c, I about the frame's origin). The estimator
+takes the mass and the first moment, pi = (m, m c_x, m c_y, m c_z) (a point mass: its gravity and its
+translational inertia), and each joint's viscous and Coulomb friction (F_v, F_c):
 
-    tau_true(q, qd, a) = RNEA_nom(q, qd, a) + Y(q, qd, a) d_pi,     Y = the flange body's 10 columns of
-                                                                        pin.computeJointTorqueRegressor
+    tau_true(q, qd, a) = RNEA_nom(q, qd, a) + Y(q, qd, a) theta + (what is left: link inertia errors, the payload's
+                         rotational inertia, noise),
+    Y = [first 4 columns of the flange body in pin.computeJointTorqueRegressor | diag(qd) | diag(tanh(qd / v_s))],
+    theta = (d_pi (4), F_v (n), F_c (n)).
 
-d_pi is what the model lacks: an unknown payload (d_pi > 0) or one the model believes in but the arm does not
-carry (m < 0: a phantom). Each sample the controller has the residual of the disturbance observer,
+d_pi is what the model lacks: an unknown payload (m > 0) or one the model believes in but the arm does not carry
+(m < 0: a phantom). Each sample the controller has the residual of the disturbance observer,
 
-    r_k = tau_applied - RNEA_nom(q_mid, qd_mid, a_k),    a_k = (qd_k - qd_k-1) / Ts,   (q, qd)_mid the sample's middle
+    r_k = tau_applied - RNEA_nom(q_mid, qd_mid, a_k),   a_k = (qd_k - qd_k-1) / Ts,   (q, qd)_mid the sample's middle
 
-(tau_applied the command ``delay`` samples old, saturated), and r_k = Y_k d_pi + e_k: a linear regression. The
-estimator is a Kalman filter on d_pi:
+(tau_applied the command ``delay`` samples old, saturated), and r_k = Y_k theta + e_k: a linear regression,
+solved by a Kalman filter:
 
-* prior d_pi ~ N(0, P0), P0 = diag(m0^2, (m0 l)^2 (x3), (m0 l^2)^2 (x6)): m0 the robot's rated payload, l a lever
-  of the flange's scale (:func:`prior_scales`);
-* d_pi is a stationary Gauss-Markov process with correlation time T (``payload_memory``): per sample
-  d_pi <- rho d_pi, P <- rho^2 P + (1 - rho^2) P0, rho = exp(-Ts / T). This is the forgetting: the information
-  decays with time constant T/2, and directions the motion never excites (at rest, everything but the gravity
-  terms) relax to the prior instead of growing without bound as with exponential forgetting;
-* the measurement noise is an acceleration error: e = M(q) w, w ~ N(0, sigma^2 I), sigma = ``payload_noise``
-  [rad/s^2]. It stands for the speed noise differenced over a sample and for what no payload explains (link
-  inertia errors, friction): the regression is weighted as the joint acceleration error it leaves, M^-1 r = M^-1 Y
-  d_pi + w, and the update is n scalar Kalman updates on the rows of M^-1 (Y, r).
+* prior theta ~ N(0, P0): standard deviations m0, m0 l (x3) for the payload (m0 the robot's rated payload, l a lever
+  of the flange's scale; :func:`prior_scales`) and a fraction of each torque limit for the friction
+  (:func:`friction_scales`);
+* theta is a stationary Gauss-Markov process with correlation time T (``payload_memory``): per sample theta <- rho
+  theta, P <- rho^2 P + (1 - rho^2) P0, rho = exp(-Ts / T). This is the forgetting: what the motion stops exciting
+  relaxes to the prior (bounded) instead of growing without bound as with exponential forgetting;
+* the noise is an acceleration error, e = M(q) w, w ~ N(0, sigma^2 I), sigma = ``payload_noise`` [rad/s^2]: the
+  regression is weighted as the joint acceleration error it leaves (M^-1 r = M^-1 Y theta + w), taken in as n
+  scalar updates;
+* bounds after each update (physics): the flange body's mass stays >= 0 (a phantom cannot remove more than the
+  model has there), friction >= 0 (it dissipates).
 
-The regression does not depend on the estimate: r_k - Y_k d_pi is measured, whatever the controller commanded. So
-the estimate converges (to noise) on its own, and the loop sees a model error that shrinks over time; there is
-no loop through the estimate to destabilize (docs/control.md, "Payload identification").
+The regression does not involve the estimate: r_k is measured whatever the controller commanded, so the estimate
+converges on its own (no loop through it). The payload's rotational inertia is left to the observer on purpose: it
+enters the wrist's small inertia directly (0.1 kg m^2 on the IRB140's sixth axis), it is the part the finite-
+difference accelerations and a light joint's friction corrupt most, and an error of it is the most harmful (with it
+estimated, a friction-only plant drove the sixth axis' model inertia negative within 0.1 s).
 """
 
 from __future__ import annotations
@@ -42,14 +49,16 @@ import pinocchio as pin
 from .. import defaults
 from ..errors import SimulationError
 
-#: Number of inertial parameters of one rigid body (Pinocchio's dynamic parameters).
+#: Payload parameters estimated: m and m c (Pinocchio's dynamic parameters 0..3 of the flange body).
+PAYLOAD_PARAMETERS = 4
+#: Dynamic parameters of one rigid body in Pinocchio's joint torque regressor.
 BODY_PARAMETERS = 10
 
 
 def prior_scales(mass: float, lever: float) -> np.ndarray:
-    """Prior standard deviations (10,) of d_pi for a payload of ``mass`` [kg] at a ``lever`` [m] from the
-    flange body's frame: (m, m c (3), I about the origin (6)) -> (mass, mass lever, mass lever^2)."""
-    return np.array([mass] + [mass * lever] * 3 + [mass * lever**2] * 6, float)
+    """Prior standard deviations (4,) of d_pi = (m, m c) for a payload of ``mass`` [kg] at a ``lever`` [m] from the
+    flange body's frame: (mass, mass lever (x3))."""
+    return np.array([mass] + [mass * lever] * 3, float)
 
 
 def prior_mass(robot) -> float:
@@ -70,11 +79,11 @@ def friction_scales(robot) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def kalman_step(estimate, covariance, prior, rho, mass_matrix, regressor, residual, noise2):
-    """One sample of the payload filter, in place: the Gauss-Markov prediction (estimate (p,) *= rho, covariance
-    (p, p) <- rho^2 covariance + (1 - rho^2) diag(prior (p,))), then the measurement residual (n,) = regressor
-    (n, p) estimate + mass_matrix (n, n) w, w ~ N(0, noise2 I), whitened by the mass matrix (M^-1 e = w) and taken
-    in as n scalar updates."""
+def kalman_step(estimate, covariance, prior, rho, mass_matrix, regressor, residual, noise2, low, high):
+    """One sample of the filter, in place: the Gauss-Markov prediction (estimate (p,) *= rho, covariance (p, p) <-
+    rho^2 covariance + (1 - rho^2) diag(prior (p,))), then the measurement residual (n,) = regressor (n, p)
+    estimate + M w, w ~ N(0, noise2 I) (M = mass_matrix (n, n)), whitened (M^-1) and taken in as n scalar updates;
+    the estimate is then clipped to [low, high] (p,)."""
     p = estimate.shape[0]
     n = residual.shape[0]
     decay = rho * rho
@@ -103,33 +112,41 @@ def kalman_step(estimate, covariance, prior, rho, mass_matrix, regressor, residu
         for i in range(p):
             for j in range(p):
                 covariance[i, j] -= ph[i] * ph[j] / s
+    for i in range(p):
+        estimate[i] = min(max(estimate[i], low[i]), high[i])
 
 
 class PayloadEstimator:
-    """Running estimate ``estimate`` (10 + 2n,) of d_pi, the flange body's inertial parameters the nominal ``model``
-    lacks, and of each joint's viscous [N m s/rad] and Coulomb [N m] friction (module docstring). ``joint``: index
-    of the joint whose body carries the flange; ``sample_time`` [s]; ``prior`` (10 + 2n,) standard deviations;
-    ``memory`` T [s]; ``noise`` sigma [rad/s^2]; ``smoothing`` v_s [rad/s] of the Coulomb term tanh(qd / v_s)."""
+    """Running estimate ``estimate`` (4 + 2n,) of theta = (d_pi = (m, m c) of the payload the nominal ``model`` lacks
+    at the flange body, F_v (n,) [N m s/rad], F_c (n,) [N m]) (module docstring). ``joint``: index of the joint whose
+    body carries the flange; ``sample_time`` [s]; ``prior`` (4 + 2n,) standard deviations; ``memory`` T [s];
+    ``noise`` sigma [rad/s^2]; ``smoothing`` v_s [rad/s] of the Coulomb term tanh(qd / v_s)."""
 
     def __init__(self, model: pin.Model, joint: int, sample_time: float, prior: np.ndarray, memory: float,
                  noise: float, smoothing: float = defaults.COULOMB_SMOOTHING_SPEED):
+        n = model.nv
         if not 1 <= joint < model.njoints:
             raise SimulationError(f"payload identification: joint index {joint} is not a joint of the model "
                                   f"(1..{model.njoints - 1})")
-        n = model.nv
-        if np.shape(prior) != (BODY_PARAMETERS + 2 * n,):
+        if np.shape(prior) != (PAYLOAD_PARAMETERS + 2 * n,):
             raise SimulationError(f"payload identification: {np.shape(prior)} prior scales; give "
-                                  f"{BODY_PARAMETERS + 2 * n} (10 inertial parameters, then viscous and Coulomb "
-                                  "friction per joint)")
+                                  f"{PAYLOAD_PARAMETERS + 2 * n} (m, m c, then viscous and Coulomb friction per joint)")
         self.model, self.data = model, model.createData()
-        self.columns = slice(BODY_PARAMETERS * (joint - 1), BODY_PARAMETERS * joint)
+        self.n = n
+        start = BODY_PARAMETERS * (joint - 1)
+        self.columns = slice(start, start + PAYLOAD_PARAMETERS)
         self.prior = np.asarray(prior, float) ** 2
         self.rho = math.exp(-sample_time / memory) if math.isfinite(memory) else 1.0
         self.noise2 = float(noise) ** 2
         self.smoothing = float(smoothing)
         self.estimate = np.zeros(len(prior))
         self.covariance = np.diag(self.prior)
+        self.low = np.full(len(prior), -np.inf)
+        self.high = np.full(len(prior), np.inf)
+        self.low[0] = -model.inertias[joint].mass  # the flange body keeps a mass >= 0
+        self.low[PAYLOAD_PARAMETERS:] = 0.0  # friction dissipates
         self._rows = np.zeros((n, len(prior)))
+        self._diagonal = np.arange(n)
 
     @classmethod
     def for_robot(cls, robot, sample_time: float, memory: float, noise: float) -> "PayloadEstimator":
@@ -140,30 +157,38 @@ class PayloadEstimator:
         prior = np.concatenate([prior_scales(prior_mass(robot), defaults.PAYLOAD_LEVER), friction_scales(robot)])
         return cls(model, joint, sample_time, prior, memory, noise)
 
+    def payload_regressor(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
+        """(n, 4): d tau / d (m, m c) of the flange body at (q, qd, a) [rad, rad/s, rad/s^2], gravity included."""
+        return pin.computeJointTorqueRegressor(self.model, self.data, q, qd, a)[:, self.columns]
+
     def regressor(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
-        """(n, 10 + 2n): d tau / d (pi, F_v, F_c) at (q, qd, a) [rad, rad/s, rad/s^2]: the flange body's columns of
-        Pinocchio's joint torque regressor (gravity included), diag(qd), diag(tanh(qd / v_s))."""
-        n = len(q)
-        rows = self._rows
-        rows[:, :BODY_PARAMETERS] = pin.computeJointTorqueRegressor(self.model, self.data, q, qd, a)[:, self.columns]
-        idx = np.arange(n)
-        rows[idx, BODY_PARAMETERS + idx] = qd
-        rows[idx, BODY_PARAMETERS + n + idx] = np.tanh(qd / self.smoothing)
+        """Y (n, 4 + 2n) at (q, qd, a): :meth:`payload_regressor`, diag(qd), diag(tanh(qd / v_s)) (a buffer reused
+        by the next call)."""
+        rows, idx, p = self._rows, self._diagonal, PAYLOAD_PARAMETERS
+        rows[:, :p] = self.payload_regressor(q, qd, a)
+        rows[idx, p + idx] = qd
+        rows[idx, p + self.n + idx] = np.tanh(qd / self.smoothing)
         return rows
 
-    def torque(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
-        """The estimated payload's and friction's torque Y(q, qd, a) estimate (n,) [N m]."""
-        return self.regressor(q, qd, a) @ self.estimate
+    def payload_torque(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
+        """The estimated payload's torque Y_pi(q, qd, a) d_pi_hat (n,) [N m] (gravity included)."""
+        return self.payload_regressor(q, qd, a) @ self.estimate[:PAYLOAD_PARAMETERS]
+
+    def friction_torque(self, qd: np.ndarray) -> np.ndarray:
+        """The estimated friction F_v qd + F_c tanh(qd / v_s) (n,) [N m] at the joint velocity qd (n,) [rad/s]."""
+        p, n = PAYLOAD_PARAMETERS, self.n
+        return self.estimate[p:p + n] * qd + self.estimate[p + n:] * np.tanh(qd / self.smoothing)
 
     def update(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray, residual: np.ndarray) -> np.ndarray:
         """Take in one sample's ``residual`` (n,) [N m] = tau_applied - RNEA_nom(q, qd, a) at the sample's middle;
-        returns the part the updated estimate does not explain, residual - Y estimate (n,)."""
+        returns what the updated payload estimate does not explain, residual - Y_pi d_pi_hat (n,) (the friction
+        stays in it: the controller compensates the friction at the PLANNED velocity and tells the observer so)."""
         y = self.regressor(q, qd, a)
         mass = pin.crba(self.model, self.data, q)
         mass = np.triu(mass) + np.triu(mass, 1).T
-        kalman_step(self.estimate, self.covariance, self.prior, self.rho, mass, y,
-                    np.ascontiguousarray(residual), self.noise2)
-        return residual - y @ self.estimate
+        kalman_step(self.estimate, self.covariance, self.prior, self.rho, mass, y, np.ascontiguousarray(residual),
+                    self.noise2, self.low, self.high)
+        return residual - y[:, :PAYLOAD_PARAMETERS] @ self.estimate[:PAYLOAD_PARAMETERS]
 
     @property
     def mass(self) -> float:
