@@ -180,20 +180,23 @@ ORBITAL_INTEGRAL_RATE = 20.0
 #: [-]. 3 covers the IRB140's rated 6 kg at 0.1 m beyond the flange unknown to the model (up to 2.6x the
 #: modelled inertia) or believed in but absent (down to 0.39x). inf: no observer.
 ORBITAL_OBSERVER_RANGE = 3.0
-#: Orbital controller: identify online the flange payload the model lacks (pathmotion.control.payload: a Kalman
-#: filter on the flange body's 10 inertial parameters from the disturbance observer's residual; the computed
-#: torque and the observer then use the nominal model plus the estimate). ``[simulate] identify_payload``.
+#: Orbital controller: identify online the flange payload (mass, first moment) and the joint friction the model
+#: lacks (pathmotion.control.payload: a Kalman filter on the disturbance observer's residual; the computed torque
+#: adds the estimate, the observer sees the rest). ``[simulate] identify_payload``.
 PAYLOAD_IDENTIFICATION = True
 #: Payload identification: correlation time [s] of the parameters (Gauss-Markov prior; the forgetting: what the
-#: motion stops exciting relaxes to the prior with time constant T/2) (``[simulate] gains.payload_memory``).
+#: motion stops exciting relaxes to the prior) (``[simulate] gains.payload_memory``).
 PAYLOAD_MEMORY = 10.0
-#: Payload identification: standard deviation [rad/s^2] of the joint acceleration error a sample's residual is
-#: weighted with: the speed noise differenced over a sample (1e-3 rad/s over 4 ms: 0.35 rad/s^2) plus what no
-#: payload explains (link inertia errors, friction) (``[simulate] gains.payload_noise``).
+#: Payload identification: a sample's residual is weighted as a joint acceleration error of standard deviation
+#: sqrt(PAYLOAD_NOISE^2 + 2 (PAYLOAD_SPEED_NOISE / Ts)^2): what no payload and friction explain (link inertia
+#: errors, the payload's rotational inertia) [rad/s^2], and the measured joint speed's noise [rad/s] differenced over
+#: a sample (twice docs/control.md's realistic 1e-3 rad/s: 0.71 rad/s^2 at 4 ms, 2.8 at 1 ms)
+#: (``[simulate] gains.payload_noise``, ``gains.payload_speed_noise``).
 PAYLOAD_NOISE = 1.0
+PAYLOAD_SPEED_NOISE = 2.0e-3
 #: Payload identification prior: lever [m] of the payload's centre of mass from the flange body's frame (the
-#: scale of m c and of I about the frame's origin), and, for robots without a rated payload in RATED_PAYLOAD,
-#: the prior mass as this fraction of the arm's link mass [-].
+#: scale of m c), and, for robots without a rated payload in RATED_PAYLOAD, the prior mass as this fraction of the
+#: arm's link mass [-].
 PAYLOAD_LEVER = 0.2
 PAYLOAD_MASS_FRACTION = 0.1
 #: Payload identification prior: each joint's Coulomb friction as this fraction of its torque limit, its viscous

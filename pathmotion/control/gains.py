@@ -65,9 +65,9 @@ class OrbitalGains(_SecondOrder):
     observer_range [-]: the disturbance observer's gain is the largest with which the sampled, delayed loop stays
     stable for every plant inertia between 1/observer_range and observer_range times the model's
     (:func:`.observer.observer_gain`; inf: no observer).
-    payload_memory [s] and payload_noise [rad/s^2]: the online payload identification's correlation time (its
-    forgetting) and the acceleration error a sample is weighted with (:mod:`.payload`; on with
-    ``[simulate] identify_payload``).
+    payload_memory [s], payload_noise [rad/s^2], payload_speed_noise [rad/s]: the online payload identification's
+    correlation time (its forgetting), the model error and the speed noise a sample's residual is weighted with
+    (:mod:`.payload`; on with ``[simulate] identify_payload``).
     integral_rate [rad/s]: integral action on z (0: none). The transverse state is augmented with
     xi = int z dt and weighted so that a decoupled triple integrator closes with the poles
     (s + integral_rate)(s^2 + 2 zeta w s + w^2): a constant unmodelled torque (payload gravity)
@@ -83,11 +83,12 @@ class OrbitalGains(_SecondOrder):
     observer_range: float = defaults.ORBITAL_OBSERVER_RANGE
     payload_memory: float = defaults.PAYLOAD_MEMORY
     payload_noise: float = defaults.PAYLOAD_NOISE
+    payload_speed_noise: float = defaults.PAYLOAD_SPEED_NOISE
 
     def __post_init__(self):
         _check_positive("OrbitalGains", bandwidth=self.bandwidth, damping=self.damping,
                         speed_rate=self.speed_rate, min_speed=self.min_speed, payload_memory=self.payload_memory,
-                        payload_noise=self.payload_noise)
+                        payload_noise=self.payload_noise, payload_speed_noise=self.payload_speed_noise)
         if self.damping < 2**-0.5:
             raise SimulationError(f"OrbitalGains.damping = {self.damping:g}; the LQR form needs damping >= 0.7072")
         if not (isinstance(self.integral_rate, (int, float)) and self.integral_rate >= 0):

@@ -407,7 +407,8 @@ class OrbitalController:
         core = integral_size(d.gains, n) + 2 * n - 1
         self.delay = (d.gain.shape[2] - core) // n if delay is None else int(delay)
         self.payload = (PayloadEstimator.for_robot(robot, self.sample_time, d.gains.payload_memory,
-                                                   d.gains.payload_noise) if identify_payload else None)
+                                                   d.gains.payload_noise, d.gains.payload_speed_noise)
+                        if identify_payload else None)
         self.observer = DisturbanceObserver(self.model, self.sample_time,
                                             observer_gain(d.gains, self.sample_time, self.delay, sampled), self.delay,
                                             self.torque_limit, self.payload)

@@ -25,9 +25,10 @@ solved by a Kalman filter:
 * theta is a stationary Gauss-Markov process with correlation time T (``payload_memory``): per sample theta <- rho
   theta, P <- rho^2 P + (1 - rho^2) P0, rho = exp(-Ts / T). This is the forgetting: what the motion stops exciting
   relaxes to the prior (bounded) instead of growing without bound as with exponential forgetting;
-* the noise is an acceleration error, e = M(q) w, w ~ N(0, sigma^2 I), sigma = ``payload_noise`` [rad/s^2]: the
-  regression is weighted as the joint acceleration error it leaves (M^-1 r = M^-1 Y theta + w), taken in as n
-  scalar updates;
+* the noise is an acceleration error, e = M(q) w, w ~ N(0, sigma^2 I), sigma^2 = sigma_m^2 + 2 sigma_v^2 / Ts^2:
+  what the model misses (``payload_noise`` sigma_m [rad/s^2]) and the measured speed's noise differenced over a
+  sample (``payload_speed_noise`` sigma_v [rad/s]); the regression is weighted as the joint acceleration error it
+  leaves (M^-1 r = M^-1 Y theta + w), taken in as n scalar updates;
 * bounds after each update (physics): the flange body's mass stays >= 0 (a phantom cannot remove more than the
   model has there), friction >= 0 (it dissipates).
 
@@ -119,11 +120,13 @@ def kalman_step(estimate, covariance, prior, rho, mass_matrix, regressor, residu
 class PayloadEstimator:
     """Running estimate ``estimate`` (4 + 2n,) of theta = (d_pi = (m, m c) of the payload the nominal ``model`` lacks
     at the flange body, F_v (n,) [N m s/rad], F_c (n,) [N m]) (module docstring). ``joint``: index of the joint whose
-    body carries the flange; ``sample_time`` [s]; ``prior`` (4 + 2n,) standard deviations; ``memory`` T [s];
-    ``noise`` sigma [rad/s^2]; ``smoothing`` v_s [rad/s] of the Coulomb term tanh(qd / v_s)."""
+    body carries the flange; ``sample_time`` Ts [s]; ``prior`` (4 + 2n,) standard deviations; ``memory`` T [s];
+    ``noise`` sigma_m [rad/s^2] and ``speed_noise`` sigma_v [rad/s]: the acceleration error is sigma^2 = sigma_m^2 +
+    2 sigma_v^2 / Ts^2 (the model's error and the measured speed differenced over a sample); ``smoothing`` v_s
+    [rad/s] of the Coulomb term tanh(qd / v_s)."""
 
     def __init__(self, model: pin.Model, joint: int, sample_time: float, prior: np.ndarray, memory: float,
-                 noise: float, smoothing: float = defaults.COULOMB_SMOOTHING_SPEED):
+                 noise: float, speed_noise: float = 0.0, smoothing: float = defaults.COULOMB_SMOOTHING_SPEED):
         n = model.nv
         if not 1 <= joint < model.njoints:
             raise SimulationError(f"payload identification: joint index {joint} is not a joint of the model "
@@ -137,7 +140,7 @@ class PayloadEstimator:
         self.columns = slice(start, start + PAYLOAD_PARAMETERS)
         self.prior = np.asarray(prior, float) ** 2
         self.rho = math.exp(-sample_time / memory) if math.isfinite(memory) else 1.0
-        self.noise2 = float(noise) ** 2
+        self.noise2 = float(noise) ** 2 + 2.0 * (float(speed_noise) / sample_time) ** 2
         self.smoothing = float(smoothing)
         self.estimate = np.zeros(len(prior))
         self.covariance = np.diag(self.prior)
@@ -149,13 +152,14 @@ class PayloadEstimator:
         self._diagonal = np.arange(n)
 
     @classmethod
-    def for_robot(cls, robot, sample_time: float, memory: float, noise: float) -> "PayloadEstimator":
+    def for_robot(cls, robot, sample_time: float, memory: float, noise: float,
+                  speed_noise: float) -> "PayloadEstimator":
         """The estimator of the payload at ``robot``'s flange and of its joints' friction: prior from
         :func:`prior_mass`, ``defaults.PAYLOAD_LEVER`` and :func:`friction_scales`."""
         model = robot.model
         joint = model.frames[model.getFrameId(robot.flange_frame)].parentJoint
         prior = np.concatenate([prior_scales(prior_mass(robot), defaults.PAYLOAD_LEVER), friction_scales(robot)])
-        return cls(model, joint, sample_time, prior, memory, noise)
+        return cls(model, joint, sample_time, prior, memory, noise, speed_noise)
 
     def payload_regressor(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
         """(n, 4): d tau / d (m, m c) of the flange body at (q, qd, a) [rad, rad/s, rad/s^2], gravity included."""

@@ -226,7 +226,8 @@ class SimulateSpec(_Model):
     gains: dict[str, Annotated[float, Field(gt=0, le=defaults.MAX_GAIN)]] = Field({}, description="gains of the chosen controller overriding the defaults "
                                                     "(orbital: bandwidth, damping, speed_rate, min_speed, "
                                                     "terminal_time_to_go, integral_rate, observer_range, "
-                                                    "payload_memory, payload_noise; others: bandwidth, damping)")
+                                                    "payload_memory, payload_noise, payload_speed_noise; others: "
+                                                    "bandwidth, damping)")
     path_tolerance: float = Field(defaults.PATH_TOLERANCE, gt=0,
                                   description="largest TCP distance from the planned path [m]")
     joint_tolerance: float = Field(defaults.JOINT_TOLERANCE, gt=0,
@@ -235,7 +236,7 @@ class SimulateSpec(_Model):
                                  "sample time with the delay in the model")
     identify_payload: bool = Field(defaults.PAYLOAD_IDENTIFICATION, description="orbital controller: identify online "
                                    "the flange payload and the joint friction the model lacks (gains payload_memory "
-                                   "[s], payload_noise [rad/s^2])")
+                                   "[s], payload_noise [rad/s^2], payload_speed_noise [rad/s])")
     saturation_limit: float = Field(defaults.SATURATION_LIMIT, ge=0,
                                     description="longest stretch a torque may stay saturated [s]")
 
