@@ -1,7 +1,8 @@
 """What executable motion buys (issue 12): the IRB140 circle in closed loop with the realism of docs/control.md.
 
 Every case is planned, then run in the same closed loop: the orbital controller with its default gains and
-design (the sampled design with the delay in the model, the disturbance observer) at 4 ms on a plant with
+design (the sampled design with the delay in the model, the disturbance observer, the payload and friction
+identification) at 4 ms on a plant with
 ``Realism.realistic(seed=0)`` (10 % link inertia error, an unmodelled 6 kg payload 0.1 m beyond the flange,
 friction on every axis, 20-bit encoder, noise, one-sample delay), given as the scenario's
 ``[simulate.realism]`` so that ``torque_reserve = "auto"`` searches in that very loop. The cases:
@@ -22,7 +23,8 @@ nothing stops it.
 Run: python benchmarks/bench_executable.py [--jerk-scales 4,6,8]
      options: --continuous-design (simulate.sampled_design = false); --gains k=v,... overrides the default gains,
      e.g. bandwidth=80,integral_rate=40 (raised gains) or observer_range=2 (a faster disturbance observer, robust
-     for a narrower range of plant inertias)
+     for a narrower range of plant inertias); --no-identification (simulate.identify_payload = false: the
+     disturbance observer alone); --seed S (Realism.realistic(seed=S)); --smooth-only (only circle_smooth)
 """
 
 from __future__ import annotations
@@ -70,10 +72,14 @@ def cases(jerk_scales: list[float]) -> list[tuple[str, str, dict]]:
     return out
 
 
-def loop_overrides(sampled_design: bool = defaults.ORBITAL_SAMPLED_DESIGN, gains: dict | None = None) -> dict:
-    """The closed loop every case runs in, as scenario keys (gains: overrides of the default orbital gains)."""
+def loop_overrides(sampled_design: bool = defaults.ORBITAL_SAMPLED_DESIGN, gains: dict | None = None,
+                   seed: int = 0, identify: bool = defaults.PAYLOAD_IDENTIFICATION) -> dict:
+    """The closed loop every case runs in, as scenario keys (gains: overrides of the default orbital gains; seed:
+    the realism's seed, which draws the inertia errors' signs and the noise; identify: the payload identification)."""
     out = {f"simulate.realism.{k}": v for k, v in REALISM.items()}
-    out.update({"simulate.controller": "orbital", "simulate.sampled_design": sampled_design})
+    out["simulate.realism.seed"] = seed
+    out.update({"simulate.controller": "orbital", "simulate.sampled_design": sampled_design,
+                "simulate.identify_payload": identify})
     gains = gains or {}
     out.update({f"simulate.gains.{k}": v for k, v in gains.items()})
     return out
@@ -130,20 +136,27 @@ def main() -> None:
     parser.add_argument("--gains", default="", help="orbital gains overriding the defaults, e.g. "
                         "bandwidth=80,integral_rate=40 or observer_range=2")
     parser.add_argument("--jerk-scales", default="", help="extra rows: circle_smooth with limits.jerk_scale = k")
+    parser.add_argument("--seed", type=int, default=0, help="the realism's seed (Realism.realistic(seed))")
+    parser.add_argument("--no-identification", action="store_true",
+                        help="simulate.identify_payload = false (the disturbance observer alone)")
+    parser.add_argument("--smooth-only", action="store_true", help="only the row 'smooth' (circle_smooth as shipped)")
     args = parser.parse_args()
     gains = {k: float(v) for k, v in (item.split("=") for item in args.gains.split(",") if item)}
     sampled = defaults.ORBITAL_SAMPLED_DESIGN and not args.continuous_design
-    loop = loop_overrides(sampled, gains)
+    loop = loop_overrides(sampled, gains, args.seed, not args.no_identification)
     probe = api.simulation_settings(api.load(scenario_path("circle_zero"), loop)).realism
-    assert probe == Realism.realistic(seed=0), "REALISM must be docs/control.md's realistic plant"
+    assert probe == Realism.realistic(seed=args.seed), "REALISM must be docs/control.md's realistic plant"
     head = ["case", "torque reserve (runs)", "planned [s]", "cycle [s]", "cycle / planned", "path accuracy [mm]",
             "tracks within 1 mm", "max commanded torque / limit", "relaxed: within 1 mm of the end from [s]",
             "relaxed: path accuracy [mm]", f"relaxed: path accuracy after {START_UP:g} s [mm]", "wall [s]"]
-    print(f"orbital controller, 4 ms, sampled_design = {str(sampled).lower()}, gains "
-          f"{gains or 'default'}; realism: Realism.realistic(seed=0)")
+    print(f"orbital controller, 4 ms, sampled_design = {str(sampled).lower()}, gains {gains or 'default'}, payload "
+          f"identification {'off' if args.no_identification else 'on'}; realism: Realism.realistic(seed={args.seed})")
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
-    for label, name, overrides in cases([float(k) for k in args.jerk_scales.split(",") if k]):
+    rows = cases([float(k) for k in args.jerk_scales.split(",") if k])
+    if args.smooth_only:
+        rows = [r for r in rows if r[0].startswith("smooth (")]
+    for label, name, overrides in rows:
         print("| " + " | ".join(row(label, name, overrides, loop)) + " |", flush=True)
     print(f"load average (1 min) at the end: {os.getloadavg()[0]:.1f} (2 cores)")
 
