@@ -489,8 +489,8 @@ class OrbitalController:
                 theta, theta_dot = float(th[0]), float(thd[0])
             else:
                 theta_dot = math.sqrt(self.design.profile.state(theta)[0])
-            self._offset = self.payload.friction_torque(self.design.table.evaluate_scalar(theta)[1] * theta_dot)
-            tau += self.payload.payload_torque(q, qd, v) + self._offset
+            qd_ref = self.design.table.evaluate_scalar(theta)[1] * theta_dot
+            self._offset = self.payload.torque(q, qd, v, qd_ref, tau)
         return tau
 
     def _frame(self, theta: float) -> np.ndarray:

@@ -80,6 +80,33 @@ def friction_scales(robot) -> np.ndarray:
 
 
 @numba.njit(cache=True)
+def _spd_solve(a, b):
+    """a^-1 b for a symmetric positive definite a (n, n) and b (n, k), by Cholesky (small n: plain loops, no
+    LAPACK call)."""
+    n, k = b.shape
+    low = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            acc = a[i, j]
+            for m in range(j):
+                acc -= low[i, m] * low[j, m]
+            low[i, j] = math.sqrt(acc) if i == j else acc / low[j, j]
+    x = np.empty((n, k))
+    for c in range(k):
+        for i in range(n):  # L z = b
+            acc = b[i, c]
+            for m in range(i):
+                acc -= low[i, m] * x[m, c]
+            x[i, c] = acc / low[i, i]
+        for i in range(n - 1, -1, -1):  # L^T x = z
+            acc = x[i, c]
+            for m in range(i + 1, n):
+                acc -= low[m, i] * x[m, c]
+            x[i, c] = acc / low[i, i]
+    return x
+
+
+@numba.njit(cache=True)
 def kalman_step(estimate, covariance, prior, rho, mass_matrix, regressor, residual, noise2, low, high):
     """One sample of the filter, in place: the Gauss-Markov prediction (estimate (p,) *= rho, covariance (p, p) <-
     rho^2 covariance + (1 - rho^2) diag(prior (p,))), then the measurement residual (n,) = regressor (n, p)
@@ -93,8 +120,8 @@ def kalman_step(estimate, covariance, prior, rho, mass_matrix, regressor, residu
         for j in range(p):
             covariance[i, j] *= decay
         covariance[i, i] += (1.0 - decay) * prior[i]
-    rows = np.linalg.solve(mass_matrix, regressor)  # M^-1 Y: the noise M w becomes w
-    values = np.linalg.solve(mass_matrix, residual)
+    rows = _spd_solve(mass_matrix, regressor)  # M^-1 Y: the noise M w becomes w
+    values = _spd_solve(mass_matrix, residual.reshape(n, 1))[:, 0]
     ph = np.empty(p)
     for k in range(n):
         h = rows[k]
@@ -115,6 +142,45 @@ def kalman_step(estimate, covariance, prior, rho, mass_matrix, regressor, residu
                 covariance[i, j] -= ph[i] * ph[j] / s
     for i in range(p):
         estimate[i] = min(max(estimate[i], low[i]), high[i])
+
+
+@numba.njit(cache=True)
+def identify_sample(estimate, covariance, prior, rho, mass_upper, body, qd, residual, noise2, low, high, smoothing,
+                    remainder):
+    """One sample of :class:`PayloadEstimator` compiled: Y = [body (n, 4) | diag(qd) | diag(tanh(qd / smoothing))],
+    M from the upper triangle of ``mass_upper`` (n, n) (Pinocchio's crba fills only that), :func:`kalman_step`, then
+    ``remainder`` (n,) = residual - body estimate[:4] (the residual the payload does not explain)."""
+    n = qd.shape[0]
+    p = estimate.shape[0]
+    y = np.zeros((n, p))
+    mass = np.empty((n, n))
+    for i in range(n):
+        for k in range(body.shape[1]):
+            y[i, k] = body[i, k]
+        y[i, body.shape[1] + i] = qd[i]
+        y[i, body.shape[1] + n + i] = math.tanh(qd[i] / smoothing)
+        for j in range(n):
+            mass[i, j] = mass_upper[i, j] if j >= i else mass_upper[j, i]
+    kalman_step(estimate, covariance, prior, rho, mass, y, residual, noise2, low, high)
+    for i in range(n):
+        acc = residual[i]
+        for k in range(body.shape[1]):
+            acc -= body[i, k] * estimate[k]
+        remainder[i] = acc
+
+
+@numba.njit(cache=True)
+def feedforward(body, estimate, qd, smoothing, out, friction):
+    """``friction`` (n,) = F_v qd + F_c tanh(qd / smoothing), the estimated friction at the joint velocity qd (n,);
+    ``out`` (n,) += body (n, 4) estimate[:4] (the estimated payload's torque) + friction."""
+    n = qd.shape[0]
+    m = body.shape[1]
+    for i in range(n):
+        friction[i] = estimate[m + i] * qd[i] + estimate[m + n + i] * math.tanh(qd[i] / smoothing)
+        acc = friction[i]
+        for k in range(m):
+            acc += body[i, k] * estimate[k]
+        out[i] += acc
 
 
 class PayloadEstimator:
@@ -187,12 +253,20 @@ class PayloadEstimator:
         """Take in one sample's ``residual`` (n,) [N m] = tau_applied - RNEA_nom(q, qd, a) at the sample's middle;
         returns what the updated payload estimate does not explain, residual - Y_pi d_pi_hat (n,) (the friction
         stays in it: the controller compensates the friction at the PLANNED velocity and tells the observer so)."""
-        y = self.regressor(q, qd, a)
+        body = self.payload_regressor(q, qd, a)
         mass = pin.crba(self.model, self.data, q)
-        mass = np.triu(mass) + np.triu(mass, 1).T
-        kalman_step(self.estimate, self.covariance, self.prior, self.rho, mass, y, np.ascontiguousarray(residual),
-                    self.noise2, self.low, self.high)
-        return residual - y[:, :PAYLOAD_PARAMETERS] @ self.estimate[:PAYLOAD_PARAMETERS]
+        remainder = np.empty(self.n)
+        identify_sample(self.estimate, self.covariance, self.prior, self.rho, mass, body, qd, residual, self.noise2,
+                        self.low, self.high, self.smoothing, remainder)
+        return remainder
+
+    def torque(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray, qd_friction: np.ndarray,
+               out: np.ndarray) -> np.ndarray:
+        """``out`` (n,) += :meth:`payload_torque` (q, qd, a) + :meth:`friction_torque` (qd_friction) [N m]; returns
+        the friction part (n,)."""
+        friction = np.empty(self.n)
+        feedforward(self.payload_regressor(q, qd, a), self.estimate, qd_friction, self.smoothing, out, friction)
+        return friction
 
     @property
     def mass(self) -> float:
