@@ -132,11 +132,11 @@ def test_realistic_plant_orbital_beats_both_baselines_on_tcp_deviation():
     """The issue's conditions on the thesis' horizontal circle (periodic plan, one lap): 10 % link mass and
     inertia error, a 6 kg payload the controllers do not know, 4 ms sampling with a one-sample delay, encoder
     quantization, position and velocity noise, joint friction. Every controller must still track; the orbital
-    one, with its integral action and disturbance observer, must deviate least from the TCP path (measured: 2.1 mm
-    with the default sampled design, 1.9 mm with the continuous one, against 6.1 mm and 7.2 mm, so within a 10 mm
-    path tolerance; at the default 1 mm all three fail, the orbital one on the unknown payload's sag in the first
-    30 ms). The period: 0.982 s sampled (1.010 s before the observer), 1.005 s continuous (whose observer is off
-    here: its loop is not stable over the observer's inertia range at 4 ms with the delay), planned 0.980 s."""
+    one, with its integral action, disturbance observer and payload identification, must deviate least from the
+    TCP path (measured: 0.35 mm with the default sampled design, 0.32 mm with the continuous one; without the
+    identification 2.1 and 1.9 mm, the unknown payload's sag in the first 30 ms; computed torque 6.1 mm, PD +
+    gravity 7.2 mm, so within a 10 mm path tolerance). The period: 0.980 s sampled (0.982 s with the observer
+    alone, 1.010 s before it), 0.981 s continuous, planned 0.980 s."""
     setup, result = planned("circle_periodic")
     realism = Realism.realistic(seed=0)
     assert realism.inertia_error == 0.1 and realism.payload_mass == 6.0 and realism.delay
