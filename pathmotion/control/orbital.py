@@ -7,7 +7,9 @@ Per sample (docs/control.md has the equations):
    (xi = int z dt, the integral action, when ``OrbitalGains.integral_rate`` > 0);
 2. v = v*(theta_m) - K(theta) x_perp, v* = Phi' u* + Phi'' x*, evaluated at theta_m = theta + theta_dot Ts/2
    (the middle of the coming hold interval), K from the Riccati equation of the transverse linearization;
-3. tau = M(q) v + C(q, qd) qd + G(q) with the nominal model.
+3. tau = M(q) v + C(q, qd) qd + G(q) with the nominal model, plus (``identify_payload``) the identified payload's
+   torque and the identified friction at the planned joint velocity (:mod:`.payload`), plus the disturbance
+   observer's estimate of what is left (:mod:`.observer`).
 
 Steps 1-2 are one compiled call (:func:`.kernels.orbital_command`). The clock never enters steps 1-3. Near stops (open
 paths: the ends, kinks) the plan is played on the clock with the same closed-loop poles (and integral
