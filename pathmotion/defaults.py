@@ -199,6 +199,8 @@ PAYLOAD_SPEED_NOISE = 2.0e-3
 #: arm's link mass [-].
 PAYLOAD_LEVER = 0.2
 PAYLOAD_MASS_FRACTION = 0.1
+#: Below this identified payload mass [kg] the summary gives no centre of mass (m c / m would be noise).
+IDENTIFIED_MASS_FLOOR = 0.1
 #: Payload identification prior: each joint's Coulomb friction as this fraction of its torque limit, its viscous
 #: friction reaching the same at the velocity limit (standard deviations) [-].
 FRICTION_PRIOR_FRACTION = 0.05

@@ -186,6 +186,11 @@ def test_unknown_payload_with_one_sample_of_delay_tracks_closely(periodic_circle
     on, off = _lap(setup, profile, realism, True), _lap(setup, profile, realism, False)
     assert on["path_accuracy_m"] < 0.5e-3 and on["saturation_time_s"] == 0.0, on
     assert 3 * on["path_accuracy_m"] < off["path_accuracy_m"], (on, off)
+    # the summary states what was identified, against the plant's payload (5.993 kg at (0, 0, 0.098) m, measured)
+    assert on["identified_payload_kg"] == pytest.approx(defaults.REALISTIC_PAYLOAD_MASS, rel=0.02)
+    np.testing.assert_allclose(on["identified_payload_com_m"], defaults.REALISTIC_PAYLOAD_COM, atol=5e-3)
+    assert len(on["identified_viscous_friction"]) == len(on["identified_coulomb_friction"]) == setup.robot.n
+    assert off["identified_payload_kg"] is None and off["identified_payload_com_m"] is None
 
 
 def test_phantom_payload_with_delay_tracks_calmly(periodic_circle):
@@ -198,6 +203,7 @@ def test_phantom_payload_with_delay_tracks_calmly(periodic_circle):
     off = _lap(setup, profile, realism, False, believed=defaults.REALISTIC_PAYLOAD_MASS)
     assert on["saturation_time_s"] == 0.0 and on["max_commanded_torque_ratio"] < 1.0, on
     assert on["path_accuracy_m"] < 0.7e-3 and on["path_accuracy_m"] < 0.75 * off["path_accuracy_m"], (on, off)
+    assert on["identified_payload_kg"] == pytest.approx(-defaults.REALISTIC_PAYLOAD_MASS, rel=0.02)
 
 
 @pytest.mark.parametrize("name", ["payload_memory", "payload_noise", "payload_speed_noise"])

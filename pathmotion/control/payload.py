@@ -216,6 +216,7 @@ class PayloadEstimator:
         self.low[PAYLOAD_PARAMETERS:] = 0.0  # friction dissipates
         self._rows = np.zeros((n, len(prior)))
         self._diagonal = np.arange(n)
+        self.frame = pin.SE3.Identity()  # where :meth:`identified` states the centre of mass, in the joint frame
 
     @classmethod
     def for_robot(cls, robot, sample_time: float, memory: float, noise: float,
@@ -225,7 +226,9 @@ class PayloadEstimator:
         model = robot.model
         joint = model.frames[model.getFrameId(robot.flange_frame)].parentJoint
         prior = np.concatenate([prior_scales(prior_mass(robot), defaults.PAYLOAD_LEVER), friction_scales(robot)])
-        return cls(model, joint, sample_time, prior, memory, noise, speed_noise)
+        estimator = cls(model, joint, sample_time, prior, memory, noise, speed_noise)
+        estimator.frame = model.frames[model.getFrameId(robot.flange_frame)].placement
+        return estimator
 
     def payload_regressor(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
         """(n, 4): d tau / d (m, m c) of the flange body at (q, qd, a) [rad, rad/s, rad/s^2], gravity included."""
@@ -267,6 +270,17 @@ class PayloadEstimator:
         friction = np.empty(self.n)
         feedforward(self.payload_regressor(q, qd, a), self.estimate, qd_friction, self.smoothing, out, friction)
         return friction
+
+    def identified(self) -> dict:
+        """What the run identified, for the summary (SI units): the payload's mass [kg] (negative: a phantom),
+        its centre of mass [m] in ``frame`` (the flange frame for :meth:`for_robot`, else the flange body's joint frame;
+        None below ``defaults.IDENTIFIED_MASS_FLOOR``, where m c / m is noise), and each joint's viscous [N m s/rad] and
+        Coulomb [N m] friction."""
+        p, n, m = PAYLOAD_PARAMETERS, self.n, self.mass
+        com = (self.frame.actInv(self.estimate[1:p] / m).tolist() if abs(m) >= defaults.IDENTIFIED_MASS_FLOOR
+               else None)
+        return {"mass_kg": m, "com_m": com, "viscous_friction": self.estimate[p:p + n].tolist(),
+                "coulomb_friction": self.estimate[p + n:].tolist()}
 
     @property
     def mass(self) -> float:

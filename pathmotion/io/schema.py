@@ -99,6 +99,11 @@ MAX_COMMANDED_TORQUE_RATIO = _k("max_commanded_torque_ratio", "largest commanded
 SATURATION_TIME = _k("saturation_time_s", "time with a torque saturated", "s")
 TRACKING_OK = _k("tracking_ok", "tracking ok")
 FAILURE = _k("failure", "failure")
+IDENTIFIED_PAYLOAD = _k("identified_payload_kg", "payload the controller identified (negative: the model's is too heavy)",
+                        "kg", short="identified payload")
+IDENTIFIED_PAYLOAD_COM = _k("identified_payload_com_m", "identified payload's centre of mass, flange frame", "mm", 1e3)
+IDENTIFIED_VISCOUS = _k("identified_viscous_friction", "identified viscous friction per joint", "N m s/rad")
+IDENTIFIED_COULOMB = _k("identified_coulomb_friction", "identified Coulomb friction per joint", "N m")
 
 #: Tables written before issue 13: the closed loop's time under its old name (read, never written).
 LEGACY_SIMULATED_DURATION = _k("simulated_duration_s", "simulated duration (older tables)", "s", short="simulated")
@@ -119,7 +124,7 @@ PLAN = (DURATION, SECOND_ORDER_DURATION, FITTED_DURATION, BASELINE_DURATION, MAX
 #: Headline keys of a simulation's summary.json, in display order.
 SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK, PATH_TOLERANCE,
               PATH_ACCURACY, MAX_SHARP_DEVIATION, CORNERING_DEVIATION, MAX_JOINT_DEVIATION, RMS_JOINT_DEVIATION,
-              MAX_TORQUE_RATIO, MAX_COMMANDED_TORQUE_RATIO, SATURATION_TIME)
+              MAX_TORQUE_RATIO, MAX_COMMANDED_TORQUE_RATIO, SATURATION_TIME, IDENTIFIED_PAYLOAD)
 #: Columns a sweep row holds after the parameters, in this order (then ``error``).
 SWEEP_ROW = (CYCLE_TIME, PLANNED_DURATION, SETTLE_TIME, TRACKING_OK, FAILURE_REASON, MAX_SHARP_DEVIATION,
              MEAN_SHARP_DEVIATION, PATH_ACCURACY, MEAN_PATH_DEVIATION, BLEND_MAX_DEVIATION,

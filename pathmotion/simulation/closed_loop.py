@@ -232,7 +232,8 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     log.info("loop end at t = %.4g s: %s", k * ts, f"failed ({failure.reason}): {failure.message}"
              if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
              else "no arrival")
-    return _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure)
+    return _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
+                   control.identified())
 
 
 def _first_check(rules, sample: Sample):
@@ -299,6 +300,12 @@ class _Command:
         self.pending.append(cmd)
         return self.pending.pop(0) if len(self.pending) > self.delay else self.pending[0]
 
+    def identified(self) -> dict | None:
+        """What the controller's payload identification holds now (:meth:`.PayloadEstimator.identified`), None
+        for a controller without it."""
+        estimator = getattr(self.controller, "payload", None)
+        return None if estimator is None else estimator.identified()
+
 
 class _Monitor:
     """Projection of the true state onto the path, sample after sample (:func:`.monitor.monitor_state`), and
@@ -358,7 +365,7 @@ class _Record:
 
 
 def _result(robot, path, profile, controller, settings, table, line, rec: _Record, last: int, arrival: _Arrived,
-            failure) -> SimulationResult:
+            failure, identified: dict | None = None) -> SimulationResult:
     q, qd, tau, cmd, theta = rec.trimmed(last)
     saturation = rec.saturated * settings.sample_time
     t = np.arange(len(q)) * settings.sample_time
@@ -375,5 +382,5 @@ def _result(robot, path, profile, controller, settings, table, line, rec: _Recor
         path_deviation=path_dev, corner_deviation=corner, torque_limit=np.asarray(robot.limits.torque, float),
         planned_duration=profile.duration, cycle_time=arrival.time if ok else None, saturation_time=float(saturation),
         failure=failure, settle_time=arrival.settle if ok else None, path_tolerance=settings.path_tolerance,
-        cornering_deviation=cornering_deviation(path, tcp, theta_p),
+        cornering_deviation=cornering_deviation(path, tcp, theta_p), identified=identified,
     )

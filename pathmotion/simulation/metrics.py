@@ -21,7 +21,7 @@ Deviations are measured from the path, not from a clock-indexed point:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -70,7 +70,8 @@ class SimulationResult:
     duration (one period on a closed path); cycle_time [s]: when the TCP first reached the end of the path
     within the path tolerance (open; the plan's own time inside that ball credited) or the mean period
     (closed), None if not reached or tracking failed; settle_time [s]: when it entered that ball for good
-    (open paths ending at rest). path_tolerance [m]: the tolerance the verdict used.
+    (open paths ending at rest). path_tolerance [m]: the tolerance the verdict used. identified: what the
+    controller's payload identification held at the end (:meth:`.PayloadEstimator.identified`), or None.
     """
 
     controller: str
@@ -96,7 +97,7 @@ class SimulationResult:
     settle_time: float | None = None
     path_tolerance: float | None = None
     cornering_deviation: np.ndarray | None = None
-    extras: dict = field(default_factory=dict)
+    identified: dict | None = None
 
     @property
     def tracking_ok(self) -> bool:
@@ -125,6 +126,10 @@ class SimulationResult:
             "saturation_time_s": self.saturation_time,
             "tracking_ok": self.tracking_ok,
             "failure": None if self.failure is None else self.failure.as_dict(),
+            "identified_payload_kg": None if self.identified is None else self.identified["mass_kg"],
+            "identified_payload_com_m": None if self.identified is None else self.identified["com_m"],
+            "identified_viscous_friction": None if self.identified is None else self.identified["viscous_friction"],
+            "identified_coulomb_friction": None if self.identified is None else self.identified["coulomb_friction"],
         }
 
 
