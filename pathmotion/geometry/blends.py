@@ -396,12 +396,16 @@ class G2Shape:
     (lambda = 5/2 shape cut on each side; the symmetric blend has entry = exit and one shape);
     ``deviation``: its certified deviation bound [m].
 
-    With ``offset_entry`` = ``offset_exit`` = 0 it is one quintic. Otherwise (two lines only) it is
-    the racing line: a quintic S-curve of length ``run_entry`` [m] from A to the parallel line A'
-    ``offset_entry`` [m] OUTSIDE the turn, the corner quintic between A' and B' (B' likewise), and
-    an S-curve of length ``run_exit`` back onto B. Every piece is G2 at its joins (the S-curves start
-    and end with zero curvature, as the quintic does on lines), so the blend is G2 and its corner
-    quintic may be larger for the same deviation (see :func:`g2_blend_pieces`)."""
+    With every offset, slope and bend 0 it is one quintic. Otherwise (two lines only) it is the
+    racing line: on each side an *offset piece* over ``run_entry`` [m] of A, a quintic whose lateral
+    offset w(s) OUTSIDE the turn rises from the line (w = w' = w'' = 0) to ``offset_entry`` [m] with
+    slope ``slope_entry`` (dw/dd [-], d the distance from the corner: > 0 means the offset falls
+    towards the corner, the path already turning in) and ``bend_entry`` (d2w/dd2 [1/m]); the corner
+    quintic from its end to the exit piece's start (matching position, tangent and curvature vector
+    there); the exit piece back onto B (``offset_exit``, ``slope_exit``, ``bend_exit``,
+    ``run_exit``). With slope = bend = 0 an offset piece is the S-curve to the parallel line A'
+    ``offset`` outside. Every join is G2, and the corner quintic may be larger for the same
+    deviation (see :func:`g2_blend_pieces`)."""
 
     entry: float
     exit: float
@@ -412,11 +416,25 @@ class G2Shape:
     offset_exit: float = 0.0
     run_entry: float = 0.0
     run_exit: float = 0.0
+    slope_entry: float = 0.0
+    slope_exit: float = 0.0
+    bend_entry: float = 0.0
+    bend_exit: float = 0.0
+
+    @property
+    def sides(self) -> tuple[bool, bool]:
+        """Whether the entry / exit side has an offset piece."""
+        return (_has_piece(self.offset_entry, self.slope_entry, self.bend_entry),
+                _has_piece(self.offset_exit, self.slope_exit, self.bend_exit))
 
     @property
     def racing(self) -> bool:
-        """The blend leaves the lines outwards first (S-curves before and after the corner)."""
-        return self.offset_entry > 0.0 or self.offset_exit > 0.0
+        """The blend leaves the lines first (an offset piece before or after the corner quintic)."""
+        return any(self.sides)
+
+
+def _has_piece(offset: float, slope: float, bend: float) -> bool:
+    return offset != 0.0 or slope != 0.0 or bend != 0.0
 
 
 def g2_shaped_control_points(A: Segment, B: Segment, entry: float, exit: float, shape_entry: float,
@@ -427,6 +445,15 @@ def g2_shaped_control_points(A: Segment, B: Segment, entry: float, exit: float, 
     pA, tA, kA = (x[0] for x in A.evaluate(A.length - entry))
     pB, tB, kB = (x[0] for x in B.evaluate(exit))
     la, lb = 2.5 * shape_entry * entry, 2.5 * shape_exit * exit
+    return np.array([pA, pA + la / 5 * tA, pA + 2 * la / 5 * tA + la ** 2 / 20 * kA,
+                     pB - 2 * lb / 5 * tB + lb ** 2 / 20 * kB, pB - lb / 5 * tB, pB])
+
+
+def _hermite_points(start: tuple, end: tuple, la: float, lb: float) -> np.ndarray:
+    """Control points (6, 3) [m] of the quintic from the state ``start`` = (p, unit tangent,
+    curvature vector) to ``end`` with end speeds ``la``, ``lb`` [m] and zero tangential acceleration:
+    X'(0) = la t, X''(0) = la^2 k (so its curvature vector there is k), likewise at u = 1."""
+    (pA, tA, kA), (pB, tB, kB) = start, end
     return np.array([pA, pA + la / 5 * tA, pA + 2 * la / 5 * tA + la ** 2 / 20 * kA,
                      pB - 2 * lb / 5 * tB + lb ** 2 / 20 * kB, pB - lb / 5 * tB, pB])
 
@@ -462,33 +489,64 @@ def _racing_lines(A: Segment, B: Segment, w_a: float, w_b: float, what: str) -> 
     return _Racing(Line(cp - reach * tA, cp), Line(cp, cp + reach * tB), out_a, out_b, float(s), float(-t))
 
 
-def _s_curve(start: np.ndarray, t: np.ndarray, side: np.ndarray, run: float) -> np.ndarray:
-    """Control points (6, 3) of the quintic S-curve from ``start`` along the unit ``t`` over ``run``
-    [m] to the parallel line moved by ``side`` [m] (3,): points 0-2 on the first line, 3-5 on the
-    second, evenly spaced, so it starts and ends tangent to t with zero curvature."""
-    return np.array([start + (i / 5.0) * run * t + (side if i >= 3 else 0.0) for i in range(6)])
+def _piece_offsets(offset: float, slope: float, bend: float, run: float, towards_corner: bool) -> np.ndarray:
+    """Bernstein coefficients (6,) [m] of an offset piece's lateral offset w(u) over ``run`` [m]: on
+    the line (w = w' = w'' = 0) at its far end, ``offset`` with dw/dd = ``slope`` and d2w/dd2 =
+    ``bend`` [1/m] at its corner end (d: distance from the corner); ``towards_corner``: the piece
+    ends at the corner (entry side), else it starts there (exit side)."""
+    near = offset + slope * run / 5.0  # w'(u) at the corner end is -slope run (entry), slope run (exit)
+    third = 2.0 * near - offset + bend * run ** 2 / 20.0
+    w = np.array([offset, near, third, 0.0, 0.0, 0.0])
+    return w[::-1].copy() if towards_corner else w
+
+
+def _offset_piece(start: np.ndarray, t: np.ndarray, out: np.ndarray, run: float, w: np.ndarray) -> np.ndarray:
+    """Control points (6, 3) [m] of the quintic graph over the line through ``start`` along the unit
+    ``t``: x = start + u run t + w(u) out, w with Bernstein coefficients ``w`` (6,) [m] (evenly
+    spaced along t, so the parameter is proportional to the progress along the line)."""
+    return np.array([start + (i / 5.0) * run * t + w[i] * out for i in range(6)])
+
+
+def _graph_state(p: np.ndarray, t: np.ndarray, out: np.ndarray, dw: float, bend: float) -> tuple:
+    """(position, unit tangent, curvature vector) of the graph x(s) = line(s) + w(s) out at ``p``
+    where w' = ``dw`` and w'' = ``bend`` [1/m]."""
+    d = t + dw * out
+    speed2 = float(d @ d)
+    T = d / np.sqrt(speed2)
+    acc = bend * out
+    return p, T, (acc - (acc @ T) * T) / speed2
 
 
 def g2_blend_pieces(A: Segment, B: Segment, inner_entry: float, inner_exit: float, shape_entry: float,
                     shape_exit: float, offsets: tuple[float, float] = (0.0, 0.0),
-                    runs: tuple[float, float] = (0.0, 0.0), what: str = "g2_blend_pieces"):
+                    runs: tuple[float, float] = (0.0, 0.0), what: str = "g2_blend_pieces",
+                    slopes: tuple[float, float] = (0.0, 0.0), bends: tuple[float, float] = (0.0, 0.0)):
     """(control points of each quintic piece, (6, 3) [m] each, in path order; entry, exit [m]): the
-    blend's pieces and its total cuts on A and B. Without offsets, one quintic cutting
-    ``inner_entry`` / ``inner_exit``. With ``offsets`` (w_A, w_B) [m] (two lines only), the corner
-    quintic cuts ``inner_entry`` / ``inner_exit`` from the offset lines A', B' (see G2Shape), and the
-    S-curves of ``runs`` (l_A, l_B) [m] join A to A' and B' to B; a side with offset 0 has no S-curve."""
-    w_a, w_b = offsets
-    if w_a == 0.0 and w_b == 0.0:
+    blend's pieces and its total cuts on A and B. Without offsets, slopes and bends, one quintic
+    cutting ``inner_entry`` / ``inner_exit``. Otherwise (two lines only; see G2Shape) the corner
+    quintic runs from the point ``inner_entry`` before the corner of the offset lines A', B' (A, B
+    moved ``offsets`` (w_A, w_B) [m] outside) to the point ``inner_exit`` after it, matching the
+    tangents and curvatures that ``slopes`` [-] and ``bends`` [1/m] give the offset pieces of
+    ``runs`` (l_A, l_B) [m] there, which join A to it and it to B; a side with offset, slope and
+    bend 0 has no offset piece."""
+    has = (_has_piece(offsets[0], slopes[0], bends[0]), _has_piece(offsets[1], slopes[1], bends[1]))
+    if not any(has):
         return (g2_shaped_control_points(A, B, inner_entry, inner_exit, shape_entry, shape_exit),), inner_entry, inner_exit
-    r = _racing_lines(A, B, w_a, w_b, what)
-    corner = g2_shaped_control_points(r.A, r.B, inner_entry, inner_exit, shape_entry, shape_exit)
+    r = _racing_lines(A, B, offsets[0], offsets[1], what)
+    tA, tB = A.direction, B.direction
+    pA = r.A.evaluate(r.A.length - inner_entry)[0][0]
+    pB = r.B.evaluate(inner_exit)[0][0]
+    start = _graph_state(pA, tA, r.out_a, -slopes[0], bends[0])
+    end = _graph_state(pB, tB, r.out_b, slopes[1], bends[1])
+    corner = _hermite_points(start, end, 2.5 * shape_entry * inner_entry, 2.5 * shape_exit * inner_exit)
     pieces, entry, exit = [corner], inner_entry - r.shift_a, inner_exit - r.shift_b
-    if w_a > 0.0:
-        pieces.insert(0, _s_curve(corner[0] - runs[0] * A.direction - w_a * r.out_a, A.direction, w_a * r.out_a,
-                                  runs[0]))
+    if has[0]:
+        w = _piece_offsets(offsets[0], slopes[0], bends[0], runs[0], towards_corner=True)
+        pieces.insert(0, _offset_piece(pA - runs[0] * tA - offsets[0] * r.out_a, tA, r.out_a, runs[0], w))
         entry += runs[0]
-    if w_b > 0.0:
-        pieces.append(_s_curve(corner[5], B.direction, -w_b * r.out_b, runs[1]))
+    if has[1]:
+        w = _piece_offsets(offsets[1], slopes[1], bends[1], runs[1], towards_corner=False)
+        pieces.append(_offset_piece(pB - offsets[1] * r.out_b, tB, r.out_b, runs[1], w))
         exit += runs[1]
     return tuple(pieces), float(entry), float(exit)
 
@@ -511,27 +569,33 @@ def _pieces_deviation(A: Segment, B: Segment, pieces, stop_above: float = np.inf
     return upper
 
 
-def _check_racing(offsets, runs, tol: float, what: str) -> tuple[tuple[float, float], tuple[float, float]]:
-    w = tuple(float(v) for v in offsets)
-    ell = tuple(float(v) for v in runs)
-    for side, wv, lv in (("entry", w[0], ell[0]), ("exit", w[1], ell[1])):
-        if not (np.isfinite(wv) and 0.0 <= wv < tol):
-            raise PathError(f"{what}: the {side} offset must be in [0, tolerance = {tol:.6g} m), got {wv!r} m")
-        if wv > 0.0 and not (np.isfinite(lv) and lv > 0.0):
-            raise PathError(f"{what}: the {side} S-curve needs a positive run [m] with offset {wv:.6g} m, got {lv!r}")
-    return w, (ell[0] if w[0] > 0 else 0.0, ell[1] if w[1] > 0 else 0.0)  # no S-curve, no run
+def _check_racing(offsets, runs, tol: float, what: str, slopes=(0.0, 0.0), bends=(0.0, 0.0)) -> tuple:
+    """Validated (offsets, runs, slopes, bends), each a pair (entry, exit); the run of a side
+    without an offset piece is 0."""
+    w, ell, sl, be = (tuple(float(v) for v in pair) for pair in (offsets, runs, slopes, bends))
+    for i, side in enumerate(("entry", "exit")):
+        if not (np.isfinite(w[i]) and 0.0 <= w[i] < tol):
+            raise PathError(f"{what}: the {side} offset must be in [0, tolerance = {tol:.6g} m), got {w[i]!r} m")
+        if not (np.isfinite(sl[i]) and np.isfinite(be[i])):
+            raise PathError(f"{what}: the {side} slope and bend must be finite numbers, got {sl[i]!r} and {be[i]!r}")
+        if _has_piece(w[i], sl[i], be[i]) and not (np.isfinite(ell[i]) and ell[i] > 0.0):
+            raise PathError(f"{what}: the {side} offset piece needs a positive run [m] with offset {w[i]:.6g} m, "
+                            f"got {ell[i]!r}")
+    ell = tuple(ell[i] if _has_piece(w[i], sl[i], be[i]) else 0.0 for i in range(2))  # no piece, no run
+    return w, ell, sl, be
 
 
 def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balance: float, shape_entry: float,
                            shape_exit: float, shared: tuple[bool, bool] = (False, False),
-                           offsets: tuple[float, float] = (0.0, 0.0),
-                           runs: tuple[float, float] = (0.0, 0.0)) -> G2Shape:
+                           offsets: tuple[float, float] = (0.0, 0.0), runs: tuple[float, float] = (0.0, 0.0),
+                           slopes: tuple[float, float] = (0.0, 0.0), bends: tuple[float, float] = (0.0, 0.0)) -> G2Shape:
     """The largest asymmetric G2 blend at connection ``corner`` whose corner quintic has
     entry / (entry + exit) = ``balance`` in (0, 1) and whose certified deviation is <= ``tolerance``
     [m] (or, if even the largest the neighbours allow deviates less, that one). ``offsets`` (w_A,
-    w_B) in [0, tolerance) [m] and ``runs`` (l_A, l_B) [m]: the racing line of :class:`G2Shape` (its
-    corner quintic is sized; the S-curves are fixed). ``shared``: the neighbour before / after is
-    blended at its other end too (then a blend may use SHARED_SEGMENT_FRACTION of it)."""
+    w_B) in [0, tolerance) [m], ``runs`` (l_A, l_B) [m], ``slopes`` [-] and ``bends`` [1/m]: the
+    racing line of :class:`G2Shape` (its corner quintic is sized; the offset pieces are fixed).
+    ``shared``: the neighbour before / after is blended at its other end too (then a blend may use
+    SHARED_SEGMENT_FRACTION of it)."""
     what = "g2_shape_for_tolerance"
     c = _corner(path, corner, ("corner", "tangent"), what, shared=shared)
     tol = float(tolerance)
@@ -540,19 +604,21 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
     if not 0.0 < balance < 1.0:
         raise PathError(f"{what}: balance (entry share of the blend) must be in (0, 1), got {balance!r}")
     sa, sb = _check_shape(shape_entry, what), _check_shape(shape_exit, what)
-    offsets, runs = _check_racing(offsets, runs, tol, what)
+    offsets, runs, slopes, bends = _check_racing(offsets, runs, tol, what, slopes, bends)
+    racing = _has_piece(offsets[0], slopes[0], bends[0]) or _has_piece(offsets[1], slopes[1], bends[1])
 
     def build(size):
-        return g2_blend_pieces(c.A, c.B, balance * size, (1 - balance) * size, sa, sb, offsets, runs, what)
+        return g2_blend_pieces(c.A, c.B, balance * size, (1 - balance) * size, sa, sb, offsets, runs, what,
+                               slopes, bends)
 
-    if offsets == (0.0, 0.0):
+    if not racing:
         size_min, size_max = 0.0, min(c.max_a / balance, c.max_b / (1 - balance))
     else:  # the total cuts are affine in the size: entry(size) = e0 + balance size, exit(size) = x0 + (1 - balance) size
         _, e0, x0 = build(0.0)
         size_min = max(0.0, -e0 / balance, -x0 / (1 - balance))  # both cuts > 0
         size_max = min((c.max_a - e0) / balance, (c.max_b - x0) / (1 - balance))
     if not size_max > size_min:
-        raise PathError(f"{what}: the S-curves ({runs[0]:.6g} m, {runs[1]:.6g} m) leave no room for a blend at "
+        raise PathError(f"{what}: the offset pieces ({runs[0]:.6g} m, {runs[1]:.6g} m) leave no room for a blend at "
                         f"{c.where()} (cuts <= {c.max_a:.6g} m and {c.max_b:.6g} m); give shorter runs")
 
     def ok(size):
@@ -561,25 +627,28 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
     size = size_max if ok(size_max) else _largest_between(ok, size_min, size_max)
     if size <= size_min:
         raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance"
-                        + (" or smaller offsets" if offsets != (0.0, 0.0) else ""))
+                        + (" or smaller offsets, slopes and bends" if racing else ""))
     pieces, entry, exit = build(size)
-    return G2Shape(entry, exit, sa, sb, _pieces_deviation(c.A, c.B, pieces), *offsets, *runs)
+    return G2Shape(entry, exit, sa, sb, _pieces_deviation(c.A, c.B, pieces), *offsets, *runs, *slopes, *bends)
 
 
 def _shape_pieces(c: _Corner, shape: G2Shape, what: str):
     """The pieces of ``shape`` at corner ``c`` (its corner quintic's cuts recovered from the totals)."""
     offsets, runs = (shape.offset_entry, shape.offset_exit), (shape.run_entry, shape.run_exit)
-    if offsets == (0.0, 0.0):
+    slopes, bends = (shape.slope_entry, shape.slope_exit), (shape.bend_entry, shape.bend_exit)
+    if not shape.racing:
         return g2_blend_pieces(c.A, c.B, shape.entry, shape.exit, shape.shape_entry, shape.shape_exit)[0]
     r = _racing_lines(c.A, c.B, *offsets, what)
-    inner = (shape.entry - (runs[0] if offsets[0] > 0 else 0.0) + r.shift_a,
-             shape.exit - (runs[1] if offsets[1] > 0 else 0.0) + r.shift_b)
-    return g2_blend_pieces(c.A, c.B, *inner, shape.shape_entry, shape.shape_exit, offsets, runs, what)[0]
+    has = shape.sides
+    inner = (shape.entry - (runs[0] if has[0] else 0.0) + r.shift_a,
+             shape.exit - (runs[1] if has[1] else 0.0) + r.shift_b)
+    return g2_blend_pieces(c.A, c.B, *inner, shape.shape_entry, shape.shape_exit, offsets, runs, what, slopes,
+                           bends)[0]
 
 
 def with_shaped_g2_blend(path: TaskPath, corner: int, shape: G2Shape) -> TaskPath:
     """``path`` with connection ``corner`` replaced by the asymmetric G2 blend ``shape`` (one quintic,
-    or the racing line's S-curve, corner quintic and S-curve)."""
+    or the racing line's offset piece, corner quintic and offset piece)."""
     what = "with_shaped_g2_blend"
     c = _corner(path, corner, ("corner", "tangent"), what)
     if not (0 < shape.entry < c.A.length and 0 < shape.exit < c.B.length):

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
+from scipy.optimize import minimize, minimize_scalar
 
 from .. import defaults
 from ..constraint import lift
@@ -46,20 +47,27 @@ BALANCE_RANGE = (0.2, 0.8)
 SHAPE_RANGE = (0.25, 1.0)
 #: Search box of the racing line's offsets [tolerance] and runs [sqrt(tolerance RUN_SCALE_LENGTH)];
 #: the runs start at 1.
-OFFSET_RANGE = (0.0, 0.95)
+OFFSET_RANGE = (0.0, 0.999)
 RUN_RANGE = (0.3, 2.0)
 RUN_SCALE_LENGTH = 0.64
-#: Golden-section steps per coordinate: the quintic's (and its cycles), the racing line's.
+#: Box of the free offset pieces' Bernstein coefficients [tolerance]: inside it the pieces stay
+#: within the tolerance of their line (convex hull), so few candidates are rejected.
+COEFFICIENT_RANGE = (-1.0, 1.0)
+#: Steps of the bounded scalar searches (scipy's minimize_scalar, Brent): the quintic's (and its
+#: cycles), the racing line's; plans of the free offset pieces' Nelder-Mead stage.
 GOLDEN_STEPS = 6
 SEARCH_CYCLES = 1
 RACING_STEPS = 4
+FREE_PLANS = 80
 #: Grid points of the search's fast plans.
 SEARCH_GRID_POINTS = 300
 
-_GOLD = (np.sqrt(5.0) - 1.0) / 2.0
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
-#: run_entry, run_exit [run unit].
-_BALANCE, _SHAPE_A, _SHAPE_B, _W_A, _W_B, _L_A, _L_B = range(7)
+#: run_entry, run_exit [run unit] (7: S-curve offset pieces), then (11: free offset pieces) each
+#: piece's other lateral Bernstein coefficients [tolerance] (far, near: c3, c4 before the corner,
+#: c2, c1 after it; the offsets are c5 and c0, the coefficients at the line's end 0; far = near =
+#: offset is the S-curve).
+_BALANCE, _SHAPE_A, _SHAPE_B, _W_A, _W_B, _L_A, _L_B, _C_A, _D_A, _C_B, _D_B = range(11)
 
 
 @dataclass(frozen=True)
@@ -76,8 +84,16 @@ class OptimalBlend:
     quintic_duration: float = float("nan")
 
 
+def _side(w: float, far: float, near: float, run: float) -> tuple[float, float]:
+    """(slope [-], bend [1/m]) at the corner end of an offset piece over ``run`` [m] whose lateral
+    Bernstein coefficients from the corner end are ``w``, ``near``, ``far`` [m] (then 0, 0, 0):
+    dw/dd = 5 (near - w) / run, d2w/dd2 = 20 (w - 2 near + far) / run^2 (d from the corner)."""
+    return 5.0 * (near - w) / run, 20.0 * (w - 2.0 * near + far) / run ** 2
+
+
 class _Objective:
-    """Duration of the path with the blend coordinates x (7,) at one corner (others fixed), cached."""
+    """Duration of the path with the blend coordinates x (7,) or (11,) at one corner (others fixed),
+    cached."""
 
     def __init__(self, robot, original: TaskPath, shapes: dict, corner: int, tolerance: float,
                  settings: PlanSettings, q_start):
@@ -90,11 +106,17 @@ class _Objective:
         self.plans = 0
 
     def shape(self, x) -> G2Shape:
-        w = (x[_W_A] * self.tolerance, x[_W_B] * self.tolerance)
-        runs = tuple(x[i] * self.run_unit if w[j] > 0 else 0.0 for j, i in enumerate((_L_A, _L_B)))
-        return g2_shape_for_tolerance(self.original, self.corner, self.tolerance, float(x[_BALANCE]),
-                                      float(x[_SHAPE_A]), float(x[_SHAPE_B]), shared=self.shared, offsets=w,
-                                      runs=runs)
+        x = np.asarray(x, float)
+        tol = self.tolerance
+        w = (x[_W_A] * tol, x[_W_B] * tol)
+        runs = (x[_L_A] * self.run_unit, x[_L_B] * self.run_unit)
+        slopes, bends = [0.0, 0.0], [0.0, 0.0]
+        if len(x) > _C_A:
+            for j, (far, near) in enumerate(((_C_A, _D_A), (_C_B, _D_B))):
+                slopes[j], bends[j] = _side(w[j], x[far] * tol, x[near] * tol, runs[j])
+        return g2_shape_for_tolerance(self.original, self.corner, tol, float(x[_BALANCE]), float(x[_SHAPE_A]),
+                                      float(x[_SHAPE_B]), shared=self.shared, offsets=w, runs=runs,
+                                      slopes=tuple(slopes), bends=tuple(bends))
 
     def __call__(self, x) -> float:
         key = tuple(np.round(np.asarray(x, float), 12))
@@ -110,10 +132,12 @@ class _Objective:
             self.plans += 1
         return self.cache[key][0]
 
-    def best(self, quintic_only: bool = False) -> tuple[float, G2Shape, tuple]:
-        """(duration, shape, x) of the fastest coordinates seen (only offsets 0 if ``quintic_only``)."""
+    def best(self, quintic_only: bool = False, s_curve_only: bool = False) -> tuple[float, G2Shape, tuple]:
+        """(duration, shape, x) of the fastest coordinates seen (only offsets 0 if ``quintic_only``,
+        only S-curve offset pieces if ``s_curve_only``)."""
         found = [(v[0], v[1], k) for k, v in self.cache.items()
-                 if v[1] is not None and not (quintic_only and v[1].racing)]
+                 if v[1] is not None and not (quintic_only and v[1].racing)
+                 and not (s_curve_only and len(k) > _C_A)]
         return min(found, key=lambda r: r[0])
 
 
@@ -128,49 +152,63 @@ def duration_with(robot, original: TaskPath, shapes: dict, settings: PlanSetting
         return float("inf")
 
 
-def _golden(f: Callable, x: np.ndarray, set_t: Callable, lo: float, hi: float, steps: int) -> None:
-    """Golden-section search of f over t in [lo, hi] along the line t -> set_t(x, t) (f caches every
-    point, so the best one seen is kept whatever the bracket converges to)."""
-    a, b = lo, hi
-    c, d = b - _GOLD * (b - a), a + _GOLD * (b - a)
-    fc, fd = f(set_t(x, c)), f(set_t(x, d))
-    for _ in range(steps):
-        if fc <= fd:
-            b, d, fd = d, c, fc
-            c = b - _GOLD * (b - a)
-            fc = f(set_t(x, c))
-        else:
-            a, c, fc = c, d, fd
-            d = a + _GOLD * (b - a)
-            fd = f(set_t(x, d))
+#: Stand-in for an infeasible candidate's duration [s] in the scalar searches (Brent's parabolic
+#: step needs finite values).
+_INFEASIBLE = 1e9
 
 
-def _setter(*indices: int) -> Callable:
-    """set_t for _golden: x with the coordinates ``indices`` set to t."""
-    def set_t(x, t):
+def _line_search(f: Callable, x: np.ndarray, indices: tuple[int, ...], lo: float, hi: float, steps: int) -> None:
+    """Bounded scalar search (scipy's Brent, about ``steps`` + 2 plans) of f over t in [lo, hi] with
+    the coordinates ``indices`` of x set to t (f caches every point, so the best one seen is kept
+    whatever the search returns)."""
+    def along(t):
         y = np.array(x, float)
         y[list(indices)] = t
-        return y
-    return set_t
+        return min(f(y), _INFEASIBLE)
+
+    minimize_scalar(along, bounds=(lo, hi), method="bounded", options={"maxiter": steps + 2, "xatol": 1e-4})
 
 
 #: The racing stage's moves: (coordinates set together, range).
 _RACING_MOVES = (((_W_A, _W_B), OFFSET_RANGE), ((_L_A, _L_B), RUN_RANGE), ((_W_A,), OFFSET_RANGE),
                  ((_W_B,), OFFSET_RANGE), ((_L_A,), RUN_RANGE), ((_L_B,), RUN_RANGE), ((_BALANCE,), BALANCE_RANGE))
+#: The free stage's box and initial simplex steps, per coordinate (_BALANCE ... _D_B).
+_FREE_BOX = (BALANCE_RANGE, SHAPE_RANGE, SHAPE_RANGE, OFFSET_RANGE, OFFSET_RANGE, RUN_RANGE, RUN_RANGE,
+             COEFFICIENT_RANGE, COEFFICIENT_RANGE, COEFFICIENT_RANGE, COEFFICIENT_RANGE)
+_FREE_STEP = (0.05, 0.05, 0.05, 0.05, 0.05, 0.1, 0.1, 0.15, 0.15, 0.15, 0.15)
 
 
-def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int) -> None:
+def _free_stage(objective: _Objective, plans: int) -> None:
+    """Nelder-Mead (scipy, bounded, about ``plans`` plans) over all 11 coordinates from the fastest
+    S-curve racing line (its offset pieces' coefficients far = near = offset)."""
+    x7 = np.array(objective.best(s_curve_only=True)[2])
+    x0 = np.concatenate([x7, [x7[_W_A], x7[_W_A], x7[_W_B], x7[_W_B]]])
+    box = np.array(_FREE_BOX)
+    x0 = np.clip(x0, box[:, 0], box[:, 1])
+    simplex = [x0] + [np.clip(x0 + np.eye(len(x0))[i] * (_FREE_STEP[i] if x0[i] + _FREE_STEP[i] <= box[i, 1]
+                                                          else -_FREE_STEP[i]), box[:, 0], box[:, 1])
+                      for i in range(len(x0))]
+    minimize(objective, x0, method="Nelder-Mead", bounds=box,
+             options={"maxfev": plans, "initial_simplex": np.array(simplex), "adaptive": True, "xatol": 1e-4,
+                      "fatol": 1e-6})
+
+
+def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
+                   free_plans: int) -> None:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
-    racing-line stage from the best quintic (module docstring)."""
+    racing-line stage from the best quintic and the free stage from the best racing line (module
+    docstring)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
         for i, box in ((_BALANCE, BALANCE_RANGE), (_SHAPE_A, SHAPE_RANGE), (_SHAPE_B, SHAPE_RANGE)):
-            _golden(objective, np.array(objective.best()[2]), _setter(i), *box, steps)
+            _line_search(objective, np.array(objective.best()[2]), (i,), *box, steps)
     if not racing:
         return
     for indices, box in _RACING_MOVES:
-        _golden(objective, np.array(objective.best()[2]), _setter(*indices), *box, racing_steps)
+        _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
+    if free_plans > 0:
+        _free_stage(objective, free_plans)
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -182,11 +220,12 @@ def _racing_possible(path: TaskPath, corner: int) -> bool:
 def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: Sequence[int] | None = None,
                    settings: PlanSettings | None = None, q_start=None, *, cycles: int = SEARCH_CYCLES,
                    steps: int = GOLDEN_STEPS, racing_steps: int = RACING_STEPS, racing: bool = True,
-                   search_grid_points: int = SEARCH_GRID_POINTS) -> OptimalBlend:
+                   search_grid_points: int = SEARCH_GRID_POINTS, free_plans: int = FREE_PLANS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
-    under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only). PathError
-    as :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
+    under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
+    ``free_plans`` 0: no free offset pieces). PathError as :func:`~pathmotion.geometry.with_g2_blends`
+    when the tolerance does not fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
     tol = dict(tolerance) if isinstance(tolerance, dict) else {k: float(tolerance) for k in chosen}
@@ -195,17 +234,18 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, plans = dict(shapes), dict(shapes), 0
+    initial, quintic, s_curve, plans = dict(shapes), dict(shapes), dict(shapes), 0
     for k in chosen:
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start)
-        _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps)
-        quintic[k], shapes[k] = obj.best(quintic_only=True)[1], obj.best()[1]
+        _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans)
+        quintic[k], s_curve[k], shapes[k] = (obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1],
+                                             obj.best()[1])
         plans += obj.plans
         log.info("blend search: corner %d: %d plans, shape %s", k, obj.plans, shapes[k])
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    for found in ([quintic, shapes] if shapes != quintic else [quintic]):
+    for found in [quintic] + [c for i, c in enumerate((s_curve, shapes)) if c not in (quintic, s_curve)[:i + 1]]:
         candidates.append((duration_with(robot, original, found, full, q_start), found, None))
     plans += len(candidates)
     quintic_T = candidates[1][0]
