@@ -12,10 +12,10 @@ from scipy.spatial import cKDTree
 from pathmotion.api import load_text, plan_summary, plan_scenario
 from pathmotion.errors import PathError, ScenarioError
 from pathmotion.geometry import FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend
-from pathmotion.geometry.blends import (g2_blend_pieces, g2_control_points, g2_shape_for_tolerance,
+from pathmotion.geometry.blends import (_piece_offsets, g2_blend_pieces, g2_control_points, g2_shape_for_tolerance,
                                         g2_shaped_control_points, with_shaped_g2_blend, with_shaped_g2_blends)
 from pathmotion.planning import PlanSettings
-from pathmotion.planning.blend_search import duration_with, optimal_blends
+from pathmotion.planning.blend_search import _side, duration_with, optimal_blends
 from pathmotion.robot import load_robot
 
 TURN = ((0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45))  # issue 17's 90 degree turn
@@ -131,6 +131,49 @@ def test_racing_blend_deviation_bound_holds_on_a_dense_check(deg, balance, shape
         assert np.min(before[:, 1]) == pytest.approx(-w[0], rel=1e-6, abs=1e-12)
 
 
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(deg=st.floats(20.0, 160.0), balance=st.floats(0.2, 0.8), shapes=st.tuples(st.floats(0.3, 1.0), st.floats(0.3, 1.0)),
+       offsets=st.tuples(st.floats(0.0, 0.9), st.floats(0.0, 0.9)), runs=st.tuples(st.floats(0.5, 2.5), st.floats(0.5, 2.5)),
+       coefficients=st.tuples(*[st.floats(-1.0, 1.0)] * 4), tol=st.floats(5e-4, 0.02))
+def test_free_offset_pieces_keep_the_bound_and_their_end_slope_and_bend(deg, balance, shapes, offsets, runs,
+                                                                        coefficients, tol):
+    """Offset pieces with a free end slope and bend (the corner quintic joins them there): the
+    certified bound holds on a brute-force check, every join is G2, and the entry piece's end has the
+    lateral slope and bend asked for, read from the BezierSegment's own arc-length frame."""
+    path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(deg))))
+    w = (offsets[0] * tol, offsets[1] * tol)
+    ell = (runs[0] * np.sqrt(tol * 0.64), runs[1] * np.sqrt(tol * 0.64))
+    (sa, ba), (sb, bb) = (_side(w[j], coefficients[2 * j] * tol, coefficients[2 * j + 1] * tol, ell[j]) for j in range(2))
+    try:
+        shape = g2_shape_for_tolerance(path, 0, tol, balance, *shapes, offsets=w, runs=ell, slopes=(sa, sb),
+                                       bends=(ba, bb))
+        new = with_shaped_g2_blend(path, 0, shape)
+    except PathError:  # a piece out of tolerance, no room, or a degenerate (cusped) corner quintic
+        reject()
+    assert shape.deviation <= tol
+    lower, _ = _blend_deviation(new, path, shape, tol / 400)
+    assert lower <= tol * (1 + 1e-9)  # certified
+    _assert_g2_joins(new)
+    assert len(new.segments) == 3 + sum(shape.sides)
+    if not shape.sides[0]:  # offset 0 and both coefficients 0: no entry piece
+        return
+    _, t, k = new.segments[1].end_frame  # the incoming line runs along +x; outside the left turn is -y
+    dw_dx = -t[1] / t[0]
+    assert -dw_dx == pytest.approx(sa, rel=1e-7, abs=1e-9)  # dw/dd, d = distance to the corner = -x
+    assert -k[1] * (1 + dw_dx ** 2) ** 2 == pytest.approx(ba, rel=1e-6, abs=1e-6)
+
+
+def test_offset_piece_coefficients_round_trip():
+    """blend_search's (slope, bend) from Bernstein coefficients and blends' coefficients from (offset,
+    slope, bend) are inverses, on both sides (the exit side's coefficients are the entry side's reversed)."""
+    for w, far, near, run in ((3e-3, -2e-3, 5e-3, 0.07), (0.0, 1e-3, -1e-3, 0.02), (4e-3, 4e-3, 4e-3, 0.05)):
+        slope, bend = _side(w, far, near, run)
+        coef = _piece_offsets(w, slope, bend, run, towards_corner=True)
+        np.testing.assert_allclose(coef, [0, 0, 0, far, near, w], atol=1e-15)
+        np.testing.assert_allclose(_piece_offsets(w, slope, bend, run, towards_corner=False), coef[::-1], atol=0)
+    assert _side(4e-3, 4e-3, 4e-3, 0.05) == (0.0, 0.0)  # far = near = offset: the S-curve
+
+
 def test_racing_blend_without_offsets_is_the_quintic():
     path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
     A, B = path.segments
@@ -152,6 +195,13 @@ def test_racing_blend_bad_inputs():
     arc = TaskPath((incoming("arc", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
     with pytest.raises(PathError, match="needs two line neighbours"):
         g2_shape_for_tolerance(arc, 0, 2e-3, 0.5, 0.7, 0.7, offsets=(1e-3, 1e-3), runs=(0.05, 0.05))
+    with pytest.raises(PathError, match="slope and bend must be finite"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, offsets=(1e-3, 0.0), runs=(0.05, 0.0),
+                               slopes=(np.nan, 0.0))
+    with pytest.raises(PathError, match="exit offset piece needs a positive run"):  # a slope alone makes a piece
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, slopes=(0.0, 0.01))
+    with pytest.raises(PathError, match="needs two line neighbours"):
+        g2_shape_for_tolerance(arc, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.0), bends=(-1.0, 0.0))
 
 
 def test_shaped_blends_on_a_polyline_keep_the_bound():
@@ -191,7 +241,10 @@ SETTINGS = PlanSettings(start="zero", end="zero", velocity=True, acceleration=Tr
 def test_optimal_blend_is_never_slower_than_the_symmetric_g2(deg, tol):
     path = _turn(deg)
     best = optimal_blends(_robot(), path, tol, settings=SETTINGS, cycles=1, steps=2, racing_steps=2,
-                          search_grid_points=200)
+                          search_grid_points=200, free_plans=16)
+    s_curves = optimal_blends(_robot(), path, tol, settings=SETTINGS, cycles=1, steps=2, racing_steps=2,
+                              search_grid_points=200, free_plans=0)
+    assert best.duration <= s_curves.duration  # the same search up to the S-curves, then more candidates
     sym_shape = g2_shape_for_tolerance(path, 0, tol, 0.5, 0.7, 0.7)
     symmetric = duration_with(_robot(), path, {0: sym_shape}, SETTINGS)
     assert best.duration <= best.symmetric_duration
