@@ -18,7 +18,7 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    default shape), a bounded scalar search (scipy's Brent) per coordinate, SEARCH_CYCLES cycles;
 2. at a line-line corner, the S-curve racing line from that best quintic (offsets 0): scalar
    searches of both offsets together, both runs together, then each offset, each run and the
-   balance alone;
+   balance alone, RACING_CYCLES passes;
 3. the free offset pieces: a bounded Nelder-Mead over all 11 coordinates (FREE_PLANS plans), from
    the best racing line with both offsets at the tube's edge (as the free-shape optimum runs).
 
@@ -26,7 +26,7 @@ Offsets and coefficients are searched in units of the tolerance, runs in units o
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
 line and the best free one are then re-planned on the full grid and the fastest is kept, so the
-result is never slower than the symmetric G2 blend or the S-curve racing line. About 150 plans
+result is never slower than the symmetric G2 blend or the S-curve racing line. About 165 plans
 per corner.
 """
 
@@ -60,11 +60,12 @@ RUN_SCALE_LENGTH = 0.64
 #: within the tolerance of their line (convex hull), so few candidates are rejected.
 COEFFICIENT_RANGE = (-1.0, 1.0)
 #: Steps of the bounded scalar searches (scipy's minimize_scalar, Brent): the quintic's (and its
-#: cycles), the racing line's; plans of the free offset pieces' Nelder-Mead stage.
+#: cycles), the racing line's (and its passes); plans of the free offset pieces' Nelder-Mead stage.
 GOLDEN_STEPS = 6
 SEARCH_CYCLES = 1
 RACING_STEPS = 4
-FREE_PLANS = 80
+RACING_CYCLES = 2
+FREE_PLANS = 60
 #: Grid points of the search's fast plans.
 SEARCH_GRID_POINTS = 300
 
@@ -186,14 +187,19 @@ _FREE_STEP = (0.05, 0.05, 0.05, 0.05, 0.05, 0.1, 0.1, 0.15, 0.15, 0.15, 0.15)
 
 def _free_stage(objective: _Objective, plans: int) -> None:
     """Nelder-Mead (scipy, bounded, about ``plans`` plans) over all 11 coordinates from the fastest
-    S-curve racing line with both offsets at the top of OFFSET_RANGE (its offset pieces'
-    coefficients far = near = offset): the free-shape optimum runs at the edge of the tube before and
-    after the corner, and from there the simplex found faster blends than from the racing line's own
-    offsets (60 degrees 10 mm: 0.6363 s against 0.6404 s; never slower on the rows tried)."""
+    S-curve racing line with its nonzero offsets at the top of OFFSET_RANGE (its offset pieces'
+    coefficients far = near = offset), or from that line itself if the wider one does not fit: the
+    free-shape optimum runs at the edge of the tube before and after the corner, and from there the
+    simplex found faster blends than from the racing line's own offsets (60 degrees 10 mm: 0.6363 s
+    against 0.6404 s; never slower on the rows tried)."""
     box = np.array(_FREE_BOX)
-    x = np.array(objective.best(s_curve_only=True)[2])
-    x[[_W_A, _W_B]] = OFFSET_RANGE[1]
-    x0 = np.clip(np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]]), box[:, 0], box[:, 1])
+    x7 = np.array(objective.best(s_curve_only=True)[2])
+    wide = x7.copy()
+    wide[[i for i in (_W_A, _W_B) if x7[i] > 0]] = OFFSET_RANGE[1]
+    x0, fallback = (np.clip(np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]]), box[:, 0], box[:, 1])
+                    for x in (wide, x7))
+    if not np.isfinite(objective(x0)):  # e.g. the wider corner leaves no room for the pieces
+        x0 = fallback
     simplex = [x0] + [np.clip(x0 + np.eye(len(x0))[i] * (_FREE_STEP[i] if x0[i] + _FREE_STEP[i] <= box[i, 1]
                                                           else -_FREE_STEP[i]), box[:, 0], box[:, 1])
                       for i in range(len(x0))]
@@ -214,8 +220,9 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
             _line_search(objective, np.array(objective.best()[2]), (i,), *box, steps)
     if not racing:
         return
-    for indices, box in _RACING_MOVES:
-        _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
+    for _ in range(RACING_CYCLES):
+        for indices, box in _RACING_MOVES:
+            _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
     if free_plans > 0:
         _free_stage(objective, free_plans)
 
