@@ -126,9 +126,11 @@ def test_racing_blend_deviation_bound_holds_on_a_dense_check(deg, balance, shape
     _assert_g2_joins(new)
     # outside the turn (the turn is to the left, +y for the incoming line along +x) by the entry offset
     x = new.evaluate(np.linspace(0.0, new.length, 20001))[0]
-    if w[0] > 0:
+    if w[0] > 0:  # the S-curve ends on the offset line (exactly) and never overshoots it (samples)
+        assert new.segments[1].end_frame[0][1] == pytest.approx(-w[0], rel=1e-9, abs=1e-15)
         before = x[x[:, 0] < -shape.entry + ell[0]]
-        assert np.min(before[:, 1]) == pytest.approx(-w[0], rel=1e-6, abs=1e-12)
+        assert np.min(before[:, 1]) >= -w[0] * (1 + 1e-9)
+        assert np.min(before[:, 1]) == pytest.approx(-w[0], rel=1e-3)
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
