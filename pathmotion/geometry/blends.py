@@ -588,7 +588,8 @@ def _check_racing(offsets, runs, tol: float, what: str, slopes=(0.0, 0.0), bends
 def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balance: float, shape_entry: float,
                            shape_exit: float, shared: tuple[bool, bool] = (False, False),
                            offsets: tuple[float, float] = (0.0, 0.0), runs: tuple[float, float] = (0.0, 0.0),
-                           slopes: tuple[float, float] = (0.0, 0.0), bends: tuple[float, float] = (0.0, 0.0)) -> G2Shape:
+                           slopes: tuple[float, float] = (0.0, 0.0),
+                           bends: tuple[float, float] = (0.0, 0.0)) -> G2Shape:
     """The largest asymmetric G2 blend at connection ``corner`` whose corner quintic has
     entry / (entry + exit) = ``balance`` in (0, 1) and whose certified deviation is <= ``tolerance``
     [m] (or, if even the largest the neighbours allow deviates less, that one). ``offsets`` (w_A,
