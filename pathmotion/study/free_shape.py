@@ -63,11 +63,20 @@ VERIFY_POINTS_PER_INTERVAL = 16
 #: IPOPT: convergence tolerance and iteration cap.
 IPOPT_TOL = 1e-9
 IPOPT_MAX_ITER = 1500
-#: IPOPT options when starting from a feasible motion near the optimum: a small initial barrier
-#: parameter and bound push keep the start (whose accelerations sit on their limits) where it is.
-WARM_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-8, "bound_frac": 1e-8, "max_iter": 800}
+#: IPOPT options of the norm-form tube: a small initial barrier and bound push (the tube's slack is
+#: of the order of its radius, 1e-4 m at 0.1 mm, where the default push of 1e-2 throws the start out).
+TUBE_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-8, "bound_frac": 1e-8, "max_iter": 600}
+#: The earlier form as the last resort: IPOPT's defaults, the squared tube.
+FALLBACK_IPOPT = {"max_iter": 1000}
+#: Starts tried per mesh until IPOPT converges: (source, IPOPT options, tube form); source "previous"
+#: is the previous mesh's solution resampled (the start on the first mesh), "start" the given start.
+STARTS = (("previous", TUBE_IPOPT, "norm"), ("start", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "squared"))
+STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"),
+               ("previous", FALLBACK_IPOPT, "squared"))
 #: Node density of the corner-confined tube's stretches at a corner relative to the rest.
 CORNER_DENSITY = 4.0
+#: Span [m] around each corner where the whole tube's nodes crowd (0: one phase per segment).
+WHOLE_TUBE_CORNER_SPAN = 0.0
 #: Smallest phase duration [s] and the fewest intervals a phase gets.
 MIN_PHASE_DURATION = 1e-4
 MIN_PHASE_INTERVALS = 3
@@ -75,6 +84,8 @@ MIN_PHASE_INTERVALS = 3
 ORDER_RANGE = (0.5, 4.0)
 #: Polyline segments shorter than this [m] are an error.
 MIN_SEGMENT_LENGTH = 1e-6
+#: Smoothing of the "norm" tube constraint, relative to the radius (see _tube).
+NORM_SMOOTHING = 0.3
 
 
 def _casadi():
@@ -181,12 +192,21 @@ class Polyline:
 
 def tube_phases(line: Polyline, delta: float, spans: Sequence[tuple[float, float]] | None = None) -> list[Phase]:
     """Phases of the whole tube (``spans`` None) or of the corner-confined one (``spans[c]`` = (a, b)
-    [m]: deviation allowed in the last a of the segment before corner c and the first b after it)."""
+    [m]: deviation allowed in the last a of the segment before corner c and the first b after it).
+    The whole tube is split the same way at WHOLE_TUBE_CORNER_SPAN around each corner (at most a
+    third of a segment), radius delta everywhere, so the nodes crowd at the corners too."""
     L = line.lengths
-    if spans is None:  # (splitting a segment's tube to refine the mesh at the corner stalled IPOPT)
-        return [Phase(j, 0.0, float(L[j]), delta) for j in range(len(L))]
+    if spans is None:
+        c = [min(WHOLE_TUBE_CORNER_SPAN, L[j] / 3, L[j + 1] / 3) for j in range(len(L) - 1)]
+        return _split_phases(L, [(x, x) for x in c], delta, delta)
     if len(spans) != len(L) - 1:
         raise PathError(f"free shape: {len(spans)} corner spans given for {len(L) - 1} corners")
+    return _split_phases(L, spans, delta, 0.0)
+
+
+def _split_phases(L: np.ndarray, spans, delta: float, outside: float) -> list[Phase]:
+    """Per segment j: the stretch after the previous corner (spans[j - 1][1], radius delta, density
+    CORNER_DENSITY), the middle (radius ``outside``), the stretch before the next corner (spans[j][0])."""
     phases = []
     for j in range(len(L)):
         lo = float(spans[j - 1][1]) if j > 0 else 0.0
@@ -196,7 +216,7 @@ def tube_phases(line: Polyline, delta: float, spans: Sequence[tuple[float, float
         if j > 0 and lo > 0:
             phases.append(Phase(j, 0.0, lo, delta, CORNER_DENSITY))
         if hi > lo:
-            phases.append(Phase(j, lo, hi, 0.0))
+            phases.append(Phase(j, lo, hi, outside))
         if j < len(L) - 1 and hi < L[j]:
             phases.append(Phase(j, hi, float(L[j]), delta, CORNER_DENSITY))
     return phases
@@ -331,24 +351,35 @@ def _orientation_error(ca, R, R_ref):
     return 0.5 * ca.vertcat(E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
 
 
-def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, scaled: bool = False):
-    """Constrain the TCP position expression p (3,) to the phase's capsule (with its own progress s);
-    ``scaled``: as |gap / r|^2 <= 1 (else |gap|^2 <= r^2)."""
+def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm"):
+    """Constrain the TCP position expression p (3,) to the phase's capsule (with its own progress s).
+    ``form`` (radius r > 0; r = 0 is the equality gap = 0):
+
+    * "norm": sqrt(|gap|^2 + (e r)^2) <= sqrt(1 + e^2) r (e = NORM_SMOOTHING): exactly |gap| <= r, with
+      a gradient of about 1 on the boundary and a value of the order of r, like the tube itself;
+    * "squared": |gap|^2 <= r^2 (gradient 2 r on the boundary: 2e-4 at 0.1 mm);
+    * "scaled": |gap / r|^2 <= 1 (gradient 2 / r: 2e4 at 0.1 mm)."""
     s = opti.variable()
     opti.subject_to(opti.bounded(ph.s_lo, s, ph.s_hi))
     opti.set_initial(s, float(np.clip(s0, ph.s_lo, ph.s_hi)))
     gap = p - ca.DM(line.points[ph.segment]) - ca.DM(line.directions[ph.segment]) * s
-    if ph.radius > 0 and scaled:  # O(1): r^2 is 1e-8 at 0.1 mm, far below IPOPT's tolerances
-        opti.subject_to(ca.sumsqr(gap / ph.radius) <= 1.0)
-    elif ph.radius > 0:
-        opti.subject_to(ca.sumsqr(gap) <= ph.radius ** 2)
-    else:
+    r = ph.radius
+    if r == 0:
         opti.subject_to(gap == 0)
+    elif form == "norm":
+        e2 = (NORM_SMOOTHING * r) ** 2
+        opti.subject_to(ca.sqrt(ca.sumsqr(gap) + e2) <= float(np.sqrt(r ** 2 + e2)))
+    elif form == "scaled":
+        opti.subject_to(ca.sumsqr(gap / r) <= 1.0)
+    elif form == "squared":
+        opti.subject_to(ca.sumsqr(gap) <= r ** 2)
+    else:
+        raise PathmotionError(f"free shape: tube form {form!r} is none of norm, squared, scaled")
 
 
 def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rotation,
                velocity_scale: float = 1.0, acceleration_scale: float = 1.0,
-               ipopt: dict | None = None, scaled: bool = False) -> FreeShapeSolution:
+               ipopt: dict | None = None, form: str = "norm") -> FreeShapeSolution:
     """Solve the minimum-time NLP on the mesh of ``guess`` (its node counts per phase), from it;
     ``ipopt``: options over the defaults; ``scaled``: the tube constraint scaled by its radius (used
     from a feasible start; from the stop the unscaled form converged in 77 iterations where the
@@ -386,15 +417,16 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
             opti.subject_to(QD[:, k + 1] == QD[:, k] + h * U[:, k])
             p_a, p_b = p_guess[k], p_guess[k + 1]
             p, R = tcp(Q[:, k + 1])
-            opti.subject_to(_orientation_error(ca, R, rotation) == 0)
-            _tube(opti, ca, p, line, ph, (p_b - P) @ t, scaled)
+            if k + 1 < N:  # q_N is fixed, its orientation too
+                opti.subject_to(_orientation_error(ca, R, rotation) == 0)
+            _tube(opti, ca, p, line, ph, (p_b - P) @ t, form)
             if ph.radius == 0:  # on a line the nodes alone leave the NLP its degrees of freedom
                 continue
             for f in TUBE_POINTS:
                 p, R = tcp(Q[:, k] + f * h * QD[:, k] + 0.5 * (f * h) ** 2 * U[:, k])
                 if f == 0.5:
                     opti.subject_to(_orientation_error(ca, R, rotation) == 0)
-                _tube(opti, ca, p, line, ph, (p_a + f * (p_b - p_a) - P) @ t, scaled)
+                _tube(opti, ca, p, line, ph, (p_a + f * (p_b - p_a) - P) @ t, form)
     opti.minimize(ca.sum1(T))
     opti.solver("ipopt", {"print_time": False, "expand": True},
                 {"print_level": 0, "tol": IPOPT_TOL, "max_iter": IPOPT_MAX_ITER, "sb": "yes", **(ipopt or {})})
@@ -474,13 +506,14 @@ class FreeShapeOptimum:
 def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, float]:
     """Richardson extrapolation of durations on meshes refined by ``ratio``: (value, |value - finest|).
     The order comes from the last three (clamped to ORDER_RANGE); with fewer, the finest and the
-    change of the last refinement."""
+    change of the last refinement, as when the last two changes differ in sign (the meshes are not in
+    the asymptotic range: e.g. the coarsest found another local optimum)."""
     d = np.asarray(durations, float)
     if len(d) < 2:
         return float(d[-1]), float("nan")
-    if len(d) < 3:
-        return float(d[-1]), float(abs(d[-1] - d[-2]))
-    d1, d2 = d[-2] - d[-3], d[-1] - d[-2]
+    d1, d2 = (d[-2] - d[-3] if len(d) >= 3 else 0.0), d[-1] - d[-2]
+    if len(d) < 3 or d1 * d2 < 0:
+        return float(d[-1]), float(abs(d2))
     order = np.log(abs(d1 / d2)) / np.log(ratio) if d2 != 0 and d1 != 0 else ORDER_RANGE[1]
     order = float(np.clip(order, *ORDER_RANGE)) if np.isfinite(order) else ORDER_RANGE[1]
     value = d[-1] + d2 / (ratio ** order - 1.0)
@@ -511,13 +544,13 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
         return start(intervals)
 
     cont = from_previous if previous is not None else fresh
-    if warm:
-        tries = ([(fresh, WARM_IPOPT, True)] + ([(cont, {}, False)] if previous is not None else [])
-                 + [(fresh, {}, False)])
-    else:
-        tries = [(cont, {}, False), (fresh, WARM_IPOPT, False)]
-    for i, (guess, options, scaled) in enumerate(tries):
-        sol = solve_mesh(robot, line, phases, guess(), R_ref, ipopt=options, scaled=scaled)
+    tries = []
+    for src, options, form in STARTS_WARM if warm else STARTS:
+        attempt = (cont if src == "previous" else fresh, options, form)
+        if attempt not in tries:  # without a previous mesh, "previous" is the start
+            tries.append(attempt)
+    for i, (guess, options, form) in enumerate(tries):
+        sol = solve_mesh(robot, line, phases, guess(), R_ref, ipopt=options, form=form)
         if sol.success:
             break
         log.info("free shape mesh %d: start %d of %d ended %s after %d iterations", intervals, i + 1, len(tries),
