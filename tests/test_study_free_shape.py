@@ -39,6 +39,35 @@ def test_extrapolation_is_exact_for_a_first_order_sequence():
     assert value == pytest.approx(0.5, abs=1e-12)
 
 
+def test_extrapolation_of_a_non_monotone_sequence_is_the_finest_with_its_last_change():
+    """Changes of opposite sign (e.g. the coarsest mesh in another local optimum): no order to fit."""
+    value, err = fs.extrapolate([0.8598, 0.8508, 0.8513])
+    assert value == pytest.approx(0.8513) and err == pytest.approx(0.0005)
+
+
+@pytest.mark.parametrize("form", ["norm", "squared", "scaled"])
+@pytest.mark.parametrize("radius", [1e-4, 1e-2])
+def test_every_tube_form_is_the_capsule(form, radius):
+    """The capsule's support function (analytic): its farthest point along a unit d (d_x > 0) is
+    d . (end of its stretch) + r, whichever form the constraint takes."""
+    ca = pytest.importorskip("casadi")
+    line = fs.Polyline(np.array([(0.0, 0.0, 0.0), (0.1, 0.0, 0.0)]))
+    ph = fs.Phase(0, 0.02, 0.08, radius)
+    for direction in ((0.3, 0.8, 0.52), (1.0, 0.0, 0.0)):
+        d = np.asarray(direction) / np.linalg.norm(direction)
+        opti = ca.Opti()
+        p = opti.variable(3)
+        opti.set_initial(p, [0.05, 0.0, 0.0])
+        fs._tube(opti, ca, p, line, ph, 0.05, form)
+        opti.minimize(-ca.dot(ca.DM(d), p))
+        opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "tol": 1e-12, **fs.TUBE_IPOPT})
+        sol = opti.solve()
+        # IPOPT relaxes every bound by 1e-8 (bound_relax_factor): 1e-8 m for s and the norm form, but 1e-8 m^2
+        # for the squared form, a tube of sqrt(r^2 + 1e-8): 41 % wider at r = 0.1 mm
+        tol = 5e-8 + (np.sqrt(radius ** 2 + 1e-8) - radius if form == "squared" else 0.0)
+        assert float(d @ np.asarray(sol.value(p)).ravel()) == pytest.approx(d[0] * ph.s_hi + radius, abs=tol)
+
+
 def test_tube_phases_cover_each_segment(robot):
     line = fs.Polyline(TURN)
     whole = fs.tube_phases(line, 0.002)
@@ -124,3 +153,16 @@ def test_corner_confined_optimum_converges_from_the_blend_and_is_below_it(robot)
     assert opt.success, [s.status for s in opt.solutions]
     assert all(s.duration <= warm.profile.duration * (1 + 1e-3) for s in opt.solutions)
     _check_verified(opt, delta, excess=0.15)  # 50 intervals: 9 % of a 1 mm tube between the points
+
+
+def test_whole_tube_at_a_tenth_of_a_millimetre_converges(robot):
+    """Issue 17's atlas, 30 degrees, 0.1 mm, 25 intervals: IPOPT hit its cap (800) here with the
+    squared tube constraint; the norm form converges, below the stop (feasible for the NLP)."""
+    from pathmotion.study import atlas
+
+    pts = atlas.corner_points(30.0)
+    _, stop = fs.stop_plan(robot, fs.Polyline(pts))
+    opt = fs.free_shape_optimum(robot, pts, 1e-4, meshes=(25,))
+    assert opt.success, [(s.status, s.iterations) for s in opt.solutions]
+    assert opt.duration < stop.profile.duration
+    _check_verified(opt, 1e-4, excess=0.2)  # 25 intervals: 0.12 mm outside a 0.1 mm tube between the points

@@ -15,8 +15,11 @@ constraints are imposed at every node and every interval midpoint (q(t) is quadr
   R = R_ref);
 * the TCP p(q) within the phase's tube: each phase belongs to one line segment j of the polyline
   (start P_j, unit direction t_j) and a progress range [s_lo, s_hi]; each constrained point has its
-  own progress variable s in that range and |p(q) - P_j - t_j s|^2 <= r^2 (r = 0: the equality
-  p(q) = P_j + t_j s). This is the capsule of segment j, smooth in (q, s); the union of capsules at
+  own progress variable s in that range and |p(q) - P_j - t_j s| <= r, imposed in the smooth "norm"
+  form sqrt(|gap|^2 + (0.3 r)^2) <= sqrt(1.09) r (r = 0: the equality p(q) = P_j + t_j s). Its
+  gradient is about 1 on the boundary at any r; the squared form |gap|^2 <= r^2 has 2 r there
+  (2e-4 at 0.1 mm) and a slack of r^2, IPOPT crawled to its iteration cap on every 0.1 mm whole
+  tube with it, and IPOPT's bound relaxation (1e-8) widened its tube by 41 % at 0.1 mm (0.5 % at 1 mm). This is the capsule of segment j, smooth in (q, s); the union of capsules at
   a corner is the union of the phases: the node shared by two phases lies in both capsules. (The
   distance to the polyline itself is not differentiable at the corner; a time-optimal motion runs
   through the capsules in order, so fixing the order loses nothing.)
@@ -29,12 +32,14 @@ Rest to rest: q_0, q_N are the IK solutions of the stop-at-corner plan at the pa
 there. The objective is sum T_i. The initial guess is pathmotion's own time-optimal stop at every
 corner (:func:`pathmotion.planning.plan`), sampled at the phase times, or a given feasible motion
 (the optimal blend's, for the corner-confined tube), sampled where its TCP crosses the phase
-boundaries; from the latter each mesh starts afresh with a small initial barrier, and a failed
-start is retried from the previous mesh and with IPOPT's defaults (:func:`_solve_with_restarts`).
+boundaries. IPOPT starts with a small barrier parameter and bound push (TUBE_IPOPT): the tube's
+slack is of the order of r, and the default push (1e-2) throws a feasible start far out. A failed
+start is retried (STARTS, :func:`_solve_with_restarts`).
 
 Convergence: solved on a sequence of meshes (each warm-started from the previous one); the
 reported value is the Richardson extrapolation of the last three durations, the convergence error
-its distance from the finest. Each solution is verified on a dense resample of the exact
+its distance from the finest (a sequence whose last two changes differ in sign: the finest, its
+last change as the error). Each solution is verified on a dense resample of the exact
 piecewise-quadratic q(t): joint velocity and acceleration ratios, TCP distance to the sharp path,
 orientation error.
 
@@ -66,13 +71,13 @@ IPOPT_MAX_ITER = 1500
 #: IPOPT options of the norm-form tube: a small initial barrier and bound push (the tube's slack is
 #: of the order of its radius, 1e-4 m at 0.1 mm, where the default push of 1e-2 throws the start out).
 TUBE_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-8, "bound_frac": 1e-8, "max_iter": 600}
-#: The earlier form as the last resort: IPOPT's defaults, the squared tube.
+#: The last resort: IPOPT's defaults (continuation that way converged at 90 degrees, 1 mm, corner-
+#: confined, where a small barrier hit the cap).
 FALLBACK_IPOPT = {"max_iter": 1000}
 #: Starts tried per mesh until IPOPT converges: (source, IPOPT options, tube form); source "previous"
 #: is the previous mesh's solution resampled (the start on the first mesh), "start" the given start.
-STARTS = (("previous", TUBE_IPOPT, "norm"), ("start", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "squared"))
-STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"),
-               ("previous", FALLBACK_IPOPT, "squared"))
+STARTS = (("previous", TUBE_IPOPT, "norm"), ("start", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "norm"))
+STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "norm"))
 #: Node density of the corner-confined tube's stretches at a corner relative to the rest.
 CORNER_DENSITY = 4.0
 #: Span [m] around each corner where the whole tube's nodes crowd (0: one phase per segment).
@@ -357,7 +362,8 @@ def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm")
 
     * "norm": sqrt(|gap|^2 + (e r)^2) <= sqrt(1 + e^2) r (e = NORM_SMOOTHING): exactly |gap| <= r, with
       a gradient of about 1 on the boundary and a value of the order of r, like the tube itself;
-    * "squared": |gap|^2 <= r^2 (gradient 2 r on the boundary: 2e-4 at 0.1 mm);
+    * "squared": |gap|^2 <= r^2 (gradient 2 r on the boundary: 2e-4 at 0.1 mm; IPOPT relaxes its
+      bound by 1e-8 m^2, a tube of sqrt(r^2 + 1e-8): 41 % wider at 0.1 mm, 0.5 % at 1 mm);
     * "scaled": |gap / r|^2 <= 1 (gradient 2 / r: 2e4 at 0.1 mm)."""
     s = opti.variable()
     opti.subject_to(opti.bounded(ph.s_lo, s, ph.s_hi))
@@ -522,18 +528,16 @@ def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, 
 
 def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, intervals: int, start,
                          previous: FreeShapeSolution | None, warm: bool) -> FreeShapeSolution:
-    """One mesh, tried from up to three starts until IPOPT converges. From a feasible motion near the
-    optimum (``warm``: e.g. the optimal blend in the corner-confined tube): ``start`` (m -> Guess) on
-    this mesh with a small initial barrier and the scaled tube (the default barrier first pushes the
-    start far away), then the previous mesh's solution resampled (continuation) with IPOPT's
-    defaults and the unscaled tube, then ``start`` that way. Otherwise (the stop): continuation from
-    the previous mesh (or ``start`` on the first) with the defaults, then ``start`` with the small
-    barrier. The first converged (else the last) solution.
+    """One mesh, tried from the starts in STARTS (``warm``: STARTS_WARM, ``start`` a feasible motion
+    near the optimum, e.g. the optimal blend in the corner-confined tube) until IPOPT converges; the
+    first converged (else the last) solution. "previous" is the previous mesh's solution resampled
+    (continuation; ``start`` on the first mesh), "start" is ``start`` (m -> Guess) on this mesh.
 
-    Why the unscaled continuation second: at 90 degrees and 1 mm (corner-confined, spans 3.3 / 5.2 mm)
-    the scaled small-barrier start hit its cap (800) on 50 and 100 intervals, and the earlier
-    second and third starts (both scaled) hit theirs too, so the atlas row had no number; continuation
-    with the defaults and the unscaled tube converged on every mesh (78 / 453 / 697 iterations)."""
+    Why these: with the norm-form tube and a small barrier, the 0.1 mm whole tube at 90 degrees
+    converged on 25 / 50 / 100 intervals (261 / 319 / 52 iterations, the last from the stop after
+    continuation hit the cap), where the squared form hit the cap from every start. IPOPT's defaults
+    are the last resort: continuation that way (squared form) converged at 90 degrees and 1 mm
+    (corner-confined, spans 3.3 / 5.2 mm) when a small barrier (scaled form) did not."""
     density = [ph.density for ph in phases]
 
     def from_previous():
