@@ -78,6 +78,10 @@ def test_tube_phases_cover_each_segment(robot):
     confined = fs.tube_phases(line, 0.002, [(0.01, 0.02)])
     assert [(p.segment, p.radius) for p in confined] == [(0, 0.0), (0, 0.002), (1, 0.002), (1, 0.0)]
     assert confined[1].s_lo == pytest.approx(0.09) and confined[2].s_hi == pytest.approx(0.02)
+    crowded = fs.tube_phases(line, 0.002, crowd=[(0.01, 0.02)])  # the whole tube on the confined one's phases
+    assert [(p.segment, p.s_lo, p.s_hi, p.density) for p in crowded] == [(p.segment, p.s_lo, p.s_hi, p.density)
+                                                                        for p in confined]
+    assert all(p.radius == 0.002 for p in crowded)
 
 
 def _check_verified(opt, delta, excess=0.05):
@@ -146,13 +150,20 @@ def test_warm_start_from_a_blend_lies_in_the_corner_confined_tube(robot):
 
 def test_corner_confined_optimum_converges_from_the_blend_and_is_below_it(robot):
     """Both meshes converge (the cap was hit from the stop before); the optimum within the blend's
-    own span is at most the blend's duration (the blend is one of its candidates) and verified."""
+    own span is at most the blend's duration (the blend is one of its candidates) and verified; the
+    whole tube started from it is at most it, mesh by mesh."""
     delta = 0.001
     pts, shape, warm = _optimal_blend_motion(robot, 90.0, delta)
     opt = fs.free_shape_optimum(robot, pts, delta, [(shape.entry, shape.exit)], meshes=(25, 50), warm=warm)
     assert opt.success, [s.status for s in opt.solutions]
     assert all(s.duration <= warm.profile.duration * (1 + 1e-3) for s in opt.solutions)
     _check_verified(opt, delta, excess=0.15)  # 50 intervals: 9 % of a 1 mm tube between the points
+    # the whole tube contains the corner-confined one: from its solutions, on the same nodes, it ends at or below them
+    whole = fs.free_shape_optimum(robot, pts, delta, meshes=(25, 50), warm=opt)
+    assert whole.success, [s.status for s in whole.solutions]
+    assert all(w.duration <= c.duration + 1e-6 for w, c in zip(whole.solutions, opt.solutions))
+    assert all(w.motion.breaks == c.motion.breaks for w, c in zip(whole.solutions, opt.solutions))
+    _check_verified(whole, delta, excess=0.15)
 
 
 def test_whole_tube_at_a_tenth_of_a_millimetre_converges(robot):

@@ -145,8 +145,10 @@ def industrial_zone_duration(robot, task, tolerance: float) -> float:
     return float(result.baselines.constant_speed.profile.duration)
 
 
-def _optimum_key(robot, points, delta, spans, meshes) -> str:
-    text = json.dumps({"v": OPTIMUM_VERSION if spans is None else CORNER_OPTIMUM_VERSION, "robot": robot.name, "velocity": list(map(float, robot.limits.velocity)),
+def _optimum_key(robot, points, delta, spans, meshes, crowd=None) -> str:
+    text = json.dumps({"v": OPTIMUM_VERSION if spans is None else CORNER_OPTIMUM_VERSION, "robot": robot.name,
+                       "crowd": None if crowd is None else np.round(crowd, 12).tolist(),
+                       "velocity": list(map(float, robot.limits.velocity)),
                        "acceleration": list(map(float, robot.limits.acceleration)),
                        "points": np.round(points, 12).tolist(), "delta": float(delta),
                        "spans": None if spans is None else np.round(spans, 12).tolist(), "meshes": list(meshes)},
@@ -154,19 +156,24 @@ def _optimum_key(robot, points, delta, spans, meshes) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
-def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None, warm=None) -> dict:
+def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None, warm=None, crowd=None,
+                   keep: list | None = None) -> dict:
     """The free-shape optimum's record {duration, convergence_error, success, status, durations,
-    statuses, iterations, verification}, read from ``cache`` or solved (from the feasible motion
-    ``warm``, a PlanResult, when given: the start does not change the answer, so it is not in the
-    key) and written there."""
+    statuses, iterations, verification}, read from ``cache`` or solved and written there. ``warm``:
+    the start (see free_shape_optimum), or a function returning it, called only to solve; a
+    FreeShapeOptimum start crowds the whole tube's nodes at its spans, given as ``crowd`` (they
+    change the mesh, so they are in the key; the start itself is not). ``keep``: a list the solved
+    FreeShapeOptimum is appended to."""
     from . import free_shape as fs
 
     meshes = tuple(meshes or fs.MESHES)
-    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes)}.json"
+    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd)}.json"
     if f.is_file():
         return json.loads(f.read_text())
     t0 = time.process_time()
-    opt = fs.free_shape_optimum(robot, points, delta, spans, meshes, warm=warm)
+    opt = fs.free_shape_optimum(robot, points, delta, spans, meshes, warm=warm() if callable(warm) else warm)
+    if keep is not None:
+        keep.append(opt)
     rec = {"duration": opt.duration, "convergence_error": opt.convergence_error, "success": opt.success,
            "status": opt.status, "durations": list(opt.durations), "statuses": [s.status for s in opt.solutions],
            "iterations": [s.iterations for s in opt.solutions], "delta": delta,
@@ -241,14 +248,27 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     row["gain_vs_zone"] = 1.0 - row["optimal_s"] / row["industrial_zone_s"]
     row["gain_vs_g2"] = 1.0 - row["optimal_s"] / row["g2_s"]
     status = []
-    for name, spans in (("free_shape_optimum", None), ("corner_optimum", [(shape.entry, shape.exit)])):
-        # the whole tube from the stop (from the blend it wandered at 0.1 mm); the corner-confined one from a quintic
-        # blend (its spans are a few mm, where the stop's start hit the cap), from the stop for a racing line (its
-        # spans reach most of the segments: from the blend, 90 deg 10 mm took 800 + 1007 iterations on 25 intervals,
-        # from the stop 711 / 68 / 151 on 25 / 50 / 100, 13 s CPU)
-        rec = cached_optimum(cache, robot, pts, tolerance, spans, meshes,
-                             warm=None if spans is None or shape.racing else warm)
-        value, error, note = reference_value(rec)
+    # the corner-confined tube from a quintic blend (its spans are a few mm, where the stop's start hit the cap), from
+    # the stop for a racing line (its spans reach most of the segments: from the blend, 90 deg 10 mm took 800 + 1007
+    # iterations on 25 intervals, from the stop 711 / 68 / 151 on 25 / 50 / 100, 13 s CPU); the whole tube from the
+    # corner-confined solutions, mesh by mesh (from the stop it found worse local optima, e.g. 30 deg 0.1 mm 25
+    # intervals 0.9014 s against the corner-confined 0.8717 s, and its extrapolation sat above the corner-confined one
+    # at 10 mm)
+    spans = [(shape.entry, shape.exit)]
+    corner_warm = None if shape.racing else warm
+    solved: list = []
+
+    def corner_solutions():
+        from .free_shape import MESHES, free_shape_optimum
+
+        return solved[0] if solved else free_shape_optimum(robot, pts, tolerance, spans, tuple(meshes or MESHES),
+                                                           warm=corner_warm)
+
+    recs = {"corner_optimum": cached_optimum(cache, robot, pts, tolerance, spans, meshes, warm=corner_warm, keep=solved)}
+    recs["free_shape_optimum"] = cached_optimum(cache, robot, pts, tolerance, None, meshes, warm=corner_solutions,
+                                                crowd=spans)
+    for name in ("free_shape_optimum", "corner_optimum"):
+        value, error, note = reference_value(recs[name])
         row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = value, error
         if note:
             status.append(f"{name}: {note}")

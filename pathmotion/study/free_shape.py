@@ -80,8 +80,6 @@ STARTS = (("previous", TUBE_IPOPT, "norm"), ("start", TUBE_IPOPT, "norm"), ("pre
 STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "norm"))
 #: Node density of the corner-confined tube's stretches at a corner relative to the rest.
 CORNER_DENSITY = 4.0
-#: Span [m] around each corner where the whole tube's nodes crowd (0: one phase per segment).
-WHOLE_TUBE_CORNER_SPAN = 0.0
 #: Smallest phase duration [s] and the fewest intervals a phase gets.
 MIN_PHASE_DURATION = 1e-4
 MIN_PHASE_INTERVALS = 3
@@ -195,17 +193,18 @@ class Polyline:
         return best
 
 
-def tube_phases(line: Polyline, delta: float, spans: Sequence[tuple[float, float]] | None = None) -> list[Phase]:
+def tube_phases(line: Polyline, delta: float, spans: Sequence[tuple[float, float]] | None = None,
+                crowd: Sequence[tuple[float, float]] | None = None) -> list[Phase]:
     """Phases of the whole tube (``spans`` None) or of the corner-confined one (``spans[c]`` = (a, b)
     [m]: deviation allowed in the last a of the segment before corner c and the first b after it).
-    The whole tube is split the same way at WHOLE_TUBE_CORNER_SPAN around each corner (at most a
-    third of a segment), radius delta everywhere, so the nodes crowd at the corners too."""
+    ``crowd`` (whole tube): split it the same way, radius delta everywhere, so that its nodes crowd
+    at the corners like the corner-confined tube's (one phase per segment without)."""
     L = line.lengths
+    given = crowd if spans is None else spans
+    if given is not None and len(given) != len(L) - 1:
+        raise PathError(f"free shape: {len(given)} corner spans given for {len(L) - 1} corners")
     if spans is None:
-        c = [min(WHOLE_TUBE_CORNER_SPAN, L[j] / 3, L[j + 1] / 3) for j in range(len(L) - 1)]
-        return _split_phases(L, [(x, x) for x in c], delta, delta)
-    if len(spans) != len(L) - 1:
-        raise PathError(f"free shape: {len(spans)} corner spans given for {len(L) - 1} corners")
+        return _split_phases(L, crowd or [(0.0, 0.0)] * (len(L) - 1), delta, delta)
     return _split_phases(L, spans, delta, 0.0)
 
 
@@ -567,10 +566,12 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     """The minimum-time rest-to-rest motion with the TCP within ``delta`` [m] of the polyline
     ``points`` (m, 3) [m] (whole tube, or only within ``spans`` around each corner), fixed tool
     ``rotation`` (default tool down), joint velocity and acceleration limits, converged over
-    ``meshes`` (total intervals, each twice the previous for the extrapolation). ``warm``: a plan
-    (PlanResult) of a motion inside the tube to start every mesh from (the optimal blend's, for the
-    corner-confined tube: it converges there where the stop's start hit the iteration cap); default
-    the stop at every corner, refined mesh by mesh."""
+    ``meshes`` (total intervals, each twice the previous for the extrapolation). ``warm``: default
+    the stop at every corner, refined mesh by mesh; or a plan (PlanResult) of a motion inside the
+    tube to start every mesh from (the optimal blend's, for the corner-confined tube); or, for the
+    whole tube, the corner-confined FreeShapeOptimum on the same meshes: its tube is inside the
+    whole one, so each of its solutions is a start feasible on the same nodes (the whole tube then
+    crowds its nodes at the corners like it) and the whole tube ends at or below it."""
     from .. import defaults
 
     delta = float(delta)
@@ -578,8 +579,14 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
         raise PathError(f"free shape: delta must be a distance >= 0 [m], got {delta!r}")
     line = Polyline(points)
     R_ref = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
-    phases = tube_phases(line, delta, spans)
-    if warm is None:
+    inner = warm if isinstance(warm, FreeShapeOptimum) else None
+    if inner is not None and (spans is not None or len(inner.solutions) != len(meshes)):
+        raise PathError("free shape: a FreeShapeOptimum start is for the whole tube, solved on the same meshes "
+                        f"({len(inner.solutions)} solutions for meshes {tuple(meshes)})")
+    phases = tube_phases(line, delta, spans, None if inner is None else inner.spans)
+    if inner is not None:
+        start = lambda m: inner.solutions[list(meshes).index(m)].motion  # noqa: E731
+    elif warm is None:
         _, stop = stop_plan(robot, line, R_ref)
         start = lambda m: guess_from_plan(stop, line, phases, m)  # noqa: E731
     else:
