@@ -75,9 +75,12 @@ TUBE_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-8, "bound_frac": 1e-8, "max_iter
 #: confined, where a small barrier hit the cap).
 FALLBACK_IPOPT = {"max_iter": 1000}
 #: Starts tried per mesh until IPOPT converges: (source, IPOPT options, tube form); source "previous"
-#: is the previous mesh's solution resampled (the start on the first mesh), "start" the given start.
+#: is the previous mesh's solution resampled (the start on the first mesh), "start" the given start,
+#: "stop" the stop at the corners (the last resort from a given start: the whole tube from the
+#: corner-confined solutions hit the caps at 30 degrees 0.1 mm on 50 intervals).
 STARTS = (("previous", TUBE_IPOPT, "norm"), ("start", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "norm"))
-STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "norm"))
+STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "norm"),
+               ("stop", TUBE_IPOPT, "norm"))
 #: Node density of the corner-confined tube's stretches at a corner relative to the rest.
 CORNER_DENSITY = 4.0
 #: Smallest phase duration [s] and the fewest intervals a phase gets.
@@ -526,11 +529,12 @@ def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, 
 
 
 def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, intervals: int, start,
-                         previous: FreeShapeSolution | None, warm: bool) -> FreeShapeSolution:
+                         previous: FreeShapeSolution | None, warm: bool, stop=None) -> FreeShapeSolution:
     """One mesh, tried from the starts in STARTS (``warm``: STARTS_WARM, ``start`` a feasible motion
     near the optimum, e.g. the optimal blend in the corner-confined tube) until IPOPT converges; the
     first converged (else the last) solution. "previous" is the previous mesh's solution resampled
-    (continuation; ``start`` on the first mesh), "start" is ``start`` (m -> Guess) on this mesh.
+    (continuation; ``start`` on the first mesh), "start" is ``start`` (m -> Guess) on this mesh,
+    "stop" is ``stop`` (m -> Guess: the stop at the corners; ``start`` when None).
 
     Why these: with the norm-form tube and a small barrier, the 0.1 mm whole tube at 90 degrees
     converged on 25 / 50 / 100 intervals (261 / 319 / 52 iterations, the last from the stop after
@@ -549,7 +553,8 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
     cont = from_previous if previous is not None else fresh
     tries = []
     for src, options, form in STARTS_WARM if warm else STARTS:
-        attempt = (cont if src == "previous" else fresh, options, form)
+        from_stop = fresh if stop is None else (lambda: stop(intervals))
+        attempt = ({"previous": cont, "start": fresh}.get(src, from_stop), options, form)
         if attempt not in tries:  # without a previous mesh, "previous" is the start
             tries.append(attempt)
     for i, (guess, options, form) in enumerate(tries):
@@ -584,17 +589,23 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
         raise PathError("free shape: a FreeShapeOptimum start is for the whole tube, solved on the same meshes "
                         f"({len(inner.solutions)} solutions for meshes {tuple(meshes)})")
     phases = tube_phases(line, delta, spans, None if inner is None else inner.spans)
+    stop_result = []
+
+    def from_stop(m):
+        if not stop_result:
+            stop_result.append(stop_plan(robot, line, R_ref)[1])
+        return guess_from_plan(stop_result[0], line, phases, m)
+
     if inner is not None:
         start = lambda m: inner.solutions[list(meshes).index(m)].motion  # noqa: E731
     elif warm is None:
-        _, stop = stop_plan(robot, line, R_ref)
-        start = lambda m: guess_from_plan(stop, line, phases, m)  # noqa: E731
+        start = from_stop
     else:
         start = lambda m: guess_from_motion(robot, warm, line, phases, m)  # noqa: E731
     solutions: list[FreeShapeSolution] = []
     for m in meshes:
         sol = _solve_with_restarts(robot, line, phases, R_ref, m, start, solutions[-1] if solutions else None,
-                                   warm is not None)
+                                   warm is not None, from_stop)
         log.info("free shape delta=%g spans=%s mesh %d: T = %.6f s (%s, %d iterations)", delta, spans, m, sol.duration,
                  sol.status, sol.iterations)
         solutions.append(sol)
