@@ -57,8 +57,8 @@ ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "status", "stop_s", "circle_s", "g2
                  "closed_loop_path_accuracy_m", "closed_loop_cornering_deviation_m", "closed_loop_cycle_s", "error")
 #: Bump when the free-shape formulation changes, so cached optima are recomputed; the corner-confined
 #: optima have their own (3: its restarts changed, so a cached failure is solved again; 3 / 4: the tube
-#: constraint in norm form with a small barrier, free_shape.STARTS).
-OPTIMUM_VERSION = 3
+#: constraint in norm form with a small barrier, free_shape.STARTS; whole tube 4: from the corner-confined one).
+OPTIMUM_VERSION = 4
 CORNER_OPTIMUM_VERSION = 4
 #: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached).
 ROW_VERSION = 4
