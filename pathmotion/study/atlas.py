@@ -264,7 +264,8 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
         return solved[0] if solved else free_shape_optimum(robot, pts, tolerance, spans, tuple(meshes or MESHES),
                                                            warm=corner_warm)
 
-    recs = {"corner_optimum": cached_optimum(cache, robot, pts, tolerance, spans, meshes, warm=corner_warm, keep=solved)}
+    recs = {"corner_optimum": cached_optimum(cache, robot, pts, tolerance, spans, meshes, warm=corner_warm,
+                                             keep=solved)}
     recs["free_shape_optimum"] = cached_optimum(cache, robot, pts, tolerance, None, meshes, warm=corner_solutions,
                                                 crowd=spans)
     for name in ("free_shape_optimum", "corner_optimum"):

@@ -19,14 +19,15 @@ constraints are imposed at every node and every interval midpoint (q(t) is quadr
   form sqrt(|gap|^2 + (0.3 r)^2) <= sqrt(1.09) r (r = 0: the equality p(q) = P_j + t_j s). Its
   gradient is about 1 on the boundary at any r; the squared form |gap|^2 <= r^2 has 2 r there
   (2e-4 at 0.1 mm) and a slack of r^2, IPOPT crawled to its iteration cap on every 0.1 mm whole
-  tube with it, and IPOPT's bound relaxation (1e-8) widened its tube by 41 % at 0.1 mm (0.5 % at 1 mm). This is the capsule of segment j, smooth in (q, s); the union of capsules at
+  tube with it, and IPOPT's bound relaxation (1e-8) widened its tube by 41 % at 0.1 mm (0.5 % at
+  1 mm). This is the capsule of segment j, smooth in (q, s); the union of capsules at
   a corner is the union of the phases: the node shared by two phases lies in both capsules. (The
   distance to the polyline itself is not differentiable at the corner; a time-optimal motion runs
   through the capsules in order, so fixing the order loses nothing.)
 
-Variants: the *whole tube* (one phase per segment, r = delta over the whole segment) and the
-*corner-confined* tube (r = delta only within [L_j - a, L_j] before and [0, b] after each corner,
-r = 0 elsewhere: four phases per corner).
+Variants: the *whole tube* (r = delta over the whole segment; one phase per segment, or split like
+the corner-confined tube when started from it) and the *corner-confined* tube (r = delta only
+within [L_j - a, L_j] before and [0, b] after each corner, r = 0 elsewhere: four phases per corner).
 
 Rest to rest: q_0, q_N are the IK solutions of the stop-at-corner plan at the path's ends, qd = 0
 there. The objective is sum T_i. The initial guess is pathmotion's own time-optimal stop at every
