@@ -390,9 +390,8 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                velocity_scale: float = 1.0, acceleration_scale: float = 1.0,
                ipopt: dict | None = None, form: str = "norm") -> FreeShapeSolution:
     """Solve the minimum-time NLP on the mesh of ``guess`` (its node counts per phase), from it;
-    ``ipopt``: options over the defaults; ``scaled``: the tube constraint scaled by its radius (used
-    from a feasible start; from the stop the unscaled form converged in 77 iterations where the
-    scaled one took 1076, 90 degrees, 1 mm, corner-confined, 25 intervals)."""
+    ``ipopt``: options over the defaults; ``form``: the tube constraint's form, "norm" (what STARTS
+    uses), "squared" or "scaled" (:func:`_tube`; kept to reproduce docs/study.md's comparison)."""
     ca = _casadi()
     tcp = tcp_function(robot)
     n = robot.n
