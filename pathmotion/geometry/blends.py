@@ -444,9 +444,7 @@ def g2_shaped_control_points(A: Segment, B: Segment, entry: float, exit: float, 
     entry = exit and one shape this is :func:`g2_control_points`)."""
     pA, tA, kA = (x[0] for x in A.evaluate(A.length - entry))
     pB, tB, kB = (x[0] for x in B.evaluate(exit))
-    la, lb = 2.5 * shape_entry * entry, 2.5 * shape_exit * exit
-    return np.array([pA, pA + la / 5 * tA, pA + 2 * la / 5 * tA + la ** 2 / 20 * kA,
-                     pB - 2 * lb / 5 * tB + lb ** 2 / 20 * kB, pB - lb / 5 * tB, pB])
+    return _hermite_points((pA, tA, kA), (pB, tB, kB), 2.5 * shape_entry * entry, 2.5 * shape_exit * exit)
 
 
 def _hermite_points(start: tuple, end: tuple, la: float, lb: float) -> np.ndarray:
