@@ -214,8 +214,6 @@ class PayloadEstimator:
         self.high = np.full(len(prior), np.inf)
         self.low[0] = -model.inertias[joint].mass  # the flange body keeps a mass >= 0
         self.low[PAYLOAD_PARAMETERS:] = 0.0  # friction dissipates
-        self._rows = np.zeros((n, len(prior)))
-        self._diagonal = np.arange(n)
         self.frame = pin.SE3.Identity()  # where :meth:`identified` states the centre of mass, in the joint frame
 
     @classmethod
@@ -233,15 +231,6 @@ class PayloadEstimator:
     def payload_regressor(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
         """(n, 4): d tau / d (m, m c) of the flange body at (q, qd, a) [rad, rad/s, rad/s^2], gravity included."""
         return pin.computeJointTorqueRegressor(self.model, self.data, q, qd, a)[:, self.columns]
-
-    def regressor(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
-        """Y (n, 4 + 2n) at (q, qd, a): :meth:`payload_regressor`, diag(qd), diag(tanh(qd / v_s)) (a buffer reused
-        by the next call)."""
-        rows, idx, p = self._rows, self._diagonal, PAYLOAD_PARAMETERS
-        rows[:, :p] = self.payload_regressor(q, qd, a)
-        rows[idx, p + idx] = qd
-        rows[idx, p + self.n + idx] = np.tanh(qd / self.smoothing)
-        return rows
 
     def payload_torque(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> np.ndarray:
         """The estimated payload's torque Y_pi(q, qd, a) d_pi_hat (n,) [N m] (gravity included)."""
