@@ -1,5 +1,5 @@
 """Online identification of the payload and the joint friction the controller's model lacks (a structured
-disturbance model; docs/control.md, "Payload identification").
+disturbance model; docs/control.md, "Payload and friction identification").
 
 A payload rigidly fixed to the flange body changes the joint torques linearly in that body's inertial parameters
 (Pinocchio's dynamic parameters in the body's joint frame: m, m c, I about the frame's origin). The estimator
