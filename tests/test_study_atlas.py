@@ -95,3 +95,16 @@ def test_one_atlas_row_through_the_cli(tmp_path):
     assert (tmp_path / "tdelta.png").is_file() and (tmp_path / "gain_vs_angle.png").is_file()
     spec = json.loads((tmp_path / "points_sweep" / "sweep_spec.json").read_text())
     assert spec["grid"] == {"angle_deg": [90.0], "tolerance_m": [0.005]}
+
+
+def test_a_reference_above_a_feasible_motion_is_no_reference():
+    """The stop and the optimal blend lie in both tubes, so a converged reference above the shorter of them by more
+    than its convergence error (+ 0.2 %) is a local optimum (150 deg / 1 mm corner-confined: 0.9278 s against the
+    optimal blend's 0.9065 s, error 0.57 ms): flagged, never a number."""
+    from pathmotion.study.atlas import local_optimum_note
+
+    assert local_optimum_note(0.9278, 0.00057, 0.9065) is not None
+    assert "local optimum 0.9278 s" in local_optimum_note(0.9278, 0.00057, 0.9065)
+    assert local_optimum_note(0.9065 * 1.0019, 0.0, 0.9065) is None  # within the 0.2 % margin
+    assert local_optimum_note(0.9100, 0.004, 0.9065) is None  # within its own convergence error
+    assert local_optimum_note(0.8600, 0.0, 0.9065) is None  # below: the normal case

@@ -217,6 +217,21 @@ def closed_loop_check(robot, path, profile, tolerance: float) -> dict:
             "closed_loop_cornering_deviation_m": corner, "closed_loop_cycle_s": sim.cycle_time}
 
 
+#: A reference may exceed a motion feasible in its tube (the stop, the optimal blend: planner durations, good to
+#: ~0.05 %) by its own convergence error plus this fraction of that motion's duration [-] (issue 17's 0.2 %).
+FEASIBLE_MARGIN = 0.002
+
+
+def local_optimum_note(value: float, error: float | None, feasible: float) -> str | None:
+    """A note when a converged reference ``value`` [s] lies above ``feasible`` [s], the shorter of the stop and the
+    optimal blend (both lie in either tube, so the minimum time is at most it), by more than its convergence ``error``
+    [s] and FEASIBLE_MARGIN: IPOPT converged to a local optimum, which is no reference; else None."""
+    if value - feasible <= (error or 0.0) + FEASIBLE_MARGIN * feasible:
+        return None
+    return (f"local optimum {value:.4f} s, above the feasible {feasible:.4f} s (stop or optimal blend) by more than "
+            "its convergence error: not a reference")
+
+
 def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
               closed_loop: bool = True) -> dict:
     """One row of corners.csv (ATLAS_COLUMNS except ``error``), filled into ``row`` as it goes (so a
@@ -268,8 +283,11 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
                                              keep=solved)}
     recs["free_shape_optimum"] = cached_optimum(cache, robot, pts, tolerance, None, meshes, warm=corner_solutions,
                                                 crowd=spans)
+    feasible = min(row["stop_s"], row["optimal_s"])
     for name in ("free_shape_optimum", "corner_optimum"):
         value, error, note = reference_value(recs[name])
+        if note is None and (local := local_optimum_note(value, error, feasible)):
+            value, error, note = None, None, local
         row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = value, error
         if note:
             status.append(f"{name}: {note}")
