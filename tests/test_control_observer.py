@@ -13,16 +13,14 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from closed_loop_laps import orbital_lap, periodic_circle_plan
 from scipy.linalg import solve_discrete_are
 
-from pathmotion import api, defaults
+from pathmotion import defaults
 from pathmotion.control import OrbitalGains
 from pathmotion.control.observer import (ESTIMATE, DisturbanceObserver, _chain_step, chain_feedback, chain_loop,
                                          loop_radius, observer_gain, stationary_riccati)
-from pathmotion.planning import plan
-from pathmotion.robot import Payload
-from pathmotion.scenarios import scenario_path
-from pathmotion.simulation import Plant, Realism, SimulationSettings, simulate
+from pathmotion.simulation import Plant, Realism
 
 #: The designed closed-loop rates of one transverse direction (integral_rate, bandwidth twice) [1/s].
 DESIGNED = np.array([defaults.ORBITAL_INTEGRAL_RATE, defaults.ORBITAL_BANDWIDTH, defaults.ORBITAL_BANDWIDTH])
@@ -141,20 +139,7 @@ def test_observer_estimates_a_constant_external_torque_without_winding_up(irb140
 
 @pytest.fixture(scope="module")
 def periodic_circle():
-    setup = api.load(scenario_path("circle_periodic"))
-    return setup, plan(setup.path, setup.robot, dataclasses.replace(setup.plan_settings, baselines=False)).profile
-
-
-def _lap(setup, profile, gains: OrbitalGains, realism: Realism = Realism(), believed: float = 0.0,
-         identify: bool = False) -> dict:
-    """One lap's summary; the observer alone unless ``identify`` (the payload identification on)."""
-    robot, plant = setup.robot, None
-    if believed:
-        plant = Plant.from_robot(robot, realism)
-        robot = robot.with_payload(Payload(believed, defaults.REALISTIC_PAYLOAD_COM))
-    settings = SimulationSettings(realism=realism, laps=1, path_tolerance=0.5, orbital_gains=gains, design_cache=False,
-                                  identify_payload=identify)
-    return simulate(robot, setup.path, profile, "orbital", settings, plant=plant).summary()
+    return periodic_circle_plan()
 
 
 def test_unknown_payload_tracks_with_the_observer_and_not_without(periodic_circle):
@@ -162,8 +147,8 @@ def test_unknown_payload_tracks_with_the_observer_and_not_without(periodic_circl
     0.50 mm with the observer, 1.92 mm without)."""
     setup, profile = periodic_circle
     realism = Realism(payload_mass=defaults.REALISTIC_PAYLOAD_MASS)
-    on = _lap(setup, profile, OrbitalGains(), realism)
-    off = _lap(setup, profile, OrbitalGains(observer_range=math.inf), realism)
+    on = orbital_lap(setup, profile, realism)
+    off = orbital_lap(setup, profile, realism, gains=OrbitalGains(observer_range=math.inf))
     assert on["path_accuracy_m"] < defaults.PATH_TOLERANCE < off["path_accuracy_m"], (on, off)
 
 
@@ -172,8 +157,9 @@ def test_an_observer_designed_for_too_narrow_an_inertia_range_makes_a_phantom_pa
     Designed for [1/3, 3] (the default) the loop tracks (robustness matrix: 0.26 mm); designed for [1/2, 2] the
     observer's gain is larger (0.79 per sample against 0.38) and the loop oscillates until the torque saturates."""
     setup, profile = periodic_circle
-    robust = _lap(setup, profile, OrbitalGains(), believed=defaults.REALISTIC_PAYLOAD_MASS)
-    narrow = _lap(setup, profile, OrbitalGains(observer_range=2.0), believed=defaults.REALISTIC_PAYLOAD_MASS)
+    robust = orbital_lap(setup, profile, believed=defaults.REALISTIC_PAYLOAD_MASS)
+    narrow = orbital_lap(setup, profile, believed=defaults.REALISTIC_PAYLOAD_MASS,
+                         gains=OrbitalGains(observer_range=2.0))
     assert robust["path_accuracy_m"] < defaults.PATH_TOLERANCE and robust["saturation_time_s"] == 0.0, robust
     assert narrow["max_commanded_torque_ratio"] > 1.0 and narrow["saturation_time_s"] > 0.0, narrow
 

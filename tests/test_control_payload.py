@@ -9,20 +9,18 @@ identification than with the observer alone."""
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pinocchio as pin
 import pytest
+from closed_loop_laps import orbital_lap, periodic_circle_plan
 
 from pathmotion import api, defaults
 from pathmotion.control import OrbitalGains
 from pathmotion.control.payload import BODY_PARAMETERS, PAYLOAD_PARAMETERS, PayloadEstimator, kalman_step, prior_mass
 from pathmotion.errors import ScenarioError, SimulationError
-from pathmotion.planning import plan
 from pathmotion.robot import Payload
 from pathmotion.scenarios import scenario_path
-from pathmotion.simulation import Plant, Realism, SimulationSettings, simulate
+from pathmotion.simulation import Plant, Realism
 
 TS = 0.004
 PAYLOAD = Payload(6.0, (0.03, -0.02, 0.1))
@@ -165,18 +163,7 @@ def test_the_flange_mass_and_the_friction_stay_physical(irb140):
 
 @pytest.fixture(scope="module")
 def periodic_circle():
-    setup = api.load(scenario_path("circle_periodic"))
-    return setup, plan(setup.path, setup.robot, dataclasses.replace(setup.plan_settings, baselines=False)).profile
-
-
-def _lap(setup, profile, realism: Realism, identify: bool, believed: float = 0.0) -> dict:
-    robot, plant = setup.robot, None
-    if believed:
-        plant = Plant.from_robot(robot, realism)
-        robot = robot.with_payload(Payload(believed, defaults.REALISTIC_PAYLOAD_COM))
-    settings = SimulationSettings(realism=realism, laps=1, path_tolerance=0.5, design_cache=False,
-                                  identify_payload=identify)
-    return simulate(robot, setup.path, profile, "orbital", settings, plant=plant).summary()
+    return periodic_circle_plan()
 
 
 def test_unknown_payload_with_one_sample_of_delay_tracks_closely(periodic_circle):
@@ -184,7 +171,7 @@ def test_unknown_payload_with_one_sample_of_delay_tracks_closely(periodic_circle
     asserted: within 0.5 mm and at least 3x closer than the observer alone, never saturated."""
     setup, profile = periodic_circle
     realism = Realism(payload_mass=defaults.REALISTIC_PAYLOAD_MASS, delay=1)
-    on, off = _lap(setup, profile, realism, True), _lap(setup, profile, realism, False)
+    on, off = orbital_lap(setup, profile, realism, True), orbital_lap(setup, profile, realism, False)
     assert on["path_accuracy_m"] < 0.5e-3 and on["saturation_time_s"] == 0.0, on
     assert 3 * on["path_accuracy_m"] < off["path_accuracy_m"], (on, off)
     # the summary states what was identified, against the plant's payload (5.993 kg at (0, 0, 0.098) m, measured)
@@ -200,8 +187,8 @@ def test_phantom_payload_with_delay_tracks_calmly(periodic_circle):
     limits."""
     setup, profile = periodic_circle
     realism = Realism(delay=1)
-    on = _lap(setup, profile, realism, True, believed=defaults.REALISTIC_PAYLOAD_MASS)
-    off = _lap(setup, profile, realism, False, believed=defaults.REALISTIC_PAYLOAD_MASS)
+    on = orbital_lap(setup, profile, realism, True, believed=defaults.REALISTIC_PAYLOAD_MASS)
+    off = orbital_lap(setup, profile, realism, False, believed=defaults.REALISTIC_PAYLOAD_MASS)
     assert on["saturation_time_s"] == 0.0 and on["max_commanded_torque_ratio"] < 1.0, on
     assert on["path_accuracy_m"] < 0.7e-3 and on["path_accuracy_m"] < 0.75 * off["path_accuracy_m"], (on, off)
     assert on["identified_payload_kg"] == pytest.approx(-defaults.REALISTIC_PAYLOAD_MASS, rel=0.02)
