@@ -132,11 +132,15 @@ def _optimal_blend_motion(robot, deg: float, delta: float):
     return pts, best.shapes[0], plan(lift(robot, best.path, original=task), robot, atlas._settings(baselines=False))
 
 
-def test_warm_start_from_a_blend_lies_in_the_corner_confined_tube(robot):
+@pytest.mark.parametrize("deg", [90.0, 150.0])
+def test_warm_start_from_a_blend_lies_in_the_corner_confined_tube(robot, deg):
     """The optimal blend's motion sampled per phase: phase boundaries in time order, every node in
-    its own phase's capsule (the blend is within delta of the sharp path, on it outside its span)."""
+    its own phase's capsule (the blend is within delta of the sharp path, on it outside its span).
+    Past 90 degrees the path's start lies beyond the exit stretch's end along the exit segment: the
+    exit stretch's end must be crossed after the corner (it was searched from t = 0, and at 150 deg
+    / 1 mm the whole exit line fell into the 18 mm exit stretch, 0.18 m outside its tube)."""
     delta = 0.002
-    pts, shape, warm = _optimal_blend_motion(robot, 90.0, delta)
+    pts, shape, warm = _optimal_blend_motion(robot, deg, delta)
     line = fs.Polyline(pts)
     phases = fs.tube_phases(line, delta, [(shape.entry, shape.exit)])
     guess = fs.guess_from_motion(robot, warm, line, phases, 60)

@@ -309,9 +309,12 @@ def guess_from_motion(robot, result, line: Polyline, phases: Sequence[Phase], in
             f = (pos - line.points[a.segment]) @ line.directions[a.segment] - a.s_hi
         else:
             f = (pos - line.points[b.segment]) @ (line.directions[a.segment] + line.directions[b.segment])
-        k = int(np.argmax(f >= 0)) if np.any(f >= 0) else len(t) - 1
-        k = max(k, 1)
-        tc = t[k - 1] + (t[k] - t[k - 1]) * (-f[k - 1]) / (f[k] - f[k - 1]) if f[k] != f[k - 1] else t[k]
+        # the first crossing after the previous boundary: past 90 degrees the path's start already lies beyond s_hi
+        # along the exit segment (150 deg: 173 mm), so a crossing searched from t = 0 put the whole exit line into
+        # the exit's corner stretch, a start 0.18 m outside its tube
+        after = (t > t_b[-1]) & (f >= 0)
+        k = max(int(np.argmax(after)) if np.any(after) else len(t) - 1, 1)
+        tc = t[k - 1] + (t[k] - t[k - 1]) * (-f[k - 1]) / (f[k] - f[k - 1]) if f[k - 1] < 0 <= f[k] else t[k - 1]
         t_b.append(float(np.clip(tc, t_b[-1] + MIN_PHASE_DURATION, T)))
     t_b.append(T)
 
