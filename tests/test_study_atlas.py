@@ -108,3 +108,71 @@ def test_a_reference_above_a_feasible_motion_is_no_reference():
     assert local_optimum_note(0.9065 * 1.0019, 0.0, 0.9065) is None  # within the 0.2 % margin
     assert local_optimum_note(0.9100, 0.004, 0.9065) is None  # within its own convergence error
     assert local_optimum_note(0.8600, 0.0, 0.9065) is None  # below: the normal case
+
+
+def _stub_optimum(durations, success=True):
+    """A FreeShapeOptimum as free_shape_optimum returns it, from its meshes' durations (no NLP)."""
+    from pathmotion.study import free_shape as fs
+
+    sols = tuple(fs.FreeShapeSolution(d, "Solve_Succeeded" if success else "Maximum_Iterations_Exceeded", success,
+                                      None, {"max_excess_m": 0.0}, 10) for d in durations)
+    value, error = fs.extrapolate(durations)
+    return fs.FreeShapeOptimum(value, error, success, sols[-1].status, sols, 0.001, ((0.016, 0.018),))
+
+
+def test_a_corner_reference_above_a_feasible_start_is_solved_again_from_the_other_start(tmp_path, monkeypatch):
+    """150 deg / 1 mm: the cached first attempt (from the optimal blend, 0.9065 s) converged to 0.9278 s, a local
+    optimum; the stop (0.9163 s) is tried, cached under its own key, and its 0.9055 s is the reference. The first
+    attempt's cache entry is read, not solved again, and the whole tube starts from the start that won."""
+    from pathmotion.robot import load_robot
+    from pathmotion.study import free_shape as fs
+
+    robot = load_robot("irb140")
+    pts, spans, meshes, blend = atlas.corner_points(150.0), [(0.016, 0.018)], (25, 50, 100), object()
+    results = {"blend": _stub_optimum([0.9369, 0.9300, 0.9283]), "stop": _stub_optimum([0.9083, 0.9061, 0.9056])}
+    solved = []
+
+    def stub(robot_, points, delta, spans_, meshes_, warm=None):
+        solved.append("blend" if warm is blend else "stop")
+        return results[solved[-1]]
+
+    monkeypatch.setattr(fs, "free_shape_optimum", stub)
+    atlas.cached_optimum(tmp_path, robot, pts, 0.001, spans, meshes, warm=blend)  # the atlas' first attempt
+    solved.clear()
+    ref = atlas.corner_reference(tmp_path, robot, pts, 0.001, spans, meshes, blend, False, 0.9065)
+    assert solved == ["stop"]  # the first attempt came from the cache
+    assert (ref.start, ref.note) == ("stop", None)
+    assert ref.value == pytest.approx(results["stop"].duration) and ref.value < 0.9065
+    assert ref.solutions() is results["stop"]
+    retry = [json.loads(f.read_text()) for f in tmp_path.glob("*.json") if "start" in json.loads(f.read_text())]
+    assert [r["start"] for r in retry] == ["stop"] and len(list(tmp_path.glob("*.json"))) == 2
+    # read back: nothing is solved again
+    solved.clear()
+    again = atlas.corner_reference(tmp_path, robot, pts, 0.001, spans, meshes, blend, False, 0.9065)
+    assert solved == [] and again.value == ref.value
+
+
+def test_a_corner_reference_that_fails_from_every_start_says_so_per_start(tmp_path, monkeypatch):
+    """A racing line starts from the stop; when neither start converges the row names both, and a first attempt that
+    converged below the feasible motions is kept without a retry."""
+    from pathmotion.robot import load_robot
+    from pathmotion.study import free_shape as fs
+
+    robot = load_robot("irb140")
+    pts, spans, meshes, blend = atlas.corner_points(60.0), [(0.198, 0.199)], (25, 50, 100), object()
+    failed = _stub_optimum([0.6017, 0.6035, 0.6047], success=False)
+    solved = []
+
+    def stub(robot_, points, delta, spans_, meshes_, warm=None):
+        solved.append("blend" if warm is blend else "stop")
+        return failed
+
+    monkeypatch.setattr(fs, "free_shape_optimum", stub)
+    ref = atlas.corner_reference(tmp_path, robot, pts, 0.01, spans, meshes, blend, True, 0.636)
+    assert solved == ["stop", "blend"] and ref.value is None and ref.start == "stop"
+    assert ref.note.startswith("from the stop: NLP not converged") and "; from the blend: NLP not converged" in ref.note
+    good = _stub_optimum([0.6016, 0.6041, 0.6053])
+    monkeypatch.setattr(fs, "free_shape_optimum", lambda *a, warm=None: solved.append("x") or good)
+    solved.clear()
+    ref = atlas.corner_reference(tmp_path / "other", robot, pts, 0.01, spans, meshes, blend, True, 0.636)
+    assert solved == ["x"] and ref.start == "stop" and ref.note is None and ref.value == pytest.approx(good.duration)

@@ -15,6 +15,12 @@ from pathmotion.study import free_shape as fs  # noqa: E402
 TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])  # issue 17's 90 degree turn
 
 
+def atlas_points(deg: float) -> np.ndarray:
+    from pathmotion.study import atlas
+
+    return atlas.corner_points(deg)
+
+
 @pytest.fixture(scope="module")
 def robot():
     return load_robot("irb140")
@@ -181,3 +187,41 @@ def test_whole_tube_at_a_tenth_of_a_millimetre_converges(robot):
     assert opt.success, [(s.status, s.iterations) for s in opt.solutions]
     assert opt.duration < stop.profile.duration
     _check_verified(opt, 1e-4, excess=0.2)  # 25 intervals: 0.12 mm outside a 0.1 mm tube between the points
+
+
+def test_covered_stretches_are_absorbed_into_the_corner_stretches():
+    """A stretch outside the corner spans that the corner stretches' capsules cover (the first 1.95 mm and the last
+    0.2 um of 60 deg / 10 mm's racing line) joins them; longer ones, and every stretch of a delta = 0 tube, stay. The
+    absorbed points lie in the capsule of the corner stretch they join (its cap), the independent check."""
+    line = fs.Polyline(atlas_points(60.0))
+    L = line.lengths
+    spans = [(0.19805064846177695, 0.19999980000000003)]
+    assert fs.effective_spans(L, 0.01, spans) == [(L[0], L[1])]
+    for j, cap in ((0, fs.Phase(0, L[0] - spans[0][0], L[0], 0.01)), (1, fs.Phase(1, 0.0, spans[0][1], 0.01))):
+        lo, hi = (0.0, L[0] - spans[0][0]) if j == 0 else (spans[0][1], L[1])
+        s = np.linspace(lo, hi, 50)
+        stretch = line.points[j] + s[:, None] * line.directions[j]
+        assert np.max(fs._excess([cap], line, stretch)) <= 1e-12
+    assert fs.effective_spans(L, 0.001, spans) == [(spans[0][0], L[1])]  # 1.95 mm > 1 mm: kept; 0.2 um: absorbed
+    assert fs.effective_spans(L, 0.0, spans) == spans
+    assert fs.effective_spans(L, 0.001, [(0.0164, 0.0182)]) == [(0.0164, 0.0182)]
+    # between two corners: a stretch up to 2 delta long is split between them at its middle
+    three = np.array([(0.0, 0.0, 0.0), (0.2, 0.0, 0.0), (0.2, 0.1, 0.0), (0.4, 0.1, 0.0)])
+    assert fs.effective_spans(fs.Polyline(three).lengths, 0.01, [(0.05, 0.045), (0.04, 0.05)]) == [
+        (0.05, pytest.approx(0.0525)), (pytest.approx(0.0475), 0.05)]
+    assert [p.radius for p in fs.tube_phases(line, 0.01, spans)] == [0.01, 0.01]
+
+
+def test_corner_confined_tube_with_covered_stretches_converges(robot):
+    """60 deg / 10 mm, the racing line's spans: with a 1.95 mm and a 0.2 um stretch on the line the NLP hit its cap
+    on every mesh from every start (their phases shrank to MIN_PHASE_DURATION); absorbed, it converges from the stop,
+    below it and at or above the whole tube on the same nodes (which contains it)."""
+    pts = atlas_points(60.0)
+    spans = [(0.19805064846177695, 0.19999980000000003)]
+    _, stop = fs.stop_plan(robot, fs.Polyline(pts))
+    opt = fs.free_shape_optimum(robot, pts, 0.01, spans, meshes=(25,))
+    assert opt.success, [(s.status, s.iterations) for s in opt.solutions]
+    assert opt.duration < stop.profile.duration
+    phase_times = np.diff(opt.solutions[0].motion.t[list(opt.solutions[0].motion.breaks)])
+    assert np.all(phase_times > 10 * fs.MIN_PHASE_DURATION)
+    _check_verified(opt, 0.01, excess=0.2)  # 25 intervals: 1.6 mm outside a 10 mm tube between the points

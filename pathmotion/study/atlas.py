@@ -17,7 +17,9 @@ the issue's reference). Per row (``corners.csv``, ATLAS_COLUMNS):
   deviation z sin(angle) / 4 is the tolerance, capped at half the segments as ABB does;
 * ``free_shape_optimum_s`` (whole tube) and ``corner_optimum_s`` (deviation only within the optimal
   blend's own span), from :mod:`.free_shape`, with their convergence errors (``*_error_s``);
-  None when an NLP did not converge: ``status`` then says which;
+  None when an NLP did not converge, or converged above a motion feasible in its tube (a local
+  optimum): ``status`` then says which. The corner-confined NLP is tried from the optimal blend's
+  plan and from the stop (CORNER_STARTS) until one start gives a reference;
 * ``gain_vs_stop`` = 1 - optimal_s / stop_s; ``gap_to_optimum`` = optimal_s / free_shape_optimum_s - 1;
   ``capture`` = (stop_s - optimal_s) / (stop_s - free_shape_optimum_s), the share of the whole-tube
   gain the optimal blend takes.
@@ -145,29 +147,38 @@ def industrial_zone_duration(robot, task, tolerance: float) -> float:
     return float(result.baselines.constant_speed.profile.duration)
 
 
-def _optimum_key(robot, points, delta, spans, meshes, crowd=None) -> str:
-    text = json.dumps({"v": OPTIMUM_VERSION if spans is None else CORNER_OPTIMUM_VERSION, "robot": robot.name,
-                       "crowd": None if crowd is None else np.round(crowd, 12).tolist(),
-                       "velocity": list(map(float, robot.limits.velocity)),
-                       "acceleration": list(map(float, robot.limits.acceleration)),
-                       "points": np.round(points, 12).tolist(), "delta": float(delta),
-                       "spans": None if spans is None else np.round(spans, 12).tolist(), "meshes": list(meshes)},
-                      sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:20]
+def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None) -> str:
+    """Cache key of a free-shape optimum: its inputs, the corner spans as the NLP solves them (free_shape.
+    effective_spans, so a solve whose spans gained absorbed stretches is not read back), and ``start`` only for a
+    retry from another start (CORNER_STARTS), so that first attempts keep their keys."""
+    from .free_shape import Polyline, effective_spans
+
+    if spans is not None:
+        spans = effective_spans(Polyline(points).lengths, delta, spans)
+    fields = {"v": OPTIMUM_VERSION if spans is None else CORNER_OPTIMUM_VERSION, "robot": robot.name,
+              "crowd": None if crowd is None else np.round(crowd, 12).tolist(),
+              "velocity": list(map(float, robot.limits.velocity)),
+              "acceleration": list(map(float, robot.limits.acceleration)),
+              "points": np.round(points, 12).tolist(), "delta": float(delta),
+              "spans": None if spans is None else np.round(spans, 12).tolist(), "meshes": list(meshes)}
+    if start is not None:
+        fields["start"] = start
+    return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:20]
 
 
 def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None, warm=None, crowd=None,
-                   keep: list | None = None) -> dict:
+                   keep: list | None = None, start: str | None = None) -> dict:
     """The free-shape optimum's record {duration, convergence_error, success, status, durations,
     statuses, iterations, verification}, read from ``cache`` or solved and written there. ``warm``:
     the start (see free_shape_optimum), or a function returning it, called only to solve; a
     FreeShapeOptimum start crowds the whole tube's nodes at its spans, given as ``crowd`` (they
-    change the mesh, so they are in the key; the start itself is not). ``keep``: a list the solved
-    FreeShapeOptimum is appended to."""
+    change the mesh, so they are in the key; the start itself is not, except as ``start``, the name
+    of a retry's start, see corner_reference). ``keep``: a list the solved FreeShapeOptimum is
+    appended to."""
     from . import free_shape as fs
 
     meshes = tuple(meshes or fs.MESHES)
-    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd)}.json"
+    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd, start)}.json"
     if f.is_file():
         return json.loads(f.read_text())
     t0 = time.process_time()
@@ -179,6 +190,8 @@ def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=
            "iterations": [s.iterations for s in opt.solutions], "delta": delta,
            "spans": None if spans is None else [list(map(float, s)) for s in spans], "meshes": list(meshes),
            "verification": opt.solutions[-1].verification, "cpu_s": time.process_time() - t0}
+    if start is not None:
+        rec["start"] = start
     write_json(f, rec)
     return rec
 
@@ -232,6 +245,68 @@ def local_optimum_note(value: float, error: float | None, feasible: float) -> st
             "its convergence error: not a reference")
 
 
+#: Starts of the corner-confined NLP (both lie in its tube): the optimal blend's own plan and the stop at the corner.
+#: The first is the blend for a single quintic (its spans are a few mm, where the stop's start hit the cap), the stop
+#: for a racing line (its spans reach most of the segments: from the blend, 90 deg 10 mm took 800 + 1007 iterations
+#: on 25 intervals, from the stop 711 / 68 / 151 on 25 / 50 / 100, 13 s CPU). When a start's result is no reference
+#: (not converged, or above a motion feasible in the tube: a local optimum), the other is tried and the lowest
+#: reference kept.
+CORNER_STARTS = ("blend", "stop")
+
+
+def _reference(rec: dict, feasible: float) -> tuple[float | None, float | None, str | None]:
+    """reference_value of ``rec``, None with local_optimum_note's note when it lies above ``feasible`` [s]."""
+    value, error, note = reference_value(rec)
+    if note is None and (local := local_optimum_note(value, error, feasible)):
+        return None, None, local
+    return value, error, note
+
+
+@dataclass(frozen=True, eq=False)
+class CornerReference:
+    """The corner-confined reference: value, error [s] (None: no reference) and note (None: converged) as
+    reference_value; ``start``: the CORNER_STARTS name it came from; ``solutions()``: its FreeShapeOptimum (solved
+    again when it came from the cache), the whole tube's start."""
+
+    value: float | None
+    error: float | None
+    note: str | None
+    start: str
+    solutions: object
+
+
+def corner_reference(cache: Path, robot, points, tolerance: float, spans, meshes, blend, racing: bool,
+                     feasible: float) -> CornerReference:
+    """The corner-confined optimum within ``spans`` from the CORNER_STARTS (``blend``: the optimal blend's
+    PlanResult; the blend first unless ``racing``) until one is a converged reference below ``feasible`` [s] (the
+    shorter of the stop and the blend, which both lie in the tube): the lowest reference of those tried, else the
+    first start's failure with every start's note. The first start's record keeps its cache key (no start in it), so a
+    cached success is read as before; a retry is cached under its start's name."""
+    from .free_shape import MESHES, free_shape_optimum
+
+    warms = {"blend": blend, "stop": None}
+    order = CORNER_STARTS[::-1] if racing else CORNER_STARTS
+    tried = []
+    for i, name in enumerate(order):
+        keep: list = []
+        rec = cached_optimum(cache, robot, points, tolerance, spans, meshes, warm=warms[name], keep=keep,
+                             start=None if i == 0 else name)
+        tried.append((name, _reference(rec, feasible), keep))
+        if tried[-1][1][2] is None:
+            break
+        log.info("corner atlas: corner-confined optimum from the %s: %s", name, tried[-1][1][2])
+    usable = [t for t in tried if t[1][0] is not None]
+    name, (value, error, note), keep = min(usable, key=lambda t: t[1][0]) if usable else tried[0]
+    if not usable and len(tried) > 1:
+        note = "; ".join(f"from the {n}: {r[2]}" for n, r, _ in tried)
+
+    def solutions():
+        return keep[0] if keep else free_shape_optimum(robot, points, tolerance, spans, tuple(meshes or MESHES),
+                                                       warm=warms[name])
+
+    return CornerReference(value, error, note, name, solutions)
+
+
 def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
               closed_loop: bool = True) -> dict:
     """One row of corners.csv (ATLAS_COLUMNS except ``error``), filled into ``row`` as it goes (so a
@@ -263,31 +338,15 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     row["gain_vs_zone"] = 1.0 - row["optimal_s"] / row["industrial_zone_s"]
     row["gain_vs_g2"] = 1.0 - row["optimal_s"] / row["g2_s"]
     status = []
-    # the corner-confined tube from a quintic blend (its spans are a few mm, where the stop's start hit the cap), from
-    # the stop for a racing line (its spans reach most of the segments: from the blend, 90 deg 10 mm took 800 + 1007
-    # iterations on 25 intervals, from the stop 711 / 68 / 151 on 25 / 50 / 100, 13 s CPU); the whole tube from the
-    # corner-confined solutions, mesh by mesh (from the stop it found worse local optima, e.g. 30 deg 0.1 mm 25
-    # intervals 0.9014 s against the corner-confined 0.8717 s, and its extrapolation sat above the corner-confined one
-    # at 10 mm)
-    spans = [(shape.entry, shape.exit)]
-    corner_warm = None if shape.racing else warm
-    solved: list = []
-
-    def corner_solutions():
-        from .free_shape import MESHES, free_shape_optimum
-
-        return solved[0] if solved else free_shape_optimum(robot, pts, tolerance, spans, tuple(meshes or MESHES),
-                                                           warm=corner_warm)
-
-    recs = {"corner_optimum": cached_optimum(cache, robot, pts, tolerance, spans, meshes, warm=corner_warm,
-                                             keep=solved)}
-    recs["free_shape_optimum"] = cached_optimum(cache, robot, pts, tolerance, None, meshes, warm=corner_solutions,
-                                                crowd=spans)
     feasible = min(row["stop_s"], row["optimal_s"])
-    for name in ("free_shape_optimum", "corner_optimum"):
-        value, error, note = reference_value(recs[name])
-        if note is None and (local := local_optimum_note(value, error, feasible)):
-            value, error, note = None, None, local
+    spans = [(shape.entry, shape.exit)]
+    # the whole tube from the corner-confined solutions, mesh by mesh (from the stop it found worse local optima, e.g.
+    # 30 deg 0.1 mm 25 intervals 0.9014 s against the corner-confined 0.8717 s, and its extrapolation sat above the
+    # corner-confined one at 10 mm)
+    corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible)
+    whole = cached_optimum(cache, robot, pts, tolerance, None, meshes, warm=corner.solutions, crowd=spans)
+    for name, (value, error, note) in (("free_shape_optimum", _reference(whole, feasible)),
+                                       ("corner_optimum", (corner.value, corner.error, corner.note))):
         row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = value, error
         if note:
             status.append(f"{name}: {note}")

@@ -27,7 +27,8 @@ constraints are imposed at every node and every interval midpoint (q(t) is quadr
 
 Variants: the *whole tube* (r = delta over the whole segment; one phase per segment, or split like
 the corner-confined tube when started from it) and the *corner-confined* tube (r = delta only
-within [L_j - a, L_j] before and [0, b] after each corner, r = 0 elsewhere: four phases per corner).
+within [L_j - a, L_j] before and [0, b] after each corner, r = 0 elsewhere: four phases per corner;
+a stretch outside the spans that their capsules cover joins them, :func:`effective_spans`).
 
 Rest to rest: q_0, q_N are the IK solutions of the stop-at-corner plan at the path's ends, qd = 0
 there. The objective is sum T_i. The initial guess is pathmotion's own time-optimal stop at every
@@ -202,14 +203,42 @@ def tube_phases(line: Polyline, delta: float, spans: Sequence[tuple[float, float
     """Phases of the whole tube (``spans`` None) or of the corner-confined one (``spans[c]`` = (a, b)
     [m]: deviation allowed in the last a of the segment before corner c and the first b after it).
     ``crowd`` (whole tube): split it the same way, radius delta everywhere, so that its nodes crowd
-    at the corners like the corner-confined tube's (one phase per segment without)."""
+    at the corners like the corner-confined tube's (one phase per segment without). Stretches the
+    corner stretches' capsules cover are absorbed into them (:func:`effective_spans`)."""
     L = line.lengths
     given = crowd if spans is None else spans
     if given is not None and len(given) != len(L) - 1:
         raise PathError(f"free shape: {len(given)} corner spans given for {len(L) - 1} corners")
     if spans is None:
-        return _split_phases(L, crowd or [(0.0, 0.0)] * (len(L) - 1), delta, delta)
-    return _split_phases(L, spans, delta, 0.0)
+        return _split_phases(L, effective_spans(L, delta, crowd or [(0.0, 0.0)] * (len(L) - 1)), delta, delta)
+    return _split_phases(L, effective_spans(L, delta, spans), delta, 0.0)
+
+
+def effective_spans(lengths, delta: float, spans: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
+    """``spans`` (a, b) [m] per corner with every stretch between them that the neighbouring corner
+    stretches' capsules (radius ``delta``) cover absorbed into them: at a path end one no longer than
+    delta, between two corners one no longer than 2 delta (split at its middle). Such a stretch's own
+    constraint adds (next to) nothing to their caps, so nothing makes the motion cross it: its phase
+    shrank to MIN_PHASE_DURATION with degenerate nodes, and IPOPT hit its cap on every mesh from
+    every start (60 deg / 10 mm corner-confined, spans 198.05 / 199.9998 mm of 0.2 m: 1.95 mm and
+    0.2 um stretches on the line). Spans without such a stretch come back unchanged."""
+    L = np.asarray(lengths, float)
+    out = [[float(a), float(b)] for a, b in spans]
+    n = len(out)
+    for j in range(len(L)):  # the stretch of segment j outside the corner stretches: [lo, hi]
+        lo = out[j - 1][1] if j > 0 else 0.0
+        hi = L[j] - out[j][0] if j < n else L[j]
+        before, after = j > 0 and out[j - 1][1] > 0, j < n and out[j][0] > 0  # corner stretches next to it
+        if delta <= 0 or not 0 < hi - lo <= (before + after) * delta:
+            continue
+        if before and after:
+            mid = float(0.5 * (lo + hi))
+            out[j - 1][1], out[j][0] = mid, float(L[j] - mid)
+        elif after:
+            out[j][0] = float(L[j] - lo)
+        else:
+            out[j - 1][1] = float(hi)
+    return [(a, b) for a, b in out]
 
 
 def _split_phases(L: np.ndarray, spans, delta: float, outside: float) -> list[Phase]:
@@ -619,5 +648,5 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
                             None if spans is None else tuple(map(tuple, spans)))
 
 
-__all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "extrapolate", "free_shape_optimum",
-           "solve_mesh", "stop_plan", "tcp_function", "tube_phases", "verify"]
+__all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "effective_spans", "extrapolate",
+           "free_shape_optimum", "solve_mesh", "stop_plan", "tcp_function", "tube_phases", "verify"]
