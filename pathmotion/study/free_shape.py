@@ -25,6 +25,12 @@ constraints are imposed at every node and every interval midpoint (q(t) is quadr
   distance to the polyline itself is not differentiable at the corner; a time-optimal motion runs
   through the capsules in order, so fixing the order loses nothing.)
 
+Torque limits (optional, ``torque=True``): |tau_j(q, qd, u_k)| <= tau_max_j (robot.limits.torque)
+with the planner's torque model (:mod:`.symbolic_dynamics`: RNEA with payload, gravity, armature) at
+TORQUE_POINTS of every interval: both ends (each node from both sides, with the acceleration of the
+interval before and after) and the midpoint, where q is quadratic and qd linear. Between them the
+torque is not bounded exactly; the dense verification reports its largest ratio (max_torque_ratio).
+
 Variants: the *whole tube* (r = delta over the whole segment; one phase per segment, or split like
 the corner-confined tube when started from it) and the *corner-confined* tube (r = delta only
 within [L_j - a, L_j] before and [0, b] after each corner, r = 0 elsewhere: four phases per corner;
@@ -42,8 +48,8 @@ Convergence: solved on a sequence of meshes (each warm-started from the previous
 reported value is the Richardson extrapolation of the last three durations, the convergence error
 its distance from the finest (a sequence whose last two changes differ in sign: the finest, its
 last change as the error). Each solution is verified on a dense resample of the exact
-piecewise-quadratic q(t): joint velocity and acceleration ratios, TCP distance to the sharp path,
-orientation error.
+piecewise-quadratic q(t): joint velocity, acceleration and torque ratios, TCP distance to the sharp
+path, orientation error.
 
 Units: SI (m, s, rad). CasADi is imported lazily (``pip install "pathmotion[optimal]"``).
 """
@@ -65,6 +71,11 @@ MESHES = (25, 50, 100, 200)
 #: Interior points (fractions of an interval) where the tube is imposed, besides the nodes; the
 #: orientation is imposed at the nodes and the midpoint (more equations would overconstrain).
 TUBE_POINTS = (0.25, 0.5, 0.75)
+#: Points (fractions of an interval) where the torque limit is imposed (torque=True): both ends (the
+#: nodes, with the acceleration of the interval before and after) and the midpoint. The quarter points
+#: too changed nothing measurable (90 degree turn, delta = 0, 100 intervals: same duration to 1e-11 s,
+#: dense torque ratio 1.0 either way) at 1.7 times the solve time; at 2 mm the dense ratio is 1.00001.
+TORQUE_POINTS = (0.0, 0.5, 1.0)
 #: Dense resample of the verification: points per interval.
 VERIFY_POINTS_PER_INTERVAL = 16
 #: IPOPT: convergence tolerance and iteration cap.
@@ -275,7 +286,8 @@ class Guess:
 class FreeShapeSolution:
     """One mesh's result: duration [s], solver status, success flag, the motion (a Guess) and its
     dense verification (max ratios of |qd|/qd_max and |qdd|/qdd_max, max TCP distance to the sharp
-    path [m], max orientation error [rad], max excess of the distance over the allowed radius [m])."""
+    path [m], max orientation error [rad], max excess of the distance over the allowed radius [m],
+    max ratio of |tau| / tau_max, reported with or without torque limits)."""
 
     duration: float
     status: str
@@ -290,9 +302,10 @@ class FreeShapeSolution:
 
 
 # ----------------------------------------------------------------------------------- initial guess
-def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = None):
+def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = None, torque: bool = False):
     """pathmotion's time-optimal plan that stops at every corner of ``line`` (velocity and
-    acceleration limits, tool orientation ``rotation`` (3, 3), default tool down): (JointPath, PlanResult)."""
+    acceleration limits, and torque limits when ``torque``; tool orientation ``rotation`` (3, 3),
+    default tool down): (JointPath, PlanResult)."""
     from ..constraint import lift
     from ..geometry import FixedOrientation, Line, TaskPath
     from ..planning import PlanSettings, plan
@@ -302,7 +315,7 @@ def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = No
     path = lift(robot, TaskPath(segs, orient))
     kw = {} if grid_points is None else {"grid_points": grid_points}
     settings = PlanSettings(start="zero", end="zero", connections="zero", velocity=True, acceleration=True,
-                            torque=False, baselines=False, **kw)
+                            torque=torque, baselines=False, **kw)
     return path, plan(path, robot, settings)
 
 
@@ -420,10 +433,11 @@ def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm")
 
 def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rotation,
                velocity_scale: float = 1.0, acceleration_scale: float = 1.0,
-               ipopt: dict | None = None, form: str = "norm") -> FreeShapeSolution:
+               ipopt: dict | None = None, form: str = "norm", torque: bool = False) -> FreeShapeSolution:
     """Solve the minimum-time NLP on the mesh of ``guess`` (its node counts per phase), from it;
     ``ipopt``: options over the defaults; ``form``: the tube constraint's form, "norm" (what STARTS
-    uses), "squared" or "scaled" (:func:`_tube`; kept to reproduce docs/study.md's comparison)."""
+    uses), "squared" or "scaled" (:func:`_tube`; kept to reproduce docs/study.md's comparison);
+    ``torque``: also |tau| <= the robot's torque limits at TORQUE_POINTS of every interval (:func:`_torque`)."""
     ca = _casadi()
     tcp = tcp_function(robot)
     n = robot.n
@@ -448,6 +462,7 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
     opti.subject_to(QD[:, 0] == 0)
     opti.subject_to(QD[:, N] == 0)
     p_guess = _guess_positions(robot, guess)
+    torque_points = [] if torque else None
     for i, ph in enumerate(phases):
         k0, k1 = guess.breaks[i], guess.breaks[i + 1]
         h = T[i] / (k1 - k0)
@@ -455,6 +470,8 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
         for k in range(k0, k1):
             opti.subject_to(Q[:, k + 1] == Q[:, k] + h * QD[:, k] + 0.5 * h ** 2 * U[:, k])
             opti.subject_to(QD[:, k + 1] == QD[:, k] + h * U[:, k])
+            if torque:
+                torque_points += _torque_points(Q, QD, U, k, h)
             p_a, p_b = p_guess[k], p_guess[k + 1]
             p, R = tcp(Q[:, k + 1])
             if k + 1 < N:  # q_N is fixed, its orientation too
@@ -467,8 +484,10 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                 if f == 0.5:
                     opti.subject_to(_orientation_error(ca, R, rotation) == 0)
                 _tube(opti, ca, p, line, ph, (p_a + f * (p_b - p_a) - P) @ t, form)
+    if torque:
+        _torque(opti, ca, robot, torque_points, lim.torque)
     opti.minimize(ca.sum1(T))
-    opti.solver("ipopt", {"print_time": False, "expand": True},
+    opti.solver("ipopt", {"print_time": False, "expand": not torque},
                 {"print_level": 0, "tol": IPOPT_TOL, "max_iter": IPOPT_MAX_ITER, "sb": "yes", **(ipopt or {})})
     try:
         sol = opti.solve()
@@ -485,6 +504,32 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                              verify(robot, line, phases, motion, rotation, vmax, amax), int(stats.get("iter_count", -1)))
 
 
+def _torque_points(Q, QD, U, k: int, h) -> list[tuple]:
+    """(q, qd, qdd) at TORQUE_POINTS of interval k: q quadratic, qd linear, qdd = u_k constant there
+    (its ends: the nodes with the acceleration of this interval)."""
+    out = []
+    for f in TORQUE_POINTS:
+        if f in (0.0, 1.0):
+            q, qd = Q[:, k + int(f)], QD[:, k + int(f)]
+        else:
+            q, qd = Q[:, k] + f * h * QD[:, k] + 0.5 * (f * h) ** 2 * U[:, k], QD[:, k] + f * h * U[:, k]
+        out.append((q, qd, U[:, k]))
+    return out
+
+
+def _torque(opti, ca, robot, points: list[tuple], tau_max: np.ndarray):
+    """|tau_j| <= tau_max_j, as tau / tau_max in [-1, 1], at the (q, qd, qdd) ``points``, each a call of
+    one symbolic RNEA Function. The NLP is then not expanded (solve_mesh): CasADi differentiates the
+    Function once for all calls, where expanding inlines every call (50 intervals at delta = 0: 18 s
+    with expansion, 7 s without; one mapped call, unexpanded: 11 s)."""
+    from .symbolic_dynamics import inverse_dynamics_function
+
+    rnea = inverse_dynamics_function(robot)
+    scale = ca.DM(1.0 / np.asarray(tau_max, float))
+    for q, qd, qdd in points:
+        opti.subject_to(opti.bounded(-1.0, rnea(q, qd, qdd) * scale, 1.0))
+
+
 def _guess_positions(robot, guess: Guess) -> np.ndarray:
     from ..robot import fk
 
@@ -496,6 +541,7 @@ def verify(robot, line: Polyline, phases: Sequence[Phase], motion: Guess, rotati
     """Dense check of a motion (see FreeShapeSolution.verification)."""
     from ..robot import fk
 
+    ratio = max_torque_ratio(robot, motion, per_interval)
     tau = np.linspace(0.0, 1.0, per_interval, endpoint=False)
     t = np.concatenate([motion.t[k] + tau * (motion.t[k + 1] - motion.t[k]) for k in range(len(motion.u))]
                        + [motion.t[-1:]])
@@ -509,7 +555,24 @@ def verify(robot, line: Polyline, phases: Sequence[Phase], motion: Guess, rotati
             "max_deviation_m": float(np.max(dist)),
             "max_excess_m": float(np.max(_excess(phases, line, pos))),
             "max_orientation_error_rad": float(np.max(np.arccos(cosang))),
+            "max_torque_ratio": ratio,
             "samples": int(len(t))}
+
+
+def max_torque_ratio(robot, motion: Guess, per_interval: int = VERIFY_POINTS_PER_INTERVAL) -> float:
+    """Largest |tau_j| / tau_max_j (robot.limits.torque) of the exact piecewise-quadratic ``motion``,
+    by Pinocchio's RNEA (independent of the NLP's symbolic one) at ``per_interval`` + 1 points of
+    each interval, both ends with that interval's acceleration (so each node from both sides)."""
+    from ..robot import rnea
+
+    f = np.linspace(0.0, 1.0, per_interval + 1)
+    h = np.diff(motion.t)[:, None, None] * f[None, :, None]  # (N, F, 1): time into each interval
+    q = motion.q[:-1, None] + motion.qd[:-1, None] * h + 0.5 * motion.u[:, None] * h ** 2
+    qd = motion.qd[:-1, None] + motion.u[:, None] * h
+    qdd = np.broadcast_to(motion.u[:, None], q.shape)
+    n = robot.n
+    tau = rnea(robot, q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n))
+    return float(np.max(np.abs(tau) / robot.limits.torque))
 
 
 def _excess(phases: Sequence[Phase], line: Polyline, pts: np.ndarray) -> np.ndarray:
@@ -528,7 +591,7 @@ class FreeShapeOptimum:
     """The converged reference: ``duration`` [s] (Richardson extrapolation over the meshes),
     ``convergence_error`` [s] (|extrapolated - finest|), ``success`` (IPOPT converged on every mesh),
     ``status`` (the first failing mesh's IPOPT status, else that of the finest), ``solutions`` (one
-    per mesh, coarsest first), ``delta`` [m], ``spans`` (None: whole tube)."""
+    per mesh, coarsest first), ``delta`` [m], ``spans`` (None: whole tube), ``torque`` (torque limits on)."""
 
     duration: float
     convergence_error: float
@@ -537,6 +600,7 @@ class FreeShapeOptimum:
     solutions: tuple[FreeShapeSolution, ...]
     delta: float
     spans: tuple | None
+    torque: bool = False
 
     @property
     def durations(self) -> tuple[float, ...]:
@@ -561,12 +625,13 @@ def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, 
 
 
 def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, intervals: int, start,
-                         previous: FreeShapeSolution | None, warm: bool, stop=None) -> FreeShapeSolution:
+                         previous: FreeShapeSolution | None, warm: bool, stop=None,
+                         torque: bool = False) -> FreeShapeSolution:
     """One mesh, tried from the starts in STARTS (``warm``: STARTS_WARM, ``start`` a feasible motion
     near the optimum, e.g. the optimal blend in the corner-confined tube) until IPOPT converges; the
     first converged (else the last) solution. "previous" is the previous mesh's solution resampled
     (continuation; ``start`` on the first mesh), "start" is ``start`` (m -> Guess) on this mesh,
-    "stop" is ``stop`` (m -> Guess: the stop at the corners; ``start`` when None).
+    "stop" is ``stop`` (m -> Guess: the stop at the corners; ``start`` when None); ``torque``: see solve_mesh.
 
     Why these: with the norm-form tube and a small barrier, the 0.1 mm whole tube at 90 degrees
     converged on 25 / 50 / 100 intervals (261 / 319 / 52 iterations, the last from the stop after
@@ -590,7 +655,7 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
         if attempt not in tries:  # without a previous mesh, "previous" is the start
             tries.append(attempt)
     for i, (guess, options, form) in enumerate(tries):
-        sol = solve_mesh(robot, line, phases, guess(), R_ref, ipopt=options, form=form)
+        sol = solve_mesh(robot, line, phases, guess(), R_ref, ipopt=options, form=form, torque=torque)
         if sol.success:
             break
         log.info("free shape mesh %d: start %d of %d ended %s after %d iterations", intervals, i + 1, len(tries),
@@ -599,10 +664,12 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
 
 
 def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float, float]] | None = None,
-                       meshes: Sequence[int] = MESHES, rotation=None, warm=None) -> FreeShapeOptimum:
+                       meshes: Sequence[int] = MESHES, rotation=None, warm=None,
+                       torque: bool = False) -> FreeShapeOptimum:
     """The minimum-time rest-to-rest motion with the TCP within ``delta`` [m] of the polyline
     ``points`` (m, 3) [m] (whole tube, or only within ``spans`` around each corner), fixed tool
-    ``rotation`` (default tool down), joint velocity and acceleration limits, converged over
+    ``rotation`` (default tool down), joint velocity and acceleration limits (and the robot's joint
+    torque limits when ``torque``: the stop that starts it is then planned with them too), converged over
     ``meshes`` (total intervals, each twice the previous for the extrapolation). ``warm``: default
     the stop at every corner, refined mesh by mesh; or a plan (PlanResult) of a motion inside the
     tube to start every mesh from (the optimal blend's, for the corner-confined tube); or, for the
@@ -625,7 +692,7 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
 
     def from_stop(m):
         if not stop_result:
-            stop_result.append(stop_plan(robot, line, R_ref)[1])
+            stop_result.append(stop_plan(robot, line, R_ref, torque=torque)[1])
         return guess_from_plan(stop_result[0], line, phases, m)
 
     if inner is not None:
@@ -637,7 +704,7 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     solutions: list[FreeShapeSolution] = []
     for m in meshes:
         sol = _solve_with_restarts(robot, line, phases, R_ref, m, start, solutions[-1] if solutions else None,
-                                   warm is not None, from_stop)
+                                   warm is not None, from_stop, torque)
         log.info("free shape delta=%g spans=%s mesh %d: T = %.6f s (%s, %d iterations)", delta, spans, m, sol.duration,
                  sol.status, sol.iterations)
         solutions.append(sol)
@@ -645,8 +712,9 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     status = next((s.status for s in solutions if not s.success), solutions[-1].status)
     value, err = extrapolate([s.duration for s in solutions])
     return FreeShapeOptimum(value, err, ok, status, tuple(solutions), delta,
-                            None if spans is None else tuple(map(tuple, spans)))
+                            None if spans is None else tuple(map(tuple, spans)), torque)
 
 
 __all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "effective_spans", "extrapolate",
-           "free_shape_optimum", "solve_mesh", "stop_plan", "tcp_function", "tube_phases", "verify"]
+           "free_shape_optimum", "max_torque_ratio", "solve_mesh", "stop_plan", "tcp_function", "tube_phases",
+           "verify"]
