@@ -165,6 +165,62 @@ def test_free_offset_pieces_keep_the_bound_and_their_end_slope_and_bend(deg, bal
     assert -k[1] * (1 + dw_dx ** 2) ** 2 == pytest.approx(ba, rel=1e-6, abs=1e-6)
 
 
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(deg=st.floats(20.0, 160.0), balance=st.floats(0.2, 0.8), angles=st.tuples(st.floats(-90.0, 90.0),
+                                                                                  st.floats(-90.0, 90.0)),
+       offsets=st.tuples(st.floats(0.0, 0.9), st.floats(0.0, 0.9)), runs=st.tuples(st.floats(0.5, 2.5), st.floats(0.5, 2.5)),
+       coefficients=st.tuples(*[st.floats(-1.0, 1.0)] * 4), tol=st.floats(5e-4, 0.02))
+def test_offset_pieces_out_of_the_plane_keep_the_bound_and_their_rise(deg, balance, angles, offsets, runs,
+                                                                       coefficients, tol):
+    """Offset pieces turned about their lines out of the corner's plane (the search's rise stage): the
+    certified bound holds on a brute-force check, every join is G2, the entry piece ends at its rise
+    above the plane (+z: the turn is to the left, so the corner's normal is +z) with the vertical slope
+    asked for, and the in-plane offset and slope are those of the turned profile."""
+    path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(deg))))
+    ell = (runs[0] * np.sqrt(tol * 0.64), runs[1] * np.sqrt(tol * 0.64))
+    planar, rises = [], []
+    for j in range(2):  # (offset, far, near) of the profile, turned by angles[j] about the line
+        profile = np.array([offsets[j], coefficients[2 * j], coefficients[2 * j + 1]]) * tol
+        c, s = np.cos(np.radians(angles[j])), np.sin(np.radians(angles[j]))
+        w, far, near = np.clip(profile * c, [0.0, -tol, -tol], None)
+        v, vfar, vnear = profile * s
+        planar.append((w, *_side(w, far, near, ell[j])))
+        rises.append((v, *_side(v, vfar, vnear, ell[j])))
+    try:
+        shape = g2_shape_for_tolerance(path, 0, tol, balance, 0.7, 0.7, offsets=(planar[0][0], planar[1][0]),
+                                       runs=ell, slopes=(planar[0][1], planar[1][1]), bends=(planar[0][2], planar[1][2]),
+                                       rises=tuple(rises))
+        new = with_shaped_g2_blend(path, 0, shape)
+    except PathError:  # a piece out of tolerance, no room, or a degenerate (cusped) corner quintic
+        reject()
+    assert shape.deviation <= tol and (shape.rise_entry, shape.rise_exit) == tuple(rises)
+    lower, _ = _blend_deviation(new, path, shape, tol / 400)
+    assert lower <= tol * (1 + 1e-9)  # certified
+    _assert_g2_joins(new)
+    if not shape.sides[0]:
+        return
+    p, t, _ = new.segments[1].end_frame  # the incoming line runs along +x; outside the left turn is -y
+    assert p[2] == pytest.approx(rises[0][0], rel=1e-9, abs=1e-15)
+    assert -t[2] / t[0] == pytest.approx(rises[0][1], rel=1e-7, abs=1e-9)  # dv/dd, d = -x
+    assert t[1] / t[0] == pytest.approx(planar[0][1], rel=1e-7, abs=1e-9)  # -dw/dx = dw/dd
+
+
+def test_a_rise_alone_makes_offset_pieces_and_bad_rises_are_refused():
+    path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
+    shape = g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05),
+                                   rises=((1e-3, 0.0, 0.0), (-1e-3, 0.0, 0.0)))
+    assert shape.sides == (True, True) and shape.racing
+    new = with_shaped_g2_blend(path, 0, shape)
+    z = new.evaluate(np.linspace(0.0, new.length, 4001))[0][:, 2]
+    assert np.max(z) == pytest.approx(1e-3, rel=1e-6) and np.min(z) == pytest.approx(-1e-3, rel=1e-6)
+    with pytest.raises(PathError, match="rise must be"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05), rises=((2e-3, 0.0, 0.0), (0.0, 0.0, 0.0)))
+    with pytest.raises(PathError, match="rise must be"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05), rises=((0.0, np.inf, 0.0), (0.0, 0.0, 0.0)))
+    with pytest.raises(PathError, match="entry offset piece needs a positive run"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, rises=((1e-3, 0.0, 0.0), (0.0, 0.0, 0.0)))
+
+
 def test_offset_piece_coefficients_round_trip():
     """blend_search's (slope, bend) from Bernstein coefficients and blends' coefficients from (offset,
     slope, bend) are inverses, on both sides (the exit side's coefficients are the entry side's reversed)."""
@@ -242,11 +298,11 @@ SETTINGS = PlanSettings(start="zero", end="zero", velocity=True, acceleration=Tr
 @given(deg=st.floats(30.0, 150.0), tol=st.floats(5e-4, 0.02))
 def test_optimal_blend_is_never_slower_than_the_symmetric_g2(deg, tol):
     path = _turn(deg)
-    best = optimal_blends(_robot(), path, tol, settings=SETTINGS, cycles=1, steps=2, racing_steps=2,
-                          search_grid_points=200, free_plans=16)
-    s_curves = optimal_blends(_robot(), path, tol, settings=SETTINGS, cycles=1, steps=2, racing_steps=2,
-                              search_grid_points=200, free_plans=0)
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200)
+    best = optimal_blends(_robot(), path, tol, free_plans=16, rise_plans=30, **kw)
+    s_curves = optimal_blends(_robot(), path, tol, free_plans=0, **kw)
     assert best.duration <= s_curves.duration  # the same search up to the S-curves, then more candidates
+    assert best.duration <= best.planar_duration <= s_curves.duration  # the rise adds candidates to the plane's
     sym_shape = g2_shape_for_tolerance(path, 0, tol, 0.5, 0.7, 0.7)
     symmetric = duration_with(_robot(), path, {0: sym_shape}, SETTINGS)
     assert best.duration <= best.symmetric_duration

@@ -405,7 +405,13 @@ class G2Shape:
     there); the exit piece back onto B (``offset_exit``, ``slope_exit``, ``bend_exit``,
     ``run_exit``). With slope = bend = 0 an offset piece is the S-curve to the parallel line A'
     ``offset`` outside. Every join is G2, and the corner quintic may be larger for the same
-    deviation (see :func:`g2_blend_pieces`)."""
+    deviation (see :func:`g2_blend_pieces`).
+
+    ``rise_entry`` / ``rise_exit`` = (rise [m], rise slope [-], rise bend [1/m]): the same profile
+    out of the corner's plane, along its normal m = t_A x t_B / |t_A x t_B| (up at a left turn in a
+    horizontal plane), so an offset piece may leave the plane (the free-shape optimum does: at
+    120 deg / 10 mm it rises to the tube's edge before the corner, instead of moving out, and sinks
+    4.7 mm below the plane after it)."""
 
     entry: float
     exit: float
@@ -420,12 +426,19 @@ class G2Shape:
     slope_exit: float = 0.0
     bend_entry: float = 0.0
     bend_exit: float = 0.0
+    rise_entry: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rise_exit: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @property
     def sides(self) -> tuple[bool, bool]:
         """Whether the entry / exit side has an offset piece."""
-        return (_has_piece(self.offset_entry, self.slope_entry, self.bend_entry),
-                _has_piece(self.offset_exit, self.slope_exit, self.bend_exit))
+        return (_has_piece(self.offset_entry, self.slope_entry, self.bend_entry, *self.rise_entry),
+                _has_piece(self.offset_exit, self.slope_exit, self.bend_exit, *self.rise_exit))
+
+    @property
+    def planar(self) -> bool:
+        """The blend stays in the corner's plane (no rise on either side)."""
+        return not any(self.rise_entry) and not any(self.rise_exit)
 
     @property
     def racing(self) -> bool:
@@ -433,8 +446,9 @@ class G2Shape:
         return any(self.sides)
 
 
-def _has_piece(offset: float, slope: float, bend: float) -> bool:
-    return offset != 0.0 or slope != 0.0 or bend != 0.0
+def _has_piece(*profile: float) -> bool:
+    """An offset piece is needed when any of its offsets, slopes and bends is nonzero."""
+    return any(v != 0.0 for v in profile)
 
 
 def g2_shaped_control_points(A: Segment, B: Segment, entry: float, exit: float, shape_entry: float,
@@ -458,9 +472,11 @@ def _hermite_points(start: tuple, end: tuple, la: float, lb: float) -> np.ndarra
 
 @dataclass(frozen=True)
 class _Racing:
-    """The offset lines of a racing blend at a line-line corner: A' = A moved ``w_a`` outward, B'
-    likewise; their corner ``corner`` (3,) [m] lies ``shift_a`` [m] along t_A from A's end point
-    (projected) and ``shift_b`` along t_B from B's start; ``A``, ``B``: A' and B' as Lines."""
+    """The offset lines of a racing blend at a line-line corner: A' = A moved ``w_a`` outward and
+    ``v_a`` along the corner's normal ``up``, B' likewise; A' ends and B' starts at their closest
+    points (their corner when they meet; different rises make them skew), ``shift_a`` [m] along t_A
+    from A's end point (projected) and ``shift_b`` along t_B from B's start; ``A``, ``B``: A' and B'
+    as Lines."""
 
     A: Line
     B: Line
@@ -468,9 +484,11 @@ class _Racing:
     out_b: np.ndarray
     shift_a: float
     shift_b: float
+    up: np.ndarray
 
 
-def _racing_lines(A: Segment, B: Segment, w_a: float, w_b: float, what: str) -> _Racing:
+def _racing_lines(A: Segment, B: Segment, w_a: float, w_b: float, what: str, v_a: float = 0.0,
+                  v_b: float = 0.0) -> _Racing:
     if not (isinstance(A, Line) and isinstance(B, Line)):
         raise PathError(f"{what}: a racing blend (offset > 0) needs two line neighbours, got {A.kind} and {B.kind}; "
                         "give offsets 0 there")
@@ -480,11 +498,11 @@ def _racing_lines(A: Segment, B: Segment, w_a: float, w_b: float, what: str) -> 
         raise PathError(f"{what}: a racing blend needs a corner that turns (the lines are parallel)")
     m = m / np.linalg.norm(m)
     out_a, out_b = -np.cross(m, tA), -np.cross(m, tB)  # outside the turn
-    # c + w_a out_a + s tA = c + w_b out_b + t tB
-    s, t = np.linalg.lstsq(np.column_stack([tA, -tB]), w_b * out_b - w_a * out_a, rcond=None)[0]
-    cp = c + w_a * out_a + s * tA
+    # c + w_a out_a + v_a m + s tA = c + w_b out_b + v_b m + t tB (least squares: closest points when skew)
+    s, t = np.linalg.lstsq(np.column_stack([tA, -tB]), w_b * out_b - w_a * out_a + (v_b - v_a) * m, rcond=None)[0]
+    ca, cb = c + w_a * out_a + v_a * m + s * tA, c + w_b * out_b + v_b * m + t * tB
     reach = 2.0 * (A.length + B.length)  # longer than any cut, so evaluating A', B' never clamps
-    return _Racing(Line(cp - reach * tA, cp), Line(cp, cp + reach * tB), out_a, out_b, float(s), float(-t))
+    return _Racing(Line(ca - reach * tA, ca), Line(cb, cb + reach * tB), out_a, out_b, float(s), float(-t), m)
 
 
 def _piece_offsets(offset: float, slope: float, bend: float, run: float, towards_corner: bool) -> np.ndarray:
@@ -498,53 +516,62 @@ def _piece_offsets(offset: float, slope: float, bend: float, run: float, towards
     return w[::-1].copy() if towards_corner else w
 
 
-def _offset_piece(start: np.ndarray, t: np.ndarray, out: np.ndarray, run: float, w: np.ndarray) -> np.ndarray:
+def _offset_piece(start: np.ndarray, t: np.ndarray, out: np.ndarray, run: float, w: np.ndarray, up: np.ndarray,
+                  v: np.ndarray) -> np.ndarray:
     """Control points (6, 3) [m] of the quintic graph over the line through ``start`` along the unit
-    ``t``: x = start + u run t + w(u) out, w with Bernstein coefficients ``w`` (6,) [m] (evenly
-    spaced along t, so the parameter is proportional to the progress along the line)."""
-    return np.array([start + (i / 5.0) * run * t + w[i] * out for i in range(6)])
+    ``t``: x = start + u run t + w(u) out + v(u) up, w and v with Bernstein coefficients ``w``, ``v``
+    (6,) [m] (evenly spaced along t, so the parameter is proportional to the progress along the line)."""
+    return np.array([start + (i / 5.0) * run * t + w[i] * out + v[i] * up for i in range(6)])
 
 
-def _graph_state(p: np.ndarray, t: np.ndarray, out: np.ndarray, dw: float, bend: float) -> tuple:
-    """(position, unit tangent, curvature vector) of the graph x(s) = line(s) + w(s) out at ``p``
-    where w' = ``dw`` and w'' = ``bend`` [1/m]."""
-    d = t + dw * out
+def _graph_state(p: np.ndarray, t: np.ndarray, out: np.ndarray, dw: float, bend: float, up: np.ndarray,
+                 dv: float = 0.0, rise_bend: float = 0.0) -> tuple:
+    """(position, unit tangent, curvature vector) of the graph x(s) = line(s) + w(s) out + v(s) up at
+    ``p`` where w' = ``dw``, w'' = ``bend`` [1/m], v' = ``dv``, v'' = ``rise_bend`` [1/m]."""
+    d = t + dw * out + dv * up
     speed2 = float(d @ d)
     T = d / np.sqrt(speed2)
-    acc = bend * out
+    acc = bend * out + rise_bend * up
     return p, T, (acc - (acc @ T) * T) / speed2
 
 
 def g2_blend_pieces(A: Segment, B: Segment, inner_entry: float, inner_exit: float, shape_entry: float,
                     shape_exit: float, offsets: tuple[float, float] = (0.0, 0.0),
                     runs: tuple[float, float] = (0.0, 0.0), what: str = "g2_blend_pieces",
-                    slopes: tuple[float, float] = (0.0, 0.0), bends: tuple[float, float] = (0.0, 0.0)):
+                    slopes: tuple[float, float] = (0.0, 0.0), bends: tuple[float, float] = (0.0, 0.0),
+                    rises: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))):
     """(control points of each quintic piece, (6, 3) [m] each, in path order; entry, exit [m]): the
     blend's pieces and its total cuts on A and B. Without offsets, slopes and bends, one quintic
     cutting ``inner_entry`` / ``inner_exit``. Otherwise (two lines only; see G2Shape) the corner
     quintic runs from the point ``inner_entry`` before the corner of the offset lines A', B' (A, B
     moved ``offsets`` (w_A, w_B) [m] outside) to the point ``inner_exit`` after it, matching the
     tangents and curvatures that ``slopes`` [-] and ``bends`` [1/m] give the offset pieces of
-    ``runs`` (l_A, l_B) [m] there, which join A to it and it to B; a side with offset, slope and
-    bend 0 has no offset piece."""
-    has = (_has_piece(offsets[0], slopes[0], bends[0]), _has_piece(offsets[1], slopes[1], bends[1]))
+    ``runs`` (l_A, l_B) [m] there, which join A to it and it to B; ``rises``: per side (rise [m],
+    slope [-], bend [1/m]) of the same profile along the corner's normal; a side whose profiles are
+    all 0 has no offset piece."""
+    has = (_has_piece(offsets[0], slopes[0], bends[0], *rises[0]),
+           _has_piece(offsets[1], slopes[1], bends[1], *rises[1]))
     if not any(has):
         return (g2_shaped_control_points(A, B, inner_entry, inner_exit, shape_entry, shape_exit),), inner_entry, inner_exit
-    r = _racing_lines(A, B, offsets[0], offsets[1], what)
+    r = _racing_lines(A, B, offsets[0], offsets[1], what, rises[0][0], rises[1][0])
     tA, tB = A.direction, B.direction
     pA = r.A.evaluate(r.A.length - inner_entry)[0][0]
     pB = r.B.evaluate(inner_exit)[0][0]
-    start = _graph_state(pA, tA, r.out_a, -slopes[0], bends[0])
-    end = _graph_state(pB, tB, r.out_b, slopes[1], bends[1])
+    start = _graph_state(pA, tA, r.out_a, -slopes[0], bends[0], r.up, -rises[0][1], rises[0][2])
+    end = _graph_state(pB, tB, r.out_b, slopes[1], bends[1], r.up, rises[1][1], rises[1][2])
     corner = _hermite_points(start, end, 2.5 * shape_entry * inner_entry, 2.5 * shape_exit * inner_exit)
     pieces, entry, exit = [corner], inner_entry - r.shift_a, inner_exit - r.shift_b
     if has[0]:
         w = _piece_offsets(offsets[0], slopes[0], bends[0], runs[0], towards_corner=True)
-        pieces.insert(0, _offset_piece(pA - runs[0] * tA - offsets[0] * r.out_a, tA, r.out_a, runs[0], w))
+        v = _piece_offsets(*rises[0], runs[0], towards_corner=True)
+        pieces.insert(0, _offset_piece(pA - runs[0] * tA - offsets[0] * r.out_a - rises[0][0] * r.up, tA, r.out_a,
+                                       runs[0], w, r.up, v))
         entry += runs[0]
     if has[1]:
         w = _piece_offsets(offsets[1], slopes[1], bends[1], runs[1], towards_corner=False)
-        pieces.append(_offset_piece(pB - offsets[1] * r.out_b, tB, r.out_b, runs[1], w))
+        v = _piece_offsets(*rises[1], runs[1], towards_corner=False)
+        pieces.append(_offset_piece(pB - offsets[1] * r.out_b - rises[1][0] * r.up, tB, r.out_b, runs[1], w, r.up,
+                                    v))
         exit += runs[1]
     return tuple(pieces), float(entry), float(exit)
 
@@ -567,34 +594,41 @@ def _pieces_deviation(A: Segment, B: Segment, pieces, stop_above: float = np.inf
     return upper
 
 
-def _check_racing(offsets, runs, tol: float, what: str, slopes=(0.0, 0.0), bends=(0.0, 0.0)) -> tuple:
-    """Validated (offsets, runs, slopes, bends), each a pair (entry, exit); the run of a side
-    without an offset piece is 0."""
+def _check_racing(offsets, runs, tol: float, what: str, slopes=(0.0, 0.0), bends=(0.0, 0.0),
+                  rises=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))) -> tuple:
+    """Validated (offsets, runs, slopes, bends, rises), each a pair (entry, exit) (a rise: (rise,
+    slope, bend)); the run of a side without an offset piece is 0."""
     w, ell, sl, be = (tuple(float(v) for v in pair) for pair in (offsets, runs, slopes, bends))
+    ri = tuple(tuple(float(v) for v in side) for side in rises)
     for i, side in enumerate(("entry", "exit")):
+        if len(ri[i]) != 3 or not all(np.isfinite(ri[i])) or not abs(ri[i][0]) < tol:
+            raise PathError(f"{what}: the {side} rise must be (rise in (-tolerance, tolerance) = (-{tol:.6g}, "
+                            f"{tol:.6g}) m, slope, bend), finite numbers, got {rises[i]!r}")
         if not (np.isfinite(w[i]) and 0.0 <= w[i] < tol):
             raise PathError(f"{what}: the {side} offset must be in [0, tolerance = {tol:.6g} m), got {w[i]!r} m")
         if not (np.isfinite(sl[i]) and np.isfinite(be[i])):
             raise PathError(f"{what}: the {side} slope and bend must be finite numbers, got {sl[i]!r} and {be[i]!r}")
-        if _has_piece(w[i], sl[i], be[i]) and not (np.isfinite(ell[i]) and ell[i] > 0.0):
+        if _has_piece(w[i], sl[i], be[i], *ri[i]) and not (np.isfinite(ell[i]) and ell[i] > 0.0):
             raise PathError(f"{what}: the {side} offset piece needs a positive run [m] with offset {w[i]:.6g} m, "
                             f"got {ell[i]!r}")
-    ell = tuple(ell[i] if _has_piece(w[i], sl[i], be[i]) else 0.0 for i in range(2))  # no piece, no run
-    return w, ell, sl, be
+    ell = tuple(ell[i] if _has_piece(w[i], sl[i], be[i], *ri[i]) else 0.0 for i in range(2))  # no piece, no run
+    return w, ell, sl, be, ri
 
 
 def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balance: float, shape_entry: float,
                            shape_exit: float, shared: tuple[bool, bool] = (False, False),
                            offsets: tuple[float, float] = (0.0, 0.0), runs: tuple[float, float] = (0.0, 0.0),
                            slopes: tuple[float, float] = (0.0, 0.0),
-                           bends: tuple[float, float] = (0.0, 0.0)) -> G2Shape:
+                           bends: tuple[float, float] = (0.0, 0.0),
+                           rises: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))) -> G2Shape:
     """The largest asymmetric G2 blend at connection ``corner`` whose corner quintic has
     entry / (entry + exit) = ``balance`` in (0, 1) and whose certified deviation is <= ``tolerance``
     [m] (or, if even the largest the neighbours allow deviates less, that one). ``offsets`` (w_A,
     w_B) in [0, tolerance) [m], ``runs`` (l_A, l_B) [m], ``slopes`` [-] and ``bends`` [1/m]: the
     racing line of :class:`G2Shape` (its corner quintic is sized; the offset pieces are fixed).
     ``shared``: the neighbour before / after is blended at its other end too (then a blend may use
-    SHARED_SEGMENT_FRACTION of it)."""
+    SHARED_SEGMENT_FRACTION of it). ``rises``: per side (rise [m], slope [-], bend [1/m]) of the offset
+    pieces along the corner's normal (see G2Shape)."""
     what = "g2_shape_for_tolerance"
     c = _corner(path, corner, ("corner", "tangent"), what, shared=shared)
     tol = float(tolerance)
@@ -603,12 +637,13 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
     if not 0.0 < balance < 1.0:
         raise PathError(f"{what}: balance (entry share of the blend) must be in (0, 1), got {balance!r}")
     sa, sb = _check_shape(shape_entry, what), _check_shape(shape_exit, what)
-    offsets, runs, slopes, bends = _check_racing(offsets, runs, tol, what, slopes, bends)
-    racing = _has_piece(offsets[0], slopes[0], bends[0]) or _has_piece(offsets[1], slopes[1], bends[1])
+    offsets, runs, slopes, bends, rises = _check_racing(offsets, runs, tol, what, slopes, bends, rises)
+    racing = (_has_piece(offsets[0], slopes[0], bends[0], *rises[0])
+              or _has_piece(offsets[1], slopes[1], bends[1], *rises[1]))
 
     def build(size):
         return g2_blend_pieces(c.A, c.B, balance * size, (1 - balance) * size, sa, sb, offsets, runs, what,
-                               slopes, bends)
+                               slopes, bends, rises)
 
     if not racing:
         size_min, size_max = 0.0, min(c.max_a / balance, c.max_b / (1 - balance))
@@ -628,7 +663,8 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
         raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance"
                         + (" or smaller offsets, slopes and bends" if racing else ""))
     pieces, entry, exit = build(size)
-    return G2Shape(entry, exit, sa, sb, _pieces_deviation(c.A, c.B, pieces), *offsets, *runs, *slopes, *bends)
+    return G2Shape(entry, exit, sa, sb, _pieces_deviation(c.A, c.B, pieces), *offsets, *runs, *slopes, *bends,
+                   *rises)
 
 
 def _shape_pieces(c: _Corner, shape: G2Shape, what: str):
@@ -637,12 +673,12 @@ def _shape_pieces(c: _Corner, shape: G2Shape, what: str):
     slopes, bends = (shape.slope_entry, shape.slope_exit), (shape.bend_entry, shape.bend_exit)
     if not shape.racing:
         return g2_blend_pieces(c.A, c.B, shape.entry, shape.exit, shape.shape_entry, shape.shape_exit)[0]
-    r = _racing_lines(c.A, c.B, *offsets, what)
+    r = _racing_lines(c.A, c.B, *offsets, what, shape.rise_entry[0], shape.rise_exit[0])
     has = shape.sides
     inner = (shape.entry - (runs[0] if has[0] else 0.0) + r.shift_a,
              shape.exit - (runs[1] if has[1] else 0.0) + r.shift_b)
     return g2_blend_pieces(c.A, c.B, *inner, shape.shape_entry, shape.shape_exit, offsets, runs, what, slopes,
-                           bends)[0]
+                           bends, (shape.rise_entry, shape.rise_exit))[0]
 
 
 def with_shaped_g2_blend(path: TaskPath, corner: int, shape: G2Shape) -> TaskPath:
