@@ -1,0 +1,85 @@
+"""Where the optimal blend loses time against the corner-confined free-shape optimum (issue 17).
+
+For one atlas corner (angle, tolerance): the optimal blend (planning/blend_search.py), the corner-
+confined free-shape optimum on the blend's own spans (study/free_shape.py, CasADi + IPOPT), and
+pathmotion's planner along the optimum's OWN TCP path (study/optimum_path.py), as it is and pressed
+into the corner's plane (its control points projected: exact for a Bezier). Every plan on the same
+grid, rest to rest, velocity and acceleration limits (the atlas' settings).
+
+    python benchmarks/replan_optimum.py 60 0.001
+    python benchmarks/replan_optimum.py 120 0.01 --meshes 25,50,100 --grid 2000
+
+Reading: "optimum path" within a few 0.01 % of the NLP's finest mesh means planner and NLP agree on
+the same geometry (the gap of the blend is its shape family, not the planner); "in the plane" minus
+"optimum path" is what the optimum gains by leaving the corner's plane.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("angle", type=float, help="turn angle [deg]")
+    ap.add_argument("tolerance", type=float, help="tube radius [m]")
+    ap.add_argument("--meshes", default="25,50,100", help="NLP meshes (intervals)")
+    ap.add_argument("--grid", type=int, default=2000, help="planner grid points")
+    a = ap.parse_args()
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+    import pathmotion.study.optimum_path as op
+    from pathmotion.constraint import lift
+    from pathmotion.planning import plan
+    from pathmotion.planning.blend_search import optimal_blends
+    from pathmotion.robot import load_robot
+    from pathmotion.study import free_shape as fs
+    from pathmotion.study.atlas import _settings, _task, corner_points
+
+    robot = load_robot("irb140")
+    pts = corner_points(a.angle)
+    task = _task(pts)
+    settings = _settings(baselines=False, verify=False, grid_points=a.grid)
+
+    def duration(path) -> float:
+        return float(plan(lift(robot, path, original=task), robot, settings).profile.duration)
+
+    t0 = time.process_time()
+    best = optimal_blends(robot, task, a.tolerance, settings=_settings(verify=False, baselines=False))
+    shape = best.shapes[0]
+    spans = [(shape.entry, shape.exit)]
+    t1 = time.process_time()
+    opt = fs.free_shape_optimum(robot, pts, a.tolerance, spans, tuple(int(m) for m in a.meshes.split(",")))
+    t2 = time.process_time()
+    sol = opt.solutions[-1]
+    phases = fs.tube_phases(fs.Polyline(pts), a.tolerance, spans)
+    own = duration(op.optimum_task_path(robot, pts, phases, sol.motion))
+    normal = np.cross(pts[1] - pts[0], pts[2] - pts[1])
+    normal /= np.linalg.norm(normal)
+    build = op._hermite_pieces
+
+    def pressed(*args, **kw):  # control points projected onto the corner's plane
+        return [b - np.outer((b - pts[1]) @ normal, normal) for b in build(*args, **kw)]
+
+    op._hermite_pieces = pressed
+    try:
+        flat = duration(op.optimum_task_path(robot, pts, phases, sol.motion))
+    finally:
+        op._hermite_pieces = build
+    blend = duration(best.path)
+    print(f"{a.angle:g} deg, {a.tolerance * 1e3:g} mm, spans {shape.entry:.4f} / {shape.exit:.4f} m, grid {a.grid}")
+    print(f"  corner-confined NLP: meshes {a.meshes}: {', '.join(f'{d:.5f}' for d in opt.durations)} s "
+          f"(extrapolated {opt.duration:.5f} +- {opt.convergence_error * 1e3:.2f} ms, converged {opt.success}, "
+          f"{t2 - t1:.0f} s CPU)")
+    rows = (("optimum path", own), ("optimum path in the plane", flat), ("optimal blend", blend))
+    for name, T in rows:
+        print(f"  {name:28s} {T:.5f} s  {100 * (T / sol.duration - 1):+.2f} % vs the finest NLP mesh")
+    print(f"  blend search: {best.plans} plans, {t1 - t0:.0f} s CPU")
+
+
+if __name__ == "__main__":
+    main()
