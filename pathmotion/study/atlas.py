@@ -10,7 +10,9 @@ the issue's reference). Per row (``corners.csv``, ATLAS_COLUMNS):
   is the tolerance; ``g2_s``: the symmetric G2 blend; ``optimal_s``: the tolerance-optimal blend
   (planning/blend_search.py; its entry / exit cuts in ``optimal_entry_m`` / ``optimal_exit_m``, its
   racing-line offsets outside the turn in ``optimal_offset_entry_m`` / ``optimal_offset_exit_m``, 0
-  for one quintic); ``quintic_s``: the search's best single quintic;
+  for one quintic, and its offset pieces' rise out of the corner's plane (along the turn's normal: up
+  at a left turn) where they meet the corner quintic in ``optimal_rise_entry_m`` / ``optimal_rise_exit_m``,
+  0 in the plane); ``quintic_s``: the search's best single quintic;
 * ``industrial_zone_s``: a constant TCP speed (the planner's constant_speed baseline: the highest
   speed held everywhere, trapezoid ramps at the ends) on the path with an ABB-style parabolic zone:
   a parabola from the entry to the exit point at distance z from the corner, z such that its
@@ -55,7 +57,7 @@ ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "status", "stop_s", "circle_s", "g2
                  "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
                  "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2", "gap_to_optimum",
                  "gap_to_corner_optimum", "capture", "optimal_entry_m", "optimal_exit_m", "optimal_offset_entry_m",
-                 "optimal_offset_exit_m", "closed_loop_ok",
+                 "optimal_offset_exit_m", "optimal_rise_entry_m", "optimal_rise_exit_m", "closed_loop_ok",
                  "closed_loop_path_accuracy_m", "closed_loop_cornering_deviation_m", "closed_loop_cycle_s", "error")
 #: Bump when the free-shape formulation changes, so cached optima are recomputed; the corner-confined
 #: optima have their own (3: its restarts changed, so a cached failure is solved again; 3 / 4: the tube
@@ -63,7 +65,7 @@ ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "status", "stop_s", "circle_s", "g2
 OPTIMUM_VERSION = 4
 CORNER_OPTIMUM_VERSION = 4
 #: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached).
-ROW_VERSION = 4
+ROW_VERSION = 5
 #: IPOPT statuses counted as converged.
 CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 #: Largest distance [m] of the simulated TCP from the planned path for the closed-loop check.
@@ -334,6 +336,7 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     shape = best.shapes[0]
     row["optimal_entry_m"], row["optimal_exit_m"] = shape.entry, shape.exit
     row["optimal_offset_entry_m"], row["optimal_offset_exit_m"] = shape.offset_entry, shape.offset_exit
+    row["optimal_rise_entry_m"], row["optimal_rise_exit_m"] = shape.rise_entry[0], shape.rise_exit[0]
     row["gain_vs_stop"] = 1.0 - row["optimal_s"] / row["stop_s"]
     row["gain_vs_zone"] = 1.0 - row["optimal_s"] / row["industrial_zone_s"]
     row["gain_vs_g2"] = 1.0 - row["optimal_s"] / row["g2_s"]
