@@ -8,6 +8,7 @@ grid, rest to rest, velocity and acceleration limits (the atlas' settings).
 
     python benchmarks/replan_optimum.py 60 0.001
     python benchmarks/replan_optimum.py 120 0.01 --meshes 25,50,100 --grid 2000
+    python benchmarks/replan_optimum.py 120 0.01 --rise-plans 0     # the blend search kept in the plane
 
 Reading: "optimum path" within a few 0.01 % of the NLP's finest mesh means planner and NLP agree on
 the same geometry (the gap of the blend is its shape family, not the planner); "in the plane" minus
@@ -29,13 +30,15 @@ def main() -> None:
     ap.add_argument("tolerance", type=float, help="tube radius [m]")
     ap.add_argument("--meshes", default="25,50,100", help="NLP meshes (intervals)")
     ap.add_argument("--grid", type=int, default=2000, help="planner grid points")
+    ap.add_argument("--rise-plans", type=int, default=None,
+                    help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     import pathmotion.study.optimum_path as op
     from pathmotion.constraint import lift
     from pathmotion.planning import plan
-    from pathmotion.planning.blend_search import optimal_blends
+    from pathmotion.planning.blend_search import RISE_PLANS, optimal_blends
     from pathmotion.robot import load_robot
     from pathmotion.study import free_shape as fs
     from pathmotion.study.atlas import _settings, _task, corner_points
@@ -49,7 +52,8 @@ def main() -> None:
         return float(plan(lift(robot, path, original=task), robot, settings).profile.duration)
 
     t0 = time.process_time()
-    best = optimal_blends(robot, task, a.tolerance, settings=_settings(verify=False, baselines=False))
+    rise = RISE_PLANS if a.rise_plans is None else a.rise_plans
+    best = optimal_blends(robot, task, a.tolerance, settings=_settings(verify=False, baselines=False), rise_plans=rise)
     shape = best.shapes[0]
     spans = [(shape.entry, shape.exit)]
     t1 = time.process_time()
@@ -78,7 +82,9 @@ def main() -> None:
     rows = (("optimum path", own), ("optimum path in the plane", flat), ("optimal blend", blend))
     for name, T in rows:
         print(f"  {name:28s} {T:.5f} s  {100 * (T / sol.duration - 1):+.2f} % vs the finest NLP mesh")
-    print(f"  blend search: {best.plans} plans, {t1 - t0:.0f} s CPU")
+    print(f"  blend search: {best.plans} plans ({rise} out of the plane), {t1 - t0:.0f} s CPU; blend rises "
+          f"{shape.rise_entry[0] * 1e3:+.2f} / {shape.rise_exit[0] * 1e3:+.2f} mm, offsets "
+          f"{shape.offset_entry * 1e3:.2f} / {shape.offset_exit * 1e3:.2f} mm")
 
 
 if __name__ == "__main__":
