@@ -30,6 +30,8 @@ def main() -> None:
     ap.add_argument("tolerance", type=float, help="tube radius [m]")
     ap.add_argument("--meshes", default="25,50,100", help="NLP meshes (intervals)")
     ap.add_argument("--grid", type=int, default=2000, help="planner grid points")
+    ap.add_argument("--profile", action="store_true",
+                    help="print the optimum's path every 10 mm of arc: distance from the sharp path, height above the plane")
     ap.add_argument("--rise-plans", type=int, default=None,
                     help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
     a = ap.parse_args()
@@ -61,7 +63,8 @@ def main() -> None:
     t2 = time.process_time()
     sol = opt.solutions[-1]
     phases = fs.tube_phases(fs.Polyline(pts), a.tolerance, spans)
-    own = duration(op.optimum_task_path(robot, pts, phases, sol.motion))
+    optimum_path = op.optimum_task_path(robot, pts, phases, sol.motion)
+    own = duration(optimum_path)
     normal = np.cross(pts[1] - pts[0], pts[2] - pts[1])
     normal /= np.linalg.norm(normal)
     build = op._hermite_pieces
@@ -82,6 +85,15 @@ def main() -> None:
     rows = (("optimum path", own), ("optimum path in the plane", flat), ("optimal blend", blend))
     for name, T in rows:
         print(f"  {name:28s} {T:.5f} s  {100 * (T / sol.duration - 1):+.2f} % vs the finest NLP mesh")
+    if a.profile:
+        normal_ = np.cross(pts[1] - pts[0], pts[2] - pts[1])
+        normal_ /= np.linalg.norm(normal_)
+        theta = np.arange(0.0, optimum_path.domain[1], 0.01)
+        p = optimum_path.pose(theta)[0]
+        dist = fs.Polyline(pts).distance(p)
+        for th, x, d in zip(theta, p, dist):
+            print(f"    arc {th - np.linalg.norm(pts[1] - pts[0]):+.3f} m: {d * 1e3:6.3f} mm from the sharp path, "
+                  f"{(x - pts[1]) @ normal_ * 1e3:+7.3f} mm above the corner's plane")
     print(f"  blend search: {best.plans} plans ({rise} out of the plane), {t1 - t0:.0f} s CPU; blend rises "
           f"{shape.rise_entry[0] * 1e3:+.2f} / {shape.rise_exit[0] * 1e3:+.2f} mm, offsets "
           f"{shape.offset_entry * 1e3:.2f} / {shape.offset_exit * 1e3:.2f} mm")
