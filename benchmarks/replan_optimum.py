@@ -31,7 +31,8 @@ def main() -> None:
     ap.add_argument("--meshes", default="25,50,100", help="NLP meshes (intervals)")
     ap.add_argument("--grid", type=int, default=2000, help="planner grid points")
     ap.add_argument("--profile", action="store_true",
-                    help="print the optimum's path every 10 mm of arc: distance from the sharp path, height above the plane")
+                    help="print the optimum's path every 10 mm of arc: distance from the sharp path, height "
+                         "above the corner's plane")
     ap.add_argument("--rise-plans", type=int, default=None,
                     help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
     a = ap.parse_args()

@@ -319,8 +319,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
-    ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise). PathError as :func:`~pathmotion.geometry.with_g2_blends`
-    when the tolerance does not fit."""
+    ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise). PathError as
+    :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
     tol = dict(tolerance) if isinstance(tolerance, dict) else {k: float(tolerance) for k in chosen}
