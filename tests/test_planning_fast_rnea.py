@@ -4,8 +4,6 @@ fingers locked), and the fallback for a joint type the kernels do not handle."""
 
 from __future__ import annotations
 
-import importlib.metadata
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -14,21 +12,16 @@ from pathmotion.planning.fast_rnea import chain_data, reduced_batch, rnea_batch,
 from pathmotion.planning.reduced import reduced_dynamics
 from pathmotion.robot import load_robot
 from pathmotion.robot.model import Payload
+from robot_support import DATA, PANDA_URDF, ROBOTS, UR5_URDF
 
-DATA = Path(__file__).parent / "data"
-try:
-    ROBOTS = Path(str(importlib.metadata.distribution("example-robot-data").locate_file(
-        "cmeel.prefix/share/example-robot-data/robots")))
-except importlib.metadata.PackageNotFoundError:  # pragma: no cover - the dev extra installs it
-    ROBOTS = None
 
 
 def _robots(irb140):
     out = [irb140, irb140.with_payload(Payload(mass=6.0, com=(0.05, -0.02, 0.2),
                                                inertia=((0.02, 0.001, 0.0), (0.001, 0.03, 0.0), (0.0, 0.0, 0.01))))]
     if ROBOTS is not None:
-        out.append(load_robot(ROBOTS / "ur_description/urdf/ur5_robot.urdf", DATA / "ur5_limits.toml"))
-        out.append(load_robot(ROBOTS / "panda_description/urdf/panda.urdf", DATA / "panda_limits.toml",
+        out.append(load_robot(UR5_URDF, DATA / "ur5_limits.toml"))
+        out.append(load_robot(PANDA_URDF, DATA / "panda_limits.toml",
                               locked_joints={"panda_finger_joint1": 0.02, "panda_finger_joint2": 0.02}))
     return out
 

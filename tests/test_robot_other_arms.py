@@ -6,8 +6,6 @@ accelerations there are test assumptions)."""
 
 from __future__ import annotations
 
-import importlib.metadata
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -19,17 +17,10 @@ from pathmotion.constraint import joint_derivatives, joint_third_derivative
 from pathmotion.geometry import FixedOrientation, distance_to_segments, horizontal_circle
 from pathmotion.robot import fk, has_closed_form, ik_nearest, jacobian, load_robot
 from pathmotion.robot import redundancy
+from robot_support import DATA, PANDA_URDF, ROBOTS, UR5_URDF
 
-try:
-    ROBOTS = Path(str(importlib.metadata.distribution("example-robot-data").locate_file(
-        "cmeel.prefix/share/example-robot-data/robots")))
-except importlib.metadata.PackageNotFoundError:  # pragma: no cover - the dev extra installs it
-    ROBOTS = None
 pytestmark = pytest.mark.skipif(ROBOTS is None, reason="example-robot-data (dev extra) is not installed")
 
-DATA = Path(__file__).parent / "data"
-UR5_URDF = None if ROBOTS is None else ROBOTS / "ur_description/urdf/ur5_robot.urdf"
-PANDA_URDF = None if ROBOTS is None else ROBOTS / "panda_description/urdf/panda.urdf"
 FINGERS = {"panda_finger_joint1": 0.02, "panda_finger_joint2": 0.02}
 PANDA_READY = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 UR5_START = np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0])

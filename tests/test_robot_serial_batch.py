@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.metadata
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -11,12 +9,8 @@ import pytest
 
 from pathmotion.robot import Tool, frame_acceleration_bias, jacobian, kinematics, load_robot
 from pathmotion.robot.serial_batch import chain_of
+from robot_support import PANDA_URDF, ROBOTS, UR5_URDF
 
-try:
-    ROBOTS = Path(str(importlib.metadata.distribution("example-robot-data").locate_file(
-        "cmeel.prefix/share/example-robot-data/robots")))
-except importlib.metadata.PackageNotFoundError:  # pragma: no cover - the dev extra installs it
-    ROBOTS = None
 
 
 def _arms():
@@ -25,8 +19,8 @@ def _arms():
                                                                                        (1.0, 0.0, 0.0),
                                                                                        (0.0, 0.0, 1.0))))
     if ROBOTS is not None:
-        yield "ur5", lambda: load_robot(ROBOTS / "ur_description/urdf/ur5_robot.urdf")
-        yield "panda", lambda: load_robot(ROBOTS / "panda_description/urdf/panda.urdf",
+        yield "ur5", lambda: load_robot(UR5_URDF)
+        yield "panda", lambda: load_robot(PANDA_URDF,
                                           locked_joints={"panda_finger_joint1": 0.02, "panda_finger_joint2": 0.02})
 
 

@@ -6,8 +6,6 @@ two prismatic finger joints (example-robot-data, dev extra)."""
 
 from __future__ import annotations
 
-import importlib.metadata
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -22,21 +20,16 @@ from pathmotion.planning.reduced import reduced_dynamics  # noqa: E402
 from pathmotion.robot import load_robot, rnea  # noqa: E402
 from pathmotion.robot.model import Payload  # noqa: E402
 from pathmotion.study.symbolic_dynamics import inverse_dynamics_function  # noqa: E402
+from robot_support import DATA, PANDA_URDF, ROBOTS, UR5_URDF  # noqa: E402
 
-DATA = Path(__file__).parent / "data"
-try:
-    ROBOTS = Path(str(importlib.metadata.distribution("example-robot-data").locate_file(
-        "cmeel.prefix/share/example-robot-data/robots")))
-except importlib.metadata.PackageNotFoundError:  # pragma: no cover - the dev extra installs it
-    ROBOTS = None
 PAYLOAD = Payload(mass=6.0, com=(0.05, -0.02, 0.2), inertia=((0.02, 0.001, 0.0), (0.001, 0.03, 0.0), (0.0, 0.0, 0.01)))
 
 
 def _robots(irb140):
     out = [irb140, irb140.with_payload(PAYLOAD)]
     if ROBOTS is not None:
-        out.append(load_robot(ROBOTS / "ur_description/urdf/ur5_robot.urdf", DATA / "ur5_limits.toml"))
-        out.append(load_robot(ROBOTS / "panda_description/urdf/panda.urdf"))  # 7 revolute + 2 prismatic joints
+        out.append(load_robot(UR5_URDF, DATA / "ur5_limits.toml"))
+        out.append(load_robot(PANDA_URDF))  # 7 revolute + 2 prismatic joints
     return out
 
 
