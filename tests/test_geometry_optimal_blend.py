@@ -352,6 +352,27 @@ def test_optimal_blend_scenario_beats_g2_with_a_certified_deviation():
     assert t_opt < t_g2
 
 
+def test_a_planar_optimal_blend_stays_in_the_corners_plane():
+    """planar = [corner]: the search skips the out-of-plane stage there, so the blended path keeps the
+    height of the horizontal turn exactly; the same search with the stage is never slower."""
+    path = _turn(60)
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=8, rise_plans=30)
+    flat = optimal_blends(_robot(), path, 0.003, planar=[0], **kw)
+    free = optimal_blends(_robot(), path, 0.003, **kw)
+    assert flat.shapes[0].planar and flat.duration == pytest.approx(free.planar_duration, rel=1e-12)
+    z = flat.path.evaluate(np.linspace(0.0, flat.path.length, 5001))[0][:, 2]
+    assert np.ptp(z) < 1e-12
+    assert free.duration <= flat.duration
+
+
+def test_planar_is_only_for_optimal_blends():
+    with pytest.raises(ScenarioError, match="planar = true is for 'optimal' blends"):
+        load_text(SCENARIO % ("g2", "tolerance = 0.003\nplanar = true"))
+    from pathmotion.io.scenario import parse_scenario
+
+    assert parse_scenario(SCENARIO % ("optimal", "tolerance = 0.003\nplanar = true"), "test").path.blends[0].planar
+
+
 def test_optimal_blend_needs_a_tolerance():
     with pytest.raises(ScenarioError, match="'optimal' blend needs tolerance"):
         load_text(SCENARIO % ("optimal", ""))

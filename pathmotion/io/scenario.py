@@ -82,6 +82,8 @@ class BlendSpec(_Model):
                             "'optimal': the G2 blend shape with the shortest time-optimal duration")
     radius: float | None = Field(None, gt=0, description="transition circle radius r_t [m] (type circle)")
     tolerance: float | None = Field(None, gt=0, description="largest deviation from the corner [m] (type g2, optimal)")
+    planar: bool = Field(False, description="type optimal: keep the blend in the corner's plane (default: anywhere "
+                                            "within the tolerance, which may lift or lower the tool by up to it)")
 
     @model_validator(mode="after")
     def _size(self):
@@ -89,6 +91,9 @@ class BlendSpec(_Model):
             raise ValueError("a 'circle' blend needs radius = r_t in metres")
         if self.type in (BlendType.G2, BlendType.OPTIMAL) and self.tolerance is None:
             raise ValueError(f"a '{self.type.value}' blend needs tolerance = largest allowed deviation in metres")
+        if self.planar and self.type != BlendType.OPTIMAL:
+            raise ValueError(f"planar = true is for 'optimal' blends (a '{self.type.value}' blend is always in the "
+                             "corner's plane); remove it")
         return self
 
 

@@ -315,11 +315,12 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    settings: PlanSettings | None = None, q_start=None, *, cycles: int = SEARCH_CYCLES,
                    steps: int = GOLDEN_STEPS, racing_steps: int = RACING_STEPS, racing: bool = True,
                    search_grid_points: int = SEARCH_GRID_POINTS, free_plans: int = FREE_PLANS,
-                   rise_plans: int = RISE_PLANS) -> OptimalBlend:
+                   rise_plans: int = RISE_PLANS, planar: Sequence[int] = ()) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
-    ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise). PathError as
+    ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
+    ``planar`` stay in their plane). PathError as
     :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
@@ -333,7 +334,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     for k in chosen:
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start)
         _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans,
-                       rise_plans)
+                       0 if k in planar else rise_plans)
         quintic[k], s_curve[k], planar[k], shapes[k] = (obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1],
                                                         obj.best(planar=True)[1], obj.best()[1])
         plans += obj.plans
