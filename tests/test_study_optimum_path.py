@@ -60,10 +60,24 @@ def test_the_path_runs_through_the_optimums_tcp_positions_and_stays_in_its_tube(
     assert dev <= DELTA + max(sol.verification["max_excess_m"], 0.0) + 1e-6
 
 
-def test_a_whole_tube_solution_is_refused(robot):
+def test_a_whole_tube_solution_from_rest_to_rest_is_planned_too(robot):
+    """The whole tube has no line to join: its path runs from the start at rest to the end at rest,
+    the first and last intervals written in the squared time (in time their speed vanishes there).
+    Planned along it: the NLP's duration, like the corner-confined one."""
     pts = corner_points(90.0)
-    line = fs.Polyline(pts)
-    phases = fs.tube_phases(line, DELTA)
-    guess = fs.guess_from_plan(fs.stop_plan(robot, line)[1], line, phases, 20)
-    with pytest.raises(PathError, match="corner-confined"):
-        optimum_task_path(robot, pts, phases, guess)
+    opt = fs.free_shape_optimum(robot, pts, DELTA, meshes=(25,))
+    sol = opt.solutions[-1]
+    assert sol.success, sol.status
+    path = optimum_task_path(robot, pts, fs.tube_phases(fs.Polyline(pts), DELTA), sol.motion)
+    assert all(seg.kind == "bezier" for seg in path.segments) and len(path.segments) == len(sol.motion.u)
+    np.testing.assert_allclose(path.pose(np.array(path.domain))[0], pts[[0, -1]], atol=1e-12)
+    settings = PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False,
+                            baselines=False, verify=False, grid_points=2000)
+    T = plan(lift(robot, path, original=_task(pts)), robot, settings).profile.duration
+    assert sol.duration * 0.98 <= T <= sol.duration * 1.003, (T, sol.duration)
+
+
+def test_phases_that_do_not_match_the_motion_are_refused(robot, solved):
+    pts, phases, sol = solved
+    with pytest.raises(PathError, match="phases"):
+        optimum_task_path(robot, pts, phases[:-1], sol.motion)
