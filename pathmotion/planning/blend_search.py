@@ -330,19 +330,20 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, s_curve, planar, plans = dict(shapes), dict(shapes), dict(shapes), dict(shapes), 0
+    initial, quintic, s_curve, in_plane, plans = dict(shapes), dict(shapes), dict(shapes), dict(shapes), 0
     for k in chosen:
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start)
         _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans,
                        0 if k in planar else rise_plans)
-        quintic[k], s_curve[k], planar[k], shapes[k] = (obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1],
-                                                        obj.best(planar=True)[1], obj.best()[1])
+        quintic[k], s_curve[k], in_plane[k], shapes[k] = (obj.best(quintic_only=True)[1],
+                                                          obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
+                                                          obj.best()[1])
         plans += obj.plans
         log.info("blend search: corner %d: %d plans, shape %s", k, obj.plans, shapes[k])
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    stages = (quintic, s_curve, planar, shapes)
+    stages = (quintic, s_curve, in_plane, shapes)
     for found in [c for i, c in enumerate(stages) if c not in stages[:i]]:
         candidates.append((duration_with(robot, original, found, full, q_start), found, None))
     plans += len(candidates)
