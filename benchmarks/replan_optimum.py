@@ -31,8 +31,8 @@ def main() -> None:
     ap.add_argument("--meshes", default="25,50,100", help="NLP meshes (intervals)")
     ap.add_argument("--grid", type=int, default=2000, help="planner grid points")
     ap.add_argument("--profile", action="store_true",
-                    help="print the optimum's path every 10 mm of arc: distance from the sharp path, height "
-                         "above the corner's plane")
+                    help="print the optimum's and the blend's paths every 10 mm of arc: distance from the sharp "
+                         "path, height above the corner's plane, curvature")
     ap.add_argument("--rise-plans", type=int, default=None,
                     help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
     a = ap.parse_args()
@@ -89,12 +89,14 @@ def main() -> None:
     if a.profile:
         normal_ = np.cross(pts[1] - pts[0], pts[2] - pts[1])
         normal_ /= np.linalg.norm(normal_)
-        theta = np.arange(0.0, optimum_path.domain[1], 0.01)
-        p = optimum_path.pose(theta)[0]
-        dist = fs.Polyline(pts).distance(p)
-        for th, x, d in zip(theta, p, dist):
-            print(f"    arc {th - np.linalg.norm(pts[1] - pts[0]):+.3f} m: {d * 1e3:6.3f} mm from the sharp path, "
-                  f"{(x - pts[1]) @ normal_ * 1e3:+7.3f} mm above the corner's plane")
+        for name, path in (("optimum", optimum_path), ("optimal blend", best.path)):
+            print(f"  {name}'s path every 10 mm of arc (from the corner's arc position on the sharp path):")
+            theta = np.arange(0.0, path.domain[1], 0.01)
+            p, _, ddp = path.pose(theta)[:3]
+            dist = fs.Polyline(pts).distance(p)
+            for th, x, d, k in zip(theta, p, dist, np.linalg.norm(ddp, axis=1)):
+                print(f"    arc {th - np.linalg.norm(pts[1] - pts[0]):+.3f} m: {d * 1e3:6.3f} mm from the sharp path, "
+                      f"{(x - pts[1]) @ normal_ * 1e3:+7.3f} mm above the corner's plane, curvature {k:7.2f} 1/m")
     print(f"  blend search: {best.plans} plans ({rise} out of the plane), {t1 - t0:.0f} s CPU; blend rises "
           f"{shape.rise_entry[0] * 1e3:+.2f} / {shape.rise_exit[0] * 1e3:+.2f} mm, offsets "
           f"{shape.offset_entry * 1e3:.2f} / {shape.offset_exit * 1e3:.2f} mm")
