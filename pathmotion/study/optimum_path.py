@@ -106,7 +106,7 @@ def optimum_task_path(robot, points, phases: Sequence, motion, rotation=None):
     quintic per NLP interval where it has one (module docstring), the tangent at a line's joint turned
     onto the line. PathError when the motion leaves the sharp path where its tube has radius 0."""
     from .. import defaults
-    from ..geometry import FixedOrientation, Line, TaskPath
+    from ..geometry import FixedOrientation, TaskPath
     from ..geometry.segments import BezierSegment
     from ..robot.kinematics import fk
     from .free_shape import Polyline
