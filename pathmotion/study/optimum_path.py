@@ -114,17 +114,20 @@ def optimum_task_path(robot, points, phases: Sequence, motion, rotation=None):
     line = Polyline(points)
     R = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
     if len(motion.breaks) != len(phases) + 1:
-        raise PathError(f"optimum path: the motion has {len(motion.breaks) - 1} phases, {len(phases)} given")
+        raise PathError(f"optimum path: the motion has {len(motion.breaks) - 1} phases, {len(phases)} given; give "
+                        "the phases it was solved on (free_shape.tube_phases with its delta and spans)")
     nodes = motion.breaks[-1]
     segments, at = [], np.asarray(line.points[0], float)  # built from the start, ``at``: the last point placed
     for i, j in _runs(phases):
         first = motion.breaks[i]
+        # the first node inside the radius-0 phase after the run (capped at that phase's end)
         last = nodes if j + 1 == len(phases) else min(motion.breaks[j + 1] + 1, motion.breaks[j + 2])
         ends = fk(robot, motion.q[[first, last]])[0]
         for node, end, side in ((first, ends[0], i - 1), (last, ends[1], j + 1)):
             if 0 <= side < len(phases) and line.distance(end[None])[0] > ON_LINE_TOLERANCE:
                 raise PathError(f"optimum path: the motion is {line.distance(end[None])[0]:.3g} m off the sharp path "
-                                f"at node {node}, where its tube has radius 0")
+                                f"at node {node}, where its tube has radius 0; give the points and phases it was "
+                                "solved on")
         if first > 0:  # the sharp path up to the run: the lines from the last point placed
             segments += _lines_between(line, at, ends[0], phases[i].segment)
         pieces = _hermite_pieces(robot, motion, first, last)
