@@ -26,6 +26,13 @@ def robot():
     return load_robot("irb140")
 
 
+def _planned(robot, pts, path) -> float:
+    """pathmotion's time-optimal duration [s] along ``path``, rest to rest, v + a limits (the NLP's)."""
+    settings = PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False,
+                            baselines=False, verify=False, grid_points=2000)
+    return plan(lift(robot, path, original=_task(pts)), robot, settings).profile.duration
+
+
 @pytest.fixture(scope="module")
 def solved(robot):
     pts = corner_points(90.0)
@@ -39,10 +46,7 @@ def test_planning_along_the_optimums_own_path_gives_its_duration(robot, solved):
     midpoints, the planner everywhere), and not far below it (the 50-interval NLP is within ~1 % of
     the converged optimum, so a planner much faster than it along a path in the tube would be wrong)."""
     pts, phases, sol = solved
-    path = optimum_task_path(robot, pts, phases, sol.motion)
-    settings = PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False,
-                            baselines=False, verify=False, grid_points=2000)
-    T = plan(lift(robot, path, original=_task(pts)), robot, settings).profile.duration
+    T = _planned(robot, pts, optimum_task_path(robot, pts, phases, sol.motion))
     assert sol.duration * 0.98 <= T <= sol.duration * 1.003, (T, sol.duration)
 
 
@@ -53,7 +57,7 @@ def test_the_path_runs_through_the_optimums_tcp_positions_and_stays_in_its_tube(
     first, last = m.breaks[1], m.breaks[3] + 1  # the span's nodes
     tcp = np.atleast_2d(fk(robot, m.q[first:last + 1])[0])
     on_path = path.pose(np.linspace(*path.domain, 20001))[0]
-    gaps = np.min(np.linalg.norm(tcp[:, None, :] - on_path[None, ::1, :], axis=2), axis=1)
+    gaps = np.min(np.linalg.norm(tcp[:, None, :] - on_path[None, :, :], axis=2), axis=1)
     assert np.max(gaps) < 2e-5  # the 20001 samples are ~25 um apart: every node lies on the path
     # within the tube up to what the NLP allows between its tube points (its own verification)
     dev = max_deviation(path, _task(pts)).distance
@@ -71,9 +75,7 @@ def test_a_whole_tube_solution_from_rest_to_rest_is_planned_too(robot):
     path = optimum_task_path(robot, pts, fs.tube_phases(fs.Polyline(pts), DELTA), sol.motion)
     assert all(seg.kind == "bezier" for seg in path.segments) and len(path.segments) == len(sol.motion.u)
     np.testing.assert_allclose(path.pose(np.array(path.domain))[0], pts[[0, -1]], atol=1e-12)
-    settings = PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False,
-                            baselines=False, verify=False, grid_points=2000)
-    T = plan(lift(robot, path, original=_task(pts)), robot, settings).profile.duration
+    T = _planned(robot, pts, path)
     assert sol.duration * 0.98 <= T <= sol.duration * 1.003, (T, sol.duration)
 
 
