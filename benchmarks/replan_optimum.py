@@ -87,8 +87,6 @@ def main() -> None:
     for name, T in rows:
         print(f"  {name:28s} {T:.5f} s  {100 * (T / sol.duration - 1):+.2f} % vs the finest NLP mesh")
     if a.profile:
-        normal_ = np.cross(pts[1] - pts[0], pts[2] - pts[1])
-        normal_ /= np.linalg.norm(normal_)
         for name, path in (("optimum", optimum_path), ("optimal blend", best.path)):
             print(f"  {name}'s path every 10 mm of arc (from the corner's arc position on the sharp path):")
             theta = np.arange(0.0, path.domain[1], 0.01)
@@ -96,7 +94,7 @@ def main() -> None:
             dist = fs.Polyline(pts).distance(p)
             for th, x, d, k in zip(theta, p, dist, np.linalg.norm(ddp, axis=1)):
                 print(f"    arc {th - np.linalg.norm(pts[1] - pts[0]):+.3f} m: {d * 1e3:6.3f} mm from the sharp path, "
-                      f"{(x - pts[1]) @ normal_ * 1e3:+7.3f} mm above the corner's plane, curvature {k:7.2f} 1/m")
+                      f"{(x - pts[1]) @ normal * 1e3:+7.3f} mm above the corner's plane, curvature {k:7.2f} 1/m")
     print(f"  blend search: {best.plans} plans ({rise} out of the plane), {t1 - t0:.0f} s CPU; blend rises "
           f"{shape.rise_entry[0] * 1e3:+.2f} / {shape.rise_exit[0] * 1e3:+.2f} mm, offsets "
           f"{shape.offset_entry * 1e3:.2f} / {shape.offset_exit * 1e3:.2f} mm")
