@@ -117,8 +117,8 @@ def _side(w: float, far: float, near: float, run: float) -> tuple[float, float]:
 
 
 class _Objective:
-    """Duration of the path with the blend coordinates x (7,) or (11,) at one corner (others fixed),
-    cached."""
+    """Duration of the path with the blend coordinates x (7,), (11,) or (17,) at one corner (others
+    fixed), cached."""
 
     def __init__(self, robot, original: TaskPath, shapes: dict, corner: int, tolerance: float,
                  settings: PlanSettings, q_start):
@@ -287,8 +287,8 @@ def _rise_stage(objective: _Objective, plans: int) -> None:
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS) -> None:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
-    racing-line stage from the best quintic and the free stage from the best racing line (module
-    docstring)."""
+    racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
+    > 0) and the rise stage from the best free blend (``rise_plans`` > 0) (module docstring)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
