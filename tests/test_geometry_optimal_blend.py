@@ -217,7 +217,7 @@ def test_a_rise_alone_makes_offset_pieces_and_bad_rises_are_refused():
         g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05), rises=((2e-3, 0.0, 0.0), (0.0, 0.0, 0.0)))
     with pytest.raises(PathError, match="rise must be"):
         g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05), rises=((0.0, np.inf, 0.0), (0.0, 0.0, 0.0)))
-    with pytest.raises(PathError, match="entry offset piece needs a positive run"):
+    with pytest.raises(PathError, match="entry offset piece needs a positive run .* and rise 0.001 m"):
         g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, rises=((1e-3, 0.0, 0.0), (0.0, 0.0, 0.0)))
 
 

@@ -609,8 +609,9 @@ def _check_racing(offsets, runs, tol: float, what: str, slopes=(0.0, 0.0), bends
         if not (np.isfinite(sl[i]) and np.isfinite(be[i])):
             raise PathError(f"{what}: the {side} slope and bend must be finite numbers, got {sl[i]!r} and {be[i]!r}")
         if _has_piece(w[i], sl[i], be[i], *ri[i]) and not (np.isfinite(ell[i]) and ell[i] > 0.0):
-            raise PathError(f"{what}: the {side} offset piece needs a positive run [m] with offset {w[i]:.6g} m, "
-                            f"got {ell[i]!r}")
+            raise PathError(f"{what}: the {side} offset piece needs a positive run [m] with offset {w[i]:.6g} m "
+                            f"and rise {ri[i][0]:.6g} m, got {ell[i]!r}; give a run > 0, or offset, rise, slopes "
+                            "and bends 0 there")
     ell = tuple(ell[i] if _has_piece(w[i], sl[i], be[i], *ri[i]) else 0.0 for i in range(2))  # no piece, no run
     return w, ell, sl, be, ri
 
