@@ -63,7 +63,9 @@ def inverse_dynamics_function(robot):
     model = robot.model
     n = robot.n
     if model.nq != n or model.nv != n:
-        raise PathmotionError(f"symbolic dynamics: the model has nq = {model.nq}, nv = {model.nv} for {n} joints")
+        raise PathmotionError(f"symbolic dynamics: the model has nq = {model.nq}, nv = {model.nv} for {n} joints; "
+                              "only one-coordinate revolute or prismatic joints are handled (lock the others with "
+                              "load_robot(..., locked_joints=...))")
     q, qd, qdd = (ca.SX.sym(name, n) for name in ("q", "qd", "qdd"))
     armature = np.asarray(model.armature, float)
     zero = ca.SX.zeros(3, 1)
