@@ -4,7 +4,6 @@ fingers locked), and the fallback for a joint type the kernels do not handle."""
 
 from __future__ import annotations
 
-
 import numpy as np
 import pinocchio as pin
 
@@ -13,7 +12,6 @@ from pathmotion.planning.reduced import reduced_dynamics
 from pathmotion.robot import load_robot
 from pathmotion.robot.model import Payload
 from robot_support import DATA, PANDA_URDF, ROBOTS, UR5_URDF
-
 
 
 def _robots(irb140):

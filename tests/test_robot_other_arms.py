@@ -6,7 +6,6 @@ accelerations there are test assumptions)."""
 
 from __future__ import annotations
 
-
 import numpy as np
 import pinocchio as pin
 import pytest

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -10,7 +9,6 @@ import pytest
 from pathmotion.robot import Tool, frame_acceleration_bias, jacobian, kinematics, load_robot
 from pathmotion.robot.serial_batch import chain_of
 from robot_support import PANDA_URDF, ROBOTS, UR5_URDF
-
 
 
 def _arms():
