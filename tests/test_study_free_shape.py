@@ -215,7 +215,7 @@ def test_covered_stretches_are_absorbed_into_the_corner_stretches():
 def test_corner_confined_tube_with_covered_stretches_converges(robot):
     """60 deg / 10 mm, the racing line's spans: with a 1.95 mm and a 0.2 um stretch on the line the NLP hit its cap
     on every mesh from every start (their phases shrank to MIN_PHASE_DURATION); absorbed, it converges from the stop,
-    below it and at or above the whole tube on the same nodes (which contains it)."""
+    below it, no phase near MIN_PHASE_DURATION, and its dense verification holds."""
     pts = atlas_points(60.0)
     spans = [(0.19805064846177695, 0.19999980000000003)]
     _, stop = fs.stop_plan(robot, fs.Polyline(pts))
