@@ -411,7 +411,7 @@ class G2Shape:
     out of the corner's plane, along its normal m = t_A x t_B / |t_A x t_B| (up at a left turn in a
     horizontal plane), so an offset piece may leave the plane (the free-shape optimum does: at
     120 deg / 10 mm it rises to the tube's edge before the corner, instead of moving out, and sinks
-    4.7 mm below the plane after it)."""
+    below the plane after it; docs/study.md, "Where the blend loses time", has its profile)."""
 
     entry: float
     exit: float
