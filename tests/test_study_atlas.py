@@ -54,6 +54,26 @@ def test_optimum_cache_is_keyed_by_its_inputs(tmp_path):
     assert len(list(tmp_path.glob("*.json"))) == 2  # other inputs, another entry
 
 
+def test_the_cache_key_has_the_spans_and_crowd_the_nlp_lays_out():
+    """Spans (corner-confined) and crowd (whole tube) enter the key as free_shape.effective_spans lays the phases
+    out: spans that fold to the same layout share a key, and a layout that changed is never read back under the
+    raw spans of a cache written before the folding."""
+    from pathmotion.robot import load_robot
+    from pathmotion.study.free_shape import Polyline, effective_spans
+
+    robot = load_robot("irb140")
+    pts = atlas.corner_points(60.0)
+    raw = [(0.19805, 0.1999998)]  # 60 deg / 10 mm: the stretches left on the lines are inside the capsules
+    folded = effective_spans(Polyline(pts).lengths, 0.01, raw)
+    assert folded != raw
+    for spans, crowd in ((raw, None), (None, raw)):
+        key = atlas._optimum_key(robot, pts, 0.01, spans, (25, 50), crowd=crowd)
+        same = atlas._optimum_key(robot, pts, 0.01, folded if spans else None, (25, 50), crowd=folded if crowd else None)
+        other = atlas._optimum_key(robot, pts, 0.01, [(0.1, 0.1)] if spans else None, (25, 50),
+                                   crowd=[(0.1, 0.1)] if crowd else None)
+        assert key == same != other
+
+
 def test_reference_value_is_never_a_silent_number():
     ok = {"success": True, "duration": 0.7, "convergence_error": 0.002, "status": "Solve_Succeeded",
           "statuses": ["Solve_Succeeded"] * 3, "durations": [0.69, 0.695, 0.698]}

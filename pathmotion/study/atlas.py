@@ -150,13 +150,17 @@ def industrial_zone_duration(robot, task, tolerance: float) -> float:
 
 
 def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None) -> str:
-    """Cache key of a free-shape optimum: its inputs, the corner spans as the NLP solves them (free_shape.
-    effective_spans, so a solve whose spans gained absorbed stretches is not read back), and ``start`` only for a
-    retry from another start (CORNER_STARTS), so that first attempts keep their keys."""
+    """Cache key of a free-shape optimum: its inputs, the corner spans and the whole tube's crowd spans as the
+    NLP lays its phases out (free_shape.effective_spans, so a solve whose spans gained absorbed stretches is not
+    read back from a cache written before), and ``start`` only for a retry from another start (CORNER_STARTS), so
+    that first attempts keep their keys."""
     from .free_shape import Polyline, effective_spans
 
+    lengths = Polyline(points).lengths
     if spans is not None:
-        spans = effective_spans(Polyline(points).lengths, delta, spans)
+        spans = effective_spans(lengths, delta, spans)
+    if crowd is not None:
+        crowd = effective_spans(lengths, delta, crowd)
     fields = {"v": OPTIMUM_VERSION if spans is None else CORNER_OPTIMUM_VERSION, "robot": robot.name,
               "crowd": None if crowd is None else np.round(crowd, 12).tolist(),
               "velocity": list(map(float, robot.limits.velocity)),
