@@ -20,11 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-#: Pinocchio joint short names handled here: revolute (kind 0) or prismatic (kind 1) and their axis.
-_JOINTS = {"JointModelRX": (0, (1.0, 0.0, 0.0)), "JointModelRY": (0, (0.0, 1.0, 0.0)),
-           "JointModelRZ": (0, (0.0, 0.0, 1.0)), "JointModelPX": (1, (1.0, 0.0, 0.0)),
-           "JointModelPY": (1, (0.0, 1.0, 0.0)), "JointModelPZ": (1, (0.0, 0.0, 1.0))}
-_UNALIGNED = {"JointModelRevoluteUnaligned": 0, "JointModelPrismaticUnaligned": 1}
+from ..robot.joints import joint_motion
+
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,16 +63,10 @@ def _extract(model) -> ChainData | None:
     kind, axis = np.zeros(nb, np.int64), np.zeros((nb, 3))
     for b in range(nb):
         joint = model.joints[b + 1]
-        name = joint.shortname()
-        if joint.idx_v != b:
+        motion = joint_motion(joint)
+        if joint.idx_v != b or motion is None:
             return None
-        if name in _JOINTS:
-            kind[b], axis[b] = _JOINTS[name][0], _JOINTS[name][1]
-        elif name in _UNALIGNED:
-            kind[b] = _UNALIGNED[name]
-            axis[b] = np.asarray(joint.extract().axis, float)
-        else:
-            return None
+        kind[b], axis[b] = motion
     inert = [model.inertias[b + 1] for b in range(nb)]
     place = [model.jointPlacements[b + 1] for b in range(nb)]
     return ChainData(np.array([model.parents[b + 1] for b in range(nb)], np.int64), kind, axis,

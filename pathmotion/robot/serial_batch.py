@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-_AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0), "JointModelRZ": (0.0, 0.0, 1.0)}
+from .joints import REVOLUTE, joint_motion
 
 
 @dataclass(frozen=True)
@@ -53,15 +53,12 @@ def chain_of(model, frame_id: int) -> Chain | None:
     axes = []
     for i in range(1, n + 1):
         joint = model.joints[i]
-        name = joint.shortname()
+        motion = joint_motion(joint)
         if model.parents[i] != i - 1 or joint.idx_q != i - 1 or joint.idx_v != i - 1:
             return None
-        if name in _AXES:
-            axes.append(_AXES[name])
-        elif name == "JointModelRevoluteUnaligned":
-            axes.append(tuple(np.asarray(joint.extract().axis, dtype=float)))
-        else:
+        if motion is None or motion[0] != REVOLUTE:
             return None
+        axes.append(motion[1])
     placements = [model.jointPlacements[i] for i in range(1, n + 1)]
     tool = model.frames[frame_id].placement
     return Chain(rot=np.array([m.rotation for m in placements]), trans=np.array([m.translation for m in placements]),

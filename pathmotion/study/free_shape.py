@@ -116,16 +116,15 @@ def _casadi():
 
 
 # ----------------------------------------------------------------------------------- kinematics
-_AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0), "JointModelRZ": (0.0, 0.0, 1.0)}
-
-
 def _axis(joint) -> np.ndarray:
-    name = joint.shortname()
-    if name in _AXES:
-        return np.array(_AXES[name])
-    if name == "JointModelRevoluteUnaligned":
-        return np.asarray(joint.extract().axis, float)
-    raise PathmotionError(f"the free-shape solver handles chains of revolute joints; joint type {name} is not one")
+    """Unit axis (3,) of a revolute joint; PathmotionError for any other joint type."""
+    from ..robot.joints import REVOLUTE, joint_motion
+
+    motion = joint_motion(joint)
+    if motion is None or motion[0] != REVOLUTE:
+        raise PathmotionError(f"the free-shape solver handles chains of revolute joints; joint type "
+                              f"{joint.shortname()} is not one (lock it with load_robot(..., locked_joints=...))")
+    return motion[1]
 
 
 def _rodrigues(ca, axis: np.ndarray, angle):
@@ -649,8 +648,8 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
 
     cont = from_previous if previous is not None else fresh
     tries = []
+    from_stop = fresh if stop is None else (lambda: stop(intervals))
     for src, options, form in STARTS_WARM if warm else STARTS:
-        from_stop = fresh if stop is None else (lambda: stop(intervals))
         attempt = ({"previous": cont, "start": fresh}.get(src, from_stop), options, form)
         if attempt not in tries:  # without a previous mesh, "previous" is the start
             tries.append(attempt)

@@ -19,29 +19,22 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PathmotionError
+from ..robot.joints import REVOLUTE, joint_motion
 from .free_shape import _casadi, _rodrigues
-
-#: Pinocchio joint short names handled here: (kind, axis); kind 0 revolute, 1 prismatic.
-_JOINTS = {"JointModelRX": (0, (1.0, 0.0, 0.0)), "JointModelRY": (0, (0.0, 1.0, 0.0)),
-           "JointModelRZ": (0, (0.0, 0.0, 1.0)), "JointModelPX": (1, (1.0, 0.0, 0.0)),
-           "JointModelPY": (1, (0.0, 1.0, 0.0)), "JointModelPZ": (1, (0.0, 0.0, 1.0))}
-_UNALIGNED = {"JointModelRevoluteUnaligned": 0, "JointModelPrismaticUnaligned": 1}
 
 
 def _joint(model, i: int) -> tuple[int, np.ndarray]:
     """(kind, unit axis (3,)) of joint ``i`` of ``model``, or a PathmotionError naming it."""
     joint = model.joints[i]
-    name = joint.shortname()
     if joint.nq != 1 or joint.nv != 1:
         raise PathmotionError(f"symbolic dynamics: joint {model.names[i]} has {joint.nq} coordinates; only "
                               "one-coordinate revolute or prismatic joints are handled")
-    if name in _JOINTS:
-        kind, axis = _JOINTS[name]
-        return kind, np.array(axis)
-    if name in _UNALIGNED:
-        return _UNALIGNED[name], np.asarray(joint.extract().axis, float)
-    raise PathmotionError(f"symbolic dynamics: joint {model.names[i]} is of type {name}; only revolute and "
-                          "prismatic joints are handled (lock the others with load_robot(..., locked_joints=...))")
+    motion = joint_motion(joint)
+    if motion is None:
+        raise PathmotionError(f"symbolic dynamics: joint {model.names[i]} is of type {joint.shortname()}; only "
+                              "revolute and prismatic joints are handled (lock the others with "
+                              "load_robot(..., locked_joints=...))")
+    return motion
 
 
 def _forces(ca, inertia, w, v, a, al):
@@ -76,15 +69,15 @@ def inverse_dynamics_function(robot):
         kind, axis = _joint(model, i)
         k = model.joints[i].idx_v
         placement = model.jointPlacements[i]
-        R = ca.DM(placement.rotation) @ (_rodrigues(ca, axis, q[k]) if kind == 0 else ca.DM.eye(3))
-        p = ca.DM(placement.translation) + (ca.DM(placement.rotation) @ ca.DM(axis) * q[k] if kind == 1 else 0)
+        R = ca.DM(placement.rotation) @ (_rodrigues(ca, axis, q[k]) if kind == REVOLUTE else ca.DM.eye(3))
+        p = ca.DM(placement.translation) + (ca.DM(placement.rotation) @ ca.DM(axis) * q[k] if kind != REVOLUTE else 0)
         frames[i] = (R, p)
         pw, pv, pa, pl = motion[model.parents[i]]
         # the parent's motion at this body's origin, in this body's frame
         w, v = R.T @ pw, R.T @ (pv + ca.cross(pw, p))
         a, al = R.T @ pa, R.T @ (pl + ca.cross(pa, p))
         s = ca.DM(axis) * qd[k]
-        if kind == 0:  # revolute: acc += (w x s, v x s) + (axis qdd, 0); w += s
+        if kind == REVOLUTE:  # acc += (w x s, v x s) + (axis qdd, 0); w += s
             a, al = a + ca.cross(w, s) + ca.DM(axis) * qdd[k], al + ca.cross(v, s)
             w = w + s
         else:  # prismatic: acc += (0, w x s + axis qdd); v += s
@@ -97,7 +90,7 @@ def inverse_dynamics_function(robot):
         kind, axis = _joint(model, i)
         k = model.joints[i].idx_v
         f, m = forces[i]
-        tau[k] = ca.dot(ca.DM(axis), m if kind == 0 else f) + armature[k] * qdd[k]
+        tau[k] = ca.dot(ca.DM(axis), m if kind == REVOLUTE else f) + armature[k] * qdd[k]
         lam = model.parents[i]
         if lam > 0:  # the parent takes (R f, R m + p x R f)
             R, p = frames[i]
