@@ -45,27 +45,25 @@ def _hermite_pieces(robot, motion, first: int, last: int) -> list[np.ndarray]:
     +-u h^2 / 2, so X' = J dq and X'' = Jdot(dq) dq (in time X' vanishes at the resting end: a cusp)."""
     from ..robot.kinematics import fk, frame_acceleration_bias, jacobian
 
-    pieces = []
+    nodes = slice(first, last + 1)
+    q, qd, u = motion.q[nodes], motion.qd[nodes], motion.u[first:last]  # (K + 1, n), (K + 1, n), (K, n)
+    h = np.diff(motion.t[nodes])[:, None]  # (K, 1)
+    p = fk(robot, q)[0]  # (K + 1, 3): last > first, so always a batch
+    J = jacobian(robot, q)[:, :3]  # (K + 1, 3, n)
+    bias = frame_acceleration_bias(robot, q, qd)[:, :3]  # Jdot qd, (K + 1, 3)
+    # in time: X' = h J qd, X'' = h^2 (J u + Jdot qd), with the interval's u at both of its ends
+    d0, d1 = h * np.einsum("kij,kj->ki", J[:-1], qd[:-1]), h * np.einsum("kij,kj->ki", J[1:], qd[1:])
+    a0 = h ** 2 * (np.einsum("kij,kj->ki", J[:-1], u) + bias[:-1])
+    a1 = h ** 2 * (np.einsum("kij,kj->ki", J[1:], u) + bias[1:])
     still = REST_FRACTION * max(float(np.max(np.abs(motion.qd))), np.finfo(float).tiny)
-    for k in range(first, last):
-        h = motion.t[k + 1] - motion.t[k]
-        u = motion.u[k]
-        at_rest = min(np.max(np.abs(motion.qd[k])), np.max(np.abs(motion.qd[k + 1]))) <= still
-        ends = []
-        for node in (k, k + 1):
-            q = motion.q[node]
-            J = jacobian(robot, q)[:3]
-            if at_rest:
-                dq = 0.5 * h * h * u * (1.0 if np.max(np.abs(motion.qd[k])) <= still else -1.0)
-                d, acc = J @ dq, frame_acceleration_bias(robot, q, dq)[:3]
-            else:
-                qd = motion.qd[node]
-                d, acc = h * (J @ qd), h * h * (J @ u + frame_acceleration_bias(robot, q, qd)[:3])
-            ends.append((fk(robot, q)[0], d, acc))
-        (p0, d0, a0), (p1, d1, a1) = ends
-        pieces.append(np.array([p0, p0 + d0 / 5, p0 + 2 * d0 / 5 + a0 / 20, p1 - 2 * d1 / 5 + a1 / 20,
-                                p1 - d1 / 5, p1]))
-    return pieces
+    resting = np.max(np.abs(qd), axis=1) <= still  # (K + 1,)
+    for k in np.flatnonzero(resting[:-1] | resting[1:]):  # in sigma: q linear, dq = +-u h^2 / 2
+        dq = 0.5 * h[k, 0] ** 2 * u[k] * (1.0 if resting[k] else -1.0)
+        d0[k], d1[k] = J[k] @ dq, J[k + 1] @ dq
+        a0[k], a1[k] = (frame_acceleration_bias(robot, q[k + i], dq)[:3] for i in (0, 1))
+    b0, b5 = p[:-1], p[1:]
+    pieces = np.stack([b0, b0 + d0 / 5, b0 + 2 * d0 / 5 + a0 / 20, b5 - 2 * d1 / 5 + a1 / 20, b5 - d1 / 5, b5], axis=1)
+    return list(pieces)
 
 
 def _along(piece: np.ndarray, t: np.ndarray, at_start: bool) -> None:
