@@ -23,6 +23,33 @@ def test_tolerance_beyond_half_a_segment_is_an_error():
         atlas.check_inputs([90.0], [0.15])
 
 
+@pytest.mark.parametrize("meshes, fault", [((0,), "at least 2"), ((0, 0), "positive"), ((25, 40, 100), "twice the previous"),
+                                           ((25.5, 51), "whole interval counts"), ((25,), "at least 2")])
+def test_meshes_that_give_no_converged_reference_are_errors(meshes, fault):
+    """`--meshes 0` ran the NLP on 3 intervals per phase and reported a 'local optimum below the feasible motion' (its
+    one mesh had a NaN error); meshes that do not double break the extrapolation silently."""
+    with pytest.raises(PathError, match=fault):
+        atlas.check_inputs([90.0], [0.001], meshes)
+
+
+def test_bad_meshes_through_the_cli_exit_1_before_any_work(tmp_path):
+    from typer.testing import CliRunner
+
+    from pathmotion.cli import app
+
+    res = CliRunner().invoke(app, ["corners", "--angles", "90", "--tolerances", "0.001", "--meshes", "0",
+                                   "--out", str(tmp_path / "atlas")])
+    assert res.exit_code == 1 and "meshes" in res.output and "e.g. 25,50,100" in res.output
+    assert not (tmp_path / "atlas").exists()
+
+
+def test_a_reference_without_an_error_estimate_is_judged_by_the_margin_alone():
+    from pathmotion.study.atlas import local_optimum_note
+
+    assert local_optimum_note(0.8169, float("nan"), 0.8181) is None  # below the feasible motion: a reference
+    assert local_optimum_note(0.8300, float("nan"), 0.8181) is not None
+
+
 def test_too_large_tolerance_for_a_g2_blend_is_the_rows_error_with_the_largest_that_fits():
     result = atlas.atlas_point('robot = "irb140"\ncache = "/nonexistent"\n', ".",
                                (("angle_deg", 30.0), ("tolerance_m", 0.05)))

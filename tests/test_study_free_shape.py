@@ -225,3 +225,11 @@ def test_corner_confined_tube_with_covered_stretches_converges(robot):
     phase_times = np.diff(opt.solutions[0].motion.t[list(opt.solutions[0].motion.breaks)])
     assert np.all(phase_times > 10 * fs.MIN_PHASE_DURATION)
     _check_verified(opt, 0.01, excess=0.2)  # 25 intervals: 1.6 mm outside a 10 mm tube between the points
+
+
+@pytest.mark.parametrize("meshes", [(), (0,), (25, 40), (25, 50, 99), ("x",)])
+def test_meshes_the_extrapolation_cannot_use_are_refused_before_any_solve(robot, meshes):
+    from pathmotion.errors import PathError
+
+    with pytest.raises(PathError, match="e.g. 25,50,100"):
+        fs.free_shape_optimum(robot, TURN, 0.001, meshes=meshes)

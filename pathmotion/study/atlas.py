@@ -91,10 +91,15 @@ def _task(points: np.ndarray):
     return TaskPath(tuple(Line(a, b) for a, b in zip(points[:-1], points[1:])), FixedOrientation())
 
 
-def check_inputs(angles: Sequence[float], tolerances: Sequence[float]) -> None:
-    """PathError for an angle of (about) 0 or 180 deg, or a tolerance that is not positive or not
-    below half a segment. (A tolerance that no G2 blend can use up at some angle is that row's
-    error, with the largest that fits.)"""
+def check_inputs(angles: Sequence[float], tolerances: Sequence[float], meshes: Sequence[int] | None = None) -> None:
+    """PathError for an angle of (about) 0 or 180 deg, a tolerance that is not positive or not below
+    half a segment, or ``meshes`` that are not at least two interval counts each twice the previous
+    (every reference needs a convergence error). (A tolerance that no G2 blend can use up at some
+    angle is that row's error, with the largest that fits.)"""
+    from .free_shape import check_meshes
+
+    if meshes is not None:
+        check_meshes(meshes, least=2)
     for a in angles:
         corner_points(a)
     half = 0.5 * ATLAS_SEGMENT_LENGTH
@@ -245,7 +250,8 @@ def local_optimum_note(value: float, error: float | None, feasible: float) -> st
     """A note when a converged reference ``value`` [s] lies above ``feasible`` [s], the shorter of the stop and the
     optimal blend (both lie in either tube, so the minimum time is at most it), by more than its convergence ``error``
     [s] and FEASIBLE_MARGIN: IPOPT converged to a local optimum, which is no reference; else None."""
-    if value - feasible <= (error or 0.0) + FEASIBLE_MARGIN * feasible:
+    error = error if error is not None and np.isfinite(error) else 0.0  # one mesh: no error estimate
+    if value - feasible <= error + FEASIBLE_MARGIN * feasible:
         return None
     return (f"local optimum {value:.4f} s, above the feasible {feasible:.4f} s (stop or optimal blend) by more than "
             "its convergence error: not a reference")
@@ -410,7 +416,7 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     from .sweep import load_finished, run_sweep, write_tables
 
     angles, tolerances = [float(a) for a in angles], [float(t) for t in tolerances]
-    check_inputs(angles, tolerances)
+    check_inputs(angles, tolerances, meshes)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     meshes = list(meshes or MESHES)

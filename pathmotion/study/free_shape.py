@@ -606,6 +606,25 @@ class FreeShapeOptimum:
         return tuple(s.duration for s in self.solutions)
 
 
+def check_meshes(meshes: Sequence[int], least: int = 1) -> tuple[int, ...]:
+    """``meshes`` as a tuple of interval counts: at least ``least`` of them, positive integers, each twice
+    the previous (extrapolate assumes that ratio); PathError naming the fault otherwise."""
+    try:
+        out = tuple(int(m) for m in meshes)
+        exact = all(float(m) == int(m) for m in meshes)
+    except (TypeError, ValueError, OverflowError):
+        out, exact = (), False
+    example = "e.g. 25,50,100"
+    if not exact or len(out) < least:
+        raise PathError(f"free shape: meshes {list(meshes)!r} must be at least {least} whole interval counts, {example}")
+    if out[0] < 1:
+        raise PathError(f"free shape: meshes {list(out)} must be positive interval counts, {example}")
+    if any(b != 2 * a for a, b in zip(out[:-1], out[1:])):
+        raise PathError(f"free shape: meshes {list(out)} must each be twice the previous (the Richardson extrapolation "
+                        f"assumes it), {example}")
+    return out
+
+
 def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, float]:
     """Richardson extrapolation of durations on meshes refined by ``ratio``: (value, |value - finest|).
     The order comes from the last three (clamped to ORDER_RANGE); with fewer, the finest and the
@@ -680,6 +699,7 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     delta = float(delta)
     if not (np.isfinite(delta) and delta >= 0):
         raise PathError(f"free shape: delta must be a distance >= 0 [m], got {delta!r}")
+    meshes = check_meshes(meshes)
     line = Polyline(points)
     R_ref = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
     inner = warm if isinstance(warm, FreeShapeOptimum) else None
@@ -714,6 +734,6 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
                             None if spans is None else tuple(map(tuple, spans)), torque)
 
 
-__all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "effective_spans", "extrapolate",
+__all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "check_meshes", "effective_spans", "extrapolate",
            "free_shape_optimum", "max_torque_ratio", "solve_mesh", "stop_plan", "tcp_function", "tube_phases",
            "verify"]
