@@ -556,7 +556,7 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [de
             progress.update(task, completed=done, total=total)
 
         atlas = corner_atlas(out, numbers(angles, "angles"), numbers(tolerances, "tolerances"),
-                             meshes=[int(m) for m in numbers(meshes, "meshes")], workers=workers,
+                             meshes=numbers(meshes, "meshes"), workers=workers,
                              scheduler=scheduler, on_result=on_result, figures=figures)
     failed = sum(1 for r in atlas.rows if r.get("error") or r.get("status") != "ok")
     console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum -> {out}/corners.csv")

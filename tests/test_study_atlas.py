@@ -41,6 +41,9 @@ def test_bad_meshes_through_the_cli_exit_1_before_any_work(tmp_path):
                                    "--out", str(tmp_path / "atlas")])
     assert res.exit_code == 1 and "meshes" in res.output and "e.g. 25,50,100" in res.output
     assert not (tmp_path / "atlas").exists()
+    res = CliRunner().invoke(app, ["corners", "--angles", "90", "--tolerances", "0.001", "--meshes", "25.5,51",
+                                   "--out", str(tmp_path / "atlas")])
+    assert res.exit_code == 1 and "whole interval counts" in res.output  # named, not truncated to 25
 
 
 def test_a_reference_without_an_error_estimate_is_judged_by_the_margin_alone():

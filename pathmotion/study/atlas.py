@@ -412,14 +412,14 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
                  on_result=None, figures: bool = True, closed_loop: bool = True) -> CornerAtlas:
     """Run the atlas into ``out`` (corners.csv / .parquet, tdelta.png, gain_vs_angle.png; the points
     and the optimum cache under ``out``); resumes. Bad angles or tolerances raise before any work."""
-    from .free_shape import MESHES
+    from .free_shape import MESHES, check_meshes
     from .sweep import load_finished, run_sweep, write_tables
 
     angles, tolerances = [float(a) for a in angles], [float(t) for t in tolerances]
     check_inputs(angles, tolerances, meshes)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    meshes = list(meshes or MESHES)
+    meshes = list(check_meshes(meshes or MESHES))
     spec = out / "atlas_spec.toml"
     write_text(spec, f'version = {ROW_VERSION}\nrobot = "{robot}"\nmeshes = {meshes}\nclosed_loop = '
                      f'{str(closed_loop).lower()}\ncache = "{(out / "optimum_cache").resolve()}"\n')
