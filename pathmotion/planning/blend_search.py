@@ -28,14 +28,22 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    in-plane ones of stage 3 and the 6 like them along the normal), RISE_PLANS plans in all. The
    free-shape optimum leaves the plane: at 120 deg / 10 mm it rises to the tube's edge before the
    corner instead of moving out, and sinks below the plane after it; its own path pressed into the
-   plane re-plans 1.6 % slower (benchmarks/replan_optimum.py).
+   plane re-plans 1.6 % slower (benchmarks/replan_optimum.py);
+5. the free ends, at a corner whose neighbour is the path's first (last) segment and where the motion
+   starts (ends) at rest: the entry (exit) offset piece runs from the path's start (to its end) and
+   leaves (reaches) it at an angle, its two lateral and two normal Bernstein coefficients next to that
+   end free (G2Shape.departure / arrival), a bounded Nelder-Mead over them (END_PLANS plans), the rest
+   of the fastest blend joined to the lines kept. At rest a jump of the tangent costs nothing, and the
+   free-shape optimum does that: at 60 deg / 10 mm it dives 4.5 mm in its first 10 mm of arc. Such a
+   blend changes the path up to its end, so it is kept only when it is END_MIN_GAIN faster than the
+   fastest blend joined to the lines.
 
 Offsets and coefficients are searched in units of the tolerance, runs in units of
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
-line and the best free one are then re-planned on the full grid and the fastest is kept, so the
-result is never slower than the symmetric G2 blend or the S-curve racing line, and the planar free
-blend is re-planned too. About 255 plans per corner.
+line, the best free one, the best in the plane and the best joined to the lines are then re-planned on
+the full grid and the fastest is kept, so the result is never slower than the symmetric G2 blend or
+the S-curve racing line. About 255 plans per corner (335 with free ends).
 """
 
 from __future__ import annotations
@@ -53,6 +61,7 @@ from ..constraint import lift
 from ..errors import PathmotionError
 from ..geometry import Line, TaskPath
 from ..geometry.blends import G2Shape, g2_shape_for_tolerance, with_blends, with_shaped_g2_blends
+from ..modes import BoundaryMode
 from .planner import PlanSettings, plan
 
 log = logging.getLogger(__name__)
@@ -80,6 +89,11 @@ RISE_PLANS = 90
 RISE_ANGLES = (-90.0, -45.0, 0.0, 45.0, 90.0)
 #: Steps of the rise stage's scalar search of each angle.
 RISE_ANGLE_STEPS = 5
+#: Plans of the free-ends stage (a corner whose offset piece reaches a path end where the motion rests).
+END_PLANS = 80
+#: A blend with a free end changes the path up to that end (its span, and the tube it uses, reach it): it
+#: is kept only when it is at least this much faster than the fastest blend joined to the lines [-].
+END_MIN_GAIN = 0.002
 #: Grid points of the search's fast plans.
 SEARCH_GRID_POINTS = 300
 
@@ -91,14 +105,16 @@ SEARCH_GRID_POINTS = 300
 #: profile along the corner's normal [tolerance] (rise, near, far: entry, then exit).
 _BALANCE, _SHAPE_A, _SHAPE_B, _W_A, _W_B, _L_A, _L_B, _C_A, _D_A, _C_B, _D_B = range(11)
 _V_A, _VN_A, _VF_A, _V_B, _VN_B, _VF_B = range(11, 17)
+#: (25: with free rest ends) the departure's and the arrival's four coefficients [tolerance] (G2Shape).
+_DEPARTURE, _ARRIVAL = slice(17, 21), slice(21, 25)
 
 
 @dataclass(frozen=True)
 class OptimalBlend:
     """The chosen blends: ``shapes`` {connection index: G2Shape}, the blended ``path``, its full-grid
     ``duration`` [s], the symmetric G2 blend's ``symmetric_duration`` [s], the best quintic's
-    ``quintic_duration`` [s] and the best blend in the corner's plane's ``planar_duration`` [s] (full
-    grid), and ``plans`` run."""
+    ``quintic_duration`` [s], the best blend in the corner's plane's ``planar_duration`` [s] and the
+    best joined to the lines at the path's ends' ``joined_duration`` [s] (full grid), and ``plans`` run."""
 
     shapes: dict
     path: TaskPath
@@ -107,6 +123,7 @@ class OptimalBlend:
     plans: int
     quintic_duration: float = float("nan")
     planar_duration: float = float("nan")
+    joined_duration: float = float("nan")
 
 
 def _side(w: float, far: float, near: float, run: float) -> tuple[float, float]:
@@ -121,8 +138,9 @@ class _Objective:
     fixed), cached."""
 
     def __init__(self, robot, original: TaskPath, shapes: dict, corner: int, tolerance: float,
-                 settings: PlanSettings, q_start):
+                 settings: PlanSettings, q_start, free_ends: tuple[bool, bool] = (False, False)):
         self.robot, self.original, self.shapes, self.corner = robot, original, dict(shapes), corner
+        self.free_ends = free_ends
         self.tolerance, self.settings, self.q_start = tolerance, settings, q_start
         self.run_unit = float(np.sqrt(tolerance * RUN_SCALE_LENGTH))
         chosen = set(shapes)
@@ -143,9 +161,13 @@ class _Objective:
         if len(x) > _V_A:
             for j, (rise, near, far) in enumerate(((_V_A, _VN_A, _VF_A), (_V_B, _VN_B, _VF_B))):
                 rises[j] = (x[rise] * tol, *_side(x[rise] * tol, x[far] * tol, x[near] * tol, runs[j]))
+        ends = [None, None]
+        if len(x) > _DEPARTURE.start:
+            ends = [tuple(x[part] * tol) if free else None for part, free in zip((_DEPARTURE, _ARRIVAL), self.free_ends)]
         return g2_shape_for_tolerance(self.original, self.corner, tol, float(x[_BALANCE]), float(x[_SHAPE_A]),
                                       float(x[_SHAPE_B]), shared=self.shared, offsets=w, runs=runs,
-                                      slopes=tuple(slopes), bends=tuple(bends), rises=tuple(rises))
+                                      slopes=tuple(slopes), bends=tuple(bends), rises=tuple(rises),
+                                      departure=ends[0], arrival=ends[1])
 
     def __call__(self, x) -> float:
         key = tuple(np.round(np.asarray(x, float), 12))
@@ -161,13 +183,15 @@ class _Objective:
             self.plans += 1
         return self.cache[key][0]
 
-    def best(self, quintic_only: bool = False, s_curve_only: bool = False,
-             planar: bool = False) -> tuple[float, G2Shape, tuple]:
+    def best(self, quintic_only: bool = False, s_curve_only: bool = False, planar: bool = False,
+             joined: bool = False) -> tuple[float, G2Shape, tuple]:
         """(duration, shape, x) of the fastest coordinates seen (only offsets 0 if ``quintic_only``,
-        only S-curve offset pieces if ``s_curve_only``, only in the corner's plane if ``planar``)."""
+        only S-curve offset pieces if ``s_curve_only``, only in the corner's plane if ``planar``,
+        only joined to both lines if ``joined``: no free end)."""
         found = [(v[0], v[1], k) for k, v in self.cache.items()
                  if v[1] is not None and not (quintic_only and v[1].racing)
-                 and not (s_curve_only and len(k) > _C_A) and not (planar and len(k) > _V_A)]
+                 and not (s_curve_only and len(k) > _C_A) and not (planar and not v[1].planar)
+                 and not (joined and len(k) > _DEPARTURE.start)]
         return min(found, key=lambda r: r[0])
 
 
@@ -247,7 +271,7 @@ def _rise_stage(objective: _Objective, plans: int) -> None:
     per angle), then Nelder-Mead over the offset pieces' profiles in and out of the corner's plane
     (_RISE_COORDS) from the fastest, the other coordinates fixed at the fastest planar blend's;
     about ``plans`` plans in all."""
-    x11 = np.array(objective.best(planar=True)[2], float)
+    x11 = np.array(objective.best(planar=True, joined=True)[2], float)[:_V_A]
     if len(x11) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
         x11 = np.concatenate([x11, [x11[_W_A], x11[_W_A], x11[_W_B], x11[_W_B]]])
     base = np.concatenate([x11, np.zeros(6)])
@@ -284,11 +308,42 @@ def _rise_stage(objective: _Objective, plans: int) -> None:
         _nelder_mead(f, y0, box, _RISE_STEP, left)
 
 
+#: The free-ends stage's box and initial simplex step [tolerance].
+_END_BOX = COEFFICIENT_RANGE
+_END_STEP = 0.3
+
+
+def _end_stage(objective: _Objective, plans: int, planar: bool) -> None:
+    """Nelder-Mead (about ``plans`` plans) over the coefficients next to the path's start and end where the
+    motion rests (objective.free_ends; the lateral ones only if ``planar``), from 0, the other coordinates
+    fixed at the fastest blend joined to both lines: its offset pieces then run from the path's start
+    (to its end) and may leave (reach) it at an angle. The free-shape optimum does (60 deg / 10 mm: it
+    dives 4.5 mm in the first 10 mm of arc)."""
+    x = np.array(objective.best(joined=True, planar=planar)[2], float)
+    if len(x) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
+        x = np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]])
+    base = np.concatenate([x, np.zeros(_ARRIVAL.stop - len(x))])
+    idx = [i for part, free in zip((_DEPARTURE, _ARRIVAL), objective.free_ends) if free
+           for i in range(part.start, part.stop)[:2 if planar else 4]]
+    if not idx:
+        return
+
+    def f(y):
+        trial = base.copy()
+        trial[idx] = y
+        return objective(trial)
+
+    box = np.array([_END_BOX] * len(idx))
+    _nelder_mead(f, np.zeros(len(idx)), box, [_END_STEP] * len(idx), plans)
+
+
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
-                   free_plans: int, rise_plans: int = RISE_PLANS) -> None:
+                   free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
+                   planar: bool = False) -> None:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
-    > 0) and the rise stage from the best free blend (``rise_plans`` > 0) (module docstring)."""
+    > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``) and the free-ends
+    stage (``end_plans`` > 0, objective.free_ends) (module docstring)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
@@ -301,8 +356,10 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
             _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
     if free_plans > 0:
         _free_stage(objective, free_plans)
-        if rise_plans > 0:
+        if rise_plans > 0 and not planar:
             _rise_stage(objective, rise_plans)
+        if end_plans > 0 and any(objective.free_ends):
+            _end_stage(objective, end_plans, planar)
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -315,12 +372,14 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    settings: PlanSettings | None = None, q_start=None, *, cycles: int = SEARCH_CYCLES,
                    steps: int = GOLDEN_STEPS, racing_steps: int = RACING_STEPS, racing: bool = True,
                    search_grid_points: int = SEARCH_GRID_POINTS, free_plans: int = FREE_PLANS,
-                   rise_plans: int = RISE_PLANS, planar: Sequence[int] = ()) -> OptimalBlend:
+                   rise_plans: int = RISE_PLANS, planar: Sequence[int] = (), end_plans: int = END_PLANS,
+                   joined_ends: Sequence[int] = ()) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
     ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
-    ``planar`` stay in their plane). PathError as
+    ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
+    the lines even at a path end where the motion rests). PathError as
     :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
@@ -330,28 +389,50 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, s_curve, in_plane, plans = dict(shapes), dict(shapes), dict(shapes), dict(shapes), 0
+    initial, quintic, s_curve, in_plane, joined = (dict(shapes) for _ in range(5))
+    plans, rests = 0, (False, False) if original.closed else _rests(settings)
     for k in chosen:
-        obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start)
+        free = racing and _racing_possible(original, k) and k not in joined_ends
+        ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
+        obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start, ends)
         _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans,
-                       0 if k in planar else rise_plans)
-        quintic[k], s_curve[k], in_plane[k], shapes[k] = (obj.best(quintic_only=True)[1],
-                                                          obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
-                                                          obj.best()[1])
+                       rise_plans, end_plans, k in planar)
+        quintic[k], s_curve[k], in_plane[k], joined[k], shapes[k] = (
+            obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
+            obj.best(joined=True)[1], obj.best()[1])
         plans += obj.plans
         log.info("blend search: corner %d: %d plans, shape %s", k, obj.plans, shapes[k])
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    stages = (quintic, s_curve, in_plane, shapes)
+    stages = (quintic, s_curve, in_plane, joined, shapes)
     for found in [c for i, c in enumerate(stages) if c not in stages[:i]]:
         candidates.append((duration_with(robot, original, found, full, q_start), found, None))
     plans += len(candidates)
     quintic_T = candidates[1][0]
+    joined_T = min(c[0] for c in candidates if all(_joined(shape) for shape in c[1].values()))
+    # a free end changes the path up to the path's end: kept only for a gain of END_MIN_GAIN at least
+    candidates = [c for c in candidates if c[0] <= joined_T * (1.0 - END_MIN_GAIN)
+                  or all(_joined(shape) for shape in c[1].values())]
     planar_T = min(c[0] for c in candidates if all(shape.planar for shape in c[1].values()))
     T, found, path = min(candidates, key=lambda c: c[0])  # the first (symmetric) wins ties
     return OptimalBlend(found, symmetric if path is not None else with_shaped_g2_blends(original, found), T, sym_T,
-                        plans, quintic_T, planar_T)
+                        plans, quintic_T, planar_T, joined_T)
+
+
+def _joined(shape: G2Shape) -> bool:
+    """The blend joins the lines at both sides (no departure or arrival)."""
+    return shape.departure is None and shape.arrival is None
+
+
+def _rests(settings: PlanSettings) -> tuple[bool, bool]:
+    """Whether the motion under ``settings`` starts / ends at rest (zero speed, not periodic)."""
+    def still(c) -> bool:
+        return c == BoundaryMode.ZERO or (isinstance(c, (int, float)) and float(c) == 0.0)
+
+    if settings.periodic:
+        return False, False
+    return still(settings.start_condition), still(settings.end_condition)
 
 
 def replace_settings(settings: PlanSettings, **changes) -> PlanSettings:
