@@ -225,7 +225,9 @@ def build_path(scenario: Scenario, robot: Robot,
         q0 = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
         try:
             planar = [c for c in optimal if spec.blends[chosen[c]].planar]
-            found = optimal_blends(robot, task, optimal, list(optimal), plan_settings(scenario), q0, planar=planar)
+            joined = [c for c in optimal if spec.blends[chosen[c]].join_ends]
+            found = optimal_blends(robot, task, optimal, list(optimal), plan_settings(scenario), q0, planar=planar,
+                                   joined_ends=joined)
         except PathmotionError as exc:
             k = chosen[min(optimal)]
             raise type(exc)(f"path.blends[{k}] (corner {min(optimal) + 1}): {exc}") from None

@@ -84,6 +84,9 @@ class BlendSpec(_Model):
     tolerance: float | None = Field(None, gt=0, description="largest deviation from the corner [m] (type g2, optimal)")
     planar: bool = Field(False, description="type optimal: keep the blend in the corner's plane (default: anywhere "
                                             "within the tolerance, which may lift or lower the tool by up to it)")
+    join_ends: bool = Field(False, description="type optimal: join the lines at the path's start and end even where "
+                                               "the motion rests there (default: the blend may leave the start and reach "
+                                               "the end at an angle, within the tolerance)")
 
     @model_validator(mode="after")
     def _size(self):
@@ -94,6 +97,9 @@ class BlendSpec(_Model):
         if self.planar and self.type != BlendType.OPTIMAL:
             raise ValueError(f"planar = true is for 'optimal' blends (a '{self.type.value}' blend is always in the "
                              "corner's plane); remove it")
+        if self.join_ends and self.type != BlendType.OPTIMAL:
+            raise ValueError(f"join_ends = true is for 'optimal' blends (a '{self.type.value}' blend always joins the "
+                             "lines); remove it")
         return self
 
 
