@@ -205,6 +205,83 @@ def test_offset_pieces_out_of_the_plane_keep_the_bound_and_their_rise(deg, balan
     assert t[1] / t[0] == pytest.approx(planar[0][1], rel=1e-7, abs=1e-9)  # -dw/dx = dw/dd
 
 
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(deg=st.floats(20.0, 160.0), balance=st.floats(0.2, 0.8), offsets=st.tuples(st.floats(0.0, 0.9), st.floats(0.0, 0.9)),
+       rises=st.tuples(st.floats(-0.9, 0.9), st.floats(-0.9, 0.9)), runs=st.tuples(st.floats(0.5, 2.5), st.floats(0.5, 2.5)),
+       ends=st.tuples(*[st.floats(-1.0, 1.0)] * 8), which=st.sampled_from([(True, False), (False, True), (True, True)]),
+       tol=st.floats(5e-4, 0.02))
+def test_free_ends_leave_the_start_and_reach_the_end_at_an_angle_within_the_bound(deg, balance, offsets, rises, runs,
+                                                                                   ends, which, tol):
+    """A departure (arrival): the entry (exit) piece runs from the path's start (to its end), which it still
+    starts (ends) at, leaving it with the lateral and vertical slope its coefficients give (w'(0) = 5 c1 / run
+    along the line); the certified bound holds on a brute-force check, the pieces still join each other G2, and
+    the corner quintic is sized as for the blend joined to the lines (the same deviation budget)."""
+    path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(deg))))
+    ell = (runs[0] * np.sqrt(tol * 0.64), runs[1] * np.sqrt(tol * 0.64))
+    kw = dict(offsets=(offsets[0] * tol, offsets[1] * tol), runs=ell,
+              rises=((rises[0] * tol, 0.0, 0.0), (rises[1] * tol, 0.0, 0.0)))
+    free = [tuple(np.array(ends[4 * j:4 * j + 4]) * tol) if which[j] else None for j in range(2)]
+    try:
+        shape = g2_shape_for_tolerance(path, 0, tol, balance, 0.7, 0.7, departure=free[0], arrival=free[1], **kw)
+        new = with_shaped_g2_blend(path, 0, shape)
+    except PathError:  # a piece out of tolerance, or no room
+        reject()
+    A, B = path.segments
+    assert (shape.departure, shape.arrival) == tuple(free) and shape.deviation <= tol
+    np.testing.assert_allclose(new.evaluate(np.array([0.0, new.length]))[0], [A.start, B.end], atol=1e-12)
+    assert shape.entry == pytest.approx(A.length if which[0] else shape.entry, abs=1e-12)
+    assert shape.exit == pytest.approx(B.length if which[1] else shape.exit, abs=1e-12)
+    x = new.evaluate(np.linspace(0.0, new.length, 40001))[0]
+    pts = [seg.evaluate(np.linspace(0.0, seg.length, 40001))[0] for seg in path.segments]
+    assert np.max(cKDTree(np.concatenate(pts)).query(x)[0]) <= tol * (1 + 1e-9) + 0.3 / 40000  # certified
+    _assert_g2_joins(new)
+    if which[0]:  # the incoming line runs along +x, outside the left turn is -y, the normal +z
+        t = new.segments[0].start_frame[1]
+        c1_lateral, c1_normal = free[0][0], free[0][2]
+        assert -t[1] / t[0] == pytest.approx(5 * c1_lateral / shape.run_entry, rel=1e-7, abs=1e-9)
+        assert t[2] / t[0] == pytest.approx(5 * c1_normal / shape.run_entry, rel=1e-7, abs=1e-9)
+    joined = g2_shape_for_tolerance(path, 0, tol, balance, 0.7, 0.7, **kw)
+    inner = [shape.entry - shape.run_entry, shape.exit - shape.run_exit]
+    assert all(i <= j + 1e-12 for i, j in zip(inner, [joined.entry - joined.run_entry, joined.exit - joined.run_exit]))
+
+
+def test_free_ends_only_at_the_ends_of_an_open_path_and_well_formed():
+    path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
+    kw = dict(offsets=(1e-3, 1e-3), runs=(0.05, 0.05))
+    with pytest.raises(PathError, match="departure must be four finite"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, departure=(0.0, np.nan, 0.0, 0.0), **kw)
+    with pytest.raises(PathError, match="arrival must be four finite"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, arrival=(0.0, 0.0), **kw)
+    with pytest.raises(PathError, match="needs an offset piece"):
+        g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, departure=(0.0,) * 4)
+    square = TaskPath(tuple(Line(np.array(a, float), np.array(b, float)) for a, b in
+                            (((0.4, 0, 0.45), (0.5, 0, 0.45)), ((0.5, 0, 0.45), (0.5, 0.1, 0.45)),
+                             ((0.5, 0.1, 0.45), (0.4, 0.1, 0.45)))), FixedOrientation())
+    shape = g2_shape_for_tolerance(square, 1, 2e-3, 0.5, 0.7, 0.7, departure=(0.0,) * 4, **kw)  # corner 1 of 2
+    with pytest.raises(PathError, match="not the first .* corner of an open path"):
+        with_shaped_g2_blend(square, 1, shape)
+
+
+def test_the_search_frees_the_ends_only_where_the_motion_rests():
+    """Rest to rest, the 60 degree / 10 mm turn: the free-ends stage makes the blend leave the start and reach the
+    end at an angle, faster than the best joined to the lines (kept as a candidate, so never slower; the
+    free-shape optimum does likewise, docs/study.md); from a moving start (boundary-level speed) or with
+    joined_ends the blend joins the lines."""
+    path = _turn(60)
+    kw = dict(cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16, rise_plans=0, end_plans=40)
+    free = optimal_blends(_robot(), path, 0.01, settings=SETTINGS, **kw)
+    joined = optimal_blends(_robot(), path, 0.01, settings=SETTINGS, joined_ends=[0], **kw)
+    shape = free.shapes[0]
+    assert shape.departure is not None and shape.arrival is not None
+    assert free.duration < joined.duration * (1 - 0.005)
+    assert max_deviation(free.path, path, rel_tol=1e-6).upper <= 0.01 * (1 + 2e-6)
+    moving = PlanSettings(start="max", end="zero", velocity=True, acceleration=True, torque=False, grid_points=400,
+                          verify=False, baselines=False)
+    started = optimal_blends(_robot(), path, 0.01, settings=moving, **kw).shapes[0]
+    assert started.departure is None  # the start is not at rest; the end still is
+    assert joined.shapes[0].departure is None and joined.shapes[0].arrival is None
+
+
 def test_a_rise_alone_makes_offset_pieces_and_bad_rises_are_refused():
     path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
     shape = g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05),
@@ -356,7 +433,8 @@ def test_a_planar_optimal_blend_stays_in_the_corners_plane():
     """planar = [corner]: the search skips the out-of-plane stage there, so the blended path keeps the
     height of the horizontal turn exactly; the same search with the stage is never slower."""
     path = _turn(60)
-    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=8, rise_plans=30)
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=8, rise_plans=30,
+              joined_ends=[0])
     flat = optimal_blends(_robot(), path, 0.003, planar=[0], **kw)
     free = optimal_blends(_robot(), path, 0.003, **kw)
     assert flat.shapes[0].planar and flat.duration == pytest.approx(free.planar_duration, rel=1e-12)
@@ -372,6 +450,15 @@ def test_planar_is_only_for_optimal_blends():
     from pathmotion.io.scenario import parse_scenario
 
     assert parse_scenario(SCENARIO % ("optimal", "tolerance = 0.003\nplanar = true"), "test").path.blends[0].planar
+
+
+def test_join_ends_is_only_for_optimal_blends_and_reaches_the_search():
+    with pytest.raises(ScenarioError, match="join_ends = true is for 'optimal' blends"):
+        load_text(SCENARIO % ("g2", "tolerance = 0.003\njoin_ends = true"))
+    from pathmotion.io.scenario import parse_scenario
+
+    assert parse_scenario(SCENARIO % ("optimal", "tolerance = 0.003\njoin_ends = true"), "t").path.blends[0].join_ends
+    assert not parse_scenario(SCENARIO % ("optimal", "tolerance = 0.003"), "t").path.blends[0].join_ends
 
 
 def test_optimal_blend_needs_a_tolerance():
