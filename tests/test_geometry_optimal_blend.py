@@ -263,10 +263,11 @@ def test_free_ends_only_at_the_ends_of_an_open_path_and_well_formed():
 
 
 def test_the_search_frees_the_ends_only_where_the_motion_rests():
-    """Rest to rest, the 60 degree / 10 mm turn: the free-ends stage makes the blend leave the start and reach the
-    end at an angle, faster than the best joined to the lines (kept as a candidate, so never slower; the
-    free-shape optimum does likewise, docs/study.md); from a moving start (boundary-level speed) or with
-    joined_ends the blend joins the lines."""
+    """Rest to rest, the 60 degree / 10 mm turn (its joined blend spans the lines to within the tolerance of their
+    ends): the free-ends stage makes the blend leave the start and reach the end at an angle, faster than the best
+    joined to the lines (kept as a candidate, so never slower; the free-shape optimum does likewise,
+    docs/study.md); from a moving start (boundary-level speed), with joined_ends, or at 1 mm, whose blend ends
+    far from the path's ends, the blend joins the lines."""
     path = _turn(60)
     kw = dict(cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16, rise_plans=0, end_plans=40)
     free = optimal_blends(_robot(), path, 0.01, settings=SETTINGS, **kw)
@@ -280,6 +281,9 @@ def test_the_search_frees_the_ends_only_where_the_motion_rests():
     started = optimal_blends(_robot(), path, 0.01, settings=moving, **kw).shapes[0]
     assert started.departure is None  # the start is not at rest; the end still is
     assert joined.shapes[0].departure is None and joined.shapes[0].arrival is None
+    far = optimal_blends(_robot(), path, 0.001, settings=SETTINGS, **kw)  # its blend spans a few cm of 0.2 m
+    assert far.shapes[0].entry < 0.2 - 0.001 and far.shapes[0].exit < 0.2 - 0.001
+    assert far.shapes[0].departure is None and far.shapes[0].arrival is None
 
 
 def test_a_rise_alone_makes_offset_pieces_and_bad_rises_are_refused():

@@ -34,9 +34,9 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    leaves (reaches) it at an angle, its two lateral and two normal Bernstein coefficients next to that
    end free (G2Shape.departure / arrival), a bounded Nelder-Mead over them (END_PLANS plans), the rest
    of the fastest blend joined to the lines kept. At rest a jump of the tangent costs nothing, and the
-   free-shape optimum does that: at 60 deg / 10 mm it dives 4.5 mm in its first 10 mm of arc. Such a
-   blend changes the path up to its end, so it is kept only when it is END_MIN_GAIN faster than the
-   fastest blend joined to the lines.
+   free-shape optimum does that: at 60 deg / 10 mm it dives 4.5 mm in its first 10 mm of arc. Only at an
+   end the fastest joined blend already reaches within the tolerance: elsewhere the blend would start to
+   deviate far from the corner.
 
 Offsets and coefficients are searched in units of the tolerance, runs in units of
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
@@ -91,9 +91,6 @@ RISE_ANGLES = (-90.0, -45.0, 0.0, 45.0, 90.0)
 RISE_ANGLE_STEPS = 5
 #: Plans of the free-ends stage (a corner whose offset piece reaches a path end where the motion rests).
 END_PLANS = 80
-#: A blend with a free end changes the path up to that end (its span, and the tube it uses, reach it): it
-#: is kept only when it is at least this much faster than the fastest blend joined to the lines [-].
-END_MIN_GAIN = 0.002
 #: Grid points of the search's fast plans.
 SEARCH_GRID_POINTS = 300
 
@@ -315,11 +312,17 @@ _END_STEP = 0.3
 
 def _end_stage(objective: _Objective, plans: int, planar: bool) -> None:
     """Nelder-Mead (about ``plans`` plans) over the coefficients next to the path's start and end where the
-    motion rests (objective.free_ends; the lateral ones only if ``planar``), from 0, the other coordinates
-    fixed at the fastest blend joined to both lines: its offset pieces then run from the path's start
-    (to its end) and may leave (reach) it at an angle. The free-shape optimum does (60 deg / 10 mm: it
-    dives 4.5 mm in the first 10 mm of arc)."""
-    x = np.array(objective.best(joined=True, planar=planar)[2], float)
+    motion rests (objective.free_ends, narrowed here to the ends the fastest blend joined to the lines already
+    reaches within the tolerance; the lateral ones only if ``planar``), from 0, the other coordinates fixed at
+    that blend's: its offset pieces then run on to the path's start (end) and may leave (reach) it at an angle.
+    The free-shape optimum does (60 deg / 10 mm: it dives 4.5 mm in the first 10 mm of arc). Only those ends:
+    elsewhere the blend would start deviating far from the corner, and its tube would no longer be the one
+    the corner-confined optimum of its span has (whose end stretches shorter than the tolerance join it)."""
+    _, shape, x = objective.best(joined=True, planar=planar)
+    A, B = objective.original.segments[objective.corner], objective.original.segments[objective.corner + 1]
+    reach = (shape.entry >= A.length - objective.tolerance, shape.exit >= B.length - objective.tolerance)
+    objective.free_ends = tuple(f and r for f, r in zip(objective.free_ends, reach))
+    x = np.array(x, float)
     if len(x) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
         x = np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]])
     base = np.concatenate([x, np.zeros(_ARRIVAL.stop - len(x))])
@@ -411,9 +414,6 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     plans += len(candidates)
     quintic_T = candidates[1][0]
     joined_T = min(c[0] for c in candidates if all(_joined(shape) for shape in c[1].values()))
-    # a free end changes the path up to the path's end: kept only for a gain of END_MIN_GAIN at least
-    candidates = [c for c in candidates if c[0] <= joined_T * (1.0 - END_MIN_GAIN)
-                  or all(_joined(shape) for shape in c[1].values())]
     planar_T = min(c[0] for c in candidates if all(shape.planar for shape in c[1].values()))
     T, found, path = min(candidates, key=lambda c: c[0])  # the first (symmetric) wins ties
     return OptimalBlend(found, symmetric if path is not None else with_shaped_g2_blends(original, found), T, sym_T,
