@@ -534,10 +534,13 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [de
             meshes: str = typer.Option("25,50,100", help="free-shape NLP meshes (intervals), each twice the last"),
             scheduler: Optional[str] = typer.Option(None, help="Dask scheduler, tcp://HOST:PORT"),
             workers: int = typer.Option(2, min=1, help="local worker processes"),
-            figures: bool = typer.Option(True, help="write tdelta.png and gain_vs_angle.png")):
+            figures: bool = typer.Option(True, help="write tdelta.png and gain_vs_angle.png"),
+            torque: bool = typer.Option(False, help="plan every motion and solve both references within the joint "
+                                                    "torque limits too (the torque column)")):
     """The corner atlas: every way to take a corner (stop, zone, circle, G2, optimal blend) against
     the free-shape optimum, per turn angle and tolerance; writes corners.csv. Needs CasADi
-    (pip install "pathmotion[optimal]").
+    (pip install "pathmotion[optimal]"). --torque adds the joint torque limits to every motion and
+    reference (its optima are cached apart).
 
     Example: [bold]pathmotion corners --angles 60,90,120 --tolerances 0.001,0.01 --out out/corners[/]
     """
@@ -557,7 +560,7 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [de
 
         atlas = corner_atlas(out, numbers(angles, "angles"), numbers(tolerances, "tolerances"),
                              meshes=numbers(meshes, "meshes"), workers=workers,
-                             scheduler=scheduler, on_result=on_result, figures=figures)
+                             scheduler=scheduler, on_result=on_result, figures=figures, torque=torque)
     failed = sum(1 for r in atlas.rows if r.get("error") or r.get("status") != "ok")
     console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum -> {out}/corners.csv")
 

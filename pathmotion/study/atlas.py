@@ -3,8 +3,10 @@ the corner, against the physical limit.
 
 Geometry: two lines of ATLAS_SEGMENT_LENGTH in the horizontal plane z = ATLAS_HEIGHT, the first along
 +x ending at ATLAS_CORNER, the second turning left by ``angle_deg`` (0 = straight on, 180 = back).
-The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (torque off, as in
-the issue's reference). Per row (``corners.csv``, ATLAS_COLUMNS):
+The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the issue's
+reference), and with ``torque`` its joint torque limits too, for every motion and both references
+(the ``torque`` column; the optima's cache key then holds the torque limits, payload, armature and
+gravity). Per row (``corners.csv``, ATLAS_COLUMNS):
 
 * ``stop_s``: the time-optimal stop at the corner; ``circle_s``: the transition circle whose deviation
   is the tolerance; ``g2_s``: the symmetric G2 blend; ``optimal_s``: the tolerance-optimal blend
@@ -20,8 +22,10 @@ the issue's reference). Per row (``corners.csv``, ATLAS_COLUMNS):
 * ``free_shape_optimum_s`` (whole tube) and ``corner_optimum_s`` (deviation only within the optimal
   blend's own span), from :mod:`.free_shape`, with their convergence errors (``*_error_s``);
   None when an NLP did not converge, or converged above a motion feasible in its tube (a local
-  optimum): ``status`` then says which. The corner-confined NLP is tried from the optimal blend's
-  plan and from the stop (CORNER_STARTS) until one start gives a reference;
+  optimum; the whole tube also above the corner-confined reference by more than both errors, since its
+  tube contains the other): ``status`` then says which. The corner-confined NLP is tried from the
+  optimal blend's plan and from the stop (CORNER_STARTS), the whole tube from the corner-confined
+  solutions, the stop and the blend (WHOLE_STARTS), until one start gives a reference (best_reference);
 * ``gain_vs_stop`` = 1 - optimal_s / stop_s; ``gap_to_optimum`` = optimal_s / free_shape_optimum_s - 1;
   ``capture`` = (stop_s - optimal_s) / (stop_s - free_shape_optimum_s), the share of the whole-tube
   gain the optimal blend takes.
@@ -53,7 +57,7 @@ log = logging.getLogger(__name__)
 ATLAS_SEGMENT_LENGTH = 0.2
 ATLAS_CORNER = (0.5, -0.05, 0.45)
 #: Columns of corners.csv.
-ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "status", "stop_s", "circle_s", "g2_s", "quintic_s", "optimal_s",
+ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "status", "stop_s", "circle_s", "g2_s", "quintic_s", "optimal_s",
                  "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
                  "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2", "gap_to_optimum",
                  "gap_to_corner_optimum", "capture", "optimal_entry_m", "optimal_exit_m", "optimal_offset_entry_m",
@@ -64,8 +68,9 @@ ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "status", "stop_s", "circle_s", "g2
 #: constraint in norm form with a small barrier, free_shape.STARTS; whole tube 4: from the corner-confined one).
 OPTIMUM_VERSION = 4
 CORNER_OPTIMUM_VERSION = 4
-#: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached).
-ROW_VERSION = 5
+#: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached; 6: the torque
+#: column and the whole tube's retries).
+ROW_VERSION = 6
 #: IPOPT statuses counted as converged.
 CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 #: Largest distance [m] of the simulated TCP from the planned path for the closed-loop check.
@@ -110,17 +115,19 @@ def check_inputs(angles: Sequence[float], tolerances: Sequence[float], meshes: S
 
 
 # ------------------------------------------------------------------------------------ one row
-def _settings(**kw):
+def _settings(torque: bool = False, **kw):
+    """The atlas' plan settings: rest to rest, velocity and acceleration limits, torque limits when ``torque``."""
     from ..planning import PlanSettings
 
-    return PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False, **kw)
+    return PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=torque, **kw)
 
 
-def _duration(robot, task, original=None, **kw) -> float:
+def _duration(robot, task, original=None, torque: bool = False, **kw) -> float:
     from ..constraint import lift
     from ..planning import plan
 
-    return float(plan(lift(robot, task, original=original), robot, _settings(baselines=False, **kw)).profile.duration)
+    settings = _settings(torque, baselines=False, **kw)
+    return float(plan(lift(robot, task, original=original), robot, settings).profile.duration)
 
 
 def parabolic_zone(task, tolerance: float):
@@ -144,21 +151,32 @@ def parabolic_zone(task, tolerance: float):
     return _replace(task, c, z, z, BezierSegment(b))
 
 
-def industrial_zone_duration(robot, task, tolerance: float) -> float:
-    """Constant-TCP-speed duration [s] on ``task`` with the parabolic zone (see parabolic_zone)."""
+def industrial_zone_duration(robot, task, tolerance: float, torque: bool = False) -> float:
+    """Constant-TCP-speed duration [s] on ``task`` with the parabolic zone (see parabolic_zone), within the torque
+    limits too when ``torque``."""
     from ..constraint import lift
     from ..planning import plan
 
     zoned = parabolic_zone(task, tolerance)
-    result = plan(lift(robot, zoned, original=task), robot, _settings(baselines=True))
+    result = plan(lift(robot, zoned, original=task), robot, _settings(torque, baselines=True))
     return float(result.baselines.constant_speed.profile.duration)
 
 
-def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None) -> str:
+def _dynamics(robot) -> dict:
+    """What the torque limits depend on besides the robot's name: the limits [N m], the payload (mass [kg], centre
+    of mass [m], inertia [kg m^2]), the drives' armature [kg m^2] and gravity [m/s^2]."""
+    p, armature = robot.payload, robot.limits.armature
+    return {"torque": list(map(float, robot.limits.torque)), "payload": [float(p.mass), list(map(float, p.com)),
+            np.round(np.asarray(p.inertia, float), 12).tolist()], "gravity": list(map(float, robot.gravity)),
+            "armature": None if armature is None else list(map(float, armature))}
+
+
+def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None, torque: bool = False) -> str:
     """Cache key of a free-shape optimum: its inputs, the corner spans and the whole tube's crowd spans as the
     NLP lays its phases out (free_shape.effective_spans, so a solve whose spans gained absorbed stretches is not
-    read back from a cache written before), and ``start`` only for a retry from another start (CORNER_STARTS), so
-    that first attempts keep their keys."""
+    read back from a cache written before), ``start`` only for a retry from another start (CORNER_STARTS,
+    WHOLE_STARTS), so that first attempts keep their keys, and with ``torque`` the dynamics it depends on
+    (_dynamics; without, the key is as before torque was an option)."""
     from .free_shape import Polyline, effective_spans
 
     lengths = Polyline(points).lengths
@@ -174,33 +192,36 @@ def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None) ->
               "spans": None if spans is None else np.round(spans, 12).tolist(), "meshes": list(meshes)}
     if start is not None:
         fields["start"] = start
+    if torque:
+        fields["dynamics"] = _dynamics(robot)
     return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:20]
 
 
 def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None, warm=None, crowd=None,
-                   keep: list | None = None, start: str | None = None) -> dict:
+                   keep: list | None = None, start: str | None = None, torque: bool = False) -> dict:
     """The free-shape optimum's record {duration, convergence_error, success, status, durations,
     statuses, iterations, verification}, read from ``cache`` or solved and written there. ``warm``:
     the start (see free_shape_optimum), or a function returning it, called only to solve; a
     FreeShapeOptimum start crowds the whole tube's nodes at its spans, given as ``crowd`` (they
     change the mesh, so they are in the key; the start itself is not, except as ``start``, the name
-    of a retry's start, see corner_reference). ``keep``: a list the solved FreeShapeOptimum is
-    appended to."""
+    of a retry's start, see best_reference). ``keep``: a list the solved FreeShapeOptimum is
+    appended to. ``torque``: with the robot's joint torque limits (in the key and the record)."""
     from . import free_shape as fs
 
     meshes = tuple(meshes or fs.MESHES)
-    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd, start)}.json"
+    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd, start, torque)}.json"
     if f.is_file():
         return json.loads(f.read_text())
     t0 = time.process_time()
-    opt = fs.free_shape_optimum(robot, points, delta, spans, meshes, warm=warm() if callable(warm) else warm)
+    opt = fs.free_shape_optimum(robot, points, delta, spans, meshes, warm=warm() if callable(warm) else warm,
+                                torque=torque)
     if keep is not None:
         keep.append(opt)
     rec = {"duration": opt.duration, "convergence_error": opt.convergence_error, "success": opt.success,
            "status": opt.status, "durations": list(opt.durations), "statuses": [s.status for s in opt.solutions],
            "iterations": [s.iterations for s in opt.solutions], "delta": delta,
            "spans": None if spans is None else [list(map(float, s)) for s in spans], "meshes": list(meshes),
-           "verification": opt.solutions[-1].verification, "cpu_s": time.process_time() - t0}
+           "verification": opt.solutions[-1].verification, "cpu_s": time.process_time() - t0, "torque": torque}
     if start is not None:
         rec["start"] = start
     write_json(f, rec)
@@ -264,21 +285,31 @@ def local_optimum_note(value: float, error: float | None, feasible: float) -> st
 #: (not converged, or above a motion feasible in the tube: a local optimum), the other is tried and the lowest
 #: reference kept.
 CORNER_STARTS = ("blend", "stop")
+#: Starts of the whole-tube NLP, in order: the corner-confined optimum's solutions mesh by mesh (its tube is inside the
+#: whole one, so each is feasible; the whole tube's nodes then crowd at its spans), then, when that gives no reference,
+#: the stop and the optimal blend's plan (one phase per segment), the lowest reference kept as for CORNER_STARTS.
+WHOLE_STARTS = ("corner", "stop", "blend")
 
 
-def _reference(rec: dict, feasible: float) -> tuple[float | None, float | None, str | None]:
-    """reference_value of ``rec``, None with local_optimum_note's note when it lies above ``feasible`` [s]."""
+def _reference(rec: dict, feasible: float, inner: tuple | None = None) -> tuple[float | None, float | None, str | None]:
+    """reference_value of ``rec``, None with a note when it lies above ``feasible`` [s] (local_optimum_note) or above
+    ``inner`` = (value, error) [s], the reference of a tube inside its own (the corner-confined one for the whole
+    tube), by more than both convergence errors."""
     value, error, note = reference_value(rec)
     if note is None and (local := local_optimum_note(value, error, feasible)):
         return None, None, local
+    below, below_error = inner if inner is not None else (None, None)
+    if note is None and below is not None and value - below > (error or 0.0) + (below_error or 0.0):
+        return None, None, (f"local optimum {value:.4f} s, above the {below:.4f} s of the tube inside its own by "
+                            "more than their convergence errors: not a reference")
     return value, error, note
 
 
 @dataclass(frozen=True, eq=False)
-class CornerReference:
-    """The corner-confined reference: value, error [s] (None: no reference) and note (None: converged) as
-    reference_value; ``start``: the CORNER_STARTS name it came from; ``solutions()``: its FreeShapeOptimum (solved
-    again when it came from the cache), the whole tube's start."""
+class Reference:
+    """A free-shape reference: value, error [s] (None: no reference) and note (None: converged) as reference_value;
+    ``start``: the name of the start it came from (CORNER_STARTS, WHOLE_STARTS); ``solutions()``: its
+    FreeShapeOptimum (solved again when it came from the cache; the corner-confined one starts the whole tube)."""
 
     value: float | None
     error: float | None
@@ -287,42 +318,63 @@ class CornerReference:
     solutions: object
 
 
-def corner_reference(cache: Path, robot, points, tolerance: float, spans, meshes, blend, racing: bool,
-                     feasible: float) -> CornerReference:
-    """The corner-confined optimum within ``spans`` from the CORNER_STARTS (``blend``: the optimal blend's
-    PlanResult; the blend first unless ``racing``) until one is a converged reference below ``feasible`` [s] (the
-    shorter of the stop and the blend, which both lie in the tube): the lowest reference of those tried, else the
-    first start's failure with every start's note. The first start's record keeps its cache key (no start in it), so a
-    cached success is read as before; a retry is cached under its start's name."""
+def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, starts, feasible: float,
+                   inner: tuple | None = None, torque: bool = False) -> Reference:
+    """The free-shape optimum (``spans``: corner-confined, None: whole tube) from the ``starts``, a sequence of
+    (name, warm, crowd) (see cached_optimum), tried in order until one is a converged reference below ``feasible`` [s]
+    (the shorter of the stop and the blend, which lie in either tube) and not above ``inner`` (see _reference): the
+    lowest reference of those tried, else the first start's failure with every start's note. The first start's record
+    keeps its cache key (no start in it), so a cached success is read as before; a retry is cached under its start's
+    name."""
     from .free_shape import MESHES, free_shape_optimum
 
-    warms = {"blend": blend, "stop": None}
-    order = CORNER_STARTS[::-1] if racing else CORNER_STARTS
     tried = []
-    for i, name in enumerate(order):
+    for i, (name, warm, crowd) in enumerate(starts):
         keep: list = []
-        rec = cached_optimum(cache, robot, points, tolerance, spans, meshes, warm=warms[name], keep=keep,
-                             start=None if i == 0 else name)
-        tried.append((name, _reference(rec, feasible), keep))
+        rec = cached_optimum(cache, robot, points, tolerance, spans, meshes, warm=warm, crowd=crowd, keep=keep,
+                             start=None if i == 0 else name, torque=torque)
+        tried.append((name, _reference(rec, feasible, inner), keep, warm))
         if tried[-1][1][2] is None:
             break
-        log.info("corner atlas: corner-confined optimum from the %s: %s", name, tried[-1][1][2])
+        log.info("corner atlas: %s optimum from the %s: %s", "whole-tube" if spans is None else "corner-confined",
+                 name, tried[-1][1][2])
     usable = [t for t in tried if t[1][0] is not None]
-    name, (value, error, note), keep = min(usable, key=lambda t: t[1][0]) if usable else tried[0]
+    name, (value, error, note), keep, warm = min(usable, key=lambda t: t[1][0]) if usable else tried[0]
     if not usable and len(tried) > 1:
-        note = "; ".join(f"from the {n}: {r[2]}" for n, r, _ in tried)
+        note = "; ".join(f"from the {n}: {r[2]}" for n, r, _, _ in tried)
 
     def solutions():
         return keep[0] if keep else free_shape_optimum(robot, points, tolerance, spans, tuple(meshes or MESHES),
-                                                       warm=warms[name])
+                                                       warm=warm() if callable(warm) else warm, torque=torque)
 
-    return CornerReference(value, error, note, name, solutions)
+    return Reference(value, error, note, name, solutions)
+
+
+def corner_reference(cache: Path, robot, points, tolerance: float, spans, meshes, blend, racing: bool,
+                     feasible: float, torque: bool = False) -> Reference:
+    """The corner-confined optimum within ``spans`` (best_reference) from the CORNER_STARTS (``blend``: the optimal
+    blend's PlanResult; the blend first unless ``racing``)."""
+    warms = {"blend": blend, "stop": None}
+    order = CORNER_STARTS[::-1] if racing else CORNER_STARTS
+    return best_reference(cache, robot, points, tolerance, spans, meshes, [(n, warms[n], None) for n in order],
+                          feasible, torque=torque)
+
+
+def whole_reference(cache: Path, robot, points, tolerance: float, meshes, corner: Reference, spans, blend,
+                    feasible: float, torque: bool = False) -> Reference:
+    """The whole-tube optimum (best_reference) from the WHOLE_STARTS: the ``corner``-confined Reference's solutions
+    (crowded at its ``spans``), the stop, the optimal ``blend``'s PlanResult; not above the corner-confined reference
+    by more than both errors (its tube is inside the whole one)."""
+    warms = {"corner": (corner.solutions, spans), "stop": (None, None), "blend": (blend, None)}
+    return best_reference(cache, robot, points, tolerance, None, meshes, [(n, *warms[n]) for n in WHOLE_STARTS],
+                          feasible, (corner.value, corner.error), torque)
 
 
 def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
-              closed_loop: bool = True) -> dict:
+              closed_loop: bool = True, torque: bool = False) -> dict:
     """One row of corners.csv (ATLAS_COLUMNS except ``error``), filled into ``row`` as it goes (so a
-    row that fails part way keeps what it had)."""
+    row that fails part way keeps what it had); ``torque``: every motion and both references within the
+    robot's joint torque limits too."""
     from ..constraint import lift
     from ..geometry import with_g2_blend, with_transition
     from ..planning import plan
@@ -332,15 +384,16 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     pts = corner_points(angle_deg)
     task = _task(pts)
     row = {} if row is None else row
-    row.update(angle_deg=float(angle_deg), tolerance_m=float(tolerance))
-    row["stop_s"] = _duration(robot, task, connections="zero")
-    row["industrial_zone_s"] = industrial_zone_duration(robot, task, tolerance)
-    row["g2_s"] = _duration(robot, with_g2_blend(task, 0, tolerance), task)  # its error names the largest that fits
+    row.update(angle_deg=float(angle_deg), tolerance_m=float(tolerance), torque=bool(torque))
+    row["stop_s"] = _duration(robot, task, torque=torque, connections="zero")
+    row["industrial_zone_s"] = industrial_zone_duration(robot, task, tolerance, torque)
+    # the G2 blend's error names the largest tolerance that fits
+    row["g2_s"] = _duration(robot, with_g2_blend(task, 0, tolerance), task, torque)
     radius = transition_radius_for_deviation(task, 0, tolerance)
-    row["circle_s"] = _duration(robot, with_transition(task, 0, radius), task)
-    best = optimal_blends(robot, task, tolerance, settings=_settings(verify=False, baselines=False))
+    row["circle_s"] = _duration(robot, with_transition(task, 0, radius), task, torque)
+    best = optimal_blends(robot, task, tolerance, settings=_settings(torque, verify=False, baselines=False))
     blended = lift(robot, best.path, original=task)
-    warm = plan(blended, robot, _settings(baselines=False))
+    warm = plan(blended, robot, _settings(torque, baselines=False))
     row["optimal_s"] = float(warm.profile.duration)
     row["quintic_s"] = best.quintic_duration
     shape = best.shapes[0]
@@ -353,16 +406,15 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     status = []
     feasible = min(row["stop_s"], row["optimal_s"])
     spans = [(shape.entry, shape.exit)]
-    # the whole tube from the corner-confined solutions, mesh by mesh (from the stop it found worse local optima, e.g.
-    # 30 deg 0.1 mm 25 intervals 0.9014 s against the corner-confined 0.8717 s, and its extrapolation sat above the
-    # corner-confined one at 10 mm)
-    corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible)
-    whole = cached_optimum(cache, robot, pts, tolerance, None, meshes, warm=corner.solutions, crowd=spans)
-    for name, (value, error, note) in (("free_shape_optimum", _reference(whole, feasible)),
-                                       ("corner_optimum", (corner.value, corner.error, corner.note))):
-        row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = value, error
-        if note:
-            status.append(f"{name}: {note}")
+    # the whole tube from the corner-confined solutions first, mesh by mesh (from the stop it found worse local optima,
+    # e.g. 30 deg 0.1 mm 25 intervals 0.9014 s against the corner-confined 0.8717 s, and its extrapolation sat above
+    # the corner-confined one at 10 mm), then from the other WHOLE_STARTS
+    corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible, torque)
+    whole = whole_reference(cache, robot, pts, tolerance, meshes, corner, spans, warm, feasible, torque)
+    for name, ref in (("free_shape_optimum", whole), ("corner_optimum", corner)):
+        row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = ref.value, ref.error
+        if ref.note:
+            status.append(f"{name}: {ref.note}")
     fso, co = row["free_shape_optimum_s"], row["corner_optimum_s"]
     row["gap_to_optimum"] = None if fso is None else row["optimal_s"] / fso - 1.0
     row["gap_to_corner_optimum"] = None if co is None else row["optimal_s"] / co - 1.0
@@ -378,19 +430,20 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
 # ------------------------------------------------------------------------------------ the sweep
 def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> dict:
     """Sweep point function (see sweep.run_sweep): ``text`` is the atlas spec (TOML: robot, meshes,
-    cache folder), ``overrides`` the pairs (angle_deg, a), (tolerance_m, t). A failure is the row's
+    cache folder, torque, closed_loop), ``overrides`` the pairs (angle_deg, a), (tolerance_m, t). A failure is the row's
     ``error``, never a stopped atlas."""
     t0 = time.perf_counter()
     spec = tomllib.loads(text)
     given = dict(overrides)
     summary = {k: None for k in ATLAS_COLUMNS}
-    summary.update(angle_deg=given["angle_deg"], tolerance_m=given["tolerance_m"])
+    torque = bool(spec.get("torque", False))
+    summary.update(angle_deg=given["angle_deg"], tolerance_m=given["tolerance_m"], torque=torque)
     try:
         from ..robot import load_robot
 
         robot = load_robot(spec["robot"])
         atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]), spec.get("meshes"),
-                  row=summary, closed_loop=spec.get("closed_loop", True))
+                  row=summary, closed_loop=spec.get("closed_loop", True), torque=torque)
         error = None
     except PathmotionError as exc:
         error = f"{type(exc).__name__}: {exc}"
@@ -409,9 +462,10 @@ class CornerAtlas:
 
 def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, robot: str = "irb140",
                  meshes: Sequence[int] | None = None, workers: int = 2, scheduler: str | None = None,
-                 on_result=None, figures: bool = True, closed_loop: bool = True) -> CornerAtlas:
+                 on_result=None, figures: bool = True, closed_loop: bool = True, torque: bool = False) -> CornerAtlas:
     """Run the atlas into ``out`` (corners.csv / .parquet, tdelta.png, gain_vs_angle.png; the points
-    and the optimum cache under ``out``); resumes. Bad angles or tolerances raise before any work."""
+    and the optimum cache under ``out``); resumes. ``torque``: every motion and both references within the
+    robot's joint torque limits too (the ``torque`` column). Bad angles or tolerances raise before any work."""
     from .free_shape import MESHES, check_meshes
     from .sweep import load_finished, run_sweep, write_tables
 
@@ -422,7 +476,8 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     meshes = list(check_meshes(meshes or MESHES))
     spec = out / "atlas_spec.toml"
     write_text(spec, f'version = {ROW_VERSION}\nrobot = "{robot}"\nmeshes = {meshes}\nclosed_loop = '
-                     f'{str(closed_loop).lower()}\ncache = "{(out / "optimum_cache").resolve()}"\n')
+                     f'{str(closed_loop).lower()}\ntorque = {str(torque).lower()}\n'
+                     f'cache = "{(out / "optimum_cache").resolve()}"\n')
     points, _ = run_sweep(spec, {"angle_deg": angles, "tolerance_m": tolerances}, out / "points_sweep",
                           workers=workers, scheduler=scheduler, on_result=on_result, point_fn=atlas_point)
     finished = load_finished(out / "points_sweep")
