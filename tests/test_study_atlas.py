@@ -292,3 +292,63 @@ def test_a_whole_tube_within_the_errors_of_the_corner_confined_reference_is_kept
     whole = atlas.whole_reference(tmp_path, robot, pts, 0.01, meshes, corner, spans, object(), 0.6970)
     assert solved == [1] and (whole.start, whole.note) == ("corner", None)
     assert whole.value == pytest.approx(whole_opt.duration)
+
+
+def _weak_drives():
+    """issue 17's torque case (bench_free_shape_torque.py): the IRB140 with its rated 6 kg 0.1 m below the flange
+    and drives at 35 % of the shipped torque limits, where the torque limit binds."""
+    import dataclasses
+
+    from pathmotion.robot import load_robot
+    from pathmotion.robot.model import Payload
+
+    arm = load_robot("irb140").with_payload(Payload(6.0, (0.0, 0.0, 0.1), ((0.01, 0, 0), (0, 0.01, 0), (0, 0, 0.01))))
+    return arm.with_limits(dataclasses.replace(arm.limits, torque=arm.limits.torque * 0.35))
+
+
+def test_torque_enters_the_optimum_key_with_what_the_torque_depends_on():
+    """Without torque the key is the one of before the option (existing caches stay valid); with it, the key changes,
+    and so it does for another payload or other drives (the limits alone do not say what the torque is)."""
+    import dataclasses
+
+    from pathmotion.robot import load_robot
+    from pathmotion.robot.model import Payload
+
+    weak, pts, spans = _weak_drives(), atlas.corner_points(90.0), [(0.01, 0.01)]
+    arms = (weak, weak.with_payload(Payload(3.0, (0.0, 0.0, 0.1))),
+            weak.with_limits(dataclasses.replace(weak.limits, torque=weak.limits.torque * 2)))
+    keys = {atlas._optimum_key(r, pts, 0.005, spans, (25, 50), torque=True) for r in arms}
+    assert len(keys) == 3
+    off = atlas._optimum_key(weak, pts, 0.005, spans, (25, 50))
+    assert off not in keys and off == atlas._optimum_key(load_robot("irb140"), pts, 0.005, spans, (25, 50), torque=False)
+
+
+@pytest.mark.slow
+def test_a_torque_row_plans_and_solves_everything_within_the_torque_limits(tmp_path, monkeypatch):
+    """Weak drives, 90 deg / 5 mm, coarse meshes: every plan of the row (stop, zone, G2, circle, optimal blend, the
+    NLPs' stop start) stays within the torque limits on a dense resample (Pinocchio's RNEA along the trajectory, not
+    the planner's model), the torque binds (the stop is slower than without it), and both references are cached as torque solves whose
+    dense verification (Pinocchio's RNEA, both sides of every node) is within the limits."""
+    pytest.importorskip("casadi", reason='needs CasADi: pip install "pathmotion[optimal]"')
+    import pathmotion.planning as planning
+
+    robot, results = _weak_drives(), []
+    free_stop = atlas._duration(robot, atlas._task(atlas.corner_points(90.0)), connections="zero")
+    real_plan = planning.plan
+    monkeypatch.setattr(planning, "plan", lambda *a, **kw: results.append(real_plan(*a, **kw)) or results[-1])
+    row = atlas.atlas_row(robot, 90.0, 0.005, tmp_path, (10, 20), closed_loop=False, torque=True)
+    assert row["torque"] is True and row["status"] == "ok", row["status"]
+    assert row["stop_s"] > 1.05 * free_stop  # the drives bind
+    # stop, zone, G2, circle, the optimal blend (the search plans on its own), then the NLPs' stop starts if any
+    assert len(results) >= 5
+    for res in results:
+        samples = res.trajectory.at_time(np.linspace(0.0, res.profile.duration, 4000))
+        assert np.max(np.abs(samples.tau) / robot.limits.torque) <= 1 + 2e-3
+    assert results[1].baselines.constant_speed.ratios.torque <= 1 + 2e-3  # the zone's constant speed
+    assert row["optimal_s"] == pytest.approx(results[4].profile.duration)
+    records = [json.loads(f.read_text()) for f in tmp_path.glob("*.json")]
+    assert len(records) == 2 and all(r["torque"] for r in records)  # corner-confined and whole tube, first starts
+    for r in records:
+        assert r["verification"]["max_torque_ratio"] <= 1 + 1e-3
+    for name in ("free_shape", "corner"):  # both references below the blend, which lies in either tube
+        assert row[f"{name}_optimum_s"] <= row["optimal_s"] + row[f"{name}_error_s"]
