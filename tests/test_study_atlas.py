@@ -182,7 +182,7 @@ def test_a_corner_reference_above_a_feasible_start_is_solved_again_from_the_othe
     results = {"blend": _stub_optimum([0.9369, 0.9300, 0.9283]), "stop": _stub_optimum([0.9083, 0.9061, 0.9056])}
     solved = []
 
-    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False):
+    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False, mu_init=None):
         solved.append("blend" if warm is blend else "stop")
         return results[solved[-1]]
 
@@ -213,7 +213,7 @@ def test_a_corner_reference_that_fails_from_every_start_says_so_per_start(tmp_pa
     failed = _stub_optimum([0.6017, 0.6035, 0.6047], success=False)
     solved = []
 
-    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False):
+    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False, mu_init=None):
         solved.append("blend" if warm is blend else "stop")
         return failed
 
@@ -222,7 +222,7 @@ def test_a_corner_reference_that_fails_from_every_start_says_so_per_start(tmp_pa
     assert solved == ["stop", "blend"] and ref.value is None and ref.start == "stop"
     assert ref.note.startswith("from the stop: NLP not converged") and "; from the blend: NLP not converged" in ref.note
     good = _stub_optimum([0.6016, 0.6041, 0.6053])
-    monkeypatch.setattr(fs, "free_shape_optimum", lambda *a, warm=None, torque=False: solved.append("x") or good)
+    monkeypatch.setattr(fs, "free_shape_optimum", lambda *a, warm=None, **kw: solved.append("x") or good)
     solved.clear()
     ref = atlas.corner_reference(tmp_path / "other", robot, pts, 0.01, spans, meshes, blend, True, 0.636)
     assert solved == ["x"] and ref.start == "stop" and ref.note is None and ref.value == pytest.approx(good.duration)
@@ -230,10 +230,11 @@ def test_a_corner_reference_that_fails_from_every_start_says_so_per_start(tmp_pa
 
 def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solved_from_the_others(tmp_path,
                                                                                                   monkeypatch):
-    """30 deg / 0.1 mm: the whole tube from the corner-confined solutions hit IPOPT's cap; from the stop it converges
-    below the feasible motions but above the corner-confined reference (whose tube is inside its own) by more than
-    both errors, a local optimum; from the optimal blend it converges below it: that is the reference. The first
-    attempt keeps the key it had before the retries (crowded at the spans, no start), each retry has its own."""
+    """30 deg / 0.1 mm: the whole tube from the corner-confined solutions hit IPOPT's cap (here with the small initial
+    barrier too); from the stop it converges below the feasible motions but above the corner-confined reference (whose
+    tube is inside its own) by more than both errors, a local optimum; from the optimal blend it converges below it:
+    that is the reference. The first attempt keeps the key it had before the retries (crowded at the spans, no start),
+    each retry has its own."""
     from pathmotion.robot import load_robot
     from pathmotion.study import free_shape as fs
 
@@ -241,27 +242,29 @@ def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solv
     pts, spans, meshes, blend = atlas.corner_points(30.0), [(0.004, 0.005)], (25, 50, 100), object()
     inner = _stub_optimum([0.8760, 0.8745, 0.8741])
     results = {"corner": _stub_optimum([0.8712, 0.8725, 0.8740], success=False),
+               "corner_small_barrier": _stub_optimum([0.8712, 0.8725, 0.8750], success=False),
                "stop": _stub_optimum([0.8790, 0.8782, 0.8780]), "blend": _stub_optimum([0.8731, 0.8726, 0.8725])}
     solved = []
 
-    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False):
+    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False, mu_init=None):
         if spans_ is not None:
             solved.append("corner-confined")
             return inner
-        solved.append("corner" if warm is inner else "stop" if warm is None else "blend" if warm is blend else "?")
+        name = {id(inner): "corner", id(None): "stop", id(blend): "blend"}[id(warm)]
+        solved.append(name + ("_small_barrier" if mu_init == fs.NESTED_MU_INIT else "" if mu_init is None else "?"))
         return results[solved[-1]]
 
     monkeypatch.setattr(fs, "free_shape_optimum", stub)
     corner = atlas.corner_reference(tmp_path, robot, pts, 0.0001, spans, meshes, blend, False, 0.8812)
     assert corner.note is None and corner.value == pytest.approx(inner.duration)
     whole = atlas.whole_reference(tmp_path, robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
-    assert solved == ["corner-confined", "corner", "stop", "blend"]
+    assert solved == ["corner-confined", "corner", "corner_small_barrier", "stop", "blend"]
     assert (whole.start, whole.note) == ("blend", None)
     assert whole.value == pytest.approx(results["blend"].duration) and whole.value <= corner.value
     first = atlas._optimum_key(robot, pts, 0.0001, None, meshes, crowd=spans)  # the key of the atlas before retries
     records = {f.stem: json.loads(f.read_text()) for f in tmp_path.glob("*.json")}
     assert "start" not in records[first] and records[first]["status"] == "Maximum_Iterations_Exceeded"
-    assert sorted(r.get("start", "-") for r in records.values()) == ["-", "-", "blend", "stop"]
+    assert sorted(r.get("start", "-") for r in records.values()) == ["-", "-", "blend", "corner_small_barrier", "stop"]
     solved.clear()  # read back: nothing is solved again, the same reference
     again = atlas.whole_reference(tmp_path, robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
     assert solved == [] and (again.value, again.start) == (whole.value, "blend")
@@ -270,6 +273,7 @@ def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solv
     whole = atlas.whole_reference(tmp_path / "other", robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
     assert whole.value is None and whole.start == "corner"
     assert whole.note.startswith("from the corner: NLP not converged")
+    assert "; from the corner_small_barrier: NLP not converged" in whole.note
     assert (f"; from the stop: local optimum {results['stop'].duration:.4f} s, above the {inner.duration:.4f} s of the "
             "tube inside its own") in whole.note
     assert "; from the blend: local optimum" in whole.note
@@ -286,7 +290,7 @@ def test_a_whole_tube_within_the_errors_of_the_corner_confined_reference_is_kept
     pts, spans, meshes = atlas.corner_points(90.0), [(0.05, 0.05)], (25, 50, 100)
     whole_opt = _stub_optimum([0.6970, 0.6930, 0.6910])
     solved = []
-    monkeypatch.setattr(fs, "free_shape_optimum", lambda *a, warm=None, torque=False: solved.append(1) or whole_opt)
+    monkeypatch.setattr(fs, "free_shape_optimum", lambda *a, warm=None, **kw: solved.append(1) or whole_opt)
     corner = atlas.Reference(0.6884, 0.0014, None, "stop", lambda: None)
     assert whole_opt.duration - corner.value < whole_opt.convergence_error + corner.error
     whole = atlas.whole_reference(tmp_path, robot, pts, 0.01, meshes, corner, spans, object(), 0.6970)
@@ -320,15 +324,16 @@ def test_torque_enters_the_optimum_key_with_what_the_torque_depends_on():
     keys = {atlas._optimum_key(r, pts, 0.005, spans, (25, 50), torque=True) for r in arms}
     assert len(keys) == 3
     off = atlas._optimum_key(weak, pts, 0.005, spans, (25, 50))
-    assert off not in keys and off == atlas._optimum_key(load_robot("irb140"), pts, 0.005, spans, (25, 50), torque=False)
+    assert off not in keys
+    assert off == atlas._optimum_key(load_robot("irb140"), pts, 0.005, spans, (25, 50), torque=False)
 
 
 @pytest.mark.slow
 def test_a_torque_row_plans_and_solves_everything_within_the_torque_limits(tmp_path, monkeypatch):
     """Weak drives, 90 deg / 5 mm, coarse meshes: every plan of the row (stop, zone, G2, circle, optimal blend, the
     NLPs' stop start) stays within the torque limits on a dense resample (Pinocchio's RNEA along the trajectory, not
-    the planner's model), the torque binds (the stop is slower than without it), and both references are cached as torque solves whose
-    dense verification (Pinocchio's RNEA, both sides of every node) is within the limits."""
+    the planner's model), the torque binds (the stop is slower than without it), and both references are cached as
+    torque solves whose dense verification (Pinocchio's RNEA, both sides of every node) is within the limits."""
     pytest.importorskip("casadi", reason='needs CasADi: pip install "pathmotion[optimal]"')
     import pathmotion.planning as planning
 

@@ -45,7 +45,7 @@ import time
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -198,14 +198,16 @@ def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None, to
 
 
 def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None, warm=None, crowd=None,
-                   keep: list | None = None, start: str | None = None, torque: bool = False) -> dict:
+                   keep: list | None = None, start: str | None = None, torque: bool = False,
+                   mu_init: float | None = None) -> dict:
     """The free-shape optimum's record {duration, convergence_error, success, status, durations,
     statuses, iterations, verification}, read from ``cache`` or solved and written there. ``warm``:
     the start (see free_shape_optimum), or a function returning it, called only to solve; a
     FreeShapeOptimum start crowds the whole tube's nodes at its spans, given as ``crowd`` (they
     change the mesh, so they are in the key; the start itself is not, except as ``start``, the name
     of a retry's start, see best_reference). ``keep``: a list the solved FreeShapeOptimum is
-    appended to. ``torque``: with the robot's joint torque limits (in the key and the record)."""
+    appended to. ``torque``: with the robot's joint torque limits (in the key and the record). ``mu_init``: see
+    free_shape_optimum (not in the key: a start that sets it has its own ``start`` name)."""
     from . import free_shape as fs
 
     meshes = tuple(meshes or fs.MESHES)
@@ -214,7 +216,7 @@ def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=
         return json.loads(f.read_text())
     t0 = time.process_time()
     opt = fs.free_shape_optimum(robot, points, delta, spans, meshes, warm=warm() if callable(warm) else warm,
-                                torque=torque)
+                                torque=torque, mu_init=mu_init)
     if keep is not None:
         keep.append(opt)
     rec = {"duration": opt.duration, "convergence_error": opt.convergence_error, "success": opt.success,
@@ -287,8 +289,21 @@ def local_optimum_note(value: float, error: float | None, feasible: float) -> st
 CORNER_STARTS = ("blend", "stop")
 #: Starts of the whole-tube NLP, in order: the corner-confined optimum's solutions mesh by mesh (its tube is inside the
 #: whole one, so each is feasible; the whole tube's nodes then crowd at its spans), then, when that gives no reference,
-#: the stop and the optimal blend's plan (one phase per segment), the lowest reference kept as for CORNER_STARTS.
-WHOLE_STARTS = ("corner", "stop", "blend")
+#: the same with a smaller initial barrier (free_shape.NESTED_MU_INIT: 30 deg / 0.1 mm hit the cap on 100 intervals
+#: from every start of the first), the stop and the optimal blend's plan (one phase per segment), the lowest reference
+#: kept as for CORNER_STARTS.
+WHOLE_STARTS = ("corner", "corner_small_barrier", "stop", "blend")
+
+
+class Start(NamedTuple):
+    """A start of a free-shape NLP: ``name`` (its cache key's ``start`` on a retry), ``warm`` (see cached_optimum),
+    ``crowd`` (the whole tube's crowd spans of a FreeShapeOptimum start), ``mu_init`` (IPOPT's initial barrier, see
+    free_shape_optimum)."""
+
+    name: str
+    warm: object = None
+    crowd: list | None = None
+    mu_init: float | None = None
 
 
 def _reference(rec: dict, feasible: float, inner: tuple | None = None) -> tuple[float | None, float | None, str | None]:
@@ -320,34 +335,34 @@ class Reference:
 
 def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, starts, feasible: float,
                    inner: tuple | None = None, torque: bool = False) -> Reference:
-    """The free-shape optimum (``spans``: corner-confined, None: whole tube) from the ``starts``, a sequence of
-    (name, warm, crowd) (see cached_optimum), tried in order until one is a converged reference below ``feasible`` [s]
-    (the shorter of the stop and the blend, which lie in either tube) and not above ``inner`` (see _reference): the
-    lowest reference of those tried, else the first start's failure with every start's note. The first start's record
-    keeps its cache key (no start in it), so a cached success is read as before; a retry is cached under its start's
-    name."""
+    """The free-shape optimum (``spans``: corner-confined, None: whole tube) from the ``starts`` (Start), tried in
+    order until one is a converged reference below ``feasible`` [s] (the shorter of the stop and the blend, which lie
+    in either tube) and not above ``inner`` (see _reference): the lowest reference of those tried, else the first
+    start's failure with every start's note. The first start's record keeps its cache key (no start in it), so a
+    cached success is read as before; a retry is cached under its start's name."""
     from .free_shape import MESHES, free_shape_optimum
 
     tried = []
-    for i, (name, warm, crowd) in enumerate(starts):
+    for i, start in enumerate(starts):
         keep: list = []
-        rec = cached_optimum(cache, robot, points, tolerance, spans, meshes, warm=warm, crowd=crowd, keep=keep,
-                             start=None if i == 0 else name, torque=torque)
-        tried.append((name, _reference(rec, feasible, inner), keep, warm))
+        rec = cached_optimum(cache, robot, points, tolerance, spans, meshes, warm=start.warm, crowd=start.crowd,
+                             keep=keep, start=None if i == 0 else start.name, torque=torque, mu_init=start.mu_init)
+        tried.append((start, _reference(rec, feasible, inner), keep))
         if tried[-1][1][2] is None:
             break
         log.info("corner atlas: %s optimum from the %s: %s", "whole-tube" if spans is None else "corner-confined",
-                 name, tried[-1][1][2])
+                 start.name, tried[-1][1][2])
     usable = [t for t in tried if t[1][0] is not None]
-    name, (value, error, note), keep, warm = min(usable, key=lambda t: t[1][0]) if usable else tried[0]
+    start, (value, error, note), keep = min(usable, key=lambda t: t[1][0]) if usable else tried[0]
     if not usable and len(tried) > 1:
-        note = "; ".join(f"from the {n}: {r[2]}" for n, r, _, _ in tried)
+        note = "; ".join(f"from the {s.name}: {r[2]}" for s, r, _ in tried)
 
     def solutions():
+        warm = start.warm() if callable(start.warm) else start.warm
         return keep[0] if keep else free_shape_optimum(robot, points, tolerance, spans, tuple(meshes or MESHES),
-                                                       warm=warm() if callable(warm) else warm, torque=torque)
+                                                       warm=warm, torque=torque, mu_init=start.mu_init)
 
-    return Reference(value, error, note, name, solutions)
+    return Reference(value, error, note, start.name, solutions)
 
 
 def corner_reference(cache: Path, robot, points, tolerance: float, spans, meshes, blend, racing: bool,
@@ -356,18 +371,21 @@ def corner_reference(cache: Path, robot, points, tolerance: float, spans, meshes
     blend's PlanResult; the blend first unless ``racing``)."""
     warms = {"blend": blend, "stop": None}
     order = CORNER_STARTS[::-1] if racing else CORNER_STARTS
-    return best_reference(cache, robot, points, tolerance, spans, meshes, [(n, warms[n], None) for n in order],
+    return best_reference(cache, robot, points, tolerance, spans, meshes, [Start(n, warms[n]) for n in order],
                           feasible, torque=torque)
 
 
 def whole_reference(cache: Path, robot, points, tolerance: float, meshes, corner: Reference, spans, blend,
                     feasible: float, torque: bool = False) -> Reference:
     """The whole-tube optimum (best_reference) from the WHOLE_STARTS: the ``corner``-confined Reference's solutions
-    (crowded at its ``spans``), the stop, the optimal ``blend``'s PlanResult; not above the corner-confined reference
-    by more than both errors (its tube is inside the whole one)."""
-    warms = {"corner": (corner.solutions, spans), "stop": (None, None), "blend": (blend, None)}
-    return best_reference(cache, robot, points, tolerance, None, meshes, [(n, *warms[n]) for n in WHOLE_STARTS],
-                          feasible, (corner.value, corner.error), torque)
+    (crowded at its ``spans``; with the default and with a small initial barrier), the stop, the optimal ``blend``'s
+    PlanResult; not above the corner-confined reference by more than both errors (its tube is inside the whole one)."""
+    from .free_shape import NESTED_MU_INIT
+
+    starts = {"corner": Start("corner", corner.solutions, spans), "stop": Start("stop"), "blend": Start("blend", blend),
+              "corner_small_barrier": Start("corner_small_barrier", corner.solutions, spans, NESTED_MU_INIT)}
+    return best_reference(cache, robot, points, tolerance, None, meshes, [starts[n] for n in WHOLE_STARTS], feasible,
+                          (corner.value, corner.error), torque)
 
 
 def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
