@@ -358,9 +358,11 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
         note = "; ".join(f"from the {s.name}: {r[2]}" for s, r, _ in tried)
 
     def solutions():
+        if keep:
+            return keep[0]
         warm = start.warm() if callable(start.warm) else start.warm
-        return keep[0] if keep else free_shape_optimum(robot, points, tolerance, spans, tuple(meshes or MESHES),
-                                                       warm=warm, torque=torque, mu_init=start.mu_init)
+        return free_shape_optimum(robot, points, tolerance, spans, tuple(meshes or MESHES), warm=warm, torque=torque,
+                                  mu_init=start.mu_init)
 
     return Reference(value, error, note, start.name, solutions)
 
