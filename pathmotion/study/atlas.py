@@ -269,12 +269,16 @@ def closed_loop_check(robot, path, profile, tolerance: float) -> dict:
 FEASIBLE_MARGIN = 0.002
 
 
+def _finite(error: float | None) -> float:
+    """A convergence error [s], 0 when there is none (one mesh: NaN)."""
+    return error if error is not None and np.isfinite(error) else 0.0
+
+
 def local_optimum_note(value: float, error: float | None, feasible: float) -> str | None:
     """A note when a converged reference ``value`` [s] lies above ``feasible`` [s], the shorter of the stop and the
     optimal blend (both lie in either tube, so the minimum time is at most it), by more than its convergence ``error``
     [s] and FEASIBLE_MARGIN: IPOPT converged to a local optimum, which is no reference; else None."""
-    error = error if error is not None and np.isfinite(error) else 0.0  # one mesh: no error estimate
-    if value - feasible <= error + FEASIBLE_MARGIN * feasible:
+    if value - feasible <= _finite(error) + FEASIBLE_MARGIN * feasible:
         return None
     return (f"local optimum {value:.4f} s, above the feasible {feasible:.4f} s (stop or optimal blend) by more than "
             "its convergence error: not a reference")
@@ -314,7 +318,7 @@ def _reference(rec: dict, feasible: float, inner: tuple | None = None) -> tuple[
     if note is None and (local := local_optimum_note(value, error, feasible)):
         return None, None, local
     below, below_error = inner if inner is not None else (None, None)
-    if note is None and below is not None and value - below > (error or 0.0) + (below_error or 0.0):
+    if note is None and below is not None and value - below > _finite(error) + _finite(below_error):
         return None, None, (f"local optimum {value:.4f} s, above the {below:.4f} s of the tube inside its own by "
                             "more than their convergence errors: not a reference")
     return value, error, note
