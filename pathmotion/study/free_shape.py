@@ -89,7 +89,8 @@ TUBE_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-8, "bound_frac": 1e-8, "max_iter
 #: bound_push, and TUBE_IPOPT's barrier pushed the iterate off them uphill: 30 deg / 0.1 mm on 100 intervals went from
 #: the start's 0.8741 s to 0.8817 s in 40 iterations and hit the cap from every start; with 1e-6 it converged in 106
 #: iterations (31 s CPU) to 0.8729 s. (1e-8 descended first, then lost feasibility; mu_strategy adaptive went to
-#: 1e-2.)
+#: 1e-2.) Not always better: on 50 intervals the same start with 1e-6 hit the cap where 1e-4 had converged, so each
+#: start is tried with it first and then with TUBE_IPOPT's own.
 NESTED_MU_INIT = 1e-6
 #: The last resort: IPOPT's defaults (continuation that way converged at 90 degrees, 1 mm, corner-
 #: confined, where a small barrier hit the cap).
@@ -657,7 +658,7 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
     first converged (else the last) solution. "previous" is the previous mesh's solution resampled
     (continuation; ``start`` on the first mesh), "start" is ``start`` (m -> Guess) on this mesh,
     "stop" is ``stop`` (m -> Guess: the stop at the corners; ``start`` when None); ``torque``: see solve_mesh;
-    ``mu_init``: the initial barrier of the TUBE_IPOPT starts instead of its own (NESTED_MU_INIT).
+    ``mu_init``: each TUBE_IPOPT start is tried with this initial barrier first, then with its own (NESTED_MU_INIT).
 
     Why these: with the norm-form tube and a small barrier, the 0.1 mm whole tube at 90 degrees
     converged on 25 / 50 / 100 intervals (261 / 319 / 52 iterations, the last from the stop after
@@ -677,11 +678,11 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
     tries = []
     from_stop = fresh if stop is None else (lambda: stop(intervals))
     for src, options, form in STARTS_WARM if warm else STARTS:
-        if mu_init is not None and options is TUBE_IPOPT:
-            options = {**options, "mu_init": mu_init}
-        attempt = ({"previous": cont, "start": fresh}.get(src, from_stop), options, form)
-        if attempt not in tries:  # without a previous mesh, "previous" is the start
-            tries.append(attempt)
+        source = {"previous": cont, "start": fresh}.get(src, from_stop)
+        small = mu_init is not None and options is TUBE_IPOPT
+        for opts in ({**options, "mu_init": mu_init}, options) if small else (options,):
+            if (source, opts, form) not in tries:  # without a previous mesh, "previous" is the start
+                tries.append((source, opts, form))
     for i, (guess, options, form) in enumerate(tries):
         sol = solve_mesh(robot, line, phases, guess(), R_ref, ipopt=options, form=form, torque=torque)
         if sol.success:
@@ -703,8 +704,9 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     tube to start every mesh from (the optimal blend's, for the corner-confined tube); or, for the
     whole tube, the corner-confined FreeShapeOptimum on the same meshes: its tube is inside the
     whole one, so each of its solutions is a start feasible on the same nodes (the whole tube then
-    crowds its nodes at the corners like it) and the whole tube ends at or below it. ``mu_init``: IPOPT's initial
-    barrier for the small-barrier starts (default TUBE_IPOPT's; NESTED_MU_INIT for a start at a nested optimum)."""
+    crowds its nodes at the corners like it) and the whole tube ends at or below it. ``mu_init``: an initial barrier
+    each small-barrier start (TUBE_IPOPT) is tried with first, then with its own (NESTED_MU_INIT for a start at a
+    nested optimum)."""
     from .. import defaults
 
     delta = float(delta)
