@@ -293,8 +293,8 @@ def local_optimum_note(value: float, error: float | None, feasible: float) -> st
 CORNER_STARTS = ("blend", "stop")
 #: Starts of the whole-tube NLP, in order: the corner-confined optimum's solutions mesh by mesh (its tube is inside the
 #: whole one, so each is feasible; the whole tube's nodes then crowd at its spans), then, when that gives no reference,
-#: the same with a smaller initial barrier (free_shape.NESTED_MU_INIT: 30 deg / 0.1 mm hit the cap on 100 intervals
-#: from every start of the first), the stop and the optimal blend's plan (one phase per segment), the lowest reference
+#: the same with each per-mesh start tried with a smaller initial barrier first (free_shape.NESTED_MU_INIT: 30 deg /
+#: 0.1 mm hit the cap on 100 intervals from every start of the first), the stop and the optimal blend's plan (one phase per segment), the lowest reference
 #: kept as for CORNER_STARTS.
 WHOLE_STARTS = ("corner", "corner_small_barrier", "stop", "blend")
 
