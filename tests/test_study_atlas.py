@@ -184,7 +184,7 @@ def test_a_corner_reference_above_a_feasible_start_is_solved_again_from_the_othe
     results = {"blend": _stub_optimum([0.9369, 0.9300, 0.9283]), "stop": _stub_optimum([0.9083, 0.9061, 0.9056])}
     solved = []
 
-    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False, mu_init=None):
+    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False):
         solved.append("blend" if warm is blend else "stop")
         return results[solved[-1]]
 
@@ -215,7 +215,7 @@ def test_a_corner_reference_that_fails_from_every_start_says_so_per_start(tmp_pa
     failed = _stub_optimum([0.6017, 0.6035, 0.6047], success=False)
     solved = []
 
-    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False, mu_init=None):
+    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False):
         solved.append("blend" if warm is blend else "stop")
         return failed
 
@@ -232,8 +232,7 @@ def test_a_corner_reference_that_fails_from_every_start_says_so_per_start(tmp_pa
 
 def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solved_from_the_others(tmp_path,
                                                                                                   monkeypatch):
-    """30 deg / 0.1 mm: the whole tube from the corner-confined solutions hit IPOPT's cap (here with the small initial
-    barrier too); from the stop it converges below the feasible motions but above the corner-confined reference (whose
+    """30 deg / 0.1 mm: the whole tube from the corner-confined solutions hit IPOPT's cap; from the stop it converges below the feasible motions but above the corner-confined reference (whose
     tube is inside its own) by more than both errors, a local optimum; from the optimal blend it converges below it:
     that is the reference. The first attempt keeps the key it had before the retries (crowded at the spans, no start),
     each retry has its own."""
@@ -244,29 +243,27 @@ def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solv
     pts, spans, meshes, blend = atlas.corner_points(30.0), [(0.004, 0.005)], (25, 50, 100), object()
     inner = _stub_optimum([0.8760, 0.8745, 0.8741])
     results = {"corner": _stub_optimum([0.8712, 0.8725, 0.8740], success=False),
-               "corner_small_barrier": _stub_optimum([0.8712, 0.8725, 0.8750], success=False),
                "stop": _stub_optimum([0.8790, 0.8782, 0.8780]), "blend": _stub_optimum([0.8731, 0.8726, 0.8725])}
     solved = []
 
-    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False, mu_init=None):
+    def stub(robot_, points, delta, spans_, meshes_, warm=None, torque=False):
         if spans_ is not None:
             solved.append("corner-confined")
             return inner
-        name = {id(inner): "corner", id(None): "stop", id(blend): "blend"}[id(warm)]
-        solved.append(name + ("_small_barrier" if mu_init == fs.NESTED_MU_INIT else "" if mu_init is None else "?"))
+        solved.append({id(inner): "corner", id(None): "stop", id(blend): "blend"}[id(warm)])
         return results[solved[-1]]
 
     monkeypatch.setattr(fs, "free_shape_optimum", stub)
     corner = atlas.corner_reference(tmp_path, robot, pts, 0.0001, spans, meshes, blend, False, 0.8812)
     assert corner.note is None and corner.value == pytest.approx(inner.duration)
     whole = atlas.whole_reference(tmp_path, robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
-    assert solved == ["corner-confined", "corner", "corner_small_barrier", "stop", "blend"]
+    assert solved == ["corner-confined", "corner", "stop", "blend"]
     assert (whole.start, whole.note) == ("blend", None)
     assert whole.value == pytest.approx(results["blend"].duration) and whole.value <= corner.value
     first = atlas._optimum_key(robot, pts, 0.0001, None, meshes, crowd=spans)  # the key of the atlas before retries
     records = {f.stem: json.loads(f.read_text()) for f in tmp_path.glob("*.json")}
     assert "start" not in records[first] and records[first]["status"] == "Maximum_Iterations_Exceeded"
-    assert sorted(r.get("start", "-") for r in records.values()) == ["-", "-", "blend", "corner_small_barrier", "stop"]
+    assert sorted(r.get("start", "-") for r in records.values()) == ["-", "-", "blend", "stop"]
     solved.clear()  # read back: nothing is solved again, the same reference
     again = atlas.whole_reference(tmp_path, robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
     assert solved == [] and (again.value, again.start) == (whole.value, "blend")
@@ -275,7 +272,6 @@ def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solv
     whole = atlas.whole_reference(tmp_path / "other", robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
     assert whole.value is None and whole.start == "corner"
     assert whole.note.startswith("from the corner: NLP not converged")
-    assert "; from the corner_small_barrier: NLP not converged" in whole.note
     assert (f"; from the stop: local optimum {results['stop'].duration:.4f} s, above the {inner.duration:.4f} s of the "
             "tube inside its own") in whole.note
     assert "; from the blend: local optimum" in whole.note

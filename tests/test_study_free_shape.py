@@ -233,31 +233,3 @@ def test_meshes_the_extrapolation_cannot_use_are_refused_before_any_solve(robot,
 
     with pytest.raises(PathError, match="e.g. 25,50,100"):
         fs.free_shape_optimum(robot, TURN, 0.001, meshes=meshes)
-
-
-def test_a_nested_start_tries_each_small_barrier_start_with_the_smaller_barrier_first(monkeypatch):
-    """mu_init (the whole tube from the corner-confined optimum): every TUBE_IPOPT start is tried with NESTED_MU_INIT
-    first and then with its own barrier (30 deg / 0.1 mm: 100 intervals converged only with 1e-6, 50 only with 1e-4);
-    IPOPT's defaults come once; the first converged attempt is kept. Without mu_init the starts are as before."""
-    tried = []
-
-    def solve(robot_, line, phases, guess, R, ipopt=None, form="norm", torque=False):
-        tried.append((guess, ipopt.get("mu_init")))
-        ok = len(tried) == 6
-        return fs.FreeShapeSolution(1.0, "Solve_Succeeded" if ok else "Maximum_Iterations_Exceeded", ok, None)
-
-    monkeypatch.setattr(fs, "solve_mesh", solve)
-    guesses = {"start": lambda m: "start", "stop": lambda m: "stop"}
-    previous = fs.FreeShapeSolution(1.0, "Solve_Succeeded", True, None)
-    monkeypatch.setattr(fs, "_resample", lambda *a: "previous")
-    monkeypatch.setattr(fs, "_motion_at", lambda motion: None)
-    monkeypatch.setattr(fs, "_phase_times", lambda motion: None)
-    sol = fs._solve_with_restarts(None, None, [], None, 100, guesses["start"], previous, True, guesses["stop"],
-                                  mu_init=fs.NESTED_MU_INIT)
-    small, own = fs.NESTED_MU_INIT, fs.TUBE_IPOPT["mu_init"]
-    assert tried == [("start", small), ("start", own), ("previous", small), ("previous", own), ("previous", None),
-                     ("stop", small)]
-    assert sol.success
-    tried.clear()
-    fs._solve_with_restarts(None, None, [], None, 100, guesses["start"], previous, True, guesses["stop"])
-    assert tried == [("start", own), ("previous", own), ("previous", None), ("stop", own)]

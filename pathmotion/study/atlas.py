@@ -198,16 +198,14 @@ def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None, to
 
 
 def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None, warm=None, crowd=None,
-                   keep: list | None = None, start: str | None = None, torque: bool = False,
-                   mu_init: float | None = None) -> dict:
+                   keep: list | None = None, start: str | None = None, torque: bool = False) -> dict:
     """The free-shape optimum's record {duration, convergence_error, success, status, durations,
     statuses, iterations, verification}, read from ``cache`` or solved and written there. ``warm``:
     the start (see free_shape_optimum), or a function returning it, called only to solve; a
     FreeShapeOptimum start crowds the whole tube's nodes at its spans, given as ``crowd`` (they
     change the mesh, so they are in the key; the start itself is not, except as ``start``, the name
     of a retry's start, see best_reference). ``keep``: a list the solved FreeShapeOptimum is
-    appended to. ``torque``: with the robot's joint torque limits (in the key and the record). ``mu_init``: see
-    free_shape_optimum (not in the key: a start that sets it has its own ``start`` name)."""
+    appended to. ``torque``: with the robot's joint torque limits (in the key and the record)."""
     from . import free_shape as fs
 
     meshes = tuple(meshes or fs.MESHES)
@@ -216,7 +214,7 @@ def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=
         return json.loads(f.read_text())
     t0 = time.process_time()
     opt = fs.free_shape_optimum(robot, points, delta, spans, meshes, warm=warm() if callable(warm) else warm,
-                                torque=torque, mu_init=mu_init)
+                                torque=torque)
     if keep is not None:
         keep.append(opt)
     rec = {"duration": opt.duration, "convergence_error": opt.convergence_error, "success": opt.success,
@@ -293,21 +291,17 @@ def local_optimum_note(value: float, error: float | None, feasible: float) -> st
 CORNER_STARTS = ("blend", "stop")
 #: Starts of the whole-tube NLP, in order: the corner-confined optimum's solutions mesh by mesh (its tube is inside the
 #: whole one, so each is feasible; the whole tube's nodes then crowd at its spans), then, when that gives no reference,
-#: the same with each per-mesh start tried with a smaller initial barrier first (free_shape.NESTED_MU_INIT: 30 deg /
-#: 0.1 mm hit the cap on 100 intervals from every start of the first), the stop and the optimal blend's plan (one phase per segment), the lowest reference
-#: kept as for CORNER_STARTS.
-WHOLE_STARTS = ("corner", "corner_small_barrier", "stop", "blend")
+#: the stop and the optimal blend's plan (one phase per segment), the lowest reference kept as for CORNER_STARTS.
+WHOLE_STARTS = ("corner", "stop", "blend")
 
 
 class Start(NamedTuple):
     """A start of a free-shape NLP: ``name`` (its cache key's ``start`` on a retry), ``warm`` (see cached_optimum),
-    ``crowd`` (the whole tube's crowd spans of a FreeShapeOptimum start), ``mu_init`` (IPOPT's initial barrier, see
-    free_shape_optimum)."""
+    ``crowd`` (the whole tube's crowd spans of a FreeShapeOptimum start)."""
 
     name: str
     warm: object = None
     crowd: list | None = None
-    mu_init: float | None = None
 
 
 def _reference(rec: dict, feasible: float, inner: tuple | None = None) -> tuple[float | None, float | None, str | None]:
@@ -350,7 +344,7 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
     for i, start in enumerate(starts):
         keep: list = []
         rec = cached_optimum(cache, robot, points, tolerance, spans, meshes, warm=start.warm, crowd=start.crowd,
-                             keep=keep, start=None if i == 0 else start.name, torque=torque, mu_init=start.mu_init)
+                             keep=keep, start=None if i == 0 else start.name, torque=torque)
         tried.append((start, _reference(rec, feasible, inner), keep))
         if tried[-1][1][2] is None:
             break
@@ -365,8 +359,7 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
         if keep:
             return keep[0]
         warm = start.warm() if callable(start.warm) else start.warm
-        return free_shape_optimum(robot, points, tolerance, spans, tuple(meshes or MESHES), warm=warm, torque=torque,
-                                  mu_init=start.mu_init)
+        return free_shape_optimum(robot, points, tolerance, spans, tuple(meshes or MESHES), warm=warm, torque=torque)
 
     return Reference(value, error, note, start.name, solutions)
 
@@ -384,12 +377,9 @@ def corner_reference(cache: Path, robot, points, tolerance: float, spans, meshes
 def whole_reference(cache: Path, robot, points, tolerance: float, meshes, corner: Reference, spans, blend,
                     feasible: float, torque: bool = False) -> Reference:
     """The whole-tube optimum (best_reference) from the WHOLE_STARTS: the ``corner``-confined Reference's solutions
-    (crowded at its ``spans``; with the default and with a small initial barrier), the stop, the optimal ``blend``'s
-    PlanResult; not above the corner-confined reference by more than both errors (its tube is inside the whole one)."""
-    from .free_shape import NESTED_MU_INIT
-
-    starts = {"corner": Start("corner", corner.solutions, spans), "stop": Start("stop"), "blend": Start("blend", blend),
-              "corner_small_barrier": Start("corner_small_barrier", corner.solutions, spans, NESTED_MU_INIT)}
+    (crowded at its ``spans``), the stop, the optimal ``blend``'s PlanResult; not above the corner-confined reference
+    by more than both errors (its tube is inside the whole one)."""
+    starts = {"corner": Start("corner", corner.solutions, spans), "stop": Start("stop"), "blend": Start("blend", blend)}
     return best_reference(cache, robot, points, tolerance, None, meshes, [starts[n] for n in WHOLE_STARTS], feasible,
                           (corner.value, corner.error), torque)
 

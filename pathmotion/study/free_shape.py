@@ -84,14 +84,6 @@ IPOPT_MAX_ITER = 1500
 #: IPOPT options of the norm-form tube: a small initial barrier and bound push (the tube's slack is
 #: of the order of its radius, 1e-4 m at 0.1 mm, where the default push of 1e-2 throws the start out).
 TUBE_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-8, "bound_frac": 1e-8, "max_iter": 600}
-#: Initial barrier of a start at the optimum of a tube inside this one (``mu_init`` of free_shape_optimum; the whole
-#: tube from the corner-confined solutions, a retry in the atlas). There many bounds are active with slacks of about
-#: bound_push, and TUBE_IPOPT's barrier pushed the iterate off them uphill: 30 deg / 0.1 mm on 100 intervals went from
-#: the start's 0.8741 s to 0.8817 s in 40 iterations and hit the cap from every start; with 1e-6 it converged in 106
-#: iterations (31 s CPU) to 0.8729 s. (1e-8 descended first, then lost feasibility; mu_strategy adaptive went to
-#: 1e-2.) Not always better: on 50 intervals the same start with 1e-6 hit the cap where 1e-4 had converged, so each
-#: start is tried with it first and then with TUBE_IPOPT's own.
-NESTED_MU_INIT = 1e-6
 #: The last resort: IPOPT's defaults (continuation that way converged at 90 degrees, 1 mm, corner-
 #: confined, where a small barrier hit the cap).
 FALLBACK_IPOPT = {"max_iter": 1000}
@@ -652,13 +644,12 @@ def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, 
 
 def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, intervals: int, start,
                          previous: FreeShapeSolution | None, warm: bool, stop=None,
-                         torque: bool = False, mu_init: float | None = None) -> FreeShapeSolution:
+                         torque: bool = False) -> FreeShapeSolution:
     """One mesh, tried from the starts in STARTS (``warm``: STARTS_WARM, ``start`` a feasible motion
     near the optimum, e.g. the optimal blend in the corner-confined tube) until IPOPT converges; the
     first converged (else the last) solution. "previous" is the previous mesh's solution resampled
     (continuation; ``start`` on the first mesh), "start" is ``start`` (m -> Guess) on this mesh,
-    "stop" is ``stop`` (m -> Guess: the stop at the corners; ``start`` when None); ``torque``: see solve_mesh;
-    ``mu_init``: each TUBE_IPOPT start is tried with this initial barrier first, then with its own (NESTED_MU_INIT).
+    "stop" is ``stop`` (m -> Guess: the stop at the corners; ``start`` when None); ``torque``: see solve_mesh.
 
     Why these: with the norm-form tube and a small barrier, the 0.1 mm whole tube at 90 degrees
     converged on 25 / 50 / 100 intervals (261 / 319 / 52 iterations, the last from the stop after
@@ -678,11 +669,9 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
     tries = []
     from_stop = fresh if stop is None else (lambda: stop(intervals))
     for src, options, form in STARTS_WARM if warm else STARTS:
-        source = {"previous": cont, "start": fresh}.get(src, from_stop)
-        small = mu_init is not None and options is TUBE_IPOPT
-        for opts in ({**options, "mu_init": mu_init}, options) if small else (options,):
-            if (source, opts, form) not in tries:  # without a previous mesh, "previous" is the start
-                tries.append((source, opts, form))
+        attempt = ({"previous": cont, "start": fresh}.get(src, from_stop), options, form)
+        if attempt not in tries:  # without a previous mesh, "previous" is the start
+            tries.append(attempt)
     for i, (guess, options, form) in enumerate(tries):
         sol = solve_mesh(robot, line, phases, guess(), R_ref, ipopt=options, form=form, torque=torque)
         if sol.success:
@@ -694,7 +683,7 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
 
 def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float, float]] | None = None,
                        meshes: Sequence[int] = MESHES, rotation=None, warm=None,
-                       torque: bool = False, mu_init: float | None = None) -> FreeShapeOptimum:
+                       torque: bool = False) -> FreeShapeOptimum:
     """The minimum-time rest-to-rest motion with the TCP within ``delta`` [m] of the polyline
     ``points`` (m, 3) [m] (whole tube, or only within ``spans`` around each corner), fixed tool
     ``rotation`` (default tool down), joint velocity and acceleration limits (and the robot's joint
@@ -704,9 +693,7 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     tube to start every mesh from (the optimal blend's, for the corner-confined tube); or, for the
     whole tube, the corner-confined FreeShapeOptimum on the same meshes: its tube is inside the
     whole one, so each of its solutions is a start feasible on the same nodes (the whole tube then
-    crowds its nodes at the corners like it) and the whole tube ends at or below it. ``mu_init``: an initial barrier
-    each small-barrier start (TUBE_IPOPT) is tried with first, then with its own (NESTED_MU_INIT for a start at a
-    nested optimum)."""
+    crowds its nodes at the corners like it) and the whole tube ends at or below it."""
     from .. import defaults
 
     delta = float(delta)
@@ -736,7 +723,7 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     solutions: list[FreeShapeSolution] = []
     for m in meshes:
         sol = _solve_with_restarts(robot, line, phases, R_ref, m, start, solutions[-1] if solutions else None,
-                                   warm is not None, from_stop, torque, mu_init)
+                                   warm is not None, from_stop, torque)
         log.info("free shape delta=%g spans=%s mesh %d: T = %.6f s (%s, %d iterations)", delta, spans, m, sol.duration,
                  sol.status, sol.iterations)
         solutions.append(sol)
