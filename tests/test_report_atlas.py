@@ -40,6 +40,7 @@ def test_atlas_folder_is_one_section_with_its_table_and_figures(tmp_path):
     assert re.search(r'data-figures="2"', page)
     assert page.count("<tr>") >= len(rows) + 1  # header + every row
     assert "NLP not converged" in page and "give a tolerance below 0.0289 m" in page
+    assert "<th>torque limits</th>" in page  # the atlas says whether it planned within the torque limits
 
 
 def test_figures_draw_every_method_present():
