@@ -61,7 +61,7 @@ from ..constraint import lift
 from ..errors import PathmotionError
 from ..geometry import Line, TaskPath
 from ..geometry.blends import G2Shape, g2_shape_for_tolerance, with_blends, with_shaped_g2_blends
-from ..modes import BoundaryMode
+from .boundary import at_rest
 from .planner import PlanSettings, plan
 
 log = logging.getLogger(__name__)
@@ -188,7 +188,7 @@ class _Objective:
         found = [(v[0], v[1], k) for k, v in self.cache.items()
                  if v[1] is not None and not (quintic_only and v[1].racing)
                  and not (s_curve_only and len(k) > _C_A) and not (planar and not v[1].planar)
-                 and not (joined and len(k) > _DEPARTURE.start)]
+                 and not (joined and not _joined(v[1]))]
         return min(found, key=lambda r: r[0])
 
 
@@ -427,12 +427,9 @@ def _joined(shape: G2Shape) -> bool:
 
 def _rests(settings: PlanSettings) -> tuple[bool, bool]:
     """Whether the motion under ``settings`` starts / ends at rest (zero speed, not periodic)."""
-    def still(c) -> bool:
-        return c == BoundaryMode.ZERO or (isinstance(c, (int, float)) and float(c) == 0.0)
-
     if settings.periodic:
         return False, False
-    return still(settings.start_condition), still(settings.end_condition)
+    return at_rest(settings.start_condition), at_rest(settings.end_condition)
 
 
 def replace_settings(settings: PlanSettings, **changes) -> PlanSettings:

@@ -20,6 +20,11 @@ from .topp import IntervalProblem, SetSequence, controllable_sets, greedy_profil
 #: BoundaryMode.ZERO, BoundaryMode.MAX or a path velocity theta_dot >= 0 [unit theta / s].
 Boundary = Union[BoundaryMode, float]
 
+def at_rest(condition: Boundary) -> bool:
+    """Whether a boundary ``condition`` holds the motion at rest there: "zero", or a given theta_dot of 0."""
+    return condition == BoundaryMode.ZERO or (not isinstance(condition, str) and float(condition) == 0.0)
+
+
 #: x at or above this fraction of defaults.PLANNER_X_CAP counts as unbounded [-].
 X_CAP_FRACTION = 0.999
 #: Relative slack (times 1 + x) when checking that a start x lies in a controllable set [-].

@@ -26,7 +26,7 @@ from ..robot import Robot
 from .baselines import Baselines, compute_baselines
 from .certify import CertifyContext, certify
 from .grid import Grid, make_grid, refine
-from .boundary import X_CAP_FRACTION, Boundary
+from .boundary import X_CAP_FRACTION, Boundary, at_rest
 from .limit_rows import LimitRows, limit_rows
 from .limits import REGISTRY, EffectiveLimits, LimitChoice, PathPoints, effective_limits_for, tcp_gain
 from .profile import Profile
@@ -509,7 +509,7 @@ def _smooth(grid, samp, limits, scale, sol, chain_args, x_ref):
     fixed = {}
     if not chain_args["periodic"]:
         for idx, cond in ((0, chain_args["start"]), (k - 1, chain_args["end"])):
-            if cond == BoundaryMode.ZERO or (not isinstance(cond, str) and float(cond) == 0.0):
+            if at_rest(cond):
                 rest[idx] = True
             elif not isinstance(cond, str):
                 fixed[idx] = float(cond) ** 2
