@@ -96,15 +96,16 @@ def _task(points: np.ndarray):
     return TaskPath(tuple(Line(a, b) for a, b in zip(points[:-1], points[1:])), FixedOrientation())
 
 
-def check_inputs(angles: Sequence[float], tolerances: Sequence[float], meshes: Sequence[int] | None = None) -> None:
-    """PathError for an angle of (about) 0 or 180 deg, a tolerance that is not positive or not below
-    half a segment, or ``meshes`` that are not at least two interval counts each twice the previous
-    (every reference needs a convergence error). (A tolerance that no G2 blend can use up at some
-    angle is that row's error, with the largest that fits.)"""
-    from .free_shape import check_meshes
+def check_inputs(angles: Sequence[float], tolerances: Sequence[float],
+                 meshes: Sequence[int] | None = None) -> tuple[int, ...]:
+    """The checked meshes (``meshes``, default free_shape.MESHES, as whole interval counts); PathError for
+    an angle of (about) 0 or 180 deg, a tolerance that is not positive or not below half a segment, or
+    meshes that are not at least two interval counts each twice the previous (every reference needs a
+    convergence error). (A tolerance that no G2 blend can use up at some angle is that row's error,
+    with the largest that fits.)"""
+    from .free_shape import MESHES, check_meshes
 
-    if meshes is not None:
-        check_meshes(meshes, least=2)
+    checked = check_meshes(meshes or MESHES, least=2)
     for a in angles:
         corner_points(a)
     half = 0.5 * ATLAS_SEGMENT_LENGTH
@@ -112,6 +113,7 @@ def check_inputs(angles: Sequence[float], tolerances: Sequence[float], meshes: S
         if not (np.isfinite(tol) and 0 < tol < half):
             raise PathError(f"corner atlas: tolerance {tol!r} m must be a positive distance below half a segment "
                             f"({half:g} m)")
+    return checked
 
 
 # ------------------------------------------------------------------------------------ one row
@@ -480,14 +482,12 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     """Run the atlas into ``out`` (corners.csv / .parquet, tdelta.png, gain_vs_angle.png; the points
     and the optimum cache under ``out``); resumes. ``torque``: every motion and both references within the
     robot's joint torque limits too (the ``torque`` column). Bad angles or tolerances raise before any work."""
-    from .free_shape import MESHES, check_meshes
     from .sweep import load_finished, run_sweep, write_tables
 
     angles, tolerances = [float(a) for a in angles], [float(t) for t in tolerances]
-    check_inputs(angles, tolerances, meshes)
+    meshes = list(check_inputs(angles, tolerances, meshes))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    meshes = list(check_meshes(meshes or MESHES))
     spec = out / "atlas_spec.toml"
     write_text(spec, f'version = {ROW_VERSION}\nrobot = "{robot}"\nmeshes = {meshes}\nclosed_loop = '
                      f'{str(closed_loop).lower()}\ntorque = {str(torque).lower()}\n'
