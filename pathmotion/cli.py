@@ -24,6 +24,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
+from . import defaults
 from .errors import PathmotionError, ScenarioError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="rich",
@@ -536,15 +537,24 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [de
             workers: int = typer.Option(2, min=1, help="local worker processes"),
             figures: bool = typer.Option(True, help="write tdelta.png and gain_vs_angle.png"),
             torque: bool = typer.Option(False, help="plan every motion and solve both references within the joint "
-                                                    "torque limits too (the torque column)")):
+                                                    "torque limits too (the torque column)"),
+            torque_reserve: Optional[float] = typer.Option(
+                None, "--torque-reserve", help="with --torque: fraction of each torque limit kept free for feedback, "
+                f"in [0, {defaults.MAX_TORQUE_RESERVE:g}) (as \\[limits] torque_reserve; default "
+                f"{defaults.TORQUE_RESERVE:g}): plans and references use (1 - R) tau_max, "
+                "the closed-loop check's plant the whole"),
+            robot: Optional[Path] = typer.Option(
+                None, "--robot", help="robot file (TOML): a scenario's \\[robot] table (name or URDF, payload, tool, ...) "
+                "and \\[limits] velocity / acceleration / torque; default: the built-in IRB140")):
     """The corner atlas: every way to take a corner (stop, zone, circle, G2, optimal blend) against
     the free-shape optimum, per turn angle and tolerance; writes corners.csv. Needs CasADi
     (pip install "pathmotion[optimal]"). --torque adds the joint torque limits to every motion and
-    reference (its optima are cached apart).
+    reference (its optima are cached apart), --torque-reserve keeps a share of them free for the
+    closed loop's feedback, --robot takes another arm, payload or drives.
 
     Example: [bold]pathmotion corners --angles 60,90,120 --tolerances 0.001,0.01 --out out/corners[/]
     """
-    from .study.atlas import corner_atlas
+    from .study.atlas import check_torque_reserve, corner_atlas
 
     def numbers(text: str, what: str) -> list:
         try:
@@ -552,6 +562,7 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [de
         except ValueError:
             _fail(f"--{what} {text!r}: give comma-separated numbers", code=2)
 
+    reserve = check_torque_reserve(torque_reserve, torque, name="--torque-reserve", switch="--torque")
     with _progress() as progress:
         task = progress.add_task("corners", total=None)
 
@@ -560,7 +571,8 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [de
 
         atlas = corner_atlas(out, numbers(angles, "angles"), numbers(tolerances, "tolerances"),
                              meshes=numbers(meshes, "meshes"), workers=workers,
-                             scheduler=scheduler, on_result=on_result, figures=figures, torque=torque)
+                             scheduler=scheduler, on_result=on_result, figures=figures, torque=torque,
+                             torque_reserve=reserve if torque else None, robot_file=robot)
     failed = sum(1 for r in atlas.rows if r.get("error") or r.get("status") != "ok")
     console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum -> {out}/corners.csv")
 

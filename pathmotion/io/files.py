@@ -28,6 +28,7 @@ KINDS = {
     "result": ("result file", "MAX_RESULT_BYTES", PathmotionError),
     "waypoints": ("waypoint file", "MAX_WAYPOINT_FILE_BYTES", ScenarioError),
     "rapid": ("RAPID file", "MAX_TOML_BYTES", ScenarioError),
+    "robot": ("robot file", "MAX_TOML_BYTES", RobotModelError),
 }
 #: Pseudo file systems whose "regular" files report no true size or never end.
 _PSEUDO = ("/proc", "/sys", "/dev")

@@ -157,7 +157,7 @@ class LimitsSpec(_Model):
     acceleration_scale: float = Field(1.0, gt=0)
     torque_scale: float = Field(1.0, gt=0)
     tcp_speed: float | None = Field(None, gt=0, description="TCP speed limit [m/s] (off when absent)")
-    torque_reserve: float | Literal["auto"] = Field(0.0, description="fraction of each torque limit kept free for "
+    torque_reserve: float | Literal["auto"] = Field(defaults.TORQUE_RESERVE, description="fraction of each torque limit kept free for "
                                                     "feedback, in [0, 0.5) (the planner enforces (1 - r) tau_max); "
                                                     "\"auto\": the smallest with which the scenario's closed loop "
                                                     "tracks (a search over plan + simulate runs)")

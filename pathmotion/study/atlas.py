@@ -6,7 +6,11 @@ Geometry: two lines of ATLAS_SEGMENT_LENGTH in the horizontal plane z = ATLAS_HE
 The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the issue's
 reference), and with ``torque`` its joint torque limits too, for every motion and both references
 (the ``torque`` column; the optima's cache key then holds the torque limits, payload, armature and
-gravity). Per row (``corners.csv``, ATLAS_COLUMNS):
+gravity). ``torque_reserve`` r (the ``torque_reserve`` column, the scenario key ``[limits] torque_reserve``)
+keeps r tau_max of every joint free for feedback: every motion is planned, and both references are solved,
+within (1 - r) tau_max (planning/limits/torque.py's TorqueLimit), while the closed-loop check's plant has the
+whole tau_max, as a scenario's simulate run does. The robot is the built-in IRB140 or any arm a robot file
+describes (:mod:`.robot_file`). Per row (``corners.csv``, ATLAS_COLUMNS):
 
 * ``stop_s``: the time-optimal stop at the corner; ``circle_s``: the transition circle whose deviation
   is the tolerance; ``g2_s``: the symmetric G2 blend; ``optimal_s``: the tolerance-optimal blend
@@ -38,6 +42,7 @@ when the workers are remote).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
@@ -49,7 +54,8 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from ..errors import PathError, PathmotionError
+from .. import defaults
+from ..errors import PathError, PathmotionError, ScenarioError
 from ..io.atomic import write_json, write_text
 
 log = logging.getLogger(__name__)
@@ -57,7 +63,7 @@ log = logging.getLogger(__name__)
 ATLAS_SEGMENT_LENGTH = 0.2
 ATLAS_CORNER = (0.5, -0.05, 0.45)
 #: Columns of corners.csv.
-ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "status", "stop_s", "circle_s", "g2_s", "quintic_s", "optimal_s",
+ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "torque_reserve", "status", "stop_s", "circle_s", "g2_s", "quintic_s", "optimal_s",
                  "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
                  "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2", "gap_to_optimum",
                  "gap_to_corner_optimum", "capture", "optimal_entry_m", "optimal_exit_m", "optimal_offset_entry_m",
@@ -69,7 +75,8 @@ ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "status", "stop_s", "circ
 OPTIMUM_VERSION = 4
 CORNER_OPTIMUM_VERSION = 4
 #: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached; 6: the torque
-#: column and the whole tube's retries).
+#: column and the whole tube's retries). Not bumped for the torque_reserve column: a torque-free row's is empty, as a
+#: point recorded before it reads, and a torque atlas' spec holds its reserve, so its points are new.
 ROW_VERSION = 6
 #: IPOPT statuses counted as converged.
 CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -116,12 +123,47 @@ def check_inputs(angles: Sequence[float], tolerances: Sequence[float],
     return checked
 
 
+def check_torque_reserve(reserve, torque: bool, name: str = "torque_reserve", switch: str = "torque") -> float:
+    """The feedback reserve [-] of an atlas: ``reserve`` checked as the planner checks ``[limits] torque_reserve``
+    (a number in [0, defaults.MAX_TORQUE_RESERVE)), defaults.TORQUE_RESERVE with ``torque`` when None, 0 without;
+    a ScenarioError naming the option ``name`` (and ``switch``, the torque option) otherwise, also for a reserve
+    given without torque limits (it is a share of them)."""
+    from ..planning.limits.torque import check_reserve
+
+    if reserve is None:
+        return defaults.TORQUE_RESERVE if torque else 0.0
+    if not torque:
+        raise ScenarioError(f"{name} {reserve!r} without {switch}: the reserve is a share of the joint torque limits, "
+                            f"which the atlas enforces only with {switch}; add {switch}, or drop {name}")
+    try:
+        return check_reserve(reserve)
+    except ScenarioError:
+        raise ScenarioError(f"{name} {reserve!r}: give the fraction of each torque limit kept free for feedback, a "
+                            f"number in [0, {defaults.MAX_TORQUE_RESERVE:g}) (e.g. 0.2; as the scenario key "
+                            "[limits] torque_reserve)") from None
+
+
 # ------------------------------------------------------------------------------------ one row
 def _settings(torque: bool = False, **kw):
-    """The atlas' plan settings: rest to rest, velocity and acceleration limits, torque limits when ``torque``."""
+    """The atlas' plan settings: rest to rest, velocity and acceleration limits, torque limits when ``torque`` (and
+    ``torque_reserve`` in ``kw``, see PlanSettings)."""
     from ..planning import PlanSettings
 
     return PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=torque, **kw)
+
+
+def reserved(robot, torque_reserve: float):
+    """``robot`` with the torque limits the planner enforces under the feedback reserve r, (1 - r) tau_max
+    (TorqueLimit.from_robot), for the free-shape NLPs, which take the robot's limits; ``robot`` itself for r = 0."""
+    import dataclasses
+
+    from ..planning.limits.base import LimitChoice
+    from ..planning.limits.torque import TorqueLimit
+
+    if not torque_reserve:
+        return robot
+    limit = TorqueLimit.from_robot(robot, TorqueLimit.check_choice(LimitChoice(value=torque_reserve)))
+    return robot.with_limits(dataclasses.replace(robot.limits, torque=np.asarray(limit.enforced(), float)))
 
 
 def _duration(robot, task, original=None, torque: bool = False, **kw) -> float:
@@ -153,14 +195,15 @@ def parabolic_zone(task, tolerance: float):
     return _replace(task, c, z, z, BezierSegment(b))
 
 
-def industrial_zone_duration(robot, task, tolerance: float, torque: bool = False) -> float:
+def industrial_zone_duration(robot, task, tolerance: float, torque: bool = False, torque_reserve: float = 0.0) -> float:
     """Constant-TCP-speed duration [s] on ``task`` with the parabolic zone (see parabolic_zone), within the torque
-    limits too when ``torque``."""
+    limits too when ``torque`` (less the feedback reserve ``torque_reserve``)."""
     from ..constraint import lift
     from ..planning import plan
 
     zoned = parabolic_zone(task, tolerance)
-    result = plan(lift(robot, zoned, original=task), robot, _settings(torque, baselines=True))
+    result = plan(lift(robot, zoned, original=task), robot,
+                  _settings(torque, baselines=True, torque_reserve=torque_reserve))
     return float(result.baselines.constant_speed.profile.duration)
 
 
@@ -173,12 +216,45 @@ def _dynamics(robot) -> dict:
             "armature": None if armature is None else list(map(float, armature))}
 
 
-def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None, torque: bool = False) -> str:
+def _kinematic_fields(robot) -> dict:
+    """A digest of the URDF, the flange frame, the tool, the locked joints and the joint ranges of ``robot``."""
+    lim, tool = robot.limits, robot.tool
+    return {"urdf": hashlib.sha256(robot.urdf_text.encode()).hexdigest()[:20], "flange": robot.flange_frame,
+            "tool": [np.round(np.asarray(tool.translation, float), 12).tolist(),
+                     np.round(np.asarray(tool.rotation, float), 12).tolist()],
+            "locked": [[k, float(v)] for k, v in robot.locked_joints],
+            "range": [np.asarray(lim.lower, float).tolist(), np.asarray(lim.upper, float).tolist()]}
+
+
+@functools.lru_cache(maxsize=None)
+def _shipped_fields(name: str) -> str:
+    """_kinematic_fields of the built-in robot ``name`` as shipped, as JSON (loaded once per process)."""
+    from ..robot import load_robot
+
+    return json.dumps(_kinematic_fields(load_robot(name)), sort_keys=True)
+
+
+def _kinematics(robot) -> dict | None:
+    """What a motion depends on besides the joint velocity and acceleration limits and the robot's name
+    (_kinematic_fields); None for a built-in robot as shipped (its optima's keys are as before other robots could be
+    given)."""
+    from ..robot.model import BUILTIN_ROBOTS
+
+    fields = _kinematic_fields(robot)
+    key = robot.name.lower()
+    shipped = key in BUILTIN_ROBOTS and json.dumps(fields, sort_keys=True) == _shipped_fields(key)
+    return None if shipped else fields
+
+
+def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None, torque: bool = False,
+                 torque_reserve: float = 0.0) -> str:
     """Cache key of a free-shape optimum: its inputs, the corner spans and the whole tube's crowd spans as the
     NLP lays its phases out (free_shape.effective_spans, so a solve whose spans gained absorbed stretches is not
     read back from a cache written before), ``start`` only for a retry from another start (CORNER_STARTS,
-    WHOLE_STARTS), so that first attempts keep their keys, and with ``torque`` the dynamics it depends on
-    (_dynamics; without, the key is as before torque was an option)."""
+    WHOLE_STARTS), so that first attempts keep their keys, with ``torque`` the dynamics it depends on
+    (_dynamics; without, the key is as before torque was an option) and a reserve above 0, and the robot's
+    kinematics when it is not a built-in one as shipped (_kinematics). Keys written before the reserve and other
+    robots were options stay: the built-in robot without torque, or with torque and no reserve."""
     from .free_shape import Polyline, effective_spans
 
     lengths = Polyline(points).lengths
@@ -196,27 +272,34 @@ def _optimum_key(robot, points, delta, spans, meshes, crowd=None, start=None, to
         fields["start"] = start
     if torque:
         fields["dynamics"] = _dynamics(robot)
+        if torque_reserve:
+            fields["torque_reserve"] = float(torque_reserve)
+    if (kinematics := _kinematics(robot)) is not None:
+        fields["kinematics"] = kinematics
     return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:20]
 
 
 def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=None, warm=None, crowd=None,
-                   keep: list | None = None, start: str | None = None, torque: bool = False) -> dict:
+                   keep: list | None = None, start: str | None = None, torque: bool = False,
+                   torque_reserve: float = 0.0) -> dict:
     """The free-shape optimum's record {duration, convergence_error, success, status, durations,
     statuses, iterations, verification}, read from ``cache`` or solved and written there. ``warm``:
     the start (see free_shape_optimum), or a function returning it, called only to solve; a
     FreeShapeOptimum start crowds the whole tube's nodes at its spans, given as ``crowd`` (they
     change the mesh, so they are in the key; the start itself is not, except as ``start``, the name
     of a retry's start, see best_reference). ``keep``: a list the solved FreeShapeOptimum is
-    appended to. ``torque``: with the robot's joint torque limits (in the key and the record)."""
+    appended to. ``torque``: with the robot's joint torque limits (in the key and the record), less the feedback
+    reserve ``torque_reserve`` (solved on ``reserved(robot, torque_reserve)``; a reserve above 0 is in the key and the
+    record, and the verification's max_torque_ratio is against the reduced limits)."""
     from . import free_shape as fs
 
     meshes = tuple(meshes or fs.MESHES)
-    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd, start, torque)}.json"
+    f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd, start, torque, torque_reserve)}.json"
     if f.is_file():
         return json.loads(f.read_text())
     t0 = time.process_time()
-    opt = fs.free_shape_optimum(robot, points, delta, spans, meshes, warm=warm() if callable(warm) else warm,
-                                torque=torque)
+    opt = fs.free_shape_optimum(reserved(robot, torque_reserve), points, delta, spans, meshes,
+                                warm=warm() if callable(warm) else warm, torque=torque)
     if keep is not None:
         keep.append(opt)
     rec = {"duration": opt.duration, "convergence_error": opt.convergence_error, "success": opt.success,
@@ -226,6 +309,8 @@ def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=
            "verification": opt.solutions[-1].verification, "cpu_s": time.process_time() - t0, "torque": torque}
     if start is not None:
         rec["start"] = start
+    if torque and torque_reserve:
+        rec["torque_reserve"] = torque_reserve
     write_json(f, rec)
     return rec
 
@@ -334,7 +419,7 @@ class Reference:
 
 
 def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, starts, feasible: float,
-                   inner: tuple | None = None, torque: bool = False) -> Reference:
+                   inner: tuple | None = None, torque: bool = False, torque_reserve: float = 0.0) -> Reference:
     """The free-shape optimum (``spans``: corner-confined, None: whole tube) from the ``starts`` (Start), tried in
     order until one is a converged reference below ``feasible`` [s] (the shorter of the stop and the blend, which lie
     in either tube) and not above ``inner`` (see _reference): the lowest reference of those tried, else the first
@@ -346,7 +431,8 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
     for i, start in enumerate(starts):
         keep: list = []
         rec = cached_optimum(cache, robot, points, tolerance, spans, meshes, warm=start.warm, crowd=start.crowd,
-                             keep=keep, start=None if i == 0 else start.name, torque=torque)
+                             keep=keep, start=None if i == 0 else start.name, torque=torque,
+                             torque_reserve=torque_reserve)
         tried.append((start, _reference(rec, feasible, inner), keep))
         if tried[-1][1][2] is None:
             break
@@ -361,36 +447,38 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
         if keep:
             return keep[0]
         warm = start.warm() if callable(start.warm) else start.warm
-        return free_shape_optimum(robot, points, tolerance, spans, tuple(meshes or MESHES), warm=warm, torque=torque)
+        return free_shape_optimum(reserved(robot, torque_reserve), points, tolerance, spans, tuple(meshes or MESHES),
+                                  warm=warm, torque=torque)
 
     return Reference(value, error, note, start.name, solutions)
 
 
 def corner_reference(cache: Path, robot, points, tolerance: float, spans, meshes, blend, racing: bool,
-                     feasible: float, torque: bool = False) -> Reference:
+                     feasible: float, torque: bool = False, torque_reserve: float = 0.0) -> Reference:
     """The corner-confined optimum within ``spans`` (best_reference) from the CORNER_STARTS (``blend``: the optimal
     blend's PlanResult; the blend first unless ``racing``)."""
     warms = {"blend": blend, "stop": None}
     order = CORNER_STARTS[::-1] if racing else CORNER_STARTS
     return best_reference(cache, robot, points, tolerance, spans, meshes, [Start(n, warms[n]) for n in order],
-                          feasible, torque=torque)
+                          feasible, torque=torque, torque_reserve=torque_reserve)
 
 
 def whole_reference(cache: Path, robot, points, tolerance: float, meshes, corner: Reference, spans, blend,
-                    feasible: float, torque: bool = False) -> Reference:
+                    feasible: float, torque: bool = False, torque_reserve: float = 0.0) -> Reference:
     """The whole-tube optimum (best_reference) from the WHOLE_STARTS: the ``corner``-confined Reference's solutions
     (crowded at its ``spans``), the stop, the optimal ``blend``'s PlanResult; not above the corner-confined reference
     by more than both errors (its tube is inside the whole one)."""
     starts = {"corner": Start("corner", corner.solutions, spans), "stop": Start("stop"), "blend": Start("blend", blend)}
     return best_reference(cache, robot, points, tolerance, None, meshes, [starts[n] for n in WHOLE_STARTS], feasible,
-                          (corner.value, corner.error), torque)
+                          (corner.value, corner.error), torque, torque_reserve)
 
 
 def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
-              closed_loop: bool = True, torque: bool = False) -> dict:
+              closed_loop: bool = True, torque: bool = False, torque_reserve: float | None = None) -> dict:
     """One row of corners.csv (ATLAS_COLUMNS except ``error``), filled into ``row`` as it goes (so a
     row that fails part way keeps what it had); ``torque``: every motion and both references within the
-    robot's joint torque limits too."""
+    robot's joint torque limits too, less the feedback reserve ``torque_reserve`` (check_torque_reserve; the
+    closed-loop check's plant keeps the whole limits)."""
     from ..constraint import lift
     from ..geometry import with_g2_blend, with_transition
     from ..planning import plan
@@ -401,15 +489,18 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     task = _task(pts)
     row = {} if row is None else row
     row.update(angle_deg=float(angle_deg), tolerance_m=float(tolerance), torque=bool(torque))
-    row["stop_s"] = _duration(robot, task, torque=torque, connections="zero")
-    row["industrial_zone_s"] = industrial_zone_duration(robot, task, tolerance, torque)
+    reserve = check_torque_reserve(torque_reserve, torque)
+    row["torque_reserve"] = reserve if torque else None
+    kw = {"torque_reserve": reserve}
+    row["stop_s"] = _duration(robot, task, torque=torque, connections="zero", **kw)
+    row["industrial_zone_s"] = industrial_zone_duration(robot, task, tolerance, torque, reserve)
     # the G2 blend's error names the largest tolerance that fits
-    row["g2_s"] = _duration(robot, with_g2_blend(task, 0, tolerance), task, torque)
+    row["g2_s"] = _duration(robot, with_g2_blend(task, 0, tolerance), task, torque, **kw)
     radius = transition_radius_for_deviation(task, 0, tolerance)
-    row["circle_s"] = _duration(robot, with_transition(task, 0, radius), task, torque)
-    best = optimal_blends(robot, task, tolerance, settings=_settings(torque, verify=False, baselines=False))
+    row["circle_s"] = _duration(robot, with_transition(task, 0, radius), task, torque, **kw)
+    best = optimal_blends(robot, task, tolerance, settings=_settings(torque, verify=False, baselines=False, **kw))
     blended = lift(robot, best.path, original=task)
-    warm = plan(blended, robot, _settings(torque, baselines=False))
+    warm = plan(blended, robot, _settings(torque, baselines=False, **kw))
     row["optimal_s"] = float(warm.profile.duration)
     row["quintic_s"] = best.quintic_duration
     shape = best.shapes[0]
@@ -425,8 +516,8 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     # the whole tube from the corner-confined solutions first, mesh by mesh (from the stop it found worse local optima,
     # e.g. 30 deg 0.1 mm 25 intervals 0.9014 s against the corner-confined 0.8717 s, and its extrapolation sat above
     # the corner-confined one at 10 mm), then from the other WHOLE_STARTS
-    corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible, torque)
-    whole = whole_reference(cache, robot, pts, tolerance, meshes, corner, spans, warm, feasible, torque)
+    corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible, torque, reserve)
+    whole = whole_reference(cache, robot, pts, tolerance, meshes, corner, spans, warm, feasible, torque, reserve)
     for name, ref in (("free_shape_optimum", whole), ("corner_optimum", corner)):
         row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = ref.value, ref.error
         if ref.note:
@@ -435,7 +526,7 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     row["gap_to_optimum"] = None if fso is None else row["optimal_s"] / fso - 1.0
     row["gap_to_corner_optimum"] = None if co is None else row["optimal_s"] / co - 1.0
     row["capture"] = None if fso is None else (row["stop_s"] - row["optimal_s"]) / (row["stop_s"] - fso)
-    if closed_loop:
+    if closed_loop:  # the plant with the whole torque limits: the reserve is the controller's
         row.update(closed_loop_check(robot, blended, warm.profile, tolerance))
         if not row["closed_loop_ok"]:
             status.append("closed loop: out of tolerance")
@@ -445,9 +536,9 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
 
 # ------------------------------------------------------------------------------------ the sweep
 def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> dict:
-    """Sweep point function (see sweep.run_sweep): ``text`` is the atlas spec (TOML: robot, meshes,
-    cache folder, torque, closed_loop), ``overrides`` the pairs (angle_deg, a), (tolerance_m, t). A failure is the row's
-    ``error``, never a stopped atlas."""
+    """Sweep point function (see sweep.run_sweep): ``text`` is the atlas spec (TOML: robot, or robot_file with
+    robot_digest, meshes, cache folder, torque, torque_reserve, closed_loop), ``overrides`` the pairs (angle_deg, a),
+    (tolerance_m, t). A failure is the row's ``error``, never a stopped atlas."""
     t0 = time.perf_counter()
     spec = tomllib.loads(text)
     given = dict(overrides)
@@ -455,16 +546,30 @@ def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> di
     torque = bool(spec.get("torque", False))
     summary.update(angle_deg=given["angle_deg"], tolerance_m=given["tolerance_m"], torque=torque)
     try:
-        from ..robot import load_robot
-
-        robot = load_robot(spec["robot"])
+        robot = _spec_robot(spec)
         atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]), spec.get("meshes"),
-                  row=summary, closed_loop=spec.get("closed_loop", True), torque=torque)
+                  row=summary, closed_loop=spec.get("closed_loop", True), torque=torque,
+                  torque_reserve=spec.get("torque_reserve"))
         error = None
     except PathmotionError as exc:
         error = f"{type(exc).__name__}: {exc}"
         summary["status"] = "error"
     return {"summary": summary, "error": error, "trace": None, "wall_time_s": time.perf_counter() - t0}
+
+
+def _spec_robot(spec: dict):
+    """The atlas spec's robot: the built-in ``robot``, or the ``robot_file`` (robot_file.load_robot_file) when it
+    still describes the robot the atlas started with (``robot_digest``)."""
+    from ..robot import load_robot
+    from .robot_file import load_robot_file, robot_digest
+
+    if "robot_file" not in spec:
+        return load_robot(spec["robot"])
+    robot = load_robot_file(spec["robot_file"])
+    if robot_digest(robot) != spec["robot_digest"]:
+        raise ScenarioError(f"robot file {spec['robot_file']} (or a file it names) changed since this atlas started; "
+                            "run the changed robot into another --out folder, or restore the file")
+    return robot
 
 
 @dataclass(frozen=True, eq=False)
@@ -478,20 +583,32 @@ class CornerAtlas:
 
 def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, robot: str = "irb140",
                  meshes: Sequence[int] | None = None, workers: int = 2, scheduler: str | None = None,
-                 on_result=None, figures: bool = True, closed_loop: bool = True, torque: bool = False) -> CornerAtlas:
+                 on_result=None, figures: bool = True, closed_loop: bool = True, torque: bool = False,
+                 torque_reserve: float | None = None, robot_file: str | Path | None = None) -> CornerAtlas:
     """Run the atlas into ``out`` (corners.csv / .parquet, tdelta.png, gain_vs_angle.png; the points
     and the optimum cache under ``out``); resumes. ``torque``: every motion and both references within the
-    robot's joint torque limits too (the ``torque`` column). Bad angles or tolerances raise before any work."""
+    robot's joint torque limits too (the ``torque`` column), less the feedback reserve ``torque_reserve``
+    (check_torque_reserve; the ``torque_reserve`` column). ``robot_file``: the arm a robot file describes
+    (robot_file.load_robot_file) instead of the built-in ``robot``. Bad angles, tolerances, meshes, reserve or
+    robot file raise before any work."""
+    from .robot_file import load_robot_file, robot_digest
     from .sweep import load_finished, run_sweep, write_tables
 
     angles, tolerances = [float(a) for a in angles], [float(t) for t in tolerances]
     meshes = list(check_inputs(angles, tolerances, meshes))
+    reserve = check_torque_reserve(torque_reserve, torque)
+    if robot_file is None:
+        arm = f'robot = "{robot}"\n'
+    else:
+        robot_file = Path(robot_file).absolute()
+        arm = f"robot_file = {json.dumps(str(robot_file))}\nrobot_digest = \"{robot_digest(load_robot_file(robot_file))}\"\n"
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     spec = out / "atlas_spec.toml"
-    write_text(spec, f'version = {ROW_VERSION}\nrobot = "{robot}"\nmeshes = {meshes}\nclosed_loop = '
+    write_text(spec, f'version = {ROW_VERSION}\n{arm}meshes = {meshes}\nclosed_loop = '
                      f'{str(closed_loop).lower()}\ntorque = {str(torque).lower()}\n'
-                     f'cache = "{(out / "optimum_cache").resolve()}"\n')
+                     + (f"torque_reserve = {reserve!r}\n" if torque else "")
+                     + f'cache = "{(out / "optimum_cache").resolve()}"\n')
     points, _ = run_sweep(spec, {"angle_deg": angles, "tolerance_m": tolerances}, out / "points_sweep",
                           workers=workers, scheduler=scheduler, on_result=on_result, point_fn=atlas_point)
     finished = load_finished(out / "points_sweep")

@@ -80,7 +80,7 @@ class TorqueLimit(Limit):
 
     @classmethod
     def default_choice(cls) -> LimitChoice:
-        return LimitChoice(value=0.0)
+        return LimitChoice(value=defaults.TORQUE_RESERVE)
 
     @classmethod
     def check_choice(cls, choice: LimitChoice) -> LimitChoice:
