@@ -19,7 +19,7 @@ def _rows():
             rows.append({"angle_deg": angle, "tolerance_m": tol, "status": "ok", "stop_s": 0.873, "circle_s": opt + 0.05,
                          "g2_s": opt + 0.01, "optimal_s": opt, "free_shape_optimum_s": opt - 0.05,
                          "corner_optimum_s": opt - 0.005, "industrial_zone_s": 1.6, "gain_vs_stop": 1 - opt / 0.873,
-                         "closed_loop_ok": True})
+                         "closed_loop_ok": True, "torque": True, "torque_reserve": 0.2})
     rows.append({"angle_deg": 90.0, "tolerance_m": 0.05, "status": "error",
                  "error": "PathError: tolerance 0.05 m is too large; give a tolerance below 0.0289 m"})
     rows[1]["status"] = "corner_optimum: NLP not converged (Maximum_Iterations_Exceeded)"
@@ -41,6 +41,7 @@ def test_atlas_folder_is_one_section_with_its_table_and_figures(tmp_path):
     assert page.count("<tr>") >= len(rows) + 1  # header + every row
     assert "NLP not converged" in page and "give a tolerance below 0.0289 m" in page
     assert "<th>torque limits</th>" in page  # the atlas says whether it planned within the torque limits
+    assert "<th>torque reserve [%]</th>" in page and "<td>20</td>" in page  # and with what reserve
 
 
 def test_figures_draw_every_method_present():

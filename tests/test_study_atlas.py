@@ -1,8 +1,10 @@
 """The corner atlas (pathmotion/study/atlas.py): bad input, the parabolic zone's deviation against
-its closed form, the optimum cache, and one real row through the sweep machinery and the CLI."""
+its closed form, the optimum cache, one real row through the sweep machinery and the CLI, and the torque reserve
+and robot files (corners --torque-reserve, --robot) down to a real weak-drive row."""
 
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -130,8 +132,8 @@ def test_one_atlas_row_through_the_cli(tmp_path):
     assert res.exit_code == 0, res.output
     rows = list(csv.DictReader((tmp_path / "corners.csv").open()))
     assert len(rows) == 1 and list(rows[0]) == list(atlas.ATLAS_COLUMNS)
-    assert rows[0]["torque"] == "false"  # the run says it planned without torque limits
-    words = ("status", "error", "closed_loop_ok", "torque")
+    assert (rows[0]["torque"], rows[0]["torque_reserve"]) == ("false", "")  # planned without torque limits: no reserve
+    words = ("status", "error", "closed_loop_ok", "torque", "torque_reserve")
     r = {k: float(v) for k, v in rows[0].items() if k not in words and v != ""}
     assert r["optimal_s"] <= r["g2_s"] < r["stop_s"]
     assert r["circle_s"] < r["stop_s"]
@@ -326,32 +328,183 @@ def test_torque_enters_the_optimum_key_with_what_the_torque_depends_on():
     assert off == atlas._optimum_key(load_robot("irb140"), pts, 0.005, spans, (25, 50), torque=False)
 
 
+# ------------------------------------------------------------------ torque reserve and robot files (corners options)
+WEAK_ROBOT_FILE = """# the IRB140 with its rated 6 kg 0.1 m below the flange, drives at 35 % of the shipped torque limits
+[robot]
+name = "irb140"
+payload = { mass = 6.0, com = [0.0, 0.0, 0.1], inertia = [[0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]] }
+
+[limits]
+torque = [87.5, 122.49999999999999, 42.0, 7.0, 7.0, 3.5]
+"""
+
+
+def _corners(tmp_path, *args):
+    from typer.testing import CliRunner
+
+    from pathmotion.cli import app
+
+    return CliRunner().invoke(app, ["corners", "--angles", "90", "--tolerances", "0.005", "--meshes", "10,20",
+                                    "--workers", "1", "--out", str(tmp_path / "atlas"), *args])
+
+
+@pytest.mark.parametrize("reserve", [-0.1, 0.5, 1.0, float("nan"), float("inf"), True, "0.2"])
+def test_a_reserve_out_of_range_is_refused_naming_the_option(reserve):
+    from pathmotion.errors import ScenarioError
+
+    with pytest.raises(ScenarioError, match=r"--torque-reserve .*\[0, 0.5\)"):
+        atlas.check_torque_reserve(reserve, True, name="--torque-reserve")
+
+
+def test_the_reserve_defaults_as_the_scenario_key_and_needs_torque():
+    from pathmotion import defaults
+    from pathmotion.errors import ScenarioError
+    from pathmotion.io.scenario import LimitsSpec
+
+    assert atlas.check_torque_reserve(None, True) == defaults.TORQUE_RESERVE == LimitsSpec().torque_reserve
+    assert atlas.check_torque_reserve(None, False) == 0.0
+    assert atlas.check_torque_reserve(0, True) == 0.0 and atlas.check_torque_reserve(0.2, True) == 0.2
+    with pytest.raises(ScenarioError, match="without torque.*add torque"):
+        atlas.check_torque_reserve(0.2, False)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--torque", "--torque-reserve", "0.5"], ["--torque-reserve 0.5", "[0, 0.5)"]),
+    (["--torque", "--torque-reserve", "-0.1"], ["--torque-reserve -0.1", "e.g. 0.2"]),
+    (["--torque", "--torque-reserve", "nan"], ["--torque-reserve nan"]),
+    (["--torque-reserve", "0.1"], ["without --torque", "add --torque"]),
+])
+def test_bad_reserves_through_the_cli_exit_1_before_any_work(tmp_path, args, words):
+    res = _corners(tmp_path, *args)
+    assert res.exit_code == 1, res.output
+    assert all(w in res.output for w in words), res.output
+    assert "Traceback" not in res.output and not (tmp_path / "atlas").exists()
+
+
+@pytest.mark.parametrize("text, words", [
+    (None, ["robot file", "does not exist"]),
+    ("[robot\nname = 1", ["not valid TOML"]),
+    ('[robot]\nname = "irb140"\n[path]\ntype = "task"\n', ["'path' is not part of a robot file", "[robot]"]),
+    ("[limits]\ntorque_scale = 0.35\n", ["limits.torque_scale is not the arm's joint limit", "limits.torque = [...]",
+                                        "--torque-reserve"]),
+    ("[robot]\npaylod = { mass = 6.0 }\n", ["robot.paylod", "did you mean 'payload'"]),
+    ("[robot]\npayload = { mass = -6.0 }\n", ["robot.payload.mass", "greater than or equal to 0"]),
+    ("[limits]\ntorque = [1.0, 2.0]\n", ["limits.torque has 2 values", "6 joints"]),
+    ('[robot]\nname = "no_such_arm.urdf"\n', ["robot file", "neither a built-in robot"]),
+])
+def test_a_bad_robot_file_through_the_cli_exits_1_naming_it(tmp_path, text, words):
+    robot = tmp_path / "arm.toml"
+    if text is not None:
+        robot.write_text(text)
+    res = _corners(tmp_path, "--robot", str(robot))
+    assert res.exit_code == 1, res.output
+    assert all(w in res.output for w in words), res.output
+    assert "Traceback" not in res.output and not (tmp_path / "atlas").exists()
+
+
+def test_a_robot_file_builds_the_arm_the_api_builds(tmp_path):
+    """The weak-drive file gives the robot of _weak_drives (the same payload, limits, dynamics and so the same optimum
+    keys and digest); relative URDF / limits paths are read from the file's folder."""
+    import pathmotion.robot
+    from pathmotion.robot import load_robot
+    from pathmotion.study.robot_file import load_robot_file, robot_digest
+
+    (tmp_path / "weak.toml").write_text(WEAK_ROBOT_FILE)
+    weak, loaded = _weak_drives(), load_robot_file(tmp_path / "weak.toml")
+    assert robot_digest(loaded) == robot_digest(weak) != robot_digest(load_robot("irb140"))
+    pts = atlas.corner_points(90.0)
+    for torque in (False, True):
+        assert (atlas._optimum_key(loaded, pts, 0.005, None, (25, 50), torque=torque)
+                == atlas._optimum_key(weak, pts, 0.005, None, (25, 50), torque=torque))
+    shipped = load_robot("irb140")
+    (tmp_path / "irb140_limits.toml").write_text(
+        (Path(pathmotion.robot.__file__).parent / "data" / "irb140_limits.toml").read_text().replace(
+            "velocity = 3.49065850399  # 200 deg/s, official (spec p. 38)", "velocity = 3.0", 1))
+    (tmp_path / "slow.toml").write_text('[robot]\nname = "irb140"\nlimits = "irb140_limits.toml"\n')
+    slow = load_robot_file(tmp_path / "slow.toml")
+    assert slow.limits.velocity[0] == 3.0 and np.array_equal(slow.limits.velocity[1:], shipped.limits.velocity[1:])
+
+
+#: Optimum keys written by fdb4d31 (before the reserve and robot files), 90 deg / 5 mm, corner span 10 mm, meshes
+#: 25/50/100: the IRB140 without torque, the weak drives with torque.
+KEY_IRB140_BEFORE = "bbfb5bc1a6f381c7d679"
+KEY_WEAK_TORQUE_BEFORE = "cd001fdf085cd0a57be5"
+
+
+def test_the_optimum_keys_of_before_stay_and_every_robot_or_reserve_has_its_own():
+    """Keys written before the reserve and robot files (fdb4d31: the IRB140 without torque, the weak drives with
+    torque) are unchanged, also with reserve 0; a reserve above 0, another reserve, a tool, other velocity limits
+    each give another key; a payload without torque does not (the motion does not depend on it then)."""
+    import dataclasses
+
+    from pathmotion.robot import load_robot
+    from pathmotion.robot.model import Tool
+
+    pts, spans, meshes = atlas.corner_points(90.0), [(0.01, 0.01)], (25, 50, 100)
+    irb, weak = load_robot("irb140"), _weak_drives()
+    before = {"irb": atlas._optimum_key(irb, pts, 0.005, spans, meshes),
+              "weak": atlas._optimum_key(weak, pts, 0.005, spans, meshes, torque=True)}
+    assert before == {"irb": KEY_IRB140_BEFORE, "weak": KEY_WEAK_TORQUE_BEFORE}
+    assert atlas._optimum_key(weak, pts, 0.005, spans, meshes, torque=True, torque_reserve=0.0) == before["weak"]
+    keys = {atlas._optimum_key(weak, pts, 0.005, spans, meshes, torque=True, torque_reserve=r) for r in (0.1, 0.2)}
+    keys |= {atlas._optimum_key(irb.with_tool(Tool((0.0, 0.0, 0.1))), pts, 0.005, spans, meshes),
+             atlas._optimum_key(irb.with_limits(dataclasses.replace(irb.limits, velocity=irb.limits.velocity * 0.5)),
+                                pts, 0.005, spans, meshes)}
+    assert len(keys) == 4 and not keys & set(before.values())
+    assert atlas._optimum_key(weak, pts, 0.005, spans, meshes) == before["irb"]  # payload and drives: torque only
+
+
+def test_a_plan_with_the_reserve_is_the_plan_of_the_reduced_limits():
+    """The planner's reserve and the reduced robot the references are solved on (atlas.reserved) are the same limit:
+    the stop with reserve 0.2 takes as long as the stop on drives at 0.8 of the limits, and longer than without."""
+    weak = _weak_drives()
+    task = atlas._task(atlas.corner_points(90.0))
+    reduced = atlas.reserved(weak, 0.2)
+    assert np.allclose(reduced.limits.torque, 0.8 * weak.limits.torque) and atlas.reserved(weak, 0.0) is weak
+    with_reserve = atlas._duration(weak, task, torque=True, torque_reserve=0.2, connections="zero")
+    assert with_reserve == pytest.approx(atlas._duration(reduced, task, torque=True, connections="zero"), rel=1e-9)
+    assert with_reserve > 1.01 * atlas._duration(weak, task, torque=True, connections="zero")
+
+
 @pytest.mark.slow
-def test_a_torque_row_plans_and_solves_everything_within_the_torque_limits(tmp_path, monkeypatch):
-    """Weak drives, 90 deg / 5 mm, coarse meshes: every plan of the row (stop, zone, G2, circle, optimal blend, the
-    NLPs' stop start) stays within the torque limits on a dense resample (Pinocchio's RNEA along the trajectory, not
-    the planner's model), the torque binds (the stop is slower than without it), and both references are cached as
-    torque solves whose dense verification (Pinocchio's RNEA, both sides of every node) is within the limits."""
+def test_a_reserve_row_through_the_cli_plans_and_solves_within_the_reduced_limits(tmp_path, monkeypatch):
+    """corners --robot (weak drives) --torque --torque-reserve 0.2, 90 deg / 5 mm on coarse meshes, the real plans,
+    NLPs and closed loop (the torque row of before, now with a reserve): every plan's torque on a dense resample, by Pinocchio's RNEA on the sampled joint motion, is
+    within 0.8 tau_max and reaches it (the reserve binds, so a plan ignoring it would fail), both references were
+    solved within the reduced limits (their dense verification), and the closed loop ran the plant with the whole
+    limits; corners.csv has the reserve."""
     pytest.importorskip("casadi", reason='needs CasADi: pip install "pathmotion[optimal]"')
+    import pinocchio as pin
+
     import pathmotion.planning as planning
 
-    robot, results = _weak_drives(), []
-    free_stop = atlas._duration(robot, atlas._task(atlas.corner_points(90.0)), connections="zero")
-    real_plan = planning.plan
-    monkeypatch.setattr(planning, "plan", lambda *a, **kw: results.append(real_plan(*a, **kw)) or results[-1])
-    row = atlas.atlas_row(robot, 90.0, 0.005, tmp_path, (10, 20), closed_loop=False, torque=True)
-    assert row["torque"] is True and row["status"] == "ok", row["status"]
-    assert row["stop_s"] > 1.05 * free_stop  # the drives bind
-    # stop, zone, G2, circle, the optimal blend (the search plans on its own), then the NLPs' stop starts if any
-    assert len(results) >= 5
-    for res in results:
-        samples = res.trajectory.at_time(np.linspace(0.0, res.profile.duration, 4000))
-        assert np.max(np.abs(samples.tau) / robot.limits.torque) <= 1 + 2e-3
-    assert results[1].baselines.constant_speed.ratios.torque <= 1 + 2e-3  # the zone's constant speed
-    assert row["optimal_s"] == pytest.approx(results[4].profile.duration)
-    records = [json.loads(f.read_text()) for f in tmp_path.glob("*.json")]
-    assert len(records) == 2 and all(r["torque"] for r in records)  # corner-confined and whole tube, first starts
-    for r in records:
-        assert r["verification"]["max_torque_ratio"] <= 1 + 1e-3
-    for name in ("free_shape", "corner"):  # both references below the blend, which lies in either tube
-        assert row[f"{name}_optimum_s"] <= row["optimal_s"] + row[f"{name}_error_s"]
+    (tmp_path / "weak.toml").write_text(WEAK_ROBOT_FILE)
+    plans, loops = [], []
+    real_plan, real_loop = planning.plan, atlas.closed_loop_check
+    monkeypatch.setattr(planning, "plan", lambda *a, **kw: plans.append(real_plan(*a, **kw)) or plans[-1])
+    monkeypatch.setattr(atlas, "closed_loop_check", lambda robot, *a: loops.append(robot) or real_loop(robot, *a))
+    res = _corners(tmp_path, "--robot", str(tmp_path / "weak.toml"), "--torque", "--torque-reserve", "0.2",
+                   "--no-figures")
+    assert res.exit_code == 0, res.output
+    rows = list(csv.DictReader((tmp_path / "atlas" / "corners.csv").open()))
+    assert len(rows) == 1 and list(rows[0]) == list(atlas.ATLAS_COLUMNS)
+    assert (rows[0]["torque"], float(rows[0]["torque_reserve"])) == ("true", 0.2)
+    robot = _weak_drives()
+    assert len(plans) >= 5 and len(loops) == 1 and np.array_equal(loops[0].limits.torque, robot.limits.torque)
+    peaks = []
+    for result in plans:
+        s = result.trajectory.at_time(np.linspace(0.0, result.profile.duration, 3000))
+        tau = np.array([pin.rnea(robot.model, robot.data, q, qd, qdd) for q, qd, qdd in zip(s.q, s.qd, s.qdd)])
+        peaks.append(np.max(np.abs(tau) / robot.limits.torque))
+    assert max(peaks) <= 0.8 * (1 + 2e-3) and peaks[0] >= 0.8 * 0.99, peaks  # peaks[0]: the stop
+    # then the zone (its constant speed within the reduced limits too), G2, circle, the optimal blend's plan
+    assert plans[1].baselines.constant_speed.ratios.torque <= 1 + 2e-3
+    assert float(rows[0]["optimal_s"]) == pytest.approx(plans[4].profile.duration)
+    records = [json.loads(f.read_text()) for f in (tmp_path / "atlas" / "optimum_cache").glob("*.json")]
+    assert len(records) >= 2 and all(r["torque"] and r["torque_reserve"] == 0.2 for r in records)
+    assert all(r["verification"]["max_torque_ratio"] <= 1 + 1e-3 for r in records)  # against 0.8 tau_max
+    r = {k: float(v) for k, v in rows[0].items() if k in ("optimal_s", "stop_s", "corner_optimum_s",
+                                                           "corner_error_s") and v != ""}
+    assert r["optimal_s"] < r["stop_s"]
+    if "corner_optimum_s" in r:
+        assert r["corner_optimum_s"] <= r["optimal_s"] + r["corner_error_s"]

@@ -19,7 +19,7 @@ CURVES = (("stop_s", "stop at the corner", "dash"), ("industrial_zone_s", "const
           ("free_shape_optimum_s", "whole-tube optimum", "dashdot"))
 #: Table columns: column -> (label, scale).
 TABLE = (("angle_deg", "angle [deg]", 1.0), ("tolerance_m", "tolerance [mm]", 1e3), ("torque", "torque limits", 1.0),
-         ("stop_s", "stop [s]", 1.0),
+         ("torque_reserve", "torque reserve [%]", 100.0), ("stop_s", "stop [s]", 1.0),
          ("industrial_zone_s", "zone, const. speed [s]", 1.0), ("circle_s", "circle [s]", 1.0),
          ("g2_s", "G2 [s]", 1.0), ("quintic_s", "fastest quintic [s]", 1.0), ("optimal_s", "optimal [s]", 1.0),
          ("corner_optimum_s", "corner opt. [s]", 1.0),
