@@ -329,14 +329,8 @@ def test_torque_enters_the_optimum_key_with_what_the_torque_depends_on():
 
 
 # ------------------------------------------------------------------ torque reserve and robot files (corners options)
-WEAK_ROBOT_FILE = """# the IRB140 with its rated 6 kg 0.1 m below the flange, drives at 35 % of the shipped torque limits
-[robot]
-name = "irb140"
-payload = { mass = 6.0, com = [0.0, 0.0, 0.1], inertia = [[0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]] }
-
-[limits]
-torque = [87.5, 122.49999999999999, 42.0, 7.0, 7.0, 3.5]
-"""
+#: The weak-drive arm as a robot file (shipped with the benchmarks, used in the README).
+WEAK_ROBOT_FILE = Path(__file__).resolve().parents[1] / "benchmarks" / "irb140_weak_drives.toml"
 
 
 def _corners(tmp_path, *args):
@@ -403,14 +397,13 @@ def test_a_bad_robot_file_through_the_cli_exits_1_naming_it(tmp_path, text, word
 
 
 def test_a_robot_file_builds_the_arm_the_api_builds(tmp_path):
-    """The weak-drive file gives the robot of _weak_drives (the same payload, limits, dynamics and so the same optimum
+    """The shipped weak-drive file gives the robot of _weak_drives (the same payload, limits, dynamics and so the same optimum
     keys and digest); relative URDF / limits paths are read from the file's folder."""
     import pathmotion.robot
     from pathmotion.robot import load_robot
     from pathmotion.study.robot_file import load_robot_file, robot_digest
 
-    (tmp_path / "weak.toml").write_text(WEAK_ROBOT_FILE)
-    weak, loaded = _weak_drives(), load_robot_file(tmp_path / "weak.toml")
+    weak, loaded = _weak_drives(), load_robot_file(WEAK_ROBOT_FILE)
     assert robot_digest(loaded) == robot_digest(weak) != robot_digest(load_robot("irb140"))
     pts = atlas.corner_points(90.0)
     for torque in (False, True):
@@ -423,6 +416,19 @@ def test_a_robot_file_builds_the_arm_the_api_builds(tmp_path):
     (tmp_path / "slow.toml").write_text('[robot]\nname = "irb140"\nlimits = "irb140_limits.toml"\n')
     slow = load_robot_file(tmp_path / "slow.toml")
     assert slow.limits.velocity[0] == 3.0 and np.array_equal(slow.limits.velocity[1:], shipped.limits.velocity[1:])
+
+
+def test_a_robot_file_changed_since_the_atlas_started_is_each_rows_error():
+    """A resumed atlas whose robot file now describes another arm gives no row of the new arm under the old spec."""
+    from pathmotion.study.robot_file import load_robot_file, robot_digest
+
+    spec = (f"robot_file = {json.dumps(str(WEAK_ROBOT_FILE))}\nrobot_digest = \"{robot_digest(load_robot_file(WEAK_ROBOT_FILE))}\"\n"
+            'cache = "/nonexistent"\ntorque = true\n')
+    result = atlas.atlas_point(spec.replace('robot_digest = "', 'robot_digest = "0'), ".",
+                               (("angle_deg", 30.0), ("tolerance_m", 0.05)))
+    assert result["summary"]["status"] == "error" and "changed since this atlas started" in result["error"]
+    result = atlas.atlas_point(spec, ".", (("angle_deg", 30.0), ("tolerance_m", 0.05)))  # the same file: it runs
+    assert "give a tolerance below" in result["error"] and result["summary"]["torque_reserve"] == 0.0
 
 
 #: Optimum keys written by fdb4d31 (before the reserve and robot files), 90 deg / 5 mm, corner span 10 mm, meshes
@@ -478,12 +484,11 @@ def test_a_reserve_row_through_the_cli_plans_and_solves_within_the_reduced_limit
 
     import pathmotion.planning as planning
 
-    (tmp_path / "weak.toml").write_text(WEAK_ROBOT_FILE)
     plans, loops = [], []
     real_plan, real_loop = planning.plan, atlas.closed_loop_check
     monkeypatch.setattr(planning, "plan", lambda *a, **kw: plans.append(real_plan(*a, **kw)) or plans[-1])
     monkeypatch.setattr(atlas, "closed_loop_check", lambda robot, *a: loops.append(robot) or real_loop(robot, *a))
-    res = _corners(tmp_path, "--robot", str(tmp_path / "weak.toml"), "--torque", "--torque-reserve", "0.2",
+    res = _corners(tmp_path, "--robot", str(WEAK_ROBOT_FILE), "--torque", "--torque-reserve", "0.2",
                    "--no-figures")
     assert res.exit_code == 0, res.output
     rows = list(csv.DictReader((tmp_path / "atlas" / "corners.csv").open()))
