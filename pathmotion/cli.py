@@ -544,8 +544,8 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [de
                 f"{defaults.TORQUE_RESERVE:g}): plans and references use (1 - R) tau_max, "
                 "the closed-loop check's plant the whole"),
             robot: Optional[Path] = typer.Option(
-                None, "--robot", help="robot file (TOML): a scenario's \\[robot] table (name or URDF, payload, tool, ...) "
-                "and \\[limits] velocity / acceleration / torque; default: the built-in IRB140")):
+                None, "--robot", help="robot file (TOML): a scenario's \\[robot] table (name or URDF, payload, tool, "
+                "...) and \\[limits] velocity / acceleration / torque; default: the built-in IRB140")):
     """The corner atlas: every way to take a corner (stop, zone, circle, G2, optimal blend) against
     the free-shape optimum, per turn angle and tolerance; writes corners.csv. Needs CasADi
     (pip install "pathmotion[optimal]"). --torque adds the joint torque limits to every motion and

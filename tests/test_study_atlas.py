@@ -422,7 +422,8 @@ def test_a_robot_file_changed_since_the_atlas_started_is_each_rows_error():
     """A resumed atlas whose robot file now describes another arm gives no row of the new arm under the old spec."""
     from pathmotion.study.robot_file import load_robot_file, robot_digest
 
-    spec = (f"robot_file = {json.dumps(str(WEAK_ROBOT_FILE))}\nrobot_digest = \"{robot_digest(load_robot_file(WEAK_ROBOT_FILE))}\"\n"
+    digest = robot_digest(load_robot_file(WEAK_ROBOT_FILE))
+    spec = (f'robot_file = {json.dumps(str(WEAK_ROBOT_FILE))}\nrobot_digest = "{digest}"\n'
             'cache = "/nonexistent"\ntorque = true\n')
     result = atlas.atlas_point(spec.replace('robot_digest = "', 'robot_digest = "0'), ".",
                                (("angle_deg", 30.0), ("tolerance_m", 0.05)))
@@ -475,8 +476,8 @@ def test_a_plan_with_the_reserve_is_the_plan_of_the_reduced_limits():
 @pytest.mark.slow
 def test_a_reserve_row_through_the_cli_plans_and_solves_within_the_reduced_limits(tmp_path, monkeypatch):
     """corners --robot (weak drives) --torque --torque-reserve 0.2, 90 deg / 5 mm on coarse meshes, the real plans,
-    NLPs and closed loop (the torque row of before, now with a reserve): every plan's torque on a dense resample, by Pinocchio's RNEA on the sampled joint motion, is
-    within 0.8 tau_max and reaches it (the reserve binds, so a plan ignoring it would fail), both references were
+    NLPs and closed loop (the torque row of before, now with a reserve): every plan's torque on a dense resample, by
+    Pinocchio's RNEA on the sampled joint motion, is within 0.8 tau_max and reaches it (the reserve binds, so a plan ignoring it would fail), both references were
     solved within the reduced limits (their dense verification), and the closed loop ran the plant with the whole
     limits; corners.csv has the reserve."""
     pytest.importorskip("casadi", reason='needs CasADi: pip install "pathmotion[optimal]"')

@@ -63,8 +63,8 @@ log = logging.getLogger(__name__)
 ATLAS_SEGMENT_LENGTH = 0.2
 ATLAS_CORNER = (0.5, -0.05, 0.45)
 #: Columns of corners.csv.
-ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "torque_reserve", "status", "stop_s", "circle_s", "g2_s", "quintic_s", "optimal_s",
-                 "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
+ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "torque_reserve", "status", "stop_s", "circle_s", "g2_s",
+                 "quintic_s", "optimal_s", "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
                  "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2", "gap_to_optimum",
                  "gap_to_corner_optimum", "capture", "optimal_entry_m", "optimal_exit_m", "optimal_offset_entry_m",
                  "optimal_offset_exit_m", "optimal_rise_entry_m", "optimal_rise_exit_m", "closed_loop_ok",
@@ -516,7 +516,8 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     # the whole tube from the corner-confined solutions first, mesh by mesh (from the stop it found worse local optima,
     # e.g. 30 deg 0.1 mm 25 intervals 0.9014 s against the corner-confined 0.8717 s, and its extrapolation sat above
     # the corner-confined one at 10 mm), then from the other WHOLE_STARTS
-    corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible, torque, reserve)
+    corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible, torque,
+                              reserve)
     whole = whole_reference(cache, robot, pts, tolerance, meshes, corner, spans, warm, feasible, torque, reserve)
     for name, ref in (("free_shape_optimum", whole), ("corner_optimum", corner)):
         row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = ref.value, ref.error
@@ -601,7 +602,8 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
         arm = f'robot = "{robot}"\n'
     else:
         robot_file = Path(robot_file).absolute()
-        arm = f"robot_file = {json.dumps(str(robot_file))}\nrobot_digest = \"{robot_digest(load_robot_file(robot_file))}\"\n"
+        digest = robot_digest(load_robot_file(robot_file))
+        arm = f'robot_file = {json.dumps(str(robot_file))}\nrobot_digest = "{digest}"\n'
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     spec = out / "atlas_spec.toml"
