@@ -286,6 +286,25 @@ def test_the_search_frees_the_ends_only_where_the_motion_rests():
     assert far.shapes[0].departure is None and far.shapes[0].arrival is None
 
 
+def test_the_joint_stage_moves_every_coordinate_of_a_blend_with_free_ends():
+    """60 deg / 10 mm rest to rest: after the free ends, the joint stage (every coordinate at once, COBYQA) finds
+    a faster blend than the free-ends stage left, still within the certified deviation; in the plane it stays
+    there (no rise, no normal end coefficient)."""
+    path = _turn(60)
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16, rise_plans=0,
+              end_plans=30)
+    without = optimal_blends(_robot(), path, 0.01, joint_plans=0, **kw)
+    joint = optimal_blends(_robot(), path, 0.01, joint_plans=40, **kw)
+    assert without.shapes[0].departure is not None  # the free ends were taken before the joint stage
+    assert without.plans < joint.plans <= without.plans + 40
+    assert joint.duration < without.duration * (1 - 1e-4)
+    assert max_deviation(joint.path, path, rel_tol=1e-6).upper <= 0.01 * (1 + 2e-6)
+    flat = optimal_blends(_robot(), path, 0.01, planar=[0], joint_plans=40, **kw)
+    assert flat.shapes[0].planar and flat.shapes[0].departure is not None
+    z = flat.path.evaluate(np.linspace(0.0, flat.path.length, 5001))[0][:, 2]
+    assert np.ptp(z) < 1e-12
+
+
 def test_a_rise_alone_makes_offset_pieces_and_bad_rises_are_refused():
     path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
     shape = g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05),

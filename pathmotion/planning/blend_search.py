@@ -36,14 +36,22 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    of the fastest blend joined to the lines kept. At rest a jump of the tangent costs nothing, and the
    free-shape optimum does that: at 60 deg / 10 mm it dives 4.5 mm in its first 10 mm of arc. Only at an
    end the fastest joined blend already reaches within the tolerance: elsewhere the blend would start to
-   deviate far from the corner.
+   deviate far from the corner;
+6. the joint stage, when a free end made the blend faster: every coordinate at once (the corner
+   quintic's, the offset pieces' profiles in and out of the plane, the free ends'), JOINT_PLANS plans
+   of COBYQA (scipy: Powell's derivative-free trust-region method on quadratic models, bounded) from
+   that blend. Stages 3-4 chose the profiles for a blend joined to the lines; with an end free the
+   best profiles move (python benchmarks/blend_search_stages.py: 60 deg / 10 mm 0.6154 -> 0.6129 s,
+   30 deg / 5 mm 0.6807 -> 0.6798 s). In prototypes, Nelder-Mead with the same plans reached only
+   0.6144 s at 60 deg / 10 mm, and COBYQA in stages 3-5 as well was slower at 45 deg / 7 mm and
+   105 deg / 7 mm (0.2 %), so those stay Nelder-Mead.
 
 Offsets and coefficients are searched in units of the tolerance, runs in units of
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
 line, the best free one, the best in the plane and the best joined to the lines are then re-planned on
 the full grid and the fastest is kept, so the result is never slower than the symmetric G2 blend or
-the S-curve racing line. About 255 plans per corner (335 with free ends).
+the S-curve racing line. About 255 plans per corner (485 with free ends).
 """
 
 from __future__ import annotations
@@ -91,6 +99,12 @@ RISE_ANGLES = (-90.0, -45.0, 0.0, 45.0, 90.0)
 RISE_ANGLE_STEPS = 5
 #: Plans of the free-ends stage (a corner whose offset piece reaches a path end where the motion rests).
 END_PLANS = 80
+#: Plans of the joint stage (every coordinate of a blend with a free end at once).
+JOINT_PLANS = 150
+#: The joint stage's COBYQA, in its box scaled to [-1, 1]: the initial trust radius as a share of the
+#: mean initial step, and the final radius.
+TRUST_RADIUS_SHARE = 0.25
+TRUST_RADIUS_FINAL = 1e-4
 #: Grid points of the search's fast plans.
 SEARCH_GRID_POINTS = 300
 
@@ -340,13 +354,52 @@ def _end_stage(objective: _Objective, plans: int, planar: bool) -> None:
     _nelder_mead(f, np.zeros(len(idx)), box, [_END_STEP] * len(idx), plans)
 
 
+#: The joint stage's box and initial steps per coordinate, _BALANCE ... _VF_B (the free ends': _END_BOX, _END_STEP).
+_JOINT_BOX = _FREE_BOX + (COEFFICIENT_RANGE,) * 6
+_JOINT_STEP = _FREE_STEP[:_C_A] + _RISE_STEP[2:]
+
+
+def _joint_stage(objective: _Objective, plans: int, planar: bool) -> None:
+    """COBYQA (about ``plans`` plans) over every coordinate of the fastest blend when it has a free end
+    (the corner quintic, the offset pieces' profiles in and, unless ``planar``, out of the plane, and the
+    free ends' coefficients), from it. The earlier stages chose the profiles for a blend joined to the
+    lines; with a free end the best profiles move."""
+    x = np.array(objective.best()[2], float)
+    if len(x) < _ARRIVAL.stop:  # the fastest blend is joined to the lines: stages 3-4 searched it
+        return
+    profile = list(range(_V_A if planar else _DEPARTURE.start))
+    ends = [i for part, free in zip((_DEPARTURE, _ARRIVAL), objective.free_ends) if free
+            for i in range(part.start, part.stop)[:2 if planar else 4]]
+    idx = profile + ends
+    box = np.array([_JOINT_BOX[i] for i in profile] + [_END_BOX] * len(ends))
+    steps = np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends))
+
+    def f(y):
+        trial = x.copy()
+        trial[idx] = y
+        return objective(trial)
+
+    _trust_region(f, np.clip(x[idx], box[:, 0], box[:, 1]), box, steps, plans)
+
+
+def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarray, plans: int) -> None:
+    """scipy's COBYQA (Powell's derivative-free trust-region method on quadratic models, bounded) on f
+    from x0 (about ``plans`` evaluations), in the box scaled to [-1, 1], its initial trust radius
+    TRUST_RADIUS_SHARE of the mean of ``steps`` there."""
+    radius = TRUST_RADIUS_SHARE * float(np.mean(2.0 * steps / (box[:, 1] - box[:, 0])))
+    minimize(f, x0, method="COBYQA", bounds=box,
+             options={"maxfev": plans, "scale": True, "initial_tr_radius": radius,
+                      "final_tr_radius": TRUST_RADIUS_FINAL})
+
+
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
-                   planar: bool = False) -> None:
+                   planar: bool = False, joint_plans: int = JOINT_PLANS) -> None:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
-    > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``) and the free-ends
-    stage (``end_plans`` > 0, objective.free_ends) (module docstring)."""
+    > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
+    stage (``end_plans`` > 0, objective.free_ends) and the joint stage (``joint_plans`` > 0) (module
+    docstring)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
@@ -363,6 +416,8 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
             _rise_stage(objective, rise_plans)
         if end_plans > 0 and any(objective.free_ends):
             _end_stage(objective, end_plans, planar)
+            if joint_plans > 0:
+                _joint_stage(objective, joint_plans, planar)
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -376,13 +431,13 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    steps: int = GOLDEN_STEPS, racing_steps: int = RACING_STEPS, racing: bool = True,
                    search_grid_points: int = SEARCH_GRID_POINTS, free_plans: int = FREE_PLANS,
                    rise_plans: int = RISE_PLANS, planar: Sequence[int] = (), end_plans: int = END_PLANS,
-                   joined_ends: Sequence[int] = ()) -> OptimalBlend:
+                   joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
     ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
-    the lines even at a path end where the motion rests). PathError as
+    the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage). PathError as
     :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
@@ -399,7 +454,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start, ends)
         _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans,
-                       rise_plans, end_plans, k in planar)
+                       rise_plans, end_plans, k in planar, joint_plans)
         quintic[k], s_curve[k], in_plane[k], joined[k], shapes[k] = (
             obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
             obj.best(joined=True)[1], obj.best()[1])

@@ -1,0 +1,52 @@
+"""What the optimal blend search's joint stage (stage 6, planning/blend_search.py) buys (issue 17).
+
+Per atlas-style corner (two 0.2 m lines, rest to rest, velocity and acceleration limits: the atlas'
+settings), the search without the joint stage (``joint_plans=0``) and with it (JOINT_PLANS), one after
+the other on the same corner: the full-grid duration of each, the gain, the plans and the CPU time.
+The search is deterministic, so one run each; the joint stage runs only where a free end made the blend
+faster (a corner whose blend reaches a path end where the motion rests), elsewhere both are the same.
+
+    python benchmarks/blend_search_stages.py                       # the default corners below
+    python benchmarks/blend_search_stages.py 60:0.01 45:0.007     # ANGLE_DEG:TOLERANCE_M ...
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+#: Atlas corners with free ends and corners outside the atlas' angles.
+DEFAULT_CORNERS = ("60:0.01", "30:0.005", "30:0.01", "90:0.01", "120:0.01", "45:0.007", "105:0.007", "135:0.004")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("corners", nargs="*", default=list(DEFAULT_CORNERS), help="ANGLE_DEG:TOLERANCE_M")
+    a = ap.parse_args()
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+    from pathmotion.planning.blend_search import JOINT_PLANS, optimal_blends
+    from pathmotion.robot import load_robot
+    from pathmotion.study.atlas import _settings, _task, corner_points
+
+    robot = load_robot("irb140")
+    settings = _settings(verify=False, baselines=False)
+    print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores)")
+    print(f"{'corner':>12} {'without [s]':>12} {'with [s]':>10} {'gain':>8} {'plans':>11} {'cpu [s]':>13}")
+    for text in a.corners:
+        angle, tol = (float(v) for v in text.split(":"))
+        task = _task(corner_points(angle))
+        runs = []
+        for plans in (0, JOINT_PLANS):
+            t0 = time.process_time()
+            found = optimal_blends(robot, task, tol, settings=settings, joint_plans=plans)
+            runs.append((found.duration, found.plans, time.process_time() - t0))
+        (t_without, p_without, c_without), (t_with, p_with, c_with) = runs
+        print(f"{angle:5.0f}/{tol * 1e3:4.1f} mm {t_without:12.5f} {t_with:10.5f} {1 - t_with / t_without:8.2%} "
+              f"{p_without:5d}/{p_with:<5d} {c_without:6.1f}/{c_with:<6.1f}")
+    print(f"load average at end: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
