@@ -88,15 +88,19 @@ def _assert_g2_joins(new: TaskPath):
 
 
 def _blend_deviation(new: TaskPath, original: TaskPath, shape, spacing: float) -> tuple[float, float]:
-    """(lower, upper) brackets like _dense_deviation, over the blend's own stretch only: its nearest
-    original points lie within the cuts plus the tolerance of the corner, so only those are sampled."""
+    """(lower, upper) brackets like _dense_deviation, over the blend's own stretch only. Each line is
+    sampled where its nearest points to the blend's points lie (their projections onto it, clipped to it):
+    past 90 degrees the exit folds back along the entry, and a blend point near the exit's cut is nearest
+    to the entry line far before the entry's cut (165 degrees: sampling only the cuts plus the tolerance
+    measured 7.827 mm for a blend 7.812 mm from the lines)."""
     A, B = original.segments
     t0 = A.length - shape.entry
     blend_len = new.length - (original.length - shape.entry - shape.exit)
     x = new.evaluate(np.linspace(t0, t0 + blend_len, 20001))[0]
-    reach = shape.deviation + spacing
-    pts = [A.evaluate(np.arange(max(0.0, t0 - reach), A.length + spacing, spacing).clip(0, A.length))[0],
-           B.evaluate(np.arange(0.0, min(B.length, shape.exit + reach) + spacing, spacing).clip(0, B.length))[0]]
+    pts = []
+    for seg in (A, B):
+        along = np.clip((x - seg.start) @ ((seg.end - seg.start) / seg.length), 0.0, seg.length)
+        pts.append(seg.evaluate(np.arange(along.min(), along.max() + spacing, spacing).clip(0, seg.length))[0])
     d = cKDTree(np.concatenate(pts)).query(x)[0]
     return float(np.max(d) - spacing / 2), float(np.max(d))
 
@@ -105,6 +109,7 @@ def _blend_deviation(new: TaskPath, original: TaskPath, shape, spacing: float) -
 @given(deg=st.floats(15.0, 165.0), balance=st.floats(0.2, 0.8), shapes=st.tuples(st.floats(0.3, 1.0), st.floats(0.3, 1.0)),
        offsets=st.tuples(st.floats(0.0, 0.8), st.floats(0.0, 0.8)), runs=st.tuples(st.floats(0.5, 3.0), st.floats(0.5, 3.0)),
        tol=st.floats(2e-4, 0.02))
+@example(deg=165.0, balance=0.21875, shapes=(0.3125, 0.375), offsets=(0.0, 0.0), runs=(1.0, 1.0), tol=0.0078125)
 def test_racing_blend_deviation_bound_holds_on_a_dense_check(deg, balance, shapes, offsets, runs, tol):
     """The racing line (S-curve out, corner quintic between the offset lines, S-curve back): its
     certified bound holds against a brute-force nearest-neighbour check, it uses the tolerance, it
