@@ -233,3 +233,52 @@ def test_meshes_the_extrapolation_cannot_use_are_refused_before_any_solve(robot,
 
     with pytest.raises(PathError, match="e.g. 25,50,100"):
         fs.free_shape_optimum(robot, TURN, 0.001, meshes=meshes)
+
+
+def test_multipliers_are_kept_and_given_by_constraint():
+    """_Constraints against an analytic KKT point: min (x - 2)^2 + (y - 1)^2 s.t. x <= 1, y = 3 has the multipliers
+    2 (x <= 1, active) and -4 (y = 3: grad f + lam grad g = 0); by key, whatever the order the constraints were added
+    in. A start puts each given multiplier at its key's rows, 0 where a key is missing or its size differs."""
+    ca = pytest.importorskip("casadi")
+    opti = ca.Opti()
+    x, y, z = opti.variable(), opti.variable(), opti.variable(2)
+    con = fs._Constraints(opti)
+    con(("z",), opti.bounded(-1.0, z, 1.0))
+    con(("y",), y == 3)
+    con(("x",), x <= 1)
+    opti.minimize((x - 2) ** 2 + (y - 1) ** 2 + ca.sumsqr(z))
+    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "tol": 1e-12})
+    lam = con.multipliers(opti.solve().value(opti.lam_g))
+    assert lam[("x",)] == pytest.approx([2.0], abs=1e-7) and lam[("y",)] == pytest.approx([-4.0], abs=1e-7)
+    assert lam[("z",)] == pytest.approx([0.0, 0.0], abs=1e-7)
+    start, matched = con.start({("y",): np.array([5.0]), ("x",): np.array([7.0, 8.0]), ("w",): np.array([1.0])})
+    assert matched == 1 and list(start) == [0.0, 0.0, 5.0, 0.0]  # rows: z (2), y, x; x's size differs: 0
+
+
+def test_a_start_with_its_own_multipliers_reconverges_at_once(robot):
+    """Corner spans that cover both segments make the corner-confined NLP the whole tube's (the same phases, radius
+    delta everywhere, the same constraints by key): started from its own solution with its multipliers (WARM_IPOPT),
+    the whole tube maps every multiplier and IPOPT stops within a few iterations at the same optimum; the same start
+    without its multipliers (0: IPOPT's warm start then has no dual point) takes more."""
+    delta = 0.001
+    L = fs.Polyline(TURN).lengths
+    inner = fs.free_shape_optimum(robot, TURN, delta, [(L[0], L[1])], meshes=(12,))
+    assert inner.success, inner.status
+    keys = set(inner.solutions[0].multipliers)
+    assert not any("on" in k for k in keys)  # radius delta everywhere: no constraint on the line
+    whole = fs.free_shape_optimum(robot, TURN, delta, meshes=(12,), warm=fs.WithMultipliers(inner))
+    sol, ref = whole.solutions[0], inner.solutions[0]
+    assert whole.success, whole.status
+    assert set(sol.multipliers) == keys and sol.motion.breaks == ref.motion.breaks
+    assert sol.iterations <= 15, sol.iterations
+    assert sol.duration == pytest.approx(ref.duration, abs=1e-8)
+    for k in keys:
+        np.testing.assert_allclose(sol.multipliers[k], ref.multipliers[k], rtol=1e-3, atol=1e-3)
+    from pathmotion import defaults
+
+    line = fs.Polyline(TURN)
+    phases = fs.tube_phases(line, delta, None, inner.spans)
+    zero = {k: np.zeros_like(v) for k, v in ref.multipliers.items()}
+    cold = fs.solve_mesh(robot, line, phases, ref.motion, np.array(defaults.TOOL_DOWN_ROTATION), ipopt=fs.WARM_IPOPT,
+                         multipliers=zero)
+    assert cold.iterations > sol.iterations, (cold.iterations, sol.iterations)

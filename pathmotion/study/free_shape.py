@@ -94,6 +94,15 @@ FALLBACK_IPOPT = {"max_iter": 1000}
 STARTS = (("previous", TUBE_IPOPT, "norm"), ("start", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "norm"))
 STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"), ("previous", FALLBACK_IPOPT, "norm"),
                ("stop", TUBE_IPOPT, "norm"))
+#: IPOPT options of a start with multipliers (WithMultipliers): IPOPT takes the given primal and dual point
+#: (warm_start_init_point) and pushes it off the bounds by no more than 1e-9 (default 1e-3), with a barrier that starts
+#: at 1e-9 and adapts (mu_strategy adaptive). Why: at 30 deg / 0.1 mm the whole tube from the corner-confined solutions
+#: hit the cap on 100 intervals with TUBE_IPOPT (the barrier of 1e-4 pushed the iterate off the active bounds); with
+#: their multipliers and the monotone barrier fixed at 1e-9 it hit the cap too (600 iterations on 25 intervals, tiny
+#: steps), with a monotone barrier from 1e-6 on 50 intervals; the adaptive barrier converged (see docs/study.md).
+WARM_IPOPT = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-9, "warm_start_bound_frac": 1e-9,
+              "warm_start_slack_bound_push": 1e-9, "warm_start_slack_bound_frac": 1e-9,
+              "warm_start_mult_bound_push": 1e-9, "mu_init": 1e-9, "mu_strategy": "adaptive", "max_iter": 600}
 #: Node density of the corner-confined tube's stretches at a corner relative to the rest.
 CORNER_DENSITY = 4.0
 #: Smallest phase duration [s] and the fewest intervals a phase gets.
@@ -294,6 +303,8 @@ class FreeShapeSolution:
     motion: Guess
     verification: dict = field(default_factory=dict)
     iterations: int = -1
+    #: The constraints' multipliers at the solution, by constraint (see solve_mesh); {} when not kept.
+    multipliers: dict = field(default_factory=dict, repr=False)
 
     @property
     def intervals(self) -> int:
@@ -403,7 +414,7 @@ def _orientation_error(ca, R, R_ref):
     return 0.5 * ca.vertcat(E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
 
 
-def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm"):
+def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm", con=None, key=()):
     """Constrain the TCP position expression p (3,) to the phase's capsule (with its own progress s).
     ``form`` (radius r > 0; r = 0 is the equality gap = 0):
 
@@ -411,32 +422,73 @@ def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm")
       a gradient of about 1 on the boundary and a value of the order of r, like the tube itself;
     * "squared": |gap|^2 <= r^2 (gradient 2 r on the boundary: 2e-4 at 0.1 mm; IPOPT relaxes its
       bound by 1e-8 m^2, a tube of sqrt(r^2 + 1e-8): 41 % wider at 0.1 mm, 0.5 % at 1 mm);
-    * "scaled": |gap / r|^2 <= 1 (gradient 2 / r: 2e4 at 0.1 mm)."""
+    * "scaled": |gap / r|^2 <= 1 (gradient 2 / r: 2e4 at 0.1 mm).
+
+    ``con`` (a _Constraints; default: opti's own) adds the constraints under ``key`` + ("s",) and + ("tube", form),
+    form "on" for r = 0 (another constraint than an inequality: their multipliers do not carry over)."""
+    con = con or _Constraints(opti)
     s = opti.variable()
-    opti.subject_to(opti.bounded(ph.s_lo, s, ph.s_hi))
+    con(key + ("s",), opti.bounded(ph.s_lo, s, ph.s_hi))
     opti.set_initial(s, float(np.clip(s0, ph.s_lo, ph.s_hi)))
     gap = p - ca.DM(line.points[ph.segment]) - ca.DM(line.directions[ph.segment]) * s
     r = ph.radius
     if r == 0:
-        opti.subject_to(gap == 0)
+        con(key + ("tube", "on"), gap == 0)
     elif form == "norm":
         e2 = (NORM_SMOOTHING * r) ** 2
-        opti.subject_to(ca.sqrt(ca.sumsqr(gap) + e2) <= float(np.sqrt(r ** 2 + e2)))
+        con(key + ("tube", form), ca.sqrt(ca.sumsqr(gap) + e2) <= float(np.sqrt(r ** 2 + e2)))
     elif form == "scaled":
-        opti.subject_to(ca.sumsqr(gap / r) <= 1.0)
+        con(key + ("tube", form), ca.sumsqr(gap / r) <= 1.0)
     elif form == "squared":
-        opti.subject_to(ca.sumsqr(gap) <= r ** 2)
+        con(key + ("tube", form), ca.sumsqr(gap) <= r ** 2)
     else:
         raise PathmotionError(f"free shape: tube form {form!r} is none of norm, squared, scaled")
 
 
+class _Constraints:
+    """An Opti's constraints by key: ``spans[key]`` = (first, end) rows of opti.lam_g (Opti orders its constraints as
+    they are added), so that the multipliers of one NLP can start another on the same nodes whose constraints differ
+    (a key names a constraint by what it constrains where: e.g. ("R", k, 0.5), the orientation at the middle of
+    interval k)."""
+
+    def __init__(self, opti):
+        self.opti, self.spans = opti, {}
+
+    def __call__(self, key: tuple, expr):
+        if key in self.spans:
+            raise PathmotionError(f"free shape: constraint {key} added twice")  # pragma: no cover - a coding error
+        first = self.opti.ng
+        self.opti.subject_to(expr)
+        self.spans[key] = (first, self.opti.ng)
+
+    def multipliers(self, lam_g) -> dict:
+        """{key: its multipliers (rows,)} of the full multiplier vector ``lam_g`` (ng,)."""
+        lam = np.atleast_1d(np.asarray(lam_g, float)).ravel()
+        return {key: lam[a:b].copy() for key, (a, b) in self.spans.items()}
+
+    def start(self, multipliers: dict) -> tuple[np.ndarray, int]:
+        """(lam_g0 (ng,), rows matched): ``multipliers`` (another NLP's, by key) where a constraint of this NLP has
+        the same key and size, 0 for the rest (constraints it did not have, e.g. the tube's inner points)."""
+        lam = np.zeros(self.opti.ng)
+        matched = 0
+        for key, (a, b) in self.spans.items():
+            given = multipliers.get(key)
+            if given is not None and len(given) == b - a:
+                lam[a:b] = given
+                matched += b - a
+        return lam, matched
+
+
 def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rotation,
                velocity_scale: float = 1.0, acceleration_scale: float = 1.0,
-               ipopt: dict | None = None, form: str = "norm", torque: bool = False) -> FreeShapeSolution:
+               ipopt: dict | None = None, form: str = "norm", torque: bool = False,
+               multipliers: dict | None = None) -> FreeShapeSolution:
     """Solve the minimum-time NLP on the mesh of ``guess`` (its node counts per phase), from it;
     ``ipopt``: options over the defaults; ``form``: the tube constraint's form, "norm" (what STARTS
     uses), "squared" or "scaled" (:func:`_tube`; kept to reproduce docs/study.md's comparison);
-    ``torque``: also |tau| <= the robot's torque limits at TORQUE_POINTS of every interval (:func:`_torque`)."""
+    ``torque``: also |tau| <= the robot's torque limits at TORQUE_POINTS of every interval (:func:`_torque`);
+    ``multipliers``: a solution's on the same nodes (FreeShapeSolution.multipliers) as IPOPT's initial multipliers,
+    by constraint (_Constraints.start; give WARM_IPOPT's options with them). The solution keeps its multipliers."""
     ca = _casadi()
     tcp = tcp_function(robot)
     n = robot.n
@@ -451,41 +503,42 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
     opti.set_initial(U, guess.u.T)
     t_b = _phase_times(guess)
     opti.set_initial(T, np.diff(t_b))
-    opti.subject_to(T >= MIN_PHASE_DURATION)
-    for j in range(n):
-        opti.subject_to(opti.bounded(-vmax[j], QD[j, :], vmax[j]))
-        opti.subject_to(opti.bounded(-amax[j], U[j, :], amax[j]))
-        opti.subject_to(opti.bounded(lim.lower[j], Q[j, :], lim.upper[j]))
-    opti.subject_to(Q[:, 0] == guess.q[0])
-    opti.subject_to(Q[:, N] == guess.q[-1])
-    opti.subject_to(QD[:, 0] == 0)
-    opti.subject_to(QD[:, N] == 0)
+    con = _Constraints(opti)
+    _limits(con, (Q, QD, U, T), guess.q[[0, -1]], vmax, amax, lim)
     p_guess = _guess_positions(robot, guess)
+    # a start with multipliers starts each inner point's progress at its own TCP position's (the chord's, else:
+    # 1.5 mm off along the line at 30 deg / 0.1 mm on 25 intervals, where the motion accelerates)
+    p_inner = _inner_positions(robot, guess) if multipliers else None
     torque_points = [] if torque else None
     for i, ph in enumerate(phases):
         k0, k1 = guess.breaks[i], guess.breaks[i + 1]
         h = T[i] / (k1 - k0)
         P, t = line.points[ph.segment], line.directions[ph.segment]
         for k in range(k0, k1):
-            opti.subject_to(Q[:, k + 1] == Q[:, k] + h * QD[:, k] + 0.5 * h ** 2 * U[:, k])
-            opti.subject_to(QD[:, k + 1] == QD[:, k] + h * U[:, k])
+            con(("q+", k), Q[:, k + 1] == Q[:, k] + h * QD[:, k] + 0.5 * h ** 2 * U[:, k])
+            con(("qd+", k), QD[:, k + 1] == QD[:, k] + h * U[:, k])
             if torque:
                 torque_points += _torque_points(Q, QD, U, k, h)
             p_a, p_b = p_guess[k], p_guess[k + 1]
             p, R = tcp(Q[:, k + 1])
             if k + 1 < N:  # q_N is fixed, its orientation too
-                opti.subject_to(_orientation_error(ca, R, rotation) == 0)
-            _tube(opti, ca, p, line, ph, (p_b - P) @ t, form)
+                con(("R", k, 1.0), _orientation_error(ca, R, rotation) == 0)
+            _tube(opti, ca, p, line, ph, (p_b - P) @ t, form, con, (k, 1.0))
             if ph.radius == 0:  # on a line the nodes alone leave the NLP its degrees of freedom
                 continue
-            for f in TUBE_POINTS:
+            for i_f, f in enumerate(TUBE_POINTS):
                 p, R = tcp(Q[:, k] + f * h * QD[:, k] + 0.5 * (f * h) ** 2 * U[:, k])
                 if f == 0.5:
-                    opti.subject_to(_orientation_error(ca, R, rotation) == 0)
-                _tube(opti, ca, p, line, ph, (p_a + f * (p_b - p_a) - P) @ t, form)
+                    con(("R", k, f), _orientation_error(ca, R, rotation) == 0)
+                p_f = p_a + f * (p_b - p_a) if p_inner is None else p_inner[k, i_f]
+                _tube(opti, ca, p, line, ph, (p_f - P) @ t, form, con, (k, f))
     if torque:
-        _torque(opti, ca, robot, torque_points, lim.torque)
+        _torque(opti, ca, robot, torque_points, lim.torque, con)
     opti.minimize(ca.sum1(T))
+    if multipliers:
+        lam0, matched = con.start(multipliers)
+        opti.set_initial(opti.lam_g, lam0)
+        log.debug("free shape: %d of %d multipliers from the start", matched, len(lam0))
     opti.solver("ipopt", {"print_time": False, "expand": not torque},
                 {"print_level": 0, "tol": IPOPT_TOL, "max_iter": IPOPT_MAX_ITER, "sb": "yes", **(ipopt or {})})
     try:
@@ -500,7 +553,24 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                                   + Tv[:i].sum() for i in range(len(phases))])
     motion = Guess(t, np.asarray(value(Q)).T, np.asarray(value(QD)).T, np.asarray(value(U)).T, guess.breaks)
     return FreeShapeSolution(float(Tv.sum()), status, success, motion,
-                             verify(robot, line, phases, motion, rotation, vmax, amax), int(stats.get("iter_count", -1)))
+                             verify(robot, line, phases, motion, rotation, vmax, amax), int(stats.get("iter_count", -1)),
+                             con.multipliers(value(opti.lam_g)))
+
+
+def _limits(con, variables, ends: np.ndarray, vmax, amax, lim):
+    """Phase durations T >= MIN_PHASE_DURATION, joint velocity (``vmax``), acceleration (``amax``) and position
+    (``lim``) bounds at every node and interval, q at the ``ends`` (2, n) and at rest there (``variables``: Q, QD, U, T)."""
+    Q, QD, U, T = variables
+    opti = con.opti
+    con(("T",), T >= MIN_PHASE_DURATION)
+    for j in range(Q.shape[0]):
+        con(("qd", j), opti.bounded(-vmax[j], QD[j, :], vmax[j]))
+        con(("u", j), opti.bounded(-amax[j], U[j, :], amax[j]))
+        con(("q", j), opti.bounded(lim.lower[j], Q[j, :], lim.upper[j]))
+    con(("q", "start"), Q[:, 0] == ends[0])
+    con(("q", "end"), Q[:, -1] == ends[1])
+    con(("qd", "start"), QD[:, 0] == 0)
+    con(("qd", "end"), QD[:, -1] == 0)
 
 
 def _torque_points(Q, QD, U, k: int, h) -> list[tuple]:
@@ -516,7 +586,7 @@ def _torque_points(Q, QD, U, k: int, h) -> list[tuple]:
     return out
 
 
-def _torque(opti, ca, robot, points: list[tuple], tau_max: np.ndarray):
+def _torque(opti, ca, robot, points: list[tuple], tau_max: np.ndarray, con=None):
     """|tau_j| <= tau_max_j, as tau / tau_max in [-1, 1], at the (q, qd, qdd) ``points``, each a call of
     one symbolic RNEA Function. The NLP is then not expanded (solve_mesh): CasADi differentiates the
     Function once for all calls, where expanding inlines every call (50 intervals at delta = 0: 18 s
@@ -525,14 +595,25 @@ def _torque(opti, ca, robot, points: list[tuple], tau_max: np.ndarray):
 
     rnea = inverse_dynamics_function(robot)
     scale = ca.DM(1.0 / np.asarray(tau_max, float))
-    for q, qd, qdd in points:
-        opti.subject_to(opti.bounded(-1.0, rnea(q, qd, qdd) * scale, 1.0))
+    con = con or _Constraints(opti)
+    for i, (q, qd, qdd) in enumerate(points):
+        con(("tau", i), opti.bounded(-1.0, rnea(q, qd, qdd) * scale, 1.0))
 
 
 def _guess_positions(robot, guess: Guess) -> np.ndarray:
     from ..robot import fk
 
     return np.atleast_2d(fk(robot, guess.q)[0])
+
+
+def _inner_positions(robot, guess: Guess) -> np.ndarray:
+    """TCP positions [m] (N, len(TUBE_POINTS), 3) of the exact piecewise-quadratic ``guess`` at TUBE_POINTS of
+    each of its N intervals."""
+    from ..robot import fk
+
+    h = np.diff(guess.t)[:, None, None] * np.asarray(TUBE_POINTS)[None, :, None]  # (N, F, 1)
+    q = guess.q[:-1, None] + guess.qd[:-1, None] * h + 0.5 * guess.u[:, None] * h ** 2
+    return np.atleast_2d(fk(robot, q.reshape(-1, q.shape[-1]))[0]).reshape(len(guess.u), len(TUBE_POINTS), 3)
 
 
 def verify(robot, line: Polyline, phases: Sequence[Phase], motion: Guess, rotation, vmax, amax,
@@ -606,6 +687,18 @@ class FreeShapeOptimum:
         return tuple(s.duration for s in self.solutions)
 
 
+@dataclass(frozen=True, eq=False)
+class WithMultipliers:
+    """A whole tube's start (free_shape_optimum's ``warm``): the corner-confined ``optimum``'s solutions, mesh by
+    mesh, with their multipliers (a primal-dual warm start, WARM_IPOPT; the constraints both NLPs have keep theirs,
+    the rest start at 0: the whole tube's inner points and orientation between the nodes of the stretches the
+    corner-confined tube holds on the line, where its equalities p = P + t s become the tube's inequalities). The
+    start is feasible only when each inner point's progress starts at its own TCP position (solve_mesh does so with
+    multipliers): the chord's put it up to 1.5 mm off along the line (30 deg / 0.1 mm, 25 intervals)."""
+
+    optimum: FreeShapeOptimum
+
+
 def check_meshes(meshes: Sequence[int], least: int = 1) -> tuple[int, ...]:
     """``meshes`` as a tuple of interval counts: at least ``least`` of them, positive integers, each twice
     the previous (extrapolate assumes that ratio); PathError naming the fault otherwise."""
@@ -644,12 +737,14 @@ def extrapolate(durations: Sequence[float], ratio: float = 2.0) -> tuple[float, 
 
 def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, intervals: int, start,
                          previous: FreeShapeSolution | None, warm: bool, stop=None,
-                         torque: bool = False) -> FreeShapeSolution:
+                         torque: bool = False, multipliers=None) -> FreeShapeSolution:
     """One mesh, tried from the starts in STARTS (``warm``: STARTS_WARM, ``start`` a feasible motion
     near the optimum, e.g. the optimal blend in the corner-confined tube) until IPOPT converges; the
     first converged (else the last) solution. "previous" is the previous mesh's solution resampled
     (continuation; ``start`` on the first mesh), "start" is ``start`` (m -> Guess) on this mesh,
     "stop" is ``stop`` (m -> Guess: the stop at the corners; ``start`` when None); ``torque``: see solve_mesh.
+    ``multipliers`` (m -> a solution's multipliers on the nodes of ``start``): the one try is ``start`` with them
+    (WARM_IPOPT; see WithMultipliers).
 
     Why these: with the norm-form tube and a small barrier, the 0.1 mm whole tube at 90 degrees
     converged on 25 / 50 / 100 intervals (261 / 319 / 52 iterations, the last from the stop after
@@ -665,6 +760,9 @@ def _solve_with_restarts(robot, line: Polyline, phases: Sequence[Phase], R_ref, 
     def fresh():
         return start(intervals)
 
+    if multipliers is not None:
+        return solve_mesh(robot, line, phases, fresh(), R_ref, ipopt=WARM_IPOPT, torque=torque,
+                          multipliers=multipliers(intervals))
     cont = from_previous if previous is not None else fresh
     tries = []
     from_stop = fresh if stop is None else (lambda: stop(intervals))
@@ -693,7 +791,8 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     tube to start every mesh from (the optimal blend's, for the corner-confined tube); or, for the
     whole tube, the corner-confined FreeShapeOptimum on the same meshes: its tube is inside the
     whole one, so each of its solutions is a start feasible on the same nodes (the whole tube then
-    crowds its nodes at the corners like it) and the whole tube ends at or below it."""
+    crowds its nodes at the corners like it) and the whole tube ends at or below it; or that optimum
+    WithMultipliers, to start from its multipliers too."""
     from .. import defaults
 
     delta = float(delta)
@@ -702,7 +801,8 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     meshes = check_meshes(meshes)
     line = Polyline(points)
     R_ref = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
-    inner = warm if isinstance(warm, FreeShapeOptimum) else None
+    duals = isinstance(warm, WithMultipliers)
+    inner = warm.optimum if duals else warm if isinstance(warm, FreeShapeOptimum) else None
     if inner is not None and (spans is not None or len(inner.solutions) != len(meshes)):
         raise PathError("free shape: a FreeShapeOptimum start is for the whole tube, solved on the same meshes "
                         f"({len(inner.solutions)} solutions for meshes {tuple(meshes)})")
@@ -723,7 +823,8 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
     solutions: list[FreeShapeSolution] = []
     for m in meshes:
         sol = _solve_with_restarts(robot, line, phases, R_ref, m, start, solutions[-1] if solutions else None,
-                                   warm is not None, from_stop, torque)
+                                   warm is not None, from_stop, torque,
+                                   (lambda m: inner.solutions[list(meshes).index(m)].multipliers) if duals else None)
         log.info("free shape delta=%g spans=%s mesh %d: T = %.6f s (%s, %d iterations)", delta, spans, m, sol.duration,
                  sol.status, sol.iterations)
         solutions.append(sol)
@@ -734,6 +835,6 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
                             None if spans is None else tuple(map(tuple, spans)), torque)
 
 
-__all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "check_meshes", "effective_spans", "extrapolate",
-           "free_shape_optimum", "max_torque_ratio", "solve_mesh", "stop_plan", "tcp_function", "tube_phases",
-           "verify"]
+__all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "WithMultipliers", "check_meshes",
+           "effective_spans", "extrapolate", "free_shape_optimum", "max_torque_ratio", "solve_mesh", "stop_plan",
+           "tcp_function", "tube_phases", "verify"]
