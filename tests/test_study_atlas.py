@@ -234,17 +234,20 @@ def test_a_corner_reference_that_fails_from_every_start_says_so_per_start(tmp_pa
 
 def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solved_from_the_others(tmp_path,
                                                                                                   monkeypatch):
-    """30 deg / 0.1 mm: the whole tube from the corner-confined solutions hit IPOPT's cap; from the stop it converges below the feasible motions but above the corner-confined reference (whose
-    tube is inside its own) by more than both errors, a local optimum; from the optimal blend it converges below it:
-    that is the reference. The first attempt keeps the key it had before the retries (crowded at the spans, no start),
-    each retry has its own."""
+    """30 deg / 0.1 mm: the whole tube from the corner-confined solutions hit IPOPT's cap; here from them with their
+    multipliers too (the same FreeShapeOptimum, crowded at the same spans); from the stop it converges below the
+    feasible motions but above the corner-confined reference (whose tube is inside its own) by more than both errors, a
+    local optimum; from the optimal blend it converges below it: that is the reference. The first attempt keeps the
+    key it had before the retries (crowded at the spans, no start), each retry has its own. When the start with
+    multipliers converges below the corner-confined reference, it is the reference and no other start is solved."""
     from pathmotion.robot import load_robot
     from pathmotion.study import free_shape as fs
 
     robot = load_robot("irb140")
     pts, spans, meshes, blend = atlas.corner_points(30.0), [(0.004, 0.005)], (25, 50, 100), object()
     inner = _stub_optimum([0.8760, 0.8745, 0.8741])
-    results = {"corner": _stub_optimum([0.8712, 0.8725, 0.8740], success=False),
+    failed = _stub_optimum([0.8712, 0.8725, 0.8740], success=False)
+    results = {"corner": failed, "corner_multipliers": failed,
                "stop": _stub_optimum([0.8790, 0.8782, 0.8780]), "blend": _stub_optimum([0.8731, 0.8726, 0.8725])}
     solved = []
 
@@ -252,20 +255,26 @@ def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solv
         if spans_ is not None:
             solved.append("corner-confined")
             return inner
-        solved.append({id(inner): "corner", id(None): "stop", id(blend): "blend"}[id(warm)])
+        if isinstance(warm, fs.WithMultipliers):
+            assert warm.optimum is inner
+            solved.append("corner_multipliers")
+        else:
+            solved.append({id(inner): "corner", id(None): "stop", id(blend): "blend"}[id(warm)])
         return results[solved[-1]]
 
     monkeypatch.setattr(fs, "free_shape_optimum", stub)
     corner = atlas.corner_reference(tmp_path, robot, pts, 0.0001, spans, meshes, blend, False, 0.8812)
     assert corner.note is None and corner.value == pytest.approx(inner.duration)
     whole = atlas.whole_reference(tmp_path, robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
-    assert solved == ["corner-confined", "corner", "stop", "blend"]
+    assert solved == ["corner-confined", "corner", "corner_multipliers", "stop", "blend"]
     assert (whole.start, whole.note) == ("blend", None)
     assert whole.value == pytest.approx(results["blend"].duration) and whole.value <= corner.value
     first = atlas._optimum_key(robot, pts, 0.0001, None, meshes, crowd=spans)  # the key of the atlas before retries
     records = {f.stem: json.loads(f.read_text()) for f in tmp_path.glob("*.json")}
     assert "start" not in records[first] and records[first]["status"] == "Maximum_Iterations_Exceeded"
-    assert sorted(r.get("start", "-") for r in records.values()) == ["-", "-", "blend", "stop"]
+    assert sorted(r.get("start", "-") for r in records.values()) == ["-", "-", "blend", "corner_multipliers", "stop"]
+    retry = atlas._optimum_key(robot, pts, 0.0001, None, meshes, crowd=spans, start="corner_multipliers")
+    assert records[retry]["start"] == "corner_multipliers"  # crowded at the corner-confined spans, like the first
     solved.clear()  # read back: nothing is solved again, the same reference
     again = atlas.whole_reference(tmp_path, robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
     assert solved == [] and (again.value, again.start) == (whole.value, "blend")
@@ -277,6 +286,13 @@ def test_a_whole_tube_without_a_reference_from_the_corner_confined_start_is_solv
     assert (f"; from the stop: local optimum {results['stop'].duration:.4f} s, above the {inner.duration:.4f} s of the "
             "tube inside its own") in whole.note
     assert "; from the blend: local optimum" in whole.note
+    assert "; from the corner_multipliers: NLP not converged" in whole.note
+    # the start with multipliers converges below the corner-confined reference: the reference, nothing else solved
+    results["corner_multipliers"] = _stub_optimum([0.8726, 0.8707, 0.8729])
+    solved.clear()
+    whole = atlas.whole_reference(tmp_path / "third", robot, pts, 0.0001, meshes, corner, spans, blend, 0.8812)
+    assert solved == ["corner", "corner_multipliers"] and (whole.start, whole.note) == ("corner_multipliers", None)
+    assert whole.value == pytest.approx(results["corner_multipliers"].duration)
 
 
 def test_a_whole_tube_within_the_errors_of_the_corner_confined_reference_is_kept_without_a_retry(tmp_path,
