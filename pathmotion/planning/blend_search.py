@@ -49,9 +49,9 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
 Offsets and coefficients are searched in units of the tolerance, runs in units of
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
-line, the best free one, the best in the plane and the best joined to the lines are then re-planned on
-the full grid and the fastest is kept, so the result is never slower than the symmetric G2 blend or
-the S-curve racing line. About 255 plans per corner (485 with free ends).
+line, the best free one, the best in the plane, the best joined to the lines and the best before the
+joint stage are then re-planned on the full grid and the fastest is kept, so the result is never slower
+than the symmetric G2 blend, the S-curve racing line or the search without the joint stage. About 255 plans per corner (485 with free ends).
 """
 
 from __future__ import annotations
@@ -394,12 +394,13 @@ def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarra
 
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
-                   planar: bool = False, joint_plans: int = JOINT_PLANS) -> None:
+                   planar: bool = False, joint_plans: int = JOINT_PLANS) -> G2Shape | None:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
     > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
     stage (``end_plans`` > 0, objective.free_ends) and the joint stage (``joint_plans`` > 0) (module
-    docstring)."""
+    docstring). Returns the fastest shape before the joint stage when that ran (a candidate of its own:
+    the joint stage is faster on the search's coarse grid, not always on the full one), else None."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
@@ -417,7 +418,10 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
         if end_plans > 0 and any(objective.free_ends):
             _end_stage(objective, end_plans, planar)
             if joint_plans > 0:
+                before = objective.best()[1]
                 _joint_stage(objective, joint_plans, planar)
+                return before
+    return None
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -447,23 +451,24 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, s_curve, in_plane, joined = (dict(shapes) for _ in range(5))
+    initial, quintic, s_curve, in_plane, joined, unjoint = (dict(shapes) for _ in range(6))
     plans, rests = 0, (False, False) if original.closed else _rests(settings)
     for k in chosen:
         free = racing and _racing_possible(original, k) and k not in joined_ends
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start, ends)
-        _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans,
-                       rise_plans, end_plans, k in planar, joint_plans)
+        before_joint = _search_corner(obj, racing and _racing_possible(original, k), cycles, steps, racing_steps,
+                                      free_plans, rise_plans, end_plans, k in planar, joint_plans)
         quintic[k], s_curve[k], in_plane[k], joined[k], shapes[k] = (
             obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
             obj.best(joined=True)[1], obj.best()[1])
+        unjoint[k] = before_joint or shapes[k]
         plans += obj.plans
         log.info("blend search: corner %d: %d plans, shape %s", k, obj.plans, shapes[k])
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    stages = (quintic, s_curve, in_plane, joined, shapes)
+    stages = (quintic, s_curve, in_plane, joined, unjoint, shapes)
     for found in [c for i, c in enumerate(stages) if c not in stages[:i]]:
         candidates.append((duration_with(robot, original, found, full, q_start), found, None))
     plans += len(candidates)
