@@ -40,8 +40,8 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
 6. the joint stage, when a free end made the blend faster: every coordinate at once (the corner
    quintic's, the offset pieces' profiles in and out of the plane, the free ends'), JOINT_PLANS plans
    of COBYQA (scipy: Powell's derivative-free trust-region method on quadratic models, bounded) from
-   that blend. Stages 3-4 chose the profiles for a blend joined to the lines; with an end free the
-   best profiles move (python benchmarks/blend_search_stages.py: 60 deg / 10 mm 0.6154 -> 0.6129 s,
+   that blend. Stages 3-4 chose the profiles for a blend joined to the lines; with an end free other
+   profiles are faster (python benchmarks/blend_search_stages.py: 60 deg / 10 mm 0.6154 -> 0.6129 s,
    30 deg / 5 mm 0.6807 -> 0.6798 s). In prototypes, Nelder-Mead with the same plans reached only
    0.6144 s at 60 deg / 10 mm, and COBYQA in stages 3-5 as well was slower at 45 deg / 7 mm and
    105 deg / 7 mm (0.2 %), so those stay Nelder-Mead.
@@ -51,7 +51,8 @@ sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
 line, the best free one, the best in the plane, the best joined to the lines and the best before the
 joint stage are then re-planned on the full grid and the fastest is kept, so the result is never slower
-than the symmetric G2 blend, the S-curve racing line or the search without the joint stage. About 255 plans per corner (485 with free ends).
+than the symmetric G2 blend, the S-curve racing line or the search without the joint stage. About 255
+plans per corner (485 with free ends).
 """
 
 from __future__ import annotations
@@ -363,7 +364,7 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool) -> None:
     """COBYQA (about ``plans`` plans) over every coordinate of the fastest blend when it has a free end
     (the corner quintic, the offset pieces' profiles in and, unless ``planar``, out of the plane, and the
     free ends' coefficients), from it. The earlier stages chose the profiles for a blend joined to the
-    lines; with a free end the best profiles move."""
+    lines; with a free end other profiles are faster."""
     x = np.array(objective.best()[2], float)
     if len(x) < _ARRIVAL.stop:  # the fastest blend is joined to the lines: stages 3-4 searched it
         return
