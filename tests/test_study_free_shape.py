@@ -64,7 +64,7 @@ def test_every_tube_form_is_the_capsule(form, radius):
         opti = ca.Opti()
         p = opti.variable(3)
         opti.set_initial(p, [0.05, 0.0, 0.0])
-        fs._tube(opti, ca, p, line, ph, 0.05, form)
+        fs._tube(fs._Constraints(opti), ca, p, line, ph, 0.05, form)
         opti.minimize(-ca.dot(ca.DM(d), p))
         opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "tol": 1e-12, **fs.TUBE_IPOPT})
         sol = opti.solve()

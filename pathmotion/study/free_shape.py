@@ -414,7 +414,7 @@ def _orientation_error(ca, R, R_ref):
     return 0.5 * ca.vertcat(E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
 
 
-def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm", con=None, key=()):
+def _tube(con: "_Constraints", ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm", key=()):
     """Constrain the TCP position expression p (3,) to the phase's capsule (with its own progress s).
     ``form`` (radius r > 0; r = 0 is the equality gap = 0):
 
@@ -424,9 +424,9 @@ def _tube(opti, ca, p, line: Polyline, ph: Phase, s0: float, form: str = "norm",
       bound by 1e-8 m^2, a tube of sqrt(r^2 + 1e-8): 41 % wider at 0.1 mm, 0.5 % at 1 mm);
     * "scaled": |gap / r|^2 <= 1 (gradient 2 / r: 2e4 at 0.1 mm).
 
-    ``con`` (a _Constraints; default: opti's own) adds the constraints under ``key`` + ("s",) and + ("tube", form),
+    ``con`` (the Opti's _Constraints) adds the constraints under ``key`` + ("s",) and + ("tube", form),
     form "on" for r = 0 (another constraint than an inequality: their multipliers do not carry over)."""
-    con = con or _Constraints(opti)
+    opti = con.opti
     s = opti.variable()
     con(key + ("s",), opti.bounded(ph.s_lo, s, ph.s_hi))
     opti.set_initial(s, float(np.clip(s0, ph.s_lo, ph.s_hi)))
@@ -523,7 +523,7 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
             p, R = tcp(Q[:, k + 1])
             if k + 1 < N:  # q_N is fixed, its orientation too
                 con(("R", k, 1.0), _orientation_error(ca, R, rotation) == 0)
-            _tube(opti, ca, p, line, ph, (p_b - P) @ t, form, con, (k, 1.0))
+            _tube(con, ca, p, line, ph, (p_b - P) @ t, form, (k, 1.0))
             if ph.radius == 0:  # on a line the nodes alone leave the NLP its degrees of freedom
                 continue
             for i_f, f in enumerate(TUBE_POINTS):
@@ -531,9 +531,9 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                 if f == 0.5:
                     con(("R", k, f), _orientation_error(ca, R, rotation) == 0)
                 p_f = p_a + f * (p_b - p_a) if p_inner is None else p_inner[k, i_f]
-                _tube(opti, ca, p, line, ph, (p_f - P) @ t, form, con, (k, f))
+                _tube(con, ca, p, line, ph, (p_f - P) @ t, form, (k, f))
     if torque:
-        _torque(opti, ca, robot, torque_points, lim.torque, con)
+        _torque(con, ca, robot, torque_points, lim.torque)
     opti.minimize(ca.sum1(T))
     if multipliers:
         lam0, matched = con.start(multipliers)
@@ -586,7 +586,7 @@ def _torque_points(Q, QD, U, k: int, h) -> list[tuple]:
     return out
 
 
-def _torque(opti, ca, robot, points: list[tuple], tau_max: np.ndarray, con=None):
+def _torque(con: "_Constraints", ca, robot, points: list[tuple], tau_max: np.ndarray):
     """|tau_j| <= tau_max_j, as tau / tau_max in [-1, 1], at the (q, qd, qdd) ``points``, each a call of
     one symbolic RNEA Function. The NLP is then not expanded (solve_mesh): CasADi differentiates the
     Function once for all calls, where expanding inlines every call (50 intervals at delta = 0: 18 s
@@ -595,9 +595,8 @@ def _torque(opti, ca, robot, points: list[tuple], tau_max: np.ndarray, con=None)
 
     rnea = inverse_dynamics_function(robot)
     scale = ca.DM(1.0 / np.asarray(tau_max, float))
-    con = con or _Constraints(opti)
     for i, (q, qd, qdd) in enumerate(points):
-        con(("tau", i), opti.bounded(-1.0, rnea(q, qd, qdd) * scale, 1.0))
+        con(("tau", i), con.opti.bounded(-1.0, rnea(q, qd, qdd) * scale, 1.0))
 
 
 def _guess_positions(robot, guess: Guess) -> np.ndarray:
