@@ -529,8 +529,8 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
 @app.command()
 @guarded
-def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [deg], comma-separated"),
-            tolerances: str = typer.Option("0.0001,0.001,0.005,0.01,0.05", help="tolerances [m], comma-separated"),
+def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[deg], comma-separated"),
+            tolerances: str = typer.Option("0.0001,0.001,0.005,0.01,0.05", help="tolerances \\[m], comma-separated"),
             out: Path = typer.Option(..., "--out", help="output folder (a re-run resumes; optima are cached there)"),
             meshes: str = typer.Option("25,50,100", help="free-shape NLP meshes (intervals), each twice the last"),
             scheduler: Optional[str] = typer.Option(None, help="Dask scheduler, tcp://HOST:PORT"),
@@ -548,7 +548,7 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles [de
                 "...) and \\[limits] velocity / acceleration / torque; default: the built-in IRB140")):
     """The corner atlas: every way to take a corner (stop, zone, circle, G2, optimal blend) against
     the free-shape optimum, per turn angle and tolerance; writes corners.csv. Needs CasADi
-    (pip install "pathmotion[optimal]"). --torque adds the joint torque limits to every motion and
+    (pip install "pathmotion\\[optimal]"). --torque adds the joint torque limits to every motion and
     reference (its optima are cached apart), --torque-reserve keeps a share of them free for the
     closed loop's feedback, --robot takes another arm, payload or drives.
 

@@ -25,9 +25,31 @@ def run(*args):
 
 
 def test_help_of_every_command_shows_an_example():
-    for cmd in ("robots", "init", "schema", "check", "plan", "simulate", "sweep", "report", "demo"):
+    import typer.main
+
+    commands = set(typer.main.get_group(app).commands)
+    assert {"robots", "init", "schema", "check", "plan", "simulate", "sweep", "corners", "report", "demo"} <= commands
+    for cmd in sorted(commands):
         code, out = run(cmd, "--help")
         assert code == 0 and "Example" in out, cmd
+
+
+def test_help_markup_only_styles_and_never_eats_text():
+    """Rich reads [word] in help text as a tag and drops it ('pathmotion[optimal]' became 'pathmotion'):
+    every docstring and option help renders to its source text with only the style tags removed."""
+    import re
+
+    import typer.main
+    from rich.text import Text
+
+    style = re.compile(r"\[/?(bold|yellow|red|green|dim|italic)?\]")
+    group = typer.main.get_group(app)
+    texts = [group.help]
+    for name, command in group.commands.items():
+        texts.append(command.help)
+        texts += [p.help for p in command.params if getattr(p, "help", None)]
+    for text in filter(None, texts):
+        assert Text.from_markup(text).plain == style.sub("", text).replace("\\[", "["), text
 
 
 def test_robots_lists_the_irb140_with_official_speeds():
