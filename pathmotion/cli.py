@@ -350,7 +350,8 @@ def init(path: Path = typer.Argument(Path("scenario.toml"), help="file to write"
     else:
         text = _example_scenario(path, (resources.files("pathmotion.io") / "templates" / "example.toml").read_text())
     write_text(path, text)
-    console.print(f"wrote {path}; next: [bold]pathmotion check {path}[/]")
+    shown = escape(str(path))
+    console.print(f"wrote {shown}; next: [bold]pathmotion check {shown}[/]")
 
 
 @app.command()
@@ -365,7 +366,7 @@ def schema(out: Optional[Path] = typer.Option(None, "--out", help="write to this
 
     if out:
         write_json(out, scenario_json_schema())
-        console.print(f"wrote {out}")
+        console.print(f"wrote {escape(str(out))}")
     else:
         print(json.dumps(scenario_json_schema(), indent=2))
 
@@ -396,7 +397,8 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
     write_text(out, text)
     for ln, stmt in prog.unsupported:
         err_console.print(f"[yellow]skipped[/] {escape(str(program))}:{ln}: {escape(stmt)}", highlight=False)
-    console.print(f"wrote {out} ({len(prog.moves) - 1} segments); next: [bold]pathmotion check {out}[/]")
+    shown = escape(str(out))
+    console.print(f"wrote {shown} ({len(prog.moves) - 1} segments); next: [bold]pathmotion check {shown}[/]")
 
 
 @app.command()
@@ -522,7 +524,7 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
                                   on_result=on_result, figures=figures)
     from .study.score import outcome_text
 
-    console.print(f"{outcome_text(outcome.rows)} -> {out}/sweep.csv")
+    console.print(f"{outcome_text(outcome.rows)} -> {escape(str(out / 'sweep.csv'))}")
     if outcome.best is not None:
         _print_table(_summary_table(f"{BEST_SCORE_TITLE} (best.json)", outcome.best))
 
@@ -574,7 +576,8 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
                              scheduler=scheduler, on_result=on_result, figures=figures, torque=torque,
                              torque_reserve=reserve if torque else None, robot_file=robot)
     failed = sum(1 for r in atlas.rows if r.get("error") or r.get("status") != "ok")
-    console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum -> {out}/corners.csv")
+    console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum "
+                  f"-> {escape(str(out / 'corners.csv'))}")
 
 
 @app.command()
@@ -588,7 +591,7 @@ def report(folder: Path = typer.Argument(..., help="a folder written by plan, si
     from .report.html import build_report
 
     path = build_report(folder, out)
-    console.print(f"wrote {path}")
+    console.print(f"wrote {escape(str(path))}")
 
 
 @app.command()
@@ -633,12 +636,12 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
             task = progress.add_task("corner study", total=None)
             result = corner_study(out / "corner_study", workers=workers,
                                   on_result=lambda done, total: progress.update(task, completed=done, total=total))
-        console.print(f"corner study: {len(result.rows)} runs, figures in {result.out}")
+        console.print(f"corner study: {len(result.rows)} runs, figures in {escape(str(result.out))}")
         if result.best is not None:
             _print_table(_summary_table(f"{BEST_SCORE_TITLE} (corner_study.json)", result.best))
     from .report.html import build_report
 
-    console.print(f"report: {build_report(out)}")
+    console.print(f"report: {escape(str(build_report(out)))}")
 
 
 #: Delay before an interrupt that could not be raised (inside numba's compiler, or swallowed in a C

@@ -52,6 +52,17 @@ def test_help_markup_only_styles_and_never_eats_text():
         assert Text.from_markup(text).plain == style.sub("", text).replace("\\[", "["), text
 
 
+def test_paths_with_brackets_are_printed_as_they_are(tmp_path):
+    """A folder named like a Rich tag ('[ab]') is printed, not dropped as markup."""
+    target = tmp_path / "[ab]" / "s.toml"
+    target.parent.mkdir()
+    code, out = run("init", target)
+    assert code == 0 and target.exists()
+    assert f"wrote {target}" in out.replace("\n", ""), out
+    code, out = run("schema", "--out", tmp_path / "[ab]" / "schema.json")
+    assert code == 0 and "[ab]" in out, out
+
+
 def test_robots_lists_the_irb140_with_official_speeds():
     code, out = run("robots")
     assert code == 0
