@@ -8,6 +8,7 @@ import pytest
 
 pytest.importorskip("casadi", reason='the free-shape reference needs CasADi: pip install "pathmotion[optimal]"')
 
+from pathmotion.errors import PathError  # noqa: E402
 from pathmotion.planning import PlanSettings, plan  # noqa: E402
 from pathmotion.robot import fk, load_robot  # noqa: E402
 from pathmotion.study import free_shape as fs  # noqa: E402
@@ -210,6 +211,13 @@ def test_covered_stretches_are_absorbed_into_the_corner_stretches():
     assert fs.effective_spans(fs.Polyline(three).lengths, 0.01, [(0.05, 0.045), (0.04, 0.05)]) == [
         (0.05, pytest.approx(0.0525)), (pytest.approx(0.0475), 0.05)]
     assert [p.radius for p in fs.tube_phases(line, 0.01, spans)] == [0.01, 0.01]
+    # a blend over both whole segments ends past the second by rounding (the joint stage's 60 deg / 10 mm blend):
+    # clipped, the same tube as the whole segments; past it by more, still an error
+    rounded = [(0.2, 0.2 + 7e-17)]
+    assert fs.effective_spans(L, 0.01, rounded) == [(L[0], L[1])]
+    assert fs.tube_phases(line, 0.01, rounded) == fs.tube_phases(line, 0.01, [(L[0], L[1])])
+    with pytest.raises(PathError, match="do not fit"):
+        fs.tube_phases(line, 0.01, [(0.2, 0.2 + 1e-6)])
 
 
 def test_corner_confined_tube_with_covered_stretches_converges(robot):

@@ -112,6 +112,9 @@ MIN_PHASE_INTERVALS = 3
 ORDER_RANGE = (0.5, 4.0)
 #: Polyline segments shorter than this [m] are an error.
 MIN_SEGMENT_LENGTH = 1e-6
+#: A corner span longer than its segment by at most this [m] is rounding (a blend over a whole segment ends
+#: at 0.2 + 7e-17 m) and is clipped to the segment; by more, an error.
+SPAN_ROUNDING = 1e-9
 #: Smoothing of the "norm" tube constraint, relative to the radius (see _tube).
 NORM_SMOOTHING = 0.3
 
@@ -240,9 +243,14 @@ def effective_spans(lengths, delta: float, spans: Sequence[tuple[float, float]])
     constraint adds (next to) nothing to their caps, so nothing makes the motion cross it: its phase
     shrank to MIN_PHASE_DURATION with degenerate nodes, and IPOPT hit its cap on every mesh from
     every start (60 deg / 10 mm corner-confined, spans 198.05 / 199.9998 mm of 0.2 m: 1.95 mm and
-    0.2 um stretches on the line). Spans without such a stretch come back unchanged."""
+    0.2 um stretches on the line). A span past its segment by rounding (SPAN_ROUNDING) is clipped to it.
+    Spans without such a stretch come back unchanged."""
     L = np.asarray(lengths, float)
-    out = [[float(a), float(b)] for a, b in spans]
+
+    def clipped(span: float, length: float) -> float:
+        return float(min(span, length)) if span - length <= SPAN_ROUNDING else float(span)
+
+    out = [[clipped(a, L[c]), clipped(b, L[c + 1])] for c, (a, b) in enumerate(spans)]
     n = len(out)
     for j in range(len(L)):  # the stretch of segment j outside the corner stretches: [lo, hi]
         lo = out[j - 1][1] if j > 0 else 0.0
