@@ -396,11 +396,18 @@ def scenario_from_dict(doc: dict, where: str = "scenario", overrides: dict | Non
     try:
         return Scenario.model_validate_json(json.dumps(doc, default=str), strict=True)
     except ValidationError as exc:
-        errors = sorted(_merge_union_errors(exc.errors()), key=lambda e: e["type"] != "extra_forbidden")
-        lines = [_error_line(e, doc, where, overrides or {}) for e in errors[:MAX_ERRORS_SHOWN]]
-        if len(errors) > MAX_ERRORS_SHOWN:
-            lines.append(f"... and {len(errors) - MAX_ERRORS_SHOWN} more")
-        raise ScenarioError("\n".join(lines)) from None
+        raise validation_error(exc.errors(), doc, where, overrides) from None
+
+
+def validation_error(errors: list[dict], doc, where: str, overrides: dict | None = None) -> ScenarioError:
+    """The ScenarioError of pydantic's ``errors`` (their ``loc`` from the root of ``doc``): one line per key path
+    (a union's members joined), an unknown key first with the closest allowed one, at most MAX_ERRORS_SHOWN and
+    the rest counted; each names ``where`` (or ``--set KEY`` for a key the ``overrides`` set)."""
+    errors = sorted(_merge_union_errors(errors), key=lambda e: e["type"] != "extra_forbidden")
+    lines = [_error_line(e, doc, where, overrides or {}) for e in errors[:MAX_ERRORS_SHOWN]]
+    if len(errors) > MAX_ERRORS_SHOWN:
+        lines.append(f"... and {len(errors) - MAX_ERRORS_SHOWN} more")
+    return ScenarioError("\n".join(lines))
 
 
 #: A point this many times farther from the base than the arm reaches is taken for millimetres [-].

@@ -55,16 +55,16 @@ def _validated(doc: dict, where: str):
     unknown keys named with the closest allowed one)."""
     from pydantic import ValidationError
 
-    from ..io.scenario import MAX_ERRORS_SHOWN, LimitsSpec, RobotSpec, Scenario, _error_line, _merge_union_errors
+    from ..io.scenario import LimitsSpec, RobotSpec, Scenario, validation_error
 
     specs, errors = {}, []
     for table, model in (("robot", RobotSpec), ("limits", LimitsSpec)):
         try:
             specs[table] = model.model_validate_json(json.dumps(doc.get(table, {}), default=str), strict=True)
         except ValidationError as exc:
-            errors += [{**e, "loc": (table, *e["loc"])} for e in _merge_union_errors(exc.errors())]
+            errors += [{**e, "loc": (table, *e["loc"])} for e in exc.errors()]
     if errors:
-        raise ScenarioError("\n".join(_error_line(e, doc, where, {}) for e in errors[:MAX_ERRORS_SHOWN]))
+        raise validation_error(errors, doc, where)
     return Scenario.model_construct(**specs)
 
 
