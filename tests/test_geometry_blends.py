@@ -246,6 +246,19 @@ def test_certified_max_brackets_an_analytic_maximum():
     assert max_deviation(a, b).lower == pytest.approx(0.01, rel=1e-12)
 
 
+@settings(max_examples=60, deadline=None)
+@given(threshold=st.floats(0.0, 1.2), frequency=st.floats(1.0, 30.0))
+def test_certified_max_stopped_below_a_threshold_answers_as_the_full_refinement(threshold, frequency):
+    """The blend sizing asks only 'is the certified maximum <= t?' (stop_below = stop_above = t): the answer
+    equals the fully refined bracket's, and a 'yes' is still a certified bound (above the true maximum)."""
+    fn = lambda x: np.abs(np.sin(frequency * x)) * np.exp(-x)  # noqa: E731
+    x_star = np.arctan(frequency) / frequency  # the maximum
+    full = certified_max(fn, 0.0, 3.0, lipschitz=frequency + 1.0)
+    quick = certified_max(fn, 0.0, 3.0, lipschitz=frequency + 1.0, stop_above=threshold, stop_below=threshold)
+    assert (quick.upper <= threshold) == (full.upper <= threshold)
+    assert quick.lower <= fn(np.array([x_star]))[0] <= quick.upper
+
+
 @pytest.mark.parametrize("radius", [1e-4, 1e-3, 0.00647645, 0.02])
 def test_small_transition_radii_fit(radius):
     """Regression: the fillet's Newton solve used a tolerance scaled by the radius, unattainable in

@@ -291,14 +291,11 @@ def g2_control_points(A: Segment, B: Segment, cut: float, shape: float = default
 
 
 def g2_deviation(A: Segment, B: Segment, cut: float, shape: float = defaults.G2_BLEND_SHAPE,
-                 stop_above: float = np.inf) -> Deviation:
+                 stop_above: float = np.inf, stop_below: float = -np.inf) -> Deviation:
     """Certified largest distance [m] of the G2 blend with ``cut`` from the original segments A, B
-    (``lower``/``upper`` bracket; ``theta`` holds the Bezier parameter u of the maximum)."""
-    b = g2_control_points(A, B, cut, shape)
-    coef = BezierSegment._power_basis(b)
-    lip = 5.0 * float(np.max(np.linalg.norm(np.diff(b, axis=0), axis=1)))
-    return certified_max(lambda u: distance_to_segments(BezierSegment._polyval(coef, u), (A, B)),
-                         0.0, 1.0, lip, stop_above=stop_above)
+    (``lower``/``upper`` bracket; ``theta`` holds the Bezier parameter u of the maximum; ``stop_above``,
+    ``stop_below``: see certified_max)."""
+    return _shaped_deviation(A, B, g2_control_points(A, B, cut, shape), stop_above, stop_below)
 
 
 def _check_shape(shape: float, what: str) -> float:
@@ -325,7 +322,7 @@ def _with_g2_blend(path: TaskPath, c: _Corner, tolerance: float, shape: float) -
                         f"{full.upper:.6g} m; give a tolerance below {_down(full.upper)} m")
 
     def ok(cut):
-        d = g2_deviation(c.A, c.B, cut, shape, stop_above=tol)
+        d = g2_deviation(c.A, c.B, cut, shape, stop_above=tol, stop_below=tol)
         return d.upper <= tol
 
     cut = _largest(ok, cut_max, bisections=36)  # cut to ~1e-11 relative
@@ -601,19 +598,21 @@ def g2_blend_pieces(A: Segment, B: Segment, inner_entry: float, inner_exit: floa
     return tuple(pieces), float(entry), float(exit)
 
 
-def _shaped_deviation(A: Segment, B: Segment, b: np.ndarray, stop_above: float = np.inf) -> Deviation:
+def _shaped_deviation(A: Segment, B: Segment, b: np.ndarray, stop_above: float = np.inf,
+                      stop_below: float = -np.inf) -> Deviation:
     coef = BezierSegment._power_basis(b)
     lip = 5.0 * float(np.max(np.linalg.norm(np.diff(b, axis=0), axis=1)))
     return certified_max(lambda u: distance_to_segments(BezierSegment._polyval(coef, u), (A, B)),
-                         0.0, 1.0, lip, stop_above=stop_above)
+                         0.0, 1.0, lip, stop_above=stop_above, stop_below=stop_below)
 
 
-def _pieces_deviation(A: Segment, B: Segment, pieces, stop_above: float = np.inf) -> float:
+def _pieces_deviation(A: Segment, B: Segment, pieces, stop_above: float = np.inf, stop_below: float = -np.inf) -> float:
     """Certified upper bound [m] of the pieces' largest distance from A u B: the largest of each
-    piece's certified bound (stops once one is above ``stop_above``)."""
+    piece's certified bound (stops once one is above ``stop_above``; a piece's bound is refined only until
+    it is at most ``stop_below``, see certified_max)."""
     upper = 0.0
     for b in pieces:
-        upper = max(upper, _shaped_deviation(A, B, b, stop_above=stop_above).upper)
+        upper = max(upper, _shaped_deviation(A, B, b, stop_above=stop_above, stop_below=stop_below).upper)
         if upper > stop_above:
             break
     return upper
@@ -704,7 +703,7 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
                         f"{c.where()} (cuts <= {c.max_a:.6g} m and {c.max_b:.6g} m); give shorter runs")
 
     def ok(size):
-        return _pieces_deviation(c.A, c.B, build(size)[0], stop_above=tol) <= tol
+        return _pieces_deviation(c.A, c.B, build(size)[0], stop_above=tol, stop_below=tol) <= tol
 
     size = size_max if ok(size_max) else _largest_between(ok, size_min, size_max)
     if size <= size_min:

@@ -54,11 +54,13 @@ def distance_to_segments(points: np.ndarray, segments: Sequence[Segment]) -> np.
 
 def certified_max(fn: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, lipschitz: float,
                   rel_tol: float = defaults.DEVIATION_RELATIVE_ACCURACY, initial: int = 256,
-                  stop_above: float = np.inf, max_rounds: int = 60) -> Deviation:
+                  stop_above: float = np.inf, max_rounds: int = 60, stop_below: float = -np.inf) -> Deviation:
     """Bracket the maximum of a ``lipschitz``-continuous fn (vectorized, >= 0) on [lo, hi].
 
-    Stops early once the attained value exceeds ``stop_above`` (then ``upper`` is only a bound of
-    what was examined: the caller only needs to know the maximum is above ``stop_above``)."""
+    Stops early once the attained value exceeds ``stop_above``, or once the bound is at most
+    ``stop_below`` (then the bracket is wider than ``rel_tol``: the caller only needs to know on which
+    side of a threshold the maximum lies; the bound only falls as intervals split, so the answer is
+    the one the full refinement gives)."""
     u = np.linspace(lo, hi, initial + 1)
     d = fn(u)
     a, b, da, db = u[:-1], u[1:], d[:-1], d[1:]
@@ -69,7 +71,7 @@ def certified_max(fn: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, 
     for _ in range(max_rounds):
         ub = 0.5 * (da + db + lipschitz * (b - a))
         upper = max(float(np.max(ub, initial=0.0)), dropped, lower)
-        if lower > stop_above or upper - lower <= rel_tol * upper + atol:
+        if lower > stop_above or upper <= stop_below or upper - lower <= rel_tol * upper + atol:
             return Deviation(lower, upper, where)
         keep = ub > lower * (1.0 + rel_tol) + atol
         dropped = max(dropped, float(np.max(ub[~keep], initial=0.0)))

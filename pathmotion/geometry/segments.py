@@ -423,6 +423,11 @@ _GL_PANELS = 32
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
 
 
+#: k! / (k - order)! for k = order .. 5, per order: the factors of d^order u^k / du^order.
+_DERIVATIVE_FACTORS = tuple(np.array([np.prod(np.arange(k - order + 1, k + 1)) for k in range(order, 6)], float)
+                            for order in range(6))
+
+
 @dataclass(frozen=True, eq=False)
 class BezierSegment(Segment):
     """Quintic Bezier curve X(u), u in [0, 1], with control points (6, 3) [m], reparameterized by
@@ -484,7 +489,7 @@ class BezierSegment(Segment):
         """d^order X / du^order (N, 3) at u (N,) by Horner's rule from monomial coefficients."""
         u = _as_s(u)[:, None]
         ks = np.arange(order, 6)
-        fac = np.array([np.prod(np.arange(k - order + 1, k + 1)) for k in ks], float)
+        fac = _DERIVATIVE_FACTORS[order]
         out = np.zeros((u.shape[0], 3)) + fac[-1] * coef[5]
         for k, f in zip(ks[-2::-1], fac[-2::-1]):
             out = out * u + f * coef[k]
