@@ -310,6 +310,33 @@ def test_the_joint_stage_moves_every_coordinate_of_a_blend_with_free_ends():
     assert np.ptp(z) < 1e-12
 
 
+def test_a_blend_capped_by_its_neighbours_is_searched_again_within_what_it_reached(caplog):
+    """30 deg on 0.1 m lines, 5 mm: the lines cap the fastest blend's corner quintic (it reaches 4.4 mm), so stage 7
+    searches again within the deviation it reached, keeps the faster search and the other's blend as a candidate:
+    never slower than without, and within the tolerance; an uncapped corner (90 deg, 1 mm) is not searched again."""
+    import logging
+
+    from pathmotion.planning.blend_search import CAPPED_SHARE
+    from pathmotion.study.atlas import _task, corner_points
+
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=30,
+              rise_plans=30, end_plans=20, joint_plans=0)
+    path = _task(corner_points(30, 0.1))
+    without = optimal_blends(_robot(), path, 0.005, retry_capped=False, **kw)
+    assert without.shapes[0].deviation < CAPPED_SHARE * 0.005
+    with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
+        again = optimal_blends(_robot(), path, 0.005, **kw)
+    assert "reached only 0.0044" in caplog.text and "searched again" in caplog.text
+    assert again.plans > without.plans + 50
+    assert again.duration <= without.duration
+    assert max_deviation(again.path, path, rel_tol=1e-6).upper <= 0.005 * (1 + 2e-6)
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
+        uncapped = optimal_blends(_robot(), _turn(90), 0.001, **kw)
+    assert uncapped.shapes[0].deviation >= CAPPED_SHARE * 0.001 and "searched again" not in caplog.text
+    assert uncapped.plans == optimal_blends(_robot(), _turn(90), 0.001, retry_capped=False, **kw).plans
+
+
 def test_a_rise_alone_makes_offset_pieces_and_bad_rises_are_refused():
     path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
     shape = g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05),
