@@ -606,7 +606,8 @@ def _shaped_deviation(A: Segment, B: Segment, b: np.ndarray, stop_above: float =
                          0.0, 1.0, lip, stop_above=stop_above, stop_below=stop_below)
 
 
-def _pieces_deviation(A: Segment, B: Segment, pieces, stop_above: float = np.inf, stop_below: float = -np.inf) -> float:
+def _pieces_deviation(A: Segment, B: Segment, pieces, stop_above: float = np.inf,
+                      stop_below: float = -np.inf) -> float:
     """Certified upper bound [m] of the pieces' largest distance from A u B: the largest of each
     piece's certified bound (stops once one is above ``stop_above``; a piece's bound is refined only until
     it is at most ``stop_below``, see certified_max)."""

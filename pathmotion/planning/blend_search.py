@@ -490,7 +490,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
             obj.best(joined=True)[1], obj.best()[1])
         unjoint[k] = before_joint or shapes[k]
         plans += sum(o.plans for o in searched)
-        log.info("blend search: corner %d: %d plans, shape %s", k, obj.plans, shapes[k])
+        log.info("blend search: corner %d: %d plans, shape %s", k, sum(o.plans for o in searched), shapes[k])
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
