@@ -493,9 +493,9 @@ def test_a_plan_with_the_reserve_is_the_plan_of_the_reduced_limits():
 def test_a_reserve_row_through_the_cli_plans_and_solves_within_the_reduced_limits(tmp_path, monkeypatch):
     """corners --robot (weak drives) --torque --torque-reserve 0.2, 90 deg / 5 mm on coarse meshes, the real plans,
     NLPs and closed loop (the torque row of before, now with a reserve): every plan's torque on a dense resample, by
-    Pinocchio's RNEA on the sampled joint motion, is within 0.8 tau_max and reaches it (the reserve binds, so a plan ignoring it would fail), both references were
-    solved within the reduced limits (their dense verification), and the closed loop ran the plant with the whole
-    limits; corners.csv has the reserve."""
+    Pinocchio's RNEA on the sampled joint motion, is within 0.8 tau_max and reaches it (the reserve binds, so a plan
+    ignoring it would fail), both references were solved within the reduced limits (their dense verification), and
+    the closed loop ran the plant with the whole limits; corners.csv has the reserve."""
     pytest.importorskip("casadi", reason='needs CasADi: pip install "pathmotion[optimal]"')
     import pinocchio as pin
 

@@ -357,7 +357,7 @@ def _late_end_stage(objective: _Objective, plans: int, planar: bool) -> bool:
     """After the joint stage: the ends where the motion rests that its fastest blend reaches within the tolerance
     but stage 5 left joined (the blend it started from stopped short) are freed too, Nelder-Mead (about ``plans``
     plans) over their coefficients from that blend; True if there was one (then the joint stage runs again). At
-    30 deg / 5 mm the joint stage stretched the entry from 191 to 199.6 mm of the 200 mm line."""
+    30 deg / 5 mm the joint stage stretched the entry from 191.6 to 199.6 mm of the 200 mm line."""
     _, shape, x = objective.best()
     late = tuple(r and reach and not f
                  for r, reach, f in zip(objective.resting, _reached(objective, shape), objective.free_ends))
@@ -376,6 +376,13 @@ def _reached(objective: _Objective, shape: G2Shape) -> tuple[bool, bool]:
     return shape.entry >= A.length - objective.tolerance, shape.exit >= B.length - objective.tolerance
 
 
+def _end_indices(ends: tuple[bool, bool], planar: bool) -> list[int]:
+    """Coordinates of the departure's (``ends[0]``) and the arrival's (``ends[1]``) coefficients: the two lateral
+    ones, and unless ``planar`` the two along the corner's normal."""
+    return [i for part, free in zip((_DEPARTURE, _ARRIVAL), ends) if free
+            for i in range(part.start, part.stop)[:2 if planar else 4]]
+
+
 def _free_ends(objective: _Objective, x, ends: tuple[bool, bool], plans: int, planar: bool) -> None:
     """Nelder-Mead (about ``plans`` plans) over the departure's (``ends[0]``) and the arrival's (``ends[1]``)
     coefficients (only the lateral ones if ``planar``) from 0, the other coordinates fixed at x's."""
@@ -383,8 +390,7 @@ def _free_ends(objective: _Objective, x, ends: tuple[bool, bool], plans: int, pl
     if len(x) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
         x = np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]])
     base = np.concatenate([x, np.zeros(_ARRIVAL.stop - len(x))])
-    idx = [i for part, free in zip((_DEPARTURE, _ARRIVAL), ends) if free
-           for i in range(part.start, part.stop)[:2 if planar else 4]]
+    idx = _end_indices(ends, planar)
     if not idx:
         return
 
@@ -411,8 +417,7 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool) -> None:
     if len(x) < _ARRIVAL.stop:  # the fastest blend is joined to the lines: stages 3-4 searched it
         return
     profile = list(range(_V_A if planar else _DEPARTURE.start))
-    ends = [i for part, free in zip((_DEPARTURE, _ARRIVAL), objective.free_ends) if free
-            for i in range(part.start, part.stop)[:2 if planar else 4]]
+    ends = _end_indices(objective.free_ends, planar)
     idx = profile + ends
     box = np.array([_JOINT_BOX[i] for i in profile] + [_END_BOX] * len(ends))
     steps = np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends))
@@ -523,8 +528,9 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
             obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
             obj.best(joined=True)[1], obj.best()[1])
         unjoint[k] = before_joint or shapes[k]
-        plans += sum(o.plans for o in searched)
-        log.info("blend search: corner %d: %d plans, shape %s", k, sum(o.plans for o in searched), shapes[k])
+        corner_plans = sum(o.plans for o in searched)
+        plans += corner_plans
+        log.info("blend search: corner %d: %d plans, shape %s", k, corner_plans, shapes[k])
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]

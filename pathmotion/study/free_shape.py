@@ -613,13 +613,20 @@ def _guess_positions(robot, guess: Guess) -> np.ndarray:
     return np.atleast_2d(fk(robot, guess.q)[0])
 
 
+def _within_intervals(motion: Guess, fractions) -> tuple[np.ndarray, np.ndarray]:
+    """(q, qd), each (N, F, n), of the exact piecewise-quadratic ``motion`` at the ``fractions`` (F,) of each of
+    its N intervals (0: the interval's start, 1: its end with that interval's acceleration)."""
+    h = np.diff(motion.t)[:, None, None] * np.asarray(fractions, float)[None, :, None]  # (N, F, 1)
+    q = motion.q[:-1, None] + motion.qd[:-1, None] * h + 0.5 * motion.u[:, None] * h ** 2
+    return q, motion.qd[:-1, None] + motion.u[:, None] * h
+
+
 def _inner_positions(robot, guess: Guess) -> np.ndarray:
     """TCP positions [m] (N, len(TUBE_POINTS), 3) of the exact piecewise-quadratic ``guess`` at TUBE_POINTS of
     each of its N intervals."""
     from ..robot import fk
 
-    h = np.diff(guess.t)[:, None, None] * np.asarray(TUBE_POINTS)[None, :, None]  # (N, F, 1)
-    q = guess.q[:-1, None] + guess.qd[:-1, None] * h + 0.5 * guess.u[:, None] * h ** 2
+    q = _within_intervals(guess, TUBE_POINTS)[0]
     return np.atleast_2d(fk(robot, q.reshape(-1, q.shape[-1]))[0]).reshape(len(guess.u), len(TUBE_POINTS), 3)
 
 
@@ -652,10 +659,7 @@ def max_torque_ratio(robot, motion: Guess, per_interval: int = VERIFY_POINTS_PER
     each interval, both ends with that interval's acceleration (so each node from both sides)."""
     from ..robot import rnea
 
-    f = np.linspace(0.0, 1.0, per_interval + 1)
-    h = np.diff(motion.t)[:, None, None] * f[None, :, None]  # (N, F, 1): time into each interval
-    q = motion.q[:-1, None] + motion.qd[:-1, None] * h + 0.5 * motion.u[:, None] * h ** 2
-    qd = motion.qd[:-1, None] + motion.u[:, None] * h
+    q, qd = _within_intervals(motion, np.linspace(0.0, 1.0, per_interval + 1))
     qdd = np.broadcast_to(motion.u[:, None], q.shape)
     n = robot.n
     tau = rnea(robot, q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n))
