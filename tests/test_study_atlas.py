@@ -12,6 +12,7 @@ import pytest
 from pathmotion.errors import PathError
 from pathmotion.geometry import max_deviation
 from pathmotion.study import atlas
+from pathmotion.study.free_shape import extrapolate
 
 
 @pytest.mark.parametrize("angle", [0.0, 180.0, -10.0, 200.0])
@@ -32,6 +33,17 @@ def test_meshes_that_give_no_converged_reference_are_errors(meshes, fault):
     one mesh had a NaN error); meshes that do not double break the extrapolation silently."""
     with pytest.raises(PathError, match=fault):
         atlas.check_inputs([90.0], [0.001], meshes)
+
+
+def test_the_cli_and_the_api_default_to_the_same_meshes():
+    """The CLI said 25,50,100 itself while corner_atlas and atlas_row fell back to free_shape.MESHES (with 200
+    intervals): one command, two atlases. Both are ATLAS_MESHES now."""
+    import typer
+
+    from pathmotion.cli import app
+
+    option = next(p for p in typer.main.get_command(app).commands["corners"].params if p.name == "meshes")
+    assert tuple(int(m) for m in option.default.split(",")) == atlas.ATLAS_MESHES == atlas.check_inputs([90.0], [0.001])
 
 
 def test_bad_meshes_through_the_cli_exit_1_before_any_work(tmp_path):
@@ -118,6 +130,15 @@ def test_reference_value_is_never_a_silent_number():
     fine_failed = {**ok, "success": False, "statuses": ["Solve_Succeeded", "Solve_Succeeded", "Restoration_Failed"]}
     assert atlas.reference_value(fine_failed) == (None, None, "NLP not converged (Solve_Succeeded, Solve_Succeeded, "
                                                               "Restoration_Failed)")
+    # four meshes, the finest failed: the three coarser still fit an order (extrapolate's own answer)
+    four = {**ok, "success": False, "statuses": ["Solve_Succeeded"] * 3 + ["Maximum_Iterations_Exceeded"],
+            "durations": [0.69, 0.695, 0.698, 0.75]}
+    value, error, note = atlas.reference_value(four)
+    assert (value, error) == pytest.approx(extrapolate([0.69, 0.695, 0.698]))
+    assert value > 0.698 and "finest mesh not converged (Maximum_Iterations_Exceeded)" in note
+    assert "3 coarser meshes" in note
+    two_failed = {**four, "statuses": ["Solve_Succeeded"] * 2 + ["Restoration_Failed"] * 2}
+    assert atlas.reference_value(two_failed)[0] is None
 
 
 @pytest.mark.slow

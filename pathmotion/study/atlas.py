@@ -80,6 +80,10 @@ CORNER_OPTIMUM_VERSION = 4
 ROW_VERSION = 6
 #: IPOPT statuses counted as converged.
 CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+#: The atlas' meshes (total intervals) for both references: free_shape.MESHES without its 200 intervals, which
+#: cost minutes per tight-tube solve (a 0.1 mm whole tube hit IPOPT's iteration cap there); docs/study.md, "Four
+#: meshes", checks the rows whose 1 % verdict lies within the stated error on them.
+ATLAS_MESHES = (25, 50, 100)
 #: Largest distance [m] of the simulated TCP from the planned path for the closed-loop check.
 CLOSED_LOOP_PATH_ACCURACY = 1e-3
 #: Smallest angle from 0 and 180 degrees a corner may have [deg].
@@ -105,14 +109,14 @@ def _task(points: np.ndarray):
 
 def check_inputs(angles: Sequence[float], tolerances: Sequence[float],
                  meshes: Sequence[int] | None = None) -> tuple[int, ...]:
-    """The checked meshes (``meshes``, default free_shape.MESHES, as whole interval counts); PathError for
+    """The checked meshes (``meshes``, default ATLAS_MESHES, as whole interval counts); PathError for
     an angle of (about) 0 or 180 deg, a tolerance that is not positive or not below half a segment, or
     meshes that are not at least two interval counts each twice the previous (every reference needs a
     convergence error). (A tolerance that no G2 blend can use up at some angle is that row's error,
     with the largest that fits.)"""
-    from .free_shape import MESHES, check_meshes
+    from .free_shape import check_meshes
 
-    checked = check_meshes(meshes or MESHES, least=2)
+    checked = check_meshes(meshes or ATLAS_MESHES, least=2)
     for a in angles:
         corner_points(a)
     half = 0.5 * ATLAS_SEGMENT_LENGTH
@@ -293,7 +297,7 @@ def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=
     record, and the verification's max_torque_ratio is against the reduced limits)."""
     from . import free_shape as fs
 
-    meshes = tuple(meshes or fs.MESHES)
+    meshes = tuple(meshes or ATLAS_MESHES)
     f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd, start, torque, torque_reserve)}.json"
     if f.is_file():
         return json.loads(f.read_text())
@@ -318,17 +322,23 @@ def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=
 def reference_value(rec: dict) -> tuple[float | None, float | None, str | None]:
     """(duration [s], convergence error [s], note) of a cached optimum record: the extrapolation when
     every mesh converged (note None); when all but the coarsest did, the extrapolation over the finer
-    ones (two: the finest, its change from the other as the error) and a note saying so; else
-    (None, None, "NLP not converged (statuses)")."""
+    ones (two: the finest, its change from the other as the error); when all but the finest did and at
+    least three coarser ones remain (a fitted order), the extrapolation over those; each with a note
+    saying so; else (None, None, "NLP not converged (statuses)")."""
     from .free_shape import extrapolate
 
     statuses = rec.get("statuses", [rec["status"]])
     if rec["success"]:
         return rec["duration"], rec["convergence_error"], None
-    if len(statuses) >= 3 and all(s in CONVERGED_STATUSES for s in statuses[1:]):
+    converged = [s in CONVERGED_STATUSES for s in statuses]
+    if len(statuses) >= 3 and all(converged[1:]):
         value, error = extrapolate(rec["durations"][1:])
         return value, error, (f"coarsest mesh not converged ({statuses[0]}); value of the {len(statuses) - 1} finer "
                               "meshes")
+    if len(statuses) >= 4 and all(converged[:-1]):
+        value, error = extrapolate(rec["durations"][:-1])
+        return value, error, (f"finest mesh not converged ({statuses[-1]}); value of the {len(statuses) - 1} "
+                              "coarser meshes")
     return None, None, f"NLP not converged ({', '.join(statuses)})"
 
 
@@ -427,7 +437,7 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
     in either tube) and not above ``inner`` (see _reference): the lowest reference of those tried, else the first
     start's failure with every start's note. The first start's record keeps its cache key (no start in it), so a
     cached success is read as before; a retry is cached under its start's name."""
-    from .free_shape import MESHES, free_shape_optimum
+    from .free_shape import free_shape_optimum
 
     tried = []
     for i, start in enumerate(starts):
@@ -449,8 +459,8 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
         if keep:
             return keep[0]
         warm = start.warm() if callable(start.warm) else start.warm
-        return free_shape_optimum(reserved(robot, torque_reserve), points, tolerance, spans, tuple(meshes or MESHES),
-                                  warm=warm, torque=torque)
+        return free_shape_optimum(reserved(robot, torque_reserve), points, tolerance, spans,
+                                  tuple(meshes or ATLAS_MESHES), warm=warm, torque=torque)
 
     return Reference(value, error, note, start.name, solutions)
 
