@@ -81,8 +81,8 @@ ROW_VERSION = 6
 #: IPOPT statuses counted as converged.
 CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 #: The atlas' meshes (total intervals) for both references: free_shape.MESHES without its 200 intervals, which
-#: cost minutes per tight-tube solve (a 0.1 mm whole tube hit IPOPT's iteration cap there); docs/study.md, "Four
-#: meshes", checks the rows whose 1 % verdict lies within the stated error on them.
+#: cost minutes per solve (30 deg / 1 mm's whole tube hit IPOPT's iteration cap there from two starts and took 7
+#: minutes); docs/study.md, "Four meshes", solves every row's corner-confined reference on all four.
 ATLAS_MESHES = (25, 50, 100)
 #: Largest distance [m] of the simulated TCP from the planned path for the closed-loop check.
 CLOSED_LOOP_PATH_ACCURACY = 1e-3
