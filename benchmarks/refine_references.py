@@ -1,6 +1,6 @@
 """The atlas' corner-confined references on a finer mesh sequence: does the 1 % verdict hold (issue 17)?
 
-The atlas (``pathmotion corners``) solves each free-shape reference on ATLAS_MESHES (25, 50, 100 intervals) and
+The atlas (``pathmotion corners``) solves each free-shape reference on defaults.ATLAS_MESHES (25, 50, 100 intervals) and
 extrapolates (free_shape.extrapolate). Its stated error is |extrapolated - finest|, which assumes the three meshes
 are in the asymptotic range. This script solves each row's corner-confined reference, the one the 1 % target is
 measured against, on the atlas' meshes and on a longer sequence (default 25, 50, 100, 200), exactly as the atlas
@@ -34,6 +34,7 @@ def main() -> None:
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
+    from pathmotion import defaults
     from pathmotion.constraint import lift
     from pathmotion.planning import plan
     from pathmotion.planning.blend_search import optimal_blends
@@ -47,7 +48,7 @@ def main() -> None:
         ap.error("give rows ANGLE_DEG:TOLERANCE_M or --all")
     robot = load_robot("irb140")
     a.cache.mkdir(parents=True, exist_ok=True)
-    print(f"| angle | tol mm | optimal [s] | corner ref. {list(atlas.ATLAS_MESHES)} | gap | corner ref. "
+    print(f"| angle | tol mm | optimal [s] | corner ref. {list(defaults.ATLAS_MESHES)} | gap | corner ref. "
           f"{list(finer)} | gap | mesh durations [s] | CPU [s] | within 1 % |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for row in rows:
@@ -60,7 +61,7 @@ def main() -> None:
         warm = plan(lift(robot, best.path, original=task), robot, atlas._settings(baselines=False))
         T, shape = float(warm.profile.duration), best.shapes[0]
         spans, cells = [(shape.entry, shape.exit)], []
-        for meshes in (atlas.ATLAS_MESHES, finer):
+        for meshes in (defaults.ATLAS_MESHES, finer):
             ref = atlas.corner_reference(a.cache, robot, pts, tol, spans, meshes, warm, shape.racing, min(stop, T))
             if ref.value is None:
                 cells += [f"none ({ref.note})", "-"]

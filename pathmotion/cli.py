@@ -26,7 +26,6 @@ from rich.table import Table
 
 from . import defaults
 from .errors import PathmotionError, ScenarioError
-from .study.atlas import ATLAS_MESHES
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="rich",
                   help="Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation.")
@@ -535,7 +534,7 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[deg], comma-separated"),
             tolerances: str = typer.Option("0.0001,0.001,0.005,0.01,0.05", help="tolerances \\[m], comma-separated"),
             out: Path = typer.Option(..., "--out", help="output folder (a re-run resumes; optima are cached there)"),
-            meshes: str = typer.Option(",".join(map(str, ATLAS_MESHES)),
+            meshes: str = typer.Option(",".join(map(str, defaults.ATLAS_MESHES)),
                                        help="free-shape NLP meshes (intervals), each twice the last"),
             scheduler: Optional[str] = typer.Option(None, help="Dask scheduler, tcp://HOST:PORT"),
             workers: int = typer.Option(2, min=1, help="local worker processes"),

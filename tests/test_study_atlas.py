@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pathmotion import defaults
 from pathmotion.errors import PathError
 from pathmotion.geometry import max_deviation
 from pathmotion.study import atlas
@@ -37,13 +38,14 @@ def test_meshes_that_give_no_converged_reference_are_errors(meshes, fault):
 
 def test_the_cli_and_the_api_default_to_the_same_meshes():
     """The CLI said 25,50,100 itself while corner_atlas and atlas_row fell back to free_shape.MESHES (with 200
-    intervals): one command, two atlases. Both are ATLAS_MESHES now."""
+    intervals): one command, two atlases. Both are defaults.ATLAS_MESHES now."""
     import typer
 
     from pathmotion.cli import app
 
     option = next(p for p in typer.main.get_command(app).commands["corners"].params if p.name == "meshes")
-    assert tuple(int(m) for m in option.default.split(",")) == atlas.ATLAS_MESHES == atlas.check_inputs([90.0], [0.001])
+    cli_default = tuple(int(m) for m in option.default.split(","))
+    assert cli_default == defaults.ATLAS_MESHES == atlas.check_inputs([90.0], [0.001])
 
 
 def test_bad_meshes_through_the_cli_exit_1_before_any_work(tmp_path):

@@ -80,10 +80,6 @@ CORNER_OPTIMUM_VERSION = 4
 ROW_VERSION = 6
 #: IPOPT statuses counted as converged.
 CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-#: The atlas' meshes (total intervals) for both references: free_shape.MESHES without its 200 intervals, which
-#: cost minutes per solve (30 deg / 1 mm's whole tube hit IPOPT's iteration cap there from two starts and took 7
-#: minutes); docs/study.md, "Four meshes", solves every row's corner-confined reference on all four.
-ATLAS_MESHES = (25, 50, 100)
 #: Largest distance [m] of the simulated TCP from the planned path for the closed-loop check.
 CLOSED_LOOP_PATH_ACCURACY = 1e-3
 #: Smallest angle from 0 and 180 degrees a corner may have [deg].
@@ -109,14 +105,14 @@ def _task(points: np.ndarray):
 
 def check_inputs(angles: Sequence[float], tolerances: Sequence[float],
                  meshes: Sequence[int] | None = None) -> tuple[int, ...]:
-    """The checked meshes (``meshes``, default ATLAS_MESHES, as whole interval counts); PathError for
+    """The checked meshes (``meshes``, default defaults.ATLAS_MESHES, as whole interval counts); PathError for
     an angle of (about) 0 or 180 deg, a tolerance that is not positive or not below half a segment, or
     meshes that are not at least two interval counts each twice the previous (every reference needs a
     convergence error). (A tolerance that no G2 blend can use up at some angle is that row's error,
     with the largest that fits.)"""
     from .free_shape import check_meshes
 
-    checked = check_meshes(meshes or ATLAS_MESHES, least=2)
+    checked = check_meshes(meshes or defaults.ATLAS_MESHES, least=2)
     for a in angles:
         corner_points(a)
     half = 0.5 * ATLAS_SEGMENT_LENGTH
@@ -297,7 +293,7 @@ def cached_optimum(cache: Path, robot, points, delta: float, spans=None, meshes=
     record, and the verification's max_torque_ratio is against the reduced limits)."""
     from . import free_shape as fs
 
-    meshes = tuple(meshes or ATLAS_MESHES)
+    meshes = tuple(meshes or defaults.ATLAS_MESHES)
     f = Path(cache) / f"{_optimum_key(robot, points, delta, spans, meshes, crowd, start, torque, torque_reserve)}.json"
     if f.is_file():
         return json.loads(f.read_text())
@@ -460,7 +456,7 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
             return keep[0]
         warm = start.warm() if callable(start.warm) else start.warm
         return free_shape_optimum(reserved(robot, torque_reserve), points, tolerance, spans,
-                                  tuple(meshes or ATLAS_MESHES), warm=warm, torque=torque)
+                                  tuple(meshes or defaults.ATLAS_MESHES), warm=warm, torque=torque)
 
     return Reference(value, error, note, start.name, solutions)
 
