@@ -68,10 +68,7 @@ def main() -> None:
             else:
                 note = "" if ref.note is None else f" ({ref.note})"
                 cells += [f"{ref.value:.5f} ± {ref.error * 1e3:.2f} ms{note}", f"{100 * (T / ref.value - 1):.2f} %"]
-        order = atlas.CORNER_STARTS[::-1] if shape.racing else atlas.CORNER_STARTS  # as corner_reference tries them
-        rec = atlas.cached_optimum(a.cache, robot, pts, tol, spans, finer, warm=warm if ref.start == "blend" else None,
-                                   start=None if ref.start == order[0] else ref.start)  # the finer reference's record
-        durations = ", ".join(f"{d:.5f}" for d in rec["durations"])
+        durations = ", ".join(f"{d:.5f}" for d in ref.durations)  # the finer reference's
         verdict = "-" if ref.value is None else ("yes" if T <= 1.01 * ref.value else "no")
         print(f"| {angle:g} | {tol * 1e3:g} | {T:.5f} | {' | '.join(cells)} | {durations} | "
               f"{time.process_time() - t0:.0f} | {verdict} |", flush=True)

@@ -417,13 +417,15 @@ def _reference(rec: dict, feasible: float, inner: tuple | None = None) -> tuple[
 class Reference:
     """A free-shape reference: value, error [s] (None: no reference) and note (None: converged) as reference_value;
     ``start``: the name of the start it came from (CORNER_STARTS, WHOLE_STARTS); ``solutions()``: its
-    FreeShapeOptimum (solved again when it came from the cache; the corner-confined one starts the whole tube)."""
+    FreeShapeOptimum (solved again when it came from the cache; the corner-confined one starts the whole tube);
+    ``durations``: its record's duration per mesh [s]."""
 
     value: float | None
     error: float | None
     note: str | None
     start: str
     solutions: object
+    durations: tuple = ()
 
 
 def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, starts, feasible: float,
@@ -441,15 +443,15 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
         rec = cached_optimum(cache, robot, points, tolerance, spans, meshes, warm=start.warm, crowd=start.crowd,
                              keep=keep, start=None if i == 0 else start.name, torque=torque,
                              torque_reserve=torque_reserve)
-        tried.append((start, _reference(rec, feasible, inner), keep))
+        tried.append((start, _reference(rec, feasible, inner), keep, tuple(rec["durations"])))
         if tried[-1][1][2] is None:
             break
         log.info("corner atlas: %s optimum from the %s: %s", "whole-tube" if spans is None else "corner-confined",
                  start.name, tried[-1][1][2])
     usable = [t for t in tried if t[1][0] is not None]
-    start, (value, error, note), keep = min(usable, key=lambda t: t[1][0]) if usable else tried[0]
+    start, (value, error, note), keep, durations = min(usable, key=lambda t: t[1][0]) if usable else tried[0]
     if not usable and len(tried) > 1:
-        note = "; ".join(f"from the {s.name}: {r[2]}" for s, r, _ in tried)
+        note = "; ".join(f"from the {s.name}: {r[2]}" for s, r, *_ in tried)
 
     def solutions():
         if keep:
@@ -458,7 +460,7 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
         return free_shape_optimum(reserved(robot, torque_reserve), points, tolerance, spans,
                                   tuple(meshes or defaults.ATLAS_MESHES), warm=warm, torque=torque)
 
-    return Reference(value, error, note, start.name, solutions)
+    return Reference(value, error, note, start.name, solutions, durations)
 
 
 def corner_reference(cache: Path, robot, points, tolerance: float, spans, meshes, blend, racing: bool,
