@@ -1,13 +1,16 @@
-"""What the optimal blend search's joint stage (stage 6, planning/blend_search.py) buys (issue 17).
+"""What one stage of the optimal blend search (planning/blend_search.py) buys (issue 17).
 
 Per atlas-style corner (two 0.2 m lines, rest to rest, velocity and acceleration limits: the atlas'
-settings), the search without the joint stage (``joint_plans=0``) and with it (JOINT_PLANS), one after
-the other on the same corner: the full-grid duration of each, the gain, the plans and the CPU time.
-The search is deterministic, so one run each; the joint stage runs only where a free end made the blend
-faster (a corner whose blend reaches a path end where the motion rests), elsewhere both are the same.
+settings), the search without the stage and with it, one after the other on the same corner: the full-grid
+duration of each, the gain, the plans and the CPU time. The search is deterministic, so one run each.
+``--stage joint`` (the default): the joint stage (stage 6, ``joint_plans`` 0 / JOINT_PLANS), which runs only
+where a free end made the blend faster (a corner whose blend reaches a path end where the motion rests),
+elsewhere both are the same. ``--stage polish``: the full-grid polish (stage 8, ``polish_plans`` 0 /
+POLISH_PLANS), which runs at every corner.
 
     python benchmarks/blend_search_stages.py                       # the default corners below
     python benchmarks/blend_search_stages.py 60:0.01 45:0.007     # ANGLE_DEG:TOLERANCE_M ...
+    python benchmarks/blend_search_stages.py --stage polish 120:0.001
 """
 
 from __future__ import annotations
@@ -23,24 +26,27 @@ DEFAULT_CORNERS = ("60:0.01", "30:0.005", "30:0.01", "90:0.01", "120:0.01", "45:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("corners", nargs="*", default=list(DEFAULT_CORNERS), help="ANGLE_DEG:TOLERANCE_M")
+    ap.add_argument("--stage", choices=("joint", "polish"), default="joint", help="the stage turned off and on")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-    from pathmotion.planning.blend_search import JOINT_PLANS, optimal_blends
+    from pathmotion.planning.blend_search import JOINT_PLANS, POLISH_PLANS, optimal_blends
     from pathmotion.robot import load_robot
     from pathmotion.study.atlas import _settings, _task, corner_points
 
     robot = load_robot("irb140")
     settings = _settings(verify=False, baselines=False)
+    keyword, on = {"joint": ("joint_plans", JOINT_PLANS), "polish": ("polish_plans", POLISH_PLANS)}[a.stage]
+    print(f"stage: {a.stage} ({keyword} 0 / {on})")
     print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores)")
     print(f"{'corner':>12} {'without [s]':>12} {'with [s]':>10} {'gain':>8} {'plans':>11} {'cpu [s]':>13}")
     for text in a.corners:
         angle, tol = (float(v) for v in text.split(":"))
         task = _task(corner_points(angle))
         runs = []
-        for plans in (0, JOINT_PLANS):
+        for plans in (0, on):
             t0 = time.process_time()
-            found = optimal_blends(robot, task, tol, settings=settings, joint_plans=plans)
+            found = optimal_blends(robot, task, tol, settings=settings, **{keyword: plans})
             runs.append((found.duration, found.plans, time.process_time() - t0))
         (t_without, p_without, c_without), (t_with, p_with, c_with) = runs
         print(f"{angle:5.0f}/{tol * 1e3:4.1f} mm {t_without:12.5f} {t_with:10.5f} {1 - t_with / t_without:8.2%} "
