@@ -35,9 +35,6 @@ def main() -> None:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     from pathmotion import defaults
-    from pathmotion.constraint import lift
-    from pathmotion.planning import plan
-    from pathmotion.planning.blend_search import optimal_blends
     from pathmotion.robot import load_robot
     from pathmotion.study import atlas
     from pathmotion.study.free_shape import check_meshes
@@ -57,8 +54,7 @@ def main() -> None:
         pts = atlas.corner_points(angle)
         task = atlas._task(pts)
         stop = atlas._duration(robot, task, connections="zero")
-        best = optimal_blends(robot, task, tol, settings=atlas._settings(verify=False, baselines=False))
-        warm = plan(lift(robot, best.path, original=task), robot, atlas._settings(baselines=False))
+        best, _, warm = atlas.optimal_motion(robot, task, tol)
         T, shape = float(warm.profile.duration), best.shapes[0]
         spans, cells = [(shape.entry, shape.exit)], []
         for meshes in (defaults.ATLAS_MESHES, finer):

@@ -486,16 +486,26 @@ def whole_reference(cache: Path, robot, points, tolerance: float, meshes, corner
                           (corner.value, corner.error), torque, torque_reserve)
 
 
+def optimal_motion(robot, task, tolerance: float, torque: bool = False, torque_reserve: float = 0.0):
+    """A row's optimal blend and its motion, as the atlas plans them: (OptimalBlend, the blended path lifted to
+    joint space, its time-optimal PlanResult, verified), under the atlas' settings (``torque``, ``torque_reserve``)."""
+    from ..constraint import lift
+    from ..planning import plan
+    from ..planning.blend_search import optimal_blends
+
+    kw = {"torque_reserve": torque_reserve}
+    best = optimal_blends(robot, task, tolerance, settings=_settings(torque, verify=False, baselines=False, **kw))
+    blended = lift(robot, best.path, original=task)
+    return best, blended, plan(blended, robot, _settings(torque, baselines=False, **kw))
+
+
 def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
               closed_loop: bool = True, torque: bool = False, torque_reserve: float | None = None) -> dict:
     """One row of corners.csv (ATLAS_COLUMNS except ``error``), filled into ``row`` as it goes (so a
     row that fails part way keeps what it had); ``torque``: every motion and both references within the
     robot's joint torque limits too, less the feedback reserve ``torque_reserve`` (check_torque_reserve; the
     closed-loop check's plant keeps the whole limits)."""
-    from ..constraint import lift
     from ..geometry import with_g2_blend, with_transition
-    from ..planning import plan
-    from ..planning.blend_search import optimal_blends
     from .corner import transition_radius_for_deviation
 
     pts = corner_points(angle_deg)
@@ -511,9 +521,7 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     row["g2_s"] = _duration(robot, with_g2_blend(task, 0, tolerance), task, torque, **kw)
     radius = transition_radius_for_deviation(task, 0, tolerance)
     row["circle_s"] = _duration(robot, with_transition(task, 0, radius), task, torque, **kw)
-    best = optimal_blends(robot, task, tolerance, settings=_settings(torque, verify=False, baselines=False, **kw))
-    blended = lift(robot, best.path, original=task)
-    warm = plan(blended, robot, _settings(torque, baselines=False, **kw))
+    best, blended, warm = optimal_motion(robot, task, tolerance, torque, reserve)
     row["optimal_s"] = float(warm.profile.duration)
     row["quintic_s"] = best.quintic_duration
     shape = best.shapes[0]
