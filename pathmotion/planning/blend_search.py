@@ -60,7 +60,7 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    full grid's duration, from the fastest of the candidates below. Stages 1-7 rank shapes on a coarse grid
    (SEARCH_GRID_POINTS), where a short blend gets few points and durations differ from the full grid's, so the
    coarse grid's fastest is not the full grid's: on the 20 atlas rows the polish made the blend 0.001-1.0 %
-   faster (120 deg / 1 mm 0.8711 -> 0.8625 s, 120 deg / 10 mm 0.7695 -> 0.7683 s), for about 10 s of CPU per
+   faster (120 deg / 1 mm 0.8711 -> 0.8625 s, 120 deg / 10 mm 0.7695 -> 0.7683 s), for 10-19 s of CPU per
    corner. It is local: it keeps the guarantees below (never slower than any candidate), but a smaller search's
    polish, from another start, can end in a faster local optimum than a larger search's (Hypothesis found
    84.4 deg / 15.6 mm: the search stopped after the S-curves 0.6344 s, the whole search 0.6364 s). Polishing every
