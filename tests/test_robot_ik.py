@@ -9,7 +9,7 @@ from importlib import resources
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from pathmotion import defaults
@@ -186,6 +186,9 @@ def test_exact_shoulder_singularity_takes_q1_from_the_reference(robot):
 
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.floats(0.0, 1.0), min_size=6, max_size=6))
+# stretched elbow, q5 = 1e-3, q4 and q6 at their lower limits: the elbow's rounding, amplified 1000x
+# in q4 and q6, put q6 5e-6 rad past its limit, and ik returned the flipped wrist (random dev profile)
+@example(unit=[0.019823957960099396, 1.0, 0.5, 0.0, 0.5, 0.0])
 def test_ik_with_the_generating_configuration_as_reference_returns_it(robot, unit):
     q = robot.limits.lower + np.array(unit) * (robot.limits.upper - robot.limits.lower)
     if abs(np.sin(q[4])) < 1e-3:  # q4/q6 split undetermined at the wrist singularity (tested above)
@@ -465,6 +468,32 @@ def test_batch_ik_accepts_a_path_ending_exactly_at_a_joint_limit(robot):
     got = ik_batch(robot, pos, rot, qs[0])
     assert np.all(got >= lo) and np.all(got <= hi)
     np.testing.assert_allclose(got, qs, atol=BOUNDARY_ROUND_TRIP_TOL)
+
+
+def test_a_nearly_singular_wrist_past_a_limit_moves_q4_and_q6_together_within_the_pose_slack(robot):
+    # q5 = 1e-4: the pose fixes q4 + q6 and only weakly their split, so q4 10 urad past its limit is
+    # the same pose (to |sin q5| * 1e-5 = 1e-9 rad) as q4 on it with q6 moved the other way
+    lo = robot.limits.lower
+    q = np.array([0.3, 0.2, -0.6, lo[3] - 1e-5, 1e-4, 0.2])
+    pos, rot = fk(robot, q)
+    got = ik(robot, pos, rot, q)
+    assert got[3] == lo[3]
+    np.testing.assert_allclose(got, q, atol=2e-5)  # the reference's wrist branch, not the flipped one
+    assert_pose_close(robot, got, pos, rot, atol=1e-8)
+    assert np.any(np.max(np.abs(ik_all(robot, pos, rot) - got), axis=1) < 1e-12)
+    np.testing.assert_allclose(ik_batch(robot, pos[None], rot[None], q)[0], got, atol=1e-12)
+
+
+def test_the_wrist_slack_is_a_pose_budget_not_a_joint_one(robot):
+    # the same 10 urad at q5 = 0.5 would turn the TCP by 5 urad: q4 is out of range, as before
+    lo = robot.limits.lower
+    q = np.array([0.3, 0.2, -0.6, lo[3] - 1e-5, 0.5, 0.2])
+    pos, rot = fk(robot, q)
+    assert np.min(np.max(np.abs(ik_all(robot, pos, rot) - q), axis=1)) > 1.0
+    with pytest.raises(UnreachableError) as info:
+        ik_batch(robot, np.stack([fk(robot, q + [0, 0, 0, 0.01, 0, 0])[0], pos]),
+                 np.stack([fk(robot, q + [0, 0, 0, 0.01, 0, 0])[1], rot]), q + [0, 0, 0, 0.01, 0, 0])
+    assert info.value.reason == "joint_range" and info.value.index == 1
 
 
 def test_a_joint_beyond_its_limit_by_more_than_the_slack_is_still_rejected(robot):

@@ -39,6 +39,8 @@ from .opw import TWO_PI, OPWGeometry, OPWSolutions, branch_name, flip_wrist, sol
 #: rounded by a few ulps, so it is known only to a few sqrt(eps) = 1.5e-8 rad (4.5e-8 measured on the
 #: IRB140 range-boundary grid), and the wrist angles inherit that error through R_0c. 1e-6 rad is 20x
 #: that and still far below any joint encoder's resolution (1e-6 rad moves a 1 m arm by 1 um).
+#: Near the wrist singularity q4 and q6 get that error times 1/|sin q5|; there the slack bounds the
+#: TCP's turn instead (:func:`_into_range`).
 IK_RANGE_SLACK = 1e-6
 #: Two closed-form solutions closer than this [rad] (max over joints) are the same solution (at an
 #: elbow singularity the elbow-up and elbow-down branches coincide to the accuracy above).
@@ -145,20 +147,74 @@ def _range_violation(robot: Robot, q: np.ndarray) -> str:
 # Closed form, single pose
 
 
-def _nearest_in_range(robot: Robot, q: np.ndarray, q_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For wrapped joint values q (..., n): the in-range 2*pi shift nearest to q_ref, and a mask of
-    joints that have one."""
-    lo, hi = robot.limits.lower, robot.limits.upper
-    k_lo, k_hi = _shift_bounds(robot, q)
-    k = np.clip(np.round((q_ref - q) / TWO_PI), k_lo, k_hi)
-    return np.clip(q + TWO_PI * k, lo, hi), k_lo <= k_hi
+def _wrist_budget(geo: OPWGeometry, q: np.ndarray) -> np.ndarray:
+    """Largest move [rad] of q4 (with q6 compensating, see :func:`_into_range`) that turns the TCP by
+    at most IK_RANGE_SLACK: IK_RANGE_SLACK / |sin t5|, at most pi; shape q.shape[:-1]."""
+    s5 = np.abs(np.sin(geo.to_t(q)[..., 4]))
+    return np.minimum(IK_RANGE_SLACK / np.maximum(s5, IK_RANGE_SLACK / np.pi), np.pi)
 
 
-def _shift_bounds(robot: Robot, q):
-    """Smallest and largest k with q + 2*pi*k inside the range (widened by IK_RANGE_SLACK: a solution
-    that far beyond a limit, by rounding, counts as on it and is clipped to it)."""
-    tol = IK_RANGE_SLACK
-    return (np.ceil((robot.limits.lower - tol - q) / TWO_PI), np.floor((robot.limits.upper + tol - q) / TWO_PI))
+def _slack(geo: OPWGeometry, q: np.ndarray) -> np.ndarray:
+    """Per-joint slack (..., 6) [rad] of the range test: IK_RANGE_SLACK, the wrist budget for q4 and q6."""
+    slack = np.full(np.shape(q), IK_RANGE_SLACK)
+    slack[..., 3] = slack[..., 5] = np.maximum(_wrist_budget(geo, q), IK_RANGE_SLACK)
+    return slack
+
+
+def _into_range(robot: Robot, geo: OPWGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solutions q (..., 6) moved onto the joint ranges, and a mask (...) of those that fit.
+
+    A joint up to IK_RANGE_SLACK beyond a limit (rounding) is clipped onto it. Near the wrist
+    singularity q4 and q6 individually carry the elbow's rounding error amplified by 1/|sin q5|
+    (1e-5 rad at q5 = 1e-3 on the stretched arm), while the pose fixes only their near-null
+    combination: moving t4 by d and t6 by -cos(t5) d turns the TCP by |sin t5| d. So q4 and q6 move
+    together along that direction, by the smallest d that brings both into range, as long as the TCP
+    turns by at most IK_RANGE_SLACK (:func:`_wrist_budget`).
+    """
+    lo, hi, tol = robot.limits.lower, robot.limits.upper, IK_RANGE_SLACK
+    q = np.array(q, dtype=float)
+    t5 = geo.to_t(q)[..., 4]
+    c = -geo.sign[3] * geo.sign[5] * np.cos(t5)  # dq6 per dq4 along the near-null direction
+    budget = _wrist_budget(geo, q)
+    coupled = np.abs(c) > IK_RANGE_SLACK
+    c_safe = np.where(coupled, c, 1.0)
+
+    def moves(slack):  # interval of d keeping q4 and q6 within the ranges widened by slack
+        a = np.where(coupled, (lo[5] - slack - q[..., 5]) / c_safe, -np.inf)
+        b = np.where(coupled, (hi[5] + slack - q[..., 5]) / c_safe, np.inf)
+        return (np.maximum.reduce([lo[3] - slack - q[..., 3], -budget, np.minimum(a, b)]),
+                np.minimum.reduce([hi[3] + slack - q[..., 3], budget, np.maximum(a, b)]))
+
+    with np.errstate(invalid="ignore"):
+        # onto the ranges if the budget allows; else (both at a limit) split the overshoot, clipped below
+        exact, widened = moves(0.0), moves(tol)
+        d = np.where(exact[0] <= exact[1], np.clip(0.0, *exact),
+                     np.where(widened[0] <= widened[1], np.clip(0.5 * (exact[0] + exact[1]), *widened), 0.0))
+        q[..., 3] += d
+        q[..., 5] += c * d
+        ok = np.all((q >= lo - tol) & (q <= hi + tol), axis=-1)
+    return np.clip(q, lo, hi), ok
+
+
+def _nearest_in_range(robot: Robot, geo: OPWGeometry, q: np.ndarray,
+                      q_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Candidates (2, ..., n) for wrapped solutions q (..., n): the 2*pi shift nearest to q_ref within
+    the widened wrist slack (:func:`_slack`), then within IK_RANGE_SLACK, each moved onto the ranges
+    (:func:`_into_range`); and a mask (2, ...) of those that fit."""
+    out, fits = [], []
+    for slack in (_slack(geo, q), IK_RANGE_SLACK):
+        k_lo, k_hi = _shift_bounds(robot, q, slack)
+        k = np.clip(np.round((q_ref - q) / TWO_PI), k_lo, k_hi)
+        fitted, ok = _into_range(robot, geo, q + TWO_PI * k)
+        out.append(fitted)
+        fits.append(ok & np.all(k_lo <= k_hi, axis=-1))
+    return np.stack(out), np.stack(fits)
+
+
+def _shift_bounds(robot: Robot, q, slack):
+    """Smallest and largest k with q + 2*pi*k inside the range widened by ``slack`` [rad] (scalar or
+    per joint)."""
+    return (np.ceil((robot.limits.lower - slack - q) / TWO_PI), np.floor((robot.limits.upper + slack - q) / TWO_PI))
 
 
 def _closest(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, i: int, q_ref: np.ndarray,
@@ -169,8 +225,8 @@ def _closest(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, i: int, q_ref: n
     if not reach.any():
         raise UnreachableError(f"{pose}: {_reach_message(geo, sol, i)}", reason="reach")
     with np.errstate(invalid="ignore"):
-        shifted, fits = _nearest_in_range(robot, qs, q_ref)
-    ok = reach & fits.all(axis=1)
+        shifted, fits = _nearest_in_range(robot, geo, qs, q_ref)
+    ok = reach & fits  # (2, 8): two shift choices per branch
     if not ok.any():
         raw = qs + TWO_PI * np.round((q_ref - qs) / TWO_PI)
         dist = np.where(reach, np.linalg.norm(raw - q_ref, axis=1), np.inf)
@@ -181,9 +237,9 @@ def _closest(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, i: int, q_ref: n
             f"{int(reach.sum())} of 8 branches reach the pose, none within the ranges",
             reason="joint_range",
         )
-    dist = np.where(ok, np.linalg.norm(shifted - q_ref, axis=1), np.inf)
-    b = int(np.argmin(dist))
-    return shifted[b], b
+    dist = np.where(ok, np.linalg.norm(shifted - q_ref, axis=-1), np.inf)
+    choice, b = np.unravel_index(int(np.argmin(dist)), dist.shape)
+    return shifted[choice, b], int(b)
 
 
 def ik(robot: Robot, position, rotation, q_ref) -> np.ndarray:
@@ -213,16 +269,16 @@ def ik_all(robot: Robot, position, rotation) -> np.ndarray:
     geo = opw_geometry(robot)
     t0 = geo.to_t(np.zeros(robot.n))
     sol = solve(geo, p, r, t0[None, 0], t0[None, 3])
-    lo, hi = robot.limits.lower, robot.limits.upper
     rows = []
     for b in range(8):
         if not sol.reach_ok[0, b]:
             continue
         q = sol.q[0, b]
-        k_lo, k_hi = _shift_bounds(robot, q)
-        choices = [np.clip(q[j] + TWO_PI * np.arange(k_lo[j], k_hi[j] + 1), lo[j], hi[j]) for j in range(robot.n)]
-        for combo in itertools.product(*choices):
-            row = np.array(combo)
+        k_lo, k_hi = _shift_bounds(robot, q, _slack(geo, q))
+        combos = np.array(list(itertools.product(*[q[j] + TWO_PI * np.arange(k_lo[j], k_hi[j] + 1)
+                                                   for j in range(robot.n)]))).reshape(-1, robot.n)
+        fitted, ok = _into_range(robot, geo, combos)
+        for row in fitted[ok]:
             if not any(np.max(np.abs(row - other)) < IK_SAME_SOLUTION for other in rows):
                 rows.append(row)
     if not rows:
@@ -316,13 +372,11 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
     step = np.nan_to_num(step)
     q_cont = q0 + np.concatenate([np.zeros((1, robot.n)), np.cumsum(step, axis=0)])
     q = qb + TWO_PI * np.round((q_cont - qb) / TWO_PI)
-    tol = IK_RANGE_SLACK
-    with np.errstate(invalid="ignore"):
-        out = (q < robot.limits.lower - tol) | (q > robot.limits.upper + tol)
-    i_range = int(np.argmax(out.any(axis=1))) if out.any() else n_pts
+    fitted, fits = _into_range(robot, geo, q)
+    i_range = int(np.argmin(fits)) if not fits.all() else n_pts
     i_bad = min(i_reach, i_jump, i_range)
     if i_bad == n_pts:
-        return np.clip(q, robot.limits.lower, robot.limits.upper)
+        return fitted
     where = f"point {i_bad}, {_fmt_pose(p[i_bad], r[i_bad])}"
     name = branch_name(branch)
     if i_bad == i_reach:
