@@ -49,3 +49,26 @@ def test_every_best_says_which_best():
             for m in re.finditer(r"\bbest\b", line, flags=re.I):
                 around = line[max(0, m.start() - 25): m.end() + 30]
                 assert named.search(around), f"{path.name}:{n}: which best? {line.strip()}"
+
+
+def test_constraints_pin_every_requirement_within_its_range():
+    """make install (and so CI) installs with -c constraints.txt: every requirement of every extra is pinned
+    there, to a version its own specifier in pyproject.toml accepts."""
+    from packaging.requirements import Requirement
+    from packaging.utils import canonicalize_name
+    from packaging.version import Version
+
+    pins = {}
+    for line in (ROOT / "constraints.txt").read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            name, version = line.split("==")
+            pins[canonicalize_name(name)] = Version(version)
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    requirements = [*project["dependencies"], *(r for extra in project["optional-dependencies"].values() for r in extra)]
+    for text in requirements:
+        req = Requirement(text)
+        name = canonicalize_name(req.name)
+        assert name in pins, f"{req.name} is not pinned in constraints.txt"
+        assert req.specifier.contains(pins[name]), f"constraints.txt pins {req.name} {pins[name]}, pyproject wants {req}"
+    install = [line for line in (ROOT / "Makefile").read_text().splitlines() if "pip install" in line and "-e" in line]
+    assert install and all("-c constraints.txt" in line for line in install), install
