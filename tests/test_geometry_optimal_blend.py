@@ -2,6 +2,8 @@
 blend search (planning/blend_search.py): the certified deviation bound on a dense brute-force check,
 G2 continuity, the symmetric special case, never slower than the symmetric G2 blend, the scenario key."""
 
+import re
+
 import numpy as np
 import pytest
 from geometry_support import incoming, outgoing
@@ -330,7 +332,7 @@ def test_an_end_the_joint_stage_reaches_is_freed_too(caplog):
 
 
 def test_a_blend_capped_by_its_neighbours_is_searched_again_within_what_it_reached(caplog):
-    """30 deg on 0.1 m lines, 5 mm: the lines cap the fastest blend's corner quintic (it reaches 4.4 mm), so stage 7
+    """30 deg on 0.1 m lines, 5 mm: the lines cap the fastest blend's corner quintic (it reaches 4.2-4.4 mm), so stage 7
     searches again within the deviation it reached, keeps the faster search and the other's blend as a candidate:
     never slower than without, and within the tolerance; an uncapped corner (90 deg, 1 mm) is not searched again."""
     import logging
@@ -345,7 +347,11 @@ def test_a_blend_capped_by_its_neighbours_is_searched_again_within_what_it_reach
     assert without.shapes[0].deviation < CAPPED_SHARE * 0.005
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         again = optimal_blends(_robot(), path, 0.005, **kw)
-    assert "reached only 0.0044" in caplog.text and "searched again" in caplog.text
+    # the deviation stage 7 reports is the one the search without it ended at (4.4 mm on one machine, 4.15 mm on
+    # another: the search's path depends on the CPU's floating-point rounding), below the capped share
+    reached = re.search(r"reached only ([0-9.e-]+) m; searched again", caplog.text)
+    assert reached, caplog.text
+    assert float(reached.group(1)) == pytest.approx(without.shapes[0].deviation, rel=1e-5)
     assert again.plans > without.plans + 50
     assert again.duration <= without.duration
     assert max_deviation(again.path, path, rel_tol=1e-6).upper <= 0.005 * (1 + 2e-6)
