@@ -490,9 +490,10 @@ def test_the_wrist_slack_is_a_pose_budget_not_a_joint_one(robot):
     q = np.array([0.3, 0.2, -0.6, lo[3] - 1e-5, 0.5, 0.2])
     pos, rot = fk(robot, q)
     assert np.min(np.max(np.abs(ik_all(robot, pos, rot) - q), axis=1)) > 1.0
+    inside = q + [0, 0, 0, 0.01, 0, 0]  # a batch from inside the range to that pose
+    pos_in, rot_in = fk(robot, inside)
     with pytest.raises(UnreachableError) as info:
-        ik_batch(robot, np.stack([fk(robot, q + [0, 0, 0, 0.01, 0, 0])[0], pos]),
-                 np.stack([fk(robot, q + [0, 0, 0, 0.01, 0, 0])[1], rot]), q + [0, 0, 0, 0.01, 0, 0])
+        ik_batch(robot, np.stack([pos_in, pos]), np.stack([rot_in, rot]), inside)
     assert info.value.reason == "joint_range" and info.value.index == 1
 
 
