@@ -3,6 +3,8 @@ points (vs brute force), constructors and degenerate input."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from geometry_support import central_difference
 
 from pathmotion.errors import PathError
@@ -126,3 +128,28 @@ def test_degenerate_input_raises_path_error(make, words):
         make()
     for w in words:
         assert w in str(info.value)
+
+
+def _de_casteljau(points: np.ndarray, u: float) -> np.ndarray:
+    """The Bezier curve with control points (n + 1, 3) at u, by repeated linear interpolation."""
+    p = np.array(points, float)
+    while len(p) > 1:
+        p = (1.0 - u) * p[:-1] + u * p[1:]
+    return p[0]
+
+
+@settings(max_examples=60, deadline=None)
+@given(points=st.lists(st.tuples(*[st.floats(-1.0, 1.0)] * 3), min_size=6, max_size=6),
+       u=st.lists(st.floats(0.0, 1.0), min_size=1, max_size=8))
+def test_bezier_power_basis_matches_de_casteljau_and_its_hodographs(points, u):
+    """BezierSegment.curve (monomial coefficients by Horner) against an independent evaluation: de Casteljau on
+    the control points, and on their hodographs (differences times 5, 4, 3) for X', X'', X'''."""
+    b = np.array(points, float)
+    coef = BezierSegment._power_basis(b)
+    uu = np.array(u)
+    got = [BezierSegment._polyval(coef, uu, k) for k in range(4)]
+    hodograph = b
+    for k in range(4):
+        want = np.array([_de_casteljau(hodograph, x) for x in uu])
+        np.testing.assert_allclose(got[k], want, rtol=0, atol=1e-12 * 60 ** k)
+        hodograph = (len(hodograph) - 1) * np.diff(hodograph, axis=0)

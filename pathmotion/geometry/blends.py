@@ -52,6 +52,7 @@ after it move by the change of length.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Iterable, Mapping
 
 import numpy as np
@@ -498,6 +499,7 @@ class _Racing:
     up: np.ndarray
 
 
+@lru_cache(maxsize=16)  # a sizing builds ~20 blends with the same offset lines
 def _racing_lines(A: Segment, B: Segment, w_a: float, w_b: float, what: str, v_a: float = 0.0,
                   v_b: float = 0.0) -> _Racing:
     if not (isinstance(A, Line) and isinstance(B, Line)):

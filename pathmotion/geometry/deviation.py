@@ -49,7 +49,10 @@ class Deviation:
 def distance_to_segments(points: np.ndarray, segments: Sequence[Segment]) -> np.ndarray:
     """Distance [m] (N,) from each point (N, 3) to the nearest point of any of ``segments``."""
     pts = np.atleast_2d(points)
-    return np.min(np.stack([seg.closest(pts)[1] for seg in segments]), axis=0)
+    d = segments[0].closest(pts)[1]
+    for seg in segments[1:]:
+        d = np.minimum(d, seg.closest(pts)[1])
+    return d
 
 
 def certified_max(fn: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, lipschitz: float,

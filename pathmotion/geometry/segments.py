@@ -230,8 +230,9 @@ class Line(Segment):
 
     def closest(self, points):
         x = np.atleast_2d(np.asarray(points, float))
-        s = np.clip((x - self.start) @ self._t, 0.0, self._length)
-        return s, np.linalg.norm(self.start + s[:, None] * self._t - x, axis=1)
+        s = np.minimum(np.maximum((x - self.start) @ self._t, 0.0), self._length)  # np.clip, without its overhead
+        r = self.start + s[:, None] * self._t - x
+        return s, np.sqrt(np.add.reduce(r * r, axis=1))  # np.linalg.norm(r, axis=1), bit for bit
 
     def trimmed(self, s0, s1):
         return Line(self.evaluate(s0)[0][0], self.evaluate(s1)[0][0])
@@ -424,6 +425,9 @@ _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
 
 
 #: k! / (k - order)! for k = order .. 5, per order: the factors of d^order u^k / du^order.
+#: _power_basis' integers: (-1)^(k-i) C(k, i) for i <= k, else 0 (6, 6), and C(5, k) (6,).
+_POWER_SIGNED = np.array([[(-1) ** (k - i) * comb(k, i) if i <= k else 0 for i in range(6)] for k in range(6)], float)
+_POWER_SCALE = np.array([comb(5, k) for k in range(6)], float)
 _DERIVATIVE_FACTORS = tuple(np.array([np.prod(np.arange(k - order + 1, k + 1)) for k in range(order, 6)], float)
                             for order in range(6))
 
@@ -481,18 +485,21 @@ class BezierSegment(Segment):
     def _power_basis(b: np.ndarray) -> np.ndarray:
         """Monomial coefficients (6, 3) of the Bezier curve with control points b (6, 3):
         X(u) = sum_k coef[k] u^k, coef[k] = C(5, k) sum_i (-1)^(k-i) C(k, i) b_i."""
-        return np.array([comb(5, k) * sum((-1) ** (k - i) * comb(k, i) * b[i] for i in range(k + 1))
-                         for k in range(6)])
+        acc = np.zeros((6, 3))  # row k: sum_i (-1)^(k-i) C(k, i) b_i, added in the order of i (terms with i > k are 0)
+        for i in range(6):
+            acc = acc + _POWER_SIGNED[:, i, None] * b[i]
+        return _POWER_SCALE[:, None] * acc
 
     @staticmethod
     def _polyval(coef: np.ndarray, u, order: int = 0) -> np.ndarray:
         """d^order X / du^order (N, 3) at u (N,) by Horner's rule from monomial coefficients."""
         u = _as_s(u)[:, None]
-        ks = np.arange(order, 6)
         fac = _DERIVATIVE_FACTORS[order]
-        out = np.zeros((u.shape[0], 3)) + fac[-1] * coef[5]
-        for k, f in zip(ks[-2::-1], fac[-2::-1]):
-            out = out * u + f * coef[k]
+        out = np.empty((u.shape[0], 3))
+        out[:] = fac[-1] * coef[5]
+        for k in range(4, order - 1, -1):  # in place: the search calls this ~1e5 times per corner
+            out *= u
+            out += fac[k - order] * coef[k]
         return out
 
     def curve(self, u, order: int = 2) -> tuple[np.ndarray, ...]:
