@@ -6,11 +6,13 @@ duration of each, the gain, the plans and the CPU time. The search is determinis
 ``--stage joint`` (the default): the joint stage (stage 6, ``joint_plans`` 0 / JOINT_PLANS), which runs only
 where a free end made the blend faster (a corner whose blend reaches a path end where the motion rests),
 elsewhere both are the same. ``--stage polish``: the full-grid polish (stage 8, ``polish_plans`` 0 /
-POLISH_PLANS), which runs at every corner.
+POLISH_PLANS), which runs at every corner. ``--stage none``: the search as it is, once per corner (its CPU time;
+to compare two versions of the code, run it beside itself with PYTHONPATH on a worktree of the other commit).
 
     python benchmarks/blend_search_stages.py                       # the default corners below
     python benchmarks/blend_search_stages.py 60:0.01 45:0.007     # ANGLE_DEG:TOLERANCE_M ...
     python benchmarks/blend_search_stages.py --stage polish 120:0.001
+    git worktree add /tmp/old COMMIT && PYTHONPATH=/tmp/old python benchmarks/blend_search_stages.py --stage none
 """
 
 from __future__ import annotations
@@ -26,16 +28,21 @@ DEFAULT_CORNERS = ("60:0.01", "30:0.005", "30:0.01", "90:0.01", "120:0.01", "45:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("corners", nargs="*", default=list(DEFAULT_CORNERS), help="ANGLE_DEG:TOLERANCE_M")
-    ap.add_argument("--stage", choices=("joint", "polish"), default="joint", help="the stage turned off and on")
+    ap.add_argument("--stage", choices=("joint", "polish", "none"), default="joint",
+                    help="the stage turned off and on (none: the search once, as it is)")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
+    import pathmotion
     from pathmotion.planning.blend_search import JOINT_PLANS, POLISH_PLANS, optimal_blends
     from pathmotion.robot import load_robot
     from pathmotion.study.atlas import _settings, _task, corner_points
 
     robot = load_robot("irb140")
     settings = _settings(verify=False, baselines=False)
+    if a.stage == "none":
+        _once(a.corners, robot, settings, optimal_blends, pathmotion.__file__)
+        return
     keyword, on = {"joint": ("joint_plans", JOINT_PLANS), "polish": ("polish_plans", POLISH_PLANS)}[a.stage]
     print(f"stage: {a.stage} ({keyword} 0 / {on})")
     print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores)")
@@ -51,6 +58,22 @@ def main() -> None:
         (t_without, p_without, c_without), (t_with, p_with, c_with) = runs
         print(f"{angle:5.0f}/{tol * 1e3:4.1f} mm {t_without:12.5f} {t_with:10.5f} {1 - t_with / t_without:8.2%} "
               f"{p_without:5d}/{p_with:<5d} {c_without:6.1f}/{c_with:<6.1f}")
+    print(f"load average at end: {os.getloadavg()[0]:.2f}")
+
+
+def _once(corners, robot, settings, optimal_blends, where: str) -> None:
+    """The search as it is, once per corner: its duration, plans and CPU time."""
+    from pathmotion.study.atlas import _task, corner_points
+
+    print(f"code: {where}")
+    print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores)")
+    print(f"{'corner':>12} {'duration [s]':>13} {'plans':>6} {'cpu [s]':>8} {'deviation [m]':>14}")
+    for text in corners:
+        angle, tol = (float(v) for v in text.split(":"))
+        t0 = time.process_time()
+        found = optimal_blends(robot, _task(corner_points(angle)), tol, settings=settings)
+        print(f"{angle:5.0f}/{tol * 1e3:4.1f} mm {found.duration:13.6f} {found.plans:6d} {time.process_time() - t0:8.1f} "
+              f"{found.shapes[0].deviation:14.8g}", flush=True)
     print(f"load average at end: {os.getloadavg()[0]:.2f}")
 
 

@@ -556,3 +556,36 @@ def test_a_reserve_row_through_the_cli_plans_and_solves_within_the_reduced_limit
     assert r["optimal_s"] < r["stop_s"]
     if "corner_optimum_s" in r:
         assert r["corner_optimum_s"] <= r["optimal_s"] + r["corner_error_s"]
+
+
+def test_a_row_without_references_solves_and_reads_no_optimum(tmp_path, monkeypatch):
+    """references = false in the atlas spec (what benchmarks/atlas_rows.py times): the row plans every motion, and
+    neither reference is looked up, solved or cached; its columns are empty and the status says why. The search is
+    cut to its quintic stage here (the row's logic is what is tested, not the search)."""
+    from pathmotion.constraint import lift
+    from pathmotion.planning import plan
+    from pathmotion.planning.blend_search import optimal_blends
+
+    def quick_motion(robot, task, tolerance, torque=False, torque_reserve=0.0):
+        best = optimal_blends(robot, task, tolerance, settings=atlas._settings(torque, verify=False, baselines=False),
+                              racing=False, steps=1, free_plans=0, end_plans=0, joint_plans=0, polish_plans=0,
+                              retry_capped=False)
+        blended = lift(robot, best.path, original=task)
+        return best, blended, plan(blended, robot, atlas._settings(torque, baselines=False))
+
+    def no_reference(*a, **kw):
+        raise AssertionError("a reference was asked for")
+
+    monkeypatch.setattr(atlas, "optimal_motion", quick_motion)
+    monkeypatch.setattr(atlas, "corner_reference", no_reference)
+    monkeypatch.setattr(atlas, "whole_reference", no_reference)
+    spec = f'robot = "irb140"\nmeshes = [25, 50]\nclosed_loop = false\nreferences = false\ncache = "{tmp_path}"\n'
+    rec = atlas.atlas_point(spec, str(tmp_path), [("angle_deg", 90.0), ("tolerance_m", 0.005)])
+    row = rec["summary"]
+    assert rec["error"] is None, rec["error"]
+    assert row["optimal_s"] <= row["g2_s"] < row["stop_s"] and row["circle_s"] < row["stop_s"]
+    for key in ("free_shape_optimum_s", "corner_optimum_s", "free_shape_error_s", "corner_error_s", "gap_to_optimum",
+                "gap_to_corner_optimum", "capture"):
+        assert row[key] is None, key
+    assert row["status"].count("not solved (references off)") == 2
+    assert list(tmp_path.iterdir()) == []  # nothing cached

@@ -500,11 +500,14 @@ def optimal_motion(robot, task, tolerance: float, torque: bool = False, torque_r
 
 
 def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
-              closed_loop: bool = True, torque: bool = False, torque_reserve: float | None = None) -> dict:
+              closed_loop: bool = True, torque: bool = False, torque_reserve: float | None = None,
+              references: bool = True) -> dict:
     """One row of corners.csv (ATLAS_COLUMNS except ``error``), filled into ``row`` as it goes (so a
     row that fails part way keeps what it had); ``torque``: every motion and both references within the
     robot's joint torque limits too, less the feedback reserve ``torque_reserve`` (check_torque_reserve; the
-    closed-loop check's plant keeps the whole limits)."""
+    closed-loop check's plant keeps the whole limits). ``references`` False: neither free-shape reference is
+    looked up or solved (their columns None, ``status`` says so): the row's own work, as with every optimum
+    cached (benchmarks/atlas_rows.py times it)."""
     from ..geometry import with_g2_blend, with_transition
     from .corner import transition_radius_for_deviation
 
@@ -537,9 +540,12 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
     # the whole tube from the corner-confined solutions first, mesh by mesh (from the stop it found worse local optima,
     # e.g. 30 deg 0.1 mm 25 intervals 0.9014 s against the corner-confined 0.8717 s, and its extrapolation sat above
     # the corner-confined one at 10 mm), then from the other WHOLE_STARTS
-    corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible, torque,
-                              reserve)
-    whole = whole_reference(cache, robot, pts, tolerance, meshes, corner, spans, warm, feasible, torque, reserve)
+    if references:
+        corner = corner_reference(cache, robot, pts, tolerance, spans, meshes, warm, shape.racing, feasible, torque,
+                                  reserve)
+        whole = whole_reference(cache, robot, pts, tolerance, meshes, corner, spans, warm, feasible, torque, reserve)
+    else:
+        corner = whole = Reference(None, None, "not solved (references off)", "", None)
     for name, ref in (("free_shape_optimum", whole), ("corner_optimum", corner)):
         row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = ref.value, ref.error
         if ref.note:
@@ -571,7 +577,7 @@ def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> di
         robot = _spec_robot(spec)
         atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]), spec.get("meshes"),
                   row=summary, closed_loop=spec.get("closed_loop", True), torque=torque,
-                  torque_reserve=spec.get("torque_reserve"))
+                  torque_reserve=spec.get("torque_reserve"), references=spec.get("references", True))
         error = None
     except PathmotionError as exc:
         error = f"{type(exc).__name__}: {exc}"
@@ -606,13 +612,15 @@ class CornerAtlas:
 def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, robot: str = "irb140",
                  meshes: Sequence[int] | None = None, workers: int = 2, scheduler: str | None = None,
                  on_result=None, figures: bool = True, closed_loop: bool = True, torque: bool = False,
-                 torque_reserve: float | None = None, robot_file: str | Path | None = None) -> CornerAtlas:
+                 torque_reserve: float | None = None, robot_file: str | Path | None = None,
+                 references: bool = True) -> CornerAtlas:
     """Run the atlas into ``out`` (corners.csv / .parquet, tdelta.png, gain_vs_angle.png; the points
     and the optimum cache under ``out``); resumes. ``torque``: every motion and both references within the
     robot's joint torque limits too (the ``torque`` column), less the feedback reserve ``torque_reserve``
     (check_torque_reserve; the ``torque_reserve`` column). ``robot_file``: the arm a robot file describes
-    (robot_file.load_robot_file) instead of the built-in ``robot``. Bad angles, tolerances, meshes, reserve or
-    robot file raise before any work."""
+    (robot_file.load_robot_file) instead of the built-in ``robot``. ``references`` False: every row without the
+    free-shape references (atlas_row; the work of a run with every optimum cached, benchmarks/atlas_rows.py).
+    Bad angles, tolerances, meshes, reserve or robot file raise before any work."""
     from .robot_file import load_robot_file, robot_digest
     from .sweep import load_finished, run_sweep, write_tables
 
@@ -631,6 +639,7 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     write_text(spec, f'version = {ROW_VERSION}\n{arm}meshes = {meshes}\nclosed_loop = '
                      f'{str(closed_loop).lower()}\ntorque = {str(torque).lower()}\n'
                      + (f"torque_reserve = {reserve!r}\n" if torque else "")
+                     + ("" if references else "references = false\n")
                      + f'cache = "{(out / "optimum_cache").resolve()}"\n')
     points, _ = run_sweep(spec, {"angle_deg": angles, "tolerance_m": tolerances}, out / "points_sweep",
                           workers=workers, scheduler=scheduler, on_result=on_result, point_fn=atlas_point)

@@ -1,0 +1,51 @@
+"""The corner atlas' own work, without the free-shape references: what `pathmotion corners` does once every
+optimum is cached (issue 17's target: under 10 minutes on 2 cores), without the hours of NLPs a cache costs to
+fill. Every row runs through the atlas' sweep machinery (`corner_atlas(..., references=False)`, the same
+worker processes), in a fresh folder; prints each row's wall time and optimal blend, the total wall time, and the
+machine load. A real cached run adds only the cache look-ups (JSON files) and the figures.
+
+    python benchmarks/atlas_rows.py                                  # the whole atlas, 2 workers
+    python benchmarks/atlas_rows.py --angles 90 --tolerances 0.001,0.01 --workers 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--angles", default="30,60,90,120,150", help="turn angles [deg], comma-separated")
+    ap.add_argument("--tolerances", default="0.0001,0.001,0.005,0.01,0.05", help="tolerances [m], comma-separated")
+    ap.add_argument("--workers", type=int, default=2)
+    a = ap.parse_args()
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    from pathmotion.study.atlas import corner_atlas
+    from pathmotion.study.sweep import load_finished
+
+    angles = [float(v) for v in a.angles.split(",")]
+    tolerances = [float(v) for v in a.tolerances.split(",")]
+    print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores), {a.workers} workers")
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        atlas = corner_atlas(tmp, angles, tolerances, workers=a.workers, figures=False, references=False)
+        wall = time.perf_counter() - t0
+        times = {(rec["summary"]["angle_deg"], rec["summary"]["tolerance_m"]): rec.get("wall_time_s")
+                 for rec in load_finished(Path(tmp) / "points_sweep").values()}
+    print(f"{'angle':>6} {'tolerance':>10} {'optimal [s]':>12} {'row wall [s]':>13}  status")
+    for r in sorted(atlas.rows, key=lambda r: (r["angle_deg"], r["tolerance_m"])):
+        opt = "-" if r.get("optimal_s") is None else f"{r['optimal_s']:.6f}"
+        row_wall = times.get((r["angle_deg"], r["tolerance_m"]))
+        print(f"{r['angle_deg']:6g} {r['tolerance_m'] * 1e3:8g} mm {opt:>12} "
+              f"{'-' if row_wall is None else f'{row_wall:.1f}':>13}  {r.get('error') or r.get('status')}")
+    print(f"rows: {len(atlas.rows)}, sum of row wall times {sum(v or 0.0 for v in times.values()):.0f} s, "
+          f"atlas wall {wall:.0f} s ({wall / 60:.1f} min)")
+    print(f"load average at end: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
