@@ -424,10 +424,10 @@ _GL_PANELS = 32
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
 
 
-#: k! / (k - order)! for k = order .. 5, per order: the factors of d^order u^k / du^order.
 #: _power_basis' integers: (-1)^(k-i) C(k, i) for i <= k, else 0 (6, 6), and C(5, k) (6,).
 _POWER_SIGNED = np.array([[(-1) ** (k - i) * comb(k, i) if i <= k else 0 for i in range(6)] for k in range(6)], float)
 _POWER_SCALE = np.array([comb(5, k) for k in range(6)], float)
+#: k! / (k - order)! for k = order .. 5, per order: the factors of d^order u^k / du^order.
 _DERIVATIVE_FACTORS = tuple(np.array([np.prod(np.arange(k - order + 1, k + 1)) for k in range(order, 6)], float)
                             for order in range(6))
 
