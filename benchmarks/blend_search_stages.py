@@ -41,7 +41,7 @@ def main() -> None:
     robot = load_robot("irb140")
     settings = _settings(verify=False, baselines=False)
     if a.stage == "none":
-        _once(a.corners, robot, settings, optimal_blends, pathmotion.__file__)
+        _once(a.corners, robot, settings, pathmotion.__file__)
         return
     keyword, on = {"joint": ("joint_plans", JOINT_PLANS), "polish": ("polish_plans", POLISH_PLANS)}[a.stage]
     print(f"stage: {a.stage} ({keyword} 0 / {on})")
@@ -61,8 +61,9 @@ def main() -> None:
     print(f"load average at end: {os.getloadavg()[0]:.2f}")
 
 
-def _once(corners, robot, settings, optimal_blends, where: str) -> None:
+def _once(corners, robot, settings, where: str) -> None:
     """The search as it is, once per corner: its duration, plans and CPU time."""
+    from pathmotion.planning.blend_search import optimal_blends
     from pathmotion.study.atlas import _task, corner_points
 
     print(f"code: {where}")

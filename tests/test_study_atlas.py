@@ -562,21 +562,16 @@ def test_a_row_without_references_solves_and_reads_no_optimum(tmp_path, monkeypa
     """references = false in the atlas spec (what benchmarks/atlas_rows.py times): the row plans every motion, and
     neither reference is looked up, solved or cached; its columns are empty and the status says why. The search is
     cut to its quintic stage here (the row's logic is what is tested, not the search)."""
-    from pathmotion.constraint import lift
-    from pathmotion.planning import plan
-    from pathmotion.planning.blend_search import optimal_blends
+    import functools
 
-    def quick_motion(robot, task, tolerance, torque=False, torque_reserve=0.0):
-        best = optimal_blends(robot, task, tolerance, settings=atlas._settings(torque, verify=False, baselines=False),
-                              racing=False, steps=1, free_plans=0, end_plans=0, joint_plans=0, polish_plans=0,
-                              retry_capped=False)
-        blended = lift(robot, best.path, original=task)
-        return best, blended, plan(blended, robot, atlas._settings(torque, baselines=False))
+    from pathmotion.planning import blend_search
 
     def no_reference(*a, **kw):
         raise AssertionError("a reference was asked for")
 
-    monkeypatch.setattr(atlas, "optimal_motion", quick_motion)
+    quick = functools.partial(blend_search.optimal_blends, racing=False, steps=1, free_plans=0, end_plans=0,
+                              joint_plans=0, polish_plans=0, retry_capped=False)
+    monkeypatch.setattr(blend_search, "optimal_blends", quick)  # atlas.optimal_motion imports it when called
     monkeypatch.setattr(atlas, "corner_reference", no_reference)
     monkeypatch.setattr(atlas, "whole_reference", no_reference)
     spec = f'robot = "irb140"\nmeshes = [25, 50]\nclosed_loop = false\nreferences = false\ncache = "{tmp_path}"\n'
