@@ -3,9 +3,9 @@ points (vs brute force), constructors and degenerate input."""
 
 import numpy as np
 import pytest
+from geometry_support import central_difference
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from geometry_support import central_difference
 
 from pathmotion.errors import PathError
 from pathmotion.geometry import Arc, BezierSegment, Circle, Line
