@@ -61,6 +61,7 @@ from .. import defaults
 from ..errors import PathError
 from .chain import Connection, TaskPath
 from .deviation import Deviation, certified_max, distance_to_segments
+from .quintic_deviation import quintic_lines_max
 from .segments import Arc, BezierSegment, Line, Segment, _fmt
 
 _FULL = 1.0 - 1e-6  # a single blend may use all of a neighbour but this sliver
@@ -604,6 +605,8 @@ def _shaped_deviation(A: Segment, B: Segment, b: np.ndarray, stop_above: float =
                       stop_below: float = -np.inf) -> Deviation:
     coef = BezierSegment._power_basis(b)
     lip = 5.0 * float(np.max(np.linalg.norm(np.diff(b, axis=0), axis=1)))
+    if isinstance(A, Line) and isinstance(B, Line):  # the same numbers, compiled (the search's inner loop)
+        return quintic_lines_max(coef, (A, B), lip, stop_above=stop_above, stop_below=stop_below)
     return certified_max(lambda u: distance_to_segments(BezierSegment._polyval(coef, u), (A, B)),
                          0.0, 1.0, lip, stop_above=stop_above, stop_below=stop_below)
 

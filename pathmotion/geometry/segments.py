@@ -230,8 +230,11 @@ class Line(Segment):
 
     def closest(self, points):
         x = np.atleast_2d(np.asarray(points, float))
-        s = np.minimum(np.maximum((x - self.start) @ self._t, 0.0), self._length)  # np.clip, without its overhead
-        r = self.start + s[:, None] * self._t - x
+        # the dot product written out (BLAS rounds it differently on different CPUs, and
+        # geometry/quintic_deviation.py repeats these operations compiled); np.clip without its overhead
+        d, t = x - self.start, self._t
+        s = np.minimum(np.maximum(d[:, 0] * t[0] + d[:, 1] * t[1] + d[:, 2] * t[2], 0.0), self._length)
+        r = self.start + s[:, None] * t - x
         return s, np.sqrt(np.add.reduce(r * r, axis=1))  # np.linalg.norm(r, axis=1), bit for bit
 
     def trimmed(self, s0, s1):

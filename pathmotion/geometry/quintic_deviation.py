@@ -1,0 +1,127 @@
+"""The certified largest distance of a quintic from lines, compiled: the blend search's inner loop.
+
+The optimal blend search sizes each candidate blend by bisection on its certified deviation
+(:func:`~pathmotion.geometry.blends.g2_shape_for_tolerance`): about 30 certified maxima per size, each a
+few rounds of :func:`~pathmotion.geometry.deviation.certified_max` over a quintic against the corner's two
+lines, some 50 000 maxima per corner. In numpy each round is some 20 calls on arrays of a few hundred
+points, so the time went into numpy's per-call overhead (two thirds of a corner's search, measured in
+session 13). :func:`quintic_lines_max` runs the same branch and bound, operation for operation, in one
+compiled call.
+
+Same operations means same numbers: the curve by Horner's rule as ``BezierSegment._polyval``, each
+line's closest point as ``Line.closest`` (its dot product written out, not BLAS, so that neither depends
+on the CPU's BLAS kernel), the bound 0.5 (d0 + d1 + K (u1 - u0)), the same intervals kept, split and
+appended in the same order. tests/test_quintic_deviation.py checks the result against certified_max bit
+for bit.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .. import defaults
+from .deviation import BOUND_ROUNDING, Deviation
+
+
+@numba.njit(cache=True)
+def _distance(coef, starts, dirs, lengths, u, out):
+    """out[i] = distance [m] of X(u[i]) (monomial coefficients coef (6, 3)) from the nearest of the lines
+    (starts, dirs (k, 3), lengths (k,)); the operations of BezierSegment._polyval and Line.closest."""
+    for i in range(u.shape[0]):
+        ui = u[i]
+        x0, x1, x2 = coef[5, 0], coef[5, 1], coef[5, 2]
+        for k in range(4, -1, -1):
+            x0 = x0 * ui + coef[k, 0]
+            x1 = x1 * ui + coef[k, 1]
+            x2 = x2 * ui + coef[k, 2]
+        best = np.inf
+        for j in range(starts.shape[0]):
+            s = (x0 - starts[j, 0]) * dirs[j, 0] + (x1 - starts[j, 1]) * dirs[j, 1]
+            s = s + (x2 - starts[j, 2]) * dirs[j, 2]
+            s = min(max(s, 0.0), lengths[j])
+            r0 = starts[j, 0] + s * dirs[j, 0] - x0
+            r1 = starts[j, 1] + s * dirs[j, 1] - x1
+            r2 = starts[j, 2] + s * dirs[j, 2] - x2
+            d = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+            if d < best or j == 0:
+                best = d
+        out[i] = best
+
+
+@numba.njit(cache=True)
+def _branch_and_bound(coef, starts, dirs, lengths, u, lipschitz, rel_tol, stop_above, stop_below, max_rounds,
+                      max_intervals, atol):
+    """certified_max's loop on the initial samples u (M + 1,): (lower, upper, where)."""
+    d = np.empty(u.shape[0])
+    _distance(coef, starts, dirs, lengths, u, d)
+    n = u.shape[0] - 1
+    a, b, da, db = u[:-1].copy(), u[1:].copy(), d[:-1].copy(), d[1:].copy()
+    best = 0
+    for i in range(1, d.shape[0]):
+        if d[i] > d[best]:
+            best = i
+    lower, where = d[best], u[best]
+    dropped = 0.0
+    ub = np.empty(n)
+    for _ in range(max_rounds):
+        top = 0.0
+        for i in range(n):
+            ub[i] = 0.5 * (da[i] + db[i] + lipschitz * (b[i] - a[i]))
+            top = max(top, ub[i])
+        upper = max(top, dropped, lower)
+        if lower > stop_above or upper <= stop_below or upper - lower <= rel_tol * upper + atol:
+            return lower, upper, where
+        cut = lower * (1.0 + rel_tol) + atol
+        kept = 0
+        for i in range(n):
+            if ub[i] > cut:
+                a[kept], b[kept], da[kept], db[kept] = a[i], b[i], da[i], db[i]
+                kept += 1
+            else:
+                dropped = max(dropped, ub[i])
+        if kept > max_intervals:  # a flat maximum: the bracket stays valid, only wider
+            n = kept
+            break
+        m = np.empty(kept)
+        for i in range(kept):
+            m[i] = 0.5 * (a[i] + b[i])
+        dm = np.empty(kept)
+        _distance(coef, starts, dirs, lengths, m, dm)
+        if kept:
+            k = 0
+            for i in range(1, kept):
+                if dm[i] > dm[k]:
+                    k = i
+            if dm[k] > lower:
+                lower, where = dm[k], m[k]
+        # [a, m], [m, b]: the kept intervals' left halves, then their right halves
+        a2, b2, da2, db2 = np.empty(2 * kept), np.empty(2 * kept), np.empty(2 * kept), np.empty(2 * kept)
+        a2[:kept], a2[kept:] = a[:kept], m
+        b2[:kept], b2[kept:] = m, b[:kept]
+        da2[:kept], da2[kept:] = da[:kept], dm
+        db2[:kept], db2[kept:] = dm, db[:kept]
+        a, b, da, db, n = a2, b2, da2, db2, 2 * kept
+        ub = np.empty(n)
+    top = 0.0
+    for i in range(n):
+        top = max(top, 0.5 * (da[i] + db[i] + lipschitz * (b[i] - a[i])))
+    return lower, max(top, dropped, lower), where
+
+
+def quintic_lines_max(coef: np.ndarray, lines, lipschitz: float,
+                      rel_tol: float = defaults.DEVIATION_RELATIVE_ACCURACY, initial: int = 256,
+                      stop_above: float = np.inf, max_rounds: int = 60, stop_below: float = -np.inf) -> Deviation:
+    """certified_max of u -> distance of X(u) = sum_k coef[k] u^k (coef (6, 3) [m]) from the nearest of
+    ``lines`` (:class:`~pathmotion.geometry.segments.Line`), u in [0, 1], with ``lipschitz`` a bound of |X'|
+    [m]: the same bracket as ``certified_max(lambda u: distance_to_segments(BezierSegment._polyval(coef, u),
+    lines), 0, 1, lipschitz, ...)``, bit for bit."""
+    starts = np.array([line.start for line in lines], float)
+    dirs = np.array([line.direction for line in lines], float)
+    lengths = np.array([line.length for line in lines], float)
+    u = np.linspace(0.0, 1.0, initial + 1)
+    atol = BOUND_ROUNDING * max(1.0, lipschitz)
+    lower, upper, where = _branch_and_bound(np.ascontiguousarray(coef, float), starts, dirs, lengths, u,
+                                            float(lipschitz), float(rel_tol), float(stop_above), float(stop_below),
+                                            int(max_rounds), defaults.DEVIATION_MAX_INTERVALS, atol)
+    return Deviation(float(lower), float(upper), float(where))
