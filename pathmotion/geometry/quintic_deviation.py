@@ -11,7 +11,7 @@ compiled call.
 Same operations means same numbers: the curve by Horner's rule as ``BezierSegment._polyval``, each
 line's closest point as ``Line.closest`` (its dot product written out, not BLAS, so that neither depends
 on the CPU's BLAS kernel), the bound 0.5 (d0 + d1 + K (u1 - u0)), the same intervals kept, split and
-appended in the same order. tests/test_quintic_deviation.py checks the result against certified_max bit
+appended in the same order. tests/test_geometry_quintic_deviation.py checks the result against certified_max bit
 for bit.
 """
 
