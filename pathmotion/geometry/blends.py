@@ -68,6 +68,7 @@ _FULL = 1.0 - 1e-6  # a single blend may use all of a neighbour but this sliver
 #: A departure's (arrival's) total cut may differ from its neighbour's length by this times max(1, length) [-]
 #: (rounding of the run it derives).
 _END_ROUNDING = 1e-9
+_FIFTHS = np.arange(6) / 5.0  # the offset pieces' control points are evenly spaced along the line
 #: |t_A x t_B| below this: the tangents are (anti)parallel, the path reverses at the corner [-].
 REVERSAL_SINE = 1e-9
 #: Fillet Newton iteration: converged when the closure error is below this times max(1, |p_A|) [-]
@@ -535,7 +536,7 @@ def _offset_piece(start: np.ndarray, t: np.ndarray, out: np.ndarray, run: float,
     """Control points (6, 3) [m] of the quintic graph over the line through ``start`` along the unit
     ``t``: x = start + u run t + w(u) out + v(u) up, w and v with Bernstein coefficients ``w``, ``v``
     (6,) [m] (evenly spaced along t, so the parameter is proportional to the progress along the line)."""
-    return np.array([start + (i / 5.0) * run * t + w[i] * out + v[i] * up for i in range(6)])
+    return start + (_FIFTHS * run)[:, None] * t + w[:, None] * out + v[:, None] * up
 
 
 def _graph_state(p: np.ndarray, t: np.ndarray, out: np.ndarray, dw: float, bend: float, up: np.ndarray,

@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathError
+from . import bezier_arc_length
 
 #: A direction vector shorter than this [m or -] has no direction.
 ZERO_LENGTH = 1e-12
@@ -220,9 +221,11 @@ class Line(Segment):
         return f"Line {_fmt(self.start)} -> {_fmt(self.end)}"
 
     def evaluate(self, s):
-        s = np.clip(_as_s(s), 0.0, self._length)
+        s = np.minimum(np.maximum(_as_s(s), 0.0), self._length)  # np.clip, without its overhead (blend sizing)
         p = self.start + s[:, None] * self._t
-        return p, np.broadcast_to(self._t, p.shape).copy(), np.zeros_like(p)
+        t = np.empty_like(p)
+        t[:] = self._t
+        return p, t, np.zeros_like(p)
 
     def evaluate3(self, s):
         p, dp, ddp = self.evaluate(s)
@@ -442,7 +445,7 @@ class BezierSegment(Segment):
 
     s(u) = int_0^u |X'(v)| dv is computed with a composite Gauss-Legendre rule (32 panels of 12
     nodes: exact to rounding for this smooth integrand) and inverted by Newton's method to
-    |s(u) - s| < 1e-13 max(1, length). Then, with T = X'/|X'|,
+    |s(u) - s| < 1e-13 max(1, length), both compiled (:mod:`.bezier_arc_length`). Then, with T = X'/|X'|,
 
         p(s) = X(u(s))      p'(s) = T      p''(s) = (X'' - (X''.T) T) / |X'|^2
 
@@ -473,9 +476,7 @@ class BezierSegment(Segment):
             k = int(np.argmin(speed))
             raise PathError(f"BezierSegment {self.describe()}: the curve stops (cusp) near u = {ug[k]:.3g}; "
                             "the blend is degenerate (tangents nearly opposite?)")
-        edges = np.linspace(0.0, 1.0, _GL_PANELS + 1)
-        panel = np.array([self._integral(np.array([lo]), np.array([hi]))[0] for lo, hi in zip(edges[:-1], edges[1:])])
-        object.__setattr__(self, "_panel_s", np.concatenate([[0.0], np.cumsum(panel)]))
+        object.__setattr__(self, "_panel_s", bezier_arc_length.panel_edges(coef, _GL_PANELS, _GL_NODES, _GL_WEIGHTS))
         table_u = np.linspace(0.0, 1.0, 257)
         object.__setattr__(self, "_table_u", table_u)
         object.__setattr__(self, "_table_s", self._arc_length(table_u))
@@ -512,16 +513,9 @@ class BezierSegment(Segment):
     def _speed(self, u):
         return np.linalg.norm(self._polyval(self._coef, u, 1), axis=1)
 
-    def _integral(self, lo, hi):
-        """int_lo^hi |X'(u)| du for arrays lo, hi (N,) (each within one short interval)."""
-        half = 0.5 * (hi - lo)
-        nodes = 0.5 * (hi + lo)[:, None] + half[:, None] * _GL_NODES[None, :]
-        return half * (self._speed(nodes.ravel()).reshape(nodes.shape) @ _GL_WEIGHTS)
-
     def _arc_length(self, u):
-        u = np.clip(u, 0.0, 1.0)
-        k = np.minimum((u * _GL_PANELS).astype(int), _GL_PANELS - 1)
-        return self._panel_s[k] + self._integral(k / _GL_PANELS, u)
+        """s(u) [m] (N,) at u (N,), clipped to [0, 1]."""
+        return bezier_arc_length.arc_lengths(self._coef, self._panel_s, np.asarray(u, float), _GL_NODES, _GL_WEIGHTS)
 
     @property
     def length(self) -> float:
@@ -530,14 +524,8 @@ class BezierSegment(Segment):
     def parameter(self, s) -> np.ndarray:
         """Bezier parameter u (N,) at arc length s (N,) [m]."""
         s = np.clip(_as_s(s), 0.0, self.length)
-        u = np.interp(s, self._table_s, self._table_u)
-        tol = ARC_LENGTH_ROUNDING * max(1.0, self.length)
-        for _ in range(50):
-            err = self._arc_length(u) - s
-            u = np.clip(u - err / self._speed(u), 0.0, 1.0)
-            if np.max(np.abs(err)) < tol:
-                break
-        return u
+        return bezier_arc_length.parameters(self._coef, self._panel_s, self._table_u, self._table_s, s,
+                                            ARC_LENGTH_ROUNDING * max(1.0, self.length), _GL_NODES, _GL_WEIGHTS)
 
     def evaluate(self, s):
         u = self.parameter(s)
