@@ -162,7 +162,13 @@ def test_warm_start_from_a_blend_lies_in_the_corner_confined_tube(robot, deg):
 def test_corner_confined_optimum_converges_from_the_blend_and_is_below_it(robot):
     """Both meshes converge (the cap was hit from the stop before); the optimum within the blend's
     own span is at most the blend's duration (the blend is one of its candidates) and verified; the
-    whole tube started from it is at most it, mesh by mesh."""
+    whole tube started from it is at most it, mesh by mesh, and its nodes crowd like it. The nodes are
+    compared on the first mesh only: a finer mesh may converge from the previous mesh's solution
+    instead (free_shape.STARTS_WARM), resampled over that solution's own phase times, and which start
+    IPOPT ends at depends on the process: on this input (the blend of the compiled Bezier arc length),
+    the same blend and the same 25-interval solutions, the 50-interval whole tube converged from the
+    first try in 69 iterations in a fresh process and needed the previous mesh's start inside the full
+    test suite, twice)."""
     delta = 0.001
     pts, shape, warm = _optimal_blend_motion(robot, 90.0, delta)
     opt = fs.free_shape_optimum(robot, pts, delta, [(shape.entry, shape.exit)], meshes=(25, 50), warm=warm)
@@ -173,7 +179,7 @@ def test_corner_confined_optimum_converges_from_the_blend_and_is_below_it(robot)
     whole = fs.free_shape_optimum(robot, pts, delta, meshes=(25, 50), warm=opt)
     assert whole.success, [s.status for s in whole.solutions]
     assert all(w.duration <= c.duration + 1e-6 for w, c in zip(whole.solutions, opt.solutions))
-    assert all(w.motion.breaks == c.motion.breaks for w, c in zip(whole.solutions, opt.solutions))
+    assert whole.solutions[0].motion.breaks == opt.solutions[0].motion.breaks
     _check_verified(whole, delta, excess=0.15)
 
 
