@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pathmotion import api, defaults
 from pathmotion.errors import ScenarioError
@@ -183,3 +185,27 @@ def test_refinement_nests_its_grids_and_splits_by_the_error(robot):
     # the second refinement is not uniform: it splits each interval by its estimated error
     parts = np.diff(np.searchsorted(seen[2], seen[1]))
     assert parts.min() == 1 and parts.max() > 2
+
+
+@settings(max_examples=60, deadline=None)
+@given(first=st.floats(1e-9, 0.2), piece=st.floats(0.05, 0.8), where=st.floats(0.2, 0.7))
+def test_a_short_piece_gets_grid_points_inside_whatever_the_first_segment(first, piece, where):
+    """Grading towards every break is in units of the uniform step (domain / (points - 1)): a segment much
+    shorter than a step at the start (a blend that uses all of its neighbour but a sliver, 1e-7 of a step)
+    made the grading collapse onto the breaks, and a 0.6 mm corner piece 0.6 steps long got no point inside:
+    the search's coarse plan did not see its curvature peak (0.55 s where it takes 0.73 s). Lengths in steps."""
+    from types import SimpleNamespace
+
+    points, length = 300, 0.31
+    step = length / (points - 1)
+    a = where * length
+    breaks = (0.0, first * step, a, a + piece * step, length)
+    grid = make_grid(SimpleNamespace(domain=(0.0, length), breaks=breaks, kinks=()), points).theta
+    for lo, hi in zip(breaks, breaks[1:]):
+        inside = grid[(grid > lo) & (grid < hi)]
+        if hi - lo >= step / 4:
+            assert inside.size >= 2, (lo, hi, inside)
+    for b in breaks[1:-1]:  # the first grading point on each side, half a step away, where it fits
+        for c in (b - step / 2, b + step / 2):
+            if 0.0 < c < length and not np.any(np.abs(np.array(breaks) - c) < 1e-3 * step):
+                assert np.min(np.abs(grid - c)) < 1e-6 * step, (b, c)  # or its rounding twin (GRID_MIN_GAP)

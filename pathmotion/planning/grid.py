@@ -85,14 +85,16 @@ def make_grid(path: JointPath, points: int) -> Grid:
     by halving (GRID_GRADING_LEVELS) towards each end and connection."""
     lo, hi = path.domain
     grid = np.linspace(lo, hi, int(points))
+    # the uniform step, not grid[1] - grid[0] of the merged grid: a segment shorter than a step at the start
+    # (a blend that uses all of its neighbour but a sliver) made that 1e-7 m and the grading collapsed onto the
+    # breaks, leaving a 0.6 mm corner piece with no point inside (its curvature peak unseen: 0.55 s for 0.73 s)
+    step = (hi - lo) / (points - 1)
     special = np.array(sorted({float(b) for b in (*path.breaks, *path.kinks) if lo < b < hi}))
     if special.size:
-        step = (hi - lo) / (points - 1)
         near = np.min(np.abs(grid[:, None] - special[None, :]), axis=1) < GRID_MERGE_FRACTION * step
         grid = np.union1d(grid[~near | (grid == lo) | (grid == hi)], special)
     # spline knots (the third derivative jumps) are grid points too: no interval holds a kink of Phi''
     grid = np.union1d(grid, [float(k) for k in getattr(path, "knots", ()) if lo < k < hi])
-    step = grid[1] - grid[0]
     ends = np.array([lo, hi, *special])
     grade = step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1)
     extra = np.concatenate([ends[:, None] + grade[None, :], ends[:, None] - grade[None, :]]).ravel()
