@@ -312,23 +312,36 @@ def test_the_joint_stage_moves_every_coordinate_of_a_blend_with_free_ends():
     assert np.ptp(z) < 1e-12
 
 
-def test_an_end_the_joint_stage_reaches_is_freed_too(caplog):
-    """30 deg / 5 mm on the atlas' 0.2 m lines, the default search: stage 5's joined blend stops 8 mm short of the
-    start, so only the end is freed; the joint stage's blend then reaches the start within the tolerance, which is
-    freed too. The blend leaves the start at an angle, within the tolerance, faster than the 0.6798 s the search
-    found without that (measured on the full grid; docs/study.md, sixth round)."""
+def test_an_end_the_joint_stage_reaches_is_freed_too(caplog, monkeypatch):
+    """When stage 5 leaves a resting end joined because its blend stopped short of it, and the joint stage's blend
+    then reaches that end within the tolerance, the late free-end stage frees it and the joint stage runs again: the
+    blend leaves the start at an angle, within the tolerance, and is no slower than the fastest joined blend.
+    Which atlas corner does this by itself depends on the search's path through its stages, which moves with the
+    last bits (30 deg / 5 mm did until the coarse grid's grading was fixed, docs/study.md); so stage 5 is made to
+    see the start as not reached here (30 deg / 5.5 mm, where its blend does reach it), and the joint stage's
+    blend is then checked by the real test."""
     import logging
 
+    from pathmotion.planning import blend_search
     from pathmotion.study.atlas import _settings, _task, corner_points
 
+    real, calls = blend_search._reached, []
+
+    def stage_five_misses_the_start(objective, shape):
+        calls.append(shape)
+        start, end = real(objective, shape)
+        return (False, end) if len(calls) == 1 else (start, end)
+
+    monkeypatch.setattr(blend_search, "_reached", stage_five_misses_the_start)
     path = _task(corner_points(30))
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
-        found = optimal_blends(_robot(), path, 0.005, settings=_settings(verify=False, baselines=False))
+        found = optimal_blends(_robot(), path, 0.0055, settings=_settings(verify=False, baselines=False))
+    assert len(calls) == 2  # stage 5 and the late stage
     assert "reaches the path's start within the tolerance; freed there too" in caplog.text
     shape = found.shapes[0]
     assert shape.departure is not None and shape.arrival is not None
-    assert found.duration < 0.6795
-    assert max_deviation(found.path, path, rel_tol=1e-6).upper <= 0.005 * (1 + 2e-6)
+    assert found.duration <= found.joined_duration
+    assert max_deviation(found.path, path, rel_tol=1e-6).upper <= 0.0055 * (1 + 2e-6)
 
 
 def test_a_blend_capped_by_its_neighbours_is_searched_again_within_what_it_reached(caplog):
