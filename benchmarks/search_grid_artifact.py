@@ -11,9 +11,14 @@ grids and on the default adaptive one, and prints the blended path's pieces and 
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 
-TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from issue_turn import TURN  # noqa: E402  (issue 17's turn, defined once there)
+
 #: The shape, as the search logged it ("blend search: corner 0: ... shape G2Shape(...)"), tolerance 0.01 m.
 SHAPE = dict(entry=0.09999989999999997, exit=0.12153108143347184, shape_entry=0.723292583974,
              shape_exit=0.709767092412, deviation=0.009897454862369558, offset_entry=0.0,
