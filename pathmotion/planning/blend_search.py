@@ -48,7 +48,15 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    where the motion rests that stage 5 left joined (its joined blend stopped short), that end is freed
    too (Nelder-Mead over its coefficients, END_PLANS) and the joint stage runs again: at 30 deg / 5 mm
    the entry grew from 191.6 to 199.6 mm of the 200 mm line, and freeing the start made the blend
-   0.26 % faster (0.6798 -> 0.6780 s);
+   0.26 % faster (0.6798 -> 0.6780 s). Then the wide start: at every side whose neighbour ends where the
+   motion rests and which the fastest blend still joins to its line, whether or not it reached that end,
+   the offset piece is freed at the end and bulged out to the tube's edge (WIDE_PROFILE), and the joint
+   stage runs again from there (WIDE_PLANS plans). The whole-tube optimum of issue 17's 90 deg turn at
+   10 mm does this: it leaves the start outwards, runs at the tube's edge 50 mm before the corner and
+   cuts in, where the fastest joined blend used 45 mm of the 100 mm entry line and stage 5, starting from
+   the joined blend, stayed joined (0.5672 s, 86.9 % of the whole tube's gain over the stop; with the wide
+   start 0.5559 s, 93.3 %). The start is a local search's: from the same bulge with 150 plans COBYQA
+   reached only 0.5681 s, and with a rise in the start 0.5658 s (300 plans);
 7. the capped retry, when the fastest blend deviates less than CAPPED_SHARE of the tolerance (the
    neighbouring segments, not the tolerance, capped its corner quintic: "largest within the tolerance" then
    sizes nothing, and the coordinates, in units of the tolerance, are scaled for a tube the blend cannot
@@ -74,7 +82,8 @@ joint stage and the capped search's best are then re-planned on the full grid an
 the result is never slower than the symmetric G2 blend, the S-curve racing line or the search without the
 joint stage or the capped retry (each before its polish); the polish then starts from the fastest and keeps it
 unless it finds a faster one.
-About 255 plans per corner (485 with free ends, twice that when capped), and the polish's 150 on the full grid.
+About 255 plans per corner (485 with free ends, 785 when the wide start runs, twice that when capped), and the
+polish's 150 on the full grid.
 """
 
 from __future__ import annotations
@@ -124,6 +133,8 @@ RISE_ANGLE_STEPS = 5
 END_PLANS = 80
 #: Plans of the joint stage (every coordinate of a blend with a free end at once).
 JOINT_PLANS = 150
+#: Plans of the wide stage (the joint stage from free ends bulged out to the tube's edge).
+WIDE_PLANS = 300
 #: The joint stage's COBYQA, in its box scaled to [-1, 1]: the initial trust radius as a share of the
 #: mean initial step, and the final radius.
 TRUST_RADIUS_SHARE = 0.25
@@ -184,7 +195,7 @@ class _Objective:
         self.run_unit = float(np.sqrt(tolerance * RUN_SCALE_LENGTH))
         chosen = set(shapes)
         self.shared = (corner - 1 in chosen, corner + 1 in chosen)
-        self.cache: dict[tuple, tuple[float, G2Shape | None]] = {}
+        self.cache: dict[tuple, tuple[float, G2Shape | None]] = {}  # (x, free ends or None): (duration, shape)
         self.plans = 0
 
     def shape(self, x) -> G2Shape:
@@ -208,8 +219,14 @@ class _Objective:
                                       slopes=tuple(slopes), bends=tuple(bends), rises=tuple(rises),
                                       departure=ends[0], arrival=ends[1])
 
+    def key(self, x) -> tuple:
+        """The cache key of x: its coordinates, rounded, and with free ends' coordinates the free ends they are
+        read for (the same x is another shape when the stages free another end)."""
+        x = np.asarray(x, float)
+        return tuple(np.round(x, 12)), (self.free_ends if len(x) > _DEPARTURE.start else None)
+
     def __call__(self, x) -> float:
-        key = tuple(np.round(np.asarray(x, float), 12))
+        key = self.key(x)
         if key not in self.cache:
             try:
                 shape = self.shape(x)
@@ -227,9 +244,9 @@ class _Objective:
         """(duration, shape, x) of the fastest coordinates seen (only offsets 0 if ``quintic_only``,
         only S-curve offset pieces if ``s_curve_only``, only in the corner's plane if ``planar``,
         only joined to both lines if ``joined``: no free end)."""
-        found = [(v[0], v[1], k) for k, v in self.cache.items()
+        found = [(v[0], v[1], k[0]) for k, v in self.cache.items()
                  if v[1] is not None and not (quintic_only and v[1].racing)
-                 and not (s_curve_only and len(k) > _C_A) and not (planar and not v[1].planar)
+                 and not (s_curve_only and len(k[0]) > _C_A) and not (planar and not v[1].planar)
                  and not (joined and not _joined(v[1]))]
         return min(found, key=lambda r: r[0])
 
@@ -421,12 +438,12 @@ _JOINT_BOX = _FREE_BOX + (COEFFICIENT_RANGE,) * 6
 _JOINT_STEP = _FREE_STEP[:_C_A] + _RISE_STEP[2:]
 
 
-def _joint_stage(objective: _Objective, plans: int, planar: bool) -> None:
+def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None) -> None:
     """COBYQA (about ``plans`` plans) over every coordinate of the fastest blend when it has a free end
     (the corner quintic, the offset pieces' profiles in and, unless ``planar``, out of the plane, and the
-    free ends' coefficients), from it. The earlier stages chose the profiles for a blend joined to the
-    lines; with a free end other profiles are faster."""
-    x = np.array(objective.best()[2], float)
+    free ends' coefficients), from it (or from the 25 coordinates ``x``). The earlier stages chose the
+    profiles for a blend joined to the lines; with a free end other profiles are faster."""
+    x = np.array(objective.best()[2] if x is None else x, float)
     if len(x) < _ARRIVAL.stop:  # the fastest blend is joined to the lines: stages 3-4 searched it
         return
     profile = list(range(_V_A if planar else _DEPARTURE.start))
@@ -441,6 +458,53 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool) -> None:
         return objective(trial)
 
     _trust_region(f, np.clip(x[idx], box[:, 0], box[:, 1]), box, steps, plans)
+
+
+#: The wide start's lateral Bernstein coefficients of a free end's offset piece [tolerance], from the path's end
+#: to the corner quintic: 0 (the end point), the free end's two, far, near, the offset.
+WIDE_PROFILE = (0.6, 1.0, 1.0, 0.9, 0.6)
+#: A wide start whose runs leave the corner quintic no room has them shortened by this factor, at most this often.
+WIDE_RUN_SHRINK = 0.7
+WIDE_RUN_TRIES = 6
+
+
+def _wide_stage(objective: _Objective, plans: int, planar: bool) -> None:
+    """The joint stage (about ``plans`` plans) from the wide start: the fastest blend so far with the offset piece of
+    every side whose neighbour ends where the motion rests (objective.resting) but which is not free there yet freed
+    and bulged out to the tube's edge (WIDE_PROFILE), in the plane; nothing if there is no such side. Whether or not
+    the blend reached that end: the whole-tube optimum of issue 17's turn at 10 mm leaves the start outwards, runs at
+    the tube's edge 50 mm before the corner and cuts in (benchmarks/issue_turn.py), where the fastest joined blend's
+    entry is 45 mm of the 100 mm line and stage 5 leaves that end joined."""
+    _, shape, x = objective.best(planar=planar)
+    x = np.array(x, float)
+    if len(x) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
+        x = np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]])
+    x = np.concatenate([x, np.zeros(_ARRIVAL.stop - len(x))])
+    free = (shape.departure is not None, shape.arrival is not None)
+    wide = tuple(r and not f for r, f in zip(objective.resting, free))
+    if not any(wide):
+        return
+    near_end, offset = WIDE_PROFILE[:2], WIDE_PROFILE[4]
+    sides = ((_W_A, _C_A, _D_A, (_V_A, _VN_A, _VF_A), _DEPARTURE), (_W_B, _C_B, _D_B, (_V_B, _VN_B, _VF_B), _ARRIVAL))
+    for bulge, (w, far, near, rise, end) in zip(wide, sides):
+        if bulge:
+            x[[w, far, near]] = offset, WIDE_PROFILE[2], WIDE_PROFILE[3]
+            x[list(rise)] = 0.0
+            x[end] = (*near_end, 0.0, 0.0)
+    objective.free_ends = tuple(f or w for f, w in zip(free, wide))
+    runs = [run for bulge, run in zip(wide, (_L_A, _L_B)) if bulge]
+    for _ in range(WIDE_RUN_TRIES):  # a free end's run still sizes the corner quintic: shorten it until one fits
+        try:
+            objective.shape(x)
+            break
+        except PathmotionError:
+            x[runs] = np.maximum(x[runs] * WIDE_RUN_SHRINK, RUN_RANGE[0])
+    else:
+        log.info("blend search: corner %d: no wide start fits", objective.corner)
+        return
+    log.info("blend search: corner %d: the wide start frees the path's %s", objective.corner,
+             " and ".join(e for e, w in zip(("start", "end"), wide) if w))
+    _joint_stage(objective, plans, planar, x)
 
 
 def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarray, plans: int) -> None:
@@ -470,8 +534,8 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
             continue
         o, key = found[0]
         fine = _Objective(robot, original, shapes, k, o.tolerance, settings, q_start, o.resting)
-        fine.free_ends = o.free_ends
-        x = np.array(key, float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
+        fine.free_ends = key[1] or o.free_ends
+        x = np.array(key[0], float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
         fine(x)  # the start, planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
         flat = k in planar
         idx = [i for i in range(min(len(x), _W_A if k in quintic else _DEPARTURE.start)) if not (flat and i >= _V_A)]
@@ -496,13 +560,14 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
-                   planar: bool = False, joint_plans: int = JOINT_PLANS) -> G2Shape | None:
+                   planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS) -> G2Shape | None:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
     > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
-    stage (``end_plans`` > 0, objective.free_ends) and the joint stage (``joint_plans`` > 0) (module
-    docstring). Returns the fastest shape before the joint stage when that ran (a candidate of its own:
-    the joint stage is faster on the search's coarse grid, not always on the full one), else None."""
+    stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0) and the wide start
+    (``wide_plans`` > 0) (module docstring). Returns the fastest shape before the joint stage when that or the
+    wide start ran (a candidate of its own: the joint stage is faster on the search's coarse grid, not always on
+    the full one), else None."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
@@ -519,12 +584,14 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
             _rise_stage(objective, rise_plans)
         if end_plans > 0 and any(objective.free_ends):
             _end_stage(objective, end_plans, planar)
+            before = objective.best()[1]
             if joint_plans > 0:
-                before = objective.best()[1]
                 _joint_stage(objective, joint_plans, planar)
                 if _late_end_stage(objective, end_plans, planar):
                     _joint_stage(objective, joint_plans, planar)
-                return before
+            if wide_plans > 0:
+                _wide_stage(objective, wide_plans, planar)
+            return before if joint_plans > 0 or wide_plans > 0 else None
     return None
 
 
@@ -539,14 +606,15 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    steps: int = GOLDEN_STEPS, racing_steps: int = RACING_STEPS, racing: bool = True,
                    search_grid_points: int = SEARCH_GRID_POINTS, free_plans: int = FREE_PLANS,
                    rise_plans: int = RISE_PLANS, planar: Sequence[int] = (), end_plans: int = END_PLANS,
-                   joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS,
+                   joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
                    retry_capped: bool = True, polish_plans: int = POLISH_PLANS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
     ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
-    the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``retry_capped``
+    the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
+    wide start; ``retry_capped``
     False: no stage 7; ``polish_plans`` 0: no stage 8). PathError as
     :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
     settings = settings or PlanSettings()
@@ -565,7 +633,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         free = racing and _racing_possible(original, k) and k not in joined_ends
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
-                  end_plans, k in planar, joint_plans)
+                  end_plans, k in planar, joint_plans, wide_plans)
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start, ends)
         before_joint = _search_corner(obj, *search)
         searched, reached = [obj], obj.best()[1].deviation
