@@ -48,15 +48,19 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    where the motion rests that stage 5 left joined (its joined blend stopped short), that end is freed
    too (Nelder-Mead over its coefficients, END_PLANS) and the joint stage runs again: at 30 deg / 5 mm
    the entry grew from 191.6 to 199.6 mm of the 200 mm line, and freeing the start made the blend
-   0.26 % faster (0.6798 -> 0.6780 s). Then the wide start: at every side whose neighbour ends where the
-   motion rests and which the fastest blend still joins to its line, whether or not it reached that end,
-   the offset piece is freed at the end and bulged out to the tube's edge (WIDE_PROFILE), and the joint
-   stage runs again from there (WIDE_PLANS plans). The whole-tube optimum of issue 17's 90 deg turn at
-   10 mm does this: it leaves the start outwards, runs at the tube's edge 50 mm before the corner and
-   cuts in, where the fastest joined blend used 45 mm of the 100 mm entry line and stage 5, starting from
-   the joined blend, stayed joined (0.5672 s, 86.9 % of the whole tube's gain over the stop; with the wide
-   start 0.5559 s, 93.3 %). The start is a local search's: from the same bulge with 150 plans COBYQA
-   reached only 0.5681 s, and with a rise in the start 0.5658 s (300 plans);
+   0.26 % faster (0.6798 -> 0.6780 s). Then the wide starts, each a joint stage of its own from the fastest
+   blend so far with offset pieces freed at the path's ends and bulged out to the tube's edge (WIDE_PROFILE):
+   outwards in the corner's plane at every side whose neighbour ends where the motion rests and which that blend
+   still joins to its line, whether or not it reached the end (WIDE_PLANS plans); then along the corner's normal
+   at every such resting side, towards the side of the plane the blend rises to there (WIDE_NORMAL_PLANS). The
+   whole-tube optimum does both. On issue 17's 90 deg turn at 10 mm it leaves the start outwards and runs at the
+   tube's edge 50 mm before the corner, where the fastest joined blend used 45 mm of the 100 mm entry line and
+   stage 5, starting from the joined blend, stayed joined (0.5672 s, 86.9 % of the whole tube's gain over the
+   stop; with the outward start 0.551-0.556 s over tolerances perturbed by 1e-9 of themselves). At the atlas'
+   30 deg / 10 mm it rises 7-10 mm above the plane along both lines; from the start along the normal the blend
+   takes 0.6700 s against 0.6748 s (the whole tube: 0.6662 s). These are local searches from a start: from the
+   outward bulge COBYQA reached 0.5681 s with 150 plans, and at 30 deg / 10 mm a start below the plane ends at
+   0.6913 s;
 7. the capped retry, when the fastest blend deviates less than CAPPED_SHARE of the tolerance (the
    neighbouring segments, not the tolerance, capped its corner quintic: "largest within the tolerance" then
    sizes nothing, and the coordinates, in units of the tolerance, are scaled for a tube the blend cannot
@@ -82,7 +86,7 @@ joint stage and the capped search's best are then re-planned on the full grid an
 the result is never slower than the symmetric G2 blend, the S-curve racing line or the search without the
 joint stage or the capped retry (each before its polish); the polish then starts from the fastest and keeps it
 unless it finds a faster one.
-About 255 plans per corner (485 with free ends, 785 when the wide start runs, twice that when capped), and the
+About 255 plans per corner (635-935 with free ends, with the wide starts; twice that when capped), and the
 polish's 150 on the full grid.
 """
 
@@ -133,8 +137,10 @@ RISE_ANGLE_STEPS = 5
 END_PLANS = 80
 #: Plans of the joint stage (every coordinate of a blend with a free end at once).
 JOINT_PLANS = 150
-#: Plans of the wide stage (the joint stage from free ends bulged out to the tube's edge).
+#: Plans of the wide starts (the joint stage from free ends bulged out to the tube's edge): outwards, and along
+#: the corner's normal.
 WIDE_PLANS = 300
+WIDE_NORMAL_PLANS = 150
 #: The joint stage's COBYQA, in its box scaled to [-1, 1]: the initial trust radius as a share of the
 #: mean initial step, and the final radius.
 TRUST_RADIUS_SHARE = 0.25
@@ -468,29 +474,37 @@ WIDE_RUN_SHRINK = 0.7
 WIDE_RUN_TRIES = 6
 
 
-def _wide_stage(objective: _Objective, plans: int, planar: bool) -> None:
-    """The joint stage (about ``plans`` plans) from the wide start: the fastest blend so far with the offset piece of
-    every side whose neighbour ends where the motion rests (objective.resting) but which is not free there yet freed
-    and bulged out to the tube's edge (WIDE_PROFILE), in the plane; nothing if there is no such side. Whether or not
-    the blend reached that end: the whole-tube optimum of issue 17's turn at 10 mm leaves the start outwards, runs at
-    the tube's edge 50 mm before the corner and cuts in (benchmarks/issue_turn.py), where the fastest joined blend's
-    entry is 45 mm of the 100 mm line and stage 5 leaves that end joined."""
+def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: bool = False) -> None:
+    """The joint stage (about ``plans`` plans) from a wide start: the fastest blend so far (in the corner's plane if
+    ``planar``) with the offset piece of every side whose neighbour ends where the motion rests (objective.resting)
+    freed at that end and bulged out to the tube's edge (WIDE_PROFILE): outwards in the corner's plane, at the sides
+    not free yet, or (``along_normal``, not ``planar``) along the corner's normal at every resting side, towards the
+    side of the plane the fastest blend rises to there (up if it stays in the plane). Nothing if there is no such
+    side. The whole-tube optimum does both (benchmarks/issue_turn.py, docs/study.md): on issue 17's turn at 10 mm it
+    leaves the start outwards and runs at the tube's edge 50 mm before the corner, where the fastest joined blend used
+    45 mm of the 100 mm entry line and stage 5 left that end joined; at the atlas' 30 deg / 10 mm it rises out of
+    the plane by 7-10 mm along both lines."""
+    if along_normal and planar:
+        return
     _, shape, x = objective.best(planar=planar)
     x = np.array(x, float)
     if len(x) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
         x = np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]])
     x = np.concatenate([x, np.zeros(_ARRIVAL.stop - len(x))])
     free = (shape.departure is not None, shape.arrival is not None)
-    wide = tuple(r and not f for r, f in zip(objective.resting, free))
+    wide = objective.resting if along_normal else tuple(r and not f for r, f in zip(objective.resting, free))
     if not any(wide):
         return
-    near_end, offset = WIDE_PROFILE[:2], WIDE_PROFILE[4]
-    sides = ((_W_A, _C_A, _D_A, (_V_A, _VN_A, _VF_A), _DEPARTURE), (_W_B, _C_B, _D_B, (_V_B, _VN_B, _VF_B), _ARRIVAL))
-    for bulge, (w, far, near, rise, end) in zip(wide, sides):
-        if bulge:
-            x[[w, far, near]] = offset, WIDE_PROFILE[2], WIDE_PROFILE[3]
-            x[list(rise)] = 0.0
-            x[end] = (*near_end, 0.0, 0.0)
+    near_end, far, near, offset = WIDE_PROFILE[:2], WIDE_PROFILE[2], WIDE_PROFILE[3], WIDE_PROFILE[4]
+    sides = ((_W_A, _C_A, _D_A, (_V_A, _VN_A, _VF_A), _DEPARTURE, shape.rise_entry[0]),
+             (_W_B, _C_B, _D_B, (_V_B, _VN_B, _VF_B), _ARRIVAL, shape.rise_exit[0]))
+    for bulge, (w, c_far, c_near, rise, end, risen) in zip(wide, sides):
+        if not bulge:
+            continue
+        lateral, normal = (0.0, 1.0 if risen >= 0.0 else -1.0) if along_normal else (1.0, 0.0)
+        x[[w, c_far, c_near]] = lateral * offset, lateral * far, lateral * near
+        x[list(rise)] = normal * offset, normal * near, normal * far
+        x[end] = (lateral * near_end[0], lateral * near_end[1], normal * near_end[0], normal * near_end[1])
     objective.free_ends = tuple(f or w for f, w in zip(free, wide))
     runs = [run for bulge, run in zip(wide, (_L_A, _L_B)) if bulge]
     for _ in range(WIDE_RUN_TRIES):  # a free end's run still sizes the corner quintic: shorten it until one fits
@@ -502,8 +516,8 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool) -> None:
     else:
         log.info("blend search: corner %d: no wide start fits", objective.corner)
         return
-    log.info("blend search: corner %d: the wide start frees the path's %s", objective.corner,
-             " and ".join(e for e, w in zip(("start", "end"), wide) if w))
+    log.info("blend search: corner %d: the wide start %s frees the path's %s", objective.corner,
+             "along the normal" if along_normal else "outwards", " and ".join(e for e, w in zip(("start", "end"), wide) if w))
     _joint_stage(objective, plans, planar, x)
 
 
@@ -560,14 +574,15 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
-                   planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS) -> G2Shape | None:
+                   planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
+                   wide_normal_plans: int = WIDE_NORMAL_PLANS) -> G2Shape | None:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
     > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
-    stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0) and the wide start
-    (``wide_plans`` > 0) (module docstring). Returns the fastest shape before the joint stage when that or the
-    wide start ran (a candidate of its own: the joint stage is faster on the search's coarse grid, not always on
-    the full one), else None."""
+    stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0) and the wide starts
+    (``wide_plans``, ``wide_normal_plans`` > 0) (module docstring). Returns the fastest shape before the joint stage
+    when that or a wide start ran (a candidate of its own: the joint stage is faster on the search's coarse grid,
+    not always on the full one), else None."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
@@ -591,7 +606,9 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                     _joint_stage(objective, joint_plans, planar)
             if wide_plans > 0:
                 _wide_stage(objective, wide_plans, planar)
-            return before if joint_plans > 0 or wide_plans > 0 else None
+            if wide_normal_plans > 0:
+                _wide_stage(objective, wide_normal_plans, planar, along_normal=True)
+            return before if joint_plans > 0 or wide_plans > 0 or wide_normal_plans > 0 else None
     return None
 
 
@@ -607,6 +624,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    search_grid_points: int = SEARCH_GRID_POINTS, free_plans: int = FREE_PLANS,
                    rise_plans: int = RISE_PLANS, planar: Sequence[int] = (), end_plans: int = END_PLANS,
                    joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
+                   wide_normal_plans: int = WIDE_NORMAL_PLANS,
                    retry_capped: bool = True, polish_plans: int = POLISH_PLANS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
@@ -614,7 +632,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
-    wide start; ``retry_capped``
+    wide start outwards, ``wide_normal_plans`` 0: none along the normal; ``retry_capped``
     False: no stage 7; ``polish_plans`` 0: no stage 8). PathError as
     :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
     settings = settings or PlanSettings()
@@ -633,7 +651,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         free = racing and _racing_possible(original, k) and k not in joined_ends
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
-                  end_plans, k in planar, joint_plans, wide_plans)
+                  end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans)
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start, ends)
         before_joint = _search_corner(obj, *search)
         searched, reached = [obj], obj.best()[1].deviation

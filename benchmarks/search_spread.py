@@ -1,0 +1,61 @@
+"""How much the optimal blend moves when its tolerance moves in its last bits: the blend search (planning/
+blend_search.py) run on one corner at delta (1 + e) for several tiny e. Its stages are local searches that branch
+on comparisons (which S-curve the racing stage ends at, whether a blend reaches a path end), so a change of 1e-9 of the
+tolerance can end in another local optimum: the spread printed is how far one atlas number is from luck.
+
+    python benchmarks/search_spread.py                       # issue 17's 90 deg turn at 10 mm
+    python benchmarks/search_spread.py --angle 30 --tolerance 0.005
+    python benchmarks/search_spread.py --relative 0,1e-9,-1e-9 --wide-plans 0 --wide-normal-plans 0
+
+Prints per run the full-grid duration, the spans and which ends are free; then the median and range.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--angle", type=float, default=None, help="an atlas corner's turn angle [deg] (default: issue 17's turn)")
+    ap.add_argument("--tolerance", type=float, default=0.01, help="tube radius [m]")
+    ap.add_argument("--relative", default="0,1e-9,-1e-9,2e-9,-2e-9,1e-7,-1e-7",
+                    help="relative changes e of the tolerance, comma-separated")
+    ap.add_argument("--wide-plans", type=int, default=None, help="plans of the outward wide start (default WIDE_PLANS)")
+    ap.add_argument("--wide-normal-plans", type=int, default=None,
+                    help="plans of the wide start along the normal (default WIDE_NORMAL_PLANS)")
+    a = ap.parse_args()
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+    from pathmotion.planning import blend_search as bs
+    from pathmotion.robot import load_robot
+    from pathmotion.study.atlas import _settings, _task, corner_points
+
+    robot = load_robot("irb140")
+    points = TURN if a.angle is None else corner_points(a.angle)
+    kw = {"wide_plans": bs.WIDE_PLANS if a.wide_plans is None else a.wide_plans,
+          "wide_normal_plans": bs.WIDE_NORMAL_PLANS if a.wide_normal_plans is None else a.wide_normal_plans}
+    where = "issue 17's turn" if a.angle is None else f"{a.angle:g} deg atlas corner"
+    print(f"{where}, {a.tolerance * 1e3:g} mm, {kw}, load {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
+    durations = []
+    for e in (float(v) for v in a.relative.split(",")):
+        t0 = time.process_time()
+        best = bs.optimal_blends(robot, _task(points), a.tolerance * (1 + e),
+                                 settings=_settings(verify=False, baselines=False), **kw)
+        s = best.shapes[0]
+        durations.append(best.duration)
+        print(f"  e = {e:+.0e}: {best.duration:.6f} s, spans {s.entry * 1e3:.1f} / {s.exit * 1e3:.1f} mm, free start "
+              f"{s.departure is not None}, free end {s.arrival is not None}, {best.plans} plans, "
+              f"{time.process_time() - t0:.0f} s CPU", flush=True)
+    d = np.array(durations)
+    print(f"median {np.median(d):.6f} s, range {d.min():.6f}-{d.max():.6f} s ({100 * (d.max() / d.min() - 1):.2f} %)")
+
+
+if __name__ == "__main__":
+    main()
