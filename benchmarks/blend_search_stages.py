@@ -6,7 +6,9 @@ duration of each, the gain, the plans and the CPU time. The search is determinis
 ``--stage joint`` (the default): the joint stage (stage 6, ``joint_plans`` 0 / JOINT_PLANS), which runs only
 where a free end made the blend faster (a corner whose blend reaches a path end where the motion rests),
 elsewhere both are the same. ``--stage polish``: the full-grid polish (stage 8, ``polish_plans`` 0 /
-POLISH_PLANS), which runs at every corner. ``--stage none``: the search as it is, once per corner (its CPU time;
+POLISH_PLANS), which runs at every corner. ``--stage wide``: both wide starts (after stage 6, ``wide_plans`` and
+``wide_normal_plans`` 0 / WIDE_PLANS and WIDE_NORMAL_PLANS), which run where the motion rests at an end of the
+corner's neighbours. ``--stage none``: the search as it is, once per corner (its CPU time;
 to compare two versions of the code, run it beside itself with PYTHONPATH on a worktree of the other commit).
 
     python benchmarks/blend_search_stages.py                       # the default corners below
@@ -28,13 +30,14 @@ DEFAULT_CORNERS = ("60:0.01", "30:0.005", "30:0.01", "90:0.01", "120:0.01", "45:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("corners", nargs="*", default=list(DEFAULT_CORNERS), help="ANGLE_DEG:TOLERANCE_M")
-    ap.add_argument("--stage", choices=("joint", "polish", "none"), default="joint",
+    ap.add_argument("--stage", choices=("joint", "polish", "wide", "none"), default="joint",
                     help="the stage turned off and on (none: the search once, as it is)")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     import pathmotion
-    from pathmotion.planning.blend_search import JOINT_PLANS, POLISH_PLANS, optimal_blends
+    from pathmotion.planning.blend_search import (JOINT_PLANS, POLISH_PLANS, WIDE_NORMAL_PLANS, WIDE_PLANS,
+                                                  optimal_blends)
     from pathmotion.robot import load_robot
     from pathmotion.study.atlas import _settings, _task, corner_points
 
@@ -43,17 +46,19 @@ def main() -> None:
     if a.stage == "none":
         _once(a.corners, robot, settings, pathmotion.__file__)
         return
-    keyword, on = {"joint": ("joint_plans", JOINT_PLANS), "polish": ("polish_plans", POLISH_PLANS)}[a.stage]
-    print(f"stage: {a.stage} ({keyword} 0 / {on})")
+    on = {"joint": {"joint_plans": JOINT_PLANS}, "polish": {"polish_plans": POLISH_PLANS},
+          "wide": {"wide_plans": WIDE_PLANS, "wide_normal_plans": WIDE_NORMAL_PLANS}}[a.stage]
+    off = dict.fromkeys(on, 0)
+    print(f"stage: {a.stage} ({off} / {on})")
     print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores)")
     print(f"{'corner':>12} {'without [s]':>12} {'with [s]':>10} {'gain':>8} {'plans':>11} {'cpu [s]':>13}")
     for text in a.corners:
         angle, tol = (float(v) for v in text.split(":"))
         task = _task(corner_points(angle))
         runs = []
-        for plans in (0, on):
+        for plans in (off, on):
             t0 = time.process_time()
-            found = optimal_blends(robot, task, tol, settings=settings, **{keyword: plans})
+            found = optimal_blends(robot, task, tol, settings=settings, **plans)
             runs.append((found.duration, found.plans, time.process_time() - t0))
         (t_without, p_without, c_without), (t_with, p_with, c_with) = runs
         print(f"{angle:5.0f}/{tol * 1e3:4.1f} mm {t_without:12.5f} {t_with:10.5f} {1 - t_with / t_without:8.2%} "

@@ -23,7 +23,8 @@ TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--angle", type=float, default=None, help="an atlas corner's turn angle [deg] (default: issue 17's turn)")
+    ap.add_argument("--angle", type=float, default=None,
+                    help="an atlas corner's turn angle [deg] (default: issue 17's turn)")
     ap.add_argument("--tolerance", type=float, default=0.01, help="tube radius [m]")
     ap.add_argument("--relative", default="0,1e-9,-1e-9,2e-9,-2e-9,1e-7,-1e-7",
                     help="relative changes e of the tolerance, comma-separated")

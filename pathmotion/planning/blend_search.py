@@ -82,10 +82,10 @@ Offsets and coefficients are searched in units of the tolerance, runs in units o
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
 line, the best free one, the best in the plane, the best joined to the lines, the best before the
-joint stage and the capped search's best are then re-planned on the full grid and the fastest is kept, so
-the result is never slower than the symmetric G2 blend, the S-curve racing line or the search without the
-joint stage or the capped retry (each before its polish); the polish then starts from the fastest and keeps it
-unless it finds a faster one.
+joint stage, the best before the wide starts and the capped search's best are then re-planned on the full grid and
+the fastest is kept, so the result is never slower than the symmetric G2 blend, the S-curve racing line or the
+search without the joint stage, the wide starts or the capped retry (each before its polish); the polish then starts
+from the fastest and keeps it unless it finds a faster one.
 About 255 plans per corner (635-935 with free ends, with the wide starts; twice that when capped), and the
 polish's 150 on the full grid.
 """
@@ -517,7 +517,8 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
         log.info("blend search: corner %d: no wide start fits", objective.corner)
         return
     log.info("blend search: corner %d: the wide start %s frees the path's %s", objective.corner,
-             "along the normal" if along_normal else "outwards", " and ".join(e for e, w in zip(("start", "end"), wide) if w))
+             "along the normal" if along_normal else "outwards",
+             " and ".join(e for e, w in zip(("start", "end"), wide) if w))
     _joint_stage(objective, plans, planar, x)
 
 
@@ -575,21 +576,21 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
                    planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
-                   wide_normal_plans: int = WIDE_NORMAL_PLANS) -> G2Shape | None:
+                   wide_normal_plans: int = WIDE_NORMAL_PLANS) -> tuple[G2Shape | None, G2Shape | None]:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
     > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
     stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0) and the wide starts
     (``wide_plans``, ``wide_normal_plans`` > 0) (module docstring). Returns the fastest shape before the joint stage
-    when that or a wide start ran (a candidate of its own: the joint stage is faster on the search's coarse grid,
-    not always on the full one), else None."""
+    when that or a wide start ran, and the fastest before the wide starts when they ran, each else None (candidates
+    of their own: a later stage's blend is faster on the search's coarse grid, not always on the full one)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
         for i, box in ((_BALANCE, BALANCE_RANGE), (_SHAPE_A, SHAPE_RANGE), (_SHAPE_B, SHAPE_RANGE)):
             _line_search(objective, np.array(objective.best()[2]), (i,), *box, steps)
     if not racing:
-        return
+        return None, None
     for _ in range(RACING_CYCLES):
         for indices, box in _RACING_MOVES:
             _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
@@ -604,12 +605,14 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                 _joint_stage(objective, joint_plans, planar)
                 if _late_end_stage(objective, end_plans, planar):
                     _joint_stage(objective, joint_plans, planar)
+            before_wide = objective.best()[1]
             if wide_plans > 0:
                 _wide_stage(objective, wide_plans, planar)
             if wide_normal_plans > 0:
                 _wide_stage(objective, wide_normal_plans, planar, along_normal=True)
-            return before if joint_plans > 0 or wide_plans > 0 or wide_normal_plans > 0 else None
-    return None
+            wide = wide_plans > 0 or wide_normal_plans > 0
+            return (before if joint_plans > 0 or wide else None), (before_wide if wide else None)
+    return None, None
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -643,7 +646,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, s_curve, in_plane, joined, unjoint = (dict(shapes) for _ in range(6))
+    initial, quintic, s_curve, in_plane, joined, unjoint, unwide = (dict(shapes) for _ in range(7))
     capped: dict = {}  # a corner searched again (stage 7): the first search's fastest blend
     searches: dict = {}  # every corner's searches, for the polish (stage 8)
     plans, rests = 0, (False, False) if original.closed else _rests(settings)
@@ -653,22 +656,22 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
                   end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans)
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start, ends)
-        before_joint = _search_corner(obj, *search)
+        before_joint, before_wide = _search_corner(obj, *search)
         searched, reached = [obj], obj.best()[1].deviation
         if retry_capped and reached < CAPPED_SHARE * tol[k]:  # the neighbours capped the blend: stage 7
             again = _Objective(robot, original, shapes, k, reached, fast, q_start, ends)
-            before_again = _search_corner(again, *search)
+            before_again = _search_corner(again, *search)  # (before the joint stage, before the wide starts)
             searched.append(again)
             log.info("blend search: corner %d: the fastest blend within %.6g m reached only %.6g m; searched again "
                      "within that: %.6g s against %.6g s (coarse grid)", k, tol[k], reached, again.best()[0],
                      obj.best()[0])
             if again.best()[0] < obj.best()[0]:
                 capped[k] = obj.best()[1]
-                obj, before_joint = again, before_again
+                obj, (before_joint, before_wide) = again, before_again
         quintic[k], s_curve[k], in_plane[k], joined[k], shapes[k] = (
             obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
             obj.best(joined=True)[1], obj.best()[1])
-        unjoint[k] = before_joint or shapes[k]
+        unjoint[k], unwide[k] = before_joint or shapes[k], before_wide or shapes[k]
         searches[k] = searched
         corner_plans = sum(o.plans for o in searched)
         plans += corner_plans
@@ -676,7 +679,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    stages = (quintic, s_curve, in_plane, joined, unjoint) + (({**shapes, **capped},) if capped else ()) + (shapes,)
+    stages = ((quintic, s_curve, in_plane, joined, unjoint, unwide) + (({**shapes, **capped},) if capped else ())
+              + (shapes,))
     for found in [c for i, c in enumerate(stages) if c not in stages[:i]]:
         candidates.append((duration_with(robot, original, found, full, q_start), found, None))
     plans += len(candidates)
