@@ -57,10 +57,10 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    tube's edge 50 mm before the corner, where the fastest joined blend used 45 mm of the 100 mm entry line and
    stage 5, starting from the joined blend, stayed joined (0.5672 s, 86.9 % of the whole tube's gain over the
    stop; with the outward start 0.551-0.556 s over tolerances perturbed by 1e-9 of themselves). At the atlas'
-   30 deg / 10 mm it rises 7-10 mm above the plane along both lines; from the start along the normal the blend
-   takes 0.6700 s against 0.6748 s (the whole tube: 0.6662 s). These are local searches from a start: from the
-   outward bulge COBYQA reached 0.5681 s with 150 plans, and at 30 deg / 10 mm a start below the plane ends at
-   0.6913 s;
+   30 deg / 10 mm it rises 7-10 mm above the plane along both lines; with the start along the normal the blend
+   takes 0.6704 s against 0.6748 s (the whole tube: 0.6662 s; python benchmarks/atlas_rows.py). These are local
+   searches from a start: in prototypes, from the outward bulge COBYQA reached only 0.5681 s with 150 plans, and at
+   30 deg / 10 mm a start below the plane ended at 0.6913 s;
 7. the capped retry, when the fastest blend deviates less than CAPPED_SHARE of the tolerance (the
    neighbouring segments, not the tolerance, capped its corner quintic: "largest within the tolerance" then
    sizes nothing, and the coordinates, in units of the tolerance, are scaled for a tube the blend cannot
@@ -466,8 +466,8 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None) -> Non
     _trust_region(f, np.clip(x[idx], box[:, 0], box[:, 1]), box, steps, plans)
 
 
-#: The wide start's lateral Bernstein coefficients of a free end's offset piece [tolerance], from the path's end
-#: to the corner quintic: 0 (the end point), the free end's two, far, near, the offset.
+#: A wide start's Bernstein coefficients of a free end's offset piece [tolerance] towards the tube's edge, after the
+#: 0 at the path's end point, in order towards the corner quintic: the free end's two, far, near, the offset.
 WIDE_PROFILE = (0.6, 1.0, 1.0, 0.9, 0.6)
 #: A wide start whose runs leave the corner quintic no room has them shortened by this factor, at most this often.
 WIDE_RUN_SHRINK = 0.7
