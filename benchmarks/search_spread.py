@@ -14,11 +14,14 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from issue_turn import TURN  # noqa: E402  (issue 17's turn, defined once there)
 
 
 def main() -> None:

@@ -312,6 +312,15 @@ def _free_stage(objective: _Objective, plans: int) -> None:
     _nelder_mead(objective, x0, box, _FREE_STEP, plans)
 
 
+def _extended(x, size: int = _ARRIVAL.stop) -> np.ndarray:
+    """Coordinates x (7,), (11,), (17,) or (25,) as ``size`` (>= 11) of them: an S-curve racing line's free
+    coefficients are its offsets (far = near = offset), the coordinates x lacks after them 0."""
+    x = np.array(x, float)
+    if len(x) <= _C_A:
+        x = np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]])
+    return np.concatenate([x, np.zeros(size - len(x))])
+
+
 def _nelder_mead(f: Callable, x0: np.ndarray, box: np.ndarray, steps: Sequence[float], plans: int) -> None:
     """scipy's bounded, adaptive Nelder-Mead on f from x0 (about ``plans`` evaluations), its initial
     simplex x0 plus each step (minus where plus leaves the box)."""
@@ -333,10 +342,7 @@ def _rise_stage(objective: _Objective, plans: int) -> None:
     per angle), then Nelder-Mead over the offset pieces' profiles in and out of the corner's plane
     (_RISE_COORDS) from the fastest, the other coordinates fixed at the fastest planar blend's;
     about ``plans`` plans in all."""
-    x11 = np.array(objective.best(planar=True, joined=True)[2], float)[:_V_A]
-    if len(x11) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
-        x11 = np.concatenate([x11, [x11[_W_A], x11[_W_A], x11[_W_B], x11[_W_B]]])
-    base = np.concatenate([x11, np.zeros(6)])
+    base = _extended(objective.best(planar=True, joined=True)[2][:_V_A], _DEPARTURE.start)
     idx = list(_RISE_COORDS)
     box = np.array(_RISE_BOX)
     sides = (base[[_W_A, _D_A, _C_A]], base[[_W_B, _D_B, _C_B]])  # (offset, near, far) per side
@@ -422,10 +428,7 @@ def _end_indices(ends: tuple[bool, bool], planar: bool) -> list[int]:
 def _free_ends(objective: _Objective, x, ends: tuple[bool, bool], plans: int, planar: bool) -> None:
     """Nelder-Mead (about ``plans`` plans) over the departure's (``ends[0]``) and the arrival's (``ends[1]``)
     coefficients (only the lateral ones if ``planar``) from 0, the other coordinates fixed at x's."""
-    x = np.array(x, float)
-    if len(x) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
-        x = np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]])
-    base = np.concatenate([x, np.zeros(_ARRIVAL.stop - len(x))])
+    base = _extended(x)
     idx = _end_indices(ends, planar)
     if not idx:
         return
@@ -487,10 +490,7 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     if along_normal and planar:
         return
     _, shape, x = objective.best(planar=planar)
-    x = np.array(x, float)
-    if len(x) <= _C_A:  # an S-curve racing line: its free coefficients are its offsets
-        x = np.concatenate([x, [x[_W_A], x[_W_A], x[_W_B], x[_W_B]]])
-    x = np.concatenate([x, np.zeros(_ARRIVAL.stop - len(x))])
+    x = _extended(x)
     free = (shape.departure is not None, shape.arrival is not None)
     wide = objective.resting if along_normal else tuple(r and not f for r, f in zip(objective.resting, free))
     if not any(wide):
