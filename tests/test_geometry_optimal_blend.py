@@ -565,6 +565,51 @@ def test_optimal_blend_is_never_slower_than_the_symmetric_g2(deg, tol):
     assert max_deviation(best.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
 
 
+def _polyline_deviation(path: TaskPath, points: np.ndarray, samples: int = 20001) -> float:
+    """Largest distance [m] of ``samples`` points of ``path`` from the polyline through ``points`` (N, 3), each to
+    its nearest point on the nearest segment (analytic projection, independent of the certified bound)."""
+    x = path.evaluate(np.linspace(0.0, path.length, samples))[0]
+    best = np.full(len(x), np.inf)
+    for a, b in zip(points[:-1], points[1:]):
+        t = np.clip((x - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(x - (a + t[:, None] * (b - a)), axis=1))
+    return float(best.max())
+
+
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(start=st.tuples(st.floats(0.38, 0.52), st.floats(-0.15, 0.15), st.floats(0.35, 0.55)),
+       headings=st.tuples(*[st.floats(-np.pi, np.pi)] * 3), climbs=st.tuples(*[st.floats(-0.6, 0.6)] * 3),
+       lengths=st.tuples(*[st.floats(0.1, 0.16)] * 3), tol=st.floats(5e-4, 0.012),
+       ends=st.tuples(st.sampled_from(["zero", "max"]), st.sampled_from(["zero", "max"])))
+@example(start=(0.4, -0.1, 0.45), headings=(0.0, 1.2, 2.6), climbs=(0.3, -0.2, 0.1), lengths=(0.15, 0.12, 0.15),
+         tol=0.01, ends=("zero", "zero"))  # at rest at both ends: the wide starts run at both corners, the end is freed
+def test_optimal_blends_on_a_3d_polyline_keep_the_bound_and_beat_the_symmetric_g2(start, headings, climbs, lengths,
+                                                                                   tol, ends):
+    """Every stage (free ends and the wide starts too, with few plans) on two corners of a polyline in space that no
+    other test uses, either end at rest or at its boundary-level speed: the blended path stays within the tolerance
+    of the sharp one on a dense sample, and is never slower than the symmetric G2 blends."""
+    dirs = [np.array([np.cos(c) * np.cos(h), np.cos(c) * np.sin(h), np.sin(c)]) for h, c in zip(headings, climbs)]
+    points = np.cumsum([np.array(start)] + [d * length for d, length in zip(dirs, lengths)], axis=0)
+    turns = [np.degrees(np.arccos(np.clip(d @ e, -1.0, 1.0))) for d, e in zip(dirs[:-1], dirs[1:])]
+    if not (all(20.0 <= t <= 160.0 for t in turns) and np.all((points[:, 0] > 0.3) & (points[:, 0] < 0.65))
+            and np.all(np.abs(points[:, 1]) < 0.3) and np.all((points[:, 2] > 0.25) & (points[:, 2] < 0.65))):
+        reject()  # a corner too flat or too sharp, or a point outside the arm's good workspace
+    path = TaskPath(tuple(Line(a, b) for a, b in zip(points[:-1], points[1:])), FixedOrientation())
+    plan_settings = PlanSettings(start=ends[0], end=ends[1], velocity=True, acceleration=True, torque=False,
+                                 grid_points=400, verify=False, baselines=False)
+    kw = dict(settings=plan_settings, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16,
+              rise_plans=30, end_plans=12, joint_plans=20, wide_plans=20, wide_normal_plans=20, polish_plans=10)
+    try:
+        best = optimal_blends(_robot(), path, tol, **kw)
+    except PathError as exc:  # the tolerance does not fit a corner: the error names the largest that does
+        assert re.search(r"give a tolerance below \d", str(exc)), str(exc)
+        return
+    assert best.duration <= best.symmetric_duration
+    assert best.duration == pytest.approx(duration_with(_robot(), path, best.shapes, plan_settings), rel=1e-12)
+    assert all(shape.deviation <= tol * (1 + 1e-9) for shape in best.shapes.values())
+    assert _polyline_deviation(best.path, points) <= tol * (1 + 1e-6)
+
+
 def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():
     with pytest.raises(PathError, match="give a tolerance below"):
         optimal_blends(_robot(), _turn(90, 0.05), 0.05, settings=SETTINGS)
