@@ -9,6 +9,7 @@ grid, rest to rest, velocity and acceleration limits (the atlas' settings).
     python benchmarks/replan_optimum.py 60 0.001
     python benchmarks/replan_optimum.py 120 0.01 --meshes 25,50,100 --grid 2000
     python benchmarks/replan_optimum.py 120 0.01 --rise-plans 0     # the blend search kept in the plane
+    python benchmarks/replan_optimum.py 30 0.005 --plan-tolerance 1e-4 --behind   # converged plans; where time is lost
 
 Reading: "optimum path" within a few 0.01 % of the NLP's finest mesh means planner and NLP agree on
 the same geometry (the gap of the blend is its shape family, not the planner); "in the plane" minus
@@ -33,6 +34,10 @@ def main() -> None:
     ap.add_argument("--profile", action="store_true",
                     help="print the optimum's and the blend's paths every 10 mm of arc: distance from the sharp "
                          "path, height above the corner's plane, curvature")
+    ap.add_argument("--plan-tolerance", type=float, default=None,
+                    help="plan on the adaptive grid refined to this relative duration error instead of --grid points")
+    ap.add_argument("--behind", action="store_true",
+                    help="print how far the blend trails the optimum's own path (both planned) every 5 %% of arc")
     ap.add_argument("--rise-plans", type=int, default=None,
                     help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
     a = ap.parse_args()
@@ -49,10 +54,14 @@ def main() -> None:
     robot = load_robot("irb140")
     pts = corner_points(a.angle)
     task = _task(pts)
-    settings = _settings(baselines=False, verify=False, grid_points=a.grid)
+    grid = {"grid_points": a.grid} if a.plan_tolerance is None else {"tolerance": a.plan_tolerance}
+    settings = _settings(baselines=False, verify=False, **grid)
+    profiles = {}
 
-    def duration(path) -> float:
-        return float(plan(lift(robot, path, original=task), robot, settings).profile.duration)
+    def duration(path, name=None) -> float:
+        profile = plan(lift(robot, path, original=task), robot, settings).profile
+        profiles[name] = (profile, path.domain[1])
+        return float(profile.duration)
 
     t0 = time.process_time()
     rise = RISE_PLANS if a.rise_plans is None else a.rise_plans
@@ -65,7 +74,7 @@ def main() -> None:
     sol = opt.solutions[-1]
     phases = fs.tube_phases(fs.Polyline(pts), a.tolerance, spans)
     optimum_path = op.optimum_task_path(robot, pts, phases, sol.motion)
-    own = duration(optimum_path)
+    own = duration(optimum_path, "optimum")
     normal = np.cross(pts[1] - pts[0], pts[2] - pts[1])
     normal /= np.linalg.norm(normal)
     build = op._hermite_pieces
@@ -78,14 +87,22 @@ def main() -> None:
         flat = duration(op.optimum_task_path(robot, pts, phases, sol.motion))
     finally:
         op._hermite_pieces = build
-    blend = duration(best.path)
-    print(f"{a.angle:g} deg, {a.tolerance * 1e3:g} mm, spans {shape.entry:.4f} / {shape.exit:.4f} m, grid {a.grid}")
+    blend = duration(best.path, "blend")
+    print(f"{a.angle:g} deg, {a.tolerance * 1e3:g} mm, spans {shape.entry:.4f} / {shape.exit:.4f} m, "
+          + (f"grid {a.grid}" if a.plan_tolerance is None else f"adaptive grid to {a.plan_tolerance:g}"))
     print(f"  corner-confined NLP: meshes {a.meshes}: {', '.join(f'{d:.5f}' for d in opt.durations)} s "
           f"(extrapolated {opt.duration:.5f} +- {opt.convergence_error * 1e3:.2f} ms, converged {opt.success}, "
           f"{t2 - t1:.0f} s CPU)")
     rows = (("optimum path", own), ("optimum path in the plane", flat), ("optimal blend", blend))
     for name, T in rows:
         print(f"  {name:28s} {T:.5f} s  {100 * (T / sol.duration - 1):+.2f} % vs the finest NLP mesh")
+    if a.behind:
+        print(f"  the blend behind the optimum's own path (arc lengths {profiles['blend'][1] * 1e3:.1f} / "
+              f"{profiles['optimum'][1] * 1e3:.1f} mm), at shares of each one's arc:")
+        for share in np.linspace(0.0, 1.0, 21):
+            t = {k: float(np.interp(share * L, p.grid, p.times)) for k, (p, L) in profiles.items() if k}
+            print(f"    {share:4.2f}: optimum path {t['optimum']:.4f} s, blend {t['blend']:.4f} s, "
+                  f"behind {1e3 * (t['blend'] - t['optimum']):+6.2f} ms")
     if a.profile:
         for name, path in (("optimum", optimum_path), ("optimal blend", best.path)):
             print(f"  {name}'s path every 10 mm of arc (from the corner's arc position on the sharp path):")
