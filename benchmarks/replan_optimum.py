@@ -60,7 +60,8 @@ def main() -> None:
 
     def duration(path, name=None) -> float:
         profile = plan(lift(robot, path, original=task), robot, settings).profile
-        profiles[name] = (profile, path.domain[1])
+        if name:
+            profiles[name] = (profile, path.domain[1])
         return float(profile.duration)
 
     t0 = time.process_time()
@@ -100,7 +101,7 @@ def main() -> None:
         print(f"  the blend behind the optimum's own path (arc lengths {profiles['blend'][1] * 1e3:.1f} / "
               f"{profiles['optimum'][1] * 1e3:.1f} mm), at shares of each one's arc:")
         for share in np.linspace(0.0, 1.0, 21):
-            t = {k: float(np.interp(share * L, p.grid, p.times)) for k, (p, L) in profiles.items() if k}
+            t = {k: float(np.interp(share * L, p.grid, p.times)) for k, (p, L) in profiles.items()}
             print(f"    {share:4.2f}: optimum path {t['optimum']:.4f} s, blend {t['blend']:.4f} s, "
                   f"behind {1e3 * (t['blend'] - t['optimum']):+6.2f} ms")
     if a.profile:

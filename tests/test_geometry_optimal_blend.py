@@ -19,6 +19,7 @@ from pathmotion.geometry.blends import (_piece_offsets, g2_blend_pieces, g2_cont
 from pathmotion.planning import PlanSettings
 from pathmotion.planning.blend_search import _side, duration_with, optimal_blends
 from pathmotion.robot import load_robot
+from pathmotion.study.free_shape import Polyline
 
 TURN = ((0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45))  # issue 17's 90 degree turn
 
@@ -565,17 +566,6 @@ def test_optimal_blend_is_never_slower_than_the_symmetric_g2(deg, tol):
     assert max_deviation(best.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
 
 
-def _polyline_deviation(path: TaskPath, points: np.ndarray, samples: int = 20001) -> float:
-    """Largest distance [m] of ``samples`` points of ``path`` from the polyline through ``points`` (N, 3), each to
-    its nearest point on the nearest segment (analytic projection, independent of the certified bound)."""
-    x = path.evaluate(np.linspace(0.0, path.length, samples))[0]
-    best = np.full(len(x), np.inf)
-    for a, b in zip(points[:-1], points[1:]):
-        t = np.clip((x - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
-        best = np.minimum(best, np.linalg.norm(x - (a + t[:, None] * (b - a)), axis=1))
-    return float(best.max())
-
-
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(start=st.tuples(st.floats(0.38, 0.52), st.floats(-0.15, 0.15), st.floats(0.35, 0.55)),
        headings=st.tuples(*[st.floats(-np.pi, np.pi)] * 3), climbs=st.tuples(*[st.floats(-0.6, 0.6)] * 3),
@@ -607,7 +597,8 @@ def test_optimal_blends_on_a_3d_polyline_keep_the_bound_and_beat_the_symmetric_g
     assert best.duration <= best.symmetric_duration
     assert best.duration == pytest.approx(duration_with(_robot(), path, best.shapes, plan_settings), rel=1e-12)
     assert all(shape.deviation <= tol * (1 + 1e-9) for shape in best.shapes.values())
-    assert _polyline_deviation(best.path, points) <= tol * (1 + 1e-6)
+    samples = best.path.evaluate(np.linspace(0.0, best.path.length, 20001))[0]  # projected onto the sharp polyline
+    assert np.max(Polyline(points).distance(samples)) <= tol * (1 + 1e-6)
 
 
 def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():

@@ -495,7 +495,7 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     wide = objective.resting if along_normal else tuple(r and not f for r, f in zip(objective.resting, free))
     if not any(wide):
         return
-    near_end, far, near, offset = WIDE_PROFILE[:2], WIDE_PROFILE[2], WIDE_PROFILE[3], WIDE_PROFILE[4]
+    *near_end, far, near, offset = WIDE_PROFILE
     sides = ((_W_A, _C_A, _D_A, (_V_A, _VN_A, _VF_A), _DEPARTURE, shape.rise_entry[0]),
              (_W_B, _C_B, _D_B, (_V_B, _VN_B, _VF_B), _ARRIVAL, shape.rise_exit[0]))
     for bulge, (w, c_far, c_near, rise, end, risen) in zip(wide, sides):
