@@ -36,11 +36,13 @@ def main() -> None:
         wall = time.perf_counter() - t0
         times = {(rec["summary"]["angle_deg"], rec["summary"]["tolerance_m"]): rec.get("wall_time_s")
                  for rec in load_finished(Path(tmp) / "points_sweep").values()}
-    print(f"{'angle':>6} {'tolerance':>10} {'optimal [s]':>12} {'row wall [s]':>13}  status")
+    print(f"{'angle':>6} {'tolerance':>10} {'optimal [s]':>12} {'spans [mm]':>15} {'row wall [s]':>13}  status")
     for r in sorted(atlas.rows, key=lambda r: (r["angle_deg"], r["tolerance_m"])):
         opt = "-" if r.get("optimal_s") is None else f"{r['optimal_s']:.6f}"
         row_wall = times.get((r["angle_deg"], r["tolerance_m"]))
-        print(f"{r['angle_deg']:6g} {r['tolerance_m'] * 1e3:8g} mm {opt:>12} "
+        spans = ("-" if r.get("optimal_entry_m") is None
+                 else f"{r['optimal_entry_m'] * 1e3:.1f} / {r['optimal_exit_m'] * 1e3:.1f}")  # which reference applies
+        print(f"{r['angle_deg']:6g} {r['tolerance_m'] * 1e3:8g} mm {opt:>12} {spans:>15} "
               f"{'-' if row_wall is None else f'{row_wall:.1f}':>13}  {r.get('error') or r.get('status')}")
     print(f"rows: {len(atlas.rows)}, sum of row wall times {sum(v or 0.0 for v in times.values()):.0f} s, "
           f"atlas wall {wall:.0f} s ({wall / 60:.1f} min)")

@@ -6,6 +6,7 @@ tolerance can end in another local optimum: the spread printed is how far one at
     python benchmarks/search_spread.py                       # issue 17's 90 deg turn at 10 mm
     python benchmarks/search_spread.py --angle 30 --tolerance 0.005
     python benchmarks/search_spread.py --relative 0,1e-9,-1e-9 --wide-plans 0 --wide-normal-plans 0
+    python benchmarks/search_spread.py --angle 30 --tolerance 0.005 --restart-plans 0   # without the wide restart
 
 Prints per run the full-grid duration, the spans and which ends are free; then the median and range.
 """
@@ -34,6 +35,7 @@ def main() -> None:
     ap.add_argument("--wide-plans", type=int, default=None, help="plans of the outward wide start (default WIDE_PLANS)")
     ap.add_argument("--wide-normal-plans", type=int, default=None,
                     help="plans of the wide start along the normal (default WIDE_NORMAL_PLANS)")
+    ap.add_argument("--restart-plans", type=int, default=None, help="plans of the wide restart (default RESTART_PLANS)")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -44,7 +46,8 @@ def main() -> None:
     robot = load_robot("irb140")
     points = TURN if a.angle is None else corner_points(a.angle)
     kw = {"wide_plans": bs.WIDE_PLANS if a.wide_plans is None else a.wide_plans,
-          "wide_normal_plans": bs.WIDE_NORMAL_PLANS if a.wide_normal_plans is None else a.wide_normal_plans}
+          "wide_normal_plans": bs.WIDE_NORMAL_PLANS if a.wide_normal_plans is None else a.wide_normal_plans,
+          "restart_plans": bs.RESTART_PLANS if a.restart_plans is None else a.restart_plans}
     where = "issue 17's turn" if a.angle is None else f"{a.angle:g} deg atlas corner"
     print(f"{where}, {a.tolerance * 1e3:g} mm, {kw}, load {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     durations = []

@@ -279,7 +279,7 @@ def test_the_search_frees_the_ends_only_where_the_motion_rests():
     does not reach, are tested below)."""
     path = _turn(60)
     kw = dict(cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16, rise_plans=0, end_plans=40,
-              wide_plans=0, wide_normal_plans=0)
+              wide_plans=0, wide_normal_plans=0, restart_plans=0)
     free = optimal_blends(_robot(), path, 0.01, settings=SETTINGS, **kw)
     joined = optimal_blends(_robot(), path, 0.01, settings=SETTINGS, joined_ends=[0], **kw)
     shape = free.shapes[0]
@@ -302,7 +302,7 @@ def test_the_joint_stage_moves_every_coordinate_of_a_blend_with_free_ends():
     there (no rise, no normal end coefficient); the search without it is a candidate, so it is never slower."""
     path = _turn(60)
     kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16, rise_plans=0,
-              end_plans=30)
+              end_plans=30, restart_plans=0)
     without = optimal_blends(_robot(), path, 0.01, joint_plans=0, **kw)
     joint = optimal_blends(_robot(), path, 0.01, joint_plans=40, **kw)
     assert without.shapes[0].departure is not None  # the free ends were taken before the joint stage
@@ -360,7 +360,7 @@ def test_the_wide_start_frees_an_end_the_joined_blend_stops_short_of(caplog):
     path = _task(np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)]))
     kw = dict(settings=_settings(verify=False, baselines=False), cycles=1, steps=2, racing_steps=2,
               search_grid_points=200, free_plans=16, rise_plans=0, end_plans=30, joint_plans=40,
-              wide_normal_plans=0, polish_plans=0)
+              wide_normal_plans=0, restart_plans=0, polish_plans=0)
     without = optimal_blends(_robot(), path, 0.01, wide_plans=0, **kw)
     assert without.shapes[0].departure is None and without.shapes[0].entry < 0.1 - 0.01
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
@@ -384,7 +384,7 @@ def test_the_wide_start_along_the_normal_lifts_the_blend_out_of_the_plane(caplog
     path = _task(corner_points(30))
     kw = dict(settings=_settings(verify=False, baselines=False), cycles=1, steps=2, racing_steps=2,
               search_grid_points=300, free_plans=16, rise_plans=30, end_plans=30, joint_plans=40, wide_plans=0,
-              polish_plans=0)
+              restart_plans=0, polish_plans=0)
     without = optimal_blends(_robot(), path, 0.01, wide_normal_plans=0, **kw)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         risen = optimal_blends(_robot(), path, 0.01, wide_normal_plans=150, **kw)
@@ -588,7 +588,8 @@ def test_optimal_blends_on_a_3d_polyline_keep_the_bound_and_beat_the_symmetric_g
     plan_settings = PlanSettings(start=ends[0], end=ends[1], velocity=True, acceleration=True, torque=False,
                                  grid_points=400, verify=False, baselines=False)
     kw = dict(settings=plan_settings, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16,
-              rise_plans=30, end_plans=12, joint_plans=20, wide_plans=20, wide_normal_plans=20, polish_plans=10)
+              rise_plans=30, end_plans=12, joint_plans=20, wide_plans=20, wide_normal_plans=20, restart_plans=20,
+              polish_plans=10)
     try:
         best = optimal_blends(_robot(), path, tol, **kw)
     except PathError as exc:  # the tolerance does not fit a corner: the error names the largest that does
@@ -682,3 +683,26 @@ def test_join_ends_is_only_for_optimal_blends_and_reaches_the_search():
 def test_optimal_blend_needs_a_tolerance():
     with pytest.raises(ScenarioError, match="'optimal' blend needs tolerance"):
         load_text(SCENARIO % ("optimal", ""))
+
+
+def test_the_wide_restart_runs_after_the_wide_starts_and_never_makes_the_blend_slower(caplog):
+    """Stage 6's wide restart: the joint stage once more from the fastest blend, its first trust region four times
+    as wide (RESTART_RADIUS_SHARE), at a corner with free ends (60 deg / 10 mm, rest to rest). It runs only with the
+    joint stage, spends at most its plans, the fastest blend before it stays a full-grid candidate (so without the
+    polish it is never slower than the same search without it) and the deviation stays certified."""
+    import logging
+
+    path = _turn(60)
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16,
+              rise_plans=0, end_plans=30, joint_plans=30, wide_plans=0, wide_normal_plans=0, polish_plans=0)
+    without = optimal_blends(_robot(), path, 0.01, restart_plans=0, **kw)
+    with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
+        restarted = optimal_blends(_robot(), path, 0.01, restart_plans=40, **kw)
+    assert "the wide restart" in caplog.text
+    assert without.plans < restarted.plans <= without.plans + 40 + 1  # (and its own full-grid candidate)
+    assert restarted.duration <= without.duration
+    assert max_deviation(restarted.path, path, rel_tol=1e-6).upper <= 0.01 * (1 + 2e-6)
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
+        optimal_blends(_robot(), path, 0.01, **{**kw, "joint_plans": 0}, restart_plans=40)
+    assert "the wide restart" not in caplog.text

@@ -60,7 +60,12 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    30 deg / 10 mm it rises 7-10 mm above the plane along both lines; with the start along the normal the blend
    takes 0.6704 s against 0.6748 s (the whole tube: 0.6662 s; python benchmarks/atlas_rows.py). These are local
    searches from a start: in prototypes, from the outward bulge COBYQA reached only 0.5681 s with 150 plans, and at
-   30 deg / 10 mm a start below the plane ended at 0.6913 s;
+   30 deg / 10 mm a start below the plane ended at 0.6913 s. Last the wide restart: the joint stage once more from
+   the fastest blend (RESTART_PLANS), its first trust region RESTART_RADIUS_SHARE of the mean step instead of
+   TRUST_RADIUS_SHARE, so that its first quadratic models span the neighbouring basins, not only the one the
+   stages ended in (a restart at the joint stage's own radius moved 30 deg / 5 mm by 0.02 %). Over seven tolerances
+   within 1e-7 of 5 mm at 30 deg (benchmarks/search_spread.py) it made every blend faster, by 0.08-0.26 % (median
+   0.67981 -> 0.67884 s); at 30 deg / 10 mm 0.6704 -> 0.6684 s;
 7. the capped retry, when the fastest blend deviates less than CAPPED_SHARE of the tolerance (the
    neighbouring segments, not the tolerance, capped its corner quintic: "largest within the tolerance" then
    sizes nothing, and the coordinates, in units of the tolerance, are scaled for a tube the blend cannot
@@ -82,12 +87,12 @@ Offsets and coefficients are searched in units of the tolerance, runs in units o
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
 line, the best free one, the best in the plane, the best joined to the lines, the best before the
-joint stage, the best before the wide starts and the capped search's best are then re-planned on the full grid and
-the fastest is kept, so the result is never slower than the symmetric G2 blend, the S-curve racing line or the
-search without the joint stage, the wide starts or the capped retry (each before its polish); the polish then starts
-from the fastest and keeps it unless it finds a faster one.
-About 255 plans per corner (635-935 with free ends, with the wide starts; twice that when capped), and the
-polish's 150 on the full grid.
+joint stage, the best before the wide starts, the best before the wide restart and the capped search's best are then
+re-planned on the full grid and the fastest is kept, so the result is never slower than the symmetric G2 blend, the
+S-curve racing line or the search without the joint stage, the wide starts, the restart or the capped retry (each
+before its polish); the polish then starts from the fastest and keeps it unless it finds a faster one.
+About 255 plans per corner (785-1235 with free ends, the wide starts and the restart; twice that when capped), and
+the polish's 150 on the full grid.
 """
 
 from __future__ import annotations
@@ -141,10 +146,15 @@ JOINT_PLANS = 150
 #: the corner's normal.
 WIDE_PLANS = 300
 WIDE_NORMAL_PLANS = 150
+#: Plans of the wide restart (the joint stage once more from the fastest blend, with RESTART_RADIUS_SHARE).
+RESTART_PLANS = 150
 #: The joint stage's COBYQA, in its box scaled to [-1, 1]: the initial trust radius as a share of the
 #: mean initial step, and the final radius.
 TRUST_RADIUS_SHARE = 0.25
 TRUST_RADIUS_FINAL = 1e-4
+#: The wide restart's initial trust radius, as TRUST_RADIUS_SHARE: four times as wide, so its first models span the
+#: neighbouring basins instead of the one the joint stage ended in.
+RESTART_RADIUS_SHARE = 1.0
 #: Grid points of the search's fast plans.
 SEARCH_GRID_POINTS = 300
 #: A corner whose fastest blend deviates less than this share of its tolerance is searched once more at the
@@ -447,11 +457,12 @@ _JOINT_BOX = _FREE_BOX + (COEFFICIENT_RANGE,) * 6
 _JOINT_STEP = _FREE_STEP[:_C_A] + _RISE_STEP[2:]
 
 
-def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None) -> None:
+def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share: float = TRUST_RADIUS_SHARE) -> None:
     """COBYQA (about ``plans`` plans) over every coordinate of the fastest blend when it has a free end
     (the corner quintic, the offset pieces' profiles in and, unless ``planar``, out of the plane, and the
-    free ends' coefficients), from it (or from the 25 coordinates ``x``). The earlier stages chose the
-    profiles for a blend joined to the lines; with a free end other profiles are faster."""
+    free ends' coefficients), from it (or from the 25 coordinates ``x``), its initial trust radius ``share`` of the
+    mean step (_trust_region). The earlier stages chose the profiles for a blend joined to the lines; with a free end
+    other profiles are faster."""
     x = np.array(objective.best()[2] if x is None else x, float)
     if len(x) < _ARRIVAL.stop:  # the fastest blend is joined to the lines: stages 3-4 searched it
         return
@@ -466,7 +477,7 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None) -> Non
         trial[idx] = y
         return objective(trial)
 
-    _trust_region(f, np.clip(x[idx], box[:, 0], box[:, 1]), box, steps, plans)
+    _trust_region(f, np.clip(x[idx], box[:, 0], box[:, 1]), box, steps, plans, share)
 
 
 #: A wide start's Bernstein coefficients of a free end's offset piece [tolerance] towards the tube's edge, after the
@@ -522,13 +533,14 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     _joint_stage(objective, plans, planar, x)
 
 
-def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarray, plans: int) -> None:
+def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarray, plans: int,
+                  share: float = TRUST_RADIUS_SHARE) -> None:
     """scipy's COBYQA (Powell's derivative-free trust-region method on quadratic models, bounded) on f
     from x0 (about ``plans`` evaluations), in the box scaled to [-1, 1], its initial trust radius
-    TRUST_RADIUS_SHARE of the mean of ``steps`` there. COBYQA moves its first point onto a bound (or a radius
+    ``share`` of the mean of ``steps`` there. COBYQA moves its first point onto a bound (or a radius
     away from it) where x0 is within the radius of that bound (scipy's cobyqa/models.py), so near a bound x0
     itself is not planned."""
-    radius = TRUST_RADIUS_SHARE * float(np.mean(2.0 * steps / (box[:, 1] - box[:, 0])))
+    radius = share * float(np.mean(2.0 * steps / (box[:, 1] - box[:, 0])))
     minimize(f, x0, method="COBYQA", bounds=box,
              options={"maxfev": plans, "scale": True, "initial_tr_radius": radius,
                       "final_tr_radius": TRUST_RADIUS_FINAL})
@@ -576,21 +588,24 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
                    planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
-                   wide_normal_plans: int = WIDE_NORMAL_PLANS) -> tuple[G2Shape | None, G2Shape | None]:
+                   wide_normal_plans: int = WIDE_NORMAL_PLANS,
+                   restart_plans: int = RESTART_PLANS) -> tuple[G2Shape | None, G2Shape | None, G2Shape | None]:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
     > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
-    stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0) and the wide starts
-    (``wide_plans``, ``wide_normal_plans`` > 0) (module docstring). Returns the fastest shape before the joint stage
-    when that or a wide start ran, and the fastest before the wide starts when they ran, each else None (candidates
-    of their own: a later stage's blend is faster on the search's coarse grid, not always on the full one)."""
+    stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0), the wide starts
+    (``wide_plans``, ``wide_normal_plans`` > 0) and the wide restart (``restart_plans`` > 0) (module docstring).
+    Returns the fastest shape before the joint stage when that, a wide start or the restart ran, the fastest before
+    the wide starts when they or the restart ran, and the fastest before the restart when it ran, each else None
+    (candidates of their own: a later stage's blend is faster on the search's coarse grid, not always on the full
+    one)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
         for i, box in ((_BALANCE, BALANCE_RANGE), (_SHAPE_A, SHAPE_RANGE), (_SHAPE_B, SHAPE_RANGE)):
             _line_search(objective, np.array(objective.best()[2]), (i,), *box, steps)
     if not racing:
-        return None, None
+        return None, None, None
     for _ in range(RACING_CYCLES):
         for indices, box in _RACING_MOVES:
             _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
@@ -610,9 +625,17 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                 _wide_stage(objective, wide_plans, planar)
             if wide_normal_plans > 0:
                 _wide_stage(objective, wide_normal_plans, planar, along_normal=True)
-            wide = wide_plans > 0 or wide_normal_plans > 0
-            return (before if joint_plans > 0 or wide else None), (before_wide if wide else None)
-    return None, None
+            before_restart = objective.best()[1]
+            restart = restart_plans > 0 and joint_plans > 0  # the joint stage once more: not without it
+            if restart:
+                ahead = objective.best()[0]
+                _joint_stage(objective, restart_plans, planar, share=RESTART_RADIUS_SHARE)
+                log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.corner,
+                         ahead, objective.best()[0])
+            wide = wide_plans > 0 or wide_normal_plans > 0 or restart
+            return ((before if joint_plans > 0 or wide else None), (before_wide if wide else None),
+                    (before_restart if restart else None))
+    return None, None, None
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -627,7 +650,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    search_grid_points: int = SEARCH_GRID_POINTS, free_plans: int = FREE_PLANS,
                    rise_plans: int = RISE_PLANS, planar: Sequence[int] = (), end_plans: int = END_PLANS,
                    joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
-                   wide_normal_plans: int = WIDE_NORMAL_PLANS,
+                   wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
                    retry_capped: bool = True, polish_plans: int = POLISH_PLANS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
@@ -635,7 +658,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
-    wide start outwards, ``wide_normal_plans`` 0: none along the normal; ``retry_capped``
+    wide start outwards, ``wide_normal_plans`` 0: none along the normal; ``restart_plans`` 0: no wide restart; ``retry_capped``
     False: no stage 7; ``polish_plans`` 0: no stage 8). PathError as
     :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
     settings = settings or PlanSettings()
@@ -646,7 +669,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, s_curve, in_plane, joined, unjoint, unwide = (dict(shapes) for _ in range(7))
+    initial, quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted = (dict(shapes) for _ in range(8))
     capped: dict = {}  # a corner searched again (stage 7): the first search's fastest blend
     searches: dict = {}  # every corner's searches, for the polish (stage 8)
     plans, rests = 0, (False, False) if original.closed else _rests(settings)
@@ -654,24 +677,25 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         free = racing and _racing_possible(original, k) and k not in joined_ends
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
-                  end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans)
+                  end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans, restart_plans)
         obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start, ends)
-        before_joint, before_wide = _search_corner(obj, *search)
+        before_joint, before_wide, before_restart = _search_corner(obj, *search)
         searched, reached = [obj], obj.best()[1].deviation
         if retry_capped and reached < CAPPED_SHARE * tol[k]:  # the neighbours capped the blend: stage 7
             again = _Objective(robot, original, shapes, k, reached, fast, q_start, ends)
-            before_again = _search_corner(again, *search)  # (before the joint stage, before the wide starts)
+            before_again = _search_corner(again, *search)  # (before the joint stage, the wide starts, the restart)
             searched.append(again)
             log.info("blend search: corner %d: the fastest blend within %.6g m reached only %.6g m; searched again "
                      "within that: %.6g s against %.6g s (coarse grid)", k, tol[k], reached, again.best()[0],
                      obj.best()[0])
             if again.best()[0] < obj.best()[0]:
                 capped[k] = obj.best()[1]
-                obj, (before_joint, before_wide) = again, before_again
+                obj, (before_joint, before_wide, before_restart) = again, before_again
         quintic[k], s_curve[k], in_plane[k], joined[k], shapes[k] = (
             obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
             obj.best(joined=True)[1], obj.best()[1])
-        unjoint[k], unwide[k] = before_joint or shapes[k], before_wide or shapes[k]
+        unjoint[k], unwide[k], unrestarted[k] = (before_joint or shapes[k], before_wide or shapes[k],
+                                                 before_restart or shapes[k])
         searches[k] = searched
         corner_plans = sum(o.plans for o in searched)
         plans += corner_plans
@@ -679,7 +703,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    stages = ((quintic, s_curve, in_plane, joined, unjoint, unwide) + (({**shapes, **capped},) if capped else ())
+    stages = ((quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted)
+              + (({**shapes, **capped},) if capped else ())
               + (shapes,))
     for found in [c for i, c in enumerate(stages) if c not in stages[:i]]:
         candidates.append((duration_with(robot, original, found, full, q_start), found, None))
