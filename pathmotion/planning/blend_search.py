@@ -625,10 +625,9 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                 _wide_stage(objective, wide_plans, planar)
             if wide_normal_plans > 0:
                 _wide_stage(objective, wide_normal_plans, planar, along_normal=True)
-            before_restart = objective.best()[1]
+            ahead, before_restart, _ = objective.best()
             restart = restart_plans > 0 and joint_plans > 0  # the joint stage once more: not without it
             if restart:
-                ahead = objective.best()[0]
                 _joint_stage(objective, restart_plans, planar, share=RESTART_RADIUS_SHARE)
                 log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.corner,
                          ahead, objective.best()[0])
