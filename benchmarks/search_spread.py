@@ -7,6 +7,7 @@ tolerance can end in another local optimum: the spread printed is how far one at
     python benchmarks/search_spread.py --angle 30 --tolerance 0.005
     python benchmarks/search_spread.py --relative 0,1e-9,-1e-9 --wide-plans 0 --wide-normal-plans 0
     python benchmarks/search_spread.py --angle 30 --tolerance 0.005 --restart-plans 0   # without the wide restart
+    python benchmarks/search_spread.py --angle 30 --tolerance 0.005 --search-grid-points 2000 --reference 0.67146
 
 Prints per run the full-grid duration, the spans and which ends are free; then the median and range.
 """
@@ -36,6 +37,12 @@ def main() -> None:
     ap.add_argument("--wide-normal-plans", type=int, default=None,
                     help="plans of the wide start along the normal (default WIDE_NORMAL_PLANS)")
     ap.add_argument("--restart-plans", type=int, default=None, help="plans of the wide restart (default RESTART_PLANS)")
+    ap.add_argument("--search-grid-points", type=int, default=None,
+                    help="the search's fixed grid (default SEARCH_GRID_POINTS)")
+    ap.add_argument("--polish-plans", type=int, default=None, help="plans of the full-grid polish (default POLISH_PLANS)")
+    ap.add_argument("--reference", type=float, default=None,
+                    help="a reference duration [s] (e.g. the whole-tube optimum): also prints each run's gap to it "
+                         "and how many runs are within 1 %% of it")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -47,7 +54,9 @@ def main() -> None:
     points = TURN if a.angle is None else corner_points(a.angle)
     kw = {"wide_plans": bs.WIDE_PLANS if a.wide_plans is None else a.wide_plans,
           "wide_normal_plans": bs.WIDE_NORMAL_PLANS if a.wide_normal_plans is None else a.wide_normal_plans,
-          "restart_plans": bs.RESTART_PLANS if a.restart_plans is None else a.restart_plans}
+          "restart_plans": bs.RESTART_PLANS if a.restart_plans is None else a.restart_plans,
+          "search_grid_points": bs.SEARCH_GRID_POINTS if a.search_grid_points is None else a.search_grid_points,
+          "polish_plans": bs.POLISH_PLANS if a.polish_plans is None else a.polish_plans}
     where = "issue 17's turn" if a.angle is None else f"{a.angle:g} deg atlas corner"
     print(f"{where}, {a.tolerance * 1e3:g} mm, {kw}, load {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     durations = []
@@ -57,11 +66,15 @@ def main() -> None:
                                  settings=_settings(verify=False, baselines=False), **kw)
         s = best.shapes[0]
         durations.append(best.duration)
-        print(f"  e = {e:+.0e}: {best.duration:.6f} s, spans {s.entry * 1e3:.1f} / {s.exit * 1e3:.1f} mm, free start "
+        gap = "" if a.reference is None else f" ({100 * (best.duration / a.reference - 1):.3f} % over the reference)"
+        print(f"  e = {e:+.0e}: {best.duration:.6f} s{gap}, spans {s.entry * 1e3:.1f} / {s.exit * 1e3:.1f} mm, free start "
               f"{s.departure is not None}, free end {s.arrival is not None}, {best.plans} plans, "
               f"{time.process_time() - t0:.0f} s CPU", flush=True)
     d = np.array(durations)
     print(f"median {np.median(d):.6f} s, range {d.min():.6f}-{d.max():.6f} s ({100 * (d.max() / d.min() - 1):.2f} %)")
+    if a.reference is not None:
+        print(f"over the reference {a.reference:.6g} s: median {100 * (np.median(d) / a.reference - 1):.3f} %, "
+              f"{int(np.sum(d <= 1.01 * a.reference))} of {len(d)} within 1 %")
 
 
 if __name__ == "__main__":
