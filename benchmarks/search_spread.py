@@ -44,6 +44,10 @@ def main() -> None:
                     help="a reference duration [s] (e.g. the whole-tube optimum): also prints each run's gap to it "
                          "and how many runs are within 1 %% of it")
     a = ap.parse_args()
+    if a.reference is not None and not a.reference > 0:
+        ap.error(f"--reference must be a positive duration [s], got {a.reference}")
+    if a.search_grid_points is not None and a.search_grid_points < 3:
+        ap.error(f"--search-grid-points must be at least 3, got {a.search_grid_points}")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     from pathmotion.planning import blend_search as bs
