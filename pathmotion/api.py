@@ -22,7 +22,8 @@ import numpy as np
 
 from .io import schema
 from .errors import InfeasibleError, PathmotionError, ScenarioError, UnreachableError
-from .geometry import Arc, Circle, FixedOrientation, Line, TaskPath, max_deviation, waypoint_path, with_blends
+from .geometry import (Arc, Circle, FixedOrientation, Line, TaskPath, blended_corners, max_deviation, waypoint_path,
+                       with_blends)
 from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
@@ -157,10 +158,14 @@ def _waypoint_task_path(spec, base_dir: Path) -> tuple[TaskPath, TaskPath | None
             raise ScenarioError(f"{where}: the points carry orientations, so path.orientation must not be given too; "
                                 "remove one of them")
         fixed = None if spec.orientation == "down" else np.asarray(spec.orientation, float)
+    searched = spec.blend == "optimal"  # the blends are searched on the sharp path (build_path)
     try:
-        task = waypoint_path(points, orientations, spec.blend_tolerance, fixed, where=where)
-        original = (waypoint_path(points, orientations, 0.0, fixed, where=where)
-                    if spec.blend_tolerance > 0 else None)
+        task = waypoint_path(points, orientations, 0.0 if searched else spec.blend_tolerance, fixed, where=where)
+        if searched:
+            original = task
+        else:
+            original = (waypoint_path(points, orientations, 0.0, fixed, where=where)
+                        if spec.blend_tolerance > 0 else None)
     except PathmotionError as exc:
         raise ScenarioError(str(exc)) from None
     return task, original, where
@@ -173,6 +178,11 @@ def build_path(scenario: Scenario, robot: Robot,
     spec = scenario.path
     if spec.type == "waypoints":
         task, original, where = _waypoint_task_path(spec, Path(base_dir))
+        corners = blended_corners(task, where) if spec.blend == "optimal" else []
+        if corners:
+            names = {c: f"{where} (blend_tolerance {spec.blend_tolerance:g} m at waypoint {c + 1})" for c in corners}
+            shapes = _optimal_shapes(robot, task, dict.fromkeys(corners, spec.blend_tolerance), scenario, names)
+            task = with_blends(task, {c: ("g2_shape", shape) for c, shape in shapes.items()}, names)
         q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
         try:
             return lift(robot, task, q_start, original=original), task, original
@@ -200,7 +210,7 @@ def build_path(scenario: Scenario, robot: Robot,
     conns = list(task.connections) + ([task.closure] if task.closure is not None else [])
     for k, blend in enumerate(spec.blends):
         if blend.corner == "all":
-            corners = [i for i, c in enumerate(conns) if c.kind == "corner"]
+            corners = blended_corners(task, f'path.blends[{k}] (corner = "all")', closing=True)
         else:
             if not 1 <= blend.corner <= len(conns):
                 closing = (f", {len(conns)} = the closing corner between the last and the first segment"
@@ -218,27 +228,40 @@ def build_path(scenario: Scenario, robot: Robot,
                   else spec.blends[k].tolerance) for c, k in chosen.items()}
     if task.closure is not None and len(task.connections) in blends:
         task = _split_first_segment(task, len(task.connections))
+    names = {c: f"path.blends[{k}] (corner {c + 1})" for c, k in chosen.items()}
     optimal = {c: v for c, (kind, v) in blends.items() if kind == "optimal"}
     if optimal:  # shapes searched with the other corners left sharp, then everything applied in one pass
-        from .planning.blend_search import optimal_blends
-
-        q0 = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
-        try:
-            planar = [c for c in optimal if spec.blends[chosen[c]].planar]
-            joined = [c for c in optimal if spec.blends[chosen[c]].join_ends]
-            found = optimal_blends(robot, task, optimal, list(optimal), plan_settings(scenario), q0, planar=planar,
-                                   joined_ends=joined)
-        except PathmotionError as exc:
-            k = chosen[min(optimal)]
-            raise type(exc)(f"path.blends[{k}] (corner {min(optimal) + 1}): {exc}") from None
-        blends.update({c: ("g2_shape", found.shapes[c]) for c in optimal})
-    task = with_blends(task, blends, {c: f"path.blends[{k}] (corner {c + 1})" for c, k in chosen.items()})
+        shapes = _optimal_shapes(robot, task, optimal, scenario, names,
+                                 planar=[c for c in optimal if spec.blends[chosen[c]].planar],
+                                 joined=[c for c in optimal if spec.blends[chosen[c]].join_ends])
+        blends.update({c: ("g2_shape", shape) for c, shape in shapes.items()})
+    task = with_blends(task, blends, names)
     q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
     log.info("lift: IK along the task path (%d segments, %.4g m, %d blended corners)", len(task.segments),
              task.length, len(blends))
     path = lift(robot, task, q_start, original=original)
     log.debug("lifted joint path: theta in [%.6g, %.6g], %d kinks", *path.domain, len(path.kinks))
     return path, task, original
+
+
+def _optimal_shapes(robot: Robot, task: TaskPath, optimal: dict[int, float], scenario: Scenario,
+                    names: dict[int, str], planar=(), joined=()) -> dict:
+    """{connection index: G2Shape} of the optimal blends (planning/blend_search.py) within ``optimal``
+    {connection index: tolerance [m]} of ``task`` under the scenario's plan settings; errors prefixed with
+    ``names`` (the scenario keys)."""
+    from .planning.blend_search import optimal_blends
+
+    spec = scenario.path
+    q0 = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    try:
+        found = optimal_blends(robot, task, optimal, list(optimal), plan_settings(scenario), q0, planar=list(planar),
+                               joined_ends=list(joined), names=names)
+    except PathmotionError as exc:
+        if str(exc).startswith(tuple(names.values())):
+            raise
+        where = "; ".join(names[c] for c in sorted(optimal))  # e.g. a blended path out of reach: all of them
+        raise type(exc)(f"{where}: {exc}") from None
+    return found.shapes
 
 
 def _split_first_segment(task: TaskPath, closing: int) -> TaskPath:

@@ -44,20 +44,21 @@ _LOG_HANDLER = None
 
 
 def _configure_logging(verbose: int) -> None:
-    """The ``pathmotion`` logger to stderr through Rich at INFO (-v) or DEBUG (-vv); silent by default."""
+    """The ``pathmotion`` logger to stderr through Rich at INFO (-v) or DEBUG (-vv); only its warnings by default
+    (a corner left sharp, an adaptive grid stopped short: what the user should know without asking)."""
     global _LOG_HANDLER
     package = logging.getLogger("pathmotion")
     if _LOG_HANDLER is not None:  # a second invocation in one process (tests) starts afresh
         package.removeHandler(_LOG_HANDLER)
         _LOG_HANDLER = None
-    package.setLevel(logging.NOTSET)
-    if verbose <= 0:
-        return
     from rich.logging import RichHandler
 
-    _LOG_HANDLER = RichHandler(console=err_console, show_path=verbose > 1, markup=False, rich_tracebacks=False)
+    _LOG_HANDLER = RichHandler(console=err_console, show_path=verbose > 1, markup=False, rich_tracebacks=False,
+                               show_time=verbose > 0)
+    level = logging.DEBUG if verbose > 1 else logging.INFO if verbose > 0 else logging.WARNING
+    _LOG_HANDLER.setLevel(level)  # also for a child logger set lower (records reach a parent's handler regardless)
     package.addHandler(_LOG_HANDLER)
-    package.setLevel(logging.DEBUG if verbose > 1 else logging.INFO)
+    package.setLevel(level)
 
 
 def _fail(message: str, code: int = 1):
@@ -377,7 +378,10 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
                  out: Path = typer.Option(..., "--out", help="scenario TOML file to write"),
                  skip_unsupported: bool = typer.Option(False, "--skip-unsupported",
                                                        help="skip the instructions the import does not read"),
-                 robot: str = typer.Option("irb140", "--robot", help="robot of the scenario")):
+                 robot: str = typer.Option("irb140", "--robot", help="robot of the scenario"),
+                 blend: str = typer.Option("g2", "--blend", help="the blend at each zone: g2 (symmetric, the "
+                                           "zone's deviation) | optimal (the fastest G2 blend within that deviation; "
+                                           "a search of about a thousand plans per zone)")):
     """Turn an ABB RAPID program (MoveL/MoveJ/MoveC, speeds, zones, tool, work object) into a scenario.
 
     Example: [bold]pathmotion import-rapid tests/data/abb_cycle.mod --out cycle.toml[/]
@@ -387,12 +391,15 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
     from .io.rapid import read_rapid, scenario_toml
     from .io.scenario import parse_scenario
 
+    if blend not in ("g2", "optimal"):
+        _fail(f"--blend {blend}: give g2 (the zone's symmetric blend) or optimal (the fastest blend within the same "
+              "deviation)")
     prog = read_rapid(program)
     if prog.unsupported and not skip_unsupported:
         listed = "; ".join(f"line {ln}: {text}" for ln, text in prog.unsupported)
         _fail(f"{program}: {len(prog.unsupported)} unsupported instruction(s), rerun with --skip-unsupported to skip "
               f"them: {listed}")
-    text = scenario_toml(prog, rapid_zone_tolerances(prog), robot=robot)
+    text = scenario_toml(prog, rapid_zone_tolerances(prog), robot=robot, blend=blend)
     parse_scenario(text, str(out))  # the written scenario must load
     write_text(out, text)
     for ln, stmt in prog.unsupported:

@@ -254,6 +254,49 @@ def test_verbose_shows_the_stages_on_stderr_and_the_default_shows_none(tmp_path)
     assert "DEBUG" in details.stderr and "lifted joint path" in details.stderr
 
 
+PICK_AND_BACK = """name = "pick_and_back"
+[robot]
+name = "irb140"
+[path]
+type = "task"
+[[path.segments]]
+type = "line"
+start = [0.45, -0.1, 0.5]
+end = [0.55, -0.1, 0.5]
+[[path.segments]]
+type = "line"
+end = [0.55, 0.1, 0.5]
+[[path.segments]]
+type = "line"
+end = [0.55, 0.0, 0.5]
+[[path.blends]]
+corner = "all"
+type = "g2"
+tolerance = 0.004
+[plan]
+start = "zero"
+end = "zero"
+grid_points = 300
+"""
+
+
+def test_corner_all_leaves_a_reversal_sharp_and_the_default_output_says_so(tmp_path):
+    """corner = "all" blends every corner a blend can round; where the path turns back it stays sharp (the
+    motion stops), and that warning reaches stderr without -v (the stages' INFO lines do not)."""
+    (tmp_path / "s.toml").write_text(PICK_AND_BACK)
+    run = _cli_process("plan", "s.toml", "--out", tmp_path / "out", "--no-figures", tmp_path=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert "WARNING" in run.stderr and 'path.blends[0] (corner = "all"): the path turns back at connection 1' in \
+        run.stderr and "stays sharp and the motion stops there" in run.stderr and "INFO" not in run.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert len(summary["kinks_theta"]) == 1 and 0.0 < summary["blend_max_deviation_m"] <= 0.004 * (1 + 1e-6)
+    explicit = PICK_AND_BACK.replace('corner = "all"', "corner = 2")  # named, the reversal is an error
+    (tmp_path / "e.toml").write_text(explicit)
+    refused = _cli_process("plan", "e.toml", "--out", tmp_path / "e", tmp_path=tmp_path)
+    assert refused.returncode == 1 and "path.blends[0] (corner 2)" in refused.stderr
+    assert "reverses direction" in refused.stderr
+
+
 def test_real_process_prints_no_traceback_and_exits_nonzero(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "pathmotion.cli", "plan", str(tmp_path / "none.toml"), "--out",
                            str(tmp_path / "o")], capture_output=True, text=True, timeout=120)

@@ -176,3 +176,29 @@ def test_scenario_keys(tmp_path):
     _csv(tmp_path, "x,y,z,roll,pitch,yaw\n0.5,0,0.5,3.14159,0,0\n0.6,0,0.5,3.14159,0,0.1\n")
     with pytest.raises(ScenarioError, match="must not be given too"):
         pm.load(_scenario(tmp_path, 'file = "points.csv"\norientation = "down"'))
+
+
+def test_a_reversal_stays_sharp_with_a_warning_and_the_other_corners_are_blended(caplog):
+    """A point the route turns back from (a pick point approached and left along the same line) cannot be
+    rounded: blend_tolerance rounds every other corner and leaves that one sharp (the motion stops there)."""
+    points = np.array([[0.45, -0.10, 0.50], [0.55, -0.10, 0.50], [0.55, 0.10, 0.50], [0.55, 0.0, 0.50],
+                       [0.45, 0.05, 0.50]])
+    tol = 0.004
+    with caplog.at_level("WARNING", logger="pathmotion"):
+        blended = waypoint_path(points, blend_tolerance=tol, where="path.points")
+    sharp = waypoint_path(points)
+    assert len(sharp.kinks) == 3 and len(blended.kinks) == 1
+    reversal = float(np.sum(np.linalg.norm(np.diff(points[:3], axis=0), axis=1)))  # arc length to waypoint 2
+    assert sharp.kinks[1] == pytest.approx(reversal)  # the reversal is waypoint 2, and it stays sharp:
+    assert np.allclose(blended.evaluate(blended.kinks[0])[0], points[2], atol=1e-12)
+    assert max_deviation(blended, sharp).distance <= tol * (1 + 1e-9)
+    assert [r.levelname for r in caplog.records] == ["WARNING"]
+    assert "path.points: the path turns back" in caplog.text and "(0.55, 0.1, 0.5)" in caplog.text
+
+
+def test_an_optimal_blend_needs_a_blend_tolerance(tmp_path):
+    with pytest.raises(ScenarioError, match="blend = \"optimal\" needs blend_tolerance > 0"):
+        pm.load(_scenario(tmp_path, 'points = [[0.5, 0.0, 0.5], [0.6, 0.0, 0.5], [0.6, 0.1, 0.5]]\nblend = "optimal"'))
+    with pytest.raises(ScenarioError, match="blend"):
+        pm.load(_scenario(tmp_path, 'points = [[0.5, 0.0, 0.5], [0.6, 0.0, 0.5]]\nblend_tolerance = 0.001\n'
+                                    'blend = "circle"'))

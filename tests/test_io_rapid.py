@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 from pathmotion import api
 from pathmotion.cli import app
 from pathmotion.errors import ScenarioError
-from pathmotion.geometry import Arc
+from pathmotion.geometry import Arc, max_deviation
 from pathmotion.io.rapid import (arc_through, effective_zones, parse_rapid, rapid_estimate_s, read_rapid,
                                  segment_speeds, segments)
 from pathmotion.io.scenario import load_scenario
@@ -181,3 +181,29 @@ def test_rapid_section_counts_are_validated(tmp_path):
     bad.write_text(text.replace("zones = [0.0, 0.0, 0.0, 0.0, 0.0]", "zones = [0.0]"))
     with pytest.raises(ScenarioError, match="rapid: .*6 speeds need 5 zones"):
         load_scenario(bad)
+
+
+@pytest.mark.slow
+def test_import_with_optimal_blends_keeps_each_zones_deviation_and_is_faster(cycle_z10, tmp_path):
+    """--blend optimal: the same corners and tolerances as the zones' G2 blends, each blend searched for the
+    shortest duration within its zone's deviation (a fine point stays a stop)."""
+    out = tmp_path / "cycle_optimal.toml"
+    res = runner.invoke(app, ["import-rapid", str(DATA / "abb_cycle.mod"), "--out", str(out), "--blend", "optimal"])
+    assert res.exit_code == 0, res.output
+    g2, _ = load_scenario(cycle_z10)
+    optimal, _ = load_scenario(out)
+    assert [b.type.value for b in optimal.path.blends] == ["optimal"] * len(g2.path.blends)
+    assert [(b.corner, b.tolerance) for b in optimal.path.blends] == [(b.corner, b.tolerance) for b in g2.path.blends]
+    fast, slow = api.load(out), api.load(cycle_z10)
+    t_fast, t_slow = api.plan_scenario(fast).profile.duration, api.plan_scenario(slow).profile.duration
+    assert t_fast < t_slow
+    assert len(fast.task_path.kinks) == len(slow.task_path.kinks) == 1  # the fine point between the moves down and up
+    tolerance = max(b.tolerance for b in g2.path.blends)
+    assert max_deviation(fast.task_path, fast.original_task_path).distance <= tolerance * (1 + 1e-9)
+
+
+def test_import_refuses_an_unknown_blend_type(tmp_path):
+    out = tmp_path / "cycle.toml"
+    res = runner.invoke(app, ["import-rapid", str(DATA / "abb_cycle.mod"), "--out", str(out), "--blend", "circle"])
+    assert res.exit_code == 1 and "--blend circle" in res.output and "optimal" in res.output
+    assert not out.exists()

@@ -51,6 +51,7 @@ after it move by the change of length.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Iterable, Mapping
@@ -63,6 +64,8 @@ from .chain import Connection, TaskPath
 from .deviation import Deviation, certified_max, distance_to_segments
 from .quintic_deviation import quintic_lines_max
 from .segments import Arc, BezierSegment, Line, Segment, _fmt
+
+log = logging.getLogger(__name__)
 
 _FULL = 1.0 - 1e-6  # a single blend may use all of a neighbour but this sliver
 #: A departure's (arrival's) total cut may differ from its neighbour's length by this times max(1, length) [-]
@@ -248,6 +251,20 @@ def _with_transition(path: TaskPath, c: _Corner, radius: float) -> TaskPath:
     return _replace(path, c, a, b, arc)
 
 
+def blended_corners(path: TaskPath, where: str, closing: bool = False) -> list[int]:
+    """The connection indices of ``path``'s sharp corners a blend can round: every corner but a reversal
+    (Connection.reverses; the motion stops there), the closing one too (index len(path.connections)) if
+    ``closing`` and the path is closed. A reversal left sharp is logged as a warning prefixed with ``where``."""
+    conns = list(path.connections) + ([path.closure] if closing and path.closure is not None else [])
+    sharp = [c for c in conns if c.kind == "corner"]
+    turned = [c for c in sharp if c.reverses]
+    if turned:
+        log.warning("%s: the path turns back at %s; no blend can round %s, so %s sharp and the motion stops there",
+                    where, "; ".join(c.describe() for c in turned), "it" if len(turned) == 1 else "them",
+                    "it stays" if len(turned) == 1 else "they stay")
+    return [c.index for c in sharp if not c.reverses]
+
+
 def _selected(path: TaskPath, corners: Iterable[int] | None, kinds: tuple[str, ...]) -> list[int]:
     if corners is None:
         return [c.index for c in path.connections if c.kind in kinds]
@@ -314,7 +331,7 @@ def _with_g2_blend(path: TaskPath, c: _Corner, tolerance: float, shape: float) -
     if not np.isfinite(tol) or tol <= 0:
         raise PathError(f"{what}: tolerance must be a positive distance [m], got {tolerance!r}")
     shape = _check_shape(shape, what)
-    if c.conn.angle > np.pi - defaults.CORNER_ANGLE_TOLERANCE:
+    if c.conn.reverses:
         raise PathError(f"{what}: at {c.where()} the path reverses direction; no blend can round it (insert a short "
                         "sideways segment, or leave the corner sharp: the motion stops there)")
     cut_max = min(c.max_a, c.max_b)
@@ -768,6 +785,6 @@ def with_shaped_g2_blends(path: TaskPath, shapes: dict[int, G2Shape]) -> TaskPat
     return out
 
 
-__all__ = ["G2Shape", "g2_blend_pieces", "g2_control_points", "g2_deviation", "g2_shape_for_tolerance", "g2_shaped_control_points",
+__all__ = ["G2Shape", "blended_corners", "g2_blend_pieces", "g2_control_points", "g2_deviation", "g2_shape_for_tolerance", "g2_shaped_control_points",
            "largest_g2_tolerance", "largest_transition_radius", "with_g2_blend", "with_g2_blends",
            "with_shaped_g2_blend", "with_shaped_g2_blends", "with_transition", "with_transitions"]

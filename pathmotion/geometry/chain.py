@@ -49,6 +49,12 @@ class Connection:
     curvature_jump: float
     position: tuple[float, float, float]
 
+    @property
+    def reverses(self) -> bool:
+        """The path turns back here (angle within ``defaults.CORNER_ANGLE_TOLERANCE`` of 180 deg): no blend can
+        round it, so the motion stops."""
+        return self.angle > np.pi - defaults.CORNER_ANGLE_TOLERANCE
+
     def describe(self) -> str:
         return (f"connection {self.index} at theta = {self.theta:.6g} m, position {_fmt(self.position)}, "
                 f"{self.kind} (angle {np.degrees(self.angle):.4g} deg)")

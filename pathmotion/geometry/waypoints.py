@@ -4,10 +4,11 @@ Input: K >= 2 points (K, 3) [m] and, optionally, one tool orientation per point 
 rotation matrices or (K, 4) unit quaternions (w, x, y, z). The path is the chain of lines
 p_k -> p_{k+1}; theta is arc length [m] as for every TaskPath.
 
-* ``blend_tolerance`` > 0: every sharp corner is replaced by the G2 (quintic Bezier) blend of
+* ``blend_tolerance`` > 0: every sharp corner where the path does not turn back is replaced by the G2 (quintic Bezier) blend of
   :mod:`pathmotion.geometry.blends` whose distance from the corner's lines is at most the tolerance
   (guaranteed there); Phi' and Phi'' are then continuous through the corner. 0: no blend, the path
-  has a kink at every corner and any motion stops there.
+  has a kink at every corner and any motion stops there. A reversal (the next line runs back along
+  the last) cannot be rounded: it stays sharp, the motion stops there, and a warning says so.
 * Orientation: with per-point orientations, :class:`~pathmotion.geometry.orientation.SlerpOrientation`
   with a key at each waypoint (slerp with quintic smoothstep timing in theta: w and dw vanish at
   every key, so R is C2 in theta and the lift's Phi', Phi'', Phi''' include the turning tool). A
@@ -26,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from .. import defaults
 from ..errors import PathError, PathmotionError
-from .blends import with_g2_blends
+from .blends import blended_corners, with_g2_blends
 from .chain import TaskPath
 from .orientation import FixedOrientation, SlerpOrientation, as_rotation
 from .segments import Line
@@ -108,8 +109,9 @@ def waypoint_path(points, orientations=None, blend_tolerance: float = 0.0, orien
         orient = FixedOrientation() if orientation is None else FixedOrientation(orientation)
     path = TaskPath(segments, orient)
     if tol > 0.0 and path.kinks:
+        corners = blended_corners(path, where)
         try:
-            path = with_g2_blends(path, tol)
+            path = with_g2_blends(path, tol, corners) if corners else path
         except PathmotionError as exc:
             raise PathError(f"{where}: blend_tolerance {tol:g} m: {exc}") from None
     return path

@@ -618,10 +618,14 @@ def notes(program: RapidProgram) -> list[str]:
 
 
 def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: str = "irb140",
-                  name: str | None = None) -> str:
-    """Scenario TOML text of ``program``: a task path of its moves, a G2 blend with the given
+                  name: str | None = None, blend: str = "g2") -> str:
+    """Scenario TOML text of ``program``: a task path of its moves, a blend of type ``blend`` ("g2": the
+    symmetric G2 blend, "optimal": the fastest G2 blend within the same deviation) with the given
     ``tolerances`` [m] at each corner (None: no blend, a stop), its tool and load, and the ``[rapid]``
     table (speeds per segment [m/s], zones per corner [m]) for :func:`rapid_estimate_s`."""
+    if blend not in ("g2", "optimal"):
+        raise ScenarioError(f"blend type {blend!r}: give 'g2' (the zone's symmetric blend) or 'optimal' (the fastest "
+                            "blend within the same deviation)")
     segs = segments(program)
     zones = effective_zones(program)
     if len(tolerances) != len(zones):
@@ -651,9 +655,10 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
     for k, (tol, z) in enumerate(zip(tolerances, zones)):
         if tol is not None:
             mv = program.moves[k + 1]
-            lines += ["", f"[[path.blends]]  # {mv.zone_name} at line {mv.line}: the blend starts {z * 1000:.4g} mm "
-                          "from the target (the zone radius), so it deviates at most this from the path",
-                      f"corner = {k + 1}", 'type = "g2"', f"tolerance = {_num(tol)}"]
+            lines += ["", f"[[path.blends]]  # {mv.zone_name} at line {mv.line}: a blend that starts {z * 1000:.4g} mm "
+                          "from the target (the zone radius) deviates at most this from the path"
+                      + ("" if blend == "g2" else "; the optimal blend stays within it"),
+                      f"corner = {k + 1}", f"type = {_quote(blend)}", f"tolerance = {_num(tol)}"]
     lines += ["", "[plan]", 'start = "zero"', 'end = "zero"',
               "", "[rapid]  # the program's speeds and zones: the summary's rapid_estimate_s",
               f"source = {_quote(Path(program.source).name)}",

@@ -126,6 +126,9 @@ class WaypointPathSpec(_Model):
     points: list[Vec3] | None = Field(None, min_length=2, description="waypoints [m] instead of a file")
     blend_tolerance: float = Field(0.0, ge=0, description="largest deviation of the G2 blend at each corner [m]; "
                                    "0 = stop at each corner")
+    blend: Literal["g2", "optimal"] = Field("g2", description="the blend at each corner: 'g2' the symmetric G2 "
+                                            "blend, 'optimal' the G2 blend shape with the shortest time-optimal "
+                                            "duration within blend_tolerance (as [[path.blends]] type = 'optimal')")
     orientation: Literal["down"] | Mat3 | None = Field(None, description="fixed tool orientation when the points "
                                                        "carry none: 'down' (default) or a rotation matrix")
     start_configuration: tuple[float, ...] | None = Field(
@@ -136,6 +139,9 @@ class WaypointPathSpec(_Model):
     def _source(self):
         if (self.file is None) == (self.points is None):
             raise ValueError("give either file = \"points.csv\" or points = [[x, y, z], ...], exactly one")
+        if self.blend == "optimal" and self.blend_tolerance == 0.0:
+            raise ValueError("blend = \"optimal\" needs blend_tolerance > 0 (the largest deviation [m] at each "
+                             "corner); give one, or remove blend to stop at each corner")
         return self
 
 

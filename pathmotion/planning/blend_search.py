@@ -100,7 +100,7 @@ from __future__ import annotations
 import itertools
 import logging
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
@@ -650,7 +650,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    rise_plans: int = RISE_PLANS, planar: Sequence[int] = (), end_plans: int = END_PLANS,
                    joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
-                   retry_capped: bool = True, polish_plans: int = POLISH_PLANS) -> OptimalBlend:
+                   retry_capped: bool = True, polish_plans: int = POLISH_PLANS,
+                   names: Mapping[int, str] | None = None) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
@@ -659,12 +660,13 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
     wide start outwards, ``wide_normal_plans`` 0: none along the normal; ``restart_plans`` 0: no wide restart; ``retry_capped``
     False: no stage 7; ``polish_plans`` 0: no stage 8). PathError as
-    :func:`~pathmotion.geometry.with_g2_blends` when the tolerance does not fit."""
+    :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does
+    not fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
     tol = dict(tolerance) if isinstance(tolerance, dict) else {k: float(tolerance) for k in chosen}
     # the symmetric blends, and their errors (a tolerance too large: the largest that fits)
-    symmetric = with_blends(original, {k: ("g2", tol[k]) for k in chosen})
+    symmetric = with_blends(original, {k: ("g2", tol[k]) for k in chosen}, names)
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
