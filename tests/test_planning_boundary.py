@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from pathmotion import defaults
 from pathmotion.errors import InfeasibleError, ScenarioError
@@ -135,3 +137,55 @@ def test_settings_are_validated():
         PlanSettings(connections="smooth")
     with pytest.raises(ScenarioError):
         PlanSettings(periodic=True, start="max")
+
+
+def _bisection_top(problem) -> float:
+    """The largest v with {v} controllable from x_0 = v, by plain bisection on [0, the point-wise bound] (the
+    reference for solve_periodic's bound of the laps)."""
+    from pathmotion.planning.topp import controllable_sets
+
+    def ok(v):
+        s = controllable_sets(problem, v, v)
+        slack = 1e-9 * (1 + v)
+        return s.failed_at < 0 and s.lo[0] - slack <= v <= s.hi[0] + slack
+
+    lo, hi = 0.0, float(min(problem.x_max[0], problem.x_max[-1]))
+    if ok(hi):
+        return hi
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**31 - 1), torque=st.booleans())
+def test_the_periodic_cycle_is_the_bisections_and_the_laps_bound_holds(irb140, monkeypatch, seed, torque):
+    """On random closed joint paths the fastest cycle (the laps' bound, checked) matches a plain bisection to
+    1e-8 (or the set-membership slack); the laps' bound is never below it; forcing the bisection (a bound far too high) gives the same cycle."""
+    from pathmotion.planning import boundary, segments
+
+    rng = np.random.default_rng(seed)
+    wp = rng.uniform(-0.8, 0.8, (int(rng.integers(3, 6)), 6))
+    path = PeriodicSplinePath.through(np.vstack([wp, wp[:1]]))
+    problems, solve = [], boundary.solve_periodic
+
+    def capture(problem, where=""):
+        problems.append(problem)
+        return solve(problem, where)
+
+    monkeypatch.setattr(segments, "solve_periodic", capture)
+    cfg = PlanSettings(periodic=True, torque=torque, **FAST)
+    cyc = plan(path, irb140, cfg)
+    problem = problems[-1]
+    reference = _bisection_top(problem)
+    slack = 2e-9 * (1 + reference)  # either may accept a v up to the set-membership slack above the top
+    assert cyc.profile.x[0] == pytest.approx(cyc.profile.x[-1], rel=1e-12)
+    assert cyc.profile.x[0] == pytest.approx(reference, rel=1e-8, abs=slack)
+    top = float(min(problem.x_max[0], problem.x_max[-1]))
+    assert min(boundary._lap_bound(problem, top, top)) >= reference - slack
+    assert cyc.ratios.within()
+    monkeypatch.setattr(boundary, "_lap_bound", lambda p, a, b: (2.0 * a, 2.0 * b))  # no help: the bisection
+    forced = plan(path, irb140, cfg)
+    assert forced.profile.x[0] == pytest.approx(reference, rel=1e-8, abs=slack)
+    assert forced.duration == pytest.approx(cyc.duration, rel=1e-8)

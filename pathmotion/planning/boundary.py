@@ -29,6 +29,9 @@ def at_rest(condition: Boundary) -> bool:
 X_CAP_FRACTION = 0.999
 #: Relative slack (times 1 + x) when checking that a start x lies in a controllable set [-].
 SET_MEMBERSHIP_TOLERANCE = 1e-9
+#: At most this many passes each way when bounding the fastest cycle by its laps (solve_periodic); each
+#: usually settles after two or three [-].
+PERIODIC_LAPS = 6
 #: Floor of the bisection's scale for the periodic search's relative tolerance [(unit theta / s)^2].
 SEARCH_FLOOR = 1e-12
 
@@ -117,10 +120,29 @@ def solve_open(problem: IntervalProblem, start: Boundary, end: Boundary, where: 
     return x, sets
 
 
+def _lap_bound(problem: IntervalProblem, start: float, end: float) -> tuple[float, float]:
+    """Upper bounds (B, F) of the fastest cycle's v from the laps: B the largest x_0 from which a lap can end at
+    or below B, F the largest x_{K-1} a lap can reach from a start at or below F, each iterated from the
+    point-wise bound (``start``, ``end``) while it falls by more than PLANNER_SEARCH_TOLERANCE, at most
+    PERIODIC_LAPS times. A cycle's v starts and ends a lap, so v <= B_n and v <= F_n at every step n."""
+    b, f = start, end
+    for _ in range(PERIODIC_LAPS):
+        nb = float(controllable_sets(problem, 0.0, min(b, end)).hi[0])
+        nf = float(reachable_sets(problem, 0.0, min(f, start)).hi[-1])
+        settled = (nb >= b * (1 - defaults.PLANNER_SEARCH_TOLERANCE)
+                   and nf >= f * (1 - defaults.PLANNER_SEARCH_TOLERANCE))
+        b, f = min(b, nb), min(f, nf)
+        if settled:
+            break
+    return b, f
+
+
 def solve_periodic(problem: IntervalProblem, where: str = "") -> tuple[np.ndarray, SetSequence]:
     """The fastest steady-state cycle: the largest v = x_0 = x_{K-1} for which the end set {v} is
-    controllable from x_0 = v, found by bisection (the feasible v form an interval containing 0,
-    since the feasible x sequences form a convex polytope and the arm can stop anywhere)."""
+    controllable from x_0 = v. The feasible v form an interval containing 0 (the feasible x sequences
+    form a convex polytope and the arm can stop anywhere). Its top is at most min(B, F) of
+    :func:`_lap_bound`; usually it is that bound (checked: {v} controllable from v), else a bisection below it
+    finds it."""
 
     def sets_for(v: float) -> SetSequence | None:
         s = controllable_sets(problem, v, v)
@@ -138,6 +160,9 @@ def solve_periodic(problem: IntervalProblem, where: str = "") -> tuple[np.ndarra
         raise InfeasibleError(f"{where}no periodic cycle exists: the arm cannot even pass the closure point "
                               f"theta = {problem.grid[0]:.6g} from rest; relax the limits")
     top = sets_for(hi)
+    if top is None:  # the laps' bound, usually the answer (PERIODIC_LAPS)
+        hi = min(hi, *_lap_bound(problem, hi, hi))
+        top = sets_for(hi) if hi > lo else None
     if top is not None:
         lo, best = hi, top
     else:
