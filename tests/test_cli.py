@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 
 from pathmotion.cli import app
 from pathmotion.scenarios import scenario_names, scenario_path
+from reliability_cases import _then
 
 runner = CliRunner()
 ROOT = Path(__file__).resolve().parents[1]
@@ -254,30 +255,9 @@ def test_verbose_shows_the_stages_on_stderr_and_the_default_shows_none(tmp_path)
     assert "DEBUG" in details.stderr and "lifted joint path" in details.stderr
 
 
-PICK_AND_BACK = """name = "pick_and_back"
-[robot]
-name = "irb140"
-[path]
-type = "task"
-[[path.segments]]
-type = "line"
-start = [0.45, -0.1, 0.5]
-end = [0.55, -0.1, 0.5]
-[[path.segments]]
-type = "line"
-end = [0.55, 0.1, 0.5]
-[[path.segments]]
-type = "line"
-end = [0.55, 0.0, 0.5]
-[[path.blends]]
-corner = "all"
-type = "g2"
-tolerance = 0.004
-[plan]
-start = "zero"
-end = "zero"
-grid_points = 300
-"""
+# a 90 degree corner, then back along the last line: a pick point left the way it was approached
+PICK_AND_BACK = _then('[[path.segments]]\ntype = "line"\nend = [0.6, 0.1, 0.5]\n[[path.segments]]\ntype = "line"\n'
+                      'end = [0.5, 0.1, 0.5]\n[[path.blends]]\ncorner = "all"\ntype = "g2"\ntolerance = 0.004')
 
 
 def test_corner_all_leaves_a_reversal_sharp_and_the_default_output_says_so(tmp_path):
