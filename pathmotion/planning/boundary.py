@@ -127,8 +127,10 @@ def _lap_bound(problem: IntervalProblem, start: float, end: float) -> tuple[floa
     PERIODIC_LAPS times. A cycle's v starts and ends a lap, so v <= B_n and v <= F_n at every step n."""
     b, f = start, end
     for _ in range(PERIODIC_LAPS):
-        nb = float(controllable_sets(problem, 0.0, min(b, end)).hi[0])
-        nf = float(reachable_sets(problem, 0.0, min(f, start)).hi[-1])
+        back, ahead = controllable_sets(problem, 0.0, min(b, end)), reachable_sets(problem, 0.0, min(f, start))
+        if back.failed_at >= 0 or ahead.failed_at >= 0:  # no bound from a failed sweep: keep the last ones
+            break
+        nb, nf = float(back.hi[0]), float(ahead.hi[-1])
         settled = (nb >= b * (1 - defaults.PLANNER_SEARCH_TOLERANCE)
                    and nf >= f * (1 - defaults.PLANNER_SEARCH_TOLERANCE))
         b, f = min(b, nb), min(f, nf)
