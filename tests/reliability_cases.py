@@ -135,6 +135,9 @@ CASES = (
     Case("missing_path", "missing key", 'name = "x"\n', ScenarioError, (r"path: missing required key",)),
     Case("missing_segment_key", "missing key", LINE.replace("end = [0.5, 0.1, 0.5]\n", ""), ScenarioError,
          (r"path\.segments\[0\]\.end", "missing")),
+    Case("optimal_waypoint_blend_without_tolerance", "missing key",
+         '[path]\ntype = "waypoints"\npoints = [[0.5, 0.0, 0.5], [0.6, 0.0, 0.5], [0.6, 0.1, 0.5]]\nblend = "optimal"\n',
+         ScenarioError, (r"path", 'blend = "optimal" needs blend_tolerance > 0', "give one")),
     Case("unknown_gain", "unknown key", JOINT + "[simulate]\ngains = {bandwith = 5.0}\n", ScenarioError,
          ("simulate.gains", "bandwith", "allowed"), stage="simulate"),
     # --- units and counts

@@ -366,6 +366,8 @@ def _error_line(err: dict, doc, where: str, overrides: dict) -> str:
         msg = f"unknown key {err['loc'][-1]!r}{_did_you_mean(err['loc'], doc)}"
     elif err["type"] == "missing":
         msg = "missing required key"
+    elif err["type"] == "value_error":  # our validators' own sentences, without pydantic's label
+        msg = msg.removeprefix("Value error, ")
     value = err.get("input")
     shown = "" if err["type"] in ("missing", "extra_forbidden") or isinstance(value, dict) else f" (got {value!r:.60})"
     return f"{place}:{loc} {msg}{shown}"
