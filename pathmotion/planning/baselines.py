@@ -73,7 +73,7 @@ def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
     """Largest s with s * x feasible on the discretized problem (x (K,) >= 0): each row
     P x_i + Q x_{i+1} <= R scales linearly in s, and so does 0 <= x <= x_max."""
     den = problem.P * x[:-1, None] + problem.Q * x[1:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a row that scales without bound: inf
         rows = np.where(den > 0, problem.R / np.where(den > 0, den, 1.0), np.inf)
         caps = np.where(x > 0, problem.x_max / np.where(x > 0, x, 1.0), np.inf)
     return float(min(rows.min(initial=np.inf), caps.min(initial=np.inf)))

@@ -41,7 +41,9 @@ class TcpSpeedLimit(Limit):
         return None if choice.value is None else cls(choice.value)
 
     def bound(self, points, scale):
-        return safe_ratio_bound((self.v_max * scale[:, 0]) ** 2, tcp_gain(points))
+        with np.errstate(over="ignore"):  # a speed limit whose square overflows bounds nothing: inf, as meant
+            limit_sq = (self.v_max * scale[:, 0]) ** 2
+        return safe_ratio_bound(limit_sq, tcp_gain(points))
 
     def certify_row_form(self, ctx):
         g = tuple((tcp_gain(pts) / self.v_max)[:, None] ** 2 for pts in (ctx.right, ctx.left))
