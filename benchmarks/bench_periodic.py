@@ -79,7 +79,7 @@ class _Counted:
         boundary.controllable_sets, boundary.reachable_sets = self.backward, self.forward
 
 
-def _no_bound(problem, start, end):
+def _no_bound(problem, top):
     return np.inf, np.inf
 
 

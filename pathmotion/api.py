@@ -158,14 +158,11 @@ def _waypoint_task_path(spec, base_dir: Path) -> tuple[TaskPath, TaskPath | None
             raise ScenarioError(f"{where}: the points carry orientations, so path.orientation must not be given too; "
                                 "remove one of them")
         fixed = None if spec.orientation == "down" else np.asarray(spec.orientation, float)
-    searched = spec.blend == "optimal"  # the blends are searched on the sharp path (build_path)
+    tol = 0.0 if spec.blend == "optimal" else spec.blend_tolerance  # optimal: searched on the sharp path (build_path)
     try:
-        task = waypoint_path(points, orientations, 0.0 if searched else spec.blend_tolerance, fixed, where=where)
-        if searched:
-            original = task
-        else:
-            original = (waypoint_path(points, orientations, 0.0, fixed, where=where)
-                        if spec.blend_tolerance > 0 else None)
+        task = waypoint_path(points, orientations, tol, fixed, where=where)
+        sharp = task if tol == 0.0 else waypoint_path(points, orientations, 0.0, fixed, where=where)
+        original = sharp if spec.blend_tolerance > 0 else None
     except PathmotionError as exc:
         raise ScenarioError(str(exc)) from None
     return task, original, where

@@ -388,12 +388,10 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
     """
     from .api import rapid_zone_tolerances
     from .io.atomic import write_text
-    from .io.rapid import read_rapid, scenario_toml
+    from .io.rapid import check_blend_type, read_rapid, scenario_toml
     from .io.scenario import parse_scenario
 
-    if blend not in ("g2", "optimal"):
-        _fail(f"--blend {blend}: give g2 (the zone's symmetric blend) or optimal (the fastest blend within the same "
-              "deviation)")
+    check_blend_type(blend, f"--blend {blend}")  # before reading the program
     prog = read_rapid(program)
     if prog.unsupported and not skip_unsupported:
         listed = "; ".join(f"line {ln}: {text}" for ln, text in prog.unsupported)

@@ -15,6 +15,7 @@ from pathmotion.geometry import Arc, max_deviation
 from pathmotion.io.rapid import (arc_through, effective_zones, parse_rapid, rapid_estimate_s, read_rapid,
                                  segment_speeds, segments)
 from pathmotion.io.scenario import load_scenario
+from pathmotion.study.free_shape import Polyline
 
 DATA = Path(__file__).parent / "data"
 runner = CliRunner()
@@ -200,6 +201,10 @@ def test_import_with_optimal_blends_keeps_each_zones_deviation_and_is_faster(cyc
     assert len(fast.task_path.kinks) == len(slow.task_path.kinks) == 1  # the fine point between the moves down and up
     tolerance = max(b.tolerance for b in g2.path.blends)
     assert max_deviation(fast.task_path, fast.original_task_path).distance <= tolerance * (1 + 1e-9)
+    sharp = fast.original_task_path  # and on a dense projection onto the program's lines, independent of that bound
+    corners = Polyline(np.array([sharp.segments[0].start_point] + [seg.end_point for seg in sharp.segments]))
+    samples = fast.task_path.evaluate(np.linspace(0.0, fast.task_path.length, 20001))[0]
+    assert np.max(corners.distance(samples)) <= tolerance * (1 + 1e-6)
 
 
 def test_import_refuses_an_unknown_blend_type(tmp_path):

@@ -183,9 +183,9 @@ def test_the_periodic_cycle_is_the_bisections_and_the_laps_bound_holds(irb140, m
     assert cyc.profile.x[0] == pytest.approx(cyc.profile.x[-1], rel=1e-12)
     assert cyc.profile.x[0] == pytest.approx(reference, rel=1e-8, abs=slack)
     top = float(min(problem.x_max[0], problem.x_max[-1]))
-    assert min(boundary._lap_bound(problem, top, top)) >= reference - slack
+    assert min(boundary._lap_bound(problem, top)) >= reference - slack
     assert cyc.ratios.within()
-    monkeypatch.setattr(boundary, "_lap_bound", lambda p, a, b: (2.0 * a, 2.0 * b))  # no help: the bisection
+    monkeypatch.setattr(boundary, "_lap_bound", lambda p, top: (2.0 * top, 2.0 * top))  # no help: the bisection
     forced = plan(path, irb140, cfg)
     assert forced.profile.x[0] == pytest.approx(reference, rel=1e-8, abs=slack)
     assert forced.duration == pytest.approx(cyc.duration, rel=1e-8)

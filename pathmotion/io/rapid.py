@@ -69,6 +69,8 @@ _GIMBAL_LOCK = 1e-12  # cos(pitch) below which roll and yaw are one turn (all pu
 _COLLINEAR = 1e-9  # |ab x ac| / (longest side)^2 below which three circle points are a line [-]
 _STRAIGHT = 1e-9  # corner turn angle below which a zone is taken as a straight join [rad]
 _RIGHT_ANGLE_MARGIN = 1e-15  # keeps tan(half turn) finite at a full reversal [rad]
+#: The blends an import can write at each zone: the zone's symmetric G2 blend, or the fastest within its deviation.
+BLEND_TYPES = ("g2", "optimal")
 _ZONE_ROUNDING = 1e-12  # a zone reduced by less than this is not reported as reduced [m]
 
 
@@ -617,15 +619,20 @@ def notes(program: RapidProgram) -> list[str]:
     return out
 
 
+def check_blend_type(blend: str, what: str) -> None:
+    """ScenarioError naming ``what`` unless ``blend`` is one of BLEND_TYPES."""
+    if blend not in BLEND_TYPES:
+        raise ScenarioError(f"{what}: give g2 (the zone's symmetric blend) or optimal (the fastest blend within the "
+                            "same deviation)")
+
+
 def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: str = "irb140",
                   name: str | None = None, blend: str = "g2") -> str:
     """Scenario TOML text of ``program``: a task path of its moves, a blend of type ``blend`` ("g2": the
     symmetric G2 blend, "optimal": the fastest G2 blend within the same deviation) with the given
     ``tolerances`` [m] at each corner (None: no blend, a stop), its tool and load, and the ``[rapid]``
     table (speeds per segment [m/s], zones per corner [m]) for :func:`rapid_estimate_s`."""
-    if blend not in ("g2", "optimal"):
-        raise ScenarioError(f"blend type {blend!r}: give 'g2' (the zone's symmetric blend) or 'optimal' (the fastest "
-                            "blend within the same deviation)")
+    check_blend_type(blend, f"blend type {blend!r}")
     segs = segments(program)
     zones = effective_zones(program)
     if len(tolerances) != len(zones):

@@ -120,14 +120,14 @@ def solve_open(problem: IntervalProblem, start: Boundary, end: Boundary, where: 
     return x, sets
 
 
-def _lap_bound(problem: IntervalProblem, start: float, end: float) -> tuple[float, float]:
+def _lap_bound(problem: IntervalProblem, top: float) -> tuple[float, float]:
     """Upper bounds (B, F) of the fastest cycle's v from the laps: B the largest x_0 from which a lap can end at
-    or below B, F the largest x_{K-1} a lap can reach from a start at or below F, each iterated from the
-    point-wise bound (``start``, ``end``) while it falls by more than PLANNER_SEARCH_TOLERANCE, at most
-    PERIODIC_LAPS times. A cycle's v starts and ends a lap, so v <= B_n and v <= F_n at every step n."""
-    b, f = start, end
+    or below B, F the largest x_{K-1} a lap can reach from a start at or below F, each iterated from ``top`` (a
+    bound of v at both ends) while it falls by more than PLANNER_SEARCH_TOLERANCE, at most PERIODIC_LAPS times.
+    A cycle's v starts and ends a lap, so v <= B_n and v <= F_n at every step n."""
+    b = f = top
     for _ in range(PERIODIC_LAPS):
-        back, ahead = controllable_sets(problem, 0.0, min(b, end)), reachable_sets(problem, 0.0, min(f, start))
+        back, ahead = controllable_sets(problem, 0.0, b), reachable_sets(problem, 0.0, f)
         if back.failed_at >= 0 or ahead.failed_at >= 0:  # no bound from a failed sweep: keep the last ones
             break
         nb, nf = float(back.hi[0]), float(ahead.hi[-1])
@@ -163,7 +163,7 @@ def solve_periodic(problem: IntervalProblem, where: str = "") -> tuple[np.ndarra
                               f"theta = {problem.grid[0]:.6g} from rest; relax the limits")
     top = sets_for(hi)
     if top is None:  # the laps' bound, usually the answer (PERIODIC_LAPS)
-        hi = min(hi, *_lap_bound(problem, hi, hi))
+        hi = min(hi, *_lap_bound(problem, hi))
         top = sets_for(hi) if hi > lo else None
     if top is not None:
         lo, best = hi, top
