@@ -602,6 +602,106 @@ def test_optimal_blends_on_a_3d_polyline_keep_the_bound_and_beat_the_symmetric_g
     assert np.max(Polyline(points).distance(samples)) <= tol * (1 + 1e-6)
 
 
+ZIGZAG = np.array([(0.40, -0.15, 0.45), (0.52, -0.10, 0.45), (0.45, 0.0, 0.50), (0.55, 0.08, 0.47), (0.47, 0.16, 0.45)])
+# a closed square that starts in the middle of a side (its closure is smooth, every corner an interior connection)
+SQUARE = np.array([(0.525, -0.1, 0.5), (0.6, -0.1, 0.5), (0.6, 0.1, 0.5), (0.45, 0.1, 0.5), (0.45, -0.1, 0.5),
+                   (0.525, -0.1, 0.5)])
+
+
+def _polyline(points) -> TaskPath:
+    return TaskPath(tuple(Line(a, b) for a, b in zip(points[:-1], points[1:])), FixedOrientation())
+
+
+@pytest.mark.parametrize("points, corner, plan_ends", [(ZIGZAG, 1, dict(start="zero", end="zero")),
+                                                      (ZIGZAG, 0, dict(start="max", end="zero")),
+                                                      (SQUARE, 3, dict(periodic=True))],
+                         ids=["interior corner", "first corner at speed", "cycle, across the closure"])
+def test_a_corners_window_ranks_its_shapes_as_the_whole_path_does(points, corner, plan_ends):
+    """The window (the corner's two segments, entered and left at the whole plan's speeds) against the whole path,
+    both on the adaptive full grid: each of ten shapes of the corner changes the duration by the same amount
+    on both, to a few per cent of the change, so the window ranks them as the whole path does."""
+    from pathmotion.planning.blend_search import _corner_window, _Objective
+
+    path, tol = _polyline(points), 0.004
+    full = PlanSettings(velocity=True, acceleration=True, torque=False, verify=False, baselines=False, **plan_ends)
+    chosen = [c.index for c in path.connections]
+    shapes = {k: g2_shape_for_tolerance(path, k, tol, 0.5, 0.7, 0.7, shared=(k - 1 in chosen, k + 1 in chosen))
+              for k in chosen}
+    window = _corner_window(_robot(), path, shapes, corner, tol, full, None, (False, False))
+    assert window is not None and not window.settings.periodic
+    # the square's last corner reaches over the smooth closure to the first corner: segments 3, 4 and 0
+    assert window.path.segments == ((path.segments[3], path.segments[4], path.segments[0]) if plan_ends.get("periodic")
+                                    else path.segments[corner:corner + 2])
+    rng = np.random.default_rng(7)
+    sizing = _Objective(_robot(), path, shapes, corner, tol, full, None)
+    whole, windowed = [], []
+    for _ in range(40):
+        if len(whole) == 10:
+            break
+        x = np.array([rng.uniform(0.3, 0.7), rng.uniform(0.4, 1.0), rng.uniform(0.4, 1.0), rng.uniform(0.0, 0.9),
+                      rng.uniform(0.0, 0.9), rng.uniform(0.5, 1.5), rng.uniform(0.5, 1.5)])
+        try:
+            shape = sizing.shape(x)
+        except PathError:  # offset pieces too long for the segments
+            continue
+        whole.append(duration_with(_robot(), path, {**shapes, corner: shape}, full))
+        windowed.append(duration_with(_robot(), window.path, {window.corner: shape}, window.settings,
+                                      window.q_start))
+    base = (duration_with(_robot(), path, shapes, full),
+            duration_with(_robot(), window.path, {window.corner: shapes[corner]}, window.settings, window.q_start))
+    d_whole, d_window = np.array(whole) - base[0], np.array(windowed) - base[1]
+    assert np.all(np.isfinite(d_whole)) and len(d_whole) == 10
+    big = np.abs(d_whole) > 2e-3
+    assert big.sum() >= 4
+    assert np.all(np.sign(d_window[big]) == np.sign(d_whole[big]))
+    assert np.all(np.abs(d_window - d_whole)[big] <= 0.15 * np.abs(d_whole[big])), np.c_[d_whole, d_window]
+
+
+def test_a_window_ends_at_a_stop_where_the_neighbouring_corner_stays_sharp():
+    """Corners 0 and 2 of a four-segment path blended, corner 1 left sharp (the motion stops there): corner 0's
+    window ends at speed 0 and corner 2's starts at 0, from a configuration at corner 1's vertex; the window of the
+    path's first corner starts as the path does. Paths of two segments, or with orientation keys, have no windows."""
+    from pathmotion.geometry.orientation import SlerpOrientation
+    from pathmotion.planning.blend_search import _connection_states, _corner_window, _windows_apply
+    from pathmotion.robot.kinematics import fk
+
+    path, tol = _polyline(ZIGZAG), 0.003
+    plan_settings = PlanSettings(start="max", end="zero", velocity=True, acceleration=True, torque=False,
+                                 grid_points=400, verify=False, baselines=False)
+    shapes = {k: g2_shape_for_tolerance(path, k, tol, 0.5, 0.7, 0.7) for k in (0, 2)}
+    speeds, configs = _connection_states(_robot(), path, shapes, plan_settings, None)
+    assert speeds[1] == 0.0 and speeds[0] > 0.05 and speeds[2] > 0.05
+    first = _corner_window(_robot(), path, shapes, 0, tol, plan_settings, None, (False, False))
+    third = _corner_window(_robot(), path, shapes, 2, tol, plan_settings, None, (False, False))
+    assert (first.settings.start, first.settings.end) == ("max", 0.0) and first.q_start is None
+    assert (third.settings.start, third.settings.end) == (0.0, "zero")  # the path's last corner: its end
+    assert third.path.segments == path.segments[2:4]
+    np.testing.assert_allclose(fk(_robot(), third.q_start)[0], ZIGZAG[2], atol=2e-3)  # the grid point nearest it
+    assert _windows_apply(path) and not _windows_apply(_turn(90))
+    keyed = TaskPath(path.segments, SlerpOrientation((0.0, path.length), np.stack([np.eye(3), np.eye(3)])))
+    assert not _windows_apply(keyed)
+
+
+def test_windowed_search_keeps_the_guarantees_on_many_corners(caplog):
+    """Five corners of a zigzag, each searched and polished on its window: the result, planned on the whole path,
+    is never slower than the symmetric G2 blends, within the tolerance on a dense check, and reports the whole
+    path's duration."""
+    points = np.array([(0.40, -0.20, 0.45), (0.50, -0.14, 0.45), (0.42, -0.08, 0.45), (0.52, -0.02, 0.45),
+                       (0.44, 0.04, 0.45), (0.54, 0.10, 0.45), (0.46, 0.16, 0.45)])
+    path, tol = _polyline(points), 0.002
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=10,
+              rise_plans=10, end_plans=8, joint_plans=10, wide_plans=10, wide_normal_plans=10, restart_plans=10,
+              polish_plans=8)
+    with caplog.at_level("INFO", logger="pathmotion.planning.blend_search"):
+        best = optimal_blends(_robot(), path, tol, **kw)
+    assert caplog.text.count("polished on its window") == 5
+    assert best.duration <= best.symmetric_duration
+    assert best.duration == pytest.approx(duration_with(_robot(), path, best.shapes, SETTINGS), rel=1e-12)
+    assert all(shape.deviation <= tol * (1 + 1e-9) for shape in best.shapes.values())
+    samples = best.path.evaluate(np.linspace(0.0, best.path.length, 20001))[0]
+    assert np.max(Polyline(points).distance(samples)) <= tol * (1 + 1e-6)
+
+
 def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():
     with pytest.raises(PathError, match="give a tolerance below"):
         optimal_blends(_robot(), _turn(90, 0.05), 0.05, settings=SETTINGS)

@@ -83,6 +83,17 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    84.4 deg / 15.6 mm: the search stopped after the S-curves 0.6344 s, the whole search 0.6364 s). Polishing every
    candidate would restore that ordering for about six times the polish's plans.
 
+On a path of more than two segments with one tool orientation, each corner is searched and polished on its window
+(``windows``): its two segments alone, entered and left at the path speed that a plan of the whole path (with the
+blends chosen so far, on the stage's grid) has at the neighbouring connections (the slowest point of a neighbouring
+blend, 0 at a stop) and from that plan's joint configuration there; where the window ends where the path does, the
+path's own end conditions. Around a corner the time-optimal profile depends on the rest of the path only through those
+speeds, so the window ranks shapes as the whole path does (on the full grid within a few per cent of each change,
+tests/test_geometry_optimal_blend.py), and a plan costs the same however many corners the path has: on the whole
+path every plan grows with the path, so a search cost corners x length. The windows' polished corners are then
+planned together on the whole path and kept only if faster, and every candidate below is planned on the whole path,
+so the guarantees below hold on it.
+
 Offsets and coefficients are searched in units of the tolerance, runs in units of
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
@@ -109,6 +120,7 @@ from .. import defaults
 from ..constraint import lift
 from ..errors import PathmotionError
 from ..geometry import Line, TaskPath
+from ..geometry.orientation import FixedOrientation
 from ..geometry.blends import G2Shape, g2_shape_for_tolerance, with_blends, with_shaped_g2_blends
 from .boundary import at_rest
 from .planner import PlanSettings, plan
@@ -204,13 +216,16 @@ class _Objective:
     fixed), cached."""
 
     def __init__(self, robot, original: TaskPath, shapes: dict, corner: int, tolerance: float,
-                 settings: PlanSettings, q_start, free_ends: tuple[bool, bool] = (False, False)):
+                 settings: PlanSettings, q_start, free_ends: tuple[bool, bool] = (False, False),
+                 shared: tuple[bool, bool] | None = None, label: int | None = None):
         self.robot, self.original, self.shapes, self.corner = robot, original, dict(shapes), corner
         self.free_ends = self.resting = free_ends  # free_ends: narrowed by the free-ends stages to those reached
         self.tolerance, self.settings, self.q_start = tolerance, settings, q_start
         self.run_unit = float(np.sqrt(tolerance * RUN_SCALE_LENGTH))
         chosen = set(shapes)
-        self.shared = (corner - 1 in chosen, corner + 1 in chosen)
+        # shared and label: as on the whole path when ``original`` is a corner's window (_Window)
+        self.shared = (corner - 1 in chosen, corner + 1 in chosen) if shared is None else tuple(shared)
+        self.label = corner if label is None else label
         self.cache: dict[tuple, tuple[float, G2Shape | None]] = {}  # (x, free ends or None): (duration, shape)
         self.plans = 0
 
@@ -276,6 +291,108 @@ def duration_with(robot, original: TaskPath, shapes: dict, settings: PlanSetting
     except PathmotionError as exc:
         log.debug("blend search: shape rejected (%s)", exc)
         return float("inf")
+
+
+@dataclass(frozen=True)
+class _Window:
+    """A corner's window: ``path`` the consecutive segments of the whole path from the connection before the corner
+    where the motion's speed is pinned (a blended or sharp corner: _window) to the one after it, or to the path's
+    ends; the corner is its connection ``corner``. Planned under ``settings``: the path's own end conditions where the
+    window ends where the path does, else the path speeds [m/s] a plan of the whole path has at those connections;
+    lifted from ``q_start``."""
+
+    path: TaskPath
+    corner: int
+    settings: PlanSettings
+    q_start: np.ndarray | None
+
+
+def _connection_states(robot, original: TaskPath, shapes: dict, settings: PlanSettings,
+                       q_start) -> tuple[dict, dict] | None:
+    """({connection index: path speed [m/s]}, {connection index: joint configuration (n,) [rad]}) of a plan of
+    ``original`` with the blends ``shapes`` under ``settings``, at every connection (the closing one too): the
+    slowest grid point within max(entry, exit) of a blended corner's vertex (the blend lies in that ball), else the
+    grid point nearest the connection. None if the path cannot be lifted or planned."""
+    try:
+        blended = with_shaped_g2_blends(original, shapes)
+        joint = lift(robot, blended, q_start, original=original)
+        profile = plan(joint, robot, settings).profile
+    except PathmotionError as exc:
+        log.debug("blend search: no windows (%s)", exc)
+        return None
+    points = blended.evaluate(profile.grid)[0]
+    configs = joint.evaluate(profile.grid)[0]
+    speeds, states = {}, {}
+    for c in original.connections + ((original.closure,) if original.closure is not None else ()):
+        d = np.linalg.norm(points - np.asarray(c.position), axis=1)
+        shape = shapes.get(c.index)
+        near = np.flatnonzero(d <= max(shape.entry, shape.exit)) if shape is not None else np.array([], int)
+        i = int(near[np.argmin(profile.x[near])]) if near.size else int(np.argmin(d))
+        speeds[c.index], states[c.index] = float(np.sqrt(profile.x[i])), configs[i]
+    return speeds, states
+
+
+def _window(original: TaskPath, corner: int, settings: PlanSettings, states: tuple[dict, dict], q_start,
+            blended: Sequence[int]) -> _Window | None:
+    """Connection ``corner``'s window (_Window) from the speeds and configurations ``states`` of
+    :func:`_connection_states`, the connections in ``blended`` blended. It reaches out over smooth and tangent
+    connections to the nearest blended or sharp corner each way (there the speed sits at a dip that the corner's
+    shape hardly moves, or at a stop), else to the path's end (round the closure of a periodic path); None where it
+    would be the whole path."""
+    speeds, configs = states
+    n = len(original.segments)
+    cyclic = settings.periodic and original.closure is not None
+
+    def pinned(j: int) -> bool:  # the connection after segment j (j = n - 1: the closure)
+        c = original.closure if j == n - 1 else original.connections[j]
+        return c.index in blended or c.kind == "corner"
+
+    first, last, count = corner, corner + 1, 2
+    while not (first == 0 and not cyclic) and not pinned((first - 1) % n) and count < n:
+        first, count = (first - 1) % n, count + 1
+    while not (last == n - 1 and not cyclic) and not pinned(last) and count < n:
+        last, count = (last + 1) % n, count + 1
+    if count >= n:
+        return None
+    opens, closes = first == 0 and not cyclic, last == n - 1 and not cyclic
+    path = TaskPath(tuple(original.segments[(first + i) % n] for i in range(count)), original.tool_orientation)
+    windowed = replace_settings(settings, periodic=False, start=settings.start if opens else speeds[(first - 1) % n],
+                                end=settings.end if closes else speeds[last])
+    return _Window(path, (corner - first) % n, windowed, q_start if opens else configs[(first - 1) % n])
+
+
+def _corner_window(robot, original: TaskPath, shapes: dict, corner: int, tolerance: float, settings: PlanSettings,
+                   q_start, ends: tuple[bool, bool], states: tuple[dict, dict] | None = None) -> _Window | None:
+    """``corner``'s window under ``settings``, its ends from ``states`` (default: a plan of the whole path with
+    ``shapes`` under ``settings``); None (search the whole path) where the path or the window with the corner's
+    current shape cannot be planned."""
+    states = states or _connection_states(robot, original, shapes, settings, q_start)
+    window = None if states is None else _window(original, corner, settings, states, q_start, list(shapes))
+    if window is None:
+        return None
+    if not np.isfinite(duration_with(robot, window.path, {window.corner: shapes[corner]}, window.settings,
+                                     window.q_start)):
+        log.info("blend search: corner %d: its window cannot be planned with the blend it starts from; searched on "
+                 "the whole path", corner)
+        return None
+    return window
+
+
+def _windows_apply(original: TaskPath) -> bool:
+    """Whether a corner's search runs on its window: a path of more than two segments with one tool orientation
+    (orientation keys along the path would need remapping into each window)."""
+    return len(original.segments) > 2 and isinstance(original.tool_orientation, FixedOrientation)
+
+
+def _objective(robot, original: TaskPath, shapes: dict, corner: int, tolerance: float, settings: PlanSettings,
+               q_start, ends: tuple[bool, bool], window: _Window | None) -> _Objective:
+    """The search's objective for ``corner``: on the whole path, or on its ``window`` (the blend's sizing, its
+    neighbours' shares included, is the same: the window holds the same two segments around it)."""
+    if window is None:
+        return _Objective(robot, original, shapes, corner, tolerance, settings, q_start, ends)
+    chosen = set(shapes)
+    return _Objective(robot, window.path, {window.corner: shapes[corner]}, window.corner, tolerance, window.settings,
+                      window.q_start, ends, shared=(corner - 1 in chosen, corner + 1 in chosen), label=corner)
 
 
 #: Stand-in for an infeasible candidate's duration [s] in the scalar searches (Brent's parabolic
@@ -417,7 +534,7 @@ def _late_end_stage(objective: _Objective, plans: int, planar: bool) -> bool:
         return False
     objective.free_ends = tuple(f or n for f, n in zip(objective.free_ends, late))
     log.info("blend search: corner %d: the joint stage's blend reaches the path's %s within the tolerance; "
-             "freed there too", objective.corner, " and ".join(e for e, n in zip(("start", "end"), late) if n))
+             "freed there too", objective.label, " and ".join(e for e, n in zip(("start", "end"), late) if n))
     _free_ends(objective, x, late, plans, planar)
     return True
 
@@ -525,9 +642,9 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
         except PathmotionError:
             x[runs] = np.maximum(x[runs] * WIDE_RUN_SHRINK, RUN_RANGE[0])
     else:
-        log.info("blend search: corner %d: no wide start fits", objective.corner)
+        log.info("blend search: corner %d: no wide start fits", objective.label)
         return
-    log.info("blend search: corner %d: the wide start %s frees the path's %s", objective.corner,
+    log.info("blend search: corner %d: the wide start %s frees the path's %s", objective.label,
              "along the normal" if along_normal else "outwards",
              " and ".join(e for e, w in zip(("start", "end"), wide) if w))
     _joint_stage(objective, plans, planar, x)
@@ -547,23 +664,31 @@ def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarra
 
 
 def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: dict, settings: PlanSettings,
-            q_start, plans: int, planar: Sequence[int], quintic: Sequence[int]) -> tuple[float, dict, int]:
+            q_start, plans: int, planar: Sequence[int], quintic: Sequence[int],
+            windowed: bool = False) -> tuple[float, dict, int]:
     """Stage 8: COBYQA (about ``plans`` plans per corner) on the full-grid duration under ``settings`` from the
     coordinates of each corner's chosen shape in ``shapes`` (found in the caches of that corner's searches,
     ``searched`` {corner: [_Objective]}), the other corners fixed; every coordinate the joint stage would move, with
     its steps, and only the quintic's at the corners in ``quintic`` (no racing line searched there), none out of
     the plane at those in ``planar``. The searches ranked shapes on a coarse grid; this is the duration the blend
-    is reported with. Returns (duration [s], shapes, plans run), never slower than given."""
-    shapes, run = dict(shapes), 0
+    is reported with. ``windowed``: each corner on its window (_Window, ends from one plan of the whole path with
+    ``shapes``), the polished corners then planned together on the whole path. Returns (duration [s], shapes, plans
+    run), never slower than given."""
+    given, shapes, run = shapes, dict(shapes), 0
+    states = _connection_states(robot, original, given, settings, q_start) if windowed else None
+    run += states is not None
     for k, objectives in searched.items():
         found = [(o, key) for o in objectives for key, (_, shape) in o.cache.items() if shape == shapes[k]]
         if not found:  # e.g. the symmetric blend of a corner whose search never tried it
             continue
         o, key = found[0]
-        fine = _Objective(robot, original, shapes, k, o.tolerance, settings, q_start, o.resting)
+        window = (_corner_window(robot, original, given, k, o.tolerance, settings, q_start, o.resting, states)
+                  if states is not None else None)
+        run += window is not None
+        fine = _objective(robot, original, shapes, k, o.tolerance, settings, q_start, o.resting, window)
         fine.free_ends = key[1] or o.free_ends
         x = np.array(key[0], float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
-        fine(x)  # the start, planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
+        start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
         flat = k in planar
         idx = [i for i in range(min(len(x), _W_A if k in quintic else _DEPARTURE.start)) if not (flat and i >= _V_A)]
         ends = _end_indices(fine.free_ends, flat) if len(x) >= _ARRIVAL.stop else []
@@ -578,10 +703,21 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
         _trust_region(f, np.clip(x[idx + ends], box[:, 0], box[:, 1]), box, steps, plans)
         best_T, best_shape, _ = fine.best()
         run += fine.plans
-        log.info("blend search: corner %d polished on the full grid: %.6g -> %.6g s in %d plans", k, duration,
-                 best_T, fine.plans)
-        if best_T < duration:
-            duration, shapes[k] = best_T, best_shape
+        if window is None:
+            log.info("blend search: corner %d polished on the full grid: %.6g -> %.6g s in %d plans", k, duration,
+                     best_T, fine.plans)
+            if best_T < duration:
+                duration, shapes[k] = best_T, best_shape
+        else:
+            log.info("blend search: corner %d polished on its window's full grid: %.6g -> %.6g s in %d plans", k,
+                     start_T, best_T, fine.plans)
+            if best_T < start_T:
+                shapes[k] = best_shape
+    if states is not None and shapes != given:  # the windows' gains, together on the whole path
+        together = duration_with(robot, original, shapes, settings, q_start)
+        run += 1
+        log.info("blend search: the polished corners on the whole path: %.6g -> %.6g s", duration, together)
+        return (together, shapes, run) if together < duration else (duration, dict(given), run)
     return duration, shapes, run
 
 
@@ -629,7 +765,7 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
             restart = restart_plans > 0 and joint_plans > 0  # the joint stage once more: not without it
             if restart:
                 _joint_stage(objective, restart_plans, planar, share=RESTART_RADIUS_SHARE)
-                log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.corner,
+                log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.label,
                          ahead, objective.best()[0])
             wide = wide_plans > 0 or wide_normal_plans > 0 or restart
             return ((before if joint_plans > 0 or wide else None), (before_wide if wide else None),
@@ -651,7 +787,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
                    retry_capped: bool = True, polish_plans: int = POLISH_PLANS,
-                   names: Mapping[int, str] | None = None) -> OptimalBlend:
+                   names: Mapping[int, str] | None = None, windows: bool = True) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
@@ -659,7 +795,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
     wide start outwards, ``wide_normal_plans`` 0: none along the normal; ``restart_plans`` 0: no wide restart; ``retry_capped``
-    False: no stage 7; ``polish_plans`` 0: no stage 8). PathError as
+    False: no stage 7; ``polish_plans`` 0: no stage 8; ``windows`` False: every plan on the whole path). PathError as
     :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does
     not fit."""
     settings = settings or PlanSettings()
@@ -674,16 +810,19 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     capped: dict = {}  # a corner searched again (stage 7): the first search's fastest blend
     searches: dict = {}  # every corner's searches, for the polish (stage 8)
     plans, rests = 0, (False, False) if original.closed else _rests(settings)
+    windowed = windows and _windows_apply(original)
     for k in chosen:
         free = racing and _racing_possible(original, k) and k not in joined_ends
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
                   end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans, restart_plans)
-        obj = _Objective(robot, original, shapes, k, tol[k], fast, q_start, ends)
+        window = _corner_window(robot, original, shapes, k, tol[k], fast, q_start, ends) if windowed else None
+        plans += 2 * (window is not None)  # the whole path's plan for its ends, and the window's check
+        obj = _objective(robot, original, shapes, k, tol[k], fast, q_start, ends, window)
         before_joint, before_wide, before_restart = _search_corner(obj, *search)
         searched, reached = [obj], obj.best()[1].deviation
         if retry_capped and reached < CAPPED_SHARE * tol[k]:  # the neighbours capped the blend: stage 7
-            again = _Objective(robot, original, shapes, k, reached, fast, q_start, ends)
+            again = _objective(robot, original, shapes, k, reached, fast, q_start, ends, window)
             before_again = _search_corner(again, *search)  # (before the joint stage, the wide starts, the restart)
             searched.append(again)
             log.info("blend search: corner %d: the fastest blend within %.6g m reached only %.6g m; searched again "
@@ -717,7 +856,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     if polish_plans > 0:
         quintic_only = [k for k in chosen if not (racing and _racing_possible(original, k))]
         polished_T, polished, polish_run = _polish(robot, original, found, T, searches, full, q_start, polish_plans,
-                                                   planar, quintic_only)
+                                                   planar, quintic_only, windowed)
         plans += polish_run
         if polished_T < T:
             T, found, path = polished_T, polished, None
