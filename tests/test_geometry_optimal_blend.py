@@ -657,6 +657,9 @@ def test_a_corners_window_ranks_its_shapes_as_the_whole_path_does(points, corner
     assert np.all(np.abs(d_window - d_whole)[big] <= 0.15 * np.abs(d_whole[big])), np.c_[d_whole, d_window]
 
 
+_LIMITS = dict(velocity=True, acceleration=True, torque=False, grid_points=400, verify=False, baselines=False)
+
+
 def test_a_window_ends_at_a_stop_where_the_neighbouring_corner_stays_sharp():
     """Corners 0 and 2 of a four-segment path blended, corner 1 left sharp (the motion stops there): corner 0's
     window ends at speed 0 and corner 2's starts at 0, from a configuration at corner 1's vertex; the window of the
@@ -666,8 +669,7 @@ def test_a_window_ends_at_a_stop_where_the_neighbouring_corner_stays_sharp():
     from pathmotion.robot.kinematics import fk
 
     path, tol = _polyline(ZIGZAG), 0.003
-    plan_settings = PlanSettings(start="max", end="zero", velocity=True, acceleration=True, torque=False,
-                                 grid_points=400, verify=False, baselines=False)
+    plan_settings = PlanSettings(start="max", end="zero", **_LIMITS)
     shapes = {k: g2_shape_for_tolerance(path, k, tol, 0.5, 0.7, 0.7) for k in (0, 2)}
     speeds, configs = _connection_states(_robot(), path, shapes, plan_settings, None)
     assert speeds[1] == 0.0 and speeds[0] > 0.05 and speeds[2] > 0.05
@@ -677,6 +679,14 @@ def test_a_window_ends_at_a_stop_where_the_neighbouring_corner_stays_sharp():
     assert (third.settings.start, third.settings.end) == (0.0, "zero")  # the path's last corner: its end
     assert third.path.segments == path.segments[2:4]
     np.testing.assert_allclose(fk(_robot(), third.q_start)[0], ZIGZAG[2], atol=2e-3)  # the grid point nearest it
+    # a blend that leaves the path's start (at rest) at an angle spans its whole first segment: the speed at its
+    # corner is still that of the corner's dip, not the start's 0
+    leaving = {0: g2_shape_for_tolerance(path, 0, tol, 0.5, 0.7, 0.7, shared=(False, True), offsets=(0.002, 0.001),
+                                         runs=(0.03, 0.02), departure=(0.001, 0.0, 0.0, 0.0)),
+               1: g2_shape_for_tolerance(path, 1, tol, 0.5, 0.7, 0.7, shared=(True, False))}
+    assert leaving[0].entry == pytest.approx(path.segments[0].length)
+    dips, _ = _connection_states(_robot(), path, leaving, PlanSettings(start="zero", end="zero", **_LIMITS), None)
+    assert dips[0] > 0.05
     assert _windows_apply(path) and not _windows_apply(_turn(90))
     keyed = TaskPath(path.segments, SlerpOrientation((0.0, path.length), np.stack([np.eye(3), np.eye(3)])))
     assert not _windows_apply(keyed)

@@ -311,8 +311,9 @@ def _connection_states(robot, original: TaskPath, shapes: dict, settings: PlanSe
                        q_start) -> tuple[dict, dict] | None:
     """({connection index: path speed [m/s]}, {connection index: joint configuration (n,) [rad]}) of a plan of
     ``original`` with the blends ``shapes`` under ``settings``, at every connection (the closing one too): the
-    slowest grid point within max(entry, exit) of a blended corner's vertex (the blend lies in that ball), else the
-    grid point nearest the connection. None if the path cannot be lifted or planned."""
+    slowest grid point within reach of a blended corner's quintic (_quintic_reach: the dip, not a free end's piece
+    that may run to a path end at rest), else the grid point nearest the connection. None if the path cannot be
+    lifted or planned."""
     try:
         blended = with_shaped_g2_blends(original, shapes)
         joint = lift(robot, blended, q_start, original=original)
@@ -326,10 +327,18 @@ def _connection_states(robot, original: TaskPath, shapes: dict, settings: PlanSe
     for c in original.connections + ((original.closure,) if original.closure is not None else ()):
         d = np.linalg.norm(points - np.asarray(c.position), axis=1)
         shape = shapes.get(c.index)
-        near = np.flatnonzero(d <= max(shape.entry, shape.exit)) if shape is not None else np.array([], int)
+        near = np.flatnonzero(d <= _quintic_reach(shape)) if shape is not None else np.array([], int)
         i = int(near[np.argmin(profile.x[near])]) if near.size else int(np.argmin(d))
         speeds[c.index], states[c.index] = float(np.sqrt(profile.x[i])), configs[i]
     return speeds, states
+
+
+def _quintic_reach(shape: G2Shape) -> float:
+    """Distance [m] from the vertex within which ``shape``'s corner quintic lies: its longer cut (the totals less the
+    offset pieces' runs; a free end's run is its whole segment), plus the deviation for the pieces' offsets."""
+    sides = shape.sides
+    return max(shape.entry - (shape.run_entry if sides[0] else 0.0),
+               shape.exit - (shape.run_exit if sides[1] else 0.0)) + shape.deviation
 
 
 def _window(original: TaskPath, corner: int, settings: PlanSettings, states: tuple[dict, dict], q_start,
