@@ -84,12 +84,13 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    candidate would restore that ordering for about six times the polish's plans.
 
 On a path of more than two segments with one tool orientation, each corner is searched and polished on its window
-(``windows``): its two segments alone, entered and left at the path speed that a plan of the whole path (with the
-blends chosen so far, on the stage's grid) has at the neighbouring connections (the slowest point of a neighbouring
-blend, 0 at a stop) and from that plan's joint configuration there; where the window ends where the path does, the
-path's own end conditions. Around a corner the time-optimal profile depends on the rest of the path only through those
-speeds, so the window ranks shapes as the whole path does (on the full grid within a few per cent of each change,
-tests/test_geometry_optimal_blend.py), and a plan costs the same however many corners the path has: on the whole
+(``windows``): its segments out to the nearest blended or sharp corner each way (over smooth and tangent connections,
+round the closure of a cycle), entered and left at the path speed that a plan of the whole path (with the blends
+chosen so far, on the stage's grid) has at those corners (the slowest point of a blend's corner quintic, 0 at a stop)
+and from that plan's joint configuration there; where the window ends where the path does, the path's own end
+conditions. Around a corner the time-optimal profile depends on the rest of the path mostly through those
+speeds, so the window ranks shapes as the whole path does (on the full grid each change agrees within 15 %, about
+6 % in practice: tests/test_geometry_optimal_blend.py), and a plan costs the same however many corners the path has: on the whole
 path every plan grows with the path, so a search cost corners x length. The windows' polished corners are then
 planned together on the whole path and kept only if faster, and every candidate below is planned on the whole path,
 so the guarantees below hold on it.
@@ -712,14 +713,14 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
         _trust_region(f, np.clip(x[idx + ends], box[:, 0], box[:, 1]), box, steps, plans)
         best_T, best_shape, _ = fine.best()
         run += fine.plans
-        if window is None:
+        if states is None:
             log.info("blend search: corner %d polished on the full grid: %.6g -> %.6g s in %d plans", k, duration,
                      best_T, fine.plans)
             if best_T < duration:
                 duration, shapes[k] = best_T, best_shape
-        else:
-            log.info("blend search: corner %d polished on its window's full grid: %.6g -> %.6g s in %d plans", k,
-                     start_T, best_T, fine.plans)
+        else:  # each corner against its own start (on its window, or on the whole path where it has none)
+            log.info("blend search: corner %d polished on %s full grid: %.6g -> %.6g s in %d plans", k,
+                     "the whole path's" if window is None else "its window's", start_T, best_T, fine.plans)
             if best_T < start_T:
                 shapes[k] = best_shape
     if states is not None and shapes != given:  # the windows' gains, together on the whole path
