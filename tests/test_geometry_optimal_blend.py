@@ -627,7 +627,7 @@ def test_a_corners_window_ranks_its_shapes_as_the_whole_path_does(points, corner
     chosen = [c.index for c in path.connections]
     shapes = {k: g2_shape_for_tolerance(path, k, tol, 0.5, 0.7, 0.7, shared=(k - 1 in chosen, k + 1 in chosen))
               for k in chosen}
-    window = _corner_window(_robot(), path, shapes, corner, tol, full, None, (False, False))
+    window = _corner_window(_robot(), path, shapes, corner, full, None)
     assert window is not None and not window.settings.periodic
     # the square's last corner reaches over the smooth closure to the first corner: segments 3, 4 and 0
     assert window.path.segments == ((path.segments[3], path.segments[4], path.segments[0]) if plan_ends.get("periodic")
@@ -673,8 +673,8 @@ def test_a_window_ends_at_a_stop_where_the_neighbouring_corner_stays_sharp():
     shapes = {k: g2_shape_for_tolerance(path, k, tol, 0.5, 0.7, 0.7) for k in (0, 2)}
     speeds, configs = _connection_states(_robot(), path, shapes, plan_settings, None)
     assert speeds[1] == 0.0 and speeds[0] > 0.05 and speeds[2] > 0.05
-    first = _corner_window(_robot(), path, shapes, 0, tol, plan_settings, None, (False, False))
-    third = _corner_window(_robot(), path, shapes, 2, tol, plan_settings, None, (False, False))
+    first = _corner_window(_robot(), path, shapes, 0, plan_settings, None)
+    third = _corner_window(_robot(), path, shapes, 2, plan_settings, None)
     assert (first.settings.start, first.settings.end) == ("max", 0.0) and first.q_start is None
     assert (third.settings.start, third.settings.end) == (0.0, "zero")  # the path's last corner: its end
     assert third.path.segments == path.segments[2:4]

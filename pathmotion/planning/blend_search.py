@@ -371,8 +371,8 @@ def _window(original: TaskPath, corner: int, settings: PlanSettings, states: tup
     return _Window(path, (corner - first) % n, windowed, q_start if opens else configs[(first - 1) % n])
 
 
-def _corner_window(robot, original: TaskPath, shapes: dict, corner: int, tolerance: float, settings: PlanSettings,
-                   q_start, ends: tuple[bool, bool], states: tuple[dict, dict] | None = None) -> _Window | None:
+def _corner_window(robot, original: TaskPath, shapes: dict, corner: int, settings: PlanSettings, q_start,
+                   states: tuple[dict, dict] | None = None) -> _Window | None:
     """``corner``'s window under ``settings``, its ends from ``states`` (default: a plan of the whole path with
     ``shapes`` under ``settings``); None (search the whole path) where the path or the window with the corner's
     current shape cannot be planned."""
@@ -692,7 +692,7 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
         if not found:  # e.g. the symmetric blend of a corner whose search never tried it
             continue
         o, key = found[0]
-        window = (_corner_window(robot, original, given, k, o.tolerance, settings, q_start, o.resting, states)
+        window = (_corner_window(robot, original, given, k, settings, q_start, states)
                   if states is not None else None)
         run += window is not None
         fine = _objective(robot, original, shapes, k, o.tolerance, settings, q_start, o.resting, window)
@@ -826,7 +826,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
                   end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans, restart_plans)
-        window = _corner_window(robot, original, shapes, k, tol[k], fast, q_start, ends) if windowed else None
+        window = _corner_window(robot, original, shapes, k, fast, q_start) if windowed else None
         plans += 2 * (window is not None)  # the whole path's plan for its ends, and the window's check
         obj = _objective(robot, original, shapes, k, tol[k], fast, q_start, ends, window)
         before_joint, before_wide, before_restart = _search_corner(obj, *search)
