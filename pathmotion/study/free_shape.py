@@ -51,6 +51,12 @@ last change as the error). Each solution is verified on a dense resample of the 
 piecewise-quadratic q(t): joint velocity, acceleration and torque ratios, TCP distance to the sharp
 path, orientation error.
 
+Feasible bound (:func:`feasible_bound`): a mesh imposes the tube only at its points, so between them the TCP may
+leave it (0.13 mm, 1.9 % of a 7 mm tube, at 135 deg on 200 intervals) and every mesh's duration, and their
+extrapolation, may lie below the true minimum time. The finest mesh re-solved in a tube shrunk by its dense excess,
+until its dense resample holds the given tube, is a motion that meets every constraint: its duration is an upper
+bound of the true minimum time. The two bracket it.
+
 Units: SI (m, s, rad). CasADi is imported lazily (``pip install "pathmotion[optimal]"``).
 """
 
@@ -78,6 +84,11 @@ TUBE_POINTS = (0.25, 0.5, 0.75)
 TORQUE_POINTS = (0.0, 0.5, 1.0)
 #: Dense resample of the verification: points per interval.
 VERIFY_POINTS_PER_INTERVAL = 16
+#: The feasible bound: its tube is shrunk by this times the dense excess per solve, at most FEASIBLE_SOLVES solves,
+#: and checked on a resample this many times denser than the verification's.
+FEASIBLE_SHRINK = 1.1
+FEASIBLE_SOLVES = 4
+FEASIBLE_RESAMPLE = 4
 #: IPOPT: convergence tolerance and iteration cap.
 IPOPT_TOL = 1e-9
 IPOPT_MAX_ITER = 1500
@@ -846,6 +857,65 @@ def free_shape_optimum(robot, points, delta: float, spans: Sequence[tuple[float,
                             None if spans is None else tuple(map(tuple, spans)), torque)
 
 
-__all__ = ["FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "WithMultipliers", "check_meshes",
-           "effective_spans", "extrapolate", "free_shape_optimum", "max_torque_ratio", "solve_mesh", "stop_plan",
+@dataclass(frozen=True, eq=False)
+class FeasibleBound:
+    """A motion that meets every constraint of the free-shape problem in continuous time and holds its tube on a dense
+    resample: ``duration`` [s] is an upper bound of the true minimum time. ``radius`` [m]: the shrunk tube it was
+    solved in; ``optimum``: that solve (its finest solution is the motion); ``check``: the motion's verification
+    against the given tube (:func:`verify`, FEASIBLE_RESAMPLE times denser); ``solves``: free-shape solves run for it."""
+
+    duration: float
+    radius: float
+    optimum: FreeShapeOptimum
+    check: dict
+    solves: int
+
+
+def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, float]] | None = None,
+                   meshes: Sequence[int] = MESHES, rotation=None, torque: bool = False,
+                   optimum: FreeShapeOptimum | None = None) -> FeasibleBound:
+    """The upper bound of the minimum time that brackets the reference (module docstring): ``optimum`` (or
+    :func:`free_shape_optimum` with these arguments, from the stop) re-solved on ``meshes`` in the tube of ``delta``
+    [m] shrunk by FEASIBLE_SHRINK times its finest solution's dense excess, until the finest solution holds the tube
+    of ``delta`` (checked FEASIBLE_RESAMPLE times denser than the verification) and its velocities and accelerations
+    the limits (to IPOPT's tolerance), at most FEASIBLE_SOLVES solves. PathmotionError if no solve does, or one does
+    not converge."""
+    from .. import defaults
+
+    line = Polyline(points)
+    R_ref = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
+    phases = tube_phases(line, float(delta), spans)
+    lim = robot.limits
+    radius, solves = float(delta), 0
+    for _ in range(FEASIBLE_SOLVES + 1):
+        if optimum is None:
+            if solves == FEASIBLE_SOLVES:
+                break
+            optimum = free_shape_optimum(robot, points, radius, spans, meshes, rotation, torque=torque)
+            solves += 1
+        finest = optimum.solutions[-1]
+        if not optimum.success:
+            raise PathmotionError(f"free shape: the feasible bound's solve in a tube of {radius * 1e3:.6g} mm did not "
+                                  f"converge ({optimum.status}); give other meshes")
+        check = verify(robot, line, phases, finest.motion, R_ref, lim.velocity, lim.acceleration,
+                       VERIFY_POINTS_PER_INTERVAL * FEASIBLE_RESAMPLE)
+        limits = max(check["max_velocity_ratio"], check["max_acceleration_ratio"],
+                     check["max_torque_ratio"] if torque else 0.0)
+        if check["max_excess_m"] <= 0.0 and limits <= 1.0 + 1e-6:
+            return FeasibleBound(finest.duration, radius, optimum, check, solves)
+        if limits > 1.0 + 1e-6:
+            raise PathmotionError(f"free shape: the solution in a tube of {radius * 1e3:.6g} mm exceeds a limit "
+                                  f"{limits:.6g} times on the dense resample; a tube cannot fix that")
+        radius -= FEASIBLE_SHRINK * check["max_excess_m"]
+        if radius <= 0.0:
+            break
+        log.info("free shape: the finest mesh leaves the tube by %.3g mm between its points; re-solved within %.6g mm",
+                 check["max_excess_m"] * 1e3, radius * 1e3)
+        optimum = None
+    raise PathmotionError(f"free shape: no solve within {FEASIBLE_SOLVES} held the tube of {delta * 1e3:.6g} mm on the "
+                          "dense resample; give finer meshes")
+
+
+__all__ = ["FeasibleBound", "FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "WithMultipliers", "check_meshes",
+           "effective_spans", "extrapolate", "feasible_bound", "free_shape_optimum", "max_torque_ratio", "solve_mesh", "stop_plan",
            "tcp_function", "tube_phases", "verify"]
