@@ -10,6 +10,7 @@ grid, rest to rest, velocity and acceleration limits (the atlas' settings).
     python benchmarks/replan_optimum.py 120 0.01 --meshes 25,50,100 --grid 2000
     python benchmarks/replan_optimum.py 120 0.01 --rise-plans 0     # the blend search kept in the plane
     python benchmarks/replan_optimum.py 30 0.005 --plan-tolerance 1e-4 --behind   # converged plans; where time is lost
+    python benchmarks/replan_optimum.py 135 0.007 --plan-tolerance 1e-4 --speeds  # speed and curvature at the turn
 
 Reading: "optimum path" within a few 0.01 % of the NLP's finest mesh means planner and NLP agree on
 the same geometry (the gap of the blend is its shape family, not the planner); "in the plane" minus
@@ -38,6 +39,9 @@ def main() -> None:
                     help="plan on the adaptive grid refined to this relative duration error instead of --grid points")
     ap.add_argument("--behind", action="store_true",
                     help="print how far the blend trails the optimum's own path (both planned) every 5 %% of arc")
+    ap.add_argument("--speeds", action="store_true",
+                    help="print both planned paths' speed, curvature and time every 4 mm of arc within 60 mm of the "
+                         "corner (arc from each path's point nearest the sharp corner)")
     ap.add_argument("--rise-plans", type=int, default=None,
                     help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
     a = ap.parse_args()
@@ -104,6 +108,23 @@ def main() -> None:
             t = {k: float(np.interp(share * L, p.grid, p.times)) for k, (p, L) in profiles.items()}
             print(f"    {share:4.2f}: optimum path {t['optimum']:.4f} s, blend {t['blend']:.4f} s, "
                   f"behind {1e3 * (t['blend'] - t['optimum']):+6.2f} ms")
+    if a.speeds:
+        print("  speed [m/s], curvature [1/m] and time [s] within 60 mm of each path's point nearest the corner:")
+        near = {}
+        for name, path in (("optimum", optimum_path), ("blend", best.path)):
+            theta = np.linspace(0.0, path.domain[1], 20001)
+            p, _, ddp = path.pose(theta)[:3]
+            apex = theta[int(np.argmin(np.linalg.norm(p - pts[1], axis=1)))]
+            near[name] = (theta, theta - apex, np.linalg.norm(ddp, axis=1))
+        for d in np.arange(-0.06, 0.06 + 1e-9, 0.004):
+            cells = []
+            for name in ("optimum", "blend"):
+                profile, _ = profiles[name]
+                theta, rel, curvature = near[name]
+                i = int(np.argmin(np.abs(rel - d)))
+                cells.append(f"{name} {np.sqrt(profile.x_at(theta[i])):.3f} m/s, {curvature[i]:6.1f} 1/m, "
+                             f"{np.interp(theta[i], profile.grid, profile.times):.4f} s")
+            print(f"    {d * 1e3:+4.0f} mm: " + "   ".join(cells))
     if a.profile:
         for name, path in (("optimum", optimum_path), ("optimal blend", best.path)):
             print(f"  {name}'s path every 10 mm of arc (from the corner's arc position on the sharp path):")

@@ -84,8 +84,11 @@ TUBE_POINTS = (0.25, 0.5, 0.75)
 TORQUE_POINTS = (0.0, 0.5, 1.0)
 #: Dense resample of the verification: points per interval.
 VERIFY_POINTS_PER_INTERVAL = 16
-#: The feasible bound: its tube is shrunk by this times the dense excess per solve, at most FEASIBLE_SOLVES solves,
-#: and checked on a resample this many times denser than the verification's.
+#: The feasible bound: its tube is shrunk by this times the dense excess on the first retry, twice that factor on each
+#: next one (the excess need not scale with the radius: at 30 deg / 5 mm the TCP passes outside the corner's vertex
+#: between the last point of one segment's phase and the first of the next, 0.147, 0.011, 0.0026 mm at shrinks of
+#: 1.1 times each), at most FEASIBLE_SOLVES solves, checked on a resample this many times denser than the
+#: verification's.
 FEASIBLE_SHRINK = 1.1
 FEASIBLE_SOLVES = 4
 FEASIBLE_RESAMPLE = 4
@@ -876,7 +879,7 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
                    optimum: FreeShapeOptimum | None = None) -> FeasibleBound:
     """The upper bound of the minimum time that brackets the reference (module docstring): ``optimum`` (or
     :func:`free_shape_optimum` with these arguments, from the stop) re-solved on ``meshes`` in the tube of ``delta``
-    [m] shrunk by FEASIBLE_SHRINK times its finest solution's dense excess, until the finest solution holds the tube
+    [m] shrunk by its finest solution's dense excess times FEASIBLE_SHRINK (doubled per retry), until the finest solution holds the tube
     of ``delta`` (checked FEASIBLE_RESAMPLE times denser than the verification) and its velocities and accelerations
     the limits (to IPOPT's tolerance), at most FEASIBLE_SOLVES solves. PathmotionError if no solve does, or one does
     not converge."""
@@ -887,7 +890,7 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
     phases = tube_phases(line, float(delta), spans)
     lim = robot.limits
     radius, solves = float(delta), 0
-    for _ in range(FEASIBLE_SOLVES + 1):
+    for attempt in range(FEASIBLE_SOLVES + 1):
         if optimum is None:
             if solves == FEASIBLE_SOLVES:
                 break
@@ -906,7 +909,7 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
         if limits > 1.0 + 1e-6:
             raise PathmotionError(f"free shape: the solution in a tube of {radius * 1e3:.6g} mm exceeds a limit "
                                   f"{limits:.6g} times on the dense resample; a tube cannot fix that")
-        radius -= FEASIBLE_SHRINK * check["max_excess_m"]
+        radius -= FEASIBLE_SHRINK * 2.0 ** attempt * check["max_excess_m"]
         if radius <= 0.0:
             break
         log.info("free shape: the finest mesh leaves the tube by %.3g mm between its points; re-solved within %.6g mm",
