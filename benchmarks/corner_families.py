@@ -54,8 +54,8 @@ def main() -> None:
           f"full {bs.duration_with(robot, task, {0: shape}, full):.5f} s ({obj.plans} plans, "
           f"{time.process_time() - t0:.0f} s CPU)", flush=True)
     for pair in filter(None, a.tilts.split(",")):
-        tilt(bs, robot, task, coarse, full, a.tolerance, bs._extended(x), tuple(float(v) for v in pair.split("/")),
-             a.plans)
+        angles = tuple(float(v) for v in pair.split("/"))
+        tilt(bs, robot, task, coarse, full, a.tolerance, bs._extended(x), angles, a.plans)
     for u in filter(None, a.splits.split(",")):
         split(bs, robot, task, coarse, full, a.tolerance, shape, float(u), a.plans, a.radius)
 
@@ -82,9 +82,9 @@ def tilt(bs, robot, task, coarse, full, tol, x, angles, plans) -> None:
     first = obj(x)
     bs._joint_stage(obj, plans, False, x)
     T, shape, _ = obj.best()
+    cpu = time.process_time() - t0
     print(f"  tilt {angles[0]:+g}/{angles[1]:+g} deg: start {first:.5f}, coarse {T:.5f} s, full "
-          f"{bs.duration_with(robot, task, {0: shape}, full):.5f} s ({obj.plans} plans, {time.process_time() - t0:.0f} s "
-          f"CPU); rises {shape.rise_entry[0] * 1e3:+.2f} / {shape.rise_exit[0] * 1e3:+.2f} mm, offsets "
+          f"{bs.duration_with(robot, task, {0: shape}, full):.5f} s ({obj.plans} plans, {cpu:.0f} s CPU); rises {shape.rise_entry[0] * 1e3:+.2f} / {shape.rise_exit[0] * 1e3:+.2f} mm, offsets "
           f"{shape.offset_entry * 1e3:.2f} / {shape.offset_exit * 1e3:.2f} mm", flush=True)
 
 
@@ -177,8 +177,8 @@ def split(bs, robot, task, coarse, full, tol, shape, u, plans, radius) -> None:
              constraints=[{"type": "ineq", "fun": lambda y: (tol - min(deviation(y), 1.0)) / tol}],
              options={"maxfev": plans, "scale": True, "initial_tr_radius": radius, "final_tr_radius": 1e-4})
     full_T = duration(fastest[1], full) if fastest[1] is not None else float("nan")
-    print(f"  split at u = {u:g}: unchanged {unchanged:.5f} s (full); COBYQA coarse {fastest[0]:.5f} s, full {full_T:.5f} s "
-          f"({count[0]} plans, {time.process_time() - t0:.0f} s CPU)", flush=True)
+    print(f"  split at u = {u:g}: unchanged {unchanged:.5f} s (full); COBYQA coarse {fastest[0]:.5f} s, "
+          f"full {full_T:.5f} s ({count[0]} plans, {time.process_time() - t0:.0f} s CPU)", flush=True)
 
 
 if __name__ == "__main__":

@@ -865,7 +865,8 @@ class FeasibleBound:
     """A motion that meets every constraint of the free-shape problem in continuous time and holds its tube on a dense
     resample: ``duration`` [s] is an upper bound of the true minimum time. ``radius`` [m]: the shrunk tube it was
     solved in; ``optimum``: that solve (its finest solution is the motion); ``check``: the motion's verification
-    against the given tube (:func:`verify`, FEASIBLE_RESAMPLE times denser); ``solves``: free-shape solves run for it."""
+    against the given tube (:func:`verify`, FEASIBLE_RESAMPLE times denser); ``solves``: free-shape solves run for
+    it."""
 
     duration: float
     radius: float
@@ -879,10 +880,11 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
                    optimum: FreeShapeOptimum | None = None) -> FeasibleBound:
     """The upper bound of the minimum time that brackets the reference (module docstring): ``optimum`` (or
     :func:`free_shape_optimum` with these arguments, from the stop) re-solved on ``meshes`` in the tube of ``delta``
-    [m] shrunk by its finest solution's dense excess times FEASIBLE_SHRINK (doubled per retry), until the finest solution holds the tube
-    of ``delta`` (checked FEASIBLE_RESAMPLE times denser than the verification) and its velocities and accelerations
-    the limits (to IPOPT's tolerance), at most FEASIBLE_SOLVES solves. PathmotionError if no solve does, or one does
-    not converge."""
+    [m] shrunk by its finest solution's dense excess times FEASIBLE_SHRINK (doubled per retry), until the finest
+    solution holds the tube of ``delta`` (checked FEASIBLE_RESAMPLE times denser than the verification) and the
+    velocity and acceleration limits (and the torque limits with ``torque``) to 1e-6, at most FEASIBLE_SOLVES solves.
+    The tool orientation is imposed at the nodes and midpoints, as in the reference; its largest error is in
+    ``check``. PathmotionError if no solve holds the tube, one does not converge, or one exceeds a limit."""
     from .. import defaults
 
     line = Polyline(points)
@@ -919,6 +921,6 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
                           "dense resample; give finer meshes")
 
 
-__all__ = ["FeasibleBound", "FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "WithMultipliers", "check_meshes",
-           "effective_spans", "extrapolate", "feasible_bound", "free_shape_optimum", "max_torque_ratio", "solve_mesh", "stop_plan",
-           "tcp_function", "tube_phases", "verify"]
+__all__ = ["FeasibleBound", "FreeShapeOptimum", "FreeShapeSolution", "Phase", "Polyline", "WithMultipliers",
+           "check_meshes", "effective_spans", "extrapolate", "feasible_bound", "free_shape_optimum", "max_torque_ratio",
+           "solve_mesh", "stop_plan", "tcp_function", "tube_phases", "verify"]
