@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("casadi", reason='the free-shape reference needs CasADi: pip install "pathmotion[optimal]"')
 
-from pathmotion.errors import PathError  # noqa: E402
+from pathmotion.errors import PathError, PathmotionError  # noqa: E402
 from pathmotion.planning import PlanSettings, plan  # noqa: E402
 from pathmotion.robot import fk, load_robot  # noqa: E402
 from pathmotion.study import free_shape as fs  # noqa: E402
@@ -298,11 +298,18 @@ def test_a_start_with_its_own_multipliers_reconverges_at_once(robot):
     assert cold.iterations > sol.iterations, (cold.iterations, sol.iterations)
 
 
+def _stretch_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance [m] of the point p from the straight stretch from a to b."""
+    u = float(np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0))
+    return float(np.linalg.norm(p - a - u * (b - a)))
+
+
 def test_feasible_bound_holds_the_tube_between_the_points_and_brackets_the_reference(robot):
     """At 25 intervals the TCP leaves a 1 mm tube between the points where the tube is imposed. The feasible bound
     re-solves in a shrunk tube until it does not: checked here at 2000 random times with Pinocchio's own forward
-    kinematics and an exact distance to the two segments (not the module's verify), its duration at or above the
-    reference on the same mesh (a smaller tube), and at most the planner's time-optimal stop (a motion in every tube)."""
+    kinematics and exact distances to the two segments (not the module's verify), its duration at or above the
+    reference on the same mesh (a smaller tube), and at most the planner's time-optimal stop (a motion in every
+    tube)."""
     import pinocchio as pin
 
     delta = 0.001
@@ -317,14 +324,20 @@ def test_feasible_bound_holds_the_tube_between_the_points_and_brackets_the_refer
     t = np.sort(np.random.default_rng(7).uniform(motion.t[0], motion.t[-1], 2000))
     q, qd = fs._motion_at(motion)(t)
     model, data = robot.model, robot.model.createData()
-    frame = robot.tcp_frame_id
-    worst = 0.0
+    worst = -np.inf
     for qi in q:
         pin.framesForwardKinematics(model, data, qi)
-        p = data.oMf[frame].translation
-        d = min(np.linalg.norm(p - (a + np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0, 1) * (b - a)))
-                for a, b in zip(TURN[:-1], TURN[1:]))
-        worst = max(worst, d)
-    assert worst <= delta * (1 + 1e-9)
+        p = data.oMf[robot.tcp_frame_id].translation
+        worst = max(worst, min(_stretch_distance(p, a, b) for a, b in zip(TURN[:-1], TURN[1:])) - delta)
+    assert worst <= 1e-12
     assert np.max(np.abs(qd) / robot.limits.velocity) <= 1 + 1e-6
     assert np.max(np.abs(motion.u) / robot.limits.acceleration) <= 1 + 1e-6
+
+
+def test_feasible_bound_refuses_a_coarse_mesh_that_leaves_the_line(robot):
+    """The corner-confined tube holds the TCP on the line outside its spans. On 25 intervals the motion leaves the
+    line between its points by 0.1 mm there, which no smaller tube fixes: the error says so at once (one solve, not
+    FEASIBLE_SOLVES) and names the remedy."""
+    opt = fs.free_shape_optimum(robot, TURN, 0.001, [(0.05, 0.1)], meshes=(25,))
+    with pytest.raises(PathmotionError, match="held on the line.*give finer meshes"):
+        fs.feasible_bound(robot, TURN, 0.001, [(0.05, 0.1)], meshes=(25,), optimum=opt)

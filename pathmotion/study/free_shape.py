@@ -92,6 +92,10 @@ VERIFY_POINTS_PER_INTERVAL = 16
 FEASIBLE_SHRINK = 1.1
 FEASIBLE_SOLVES = 4
 FEASIBLE_RESAMPLE = 4
+#: The feasible bound's stretches held on the line (the corner-confined tube outside its spans, radius 0) count as
+#: held within this distance [m]: a piecewise-quadratic q(t) cannot keep the TCP on a line between its points, and
+#: no radius to shrink is left there (60 deg / 5 mm: 3 um off the line after the corner stretches held).
+FEASIBLE_LINE_TOLERANCE = 1e-5
 #: IPOPT: convergence tolerance and iteration cap.
 IPOPT_TOL = 1e-9
 IPOPT_MAX_ITER = 1500
@@ -682,11 +686,16 @@ def max_torque_ratio(robot, motion: Guess, per_interval: int = VERIFY_POINTS_PER
 
 def _excess(phases: Sequence[Phase], line: Polyline, pts: np.ndarray) -> np.ndarray:
     """Distance [m] (N,) of each point (N, 3) outside the union of the phases' capsules (<= 0 inside)."""
-    out = np.full(len(pts), np.inf)
-    for ph in phases:
+    return np.min(_phase_excess(phases, line, pts), axis=0)
+
+
+def _phase_excess(phases: Sequence[Phase], line: Polyline, pts: np.ndarray) -> np.ndarray:
+    """Distance [m] (len(phases), N) of each point (N, 3) outside each phase's capsule (<= 0 inside)."""
+    out = np.empty((len(phases), len(pts)))
+    for i, ph in enumerate(phases):
         P, t = line.points[ph.segment], line.directions[ph.segment]
         s = np.clip((pts - P) @ t, ph.s_lo, ph.s_hi)
-        out = np.minimum(out, np.linalg.norm(pts - P - s[:, None] * t, axis=1) - ph.radius)
+        out[i] = np.linalg.norm(pts - P - s[:, None] * t, axis=1) - ph.radius
     return out
 
 
@@ -865,8 +874,8 @@ class FeasibleBound:
     """A motion that meets every constraint of the free-shape problem in continuous time and holds its tube on a dense
     resample: ``duration`` [s] is an upper bound of the true minimum time. ``radius`` [m]: the shrunk tube it was
     solved in; ``optimum``: that solve (its finest solution is the motion); ``check``: the motion's verification
-    against the given tube (:func:`verify`, FEASIBLE_RESAMPLE times denser); ``solves``: free-shape solves run for
-    it."""
+    against the given tube (:func:`verify`, FEASIBLE_RESAMPLE times denser; ``held_excess_m``: its excess with the
+    on-line stretches FEASIBLE_LINE_TOLERANCE wide, <= 0); ``solves``: free-shape solves run for it."""
 
     duration: float
     radius: float
@@ -882,15 +891,19 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
     :func:`free_shape_optimum` with these arguments, from the stop) re-solved on ``meshes`` in the tube of ``delta``
     [m] shrunk by its finest solution's dense excess times FEASIBLE_SHRINK (doubled per retry), until the finest
     solution holds the tube of ``delta`` (checked FEASIBLE_RESAMPLE times denser than the verification) and the
-    velocity and acceleration limits (and the torque limits with ``torque``) to 1e-6, at most FEASIBLE_SOLVES solves.
+    velocity and acceleration limits (and the torque limits with ``torque``) to 1e-6, at most FEASIBLE_SOLVES solves;
+    the stretches held on the line (the corner-confined tube outside its spans) within FEASIBLE_LINE_TOLERANCE.
     The tool orientation is imposed at the nodes and midpoints, as in the reference; its largest error is in
     ``check``. PathmotionError if no solve holds the tube, one does not converge, or one exceeds a limit."""
     from .. import defaults
+    from ..robot import fk
 
     line = Polyline(points)
     R_ref = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
     phases = tube_phases(line, float(delta), spans)
+    held = [Phase(p.segment, p.s_lo, p.s_hi, max(p.radius, FEASIBLE_LINE_TOLERANCE), p.density) for p in phases]
     lim = robot.limits
+    per_interval = VERIFY_POINTS_PER_INTERVAL * FEASIBLE_RESAMPLE
     radius, solves = float(delta), 0
     for attempt in range(FEASIBLE_SOLVES + 1):
         if optimum is None:
@@ -902,20 +915,30 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
         if not optimum.success:
             raise PathmotionError(f"free shape: the feasible bound's solve in a tube of {radius * 1e3:.6g} mm did not "
                                   f"converge ({optimum.status}); give other meshes")
-        check = verify(robot, line, phases, finest.motion, R_ref, lim.velocity, lim.acceleration,
-                       VERIFY_POINTS_PER_INTERVAL * FEASIBLE_RESAMPLE)
+        check = verify(robot, line, phases, finest.motion, R_ref, lim.velocity, lim.acceleration, per_interval)
+        m = finest.motion
+        tau = np.linspace(0.0, 1.0, per_interval, endpoint=False)
+        t = np.concatenate([m.t[k] + tau * (m.t[k + 1] - m.t[k]) for k in range(len(m.u))] + [m.t[-1:]])
+        per_phase = _phase_excess(held, line, fk(robot, _motion_at(m)(t)[0])[0])
+        worst = int(np.argmax(np.min(per_phase, axis=0)))
+        excess = float(np.min(per_phase[:, worst]))
+        check["held_excess_m"] = excess  # against the tube with its on-line stretches FEASIBLE_LINE_TOLERANCE wide
+        if excess > 0.0 and phases[int(np.argmin(per_phase[:, worst]))].radius == 0.0:
+            raise PathmotionError(f"free shape: the solution leaves a stretch held on the line by {excess * 1e3:.3g} mm "
+                                  f"between its points (more than {FEASIBLE_LINE_TOLERANCE * 1e3:g} mm); a smaller tube "
+                                  "cannot fix that: give finer meshes")
         limits = max(check["max_velocity_ratio"], check["max_acceleration_ratio"],
                      check["max_torque_ratio"] if torque else 0.0)
-        if check["max_excess_m"] <= 0.0 and limits <= 1.0 + 1e-6:
+        if excess <= 0.0 and limits <= 1.0 + 1e-6:
             return FeasibleBound(finest.duration, radius, optimum, check, solves)
         if limits > 1.0 + 1e-6:
             raise PathmotionError(f"free shape: the solution in a tube of {radius * 1e3:.6g} mm exceeds a limit "
                                   f"{limits:.6g} times on the dense resample; a tube cannot fix that")
-        radius -= FEASIBLE_SHRINK * 2.0 ** attempt * check["max_excess_m"]
+        radius -= FEASIBLE_SHRINK * 2.0 ** attempt * excess
         if radius <= 0.0:
             break
         log.info("free shape: the finest mesh leaves the tube by %.3g mm between its points; re-solved within %.6g mm",
-                 check["max_excess_m"] * 1e3, radius * 1e3)
+                 excess * 1e3, radius * 1e3)
         optimum = None
     raise PathmotionError(f"free shape: no solve within {FEASIBLE_SOLVES} held the tube of {delta * 1e3:.6g} mm on the "
                           "dense resample; give finer meshes")
