@@ -339,5 +339,7 @@ def test_feasible_bound_refuses_a_coarse_mesh_that_leaves_the_line(robot):
     line between its points by 0.1 mm there, which no smaller tube fixes: the error says so at once (one solve, not
     FEASIBLE_SOLVES) and names the remedy."""
     opt = fs.free_shape_optimum(robot, TURN, 0.001, [(0.05, 0.1)], meshes=(25,))
-    with pytest.raises(PathmotionError, match="held on the line.*give finer meshes"):
+    with pytest.raises(PathmotionError, match="held on the line.*give finer meshes") as err:
         fs.feasible_bound(robot, TURN, 0.001, [(0.05, 0.1)], meshes=(25,), optimum=opt)
+    off = float(str(err.value).split("on the line by ")[1].split(" mm")[0]) * 1e-3
+    assert off > fs.FEASIBLE_LINE_TOLERANCE  # the distance from the line, not the excess over the tolerance

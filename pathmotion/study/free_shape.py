@@ -924,7 +924,8 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
         excess = float(np.min(per_phase[:, worst]))
         check["held_excess_m"] = excess  # against the tube with its on-line stretches FEASIBLE_LINE_TOLERANCE wide
         if excess > 0.0 and phases[int(np.argmin(per_phase[:, worst]))].radius == 0.0:
-            raise PathmotionError(f"free shape: the solution leaves a stretch held on the line by {excess * 1e3:.3g} mm "
+            off = excess + FEASIBLE_LINE_TOLERANCE  # the distance from the line itself
+            raise PathmotionError(f"free shape: the solution leaves a stretch held on the line by {off * 1e3:.3g} mm "
                                   f"between its points (more than {FEASIBLE_LINE_TOLERANCE * 1e3:g} mm); a smaller tube "
                                   "cannot fix that: give finer meshes")
         limits = max(check["max_velocity_ratio"], check["max_acceleration_ratio"],
