@@ -90,12 +90,11 @@ def tilt(bs, robot, task, coarse, full, tol, x, angles, plans) -> None:
 
 def _state(b: np.ndarray, end: bool) -> tuple:
     """(point, unit tangent, curvature vector, speed |X'|) of the quintic ``b`` (6, 3) at u = 1 if ``end`` else 0."""
-    if end:
-        d1, d2, p = 5 * (b[5] - b[4]), 20 * (b[5] - 2 * b[4] + b[3]), b[5]
-    else:
-        d1, d2, p = 5 * (b[1] - b[0]), 20 * (b[2] - 2 * b[1] + b[0]), b[0]
-    t = d1 / np.linalg.norm(d1)
-    return p, t, (d2 - (d2 @ t) * t) / (d1 @ d1), float(np.linalg.norm(d1))
+    from pathmotion.geometry.segments import BezierSegment
+
+    segment = BezierSegment(b)
+    frame = segment.end_frame if end else segment.start_frame
+    return (*frame, 5.0 * float(np.linalg.norm(b[5] - b[4] if end else b[1] - b[0])))
 
 
 def _halves(b: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:

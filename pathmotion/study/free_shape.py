@@ -648,17 +648,24 @@ def _inner_positions(robot, guess: Guess) -> np.ndarray:
     return np.atleast_2d(fk(robot, q.reshape(-1, q.shape[-1]))[0]).reshape(len(guess.u), len(TUBE_POINTS), 3)
 
 
-def verify(robot, line: Polyline, phases: Sequence[Phase], motion: Guess, rotation, vmax, amax,
-           per_interval: int = VERIFY_POINTS_PER_INTERVAL) -> dict:
-    """Dense check of a motion (see FreeShapeSolution.verification)."""
+def _dense(robot, motion: Guess, per_interval: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(q (N, n), qd (N, n), TCP position (N, 3) [m], rotation (N, 3, 3)) of the motion at ``per_interval`` evenly
+    spaced times per interval and its end."""
     from ..robot import fk
 
-    ratio = max_torque_ratio(robot, motion, per_interval)
     tau = np.linspace(0.0, 1.0, per_interval, endpoint=False)
     t = np.concatenate([motion.t[k] + tau * (motion.t[k + 1] - motion.t[k]) for k in range(len(motion.u))]
                        + [motion.t[-1:]])
     q, qd = _motion_at(motion)(t)
-    pos, rot = fk(robot, q)
+    return (q, qd, *fk(robot, q))
+
+
+def verify(robot, line: Polyline, phases: Sequence[Phase], motion: Guess, rotation, vmax, amax,
+           per_interval: int = VERIFY_POINTS_PER_INTERVAL, dense: tuple | None = None) -> dict:
+    """Dense check of a motion (see FreeShapeSolution.verification); ``dense``: its _dense resample at
+    ``per_interval``, when the caller has it."""
+    ratio = max_torque_ratio(robot, motion, per_interval)
+    q, qd, pos, rot = _dense(robot, motion, per_interval) if dense is None else dense
     dist = line.distance(pos)
     R_ref = np.asarray(rotation, float)
     cosang = np.clip((np.einsum("ij,nij->n", R_ref, rot) - 1.0) / 2.0, -1.0, 1.0)
@@ -668,7 +675,7 @@ def verify(robot, line: Polyline, phases: Sequence[Phase], motion: Guess, rotati
             "max_excess_m": float(np.max(_excess(phases, line, pos))),
             "max_orientation_error_rad": float(np.max(np.arccos(cosang))),
             "max_torque_ratio": ratio,
-            "samples": int(len(t))}
+            "samples": int(len(q))}
 
 
 def max_torque_ratio(robot, motion: Guess, per_interval: int = VERIFY_POINTS_PER_INTERVAL) -> float:
@@ -896,7 +903,6 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
     The tool orientation is imposed at the nodes and midpoints, as in the reference; its largest error is in
     ``check``. PathmotionError if no solve holds the tube, one does not converge, or one exceeds a limit."""
     from .. import defaults
-    from ..robot import fk
 
     line = Polyline(points)
     R_ref = np.array(defaults.TOOL_DOWN_ROTATION) if rotation is None else np.asarray(rotation, float)
@@ -915,11 +921,9 @@ def feasible_bound(robot, points, delta: float, spans: Sequence[tuple[float, flo
         if not optimum.success:
             raise PathmotionError(f"free shape: the feasible bound's solve in a tube of {radius * 1e3:.6g} mm did not "
                                   f"converge ({optimum.status}); give other meshes")
-        check = verify(robot, line, phases, finest.motion, R_ref, lim.velocity, lim.acceleration, per_interval)
-        m = finest.motion
-        tau = np.linspace(0.0, 1.0, per_interval, endpoint=False)
-        t = np.concatenate([m.t[k] + tau * (m.t[k + 1] - m.t[k]) for k in range(len(m.u))] + [m.t[-1:]])
-        per_phase = _phase_excess(held, line, fk(robot, _motion_at(m)(t)[0])[0])
+        dense = _dense(robot, finest.motion, per_interval)
+        check = verify(robot, line, phases, finest.motion, R_ref, lim.velocity, lim.acceleration, per_interval, dense)
+        per_phase = _phase_excess(held, line, dense[2])
         worst = int(np.argmax(np.min(per_phase, axis=0)))
         excess = float(np.min(per_phase[:, worst]))
         check["held_excess_m"] = excess  # against the tube with its on-line stretches FEASIBLE_LINE_TOLERANCE wide
