@@ -707,16 +707,26 @@ def main():
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
     sys.unraisablehook = _unraisable
+    code = None
     try:
-        app(prog_name="pathmotion")
-    except KeyboardInterrupt:  # outside a command (argument parsing, start-up): nothing was written yet
-        err_console.print("[yellow]interrupted[/]")
-        raise SystemExit(130) from None
-    finally:
-        # the run is over (files complete, or the temporary ones removed): a late Ctrl-C or SIGTERM during
-        # interpreter shutdown (numba's and llvmlite's exit handlers) must not print a traceback
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        try:
+            app(prog_name="pathmotion")
+        except SystemExit as exc:
+            code = exc.code
+            raise
+        except KeyboardInterrupt:  # outside a command (argument parsing, start-up): nothing was written yet
+            code = 130
+            err_console.print("[yellow]interrupted[/]")
+            raise SystemExit(130) from None
+        finally:
+            # the run is over (files complete, or the temporary ones removed): a late Ctrl-C or SIGTERM during
+            # interpreter shutdown (numba's and llvmlite's exit handlers) must not print a traceback
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    except KeyboardInterrupt:
+        # a signal that landed after the run had ended and before the handlers above were reset (it raised in this
+        # finally: a traceback through typer's exit, seen in CI under load): the run's own exit code stands
+        raise SystemExit(130 if code is None else code) from None
 
 
 if __name__ == "__main__":

@@ -429,3 +429,39 @@ def test_an_interrupt_inside_numbas_compiler_is_delivered_after_it_returns():
             cli._interrupt(signal.SIGTERM, sys._getframe())
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.parametrize("run_code", [0, 2])
+def test_an_interrupt_after_the_run_ended_keeps_its_exit_code_and_prints_no_traceback(monkeypatch, run_code):
+    """A signal landing after the command returned, before main() resets the handlers, raised KeyboardInterrupt
+    in main's ``finally`` and printed a traceback through typer's exit (seen in CI under load, as a test's SIGINT
+    arrived at the end of a plan). Simulated: the run exits with ``run_code`` and the first handler reset raises
+    as the pending signal would; main() exits with the run's own code and no exception escapes."""
+    import signal
+
+    from pathmotion import cli
+
+    def run(**_):
+        raise SystemExit(run_code)
+
+    real = signal.signal
+    landed = []
+
+    def reset(signum, handler):
+        if handler is signal.SIG_IGN and not landed:
+            landed.append(signum)
+            raise KeyboardInterrupt("signal 2")
+        return real(signum, handler)
+
+    previous = (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM), sys.unraisablehook)
+    monkeypatch.setattr(cli, "app", run)
+    monkeypatch.setattr(signal, "signal", reset)
+    try:
+        with pytest.raises(SystemExit) as exc:
+            cli.main()
+    finally:
+        real(signal.SIGINT, previous[0])
+        real(signal.SIGTERM, previous[1])
+        sys.unraisablehook = previous[2]
+    assert landed and exc.value.code == run_code
+    assert exc.value.__suppress_context__
