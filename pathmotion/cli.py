@@ -25,7 +25,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from . import defaults
-from .errors import PathmotionError, ScenarioError
+from .errors import PathmotionError, ScenarioError, printable
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="rich",
                   help="Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation.")
@@ -64,17 +64,11 @@ def _configure_logging(verbose: int) -> None:
 def _fail(message: str, code: int = 1):
     """Print ``message`` (its first line after 'error:', any further lines, e.g. more validation
     errors, indented below) and exit with ``code``."""
-    lines = [_printable(line) for line in (message.strip() or "error").split("\n")]
+    lines = [printable(line) for line in (message.strip() or "error").split("\n")]
     err_console.print(f"[bold red]error:[/] {escape(lines[0])}", highlight=False, soft_wrap=True)
     for line in lines[1:]:
         err_console.print(f"  {escape(line)}", highlight=False, soft_wrap=True)
     raise typer.Exit(code)
-
-
-def _printable(line: str) -> str:
-    """``line`` with every non-printable character (a user's control bytes, \\x1e, \\u2028, ...: a terminal
-    or ``splitlines`` would break the line there) written as its Python escape."""
-    return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in line)
 
 
 def guarded(fn):

@@ -55,6 +55,12 @@ class OutputError(PathmotionError):
     """An output folder or file cannot be written: not a folder, read-only, disk full, locked by another run."""
 
 
+def printable(text) -> str:
+    """``text`` (str() of it) with every non-printable character (a newline in a file name, a user's control bytes,
+    \\x1e, \\u2028: a terminal or ``splitlines`` would break the line there) written as its Python escape."""
+    return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in str(text))
+
+
 def check_finite(name: str, value, where: str = "") -> None:
     """Raise a PathmotionError naming ``name`` (and ``where``) if ``value`` holds NaN or inf."""
     import numpy as np

@@ -12,7 +12,7 @@ import tomllib
 import pytest
 from pathlib import Path
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
@@ -167,6 +167,7 @@ CLI_VALUE_TEXT = st.sampled_from(["0", "-1", "1e-9", "1e300", "nan", "inf", "tru
 @settings(max_examples=CLI_VALUES, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                           HealthCheck.function_scoped_fixture])
 @given(command=st.sampled_from(["check", "plan"]), key=st.sampled_from(LEAVES["joint"]), value=CLI_VALUE_TEXT)
+@example(command="check", key="robot.limits", value="0\n0")  # a file name with a newline: two lines before
 def test_command_line_with_arbitrary_set_values_exits_0_or_1_with_one_line(command, key, value, tmp_path):
     scenario = tmp_path / "joint.toml"
     scenario.write_text(JOINT.replace("grid_points = 60", "grid_points = 30"))
@@ -193,3 +194,17 @@ def test_error_with_a_line_breaking_character_in_the_users_value_stays_one_line(
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: "), res.output
     assert repr(char)[1:-1] in lines[0]
+
+
+@pytest.mark.parametrize("name", ["0\n0", "a\rb", "x\u2028y"])
+def test_a_file_name_with_a_line_break_is_named_on_one_line(tmp_path, name):
+    """Hypothesis found `--set robot.limits="0\\n0"`: the missing file's name broke the error into two lines. Names
+    in error messages are written with such characters escaped."""
+    from typer.testing import CliRunner
+
+    from pathmotion.cli import app
+
+    res = CliRunner().invoke(app, ["check", str(tmp_path / name)])
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert res.exit_code == 1 and len(lines) == 1 and lines[0].startswith("error: "), res.output
+    assert repr(name)[1:-1] in lines[0]

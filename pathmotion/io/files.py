@@ -18,7 +18,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from .. import defaults
-from ..errors import OutputError, PathmotionError, RobotModelError, ScenarioError
+from ..errors import OutputError, PathmotionError, RobotModelError, ScenarioError, printable
 
 #: kind -> (what it is called in messages, name of its byte cap in defaults, error class)
 KINDS = {
@@ -67,7 +67,7 @@ def _check_name(path: str, what: str, error: type) -> None:
         raise error(f"{what} {path!r} contains a NUL byte; give a plain file name")
     if len(os.fsencode(path)) > defaults.MAX_PATH_BYTES or any(
             len(os.fsencode(part)) > defaults.MAX_NAME_BYTES for part in Path(path).parts):
-        raise error(f"{what} {path[:60]}... is too long (more than {defaults.MAX_NAME_BYTES} bytes per name or "
+        raise error(f"{what} {printable(path[:60])}... is too long (more than {defaults.MAX_NAME_BYTES} bytes per name or "
                     f"{defaults.MAX_PATH_BYTES} in all); give a shorter path")
 
 
@@ -78,20 +78,21 @@ def read_input_bytes(path: str | Path, kind: str) -> bytes:
     cap = getattr(defaults, cap_name)
     name = os.fspath(path)
     _check_name(name, what, error)
+    shown = printable(name)
     if _is_pseudo(Path(name)):
-        raise error(f"{what} {name} is in /proc, /sys or /dev, not a regular file; give a file")
+        raise error(f"{what} {shown} is in /proc, /sys or /dev, not a regular file; give a file")
     try:  # O_NONBLOCK: opening a FIFO with no writer must not hang; O_NOCTTY: a tty never becomes ours
         fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY | getattr(os, "O_CLOEXEC", 0))
     except OSError as exc:
         if exc.errno == errno.ENOENT:
-            raise error(f"{what} {name} does not exist") from None
-        raise error(f"{what} {name} cannot be read: {os_reason(exc)}") from None
+            raise error(f"{what} {shown} does not exist") from None
+        raise error(f"{what} {shown} cannot be read: {os_reason(exc)}") from None
     try:
         mode = os.fstat(fd).st_mode
         if stat.S_ISDIR(mode):
-            raise error(f"{what} {name} is a folder; give a file")
+            raise error(f"{what} {shown} is a folder; give a file")
         if not stat.S_ISREG(mode):
-            raise error(f"{what} {name} is not a regular file (a FIFO, device or socket); give a file")
+            raise error(f"{what} {shown} is not a regular file (a FIFO, device or socket); give a file")
         chunks, total = [], 0
         while total <= cap:
             chunk = os.read(fd, min(1 << 20, cap + 1 - total))
@@ -100,10 +101,10 @@ def read_input_bytes(path: str | Path, kind: str) -> bytes:
             chunks.append(chunk)
             total += len(chunk)
         if total > cap:
-            raise error(f"{what} {name} is larger than {cap:,} bytes (defaults.{cap_name}); give a smaller file")
+            raise error(f"{what} {shown} is larger than {cap:,} bytes (defaults.{cap_name}); give a smaller file")
         return b"".join(chunks)
     except OSError as exc:
-        raise error(f"{what} {name} cannot be read: {os_reason(exc)}") from None
+        raise error(f"{what} {shown} cannot be read: {os_reason(exc)}") from None
     finally:
         os.close(fd)
 
@@ -115,7 +116,7 @@ def read_input(path: str | Path, kind: str) -> str:
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise error(f"{what} {os.fspath(path)} cannot be read: not UTF-8 text (byte {exc.start}); "
+        raise error(f"{what} {printable(os.fspath(path))} cannot be read: not UTF-8 text (byte {exc.start}); "
                     "save it as UTF-8") from None
 
 
@@ -172,30 +173,31 @@ def check_output_dir(out: str | Path) -> Path:
     under a file, not in /proc, /sys or /dev, not too long, on a writable file system. Creates nothing."""
     name = os.fspath(out)
     _check_name(name, "output folder", OutputError)
+    shown = printable(name)
     path = Path(name)
     if len(os.fsencode(path.name)) > defaults.MAX_NAME_BYTES - 40:  # room for the temporary sibling's name
-        raise OutputError(f"output folder {name[:60]}...: its name is too long (more than "
+        raise OutputError(f"output folder {printable(name[:60])}...: its name is too long (more than "
                           f"{defaults.MAX_NAME_BYTES - 40} bytes); give a shorter name")
     if _is_pseudo(path.absolute()):
-        raise OutputError(f"output folder {name} is in /proc, /sys or /dev; choose a folder on a disk")
+        raise OutputError(f"output folder {shown} is in /proc, /sys or /dev; choose a folder on a disk")
     if path.exists() and not path.is_dir():
-        raise OutputError(f"output folder {name} is a file, not a folder; choose another --out")
+        raise OutputError(f"output folder {shown} is a file, not a folder; choose another --out")
     ancestor = path.absolute().parent
     while not ancestor.exists():
         ancestor = ancestor.parent
     if not ancestor.is_dir():
-        raise OutputError(f"output folder {name} lies under {ancestor}, which is a file; choose another --out")
+        raise OutputError(f"output folder {shown} lies under {ancestor}, which is a file; choose another --out")
     try:  # the only sure test of writability (root ignores permission bits, a read-only mount does not)
         os.rmdir(tempfile.mkdtemp(prefix=".pathmotion-probe-", dir=ancestor))
     except OSError as exc:
-        raise OutputError(f"output folder {name} cannot be created in {ancestor}: {os_reason(exc)}") from None
+        raise OutputError(f"output folder {shown} cannot be created in {ancestor}: {os_reason(exc)}") from None
     return path
 
 
 def output_error(exc: OSError, path: str | Path | None = None) -> OutputError:
     """An OutputError naming the file (``path``, else the error's own) and the reason."""
     name = os.fspath(path) if path is not None else (exc.filename or "an output file")
-    return OutputError(f"cannot write {name}: {os_reason(exc)}")
+    return OutputError(f"cannot write {printable(name)}: {os_reason(exc)}")
 
 
 @contextmanager
