@@ -240,7 +240,7 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     path = TaskJointPath(
         n=robot.n, domain=(lo, hi), closed=bool(getattr(task_path, "closed", False)),
         kinks=tuple(float(k) for k in task_path.kinks), breaks=tuple(float(b) for b in task_path.breaks),
-        joint_names=robot.joint_names, robot=robot, task_path=task_path, original_task_path=original,
+        peaks=task_path.curvature_peaks, joint_names=robot.joint_names, robot=robot, task_path=task_path, original_task_path=original,
         reference_theta=theta, reference_q=q,
     )
     passages = wrist_crossing.find_passages(robot, task_path, theta, q, path._ik, singularity_threshold, q_start)
@@ -339,7 +339,8 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
     closed = bool(getattr(task_path, "closed", False)) and bool(np.max(np.abs(q[-1] - q[0])) < CLOSURE_MATCH)
     return ResolvedRateJointPath(
         n=robot.n, domain=(lo, hi), closed=closed, kinks=tuple(float(k) for k in task_path.kinks),
-        breaks=tuple(float(b) for b in task_path.breaks), joint_names=robot.joint_names, robot=robot,
+        breaks=tuple(float(b) for b in task_path.breaks), peaks=task_path.curvature_peaks,
+        joint_names=robot.joint_names, robot=robot,
         task_path=task_path, original_task_path=original, reference_theta=theta, reference_q=q, check=check,
         reference_dq_right=dq_r, reference_dq_left=dq_l, q_ref=q_start, gain=gain, weights_inv=winv)
 

@@ -398,9 +398,11 @@ def test_the_wide_start_along_the_normal_lifts_the_blend_out_of_the_plane(caplog
 
 
 def test_a_blend_capped_by_its_neighbours_is_searched_again_within_what_it_reached(caplog):
-    """30 deg on 0.1 m lines, 5 mm: the lines cap the fastest blend's corner quintic (it reaches 4.2-4.4 mm), so stage 7
+    """20 deg on 0.1 m lines, 4 mm: the lines cap the fastest blend's corner quintic (it reaches 3.6 mm), so stage 7
     searches again within the deviation it reached, keeps the faster search and the other's blend as a candidate:
-    never slower than without, and within the tolerance; an uncapped corner (90 deg, 1 mm) is not searched again."""
+    never slower than without, and within the tolerance; an uncapped corner (90 deg, 1 mm) is not searched again.
+    (30 deg / 5 mm on these lines was capped until the planner's grid was graded towards curvature peaks: the small
+    search then ends at a blend that uses the whole 5 mm.)"""
     import logging
 
     from pathmotion.planning.blend_search import CAPPED_SHARE
@@ -410,11 +412,11 @@ def test_a_blend_capped_by_its_neighbours_is_searched_again_within_what_it_reach
               rise_plans=30, end_plans=20, joint_plans=0, wide_plans=0, wide_normal_plans=0, polish_plans=0)
     # stage 7 as the search leaves it (the wide starts free both ends of these 0.1 m lines, and their blend then
     # uses the whole 5 mm: nothing capped)
-    path = _task(corner_points(30, 0.1))
-    without = optimal_blends(_robot(), path, 0.005, retry_capped=False, **kw)
-    assert without.shapes[0].deviation < CAPPED_SHARE * 0.005
+    path = _task(corner_points(20, 0.1))
+    without = optimal_blends(_robot(), path, 0.004, retry_capped=False, **kw)
+    assert without.shapes[0].deviation < CAPPED_SHARE * 0.004
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
-        again = optimal_blends(_robot(), path, 0.005, **kw)
+        again = optimal_blends(_robot(), path, 0.004, **kw)
     # the deviation stage 7 reports is the one the search without it ended at (4.4 mm on one machine, 4.15 mm on
     # another: the search's path depends on the CPU's floating-point rounding), below the capped share
     reached = re.search(r"reached only ([0-9.e-]+) m; searched again", caplog.text)
@@ -422,7 +424,7 @@ def test_a_blend_capped_by_its_neighbours_is_searched_again_within_what_it_reach
     assert float(reached.group(1)) == pytest.approx(without.shapes[0].deviation, rel=1e-5)
     assert again.plans > without.plans + 50
     assert again.duration <= without.duration
-    assert max_deviation(again.path, path, rel_tol=1e-6).upper <= 0.005 * (1 + 2e-6)
+    assert max_deviation(again.path, path, rel_tol=1e-6).upper <= 0.004 * (1 + 2e-6)
     caplog.clear()
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         uncapped = optimal_blends(_robot(), _turn(90), 0.001, **kw)
@@ -807,7 +809,9 @@ def test_a_planar_optimal_blend_stays_in_the_corners_plane():
     for blend in (flat, flat_searched):
         z = blend.path.evaluate(np.linspace(0.0, blend.path.length, 5001))[0][:, 2]
         assert blend.shapes[0].planar and np.ptp(z) < 1e-12
-    assert free.plans > flat.plans + 20  # the out-of-plane stage ran where it was not turned off
+    # the out-of-plane stage ran where it was not turned off (counted before the polish, whose plans vary with where
+    # each search ended)
+    assert free_searched.plans > flat_searched.plans + 20
 
 
 def test_planar_is_only_for_optimal_blends():

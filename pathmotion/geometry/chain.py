@@ -140,6 +140,11 @@ class TaskPath:
         return tuple(c.theta for c in self.connections if c.kind == "corner")
 
     @property
+    def curvature_peaks(self) -> tuple[float, ...]:
+        """theta [m] of the curvature peaks inside the segments (Segment.curvature_peaks), in order."""
+        return tuple(float(o) + s for seg, o in zip(self.segments, self.offsets) for s in seg.curvature_peaks)
+
+    @property
     def closed(self) -> bool:
         """True if the end point is the start point (within the gap tolerance); :attr:`closure`
         then says whether the closing joint is a corner, tangent or smooth."""

@@ -20,6 +20,7 @@ Degenerate input raises :class:`~pathmotion.errors.PathError` naming the segment
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from math import comb
 from typing import ClassVar
 
@@ -51,6 +52,13 @@ REFERENCE_AXIS_MIN = 1e-6
 CUSP_SPEED_RATIO = 1e-9
 #: Bezier arc-length inversion: converged when |s(u) - s| is below this times max(1, length) [-].
 ARC_LENGTH_ROUNDING = 1e-13
+#: Curvature maxima below this are no peaks [1/m] (a radius of 1 km: a straight piece's rounding noise).
+PEAK_MIN_CURVATURE = 1e-3
+#: Samples of the Bezier parameter in which curvature maxima are looked for [-], then rounds of samples across each
+#: peak's bracket (each round narrows it (PEAK_REFINE_SAMPLES - 1) / 2 times: 2^-11 to 2e-9 in u) [-].
+PEAK_SAMPLES = 2049
+PEAK_REFINE_SAMPLES = 33
+PEAK_REFINE_ROUNDS = 4
 
 _TWO_PI = 2.0 * np.pi
 
@@ -128,6 +136,12 @@ class Segment:
     def plane_normal(self) -> np.ndarray | None:
         """Unit normal (3,) of the plane the segment lies in, or None for a straight line."""
         return None
+
+    @property
+    def curvature_peaks(self) -> tuple[float, ...]:
+        """Arc lengths s [m] of the interior local maxima of the curvature, where the planner grades its grid (a
+        peak narrower than a grid step is otherwise unseen); () where the curvature is constant (lines, arcs)."""
+        return ()
 
     def _end(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         p, dp, ddp = self.evaluate(0.0 if which == 0 else self.length)
@@ -512,6 +526,31 @@ class BezierSegment(Segment):
 
     def _speed(self, u):
         return np.linalg.norm(self._polyval(self._coef, u, 1), axis=1)
+
+    def _curvature_squared(self, u) -> np.ndarray:
+        """|X' x X''|^2 / |X'|^6 [1/m^2] (N,) at u (N,), by Lagrange's identity."""
+        d1, d2 = self._polyval(self._coef, u, 1), self._polyval(self._coef, u, 2)
+        g2 = np.einsum("ij,ij->i", d1, d1)
+        return (g2 * np.einsum("ij,ij->i", d2, d2) - np.einsum("ij,ij->i", d1, d2) ** 2) / g2 ** 3
+
+    @cached_property
+    def curvature_peaks(self) -> tuple[float, ...]:
+        """The curvature's interior local maxima above PEAK_MIN_CURVATURE, found on PEAK_SAMPLES values of u and
+        refined PEAK_REFINE_ROUNDS times on PEAK_REFINE_SAMPLES between the neighbours of the largest (a near-cusp's
+        peak is a few um of arc wide where it is thousands of 1/m high, but its width in u is not: the search found
+        one of 25000 1/m, 0.07 mm wide at half height)."""
+        u = np.linspace(0.0, 1.0, PEAK_SAMPLES)
+        k = self._curvature_squared(u)
+        i = np.nonzero((k[1:-1] >= k[:-2]) & (k[1:-1] > k[2:]) & (k[1:-1] > PEAK_MIN_CURVATURE ** 2))[0] + 1
+        if i.size == 0:
+            return ()
+        at, half = u[i], np.full(i.size, u[1])
+        offsets = np.linspace(-1.0, 1.0, PEAK_REFINE_SAMPLES)
+        for _ in range(PEAK_REFINE_ROUNDS):  # every peak at once: the largest of the samples across its bracket
+            trial = np.clip(at[:, None] + half[:, None] * offsets[None, :], 0.0, 1.0)
+            best = np.argmax(self._curvature_squared(trial.ravel()).reshape(trial.shape), axis=1)
+            at, half = trial[np.arange(i.size), best], half * 2.0 / (PEAK_REFINE_SAMPLES - 1)
+        return tuple(float(s) for s in self._arc_length(at))
 
     def _arc_length(self, u):
         """s(u) [m] (N,) at u (N,), clipped to [0, 1]."""

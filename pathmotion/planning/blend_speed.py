@@ -53,7 +53,8 @@ def _piece(path, lo: float, hi: float):
     """The joint path restricted to theta in [lo, hi] (same map, open)."""
     inner = tuple(t for t in path.breaks if lo < t < hi)
     return dataclasses.replace(path, domain=(lo, hi), closed=False, breaks=inner,
-                               kinks=tuple(t for t in path.kinks if lo < t < hi))
+                               kinks=tuple(t for t in path.kinks if lo < t < hi),
+                               peaks=tuple(t for t in path.peaks if lo < t < hi))
 
 
 def capped_profile(setup, result: PlanResult, ranges, scale: float) -> Profile:

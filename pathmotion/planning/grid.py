@@ -81,8 +81,8 @@ def _indices(theta: np.ndarray, breaks: np.ndarray, kinks: np.ndarray) -> tuple[
 
 
 def make_grid(path: JointPath, points: int) -> Grid:
-    """Uniform grid of ``points`` on the path's domain plus its breaks, spline knots, and points graded
-    by halving (GRID_GRADING_LEVELS) towards each end and connection."""
+    """Uniform grid of ``points`` on the path's domain plus its breaks, spline knots and curvature peaks
+    (``path.peaks``), and points graded by halving (GRID_GRADING_LEVELS) towards each end, connection and peak."""
     lo, hi = path.domain
     grid = np.linspace(lo, hi, int(points))
     # the uniform step, not grid[1] - grid[0] of the merged grid: a segment shorter than a step at the start
@@ -95,11 +95,15 @@ def make_grid(path: JointPath, points: int) -> Grid:
         grid = np.union1d(grid[~near | (grid == lo) | (grid == hi)], special)
     # spline knots (the third derivative jumps) are grid points too: no interval holds a kink of Phi''
     grid = np.union1d(grid, [float(k) for k in getattr(path, "knots", ()) if lo < k < hi])
-    ends = np.array([lo, hi, *special])
+    # curvature peaks inside segments (graded, not breaks): a near-cusp of a blend 0.07 mm wide at half height got no
+    # point near it on 300 points, and the search's coarse plan took 0.75 s for a motion of 0.87 s
+    peaks = np.array([float(p) for p in getattr(path, "peaks", ()) if lo < p < hi])
+    grid = np.union1d(grid, peaks)
+    ends = np.array([lo, hi, *special, *peaks])
     grade = step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1)
     extra = np.concatenate([ends[:, None] + grade[None, :], ends[:, None] - grade[None, :]]).ravel()
     grid = np.union1d(grid, extra[(extra > lo) & (extra < hi)])
-    grid = _drop_near_duplicates(grid, np.array([lo, hi, *special]), GRID_MIN_GAP * step)
+    grid = _drop_near_duplicates(grid, np.array([lo, hi, *special, *peaks]), GRID_MIN_GAP * step)
     kinks = np.array([k for k in special if float(k) in {float(x) for x in path.kinks}])
     return Grid(grid, *_indices(grid, special, kinks))
 
