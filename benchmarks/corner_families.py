@@ -16,6 +16,7 @@ Prints each try's coarse-grid (search) and full-grid durations against the searc
 
     python benchmarks/corner_families.py 135 0.007 --tilts 90/-20,60/-20,90/0,0/-20,45/-45,90/-90
     python benchmarks/corner_families.py 135 0.007 --splits 0.3,0.5,0.7 --plans 600
+    python benchmarks/corner_families.py 135 0.007 --tilts 90/-45,90/-20,90/0,0/0 --plans 250 --share 1
 """
 
 from __future__ import annotations
@@ -35,6 +36,9 @@ def main() -> None:
     ap.add_argument("--splits", default="", help="split points u of the corner quintic, comma-separated")
     ap.add_argument("--plans", type=int, default=300, help="plans per try")
     ap.add_argument("--radius", type=float, default=0.3, help="the splits' initial COBYQA trust radius (scaled box)")
+    ap.add_argument("--share", type=float, default=None,
+                    help="the tilts' first trust region, a share of the mean step (default TRUST_RADIUS_SHARE; the "
+                         "wide restart's RESTART_RADIUS_SHARE is 1)")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -55,12 +59,13 @@ def main() -> None:
           f"{time.process_time() - t0:.0f} s CPU)", flush=True)
     for pair in filter(None, a.tilts.split(",")):
         angles = tuple(float(v) for v in pair.split("/"))
-        tilt(bs, robot, task, coarse, full, a.tolerance, bs._extended(x), angles, a.plans)
+        tilt(bs, robot, task, coarse, full, a.tolerance, bs._extended(x), angles, a.plans,
+             bs.TRUST_RADIUS_SHARE if a.share is None else a.share)
     for u in filter(None, a.splits.split(",")):
         split(bs, robot, task, coarse, full, a.tolerance, shape, float(u), a.plans, a.radius)
 
 
-def tilt(bs, robot, task, coarse, full, tol, x, angles, plans) -> None:
+def tilt(bs, robot, task, coarse, full, tol, x, angles, plans, share) -> None:
     from pathmotion.errors import PathmotionError
 
     *near_end, far, near, offset = bs.WIDE_PROFILE
@@ -80,7 +85,7 @@ def tilt(bs, robot, task, coarse, full, tol, x, angles, plans) -> None:
             x[[bs._L_A, bs._L_B]] = np.maximum(x[[bs._L_A, bs._L_B]] * bs.WIDE_RUN_SHRINK, bs.RUN_RANGE[0])
     t0 = time.process_time()
     first = obj(x)
-    bs._joint_stage(obj, plans, False, x)
+    bs._joint_stage(obj, plans, False, x, share=share)
     T, shape, _ = obj.best()
     cpu = time.process_time() - t0
     print(f"  tilt {angles[0]:+g}/{angles[1]:+g} deg: start {first:.5f}, coarse {T:.5f} s, full "

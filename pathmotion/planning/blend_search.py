@@ -65,7 +65,15 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    TRUST_RADIUS_SHARE, so that its first quadratic models span the neighbouring basins, not only the one the
    stages ended in (a restart at the joint stage's own radius moved 30 deg / 5 mm by 0.02 %). Over seven tolerances
    within 1e-7 of 5 mm at 30 deg (benchmarks/search_spread.py) it made every blend faster, by 0.08-0.26 % (median
-   0.67981 -> 0.67884 s); at 30 deg / 10 mm 0.6704 -> 0.6684 s;
+   0.67981 -> 0.67884 s); at 30 deg / 10 mm 0.6704 -> 0.6684 s. Then, where the motion rests at both ends, the
+   crossed wide starts: one side bulged outwards and the other along the normal, both ways round, each a joint stage
+   of WIDE_CROSSED_PLANS from a first trust region WIDE_CROSSED_RADIUS_SHARE of the mean step. The corner-confined
+   optimum at 135 deg / 7 mm runs up along the entry and out along the exit, a start none of the others makes:
+   0.82415 -> 0.81150 s there, 0.86384 -> 0.86066 s at 135 deg / 2 mm, no change on eight other corners, 3-7 s of
+   CPU per corner (python benchmarks/blend_search_stages.py --stage crossed). With a first trust region of a whole
+   mean step every plan of a start was rejected at 135 deg / 2 mm (its first points, a radius from the tube's edge,
+   left the corner quintic no room), and with TRUST_RADIUS_SHARE the starts crawl (600 plans to come within 0.2 % of
+   where 250 plans at a larger radius end: benchmarks/corner_families.py --share);
 7. the capped retry, when the fastest blend deviates less than CAPPED_SHARE of the tolerance (the
    neighbouring segments, not the tolerance, capped its corner quintic: "largest within the tolerance" then
    sizes nothing, and the coordinates, in units of the tolerance, are scaled for a tube the blend cannot
@@ -103,7 +111,7 @@ joint stage, the best before the wide starts, the best before the wide restart a
 re-planned on the full grid and the fastest is kept, so the result is never slower than the symmetric G2 blend, the
 S-curve racing line or the search without the joint stage, the wide starts, the restart or the capped retry (each
 before its polish); the polish then starts from the fastest and keeps it unless it finds a faster one.
-About 255 plans per corner (785-1235 with free ends, the wide starts and the restart; twice that when capped), and
+About 255 plans per corner (785-1250 with free ends, the wide starts and the restart; twice that when capped), and
 the polish's 150 on the full grid.
 """
 
@@ -159,6 +167,11 @@ JOINT_PLANS = 150
 #: the corner's normal.
 WIDE_PLANS = 300
 WIDE_NORMAL_PLANS = 150
+#: Plans of each crossed wide start (one resting side outwards, the other along the normal), and its first trust
+#: region, a share of the mean step (at 135 deg / 2 mm every plan of a start at 1 was rejected: its first points,
+#: a radius from the tube's edge, left the corner quintic no room).
+WIDE_CROSSED_PLANS = 150
+WIDE_CROSSED_RADIUS_SHARE = 0.5
 #: Plans of the wide restart (the joint stage once more from the fastest blend, with RESTART_RADIUS_SHARE).
 RESTART_PLANS = 150
 #: The joint stage's COBYQA, in its box scaled to [-1, 1]: the initial trust radius as a share of the
@@ -615,7 +628,8 @@ WIDE_RUN_SHRINK = 0.7
 WIDE_RUN_TRIES = 6
 
 
-def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: bool = False) -> None:
+def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: bool = False,
+                crossed: tuple[str, str] | None = None, share: float = TRUST_RADIUS_SHARE) -> None:
     """The joint stage (about ``plans`` plans) from a wide start: the fastest blend so far (in the corner's plane if
     ``planar``) with the offset piece of every side whose neighbour ends where the motion rests (objective.resting)
     freed at that end and bulged out to the tube's edge (WIDE_PROFILE): outwards in the corner's plane, at the sides
@@ -624,22 +638,28 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     side. The whole-tube optimum does both (benchmarks/issue_turn.py, docs/study.md): on issue 17's turn at 10 mm it
     leaves the start outwards and runs at the tube's edge 50 mm before the corner, where the fastest joined blend used
     45 mm of the 100 mm entry line and stage 5 left that end joined; at the atlas' 30 deg / 10 mm it rises out of
-    the plane by 7-10 mm along both lines."""
-    if along_normal and planar:
+    the plane by 7-10 mm along both lines. ``crossed`` ("out" or "normal" per side, at a corner resting at both
+    ends): each side in its own direction (the optimum at 135 deg / 7 mm runs up along the entry and out along the
+    exit); ``share``: the joint stage's first trust region (_trust_region)."""
+    if (along_normal or crossed) and planar:
         return
     _, shape, x = objective.best(planar=planar)
     x = _extended(x)
     free = (shape.departure is not None, shape.arrival is not None)
-    wide = objective.resting if along_normal else tuple(r and not f for r, f in zip(objective.resting, free))
+    if crossed is not None:
+        wide = objective.resting if all(objective.resting) else (False, False)
+    else:
+        wide = objective.resting if along_normal else tuple(r and not f for r, f in zip(objective.resting, free))
+    directions = crossed or (("normal" if along_normal else "out"),) * 2
     if not any(wide):
         return
     *near_end, far, near, offset = WIDE_PROFILE
     sides = ((_W_A, _C_A, _D_A, (_V_A, _VN_A, _VF_A), _DEPARTURE, shape.rise_entry[0]),
              (_W_B, _C_B, _D_B, (_V_B, _VN_B, _VF_B), _ARRIVAL, shape.rise_exit[0]))
-    for bulge, (w, c_far, c_near, rise, end, risen) in zip(wide, sides):
+    for bulge, direction, (w, c_far, c_near, rise, end, risen) in zip(wide, directions, sides):
         if not bulge:
             continue
-        lateral, normal = (0.0, 1.0 if risen >= 0.0 else -1.0) if along_normal else (1.0, 0.0)
+        lateral, normal = (0.0, 1.0 if risen >= 0.0 else -1.0) if direction == "normal" else (1.0, 0.0)
         x[[w, c_far, c_near]] = lateral * offset, lateral * far, lateral * near
         x[list(rise)] = normal * offset, normal * near, normal * far
         x[end] = (lateral * near_end[0], lateral * near_end[1], normal * near_end[0], normal * near_end[1])
@@ -655,9 +675,9 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
         log.info("blend search: corner %d: no wide start fits", objective.label)
         return
     log.info("blend search: corner %d: the wide start %s frees the path's %s", objective.label,
-             "along the normal" if along_normal else "outwards",
+             f"{crossed[0]} / {crossed[1]}" if crossed else "along the normal" if along_normal else "outwards",
              " and ".join(e for e, w in zip(("start", "end"), wide) if w))
-    _joint_stage(objective, plans, planar, x)
+    _joint_stage(objective, plans, planar, x, share)
 
 
 def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarray, plans: int,
@@ -734,13 +754,14 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
                    planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
-                   wide_normal_plans: int = WIDE_NORMAL_PLANS,
-                   restart_plans: int = RESTART_PLANS) -> tuple[G2Shape | None, G2Shape | None, G2Shape | None]:
+                   wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
+                   wide_crossed_plans: int = WIDE_CROSSED_PLANS) -> tuple[G2Shape | None, G2Shape | None, G2Shape | None]:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
     > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
     stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0), the wide starts
-    (``wide_plans``, ``wide_normal_plans`` > 0) and the wide restart (``restart_plans`` > 0) (module docstring).
+    (``wide_plans``, ``wide_normal_plans``, ``wide_crossed_plans`` > 0) and the wide restart (``restart_plans`` > 0)
+    (module docstring).
     Returns the fastest shape before the joint stage when that, a wide start or the restart ran, the fastest before
     the wide starts when they or the restart ran, and the fastest before the restart when it ran, each else None
     (candidates of their own: a later stage's blend is faster on the search's coarse grid, not always on the full
@@ -777,7 +798,10 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                 _joint_stage(objective, restart_plans, planar, share=RESTART_RADIUS_SHARE)
                 log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.label,
                          ahead, objective.best()[0])
-            wide = wide_plans > 0 or wide_normal_plans > 0 or restart
+            crossed = wide_crossed_plans > 0 and joint_plans > 0  # joint stages, as the restart: not without one
+            for directions in (("normal", "out"), ("out", "normal")) if crossed else ():
+                _wide_stage(objective, wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE)
+            wide = wide_plans > 0 or wide_normal_plans > 0 or crossed or restart
             return ((before if joint_plans > 0 or wide else None), (before_wide if wide else None),
                     (before_restart if restart else None))
     return None, None, None
@@ -797,14 +821,16 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
                    retry_capped: bool = True, polish_plans: int = POLISH_PLANS,
-                   names: Mapping[int, str] | None = None, windows: bool = True) -> OptimalBlend:
+                   names: Mapping[int, str] | None = None, windows: bool = True,
+                   wide_crossed_plans: int = WIDE_CROSSED_PLANS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
     ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
-    wide start outwards, ``wide_normal_plans`` 0: none along the normal; ``restart_plans`` 0: no wide restart; ``retry_capped``
+    wide start outwards, ``wide_normal_plans`` 0: none along the normal, ``wide_crossed_plans`` 0: no crossed ones;
+    ``restart_plans`` 0: no wide restart; ``retry_capped``
     False: no stage 7; ``polish_plans`` 0: no stage 8; ``windows`` False: every plan on the whole path). PathError as
     :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does
     not fit."""
@@ -825,7 +851,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         free = racing and _racing_possible(original, k) and k not in joined_ends
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
-                  end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans, restart_plans)
+                  end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans, restart_plans, wide_crossed_plans)
         window = _corner_window(robot, original, shapes, k, fast, q_start) if windowed else None
         plans += 2 * (window is not None)  # the whole path's plan for its ends, and the window's check
         obj = _objective(robot, original, shapes, k, tol[k], fast, q_start, ends, window)
