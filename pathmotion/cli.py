@@ -547,7 +547,10 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
                 "the closed-loop check's plant the whole"),
             robot: Optional[Path] = typer.Option(
                 None, "--robot", help="robot file (TOML): a scenario's \\[robot] table (name or URDF, payload, tool, "
-                "...) and \\[limits] velocity / acceleration / torque; default: the built-in IRB140")):
+                "...) and \\[limits] velocity / acceleration / torque; default: the built-in IRB140"),
+            bounds: bool = typer.Option(True, help="also bound the corner-confined optimum from above by a motion that "
+                                                   "holds the tube on a dense resample (corner_bound_s; one to four "
+                                                   "more NLPs per row, cached)")):
     """The corner atlas: every way to take a corner (stop, zone, circle, G2, optimal blend) against
     the free-shape optimum, per turn angle and tolerance; writes corners.csv. Needs CasADi
     (pip install "pathmotion\\[optimal]"). --torque adds the joint torque limits to every motion and
@@ -574,7 +577,7 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
         atlas = corner_atlas(out, numbers(angles, "angles"), numbers(tolerances, "tolerances"),
                              meshes=numbers(meshes, "meshes"), workers=workers,
                              scheduler=scheduler, on_result=on_result, figures=figures, torque=torque,
-                             torque_reserve=reserve if torque else None, robot_file=robot)
+                             torque_reserve=reserve if torque else None, robot_file=robot, bounds=bounds)
     failed = sum(1 for r in atlas.rows if r.get("error") or r.get("status") != "ok")
     console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum "
                   f"-> {escape(str(out / 'corners.csv'))}")

@@ -164,7 +164,12 @@ def test_one_atlas_row_through_the_cli(tmp_path):
     if rows[0]["status"] == "ok":  # a converged reference is below every blend (within its error)
         assert r["free_shape_optimum_s"] <= r["optimal_s"] + r["free_shape_error_s"]
     else:
-        assert "not converged" in rows[0]["status"] or "closed loop" in rows[0]["status"]
+        assert any(w in rows[0]["status"] for w in ("not converged", "closed loop", "corner_bound"))
+    if "corner_bound_s" in r:  # a motion that holds the tube: slower than the finest mesh's, faster than the stop
+        assert r["corner_optimum_s"] - r["corner_error_s"] < r["corner_bound_s"] < r["stop_s"]
+        assert r["gap_to_corner_bound"] == pytest.approx(r["optimal_s"] / r["corner_bound_s"] - 1)
+    else:
+        assert "corner_bound" in rows[0]["status"]
     assert rows[0]["closed_loop_ok"] in ("true", "false")
     if rows[0]["closed_loop_ok"] == "true":  # within delta plus the tracking error of the planned path
         assert r["closed_loop_path_accuracy_m"] <= atlas.CLOSED_LOOP_PATH_ACCURACY
@@ -584,3 +589,72 @@ def test_a_row_without_references_solves_and_reads_no_optimum(tmp_path, monkeypa
         assert row[key] is None, key
     assert row["status"].count("not solved (references off)") == 2
     assert list(tmp_path.iterdir()) == []  # nothing cached
+
+
+def _reference(value, start="stop", solutions=None):
+    return atlas.Reference(value, 0.0005, None, start, lambda: solutions, (value,))
+
+
+def test_the_corner_bound_is_cached_by_its_start_and_a_failure_is_recorded(tmp_path, monkeypatch):
+    """corner_bound: free_shape.feasible_bound from the corner-confined reference's own solutions, written to the
+    cache and read back (not solved again), keyed apart per reference start; a bound that cannot be had (here: the
+    solution leaves a stretch held on the line) is a record with its error, cached as well."""
+    from pathmotion.errors import PathmotionError
+    from pathmotion.robot import load_robot
+    from pathmotion.study import free_shape as fs
+
+    robot = load_robot("irb140")
+    pts, spans, meshes = atlas.corner_points(90.0), [(0.05, 0.06)], (25, 50, 100)
+    solutions, calls = object(), []
+
+    def stub(robot_, points, delta, spans_, meshes_, torque=False, optimum=None):
+        calls.append(optimum)
+        if len(calls) == 3:
+            raise PathmotionError("free shape: the solution leaves a stretch held on the line by 0.2 mm")
+        return fs.FeasibleBound(0.7451, 0.0048, optimum, {"held_excess_m": -1e-6}, 1)
+
+    monkeypatch.setattr(fs, "feasible_bound", stub)
+    first = atlas.corner_bound(tmp_path, robot, pts, 0.005, spans, meshes, _reference(0.744, "stop", solutions))
+    assert calls == [solutions] and first["duration"] == 0.7451 and first["radius"] == 0.0048
+    again = atlas.corner_bound(tmp_path, robot, pts, 0.005, spans, meshes, _reference(0.744, "stop", solutions))
+    assert len(calls) == 1 and again == first  # read from the cache
+    other = atlas.corner_bound(tmp_path, robot, pts, 0.005, spans, meshes, _reference(0.744, "blend", solutions))
+    assert len(calls) == 2 and other["duration"] == 0.7451  # another start: its own key
+    failed = atlas.corner_bound(tmp_path, robot, pts, 0.004, spans, meshes, _reference(0.75, "stop", solutions))
+    assert failed["duration"] is None and "held on the line" in failed["error"]
+    assert atlas.corner_bound(tmp_path, robot, pts, 0.004, spans, meshes, _reference(0.75))["error"] == failed["error"]
+    assert len(calls) == 3 and len(list(tmp_path.glob("*.json"))) == 3
+
+
+@pytest.mark.parametrize("bounds, bound", [(True, 0.7452), (True, None), (False, 0.7452)])
+def test_a_row_gives_the_corner_bound_and_the_gap_to_it(tmp_path, monkeypatch, bounds, bound):
+    """The row's corner_bound_s and gap_to_corner_bound (optimal_s over it, less 1: a lower bound of the blend's true
+    gap); a bound that cannot be had leaves both empty and says why in the status; ``bounds = false`` in the spec
+    (pathmotion corners --no-bounds) asks for none. The search is cut to its quintic stage, the references stubbed."""
+    import functools
+
+    from pathmotion.planning import blend_search
+
+    quick = functools.partial(blend_search.optimal_blends, racing=False, steps=1, free_plans=0, end_plans=0,
+                              joint_plans=0, polish_plans=0, retry_capped=False)
+    monkeypatch.setattr(blend_search, "optimal_blends", quick)
+    monkeypatch.setattr(atlas, "corner_reference", lambda *a, **kw: _reference(0.7440))
+    monkeypatch.setattr(atlas, "whole_reference", lambda *a, **kw: _reference(0.7400))
+    asked = []
+
+    def stub_bound(*a, **kw):
+        asked.append(1)
+        return {"duration": bound} if bound is not None else {"duration": None, "error": "no solve held the tube"}
+
+    monkeypatch.setattr(atlas, "corner_bound", stub_bound)
+    spec = (f'robot = "irb140"\nmeshes = [25, 50]\nclosed_loop = false\n{"" if bounds else "bounds = false"}\n'
+            f'cache = "{tmp_path}"\n')
+    row = atlas.atlas_point(spec, str(tmp_path), [("angle_deg", 90.0), ("tolerance_m", 0.005)])["summary"]
+    assert len(asked) == int(bounds)
+    if bounds and bound is not None:
+        assert row["corner_bound_s"] == bound
+        assert row["gap_to_corner_bound"] == pytest.approx(row["optimal_s"] / bound - 1)
+        assert row["status"] == "ok"
+    else:
+        assert row["corner_bound_s"] is None and row["gap_to_corner_bound"] is None
+        assert ("corner_bound: no solve held the tube" in row["status"]) == bounds

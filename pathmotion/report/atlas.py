@@ -22,9 +22,10 @@ TABLE = (("angle_deg", "angle [deg]", 1.0), ("tolerance_m", "tolerance [mm]", 1e
          ("torque_reserve", "torque reserve [%]", 100.0), ("stop_s", "stop [s]", 1.0),
          ("industrial_zone_s", "zone, const. speed [s]", 1.0), ("circle_s", "circle [s]", 1.0),
          ("g2_s", "G2 [s]", 1.0), ("quintic_s", "fastest quintic [s]", 1.0), ("optimal_s", "optimal [s]", 1.0),
-         ("corner_optimum_s", "corner opt. [s]", 1.0),
+         ("corner_optimum_s", "corner opt. [s]", 1.0), ("corner_bound_s", "corner feasible bound [s]", 1.0),
          ("free_shape_optimum_s", "whole-tube opt. [s]", 1.0), ("gain_vs_stop", "gain vs stop [%]", 100.0),
          ("gain_vs_zone", "gain vs zone [%]", 100.0), ("gap_to_corner_optimum", "gap to corner opt. [%]", 100.0),
+         ("gap_to_corner_bound", "gap at least [%]", 100.0),
          ("gap_to_optimum", "gap to whole-tube opt. [%]", 100.0), ("capture", "capture [%]", 100.0),
          ("closed_loop_ok", "closed loop ok", 1.0), ("status", "status", 1.0), ("error", "error", 1.0))
 

@@ -30,6 +30,9 @@ describes (:mod:`.robot_file`). Per row (``corners.csv``, ATLAS_COLUMNS):
   tube contains the other): ``status`` then says which. The corner-confined NLP is tried from the
   optimal blend's plan and from the stop (CORNER_STARTS), the whole tube from the corner-confined
   solutions, the stop and the blend (WHOLE_STARTS), until one start gives a reference (best_reference);
+* ``corner_bound_s``: the corner-confined tube's feasible bound (:func:`corner_bound`), an upper bound of its true
+  minimum time, and ``gap_to_corner_bound`` = optimal_s / corner_bound_s - 1, a lower bound of the blend's true gap;
+  None (``status`` says why) where no solve held the tube;
 * ``gain_vs_stop`` = 1 - optimal_s / stop_s; ``gap_to_optimum`` = optimal_s / free_shape_optimum_s - 1;
   ``capture`` = (stop_s - optimal_s) / (stop_s - free_shape_optimum_s), the share of the whole-tube
   gain the optimal blend takes.
@@ -65,8 +68,8 @@ ATLAS_CORNER = (0.5, -0.05, 0.45)
 #: Columns of corners.csv.
 ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "torque_reserve", "status", "stop_s", "circle_s", "g2_s",
                  "quintic_s", "optimal_s", "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
-                 "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2", "gap_to_optimum",
-                 "gap_to_corner_optimum", "capture", "optimal_entry_m", "optimal_exit_m", "optimal_offset_entry_m",
+                 "corner_bound_s", "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2", "gap_to_optimum",
+                 "gap_to_corner_optimum", "gap_to_corner_bound", "capture", "optimal_entry_m", "optimal_exit_m", "optimal_offset_entry_m",
                  "optimal_offset_exit_m", "optimal_rise_entry_m", "optimal_rise_exit_m", "closed_loop_ok",
                  "closed_loop_path_accuracy_m", "closed_loop_cornering_deviation_m", "closed_loop_cycle_s", "error")
 #: Bump when the free-shape formulation changes, so cached optima are recomputed; the corner-confined
@@ -74,10 +77,12 @@ ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "torque_reserve", "status
 #: constraint in norm form with a small barrier, free_shape.STARTS; whole tube 4: from the corner-confined one).
 OPTIMUM_VERSION = 4
 CORNER_OPTIMUM_VERSION = 4
+#: Bump when the feasible bound's method (free_shape.feasible_bound) changes, so cached bounds are recomputed.
+BOUND_VERSION = 1
 #: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached; 6: the torque
-#: column and the whole tube's retries). Not bumped for the torque_reserve column: a torque-free row's is empty, as a
+#: column and the whole tube's retries; 7: the feasible bound). Not bumped for the torque_reserve column: a torque-free row's is empty, as a
 #: point recorded before it reads, and a torque atlas' spec holds its reserve, so its points are new.
-ROW_VERSION = 6
+ROW_VERSION = 7
 #: IPOPT statuses counted as converged.
 CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 #: Largest distance [m] of the simulated TCP from the planned path for the closed-loop check.
@@ -486,6 +491,34 @@ def whole_reference(cache: Path, robot, points, tolerance: float, meshes, corner
                           (corner.value, corner.error), torque, torque_reserve)
 
 
+def corner_bound(cache: Path, robot, points, tolerance: float, spans, meshes, corner: Reference, torque: bool = False,
+                 torque_reserve: float = 0.0) -> dict:
+    """The feasible bound of the corner-confined tube (free_shape.feasible_bound, from the ``corner`` Reference's
+    solutions): {duration [s], radius [m] of the tube it was solved in, solves, held_excess_m, cpu_s}, or
+    {duration: None, error} when no solve held the tube; read from ``cache`` or computed and written there (keyed as the
+    corner-confined optimum, with BOUND_VERSION and the reference's start). Its duration is an upper bound of the true
+    minimum time in the tube, so ``optimal_s`` over it, less 1, is a lower bound of the blend's true gap."""
+    from . import free_shape as fs
+
+    meshes = tuple(meshes or defaults.ATLAS_MESHES)
+    key = _optimum_key(robot, points, tolerance, spans, meshes, start=f"bound-{BOUND_VERSION}-{corner.start}",
+                       torque=torque, torque_reserve=torque_reserve)
+    f = Path(cache) / f"{key}.json"
+    if f.is_file():
+        return json.loads(f.read_text())
+    t0 = time.process_time()
+    try:
+        bound = fs.feasible_bound(reserved(robot, torque_reserve), points, tolerance, spans, meshes, torque=torque,
+                                  optimum=corner.solutions())
+        rec = {"duration": bound.duration, "radius": bound.radius, "solves": bound.solves,
+               "held_excess_m": bound.check.get("held_excess_m")}
+    except PathmotionError as exc:
+        rec = {"duration": None, "error": str(exc)}
+    rec["cpu_s"] = time.process_time() - t0
+    write_json(f, rec)
+    return rec
+
+
 def optimal_motion(robot, task, tolerance: float, torque: bool = False, torque_reserve: float = 0.0):
     """A row's optimal blend and its motion, as the atlas plans them: (OptimalBlend, the blended path lifted to
     joint space, its time-optimal PlanResult, verified), under the atlas' settings (``torque``, ``torque_reserve``)."""
@@ -501,13 +534,14 @@ def optimal_motion(robot, task, tolerance: float, torque: bool = False, torque_r
 
 def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=None, row: dict | None = None,
               closed_loop: bool = True, torque: bool = False, torque_reserve: float | None = None,
-              references: bool = True) -> dict:
+              references: bool = True, bounds: bool = True) -> dict:
     """One row of corners.csv (ATLAS_COLUMNS except ``error``), filled into ``row`` as it goes (so a
     row that fails part way keeps what it had); ``torque``: every motion and both references within the
     robot's joint torque limits too, less the feedback reserve ``torque_reserve`` (check_torque_reserve; the
     closed-loop check's plant keeps the whole limits). ``references`` False: neither free-shape reference is
     looked up or solved (their columns None, ``status`` says so): the row's own work, as with every optimum
-    cached (benchmarks/atlas_rows.py times it)."""
+    cached (benchmarks/atlas_rows.py times it). ``bounds`` (with ``references``): the corner-confined tube's feasible
+    bound too (corner_bound; ``corner_bound_s``, ``gap_to_corner_bound``)."""
     from ..geometry import with_g2_blend, with_transition
     from .corner import transition_radius_for_deviation
 
@@ -550,6 +584,14 @@ def atlas_row(robot, angle_deg: float, tolerance: float, cache: Path, meshes=Non
         row[f"{name}_s"], row[name.replace("_optimum", "") + "_error_s"] = ref.value, ref.error
         if ref.note:
             status.append(f"{name}: {ref.note}")
+    row["corner_bound_s"] = row["gap_to_corner_bound"] = None
+    if references and bounds and corner.value is not None:
+        bound = corner_bound(cache, robot, pts, tolerance, spans, meshes, corner, torque, reserve)
+        if bound["duration"] is None:
+            status.append(f"corner_bound: {bound['error']}")
+        else:
+            row["corner_bound_s"] = bound["duration"]
+            row["gap_to_corner_bound"] = row["optimal_s"] / bound["duration"] - 1.0
     fso, co = row["free_shape_optimum_s"], row["corner_optimum_s"]
     row["gap_to_optimum"] = None if fso is None else row["optimal_s"] / fso - 1.0
     row["gap_to_corner_optimum"] = None if co is None else row["optimal_s"] / co - 1.0
@@ -577,7 +619,8 @@ def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> di
         robot = _spec_robot(spec)
         atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]), spec.get("meshes"),
                   row=summary, closed_loop=spec.get("closed_loop", True), torque=torque,
-                  torque_reserve=spec.get("torque_reserve"), references=spec.get("references", True))
+                  torque_reserve=spec.get("torque_reserve"), references=spec.get("references", True),
+                  bounds=spec.get("bounds", True))
         error = None
     except PathmotionError as exc:
         error = f"{type(exc).__name__}: {exc}"
@@ -613,13 +656,14 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
                  meshes: Sequence[int] | None = None, workers: int = 2, scheduler: str | None = None,
                  on_result=None, figures: bool = True, closed_loop: bool = True, torque: bool = False,
                  torque_reserve: float | None = None, robot_file: str | Path | None = None,
-                 references: bool = True) -> CornerAtlas:
+                 references: bool = True, bounds: bool = True) -> CornerAtlas:
     """Run the atlas into ``out`` (corners.csv / .parquet, tdelta.png, gain_vs_angle.png; the points
     and the optimum cache under ``out``); resumes. ``torque``: every motion and both references within the
     robot's joint torque limits too (the ``torque`` column), less the feedback reserve ``torque_reserve``
     (check_torque_reserve; the ``torque_reserve`` column). ``robot_file``: the arm a robot file describes
     (robot_file.load_robot_file) instead of the built-in ``robot``. ``references`` False: every row without the
-    free-shape references (atlas_row; the work of a run with every optimum cached, benchmarks/atlas_rows.py).
+    free-shape references (atlas_row; the work of a run with every optimum cached, benchmarks/atlas_rows.py);
+    ``bounds`` False: without the feasible bounds (one to four more NLPs per row uncached).
     Bad angles, tolerances, meshes, reserve or robot file raise before any work."""
     from .robot_file import load_robot_file, robot_digest
     from .sweep import load_finished, run_sweep, write_tables
@@ -640,6 +684,7 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
                      f'{str(closed_loop).lower()}\ntorque = {str(torque).lower()}\n'
                      + (f"torque_reserve = {reserve!r}\n" if torque else "")
                      + ("" if references else "references = false\n")
+                     + ("" if bounds else "bounds = false\n")
                      + f'cache = "{(out / "optimum_cache").resolve()}"\n')
     points, _ = run_sweep(spec, {"angle_deg": angles, "tolerance_m": tolerances}, out / "points_sweep",
                           workers=workers, scheduler=scheduler, on_result=on_result, point_fn=atlas_point)
