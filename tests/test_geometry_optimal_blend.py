@@ -372,6 +372,16 @@ def test_the_wide_start_frees_an_end_the_joined_blend_stops_short_of(caplog):
     assert max_deviation(wide.path, path, rel_tol=1e-6).upper <= 0.01 * (1 + 2e-6)
 
 
+def _small_wide_search(**plans) -> dict:
+    """optimal_blends' settings of the wide-start tests: the atlas' plan settings and a small search with every stage
+    before the wide starts, none of those (unless ``plans`` turns one on) and no polish."""
+    from pathmotion.study.atlas import _settings
+
+    return {**dict(settings=_settings(verify=False, baselines=False), cycles=1, steps=2, racing_steps=2,
+                   search_grid_points=300, free_plans=16, rise_plans=30, end_plans=30, joint_plans=40, wide_plans=0,
+                   wide_normal_plans=0, restart_plans=0, polish_plans=0, wide_crossed_plans=0), **plans}
+
+
 def test_the_wide_start_along_the_normal_lifts_the_blend_out_of_the_plane(caplog):
     """The atlas' 30 degree corner at 10 mm, rest to rest: the whole-tube optimum rises 7-10 mm above the corner's
     plane along both lines (docs/study.md). The wide start along the normal (both ends free, the offset pieces
@@ -380,15 +390,12 @@ def test_the_wide_start_along_the_normal_lifts_the_blend_out_of_the_plane(caplog
     deviation."""
     import logging
 
-    from pathmotion.study.atlas import _settings, _task, corner_points
+    from pathmotion.study.atlas import _task, corner_points
 
     path = _task(corner_points(30))
-    kw = dict(settings=_settings(verify=False, baselines=False), cycles=1, steps=2, racing_steps=2,
-              search_grid_points=300, free_plans=16, rise_plans=30, end_plans=30, joint_plans=40, wide_plans=0,
-              restart_plans=0, polish_plans=0, wide_crossed_plans=0)
-    without = optimal_blends(_robot(), path, 0.01, wide_normal_plans=0, **kw)
+    without = optimal_blends(_robot(), path, 0.01, **_small_wide_search())
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
-        risen = optimal_blends(_robot(), path, 0.01, wide_normal_plans=150, **kw)
+        risen = optimal_blends(_robot(), path, 0.01, **_small_wide_search(wide_normal_plans=150))
     assert "the wide start along the normal frees the path's start and end" in caplog.text
     shape = risen.shapes[0]
     assert shape.rise_entry[0] > 0.005 and shape.rise_exit[0] > 0.005
@@ -405,15 +412,13 @@ def test_the_crossed_wide_starts_go_up_the_entry_and_out_along_the_exit(caplog):
     the motion rests at both ends."""
     import logging
 
-    from pathmotion.study.atlas import _settings, _task, corner_points
+    from pathmotion.study.atlas import _task, corner_points
 
     path = _task(corner_points(135))
-    kw = dict(settings=_settings(verify=False, baselines=False), cycles=1, steps=2, racing_steps=2,
-              search_grid_points=300, free_plans=16, rise_plans=30, end_plans=30, joint_plans=40, wide_plans=0,
-              wide_normal_plans=0, restart_plans=0, polish_plans=0)
-    without = optimal_blends(_robot(), path, 0.007, wide_crossed_plans=0, **kw)
+    kw = _small_wide_search()
+    without = optimal_blends(_robot(), path, 0.007, **kw)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
-        crossed = optimal_blends(_robot(), path, 0.007, wide_crossed_plans=150, **kw)
+        crossed = optimal_blends(_robot(), path, 0.007, **{**kw, "wide_crossed_plans": 150})
     assert "the wide start normal / out frees" in caplog.text and "the wide start out / normal frees" in caplog.text
     # measured: 0.82233 -> 0.82033 s with this small search (the default one: 0.82415 -> 0.81150 s); the blend now
     # rises 4.4 mm along the entry and runs 4.6 mm out along the exit, where the one without ran out along both
@@ -425,7 +430,7 @@ def test_the_crossed_wide_starts_go_up_the_entry_and_out_along_the_exit(caplog):
     moving = PlanSettings(start="max", end="zero", velocity=True, acceleration=True, torque=False, grid_points=300,
                           verify=False, baselines=False)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
-        optimal_blends(_robot(), path, 0.007, wide_crossed_plans=150, **{**kw, "settings": moving})
+        optimal_blends(_robot(), path, 0.007, **{**kw, "wide_crossed_plans": 150, "settings": moving})
     assert "normal / out" not in caplog.text and "out / normal" not in caplog.text
 
 
