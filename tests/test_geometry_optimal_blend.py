@@ -303,7 +303,7 @@ def test_the_joint_stage_moves_every_coordinate_of_a_blend_with_free_ends():
     there (no rise, no normal end coefficient); the search without it is a candidate, so it is never slower."""
     path = _turn(60)
     kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16, rise_plans=0,
-              end_plans=30, restart_plans=0)
+              end_plans=30, restart_plans=0, wide_crossed_plans=0)
     without = optimal_blends(_robot(), path, 0.01, joint_plans=0, **kw)
     joint = optimal_blends(_robot(), path, 0.01, joint_plans=40, **kw)
     assert without.shapes[0].departure is not None  # the free ends were taken before the joint stage
@@ -633,7 +633,7 @@ def test_optimal_blends_on_a_3d_polyline_keep_the_bound_and_beat_the_symmetric_g
                                  grid_points=400, verify=False, baselines=False)
     kw = dict(settings=plan_settings, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16,
               rise_plans=30, end_plans=12, joint_plans=20, wide_plans=20, wide_normal_plans=20, restart_plans=20,
-              polish_plans=10)
+              wide_crossed_plans=20, polish_plans=10)
     try:
         best = optimal_blends(_robot(), path, tol, **kw)
     except PathError as exc:  # the tolerance does not fit a corner: the error names the largest that does
@@ -752,7 +752,7 @@ def test_windowed_search_keeps_the_guarantees_on_many_corners(caplog, monkeypatc
     path, tol = _polyline(points), 0.002
     kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=10,
               rise_plans=10, end_plans=8, joint_plans=10, wide_plans=10, wide_normal_plans=10, restart_plans=10,
-              polish_plans=8)
+              wide_crossed_plans=10, polish_plans=8)
     with caplog.at_level("INFO", logger="pathmotion.planning.blend_search"):
         best = optimal_blends(_robot(), path, tol, **kw)
     assert caplog.text.count("polished on its window") == (5 if unwindowed is None else 4)
@@ -882,7 +882,8 @@ def test_the_wide_restart_runs_after_the_wide_starts_and_never_makes_the_blend_s
 
     path = _turn(60)
     kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16,
-              rise_plans=0, end_plans=30, joint_plans=30, wide_plans=0, wide_normal_plans=0, polish_plans=0)
+              rise_plans=0, end_plans=30, joint_plans=30, wide_plans=0, wide_normal_plans=0, polish_plans=0,
+              wide_crossed_plans=0)
     without = optimal_blends(_robot(), path, 0.01, restart_plans=0, **kw)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         restarted = optimal_blends(_robot(), path, 0.01, restart_plans=40, **kw)
