@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 from pathmotion.api import load_text, plan_summary, plan_scenario
 from pathmotion.constraint import lift
 from pathmotion.errors import PathError, ScenarioError, UnreachableError
-from pathmotion.geometry import FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend
+from pathmotion.geometry import BezierSegment, FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend
 from pathmotion.geometry.blends import (_piece_offsets, g2_blend_pieces, g2_control_points, g2_shape_for_tolerance,
                                         g2_shaped_control_points, with_shaped_g2_blend, with_shaped_g2_blends)
 from pathmotion.planning import PlanSettings
@@ -82,13 +82,22 @@ def test_shaped_blend_deviation_bound_holds_on_a_dense_check(kinds, deg, balance
         np.testing.assert_allclose(k0, k1, atol=1e-9 * max(1.0, float(np.linalg.norm(k0))))
 
 
+#: Rounding of a Bezier's curvature at its ends, times its length squared [m]: (X'' - (X''.T) T) / |X'|^2 from control
+#: points of about 0.5 m, rounded to 1e-16 of that, divided by |X'|^2 ~ L^2 (a corner quintic 0.125 mm long, which
+#: Hypothesis found, is 1.2e-8 1/m off at a join of curvature 0).
+CURVATURE_ROUNDING_M = 1e-13
+
+
 def _assert_g2_joins(new: TaskPath):
-    """Position, tangent and curvature vector continuous at every join of ``new``."""
+    """Position, tangent and curvature vector continuous at every join of ``new`` (the curvature within its rounding:
+    1e-8 of it, or CURVATURE_ROUNDING_M / L^2 for the shorter Bezier of length L at the join)."""
     for a, b in zip(new.segments[:-1], new.segments[1:]):
         (p0, t0, k0), (p1, t1, k1) = a.end_frame, b.start_frame
         np.testing.assert_allclose(p0, p1, atol=1e-12)
         np.testing.assert_allclose(t0, t1, atol=1e-11)
-        np.testing.assert_allclose(k0, k1, atol=1e-8 * max(1.0, float(np.linalg.norm(k0))))
+        short = min([s.length for s in (a, b) if isinstance(s, BezierSegment)], default=np.inf)
+        rounding = CURVATURE_ROUNDING_M / short ** 2
+        np.testing.assert_allclose(k0, k1, atol=1e-8 * max(1.0, float(np.linalg.norm(k0))) + rounding)
 
 
 def _blend_deviation(new: TaskPath, original: TaskPath, shape, spacing: float) -> tuple[float, float]:
@@ -114,6 +123,8 @@ def _blend_deviation(new: TaskPath, original: TaskPath, shape, spacing: float) -
        offsets=st.tuples(st.floats(0.0, 0.8), st.floats(0.0, 0.8)), runs=st.tuples(st.floats(0.5, 3.0), st.floats(0.5, 3.0)),
        tol=st.floats(2e-4, 0.02))
 @example(deg=165.0, balance=0.21875, shapes=(0.3125, 0.375), offsets=(0.0, 0.0), runs=(1.0, 1.0), tol=0.0078125)
+@example(deg=18.375, balance=0.5, shapes=(1.0, 0.5), offsets=(0.59375, 0.7421875), runs=(1.0, 2.607421875),
+         tol=0.019732115067085977)  # a corner quintic 0.125 mm long: its curvature's rounding at the join
 def test_racing_blend_deviation_bound_holds_on_a_dense_check(deg, balance, shapes, offsets, runs, tol):
     """The racing line (S-curve out, corner quintic between the offset lines, S-curve back): its
     certified bound holds against a brute-force nearest-neighbour check, it uses the tolerance, it

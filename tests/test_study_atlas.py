@@ -555,7 +555,9 @@ def test_a_reserve_row_through_the_cli_plans_and_solves_within_the_reduced_limit
     assert len(records) >= 2 and all(r["torque"] and r["torque_reserve"] == 0.2 for r in records)
     # against 0.8 tau_max: without the reserve the references would reach 1 / 0.8 = 1.25 of it; between the coarse
     # meshes' nodes the collocated torque overshoots by about 0.1 % (1.0011 on the polished blend's spans)
-    assert all(r["verification"]["max_torque_ratio"] <= 1 + 5e-3 for r in records)
+    # (the optima, and the corner-confined feasible bound where a solve held the tube: its record says why if none did)
+    assert all(r["verification"]["max_torque_ratio"] <= 1 + 5e-3 for r in records if "verification" in r)
+    assert all("verification" in r or r.get("error") for r in records)
     r = {k: float(v) for k, v in rows[0].items() if k in ("optimal_s", "stop_s", "corner_optimum_s",
                                                            "corner_error_s") and v != ""}
     assert r["optimal_s"] < r["stop_s"]

@@ -494,9 +494,10 @@ def whole_reference(cache: Path, robot, points, tolerance: float, meshes, corner
 def corner_bound(cache: Path, robot, points, tolerance: float, spans, meshes, corner: Reference, torque: bool = False,
                  torque_reserve: float = 0.0) -> dict:
     """The feasible bound of the corner-confined tube (free_shape.feasible_bound, from the ``corner`` Reference's
-    solutions): {duration [s], radius [m] of the tube it was solved in, solves, held_excess_m, cpu_s}, or
-    {duration: None, error} when no solve held the tube; read from ``cache`` or computed and written there (keyed as the
-    corner-confined optimum, with BOUND_VERSION and the reference's start). Its duration is an upper bound of the true
+    solutions): {duration [s], radius [m] of the tube it was solved in, solves, held_excess_m, verification (its
+    dense check), cpu_s, torque, reference_start, torque_reserve (above 0)}, or {duration: None, error, ...} when no
+    solve held the tube; read from ``cache`` or computed and written there (keyed as the corner-confined optimum,
+    with BOUND_VERSION and the reference's start). Its duration is an upper bound of the true
     minimum time in the tube, so ``optimal_s`` over it, less 1, is a lower bound of the blend's true gap."""
     from . import free_shape as fs
 
@@ -511,10 +512,12 @@ def corner_bound(cache: Path, robot, points, tolerance: float, spans, meshes, co
         bound = fs.feasible_bound(reserved(robot, torque_reserve), points, tolerance, spans, meshes, torque=torque,
                                   optimum=corner.solutions())
         rec = {"duration": bound.duration, "radius": bound.radius, "solves": bound.solves,
-               "held_excess_m": bound.check.get("held_excess_m")}
+               "held_excess_m": bound.check.get("held_excess_m"), "verification": bound.check}
     except PathmotionError as exc:
         rec = {"duration": None, "error": str(exc)}
-    rec["cpu_s"] = time.process_time() - t0
+    rec.update(cpu_s=time.process_time() - t0, torque=torque, reference_start=corner.start)
+    if torque and torque_reserve:
+        rec["torque_reserve"] = torque_reserve
     write_json(f, rec)
     return rec
 
