@@ -66,8 +66,9 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    stages ended in (a restart at the joint stage's own radius moved 30 deg / 5 mm by 0.02 %). Over seven tolerances
    within 1e-7 of 5 mm at 30 deg (benchmarks/search_spread.py) it made every blend faster, by 0.08-0.26 % (median
    0.67981 -> 0.67884 s); at 30 deg / 10 mm 0.6704 -> 0.6684 s. Then, where the motion rests at both ends, the
-   crossed wide starts: one side bulged outwards and the other along the normal, both ways round, each a joint stage
-   of WIDE_CROSSED_PLANS from a first trust region WIDE_CROSSED_RADIUS_SHARE of the mean step. The corner-confined
+   crossed wide starts: one side bulged outwards and the other up or down along the normal, both ways round
+   (CROSSED_DIRECTIONS), each a joint stage of WIDE_CROSSED_PLANS from a first trust region WIDE_CROSSED_RADIUS_SHARE
+   of the mean step. The corner-confined
    optimum at 135 deg / 7 mm runs up along the entry and out along the exit, a start none of the others makes:
    0.82415 -> 0.81150 s there, 0.86384 -> 0.86066 s at 135 deg / 2 mm, no change on eight other corners, 3-7 s of
    CPU per corner (python benchmarks/blend_search_stages.py --stage crossed). With a first trust region of a whole
@@ -111,7 +112,7 @@ joint stage, the best before the wide starts, the best before the wide restart a
 re-planned on the full grid and the fastest is kept, so the result is never slower than the symmetric G2 blend, the
 S-curve racing line or the search without the joint stage, the wide starts, the restart or the capped retry (each
 before its polish); the polish then starts from the fastest and keeps it unless it finds a faster one.
-About 255 plans per corner (785-1250 with free ends, the wide starts and the restart; twice that when capped), and
+About 255 plans per corner (785-1550 with free ends, the wide starts and the restart; twice that when capped), and
 the polish's 150 on the full grid.
 """
 
@@ -172,6 +173,10 @@ WIDE_NORMAL_PLANS = 150
 #: a radius from the tube's edge, left the corner quintic no room).
 WIDE_CROSSED_PLANS = 150
 WIDE_CROSSED_RADIUS_SHARE = 0.5
+#: The crossed starts' directions (entry, exit): along the corner's normal up or down (not after the side the fastest
+#: blend rises to, as the wide start along the normal: at 120 deg / 5 mm that blend's entry sinks by 0.01 mm, and only
+#: the start up along it is faster, 0.81774 -> 0.81533 s), the other side outwards.
+CROSSED_DIRECTIONS = (("up", "out"), ("down", "out"), ("out", "up"), ("out", "down"))
 #: Plans of the wide restart (the joint stage once more from the fastest blend, with RESTART_RADIUS_SHARE).
 RESTART_PLANS = 150
 #: The joint stage's COBYQA, in its box scaled to [-1, 1]: the initial trust radius as a share of the
@@ -638,8 +643,8 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     side. The whole-tube optimum does both (benchmarks/issue_turn.py, docs/study.md): on issue 17's turn at 10 mm it
     leaves the start outwards and runs at the tube's edge 50 mm before the corner, where the fastest joined blend used
     45 mm of the 100 mm entry line and stage 5 left that end joined; at the atlas' 30 deg / 10 mm it rises out of
-    the plane by 7-10 mm along both lines. ``crossed`` ("out" or "normal" per side, at a corner resting at both
-    ends): each side in its own direction (the optimum at 135 deg / 7 mm runs up along the entry and out along the
+    the plane by 7-10 mm along both lines. ``crossed`` ("out", "up", "down" or "normal" per side, at a corner resting
+    at both ends): each side in its own direction (up and down along the corner's normal) (the optimum at 135 deg / 7 mm runs up along the entry and out along the
     exit); ``share``: the joint stage's first trust region (_trust_region)."""
     if (along_normal or crossed) and planar:
         return
@@ -659,7 +664,8 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     for bulge, direction, (w, c_far, c_near, rise, end, risen) in zip(wide, directions, sides):
         if not bulge:
             continue
-        lateral, normal = (0.0, 1.0 if risen >= 0.0 else -1.0) if direction == "normal" else (1.0, 0.0)
+        up = {"up": 1.0, "down": -1.0, "normal": 1.0 if risen >= 0.0 else -1.0}.get(direction)
+        lateral, normal = (1.0, 0.0) if up is None else (0.0, up)
         x[[w, c_far, c_near]] = lateral * offset, lateral * far, lateral * near
         x[list(rise)] = normal * offset, normal * near, normal * far
         x[end] = (lateral * near_end[0], lateral * near_end[1], normal * near_end[0], normal * near_end[1])
@@ -799,7 +805,7 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                 log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.label,
                          ahead, objective.best()[0])
             crossed = wide_crossed_plans > 0 and joint_plans > 0  # joint stages, as the restart: not without one
-            for directions in (("normal", "out"), ("out", "normal")) if crossed else ():
+            for directions in CROSSED_DIRECTIONS if crossed else ():
                 _wide_stage(objective, wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE)
             wide = wide_plans > 0 or wide_normal_plans > 0 or crossed or restart
             return ((before if joint_plans > 0 or wide else None), (before_wide if wide else None),
