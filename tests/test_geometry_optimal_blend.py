@@ -430,8 +430,8 @@ def test_the_crossed_wide_starts_go_up_the_entry_and_out_along_the_exit(caplog):
     without = optimal_blends(_robot(), path, 0.007, **kw)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         crossed = optimal_blends(_robot(), path, 0.007, **{**kw, "wide_crossed_plans": 150})
-    for crossed in ("up / out", "down / out", "out / up", "out / down"):
-        assert f"the wide start {crossed} frees" in caplog.text
+    for directions in ("up / out", "down / out", "out / up", "out / down"):
+        assert f"the wide start {directions} frees" in caplog.text
     # measured: 0.82233 -> 0.82033 s with this small search (the default one: 0.82415 -> 0.81150 s); the blend now
     # rises 4.4 mm along the entry and runs 4.6 mm out along the exit, where the one without ran out along both
     assert crossed.duration < without.duration * (1 - 0.001)
