@@ -240,8 +240,8 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     path = TaskJointPath(
         n=robot.n, domain=(lo, hi), closed=bool(getattr(task_path, "closed", False)),
         kinks=tuple(float(k) for k in task_path.kinks), breaks=tuple(float(b) for b in task_path.breaks),
-        peaks=task_path.curvature_peaks, joint_names=robot.joint_names, robot=robot, task_path=task_path, original_task_path=original,
-        reference_theta=theta, reference_q=q,
+        peaks=task_path.curvature_peaks, joint_names=robot.joint_names, robot=robot, task_path=task_path,
+        original_task_path=original, reference_theta=theta, reference_q=q,
     )
     passages = wrist_crossing.find_passages(robot, task_path, theta, q, path._ik, singularity_threshold, q_start)
     windows = wrist_crossing.crossing_windows(robot, task_path, theta, q, passages, path._ik,

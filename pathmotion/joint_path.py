@@ -8,8 +8,9 @@ A :class:`JointPath` maps the path coordinate theta (one coordinate for the whol
 ``kinks`` lists the theta values where Phi' jumps (sharp task-space corners without a blend):
 any admissible motion must stop there. ``breaks`` lists every segment connection (kinks
 included), for segment-by-segment planning. ``peaks`` lists the theta values of the task path's
-curvature peaks inside its segments, where the planner grades its grid as at breaks. At a break, ``side="right"`` (default) evaluates the
-segment that starts there and ``side="left"`` the one that ends there.
+curvature peaks inside its segments, where the planner grades its grid as at breaks. At a break,
+``side="right"`` (default) evaluates the segment that starts there and ``side="left"`` the one that ends
+there.
 """
 
 from __future__ import annotations

@@ -1,11 +1,13 @@
-"""Shared helpers for the geometry tests: finite differences and random corners."""
+"""Shared helpers for the geometry tests: finite differences, random corners and a near-cusp Bezier."""
 
 from __future__ import annotations
+
+from math import comb
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pathmotion.geometry import Arc, Line, TaskPath
+from pathmotion.geometry import Arc, BezierSegment, Line, TaskPath
 
 FD_STEP = 1e-5
 
@@ -44,3 +46,14 @@ def outgoing(kind: str, length: float, radius: float, left: bool, angle: float) 
     normal = np.array([0.0, 0.0, 1.0 if left else -1.0])
     centre = radius * np.cross(normal, t)
     return Arc(centre, (0.0, 0.0, 0.0), normal, length / radius)
+
+
+def near_cusp(eps: float, h: float = 0.05, width: float = 0.1, at=(0.5, 0.0, 0.45)) -> BezierSegment:
+    """X(t) = (width (t^3 + eps t), h t^2, 0) + at, t = 2u - 1: a cubic written as a quintic Bezier (control points
+    solved from six samples). At t = 0 its speed dips to width eps (per unit t) and its curvature peaks at
+    2 h / (width eps)^2: 11111 1/m at eps = 0.03."""
+    u = np.linspace(0.0, 1.0, 6)
+    t = 2.0 * u - 1.0
+    samples = np.stack([width * (t ** 3 + eps * t), h * t ** 2, 0.0 * t], axis=1) + np.asarray(at)
+    basis = np.array([[comb(5, i) * v ** i * (1 - v) ** (5 - i) for i in range(6)] for v in u])
+    return BezierSegment(np.linalg.solve(basis, samples))

@@ -3,7 +3,7 @@ points (vs brute force), constructors and degenerate input."""
 
 import numpy as np
 import pytest
-from geometry_support import central_difference
+from geometry_support import central_difference, near_cusp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -155,25 +155,12 @@ def test_bezier_power_basis_matches_de_casteljau_and_its_hodographs(points, u):
         hodograph = (len(hodograph) - 1) * np.diff(hodograph, axis=0)
 
 
-def _near_cusp(eps: float, h: float = 0.05, width: float = 0.1, at=(0.5, 0.0, 0.45)) -> BezierSegment:
-    """X(t) = (width (t^3 + eps t), h t^2, 0) + at, t = 2u - 1: a cubic written as a quintic Bezier (control points
-    solved from six samples). At t = 0 its speed dips to width eps (per unit t) and its curvature peaks at
-    2 h / (width eps)^2: 11111 1/m at eps = 0.03."""
-    from math import comb
-
-    u = np.linspace(0.0, 1.0, 6)
-    t = 2.0 * u - 1.0
-    samples = np.stack([width * (t ** 3 + eps * t), h * t ** 2, 0.0 * t], axis=1) + np.asarray(at)
-    basis = np.array([[comb(5, i) * v ** i * (1 - v) ** (5 - i) for i in range(6)] for v in u])
-    return BezierSegment(np.linalg.solve(basis, samples))
-
-
 @pytest.mark.parametrize("eps", [0.3, 0.03, 0.003])
 def test_curvature_peaks_are_where_a_dense_sample_peaks(eps):
     """Every local maximum of the curvature |p''| on 400001 arc lengths, and only those, is a peak, within two of
     their steps, with the curvature there (the central peak is 0.3 um wide at half height at eps = 0.003: 2049
     samples in u see it, a uniform grid in s would need millions)."""
-    seg = _near_cusp(eps)
+    seg = near_cusp(eps)
     s = np.linspace(0.0, seg.length, 400001)
     kappa = np.linalg.norm(seg.evaluate(s)[2], axis=1)
     dense = s[1:-1][(kappa[1:-1] >= kappa[:-2]) & (kappa[1:-1] > kappa[2:])]

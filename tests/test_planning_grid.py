@@ -220,9 +220,9 @@ def test_a_narrow_curvature_peak_inside_a_segment_is_planned_alike_on_coarse_and
 
     from pathmotion.constraint import lift
     from pathmotion.geometry import TaskPath
-    from test_geometry_segments import _near_cusp
+    from geometry_support import near_cusp
 
-    seg = _near_cusp(0.03)
+    seg = near_cusp(0.03)
     path = lift(irb140, TaskPath((seg,)))
     assert path.peaks == pytest.approx(seg.curvature_peaks)
     grid = make_grid(path, 300).theta

@@ -233,6 +233,8 @@ def test_a_corner_reference_above_a_feasible_start_is_solved_again_from_the_othe
     solved.clear()
     again = atlas.corner_reference(tmp_path, robot, pts, 0.001, spans, meshes, blend, False, 0.9065)
     assert solved == [] and again.value == ref.value and again.durations == ref.durations
+    # its solutions, asked for by the whole tube's starts and the feasible bound, are solved again once, not per ask
+    assert again.solutions() is again.solutions() is results["stop"] and solved == ["stop"]
 
 
 def test_a_corner_reference_that_fails_from_every_start_says_so_per_start(tmp_path, monkeypatch):

@@ -67,8 +67,8 @@ def _check_name(path: str, what: str, error: type) -> None:
         raise error(f"{what} {path!r} contains a NUL byte; give a plain file name")
     if len(os.fsencode(path)) > defaults.MAX_PATH_BYTES or any(
             len(os.fsencode(part)) > defaults.MAX_NAME_BYTES for part in Path(path).parts):
-        raise error(f"{what} {printable(path[:60])}... is too long (more than {defaults.MAX_NAME_BYTES} bytes per name or "
-                    f"{defaults.MAX_PATH_BYTES} in all); give a shorter path")
+        raise error(f"{what} {printable(path[:60])}... is too long (more than {defaults.MAX_NAME_BYTES} bytes per "
+                    f"name or {defaults.MAX_PATH_BYTES} in all); give a shorter path")
 
 
 def read_input_bytes(path: str | Path, kind: str) -> bytes:

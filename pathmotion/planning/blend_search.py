@@ -68,10 +68,10 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    0.67981 -> 0.67884 s); at 30 deg / 10 mm 0.6704 -> 0.6684 s. Then, where the motion rests at both ends, the
    crossed wide starts: one side bulged outwards and the other up or down along the normal, both ways round
    (CROSSED_DIRECTIONS), each a joint stage of WIDE_CROSSED_PLANS from a first trust region WIDE_CROSSED_RADIUS_SHARE
-   of the mean step. The corner-confined
-   optimum at 135 deg / 7 mm runs up along the entry and out along the exit, a start none of the others makes:
-   0.82415 -> 0.81150 s there, 0.86384 -> 0.86066 s at 135 deg / 2 mm, no change on eight other corners, 3-7 s of
-   CPU per corner (python benchmarks/blend_search_stages.py --stage crossed). With a first trust region of a whole
+   of the mean step. The corner-confined optimum at 135 deg / 7 mm runs up along the entry and out along the exit, a
+   start none of the others makes: 0.82415 -> 0.81150 s there, 0.86384 -> 0.86066 s at 135 deg / 2 mm, 0.81701 ->
+   0.81443 s at 120 deg / 5 mm, no change on the seven other corners tried, 5-10 s of CPU per corner (python
+   benchmarks/blend_search_stages.py --stage crossed). With a first trust region of a whole
    mean step every plan of a start was rejected at 135 deg / 2 mm (its first points, a radius from the tube's edge,
    left the corner quintic no room), and with TRUST_RADIUS_SHARE the starts crawl (600 plans to come within 0.2 % of
    where 250 plans at a larger radius end: benchmarks/corner_families.py --share);
@@ -643,9 +643,9 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     side. The whole-tube optimum does both (benchmarks/issue_turn.py, docs/study.md): on issue 17's turn at 10 mm it
     leaves the start outwards and runs at the tube's edge 50 mm before the corner, where the fastest joined blend used
     45 mm of the 100 mm entry line and stage 5 left that end joined; at the atlas' 30 deg / 10 mm it rises out of
-    the plane by 7-10 mm along both lines. ``crossed`` ("out", "up", "down" or "normal" per side, at a corner resting
-    at both ends): each side in its own direction (up and down along the corner's normal) (the optimum at 135 deg / 7 mm runs up along the entry and out along the
-    exit); ``share``: the joint stage's first trust region (_trust_region)."""
+    the plane by 7-10 mm along both lines. ``crossed`` (a direction per side, "out", "up" or "down" along the corner's
+    normal; only at a corner resting at both ends): each side in its own direction (the optimum at 135 deg / 7 mm runs
+    up along the entry and out along the exit); ``share``: the joint stage's first trust region (_trust_region)."""
     if (along_normal or crossed) and planar:
         return
     _, shape, x = objective.best(planar=planar)
@@ -761,7 +761,8 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
                    planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
-                   wide_crossed_plans: int = WIDE_CROSSED_PLANS) -> tuple[G2Shape | None, G2Shape | None, G2Shape | None]:
+                   wide_crossed_plans: int = WIDE_CROSSED_PLANS
+                   ) -> tuple[G2Shape | None, G2Shape | None, G2Shape | None]:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
     > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends

@@ -67,10 +67,10 @@ ATLAS_SEGMENT_LENGTH = 0.2
 ATLAS_CORNER = (0.5, -0.05, 0.45)
 #: Columns of corners.csv.
 ATLAS_COLUMNS = ("angle_deg", "tolerance_m", "torque", "torque_reserve", "status", "stop_s", "circle_s", "g2_s",
-                 "quintic_s", "optimal_s", "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s", "corner_error_s",
-                 "corner_bound_s", "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2", "gap_to_optimum",
-                 "gap_to_corner_optimum", "gap_to_corner_bound", "capture", "optimal_entry_m", "optimal_exit_m", "optimal_offset_entry_m",
-                 "optimal_offset_exit_m", "optimal_rise_entry_m", "optimal_rise_exit_m", "closed_loop_ok",
+                 "quintic_s", "optimal_s", "free_shape_optimum_s", "free_shape_error_s", "corner_optimum_s",
+                 "corner_error_s", "corner_bound_s", "industrial_zone_s", "gain_vs_stop", "gain_vs_zone", "gain_vs_g2",
+                 "gap_to_optimum", "gap_to_corner_optimum", "gap_to_corner_bound", "capture", "optimal_entry_m",
+                 "optimal_exit_m", "optimal_offset_entry_m", "optimal_offset_exit_m", "optimal_rise_entry_m", "optimal_rise_exit_m", "closed_loop_ok",
                  "closed_loop_path_accuracy_m", "closed_loop_cornering_deviation_m", "closed_loop_cycle_s", "error")
 #: Bump when the free-shape formulation changes, so cached optima are recomputed; the corner-confined
 #: optima have their own (3: its restarts changed, so a cached failure is solved again; 3 / 4: the tube
@@ -80,8 +80,9 @@ CORNER_OPTIMUM_VERSION = 4
 #: Bump when the feasible bound's method (free_shape.feasible_bound) changes, so cached bounds are recomputed.
 BOUND_VERSION = 1
 #: Bump when a row's content changes, so the sweep recomputes its points (the optima stay cached; 6: the torque
-#: column and the whole tube's retries; 7: the feasible bound). Not bumped for the torque_reserve column: a torque-free row's is empty, as a
-#: point recorded before it reads, and a torque atlas' spec holds its reserve, so its points are new.
+#: column and the whole tube's retries; 7: the feasible bound). Not bumped for the torque_reserve column: a torque-free
+#: row's is empty, as a point recorded before it reads, and a torque atlas' spec holds its reserve, so its points are
+#: new.
 ROW_VERSION = 7
 #: IPOPT statuses counted as converged.
 CONVERGED_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -422,7 +423,8 @@ def _reference(rec: dict, feasible: float, inner: tuple | None = None) -> tuple[
 class Reference:
     """A free-shape reference: value, error [s] (None: no reference) and note (None: converged) as reference_value;
     ``start``: the name of the start it came from (CORNER_STARTS, WHOLE_STARTS); ``solutions()``: its
-    FreeShapeOptimum (solved again when it came from the cache; the corner-confined one starts the whole tube);
+    FreeShapeOptimum (solved again, once, when it came from the cache; the corner-confined one starts the whole tube
+    and the feasible bound);
     ``durations``: its record's duration per mesh [s]."""
 
     value: float | None
@@ -458,12 +460,12 @@ def best_reference(cache: Path, robot, points, tolerance: float, spans, meshes, 
     if not usable and len(tried) > 1:
         note = "; ".join(f"from the {s.name}: {r[2]}" for s, r, *_ in tried)
 
-    def solutions():
-        if keep:
-            return keep[0]
-        warm = start.warm() if callable(start.warm) else start.warm
-        return free_shape_optimum(reserved(robot, torque_reserve), points, tolerance, spans,
-                                  tuple(meshes or defaults.ATLAS_MESHES), warm=warm, torque=torque)
+    def solutions():  # solved again only once when it came from the cache (the whole tube's starts and the bound)
+        if not keep:
+            warm = start.warm() if callable(start.warm) else start.warm
+            keep.append(free_shape_optimum(reserved(robot, torque_reserve), points, tolerance, spans,
+                                           tuple(meshes or defaults.ATLAS_MESHES), warm=warm, torque=torque))
+        return keep[0]
 
     return Reference(value, error, note, start.name, solutions, durations)
 
