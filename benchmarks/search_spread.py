@@ -40,6 +40,8 @@ def main() -> None:
     ap.add_argument("--search-grid-points", type=int, default=None,
                     help="the search's fixed grid (default SEARCH_GRID_POINTS)")
     ap.add_argument("--polish-plans", type=int, default=None, help="plans of the full-grid polish (default POLISH_PLANS)")
+    ap.add_argument("--polish-starts", type=int, default=None,
+                    help="how many of the fastest distinct full-grid candidates the polish runs from (default POLISH_STARTS)")
     ap.add_argument("--reference", type=float, default=None,
                     help="a reference duration [s] (e.g. the whole-tube optimum): also prints each run's gap to it "
                          "and how many runs are within 1 %% of it")
@@ -60,7 +62,8 @@ def main() -> None:
           "wide_normal_plans": bs.WIDE_NORMAL_PLANS if a.wide_normal_plans is None else a.wide_normal_plans,
           "restart_plans": bs.RESTART_PLANS if a.restart_plans is None else a.restart_plans,
           "search_grid_points": bs.SEARCH_GRID_POINTS if a.search_grid_points is None else a.search_grid_points,
-          "polish_plans": bs.POLISH_PLANS if a.polish_plans is None else a.polish_plans}
+          "polish_plans": bs.POLISH_PLANS if a.polish_plans is None else a.polish_plans,
+          "polish_starts": bs.POLISH_STARTS if a.polish_starts is None else a.polish_starts}
     where = "issue 17's turn" if a.angle is None else f"{a.angle:g} deg atlas corner"
     print(f"{where}, {a.tolerance * 1e3:g} mm, {kw}, load {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     durations = []

@@ -508,6 +508,26 @@ def test_the_full_grid_polish_reports_what_the_returned_path_plans(caplog):
     assert quintic.duration <= optimal_blends(_robot(), path, 0.005, racing=False, polish_plans=0, **kw).duration
 
 
+def test_the_polish_from_several_starts_is_never_slower_than_from_one(caplog):
+    """Stage 8 from the ``polish_starts`` fastest distinct full-grid candidates: the first is the candidate polished
+    alone, so the blend is never slower than with one start; each start is polished (and logged) once, the plans grow
+    by at most the polish's per extra start, and the reported duration is the returned blends' own plan."""
+    import logging
+
+    path = _turn(90)
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16,
+              rise_plans=0, end_plans=0, polish_plans=30)
+    one = optimal_blends(_robot(), path, 0.005, polish_starts=1, **kw)
+    with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
+        three = optimal_blends(_robot(), path, 0.005, polish_starts=3, **kw)
+    starts = caplog.text.count("polished from the candidate")
+    assert starts == 3  # this search leaves more than three distinct candidates
+    assert three.duration <= one.duration
+    assert one.plans < three.plans <= one.plans + (starts - 1) * (30 + 1)
+    assert three.duration == pytest.approx(duration_with(_robot(), path, three.shapes, SETTINGS), rel=1e-12)
+    assert max_deviation(three.path, path, rel_tol=1e-6).upper <= 0.005 * (1 + 2e-6)
+
+
 def test_a_rise_alone_makes_offset_pieces_and_bad_rises_are_refused():
     path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
     shape = g2_shape_for_tolerance(path, 0, 2e-3, 0.5, 0.7, 0.7, runs=(0.05, 0.05),

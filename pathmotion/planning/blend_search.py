@@ -83,14 +83,16 @@ The search runs fast plans (coarse grid, no verification) and keeps the best sha
    blend reached 7.6 mm; searched again within that it is 0.8 % faster (0.6821 -> 0.6767 s), and faster
    than the blend within 5 mm (0.6798 s), which the 10 mm search had missed. No other atlas row is capped;
 8. the full-grid polish: COBYQA (POLISH_PLANS plans per corner, the joint stage's coordinates and steps) on the
-   full grid's duration, from the fastest of the candidates below. Stages 1-7 rank shapes on a coarse grid
+   full grid's duration, from each of the POLISH_STARTS fastest distinct candidates below; the fastest result is
+   kept. Stages 1-7 rank shapes on a coarse grid
    (SEARCH_GRID_POINTS), where a short blend gets few points and durations differ from the full grid's, so the
    coarse grid's fastest is not the full grid's: on the 20 atlas rows the polish made the blend 0.001-1.0 %
    faster (120 deg / 1 mm 0.8711 -> 0.8625 s, 120 deg / 10 mm 0.7695 -> 0.7683 s), for 10-19 s of CPU per
    corner. It is local: it keeps the guarantees below (never slower than any candidate), but a smaller search's
    polish, from another start, can end in a faster local optimum than a larger search's (Hypothesis found
    84.4 deg / 15.6 mm: the search stopped after the S-curves 0.6344 s, the whole search 0.6364 s). Polishing every
-   candidate would restore that ordering for about six times the polish's plans.
+   candidate would restore that ordering for about six times the polish's plans; ``polish_starts`` 2 polishes the
+   second-fastest too, where another start ended faster in practice (POLISH_STARTS).
 
 On a path of more than two segments with one tool orientation, each corner is searched and polished on its window
 (``windows``): its segments out to the nearest blended or sharp corner each way (over smooth and tangent connections,
@@ -108,10 +110,11 @@ Offsets and coefficients are searched in units of the tolerance, runs in units o
 sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
 keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
 line, the best free one, the best in the plane, the best joined to the lines, the best before the
-joint stage, the best before the wide starts, the best before the wide restart and the capped search's best are then
-re-planned on the full grid and the fastest is kept, so the result is never slower than the symmetric G2 blend, the
-S-curve racing line or the search without the joint stage, the wide starts, the restart or the capped retry (each
-before its polish); the polish then starts from the fastest and keeps it unless it finds a faster one.
+joint stage, the best before the wide starts, the best before the wide restart, the best before the crossed starts
+and the capped search's best are then re-planned on the full grid and the fastest is kept, so the result is never
+slower than the symmetric G2 blend, the S-curve racing line or the search without the joint stage, the wide starts,
+the restart, the crossed starts or the capped retry (each before its polish); the polish then starts from the
+fastest (and the next POLISH_STARTS - 1) and keeps the fastest blend unless it finds a faster one.
 About 255 plans per corner (785-1550 with free ends, the wide starts and the restart; twice that when capped), and
 the polish's 150 on the full grid.
 """
@@ -193,6 +196,11 @@ SEARCH_GRID_POINTS = 300
 CAPPED_SHARE = 0.95
 #: Plans of the full-grid polish (stage 8) per corner.
 POLISH_PLANS = 150
+#: The polish runs from this many of the fastest distinct full-grid candidates (stage 8). At 30 deg / 5 mm over
+#: twelve tolerances within 1e-5 of 5 mm a second start ended faster in 3 runs (by 0.002-0.10 %), a third in none,
+#: for about 7 s more CPU per corner (benchmarks/search_spread.py --polish-starts 3): not worth the atlas' time
+#: budget by default.
+POLISH_STARTS = 1
 
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
 #: run_entry, run_exit [run unit] (7: S-curve offset pieces), then (11: free offset pieces) each
@@ -770,16 +778,16 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
     (``wide_plans``, ``wide_normal_plans``, ``wide_crossed_plans`` > 0) and the wide restart (``restart_plans`` > 0)
     (module docstring).
     Returns the fastest shape before the joint stage when that, a wide start or the restart ran, the fastest before
-    the wide starts when they or the restart ran, and the fastest before the restart when it ran, each else None
-    (candidates of their own: a later stage's blend is faster on the search's coarse grid, not always on the full
-    one)."""
+    the wide starts when they or the restart ran, the fastest before the restart when it ran, and the fastest before
+    the crossed starts when they ran, each else None (candidates of their own: a later stage's blend is faster on the
+    search's coarse grid, not always on the full one)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
         for i, box in ((_BALANCE, BALANCE_RANGE), (_SHAPE_A, SHAPE_RANGE), (_SHAPE_B, SHAPE_RANGE)):
             _line_search(objective, np.array(objective.best()[2]), (i,), *box, steps)
     if not racing:
-        return None, None, None
+        return None, None, None, None
     for _ in range(RACING_CYCLES):
         for indices, box in _RACING_MOVES:
             _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
@@ -806,12 +814,13 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                 log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.label,
                          ahead, objective.best()[0])
             crossed = wide_crossed_plans > 0 and joint_plans > 0  # joint stages, as the restart: not without one
+            before_crossed = objective.best()[1]
             for directions in CROSSED_DIRECTIONS if crossed else ():
                 _wide_stage(objective, wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE)
             wide = wide_plans > 0 or wide_normal_plans > 0 or crossed or restart
             return ((before if joint_plans > 0 or wide else None), (before_wide if wide else None),
-                    (before_restart if restart else None))
-    return None, None, None
+                    (before_restart if restart else None), (before_crossed if crossed else None))
+    return None, None, None, None
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -829,7 +838,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
                    retry_capped: bool = True, polish_plans: int = POLISH_PLANS,
                    names: Mapping[int, str] | None = None, windows: bool = True,
-                   wide_crossed_plans: int = WIDE_CROSSED_PLANS) -> OptimalBlend:
+                   wide_crossed_plans: int = WIDE_CROSSED_PLANS, polish_starts: int = POLISH_STARTS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
@@ -837,9 +846,9 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
     wide start outwards, ``wide_normal_plans`` 0: none along the normal, ``wide_crossed_plans`` 0: no crossed ones;
-    ``restart_plans`` 0: no wide restart; ``retry_capped``
-    False: no stage 7; ``polish_plans`` 0: no stage 8; ``windows`` False: every plan on the whole path). PathError as
-    :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does
+    ``restart_plans`` 0: no wide restart; ``retry_capped`` False: no stage 7; ``polish_plans`` 0: no stage 8,
+    ``polish_starts``: how many candidates it starts from; ``windows`` False: every plan on the whole path). PathError
+    as :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does
     not fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
@@ -849,7 +858,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted = (dict(shapes) for _ in range(8))
+    initial, quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted, uncrossed = (
+        dict(shapes) for _ in range(9))
     capped: dict = {}  # a corner searched again (stage 7): the first search's fastest blend
     searches: dict = {}  # every corner's searches, for the polish (stage 8)
     plans, rests = 0, (False, False) if original.closed else _rests(settings)
@@ -862,7 +872,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         window = _corner_window(robot, original, shapes, k, fast, q_start) if windowed else None
         plans += 2 * (window is not None)  # the whole path's plan for its ends, and the window's check
         obj = _objective(robot, original, shapes, k, tol[k], fast, q_start, ends, window)
-        before_joint, before_wide, before_restart = _search_corner(obj, *search)
+        before_joint, before_wide, before_restart, before_crossed = _search_corner(obj, *search)
         searched, reached = [obj], obj.best()[1].deviation
         if retry_capped and reached < CAPPED_SHARE * tol[k]:  # the neighbours capped the blend: stage 7
             again = _objective(robot, original, shapes, k, reached, fast, q_start, ends, window)
@@ -873,12 +883,13 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                      obj.best()[0])
             if again.best()[0] < obj.best()[0]:
                 capped[k] = obj.best()[1]
-                obj, (before_joint, before_wide, before_restart) = again, before_again
+                obj, (before_joint, before_wide, before_restart, before_crossed) = again, before_again
         quintic[k], s_curve[k], in_plane[k], joined[k], shapes[k] = (
             obj.best(quintic_only=True)[1], obj.best(s_curve_only=True)[1], obj.best(planar=True)[1],
             obj.best(joined=True)[1], obj.best()[1])
-        unjoint[k], unwide[k], unrestarted[k] = (before_joint or shapes[k], before_wide or shapes[k],
-                                                 before_restart or shapes[k])
+        unjoint[k], unwide[k], unrestarted[k], uncrossed[k] = (
+            before_joint or shapes[k], before_wide or shapes[k], before_restart or shapes[k],
+            before_crossed or shapes[k])
         searches[k] = searched
         corner_plans = sum(o.plans for o in searched)
         plans += corner_plans
@@ -886,7 +897,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    stages = ((quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted)
+    stages = ((quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted, uncrossed)
               + (({**shapes, **capped},) if capped else ())
               + (shapes,))
     for found in [c for i, c in enumerate(stages) if c not in stages[:i]]:
@@ -895,18 +906,23 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     quintic_T = candidates[1][0]
     joined_T = min(c[0] for c in candidates if all(_joined(shape) for shape in c[1].values()))
     planar_T = min(c[0] for c in candidates if all(shape.planar for shape in c[1].values()))
-    T, found, path = min(candidates, key=lambda c: c[0])  # the first (symmetric) wins ties
-    if polish_plans > 0:
-        quintic_only = [k for k in chosen if not (racing and _racing_possible(original, k))]
-        polished_T, polished, polish_run = _polish(robot, original, found, T, searches, full, q_start, polish_plans,
-                                                   planar, quintic_only, windowed)
+    ranked = sorted(candidates, key=lambda c: c[0])  # stable: the first (symmetric) wins ties
+    T, found, path = ranked[0]
+    quintic_only = [k for k in chosen if not (racing and _racing_possible(original, k))]
+    starts = [c for i, c in enumerate(ranked) if all(c[1] != d[1] for d in ranked[:i])][:polish_starts]
+    for start_T, start, _ in starts if polish_plans > 0 else ():
+        polished_T, polished, polish_run = _polish(robot, original, start, start_T, searches, full, q_start,
+                                                   polish_plans, planar, quintic_only, windowed)
         plans += polish_run
+        if polished_T < start_T:
+            shapes_now = polished.values()  # the polished blend counts for the classes it still belongs to
+            quintic_T = min(quintic_T, polished_T) if not any(s.racing for s in shapes_now) else quintic_T
+            planar_T = min(planar_T, polished_T) if all(s.planar for s in shapes_now) else planar_T
+            joined_T = min(joined_T, polished_T) if all(_joined(s) for s in shapes_now) else joined_T
+        log.info("blend search: polished from the candidate of %.6g s: %.6g s (fastest so far %.6g s)", start_T,
+                 polished_T, min(T, polished_T))
         if polished_T < T:
             T, found, path = polished_T, polished, None
-            shapes_now = found.values()  # the polished blend counts for the classes it still belongs to
-            quintic_T = min(quintic_T, T) if not any(s.racing for s in shapes_now) else quintic_T
-            planar_T = min(planar_T, T) if all(s.planar for s in shapes_now) else planar_T
-            joined_T = min(joined_T, T) if all(_joined(s) for s in shapes_now) else joined_T
     return OptimalBlend(found, symmetric if path is not None else with_shaped_g2_blends(original, found), T, sym_T,
                         plans, quintic_T, planar_T, joined_T)
 
