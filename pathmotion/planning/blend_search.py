@@ -197,9 +197,9 @@ CAPPED_SHARE = 0.95
 #: Plans of the full-grid polish (stage 8) per corner.
 POLISH_PLANS = 150
 #: The polish runs from this many of the fastest distinct full-grid candidates (stage 8). At 30 deg / 5 mm over
-#: twelve tolerances within 1e-5 of 5 mm a second start ended faster in 3 runs (by 0.002-0.10 %), a third in none,
-#: for about 7 s more CPU per corner (benchmarks/search_spread.py --polish-starts 3): not worth the atlas' time
-#: budget by default.
+#: eleven tolerances within 1e-6 of 5 mm a second start ended faster in 3 runs (by 0.001-0.10 %), a third in none,
+#: for about 6 s more CPU per start and corner (28-35 s for the search; benchmarks/search_spread.py --polish-starts
+#: 3): not worth the atlas' time budget by default.
 POLISH_STARTS = 1
 
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
