@@ -91,15 +91,22 @@ def guarded(fn):
         except OSError as exc:  # a file or folder the run uses: name it and say why
             _fail(f"{exc.filename or 'a file'}: {os_reason(exc)}")
         except KeyboardInterrupt:
-            err_console.print("[yellow]interrupted[/]: finished files are complete, nothing half-written remains")
-            raise typer.Exit(130)
+            _interrupted()
         except Exception as exc:  # a bug: say so plainly, keep the traceback for debugging
+            if _SIGNALLED:  # the interrupt, swallowed by a C extension and turned into this exception
+                logger.debug("after signal %s: %s: %s", _SIGNALLED[-1], type(exc).__name__, exc)
+                _interrupted()
             if os.environ.get("PATHMOTION_DEBUG"):
                 raise
             _fail(f"internal error ({type(exc).__name__}: {exc}); please report it with the scenario "
                   "(PATHMOTION_DEBUG=1 shows the traceback)", code=3)
 
     return wrapper
+
+
+def _interrupted():
+    err_console.print("[yellow]interrupted[/]: finished files are complete, nothing half-written remains")
+    raise typer.Exit(130)
 
 
 def _log_warning(message, category, filename, lineno, file=None, line=None):
@@ -650,6 +657,10 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
 #: Delay before an interrupt that could not be raised (inside numba's compiler, or swallowed in a C
 #: callback) is delivered again [s].
 INTERRUPT_REDELIVERY_DELAY = 0.05
+#: The signals delivered as KeyboardInterrupt so far. A C extension may swallow that exception and raise another: a
+#: SIGINT landing in pybind11's argument conversion (matplotlib's affine_transform while a figure renders) comes out
+#: as "TypeError: incompatible function arguments" (seen in CI). Any exception after a signal is the interrupt.
+_SIGNALLED: list = []
 
 
 def _interrupt(signum, frame):
@@ -661,6 +672,7 @@ def _interrupt(signum, frame):
     if _in_compiler(frame):
         _redeliver(signum)
         return
+    _SIGNALLED.append(signum)
     raise KeyboardInterrupt(f"signal {signum}")
 
 

@@ -357,3 +357,28 @@ def test_a_bad_dask_address_is_a_scenario_error_for_api_callers(tmp_path, addres
 
     with pytest.raises(ScenarioError, match="tcp://HOST:PORT"):
         _run_dask(address, ("", "."), [], lambda *a: None, None, False)
+
+
+def test_an_exception_after_a_signal_is_the_interrupt_not_an_internal_error(monkeypatch):
+    """A C extension may swallow the KeyboardInterrupt a signal raised and raise another exception (pybind11's
+    argument conversion: "TypeError: incompatible function arguments" from matplotlib's affine_transform, seen in
+    CI while a figure rendered): after a signal the command exits 130; without one the same exception is a bug,
+    exit 3."""
+    import typer
+
+    from pathmotion import cli
+
+    @cli.guarded
+    def swallowed():
+        raise TypeError("affine_transform(): incompatible function arguments")
+
+    monkeypatch.setattr(cli, "_SIGNALLED", [])
+    with pytest.raises(typer.Exit) as bug:
+        swallowed()
+    assert bug.value.exit_code == 3
+    with pytest.raises(KeyboardInterrupt):
+        cli._interrupt(signal.SIGINT, None)
+    assert cli._SIGNALLED == [signal.SIGINT]
+    with pytest.raises(typer.Exit) as interrupted:
+        swallowed()
+    assert interrupted.value.exit_code == 130
