@@ -105,6 +105,7 @@ def guarded(fn):
 
 
 def _interrupted():
+    """The clean exit of an interrupted command: one line, code 130 (atomic writes left no half-written file)."""
     err_console.print("[yellow]interrupted[/]: finished files are complete, nothing half-written remains")
     raise typer.Exit(130)
 
