@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pathmotion.geometry.deviation import certified_max, distance_to_segments
-from pathmotion.geometry.quintic_deviation import quintic_lines_max
+from pathmotion.geometry.quintic_deviation import bezier_lines_max, bezier_pieces_lines_max, quintic_lines_max
 from pathmotion.geometry.segments import BezierSegment, Line
 
 coordinate = st.floats(-0.5, 0.5)
@@ -39,6 +39,32 @@ def test_the_compiled_bracket_is_certified_max_bit_for_bit(corner, ends, offsets
         kw = {"stop_above": threshold, "stop_below": threshold}
     want, got = _numpy_max(coef, lines, lip, **kw), quintic_lines_max(coef, lines, lip, **kw)
     assert (got.lower, got.upper, got.theta) == (want.lower, want.upper, want.theta)
+
+
+@settings(max_examples=150, deadline=None)
+@given(corner=point, ends=st.tuples(point, point), offsets=st.lists(st.lists(point, min_size=6, max_size=6),
+                                                                    min_size=1, max_size=3),
+       scale=st.sampled_from([1e-5, 1e-3, 1e-2, 0.1]), stop=st.sampled_from([None, -1e-5, 0.0, 1e-5]))
+def test_the_compiled_power_basis_and_pieces_are_the_numpy_ones_bit_for_bit(corner, ends, offsets, scale, stop):
+    """bezier_lines_max (power basis and Lipschitz bound compiled too) against quintic_lines_max on numpy's power
+    basis and bound, and bezier_pieces_lines_max against the loop over pieces that blends._pieces_deviation ran
+    before (the largest upper bound, stopping once one is above the threshold): the same floats."""
+    c = np.array(corner)
+    lines = (Line(c + np.array(ends[0]) + 0.01, c), Line(c, c + np.array(ends[1]) - 0.01))
+    pieces = [c + scale * np.array(o) for o in offsets]
+    kw = {}
+    if stop is not None:
+        threshold = bezier_lines_max(pieces[0], lines).upper * (1.0 + stop)
+        kw = {"stop_above": threshold, "stop_below": threshold}
+    upper = 0.0
+    for b in pieces:
+        want = quintic_lines_max(BezierSegment._power_basis(b), lines, _lipschitz(b), **kw)
+        got = bezier_lines_max(b, lines, **kw)
+        assert (got.lower, got.upper, got.theta) == (want.lower, want.upper, want.theta)
+        upper = max(upper, want.upper)
+        if upper > kw.get("stop_above", np.inf):
+            break
+    assert bezier_pieces_lines_max(np.array(pieces), lines, **kw) == upper
 
 
 def _independent_distance(x, lines):

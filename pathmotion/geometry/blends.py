@@ -62,7 +62,7 @@ from .. import defaults
 from ..errors import PathError
 from .chain import Connection, TaskPath
 from .deviation import Deviation, certified_max, distance_to_segments
-from .quintic_deviation import quintic_lines_max
+from .quintic_deviation import bezier_lines_max, bezier_pieces_lines_max
 from .segments import Arc, BezierSegment, Line, Segment, _fmt
 
 log = logging.getLogger(__name__)
@@ -548,23 +548,89 @@ def _piece_offsets(offset: float, slope: float, bend: float, run: float, towards
     return w[::-1].copy() if towards_corner else w
 
 
-def _offset_piece(start: np.ndarray, t: np.ndarray, out: np.ndarray, run: float, w: np.ndarray, up: np.ndarray,
-                  v: np.ndarray) -> np.ndarray:
-    """Control points (6, 3) [m] of the quintic graph over the line through ``start`` along the unit
-    ``t``: x = start + u run t + w(u) out + v(u) up, w and v with Bernstein coefficients ``w``, ``v``
-    (6,) [m] (evenly spaced along t, so the parameter is proportional to the progress along the line)."""
-    return start + (_FIFTHS * run)[:, None] * t + w[:, None] * out + v[:, None] * up
-
-
-def _graph_state(p: np.ndarray, t: np.ndarray, out: np.ndarray, dw: float, bend: float, up: np.ndarray,
-                 dv: float = 0.0, rise_bend: float = 0.0) -> tuple:
-    """(position, unit tangent, curvature vector) of the graph x(s) = line(s) + w(s) out + v(s) up at
-    ``p`` where w' = ``dw``, w'' = ``bend`` [1/m], v' = ``dv``, v'' = ``rise_bend`` [1/m]."""
+def _graph_frame(t: np.ndarray, out: np.ndarray, dw: float, bend: float, up: np.ndarray, dv: float = 0.0,
+                 rise_bend: float = 0.0) -> tuple:
+    """(unit tangent, curvature vector) of the graph x(s) = line(s) + w(s) out + v(s) up where w' = ``dw``,
+    w'' = ``bend`` [1/m], v' = ``dv``, v'' = ``rise_bend`` [1/m] (the same at every point of the line)."""
     d = t + dw * out + dv * up
     speed2 = float(d @ d)
     T = d / np.sqrt(speed2)
     acc = bend * out + rise_bend * up
-    return p, T, (acc - (acc @ T) * T) / speed2
+    return T, (acc - (acc @ T) * T) / speed2
+
+
+class _BlendPieces:
+    """g2_blend_pieces at one corner for every size of its corner quintic: what does not depend on the
+    inner cuts (the offset lines, the joins' tangents and curvatures, the offset pieces' profiles) is
+    computed once, so the sizing's ~40 builds per shape cost only the cut-dependent operations (the same
+    operations, in the same order, as building each from scratch: the same floats)."""
+
+    def __init__(self, A: Segment, B: Segment, shape_entry: float, shape_exit: float, offsets, runs, what: str,
+                 slopes, bends, rises, departure=None, arrival=None):
+        self.A, self.B, self.shapes, self.what = A, B, (shape_entry, shape_exit), what
+        self.has = (_has_piece(offsets[0], slopes[0], bends[0], *rises[0]),
+                    _has_piece(offsets[1], slopes[1], bends[1], *rises[1]))
+        if not any(self.has):
+            return
+        self.free = (departure, arrival)
+        self.runs, self.offsets, self.slopes, self.bends, self.rises = runs, offsets, slopes, bends, rises
+        r = self.r = _racing_lines(A, B, offsets[0], offsets[1], what, rises[0][0], rises[1][0])
+        tA, tB = A.direction, B.direction
+        self.start_frame = _graph_frame(tA, r.out_a, -slopes[0], bends[0], r.up, -rises[0][1], rises[0][2])
+        self.end_frame = _graph_frame(tB, r.out_b, slopes[1], bends[1], r.up, rises[1][1], rises[1][2])
+        # per side: the products that place its piece's start and build its points, when its run is fixed
+        self.fixed = [self._side(side, runs[side]) if self.has[side] and self.free[side] is None else None
+                      for side in (0, 1)]
+
+    def _side(self, side: int, run: float) -> tuple:
+        """(the products subtracted from the join point, in order; the terms added to the piece's start, in
+        order) for ``side``'s offset piece of ``run`` [m]."""
+        r, entry = self.r, side == 0
+        t, out = (self.A.direction, r.out_a) if entry else (self.B.direction, r.out_b)
+        w = _piece_offsets(self.offsets[side], self.slopes[side], self.bends[side], run, towards_corner=entry)
+        v = _piece_offsets(*self.rises[side], run, towards_corner=entry)
+        free = self.free[side]
+        if free is not None:  # the coefficients next to A's start (index 0 stays 0), or B's end first
+            if entry:
+                w[1:3], v[1:3] = free[:2], free[2:]
+            else:
+                w[4:2:-1], v[4:2:-1] = free[:2], free[2:]
+        back = ((run * t,) if entry else ()) + (self.offsets[side] * out, self.rises[side][0] * r.up)
+        return back, ((_FIFTHS * run)[:, None] * t, w[:, None] * out, v[:, None] * r.up)
+
+    def __call__(self, inner_entry: float, inner_exit: float):
+        """(control points of each piece, (6, 3) [m] each, in path order; entry, exit [m]): see g2_blend_pieces."""
+        if not any(self.has):
+            return ((g2_shaped_control_points(self.A, self.B, inner_entry, inner_exit, *self.shapes),), inner_entry,
+                    inner_exit)
+        r, A, B = self.r, self.A, self.B
+        pA, pB = r.A.point(r.A.length - inner_entry), r.B.point(inner_exit)
+        corner = _hermite_points((pA, *self.start_frame), (pB, *self.end_frame), 2.5 * self.shapes[0] * inner_entry,
+                                 2.5 * self.shapes[1] * inner_exit)
+        pieces, entry, exit = [corner], inner_entry - r.shift_a, inner_exit - r.shift_b
+        runs = (float((pA - A.start) @ A.direction) if self.free[0] is not None else self.runs[0],
+                float((B.end - pB) @ B.direction) if self.free[1] is not None else self.runs[1])
+        for side in (0, 1):
+            if self.free[side] is not None and not (self.has[side] and runs[side] > 0.0):
+                raise PathError(f"{self.what}: a {('departure', 'arrival')[side]} needs an offset piece on that side "
+                                f"and room for it (run {runs[side]:.6g} m); give an offset or rise there, or a smaller "
+                                "blend")
+        for side, join in ((0, pA), (1, pB)):
+            if not self.has[side]:
+                continue
+            back, terms = self.fixed[side] or self._side(side, runs[side])
+            x = join
+            for term in back:  # the piece's start: the join moved back along the line, in, and down
+                x = x - term
+            for term in terms:  # start + u run t + w(u) out + v(u) up
+                x = x + term
+            if side == 0:
+                pieces.insert(0, x)
+                entry += runs[0]
+            else:
+                pieces.append(x)
+                exit += runs[1]
+        return tuple(pieces), float(entry), float(exit)
 
 
 def g2_blend_pieces(A: Segment, B: Segment, inner_entry: float, inner_exit: float, shape_entry: float,
@@ -582,49 +648,16 @@ def g2_blend_pieces(A: Segment, B: Segment, inner_entry: float, inner_exit: floa
     slope [-], bend [1/m]) of the same profile along the corner's normal; a side whose profiles are
     all 0 has no offset piece. ``departure`` / ``arrival`` (see G2Shape): that side's piece runs from
     A's start (to B's end) instead of over its run, with those coefficients next to that end."""
-    has = (_has_piece(offsets[0], slopes[0], bends[0], *rises[0]),
-           _has_piece(offsets[1], slopes[1], bends[1], *rises[1]))
-    if not any(has):
-        return (g2_shaped_control_points(A, B, inner_entry, inner_exit, shape_entry, shape_exit),), inner_entry, inner_exit
-    r = _racing_lines(A, B, offsets[0], offsets[1], what, rises[0][0], rises[1][0])
-    tA, tB = A.direction, B.direction
-    pA = r.A.evaluate(r.A.length - inner_entry)[0][0]
-    pB = r.B.evaluate(inner_exit)[0][0]
-    start = _graph_state(pA, tA, r.out_a, -slopes[0], bends[0], r.up, -rises[0][1], rises[0][2])
-    end = _graph_state(pB, tB, r.out_b, slopes[1], bends[1], r.up, rises[1][1], rises[1][2])
-    corner = _hermite_points(start, end, 2.5 * shape_entry * inner_entry, 2.5 * shape_exit * inner_exit)
-    pieces, entry, exit = [corner], inner_entry - r.shift_a, inner_exit - r.shift_b
-    runs = (float((pA - A.start) @ tA) if departure is not None else runs[0],
-            float((B.end - pB) @ tB) if arrival is not None else runs[1])
-    for side, free in ((0, departure), (1, arrival)):
-        if free is not None and not (has[side] and runs[side] > 0.0):
-            raise PathError(f"{what}: a {('departure', 'arrival')[side]} needs an offset piece on that side and room "
-                            f"for it (run {runs[side]:.6g} m); give an offset or rise there, or a smaller blend")
-    if has[0]:
-        w = _piece_offsets(offsets[0], slopes[0], bends[0], runs[0], towards_corner=True)
-        v = _piece_offsets(*rises[0], runs[0], towards_corner=True)
-        if departure is not None:  # the coefficients next to A's start (index 0 stays 0: the start point)
-            w[1:3], v[1:3] = departure[:2], departure[2:]
-        pieces.insert(0, _offset_piece(pA - runs[0] * tA - offsets[0] * r.out_a - rises[0][0] * r.up, tA, r.out_a,
-                                       runs[0], w, r.up, v))
-        entry += runs[0]
-    if has[1]:
-        w = _piece_offsets(offsets[1], slopes[1], bends[1], runs[1], towards_corner=False)
-        v = _piece_offsets(*rises[1], runs[1], towards_corner=False)
-        if arrival is not None:  # next to B's end first
-            w[4:2:-1], v[4:2:-1] = arrival[:2], arrival[2:]
-        pieces.append(_offset_piece(pB - offsets[1] * r.out_b - rises[1][0] * r.up, tB, r.out_b, runs[1], w, r.up,
-                                    v))
-        exit += runs[1]
-    return tuple(pieces), float(entry), float(exit)
+    return _BlendPieces(A, B, shape_entry, shape_exit, offsets, runs, what, slopes, bends, rises, departure,
+                        arrival)(inner_entry, inner_exit)
 
 
 def _shaped_deviation(A: Segment, B: Segment, b: np.ndarray, stop_above: float = np.inf,
                       stop_below: float = -np.inf) -> Deviation:
+    if isinstance(A, Line) and isinstance(B, Line):  # the same numbers, compiled (the search's inner loop)
+        return bezier_lines_max(b, (A, B), stop_above=stop_above, stop_below=stop_below)
     coef = BezierSegment._power_basis(b)
     lip = 5.0 * float(np.max(np.linalg.norm(np.diff(b, axis=0), axis=1)))
-    if isinstance(A, Line) and isinstance(B, Line):  # the same numbers, compiled (the search's inner loop)
-        return quintic_lines_max(coef, (A, B), lip, stop_above=stop_above, stop_below=stop_below)
     return certified_max(lambda u: distance_to_segments(BezierSegment._polyval(coef, u), (A, B)),
                          0.0, 1.0, lip, stop_above=stop_above, stop_below=stop_below)
 
@@ -634,6 +667,8 @@ def _pieces_deviation(A: Segment, B: Segment, pieces, stop_above: float = np.inf
     """Certified upper bound [m] of the pieces' largest distance from A u B: the largest of each
     piece's certified bound (stops once one is above ``stop_above``; a piece's bound is refined only until
     it is at most ``stop_below``, see certified_max)."""
+    if isinstance(A, Line) and isinstance(B, Line):  # the same float, in one compiled call
+        return bezier_pieces_lines_max(pieces, (A, B), stop_above=stop_above, stop_below=stop_below)
     upper = 0.0
     for b in pieces:
         upper = max(upper, _shaped_deviation(A, B, b, stop_above=stop_above, stop_below=stop_below).upper)
@@ -708,9 +743,10 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
     racing = (_has_piece(offsets[0], slopes[0], bends[0], *rises[0])
               or _has_piece(offsets[1], slopes[1], bends[1], *rises[1]))
 
+    pieces_at = _BlendPieces(c.A, c.B, sa, sb, offsets, runs, what, slopes, bends, rises, departure, arrival)
+
     def build(size):
-        return g2_blend_pieces(c.A, c.B, balance * size, (1 - balance) * size, sa, sb, offsets, runs, what,
-                               slopes, bends, rises, departure, arrival)
+        return pieces_at(balance * size, (1 - balance) * size)
 
     if not racing:
         if departure is not None or arrival is not None:

@@ -17,11 +17,14 @@ for bit.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numba
 import numpy as np
 
 from .. import defaults
 from .deviation import BOUND_ROUNDING, Deviation
+from .segments import _POWER_SCALE, _POWER_SIGNED
 
 
 @numba.njit(cache=True)
@@ -109,6 +112,65 @@ def _branch_and_bound(coef, starts, dirs, lengths, u, lipschitz, rel_tol, stop_a
     return lower, max(top, dropped, lower), where
 
 
+@numba.njit(cache=True)
+def _power_basis(b, signed, scale):
+    """BezierSegment._power_basis's operations on control points b (6, 3): (coef (6, 3), the bound
+    5 max |b_(i+1) - b_i| of |X'| as _shaped_deviation computes it)."""
+    acc = np.zeros((6, 3))
+    for i in range(6):  # acc = acc + signed[:, i, None] * b[i], in the order of i
+        for k in range(6):
+            for j in range(3):
+                acc[k, j] = acc[k, j] + signed[k, i] * b[i, j]
+    coef = np.empty((6, 3))
+    for k in range(6):
+        for j in range(3):
+            coef[k, j] = scale[k] * acc[k, j]
+    top = 0.0
+    for i in range(5):  # np.linalg.norm(np.diff(b, axis=0), axis=1): sqrt((d0 d0 + d1 d1) + d2 d2)
+        d0, d1, d2 = b[i + 1, 0] - b[i, 0], b[i + 1, 1] - b[i, 1], b[i + 1, 2] - b[i, 2]
+        top = max(top, np.sqrt(d0 * d0 + d1 * d1 + d2 * d2))
+    return coef, 5.0 * top
+
+
+@numba.njit(cache=True)
+def _bezier_branch_and_bound(b, signed, scale, starts, dirs, lengths, u, rel_tol, stop_above, stop_below, max_rounds,
+                             max_intervals, rounding):
+    coef, lipschitz = _power_basis(b, signed, scale)
+    return _branch_and_bound(coef, starts, dirs, lengths, u, lipschitz, rel_tol, stop_above, stop_below, max_rounds,
+                             max_intervals, rounding * max(1.0, lipschitz))
+
+
+@numba.njit(cache=True)
+def _pieces_upper(pieces, signed, scale, starts, dirs, lengths, u, rel_tol, stop_above, stop_below, max_rounds,
+                  max_intervals, rounding):
+    """The largest upper bound of the pieces (n, 6, 3), in order, stopping once one is above stop_above."""
+    upper = 0.0
+    for p in range(pieces.shape[0]):
+        bound = _bezier_branch_and_bound(pieces[p], signed, scale, starts, dirs, lengths, u, rel_tol, stop_above,
+                                         stop_below, max_rounds, max_intervals, rounding)[1]
+        upper = max(upper, bound)
+        if upper > stop_above:
+            break
+    return upper
+
+
+@lru_cache(maxsize=16)  # a sizing checks ~40 sizes of the same corner's two lines (Lines hash by identity)
+def _line_arrays(lines: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(starts (k, 3), unit directions (k, 3), lengths (k,)) of ``lines``, read-only."""
+    out = (np.array([line.start for line in lines], float), np.array([line.direction for line in lines], float),
+           np.array([line.length for line in lines], float))
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
+@lru_cache(maxsize=4)
+def _samples(initial: int) -> np.ndarray:
+    u = np.linspace(0.0, 1.0, initial + 1)
+    u.flags.writeable = False
+    return u
+
+
 def quintic_lines_max(coef: np.ndarray, lines, lipschitz: float,
                       rel_tol: float = defaults.DEVIATION_RELATIVE_ACCURACY, initial: int = 256,
                       stop_above: float = np.inf, max_rounds: int = 60, stop_below: float = -np.inf) -> Deviation:
@@ -116,12 +178,32 @@ def quintic_lines_max(coef: np.ndarray, lines, lipschitz: float,
     ``lines`` (:class:`~pathmotion.geometry.segments.Line`), u in [0, 1], with ``lipschitz`` a bound of |X'|
     [m]: the same bracket as ``certified_max(lambda u: distance_to_segments(BezierSegment._polyval(coef, u),
     lines), 0, 1, lipschitz, ...)``, bit for bit."""
-    starts = np.array([line.start for line in lines], float)
-    dirs = np.array([line.direction for line in lines], float)
-    lengths = np.array([line.length for line in lines], float)
-    u = np.linspace(0.0, 1.0, initial + 1)
     atol = BOUND_ROUNDING * max(1.0, lipschitz)
-    lower, upper, where = _branch_and_bound(np.ascontiguousarray(coef, float), starts, dirs, lengths, u,
-                                            float(lipschitz), float(rel_tol), float(stop_above), float(stop_below),
-                                            int(max_rounds), defaults.DEVIATION_MAX_INTERVALS, atol)
+    lower, upper, where = _branch_and_bound(np.ascontiguousarray(coef, float), *_line_arrays(tuple(lines)),
+                                            _samples(initial), float(lipschitz), float(rel_tol), float(stop_above),
+                                            float(stop_below), int(max_rounds), defaults.DEVIATION_MAX_INTERVALS, atol)
     return Deviation(float(lower), float(upper), float(where))
+
+
+def bezier_lines_max(b: np.ndarray, lines, rel_tol: float = defaults.DEVIATION_RELATIVE_ACCURACY,
+                     initial: int = 256, stop_above: float = np.inf, max_rounds: int = 60,
+                     stop_below: float = -np.inf) -> Deviation:
+    """:func:`quintic_lines_max` of the quintic Bezier curve with control points ``b`` (6, 3) [m], with
+    the Lipschitz bound 5 max |b_(i+1) - b_i|: the same floats as ``quintic_lines_max(
+    BezierSegment._power_basis(b), lines, that bound, ...)``, the power basis and the bound compiled too
+    (the blend sizing's ~50 000 checks per corner spent most of their time in numpy's per-call overhead)."""
+    lower, upper, where = _bezier_branch_and_bound(np.ascontiguousarray(b, float), _POWER_SIGNED, _POWER_SCALE,
+                                                   *_line_arrays(tuple(lines)), _samples(initial), float(rel_tol),
+                                                   float(stop_above), float(stop_below), int(max_rounds),
+                                                   defaults.DEVIATION_MAX_INTERVALS, BOUND_ROUNDING)
+    return Deviation(float(lower), float(upper), float(where))
+
+
+def bezier_pieces_lines_max(pieces, lines, rel_tol: float = defaults.DEVIATION_RELATIVE_ACCURACY, initial: int = 256,
+                            stop_above: float = np.inf, max_rounds: int = 60, stop_below: float = -np.inf) -> float:
+    """The largest :func:`bezier_lines_max` upper bound [m] of the quintic Bezier ``pieces`` (each (6, 3)
+    [m]), taken in order and stopping once it is above ``stop_above``: one compiled call for a blend's
+    pieces (the same float as the loop over bezier_lines_max)."""
+    return float(_pieces_upper(np.ascontiguousarray(pieces, float), _POWER_SIGNED, _POWER_SCALE,
+                               *_line_arrays(tuple(lines)), _samples(initial), float(rel_tol), float(stop_above),
+                               float(stop_below), int(max_rounds), defaults.DEVIATION_MAX_INTERVALS, BOUND_ROUNDING))

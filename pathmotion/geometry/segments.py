@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathError
-from . import bezier_arc_length
+from . import bezier_arc_length, bezier_polyval
 
 #: A direction vector shorter than this [m or -] has no direction.
 ZERO_LENGTH = 1e-12
@@ -244,6 +244,11 @@ class Line(Segment):
     def evaluate3(self, s):
         p, dp, ddp = self.evaluate(s)
         return p, dp, ddp, np.zeros_like(p)
+
+    def point(self, s: float) -> np.ndarray:
+        """The point (3,) [m] at arc length ``s`` [m], clipped to [0, length]: evaluate's for one s, without
+        its arrays (the blend sizing builds some 50 000 blends per corner)."""
+        return self.start + min(max(float(s), 0.0), self._length) * self._t
 
     def closest(self, points):
         x = np.atleast_2d(np.asarray(points, float))
@@ -511,14 +516,7 @@ class BezierSegment(Segment):
     @staticmethod
     def _polyval(coef: np.ndarray, u, order: int = 0) -> np.ndarray:
         """d^order X / du^order (N, 3) at u (N,) by Horner's rule from monomial coefficients."""
-        u = _as_s(u)[:, None]
-        fac = _DERIVATIVE_FACTORS[order]
-        out = np.empty((u.shape[0], 3))
-        out[:] = fac[-1] * coef[5]
-        for k in range(4, order - 1, -1):  # in place: the search calls this ~1e5 times per corner
-            out *= u
-            out += fac[k - order] * coef[k]
-        return out
+        return bezier_polyval.polyval(coef, _as_s(u), _DERIVATIVE_FACTORS[order], order)
 
     def curve(self, u, order: int = 2) -> tuple[np.ndarray, ...]:
         """(X, X', X'') at the Bezier parameter u (N,), each (N, 3); ``order=3`` appends X'''."""
