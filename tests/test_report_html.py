@@ -24,6 +24,9 @@ from pathmotion.report.tables import read_rows
 from pathmotion.scenarios import scenario_path
 
 CHROMIUM = Path("/usr/bin/chromium")
+# The 7 MB report loads in 12 s on an idle 2-core CI machine and 17 s beside two busy cores; beside the rest of the
+# suite on the other xdist worker it once took over playwright's default 30 s. A hang still fails, in 2 minutes.
+PAGE_LOAD_TIMEOUT_MS = 120_000
 CHROMIUM_ARGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 #: Figures per section: simulation (phase plane, limits, task space, tracking, arm), plan (phase plane,
@@ -352,11 +355,11 @@ def _browser_check(html: Path, shot: Path, expected_figures: int) -> dict:
                     r.abort()
 
             page.route("**/*", route)
-            page.goto(html.as_uri())
+            page.goto(html.as_uri(), timeout=PAGE_LOAD_TIMEOUT_MS)
             page.wait_for_function(
                 "n => { const d = [...document.querySelectorAll('.plotly-graph-div')];"
                 " return d.length === n && d.every(x => x.querySelector('.main-svg')); }",
-                arg=expected_figures, timeout=60000)
+                arg=expected_figures, timeout=PAGE_LOAD_TIMEOUT_MS)
             seen["divs"] = page.evaluate("document.querySelectorAll('.plotly-graph-div').length")
             seen["svgs"] = page.evaluate("document.querySelectorAll('.js-plotly-plot .main-svg').length")
             seen["webgl_missing"] = page.evaluate(
