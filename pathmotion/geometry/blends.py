@@ -740,10 +740,8 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
         raise PathError(f"{what}: balance (entry share of the blend) must be in (0, 1), got {balance!r}")
     sa, sb = _check_shape(shape_entry, what), _check_shape(shape_exit, what)
     offsets, runs, slopes, bends, rises = _check_racing(offsets, runs, tol, what, slopes, bends, rises)
-    racing = (_has_piece(offsets[0], slopes[0], bends[0], *rises[0])
-              or _has_piece(offsets[1], slopes[1], bends[1], *rises[1]))
-
     pieces_at = _BlendPieces(c.A, c.B, sa, sb, offsets, runs, what, slopes, bends, rises, departure, arrival)
+    racing = any(pieces_at.has)
 
     def build(size):
         return pieces_at(balance * size, (1 - balance) * size)
@@ -771,7 +769,7 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
                         + (" or smaller offsets, slopes and bends" if racing else ""))
     pieces, entry, exit = build(size)
     if departure is not None or arrival is not None:  # a free end's run: its total cut less the corner quintic's
-        r = _racing_lines(c.A, c.B, *offsets, what, rises[0][0], rises[1][0])
+        r = pieces_at.r
         runs = (entry - balance * size + r.shift_a if departure is not None else runs[0],
                 exit - (1 - balance) * size + r.shift_b if arrival is not None else runs[1])
     return G2Shape(entry, exit, sa, sb, _pieces_deviation(c.A, c.B, pieces), *offsets, *runs, *slopes, *bends,
