@@ -17,8 +17,9 @@ from pathmotion.errors import PathmotionError, RobotModelError, UnreachableError
 from pathmotion.robot import (
     Tool, fk, has_closed_form, ik, ik_all, ik_batch, ik_dls, load_robot, opw_geometry,
 )
-from pathmotion.robot.ik import continuous_wrist
-from pathmotion.robot.opw import flip_wrist, solve
+from pathmotion.robot import ik_nearest
+from pathmotion.robot.ik import _nearest_on_one_branch, continuous_wrist
+from pathmotion.robot.opw import branch_gap, branch_of, flip_wrist, solve
 
 TWO_PI = 2 * np.pi
 #: Round-trip tolerance [rad] at the range boundaries. Away from singularities the closed form is
@@ -189,12 +190,23 @@ def test_exact_shoulder_singularity_takes_q1_from_the_reference(robot):
 # stretched elbow, q5 = 1e-3, q4 and q6 at their lower limits: the elbow's rounding, amplified 1000x
 # in q4 and q6, put q6 5e-6 rad past its limit, and ik returned the flipped wrist (random dev profile)
 @example(unit=[0.019823957960099396, 1.0, 0.5, 0.0, 0.5, 0.0])
+# stretched elbow, q5 = 1e-3: the elbow's rounding (3e-8 rad) moved q4 and q6 by 1.2e-5 rad, 1 / sin q5 times
+# more; the pose itself matched to 3e-9 m (a random draw in CI)
+@example(unit=[0.0, 0.400390625, 0.5, 0.75, 0.5, 0.5])
 def test_ik_with_the_generating_configuration_as_reference_returns_it(robot, unit):
     q = robot.limits.lower + np.array(unit) * (robot.limits.upper - robot.limits.lower)
     if abs(np.sin(q[4])) < 1e-3:  # q4/q6 split undetermined at the wrist singularity (tested above)
         q[4] = 1e-3 if q[4] >= 0 else -1e-3
     pos, rot = fk(robot, q)
-    np.testing.assert_allclose(ik(robot, pos, rot, q), q, atol=BOUNDARY_ROUND_TRIP_TOL)
+    got = ik(robot, pos, rot, q)
+    p2, r2 = fk(robot, got)
+    # the pose to the elbow's rounding (over < 1 m of arm; at a range limit the wrist's pose slack, 1e-8 measured)
+    np.testing.assert_allclose(p2, pos, atol=BOUNDARY_ROUND_TRIP_TOL)
+    np.testing.assert_allclose(r2, rot, atol=BOUNDARY_ROUND_TRIP_TOL)
+    # near the wrist singularity the wrist frame's rounding moves q4 and q6 by 1 / |sin q5| times as much
+    tol = np.full(robot.n, BOUNDARY_ROUND_TRIP_TOL)
+    tol[[3, 5]] /= abs(np.sin(q[4]))
+    assert (np.abs(got - q) <= tol).all(), got - q
 
 
 def test_tool_frame_is_the_ik_target(robot):
@@ -262,6 +274,67 @@ def test_ik_picks_the_solution_nearest_to_q_ref(robot):
         got = ik(robot, pos, rot, ref)
         best = sols[np.argmin(np.linalg.norm(sols - ref, axis=1))]
         np.testing.assert_allclose(got, best, atol=1e-9)
+
+
+def eight_branch_nearest(geo, pos, rot, refs):
+    """ik_nearest's answer from all eight branches, as its general path computes it."""
+    t_ref = geo.to_t(refs)
+    sol = solve(geo, pos, rot, t_ref[:, 0], t_ref[:, 3])
+    qs = sol.q + TWO_PI * np.round((refs[:, None, :] - sol.q) / TWO_PI)
+    with np.errstate(invalid="ignore"):
+        dist = np.where(sol.reach_ok, np.linalg.norm(qs - refs[:, None, :], axis=2), np.inf)
+    return qs[np.arange(len(refs)), np.argmin(dist, axis=1)], sol, qs
+
+
+def general_opw_arm(tmp_path):
+    """An OPW arm with b = 0.02 m, a2 = 0.03 m, flipped joint directions and a yawed joint 1."""
+    return load_robot(urdf_variant(
+        tmp_path, "general",
+        ('<origin xyz="0 0 0"/><axis xyz="0 0 1"/>', '<origin xyz="0 0 0" rpy="0 0 0.7"/><axis xyz="0 0 -1"/>'),
+        ('<origin xyz="0.070 0 0.352"/><axis xyz="0 1 0"/>', '<origin xyz="0.070 0 0.352"/><axis xyz="0 -1 0"/>'),
+        ('<origin xyz="0.239 0.065 0"/><axis xyz="1 0 0"/>', '<origin xyz="0.239 0.085 0.03"/><axis xyz="-1 0 0"/>'),
+        ('<origin xyz="0.065 0 0"/><axis xyz="1 0 0"/>', '<origin xyz="0.065 0 0"/><axis xyz="-1 0 0"/>'),
+    ))
+
+
+@pytest.mark.parametrize("arm", ["irb140", "general"])
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), spread=st.sampled_from([1e-6, 0.01, 0.3, 1.0, 3.0]))
+def test_the_one_branch_nearest_ik_is_the_eight_branch_one_bit_for_bit(robot, tmp_path_factory, arm, seed, spread):
+    """ik_nearest computes only the first reference's branch when the branch gap proves the others farther:
+    whenever it does, its answer equals the eight-branch answer exactly, and the gap is a true lower bound on the
+    distance to every other branch's solution. References near the solution must take the one-branch path."""
+    arm_robot = robot if arm == "irb140" else general_opw_arm(tmp_path_factory.mktemp("arm"))
+    geo = opw_geometry(arm_robot)
+    rng = np.random.default_rng(seed)
+    qs = random_q(arm_robot, rng, 64)
+    qs = qs[0] + np.cumsum(rng.normal(0.0, 0.02, size=qs.shape), axis=0)  # a random walk on one branch
+    pos, rot = fk(arm_robot, qs)
+    refs = qs + rng.normal(0.0, spread, size=qs.shape)
+    full, sol, qs_all = eight_branch_nearest(geo, pos, rot, refs)
+    np.testing.assert_array_equal(ik_nearest(arm_robot, pos, rot, refs), full)
+    t_ref = geo.to_t(refs)
+    branch = branch_of(geo, pos[0], rot[0], t_ref[0])
+    one = _nearest_on_one_branch(geo, pos, rot, t_ref, refs)
+    gap = branch_gap(geo, sol, branch)
+    d = np.linalg.norm(wrapped_diff(sol.q[:, branch][:, None, :], sol.q), axis=2)
+    others = np.delete(np.arange(8), branch)
+    reached = sol.reach_ok[:, branch]
+    with np.errstate(invalid="ignore"):
+        assert (np.where(sol.reach_ok[:, others], d[:, others], np.inf)[reached] >= gap[reached, None] - 1e-9).all()
+    if one is not None:
+        np.testing.assert_array_equal(one, full)
+    on_one = {branch_of(geo, p, r, t) for p, r, t in zip(pos, rot, geo.to_t(qs))} == {branch}
+    if spread == 1e-6 and on_one and np.all(gap > 1e-3):  # the walk crossed no singularity
+        assert one is not None
+
+
+def test_the_branch_of_a_solution_is_its_own_branch(robot):
+    pos, rot = fk(robot, EIGHT_BRANCH_Q)
+    geo = opw_geometry(robot)
+    sol = solve(geo, pos[None], rot[None], np.zeros(1), np.zeros(1))
+    for b in range(8):
+        assert branch_of(geo, pos, rot, geo.to_t(sol.q[0, b])) == b
 
 
 # ------------------------------------------------------------------------------------------------

@@ -31,7 +31,7 @@ from .. import defaults
 from ..errors import PathmotionError, RobotModelError, UnreachableError
 from .kinematics import fk, jacobian
 from .model import Robot
-from .opw import TWO_PI, OPWGeometry, OPWSolutions, branch_name, flip_wrist, solve, wrap
+from .opw import TWO_PI, OPWGeometry, OPWSolutions, branch_gap, branch_name, branch_of, flip_wrist, solve, wrap
 
 #: Slack of the joint-range test [rad]: a closed-form solution up to this far beyond a limit counts
 #: as on it and is clamped to it. Away from singularities the closed form is exact to ~1e-15 rad, but
@@ -485,6 +485,29 @@ def _dls_batch(robot: Robot, p: np.ndarray, r: np.ndarray, q_ref: np.ndarray) ->
     return out
 
 
+BRANCH_PROOF_MARGIN = 1e-9  # [rad] kept between the nearest branch's distance and the bound on the others'
+
+
+def _nearest_on_one_branch(geo: OPWGeometry, p: np.ndarray, r: np.ndarray, t_ref: np.ndarray,
+                           q_refs: np.ndarray) -> np.ndarray | None:
+    """:func:`ik_nearest`'s answer (N, 6) computed on one branch, or None where that cannot be proven.
+
+    The branch is the one the first reference lies on (:func:`~pathmotion.robot.opw.branch_of`). Its solution,
+    at distance d from the reference, is the nearest of all eight wherever 2 d is below the bound on the
+    distance between branches (:func:`~pathmotion.robot.opw.branch_gap`): by the triangle inequality every
+    other branch is then farther than d. The values are those the eight-branch solve gives (the same operations
+    on the same arrays); where the proof fails at any point (near a singularity, a reference far off), None.
+    """
+    branch = branch_of(geo, p[0], r[0], t_ref[0])
+    sol = solve(geo, p, r, t_ref[:, 0], t_ref[:, 3], branches=(branch,))
+    qb = sol.q[:, branch]
+    qs = qb + TWO_PI * np.round((q_refs - qb) / TWO_PI)
+    with np.errstate(invalid="ignore"):
+        d = np.linalg.norm(qs - q_refs, axis=1)
+        proven = sol.reach_ok[:, branch] & (2.0 * d + BRANCH_PROOF_MARGIN < branch_gap(geo, sol, branch))
+    return qs if proven.all() else None
+
+
 def ik_nearest(robot: Robot, positions, rotations, q_refs) -> np.ndarray:
     """Configurations (N, n) reaching N TCP poses, each the solution nearest to its own reference
     ``q_refs`` (N, n) over all branches and 2*pi turns (no range filtering: the caller checks).
@@ -507,6 +530,10 @@ def ik_nearest(robot: Robot, positions, rotations, q_refs) -> np.ndarray:
                 raise UnreachableError(f"point {i}: {exc}", index=i, reason=exc.reason) from None
         return out
     t_ref = geo.to_t(q_refs)
+    if len(p):
+        proven = _nearest_on_one_branch(geo, p, r, t_ref, q_refs)
+        if proven is not None:
+            return proven
     sol = solve(geo, p, r, t_ref[:, 0], t_ref[:, 3])
     qs = sol.q + TWO_PI * np.round((q_refs[:, None, :] - sol.q) / TWO_PI)
     with np.errstate(invalid="ignore"):

@@ -240,7 +240,8 @@ class OPWSolutions:
     q (N, 8, 6): robot joint angles wrapped to [-pi, pi] (NaN where the branch does not reach);
     reach_ok (N, 8) bool; centre (N, 3) wrist centre [m]; shoulder_radius (N,) horizontal distance of the wrist centre from axis 1
     minus the offset b [m]; arm_distance (N, 2) shoulder-to-wrist-centre distance in the arm plane for
-    the front/back shoulder [m]; sin_wrist (N, 8) sin t5.
+    the front/back shoulder [m]; sin_wrist (N, 8) sin t5; elbow_angle (N, 2) acos D [rad], half the turn of t3
+    between the two elbow branches, for the front/back shoulder.
     """
 
     q: np.ndarray
@@ -249,6 +250,7 @@ class OPWSolutions:
     shoulder_radius: np.ndarray
     arm_distance: np.ndarray
     sin_wrist: np.ndarray
+    elbow_angle: np.ndarray
 
 
 def _rows_rot_z_inv(t: np.ndarray, rows: tuple) -> tuple:
@@ -284,6 +286,7 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
     reach_ok = np.zeros((n_pts, 8), dtype=bool)
     sin_wrist = np.full((n_pts, 8), np.nan)
     arm_distance = np.empty((n_pts, 2))
+    elbow_angle = np.empty((n_pts, 2))
     g = rotations @ geo.tcp_rotation.T
     g = (g[:, 0], g[:, 1], g[:, 2])  # rows (N, 3) of R R_c^T
     for shoulder in (0, 1):
@@ -299,6 +302,7 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
             cos2 = (s2 + c2**2 - k**2) / (2.0 * s * c2)
         ok = shoulder_ok & (np.abs(cos3) <= 1.0 + defaults.IK_REACH_ROUNDING) & (s > 0)
         acos3 = np.arccos(np.clip(cos3, -1.0, 1.0))
+        elbow_angle[:, shoulder] = acos3
         acos2 = np.arccos(np.clip(np.nan_to_num(cos2), -1.0, 1.0))
         gamma = np.arctan2(dx, dz)
         h = _rows_rot_z_inv(t1, g)  # Rz(t1)^T g
@@ -328,4 +332,36 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
                 reach_ok[:, br] = ok
                 sin_wrist[:, br] = np.sin(t5)
     return OPWSolutions(q=q, reach_ok=reach_ok, centre=centre, shoulder_radius=radius, arm_distance=arm_distance,
-                        sin_wrist=sin_wrist)
+                        sin_wrist=sin_wrist, elbow_angle=elbow_angle)
+
+
+def branch_of(geo: OPWGeometry, position: np.ndarray, rotation: np.ndarray, t: np.ndarray) -> int:
+    """The branch index 0..7 whose solution of the pose (position (3,) [m], rotation (3, 3)) OPW angles t (6,)
+    lie on: the shoulder whose t1 is nearer, the elbow from the sign of t3 + psi3, the wrist from the sign of
+    sin t5. Exact for a solution of the pose; for any other t, the branch it is nearest to by these three
+    angles (a guess that :func:`branch_gap` can prove)."""
+    centre = position + rotation @ geo.wrist_in_tcp
+    radius = np.sqrt(max(centre[0] ** 2 + centre[1] ** 2 - geo.b**2, 0.0))
+    phi = np.arctan2(centre[1], centre[0])
+    front, back = (abs(wrap(t[0] - phi + np.arctan2(geo.b, cx1))) for cx1 in (radius, -radius))
+    shoulder = int(back < front)
+    e = 1.0 if wrap(t[2] + geo.psi3) >= 0.0 else -1.0
+    elbow = int(e * (1.0 if shoulder == 0 else -1.0) < 0.0)
+    return 4 * shoulder + 2 * elbow + int(np.sin(t[4]) < 0.0)
+
+
+def branch_gap(geo: OPWGeometry, sol: OPWSolutions, branch: int) -> np.ndarray:
+    """(N,) a lower bound [rad] on the joint-space distance (Euclidean, each joint the shorter way round) from
+    branch ``branch``'s solution to any other branch's solution of the same pose; 0 where branches may meet.
+
+    The other wrist turns q4 by pi (0 where t5 is degenerate); the other elbow turns q3 by 2 acos D; the other
+    shoulder turns q1 by atan2(b, r) - atan2(b, -r) (pi when b = 0; 0 where the shoulder is degenerate). Each
+    distance is at least its one joint's turn. Needs ``branch`` computed in ``sol``.
+    """
+    clear = 1e3 * defaults.IK_DEGENERATE
+    wrist = np.where(np.abs(sol.sin_wrist[:, branch]) > clear, np.pi, 0.0)
+    twice = 2.0 * sol.elbow_angle[:, branch >> 2]
+    elbow = np.minimum(twice, TWO_PI - twice)
+    r = sol.shoulder_radius
+    shoulder = np.where(r > clear, np.abs(wrap(np.arctan2(geo.b, r) - np.arctan2(geo.b, -r))), 0.0)
+    return np.minimum(np.minimum(wrist, elbow), shoulder)
