@@ -1,5 +1,5 @@
-"""The compiled Horner evaluation of a quintic (geometry/bezier_polyval.py) against numpy's, operation for
-operation (the same floats: every blend the search found stays the same), and against the Bernstein form and its
+"""The compiled power basis and Horner evaluation of a quintic (geometry/bezier_polyval.py) against numpy's,
+operation for operation (the same floats: every blend the search found stays the same), and against the Bernstein form and its
 hodographs (an independent evaluation)."""
 
 from math import comb
@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pathmotion.geometry.segments import _DERIVATIVE_FACTORS, BezierSegment
+from pathmotion.geometry.segments import _DERIVATIVE_FACTORS, _POWER_SCALE, _POWER_SIGNED, BezierSegment
 
 
 def _numpy_horner(coef, u, order):
@@ -21,6 +21,14 @@ def _numpy_horner(coef, u, order):
         out *= u
         out += fac[k - order] * coef[k]
     return out
+
+
+def _numpy_power_basis(b):
+    """The numpy loop BezierSegment._power_basis ran before it was compiled."""
+    acc = np.zeros((6, 3))
+    for i in range(6):
+        acc = acc + _POWER_SIGNED[:, i, None] * b[i]
+    return _POWER_SCALE[:, None] * acc
 
 
 def _bernstein(b, u, order):
@@ -44,3 +52,20 @@ def test_compiled_horner_is_numpy_bit_for_bit_and_matches_the_bernstein_form(see
     got = BezierSegment._polyval(coef, u, order)
     assert np.array_equal(got, _numpy_horner(coef, u, order))
     np.testing.assert_allclose(got, _bernstein(b, u, order), rtol=0, atol=1e-12 * scale * 60 ** order)
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), scale=st.sampled_from([1e-4, 1e-2, 1.0, 1e3]))
+def test_compiled_power_basis_is_numpy_bit_for_bit(seed, scale):
+    """The power basis every blend and its certified deviation bound start from: the same floats as numpy's loop
+    (so the blends the search finds stay the same), on contiguous, read-only and strided control points."""
+    rng = np.random.default_rng(seed)
+    b = scale * rng.normal(size=(6, 3)) + scale * rng.normal(size=3)
+    want = _numpy_power_basis(b)
+    assert np.array_equal(BezierSegment._power_basis(b), want)
+    frozen = b.copy()
+    frozen.flags.writeable = False
+    assert np.array_equal(BezierSegment._power_basis(frozen), want)
+    wide = np.zeros((6, 6))
+    wide[:, ::2] = b
+    assert np.array_equal(BezierSegment._power_basis(wide[:, ::2]), want)

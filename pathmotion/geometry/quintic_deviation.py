@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from .. import defaults
+from .bezier_polyval import power_basis
 from .deviation import BOUND_ROUNDING, Deviation
 from .segments import _POWER_SCALE, _POWER_SIGNED
 
@@ -114,17 +115,9 @@ def _branch_and_bound(coef, starts, dirs, lengths, u, lipschitz, rel_tol, stop_a
 
 @numba.njit(cache=True)
 def _power_basis(b, signed, scale):
-    """BezierSegment._power_basis's operations on control points b (6, 3): (coef (6, 3), the bound
-    5 max |b_(i+1) - b_i| of |X'| as _shaped_deviation computes it)."""
-    acc = np.zeros((6, 3))
-    for i in range(6):  # acc = acc + signed[:, i, None] * b[i], in the order of i
-        for k in range(6):
-            for j in range(3):
-                acc[k, j] = acc[k, j] + signed[k, i] * b[i, j]
-    coef = np.empty((6, 3))
-    for k in range(6):
-        for j in range(3):
-            coef[k, j] = scale[k] * acc[k, j]
+    """BezierSegment's power basis of control points b (6, 3) with the bound 5 max |b_(i+1) - b_i| of |X'| as
+    _shaped_deviation computes it: (coef (6, 3), bound [m])."""
+    coef = power_basis(b, signed, scale)
     top = 0.0
     for i in range(5):  # np.linalg.norm(np.diff(b, axis=0), axis=1): sqrt((d0 d0 + d1 d1) + d2 d2)
         d0, d1, d2 = b[i + 1, 0] - b[i, 0], b[i + 1, 1] - b[i, 1], b[i + 1, 2] - b[i, 2]

@@ -507,11 +507,8 @@ class BezierSegment(Segment):
     @staticmethod
     def _power_basis(b: np.ndarray) -> np.ndarray:
         """Monomial coefficients (6, 3) of the Bezier curve with control points b (6, 3):
-        X(u) = sum_k coef[k] u^k, coef[k] = C(5, k) sum_i (-1)^(k-i) C(k, i) b_i."""
-        acc = np.zeros((6, 3))  # row k: sum_i (-1)^(k-i) C(k, i) b_i, added in the order of i (terms with i > k are 0)
-        for i in range(6):
-            acc = acc + _POWER_SIGNED[:, i, None] * b[i]
-        return _POWER_SCALE[:, None] * acc
+        X(u) = sum_k coef[k] u^k, coef[k] = C(5, k) sum_i (-1)^(k-i) C(k, i) b_i (compiled)."""
+        return bezier_polyval.power_basis(np.ascontiguousarray(b, dtype=float), _POWER_SIGNED, _POWER_SCALE)
 
     @staticmethod
     def _polyval(coef: np.ndarray, u, order: int = 0) -> np.ndarray:
