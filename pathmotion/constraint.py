@@ -107,12 +107,15 @@ class TaskJointPath(JointPath):
         """[Phi, Phi', ..., Phi^(order)] (order 2 or 3) at theta (N,): closed form and J^-1, or a wrist window."""
         pose = self.task_path.pose3(th, side=side) if order == 3 else self.task_path.pose(th, side=side)
         p, rot = pose[0], pose[4 if order == 3 else 3]
-        out = [ik_nearest(self.robot, p, rot, self._reference_at(th))]
-        out += [np.empty_like(out[0]) for _ in range(order)]
         inside = np.full(len(th), -1)
         for i, window in enumerate(self.wrist_windows):
             inside[(inside < 0) & window.contains(th, side)] = i
         reg = inside < 0
+        out = [np.empty((len(th), self.n)) for _ in range(order + 1)]
+        if reg.all():  # the IK where the closed form holds; a window's interpolant gives Phi inside it
+            out[0] = ik_nearest(self.robot, p, rot, self._reference_at(th))
+        elif reg.any():
+            out[0][reg] = ik_nearest(self.robot, p[reg], rot[reg], self._reference_at(th[reg]))
         if reg.any():
             part = [x[reg] for x in pose]
             dp, ddp = part[1], part[2]

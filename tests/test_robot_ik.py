@@ -18,7 +18,7 @@ from pathmotion.robot import (
     Tool, fk, has_closed_form, ik, ik_all, ik_batch, ik_dls, load_robot, opw_geometry,
 )
 from pathmotion.robot import ik_nearest
-from pathmotion.robot.ik import _nearest_on_one_branch, continuous_wrist
+from pathmotion.robot.ik import _nearest_on_reference_branches, continuous_wrist
 from pathmotion.robot.opw import branch_gap, branch_of, flip_wrist, solve
 
 TWO_PI = 2 * np.pi
@@ -300,41 +300,56 @@ def general_opw_arm(tmp_path):
 @pytest.mark.parametrize("arm", ["irb140", "general"])
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), spread=st.sampled_from([1e-6, 0.01, 0.3, 1.0, 3.0]))
-def test_the_one_branch_nearest_ik_is_the_eight_branch_one_bit_for_bit(robot, tmp_path_factory, arm, seed, spread):
-    """ik_nearest computes only the first reference's branch when the branch gap proves the others farther:
+def test_the_reference_branch_ik_is_the_eight_branch_one_bit_for_bit(robot, tmp_path_factory, arm, seed, spread):
+    """ik_nearest computes only the references' own branches when the branch gap proves the others farther:
     whenever it does, its answer equals the eight-branch answer exactly, and the gap is a true lower bound on the
-    distance to every other branch's solution. References near the solution must take the one-branch path."""
+    distance to every other branch's solution. References near the solution must take the short path."""
     arm_robot = robot if arm == "irb140" else general_opw_arm(tmp_path_factory.mktemp("arm"))
     geo = opw_geometry(arm_robot)
     rng = np.random.default_rng(seed)
     qs = random_q(arm_robot, rng, 64)
-    qs = qs[0] + np.cumsum(rng.normal(0.0, 0.02, size=qs.shape), axis=0)  # a random walk on one branch
+    qs = qs[0] + np.cumsum(rng.normal(0.0, 0.02, size=qs.shape), axis=0)  # a random walk, mostly on one branch
     pos, rot = fk(arm_robot, qs)
     refs = qs + rng.normal(0.0, spread, size=qs.shape)
     full, sol, qs_all = eight_branch_nearest(geo, pos, rot, refs)
     np.testing.assert_array_equal(ik_nearest(arm_robot, pos, rot, refs), full)
     t_ref = geo.to_t(refs)
-    branch = branch_of(geo, pos[0], rot[0], t_ref[0])
-    one = _nearest_on_one_branch(geo, pos, rot, t_ref, refs)
+    branch = branch_of(geo, pos, rot, t_ref)
+    short = _nearest_on_reference_branches(geo, pos, rot, t_ref, refs)
     gap = branch_gap(geo, sol, branch)
-    d = np.linalg.norm(wrapped_diff(sol.q[:, branch][:, None, :], sol.q), axis=2)
-    others = np.delete(np.arange(8), branch)
-    reached = sol.reach_ok[:, branch]
+    points = np.arange(len(qs))
+    d = np.linalg.norm(wrapped_diff(sol.q[points, branch][:, None, :], sol.q), axis=2)
+    d[points, branch] = np.inf
+    reached = sol.reach_ok[points, branch]
     with np.errstate(invalid="ignore"):
-        assert (np.where(sol.reach_ok[:, others], d[:, others], np.inf)[reached] >= gap[reached, None] - 1e-9).all()
-    if one is not None:
-        np.testing.assert_array_equal(one, full)
-    on_one = {branch_of(geo, p, r, t) for p, r, t in zip(pos, rot, geo.to_t(qs))} == {branch}
-    if spread == 1e-6 and on_one and np.all(gap > 1e-3):  # the walk crossed no singularity
-        assert one is not None
+        assert (np.where(sol.reach_ok, d, np.inf)[reached] >= gap[reached, None] - 1e-9).all()
+    if short is not None:
+        np.testing.assert_array_equal(short, full)
+    if spread == 1e-6 and np.all(gap > 1e-3):  # the walk passed no singularity
+        assert short is not None
+
+
+def test_a_path_through_the_wrist_singularity_takes_the_two_branch_proof(robot):
+    """Across q5 = 0 the reference changes wrist branch: both wrist branches are computed, each point's own
+    branch is proven nearest, and the answer is the eight-branch one."""
+    geo = opw_geometry(robot)
+    s = np.linspace(0.0, 1.0, 200)[:, None]  # no sample at q5 = 0 itself, where the wrist branches meet
+    qs = np.array([0.2, 0.1, -0.4, 0.5, 0.4, 0.3]) + s * np.array([0.3, 0.2, 0.1, 0.4, -0.8, -0.2])
+    pos, rot = fk(robot, qs)
+    branch = branch_of(geo, pos, rot, geo.to_t(qs))
+    assert set(branch[:50]) == {0} and set(branch[-50:]) == {1}
+    short = _nearest_on_reference_branches(geo, pos, rot, geo.to_t(qs), qs)
+    assert short is not None
+    np.testing.assert_array_equal(short, eight_branch_nearest(geo, pos, rot, qs)[0])
+    np.testing.assert_allclose(short, qs, atol=1e-9)
 
 
 def test_the_branch_of_a_solution_is_its_own_branch(robot):
     pos, rot = fk(robot, EIGHT_BRANCH_Q)
     geo = opw_geometry(robot)
     sol = solve(geo, pos[None], rot[None], np.zeros(1), np.zeros(1))
-    for b in range(8):
-        assert branch_of(geo, pos, rot, geo.to_t(sol.q[0, b])) == b
+    got = branch_of(geo, np.repeat(pos[None], 8, axis=0), np.repeat(rot[None], 8, axis=0), geo.to_t(sol.q[0]))
+    assert got.tolist() == list(range(8))
 
 
 # ------------------------------------------------------------------------------------------------

@@ -488,24 +488,27 @@ def _dls_batch(robot: Robot, p: np.ndarray, r: np.ndarray, q_ref: np.ndarray) ->
 BRANCH_PROOF_MARGIN = 1e-9  # [rad] kept between the nearest branch's distance and the bound on the others'
 
 
-def _nearest_on_one_branch(geo: OPWGeometry, p: np.ndarray, r: np.ndarray, t_ref: np.ndarray,
-                           q_refs: np.ndarray) -> np.ndarray | None:
-    """:func:`ik_nearest`'s answer (N, 6) computed on one branch, or None where that cannot be proven.
+def _nearest_on_reference_branches(geo: OPWGeometry, p: np.ndarray, r: np.ndarray, t_ref: np.ndarray,
+                                   q_refs: np.ndarray) -> np.ndarray | None:
+    """:func:`ik_nearest`'s answer (N, 6) computed on the references' own branches only (one along a path, two
+    across a wrist crossing: :func:`~pathmotion.robot.opw.branch_of`), or None where that cannot be proven.
 
-    The branch is the one the first reference lies on (:func:`~pathmotion.robot.opw.branch_of`). Its solution,
-    at distance d from the reference, is the nearest of all eight wherever 2 d is below the bound on the
-    distance between branches (:func:`~pathmotion.robot.opw.branch_gap`): by the triangle inequality every
-    other branch is then farther than d. The values are those the eight-branch solve gives (the same operations
-    on the same arrays); where the proof fails at any point (near a singularity, a reference far off), None.
+    Proof: each point's nearest solution among those branches, at distance d from its reference, is the nearest
+    of all eight if 2 d is below the bound on the distance between branches
+    (:func:`~pathmotion.robot.opw.branch_gap`): every other branch is then farther than d (triangle inequality).
+    The values are those the eight-branch solve gives (the same operations on the same arrays). None where the
+    proof fails at any point: near a singularity, or a reference far off.
     """
-    branch = branch_of(geo, p[0], r[0], t_ref[0])
-    sol = solve(geo, p, r, t_ref[:, 0], t_ref[:, 3], branches=(branch,))
-    qb = sol.q[:, branch]
-    qs = qb + TWO_PI * np.round((q_refs - qb) / TWO_PI)
+    candidates = np.unique(branch_of(geo, p, r, t_ref))
+    points = np.arange(len(p))
+    sol = solve(geo, p, r, t_ref[:, 0], t_ref[:, 3], branches=tuple(int(b) for b in candidates))
+    q = sol.q[:, candidates]
+    qs = q + TWO_PI * np.round((q_refs[:, None, :] - q) / TWO_PI)
     with np.errstate(invalid="ignore"):
-        d = np.linalg.norm(qs - q_refs, axis=1)
-        proven = sol.reach_ok[:, branch] & (2.0 * d + BRANCH_PROOF_MARGIN < branch_gap(geo, sol, branch))
-    return qs if proven.all() else None
+        dist = np.where(sol.reach_ok[:, candidates], np.linalg.norm(qs - q_refs[:, None, :], axis=2), np.inf)
+    pick = np.argmin(dist, axis=1)
+    proven = 2.0 * dist[points, pick] + BRANCH_PROOF_MARGIN < branch_gap(geo, sol, candidates[pick])
+    return qs[points, pick] if proven.all() else None
 
 
 def ik_nearest(robot: Robot, positions, rotations, q_refs) -> np.ndarray:
@@ -531,7 +534,7 @@ def ik_nearest(robot: Robot, positions, rotations, q_refs) -> np.ndarray:
         return out
     t_ref = geo.to_t(q_refs)
     if len(p):
-        proven = _nearest_on_one_branch(geo, p, r, t_ref, q_refs)
+        proven = _nearest_on_reference_branches(geo, p, r, t_ref, q_refs)
         if proven is not None:
             return proven
     sol = solve(geo, p, r, t_ref[:, 0], t_ref[:, 3])

@@ -335,32 +335,34 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
                         sin_wrist=sin_wrist, elbow_angle=elbow_angle)
 
 
-def branch_of(geo: OPWGeometry, position: np.ndarray, rotation: np.ndarray, t: np.ndarray) -> int:
-    """The branch index 0..7 whose solution of the pose (position (3,) [m], rotation (3, 3)) OPW angles t (6,)
-    lie on: the shoulder whose t1 is nearer, the elbow from the sign of t3 + psi3, the wrist from the sign of
-    sin t5. Exact for a solution of the pose; for any other t, the branch it is nearest to by these three
-    angles (a guess that :func:`branch_gap` can prove)."""
-    centre = position + rotation @ geo.wrist_in_tcp
-    radius = np.sqrt(max(centre[0] ** 2 + centre[1] ** 2 - geo.b**2, 0.0))
-    phi = np.arctan2(centre[1], centre[0])
-    front, back = (abs(wrap(t[0] - phi + np.arctan2(geo.b, cx1))) for cx1 in (radius, -radius))
-    shoulder = int(back < front)
-    e = 1.0 if wrap(t[2] + geo.psi3) >= 0.0 else -1.0
-    elbow = int(e * (1.0 if shoulder == 0 else -1.0) < 0.0)
-    return 4 * shoulder + 2 * elbow + int(np.sin(t[4]) < 0.0)
+def branch_of(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The branch indices 0..7 (N,) that OPW angles t (N, 6) lie on, for the poses positions (N, 3) [m], rotations
+    (N, 3, 3): the shoulder whose t1 is nearer, the elbow from the sign of t3 + psi3, the wrist from the sign of
+    sin t5. Exact for solutions of the poses; for other t, the branch they are nearest to by these three angles
+    (a guess that :func:`branch_gap` can prove)."""
+    centre = positions + rotations @ geo.wrist_in_tcp
+    radius = np.sqrt(np.maximum(centre[:, 0] ** 2 + centre[:, 1] ** 2 - geo.b**2, 0.0))
+    phi = np.arctan2(centre[:, 1], centre[:, 0])
+    front, back = (np.abs(wrap(t[:, 0] - phi + np.arctan2(geo.b, cx1))) for cx1 in (radius, -radius))
+    shoulder = (back < front).astype(int)
+    e = np.where(wrap(t[:, 2] + geo.psi3) >= 0.0, 1.0, -1.0) * np.where(shoulder == 0, 1.0, -1.0)
+    return 4 * shoulder + 2 * (e < 0.0).astype(int) + (np.sin(t[:, 4]) < 0.0).astype(int)
 
 
-def branch_gap(geo: OPWGeometry, sol: OPWSolutions, branch: int) -> np.ndarray:
+def branch_gap(geo: OPWGeometry, sol: OPWSolutions, branch) -> np.ndarray:
     """(N,) a lower bound [rad] on the joint-space distance (Euclidean, each joint the shorter way round) from
-    branch ``branch``'s solution to any other branch's solution of the same pose; 0 where branches may meet.
+    branch ``branch``'s solution (an index, or one per point (N,)) to any other branch's solution of the same
+    pose; 0 where branches may meet.
 
     The other wrist turns q4 by pi (0 where t5 is degenerate); the other elbow turns q3 by 2 acos D; the other
     shoulder turns q1 by atan2(b, r) - atan2(b, -r) (pi when b = 0; 0 where the shoulder is degenerate). Each
     distance is at least its one joint's turn. Needs ``branch`` computed in ``sol``.
     """
     clear = 1e3 * defaults.IK_DEGENERATE
-    wrist = np.where(np.abs(sol.sin_wrist[:, branch]) > clear, np.pi, 0.0)
-    twice = 2.0 * sol.elbow_angle[:, branch >> 2]
+    points = np.arange(len(sol.q))
+    branch = np.broadcast_to(branch, points.shape)
+    wrist = np.where(np.abs(sol.sin_wrist[points, branch]) > clear, np.pi, 0.0)
+    twice = 2.0 * sol.elbow_angle[points, branch >> 2]
     elbow = np.minimum(twice, TWO_PI - twice)
     r = sol.shoulder_radius
     shoulder = np.where(r > clear, np.abs(wrap(np.arctan2(geo.b, r) - np.arctan2(geo.b, -r))), 0.0)
