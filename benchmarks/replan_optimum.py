@@ -11,10 +11,14 @@ grid, rest to rest, velocity and acceleration limits (the atlas' settings).
     python benchmarks/replan_optimum.py 120 0.01 --rise-plans 0     # the blend search kept in the plane
     python benchmarks/replan_optimum.py 30 0.005 --plan-tolerance 1e-4 --behind   # converged plans; where time is lost
     python benchmarks/replan_optimum.py 135 0.007 --plan-tolerance 1e-4 --speeds  # speed and curvature at the turn
+    python benchmarks/replan_optimum.py 60 0.01 --resample 1,4,10   # the optimum's curvature jumps kept / smoothed
 
 Reading: "optimum path" within a few 0.01 % of the NLP's finest mesh means planner and NLP agree on
 the same geometry (the gap of the blend is its shape family, not the planner); "in the plane" minus
-"optimum path" is what the optimum gains by leaving the corner's plane.
+"optimum path" is what the optimum gains by leaving the corner's plane. ``--resample k``: the optimum's path
+re-built from its own geometry at every k-th NLP node (quintic Hermite pieces in arc length: X = p, X' = h p',
+X'' = h^2 p'' at both ends of a piece of arc h), once with the curvature's one-sided values at each node (the jumps
+the optimum's bang-bang accelerations put there kept) and once with their mean (G2, as every blend family is).
 """
 
 from __future__ import annotations
@@ -42,6 +46,9 @@ def main() -> None:
     ap.add_argument("--speeds", action="store_true",
                     help="print both planned paths' speed, curvature and time every 4 mm of arc within 60 mm of the "
                          "corner (arc from each path's point nearest the sharp corner)")
+    ap.add_argument("--resample", default="",
+                    help="comma-separated k: replan the optimum's path rebuilt at every k-th node, its curvature jumps "
+                         "kept and smoothed (G2)")
     ap.add_argument("--rise-plans", type=int, default=None,
                     help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
     a = ap.parse_args()
@@ -101,6 +108,16 @@ def main() -> None:
     rows = (("optimum path", own), ("optimum path in the plane", flat), ("optimal blend", blend))
     for name, T in rows:
         print(f"  {name:28s} {T:.5f} s  {100 * (T / sol.duration - 1):+.2f} % vs the finest NLP mesh")
+    for every in (int(k) for k in a.resample.split(",") if k):
+        knots = np.concatenate([[0.0], np.cumsum([seg.length for seg in optimum_path.segments])])[::every]
+        if knots[-1] < optimum_path.domain[1]:
+            knots = np.append(knots, optimum_path.domain[1])
+        cells = []
+        for jumps in (True, False):
+            T = duration(hermite_chain(optimum_path, knots, jumps))
+            cells.append(f"{T:.5f} s ({100 * (T / own - 1):+.2f} %)")
+        print(f"  optimum path rebuilt at every {every}. node ({len(knots) - 1} pieces): curvature jumps kept "
+              f"{cells[0]}, smoothed (G2) {cells[1]}, vs the optimum path")
     if a.behind:
         print(f"  the blend behind the optimum's own path (arc lengths {profiles['blend'][1] * 1e3:.1f} / "
               f"{profiles['optimum'][1] * 1e3:.1f} mm), at shares of each one's arc:")
@@ -137,6 +154,26 @@ def main() -> None:
     print(f"  blend search: {best.plans} plans ({rise} out of the plane), {t1 - t0:.0f} s CPU; blend rises "
           f"{shape.rise_entry[0] * 1e3:+.2f} / {shape.rise_exit[0] * 1e3:+.2f} mm, offsets "
           f"{shape.offset_entry * 1e3:.2f} / {shape.offset_exit * 1e3:.2f} mm")
+
+
+def hermite_chain(path, knots: np.ndarray, jumps: bool):
+    """``path`` (a TaskPath, theta = arc length) rebuilt as one quintic Hermite piece in arc length between
+    consecutive ``knots`` [m]: its position, h p' and h^2 p'' at both ends of a piece of arc h. ``jumps``: each
+    piece takes p'' from its own side of a knot (the path's curvature jumps kept); else both the mean (G2)."""
+    from pathmotion.geometry import TaskPath
+    from pathmotion.geometry.segments import BezierSegment
+
+    states = []
+    for s in knots:
+        left, right = (path.pose(np.array([s]), side=side) for side in ("left", "right"))
+        mean = 0.5 * (left[2][0] + right[2][0])
+        states.append((right[0][0], right[1][0], left[2][0] if jumps else mean, right[2][0] if jumps else mean))
+    pieces = []
+    for (p0, t0, _, a0), (p1, t1, a1, _), h in zip(states[:-1], states[1:], np.diff(knots)):
+        d0, d1, a0, a1 = h * t0, h * t1, h * h * a0, h * h * a1
+        pieces.append(BezierSegment(np.array([p0, p0 + d0 / 5, p0 + 2 * d0 / 5 + a0 / 20, p1 - 2 * d1 / 5 + a1 / 20,
+                                              p1 - d1 / 5, p1])))
+    return TaskPath(tuple(pieces), path.tool_orientation)
 
 
 if __name__ == "__main__":
