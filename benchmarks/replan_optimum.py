@@ -12,6 +12,7 @@ grid, rest to rest, velocity and acceleration limits (the atlas' settings).
     python benchmarks/replan_optimum.py 30 0.005 --plan-tolerance 1e-4 --behind   # converged plans; where time is lost
     python benchmarks/replan_optimum.py 135 0.007 --plan-tolerance 1e-4 --speeds  # speed and curvature at the turn
     python benchmarks/replan_optimum.py 60 0.01 --resample 1,4,10   # the optimum's curvature jumps kept / smoothed
+    python benchmarks/replan_optimum.py 60 0.01 --smooth-windows 0:50,150:250   # smoothed only there [mm of arc]
 
 Reading: "optimum path" within a few 0.01 % of the NLP's finest mesh means planner and NLP agree on
 the same geometry (the gap of the blend is its shape family, not the planner); "in the plane" minus
@@ -19,6 +20,8 @@ the same geometry (the gap of the blend is its shape family, not the planner); "
 re-built from its own geometry at every k-th NLP node (quintic Hermite pieces in arc length: X = p, X' = h p',
 X'' = h^2 p'' at both ends of a piece of arc h), once with the curvature's one-sided values at each node (the jumps
 the optimum's bang-bang accelerations put there kept) and once with their mean (G2, as every blend family is).
+``--smooth-windows``: the same rebuild at every node, smoothed only at the nodes within each window of arc, and the
+largest curvature jumps.
 """
 
 from __future__ import annotations
@@ -49,6 +52,9 @@ def main() -> None:
     ap.add_argument("--resample", default="",
                     help="comma-separated k: replan the optimum's path rebuilt at every k-th node, its curvature jumps "
                          "kept and smoothed (G2)")
+    ap.add_argument("--smooth-windows", default="",
+                    help="comma-separated lo:hi [mm of the optimum's arc]: its path rebuilt at every node, smoothed "
+                         "only within each window")
     ap.add_argument("--rise-plans", type=int, default=None,
                     help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
     a = ap.parse_args()
@@ -108,16 +114,30 @@ def main() -> None:
     rows = (("optimum path", own), ("optimum path in the plane", flat), ("optimal blend", blend))
     for name, T in rows:
         print(f"  {name:28s} {T:.5f} s  {100 * (T / sol.duration - 1):+.2f} % vs the finest NLP mesh")
+    nodes = np.concatenate([[0.0], np.cumsum([seg.length for seg in optimum_path.segments])])
     for every in (int(k) for k in a.resample.split(",") if k):
-        knots = np.concatenate([[0.0], np.cumsum([seg.length for seg in optimum_path.segments])])[::every]
+        knots = nodes[::every]
         if knots[-1] < optimum_path.domain[1]:
             knots = np.append(knots, optimum_path.domain[1])
         cells = []
         for jumps in (True, False):
-            T = duration(hermite_chain(optimum_path, knots, jumps))
+            T = duration(hermite_chain(optimum_path, knots, np.full(len(knots), jumps)))
             cells.append(f"{T:.5f} s ({100 * (T / own - 1):+.2f} %)")
         print(f"  optimum path rebuilt at every {every}. node ({len(knots) - 1} pieces): curvature jumps kept "
               f"{cells[0]}, smoothed (G2) {cells[1]}, vs the optimum path")
+    if a.smooth_windows:
+        jump = np.array([np.linalg.norm(np.subtract(*(optimum_path.pose(np.array([x]), side=side)[2][0]
+                                                      for side in ("left", "right")))) for x in nodes])
+        away = np.flatnonzero((nodes > 0.01) & (nodes < nodes[-1] - 0.01))  # the short pieces at a resting end aside
+        inner = away[np.argsort(jump[away])[::-1][:5]]
+        print("  the optimum's largest curvature jumps between its pieces, 10 mm or more from its ends: "
+              + ", ".join(f"{jump[i]:.2f} 1/m at {nodes[i] * 1e3:.1f} mm" for i in inner)
+              + f" of {nodes[-1] * 1e3:.1f} mm (median {np.median(jump[away]):.2f} 1/m)")
+        for window in a.smooth_windows.split(","):
+            lo, hi = (float(v) * 1e-3 for v in window.split(":"))
+            T = duration(hermite_chain(optimum_path, nodes, (nodes < lo) | (nodes > hi)))
+            print(f"  optimum path rebuilt at every node, smoothed (G2) only within {lo * 1e3:g}-{hi * 1e3:g} mm of "
+                  f"arc: {T:.5f} s ({100 * (T / own - 1):+.2f} %) vs the optimum path")
     if a.behind:
         print(f"  the blend behind the optimum's own path (arc lengths {profiles['blend'][1] * 1e3:.1f} / "
               f"{profiles['optimum'][1] * 1e3:.1f} mm), at shares of each one's arc:")
@@ -156,18 +176,19 @@ def main() -> None:
           f"{shape.offset_entry * 1e3:.2f} / {shape.offset_exit * 1e3:.2f} mm")
 
 
-def hermite_chain(path, knots: np.ndarray, jumps: bool):
+def hermite_chain(path, knots: np.ndarray, jumps: np.ndarray):
     """``path`` (a TaskPath, theta = arc length) rebuilt as one quintic Hermite piece in arc length between
-    consecutive ``knots`` [m]: its position, h p' and h^2 p'' at both ends of a piece of arc h. ``jumps``: each
-    piece takes p'' from its own side of a knot (the path's curvature jumps kept); else both the mean (G2)."""
+    consecutive ``knots`` [m]: its position, h p' and h^2 p'' at both ends of a piece of arc h. ``jumps`` (one per
+    knot): there each piece takes p'' from its own side of the knot (the path's curvature jump kept); elsewhere
+    both take the mean (G2)."""
     from pathmotion.geometry import TaskPath
     from pathmotion.geometry.segments import BezierSegment
 
     states = []
-    for s in knots:
+    for s, keep in zip(knots, jumps):
         left, right = (path.pose(np.array([s]), side=side) for side in ("left", "right"))
         mean = 0.5 * (left[2][0] + right[2][0])
-        states.append((right[0][0], right[1][0], left[2][0] if jumps else mean, right[2][0] if jumps else mean))
+        states.append((right[0][0], right[1][0], left[2][0] if keep else mean, right[2][0] if keep else mean))
     pieces = []
     for (p0, t0, _, a0), (p1, t1, a1, _), h in zip(states[:-1], states[1:], np.diff(knots)):
         d0, d1, a0, a1 = h * t0, h * t1, h * h * a0, h * h * a1
