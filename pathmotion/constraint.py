@@ -106,21 +106,17 @@ class TaskJointPath(JointPath):
     def _lifted(self, th: np.ndarray, side: str, order: int) -> list[np.ndarray]:
         """[Phi, Phi', ..., Phi^(order)] (order 2 or 3) at theta (N,): closed form and J^-1, or a wrist window."""
         pose = self.task_path.pose3(th, side=side) if order == 3 else self.task_path.pose(th, side=side)
-        p, rot = pose[0], pose[4 if order == 3 else 3]
         inside = np.full(len(th), -1)
         for i, window in enumerate(self.wrist_windows):
             inside[(inside < 0) & window.contains(th, side)] = i
         reg = inside < 0
         out = [np.empty((len(th), self.n)) for _ in range(order + 1)]
-        if reg.all():  # the IK where the closed form holds; a window's interpolant gives Phi inside it
-            out[0] = ik_nearest(self.robot, p, rot, self._reference_at(th))
-        elif reg.any():
-            out[0][reg] = ik_nearest(self.robot, p[reg], rot[reg], self._reference_at(th[reg]))
-        if reg.any():
+        if reg.any():  # the IK where the closed form holds; a window's interpolant gives Phi inside it
             part = [x[reg] for x in pose]
             dp, ddp = part[1], part[2]
-            w, dw = (part[5], part[6]) if order == 3 else (part[4], part[5])
-            q = out[0][reg]
+            rot, w, dw = (part[4], part[5], part[6]) if order == 3 else (part[3], part[4], part[5])
+            q = ik_nearest(self.robot, part[0], rot, self._reference_at(th[reg]))
+            out[0][reg] = q
             dq, ddq = joint_derivatives(self.robot, q, dp, ddp, w, dw)
             out[1][reg], out[2][reg] = dq, ddq
             if order == 3:

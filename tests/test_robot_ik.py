@@ -74,17 +74,21 @@ def test_detected_opw_parameters_match_published_irb140_values(robot):
     np.testing.assert_allclose(geo.offset, [0, 0, np.pi / 2, 0, 0, 0], atol=1e-12)
 
 
-def test_general_opw_arm_with_signs_offsets_a2_b_and_base_yaw(tmp_path):
-    """An OPW arm with flipped joint directions, a2 != 0, b != 0 and a yawed joint 1 is detected
-    and solved in closed form."""
-    path = urdf_variant(
+def general_opw_arm(tmp_path):
+    """An OPW arm with b = 0.02 m, a2 = 0.03 m, flipped joint directions and a yawed joint 1."""
+    return load_robot(urdf_variant(
         tmp_path, "general",
         ('<origin xyz="0 0 0"/><axis xyz="0 0 1"/>', '<origin xyz="0 0 0" rpy="0 0 0.7"/><axis xyz="0 0 -1"/>'),
         ('<origin xyz="0.070 0 0.352"/><axis xyz="0 1 0"/>', '<origin xyz="0.070 0 0.352"/><axis xyz="0 -1 0"/>'),
         ('<origin xyz="0.239 0.065 0"/><axis xyz="1 0 0"/>', '<origin xyz="0.239 0.085 0.03"/><axis xyz="-1 0 0"/>'),
         ('<origin xyz="0.065 0 0"/><axis xyz="1 0 0"/>', '<origin xyz="0.065 0 0"/><axis xyz="-1 0 0"/>'),
-    )
-    arm = load_robot(path)
+    ))
+
+
+def test_general_opw_arm_with_signs_offsets_a2_b_and_base_yaw(tmp_path):
+    """An OPW arm with flipped joint directions, a2 != 0, b != 0 and a yawed joint 1 is detected
+    and solved in closed form."""
+    arm = general_opw_arm(tmp_path)
     assert has_closed_form(arm), arm.opw_detection[1]
     geo = opw_geometry(arm)
     assert abs(geo.a2) == pytest.approx(0.03, abs=1e-12)
@@ -283,18 +287,7 @@ def eight_branch_nearest(geo, pos, rot, refs):
     qs = sol.q + TWO_PI * np.round((refs[:, None, :] - sol.q) / TWO_PI)
     with np.errstate(invalid="ignore"):
         dist = np.where(sol.reach_ok, np.linalg.norm(qs - refs[:, None, :], axis=2), np.inf)
-    return qs[np.arange(len(refs)), np.argmin(dist, axis=1)], sol, qs
-
-
-def general_opw_arm(tmp_path):
-    """An OPW arm with b = 0.02 m, a2 = 0.03 m, flipped joint directions and a yawed joint 1."""
-    return load_robot(urdf_variant(
-        tmp_path, "general",
-        ('<origin xyz="0 0 0"/><axis xyz="0 0 1"/>', '<origin xyz="0 0 0" rpy="0 0 0.7"/><axis xyz="0 0 -1"/>'),
-        ('<origin xyz="0.070 0 0.352"/><axis xyz="0 1 0"/>', '<origin xyz="0.070 0 0.352"/><axis xyz="0 -1 0"/>'),
-        ('<origin xyz="0.239 0.065 0"/><axis xyz="1 0 0"/>', '<origin xyz="0.239 0.085 0.03"/><axis xyz="-1 0 0"/>'),
-        ('<origin xyz="0.065 0 0"/><axis xyz="1 0 0"/>', '<origin xyz="0.065 0 0"/><axis xyz="-1 0 0"/>'),
-    ))
+    return qs[np.arange(len(refs)), np.argmin(dist, axis=1)], sol
 
 
 @pytest.mark.parametrize("arm", ["irb140", "general"])
@@ -311,7 +304,7 @@ def test_the_reference_branch_ik_is_the_eight_branch_one_bit_for_bit(robot, tmp_
     qs = qs[0] + np.cumsum(rng.normal(0.0, 0.02, size=qs.shape), axis=0)  # a random walk, mostly on one branch
     pos, rot = fk(arm_robot, qs)
     refs = qs + rng.normal(0.0, spread, size=qs.shape)
-    full, sol, qs_all = eight_branch_nearest(geo, pos, rot, refs)
+    full, sol = eight_branch_nearest(geo, pos, rot, refs)
     np.testing.assert_array_equal(ik_nearest(arm_robot, pos, rot, refs), full)
     t_ref = geo.to_t(refs)
     branch = branch_of(geo, pos, rot, t_ref)

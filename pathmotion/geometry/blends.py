@@ -303,11 +303,8 @@ def with_transitions(path: TaskPath, radius: float, corners: Iterable[int] | Non
 def g2_control_points(A: Segment, B: Segment, cut: float, shape: float = defaults.G2_BLEND_SHAPE) -> np.ndarray:
     """Control points (6, 3) [m] of the quintic G2 blend that cuts ``cut`` [m] from the end of A and
     the start of B (see the module docstring)."""
-    pA, tA, kA = (x[0] for x in A.evaluate(A.length - cut))
-    pB, tB, kB = (x[0] for x in B.evaluate(cut))
-    lam = 2.5 * shape * cut
-    return np.array([pA, pA + lam / 5 * tA, pA + 2 * lam / 5 * tA + lam ** 2 / 20 * kA,
-                     pB - 2 * lam / 5 * tB + lam ** 2 / 20 * kB, pB - lam / 5 * tB, pB])
+    start, end = (tuple(x[0] for x in A.evaluate(A.length - cut)), tuple(x[0] for x in B.evaluate(cut)))
+    return _hermite_points(start, end, 2.5 * shape * cut, 2.5 * shape * cut)
 
 
 def g2_deviation(A: Segment, B: Segment, cut: float, shape: float = defaults.G2_BLEND_SHAPE,

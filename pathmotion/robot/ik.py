@@ -488,6 +488,18 @@ def _dls_batch(robot: Robot, p: np.ndarray, r: np.ndarray, q_ref: np.ndarray) ->
 BRANCH_PROOF_MARGIN = 1e-9  # [rad] kept between the nearest branch's distance and the bound on the others'
 
 
+def _nearest_among(sol: OPWSolutions, candidates: np.ndarray, q_refs: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per point, the solution among the branches ``candidates`` (k,) nearest its reference (N, 6), on the 2*pi
+    turns nearest it: (q (N, 6), its distance (N,) [rad], inf where no candidate reaches, its branch (N,))."""
+    points = np.arange(len(q_refs))
+    q = sol.q[:, candidates]
+    qs = q + TWO_PI * np.round((q_refs[:, None, :] - q) / TWO_PI)
+    with np.errstate(invalid="ignore"):
+        dist = np.where(sol.reach_ok[:, candidates], np.linalg.norm(qs - q_refs[:, None, :], axis=2), np.inf)
+    pick = np.argmin(dist, axis=1)
+    return qs[points, pick], dist[points, pick], candidates[pick]
+
+
 def _nearest_on_reference_branches(geo: OPWGeometry, p: np.ndarray, r: np.ndarray, t_ref: np.ndarray,
                                    q_refs: np.ndarray) -> np.ndarray | None:
     """:func:`ik_nearest`'s answer (N, 6) computed on the references' own branches only (one along a path, two
@@ -500,15 +512,9 @@ def _nearest_on_reference_branches(geo: OPWGeometry, p: np.ndarray, r: np.ndarra
     proof fails at any point: near a singularity, or a reference far off.
     """
     candidates = np.unique(branch_of(geo, p, r, t_ref))
-    points = np.arange(len(p))
     sol = solve(geo, p, r, t_ref[:, 0], t_ref[:, 3], branches=tuple(int(b) for b in candidates))
-    q = sol.q[:, candidates]
-    qs = q + TWO_PI * np.round((q_refs[:, None, :] - q) / TWO_PI)
-    with np.errstate(invalid="ignore"):
-        dist = np.where(sol.reach_ok[:, candidates], np.linalg.norm(qs - q_refs[:, None, :], axis=2), np.inf)
-    pick = np.argmin(dist, axis=1)
-    proven = 2.0 * dist[points, pick] + BRANCH_PROOF_MARGIN < branch_gap(geo, sol, candidates[pick])
-    return qs[points, pick] if proven.all() else None
+    q, d, branch = _nearest_among(sol, candidates, q_refs)
+    return q if np.all(2.0 * d + BRANCH_PROOF_MARGIN < branch_gap(geo, sol, branch)) else None
 
 
 def ik_nearest(robot: Robot, positions, rotations, q_refs) -> np.ndarray:
@@ -538,13 +544,10 @@ def ik_nearest(robot: Robot, positions, rotations, q_refs) -> np.ndarray:
         if proven is not None:
             return proven
     sol = solve(geo, p, r, t_ref[:, 0], t_ref[:, 3])
-    qs = sol.q + TWO_PI * np.round((q_refs[:, None, :] - sol.q) / TWO_PI)
-    with np.errstate(invalid="ignore"):
-        dist = np.where(sol.reach_ok, np.linalg.norm(qs - q_refs[:, None, :], axis=2), np.inf)
-    unreached = ~np.isfinite(dist).any(axis=1)
+    q, d, _ = _nearest_among(sol, np.arange(8), q_refs)
+    unreached = ~np.isfinite(d)
     if unreached.any():
         i = int(np.argmax(unreached))
         raise UnreachableError(f"point {i}, {_fmt_pose(p[i], r[i])}: {_reach_message(geo, sol, i)}",
                                index=i, reason="reach")
-    best = np.argmin(dist, axis=1)
-    return qs[np.arange(len(p)), best]
+    return q
