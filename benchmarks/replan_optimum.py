@@ -182,6 +182,7 @@ def hermite_chain(path, knots: np.ndarray, jumps: np.ndarray):
     knot): there each piece takes p'' from its own side of the knot (the path's curvature jump kept); elsewhere
     both take the mean (G2)."""
     from pathmotion.geometry import TaskPath
+    from pathmotion.geometry.blends import _hermite_points
     from pathmotion.geometry.segments import BezierSegment
 
     states = []
@@ -189,11 +190,8 @@ def hermite_chain(path, knots: np.ndarray, jumps: np.ndarray):
         left, right = (path.pose(np.array([s]), side=side) for side in ("left", "right"))
         mean = 0.5 * (left[2][0] + right[2][0])
         states.append((right[0][0], right[1][0], left[2][0] if keep else mean, right[2][0] if keep else mean))
-    pieces = []
-    for (p0, t0, _, a0), (p1, t1, a1, _), h in zip(states[:-1], states[1:], np.diff(knots)):
-        d0, d1, a0, a1 = h * t0, h * t1, h * h * a0, h * h * a1
-        pieces.append(BezierSegment(np.array([p0, p0 + d0 / 5, p0 + 2 * d0 / 5 + a0 / 20, p1 - 2 * d1 / 5 + a1 / 20,
-                                              p1 - d1 / 5, p1])))
+    pieces = [BezierSegment(_hermite_points((p0, t0, k0), (p1, t1, k1), h, h))
+              for (p0, t0, _, k0), (p1, t1, k1, _), h in zip(states[:-1], states[1:], np.diff(knots))]
     return TaskPath(tuple(pieces), path.tool_orientation)
 
 
