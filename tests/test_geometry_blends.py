@@ -137,6 +137,7 @@ def test_transition_needs_a_planar_sharp_corner():
     with pytest.raises(PathError) as info:
         with_transition(path, 0, 0.01)
     assert "not in the corner's plane" in str(info.value) and "with_g2_blend" in str(info.value)
+    assert "the planes are 90 deg apart, sine 1 > 1e-09" in str(info.value)  # the arc's and the corner's: how far
     new = with_g2_blend(path, 0, 1e-3)  # the G2 blend works in 3-D
     assert [c.kind for c in new.connections] == ["smooth", "smooth"]
 
