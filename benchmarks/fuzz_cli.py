@@ -4,7 +4,8 @@
 
 Escapes: internal error (exit 3), any other exit code than 0/1/2, a traceback, a hang, a memory
 kill (a signal or MemoryError), an error that is not one ``error: ...`` line (further validation errors of the same document
-indented below it), a run that exits 0 without
+indented below it; only ``warning: ...`` lines before it), stderr on success other than ``warning: ...`` lines, a run that
+exits 0 without
 a complete finite contract file (summary.json, trajectory.csv), a temporary file or folder left behind,
 or a folder written by a run that failed.
 
@@ -532,6 +533,17 @@ def _proc_stat(pid: int) -> tuple[str, float] | None:
     return fields[0], (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def _warnings(lines: list[str]) -> int:
+    """How many of the non-empty stderr ``lines`` at their start are warnings: a ``warning: `` line (the CLI's log
+    line at its default verbosity) and the lines indented below it."""
+    n = 0
+    while n < len(lines) and lines[n].startswith("warning: "):
+        n += 1
+        while n < len(lines) and lines[n].startswith("  "):
+            n += 1
+    return n
+
+
 def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_limit: float = 120.0) -> str | None:
     """None when the run behaved, else what escaped. ``status`` is None when the parent ended a hang;
     ``cpu`` is the child's CPU time [s], ``cpu_limit`` its RLIMIT_CPU budget [s]."""
@@ -553,6 +565,8 @@ def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_
     if "Traceback" in err or "Traceback" in out:
         return "traceback"
     lines = [ln for ln in err.splitlines() if ln.strip()]
+    warned = _warnings(lines)  # the warnings logged before the run ended (a corner left sharp), one line each
+    lines = lines[warned:]
     # one error: line; several validation errors of one document follow it indented (the CLI's _fail)
     one_line = bool(lines) and lines[0].startswith("error: ") and all(ln.startswith("  ") for ln in lines[1:])
     usage = code == 2 and any("Usage" in ln for ln in lines)  # Typer's own usage error (exit 2)
@@ -562,7 +576,7 @@ def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_
         return f"interrupt not reported in one line ({len(lines)} lines): {err.strip()[:300]}"
     if code and not interrupted and not (one_line or usage):
         return f"error not one line ({len(lines)} lines): {err.strip()[:300]}"
-    if code == 0 and any(not ln.startswith("note: ") for ln in lines):  # notes (e.g. a periodic start) are fine
+    if code == 0 and lines:  # only warnings
         return f"stderr on success: {err.strip()[:300]}"
     leftovers = [str(p) for p in run.folder.rglob("*") if p.name.endswith(".tmp")]
     if leftovers:

@@ -43,18 +43,37 @@ EXIT_FAILED_RESULT = 4
 _LOG_HANDLER = None
 
 
+class _LineHandler(logging.Handler):
+    """A record on stderr as ``warning: <message>`` (its level in lower case), one line, never wrapped, further lines
+    of the message indented below it, as the errors of :func:`_fail`: what a script or a CI log reads."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            lines = [printable(line) for line in (record.getMessage().strip() or "-").split("\n")]
+            err_console.print(f"[bold yellow]{record.levelname.lower()}:[/] {escape(lines[0])}", highlight=False,
+                              soft_wrap=True)
+            for line in lines[1:]:
+                err_console.print(f"  {escape(line)}", highlight=False, soft_wrap=True)
+        except Exception:  # noqa: BLE001 - logging's own contract: a handler never raises
+            self.handleError(record)
+
+
 def _configure_logging(verbose: int) -> None:
-    """The ``pathmotion`` logger to stderr through Rich at INFO (-v) or DEBUG (-vv); only its warnings by default
-    (a corner left sharp, an adaptive grid stopped short: what the user should know without asking)."""
+    """The ``pathmotion`` logger to stderr: by default only its warnings (a corner left sharp, an adaptive grid stopped
+    short: what the user should know without asking), one line each (_LineHandler); -v the stages at INFO, -vv DEBUG,
+    through Rich with times (and -vv source lines) for a person reading along."""
     global _LOG_HANDLER
     package = logging.getLogger("pathmotion")
     if _LOG_HANDLER is not None:  # a second invocation in one process (tests) starts afresh
         package.removeHandler(_LOG_HANDLER)
         _LOG_HANDLER = None
-    from rich.logging import RichHandler
+    if verbose > 0:
+        from rich.logging import RichHandler
 
-    _LOG_HANDLER = RichHandler(console=err_console, show_path=verbose > 1, markup=False, rich_tracebacks=False,
-                               show_time=verbose > 0)
+        _LOG_HANDLER = RichHandler(console=err_console, show_path=verbose > 1, markup=False, rich_tracebacks=False,
+                                   show_time=True)
+    else:
+        _LOG_HANDLER = _LineHandler()
     level = logging.DEBUG if verbose > 1 else logging.INFO if verbose > 0 else logging.WARNING
     _LOG_HANDLER.setLevel(level)  # also for a child logger set lower (records reach a parent's handler regardless)
     package.addHandler(_LOG_HANDLER)
@@ -146,9 +165,11 @@ def _overrides(sets: Optional[List[str]]) -> dict:
 
 
 def _progress() -> Progress:
+    """The stages' progress bar on stderr, on a terminal only (elsewhere, e.g. a CI log, a transient bar leaves only
+    an empty line behind)."""
     return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                     TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(), console=err_console,
-                    transient=True)
+                    transient=True, disable=not err_console.is_terminal)
 
 
 _NUMBER = re.compile(r"^[-+]?(\d[\d,_]*\.?\d*|\.\d+)([eE][-+]?\d+)?( \.\. [-+]?\d+\.?\d*)?$")
