@@ -1,123 +1,43 @@
-"""The tolerance-optimal blend: the G2 blend shape that minimises the time-optimal duration of the
-whole path within a certified deviation bound (issue 17).
+"""The tolerance-optimal blend (issue 17): at each corner, the G2 blend shape (geometry/blends.py, G2Shape) that
+minimises the time-optimal duration of the whole path within a certified deviation bound.
 
-Each corner's blend (geometry/blends.py, :class:`~pathmotion.geometry.blends.G2Shape`) is a quintic
-G2 Bezier described by the balance entry / (entry + exit) (where the apex sits) and the end-speed
-shapes of its entry and exit sides, and, at a corner between two lines, its racing-line form: an
-offset piece from A out to a lateral offset w_A outside the turn over a run l_A, the corner quintic,
-and an offset piece back onto B (w_B, l_B). An offset piece is a quintic graph over its line; as
-an S-curve it ends parallel to the line with zero curvature, as a free piece it ends with any
-slope and bend (its two lateral Bernstein coefficients next to the offset are free), and the corner
-quintic takes them over G2. Its size is then the largest whose certified deviation is <= the
-tolerance (:func:`~pathmotion.geometry.blends.g2_shape_for_tolerance`), so ``blend_max_deviation_m``
-stays certified whatever the search picks.
+Every candidate shape is sized by :func:`~pathmotion.geometry.blends.g2_shape_for_tolerance` (its corner quintic
+the largest whose certified deviation is <= the tolerance), so ``blend_max_deviation_m`` stays certified whatever the
+search picks. Shapes are ranked by fast plans (SEARCH_GRID_POINTS, no verification), in stages, each from the fastest
+blend so far:
 
-The search runs fast plans (coarse grid, no verification) and keeps the best shape seen:
+1. the corner quintic (balance, shape_entry, shape_exit): bounded scalar searches (Brent), from the symmetric blend;
+2. at a line-line corner, the racing line: S-curve offset pieces out to w_A / w_B outside the turn over runs
+   l_A / l_B, scalar searches of offsets, runs and balance (RACING_CYCLES passes);
+3. free offset pieces (their lateral Bernstein coefficients next to the offset free): Nelder-Mead, FREE_PLANS;
+4. the rise out of the corner's plane: each side's profile turned about its line (RISE_ANGLES), then
+   Nelder-Mead over the in- and out-of-plane profiles, RISE_PLANS in all (skipped at corners in ``planar``);
+5. free ends, where a neighbour is the path's first (last) segment, the motion rests there and the fastest joined
+   blend reaches it within the tolerance: the offset piece leaves (reaches) the end at an angle (G2Shape.departure /
+   arrival), Nelder-Mead, END_PLANS;
+6. the joint stage, where a free end made the blend faster: every coordinate at once by COBYQA (JOINT_PLANS), an
+   end it then reaches freed too (the late free end); the wide starts (free ends bulged to the tube's edge outwards,
+   WIDE_PLANS, and along the normal, WIDE_NORMAL_PLANS), the wide restart (RESTART_PLANS, a wider first trust
+   region) and, where the motion rests at both ends, the crossed wide starts (CROSSED_DIRECTIONS,
+   WIDE_CROSSED_PLANS);
+7. the capped retry: where the neighbouring segments, not the tolerance, capped the blend (it deviates less than
+   CAPPED_SHARE of the tolerance), stages 1-6 again within the deviation it reached; the faster search is kept;
+8. the polish: COBYQA on the full grid's duration (POLISH_PLANS) from the POLISH_STARTS fastest distinct candidates.
 
-1. the quintic (balance, shape_entry, shape_exit), from the symmetric G2 blend (balance 1/2,
-   default shape), a bounded scalar search (scipy's Brent) per coordinate, SEARCH_CYCLES cycles;
-2. at a line-line corner, the S-curve racing line from that best quintic (offsets 0): scalar
-   searches of both offsets together, both runs together, then each offset, each run and the
-   balance alone, RACING_CYCLES passes;
-3. the free offset pieces: a bounded Nelder-Mead over all 11 coordinates (FREE_PLANS plans), from
-   the best racing line with both offsets at the tube's edge (as the free-shape optimum runs);
-4. the rise (out of the corner's plane): each side's offset profile of the best free blend turned
-   about its line by an angle (its in-plane coordinates times cos, the same along the corner's
-   normal times sin), the two angles on the grid RISE_ANGLES x RISE_ANGLES, then a bounded scalar
-   search of each angle, then a bounded Nelder-Mead over the 12 profile coordinates (the 6
-   in-plane ones of stage 3 and the 6 like them along the normal), RISE_PLANS plans in all. The
-   free-shape optimum leaves the plane: at 120 deg / 10 mm it rises to the tube's edge before the
-   corner instead of moving out, and sinks below the plane after it; its own path pressed into the
-   plane re-plans 1.6 % slower (benchmarks/replan_optimum.py);
-5. the free ends, at a corner whose neighbour is the path's first (last) segment and where the motion
-   starts (ends) at rest: the entry (exit) offset piece runs from the path's start (to its end) and
-   leaves (reaches) it at an angle, its two lateral and two normal Bernstein coefficients next to that
-   end free (G2Shape.departure / arrival), a bounded Nelder-Mead over them (END_PLANS plans), the rest
-   of the fastest blend joined to the lines kept. At rest a jump of the tangent costs nothing, and the
-   free-shape optimum does that: at 60 deg / 10 mm it dives 4.5 mm in its first 10 mm of arc. Only at an
-   end the fastest joined blend already reaches within the tolerance: elsewhere the blend would start to
-   deviate far from the corner;
-6. the joint stage, when a free end made the blend faster: every coordinate at once (the corner
-   quintic's, the offset pieces' profiles in and out of the plane, the free ends'), JOINT_PLANS plans
-   of COBYQA (scipy: Powell's derivative-free trust-region method on quadratic models, bounded) from
-   that blend. Stages 3-4 chose the profiles for a blend joined to the lines; with an end free other
-   profiles are faster (python benchmarks/blend_search_stages.py: 60 deg / 10 mm 0.6154 -> 0.6129 s,
-   30 deg / 5 mm 0.6807 -> 0.6798 s). In prototypes, Nelder-Mead with the same plans reached only
-   0.6144 s at 60 deg / 10 mm, and COBYQA in stages 3-5 as well was slower at 45 deg / 7 mm and
-   105 deg / 7 mm (0.2 %), so those stay Nelder-Mead. When the joint stage's blend then reaches an end
-   where the motion rests that stage 5 left joined (its joined blend stopped short), that end is freed
-   too (Nelder-Mead over its coefficients, END_PLANS) and the joint stage runs again: at 30 deg / 5 mm
-   the entry grew from 191.6 to 199.6 mm of the 200 mm line, and freeing the start made the blend
-   0.26 % faster (0.6798 -> 0.6780 s). Then the wide starts, each a joint stage of its own from the fastest
-   blend so far with offset pieces freed at the path's ends and bulged out to the tube's edge (WIDE_PROFILE):
-   outwards in the corner's plane at every side whose neighbour ends where the motion rests and which that blend
-   still joins to its line, whether or not it reached the end (WIDE_PLANS plans); then along the corner's normal
-   at every such resting side, towards the side of the plane the blend rises to there (WIDE_NORMAL_PLANS). The
-   whole-tube optimum does both. On issue 17's 90 deg turn at 10 mm it leaves the start outwards and runs at the
-   tube's edge 50 mm before the corner, where the fastest joined blend used 45 mm of the 100 mm entry line and
-   stage 5, starting from the joined blend, stayed joined (0.5672 s, 86.9 % of the whole tube's gain over the
-   stop; with the outward start 0.551-0.556 s over tolerances perturbed by 1e-9 of themselves). At the atlas'
-   30 deg / 10 mm it rises 7-10 mm above the plane along both lines; with the start along the normal the blend
-   takes 0.6704 s against 0.6748 s (the whole tube: 0.6662 s; python benchmarks/atlas_rows.py). These are local
-   searches from a start: in prototypes, from the outward bulge COBYQA reached only 0.5681 s with 150 plans, and at
-   30 deg / 10 mm a start below the plane ended at 0.6913 s. Last the wide restart: the joint stage once more from
-   the fastest blend (RESTART_PLANS), its first trust region RESTART_RADIUS_SHARE of the mean step instead of
-   TRUST_RADIUS_SHARE, so that its first quadratic models span the neighbouring basins, not only the one the
-   stages ended in (a restart at the joint stage's own radius moved 30 deg / 5 mm by 0.02 %). Over seven tolerances
-   within 1e-7 of 5 mm at 30 deg (benchmarks/search_spread.py) it made every blend faster, by 0.08-0.26 % (median
-   0.67981 -> 0.67884 s); at 30 deg / 10 mm 0.6704 -> 0.6684 s. Then, where the motion rests at both ends, the
-   crossed wide starts: one side bulged outwards and the other up or down along the normal, both ways round
-   (CROSSED_DIRECTIONS), each a joint stage of WIDE_CROSSED_PLANS from a first trust region WIDE_CROSSED_RADIUS_SHARE
-   of the mean step. The corner-confined optimum at 135 deg / 7 mm runs up along the entry and out along the exit, a
-   start none of the others makes: 0.82415 -> 0.81150 s there, 0.86384 -> 0.86066 s at 135 deg / 2 mm, 0.81701 ->
-   0.81443 s at 120 deg / 5 mm, no change on the seven other corners tried, 5-10 s of CPU per corner (python
-   benchmarks/blend_search_stages.py --stage crossed). With a first trust region of a whole
-   mean step every plan of a start was rejected at 135 deg / 2 mm (its first points, a radius from the tube's edge,
-   left the corner quintic no room), and with TRUST_RADIUS_SHARE the starts crawl (600 plans to come within 0.2 % of
-   where 250 plans at a larger radius end: benchmarks/corner_families.py --share);
-7. the capped retry, when the fastest blend deviates less than CAPPED_SHARE of the tolerance (the
-   neighbouring segments, not the tolerance, capped its corner quintic: "largest within the tolerance" then
-   sizes nothing, and the coordinates, in units of the tolerance, are scaled for a tube the blend cannot
-   use): stages 1-6 again within the deviation it reached, and the faster of the two searches is kept (the
-   other's fastest blend stays a full-grid candidate, and each stage's candidate below is the faster of the two
-   searches', so a won retry never drops the first search's in-plane or S-curve blend). At 30 deg / 10 mm on the atlas' 0.2 m lines the
-   blend reached 7.6 mm; searched again within that it is 0.8 % faster (0.6821 -> 0.6767 s), and faster
-   than the blend within 5 mm (0.6798 s), which the 10 mm search had missed. No other atlas row is capped;
-8. the full-grid polish: COBYQA (POLISH_PLANS plans per corner, the joint stage's coordinates and steps) on the
-   full grid's duration, from each of the POLISH_STARTS fastest distinct candidates below; the fastest result is
-   kept. Stages 1-7 rank shapes on a coarse grid
-   (SEARCH_GRID_POINTS), where a short blend gets few points and durations differ from the full grid's, so the
-   coarse grid's fastest is not the full grid's: on the 20 atlas rows the polish made the blend 0.001-1.0 %
-   faster (120 deg / 1 mm 0.8711 -> 0.8625 s, 120 deg / 10 mm 0.7695 -> 0.7683 s), for 10-19 s of CPU per
-   corner. It is local: it keeps the guarantees below (never slower than any candidate), but a smaller search's
-   polish, from another start, can end in a faster local optimum than a larger search's (Hypothesis found
-   84.4 deg / 15.6 mm: the search stopped after the S-curves 0.6344 s, the whole search 0.6364 s). Polishing every
-   candidate would restore that ordering for about six times the polish's plans; ``polish_starts`` 2 polishes the
-   second-fastest too, where another start ended faster in practice (POLISH_STARTS).
+Offsets and coefficients are searched in units of the tolerance, runs in units of sqrt(tolerance RUN_SCALE_LENGTH)
+(an S-curve's lateral acceleration ~ w v^2 / l^2). On a path of more than two segments each corner is searched on its
+window (_Window: its segments out to the neighbouring blended or sharp corners, entered and left at the speeds a plan
+of the whole path has there), so a plan costs the same however many corners the path has; the windows' results are
+then planned together on the whole path.
 
-On a path of more than two segments with one tool orientation, each corner is searched and polished on its window
-(``windows``): its segments out to the nearest blended or sharp corner each way (over smooth and tangent connections,
-round the closure of a cycle), entered and left at the path speed that a plan of the whole path (with the blends
-chosen so far, on the stage's grid) has at those corners (the slowest point of a blend's corner quintic, 0 at a stop)
-and from that plan's joint configuration there; where the window ends where the path does, the path's own end
-conditions. Around a corner the time-optimal profile depends on the rest of the path mostly through those
-speeds, so the window ranks shapes as the whole path does (on the full grid each change agrees within 15 %, about
-6 % in practice: tests/test_geometry_optimal_blend.py), and a plan costs the same however many corners the path has: on the whole
-path every plan grows with the path, so a search cost corners x length. The windows' polished corners are then
-planned together on the whole path and kept only if faster, and every candidate below is planned on the whole path,
-so the guarantees below hold on it.
+Guarantees: the symmetric blend and the fastest of each class (one quintic, S-curves, in the plane, joined to the
+lines, before the joint stage, before the wide starts, before the restart, before the crossed starts, the capped
+search's) are re-planned on the full grid and the fastest is kept, so the result is never slower than any of them;
+the polish keeps it unless it finds a faster one. About 255 plans per
+corner, 785-1550 with free ends and the wide starts (twice that when capped), and the polish's 150 on the full grid.
 
-Offsets and coefficients are searched in units of the tolerance, runs in units of
-sqrt(tolerance RUN_SCALE_LENGTH) (an S-curve's lateral acceleration ~ w v^2 / l^2, so l ~ sqrt(w)
-keeps it alike across tolerances). The symmetric blend, the best quintic, the best S-curve racing
-line, the best free one, the best in the plane, the best joined to the lines, the best before the
-joint stage, the best before the wide starts, the best before the wide restart, the best before the crossed starts
-and the capped search's best are then re-planned on the full grid and the fastest is kept, so the result is never
-slower than the symmetric G2 blend, the S-curve racing line or the search without the joint stage, the wide starts,
-the restart, the crossed starts or the capped retry (each before its polish); the polish then starts from the
-fastest (and the next POLISH_STARTS - 1) and keeps the fastest blend unless it finds a faster one.
-About 255 plans per corner (785-1550 with free ends, the wide starts and the restart; twice that when capped), and
-the polish's 150 on the full grid.
+Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
+docs/study.md, "Tolerance-optimal corners (issue 17)".
 """
 
 from __future__ import annotations
