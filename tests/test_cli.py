@@ -466,3 +466,23 @@ def test_an_interrupt_after_the_run_ended_keeps_its_exit_code_and_prints_no_trac
         sys.unraisablehook = previous[2]
     assert landed and exc.value.code == run_code
     assert exc.value.__suppress_context__
+
+
+def test_a_warning_is_one_line_verbatim_never_wrapped(capsys):
+    """At the default verbosity a log warning is one ``warning: ...`` line however long, its markup-like text
+    verbatim, a further line of the message indented below it; INFO stays off (it needs -v)."""
+    import logging
+
+    from pathmotion import cli
+
+    cli._configure_logging(0)
+    try:
+        log = logging.getLogger("pathmotion.test_cli")
+        long = "joint 2 at its limit [rad] " + "x" * 300
+        log.warning("%s\nthe second line", long)
+        log.info("a stage")
+        assert capsys.readouterr().err.splitlines() == [f"warning: {long}", "  the second line"]
+    finally:  # the package's logger as a library user has it: no handler of the CLI's, no level
+        logging.getLogger("pathmotion").removeHandler(cli._LOG_HANDLER)
+        logging.getLogger("pathmotion").setLevel(logging.NOTSET)
+        cli._LOG_HANDLER = None
