@@ -4,8 +4,8 @@
 
 Escapes: internal error (exit 3), any other exit code than 0/1/2, a traceback, a hang, a memory
 kill (a signal or MemoryError), an error that is not one ``error: ...`` line (further validation errors of the same document
-indented below it; only ``warning: ...`` lines before it), stderr on success other than ``warning: ...`` lines, a run that
-exits 0 without
+indented below it; only ``warning: ...`` lines before it), stderr on success other than ``warning: ...`` and ``note: ...``
+lines, a run that exits 0 without
 a complete finite contract file (summary.json, trajectory.csv), a temporary file or folder left behind,
 or a folder written by a run that failed.
 
@@ -576,7 +576,7 @@ def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_
         return f"interrupt not reported in one line ({len(lines)} lines): {err.strip()[:300]}"
     if code and not interrupted and not (one_line or usage):
         return f"error not one line ({len(lines)} lines): {err.strip()[:300]}"
-    if code == 0 and lines:  # only warnings
+    if code == 0 and any(not ln.startswith("note: ") for ln in lines):  # warnings and notes (an export's) are fine
         return f"stderr on success: {err.strip()[:300]}"
     leftovers = [str(p) for p in run.folder.rglob("*") if p.name.endswith(".tmp")]
     if leftovers:
