@@ -43,17 +43,22 @@ EXIT_FAILED_RESULT = 4
 _LOG_HANDLER = None
 
 
+def _print_message(label: str, message: str, empty: str) -> None:
+    """``label`` (Rich markup) and the first line of ``message`` (``empty`` if it has none) on stderr, its further lines
+    indented below it: each one line, never wrapped, non-printable characters escaped, markup-like text verbatim."""
+    lines = [printable(line) for line in (message.strip() or empty).split("\n")]
+    err_console.print(f"{label} {escape(lines[0])}", highlight=False, soft_wrap=True)
+    for line in lines[1:]:
+        err_console.print(f"  {escape(line)}", highlight=False, soft_wrap=True)
+
+
 class _LineHandler(logging.Handler):
-    """A record on stderr as ``warning: <message>`` (its level in lower case), one line, never wrapped, further lines
-    of the message indented below it, as the errors of :func:`_fail`: what a script or a CI log reads."""
+    """A record on stderr as ``warning: <message>`` (its level in lower case), as the errors of :func:`_fail`: what a
+    script or a CI log reads."""
 
     def emit(self, record: logging.LogRecord) -> None:
         try:
-            lines = [printable(line) for line in (record.getMessage().strip() or "-").split("\n")]
-            err_console.print(f"[bold yellow]{record.levelname.lower()}:[/] {escape(lines[0])}", highlight=False,
-                              soft_wrap=True)
-            for line in lines[1:]:
-                err_console.print(f"  {escape(line)}", highlight=False, soft_wrap=True)
+            _print_message(f"[bold yellow]{record.levelname.lower()}:[/]", record.getMessage(), "-")
         except Exception:  # noqa: BLE001 - logging's own contract: a handler never raises
             self.handleError(record)
 
@@ -83,10 +88,7 @@ def _configure_logging(verbose: int) -> None:
 def _fail(message: str, code: int = 1):
     """Print ``message`` (its first line after 'error:', any further lines, e.g. more validation
     errors, indented below) and exit with ``code``."""
-    lines = [printable(line) for line in (message.strip() or "error").split("\n")]
-    err_console.print(f"[bold red]error:[/] {escape(lines[0])}", highlight=False, soft_wrap=True)
-    for line in lines[1:]:
-        err_console.print(f"  {escape(line)}", highlight=False, soft_wrap=True)
+    _print_message("[bold red]error:[/]", message, "error")
     raise typer.Exit(code)
 
 
