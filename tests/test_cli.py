@@ -357,7 +357,7 @@ def test_check_reports_a_full_circle_as_closed_and_explains_periodic():
     assert "True" in row and "ends where it starts" in out and "plan.periodic" in out
     code, out = run("check", scenario_path("corner_g2"))
     assert "False" in next(line for line in out.splitlines() if " closed " in line)
-    assert "items)" not in out and "connection 0 at theta" in out
+    assert "items)" not in out and "connection 0 (after segment 1) at theta" in out
 
 
 def test_plan_explains_the_reported_grid_points():

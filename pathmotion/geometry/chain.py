@@ -56,8 +56,10 @@ class Connection:
         return self.angle > np.pi - defaults.CORNER_ANGLE_TOLERANCE
 
     def describe(self) -> str:
-        return (f"connection {self.index} at theta = {self.theta:.6g} m, position {_fmt(self.position)}, "
-                f"{self.kind} (angle {np.degrees(self.angle):.4g} deg)")
+        """'connection i (after segment i + 1) at theta = ...': the index as the Python API takes it (0-based), the
+        segment as a scenario counts them (1-based; a scenario's ``corner = i + 1``)."""
+        return (f"connection {self.index} (after segment {self.index + 1}) at theta = {self.theta:.6g} m, position "
+                f"{_fmt(self.position)}, {self.kind} (angle {np.degrees(self.angle):.4g} deg)")
 
 
 def classify(before: Segment, after: Segment, index: int, theta: float) -> Connection:
