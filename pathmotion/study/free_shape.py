@@ -63,8 +63,11 @@ Units: SI (m, s, rad). CasADi is imported lazily (``pip install "pathmotion[opti
 from __future__ import annotations
 
 import logging
+import signal
+import threading
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 
@@ -568,7 +571,8 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
     opti.solver("ipopt", {"print_time": False, "expand": not torque},
                 {"print_level": 0, "tol": IPOPT_TOL, "max_iter": IPOPT_MAX_ITER, "sb": "yes", **(ipopt or {})})
     try:
-        sol = opti.solve()
+        with _interrupts_kept():
+            sol = opti.solve()
         stats, value = sol.stats(), sol.value
     except RuntimeError:
         stats, value = opti.stats(), opti.debug.value
@@ -581,6 +585,31 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
     return FreeShapeSolution(float(Tv.sum()), status, success, motion,
                              verify(robot, line, phases, motion, rotation, vmax, amax), int(stats.get("iter_count", -1)),
                              con.multipliers(value(opti.lam_g)))
+
+
+@contextmanager
+def _interrupts_kept() -> Iterator[None]:
+    """Ctrl-C (SIGINT) during a solve raised again after it. CasADi catches the KeyboardInterrupt, stops IPOPT and
+    returns the solve as failed (NonIpopt_Exception_Thrown), so the meshes and starts would go on as if IPOPT had
+    failed. In the main thread only (where signal handlers live), and only where SIGINT has a Python handler (the
+    default one, or pathmotion's command line's), which still runs."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield
+        return
+    caught: list[int] = []
+
+    def handler(signum, frame):
+        caught.append(signum)
+        previous(signum, frame)
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught:
+            raise KeyboardInterrupt(f"signal {caught[0]} during an IPOPT solve")
 
 
 def _limits(con, variables, ends: np.ndarray, vmax, amax, lim):
