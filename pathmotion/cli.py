@@ -687,35 +687,23 @@ INTERRUPT_REDELIVERY_DELAY = 0.05
 _SIGNALLED: list = []
 
 
-#: Modules whose compiler an exception must not interrupt (delivered again once it has returned).
-COMPILER_MODULES = ("numba.", "llvmlite.")
-#: Modules that catch a KeyboardInterrupt and go on: CasADi stops IPOPT on it, prints a warning and returns the
-#: solve as failed ("NonIpopt_Exception_Thrown"), and the free-shape references then tried the next start; the
-#: interrupt was lost (`pathmotion corners` ran on to exit 0).
-SWALLOWING_MODULES = ("casadi.",)
-
-
 def _interrupt(signum, frame):
     """SIGINT or SIGTERM -> KeyboardInterrupt: the clean exit of Ctrl-C (temporary files removed, code 130).
 
     Not inside numba's or llvmlite's compiler: an exception there can leave a half-built compiled function
     that the caller may still run (a segmentation fault, found by benchmarks/fuzz_cli.py); the signal is
-    delivered again INTERRUPT_REDELIVERY_DELAY later, until the compiler has returned. Inside CasADi
-    (SWALLOWING_MODULES) the KeyboardInterrupt stops its solver, which swallows it; the signal is delivered
-    again INTERRUPT_REDELIVERY_DELAY later, until it is raised outside."""
-    if _in_modules(frame, COMPILER_MODULES):
+    delivered again INTERRUPT_REDELIVERY_DELAY later, until the compiler has returned. (Inside an IPOPT solve
+    CasADi swallows the KeyboardInterrupt: study/free_shape.py raises it again after the solve.)"""
+    if _in_compiler(frame):
         _redeliver(signum)
         return
     _SIGNALLED.append(signum)
-    if _in_modules(frame, SWALLOWING_MODULES):
-        _redeliver(signum)
     raise KeyboardInterrupt(f"signal {signum}")
 
 
-def _in_modules(frame, prefixes: tuple[str, ...]) -> bool:
-    """Whether a function of a module named with one of ``prefixes`` is on the stack of ``frame``."""
+def _in_compiler(frame) -> bool:
     while frame is not None:
-        if frame.f_globals.get("__name__", "").startswith(prefixes):
+        if frame.f_globals.get("__name__", "").startswith(("numba.", "llvmlite.")):
             return True
         frame = frame.f_back
     return False

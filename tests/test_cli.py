@@ -432,64 +432,6 @@ def test_an_interrupt_inside_numbas_compiler_is_delivered_after_it_returns():
         signal.signal(signal.SIGINT, previous)
 
 
-def test_an_interrupt_inside_casadi_stops_its_solver_and_is_delivered_again():
-    """CasADi catches a KeyboardInterrupt raised inside a solve, stops IPOPT and returns: the handler raises it there
-    (so the solve stops at once) and delivers it again, to be raised outside."""
-    import signal
-    import time
-
-    from pathmotion import cli
-
-    namespace = {"__name__": "casadi.casadi", "cli": cli, "signal": signal, "sys": sys}
-    exec("def solve():\n"
-         "    try:\n"
-         "        cli._interrupt(signal.SIGINT, sys._getframe())\n"
-         "    except KeyboardInterrupt:\n"
-         "        return 'stopped'  # as CasADi does: the solve ends, the exception is gone\n"
-         "    return 'ran on'\n", namespace)
-    previous = signal.signal(signal.SIGINT, cli._interrupt)
-    try:
-        assert namespace["solve"]() == "stopped"
-        with pytest.raises(KeyboardInterrupt):
-            time.sleep(5.0)  # ... delivered again outside, a moment later
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-CASADI_INTERRUPT = """
-import os, signal, sys, threading, time
-import casadi as ca
-from pathmotion import cli
-signal.signal(signal.SIGINT, cli._interrupt)
-x = ca.MX.sym("x", 3000)
-f = ca.sum1(100 * (x[1:] - x[:-1] ** 2) ** 2 + (1 - x[:-1]) ** 2)
-solver = ca.nlpsol("s", "ipopt", {"x": x, "f": f}, {"ipopt.print_level": 0, "print_time": 0, "ipopt.max_iter": 100000,
-                                                     "ipopt.tol": 1e-300, "ipopt.acceptable_iter": 0})
-threading.Timer(1.0, os.kill, args=(os.getpid(), signal.SIGINT)).start()
-try:
-    solver(x0=[-1.2] * 3000)
-    status = solver.stats()["return_status"]
-    for _ in range(100):  # Python work after the solve, where the interrupt must surface
-        time.sleep(0.05)
-    print("ran on after", status)
-except KeyboardInterrupt:
-    print("interrupted after", solver.stats()["return_status"])
-"""
-
-
-def test_a_real_casadi_solve_interrupted_raises_keyboardinterrupt(tmp_path):
-    """Ctrl-C or SIGTERM during an IPOPT solve (the free-shape references of ``pathmotion corners``) used to be lost:
-    CasADi swallowed it, the references went on to the next start and the command exited 0."""
-    pytest.importorskip("casadi", reason="the free-shape references need casadi (pip install -e '.[optimal]')")
-    script = tmp_path / "solve.py"
-    script.write_text(CASADI_INTERRUPT)
-    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
-    out = (run.stdout.strip().splitlines() or [""])[-1]  # (after IPOPT's banner)
-    if "Solve_Succeeded" in out or "Maximum_Iterations_Exceeded" in out:
-        pytest.skip(f"the solve ended before the signal on this machine: {out}")
-    assert out.startswith("interrupted after"), (out, run.stderr[-2000:])
-
-
 @pytest.mark.parametrize("run_code", [0, 2])
 def test_an_interrupt_after_the_run_ended_keeps_its_exit_code_and_prints_no_traceback(monkeypatch, run_code):
     """A signal landing after the command returned, before main() resets the handlers, raised KeyboardInterrupt

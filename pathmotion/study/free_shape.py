@@ -587,27 +587,35 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                              con.multipliers(value(opti.lam_g)))
 
 
+#: The signals whose Python handler (Python's default for SIGINT, the command line's for SIGINT and SIGTERM) raises
+#: KeyboardInterrupt, which CasADi swallows inside a solve (_interrupts_kept).
+INTERRUPT_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 @contextmanager
 def _interrupts_kept() -> Iterator[None]:
-    """Ctrl-C (SIGINT) during a solve raised again after it. CasADi catches the KeyboardInterrupt, stops IPOPT and
-    returns the solve as failed (NonIpopt_Exception_Thrown), so the meshes and starts would go on as if IPOPT had
-    failed. In the main thread only (where signal handlers live), and only where SIGINT has a Python handler (the
-    default one, or pathmotion's command line's), which still runs."""
-    previous = signal.getsignal(signal.SIGINT)
-    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+    """An interrupt (Ctrl-C; SIGTERM under the command line) during a solve raised again after it. CasADi catches the
+    KeyboardInterrupt, stops IPOPT and returns the solve as failed (NonIpopt_Exception_Thrown), so the meshes and
+    starts went on as if IPOPT had failed, and `pathmotion corners` ran on to exit 0. In the main thread only (where
+    signal handlers live), for the INTERRUPT_SIGNALS that have a Python handler, which still runs."""
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
+    previous = {s: signal.getsignal(s) for s in INTERRUPT_SIGNALS}
+    previous = {s: h for s, h in previous.items() if callable(h)}
     caught: list[int] = []
 
     def handler(signum, frame):
         caught.append(signum)
-        previous(signum, frame)
+        previous[signum](signum, frame)
 
-    signal.signal(signal.SIGINT, handler)
+    for s in previous:
+        signal.signal(s, handler)
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for s, h in previous.items():
+            signal.signal(s, h)
         if caught:
             raise KeyboardInterrupt(f"signal {caught[0]} during an IPOPT solve")
 
