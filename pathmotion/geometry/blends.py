@@ -145,10 +145,12 @@ def _plane_normal(corner: _Corner, what: str) -> np.ndarray:
         n = seg.plane_normal
         tilt = float(np.linalg.norm(np.cross(n, m))) if n is not None else 0.0
         if tilt > defaults.PLANARITY_TOLERANCE:
+            apart = np.degrees(np.arcsin(min(tilt, 1.0)))
             raise PathError(f"{what}: at {corner.where()} the {name} segment ({seg.describe()}) is not in the "
-                            f"corner's plane (normal {_fmt(m)}; the planes are {np.degrees(np.arcsin(min(tilt, 1.0))):.3g} deg "
-                            f"apart, sine {tilt:.3g} > {defaults.PLANARITY_TOLERANCE:g}); a transition circle needs a planar corner: make the "
-                            "points coplanar, or use a G2 blend (with_g2_blend; type = \"g2\" in a scenario), which works in 3-D")
+                            f"corner's plane (normal {_fmt(m)}; the planes are {apart:.3g} deg apart, sine {tilt:.3g} "
+                            f"> {defaults.PLANARITY_TOLERANCE:g}); a transition circle needs a planar corner: make the "
+                            "points coplanar, or use a G2 blend (with_g2_blend; type = \"g2\" in a scenario), which "
+                            "works in 3-D")
     return m
 
 

@@ -601,8 +601,7 @@ def _interrupts_kept() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = {s: signal.getsignal(s) for s in INTERRUPT_SIGNALS}
-    previous = {s: h for s, h in previous.items() if callable(h)}
+    previous = {s: h for s in INTERRUPT_SIGNALS if callable(h := signal.getsignal(s))}
     caught: list[int] = []
 
     def handler(signum, frame):
