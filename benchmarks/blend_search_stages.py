@@ -9,13 +9,16 @@ elsewhere both are the same. ``--stage polish``: the full-grid polish (stage 8, 
 POLISH_PLANS), which runs at every corner. ``--stage wide``: both wide starts (after stage 6, ``wide_plans`` and
 ``wide_normal_plans`` 0 / WIDE_PLANS and WIDE_NORMAL_PLANS), which run where the motion rests at an end of the
 corner's neighbours. ``--stage crossed``: the two crossed wide starts (after the wide restart, ``wide_crossed_plans``
-0 / WIDE_CROSSED_PLANS), which run where the motion rests at both ends. ``--stage none``: the search as it is, once per corner (its CPU time;
-to compare two versions of the code, run it beside itself with PYTHONPATH on a worktree of the other commit).
+0 / WIDE_CROSSED_PLANS), which run where the motion rests at both ends. ``--stage global``: the global stage (CMA-ES
+after the local stages, ``global_plans`` 0 / GLOBAL_PLANS), which runs at every line-line corner. ``--stage none``:
+the search as it is, once per corner (its CPU time; to compare two versions of the code, run it beside itself with
+PYTHONPATH on a worktree of the other commit).
 
     python benchmarks/blend_search_stages.py                       # the default corners below
     python benchmarks/blend_search_stages.py 60:0.01 45:0.007     # ANGLE_DEG:TOLERANCE_M ...
     python benchmarks/blend_search_stages.py --stage polish 120:0.001
     python benchmarks/blend_search_stages.py --stage crossed 135:0.007 135:0.002 105:0.007 45:0.002
+    python benchmarks/blend_search_stages.py --stage global 60:0.01 60:0.005 30:0.005 120:0.005
     git worktree add /tmp/old COMMIT && PYTHONPATH=/tmp/old python benchmarks/blend_search_stages.py --stage none
 """
 
@@ -32,14 +35,14 @@ DEFAULT_CORNERS = ("60:0.01", "30:0.005", "30:0.01", "90:0.01", "120:0.01", "45:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("corners", nargs="*", default=list(DEFAULT_CORNERS), help="ANGLE_DEG:TOLERANCE_M")
-    ap.add_argument("--stage", choices=("joint", "polish", "wide", "crossed", "none"), default="joint",
+    ap.add_argument("--stage", choices=("joint", "polish", "wide", "crossed", "global", "none"), default="joint",
                     help="the stage turned off and on (none: the search once, as it is)")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     import pathmotion
-    from pathmotion.planning.blend_search import (JOINT_PLANS, POLISH_PLANS, WIDE_CROSSED_PLANS, WIDE_NORMAL_PLANS,
-                                                  WIDE_PLANS, optimal_blends)
+    from pathmotion.planning.blend_search import (GLOBAL_PLANS, JOINT_PLANS, POLISH_PLANS, WIDE_CROSSED_PLANS,
+                                                  WIDE_NORMAL_PLANS, WIDE_PLANS, optimal_blends)
     from pathmotion.robot import load_robot
     from pathmotion.study.atlas import _settings, _task, corner_points
 
@@ -50,7 +53,7 @@ def main() -> None:
         return
     on = {"joint": {"joint_plans": JOINT_PLANS}, "polish": {"polish_plans": POLISH_PLANS},
           "wide": {"wide_plans": WIDE_PLANS, "wide_normal_plans": WIDE_NORMAL_PLANS},
-          "crossed": {"wide_crossed_plans": WIDE_CROSSED_PLANS}}[a.stage]
+          "crossed": {"wide_crossed_plans": WIDE_CROSSED_PLANS}, "global": {"global_plans": GLOBAL_PLANS}}[a.stage]
     off = dict.fromkeys(on, 0)
     print(f"stage: {a.stage} ({off} / {on})")
     print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores)")

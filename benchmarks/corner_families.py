@@ -66,9 +66,9 @@ def main() -> None:
     obj = bs._Objective(robot, task, {}, 0, a.tolerance, coarse, None, free_ends=(True, True))
     bs._search_corner(obj, True, bs.SEARCH_CYCLES, bs.GOLDEN_STEPS, bs.RACING_STEPS, bs.FREE_PLANS)
     T, shape, x = obj.best()
-    print(f"{a.angle:g} deg, {a.tolerance * 1e3:g} mm: the search's blend (stages 1-6, no polish): coarse {T:.5f} s, "
-          f"full {bs.duration_with(robot, task, {0: shape}, full):.5f} s ({obj.plans} plans, "
-          f"{time.process_time() - t0:.0f} s CPU)", flush=True)
+    print(f"{a.angle:g} deg, {a.tolerance * 1e3:g} mm: the search's blend (stages 1-6 and the global stage, "
+          f"no polish): coarse {T:.5f} s, full {bs.duration_with(robot, task, {0: shape}, full):.5f} s "
+          f"({obj.plans} plans, {time.process_time() - t0:.0f} s CPU)", flush=True)
     for pair in filter(None, a.tilts.split(",")):
         angles = tuple(float(v) for v in pair.split("/"))
         tilt(bs, robot, task, coarse, full, a.tolerance, bs._extended(x), angles, a.plans,

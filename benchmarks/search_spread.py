@@ -8,6 +8,7 @@ tolerance can end in another local optimum: the spread printed is how far one at
     python benchmarks/search_spread.py --relative 0,1e-9,-1e-9 --wide-plans 0 --wide-normal-plans 0
     python benchmarks/search_spread.py --angle 30 --tolerance 0.005 --restart-plans 0   # without the wide restart
     python benchmarks/search_spread.py --angle 30 --tolerance 0.005 --search-grid-points 2000 --reference 0.67146
+    python benchmarks/search_spread.py --angle 60 --tolerance 0.01 --relative 0 --global-plans 0   # without it
 
 Prints per run the full-grid duration, the spans and which ends are free; then the median and range.
 """
@@ -39,6 +40,7 @@ def main() -> None:
     ap.add_argument("--restart-plans", type=int, default=None, help="plans of the wide restart (default RESTART_PLANS)")
     ap.add_argument("--search-grid-points", type=int, default=None,
                     help="the search's fixed grid (default SEARCH_GRID_POINTS)")
+    ap.add_argument("--global-plans", type=int, default=None, help="plans of the global stage (default GLOBAL_PLANS)")
     ap.add_argument("--polish-plans", type=int, default=None, help="plans of the full-grid polish (default POLISH_PLANS)")
     ap.add_argument("--polish-starts", type=int, default=None,
                     help="how many of the fastest distinct full-grid candidates the polish runs from (default POLISH_STARTS)")
@@ -63,6 +65,7 @@ def main() -> None:
           "restart_plans": bs.RESTART_PLANS if a.restart_plans is None else a.restart_plans,
           "search_grid_points": bs.SEARCH_GRID_POINTS if a.search_grid_points is None else a.search_grid_points,
           "polish_plans": bs.POLISH_PLANS if a.polish_plans is None else a.polish_plans,
+          "global_plans": bs.GLOBAL_PLANS if a.global_plans is None else a.global_plans,
           "polish_starts": bs.POLISH_STARTS if a.polish_starts is None else a.polish_starts}
     where = "issue 17's turn" if a.angle is None else f"{a.angle:g} deg atlas corner"
     print(f"{where}, {a.tolerance * 1e3:g} mm, {kw}, load {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")

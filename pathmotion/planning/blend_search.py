@@ -19,7 +19,10 @@ blend so far:
    end it then reaches freed too (the late free end); the wide starts (free ends bulged to the tube's edge outwards,
    WIDE_PLANS, and along the normal, WIDE_NORMAL_PLANS), the wide restart (RESTART_PLANS, a wider first trust
    region) and, where the motion rests at both ends, the crossed wide starts (CROSSED_DIRECTIONS,
-   WIDE_CROSSED_PLANS);
+   WIDE_CROSSED_PLANS); then, at every line-line corner, joined or not, the global stage: CMA-ES (pycma) over every
+   coordinate at once from the fastest blend, GLOBAL_PLANS. The stages before it are local searches, each from the
+   fastest blend so far, and end in a local optimum; a population that samples the coupled coordinates together finds
+   faster blends (docs/study.md, "The global stage");
 7. the capped retry: where the neighbouring segments, not the tolerance, capped the blend (it deviates less than
    CAPPED_SHARE of the tolerance), stages 1-6 again within the deviation it reached; the faster search is kept;
 8. the polish: COBYQA on the full grid's duration (POLISH_PLANS) from the POLISH_STARTS fastest distinct candidates.
@@ -31,10 +34,11 @@ of the whole path has there), so a plan costs the same however many corners the 
 then planned together on the whole path.
 
 Guarantees: the symmetric blend and the fastest of each class (one quintic, S-curves, in the plane, joined to the
-lines, before the joint stage, before the wide starts, before the restart, before the crossed starts, the capped
-search's) are re-planned on the full grid and the fastest is kept, so the result is never slower than any of them;
-the polish keeps it unless it finds a faster one. About 255 plans per
-corner, 785-1550 with free ends and the wide starts (twice that when capped), and the polish's 150 on the full grid.
+lines, before the joint stage, before the wide starts, before the restart, before the crossed starts, before the
+global stage, the capped search's) are re-planned on the full grid and the fastest is kept, so the result is never
+slower than any of them; the polish keeps it unless it finds a faster one. About 255 plans per corner before the
+global stage, 785-1550 with free ends and the wide starts, and the global stage's GLOBAL_PLANS (all twice when
+capped), then the polish's 150 on the full grid.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "Tolerance-optimal corners (issue 17)".
@@ -44,6 +48,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import warnings
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
@@ -110,6 +115,13 @@ TRUST_RADIUS_FINAL = 1e-4
 #: The wide restart's initial trust radius, as TRUST_RADIUS_SHARE: four times as wide, so its first models span the
 #: neighbouring basins instead of the one the joint stage ended in.
 RESTART_RADIUS_SHARE = 1.0
+#: The global stage (CMA-ES over every coordinate, from the fastest blend): plans, the initial step size in the box
+#: scaled to [-1, 1] and pycma's seed (the search is deterministic). At 60 deg / 10 mm, from the stages' blend
+#: (0.61355 s), 3000 plans ended at 0.61167-0.61092 s over two seeds, 10000 at 0.61027 s; step 0.3 at 0.61065 s
+#: (docs/study.md, "The global stage").
+GLOBAL_PLANS = 3000
+GLOBAL_SIGMA = 0.15
+GLOBAL_SEED = 1
 #: Grid points of the search's fast plans.
 SEARCH_GRID_POINTS = 300
 #: A corner whose fastest blend deviates less than this share of its tolerance is searched once more at the
@@ -628,6 +640,48 @@ def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarra
                       "final_tr_radius": TRUST_RADIUS_FINAL})
 
 
+
+def _global_stage(objective: _Objective, plans: int, planar: bool) -> None:
+    """CMA-ES (pycma; at most ``plans`` plans, GLOBAL_SIGMA, GLOBAL_SEED) over every coordinate the joint stage
+    moves, from the fastest blend (in the corner's plane if ``planar``), joined to the lines or not, in the box
+    scaled to [-1, 1]. The earlier stages are local searches, each from the fastest blend so far; a population
+    samples the coupled coordinates (the entry's profile, the corner quintic and the exit's profile) together
+    (docs/study.md, "The global stage"). A shape that cannot be built or planned ranks behind every one that can,
+    the farther from the start the worse, so that a population outside the feasible set is drawn back to it. The
+    global NumPy random state is left as it was (pycma seeds it)."""
+    import cma  # imported when the stage runs: pycma takes 0.7 s to import, every CLI command would pay it
+
+    _, shape, x = objective.best(planar=planar)
+    x = np.array(x, float)
+    ends = (shape.departure is not None, shape.arrival is not None)
+    if len(x) >= _ARRIVAL.stop:
+        objective.free_ends = ends  # the ends free in this shape: its coordinates read as it was built
+    else:
+        x, ends = _extended(x, _DEPARTURE.start), (False, False)
+    idx = list(range(_V_A if planar else _DEPARTURE.start)) + _end_indices(ends, planar)
+    box = np.array([_JOINT_BOX[i] for i in idx if i < _DEPARTURE.start]
+                   + [_END_BOX] * sum(i >= _DEPARTURE.start for i in idx))
+    lo, span = box[:, 0], box[:, 1] - box[:, 0]
+    z0 = np.clip(2.0 * (x[idx] - lo) / span - 1.0, -1.0, 1.0)
+
+    def f(z) -> float:
+        trial = x.copy()
+        trial[idx] = lo + 0.5 * (np.asarray(z) + 1.0) * span
+        value = objective(trial)
+        return value if np.isfinite(value) else _INFEASIBLE + float(np.linalg.norm(np.asarray(z) - z0))
+
+    state = np.random.get_state()
+    try:
+        with warnings.catch_warnings():  # pycma warns of flat fitness and the like through warnings
+            warnings.simplefilter("ignore")
+            es = cma.CMAEvolutionStrategy(z0, GLOBAL_SIGMA, {"bounds": [-1.0, 1.0], "maxfevals": plans,
+                                                             "seed": GLOBAL_SEED, "verbose": -9})
+            while not es.stop() and es.countevals + es.popsize <= plans:  # whole generations within the plans
+                population = es.ask()
+                es.tell(population, [f(z) for z in population])
+    finally:
+        np.random.set_state(state)
+
 def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: dict, settings: PlanSettings,
             q_start, plans: int, planar: Sequence[int], quintic: Sequence[int],
             windowed: bool = False) -> tuple[float, dict, int]:
@@ -690,25 +744,27 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
                    planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
-                   wide_crossed_plans: int = WIDE_CROSSED_PLANS
-                   ) -> tuple[G2Shape | None, G2Shape | None, G2Shape | None]:
+                   wide_crossed_plans: int = WIDE_CROSSED_PLANS, global_plans: int = GLOBAL_PLANS
+                   ) -> tuple[G2Shape | None, ...]:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
     > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
     stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0), the wide starts
-    (``wide_plans``, ``wide_normal_plans``, ``wide_crossed_plans`` > 0) and the wide restart (``restart_plans`` > 0)
-    (module docstring).
+    (``wide_plans``, ``wide_normal_plans``, ``wide_crossed_plans`` > 0), the wide restart (``restart_plans`` > 0)
+    and the global stage (``free_plans`` and ``global_plans`` > 0) (module docstring).
     Returns the fastest shape before the joint stage when that, a wide start or the restart ran, the fastest before
-    the wide starts when they or the restart ran, the fastest before the restart when it ran, and the fastest before
-    the crossed starts when they ran, each else None (candidates of their own: a later stage's blend is faster on the
-    search's coarse grid, not always on the full one)."""
+    the wide starts when they or the restart ran, the fastest before the restart when it ran, the fastest before
+    the crossed starts when they ran, and the fastest before the global stage when it ran, each else None
+    (candidates of their own: a later stage's blend is faster on the search's coarse grid, not always on the full
+    one)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
     for _ in range(cycles):
         for i, box in ((_BALANCE, BALANCE_RANGE), (_SHAPE_A, SHAPE_RANGE), (_SHAPE_B, SHAPE_RANGE)):
             _line_search(objective, np.array(objective.best()[2]), (i,), *box, steps)
     if not racing:
-        return None, None, None, None
+        return None, None, None, None, None
+    found = (None, None, None, None)
     for _ in range(RACING_CYCLES):
         for indices, box in _RACING_MOVES:
             _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
@@ -739,9 +795,15 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
             for directions in CROSSED_DIRECTIONS if crossed else ():
                 _wide_stage(objective, wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE)
             wide = wide_plans > 0 or wide_normal_plans > 0 or crossed or restart
-            return ((before if joint_plans > 0 or wide else None), (before_wide if wide else None),
-                    (before_restart if restart else None), (before_crossed if crossed else None))
-    return None, None, None, None
+            found = ((before if joint_plans > 0 or wide else None), (before_wide if wide else None),
+                     (before_restart if restart else None), (before_crossed if crossed else None))
+    before_global = None
+    if free_plans > 0 and global_plans > 0:
+        before_global, ahead = objective.best()[1], objective.best()[0]
+        _global_stage(objective, global_plans, planar)
+        log.info("blend search: corner %d: the global stage: %.6g -> %.6g s (coarse grid)", objective.label, ahead,
+                 objective.best()[0])
+    return (*found, before_global)
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -759,7 +821,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
                    retry_capped: bool = True, polish_plans: int = POLISH_PLANS,
                    names: Mapping[int, str] | None = None, windows: bool = True,
-                   wide_crossed_plans: int = WIDE_CROSSED_PLANS, polish_starts: int = POLISH_STARTS) -> OptimalBlend:
+                   wide_crossed_plans: int = WIDE_CROSSED_PLANS, polish_starts: int = POLISH_STARTS,
+                   global_plans: int = GLOBAL_PLANS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
     under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
@@ -767,10 +830,11 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
     wide start outwards, ``wide_normal_plans`` 0: none along the normal, ``wide_crossed_plans`` 0: no crossed ones;
-    ``restart_plans`` 0: no wide restart; ``retry_capped`` False: no stage 7; ``polish_plans`` 0: no stage 8,
-    ``polish_starts``: how many candidates it starts from; ``windows`` False: every plan on the whole path). PathError
-    as :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does
-    not fit."""
+    ``restart_plans`` 0: no wide restart; ``global_plans`` 0: no global stage (nor without ``free_plans``);
+    ``retry_capped`` False: no stage 7; ``polish_plans`` 0: no stage 8, ``polish_starts``: how many candidates it
+    starts from; ``windows`` False: every plan on the whole path). PathError as
+    :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does not
+    fit."""
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
     tol = dict(tolerance) if isinstance(tolerance, dict) else {k: float(tolerance) for k in chosen}
@@ -779,8 +843,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
     shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted, uncrossed = (
-        dict(shapes) for _ in range(9))
+    initial, quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted, uncrossed, unglobal = (
+        dict(shapes) for _ in range(10))
     capped: dict = {}  # a corner searched again (stage 7): the first search's fastest blend
     searches: dict = {}  # every corner's searches, for the polish (stage 8)
     plans, rests = 0, (False, False) if original.closed else _rests(settings)
@@ -789,31 +853,32 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         free = racing and _racing_possible(original, k) and k not in joined_ends
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
-                  end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans, restart_plans, wide_crossed_plans)
+                  end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans, restart_plans, wide_crossed_plans,
+                  global_plans)
         window = _corner_window(robot, original, shapes, k, fast, q_start) if windowed else None
         plans += 2 * (window is not None)  # the whole path's plan for its ends, and the window's check
         obj = _objective(robot, original, shapes, k, tol[k], fast, q_start, ends, window)
-        before_joint, before_wide, before_restart, before_crossed = _search_corner(obj, *search)
+        before_joint, before_wide, before_restart, before_crossed, before_global = _search_corner(obj, *search)
         searched, reached = [obj], obj.best()[1].deviation
         if retry_capped and reached < CAPPED_SHARE * tol[k]:  # the neighbours capped the blend: stage 7
             again = _objective(robot, original, shapes, k, reached, fast, q_start, ends, window)
-            before_again = _search_corner(again, *search)  # (before the joint stage, the wide starts, the restart)
+            before_again = _search_corner(again, *search)  # (before the joint stage, ..., the global stage)
             searched.append(again)
             log.info("blend search: corner %d: the fastest blend within %.6g m reached only %.6g m; searched again "
                      "within that: %.6g s against %.6g s (coarse grid)", k, tol[k], reached, again.best()[0],
                      obj.best()[0])
             if again.best()[0] < obj.best()[0]:
                 capped[k] = obj.best()[1]
-                obj, (before_joint, before_wide, before_restart, before_crossed) = again, before_again
+                obj, (before_joint, before_wide, before_restart, before_crossed, before_global) = again, before_again
         def fastest(**kind) -> G2Shape:  # over both searches when capped: the retry adds candidates, never drops any
             return min((o.best(**kind) for o in searched), key=lambda r: r[0])[1]
 
         quintic[k], s_curve[k], in_plane[k], joined[k], shapes[k] = (
             fastest(quintic_only=True), fastest(s_curve_only=True), fastest(planar=True), fastest(joined=True),
             obj.best()[1])
-        unjoint[k], unwide[k], unrestarted[k], uncrossed[k] = (
+        unjoint[k], unwide[k], unrestarted[k], uncrossed[k], unglobal[k] = (
             before_joint or shapes[k], before_wide or shapes[k], before_restart or shapes[k],
-            before_crossed or shapes[k])
+            before_crossed or shapes[k], before_global or shapes[k])
         searches[k] = searched
         corner_plans = sum(o.plans for o in searched)
         plans += corner_plans
@@ -821,7 +886,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    stages = ((quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted, uncrossed)
+    stages = ((quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted, uncrossed, unglobal)
               + (({**shapes, **capped},) if capped else ())
               + (shapes,))
     for found in [c for i, c in enumerate(stages) if c not in stages[:i]]:
