@@ -18,11 +18,11 @@ blend so far:
 6. the joint stage, where a free end made the blend faster: every coordinate at once by COBYQA (JOINT_PLANS), an
    end it then reaches freed too (the late free end); the wide starts (free ends bulged to the tube's edge outwards,
    WIDE_PLANS, and along the normal, WIDE_NORMAL_PLANS), the wide restart (RESTART_PLANS, a wider first trust
-   region) and, where the motion rests at both ends, the crossed wide starts (CROSSED_DIRECTIONS,
-   WIDE_CROSSED_PLANS); then, at every line-line corner, joined or not, the global stage: CMA-ES (pycma) over every
-   coordinate at once from the fastest blend, GLOBAL_PLANS. The stages before it are local searches, each from the
-   fastest blend so far, and end in a local optimum; a population that samples the coupled coordinates together finds
-   faster blends (docs/study.md, "The global stage");
+   region) and, where the motion rests at both ends and ``wide_crossed_plans`` > 0 (not by default), the crossed
+   wide starts (CROSSED_DIRECTIONS); then, at every line-line corner, joined or not, the global stage: CMA-ES (pycma)
+   over every coordinate at once from the fastest blend, GLOBAL_PLANS. The stages before it are local searches, each
+   from the fastest blend so far, and end in a local optimum; a population that samples the coupled coordinates
+   together finds faster blends (docs/study.md, "The global stage");
 7. the capped retry: where the neighbouring segments, not the tolerance, capped the blend (it deviates less than
    CAPPED_SHARE of the tolerance), stages 1-6 again within the deviation it reached; the faster search is kept;
 8. the polish: COBYQA on the full grid's duration (POLISH_PLANS) from the POLISH_STARTS fastest distinct candidates.
@@ -97,10 +97,15 @@ JOINT_PLANS = 150
 #: the corner's normal.
 WIDE_PLANS = 300
 WIDE_NORMAL_PLANS = 150
-#: Plans of each crossed wide start (one resting side outwards, the other along the normal), and its first trust
-#: region, a share of the mean step (at 135 deg / 2 mm every plan of a start at 1 was rejected: its first points,
-#: a radius from the tube's edge, left the corner quintic no room).
+#: Plans of each crossed wide start (one resting side outwards, the other along the normal) when they run
+#: (``wide_crossed_plans``), and its first trust region, a share of the mean step (at 135 deg / 2 mm every plan of a
+#: start at 1 was rejected: its first points, a radius from the tube's edge, left the corner quintic no room). They do
+#: not run by default (CROSSED_DEFAULT_PLANS): with the global stage after them they found nothing faster at the three
+#: corners they were built for (135 deg / 7 mm 0.80947 against 0.80948 s without, 135 deg / 2 mm 0.86031 against
+#: 0.85813 s, 120 deg / 5 mm 0.81192 against 0.81152 s: `python benchmarks/blend_search_stages.py --stage crossed`),
+#: and they cost 4-12 s of CPU per corner.
 WIDE_CROSSED_PLANS = 150
+CROSSED_DEFAULT_PLANS = 0
 WIDE_CROSSED_RADIUS_SHARE = 0.5
 #: The crossed starts' directions (entry, exit): along the corner's normal up or down (not after the side the fastest
 #: blend rises to, as the wide start along the normal: at 120 deg / 5 mm that blend's entry sinks by 0.01 mm, and only
@@ -117,9 +122,10 @@ TRUST_RADIUS_FINAL = 1e-4
 RESTART_RADIUS_SHARE = 1.0
 #: The global stage (CMA-ES over every coordinate, from the fastest blend): plans, the initial step size in the box
 #: scaled to [-1, 1] and pycma's seed (the search is deterministic). At 60 deg / 10 mm, from the stages' blend
-#: (0.61355 s), 3000 plans ended at 0.61167-0.61092 s over two seeds, 10000 at 0.61027 s; step 0.3 at 0.61065 s
-#: (docs/study.md, "The global stage").
-GLOBAL_PLANS = 3000
+#: (0.61355 s), 3000 plans ended at 0.61167-0.61092 s over two seeds, 10000 at 0.61027 s; step 0.3 at 0.61065 s. Over
+#: the atlas' 20 rows the gain at 2500 plans is 0.00-0.09 % short of the gain at 3000, which would take the atlas
+#: past 10 minutes on 2 cores (docs/study.md, "The global stage").
+GLOBAL_PLANS = 2500
 GLOBAL_SIGMA = 0.15
 GLOBAL_SEED = 1
 #: Grid points of the search's fast plans.
@@ -744,7 +750,7 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                    free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
                    planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
-                   wide_crossed_plans: int = WIDE_CROSSED_PLANS, global_plans: int = GLOBAL_PLANS
+                   wide_crossed_plans: int = CROSSED_DEFAULT_PLANS, global_plans: int = GLOBAL_PLANS
                    ) -> tuple[G2Shape | None, ...]:
     """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
     racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
@@ -821,7 +827,7 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
                    wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
                    retry_capped: bool = True, polish_plans: int = POLISH_PLANS,
                    names: Mapping[int, str] | None = None, windows: bool = True,
-                   wide_crossed_plans: int = WIDE_CROSSED_PLANS, polish_starts: int = POLISH_STARTS,
+                   wide_crossed_plans: int = CROSSED_DEFAULT_PLANS, polish_starts: int = POLISH_STARTS,
                    global_plans: int = GLOBAL_PLANS) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
     indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
@@ -829,7 +835,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
-    wide start outwards, ``wide_normal_plans`` 0: none along the normal, ``wide_crossed_plans`` 0: no crossed ones;
+    wide start outwards, ``wide_normal_plans`` 0: none along the normal, ``wide_crossed_plans`` 0 (the default): no
+    crossed ones;
     ``restart_plans`` 0: no wide restart; ``global_plans`` 0: no global stage (nor without ``free_plans``);
     ``retry_capped`` False: no stage 7; ``polish_plans`` 0: no stage 8, ``polish_starts``: how many candidates it
     starts from; ``windows`` False: every plan on the whole path). PathError as
