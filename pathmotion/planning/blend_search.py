@@ -105,8 +105,8 @@ WIDE_NORMAL_PLANS = 150
 #: 0.85813 s, 120 deg / 5 mm 0.81192 against 0.81152 s: `python benchmarks/blend_search_stages.py --stage crossed`),
 #: and they cost 4-12 s of CPU per corner.
 WIDE_CROSSED_PLANS = 150
-CROSSED_DEFAULT_PLANS = 0
 WIDE_CROSSED_RADIUS_SHARE = 0.5
+CROSSED_DEFAULT_PLANS = 0
 #: The crossed starts' directions (entry, exit): along the corner's normal up or down (not after the side the fastest
 #: blend rises to, as the wide start along the normal: at 120 deg / 5 mm that blend's entry sinks by 0.01 mm, and only
 #: the start up along it is faster, 0.81774 -> 0.81533 s), the other side outwards.
@@ -122,7 +122,7 @@ TRUST_RADIUS_FINAL = 1e-4
 RESTART_RADIUS_SHARE = 1.0
 #: The global stage (CMA-ES over every coordinate, from the fastest blend): plans, the initial step size in the box
 #: scaled to [-1, 1] and pycma's seed (the search is deterministic). At 60 deg / 10 mm, from the stages' blend
-#: (0.61355 s), 3000 plans ended at 0.61167-0.61092 s over two seeds, 10000 at 0.61027 s; step 0.3 at 0.61065 s. Over
+#: (0.61355 s), 3000 plans ended at 0.61092-0.61167 s in two runs, 10000 at 0.61027 s; step 0.3 at 0.61065 s. Over
 #: the atlas' 20 rows the gain at 2500 plans is 0.00-0.09 % short of the gain at 3000, which would take the atlas
 #: past 10 minutes on 2 cores (docs/study.md, "The global stage").
 GLOBAL_PLANS = 2500
@@ -839,10 +839,9 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
     ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
     the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
     wide start outwards, ``wide_normal_plans`` 0: none along the normal, ``wide_crossed_plans`` 0 (the default): no
-    crossed ones;
-    ``restart_plans`` 0: no wide restart; ``global_plans`` 0: no global stage (nor without ``free_plans``);
-    ``retry_capped`` False: no stage 7; ``polish_plans`` 0: no stage 8, ``polish_starts``: how many candidates it
-    starts from; ``windows`` False: every plan on the whole path). PathError as
+    crossed ones; ``restart_plans`` 0: no wide restart; ``global_plans`` 0: no global stage (nor without
+    ``free_plans``); ``retry_capped`` False: no stage 7; ``polish_plans`` 0: no stage 8, ``polish_starts``: how many
+    candidates it starts from; ``windows`` False: every plan on the whole path). PathError as
     :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does not
     fit."""
     settings = settings or PlanSettings()
