@@ -345,7 +345,6 @@ def test_feasible_bound_refuses_a_coarse_mesh_that_leaves_the_line(robot):
     assert off > fs.FEASIBLE_LINE_TOLERANCE  # the distance from the line, not the excess over the tolerance
 
 
-
 INTERRUPTED_SOLVE = """
 import os, signal, sys, threading
 import casadi as ca

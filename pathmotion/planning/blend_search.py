@@ -549,6 +549,13 @@ _JOINT_BOX = _FREE_BOX + (COEFFICIENT_RANGE,) * 6
 _JOINT_STEP = _FREE_STEP[:_C_A] + _RISE_STEP[2:]
 
 
+def _joint_box(profile: Sequence[int], ends: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(box (m, 2), initial steps (m,)) of the coordinates ``profile`` (indices below _DEPARTURE.start) followed by
+    the free ends' ``ends``: _JOINT_BOX and _JOINT_STEP, then _END_BOX and _END_STEP."""
+    return (np.array([_JOINT_BOX[i] for i in profile] + [_END_BOX] * len(ends)),
+            np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends)))
+
+
 def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share: float = TRUST_RADIUS_SHARE) -> None:
     """COBYQA (about ``plans`` plans) over every coordinate of the fastest blend when it has a free end
     (the corner quintic, the offset pieces' profiles in and, unless ``planar``, out of the plane, and the
@@ -561,8 +568,7 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share:
     profile = list(range(_V_A if planar else _DEPARTURE.start))
     ends = _end_indices(objective.free_ends, planar)
     idx = profile + ends
-    box = np.array([_JOINT_BOX[i] for i in profile] + [_END_BOX] * len(ends))
-    steps = np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends))
+    box, steps = _joint_box(profile, ends)
 
     def f(y):
         trial = x.copy()
@@ -665,9 +671,9 @@ def _global_stage(objective: _Objective, plans: int, planar: bool) -> tuple[int,
         objective.free_ends = ends  # the ends free in this shape: its coordinates read as it was built
     else:
         x, ends = _extended(x, _DEPARTURE.start), (False, False)
-    idx = list(range(_V_A if planar else _DEPARTURE.start)) + _end_indices(ends, planar)
-    box = np.array([_JOINT_BOX[i] for i in idx if i < _DEPARTURE.start]
-                   + [_END_BOX] * sum(i >= _DEPARTURE.start for i in idx))
+    profile, free = list(range(_V_A if planar else _DEPARTURE.start)), _end_indices(ends, planar)
+    idx = profile + free
+    box, _ = _joint_box(profile, free)
     lo, span = box[:, 0], box[:, 1] - box[:, 0]
     z0 = np.clip(2.0 * (x[idx] - lo) / span - 1.0, -1.0, 1.0)
 
@@ -720,8 +726,7 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
         flat = k in planar
         idx = [i for i in range(min(len(x), _W_A if k in quintic else _DEPARTURE.start)) if not (flat and i >= _V_A)]
         ends = _end_indices(fine.free_ends, flat) if len(x) >= _ARRIVAL.stop else []
-        box = np.array([_JOINT_BOX[i] for i in idx] + [_END_BOX] * len(ends))
-        steps = np.array([_JOINT_STEP[i] for i in idx] + [_END_STEP] * len(ends))
+        box, steps = _joint_box(idx, ends)
 
         def f(y, x=x, cols=idx + ends, fine=fine):
             trial = x.copy()
@@ -808,7 +813,7 @@ def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int,
                      (before_restart if restart else None), (before_crossed if crossed else None))
     before_global = None
     if free_plans > 0 and global_plans > 0:
-        before_global, ahead = objective.best()[1], objective.best()[0]
+        ahead, before_global, _ = objective.best()
         drawn, why = _global_stage(objective, global_plans, planar)
         log.info("blend search: corner %d: the global stage: %.6g -> %.6g s (coarse grid), %d candidates, "
                  "stopped by %s", objective.label, ahead, objective.best()[0], drawn, why)
