@@ -63,7 +63,7 @@ import pinocchio as pin
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from pathmotion import api  # noqa: E402
-from pathmotion.joint_path import SplineJointPath  # noqa: E402
+from pathmotion.lift.joint_path import SplineJointPath  # noqa: E402
 from pathmotion.planning import PlanSettings, plan  # noqa: E402
 from pathmotion.robot import fk, rnea  # noqa: E402
 from pathmotion.scenarios import scenario_path  # noqa: E402

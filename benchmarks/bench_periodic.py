@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from pathmotion.api import _split_first_segment
-from pathmotion.constraint import lift
+from pathmotion.lift.constraint import lift
 from pathmotion.geometry import FixedOrientation, Line, TaskPath, circle_with_vertical_circle, horizontal_circle
 from pathmotion.geometry import with_blends
 from pathmotion.planning import PlanSettings, boundary, plan

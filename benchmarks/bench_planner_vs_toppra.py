@@ -51,7 +51,7 @@ import pinocchio as pin
 
 from pathmotion import defaults
 from pathmotion.control.threads import single_blas_thread
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, effective_limits, plan
 from pathmotion.planning.grid import make_grid
 from pathmotion.planning.verify import sample_ratios

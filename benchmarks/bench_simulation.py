@@ -31,7 +31,7 @@ from scipy.integrate import solve_ivp
 
 from pathmotion import api, defaults
 from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable, design_cache
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning.profile import Profile
 from pathmotion.robot import load_robot
 from pathmotion.scenarios import scenario_path

@@ -30,7 +30,7 @@ import numpy as np
 
 from pathmotion import defaults
 from pathmotion.api import load
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, plan
 
 #: Converged optima from benchmarks/reference_topp.py (its module docstring), in seconds.

@@ -163,7 +163,7 @@ def split(bs, robot, task, coarse, full, tol, shape, knots: dict, plans, radius)
     from scipy.optimize import minimize
 
     import pathmotion.geometry.blends as bl
-    from pathmotion.constraint import lift
+    from pathmotion.lift.constraint import lift
     from pathmotion.errors import PathmotionError
     from pathmotion.geometry import TaskPath
     from pathmotion.geometry.orientation import FixedOrientation

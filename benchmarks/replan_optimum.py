@@ -61,7 +61,7 @@ def main() -> None:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     import pathmotion.study.optimum_path as op
-    from pathmotion.constraint import lift
+    from pathmotion.lift.constraint import lift
     from pathmotion.planning import plan
     from pathmotion.planning.blend_search import RISE_PLANS, optimal_blends
     from pathmotion.robot import load_robot

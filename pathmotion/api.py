@@ -30,8 +30,8 @@ from .io.atomic import write_json, write_text
 from .io.files import read_input
 from .io.scenario import Scenario, parse_scenario, unit_slips
 from .io.waypoints import load_waypoints_csv
-from .joint_path import JointPath, SplineJointPath
-from .constraint import lift
+from .lift.joint_path import JointPath, SplineJointPath
+from .lift.constraint import lift
 from .planning import PlanResult, PlanSettings, plan
 from .planning.limits import REGISTRY as LIMIT_REGISTRY, limit_choices
 from .robot import Payload, Robot, Tool, builtin_robot_names, fk, load_robot

@@ -60,7 +60,7 @@ ROTATION_TOLERANCE = 1e-6
 #: Singularity measure threshold: smallest singular value of the 6x6 Jacobian below which a
 #: configuration is reported as (near) singular [m or rad per rad].
 SINGULARITY_THRESHOLD = 1e-3
-#: Wrist singularity (q5 = 0) along a lifted path (pathmotion.wrist_crossing). A path that passes it
+#: Wrist singularity (q5 = 0) along a lifted path (pathmotion.lift.wrist_crossing). A path that passes it
 #: closer than WRIST_CROSSING_TOLERANCE [rad of q5] crosses it: the lift takes the smooth branch (q5
 #: changes sign; the pose error of treating it as exact is at most this, below IK_TOLERANCE). Farther,
 #: q4 and q6 must turn by about pi nearby (a wrist flip).

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from pathmotion.joint_path import JointPath
+from pathmotion.lift.joint_path import JointPath
 
 
 @dataclass(frozen=True, eq=False)

@@ -6,7 +6,7 @@ import pytest
 
 from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable
 from pathmotion.control import design_cache as dc
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning.profile import Profile
 
 WAYPOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0],

@@ -139,7 +139,7 @@ def test_the_integral_does_not_wind_up_while_the_torque_saturates(irb140):
     """Conditional integration: a sample whose torque is clipped leaves the integral where it was; the same
     sample with room to spare advances it by Ts (z, I)."""
     from pathmotion.control import OrbitalController
-    from pathmotion.joint_path import SplineJointPath
+    from pathmotion.lift.joint_path import SplineJointPath
     from pathmotion.planning.profile import Profile
 
     waypoints = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0], [0.5, 0.3, -0.2, 0.4, 0.8, 0.6],
@@ -273,7 +273,7 @@ def test_the_design_equals_the_van_loan_reference_design(monkeypatch, delay):
     sampled cost against the same design built with the reference sampled_cost_van_loan: within 1e-9 of each
     gain column's largest value (the two differ by round-off: measured 4e-13 on K, 6e-14 on P)."""
     from pathmotion.control import orbital
-    from pathmotion.joint_path import SplineJointPath
+    from pathmotion.lift.joint_path import SplineJointPath
 
     from tests.planning_paths import CONTROL_WAYPOINTS, trapezoid
 

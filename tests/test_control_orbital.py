@@ -14,7 +14,7 @@ import control_reference as ref
 from pathmotion import defaults
 from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable, ProfileLookup
 from pathmotion.control.kernels import ProfileArrays, orbital_command, profile_at_time
-from pathmotion.joint_path import JointPath, SplineJointPath
+from pathmotion.lift.joint_path import JointPath, SplineJointPath
 from pathmotion.planning.profile import Profile
 from pathmotion.simulation import SimulationSettings, simulate
 from pathmotion.simulation.monitor import monitor_state

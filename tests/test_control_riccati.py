@@ -15,7 +15,7 @@ from pathmotion.control.path_table import _HERMITE5
 from pathmotion.control.profile_lookup import ProfileLookup
 from pathmotion.control.riccati import solve_riccati
 from pathmotion.control.transverse import TransverseBasis, transverse_linearization
-from pathmotion.joint_path import JointPath, SplineJointPath
+from pathmotion.lift.joint_path import JointPath, SplineJointPath
 
 from control_reference import solve_riccati_adaptive
 

@@ -16,7 +16,7 @@ from pathmotion.control import (OrbitalDesign, OrbitalGains, PathTable, ProfileL
                                 project, solve_riccati, transverse_linearization)
 from pathmotion.control import kernels
 from pathmotion.control.orbital import with_integral
-from pathmotion.joint_path import JointPath, SplineJointPath
+from pathmotion.lift.joint_path import JointPath, SplineJointPath
 from pathmotion.planning.profile import Profile
 
 WAYPOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0],

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 from pathmotion.api import load_text, plan_summary, plan_scenario
-from pathmotion.constraint import lift
+from pathmotion.lift.constraint import lift
 from pathmotion.errors import PathError, ScenarioError, UnreachableError
 from pathmotion.geometry import BezierSegment, FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend
 from pathmotion.geometry.blends import (_piece_offsets, g2_blend_pieces, g2_control_points, g2_shape_for_tolerance,

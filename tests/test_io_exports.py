@@ -10,7 +10,7 @@ import yaml
 from pathmotion.errors import PathmotionError
 from pathmotion.io import exports
 from pathmotion.io.atomic import atomic_path, write_json
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning.profile import Profile
 from pathmotion.planning.trajectory import Trajectory
 

@@ -8,8 +8,8 @@ from hypothesis import given, settings, strategies as st
 from pathmotion.errors import PathError, UnreachableError
 from pathmotion.geometry import (FixedOrientation, Line, TaskPath, circle_with_radial_line, circle_with_vertical_circle,
                                  horizontal_circle, with_g2_blend, with_transition)
-from pathmotion.joint_path import SplineJointPath
-from pathmotion.constraint import lift
+from pathmotion.lift.joint_path import SplineJointPath
+from pathmotion.lift.constraint import lift
 from pathmotion.robot import fk
 
 PATHS = {

@@ -6,10 +6,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pathmotion import defaults
-from pathmotion.constraint import lift, tcp_jerk_bias
+from pathmotion.lift.constraint import lift, tcp_jerk_bias
 from pathmotion.geometry import (Arc, Line, SlerpOrientation, TaskPath, circle_with_radial_line,
                                  circle_with_vertical_circle, horizontal_circle, with_g2_blend, with_transition)
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 
 H = 1e-5  # finite-difference step [m of theta]
 # central differences of the second derivative: truncation ~ H^2 |Phi^(5)| / 6, rounding ~ eps |Phi''| / H;

@@ -16,13 +16,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pathmotion import api, defaults
-from pathmotion.constraint import lift
+from pathmotion.lift.constraint import lift
 from pathmotion.errors import UnreachableError
 from pathmotion.geometry import FixedOrientation, Line, TaskPath
 from pathmotion.planning import effective_limits, limit_ratios
 from pathmotion.robot import fk
 from pathmotion.robot.ik import ik_nearest
-from pathmotion.wrist_crossing import signed_t5
+from pathmotion.lift.wrist_crossing import signed_t5
 
 
 def through(robot, q_singular, direction, half):

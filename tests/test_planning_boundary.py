@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from pathmotion import defaults
 from pathmotion.errors import InfeasibleError, ScenarioError
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, plan
 from pathmotion.robot import gravity
 

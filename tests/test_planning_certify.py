@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from pathmotion.errors import ScenarioError
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.modes import VerifyMode
 from pathmotion.planning import PlanSettings, Trajectory, effective_limits, plan
 from pathmotion.planning.planner import certified_bounds

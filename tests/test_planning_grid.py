@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from pathmotion import api, defaults
 from pathmotion.errors import ScenarioError
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, effective_limits, plan
 from pathmotion.planning.verify import sample_ratios
 from pathmotion.planning.grid import ORDER, Grid, make_grid, pieces_for
@@ -218,7 +218,7 @@ def test_a_narrow_curvature_peak_inside_a_segment_is_planned_alike_on_coarse_and
     corner quintic at 135 deg / 7 mm (25000 1/m) and took 0.75 s for a motion of 0.87 s."""
     from dataclasses import replace as dc_replace
 
-    from pathmotion.constraint import lift
+    from pathmotion.lift.constraint import lift
     from pathmotion.geometry import TaskPath
     from geometry_support import near_cusp
 

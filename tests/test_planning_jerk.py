@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from pathmotion import api
 from pathmotion.errors import ScenarioError
-from pathmotion.joint_path import JointPath, SplineJointPath
+from pathmotion.lift.joint_path import JointPath, SplineJointPath
 from pathmotion.planning import PlanSettings, plan
 from pathmotion.planning import smooth
 from pathmotion.planning.profile import Profile

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from pathmotion import defaults
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, limit_ratios, plan, reduced_dynamics
 from pathmotion.robot import coriolis_matrix, mass_matrix
 

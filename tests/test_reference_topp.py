@@ -6,9 +6,9 @@ import pytest
 
 pytest.importorskip("casadi", reason="the reference transcription needs casadi (dev extra: pip install -e '.[dev]')")
 
-from pathmotion.constraint import lift  # noqa: E402
+from pathmotion.lift.constraint import lift  # noqa: E402
 from pathmotion.geometry import Arc, TaskPath  # noqa: E402
-from pathmotion.joint_path import JointPath  # noqa: E402
+from pathmotion.lift.joint_path import JointPath  # noqa: E402
 
 from benchmark_modules import load_benchmark  # noqa: E402
 

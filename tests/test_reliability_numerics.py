@@ -8,7 +8,7 @@ import pytest
 
 from pathmotion import PlanSettings, lift, load_robot, plan
 from pathmotion.geometry import Line, TaskPath
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning.reduced import reduced_dynamics
 
 # the shipped joint_waypoints scenario's waypoints (rad)

@@ -12,7 +12,7 @@ import pytest
 
 import pathmotion as pm
 from pathmotion.errors import RobotModelError
-from pathmotion.constraint import joint_derivatives, joint_third_derivative
+from pathmotion.lift.constraint import joint_derivatives, joint_third_derivative
 from pathmotion.geometry import FixedOrientation, distance_to_segments, horizontal_circle
 from pathmotion.robot import fk, has_closed_form, ik_nearest, jacobian, load_robot
 from pathmotion.robot import redundancy

@@ -63,7 +63,7 @@ def test_other_models_are_left_to_pinocchio():
 @pytest.mark.parametrize("name, make", list(_arms()), ids=[a[0] for a in _arms()])
 def test_jerk_bias_equals_pinocchio_point_by_point(name, make, monkeypatch):
     """The compiled third-order recursion against tcp_jerk_bias's Pinocchio derivatives, point by point."""
-    from pathmotion.constraint import tcp_jerk_bias
+    from pathmotion.lift.constraint import tcp_jerk_bias
 
     robot = make()
     rng = np.random.default_rng(3)
@@ -79,7 +79,7 @@ def test_jerk_bias_equals_pinocchio_point_by_point(name, make, monkeypatch):
 def test_jerk_bias_is_the_rate_of_the_acceleration():
     """Along q(t) = q + qd t + qdd t^2 / 2 the classical acceleration is J qdd + Jdot qd; its central difference
     at t = 0 is the batched jerk bias (independent of Pinocchio's derivatives)."""
-    from pathmotion.constraint import tcp_jerk_bias
+    from pathmotion.lift.constraint import tcp_jerk_bias
 
     robot = load_robot("irb140")
     rng = np.random.default_rng(4)

@@ -11,7 +11,7 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 from pathmotion.control import OrbitalDesign, PathTable
-from pathmotion.joint_path import JointPath, SplineJointPath
+from pathmotion.lift.joint_path import JointPath, SplineJointPath
 from pathmotion.planning.profile import Profile
 from pathmotion.planning.trajectory import Trajectory
 from pathmotion.robot import Payload

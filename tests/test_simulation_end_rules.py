@@ -128,7 +128,7 @@ def test_timeout_only_before_arrival():
 @pytest.mark.parametrize("closed, moving", [(True, False), (False, False), (False, True)])
 def test_the_rule_list_per_kind_of_path(closed, moving):
     from pathmotion.control import PathTable
-    from pathmotion.joint_path import SplineJointPath
+    from pathmotion.lift.joint_path import SplineJointPath
     from pathmotion.planning.profile import Profile
 
     pts = np.array([[0.0] * 6, [0.5, 0.2, 0.1, 0.0, 0.3, 0.1], [1.0, 0.1, 0.3, 0.2, 0.1, 0.4]])

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pathmotion.control import PathTable
-from pathmotion.joint_path import JointPath
+from pathmotion.lift.joint_path import JointPath
 from pathmotion.simulation.monitor import BACKWARD_RATIO, monitor_state
 
 ALPHA = 0.01

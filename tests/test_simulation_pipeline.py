@@ -1,13 +1,13 @@
 """Closed loop on planned motions: planner (pathmotion.planning.plan) and lifted task paths
-(pathmotion.constraint), the thesis' paths. References: the thesis' 0.0002 rad accuracy, the planned
+(pathmotion.lift), the thesis' paths. References: the thesis' 0.0002 rad accuracy, the planned
 duration/period, and the geometric deviation of the transition circle from the sharp corner
 (pathmotion.geometry.deviation.max_deviation, an independent certified computation)."""
 
 import numpy as np
 from pathmotion.geometry.deviation import max_deviation
 from pathmotion.geometry.library import circle_with_radial_line, circle_with_radial_line_transition, horizontal_circle
-from pathmotion.joint_path import SplineJointPath
-from pathmotion.constraint import lift
+from pathmotion.lift.joint_path import SplineJointPath
+from pathmotion.lift.constraint import lift
 from pathmotion.planning import PlanSettings, plan
 from pathmotion.simulation import simulate
 

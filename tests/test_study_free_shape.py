@@ -126,7 +126,7 @@ def test_straight_line_reproduces_the_planners_optimum(robot):
 
 def _optimal_blend_motion(robot, deg: float, delta: float):
     """The atlas turn with its optimal blend: (points, shape, the blend's time-optimal PlanResult)."""
-    from pathmotion.constraint import lift
+    from pathmotion.lift.constraint import lift
     from pathmotion.planning.blend_search import optimal_blends
     from pathmotion.study import atlas
 

@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("casadi", reason='the free-shape reference needs CasADi: pip install "pathmotion[optimal]"')
 
-from pathmotion.constraint import lift  # noqa: E402
+from pathmotion.lift.constraint import lift  # noqa: E402
 from pathmotion.errors import PathError  # noqa: E402
 from pathmotion.geometry import max_deviation  # noqa: E402
 from pathmotion.planning import PlanSettings, plan  # noqa: E402

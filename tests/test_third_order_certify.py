@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from pathmotion.joint_path import SplineJointPath
+from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, effective_limits, plan
 from pathmotion.planning.certify import smooth_sampled_bound
 from pathmotion.planning.planner import certified_bounds

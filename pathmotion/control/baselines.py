@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 from ..planning.profile import Profile
 from ..planning.trajectory import Trajectory
 from ..robot import Robot, mass_matrix

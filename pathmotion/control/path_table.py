@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import SimulationError
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 from .kernels import PathArrays, Projection, evaluate_at, project
 
 #: Grid points closer than this fraction of the domain's length to a break are dropped (the break stays).

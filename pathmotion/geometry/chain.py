@@ -3,7 +3,7 @@
 theta is the cumulative arc length [m] over the chain, domain (0, L). Segment k covers
 [breaks_k, breaks_{k+1}]. At a break, ``side="right"`` evaluates the segment that starts there
 and ``side="left"`` the one that ends there. Scalar theta gives un-batched results ((3,), (3, 3)),
-an (N,) array gives (N, 3), (N, 3, 3), as :class:`pathmotion.joint_path.JointPath` does.
+an (N,) array gives (N, 3), (N, 3, 3), as :class:`pathmotion.lift.JointPath` does.
 
 Connections are classified as
 

@@ -56,7 +56,7 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from .. import defaults
-from ..constraint import lift
+from ..lift.constraint import lift
 from ..errors import PathmotionError
 from ..geometry import Line, TaskPath
 from ..geometry.orientation import FixedOrientation

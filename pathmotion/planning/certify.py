@@ -55,7 +55,7 @@ import numpy as np
 from numba import njit
 
 from .. import defaults
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 from ..robot import Robot, rnea
 from .fast_rnea import rnea_batch, supported
 from . import smooth

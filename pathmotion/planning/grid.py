@@ -25,7 +25,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import defaults
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 
 log = logging.getLogger(__name__)
 

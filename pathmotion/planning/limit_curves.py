@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 from ..robot import Robot
 from .limit_rows import limit_rows
 from .limits import EffectiveLimits, PathPoints

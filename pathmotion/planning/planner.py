@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import InfeasibleError, ScenarioError
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 from ..modes import BoundaryMode, Connections, VerifyMode, parse_mode
 from ..robot import Robot
 from .baselines import Baselines, compute_baselines

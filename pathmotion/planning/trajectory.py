@@ -8,7 +8,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathmotionError
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 from ..robot import Robot, rnea
 from .reduced import torque_derivative
 from .profile import Profile

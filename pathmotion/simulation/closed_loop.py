@@ -32,7 +32,7 @@ from ..control import (CONTROLLER_NAMES, ComputedTorqueController, OrbitalContro
 from ..control.design_cache import cached_design, cached_table
 from ..control.threads import blas_single_threaded
 from ..errors import ScenarioError, SimulationError
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 from ..planning.profile import Profile
 from ..robot import Robot
 from .end_rules import FLAT_SPEED2, Sample, end_rules

@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 from ..control.kernels import ZERO_SPEED2
-from ..joint_path import JointPath
+from ..lift.joint_path import JointPath
 from ..robot import Robot, fk
 
 #: Corner points closer than this to a TCP sample count as equally near (split by theta) [m].

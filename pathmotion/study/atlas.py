@@ -173,7 +173,7 @@ def reserved(robot, torque_reserve: float):
 
 
 def _duration(robot, task, original=None, torque: bool = False, **kw) -> float:
-    from ..constraint import lift
+    from ..lift.constraint import lift
     from ..planning import plan
 
     settings = _settings(torque, baselines=False, **kw)
@@ -204,7 +204,7 @@ def parabolic_zone(task, tolerance: float):
 def industrial_zone_duration(robot, task, tolerance: float, torque: bool = False, torque_reserve: float = 0.0) -> float:
     """Constant-TCP-speed duration [s] on ``task`` with the parabolic zone (see parabolic_zone), within the torque
     limits too when ``torque`` (less the feedback reserve ``torque_reserve``)."""
-    from ..constraint import lift
+    from ..lift.constraint import lift
     from ..planning import plan
 
     zoned = parabolic_zone(task, tolerance)
@@ -527,7 +527,7 @@ def corner_bound(cache: Path, robot, points, tolerance: float, spans, meshes, co
 def optimal_motion(robot, task, tolerance: float, torque: bool = False, torque_reserve: float = 0.0):
     """A row's optimal blend and its motion, as the atlas plans them: (OptimalBlend, the blended path lifted to
     joint space, its time-optimal PlanResult, verified), under the atlas' settings (``torque``, ``torque_reserve``)."""
-    from ..constraint import lift
+    from ..lift.constraint import lift
     from ..planning import plan
     from ..planning.blend_search import optimal_blends
 

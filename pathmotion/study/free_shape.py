@@ -345,7 +345,7 @@ def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = No
     """pathmotion's time-optimal plan that stops at every corner of ``line`` (velocity and
     acceleration limits, and torque limits when ``torque``; tool orientation ``rotation`` (3, 3),
     default tool down): (JointPath, PlanResult)."""
-    from ..constraint import lift
+    from ..lift.constraint import lift
     from ..geometry import FixedOrientation, Line, TaskPath
     from ..planning import PlanSettings, plan
 

@@ -26,7 +26,7 @@ from typing import Callable, ClassVar, NamedTuple
 import numpy as np
 
 from ...errors import ScenarioError
-from ...joint_path import JointPath
+from ...lift.joint_path import JointPath
 from ...robot import Robot
 from ..trajectory import Samples
 

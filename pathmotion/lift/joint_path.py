@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .errors import PathError, check_finite
+from ..errors import PathError, check_finite
 
 #: Slack of the theta-range check, relative to max(1, domain length): round-off of a caller's theta
 #: (e.g. a grid ending at hi computed as a sum) is clipped, a real overshoot is an error [-].

@@ -35,14 +35,15 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from . import defaults, wrist_crossing
-from .errors import PathError, UnreachableError
-from .geometry import describe_point
+from .. import defaults
+from . import wrist_crossing
+from ..errors import PathError, UnreachableError
+from ..geometry import describe_point
 from .joint_path import JointPath
-from .robot import Robot, frame_acceleration_bias, jacobian
-from .robot import kinematics, redundancy
-from .robot.serial_batch import chain_of, jerk_bias_batch
-from .robot.ik import IK_RANGE_SLACK, has_closed_form, ik_batch, ik_dls, ik_nearest
+from ..robot import Robot, frame_acceleration_bias, jacobian
+from ..robot import kinematics, redundancy
+from ..robot.serial_batch import chain_of, jerk_bias_batch
+from ..robot.ik import IK_RANGE_SLACK, has_closed_form, ik_batch, ik_dls, ik_nearest
 
 log = logging.getLogger(__name__)
 TWO_PI = 2.0 * np.pi
@@ -63,7 +64,7 @@ class PathCheck:
     min_singular_value: smallest singular value of the TCP Jacobian along the path and its theta;
     range_margin: smallest distance of any joint to its range limits [rad], with theta and joint;
     kinks: theta of the sharp corners (the planner must stop there);
-    wrist_passages: :class:`~pathmotion.wrist_crossing.WristPassage` per stretch near q5 = 0 (crossings
+    wrist_passages: :class:`~pathmotion.lift.wrist_crossing.WristPassage` per stretch near q5 = 0 (crossings
     on the smooth branch included; the singular-value check skips their interpolation windows).
     """
 
@@ -82,7 +83,7 @@ class TaskJointPath(JointPath):
     """q = Phi(theta) for a task-space path, on one IK branch (the wrist branch continuous through
     q5 = 0). Build with :func:`lift`.
 
-    wrist_windows: :class:`~pathmotion.wrist_crossing.WristWindow` intervals around wrist singularity
+    wrist_windows: :class:`~pathmotion.lift.wrist_crossing.WristWindow` intervals around wrist singularity
     crossings, where Phi and its derivatives come from a certified interpolant of the continuous IK
     (J is singular at the crossing); elsewhere Phi is the closed form and its derivatives J^-1 (...)."""
 

@@ -39,12 +39,12 @@ import scipy.linalg
 from scipy.optimize import brentq, minimize_scalar
 from scipy.spatial.transform import Rotation
 
-from . import defaults
-from .errors import PathError, UnreachableError
-from .geometry import describe_point
-from .robot import Robot, jacobian
-from .robot.ik import ik_batch, opw_geometry
-from .robot.opw import opw_fk
+from .. import defaults
+from ..errors import PathError, UnreachableError
+from ..geometry import describe_point
+from ..robot import Robot, jacobian
+from ..robot.ik import ik_batch, opw_geometry
+from ..robot.opw import opw_fk
 
 log = logging.getLogger(__name__)
 
