@@ -135,11 +135,20 @@ def _log_warning(message, category, filename, lineno, file=None, line=None):
     logger.debug("%s: %s (%s:%s)", category.__name__, message, filename, lineno)
 
 
-def _out(out: Path) -> Path:
-    """``--out`` checked before any work: a creatable, writable folder (else a one-line error, exit 1)."""
+def _out(out: Path, *inputs: Optional[Path]) -> Path:
+    """``--out`` checked before any work: a creatable, writable folder that holds none of ``inputs`` (the
+    run's input files), nor the current or home folder, and is new, empty or an earlier result (else a
+    one-line error, exit 1)."""
     from .io.files import check_output_dir
 
-    return check_output_dir(out)
+    return check_output_dir(out, keep=[k for k in inputs if k is not None])
+
+
+def _out_file(out: Path, *inputs: Path) -> Path:
+    """A file ``--out`` checked before any work: a file name, not a folder, none of ``inputs``."""
+    from .io.files import check_output_file
+
+    return check_output_file(out, inputs)
 
 
 def _scheduler(address: Optional[str]) -> Optional[str]:
@@ -391,7 +400,7 @@ def schema(out: Optional[Path] = typer.Option(None, "--out", help="write to this
     from .io.scenario import scenario_json_schema
 
     if out:
-        write_json(out, scenario_json_schema())
+        write_json(_out_file(out), scenario_json_schema())
         console.print(f"wrote {escape(str(out))}")
     else:
         print(json.dumps(scenario_json_schema(), indent=2))
@@ -417,6 +426,7 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
     from .io.scenario import parse_scenario
 
     check_blend_type(blend, f"--blend {blend}")  # before reading the program
+    out = _out_file(out, program)
     prog = read_rapid(program)
     if prog.unsupported and not skip_unsupported:
         listed = "; ".join(f"line {ln}: {text}" for ln, text in prog.unsupported)
@@ -468,7 +478,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from .io.atomic import output_lock, result_folder
 
     overrides = _with_verify(_overrides(set_), verify)
-    out = _out(_default_out(out, scenario, overrides))
+    out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
         setup = api.load(scenario, overrides)
@@ -503,7 +513,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     overrides = _with_verify(_overrides(set_), verify)
     if controller:
         overrides["simulate.controller"] = controller
-    out = _out(_default_out(out, scenario, overrides))
+    out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("simulate: load", total=4)
         setup = api.load(scenario, overrides)
@@ -539,12 +549,14 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     Example: [bold]pathmotion sweep scenarios/corner_transition.toml --set "path.blends[0].radius=0.02,0.04,0.06" --out out/rt[/]
     """
     from .io.atomic import output_lock
+    from .io.files import mark_result
     from .study import run_study_sweep
     from .study.sweep import parse_sets
 
-    out, scheduler = _out(out), _scheduler(scheduler)
+    out, scheduler = _out(out, scenario), _scheduler(scheduler)
     grid = parse_sets(set_)
     with output_lock(out), _progress() as progress:  # (a sweep's folder resumes in place: no swap)
+        mark_result(out)
         task = progress.add_task("sweep", total=None)
 
         def on_result(done, total):
@@ -598,7 +610,11 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
         except ValueError:
             _fail(f"--{what} {text!r}: give comma-separated numbers", code=2)
 
+    from .io.files import mark_result
+
     reserve = check_torque_reserve(torque_reserve, torque, name="--torque-reserve", switch="--torque")
+    out = _out(out, robot)
+    mark_result(out)
     with _progress() as progress:
         task = progress.add_task("corners", total=None)
 
@@ -624,7 +640,7 @@ def report(folder: Path = typer.Argument(..., help="a folder written by plan, si
     """
     from .report.html import build_report
 
-    path = build_report(folder, out)
+    path = build_report(folder, None if out is None else _out_file(out))
     console.print(f"wrote {escape(str(path))}")
 
 
@@ -644,10 +660,13 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
     from .io import schema
     from .io.atomic import output_lock, result_folder
 
+    from .io.files import mark_result
+
     out = _out(out)
     names = api.DEMO_SCENARIOS
     rows = []
     with output_lock(out), _progress() as progress:
+        mark_result(out)
         task = progress.add_task("demo", total=len(names))
         for name in names:
             progress.update(task, description=f"demo: {name}")
