@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .io import schema
-from .errors import InfeasibleError, PathmotionError, ScenarioError, UnreachableError
+from .errors import InfeasibleError, PathmotionError, ScenarioError, UnreachableError, listed
 from .geometry import (Arc, Circle, FixedOrientation, Line, TaskPath, blended_corners, max_deviation, waypoint_path,
                        with_blends)
 from . import defaults
@@ -653,8 +653,8 @@ def simulation_settings(setup: Setup):
         allowed = [f.name for f in dataclasses.fields(cls)]
         unknown = sorted(set(sim.gains) - set(allowed))
         if unknown:
-            raise ScenarioError(f"simulate.gains: unknown gain(s) {unknown} for controller {sim.controller!r}; "
-                                f"allowed: {allowed}")
+            raise ScenarioError(f"simulate.gains: unknown gain(s) {listed(unknown)} for controller "
+                                f"{getattr(sim.controller, 'value', sim.controller)!r}; allowed: {', '.join(allowed)}")
         base = getattr(SimulationSettings(), field)
         kwargs[field] = dataclasses.replace(base, **sim.gains)
     return SimulationSettings(**kwargs)

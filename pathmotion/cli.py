@@ -25,7 +25,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from . import defaults
-from .errors import PathmotionError, ScenarioError, printable
+from .errors import PathmotionError, ScenarioError, clipped, printable
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="rich",
                   help="Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation.")
@@ -43,10 +43,15 @@ EXIT_FAILED_RESULT = 4
 _LOG_HANDLER = None
 
 
+#: Longest line of an error or warning printed [characters]: a message quoting unbounded input is cut, the rest
+#: counted (each quote is already cut to errors.MAX_QUOTED_CHARS where the message is made).
+MAX_MESSAGE_LINE_CHARS = 1000
+
+
 def _print_message(label: str, message: str, empty: str) -> None:
     """``label`` (Rich markup) and the first line of ``message`` (``empty`` if it has none) on stderr, its further lines
     indented below it: each one line, never wrapped, non-printable characters escaped, markup-like text verbatim."""
-    lines = [printable(line) for line in (message.strip() or empty).split("\n")]
+    lines = [printable(clipped(line, MAX_MESSAGE_LINE_CHARS)) for line in (message.strip() or empty).split("\n")]
     err_console.print(f"{label} {escape(lines[0])}", highlight=False, soft_wrap=True)
     for line in lines[1:]:
         err_console.print(f"  {escape(line)}", highlight=False, soft_wrap=True)
@@ -109,6 +114,8 @@ def guarded(fn):
             raise
         except PathmotionError as exc:
             _fail(str(exc))
+        except BrokenPipeError:
+            _pipe_closed()
         except OSError as exc:  # a file or folder the run uses: name it and say why
             _fail(f"{exc.filename or 'a file'}: {os_reason(exc)}")
         except KeyboardInterrupt:
@@ -123,6 +130,18 @@ def guarded(fn):
                   "(PATHMOTION_DEBUG=1 shows the traceback)", code=3)
 
     return wrapper
+
+
+def _pipe_closed():
+    """The reader of our output went away (``pathmotion schema | head``): a normal end, exit 0 without a word.
+    stdout now points at /dev/null, so the interpreter's final flush does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # no real stdout (a test runner's): nothing to redirect
+        pass
+    raise typer.Exit(0)
 
 
 def _interrupted():

@@ -61,6 +61,34 @@ def printable(text) -> str:
     return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in str(text))
 
 
+#: Most characters of the user's input one error message quotes (a key, a value, a list of names); the rest
+#: is counted, never echoed.
+MAX_QUOTED_CHARS = 200
+
+
+def clipped(text, limit: int = MAX_QUOTED_CHARS) -> str:
+    """``text`` (str() of it) cut to ``limit`` characters, the rest counted: 'kkk... (3,800 more characters)'."""
+    text = str(text)
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text) - limit:,} more characters)"
+
+
+def listed(items, limit: int = MAX_QUOTED_CHARS) -> str:
+    """The repr of each of ``items``, comma-separated, as many as fit in about ``limit`` characters, the rest
+    counted: "'g0', 'g1', ... (99,990 more)"."""
+    items = list(items)
+    shown, size = [], 0
+    for item in items:
+        text = clipped(repr(item), limit)
+        if shown and size + len(text) > limit:
+            break
+        shown.append(text)
+        size += len(text) + 2
+    rest = len(items) - len(shown)
+    return ", ".join(shown) + (f", ... ({rest:,} more)" if rest else "")
+
+
 def check_finite(name: str, value, where: str = "") -> None:
     """Raise a PathmotionError naming ``name`` (and ``where``) if ``value`` holds NaN or inf."""
     import numpy as np

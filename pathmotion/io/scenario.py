@@ -14,7 +14,7 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .. import defaults
-from ..errors import ScenarioError
+from ..errors import ScenarioError, clipped
 from ..modes import BlendType, BoundaryMode, Connections, Controller, VerifyMode
 from .files import parse_toml, read_input
 
@@ -359,11 +359,11 @@ def _error_line(err: dict, doc, where: str, overrides: dict) -> str:
     loc = _loc(err["loc"])
     given = next((k for k in overrides if loc == _loc(tuple(_parse_key(k))) or loc.startswith(
         _loc(tuple(_parse_key(k))) + ".")), None)
-    place = f"--set {given}" if given is not None else where
-    loc = "" if given == loc else f" {loc}:"
+    place = f"--set {clipped(given)}" if given is not None else where
+    loc = "" if given == loc else f" {clipped(loc)}:"
     msg = err["msg"]
     if err["type"] == "extra_forbidden":
-        msg = f"unknown key {err['loc'][-1]!r}{_did_you_mean(err['loc'], doc)}"
+        msg = f"unknown key {clipped(repr(err['loc'][-1]))}{_did_you_mean(err['loc'], doc)}"
     elif err["type"] == "missing":
         msg = "missing required key"
     elif err["type"] == "value_error":  # our validators' own sentences, without pydantic's label
