@@ -552,11 +552,18 @@ def _write_exports(setup: Setup, samples, out: Path, failures: list[str], force:
             (out / name).unlink(missing_ok=True)
         return []
     notes, abb = exports.export_notes(samples, failures), exports.export_notes(samples, failures, degrees=True)
-    ros, egm, rapid = (out / name for name in exports.EXPORT_FILES)
-    exports.write_ros2_yaml(ros, samples, setup.robot.joint_names, setup.scenario.plan.sample_time, notes=notes)
-    exports.write_egm_csv(egm, samples, notes=abb)
-    exports.write_rapid(rapid, samples, notes=abb)
-    return notes
+    skipped = exports.unsupported_exports(setup.robot.n)
+    writers = {"trajectory_ros2.yaml": lambda path: exports.write_ros2_yaml(
+                   path, samples, setup.robot.joint_names, setup.scenario.plan.sample_time, notes=notes),
+               "trajectory_egm.csv": lambda path: exports.write_egm_csv(path, samples, notes=abb),
+               "trajectory_rapid.mod": lambda path: exports.write_rapid(path, samples, notes=abb)}
+    for name in exports.EXPORT_FILES:
+        if name in skipped:
+            (out / name).unlink(missing_ok=True)
+            log.info("%s", skipped[name])
+        else:
+            writers[name](out / name)
+    return notes + list(skipped.values())
 
 
 def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> None:
@@ -768,6 +775,7 @@ def check_scenario(setup: Setup) -> dict:
         vmax = 1.0 / np.maximum(peak, STILL_PATH_SPEED)
         out["min_velocity_limited_theta_dot"] = float(np.min(vmax))
     out.update(_check_like_plan_and_simulate(setup))
+    out[schema.EXPORT_NOTES.key] = list(exports.unsupported_exports(robot.n).values())
     return out
 
 

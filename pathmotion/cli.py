@@ -473,6 +473,7 @@ def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_:
     notes = {"closed": "it ends where it starts; " + ("planned as a periodic cycle" if report["periodic"] else
                                                       "run once; plan.periodic = true plans the cycle")}
     _print_table(_summary_table(f"check {scenario}: OK", report, notes if report["closed"] else None))
+    _result_verdict([], report.get("export_notes", []), False)
 
 
 def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
