@@ -41,6 +41,11 @@ DLS_MAX_ITERATIONS = 200
 #: Damped-least-squares IK: largest joint step per iteration [rad] and damping growth factor [-].
 DLS_MAX_STEP = 0.5
 DLS_DAMPING_GROWTH = 10.0
+#: Lift of an arm without closed-form IK and without path.start_configuration: the first point's IK
+#: is tried from the zero configuration, the middle of the joint ranges, then this many seeded random
+#: configurations in the ranges (deterministic: seed DLS_RANDOM_START_SEED) before the path is refused.
+DLS_RANDOM_STARTS = 16
+DLS_RANDOM_START_SEED = 0
 #: Closed-form (OPW) IK: tolerance of the structure detection and of its FK check [m, rad];
 #: configurations (seeded) on which the detected parameters are checked against Pinocchio's FK.
 OPW_TOLERANCE = 1e-9

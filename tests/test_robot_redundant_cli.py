@@ -56,3 +56,30 @@ def test_unsupported_exports_is_the_rapid_writers_own_limit():
                 exports.rapid_module(samples)
         else:
             assert "MODULE" in exports.rapid_module(samples)
+
+
+def test_a_redundant_arm_without_a_start_configuration_is_lifted_from_several_starts(tmp_path):
+    """The Panda circle at (0.5, 0, 0.4), r = 0.1, tool down: DLS from the zero configuration stalls at a joint
+    limit; the lift tries the middle of the ranges and seeded random starts and plans from the first that works."""
+    import numpy as np
+
+    import pathmotion as pm
+    from pathmotion.errors import UnreachableError
+    from pathmotion.geometry import horizontal_circle
+    from pathmotion.lift.constraint import start_candidates
+    from pathmotion.robot import fk
+
+    scenario = tmp_path / "panda.toml"
+    scenario.write_text(PANDA.replace("[0.4, 0.0, 0.4]", "[0.5, 0.0, 0.4]").replace(
+        "start_configuration = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]\n", ""))
+    setup = pm.load(scenario)
+    robot = setup.robot
+    path = horizontal_circle((0.5, 0.0, 0.4), 0.1)
+    with pytest.raises(UnreachableError, match="did not converge"):
+        pm.lift(robot, path, start_candidates(robot)[0])  # the zero configuration alone: refused
+    assert np.array_equal(start_candidates(robot), start_candidates(robot))  # deterministic
+    q = setup.path.evaluate(np.linspace(*setup.path.domain, 50))[0]
+    assert np.max(np.linalg.norm(fk(robot, q)[0] - path.evaluate(np.linspace(*path.domain, 50))[0], axis=1)) < 1e-6
+    assert np.all(q >= robot.limits.lower - 1e-9) and np.all(q <= robot.limits.upper + 1e-9)
+    res = runner.invoke(app, ["plan", str(scenario), "--out", str(tmp_path / "out"), "--no-figures"])
+    assert res.exit_code == 0, res.output
