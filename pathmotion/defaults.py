@@ -98,6 +98,8 @@ SATURATION_LIMIT = 0.05
 #: drives' armature in the model, the IRB140's state after 1 s of a torque that moves the joints by 4 rad
 #: is within 1.3e-9 rad of a DOP853 reference at rtol 1e-10 (2.2e-8 rad with one step per sample).
 PLANT_SUBSTEPS = 2
+#: Most plant sub-steps per controller sample (simulate.substeps, or the count the friction needs) [-].
+MAX_PLANT_SUBSTEPS = 1000
 #: The closed loop's plant: "builtin" (Pinocchio ABA + our RK4) or "mujoco" (MuJoCo's parse of the same URDF,
 #: MuJoCo's RK4; needs pip install "pathmotion[mujoco]").
 PLANT = "builtin"

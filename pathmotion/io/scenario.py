@@ -235,7 +235,8 @@ class RealismSpec(_Model):
 class SimulateSpec(_Model):
     controller: Controller = Controller.ORBITAL
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, le=0.1, description="controller sample time [s]")
-    substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=1000, description="RK4 plant steps per sample")
+    substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=defaults.MAX_PLANT_SUBSTEPS,
+                          description="RK4 plant steps per sample (raised to the count the friction needs)")
     plant: Literal["builtin", "mujoco"] = Field(defaults.PLANT, description="the simulated arm: builtin (Pinocchio + "
                                                 "RK4) or mujoco (pip install \"pathmotion[mujoco]\")")
     laps: int = Field(1, ge=1, le=100, description="laps of a closed path")

@@ -81,6 +81,8 @@ TORQUE_RESERVE_SEARCH = _k("torque_reserve_search", 'torque_reserve = "auto": th
 CONTROLLER = _k("controller", "controller")
 PLANT = _k("plant", "plant (simulator)")
 SAMPLE_TIME = _k("sample_time_s", "controller sample time", "ms", 1e3)
+SUBSTEPS = _k("substeps", "plant sub-steps per controller sample", "-")
+SUBSTEPS_NOTE = _k("substeps_note", "why the plant took more sub-steps than simulate.substeps")
 PLANNED_DURATION = _k("planned_duration_s", "planned duration", "s", short="planned")
 CYCLE_TIME = _k("cycle_time_s", "cycle time, closed loop (the TCP at the end within the path tolerance)", "s",
                 short="cycle time")
@@ -122,7 +124,7 @@ PLAN = (DURATION, SECOND_ORDER_DURATION, FITTED_DURATION, BASELINE_DURATION, MAX
         MAX_TORQUE_RATE_RATIO, TORQUE_RESERVE, WORST_LIMIT, PATH_LENGTH, BLEND_MAX_DEVIATION,
         MIN_SINGULAR_VALUE, JOINT_RANGE_MARGIN, CONNECTIONS, GRID_POINTS, DURATION_ERROR_ESTIMATE, SOLVE_TIME)
 #: Headline keys of a simulation's summary.json, in display order.
-SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK, PATH_TOLERANCE,
+SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, SUBSTEPS, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK, PATH_TOLERANCE,
               PATH_ACCURACY, MAX_SHARP_DEVIATION, CORNERING_DEVIATION, MAX_JOINT_DEVIATION, RMS_JOINT_DEVIATION,
               MAX_TORQUE_RATIO, MAX_COMMANDED_TORQUE_RATIO, SATURATION_TIME, IDENTIFIED_PAYLOAD)
 #: Columns a sweep row holds after the parameters, in this order (then ``error``).

@@ -19,6 +19,7 @@ count is bounded by the budget).
 from __future__ import annotations
 
 import logging
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -141,6 +142,8 @@ class PlantModel(Protocol):
 
     def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None: ...
 
+    def substeps_needed(self, q: np.ndarray, dt: float) -> tuple[int, str]: ...
+
 
 @blas_single_threaded
 def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
@@ -166,9 +169,24 @@ def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: st
     control = _Command(make_controller(controller, robot, path, profile, table, settings, budget + ts, design),
                        Sensor(settings.realism), settings.realism.delay)
     plant = make_plant(settings.plant, robot, settings.realism) if plant is None else plant
-    plant.check_step(np.array(path.evaluate(path.domain[0])[0], dtype=float), ts, substeps)
+    substeps = plant_substeps(plant, np.array(path.evaluate(path.domain[0])[0], dtype=float), ts, substeps)
     line = planned_tcp_line(robot, path, table.grid)
-    return table, control, plant, line, end_rules(table, profile, line, budget, settings), budget
+    return table, control, plant, line, end_rules(table, profile, line, budget, settings), budget, substeps
+
+
+def plant_substeps(plant: PlantModel, q: np.ndarray, ts: float, asked: int) -> tuple[int, str]:
+    """(sub-steps per sample, note): ``asked`` (simulate.substeps), raised to the count the plant needs at
+    ``q`` to integrate its friction accurately (the note says so; empty when not raised); a SimulationError
+    naming the scenario keys when that count exceeds defaults.MAX_PLANT_SUBSTEPS."""
+    need, why = plant.substeps_needed(q, ts)
+    if need <= asked:
+        return asked, ""
+    if need > defaults.MAX_PLANT_SUBSTEPS:
+        plant.check_step(q, ts, asked)  # raises, naming the keys to change
+    note = (f"simulate.substeps {asked} raised to {need}: {why}; a plant step of at most {ts / need:.3g} s "
+            "integrates it accurately")
+    log.info("%s", note)
+    return need, note
 
 
 def time_budget(settings: SimulationSettings, duration: float, closed: bool) -> float:
@@ -196,8 +214,9 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     ``plant``: a prebuilt plant (:class:`PlantModel`); default ``make_plant(settings.plant, robot, settings.realism)``.
     Raises SimulationError only for unusable inputs; tracking failures are in the result.
     """
-    table, control, plant, line, rules, budget = prepare_loop(robot, path, profile, controller, settings, design, plant)
-    ts, substeps = settings.sample_time, settings.substeps
+    table, control, plant, line, rules, budget, (substeps, note) = prepare_loop(robot, path, profile, controller,
+                                                                                settings, design, plant)
+    ts = settings.sample_time
     phi0, dphi0, _ = path.evaluate(path.domain[0])
     q, qd = np.array(phi0, dtype=float), np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
     log.info("loop start: %s controller, %s plant, Ts = %g s (%d sub-steps), time budget %.4g s", controller,
@@ -232,8 +251,9 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     log.info("loop end at t = %.4g s: %s", k * ts, f"failed ({failure.reason}): {failure.message}"
              if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
              else "no arrival")
-    return _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
-                   control.identified())
+    return dataclasses.replace(
+        _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
+                control.identified()), substeps=substeps, substeps_note=note or None)
 
 
 def _first_check(rules, sample: Sample):

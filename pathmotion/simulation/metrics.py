@@ -98,6 +98,8 @@ class SimulationResult:
     path_tolerance: float | None = None
     cornering_deviation: np.ndarray | None = None
     identified: dict | None = None
+    substeps: int | None = None
+    substeps_note: str | None = None
 
     @property
     def tracking_ok(self) -> bool:
@@ -110,6 +112,8 @@ class SimulationResult:
         return {
             "controller": self.controller,
             "sample_time_s": self.sample_time,
+            "substeps": self.substeps,
+            "substeps_note": self.substeps_note,
             "planned_duration_s": self.planned_duration,
             "cycle_time_s": self.cycle_time,
             "settle_time_s": self.settle_time,
