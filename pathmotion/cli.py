@@ -190,7 +190,10 @@ def _overrides(sets: Optional[List[str]]) -> dict:
         if "=" not in item:
             _fail(f"--set {item!r}: expected KEY=VALUE, e.g. --set plan.grid_points=2000", code=2)
         key, value = item.split("=", 1)
-        out[key.strip()] = parse_value(value)
+        try:
+            out[key.strip()] = parse_value(value)
+        except ScenarioError as exc:
+            _fail(f"--set {clipped(key.strip())}: {exc}")
     return out
 
 

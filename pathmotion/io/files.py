@@ -13,6 +13,7 @@ import errno
 import os
 import re
 import stat
+import sys
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -163,6 +164,9 @@ def parse_toml(text: str, where: str, error: type = ScenarioError) -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{where}: not valid TOML: {exc}") from None
+    except ValueError:  # tomllib's int() of a number beyond Python's int-to-str digit limit (4,300 digits)
+        raise error(f"{where}: an integer of more than {sys.get_int_max_str_digits():,} digits, far beyond any "
+                    "limit; give a number of sensible size") from None
     except RecursionError:
         raise error(f"{where}: nested too deeply to parse (defaults.MAX_TOML_DEPTH); flatten the document") from None
 

@@ -370,8 +370,15 @@ def _error_line(err: dict, doc, where: str, overrides: dict) -> str:
     elif err["type"] == "value_error":  # our validators' own sentences, without pydantic's label
         msg = msg.removeprefix("Value error, ")
     value = err.get("input")
-    shown = "" if err["type"] in ("missing", "extra_forbidden") or isinstance(value, dict) else f" (got {value!r:.60})"
+    shown = "" if err["type"] in ("missing", "extra_forbidden") or isinstance(value, dict) else f" (got {_quoted(value)})"
     return f"{place}:{loc} {msg}{shown}"
+
+
+def _quoted(value) -> str:
+    """The start of ``value``'s repr (60 characters); an integer too long to print is described by its size."""
+    if isinstance(value, int) and value.bit_length() > 4000:  # repr would exceed Python's int-to-str digit limit
+        return f"an integer of about {int(value.bit_length() * 0.30103):,} digits"
+    return f"{value!r:.60}"
 
 
 def _merge_union_errors(errors: list[dict]) -> list[dict]:
@@ -554,7 +561,10 @@ def parse_value(text: str):
     else:
         try:
             value = tomllib.loads(f"v = {t}")["v"]
-        except tomllib.TOMLDecodeError:
+        except ValueError as exc:  # (a TOMLDecodeError is a ValueError)
+            if not isinstance(exc, tomllib.TOMLDecodeError):  # an integer beyond Python's int-to-str digit limit
+                raise ScenarioError(f"value {clipped(text, 60)}: an integer of {len(t):,} characters, far beyond "
+                                    "any limit; give a number of sensible size") from None
             if t[:1] in ('"', "'"):
                 raise ScenarioError(f"value {text[:60]!r} is not a valid TOML string (an unclosed quote?)") from None
             try:
@@ -562,7 +572,7 @@ def parse_value(text: str):
             except ValueError:
                 return t
     if isinstance(value, float) and not math.isfinite(value):
-        raise ScenarioError(f"value {text!r} is not a finite number")
+        raise ScenarioError(f"value {clipped(repr(text))} is not a finite number")
     return value
 
 

@@ -357,6 +357,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     """Solve on ``grid`` (path data sampled unless ``samp`` is given, reusing ``donor``'s at shared points;
     unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
     theta = grid.theta
+    _check_grid_memory(len(theta), robot.n, settings, len(grid.breaks) + 1)
     if samp is None:
         sides = _with_knots(path, theta, grid.breaks) if limits.third_order else grid.breaks
         samp = _sample(path, robot, theta, sides, donor, third=limits.third_order)
@@ -373,6 +374,22 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     _check_bounded(theta, sol.x)
     log.debug("solve on %d grid points: duration %.9g s", len(theta), sol.profile.duration)
     return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol, estimate)
+
+
+def _check_grid_memory(points: int, joints: int, settings, segments: int) -> None:
+    """ScenarioError before a grid of ``points`` is sampled when its memory estimate (PLAN_BYTES_PER_POINT_JOINT)
+    exceeds what the run may use; the message gives the largest grid (fixed) or path (adaptive) that fits."""
+    from ..io.memory import check_memory
+
+    each = defaults.PLAN_BYTES_PER_POINT_JOINT * joints
+    if settings.grid_points is not None:
+        check_memory(points, each, f"plan.grid_points = {settings.grid_points:,} (a grid of {points:,} points)",
+                     lambda largest: f"give plan.grid_points <= {largest:,}")
+        return
+    per_segment = points / max(segments, 1)
+    check_memory(points, each, f"the adaptive planner grid of {points:,} points for {segments:,} segments",
+                 lambda largest: f"the largest grid that fits has {largest:,} points: plan the path in parts of at "
+                                 f"most {int(largest / per_segment):,} segments, or raise plan.tolerance")
 
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
