@@ -28,7 +28,7 @@ from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
 from .io.files import read_input
-from .io.scenario import Scenario, parse_scenario, unit_slips
+from .io.scenario import Scenario, degrees_hint, parse_scenario, unit_slips, velocity_slip
 from .io.waypoints import load_waypoints_csv
 from .lift.joint_path import JointPath, SplineJointPath
 from .lift.constraint import lift
@@ -197,7 +197,8 @@ def build_path(scenario: Scenario, robot: Robot,
         if bad.any():
             k, j = np.argwhere(bad)[0]
             raise ScenarioError(f"path.waypoints[{k}]: joint {robot.joint_names[j]} = {wp[k, j]:g} rad is outside "
-                                f"its range [{robot.limits.lower[j]:.4f}, {robot.limits.upper[j]:.4f}]")
+                                f"its range [{robot.limits.lower[j]:.4f}, {robot.limits.upper[j]:.4f}]"
+                                + degrees_hint(wp, robot.limits.lower, robot.limits.upper))
         return SplineJointPath.from_waypoints(wp, robot.joint_names), None, None
     orientation = FixedOrientation() if spec.orientation == "down" else FixedOrientation(
         np.asarray(spec.orientation, float))
@@ -324,6 +325,10 @@ def build(scenario: Scenario, base_dir: str | Path = ".", text: str = "") -> Set
     base_dir = Path(base_dir)
     robot = build_robot(scenario, base_dir)
     unit_slips(scenario, reach_bound(robot), defaults.RATED_PAYLOAD.get(scenario.robot.name.lower()), robot.name)
+    slip = velocity_slip(robot.limits.velocity, robot.joint_names, "limits.velocity" if scenario.limits.velocity
+                         else f"limits of {scenario.robot.limits or scenario.robot.name}")
+    if slip:
+        log.warning("%s", slip)
     path, task, original = build_path(scenario, robot, base_dir)
     if path.closed and not scenario.plan.periodic:
         # a closed path run once from rest to rest (or with given end speeds) is an open motion

@@ -572,14 +572,12 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     Example: [bold]pathmotion sweep scenarios/corner_transition.toml --set "path.blends[0].radius=0.02,0.04,0.06" --out out/rt[/]
     """
     from .io.atomic import output_lock
-    from .io.files import mark_result
     from .study import run_study_sweep
     from .study.sweep import parse_sets
 
     out, scheduler = _out(out, scenario), _scheduler(scheduler)
     grid = parse_sets(set_)
     with output_lock(out), _progress() as progress:  # (a sweep's folder resumes in place: no swap)
-        mark_result(out)
         task = progress.add_task("sweep", total=None)
 
         def on_result(done, total):
@@ -633,11 +631,8 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
         except ValueError:
             _fail(f"--{what} {text!r}: give comma-separated numbers", code=2)
 
-    from .io.files import mark_result
-
     reserve = check_torque_reserve(torque_reserve, torque, name="--torque-reserve", switch="--torque")
     out = _out(out, robot)
-    mark_result(out)
     with _progress() as progress:
         task = progress.add_task("corners", total=None)
 

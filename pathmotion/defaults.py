@@ -33,6 +33,9 @@ GRID_MAX_POINTS = 200_000
 #: line at 4 KB. A grid whose estimate exceeds MEMORY_FRACTION of the machine's available memory is refused
 #: before it is built.
 PLAN_BYTES_PER_POINT_JOINT = 8_000
+#: Joint speed limit above which a limits file or [limits] velocity gets a "degrees?" warning [rad/s]
+#: (1,146 deg/s; the IRB140's fastest joint turns at 450 deg/s = 7.9 rad/s).
+PLAUSIBLE_JOINT_SPEED = 20.0
 #: Share of the available memory (MemAvailable) one run may plan to use [-].
 MEMORY_FRACTION = 0.5
 #: Adaptive planner grid: rounds of halving the intervals whose certified limit bound exceeds the

@@ -457,6 +457,35 @@ def unit_slips(scenario: Scenario, reach: float | None = None, rated_payload: fl
                                     "grams? the unit is kg (a heavier payload is outside the arm's rating)")
 
 
+def degrees_hint(values, lower=None, upper=None) -> str:
+    """'; degrees? ...' when angles ``values`` [rad] look like degrees: one of them beyond a full turn, or one
+    beyond half a turn and all of them inside [``lower``, ``upper``] once read as degrees; else ''."""
+    import numpy as np
+
+    v = np.asarray(values, dtype=float)
+    if not v.size:
+        return ""
+    beyond = np.abs(v) > 2 * math.pi + FULL_TURN_SLACK
+    fits = (lower is not None and np.max(np.abs(v)) > math.pi
+            and np.all((np.radians(v) >= lower) & (np.radians(v) <= upper)))
+    if not (beyond.any() or fits):
+        return ""
+    x = float(v.flat[int(np.argmax(np.abs(v)))])
+    return f"; degrees? the unit is rad (e.g. {x:g} deg = {math.radians(x):.6g} rad)"
+
+
+def velocity_slip(velocity, names, where: str) -> str | None:
+    """A warning when a joint speed limit [rad/s] is above defaults.PLAUSIBLE_JOINT_SPEED (deg/s typed as
+    rad/s?), naming the joint, ``where`` the limits come from and the value read as degrees; else None."""
+    fast = [j for j, v in enumerate(velocity) if v > defaults.PLAUSIBLE_JOINT_SPEED]
+    if not fast:
+        return None
+    j = fast[0]
+    return (f"{where}: velocity limit of {names[j]} is {velocity[j]:g} rad/s ({math.degrees(velocity[j]):,.0f} deg/s), "
+            f"faster than any arm joint (> {defaults.PLAUSIBLE_JOINT_SPEED:g} rad/s) on {len(fast)} joint(s): degrees? "
+            f"the unit is rad/s (e.g. {velocity[j]:g} deg/s = {math.radians(velocity[j]):.4g} rad/s)")
+
+
 def _show(value, scale: float = 1.0) -> str:
     if isinstance(value, tuple):
         return "[" + ", ".join(f"{v * scale:g}" for v in value) + "]"

@@ -60,6 +60,7 @@ import numpy as np
 from .. import defaults
 from ..errors import PathError, PathmotionError, ScenarioError
 from ..io.atomic import write_json, write_text
+from ..io.files import mark_result
 
 log = logging.getLogger(__name__)
 
@@ -124,8 +125,9 @@ def check_inputs(angles: Sequence[float], tolerances: Sequence[float],
     half = 0.5 * ATLAS_SEGMENT_LENGTH
     for tol in tolerances:
         if not (np.isfinite(tol) and 0 < tol < half):
+            mm = f"; mm? the unit is m (e.g. {tol:g} mm = {tol * 1e-3:g} m)" if 0 < tol * 1e-3 < half else ""
             raise PathError(f"corner atlas: tolerance {tol!r} m must be a positive distance below half a segment "
-                            f"({half:g} m)")
+                            f"({half:g} m){mm}")
     return checked
 
 
@@ -683,7 +685,7 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
         digest = robot_digest(load_robot_file(robot_file))
         arm = f'robot_file = {json.dumps(str(robot_file))}\nrobot_digest = "{digest}"\n'
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    mark_result(out)
     spec = out / "atlas_spec.toml"
     write_text(spec, f'version = {ROW_VERSION}\n{arm}meshes = {meshes}\nclosed_loop = '
                      f'{str(closed_loop).lower()}\ntorque = {str(torque).lower()}\n'
