@@ -128,6 +128,23 @@ def test_tangent_connection_at_boundary_level_velocity_succeeds():
     assert s["max_joint_deviation_rad"] <= 1.2 * dv / (w * np.e) + THESIS_MAX_DEVIATION
 
 
+def test_the_thesis_max_connection_fails_its_plan_and_the_chain_variant_runs():
+    """circle_vertical (the thesis' 'max' connection) reports the speed jump as a plan failure and says so in its
+    description; circle_vertical_chain, the same path with a continuous speed, plans within every limit (its
+    acceleration ratio is bounded, not the jump's unbounded one) and tracks."""
+    setup, result = planned("circle_vertical")
+    failures = api.plan_failures(result, setup)
+    assert any("path speed jumps" in f for f in failures)
+    assert "fails on purpose" in setup.scenario.description and "circle_vertical_chain" in setup.scenario.description
+    chain_setup, chain = planned("circle_vertical_chain")
+    assert api.plan_failures(chain, chain_setup) == [] and chain.ratios.within()
+    assert chain_setup.path.length == pytest.approx(setup.path.length)
+    assert chain.profile.duration >= result.profile.duration  # the jump is the faster, unrunnable motion
+    s = simulate(chain_setup.robot, chain_setup.path, chain.profile, "orbital",
+                 api.simulation_settings(chain_setup)).summary()
+    assert s["tracking_ok"], s["failure"]
+
+
 def test_realistic_plant_orbital_beats_both_baselines_on_tcp_deviation():
     """The issue's conditions on the thesis' horizontal circle (periodic plan, one lap): 10 % link mass and
     inertia error, a 6 kg payload the controllers do not know, 4 ms sampling with a one-sample delay, encoder
