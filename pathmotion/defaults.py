@@ -218,6 +218,9 @@ PAYLOAD_LEVER = 0.2
 PAYLOAD_MASS_FRACTION = 0.1
 #: Below this identified payload mass [kg] the summary gives no centre of mass (m c / m would be noise).
 IDENTIFIED_MASS_FLOOR = 0.1
+#: An identified payload mass is reported when it is at least this many standard errors (the filter's) from 0;
+#: a smaller one is what the model lacks at the flange (link inertia errors, noise), not a payload [-].
+IDENTIFIED_SIGNIFICANCE = 2.0
 #: Payload identification prior: each joint's Coulomb friction as this fraction of its torque limit, its viscous
 #: friction reaching the same at the velocity limit (standard deviations) [-].
 FRICTION_PRIOR_FRACTION = 0.05

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from .. import defaults
 from ..control.kernels import ZERO_SPEED2
 from ..lift.joint_path import JointPath
 from ..robot import Robot, fk
@@ -130,11 +131,24 @@ class SimulationResult:
             "saturation_time_s": self.saturation_time,
             "tracking_ok": self.tracking_ok,
             "failure": None if self.failure is None else self.failure.as_dict(),
-            "identified_payload_kg": None if self.identified is None else self.identified["mass_kg"],
-            "identified_payload_com_m": None if self.identified is None else self.identified["com_m"],
+            **_identified_payload(self.identified),
             "identified_viscous_friction": None if self.identified is None else self.identified["viscous_friction"],
             "identified_coulomb_friction": None if self.identified is None else self.identified["coulomb_friction"],
         }
+
+
+def _identified_payload(identified: dict | None) -> dict:
+    """The summary's payload keys: the identified mass [kg] and centre of mass [m] when significant (else None,
+    with a note saying what the figure is), and the mass's standard error [kg]."""
+    if identified is None:
+        return {"identified_payload_kg": None, "identified_payload_com_m": None, "identified_payload_std_kg": None,
+                "identified_payload_note": None}
+    m, std, significant = identified["mass_kg"], identified.get("mass_std_kg"), identified.get("significant", True)
+    note = None if significant else (
+        f"{m:.3g} kg +- {std:.3g} kg at the flange is within {defaults.IDENTIFIED_SIGNIFICANCE:g} standard errors of "
+        "0: no payload identified (what the model lacks there, e.g. link inertia errors, not a payload)")
+    return {"identified_payload_kg": m if significant else None, "identified_payload_com_m": identified["com_m"],
+            "identified_payload_std_kg": std, "identified_payload_note": note}
 
 
 def _wrap(path: JointPath, theta: np.ndarray) -> np.ndarray:
