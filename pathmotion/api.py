@@ -672,15 +672,16 @@ def simulation_settings(setup: Setup):
     return SimulationSettings(**kwargs)
 
 
-def simulate_scenario(setup: Setup, result: PlanResult):
+def simulate_scenario(setup: Setup, result: PlanResult, full: bool = False):
     """Closed-loop simulation of the planned motion with the scenario's controller and plant (the reserve
-    search's run when ``result`` is the plan it chose)."""
+    search's run when ``result`` is the plan it chose). ``full``: go on after the first failure to the end
+    (SimulationSettings.run_to_end); by default the run stops there."""
     from .simulation import simulate
 
     run = setup.reserve_run
-    if run is not None and result is run[0] and run[1] is not None:
+    if run is not None and result is run[0] and run[1] is not None and not (full and not run[1].tracking_ok):
         return run[1]
-    settings = simulation_settings(setup)
+    settings = dataclasses.replace(simulation_settings(setup), run_to_end=full)
     return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
 
 

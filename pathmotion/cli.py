@@ -523,7 +523,9 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
              out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
              controller: Optional[str] = typer.Option(None, help="orbital | computed_torque | pd_gravity"),
              figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
-             force: bool = ForceOpt):
+             force: bool = ForceOpt,
+             full: bool = typer.Option(False, "--full", help="go on after the first failure to the end of the motion "
+                                       "(by default the run stops there and its figures cover [0, t_fail])")):
     """Plan, then simulate the closed loop (controller at 4 ms, full arm dynamics); writes
     simulation.csv, summary.json and figures; plus the plan's files in OUT/plan. A failed result
     (a failed plan, or tracking failed) exits 4 after writing every file.
@@ -543,7 +545,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         progress.update(task, advance=1, description="simulate: plan")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="simulate: closed loop")
-        sim = api.simulate_scenario(setup, result)
+        sim = api.simulate_scenario(setup, result, full=full)
         progress.update(task, advance=1, description="simulate: writing")
         with result_folder(out) as folder:  # plan and simulation files replace the folder as one unit
             summary = api.write_simulation(setup, result, sim, folder)

@@ -100,6 +100,8 @@ MAX_COMMANDED_TORQUE_RATIO = _k("max_commanded_torque_ratio", "largest commanded
                                 "-")
 SATURATION_TIME = _k("saturation_time_s", "time with a torque saturated", "s")
 TRACKING_OK = _k("tracking_ok", "tracking ok")
+FIGURES_COVER = _k("figures_cover_t_s", "the time the figures cover [start, end]", "s")
+COVERAGE_NOTE = _k("coverage_note", "why the figures cover less than the whole motion")
 FAILURE = _k("failure", "failure")
 IDENTIFIED_PAYLOAD = _k("identified_payload_kg", "payload the controller identified (negative: the model's is too heavy)",
                         "kg", short="identified payload")

@@ -58,7 +58,8 @@ class SimulationSettings:
     observed after the arrival (open paths ending at rest); sampled_design: the orbital gains designed on the
     sampled transverse linearization at sample_time with the realism's delay in the model; design_cache: read and
     write the path table and the orbital design in the on-disk cache (:mod:`pathmotion.control.design_cache`); plant: "builtin" or "mujoco" (see
-    :func:`.plant.make_plant`)."""
+    :func:`.plant.make_plant`); run_to_end: go on after the first failure (it stays the verdict) until the arrival or
+    the time budget, instead of stopping there (the default, and the only way after a non-finite torque)."""
 
     sample_time: float = defaults.SAMPLE_TIME
     substeps: int = defaults.PLANT_SUBSTEPS
@@ -78,6 +79,7 @@ class SimulationSettings:
     sampled_design: bool = defaults.ORBITAL_SAMPLED_DESIGN
     design_cache: bool = defaults.DESIGN_CACHE
     identify_payload: bool = defaults.PAYLOAD_IDENTIFICATION
+    run_to_end: bool = False
 
     def __post_init__(self):
         for name in ("sample_time", "path_tolerance", "joint_tolerance", "time_budget_factor"):
@@ -229,10 +231,14 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         rec.q[k], rec.qd[k] = q, qd
         sample = monitor.measure(k, k * ts, q, qd, arrival.time is not None)  # measure (the true state)
         rec.theta[k] = sample.theta
-        verdict = _first_check(rules, sample)
-        if isinstance(verdict, Failure):
-            failure = verdict
-            break
+        if settings.run_to_end:
+            found, verdict = _all_checks(rules, sample)
+            failure = failure or found
+        else:
+            verdict = _first_check(rules, sample)
+            if isinstance(verdict, Failure):
+                failure = verdict
+                break
         if verdict is not None and arrival.update(verdict):
             keep = verdict.keep
             break
@@ -240,20 +246,23 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         rec.cmd[k] = cmd
         tau = rec.tau[k]
         finite, clipped = saturate(cmd, plant.torque_limit, tau)
-        failure = _first_torque_check(rules, sample, cmd, tau, finite, clipped)
-        if failure is not None:
+        torque_failure = _first_torque_check(rules, sample, cmd, tau, finite, clipped)
+        if torque_failure is not None:
+            failure = failure or torque_failure
             if not finite:
                 rec.cmd[k], rec.tau[k] = 0.0, 0.0
-            break
+            if not (settings.run_to_end and finite):
+                break
         rec.saturated += clipped
         q, qd = plant.step(q, qd, tau, ts, substeps)  # step
+    stopped = failure is not None and not settings.run_to_end
     failure = _earliest([failure, *(rule.finish(sample) for rule in rules)])
     log.info("loop end at t = %.4g s: %s", k * ts, f"failed ({failure.reason}): {failure.message}"
              if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
              else "no arrival")
     return dataclasses.replace(
         _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
-                control.identified()), substeps=substeps, substeps_note=note or None)
+                control.identified()), substeps=substeps, substeps_note=note or None, stopped_at_failure=stopped)
 
 
 def _first_check(rules, sample: Sample):
@@ -263,6 +272,14 @@ def _first_check(rules, sample: Sample):
         if verdict is not None:
             return verdict
     return None
+
+
+def _all_checks(rules, sample: Sample):
+    """(the first failure among every rule's verdict on ``sample``, the first verdict that is not a failure);
+    either None. Every rule sees every sample (a run that goes on after a failure)."""
+    verdicts = [rule.check(sample) for rule in rules]
+    return (next((v for v in verdicts if isinstance(v, Failure)), None),
+            next((v for v in verdicts if v is not None and not isinstance(v, Failure)), None))
 
 
 def _first_torque_check(rules, sample: Sample, cmd: np.ndarray, tau: np.ndarray, finite: bool, clipped: bool):

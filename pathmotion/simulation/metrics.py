@@ -101,6 +101,7 @@ class SimulationResult:
     identified: dict | None = None
     substeps: int | None = None
     substeps_note: str | None = None
+    stopped_at_failure: bool = False
 
     @property
     def tracking_ok(self) -> bool:
@@ -130,6 +131,10 @@ class SimulationResult:
             else 0.0,
             "saturation_time_s": self.saturation_time,
             "tracking_ok": self.tracking_ok,
+            "figures_cover_t_s": [0.0, float(self.t[-1])] if self.t.size else [0.0, 0.0],
+            "coverage_note": (f"the run stopped at its first failure: every figure covers t in [0, {self.t[-1]:.4g}] s "
+                              "only (simulate --full runs to the end)") if self.stopped_at_failure and self.t.size
+            else None,
             "failure": None if self.failure is None else self.failure.as_dict(),
             **_identified_payload(self.identified),
             "identified_viscous_friction": None if self.identified is None else self.identified["viscous_friction"],
