@@ -239,7 +239,7 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
             if isinstance(verdict, Failure):
                 failure = verdict
                 break
-        if verdict is not None and arrival.update(verdict):
+        if verdict is not None and arrival.update(verdict, k):
             keep = verdict.keep
             break
         cmd = control(sample.t, q, qd)  # control
@@ -262,7 +262,8 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
              else "no arrival")
     return dataclasses.replace(
         _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
-                control.identified()), substeps=substeps, substeps_note=note or None, stopped_at_failure=stopped)
+                control.identified()), substeps=substeps, substeps_note=note or None, stopped_at_failure=stopped,
+        path_end_index=None if path.closed or failure is not None else arrival.index)
 
 
 def _first_check(rules, sample: Sample):
@@ -314,10 +315,13 @@ class _Arrived:
     """The cycle and settle times the arrival verdicts have set."""
 
     def __init__(self):
-        self.time, self.settle = None, None
+        self.time, self.settle, self.index = None, None, None
 
-    def update(self, verdict) -> bool:
-        """Take an Arrival's times; True when it ends the run."""
+    def update(self, verdict, k: int) -> bool:
+        """Take an Arrival's times (and ``k``, the sample of the first cycle time: the end of the path, after which
+        an open path only settles); True when it ends the run."""
+        if verdict.time is not None and self.index is None:
+            self.index = k
         self.time = verdict.time if verdict.time is not None else self.time
         self.settle = verdict.settle if verdict.settle is not None else self.settle
         return verdict.stop
@@ -409,7 +413,7 @@ def _result(robot, path, profile, controller, settings, table, line, rec: _Recor
     finite = np.all(np.isfinite(q), axis=1)
     q_ok, th_ok = q[finite], theta[finite]
     theta_p, q_des = polish_projection(path, q_ok, th_ok) if len(q_ok) else (th_ok, q_ok.copy())
-    tcp, tcp_des, path_dev = tcp_path_deviation(robot, path, q_ok, theta_p, table.grid, line)
+    tcp, tcp_des, path_dev = tcp_path_deviation(robot, path, q_ok, th_ok, table.grid, line)  # the verdict's theta
     corner = original_path_deviation(path, tcp)
     ok = failure is None
     return SimulationResult(

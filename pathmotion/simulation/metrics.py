@@ -102,10 +102,22 @@ class SimulationResult:
     substeps: int | None = None
     substeps_note: str | None = None
     stopped_at_failure: bool = False
+    path_end_index: int | None = None
 
     @property
     def tracking_ok(self) -> bool:
         return self.failure is None
+
+    def on_path(self) -> slice:
+        """The samples on the path (ISO 9283's path accuracy is over the path): all of them, except after an open
+        path's arrival (``path_end_index``: the sample of the cycle time), where the arm only settles at the end
+        (settle_time_s judges that)."""
+        return slice(None) if self.path_end_index is None else slice(0, self.path_end_index + 1)
+
+    def path_accuracy(self) -> float:
+        """The largest TCP distance [m] from the planned path on the path (:meth:`on_path`); 0 without samples."""
+        dev = self.path_deviation[self.on_path()]
+        return float(np.max(dev)) if dev.size else 0.0
 
     def summary(self) -> dict:
         """Headline figures (SI units), JSON-serializable."""
@@ -120,7 +132,7 @@ class SimulationResult:
             "cycle_time_s": self.cycle_time,
             "settle_time_s": self.settle_time,
             "path_tolerance_m": self.path_tolerance,
-            "path_accuracy_m": float(np.max(self.path_deviation)) if self.path_deviation.size else 0.0,
+            "path_accuracy_m": self.path_accuracy(),
             "max_sharp_deviation_m": (None if self.corner_deviation is None or not self.corner_deviation.size
                                       else float(np.max(self.corner_deviation))),
             "cornering_deviation_m": None if corner is None else [float(c) for c in corner],

@@ -355,7 +355,7 @@ def closed_loop_check(robot, path, profile, tolerance: float) -> dict:
     from ..simulation import SimulationSettings, simulate
 
     sim = simulate(robot, path, profile, "orbital", SimulationSettings(sample_time=defaults.SAMPLE_TIME))
-    acc = float(np.max(sim.path_deviation)) if sim.path_deviation.size else 0.0
+    acc = sim.path_accuracy()
     corner = None if sim.cornering_deviation is None else float(np.max(sim.cornering_deviation))
     ok = (sim.tracking_ok and acc <= CLOSED_LOOP_PATH_ACCURACY and corner is not None
           and corner <= tolerance + acc)
