@@ -657,6 +657,7 @@ def simulation_settings(setup: Setup):
         realism_kwargs["payload_com"] = rs.payload_com
     kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
                   path_tolerance=sim.path_tolerance, joint_tolerance=sim.joint_tolerance,
+                  path_tolerance_deg=sim.path_tolerance_deg,
                   saturation_limit=sim.saturation_limit, laps=sim.laps, plant=sim.plant,
                   sampled_design=sim.sampled_design, identify_payload=sim.identify_payload)
     if sim.gains:

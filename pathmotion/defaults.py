@@ -98,6 +98,9 @@ FITTED_PROFILE_MARGIN = 0.05
 #: Closed-loop verdict (ISO 9283 terms): the TCP must stay within this distance of the PLANNED path, and
 #: arrives when it is this close to the end point [m].
 PATH_TOLERANCE = 1e-3
+#: Closed-loop verdict: the tool's orientation must stay within this angle of the PLANNED orientation (ISO 9283's
+#: orientation path accuracy, ATo) [deg]: 1 mm at a tool lever of about 0.11 m.
+PATH_TOLERANCE_DEG = 0.5
 #: Closed-loop verdict: joint deviation |q - Phi(theta)| (max over joints) beyond which tracking has failed
 #: [rad]; a coarse backstop behind the path tolerance (0.05 rad is 25 mm at 0.5 m of reach).
 JOINT_TOLERANCE = 0.05

@@ -248,6 +248,8 @@ class SimulateSpec(_Model):
                                                     "bandwidth, damping)")
     path_tolerance: float = Field(defaults.PATH_TOLERANCE, gt=0,
                                   description="largest TCP distance from the planned path [m]")
+    path_tolerance_deg: float = Field(defaults.PATH_TOLERANCE_DEG, gt=0, le=180,
+                                      description="largest angle of the tool's orientation from the planned one [deg]")
     joint_tolerance: float = Field(defaults.JOINT_TOLERANCE, gt=0,
                                    description="largest joint deviation from the path [rad]")
     sampled_design: bool = Field(defaults.ORBITAL_SAMPLED_DESIGN, description="orbital gains designed at the "

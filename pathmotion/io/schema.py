@@ -92,6 +92,9 @@ RMS_JOINT_DEVIATION = _k("rms_joint_deviation_rad", "RMS joint tracking error", 
 PATH_TOLERANCE = _k("path_tolerance_m", "path tolerance of the verdict", "mm", 1e3)
 PATH_ACCURACY = _k("path_accuracy_m", "path accuracy: largest TCP distance from the planned path", "mm", 1e3,
                    short="path accuracy")
+PATH_TOLERANCE_DEG = _k("path_tolerance_deg", "orientation tolerance of the verdict", "deg")
+PATH_ACCURACY_DEG = _k("path_accuracy_deg", "orientation path accuracy: largest tool angle from the planned orientation",
+                       "deg", short="orientation accuracy")
 CORNERING_DEVIATION = _k("cornering_deviation_m", "largest TCP distance from the sharp path, per corner", "mm", 1e3)
 MAX_SHARP_DEVIATION = _k("max_sharp_deviation_m", "largest TCP distance from the original sharp path", "mm", 1e3,
                          short="max dev. from sharp path")
@@ -128,9 +131,9 @@ PLAN = (DURATION, SECOND_ORDER_DURATION, FITTED_DURATION, BASELINE_DURATION, MAX
         MAX_TORQUE_RATE_RATIO, TORQUE_RESERVE, WORST_LIMIT, PATH_LENGTH, BLEND_MAX_DEVIATION,
         MIN_SINGULAR_VALUE, JOINT_RANGE_MARGIN, CONNECTIONS, GRID_POINTS, DURATION_ERROR_ESTIMATE, SOLVE_TIME)
 #: Headline keys of a simulation's summary.json, in display order.
-SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, SUBSTEPS, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK, PATH_TOLERANCE,
-              PATH_ACCURACY, MAX_SHARP_DEVIATION, CORNERING_DEVIATION, MAX_JOINT_DEVIATION, RMS_JOINT_DEVIATION,
-              MAX_TORQUE_RATIO, MAX_COMMANDED_TORQUE_RATIO, SATURATION_TIME, IDENTIFIED_PAYLOAD)
+SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, SUBSTEPS, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK,
+              PATH_TOLERANCE, PATH_ACCURACY, PATH_TOLERANCE_DEG, PATH_ACCURACY_DEG, MAX_SHARP_DEVIATION,
+              CORNERING_DEVIATION, MAX_JOINT_DEVIATION, RMS_JOINT_DEVIATION, MAX_TORQUE_RATIO, MAX_COMMANDED_TORQUE_RATIO, SATURATION_TIME, IDENTIFIED_PAYLOAD)
 #: Columns a sweep row holds after the parameters, in this order (then ``error``).
 SWEEP_ROW = (CYCLE_TIME, PLANNED_DURATION, SETTLE_TIME, TRACKING_OK, FAILURE_REASON, MAX_SHARP_DEVIATION,
              MEAN_SHARP_DEVIATION, PATH_ACCURACY, MEAN_PATH_DEVIATION, BLEND_MAX_DEVIATION,

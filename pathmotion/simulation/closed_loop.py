@@ -38,7 +38,8 @@ from ..planning.profile import Profile
 from ..robot import Robot
 from .end_rules import FLAT_SPEED2, Sample, end_rules
 from .metrics import (Failure, SimulationResult, polyline_distance_local, cornering_deviation, line_window,
-                      original_path_deviation, planned_tcp_line, polish_projection, tcp_path_deviation)
+                      orientation_deviation, original_path_deviation, planned_tcp_line, polish_projection,
+                      tcp_path_deviation)
 from .monitor import monitor_state
 from .plant import PLANT_NAMES, make_plant, saturate
 from .realism import Realism, Sensor
@@ -68,6 +69,7 @@ class SimulationSettings:
     computed_torque_gains: TrackingGains = field(default_factory=TrackingGains)
     pd_gains: TrackingGains = field(default_factory=default_pd_gains)
     path_tolerance: float = defaults.PATH_TOLERANCE
+    path_tolerance_deg: float = defaults.PATH_TOLERANCE_DEG
     joint_tolerance: float = defaults.JOINT_TOLERANCE
     saturation_limit: float = defaults.SATURATION_LIMIT
     time_budget_factor: float = defaults.TIME_BUDGET_FACTOR
@@ -82,7 +84,7 @@ class SimulationSettings:
     run_to_end: bool = False
 
     def __post_init__(self):
-        for name in ("sample_time", "path_tolerance", "joint_tolerance", "time_budget_factor"):
+        for name in ("sample_time", "path_tolerance", "path_tolerance_deg", "joint_tolerance", "time_budget_factor"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise SimulationError(f"SimulationSettings.{name} = {v!r}; it must be a number > 0")
@@ -260,10 +262,11 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     log.info("loop end at t = %.4g s: %s", k * ts, f"failed ({failure.reason}): {failure.message}"
              if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
              else "no arrival")
-    return dataclasses.replace(
+    result = dataclasses.replace(
         _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
                 control.identified()), substeps=substeps, substeps_note=note or None, stopped_at_failure=stopped,
         path_end_index=None if path.closed or failure is not None else arrival.index)
+    return orientation_verdict(result, settings.path_tolerance_deg)
 
 
 def _first_check(rules, sample: Sample):
@@ -273,6 +276,25 @@ def _first_check(rules, sample: Sample):
         if verdict is not None:
             return verdict
     return None
+
+
+def orientation_verdict(result: SimulationResult, tolerance_deg: float) -> SimulationResult:
+    """``result`` judged on the tool's orientation too: when its orientation path accuracy (on the path) exceeds
+    ``tolerance_deg`` [deg] and it has no earlier failure, it fails there ("orientation_tolerance"), with the
+    angle's largest value; its cycle and settle times are then None."""
+    angles = np.degrees(result.orientation_deviation[result.on_path()])
+    over = np.flatnonzero(angles > tolerance_deg)
+    if not over.size:
+        return result
+    i, peak = int(over[0]), int(np.argmax(angles))
+    failure = Failure("orientation_tolerance", float(result.t[i]), float(result.theta[i]),
+                      f"the tool's orientation left the {tolerance_deg:.4g} deg tolerance at t = {result.t[i]:.4g} s, "
+                      f"theta = {result.theta[i]:.6g} and turned {angles[peak]:.4g} deg from the planned orientation "
+                      f"(largest at t = {result.t[peak]:.4g} s); slow the motion down there or raise "
+                      "simulate.path_tolerance_deg", value=float(angles[peak]), limit=tolerance_deg, unit="deg")
+    if result.failure is not None and result.failure.t <= failure.t:
+        return result
+    return dataclasses.replace(result, failure=failure, cycle_time=None, settle_time=None)
 
 
 def _all_checks(rules, sample: Sample):
@@ -424,4 +446,5 @@ def _result(robot, path, profile, controller, settings, table, line, rec: _Recor
         planned_duration=profile.duration, cycle_time=arrival.time if ok else None, saturation_time=float(saturation),
         failure=failure, settle_time=arrival.settle if ok else None, path_tolerance=settings.path_tolerance,
         cornering_deviation=cornering_deviation(path, tcp, theta_p), identified=identified,
+        orientation_deviation=orientation_deviation(robot, q_ok, q_des), path_tolerance_deg=settings.path_tolerance_deg,
     )

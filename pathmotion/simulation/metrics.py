@@ -37,7 +37,8 @@ CORNER_TIE = 1e-6
 #: Phi's Taylor series about the start (error |Phi'''| step^3 / 6: ~1e-24 rad for a 1 m path).
 POLISH_TAYLOR_STEP = 1e-8
 #: Failure reasons, in the order they are checked each sample.
-FAILURE_REASONS = ("diverged", "left_path_range", "path_tolerance", "joint_tolerance", "saturation", "timeout")
+FAILURE_REASONS = ("diverged", "left_path_range", "path_tolerance", "orientation_tolerance", "joint_tolerance",
+                   "saturation", "timeout")
 
 
 @dataclass(frozen=True)
@@ -103,6 +104,8 @@ class SimulationResult:
     substeps_note: str | None = None
     stopped_at_failure: bool = False
     path_end_index: int | None = None
+    orientation_deviation: np.ndarray | None = None
+    path_tolerance_deg: float | None = None
 
     @property
     def tracking_ok(self) -> bool:
@@ -119,6 +122,14 @@ class SimulationResult:
         dev = self.path_deviation[self.on_path()]
         return float(np.max(dev)) if dev.size else 0.0
 
+    def path_accuracy_deg(self) -> float | None:
+        """ISO 9283's orientation path accuracy (ATo): the largest angle [deg] between the tool's orientation and
+        the planned one on the path (:meth:`on_path`); None when not computed."""
+        if self.orientation_deviation is None:
+            return None
+        ang = self.orientation_deviation[self.on_path()]
+        return float(np.degrees(np.max(ang))) if ang.size else 0.0
+
     def summary(self) -> dict:
         """Headline figures (SI units), JSON-serializable."""
         e = self.q - self.q_desired
@@ -133,6 +144,8 @@ class SimulationResult:
             "settle_time_s": self.settle_time,
             "path_tolerance_m": self.path_tolerance,
             "path_accuracy_m": self.path_accuracy(),
+            "path_tolerance_deg": self.path_tolerance_deg,
+            "path_accuracy_deg": self.path_accuracy_deg(),
             "max_sharp_deviation_m": (None if self.corner_deviation is None or not self.corner_deviation.size
                                       else float(np.max(self.corner_deviation))),
             "cornering_deviation_m": None if corner is None else [float(c) for c in corner],
@@ -298,6 +311,19 @@ def tcp_path_deviation(robot: Robot, path: JointPath, q: np.ndarray, theta: np.n
     dist, near = polyline_distance_local(np.ascontiguousarray(tcp), line, centre.astype(np.int64),
                                           line_window(len(grid)), bool(path.closed))
     return tcp, near, dist
+
+
+def orientation_deviation(robot: Robot, q: np.ndarray, q_desired: np.ndarray) -> np.ndarray:
+    """(K,) [rad]: the angle of the rotation between the tool's orientation at q (K, n) and at q_desired (K, n)
+    (the planned orientation at the projection), |log(R_d^T R)|."""
+    if not len(q):
+        return np.zeros(0)
+    rot, rot_d = fk(robot, q)[1], fk(robot, q_desired)[1]
+    rel = np.einsum("kji,kjl->kil", rot_d, rot)
+    cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+    sin = np.linalg.norm(np.stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0],
+                                   rel[:, 1, 0] - rel[:, 0, 1]], axis=1), axis=1) / 2.0
+    return np.arctan2(sin, cos)  # accurate for small and large angles alike
 
 
 def sharp_path_deviation(task_path, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
