@@ -41,7 +41,8 @@ from .metrics import (Failure, SimulationResult, polyline_distance_local, corner
                       orientation_deviation, original_path_deviation, planned_tcp_line, polish_projection,
                       tcp_path_deviation)
 from .monitor import monitor_state
-from .plant import PLANT_NAMES, make_plant, saturate
+from .plant import PLANT_NAMES, make_plant
+from .saturation import saturate
 from .realism import Realism, Sensor
 
 log = logging.getLogger(__name__)

@@ -36,8 +36,8 @@ import numpy as np
 from .. import defaults
 from ..errors import RobotModelError, SimulationError
 from ..robot import Robot
-from .plant import check_substeps
-from .plant import saturate as _saturate
+from .saturation import saturate as _saturate
+from .stiffness import check_substeps
 from .realism import Realism
 
 log = logging.getLogger(__name__)

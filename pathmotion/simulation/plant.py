@@ -17,10 +17,10 @@ import numba
 import numpy as np
 import pinocchio as pin
 
-from .. import defaults
 from ..errors import SimulationError
 from ..robot import Robot
 from .realism import Realism, plant_model
+from .stiffness import check_substeps
 
 
 # RK4 arithmetic between the ABA calls, compiled and in place (no arrays returned to Python): one call per
@@ -57,22 +57,6 @@ def _minus_friction(tau, qd, viscous, coulomb, speed, out):
     """out = tau - (F_v qd + F_c tanh(qd / v_c))."""
     for i in range(tau.shape[0]):
         out[i] = tau[i] - viscous[i] * qd[i] - coulomb[i] * np.tanh(qd[i] / speed)
-
-
-@numba.njit(cache=True)
-def saturate(tau, limit, out):
-    """out = tau clipped to +-limit (n,); returns (all finite, any clipped)."""
-    finite, clipped = True, False
-    for i in range(tau.shape[0]):
-        v = tau[i]
-        if not np.isfinite(v):
-            finite = False
-        if v > limit[i]:
-            v, clipped = limit[i], True
-        elif v < -limit[i]:
-            v, clipped = -limit[i], True
-        out[i] = v
-    return finite, clipped
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,16 +164,6 @@ class Plant:
         """Raise SimulationError when ``substeps`` RK4 steps per sample are fewer than :meth:`substeps_needed`."""
         check_substeps(self.substeps_needed(q, dt), dt, substeps,
                        "simulate.realism.viscous_friction or coulomb_friction of that joint")
-
-
-def check_substeps(needed: tuple[int, str], dt: float, substeps: int, friction_keys: str) -> None:
-    """SimulationError naming the scenario keys to change when ``substeps`` is below ``needed`` (count, why)."""
-    need, why = needed
-    if substeps < need:
-        raise SimulationError(
-            f"{why}, shorter than the plant step {dt / substeps:.3g} s (simulate.sample_time {dt:g} s / {substeps} "
-            f"substeps); set simulate.substeps >= {need} (at most {defaults.MAX_PLANT_SUBSTEPS}), lower "
-            f"simulate.sample_time, or lower {friction_keys}")
 
 
 PLANT_NAMES = ("builtin", "mujoco")
