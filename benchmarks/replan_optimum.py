@@ -71,7 +71,7 @@ def main() -> None:
     robot = load_robot("irb140")
     pts = corner_points(a.angle)
     task = _task(pts)
-    grid = {"grid_points": a.grid} if a.plan_tolerance is None else {"tolerance": a.plan_tolerance}
+    grid = {"grid_points": a.grid} if a.plan_tolerance is None else {"duration_tolerance": a.plan_tolerance}
     settings = _settings(baselines=False, verify=False, **grid)
     profiles = {}
 

@@ -194,7 +194,7 @@ def _grid_note(setup, summary: dict) -> dict:
     """Why the reported grid_points differs from plan.grid_points (empty when it does not)."""
     asked = setup.scenario.plan.grid_points
     if asked is None:
-        return {"grid_points": "adaptive grid: refined until the duration is within plan.tolerance "
+        return {"grid_points": "adaptive grid: refined until the duration is within plan.duration_tolerance "
                                "(plan.grid_points fixes the grid)"}
     if summary.get("grid_points") == asked:
         return {}

@@ -53,7 +53,7 @@ def test_loading_optimal_blends_builds_without_planning(no_planning):
 def test_loading_an_auto_reserve_builds_without_planning(no_planning):
     setup = api.load(scenario_path("circle_zero"), {"limits.torque_reserve": "auto"})
     assert setup.pending == ('torque_reserve = "auto"',) and setup.reserve_search is None
-    assert setup.plan_settings.torque_reserve == 0.0  # the search's first run
+    assert setup.plan_settings.limits["torque"].value == 0.0  # the search's first run
     with pytest.raises(ScenarioError, match="torque_reserve"):
         api.plan_scenario(setup)
 

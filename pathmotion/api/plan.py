@@ -166,9 +166,8 @@ def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> 
     REPORT_ARM_FRAMES of the times t (N,) [s] with joint positions q (N, n) [rad]) and, when blends
     replaced corners, original_path.csv (the sharp path, x, y, z [m])."""
     ps = setup.plan_settings
-    scales = {"velocity": ps.velocity_scale if ps.velocity else None,
-              "acceleration": ps.acceleration_scale if ps.acceleration else None,
-              "torque": ps.torque_scale if ps.torque else None}
+    scales = {name: ps.limits[name].scale if ps.limits[name].on else None
+              for name in ("velocity", "acceleration", "torque")}
     record = exports.limits_record(setup.robot.joint_names, setup.robot.limits, scales)
     record["enforced"] = enforced_limits(setup.robot, ps)
     write_json(out / "limits.json", record)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -151,7 +151,7 @@ PathSpec = Annotated[Union[TaskPathSpec, JointPathSpec, WaypointPathSpec], Field
 # ---------------------------------------------------------------------------------------- limits
 class LimitsSpec(_Model):
     """The [limits] table: overrides of the robot's joint limits, and the keys of each registered
-    limit class (``scenario_keys`` in pathmotion/planning/limits/; a test checks they match)."""
+    limit class (``keys`` in pathmotion/planning/limits/; a test checks they match)."""
 
     velocity: tuple[float, ...] | None = Field(None, description="joint speed limits [rad/s], override")
     acceleration: tuple[float, ...] | None = Field(None, description="joint acceleration limits [rad/s^2], override")
@@ -196,7 +196,7 @@ Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]
 
 class PlanSpec(_Model):
     grid_points: int | None = Field(None, ge=10, le=1_000_000, description="a fixed planner grid of this many "
-                                    "points; absent: adaptive, refined until the duration is within tolerance")
+                                    "points; absent: adaptive, refined until the duration is within duration_tolerance")
     start: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the start: 'zero', 'max' or a value [1/s]")
     end: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the end: 'zero', 'max' or a value")
     periodic: bool = Field(False, description="closed path: the steady-state cycle")
@@ -207,8 +207,11 @@ class PlanSpec(_Model):
                                "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
-    tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE, description="adaptive grid: requested relative "
-                             "error of the duration (0.0005 = 0.05 %)")
+    duration_tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE,
+                                      description="adaptive grid: requested relative error of the duration "
+                                                  "(0.0005 = 0.05 %)")
+    #: Former keys of this table -> their names now (an old key gets an error naming the new one).
+    RENAMED: ClassVar[dict[str, str]] = {"tolerance": "duration_tolerance"}
 
 
 # ------------------------------------------------------------------------------------ simulation
@@ -350,6 +353,9 @@ def _did_you_mean(loc: tuple, doc) -> str:
     cls = _model_at(loc, doc)
     if cls is None:
         return ""
+    renamed = getattr(cls, "RENAMED", {}).get(str(loc[-1]))
+    if renamed is not None:
+        return f"; it is now called {renamed!r}: rename the key"
     allowed = list(cls.model_fields)
     close = difflib.get_close_matches(str(loc[-1]), allowed, n=1, cutoff=0.6)
     return f"; did you mean {close[0]!r}?" if close else f"; allowed here: {', '.join(allowed)}"

@@ -13,8 +13,7 @@ class AccelerationLimit(Limit):
 
     name = "acceleration"
     order = 2
-    settings_keys = {"acceleration": "on", "acceleration_scale": "scale"}
-    scenario_keys = {"use_acceleration": "on", "acceleration_scale": "scale"}
+    keys = {"use_acceleration": "on", "acceleration_scale": "scale"}
 
     def __init__(self, qdd_max: np.ndarray):
         self.qdd_max = np.asarray(qdd_max, float)

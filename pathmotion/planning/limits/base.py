@@ -137,9 +137,10 @@ class Limit:
     per_joint: ClassVar[bool] = True
     #: The verification needs joint torques on the resample.
     needs_torque: ClassVar[bool] = False
-    #: PlanSettings keywords -> LimitChoice field ("on", "scale", "value"), and [limits] scenario keys.
-    settings_keys: ClassVar[dict[str, str]]
-    scenario_keys: ClassVar[dict[str, str]]
+    #: Its keys of a scenario's ``[limits]`` table, which PlanSettings(limits={...}) takes too -> the
+    #: LimitChoice field each sets ("on", "scale", "value"): ``use_<name>`` switches, ``<name>_scale``
+    #: scales, the bare name holds a value the user gives.
+    keys: ClassVar[dict[str, str]]
     #: Unit of a user-given value, in messages.
     unit: ClassVar[str] = ""
     #: Rows depend on ``x_ref`` (a conservative linearization, e.g. a torque-speed envelope): the
@@ -157,20 +158,25 @@ class Limit:
         return f"max_{cls.name}_ratio"
 
     @classmethod
+    def key_for(cls, field: str) -> str:
+        """Its ``[limits]`` key that sets the LimitChoice field ``field`` ("on", "scale", "value")."""
+        return next(key for key, f in cls.keys.items() if f == field)
+
+    @classmethod
     def default_choice(cls) -> LimitChoice:
         return LimitChoice()
 
     @classmethod
     def check_choice(cls, choice: LimitChoice) -> LimitChoice:
         """ScenarioError unless scale > 0 and value is None or > 0 (both finite)."""
-        for key, field in cls.settings_keys.items():
+        for key, field in cls.keys.items():
             v = getattr(choice, field)
             if field == "on" and not isinstance(v, (bool, np.bool_)):
-                raise ScenarioError(f"planner {key} must be true or false, got {v!r}")
+                raise ScenarioError(f"limits.{key} must be true or false, got {v!r}")
             if field == "scale" and not (np.isfinite(v) and v > 0):
-                raise ScenarioError(f"planner {key} must be > 0, got {v}")
+                raise ScenarioError(f"limits.{key} must be > 0, got {v}")
             if field == "value" and v is not None and not (np.isfinite(v) and v > 0):
-                raise ScenarioError(f"{key} must be > 0 {cls.unit} or None, got {v}")
+                raise ScenarioError(f"limits.{key} must be > 0 {cls.unit} or None, got {v}")
         return choice
 
     @classmethod

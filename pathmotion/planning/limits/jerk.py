@@ -14,6 +14,7 @@ class JerkLimit(PerJointThirdOrder):
 
     name = "jerk"
     robot_key = "jerk"
+    keys = {"use_jerk": "on", "jerk_scale": "scale", "jerk": "value"}
     unit = "rad/s^3"
 
     def rows3(self, points, scale):

@@ -70,8 +70,7 @@ class TorqueLimit(Limit):
     name = "torque"
     order = 2
     needs_torque = True
-    settings_keys = {"torque": "on", "torque_scale": "scale", "torque_reserve": "value"}
-    scenario_keys = {"use_torque": "on", "torque_scale": "scale", "torque_reserve": "value"}
+    keys = {"use_torque": "on", "torque_scale": "scale", "torque_reserve": "value"}
     extra_summary_keys = ("torque_reserve",)
 
     def __init__(self, tau_max: np.ndarray, reserve: float = 0.0):

@@ -21,6 +21,7 @@ class TorqueRateLimit(PerJointThirdOrder):
 
     name = "torque_rate"
     robot_key = "torque_rate"
+    keys = {"use_torque_rate": "on", "torque_rate_scale": "scale", "torque_rate": "value"}
     unit = "N m/s"
     needs_torque = True
 

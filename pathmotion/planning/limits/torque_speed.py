@@ -57,8 +57,7 @@ class TorqueSpeedLimit(Limit):
     needs_torque = True
     relinearize = True
     uses_choices = True
-    settings_keys = {"torque_speed": "value"}
-    scenario_keys = {"torque_speed": "value"}
+    keys = {"torque_speed": "value"}
 
     def __init__(self, tau_max: np.ndarray, qd_max: np.ndarray, knee: np.ndarray, at_max_speed: np.ndarray):
         self.tau_max = np.asarray(tau_max, float)

@@ -12,8 +12,7 @@ class VelocityLimit(Limit):
 
     name = "velocity"
     order = 1
-    settings_keys = {"velocity": "on", "velocity_scale": "scale"}
-    scenario_keys = {"use_velocity": "on", "velocity_scale": "scale"}
+    keys = {"use_velocity": "on", "velocity_scale": "scale"}
 
     def __init__(self, qd_max: np.ndarray):
         self.qd_max = np.asarray(qd_max, float)
