@@ -71,7 +71,7 @@ WRIST_CROSSINGS = _k("wrist_singularity_crossings", "wrist passages near q5 = 0:
                      "passed, each with its speed cost (velocity-limited path speed in it vs at its edges, planned "
                      "speed)")
 RAPID_ESTIMATE = _k("rapid_estimate_s", "RAPID program at its programmed speeds (estimate)", "s")
-FAILURES = _k("failures", "why the plan must not be run (empty: it may)")
+FAILURES = _k("failures", "why the plan must not be run, each {kind, message, where} (empty: it may)")
 EXPORT_NOTES = _k("export_notes", "notes at the top of the exports (ROS 2, EGM, RAPID)")
 JOINT_RANGE_MARGIN = _k("joint_range_margin_rad", "smallest joint-range margin", "rad")
 TORQUE_RESERVE_SEARCH = _k("torque_reserve_search", 'torque_reserve = "auto": the reserves tried, in order, with '
