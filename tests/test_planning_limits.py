@@ -209,3 +209,18 @@ def test_limits_json_lists_every_active_limit_with_its_values(irb140):
     assert enforced["torque_speed"] == {"knee": [0.4] * 6, "at_max_speed": [0.6] * 6}
     assert enforced["jerk"] == pytest.approx((0.5 * lim.jerk).tolist())
     assert enforced["torque_rate"] == pytest.approx(lim.torque_rate.tolist())
+
+
+def test_every_limit_reads_its_names_from_the_one_table():
+    """Scenario keys, summary keys and report labels of each limit are one row of io/schema.py's LIMITS."""
+    from pathmotion.io import schema
+    from pathmotion.report import html, tables
+
+    assert list(schema.LIMITS) == [cls.name for cls in REGISTRY]
+    for cls in REGISTRY:
+        row = schema.LIMITS[cls.name]
+        assert cls.names is row and cls.keys is row.keys and cls.summary_key() == row.ratio.key
+        assert html.LIMIT_UNITS[cls.name] == row.unit and html.LIMIT_ROW_LABELS[cls.name] == row.label
+        assert tables.LIMIT_COLORS[cls.name] == row.color
+        assert (tables.limit_curve_label(cls.name, {}) == row.curve) if row.curve else (
+            tables.steady_curve_label(cls.name) == row.steady)

@@ -26,6 +26,7 @@ from typing import Callable, ClassVar, NamedTuple
 import numpy as np
 
 from ...errors import ScenarioError
+from ...io.schema import LimitNames
 from ...lift.joint_path import JointPath
 from ...robot import Robot
 from ..trajectory import Samples
@@ -137,9 +138,12 @@ class Limit:
     per_joint: ClassVar[bool] = True
     #: The verification needs joint torques on the resample.
     needs_torque: ClassVar[bool] = False
+    #: Its names (io/schema.py's LIMITS row: keys, summary keys, report labels); None for a limit the table
+    #: does not list (its summary key is then max_<name>_ratio).
+    names: ClassVar[LimitNames | None] = None
     #: Its keys of a scenario's ``[limits]`` table, which PlanSettings(limits={...}) takes too -> the
     #: LimitChoice field each sets ("on", "scale", "value"): ``use_<name>`` switches, ``<name>_scale``
-    #: scales, the bare name holds a value the user gives.
+    #: scales, the bare name holds a value the user gives (``names.keys`` for a listed limit).
     keys: ClassVar[dict[str, str]]
     #: Unit of a user-given value, in messages.
     unit: ClassVar[str] = ""
@@ -155,7 +159,7 @@ class Limit:
     @classmethod
     def summary_key(cls) -> str:
         """summary.json key of the largest ratio, e.g. "max_torque_ratio"."""
-        return f"max_{cls.name}_ratio"
+        return cls.names.ratio.key if cls.names is not None else f"max_{cls.name}_ratio"
 
     @classmethod
     def key_for(cls, field: str) -> str:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...io.schema import LIMITS
 from ...robot import jacobian
 from .base import Limit, LimitChoice, PathPoints, RowForm, safe_ratio_bound
 
@@ -26,7 +27,8 @@ class TcpSpeedLimit(Limit):
     order = 1
     per_joint = False
     unit = "m/s"
-    keys = {"tcp_speed": "value"}
+    names = LIMITS["tcp_speed"]
+    keys = names.keys
 
     def __init__(self, v_max: float):
         self.v_max = float(v_max)
