@@ -33,9 +33,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import defaults
 from ..errors import InfeasibleError, PathmotionError, StateInfeasibleError
 from ..modes import BoundaryMode, Connections
-from .planner import PlanResult, _build, _grid_breaks, _sample, _with_knots, certified_bounds, effective_limits
+from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _with_knots, certified_bounds,
+                      effective_limits)
 from .profile import Profile
 from .retime_kernels import brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
@@ -57,6 +59,9 @@ STOP_ITERATIONS = 4
 SMOOTH_STOP_POINTS = 40
 SMOOTH_STOP_GROWTH = 1.25
 SMOOTH_STOP_ACCURACY = 0.01
+#: Third-order: relative lowerings of x at the state tried when the LP from the state itself is infeasible
+#: by round-off, or above a limit by less than the limit tolerance [-].
+START_NUDGES = (1e-6, 1e-5, 1e-4, defaults.LIMIT_TOLERANCE)
 
 
 @dataclass(frozen=True, eq=False)
@@ -296,12 +301,14 @@ class Retimer:
             except PathmotionError:
                 stop = None
         speed = np.sqrt(x_end) if np.isfinite(x_end) else np.nan
+        braking = (f"Braking within the limits it still moves at theta_dot = {speed:.4g} at theta = {g[ks]:.6g} and "
+                   f"would stop about {past:.4g} past it" if np.isfinite(speed) else
+                   f"Braking within the limits it cannot stop before theta = {g[ks]:.6g}")
         return StateInfeasibleError(
             f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g} cannot be saved: no motion within the "
             f"limits reaches {where} as the plan requires (theta_dot <= {np.sqrt(max(x_top, 0.0)):.6g} there). "
-            f"Braking within the limits it still moves at theta_dot = {speed:.4g} at theta = {g[ks]:.6g} and would "
-            f"stop about {past:.4g} past it; a stop before it needs the acceleration and torque limits x "
-            f"{factor:.4g} (velocity x {np.sqrt(factor):.4g}); lower the speed earlier or raise the limits",
+            f"{braking}; a stop before it needs the acceleration and torque limits x {factor:.4g} (velocity x "
+            f"{np.sqrt(factor):.4g}); lower the speed earlier or raise the limits",
             limit_factor=float(factor), end_speed=float(speed), overshoot=float(past), stop=stop)
 
     # --------------------------------------------------------------------------------------- third order
@@ -323,14 +330,37 @@ class Retimer:
             fixed[0], fixed_u[0] = x0, u0
         if not rest_end and end_x is not None:
             fixed[k - 1] = end_x
-        profile, lps = solve_from_state(grid, samp, self.limits, self.limits.unit_scale(k, self.robot.n),
-                                        np.where(rest, 0.0, x_start), rest, fixed, fixed_u)
-        log.debug("retimer: third-order profile on %d points in %d LPs", k, lps)
-        return profile
+        scale, tol = self.limits.unit_scale(k, self.robot.n), self.settings.limit_tolerance
+        for tighten in range(self.settings.max_tighten_iterations + 1):
+            profile = self._smooth_lp(grid, samp, scale, np.where(rest, 0.0, x_start), rest, fixed, fixed_u)
+            bounds = certified_bounds(self.path, self.robot, profile, self.settings)
+            worst = max((float(b.max()) for b in bounds.values() if b.size), default=0.0)
+            log.debug("retimer: third-order profile on %d points, worst certified ratio %.5f", k, worst)
+            if worst <= 1.0 + tol:
+                return profile
+            scale, x_start = _tightened(scale, bounds, tol), profile.x
+        raise InfeasibleError(f"third-order re-timing: the profile still exceeds a limit by {100 * (worst - 1):.3g} % "
+                              f"between grid points after {tighten} tightening iterations; raise limit_tolerance")
+
+    def _smooth_lp(self, grid, samp, scale, x_start, rest, fixed, fixed_u) -> Profile:
+        """One sequential-LP solve; a start on the edge of the feasible set (the plan's own state, say) can
+        be infeasible by round-off: it is retried with x_0 lowered by START_NUDGES (relative)."""
+        for nudge in (0.0, *START_NUDGES):
+            moved = {i: v * (1.0 - nudge) if i == 0 else v for i, v in fixed.items()}
+            try:
+                return solve_from_state(grid, samp, self.limits, scale, x_start, rest, moved, fixed_u)[0]
+            except InfeasibleError:
+                if nudge == START_NUDGES[-1] or 0 not in fixed:
+                    raise
+        raise AssertionError("the last nudge re-raises")
 
     def _smooth_remaining(self, theta: float, x0: float, u0: float, s2: float) -> Profile:
         """Third-order remaining profile: the sequential LP from the second-order answer (an upper bound)."""
-        grid, x2 = self._remaining2(theta, x0, s2)
+        try:
+            grid, x2 = self._remaining2(theta, x0, s2)
+        except StateInfeasibleError:  # the smooth interpolation may lie a little above the interval form's K
+            _, j, _, _, _, _, _ = self._first(theta)
+            grid, x2 = np.concatenate([[theta], self.grid[j:]]), s2 * np.concatenate([[x0 / s2], self._khi[j:]])
         end = self.settings.end_condition
         end_x = None if end == BoundaryMode.MAX else float(self.plan.profile.x[-1]) / s2
         rest_end = end_x is not None and end_x == 0.0
