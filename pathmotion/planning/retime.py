@@ -48,8 +48,8 @@ from .trajectory import Trajectory
 log = logging.getLogger(__name__)
 
 #: A state closer to the next grid point than this fraction of its interval starts its first interval
-#: at the point after (no sliver interval, whose rows would be nearly parallel) [-].
-MERGE_FRACTION = 0.25
+#: at the point after (no sliver interval, whose rows would lose the b x terms to round-off) [-].
+MERGE_FRACTION = 1e-6
 #: Relative slack on a state's membership in a controllable set [-] (round-off of the rows).
 STATE_TOLERANCE = 1e-7
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
@@ -163,6 +163,14 @@ class Retimer:
     def resume(self, theta: float) -> Profile:
         """The time-optimal profile from rest at ``theta`` to the plan's end."""
         return self.remaining(theta, 0.0, 0.0)
+
+    def max_speed(self, theta: float, override: float = 1.0) -> float:
+        """The largest theta_dot at ``theta`` from which the plan's end is reachable within the limits (at
+        ``override``; the controllable set's bound, second-order limits) [unit theta / s]."""
+        theta = self._state(theta, 0.0, 0.0)[0]
+        i, j, f, _, P0, Q0, R0 = self._first(theta)
+        hi = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, self._x_max_at(i, f), 0.0)[1]
+        return float(_override(override) * np.sqrt(max(hi, 0.0)))
 
     def certify(self, profile: Profile) -> LimitRatios:
         """Certified bound of every active limit's ratio over ``profile`` (planning/certify.py, as ``plan``'s
