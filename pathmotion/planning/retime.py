@@ -39,7 +39,7 @@ from ..modes import BoundaryMode, Connections
 from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _with_knots, certified_bounds,
                       effective_limits)
 from .profile import Profile
-from .retime_kernels import brake, greedy_from, least_u, step_down, step_up, stop_inside
+from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
 from .topp import _interval_rows, _project, controllable_sets
 from .verify import LimitRatios, limit_ratios, summarize_intervals
@@ -54,6 +54,8 @@ MERGE_FRACTION = 1e-6
 STATE_TOLERANCE = 1e-7
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
 STOP_ITERATIONS = 4
+#: Points of the finer grid the second-order stop is computed on again [-].
+STOP_POINTS = 2000
 #: Third-order stop: grid points of each trial stop, the growth of the trial distance and the relative
 #: accuracy of its bisection [-].
 SMOOTH_STOP_POINTS = 40
@@ -128,6 +130,10 @@ class Retimer:
         self._rlo, self._rhi = np.ascontiguousarray(self._rest_sets.lo), np.ascontiguousarray(self._rest_sets.hi)
         self._no_target = np.full(len(grid), -1.0)
         self._buffer = np.empty(len(grid) + 1)
+        self._fine_buffer = np.empty(STOP_POINTS)
+        # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at)
+        self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
+                              for n in ("a", "b", "c", "lo", "hi", "x_max"))
         log.debug("retimer: %d grid points, %d rows per interval, %d stops", len(grid), self._P.shape[1],
                   len(self._stops))
 
@@ -155,7 +161,7 @@ class Retimer:
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
                                   "there is nothing to stop")
-        grid, x = self._stop2(theta, x0)
+        grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
         if self.third_order:
             return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
         return Profile(grid, x)
@@ -271,6 +277,19 @@ class Retimer:
         d = stop_inside(*self._right.at(last), *self._left.at(last + 1), xs[-1], g[last + 1] - g[last],
                         STOP_ITERATIONS)
         return self._stop_grid(theta, x0, g[j:last + 1], xs, d, g[last + 1] - g[last])
+
+    def _fine_stop(self, theta: float, x0: float, grid: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The stop again on STOP_POINTS uniform points from theta to the plan-grid stop's end, the rows
+        interpolated linearly inside each plan interval: a stop spans few plan intervals, and the constant-u
+        intervals' first-order error would lengthen it by percents. Returns the finer stop, or the plan-grid
+        stop (grid, x) when the finer one does not end sooner."""
+        xs = self._fine_buffer
+        k, d = fine_brake(self.grid, *self._stacked, theta, x0, grid[-1], STOP_POINTS, xs, STOP_ITERATIONS)
+        if k < 0 or not np.isfinite(d):
+            return grid, x
+        h = (grid[-1] - theta) / (STOP_POINTS - 1)
+        fine = theta + h * np.arange(1, k + 1)
+        return self._stop_grid(theta, x0, fine, xs[1:k + 1].copy(), d, h)
 
     @staticmethod
     def _stop_grid(theta, x0, inner_grid, inner_x, d, width) -> tuple[np.ndarray, np.ndarray]:
