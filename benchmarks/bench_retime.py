@@ -156,6 +156,20 @@ def shortest_stop(path, robot, theta0, v0, steps_hint) -> float:
     return theta - theta0
 
 
+#: Jerk case: shares of the offline plan's start acceleration tried in turn (it lies on the boundary of the
+#: jerk-limited set, within the plans' limit tolerance, where the re-timer's exact rows can refuse it).
+ACCELERATION_SHARES = (1.0, 0.99, 0.95)
+
+
+def _from_offline_acceleration(rt, theta, v, u0):
+    for share in ACCELERATION_SHARES:
+        try:
+            return rt.remaining(theta, v, share * u0), share * u0, share
+        except StateInfeasibleError:
+            continue
+    return None, None, None
+
+
 def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
     rows = []
     for theta, v, a in sts:
@@ -163,9 +177,10 @@ def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
         try:
             if jerk:  # from the offline plan's own start acceleration (the planner cannot be given one)
                 off = plan(tail, robot, replace(res.settings, start=v, grid_points=GRID_3))
-                a = float(off.profile.u_nodes[0])
-                ours = rt.remaining(theta, v, a)
-                row = dict(theta=theta, theta_dot=v, ours=ours.duration, offline=off.duration)
+                ours, a, share = _from_offline_acceleration(rt, theta, v, float(off.profile.u_nodes[0]))
+                if ours is None:
+                    continue
+                row = dict(theta=theta, theta_dot=v, ours=ours.duration, offline=off.duration, acceleration_share=share)
             else:
                 ours = rt.remaining(theta, v, a)
                 off = plan(tail, robot, replace(res.settings, start=v, grid_points=GRID_2))
