@@ -96,7 +96,8 @@ class _PointRows:
 
 class Retimer:
     """Re-timing of one plan from any state (see the module docstring). ``plan_result``: a PlanResult of
-    an open or closed path planned with "chain" or "zero" connections (a continuous profile)."""
+    an open or closed path planned with "chain" or "zero" connections (a continuous profile). Queries
+    share work buffers: one Retimer per thread."""
 
     def __init__(self, plan_result: PlanResult):
         settings = plan_result.settings
@@ -387,18 +388,28 @@ class Retimer:
                               f"between grid points after {tighten} tightening iterations; raise limit_tolerance")
 
     def _smooth_lp(self, grid, samp, scale, x_start, rest, fixed, fixed_u) -> Profile:
-        """One sequential-LP solve; a start on the edge of the feasible set (the plan's own state, say) can
-        be infeasible by round-off or by the plans' limit tolerance: it is retried with x_0 and u_0 moved
-        towards 0 by START_NUDGES (relative)."""
+        """One sequential-LP solve. Its first tangents, taken at the second-order answer, can leave no
+        feasible x next to a state with a given acceleration: then the profile with the acceleration free
+        (as the planner starts) is the linearization point of the solve with it fixed. A start on the edge of
+        the feasible set (the plan's own state, say) can be infeasible by round-off or by the plans' limit
+        tolerance: it is retried with x_0 and u_0 moved towards 0 by START_NUDGES (relative)."""
         for nudge in (0.0, *START_NUDGES):
             moved = {i: v * (1.0 - nudge) if i == 0 else v for i, v in fixed.items()}
             moved_u = {i: v * (1.0 - nudge) for i, v in fixed_u.items()}
             try:
                 return solve_from_state(grid, samp, self.limits, scale, x_start, rest, moved, moved_u)[0]
             except InfeasibleError:
-                if nudge == START_NUDGES[-1] or 0 not in fixed:
+                if not fixed_u:
                     raise
-        raise AssertionError("the last nudge re-raises")
+            if nudge == 0.0:
+                try:
+                    free = solve_from_state(grid, samp, self.limits, scale, x_start, rest, fixed, {})[0]
+                    x_start = free.x
+                    return solve_from_state(grid, samp, self.limits, scale, x_start, rest, moved, moved_u)[0]
+                except InfeasibleError:
+                    pass
+        raise InfeasibleError(f"third-order limits: no smooth profile from theta_dot = {np.sqrt(fixed.get(0, 0.0)):.6g}"
+                              f", theta_ddot = {fixed_u.get(0, 0.0):.6g} meets the limits on this grid")
 
     def _smooth_remaining(self, theta: float, x0: float, u0: float, s2: float) -> Profile:
         """Third-order remaining profile: the sequential LP from the second-order answer (an upper bound)."""

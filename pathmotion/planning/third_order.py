@@ -482,9 +482,10 @@ def solve_from_state(grid, samp, limits: EffectiveLimits, scale: dict, x_start: 
                      max_iterations: int = defaults.THIRD_ORDER_ITERATIONS) -> tuple[Profile, int]:
     """The smooth time-optimal profile with x and u given at some points (``fixed`` and ``fixed_u``
     {index: value}; planning/retime.py starts it at the measured state), linearized first around
-    ``x_start`` (K,) (the second-order optimum from that state); (profile, LP count). No error estimate."""
+    ``x_start`` (K,) (the second-order optimum from that state; capped by the S-curve next to the rest points,
+    as :func:`solve_third_order` does); (profile, LP count). No error estimate."""
     p = _Problem(grid, samp, limits, scale, rest, fixed, False, fixed_u)
-    return _slp(p, _Lp(), x_start, None, tolerance, max_iterations)
+    return _slp(p, _Lp(), np.minimum(x_start, _s_curve_cap(p)), None, tolerance, max_iterations)
 
 
 def _nested_estimate(p: _Problem, samp, limits, scale, fixed, periodic, profile: Profile,
