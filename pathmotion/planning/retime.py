@@ -54,8 +54,12 @@ MERGE_FRACTION = 1e-6
 STATE_TOLERANCE = 1e-7
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
 STOP_ITERATIONS = 4
-#: Points of the finer grid the second-order stop is computed on again [-].
-STOP_POINTS = 2000
+#: Points of the finer grid the second-order stop is computed on again [-], and the relative narrowing of
+#: every order-2 limit there: the rows are interpolated linearly between the plan's points, which the plan's
+#: certification does not cover (at one limit tolerance a stop near a graded start was certified 0.12 % over;
+#: three keep the certified bounds of tests/test_planning_retime.py within the tolerance) [-].
+STOP_POINTS = 1200
+STOP_MARGIN = 3.0 * defaults.LIMIT_TOLERANCE
 #: Third-order stop: grid points of each trial stop, the growth of the trial distance and the relative
 #: accuracy of its bisection [-].
 SMOOTH_STOP_POINTS = 40
@@ -136,9 +140,13 @@ class Retimer:
         self._no_target = np.full(len(grid), -1.0)
         self._buffer = np.empty(len(grid) + 1)
         self._fine_buffer = np.empty(STOP_POINTS)
-        # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at)
-        self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
-                              for n in ("a", "b", "c", "lo", "hi", "x_max"))
+        # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at), their
+        # bounds narrowed by STOP_MARGIN: linear interpolation between the plan's points is not exact
+        stacked = {n: np.stack([getattr(self._right, n), getattr(self._left, n)]) for n in ("a", "b", "c", "lo", "hi",
+                                                                                          "x_max")}
+        for n in ("lo", "hi"):
+            stacked[n] = stacked["c"] + (1.0 - STOP_MARGIN) * (stacked[n] - stacked["c"])
+        self._stacked = tuple(np.ascontiguousarray(stacked[n]) for n in ("a", "b", "c", "lo", "hi", "x_max"))
         log.debug("retimer: %d grid points, %d rows per interval, %d stops", len(grid), self._P.shape[1],
                   len(self._stops))
         self._warm_up()
