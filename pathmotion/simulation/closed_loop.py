@@ -40,7 +40,8 @@ from .events import EventPlayer
 from .metrics import (Failure, SimulationResult, polyline_distance_local, cornering_deviation, line_window,
                       original_path_deviation, planned_tcp_line, polish_projection, tcp_path_deviation)
 from .monitor import monitor_state
-from .plant import PLANT_NAMES, make_plant, saturate
+from .plant import PLANT_NAMES, make_plant
+from .saturation import saturate
 from .realism import Realism, Sensor
 
 log = logging.getLogger(__name__)
