@@ -12,8 +12,9 @@ from ..control import OrbitalGains, TrackingGains
 from ..errors import ScenarioError
 from ..io import exports, schema
 from ..io.atomic import write_json, write_text
-from ..planning import PlanResult
+from ..planning import PlanResult, Retimer
 from ..simulation import Realism, SimulationSettings, simulate
+from ..simulation.events import Event
 from .failures import FailureKind, ResultFailure
 from .plan import plan_summary, reserve_summary, write_report_data
 from .setup import Setup
@@ -34,7 +35,8 @@ def simulation_settings(setup: Setup) -> SimulationSettings:
     kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
                   path_tolerance=sim.path_tolerance, joint_tolerance=sim.joint_tolerance,
                   saturation_limit=sim.saturation_limit, laps=sim.laps, plant=sim.plant,
-                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload)
+                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload,
+                  events=tuple(Event(e.t, e.override, e.stop, e.resume) for e in sim.events))
     if sim.gains:
         cls, name = (OrbitalGains, "orbital_gains") if sim.controller == "orbital" else (
             TrackingGains, "computed_torque_gains" if sim.controller == "computed_torque" else "pd_gains")
@@ -50,12 +52,14 @@ def simulation_settings(setup: Setup) -> SimulationSettings:
 
 def simulate_scenario(setup: Setup, result: PlanResult):
     """Closed-loop simulation of the planned motion with the scenario's controller and plant (the reserve
-    search's run when ``result`` is the plan it chose)."""
+    search's run when ``result`` is the plan it chose; with simulate.events, the plan re-timed at each)."""
     run = setup.reserve_run
     if run is not None and result is run[0] and run[1] is not None:
         return run[1]
     settings = simulation_settings(setup)
-    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
+    retimer = Retimer(result) if settings.events else None
+    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings,
+                    retimer=retimer)
 
 
 def tracking_failure(sim_summary: dict) -> ResultFailure | None:
