@@ -31,7 +31,10 @@ from .io.files import read_input
 from .io.scenario import Scenario, parse_scenario, unit_slips
 from .io.waypoints import load_waypoints_csv
 from .lift.joint_path import JointPath, SplineJointPath
+from .lift.chain import Dwell, JointMove, TaskRun, lift_chain
 from .lift.constraint import lift
+from .lift.joint_move import PiecewiseJointPath, check_joint_target
+from .io.rapid import quaternion_matrix
 from .planning import PlanResult, PlanSettings, plan
 from .planning.limits import REGISTRY as LIMIT_REGISTRY, limit_choices
 from .robot import Payload, Robot, Tool, builtin_robot_names, fk, load_robot
@@ -112,10 +115,11 @@ def build_robot(scenario: Scenario, base_dir: Path) -> Robot:
     return robot
 
 
-def _segments(specs) -> list:
+def _segments(specs, prev_end=None, first: int = 0) -> list:
+    """The geometry segments of line/arc/circle ``specs`` (path.segments[first], ...); ``prev_end`` (3,) [m]: where
+    the path is before them (the default start of the first one)."""
     segs = []
-    prev_end = None
-    for k, s in enumerate(specs):
+    for k, s in enumerate(specs, start=first):
         where = f"path.segments[{k}]"
         start = s.start if getattr(s, "start", None) is not None else prev_end
         try:
@@ -201,6 +205,9 @@ def build_path(scenario: Scenario, robot: Robot,
         return SplineJointPath.from_waypoints(wp, robot.joint_names), None, None
     orientation = FixedOrientation() if spec.orientation == "down" else FixedOrientation(
         np.asarray(spec.orientation, float))
+    if any(seg.type in ("joint", "dwell") for seg in spec.segments):
+        path = chain_path(spec, robot, orientation)
+        return path, path.task_path, path.original_task_path
     task = TaskPath(tuple(_segments(spec.segments)), orientation)
     original = task if spec.blends else None
     chosen: dict[int, int] = {}  # connection index (0-based) -> k of path.blends[k]
@@ -239,6 +246,101 @@ def build_path(scenario: Scenario, robot: Robot,
     path = lift(robot, task, q_start, original=original)
     log.debug("lifted joint path: theta in [%.6g, %.6g], %d kinks", *path.domain, len(path.kinks))
     return path, task, original
+
+
+def _chain_items(spec, robot: Robot, orientation) -> tuple[list, list[int]]:
+    """(items for :func:`~pathmotion.lift.chain.lift_chain`, the item of each of path.segments) of a task path
+    with joint moves or dwells: consecutive line/arc/circle segments form one TaskRun."""
+    items, owner, run, prev_end = [], [], [], None
+    q_prev = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    if q_prev is not None and len(q_prev) == robot.n:
+        prev_end = fk(robot, q_prev)[0]
+
+    def close_run():
+        if run:
+            first = run[0][0]
+            segs = _segments([s for _, s in run], prev_end, first)
+            items.append(TaskRun(TaskPath(tuple(segs), orientation), None,
+                                 f"path.segments[{first}..{run[-1][0]}]" if len(run) > 1 else f"path.segments[{first}]"))
+            run.clear()
+            return segs[-1].end_point
+        return prev_end
+
+    for k, seg in enumerate(spec.segments):
+        where = f"path.segments[{k}]"
+        if seg.type in ("line", "arc", "circle"):
+            run.append((k, seg))
+            owner.append(len(items))
+            continue
+        prev_end = close_run()
+        owner.append(len(items))
+        if seg.type == "dwell":
+            items.append(Dwell(seg.time, where))
+        elif seg.end is not None:
+            end = check_joint_target(robot, seg.end, where)
+            items.append(JointMove(end, None, where))
+            prev_end = fk(robot, end)[0]
+        else:
+            pose = seg.end_pose
+            rotation = quaternion_matrix(pose.quaternion, f"{where}.end_pose.quaternion")
+            items.append(JointMove(None, (np.asarray(pose.position, float), rotation, pose.robconf), where))
+            prev_end = np.asarray(pose.position, float)
+    close_run()
+    return items, owner
+
+
+def _chain_blends(spec, items: list, owner: list[int]) -> tuple[dict, dict]:
+    """({item: {local connection: (kind, value)}} of the task runs' corners, {motion connection: tolerance [m]}
+    of the joint-move zones) from path.blends; ScenarioError for what a chain cannot blend."""
+    motion = [i for i, it in enumerate(items) if not isinstance(it, Dwell)]
+    run_blends: dict[int, dict] = {}
+    zones: dict[int, float] = {}
+    for k, blend in enumerate(spec.blends):
+        where = f"path.blends[{k}]"
+        if blend.type == "optimal":
+            raise ScenarioError(f"{where}: 'optimal' blends are not searched on paths with joint moves or dwells; "
+                                "use type = 'g2' with a tolerance")
+        value = blend.radius if blend.type == "circle" else blend.tolerance
+        if blend.corner == "all":
+            for i, item in enumerate(items):
+                if isinstance(item, TaskRun):
+                    for c in range(len(item.path.connections)):
+                        if item.path.connections[c].kind != "smooth":
+                            run_blends.setdefault(i, {})[c] = (blend.type.value, value)
+            if blend.type == "g2":
+                zones.update({m: value for m, (a, b) in enumerate(zip(motion[:-1], motion[1:])) if b == a + 1})
+            continue
+        c = blend.corner - 1
+        if not 0 <= c < len(spec.segments) - 1:
+            raise ScenarioError(f"{where}.corner = {blend.corner}: the path has {len(spec.segments) - 1} connection(s), "
+                                f"numbered 1..{len(spec.segments) - 1} (1 = between segments 1 and 2)")
+        a, b = owner[c], owner[c + 1]
+        if isinstance(items[a], Dwell) or isinstance(items[b], Dwell):
+            raise ScenarioError(f"{where}: corner {blend.corner} is at a dwell, where the motion stops; remove the blend")
+        if a == b:
+            local = c - owner.index(a)
+            run_blends.setdefault(a, {})[local] = (blend.type.value, value)
+        elif blend.type != "g2":
+            raise ScenarioError(f"{where}: corner {blend.corner} joins a joint move; its zone is type = 'g2' with "
+                                "tolerance = the zone [m]")
+        else:
+            zones[motion.index(a)] = value
+    return run_blends, zones
+
+
+def chain_path(spec, robot: Robot, orientation):
+    """The PiecewiseJointPath of a ``type = "task"`` path whose segments include joint moves or dwells."""
+    items, owner = _chain_items(spec, robot, orientation)
+    run_blends, zones = _chain_blends(spec, items, owner)
+    for i, blends in run_blends.items():
+        run = items[i]
+        names = {c: f"path.blends (corner {c + 1} of {run.where})" for c in blends}
+        items[i] = TaskRun(with_blends(run.path, blends, names), run.path, run.where)
+    q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    log.info("lift: a chain of %d task runs, %d joint moves, %d dwells, %d joint zones",
+             sum(isinstance(i, TaskRun) for i in items), sum(isinstance(i, JointMove) for i in items),
+             sum(isinstance(i, Dwell) for i in items), len(zones))
+    return lift_chain(robot, items, q_start, zones)
 
 
 def _optimal_shapes(robot: Robot, task: TaskPath, optimal: dict[int, float], scenario: Scenario,

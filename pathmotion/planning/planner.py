@@ -11,6 +11,7 @@ re-solve (bounded) -> baselines.
 
 from __future__ import annotations
 
+
 import logging
 import time
 from dataclasses import dataclass, field, replace
@@ -348,7 +349,12 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
                                  tcp_gain(solved.samp.left), path, robot, limits, settings)
         log.debug("baselines: fitted %.6g s, constant speed %s", base.fitted.duration,
                   f"{base.constant_speed.duration:.6g} s" if base.constant_speed else base.constant_speed_error)
-    return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
+    profile = sol.profile
+    if path.dwells:  # the waits at rest (dwells) join the motion's timing
+        profile = profile.with_holds(path.dwells)
+        traj = replace(traj, profile=profile)
+        log.info("dwells: %s s at rest, cycle %.6g s", " + ".join(f"{w:g}" for _, w in path.dwells), profile.duration)
+    return PlanResult(profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
                       iterations, sol.jump_intervals, settings, estimate)
 
 
