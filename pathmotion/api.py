@@ -820,7 +820,10 @@ def simulation_columns(sim) -> dict[str, np.ndarray]:
 # ------------------------------------------------------------------------------------ check
 def path_is_closed(setup: Setup) -> bool:
     """Whether the path ends where it starts (a full circle does), whether or not it is planned as a
-    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion)."""
+    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion). A chain with joint moves
+    or dwells is always an open motion."""
+    if isinstance(setup.path, PiecewiseJointPath):
+        return False
     if setup.task_path is not None:
         return bool(setup.task_path.closed)
     q = setup.path.evaluate(np.array(setup.path.domain, float))[0]

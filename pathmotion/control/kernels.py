@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from ..planning.profile import piece_x
+from ..planning.profile import HOLD_ROUNDING, piece_x
 
 #: |Phi'|^2 below which the projection treats Phi' as zero (clamped spline ends) and nudges theta [rad^2].
 ZERO_SPEED2 = 1e-24
@@ -199,10 +199,6 @@ def profile_times(profile, theta):
     for j in range(theta.shape[0]):
         out[j] = profile_time(profile, False, theta[j])
     return out
-
-
-#: Time [s] past an interval's planned motion time that is a hold (a dwell), not round-off.
-HOLD_ROUNDING = 1e-12
 
 
 @numba.njit(cache=True)

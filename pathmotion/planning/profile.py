@@ -34,6 +34,10 @@ from ..errors import PathmotionError
 from . import smooth
 
 
+#: Time [s] past an interval's planned motion time that is a hold (a dwell), not round-off.
+HOLD_ROUNDING = 1e-12
+
+
 def piece_x(grid, x, u, i, theta):
     """x(theta) = max(x_i + 2 u_i (theta - theta_i), 0) on piece i (scalars, or arrays of i and theta).
 
@@ -194,7 +198,7 @@ def _with_rest(p: Profile, i: np.ndarray, tau: np.ndarray):
     """state3_at_time of a profile with holds: the motion state at tau (clipped to interval i's motion), and
     rest (theta at the grid point, zero rates) before the interval's departure or after its arrival."""
     period = p.intervals[i]
-    before, after = tau < 0.0, tau > period
+    before, after = tau < 0.0, tau > period + HOLD_ROUNDING
     moving = p.motion
     clipped = moving.times[i] + np.clip(tau, 0.0, period)
     theta, theta_dot, theta_ddot, jerk = (np.array(v, dtype=float) for v in moving.state3_at_time(clipped))
