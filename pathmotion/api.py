@@ -260,8 +260,8 @@ def _chain_items(spec, robot: Robot, orientation) -> tuple[list, list[int]]:
         if run:
             first = run[0][0]
             segs = _segments([s for _, s in run], prev_end, first)
-            items.append(TaskRun(TaskPath(tuple(segs), orientation), None,
-                                 f"path.segments[{first}..{run[-1][0]}]" if len(run) > 1 else f"path.segments[{first}]"))
+            where = f"path.segments[{first}..{run[-1][0]}]" if len(run) > 1 else f"path.segments[{first}]"
+            items.append(TaskRun(TaskPath(tuple(segs), orientation), None, where))
             run.clear()
             return segs[-1].end_point
         return prev_end
@@ -312,11 +312,12 @@ def _chain_blends(spec, items: list, owner: list[int]) -> tuple[dict, dict]:
             continue
         c = blend.corner - 1
         if not 0 <= c < len(spec.segments) - 1:
-            raise ScenarioError(f"{where}.corner = {blend.corner}: the path has {len(spec.segments) - 1} connection(s), "
-                                f"numbered 1..{len(spec.segments) - 1} (1 = between segments 1 and 2)")
+            raise ScenarioError(f"{where}.corner = {blend.corner}: the path has {len(spec.segments) - 1} "
+                                f"connection(s), numbered 1..{len(spec.segments) - 1} (1 = between segments 1 and 2)")
         a, b = owner[c], owner[c + 1]
         if isinstance(items[a], Dwell) or isinstance(items[b], Dwell):
-            raise ScenarioError(f"{where}: corner {blend.corner} is at a dwell, where the motion stops; remove the blend")
+            raise ScenarioError(f"{where}: corner {blend.corner} is at a dwell, where the motion stops; remove the "
+                                "blend")
         if a == b:
             local = c - owner.index(a)
             run_blends.setdefault(a, {})[local] = (blend.type.value, value)

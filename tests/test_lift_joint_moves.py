@@ -167,7 +167,8 @@ end = [0.45, 0.2, 0.35]
 @pytest.mark.parametrize("segments, error, match", [
     ('[[path.segments]]\ntype = "joint"\nend_pose = {position = [0.45, 0.2, 0.45], quaternion = [0, 1, 0, 0], '
      'robconf = [2, 0, 0, 0]}\n', UnreachableError, r"path.segments\[0\]: no IK solution .* robconf \[2, 0, 0, 0\]"),
-    ('[[path.segments]]\ntype = "joint"\nend = [0.1, 0.2, 0.3]\n', PathmotionError, r"path.segments\[0\]: 3 joint values"),
+    ('[[path.segments]]\ntype = "joint"\nend = [0.1, 0.2, 0.3]\n', PathmotionError,
+     r"path.segments\[0\]: 3 joint values"),
     ('[[path.segments]]\ntype = "joint"\nend = [0.1, 0.2, 9.0, 0, 0, 0]\n', PathmotionError,
      r"path.segments\[0\]: joint joint_3 = 9 rad is outside"),
     ('[[path.segments]]\ntype = "joint"\nend = [0.3, 0.2, 0.1, 0.0, 1.0, 0.0]\n[[path.segments]]\ntype = "line"\n'

@@ -9,7 +9,7 @@ import pytest
 from pathmotion import api, defaults
 from pathmotion.control.kernels import profile_at_time
 from pathmotion.control.profile_lookup import ProfileLookup
-from pathmotion.errors import PathmotionError
+from pathmotion.errors import PathmotionError, ScenarioError
 from pathmotion.planning.profile import Profile
 from pathmotion.robot import fk, ik, load_robot, rnea
 
@@ -124,3 +124,12 @@ def test_closed_loop_tracks_the_chain_and_waits(plans):
     assert np.max(np.abs(sim.qd[inside])) < 1e-2  # at rest, up to the controller's settling
     assert np.max(np.linalg.norm(sim.tcp[inside] - [0.45, 0.15, 0.45], axis=1)) < 1e-3
     assert np.max(sim.path_deviation) < 1e-3
+
+
+
+def test_a_dwell_at_an_end_the_plan_moves_through_is_an_error(plans):
+    setup, _ = plans[None]
+    home = setup.scenario.path.start_configuration
+    text = (CHAIN % (list(home), "")).replace("[plan]\n", DWELL % 0.1 + '[plan]\nend = "max"\n')
+    with pytest.raises(ScenarioError, match=r"dwell at the path's end .* plan.end"):
+        api.plan_scenario(api.load_text(text))

@@ -36,7 +36,8 @@ def test_ik_on_its_own_robconf_returns_the_configuration(robot, fractions):
     q = lim.lower + (np.asarray(fractions) + 1.0) / 2.0 * (lim.upper - lim.lower)
     if abs(q[4]) < 0.05:  # near the wrist singularity the wrist angles are not unique
         q[4] = 0.05 if q[4] >= 0 else -0.05
-    assume(min(abs(m) for m in _cfx_margins(robot, q)[:2]) > 1e-3)  # IK is ill-conditioned at shoulder/elbow singularity
+    # IK is ill-conditioned at the shoulder and elbow singularities
+    assume(min(abs(m) for m in _cfx_margins(robot, q)[:2]) > 1e-3)
     p, r = fk(robot, q)
     got = ik_robconf(robot, p, r, robconf_of(robot, q))
     p2, r2 = fk(robot, got)

@@ -21,6 +21,9 @@ from .segments import NEWTON_ROUNDING, Segment, _as_s, _fmt
 #: Closest-point Newton iterations, and the samples per interval of the starting search.
 NEWTON_STEPS = 30
 START_SAMPLES = 4
+#: Newton steps where d2/ds2 of the half squared distance exceeds this times |p'|^2 [-] (a point near the centre
+#: of curvature has a flat distance: Newton there, not gradient steps, which crawl).
+CONVEX = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,16 +90,20 @@ class HermiteSegment(Segment):
         """(s (N,), distance (N,) [m]) of the closest point to each of ``points`` (N, 3): the best sample, then
         Newton on (p(s) - x) . p'(s) = 0 (with |p'|^2 in the Hessian: s is not the arc length), and the ends."""
         x = np.atleast_2d(np.asarray(points, float))
-        grid = np.unique(np.concatenate([np.linspace(a, b, START_SAMPLES + 1) for a, b in zip(self.s[:-1], self.s[1:])]))
+        grid = np.unique(np.concatenate([np.linspace(a, b, START_SAMPLES + 1)
+                                         for a, b in zip(self.s[:-1], self.s[1:])]))
         pg = self.evaluate(grid)[0]
         s = grid[np.argmin(np.sum((x[:, None, :] - pg[None]) ** 2, axis=2), axis=1)]
+        reach = float(np.max(np.diff(grid)))
         for _ in range(NEWTON_STEPS):
             p, dp, ddp = self.evaluate(s)
             r = p - x
             g = np.sum(r * dp, axis=1)
             h = np.sum(dp * dp, axis=1) + np.sum(r * ddp, axis=1)
             scale = np.maximum(np.sum(dp * dp, axis=1), 1e-300)
-            step = np.where(h > 0.1 * scale, g / np.where(h > 0.1 * scale, h, 1.0), g / scale)
+            convex = h > CONVEX * scale  # Newton where the squared distance curves up, else a gradient step
+            step = np.where(convex, g / np.where(convex, h, 1.0), g / scale)
+            step = np.clip(step, -reach, reach)
             s = np.clip(s - step, 0.0, self.length)
             if np.max(np.abs(step)) < NEWTON_ROUNDING * max(1.0, self.length):
                 break

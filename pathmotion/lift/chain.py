@@ -194,9 +194,9 @@ def _with_zone(robot: Robot, pieces: list, sharp: list, index: int, tol: float, 
         start = a.path.evaluate(lo - a.shift)
         end = b.path.evaluate(hi - b.shift)
         blend = JointBlend.between(lo, hi, start, end, robot.joint_names)
-        grid = np.linspace(lo, hi, ZONE_SAMPLES)
-        deviation = float(np.max(_polyline_distance(fk(robot, blend.evaluate(grid)[0])[0],
-                                                    fk(robot, chain.evaluate(np.linspace(lo, hi, 4 * ZONE_SAMPLES))[0])[0])))
+        tcp = fk(robot, blend.evaluate(np.linspace(lo, hi, ZONE_SAMPLES))[0])[0]
+        sharp_tcp = fk(robot, chain.evaluate(np.linspace(lo, hi, 4 * ZONE_SAMPLES))[0])[0]
+        deviation = float(np.max(_polyline_distance(tcp, sharp_tcp)))
         if deviation <= tol:
             break
         size_a, size_b = 0.5 * size_a, 0.5 * size_b
