@@ -203,3 +203,18 @@ def test_a_reorientation_in_place_gets_a_theta_length(robot, home):
     path = api.load_text(scenario(home, f'[[path.segments]]\ntype = "joint"\nend = {turned.tolist()}\n')).path
     assert path.length == pytest.approx(0.1 * 0.5)
     np.testing.assert_allclose(path.evaluate(path.domain[1])[0], turned, atol=1e-15)
+
+
+def test_corner_all_zones_every_joint_connection_but_a_dwell(home):
+    dwell = MIXED.replace('type = "joint"\nend = %s', 'type = "dwell"\ntime = 0.2\n[[path.segments]]\n'
+                          'type = "joint"\nend = %s') % np.asarray(home).tolist()
+    path = api.load_text(scenario(home, dwell, '[[path.blends]]\ncorner = "all"\ntype = "g2"\ntolerance = 0.01\n')).path
+    assert [p.kind for p in path.pieces] == ["joint", "blend", "task", "joint"]
+    assert len(path.kinks) == 1 and path.dwells == ((path.kinks[0], 0.2),)
+    assert path.pieces[2].path.original_task_path is not None  # the line corner got its G2 blend
+
+
+def test_an_unreachable_task_run_names_its_segments(home):
+    far = MIXED.replace("end = [0.35, 0.3, 0.45]", "end = [1.5, 0.3, 0.45]") % np.asarray(home).tolist()
+    with pytest.raises(UnreachableError, match=r"path.segments\[1..2\] \(theta and segment counted from its start\)"):
+        api.load_text(scenario(home, far))

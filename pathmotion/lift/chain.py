@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .. import defaults
-from ..errors import PathError, UnreachableError
+from ..errors import PathError, PathmotionError, UnreachableError
 from ..geometry import FixedOrientation, TaskPath
 from ..robot import Robot, fk, ik
 from ..robot.robconf import ik_robconf
@@ -100,7 +100,13 @@ def _joint_piece(robot: Robot, item: JointMove, q0: np.ndarray, theta: float) ->
 
 
 def _task_piece(robot: Robot, item: TaskRun, q0, theta: float, after_joint: bool) -> Piece:
-    path = lift(robot, item.path, q0, original=item.original)
+    try:
+        path = lift(robot, item.path, q0, original=item.original)
+    except PathmotionError as exc:  # its theta and segment number count from the run's start
+        message = f"{item.where} (theta and segment counted from its start): {exc}"
+        if isinstance(exc, UnreachableError):
+            raise UnreachableError(message, reason=exc.reason) from None
+        raise type(exc)(message) from None
     if after_joint:
         start = path.evaluate(0.0)[0]
         if np.max(np.abs(start - q0)) > SAME_CONFIGURATION:
@@ -142,6 +148,9 @@ def lift_chain(robot: Robot, items, q_start=None, zones=None) -> PiecewiseJointP
     kinks += [s for s in stops if 0.0 < s < theta]
     sharp = list(pieces)
     for index, tol in sorted((zones or {}).items()):
+        if not 0 <= index < len(sharp) - 1 or sharp[index].hi in stops:
+            raise PathError(f"zone {index}: no connection between two motion items there (or a dwell stops the "
+                            f"motion there); the chain has {len(sharp) - 1} connections")
         pieces = _with_zone(robot, pieces, sharp, index, tol, kinks)
     return _assemble(robot, pieces, sharp, sorted(set(kinks)), tuple(dwells), bool(zones))
 
