@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from pathmotion import api, defaults
 from pathmotion.errors import PathError, PathmotionError, ScenarioError, UnreachableError
 from pathmotion.lift.joint_move import PiecewiseJointPath, tcp_arc_length
 from pathmotion.robot import fk, ik, load_robot
+from pathmotion.robot.robconf import has_robconf, robconf_of
 
 DOWN = np.array(defaults.TOOL_DOWN_ROTATION)
 
@@ -218,3 +220,28 @@ def test_an_unreachable_task_run_names_its_segments(home):
     far = MIXED.replace("end = [0.35, 0.3, 0.45]", "end = [1.5, 0.3, 0.45]") % np.asarray(home).tolist()
     with pytest.raises(UnreachableError, match=r"path.segments\[1..2\] \(theta and segment counted from its start\)"):
         api.load_text(scenario(home, far))
+
+
+def test_a_pose_target_is_reached_exactly(robot, mixed):
+    lo, hi, piece = _joint_range(mixed)
+    p, r = fk(robot, mixed.evaluate(hi, side="left")[0])
+    np.testing.assert_allclose(p, [0.45, 0.2, 0.45], atol=1e-8)  # 0.01 um
+    angle = np.arccos(np.clip((np.trace(r.T @ DOWN) - 1.0) / 2.0, -1.0, 1.0))
+    assert angle < np.radians(1e-6)
+    assert has_robconf(robot, piece.path.q1, (0, 0, 2, 0))  # q4 = 0 sits on a quadrant boundary
+    assert robconf_of(robot, piece.path.q1)[2:] == (2, 0)
+
+
+@settings(max_examples=8)
+@given(st.lists(st.floats(-0.8, 0.8), min_size=12, max_size=12))
+def test_tcp_arc_length_against_a_refined_polyline(robot, values):
+    lim = robot.limits
+    q0 = 0.5 * (lim.lower + lim.upper) + 0.5 * np.asarray(values[:6]) * (lim.upper - lim.lower)
+    q1 = 0.5 * (lim.lower + lim.upper) + 0.5 * np.asarray(values[6:]) * (lim.upper - lim.lower)
+
+    def polyline(count):
+        p = fk(robot, q0 + np.linspace(0.0, 1.0, count)[:, None] * (q1 - q0))[0]
+        return np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))
+
+    coarse, fine = polyline(20001), polyline(40001)
+    assert tcp_arc_length(robot, q0, q1) == pytest.approx(fine + (fine - coarse) / 3.0, rel=1e-8, abs=1e-12)

@@ -9,7 +9,7 @@ from hypothesis import assume, given, settings, strategies as st
 
 from pathmotion.errors import UnreachableError
 from pathmotion.robot import fk, load_robot
-from pathmotion.robot.robconf import _cfx_margins, ik_robconf, robconf_of
+from pathmotion.robot.robconf import cfx_margins, ik_robconf, robconf_of
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,7 @@ def test_ik_on_its_own_robconf_returns_the_configuration(robot, fractions):
     if abs(q[4]) < 0.05:  # near the wrist singularity the wrist angles are not unique
         q[4] = 0.05 if q[4] >= 0 else -0.05
     # IK is ill-conditioned at the shoulder and elbow singularities
-    assume(min(abs(m) for m in _cfx_margins(robot, q)[:2]) > 1e-3)
+    assume(min(abs(m) for m in cfx_margins(robot, q)[:2]) > 1e-3)
     p, r = fk(robot, q)
     got = ik_robconf(robot, p, r, robconf_of(robot, q))
     p2, r2 = fk(robot, got)
@@ -59,7 +59,7 @@ def test_a_robconf_the_pose_does_not_have_is_an_error_listing_the_ones_it_has(ro
 
 def test_at_the_elbow_singularity_both_sides_match(robot):
     q = np.array([0.0, 0.17453293, -np.pi / 2, 0.0, 0.05, 0.0])  # upper arm in line with the lower arm
-    assert abs(_cfx_margins(robot, q)[1]) < 1e-12
+    assert abs(cfx_margins(robot, q)[1]) < 1e-12
     p, r = fk(robot, q)
     for cfx in (0, 2):
         np.testing.assert_allclose(fk(robot, ik_robconf(robot, p, r, (0, 0, 0, cfx)))[0], p, atol=1e-9)

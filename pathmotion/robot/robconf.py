@@ -33,11 +33,11 @@ def robconf_of(robot: Robot, q) -> tuple[int, int, int, int]:
     """(cf1, cf4, cf6, cfx) of the configuration q (6,) [rad]."""
     q = np.asarray(q, dtype=float)
     cf1, cf4, cf6 = (int(np.floor(q[j] / _QUARTER)) for j in (0, 3, 5))
-    axis, arm, wrist = _cfx_margins(robot, q)
+    axis, arm, wrist = cfx_margins(robot, q)
     return cf1, cf4, cf6, 4 * int(axis < 0.0) + 2 * int(arm < 0.0) + int(wrist < 0.0)
 
 
-def _cfx_margins(robot: Robot, q: np.ndarray) -> tuple[float, float, float]:
+def cfx_margins(robot: Robot, q: np.ndarray) -> tuple[float, float, float]:
     """Signed distances whose signs make cfx: (wrist centre in front of axis 1 [m], in front of the lower arm [m],
     q5 [rad]); negative means behind / negative (a bit of cfx set)."""
     model, data = robot.model, robot.data
@@ -49,13 +49,13 @@ def _cfx_margins(robot: Robot, q: np.ndarray) -> tuple[float, float, float]:
     return float(wrist[0]), float(arm), float(q[4])
 
 
-def _matches(robot: Robot, q: np.ndarray, conf: tuple[int, ...]) -> bool:
+def has_robconf(robot: Robot, q: np.ndarray, conf: tuple[int, ...]) -> bool:
     """q has robconf ``conf``, a joint or margin within the slack of a boundary matching both sides."""
     if not all(_quadrant_ok(q[j], c) for j, c in zip((0, 3, 5), conf[:3])):
         return False
     bits = ((conf[3] >> 2) & 1, (conf[3] >> 1) & 1, conf[3] & 1)
     return all(abs(m) <= slack or (m < 0.0) == bool(b)
-               for m, b, slack in zip(_cfx_margins(robot, q), bits, (SIDE_SLACK, SIDE_SLACK, QUADRANT_SLACK)))
+               for m, b, slack in zip(cfx_margins(robot, q), bits, (SIDE_SLACK, SIDE_SLACK, QUADRANT_SLACK)))
 
 
 def _quadrant_ok(value: float, quadrant: int) -> bool:
@@ -75,7 +75,7 @@ def ik_robconf(robot: Robot, position, rotation, robconf, where: str = "target")
     except UnreachableError as exc:
         raise UnreachableError(f"{where}: {exc}", reason=exc.reason) from None
     for q in solutions:
-        if _matches(robot, q, conf):
+        if has_robconf(robot, q, conf):
             return q
     listed = ", ".join(str(list(c)) for c in sorted({robconf_of(robot, q) for q in solutions}))
     raise UnreachableError(f"{where}: no IK solution of this pose has robconf {list(conf)} inside the joint "
