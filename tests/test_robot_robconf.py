@@ -63,3 +63,17 @@ def test_at_the_elbow_singularity_both_sides_match(robot):
     p, r = fk(robot, q)
     for cfx in (0, 2):
         np.testing.assert_allclose(fk(robot, ik_robconf(robot, p, r, (0, 0, 0, cfx)))[0], p, atol=1e-9)
+
+
+@pytest.mark.parametrize("degrees, cfx", [
+    ([-103.1, -85.03, 19.06, -70.19, -35.87, 185.01], 5),
+    ([-124.68, -61.16, -20.4, 56.41, -38.79, -24.56], 5),
+    ([-103.1, -85.03, 19.06, 109.81, 35.87, 5.01], 4),
+    ([-124.68, -61.16, -20.4, -123.59, 38.79, 155.44], 4),
+])
+def test_cfx_of_published_configurations(robot, degrees, cfx):
+    """Joint sets with their controller cfx from an IRB 1660 test set (py-opw-kinematics, axis_configuration.rs):
+    arms leaning back over the base. The IRB 140's links put the wrist centre on the same sides (by >= 0.13 m)."""
+    q = np.radians(degrees)
+    assert robconf_of(robot, q)[3] == cfx
+    assert min(abs(m) for m in cfx_margins(robot, q)) > 0.1
