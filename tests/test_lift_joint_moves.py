@@ -10,7 +10,7 @@ from hypothesis import given, settings, strategies as st
 from pathmotion import api, defaults
 from pathmotion.errors import PathError, PathmotionError, ScenarioError, UnreachableError
 from pathmotion.lift.joint_move import PiecewiseJointPath, tcp_arc_length
-from pathmotion.robot import fk, ik, load_robot
+from pathmotion.robot import fk, ik, jacobian, load_robot
 from pathmotion.robot.robconf import has_robconf, robconf_of
 
 DOWN = np.array(defaults.TOOL_DOWN_ROTATION)
@@ -245,3 +245,16 @@ def test_tcp_arc_length_against_a_refined_polyline(robot, values):
 
     coarse, fine = polyline(20001), polyline(40001)
     assert tcp_arc_length(robot, q0, q1) == pytest.approx(fine + (fine - coarse) / 3.0, rel=1e-8, abs=1e-12)
+
+
+def test_the_chain_check_covers_every_piece(robot, mixed):
+    check = mixed.check
+    theta = np.linspace(*mixed.domain, 4001)
+    q = mixed.evaluate(theta)[0]
+    sv = np.linalg.svd(jacobian(robot, q), compute_uv=False)[:, -1]
+    margin = np.minimum(q - robot.limits.lower, robot.limits.upper - q)
+    # independent: the same minima on a dense grid of the whole chain (the check samples every 2 mm)
+    assert check.min_singular_value == pytest.approx(np.min(sv), abs=1e-3)
+    assert check.min_singular_theta == pytest.approx(theta[np.argmin(sv)], abs=5e-3)
+    assert check.range_margin == pytest.approx(np.min(margin), abs=1e-3)
+    assert check.kinks == mixed.kinks

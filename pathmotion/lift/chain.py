@@ -23,9 +23,9 @@ import numpy as np
 from .. import defaults
 from ..errors import PathError, PathmotionError, UnreachableError
 from ..geometry import FixedOrientation, TaskPath
-from ..robot import Robot, fk, ik
+from ..robot import Robot, fk, ik, jacobian
 from ..robot.robconf import ik_robconf
-from .constraint import lift
+from .constraint import PathCheck, lift
 from .joint_move import (JointBlend, LinearJointPath, Piece, PiecewiseJointPath, check_joint_target, tcp_arc_length,
                          tcp_trace)
 
@@ -209,12 +209,14 @@ def _with_zone(robot: Robot, pieces: list, sharp: list, index: int, tol: float, 
         sharp_tcp = fk(robot, chain.evaluate(np.linspace(lo, hi, 4 * ZONE_SAMPLES))[0])[0]
         step = float(np.max(np.linalg.norm(np.diff(tcp, axis=0), axis=1)))  # the distance is 1-Lipschitz in p
         deviation = float(np.max(_polyline_distance(tcp, sharp_tcp))) + 0.5 * step
-        if deviation <= tol:
+        q = blend.evaluate(np.linspace(lo, hi, ZONE_SAMPLES))[0]
+        inside = bool(np.all((q >= robot.limits.lower) & (q <= robot.limits.upper)))
+        if deviation <= tol and inside:
             break
         size_a, size_b = 0.5 * size_a, 0.5 * size_b
     else:
-        raise PathError(f"{where}: no zone blend keeps the TCP within {tol:g} m of the path ({deviation:.3g} m at "
-                        f"the smallest); give a larger zone or a fine point")
+        raise PathError(f"{where}: no zone blend keeps the TCP within {tol:g} m of the path and the joints in their "
+                        f"ranges ({deviation:.3g} m at the smallest); give a larger zone or a fine point")
     log.info("%s: joint zone blend over theta [%.6g, %.6g] m, TCP deviation %.3g m (zone %g m)", where, lo, hi,
              deviation, tol)
     if theta_c in kinks:
@@ -262,6 +264,37 @@ def _assemble(robot: Robot, pieces, sharp, kinks, dwells, zoned: bool) -> Piecew
             kinks = kinks + [k + p.shift for k in p.path.kinks if p.lo < k + p.shift < p.hi]
             peaks += [k + p.shift for k in p.path.peaks if p.lo < k + p.shift < p.hi]
     return PiecewiseJointPath(
+        check=_chain_check(robot, pieces, sorted(set(kinks)), step),
         n=robot.n, domain=(pieces[0].lo, pieces[-1].hi), kinks=tuple(sorted(set(kinks))),
         breaks=tuple(sorted(breaks | set(kinks))), joint_names=robot.joint_names, peaks=tuple(sorted(peaks)),
         pieces=tuple(pieces), robot=robot, task_path=trace, original_task_path=original, dwells=dwells)
+
+
+def _chain_check(robot: Robot, pieces, kinks, step: float) -> PathCheck:
+    """The chain's PathCheck: each task run's own (its theta moved onto the chain; it covers the whole run, the
+    parts zones replaced included) and, along each joint move and zone blend sampled ``step`` [m] apart, the
+    smallest Jacobian singular value and joint-range margin (a joint move may pass a singularity: no IK there)."""
+    rows, passages, samples = [], [], 0
+    lim = robot.limits
+    for piece in pieces:
+        s = piece.shift
+        if piece.kind == "task":
+            c = piece.path.check
+            rows.append((c.min_singular_value, c.min_singular_theta + s, c.range_margin, c.range_margin_theta + s,
+                         c.range_margin_joint))
+            passages += [replace(ps, theta=ps.theta + s, region=(ps.region[0] + s, ps.region[1] + s),
+                                 speed_limit_theta=ps.speed_limit_theta + s) for ps in c.wrist_passages]
+            samples += c.samples
+            continue
+        theta = np.linspace(piece.lo, piece.hi, max(int(np.ceil((piece.hi - piece.lo) / step)), 8) + 1)
+        q = piece.path.evaluate(theta - s)[0]
+        sv = np.linalg.svd(jacobian(robot, q), compute_uv=False)[:, -1]
+        margin = np.minimum(q - lim.lower, lim.upper - q)
+        k, j = np.unravel_index(np.argmin(margin), margin.shape)
+        i = int(np.argmin(sv))
+        rows.append((float(sv[i]), float(theta[i]), float(margin[k, j]), float(theta[k]), lim.names[j]))
+        samples += len(theta)
+    sv_row = min(rows, key=lambda r: r[0])
+    margin_row = min(rows, key=lambda r: r[2])
+    return PathCheck(sv_row[0], sv_row[1], margin_row[2], margin_row[3], margin_row[4], tuple(kinks), samples,
+                     tuple(passages))

@@ -130,9 +130,11 @@ class PiecewiseJointPath(JointPath):
     ("right") or ends there ("left"). task_path: the TCP trace of the whole chain as a TaskPath (lines, arcs and
     blends of the task pieces; :class:`~pathmotion.geometry.HermiteSegment` FK traces of the joint moves and joint
     blends; its tool orientation is the task pieces', the tool's on a joint piece is FK(Phi)); original_task_path:
-    the same without blends (None when nothing is blended)."""
+    the same without blends (None when nothing is blended); check: the
+    :class:`~pathmotion.lift.constraint.PathCheck` of the whole chain."""
 
     pieces: tuple[Piece, ...] = ()
+    check: object = None
     robot: Robot | None = None
     task_path: object = None
     original_task_path: object = None
