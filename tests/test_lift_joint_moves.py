@@ -258,3 +258,23 @@ def test_the_chain_check_covers_every_piece(robot, mixed):
     assert check.min_singular_theta == pytest.approx(theta[np.argmin(sv)], abs=5e-3)
     assert check.range_margin == pytest.approx(np.min(margin), abs=1e-3)
     assert check.kinks == mixed.kinks
+
+
+def test_a_dwell_between_lines_stops_and_continues_on_the_branch(robot, home):
+    text = scenario(home, """
+[[path.segments]]
+type = "line"
+end = [0.5, 0.1, 0.5]
+[[path.segments]]
+type = "dwell"
+time = 0.5
+[[path.segments]]
+type = "line"
+end = [0.5, 0.2, 0.5]
+""")
+    path = api.load_text(text).path
+    assert [p.kind for p in path.pieces] == ["task", "task"]
+    assert path.kinks == (pytest.approx(0.1),) and path.dwells == ((path.kinks[0], 0.5),)
+    left, right = path.evaluate(path.kinks[0], side="left"), path.evaluate(path.kinks[0], side="right")
+    np.testing.assert_allclose(left[0], right[0], atol=1e-12)  # the same configuration on both sides
+    np.testing.assert_allclose(fk(robot, right[0])[0], [0.5, 0.1, 0.5], atol=1e-12)

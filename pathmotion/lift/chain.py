@@ -101,7 +101,7 @@ def _joint_piece(robot: Robot, item: JointMove, q0: np.ndarray, theta: float) ->
     return Piece(path, theta, theta + length, 0.0, "joint", item.where)
 
 
-def _task_piece(robot: Robot, item: TaskRun, q0, theta: float, after_joint: bool) -> Piece:
+def _task_piece(robot: Robot, item: TaskRun, q0, theta: float, follows: bool) -> Piece:
     try:
         path = lift(robot, item.path, q0, original=item.original)
     except PathmotionError as exc:  # its theta and segment number count from the run's start
@@ -109,16 +109,16 @@ def _task_piece(robot: Robot, item: TaskRun, q0, theta: float, after_joint: bool
         if isinstance(exc, UnreachableError):
             raise UnreachableError(message, reason=exc.reason) from None
         raise type(exc)(message) from None
-    if after_joint:
+    if follows:  # it must start where the chain is
         start = path.evaluate(0.0)[0]
         if np.max(np.abs(start - q0)) > SAME_CONFIGURATION:
             r0, r1 = fk(robot, q0)[1], item.path.orientation(0.0)[0]
             angle = np.degrees(np.arccos(np.clip((np.trace(r0.T @ r1) - 1) / 2, -1, 1)))
-            why = (f"the tool orientation differs by {angle:.3g} deg from the move's end pose; make the path's "
-                   "orientation match it" if angle > 1e-4 else
+            why = (f"the tool orientation differs by {angle:.3g} deg from the previous segment's end pose; make the "
+                   "path's orientation match it" if angle > 1e-4 else
                    f"the lift starts on another IK branch ({np.round(start, 4).tolist()} rad); end the joint move "
-                   "on the branch the task path continues on")
-            raise PathError(f"{item.where}: the task path does not start where the joint move before it ends "
+                   "before it on the branch the task path continues on")
+            raise PathError(f"{item.where}: the task path does not start where the segment before it ends "
                             f"({np.round(q0, 4).tolist()} rad): {why}")
     return Piece(path, theta, theta + path.length, theta, "task", item.where)
 
@@ -140,7 +140,7 @@ def lift_chain(robot: Robot, items, q_start=None, zones=None) -> PiecewiseJointP
                                 "path.start_configuration = [joint values, rad]")
             piece = _joint_piece(robot, item, q, theta)
         else:
-            piece = _task_piece(robot, item, q, theta, bool(pieces) and pieces[-1].kind == "joint")
+            piece = _task_piece(robot, item, q, theta, bool(pieces))
         pieces.append(piece)
         theta = piece.hi
         q = piece.path.evaluate(piece.hi - piece.shift, side="left")[0]
