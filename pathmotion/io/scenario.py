@@ -139,7 +139,8 @@ class BlendSpec(_Model):
 
 class TaskPathSpec(_Model):
     type: Literal["task"]
-    segments: list[SegmentSpec] = Field(min_length=1)
+    segments: list[SegmentSpec] = Field(min_length=1, description="line, arc, circle, joint (a joint move: linear "
+                                        "in the joints) or dwell (a wait at rest), each from where the previous ends")
     blends: list[BlendSpec] = []
     orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation matrix")
     start_configuration: tuple[float, ...] | None = Field(
