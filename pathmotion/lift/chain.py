@@ -7,8 +7,8 @@ its robconf) and :class:`Dwell` (a wait at rest where the previous item ends). t
 Connections: after a dwell, or where Phi' jumps (a joint move meets anything that does not continue its joint
 velocity direction and rate), the motion stops (a kink). A zone (``zones``: item connection -> tolerance [m])
 replaces a connection that involves a joint move by a :class:`~.joint_move.JointBlend` over
-[theta_c - d_before, theta_c + d_after], d = the tolerance (at most ``ZONE_CUT`` of the piece it cuts), shrunk
-by halves until the blend's TCP stays within the tolerance of the sharp TCP path: the largest distance of
+[theta_c - d_before, theta_c + d_after], d = the theta in which the TCP travels about the tolerance (at most
+``ZONE_CUT`` of the piece it cuts), shrunk by halves until the blend's TCP stays within the tolerance of the sharp TCP path: the largest distance of
 ``ZONE_SAMPLES`` blend TCP samples from a polyline through 4 * ``ZONE_SAMPLES`` sharp TCP samples, plus half the
 largest step between blend samples (a sampled bound, not a certified one).
 """
@@ -188,6 +188,15 @@ def _polyline_distance(points: np.ndarray, line: np.ndarray) -> np.ndarray:
     return np.min(np.linalg.norm(points[:, None] - near, axis=2), axis=1)
 
 
+def _tcp_rate(robot: Robot, piece: Piece, theta: float, side: str) -> float:
+    """|dp/dtheta| [-] of the TCP at theta on ``piece``: 1 on a task piece (theta is its arc length), |J_v Phi'|
+    on a joint move (so a zone of d [m] starts about d of TCP travel before the corner, as the controller's)."""
+    if piece.kind == "task":
+        return 1.0
+    q, dq, _ = piece.path.evaluate(theta - piece.shift, side=side)
+    return max(float(np.linalg.norm(jacobian(robot, q)[:3] @ dq)), STILL_TCP)
+
+
 def _with_zone(robot: Robot, pieces: list, sharp: list, index: int, tol: float, kinks: list) -> list:
     """``pieces`` with the connection between motion pieces ``index`` and ``index + 1`` replaced by a JointBlend
     whose TCP stays within ``tol`` [m] of the sharp TCP path (``sharp``: the pieces before any zone)."""
@@ -197,8 +206,8 @@ def _with_zone(robot: Robot, pieces: list, sharp: list, index: int, tol: float, 
     where = f"{a.where} -> {b.where}"
     if theta_c not in kinks and a.kind == b.kind == "task":
         raise PathError(f"{where}: no joint move at this connection")
-    size_a = min(tol, _cut(sharp[index], True), a.hi - a.lo - 1e-9)
-    size_b = min(tol, _cut(sharp[index + 1], False), b.hi - b.lo - 1e-9)
+    size_a = min(tol / _tcp_rate(robot, a, theta_c, "left"), _cut(sharp[index], True), a.hi - a.lo - 1e-9)
+    size_b = min(tol / _tcp_rate(robot, b, theta_c, "right"), _cut(sharp[index + 1], False), b.hi - b.lo - 1e-9)
     chain = PiecewiseJointPath(n=robot.n, domain=(sharp[0].lo, sharp[-1].hi), pieces=tuple(sharp))
     for _ in range(ZONE_SHRINKS):
         lo, hi = theta_c - size_a, theta_c + size_b
