@@ -133,3 +133,19 @@ def test_a_dwell_at_an_end_the_plan_moves_through_is_an_error(plans):
     text = (CHAIN % (list(home), "")).replace("[plan]\n", DWELL % 0.1 + '[plan]\nend = "max"\n')
     with pytest.raises(ScenarioError, match=r"dwell at the path's end .* plan.end"):
         api.plan_scenario(api.load_text(text))
+
+
+def test_dwells_at_the_start_and_end_wait_there(plans):
+    (setup, plain) = plans[None]
+    home = setup.scenario.path.start_configuration
+    text = (CHAIN % (list(home), "")).replace("[[path.segments]]\ntype = \"joint\"", DWELL % 0.2 +
+                                              "[[path.segments]]\ntype = \"joint\"", 1)
+    text = text.replace("[plan]\n", DWELL % 0.3 + "[plan]\n")
+    held_setup = api.load_text(text)
+    assert held_setup.path.dwells == ((0.0, 0.2), (held_setup.path.domain[1], 0.3))
+    held = api.plan_scenario(held_setup)
+    assert held.duration == pytest.approx(plain.duration + 0.5, rel=1e-12)
+    samples = held.trajectory.at_time(np.array([0.0, 0.1, 0.199, held.duration - 0.29, held.duration]))
+    np.testing.assert_array_equal(samples.theta[:3], 0.0)
+    np.testing.assert_array_equal(samples.theta[3:], held_setup.path.domain[1])
+    assert np.all(samples.qd == 0.0)
