@@ -289,43 +289,61 @@ def _chain_items(spec, robot: Robot, orientation) -> tuple[list, list[int]]:
     return items, owner
 
 
+def _chain_corners(items: list, owner: list[int]) -> list[tuple]:
+    """What each connection of path.segments is in the chain: ("run", item, its local connection), ("zone", motion
+    connection: between motion items m and m + 1, dwells not counted) or ("dwell",)."""
+    motion = [i for i, it in enumerate(items) if not isinstance(it, Dwell)]
+    out = []
+    for c in range(len(owner) - 1):
+        a, b = owner[c], owner[c + 1]
+        if isinstance(items[a], Dwell) or isinstance(items[b], Dwell):
+            out.append(("dwell",))
+        elif a == b:
+            out.append(("run", a, c - owner.index(a)))
+        else:
+            out.append(("zone", motion.index(a)))
+    return out
+
+
 def _chain_blends(spec, items: list, owner: list[int]) -> tuple[dict, dict]:
     """({item: {local connection: (kind, value)}} of the task runs' corners, {motion connection: tolerance [m]}
     of the joint-move zones) from path.blends; ScenarioError for what a chain cannot blend."""
-    motion = [i for i, it in enumerate(items) if not isinstance(it, Dwell)]
+    corners = _chain_corners(items, owner)
+    sharp = {c for c, kind in enumerate(corners) if kind[0] == "run"
+             and kind[2] in blended_corners(items[kind[1]].path, f"path.segments (connection {c + 1})")}
     run_blends: dict[int, dict] = {}
     zones: dict[int, float] = {}
+    chosen: dict[int, int] = {}
     for k, blend in enumerate(spec.blends):
         where = f"path.blends[{k}]"
         if blend.type == "optimal":
             raise ScenarioError(f"{where}: 'optimal' blends are not searched on paths with joint moves or dwells; "
                                 "use type = 'g2' with a tolerance")
-        value = blend.radius if blend.type == "circle" else blend.tolerance
         if blend.corner == "all":
-            for i, item in enumerate(items):
-                if isinstance(item, TaskRun):
-                    for c in range(len(item.path.connections)):
-                        if item.path.connections[c].kind != "smooth":
-                            run_blends.setdefault(i, {})[c] = (blend.type.value, value)
-            if blend.type == "g2":
-                zones.update({m: value for m, (a, b) in enumerate(zip(motion[:-1], motion[1:])) if b == a + 1})
-            continue
-        c = blend.corner - 1
-        if not 0 <= c < len(spec.segments) - 1:
-            raise ScenarioError(f"{where}.corner = {blend.corner}: the path has {len(spec.segments) - 1} "
-                                f"connection(s), numbered 1..{len(spec.segments) - 1} (1 = between segments 1 and 2)")
-        a, b = owner[c], owner[c + 1]
-        if isinstance(items[a], Dwell) or isinstance(items[b], Dwell):
-            raise ScenarioError(f"{where}: corner {blend.corner} is at a dwell, where the motion stops; remove the "
-                                "blend")
-        if a == b:
-            local = c - owner.index(a)
-            run_blends.setdefault(a, {})[local] = (blend.type.value, value)
-        elif blend.type != "g2":
-            raise ScenarioError(f"{where}: corner {blend.corner} joins a joint move; its zone is type = 'g2' with "
-                                "tolerance = the zone [m]")
+            picked = [c for c, kind in enumerate(corners) if c in sharp or (kind[0] == "zone" and blend.type == "g2")]
         else:
-            zones[motion.index(a)] = value
+            c = blend.corner - 1
+            if not 0 <= c < len(corners):
+                raise ScenarioError(f"{where}.corner = {blend.corner}: the path has {len(corners)} connection(s), "
+                                    f"numbered 1..{len(corners)} (1 = between segments 1 and 2)")
+            if corners[c][0] == "dwell":
+                raise ScenarioError(f"{where}: corner {blend.corner} is at a dwell, where the motion stops; remove "
+                                    "the blend")
+            if corners[c][0] == "zone" and blend.type != "g2":
+                raise ScenarioError(f"{where}: corner {blend.corner} joins a joint move; its zone is type = 'g2' "
+                                    "with tolerance = the zone [m]")
+            picked = [c]
+        value = blend.radius if blend.type == "circle" else blend.tolerance
+        for c in picked:
+            if c in chosen:
+                raise ScenarioError(f"{where}: connection {c + 1} is already blended by path.blends[{chosen[c]}]; "
+                                    "give one blend per corner")
+            chosen[c] = k
+            kind = corners[c]
+            if kind[0] == "run":
+                run_blends.setdefault(kind[1], {})[kind[2]] = (blend.type.value, value)
+            else:
+                zones[kind[1]] = value
     return run_blends, zones
 
 

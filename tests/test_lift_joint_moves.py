@@ -278,3 +278,13 @@ end = [0.5, 0.2, 0.5]
     left, right = path.evaluate(path.kinks[0], side="left"), path.evaluate(path.kinks[0], side="right")
     np.testing.assert_allclose(left[0], right[0], atol=1e-12)  # the same configuration on both sides
     np.testing.assert_allclose(fk(robot, right[0])[0], [0.5, 0.1, 0.5], atol=1e-12)
+
+
+def test_a_corner_blended_twice_is_an_error(home):
+    twice = ('[[path.blends]]\ncorner = "all"\ntype = "g2"\ntolerance = 0.01\n'
+             '[[path.blends]]\ncorner = 1\ntype = "g2"\ntolerance = 0.02\n')
+    with pytest.raises(ScenarioError, match=r"path.blends\[1\]: connection 1 is already blended by path.blends\[0\]"):
+        api.load_text(scenario(home, MIXED % np.asarray(home).tolist(), twice))
+    circle = '[[path.blends]]\ncorner = 1\ntype = "circle"\nradius = 0.01\n'
+    with pytest.raises(ScenarioError, match=r"path.blends\[0\]: corner 1 joins a joint move"):
+        api.load_text(scenario(home, MIXED % np.asarray(home).tolist(), circle))
