@@ -217,14 +217,15 @@ def _with_zone(robot: Robot, pieces: list, sharp: list, index: int, tol: float, 
         raise PathError(f"{where}: no joint move at this connection")
     size_a = min(tol / _tcp_rate(robot, a, theta_c, "left"), _cut(sharp[index], True), a.hi - a.lo - 1e-9)
     size_b = min(tol / _tcp_rate(robot, b, theta_c, "right"), _cut(sharp[index + 1], False), b.hi - b.lo - 1e-9)
-    chain = PiecewiseJointPath(n=robot.n, domain=(sharp[0].lo, sharp[-1].hi), pieces=tuple(sharp))
+    corner = PiecewiseJointPath(n=robot.n, domain=(sharp[index].lo, sharp[index + 1].hi),
+                                pieces=(sharp[index], sharp[index + 1]))  # the two sharp neighbours
     for _ in range(ZONE_SHRINKS):
         lo, hi = theta_c - size_a, theta_c + size_b
         start = a.path.evaluate(lo - a.shift)
         end = b.path.evaluate(hi - b.shift)
         blend = JointBlend.between(lo, hi, start, end, robot.joint_names)
         tcp = fk(robot, blend.evaluate(np.linspace(lo, hi, ZONE_SAMPLES))[0])[0]
-        sharp_tcp = fk(robot, chain.evaluate(np.linspace(lo, hi, 4 * ZONE_SAMPLES))[0])[0]
+        sharp_tcp = fk(robot, corner.evaluate(np.linspace(lo, hi, 4 * ZONE_SAMPLES))[0])[0]
         step = float(np.max(np.linalg.norm(np.diff(tcp, axis=0), axis=1)))  # the distance is 1-Lipschitz in p
         deviation = float(np.max(_polyline_distance(tcp, sharp_tcp))) + 0.5 * step
         q = blend.evaluate(np.linspace(lo, hi, ZONE_SAMPLES))[0]
