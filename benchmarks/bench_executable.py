@@ -110,7 +110,7 @@ def _never(summary: dict) -> str:
 def row(label: str, name: str, overrides: dict, loop: dict) -> list[str]:
     """One table row: the case planned (and its reserve searched) and run in the closed loop, then relaxed."""
     start = time.perf_counter()
-    setup = api.load(scenario_path(name), {**overrides, **loop})
+    setup = api.search(api.load(scenario_path(name), {**overrides, **loop}))
     result = api.plan_scenario(setup)
     s = api.simulation_summary(setup, result, api.simulate_scenario(setup, result))
     settings = dataclasses.replace(api.simulation_settings(setup), **RELAXED)

@@ -440,7 +440,7 @@ def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_:
     """
     from . import api
 
-    report = api.check_scenario(api.load(scenario, _overrides(set_)))
+    report = api.check_scenario(api.search(api.load(scenario, _overrides(set_))))
     notes = {"closed": "it ends where it starts; " + ("planned as a periodic cycle" if report["periodic"] else
                                                       "run once; plan.periodic = true plans the cycle")}
     _print_table(_summary_table(f"check {scenario}: OK", report, notes if report["closed"] else None))
@@ -471,7 +471,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     out = _out(_default_out(out, scenario, overrides))
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
-        setup = api.load(scenario, overrides)
+        setup = api.search(api.load(scenario, overrides))
         progress.update(task, advance=1, description="plan: time-optimal profile")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="plan: writing")
@@ -506,7 +506,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     out = _out(_default_out(out, scenario, overrides))
     with output_lock(out), _progress() as progress:
         task = progress.add_task("simulate: load", total=4)
-        setup = api.load(scenario, overrides)
+        setup = api.search(api.load(scenario, overrides))
         progress.update(task, advance=1, description="simulate: plan")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="simulate: closed loop")

@@ -6,9 +6,25 @@ user can change. The CLI prints ``str(error)`` on one or two lines and exits non
 
 from __future__ import annotations
 
+import copy
+from typing import Self
+
 
 class PathmotionError(Exception):
-    """Base class of every error pathmotion raises on purpose."""
+    """Base class of every error pathmotion raises on purpose.
+
+    ``where``: the place the message starts with (a scenario key such as ``path.blends[0] (corner 2)``),
+    None when the message names none; :meth:`in_context` sets it."""
+
+    where: str | None = None
+
+    def in_context(self, where: str) -> Self:
+        """A copy of this error (same type, same attributes) whose message starts with ``where``: the way to
+        add the caller's context without losing what the error carries."""
+        new = copy.copy(self)
+        new.args = (f"{where}: {self}",)
+        new.where = where
+        return new
 
 
 class ScenarioError(PathmotionError):
@@ -23,20 +39,16 @@ class UnreachableError(PathmotionError):
     """A pose or path point cannot be reached: out of reach, outside a joint range, or singular.
 
     ``index``: index of the first bad point of a batch (None for a single pose); ``reason``:
-    "reach", "joint_range", "singular" or "not_converged" (None when not given).
+    "reach", "joint_range", "singular" or "not_converged" (None when not given); ``position``: the TCP
+    position (x, y, z) [m] of the path point that failed (None when not known).
     """
 
-    def __init__(self, message: str, *, index: int | None = None, reason: str | None = None):
+    def __init__(self, message: str, *, index: int | None = None, reason: str | None = None,
+                 position: tuple[float, float, float] | None = None):
         super().__init__(message)
         self.index = index
         self.reason = reason
-
-    def __reduce__(self):
-        return (_rebuild_unreachable, (str(self), self.index, self.reason))
-
-
-def _rebuild_unreachable(message, index, reason):
-    return UnreachableError(message, index=index, reason=reason)
+        self.position = None if position is None else tuple(float(x) for x in position)
 
 
 class PathError(PathmotionError):

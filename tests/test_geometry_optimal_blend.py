@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, example, given, reject, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
-from pathmotion.api import load_text, plan_summary, plan_scenario
+from pathmotion.api import load_text, plan_summary, plan_scenario, search
 from pathmotion.lift.constraint import lift
 from pathmotion.errors import PathError, ScenarioError, UnreachableError
 from pathmotion.geometry import BezierSegment, FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend
@@ -848,8 +848,8 @@ def test_optimal_blend_scenario_beats_g2_with_a_certified_deviation():
     """The same turn as a task path with corner = "all" and as a list of waypoints with blend = "optimal": the
     same search, so the same blend; faster than the G2 blend, within the tolerance on a dense projection."""
     g2 = load_text(SCENARIO % ("g2", "tolerance = 0.003"))
-    opt = load_text(SCENARIO % ("optimal", "tolerance = 0.003"))
-    waypoints = load_text(WAYPOINTS)
+    opt = search(load_text(SCENARIO % ("optimal", "tolerance = 0.003")))
+    waypoints = search(load_text(WAYPOINTS))
     t_g2, result = plan_scenario(g2).profile.duration, plan_scenario(opt)
     t_opt = result.profile.duration
     summary = plan_summary(opt, result)

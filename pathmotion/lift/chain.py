@@ -85,7 +85,7 @@ def _joint_end(robot: Robot, item: JointMove, q0: np.ndarray) -> np.ndarray:
         try:
             q = ik(robot, position, rotation, q0)
         except UnreachableError as exc:
-            raise UnreachableError(f"{item.where}: {exc}", reason=exc.reason) from None
+            raise exc.in_context(item.where) from exc
     return check_joint_target(robot, q, item.where)
 
 
@@ -108,10 +108,7 @@ def _task_piece(robot: Robot, item: TaskRun, q0, theta: float, follows: bool) ->
     try:
         path = lift(robot, item.path, q0, original=item.original)
     except PathmotionError as exc:  # its theta and segment number count from the run's start
-        message = f"{item.where} (theta and segment counted from its start): {exc}"
-        if isinstance(exc, UnreachableError):
-            raise UnreachableError(message, reason=exc.reason) from None
-        raise type(exc)(message) from None
+        raise exc.in_context(f"{item.where} (theta and segment counted from its start)") from exc
     if follows:  # it must start where the chain is
         start = path.evaluate(0.0)[0]
         if np.max(np.abs(start - q0)) > SAME_CONFIGURATION:

@@ -73,7 +73,7 @@ def ik_robconf(robot: Robot, position, rotation, robconf, where: str = "target")
     try:
         solutions = ik_all(robot, position, rotation)
     except UnreachableError as exc:
-        raise UnreachableError(f"{where}: {exc}", reason=exc.reason) from None
+        raise exc.in_context(where) from exc
     for q in solutions:
         if has_robconf(robot, q, conf):
             return q

@@ -39,7 +39,8 @@ from .end_rules import FLAT_SPEED2, Sample, end_rules
 from .metrics import (Failure, SimulationResult, polyline_distance_local, cornering_deviation, line_window,
                       original_path_deviation, planned_tcp_line, polish_projection, tcp_path_deviation)
 from .monitor import monitor_state
-from .plant import PLANT_NAMES, make_plant, saturate
+from .plant import PLANT_NAMES, make_plant
+from .saturation import saturate
 from .realism import Realism, Sensor
 
 log = logging.getLogger(__name__)
