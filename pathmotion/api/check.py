@@ -10,6 +10,7 @@ import numpy as np
 from .. import defaults
 from ..errors import InfeasibleError
 from ..io import schema
+from ..lift.joint_move import PiecewiseJointPath
 from ..planning.reduced import reduced_dynamics
 from ..planning.trajectory import sample_times
 from ..simulation import prepare_loop
@@ -24,7 +25,10 @@ STILL_PATH_SPEED = 1e-12
 
 def path_is_closed(setup: Setup) -> bool:
     """Whether the path ends where it starts (a full circle does), whether or not it is planned as a
-    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion)."""
+    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion). A chain with joint moves
+    or dwells is always an open motion."""
+    if isinstance(setup.path, PiecewiseJointPath):
+        return False
     if setup.task_path is not None:
         return bool(setup.task_path.closed)
     q = setup.path.evaluate(np.array(setup.path.domain, float))[0]
