@@ -135,7 +135,7 @@ def test_the_thesis_max_connection_fails_its_plan_and_the_chain_variant_runs():
     acceleration ratio is bounded, not the jump's unbounded one) and tracks."""
     setup, result = planned("circle_vertical")
     failures = api.plan_failures(result, setup)
-    assert any("path speed jumps" in f for f in failures)
+    assert any("path speed jumps" in f.message for f in failures)
     assert "fails on purpose" in setup.scenario.description and "circle_vertical_chain" in setup.scenario.description
     chain_setup, chain = planned("circle_vertical_chain")
     assert api.plan_failures(chain, chain_setup) == [] and chain.ratios.within()

@@ -73,7 +73,8 @@ class SimulationResult:
     within the path tolerance (open; the plan's own time inside that ball credited) or the mean period
     (closed), None if not reached or tracking failed; settle_time [s]: when it entered that ball for good
     (open paths ending at rest). path_tolerance [m]: the tolerance the verdict used. identified: what the
-    controller's payload identification held at the end (:meth:`.PayloadEstimator.identified`), or None.
+    controller's payload identification held at the end (:meth:`.PayloadEstimator.identified`), or None. events:
+    one dict per re-timing event (simulation/events.py: kind, time, reaction time, stop distance).
     """
 
     controller: str
@@ -100,6 +101,7 @@ class SimulationResult:
     path_tolerance: float | None = None
     cornering_deviation: np.ndarray | None = None
     identified: dict | None = None
+    events: tuple = ()
     substeps: int | None = None
     substeps_note: str | None = None
     stopped_at_failure: bool = False
@@ -164,6 +166,7 @@ class SimulationResult:
             **_identified_payload(self.identified),
             "identified_viscous_friction": None if self.identified is None else self.identified["viscous_friction"],
             "identified_coulomb_friction": None if self.identified is None else self.identified["coulomb_friction"],
+            "events": [dict(e) for e in self.events] or None,
         }
 
 
