@@ -331,7 +331,7 @@ def plan_settings(scenario: Scenario, torque_reserve: float | None = None) -> Pl
         lim = lim.model_copy(update={"torque_reserve": 0.0 if torque_reserve is None else float(torque_reserve)})
     periodic = p.periodic
     return PlanSettings(
-        grid_points=p.grid_points, tolerance=p.tolerance, limits=limit_choices(lim),
+        grid_points=p.grid_points, duration_tolerance=p.duration_tolerance, limits=limit_choices(lim),
         start=None if periodic else p.start, end=None if periodic else p.end,
         periodic=periodic, connections=p.connections, verify=p.verify, baselines=True,
     )

@@ -12,8 +12,10 @@ from ..control import OrbitalGains, TrackingGains
 from ..errors import ScenarioError
 from ..io import exports, schema
 from ..io.atomic import write_json, write_text
-from ..planning import PlanResult
+from ..planning import PlanResult, Retimer
 from ..simulation import Realism, SimulationSettings, simulate
+from ..simulation.events import Event
+from .failures import FailureKind, ResultFailure
 from .plan import plan_summary, reserve_summary, write_report_data
 from .setup import Setup
 
@@ -33,7 +35,8 @@ def simulation_settings(setup: Setup) -> SimulationSettings:
     kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
                   path_tolerance=sim.path_tolerance, joint_tolerance=sim.joint_tolerance,
                   saturation_limit=sim.saturation_limit, laps=sim.laps, plant=sim.plant,
-                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload)
+                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload,
+                  events=tuple(Event(e.t, e.override, e.stop, e.resume) for e in sim.events))
     if sim.gains:
         cls, name = (OrbitalGains, "orbital_gains") if sim.controller == "orbital" else (
             TrackingGains, "computed_torque_gains" if sim.controller == "computed_torque" else "pd_gains")
@@ -49,21 +52,27 @@ def simulation_settings(setup: Setup) -> SimulationSettings:
 
 def simulate_scenario(setup: Setup, result: PlanResult):
     """Closed-loop simulation of the planned motion with the scenario's controller and plant (the reserve
-    search's run when ``result`` is the plan it chose)."""
+    search's run when ``result`` is the plan it chose; with simulate.events, the plan re-timed at each)."""
     run = setup.reserve_run
     if run is not None and result is run[0] and run[1] is not None:
         return run[1]
     settings = simulation_settings(setup)
-    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
+    retimer = Retimer(result) if settings.events else None
+    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings,
+                    retimer=retimer)
 
 
-def tracking_failure(sim_summary: dict) -> str:
-    """Why a simulation summary's closed loop failed, "tracking failed: <its failure message>" ("" when it
-    tracked): the line that joins a simulate run's failures and the reserve search's reasons."""
+def tracking_failure(sim_summary: dict) -> ResultFailure | None:
+    """Why a simulation summary's closed loop failed (message "tracking failed: <its failure message>", where
+    "t = ... s, theta = ..."), None when it tracked: joins a simulate run's failures and is the reserve
+    search's reason."""
     if sim_summary.get(schema.TRACKING_OK.key, True):
-        return ""
+        return None
     failure = sim_summary.get(schema.FAILURE.key)
-    return "tracking failed" + (f": {failure['message']}" if failure else "")
+    if not failure:
+        return ResultFailure(FailureKind.TRACKING, "tracking failed")
+    return ResultFailure(FailureKind.TRACKING, f"tracking failed: {failure['message']}",
+                         f"t = {failure['t']:.4g} s, theta = {failure['theta']:.4g}")
 
 
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:
