@@ -49,6 +49,7 @@ import functools
 import hashlib
 import json
 import logging
+import os
 import time
 import tomllib
 from dataclasses import dataclass
@@ -621,8 +622,9 @@ def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> di
     torque = bool(spec.get("torque", False))
     summary.update(angle_deg=given["angle_deg"], tolerance_m=given["tolerance_m"], torque=torque)
     try:
-        robot = _spec_robot(spec)
-        atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]), spec.get("meshes"),
+        robot = _spec_robot(spec, Path(base_dir))
+        cache = Path(base_dir) / spec["cache"]
+        atlas_row(robot, given["angle_deg"], given["tolerance_m"], cache, spec.get("meshes"),
                   row=summary, closed_loop=spec.get("closed_loop", True), torque=torque,
                   torque_reserve=spec.get("torque_reserve"), references=spec.get("references", True),
                   bounds=spec.get("bounds", True))
@@ -633,15 +635,15 @@ def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> di
     return {"summary": summary, "error": error, "trace": None, "wall_time_s": time.perf_counter() - t0}
 
 
-def _spec_robot(spec: dict):
-    """The atlas spec's robot: the built-in ``robot``, or the ``robot_file`` (robot_file.load_robot_file) when it
-    still describes the robot the atlas started with (``robot_digest``)."""
+def _spec_robot(spec: dict, base_dir: Path):
+    """The atlas spec's robot: the built-in ``robot``, or the ``robot_file`` (robot_file.load_robot_file; relative
+    to the spec's folder ``base_dir``) when it still describes the robot the atlas started with (``robot_digest``)."""
     from ..robot import load_robot
     from .robot_file import load_robot_file, robot_digest
 
     if "robot_file" not in spec:
         return load_robot(spec["robot"])
-    robot = load_robot_file(spec["robot_file"])
+    robot = load_robot_file(base_dir / spec["robot_file"])
     if robot_digest(robot) != spec["robot_digest"]:
         raise ScenarioError(f"robot file {spec['robot_file']} (or a file it names) changed since this atlas started; "
                             "run the changed robot into another --out folder, or restore the file")
@@ -679,18 +681,19 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     if robot_file is None:
         arm = f'robot = "{robot}"\n'
     else:
-        robot_file = Path(robot_file).absolute()
         digest = robot_digest(load_robot_file(robot_file))
-        arm = f'robot_file = {json.dumps(str(robot_file))}\nrobot_digest = "{digest}"\n'
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    if robot_file is not None:  # relative to the spec's folder, so the folder can move with its robot file
+        where = os.path.relpath(Path(robot_file).resolve(), out.resolve())
+        arm = f'robot_file = {json.dumps(where)}\nrobot_digest = "{digest}"\n'
     spec = out / "atlas_spec.toml"
     write_text(spec, f'version = {ROW_VERSION}\n{arm}meshes = {meshes}\nclosed_loop = '
                      f'{str(closed_loop).lower()}\ntorque = {str(torque).lower()}\n'
                      + (f"torque_reserve = {reserve!r}\n" if torque else "")
                      + ("" if references else "references = false\n")
                      + ("" if bounds else "bounds = false\n")
-                     + f'cache = "{(out / "optimum_cache").resolve()}"\n')
+                     + 'cache = "optimum_cache"\n')  # relative to the spec's folder
     points, _ = run_sweep(spec, {"angle_deg": angles, "tolerance_m": tolerances}, out / "points_sweep",
                           workers=workers, scheduler=scheduler, on_result=on_result, point_fn=atlas_point)
     finished = load_finished(out / "points_sweep")
