@@ -45,7 +45,8 @@ def demo(table: Table) -> None:
                       joint_dev_rad=float(f"{r[schema.MAX_JOINT_DEVIATION.key]:.2g}"),
                       sharp_mm=_mm(r.get(schema.MAX_SHARP_DEVIATION.key)),
                       result="tracks" if r[schema.TRACKING_OK.key] else
-                      f"fails: {fail.get('reason', '')} {_mm(fail.get('value'))} mm".strip())
+                      f"fails: leaves the path tolerance, {_mm(fail.get('value'))} mm off"
+                      if fail.get("reason") == "path_tolerance" else f"fails: {fail.get('reason')}")
 
 
 def _plan_program(mod: str, blend: str, tmp: Path) -> tuple[dict, float, float]:

@@ -17,6 +17,8 @@ from pathlib import Path
 
 from pathmotion.io.atomic import write_text
 
+ROOT = Path(__file__).resolve().parent.parent
+
 
 def cpu_model() -> str:
     """The CPU's model name from /proc/cpuinfo (else platform.processor())."""
@@ -42,7 +44,8 @@ class Table:
 
     def __init__(self, title: str, columns: list[tuple[str, str]], command: str | None = None):
         self.title, self.columns, self.rows, self.notes = title, columns, [], []
-        self.command = command or "python " + " ".join(shlex.quote(a) for a in sys.argv)
+        script = os.path.relpath(Path(sys.argv[0]).resolve(), ROOT)
+        self.command = command or "python " + " ".join(shlex.quote(a) for a in [script, *sys.argv[1:]])
         self.load_start = load_average()
         self.started = datetime.datetime.now(datetime.timezone.utc)
 

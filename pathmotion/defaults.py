@@ -332,5 +332,5 @@ THIRD_ORDER_TOLERANCE = 1e-4
 THIRD_ORDER_ITERATIONS = 60
 #: Planner, third-order limits: uniform grid points of the default grid (grid_points unset), plus the
 #: usual grading towards the ends and connections. The smooth profile's duration on it is within 0.62 %
-#: of the converged optimum on issue 12's circle cases (benchmarks/bench_third_order.py) [-].
+#: of the converged optimum on the circle cases of benchmarks/bench_third_order.py [-].
 THIRD_ORDER_GRID_POINTS = 100

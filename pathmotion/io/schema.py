@@ -105,7 +105,7 @@ IDENTIFIED_PAYLOAD_COM = _k("identified_payload_com_m", "identified payload's ce
 IDENTIFIED_VISCOUS = _k("identified_viscous_friction", "identified viscous friction per joint", "N m s/rad")
 IDENTIFIED_COULOMB = _k("identified_coulomb_friction", "identified Coulomb friction per joint", "N m")
 
-#: Tables written before issue 13: the closed loop's time under its old name (read, never written).
+#: The closed loop's time under the name older tables use (read, never written).
 LEGACY_SIMULATED_DURATION = _k("simulated_duration_s", "simulated duration (older tables)", "s", short="simulated")
 
 # ------------------------------------------------------------------------------------ study

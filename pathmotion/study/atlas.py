@@ -1,10 +1,10 @@
-"""The corner atlas (issue 17): for each turn angle and tolerance, the duration of every way to take
+"""The corner atlas: for each turn angle and tolerance, the duration of every way to take
 the corner, against the physical limit.
 
 Geometry: two lines of ATLAS_SEGMENT_LENGTH in the horizontal plane z = ATLAS_HEIGHT, the first along
 +x ending at ATLAS_CORNER, the second turning left by ``angle_deg`` (0 = straight on, 180 = back).
-The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the issue's
-reference), and with ``torque`` its joint torque limits too, for every motion and both references
+The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the
+reference turn of benchmarks/issue_turn.py), and with ``torque`` its joint torque limits too, for every motion and both references
 (the ``torque`` column; the optima's cache key then holds the torque limits, payload, armature and
 gravity). ``torque_reserve`` r (the ``torque_reserve`` column, the scenario key ``[limits] torque_reserve``)
 keeps r tau_max of every joint free for feedback: every motion is planned, and both references are solved,
@@ -363,7 +363,7 @@ def closed_loop_check(robot, path, profile, tolerance: float) -> dict:
 
 
 #: A reference may exceed a motion feasible in its tube (the stop, the optimal blend: planner durations, good to
-#: ~0.05 %) by its own convergence error plus this fraction of that motion's duration [-] (issue 17's 0.2 %).
+#: ~0.05 %) by its own convergence error plus this fraction of that motion's duration [-] (0.2 %).
 FEASIBLE_MARGIN = 0.002
 
 

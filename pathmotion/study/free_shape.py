@@ -1,5 +1,5 @@
 """The physical limit of cornering: the minimum-time motion of the whole arm whose TCP stays within
-``delta`` of a sharp polyline (a reference, not a planner; issue 17).
+``delta`` of a sharp polyline (a reference, not a planner).
 
 Formulation (direct multiple shooting in time with an exact integrator). The motion is split into
 phases; phase i has its own duration T_i (free, > 0), N_i intervals of length h_i = T_i / N_i and

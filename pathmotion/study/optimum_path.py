@@ -1,4 +1,4 @@
-"""The free-shape optimum's own TCP path as a task path, to plan along (issue 17).
+"""The free-shape optimum's own TCP path as a task path, to plan along.
 
 A free-shape solution (:mod:`.free_shape`) moves the joints with a piecewise-constant acceleration
 u_k on each interval [t_k, t_k+1], so its TCP path p(q(t)) is smooth on each interval and its
