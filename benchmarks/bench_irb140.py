@@ -7,6 +7,8 @@ Parts (each writes one JSON table with --json PATH, read by benchmarks/results.p
 - cycle: ABB's standard cycle as RAPID programs (tests/data/abb_cycle*.mod: fine points, z1, z10, z50)
   imported with the symmetric G2 blend at each zone and planned: time-optimal duration against the
   program's constant-speed estimate (rapid_estimate_s).
+- study: the corner study `make demo` runs after the scenarios (study.corner_study with its defaults): the stop,
+  the corner at full speed, transition circles, slowed blends, G2 blends and circles of the same deviation.
 - optimal: the z10 program imported with `--blend optimal` and planned; its duration against the
   symmetric blend, and the CPU and wall time of the whole plan (search included).
 Run: python benchmarks/bench_irb140.py demo --json benchmarks/results/irb140_demo.json
@@ -49,6 +51,22 @@ def demo(table: Table) -> None:
                       if fail.get("reason") == "path_tolerance" else f"fails: {fail.get('reason')}")
 
 
+def study(table: Table) -> None:
+    from pathmotion.study import corner_study
+
+    with tempfile.TemporaryDirectory() as tmp:
+        result = corner_study(Path(tmp) / "corner_study", workers=2)
+    for r in result.rows:
+        cyc, planned = r.get(schema.CYCLE_TIME.key), r.get(schema.PLANNED_DURATION.key)
+        value = r.get("value")
+        table.add(case=r["case"], parameter=r["parameter"] + ("" if value is None else f" = {value:.4g}"),
+                  cycle_s=None if cyc is None else round(cyc, 4),
+                  planned_s=None if planned is None else round(planned, 4),
+                  gain=None if r.get("gain_vs_stop") is None else f"{100 * r['gain_vs_stop']:.1f} %",
+                  sharp_mm=_mm(r.get(schema.MAX_SHARP_DEVIATION.key)), accuracy_mm=_mm(r.get(schema.PATH_ACCURACY.key)),
+                  tracks="yes" if r.get(schema.TRACKING_OK.key) else "no")
+
+
 def _plan_program(mod: str, blend: str, tmp: Path) -> tuple[dict, float, float]:
     prog = read_rapid(ROOT / "tests" / "data" / mod)
     scenario = tmp / f"{Path(mod).stem}_{blend}.toml"
@@ -83,6 +101,10 @@ PARTS = {"demo": (demo, "The shipped scenarios of `make demo` (orbital controlle
          "cycle": (cycle, "ABB's standard cycle: time-optimal against the program's constant-speed estimate",
                    [("program", "program"), ("optimal_s", "time-optimal [s]"),
                     ("rapid_estimate_s", "constant speed v1000, ideal [s]"), ("command", "command")]),
+         "study": (study, "The corner study of `make demo` (IRB140, the shipped corner, orbital controller at 4 ms)",
+                   [("case", "case"), ("parameter", "parameter"), ("cycle_s", "cycle time [s]"),
+                    ("planned_s", "planned [s]"), ("gain", "gain vs stop"), ("sharp_mm", "from the sharp path [mm]"),
+                    ("accuracy_mm", "path accuracy [mm]"), ("tracks", "tracks")]),
          "optimal": (optimal, "The z10 cycle with symmetric G2 blends and with optimal blends (`--blend optimal`)",
                      [("blend", "blend"), ("duration_s", "duration [s]"), ("wall_s", "plan wall time [s]"),
                       ("cpu_s", "plan CPU time [s]")])}

@@ -276,8 +276,8 @@ BLEND_DETECTION_DISTANCE = 1e-7
 BLEND_PIECE_MIN_POINTS = 50
 #: Corner atlas (`pathmotion corners --meshes`): the free-shape references' meshes (total intervals, each twice
 #: the last). Not free_shape.MESHES' 200 intervals, which cost minutes per solve (30 deg / 1 mm's whole tube hit
-#: IPOPT's iteration cap there from two starts and took 7 minutes); docs/study.md, "Four meshes", solves every
-#: row's corner-confined reference on all four.
+#: IPOPT's iteration cap there from two starts and took 7 minutes); benchmarks/refine_references.py solves
+#: the references on more meshes.
 ATLAS_MESHES = (25, 50, 100)
 #: Study score: seconds of cycle time one metre of mean TCP deviation from the sharp path costs [s/m]
 #: (100 s/m: 1 mm of mean deviation weighs as much as 0.1 s of cycle time).

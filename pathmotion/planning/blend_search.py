@@ -124,7 +124,7 @@ RESTART_RADIUS_SHARE = 1.0
 #: scaled to [-1, 1] and pycma's seed (the search is deterministic). At 60 deg / 10 mm, from the stages' blend
 #: (0.61355 s), 3000 plans ended at 0.61092-0.61167 s in two runs, 10000 at 0.61027 s; step 0.3 at 0.61065 s. Over
 #: the atlas' 20 rows the gain at 2500 plans is 0.00-0.09 % short of the gain at 3000, which would take the atlas
-#: past 10 minutes on 2 cores (docs/study.md, "The global stage").
+#: past 10 minutes on 2 cores (benchmarks/atlas_rows.py).
 GLOBAL_PLANS = 2500
 GLOBAL_SIGMA = 0.15
 GLOBAL_SEED = 1

@@ -20,7 +20,7 @@ What it is for: planning along this path with pathmotion's planner must give (up
 grid and the orientation, which the NLP fixes only at its nodes and midpoints) the solution's own
 duration or less, since the solution's timing is one feasible timing of the path. That cross-checks
 the two algorithms (tests), and measures where a blend family loses time
-(benchmarks/replan_optimum.py, docs/study.md "Where the blend loses time").
+(benchmarks/replan_optimum.py; docs/study.md, "The optimal blend's search").
 """
 
 from __future__ import annotations
