@@ -306,7 +306,8 @@ def _default_out(out: Optional[Path], scenario: Path, overrides: dict) -> Path:
 
 
 OutOpt = typer.Option(None, "--out", help="output folder (default: out/<scenario name>)")
-SetOpt = typer.Option(None, "--set", metavar="KEY=VALUE", help="override a scenario key, e.g. --set plan.grid_points=2000")
+SetOpt = typer.Option(None, "--set", metavar="KEY=VALUE",
+                      help="override a scenario key, e.g. --set plan.grid_points=2000")
 VerifyOpt = typer.Option(None, "--verify", help="certified (default: a certified bound per grid interval) | dense "
                          "(the 0.1 ms resample) | off; sets plan.verify")
 ForceOpt = typer.Option(False, "--force", help="write the exports (ROS 2, EGM, RAPID) even of a failed plan, "

@@ -26,7 +26,7 @@ from ..io.atomic import write_text
 from ..io.exports import arm_points_from
 from . import interactive as fig
 from .discovery import ResultFolder, discover
-from .tables import joint_columns, read_columns, read_json, read_rows
+from .tables import RANGE_LABEL, in_range, joint_columns, read_columns, read_json, read_rows
 
 PLOTLY_CONFIG = {"displaylogo": False, "responsive": True,
                  "toImageButtonOptions": {"format": "png", "scale": 2}}
@@ -184,8 +184,7 @@ def _limit_panels(traj: dict[str, np.ndarray], limits: dict) -> list[tuple[str, 
     if q.shape[1] != n:
         raise PathmotionError(f"report: trajectory.csv has {q.shape[1]} joints but {LIMITS_FILE} next to it has {n}; "
                               "re-run the plan")
-    panels = [("joint position in its range: (q − centre) / half range", (q - 0.5 * (lim["upper"] + lim["lower"]))
-               / (0.5 * (lim["upper"] - lim["lower"])), None),
+    panels = [(RANGE_LABEL, in_range(q, lim["lower"], lim["upper"]), None),
               ("joint velocity / limit", qd / lim["velocity"], scale.get("velocity"))]
     if qdd is not None and lim["acceleration"] is not None:
         panels.append(("joint acceleration / limit", qdd / lim["acceleration"], scale.get("acceleration")))

@@ -3,8 +3,8 @@ the corner, against the physical limit.
 
 Geometry: two lines of ATLAS_SEGMENT_LENGTH in the horizontal plane z = ATLAS_HEIGHT, the first along
 +x ending at ATLAS_CORNER, the second turning left by ``angle_deg`` (0 = straight on, 180 = back).
-The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the
-reference turn of benchmarks/issue_turn.py), and with ``torque`` its joint torque limits too, for every motion and both references
+The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the reference turn of
+benchmarks/issue_turn.py), and with ``torque`` its joint torque limits too, for every motion and both references
 (the ``torque`` column; the optima's cache key then holds the torque limits, payload, armature and
 gravity). ``torque_reserve`` r (the ``torque_reserve`` column, the scenario key ``[limits] torque_reserve``)
 keeps r tau_max of every joint free for feedback: every motion is planned, and both references are solved,
@@ -709,13 +709,15 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     return CornerAtlas(rows, out, written)
 
 
-_CURVES = (("stop_s", "stop at the corner", "k--"), ("industrial_zone_s", "constant speed, parabolic zone", "x:"),
+_CURVES = (("industrial_zone_s", "constant speed, parabolic zone", "x:"),
            ("circle_s", "transition circle", "o-"), ("g2_s", "G2 blend", "s-"), ("optimal_s", "optimal blend", "D-"),
            ("corner_optimum_s", "corner-confined optimum", "^-."), ("free_shape_optimum_s", "whole-tube optimum", "v-."))
 
 
 def tdelta_figure(rows: list[dict], path: Path) -> Path:
-    """T(delta): duration against tolerance, one panel per angle, every method."""
+    """T(delta): duration against tolerance, one panel per angle, every method; the stop, which does not depend on
+    the tolerance, as a horizontal line across the panel. The legend sits right of the last panel."""
+    from ..report.style import legend_outside
     from .figures import MM, _plt, _save
 
     plt = _plt()
@@ -723,6 +725,9 @@ def tdelta_figure(rows: list[dict], path: Path) -> Path:
     f, axes = plt.subplots(1, len(angles), figsize=(3.6 * len(angles), 3.8), squeeze=False)
     for ax, a in zip(axes[0], angles):
         mine = sorted((r for r in rows if r["angle_deg"] == a), key=lambda r: r["tolerance_m"])
+        stops = [r["stop_s"] for r in mine if r.get("stop_s") is not None]
+        if stops:
+            ax.axhline(stops[0], color="k", ls="--", lw=1, label="stop at the corner")
         for key, label, style in _CURVES:
             pts = [(r["tolerance_m"] * MM, r[key]) for r in mine if r.get(key) is not None]
             if pts:
@@ -732,8 +737,8 @@ def tdelta_figure(rows: list[dict], path: Path) -> Path:
         ax.set_xlabel("tolerance delta [mm]")
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("duration, rest to rest [s]")
-    axes[0][-1].legend(fontsize=7)
     f.tight_layout()
+    legend_outside(axes[0][-1], fontsize=7)
     return _save(f, path)
 
 
