@@ -30,8 +30,8 @@ from .errors import PathmotionError, ScenarioError, printable
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="rich",
                   help="Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation.")
-console = Console(stderr=False)
-err_console = Console(stderr=True)
+console = Console(stderr=False, soft_wrap=True)  # a message line (a command to copy) is never wrapped
+err_console = Console(stderr=True, soft_wrap=True)
 _option_type = typer.core.TyperOption.display_type_rich
 
 
@@ -638,9 +638,10 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
                              scheduler=scheduler, on_result=on_result, figures=figures, torque=torque,
                              torque_reserve=reserve if torque else None, robot_file=robot, bounds=bounds,
                              references=references)
-    failed = sum(1 for r in atlas.rows if r.get("error") or r.get("status") != "ok")
-    console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum "
-                  f"-> {escape(str(out / 'corners.csv'))}")
+    failed = sum(1 for r in atlas.rows if r.get("error") or any(
+        part != "ok" and "(references off)" not in part for part in (r.get("status") or "ok").split("; ")))
+    console.print(f"{len(atlas.rows)} rows, {failed} with an error, an unconverged optimum or a failed closed-loop "
+                  f"check -> {escape(str(out / 'corners.csv'))}")
 
 
 @app.command()
