@@ -416,7 +416,7 @@ def reserve_summary(setup: Setup) -> dict:
 
 
 def plan_summary(setup: Setup, result: PlanResult) -> dict:
-    """The contract keys of ``summary.json`` (issue 4) plus context."""
+    """The contract keys of ``summary.json`` plus context."""
     r = result.ratios
     b = result.baselines
     out = {

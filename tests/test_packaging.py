@@ -73,3 +73,14 @@ def test_constraints_pin_every_requirement_within_its_range():
         assert req.specifier.contains(pins[name]), f"constraints.txt pins {req.name} {pins[name]}, pyproject wants {req}"
     install = [line for line in (ROOT / "Makefile").read_text().splitlines() if "pip install" in line and "-e" in line]
     assert install and all("-c constraints.txt" in line for line in install), install
+
+
+def test_code_and_docs_carry_no_history():
+    """Code and docs describe the code as it is: no issue or session numbers (the history is in git)."""
+    import re
+
+    marker = re.compile(r"\b(issue|session)s? #?\d+|\(issue\b|\bissue \d+'s\b", re.I)
+    texts = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "pathmotion").rglob("*.py"))]
+    for path in texts:
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            assert not marker.search(line), f"{path.relative_to(ROOT)}:{n}: {line.strip()}"
