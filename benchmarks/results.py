@@ -38,7 +38,7 @@ def render(doc: dict, source: str) -> str:
     m = doc["machine"]
     lines = [f"## {doc['title']}", "", "    " + doc["command"], "",
              f"{doc['date']}; {m['cpu']}, {m['cores']} cores, load average {m['load_start']} at the start, "
-             f"{m['load_end']} at the end (`{source}`).", ""]
+             f"{m['load_end']} at the end (table: `{source}`).", ""]
     cols = doc["columns"]
     lines.append("| " + " | ".join(c["heading"] for c in cols) + " |")
     lines.append("|" + "---|" * len(cols))
@@ -48,14 +48,15 @@ def render(doc: dict, source: str) -> str:
     return "\n".join(lines)
 
 
-def page(folder: Path, root: Path) -> str:
+def page(folder: Path) -> str:
+    """The whole page from the JSON tables in ``folder`` (each table names its file there)."""
     files = sorted(folder.glob("*.json"), key=lambda f: (ORDER.index(f.stem) if f.stem in ORDER else len(ORDER),
                                                         f.name))
     if not files:
         raise SystemExit(f"no JSON tables under {folder}: run a benchmark with --json first")
     parts = [HEADER]
     for f in files:
-        parts.append(render(json.loads(f.read_text()), os.path.relpath(f, root)))
+        parts.append(render(json.loads(f.read_text()), f.name))
     return "\n".join(parts).rstrip() + "\n"
 
 
@@ -64,7 +65,7 @@ def main() -> None:
     ap.add_argument("--results", type=Path, default=HERE / "results", help="folder of JSON tables")
     ap.add_argument("--out", type=Path, default=HERE.parent / "docs" / "results.md", help="page to write")
     args = ap.parse_args()
-    text = page(args.results, HERE.parent)
+    text = page(args.results)
     tmp = args.out.with_name(args.out.name + ".tmp")
     tmp.write_text(text)
     os.replace(tmp, args.out)  # atomic: an interrupted run leaves the previous page
