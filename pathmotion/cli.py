@@ -604,8 +604,8 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
             bounds: bool = typer.Option(True, help="also bound the corner-confined optimum from above by a motion that "
                                                    "holds the tube on a dense resample (corner_bound_s; one to four "
                                                    "more NLPs per row, cached)"),
-            references: bool = typer.Option(True, help="solve the free-shape references (CasADi NLPs, about 20 min "
-                                                        "per row uncached); --no-references: the planned motions and "
+            references: bool = typer.Option(True, help="solve the free-shape references (CasADi NLPs, tens of "
+                                                        "minutes per row uncached); --no-references: the planned motions and "
                                                         "their closed-loop check only, minutes per row, no CasADi")):
     """The corner atlas: every way to take a corner (stop, zone, circle, G2, optimal blend) against
     the free-shape optimum, per turn angle and tolerance; writes corners.csv. The references need CasADi
