@@ -399,7 +399,7 @@ def with_blends(path: TaskPath, blends: Mapping[int, tuple[str, float]],
         except PathError as exc:
             if names is None or k not in names:
                 raise
-            raise PathError(f"{names[k]}: {exc}") from None
+            raise exc.in_context(names[k]) from exc
     return out
 
 

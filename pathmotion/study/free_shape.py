@@ -72,6 +72,8 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from ..errors import PathError, PathmotionError
+from .symbolic import casadi_module, rodrigues
+from .symbolic_dynamics import inverse_dynamics_function
 
 log = logging.getLogger(__name__)
 
@@ -140,14 +142,6 @@ SPAN_ROUNDING = 1e-9
 NORM_SMOOTHING = 0.3
 
 
-def _casadi():
-    try:
-        import casadi
-    except ImportError:  # pragma: no cover - depends on the environment
-        raise PathmotionError('the free-shape optimum needs CasADi: pip install "pathmotion[optimal]"') from None
-    return casadi
-
-
 # ----------------------------------------------------------------------------------- kinematics
 def _axis(joint) -> np.ndarray:
     """Unit axis (3,) of a revolute joint; PathmotionError for any other joint type."""
@@ -160,17 +154,10 @@ def _axis(joint) -> np.ndarray:
     return motion[1]
 
 
-def _rodrigues(ca, axis: np.ndarray, angle):
-    """Rotation about the unit ``axis`` by ``angle`` (CasADi expression), (3, 3)."""
-    k = ca.DM(axis)
-    K = ca.skew(k)
-    return ca.DM.eye(3) + ca.sin(angle) * K + (1 - ca.cos(angle)) * (K @ K)
-
-
 def tcp_function(robot, frame: str | int | None = None):
     """CasADi Function q (n,) -> (p (3,), R (3, 3)) of ``frame`` (default TCP) in the base frame,
     built from the Pinocchio model's joint placements and axes (a chain of revolute joints)."""
-    ca = _casadi()
+    ca = casadi_module()
     model = robot.model
     fid = robot.frame_id(frame)
     q = ca.SX.sym("q", robot.n)
@@ -183,7 +170,7 @@ def tcp_function(robot, frame: str | int | None = None):
         placement = model.jointPlacements[i]
         Rj = R0 @ ca.DM(placement.rotation)
         pj = p0 + R0 @ ca.DM(placement.translation)
-        poses[i] = (Rj @ _rodrigues(ca, _axis(model.joints[i]), q[model.joints[i].idx_q]), pj)
+        poses[i] = (Rj @ rodrigues(ca, _axis(model.joints[i]), q[model.joints[i].idx_q]), pj)
     frm = model.frames[fid]
     parent = frm.parentJoint if hasattr(frm, "parentJoint") else frm.parent
     R0, p0 = poses[parent]
@@ -353,8 +340,9 @@ def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = No
     orient = FixedOrientation() if rotation is None else FixedOrientation(np.asarray(rotation, float))
     path = lift(robot, TaskPath(segs, orient))
     kw = {} if grid_points is None else {"grid_points": grid_points}
-    settings = PlanSettings(start="zero", end="zero", connections="zero", velocity=True, acceleration=True,
-                            torque=torque, baselines=False, **kw)
+    settings = PlanSettings(start="zero", end="zero", connections="zero",
+                            limits={"use_velocity": True, "use_acceleration": True, "use_torque": torque},
+                            baselines=False, **kw)
     return path, plan(path, robot, settings)
 
 
@@ -518,7 +506,7 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
     ``torque``: also |tau| <= the robot's torque limits at TORQUE_POINTS of every interval (:func:`_torque`);
     ``multipliers``: a solution's on the same nodes (FreeShapeSolution.multipliers) as IPOPT's initial multipliers,
     by constraint (_Constraints.start; give WARM_IPOPT's options with them). The solution keeps its multipliers."""
-    ca = _casadi()
+    ca = casadi_module()
     tcp = tcp_function(robot)
     n = robot.n
     lim = robot.limits
@@ -653,8 +641,6 @@ def _torque(con: "_Constraints", ca, robot, points: list[tuple], tau_max: np.nda
     one symbolic RNEA Function. The NLP is then not expanded (solve_mesh): CasADi differentiates the
     Function once for all calls, where expanding inlines every call (50 intervals at delta = 0: 18 s
     with expansion, 7 s without; one mapped call, unexpanded: 11 s)."""
-    from .symbolic_dynamics import inverse_dynamics_function
-
     rnea = inverse_dynamics_function(robot)
     scale = ca.DM(1.0 / np.asarray(tau_max, float))
     for i, (q, qd, qdd) in enumerate(points):
