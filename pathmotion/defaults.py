@@ -276,8 +276,8 @@ BLEND_DETECTION_DISTANCE = 1e-7
 BLEND_PIECE_MIN_POINTS = 50
 #: Corner atlas (`pathmotion corners --meshes`): the free-shape references' meshes (total intervals, each twice
 #: the last). Not free_shape.MESHES' 200 intervals, which cost minutes per solve (30 deg / 1 mm's whole tube hit
-#: IPOPT's iteration cap there from two starts and took 7 minutes); docs/study.md, "Four meshes", solves every
-#: row's corner-confined reference on all four.
+#: IPOPT's iteration cap there from two starts and took 7 minutes); benchmarks/refine_references.py solves
+#: the references on more meshes.
 ATLAS_MESHES = (25, 50, 100)
 #: Study score: seconds of cycle time one metre of mean TCP deviation from the sharp path costs [s/m]
 #: (100 s/m: 1 mm of mean deviation weighs as much as 0.1 s of cycle time).
@@ -332,5 +332,5 @@ THIRD_ORDER_TOLERANCE = 1e-4
 THIRD_ORDER_ITERATIONS = 60
 #: Planner, third-order limits: uniform grid points of the default grid (grid_points unset), plus the
 #: usual grading towards the ends and connections. The smooth profile's duration on it is within 0.62 %
-#: of the converged optimum on issue 12's circle cases (benchmarks/bench_third_order.py) [-].
+#: of the converged optimum on the circle cases of benchmarks/bench_third_order.py [-].
 THIRD_ORDER_GRID_POINTS = 100
