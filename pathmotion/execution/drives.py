@@ -104,14 +104,22 @@ class VirtualArm:
         knee, at_max = params.torque_speed_knee, params.torque_at_max_speed
         self.slope = (1.0 - at_max) / (1.0 - knee)
         self.knee = knee
-        self.filter = EgmFilter(params, q0)
-        self.state = ArmState.at_rest(q0)
+        self.state = self._held_at(np.asarray(q0, float))
+        self.filter = EgmFilter(params, self.state.qm)
         self.integral = np.zeros(n)
         self.substeps = params.substeps()
         self.h = params.cycle / self.substeps
         self.tau = np.zeros(n)
         self.saturated = False
         self._check_modes(q0)
+
+    def _held_at(self, q0: np.ndarray) -> ArmState:
+        """At rest with the link at q0: each elastic gear wound up by its gravity load, K (q_m - q0) = g(q0)."""
+        state = ArmState.at_rest(q0)
+        if self.elastic.any():
+            g = pin.computeGeneralizedGravity(self.model, self.data, q0)
+            state.qm = np.where(self.elastic, q0 + g / np.where(self.elastic, self.k, 1.0), q0)
+        return state
 
     def _check_modes(self, q0: np.ndarray) -> None:
         """Refuse a servo period too long for the gear modes (RK4 needs h omega well below 2.8)."""

@@ -1,0 +1,127 @@
+"""Whole EGM runs: execute's (listen, stream, write execution.csv and summary.json), the virtual IRC5's (send,
+move, write robot.csv and summary.json), and both in one process through the same messages (lockstep, no
+socket) for studies and tests."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import defaults
+from ..io import exports
+from ..io.atomic import write_json
+from ..robot import Robot
+from .drive_file import DriveParameters
+from .drives import VirtualArm
+from .figures import execution_figures
+from .messages import decode_sensor, encode_robot
+from .reference import MODES, build_reference
+from .streamer import Streamer
+
+log = logging.getLogger(__name__)
+
+
+def make_streamer(robot: Robot, trajectory, mode: str, drives: DriveParameters,
+                  tolerance: float = defaults.EGM_START_TOLERANCE) -> Streamer:
+    """execute's Streamer for a planned trajectory (a planning.Trajectory) in correction ``mode``."""
+    if mode not in MODES:
+        from ..errors import ExecutionError
+
+        raise ExecutionError(f"--correction {mode!r}: choose one of {', '.join(MODES)}")
+    table = build_reference(robot, trajectory, mode, drives)
+    lim = robot.limits
+    if mode == "orbital":
+        from .orbital import OrbitalStreamer
+
+        return OrbitalStreamer(table, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance,
+                               path=trajectory.path, robot=robot, drives=drives)
+    return Streamer(table, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance)
+
+
+def _rest_time(streamer: Streamer) -> float:
+    """Plan time's end, or the receive time when a stop began, as the robot's clock [s]."""
+    recs = streamer.records
+    end = streamer.table.t[-1]
+    for r in recs:
+        if r.tau >= end:
+            return r.tm / 1000.0
+    return recs[-1].tm / 1000.0 if recs else 0.0
+
+
+def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
+    """summary.json of execute: ISO 9283 figures of the reported (motor-side) joints, packets, timing."""
+    recs = streamer.records
+    c = streamer.counts
+    summary = {"ended": ended, "correction": streamer.mode, "messages_answered": c.answered,
+               "packets_received": c.received, "packets_lost": c.lost, "packets_late": c.late,
+               "packets_duplicated": c.duplicated, "packets_out_of_order": c.out_of_order,
+               "packets_rejected": c.rejected, "references_clipped": c.clipped}
+    if recs:
+        t = np.array([r.tm for r in recs]) / 1000.0
+        t -= t[0]
+        q = np.array([r.reported for r in recs])
+        compute = np.array([r.t_send - r.t_recv for r in recs])
+        summary.update(execution_figures(robot, streamer.table.path, t, q, np.array([r.theta for r in recs]),
+                                         _rest_time(streamer) - recs[0].tm / 1000.0, streamer.table.duration))
+        summary["cycle_compute_p99_s"] = float(np.percentile(compute, 99))
+        summary["cycle_compute_max_s"] = float(np.max(compute))
+    return summary
+
+
+def write_execution(out: Path, robot: Robot, streamer: Streamer, ended: str) -> dict:
+    """execution.csv (per answered message: receive/send times, seqno, plan time, reported, sent and planned
+    joints) and summary.json into ``out``; returns the summary."""
+    recs = streamer.records
+    cols = {"t_recv": np.array([r.t_recv for r in recs]), "t_send": np.array([r.t_send for r in recs]),
+            "seqno": np.array([r.seqno for r in recs], float), "robot_tm_s": np.array([r.tm for r in recs]) / 1e3,
+            "plan_time": np.array([r.tau for r in recs]), "theta": np.array([r.theta for r in recs])}
+    for name, attr in (("reported", "reported"), ("sent", "sent"), ("planned", "plan")):
+        arr = np.array([getattr(r, attr) for r in recs]).reshape(len(recs), -1)
+        cols.update({f"{name}{j + 1}": arr[:, j] for j in range(arr.shape[1])})
+    exports.write_table_csv(out / "execution.csv", cols)
+    summary = execution_summary(robot, streamer, ended)
+    write_json(out / "summary.json", summary)
+    return summary
+
+
+@dataclass
+class InProcess:
+    """A lockstep run without a socket: the streamer's messages carried to the arm and back."""
+
+    streamer: Streamer
+    arm: VirtualArm
+    t: np.ndarray
+    q: np.ndarray
+    theta: np.ndarray
+
+
+def run_inprocess(streamer: Streamer, arm: VirtualArm, max_time: float, stop_at: float | None = None) -> InProcess:
+    """Lockstep EGM between ``streamer`` and ``arm`` through encoded messages, for at most ``max_time`` [s] of
+    arm time; ``stop_at`` [s]: request a stop along the path then."""
+    dt = arm.params.cycle
+    ref, t, q, theta = arm.feedback, [], [], []
+    k = 0
+    while k * dt <= max_time:
+        if stop_at is not None and k * dt >= stop_at:
+            streamer.stop("stop requested")
+        reply = streamer.handle(encode_robot(k + 1, int(round(k * dt * 1000)), arm.feedback, ref), 0.0,
+                                lambda: 0.0)
+        answer = decode_sensor(reply, arm.n)
+        ref = answer.joints
+        arm.cycle(answer.joints, answer.speed if answer.speed is not None else np.zeros(arm.n))
+        t.append(k * dt)
+        q.append(arm.state.q.copy())
+        theta.append(streamer.records[-1].theta)
+        k += 1
+        if answer.done:
+            break
+    return InProcess(streamer, arm, np.array(t), np.array(q), np.array(theta))
+
+
+def arm_figures(robot: Robot, path, run: InProcess) -> dict:
+    """ISO figures of the arm's link side (the TCP that really moves) in an in-process run."""
+    return execution_figures(robot, path, run.t, run.q, run.theta, _rest_time(run.streamer),
+                             run.streamer.table.duration)
