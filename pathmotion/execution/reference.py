@@ -21,7 +21,7 @@ from .. import defaults
 from ..robot import Robot, rnea
 from .drive_file import DriveParameters
 
-MODES = ("none", "shaping", "orbital")
+MODES = ("none", "shaping")
 
 
 @dataclass(frozen=True, eq=False)

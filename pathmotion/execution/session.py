@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
+from ..errors import ExecutionError
 from ..io import exports
 from ..io.atomic import write_json
 from ..robot import Robot
@@ -28,16 +29,9 @@ def make_streamer(robot: Robot, trajectory, mode: str, drives: DriveParameters,
                   tolerance: float = defaults.EGM_START_TOLERANCE) -> Streamer:
     """execute's Streamer for a planned trajectory (a planning.Trajectory) in correction ``mode``."""
     if mode not in MODES:
-        from ..errors import ExecutionError
-
         raise ExecutionError(f"--correction {mode!r}: choose one of {', '.join(MODES)}")
     table = build_reference(robot, trajectory, mode, drives)
     lim = robot.limits
-    if mode == "orbital":
-        from .orbital import OrbitalStreamer
-
-        return OrbitalStreamer(table, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance,
-                               path=trajectory.path, robot=robot, drives=drives)
     return Streamer(table, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance)
 
 
