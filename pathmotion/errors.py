@@ -47,6 +47,29 @@ class InfeasibleError(PathmotionError):
     """Limits cannot be met: gravity torque above a limit, impossible boundary velocity, ..."""
 
 
+class StateInfeasibleError(InfeasibleError):
+    """A moving state that no motion within the limits can bring to where it must go (planning/retime.py).
+
+    ``limit_factor``: the factor on every limit's dynamic part (acceleration, torque; velocity by its square
+    root) that would just save it; ``end_speed``: theta_dot still left at the path's end (or the next kink)
+    when braking within the limits (nan when unknown); ``overshoot``: how far past it (unit theta) that
+    braking would stop; ``stop``: the Profile of the stop that ends there with the limits times
+    ``limit_factor`` (None when that could not be computed)."""
+
+    def __init__(self, message: str, *, limit_factor: float = float("nan"), end_speed: float = float("nan"),
+                 overshoot: float = float("nan"), stop=None):
+        super().__init__(message)
+        self.limit_factor, self.end_speed, self.overshoot, self.stop = limit_factor, end_speed, overshoot, stop
+
+    def __reduce__(self):
+        return (_rebuild_state_infeasible, (str(self), self.limit_factor, self.end_speed, self.overshoot, self.stop))
+
+
+def _rebuild_state_infeasible(message, limit_factor, end_speed, overshoot, stop):
+    return StateInfeasibleError(message, limit_factor=limit_factor, end_speed=end_speed, overshoot=overshoot,
+                                stop=stop)
+
+
 class SimulationError(PathmotionError):
     """A closed-loop simulation could not be set up (not a tracking failure, which is a result)."""
 
