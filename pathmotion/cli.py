@@ -581,7 +581,7 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     out = _out(_default_out(out, scenario, {}))
     with output_lock(out):
         setup, result, params = _egm_setup(scenario, set_, drives)
-        streamer = make_streamer(setup.robot, result.trajectory, correction, params)
+        streamer = make_streamer(setup.robot, result, correction, params)
         sock = open_listener(egm)
         logger.info("execute: listening on UDP port %d (%s correction)", sock.getsockname()[1], correction)
         commands, interrupted = _stdin_commands(), False

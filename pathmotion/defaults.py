@@ -357,9 +357,3 @@ EGM_MAX_DATAGRAM = 65536
 #: EGM: the reference is tabulated on this time step before streaming (linear interpolation between
 #: samples: error qdd dt^2 / 8, ~1e-6 rad at 10 rad/s^2) [s].
 EGM_TABLE_STEP = 0.001
-#: EGM: an override, a stop or a resume changes the path-speed scale linearly over this time [s] (a stop
-#: along the path: theta_dot falls to 0 while q stays on Phi).
-EGM_SPEED_RAMP = 0.25
-#: EGM, --correction orbital: fraction of the measured transverse error (beyond the modelled gear
-#: deflection) subtracted from the next reference, per cycle [-].
-EGM_ORBITAL_GAIN = 0.3

@@ -46,7 +46,7 @@ def planned():
 
 def _streamer(planned, mode="shaping", **kw):
     robot, result, drives = planned
-    return make_streamer(robot, result.trajectory, mode, drives, **kw)
+    return make_streamer(robot, result, mode, drives, **kw)
 
 
 def _inside_limits(robot, records):
@@ -173,21 +173,32 @@ def test_sequence_numbers_lost_duplicated_out_of_order(planned):
 
 
 def test_stop_along_the_path_never_jumps_and_stays_in_limits(planned):
-    """A stop mid-motion: the references stay on the plan's joint path (each one is the plan at its own plan
-    time) and the plan time comes to rest; the arm settles."""
+    """A stop mid-motion (the Retimer's shortest stop): every reference lies on the plan's joint path at its
+    own theta, theta never runs back, the arm comes to rest before the path's end, inside the limits."""
     robot, result, drives = planned
     st = _streamer(planned, "none")
     run = run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0,
                         stop_at=0.4 * result.duration)
-    taus = np.array([r.tau for r in st.records])
-    assert taus[-1] < result.duration  # stopped before the end
-    assert np.all(np.diff(taus) >= -1e-15)  # plan time never runs back
+    path = result.trajectory.path
+    theta = np.array([r.theta for r in st.records])
+    assert st.stop_reason == "stop requested"
+    assert theta[-1] < path.domain[1] - 1e-6  # stopped before the end
+    assert np.all(np.diff(theta) >= -1e-12)  # never runs back
     sent = np.array([r.sent for r in st.records])
-    on_path = np.array([st.table.at(t)[0] for t in taus])
-    assert np.abs(sent - on_path).max() < 1e-12
+    assert np.abs(sent - path.evaluate(theta)[0]).max() < 1e-5  # on the path (table interpolation)
     assert np.abs(np.diff(sent, axis=0)).max() < robot.limits.velocity.max() * 0.004
     assert _inside_limits(robot, st.records)
-    assert np.abs(run.arm.state.qd).max() < 1e-3
+    assert np.abs(run.arm.state.qd).max() < 1e-2
+
+
+def test_override_slows_the_rest_of_the_motion(planned):
+    """override 0.5 at the start: the motion takes longer than the plan (the Retimer's re-timed rest)."""
+    robot, result, drives = planned
+    st = _streamer(planned, "none")
+    q = st.table.q[0]
+    st.handle(encode_robot(1, 0, q, q), 0.0, lambda: 0.0)
+    st.override(0.5)
+    assert st.segment.duration > 1.3 * result.duration
 
 
 def test_a_controller_that_vanishes_mid_motion_ends_in_a_stop(planned):

@@ -27,7 +27,8 @@ MODES = ("none", "shaping")
 @dataclass(frozen=True, eq=False)
 class ReferenceTable:
     """References at times t (K,) [s] of plan time: q (K, n) [rad], qd (K, n) [rad/s] (what is sent), theta (K,)
-    and plan (K, n) (the plan's own joints, for the record); duration [s]; path: the plan's JointPath."""
+    and plan (K, n) (the plan's own joints, for the record); duration [s]; path, profile: the motion's
+    JointPath and Profile (plan time 0 = the profile's first point)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -36,6 +37,17 @@ class ReferenceTable:
     plan: np.ndarray
     duration: float
     path: object = None
+    profile: object = None
+
+    @property
+    def end(self) -> float:
+        """Plan time of the last reference [s] (the duration plus the shaping's lead)."""
+        return float(self.t[-1])
+
+    def state(self, tau: float) -> tuple[float, float, float]:
+        """(theta, theta_dot, theta_ddot) of the motion at plan time tau [s]."""
+        th, thd, thdd = self.profile.state_at_time(np.array([min(max(tau, 0.0), self.duration)]))
+        return float(th[0]), float(thd[0]), float(thdd[0])
 
     def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         """(q, qd, plan q, theta) at plan time tau (clipped to [0, duration]), linearly interpolated."""
@@ -84,4 +96,4 @@ def build_reference(robot: Robot, trajectory, mode: str, drives: DriveParameters
     lim = robot.limits
     q = np.clip(q, lim.lower, lim.upper)
     qd = np.clip(qd, -lim.velocity, lim.velocity)
-    return ReferenceTable(t, q, qd, s.theta, s.q, duration, trajectory.path)
+    return ReferenceTable(t, q, qd, s.theta, s.q, duration, trajectory.path, trajectory.profile)

@@ -11,7 +11,9 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
-from ..errors import ExecutionError
+from ..errors import ExecutionError, PathmotionError
+from ..planning.retime import Retimer
+from ..planning.trajectory import Trajectory
 from ..io import exports
 from ..io.atomic import write_json
 from ..robot import Robot
@@ -25,24 +27,30 @@ from .streamer import Streamer
 log = logging.getLogger(__name__)
 
 
-def make_streamer(robot: Robot, trajectory, mode: str, drives: DriveParameters,
+def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
                   tolerance: float = defaults.EGM_START_TOLERANCE) -> Streamer:
-    """execute's Streamer for a planned trajectory (a planning.Trajectory) in correction ``mode``."""
+    """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; stops, overrides and
+    resumes re-timed by the plan's Retimer."""
     if mode not in MODES:
         raise ExecutionError(f"--correction {mode!r}: choose one of {', '.join(MODES)}")
-    table = build_reference(robot, trajectory, mode, drives)
+    try:
+        retimer = Retimer(plan_result)
+    except PathmotionError as exc:
+        raise ExecutionError(f"execute needs a plan it can stop along the path: {exc}") from None
+    path = plan_result.trajectory.path
+
+    def retime(kind: str, state: tuple, override: float):
+        if kind == "stop":
+            profile = retimer.stop(*state)
+        elif kind == "resume":
+            profile = retimer.remaining(state[0], 0.0, 0.0, override)
+        else:
+            profile = retimer.remaining(*state, override=override)
+        return build_reference(robot, Trajectory(path, profile, robot), mode, drives)
+
+    table = build_reference(robot, plan_result.trajectory, mode, drives)
     lim = robot.limits
-    return Streamer(table, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance)
-
-
-def _rest_time(streamer: Streamer) -> float:
-    """Plan time's end, or the receive time when a stop began, as the robot's clock [s]."""
-    recs = streamer.records
-    end = streamer.table.t[-1]
-    for r in recs:
-        if r.tau >= end:
-            return r.tm / 1000.0
-    return recs[-1].tm / 1000.0 if recs else 0.0
+    return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance)
 
 
 def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
@@ -59,7 +67,7 @@ def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
         q = np.array([r.reported for r in recs])
         compute = np.array([r.t_send - r.t_recv for r in recs])
         summary.update(execution_figures(robot, streamer.table.path, t, q, np.array([r.theta for r in recs]),
-                                         _rest_time(streamer) - recs[0].tm / 1000.0, streamer.table.duration))
+                                         streamer.rest_time, streamer.table.duration))
         summary["cycle_compute_p99_s"] = float(np.percentile(compute, 99))
         summary["cycle_compute_max_s"] = float(np.max(compute))
     return summary
@@ -71,7 +79,7 @@ def write_execution(out: Path, robot: Robot, streamer: Streamer, ended: str) -> 
     recs = streamer.records
     cols = {"t_recv": np.array([r.t_recv for r in recs]), "t_send": np.array([r.t_send for r in recs]),
             "seqno": np.array([r.seqno for r in recs], float), "robot_tm_s": np.array([r.tm for r in recs]) / 1e3,
-            "plan_time": np.array([r.tau for r in recs]), "theta": np.array([r.theta for r in recs])}
+            "segment_time": np.array([r.tau for r in recs]), "theta": np.array([r.theta for r in recs])}
     for name, attr in (("reported", "reported"), ("sent", "sent"), ("planned", "plan")):
         arr = np.array([getattr(r, attr) for r in recs]).reshape(len(recs), -1)
         cols.update({f"{name}{j + 1}": arr[:, j] for j in range(arr.shape[1])})
@@ -117,5 +125,5 @@ def run_inprocess(streamer: Streamer, arm: VirtualArm, max_time: float, stop_at:
 
 def arm_figures(robot: Robot, path, run: InProcess) -> dict:
     """ISO figures of the arm's link side (the TCP that really moves) in an in-process run."""
-    return execution_figures(robot, path, run.t, run.q, run.theta, _rest_time(run.streamer),
+    return execution_figures(robot, path, run.t, run.q, run.theta, run.streamer.rest_time,
                              run.streamer.table.duration)

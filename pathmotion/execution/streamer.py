@@ -1,25 +1,32 @@
 """The external computer's side of EGM as a state machine: each robot datagram in, the sensor datagram out.
 
-Plan time advances with the robot's own clock (header.tm) times a speed scale; an override, a stop and a
-resume change the scale linearly over ``defaults.EGM_SPEED_RAMP`` (a stop along the path: q stays on the
-plan's joint path while its speed falls to 0). Packets are counted: lost (a gap in seqno), duplicated (the
-same seqno again: answered again, the controller repeats a message it got no answer to), out of order (an
-older seqno: not answered), rejected (not an EgmRobot of this robot: not answered).
+The motion is a sequence of segments, each a profile on the plan's joint path tabulated as references
+(:class:`.reference.ReferenceTable`), its plan time running with the robot's own clock (header.tm). An
+override, a stop and a resume start a new segment from the current state (theta, theta_dot, theta_ddot),
+re-timed by :class:`pathmotion.planning.retime.Retimer` within the plan's limits: the shortest stop along the
+path, the time-optimal rest under an override, the time-optimal rest from standstill. Packets are counted:
+lost (a gap in seqno), duplicated (the same seqno again: answered again, the controller repeats a message
+it got no answer to), out of order (an older seqno: not answered), rejected (not an EgmRobot of this
+robot: not answered), late (answered more than defaults.EGM_LATE after it arrived).
 """
 
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from .. import defaults
-from ..errors import ExecutionError
+from ..errors import ExecutionError, PathmotionError
 from .messages import decode_robot, encode_sensor
 from .reference import ReferenceTable
 
 log = logging.getLogger(__name__)
+
+#: A path speed below this counts as standing still (nothing to stop) [unit theta / s].
+STANDSTILL = 1e-9
 
 
 @dataclass
@@ -36,8 +43,8 @@ class Counts:
 
 @dataclass
 class Record:
-    """One answered robot message: receive and send times [s, this computer's clock], seqno, plan time [s],
-    theta, reported joints (n,), sent reference (n,), plan joints (n,)."""
+    """One answered robot message: receive and send times [s, this computer's clock], seqno, robot time tm
+    [ms], time in its segment [s], theta, reported joints (n,), sent reference (n,), plan joints (n,)."""
 
     t_recv: float
     t_send: float
@@ -52,28 +59,33 @@ class Record:
 
 @dataclass
 class Streamer:
-    """execute's logic. ``table``: the references; ``lower``/``upper``/``velocity`` (n,): the joint limits no
-    sent reference leaves; ``tolerance`` [rad]: largest start distance; ``mode``: the correction mode."""
+    """execute's logic. ``table``: the plan's references; ``retime(kind, state, override)``: the re-timed
+    table of a stop ("stop"), an override ("override") or a resume ("resume") from ``state`` = (theta,
+    theta_dot, theta_ddot); ``lower``/``upper``/``velocity`` (n,): the joint limits no sent reference
+    leaves; ``tolerance`` [rad]: largest start distance; ``mode``: the correction mode."""
 
     table: ReferenceTable
+    retime: Callable
     lower: np.ndarray
     upper: np.ndarray
     velocity: np.ndarray
     mode: str = "none"
     tolerance: float = defaults.EGM_START_TOLERANCE
     settle: float = defaults.EGM_SETTLE_WINDOW
-    ramp: float = defaults.EGM_SPEED_RAMP
     counts: Counts = field(default_factory=Counts)
     records: list = field(default_factory=list)
     stop_reason: str | None = None
     seqno_out: int = 0
+    override_scale: float = 1.0
     _last_seq: int | None = None
-    _tm_last: float | None = None
-    _tau: float = 0.0
-    _scale: float = 1.0
-    _target: float = 1.0
-    _after_end: float = 0.0
+    _tm0: float | None = None
+    _now: float = 0.0
+    _segment: ReferenceTable | None = None
+    _segment_start: float = 0.0
     _last_reply: bytes | None = None
+
+    def __post_init__(self):
+        self._segment = self.table
 
     @property
     def n(self) -> int:
@@ -84,27 +96,61 @@ class Streamer:
         return self._last_seq is not None
 
     @property
+    def segment(self) -> ReferenceTable:
+        return self._segment
+
+    @property
+    def rest_time(self) -> float:
+        """Robot time [s, from the first message] at which the current segment's motion comes to rest."""
+        return self._segment_start + self._segment.duration
+
+    @property
     def finished(self) -> bool:
         """The motion (plan or stop) is over and the arm had the settle window."""
-        return self._after_end >= self.settle
+        return self._now - self._segment_start >= self._segment.end + self.settle
+
+    def _state(self) -> tuple[float, float, float]:
+        return self._segment.state(self._now - self._segment_start)
+
+    def _switch(self, kind: str, override: float) -> bool:
+        """Start a re-timed segment from the current state; False (and a warning) when there is none."""
+        state = self._state()
+        if kind == "stop" and state[1] <= STANDSTILL:
+            return True  # at rest already
+        try:
+            table = self.retime(kind, state, override)
+        except PathmotionError as exc:
+            log.warning("cannot re-time (%s) at theta = %.6g: %s; the motion goes on as it was", kind, state[0], exc)
+            return False
+        self._segment, self._segment_start = table, self._now
+        return True
 
     def override(self, scale: float) -> None:
+        """Run the rest of the motion at ``scale`` in (0, 1] of the plan's limits."""
         if not np.isfinite(scale) or not 0.0 < scale <= 1.0:
             raise ExecutionError(f"override {scale!r}: give a speed fraction in (0, 1]")
+        self.override_scale = float(scale)
         if self.stop_reason is None:
-            self._target = float(scale)
+            self._switch("override", self.override_scale)
 
     def stop(self, reason: str) -> None:
-        """A stop along the path (kept until :meth:`resume`)."""
-        if self.stop_reason is None:
-            log.warning("stopping along the path: %s", reason)
-        self.stop_reason = self.stop_reason or reason
-        self._target = 0.0
+        """The shortest stop along the path (kept until :meth:`resume`)."""
+        if self.stop_reason is not None:
+            return
+        log.warning("stopping along the path: %s", reason)
+        self.stop_reason = reason
+        self._switch("stop", 1.0)
 
-    def resume(self, scale: float = 1.0) -> None:
-        self.stop_reason = None
-        self._target = float(scale)
-        self._after_end = 0.0
+    def resume(self) -> None:
+        """From a stop: the time-optimal rest of the motion (at the current override)."""
+        if self.stop_reason is None:
+            return
+        state = self._state()
+        if state[1] > STANDSTILL:
+            log.warning("resume ignored: the arm is still stopping (theta_dot = %.3g)", state[1])
+            return
+        if self._switch("resume", self.override_scale):
+            self.stop_reason = None
 
     def _check_first(self, msg) -> None:
         if msg.joints.size != self.n:
@@ -132,21 +178,8 @@ class Streamer:
         self.counts.lost += step - 1
         return "new"
 
-    def _advance(self, tm: float) -> None:
-        dt = 0.0 if self._tm_last is None else max(0.0, (tm - self._tm_last) / 1000.0)
-        self._tm_last = tm
-        rate = dt / self.ramp if self.ramp > 0 else np.inf
-        before = self._scale
-        self._scale = min(self._target, before + rate) if self._target > before else max(self._target, before - rate)
-        self._tau += 0.5 * (before + self._scale) * dt
-        end = self.table.duration + (self.table.t[-1] - self.table.duration)
-        if self._tau >= end or (self._scale == 0.0 and self._target == 0.0):
-            self._after_end += dt
-
-    def handle(self, data: bytes, t_recv: float, clock) -> bytes | None:
-        """The answer to one datagram (None: not answered); ``clock()`` gives the send time [s]. Raises
-        ExecutionError when the first robot message does not match the plan."""
-        self.counts.received += 1
+    def _decoded(self, data: bytes):
+        """The robot message in ``data``, or None (counted as rejected) when it is not one of this robot's."""
         try:
             msg = decode_robot(data)
         except ExecutionError as exc:
@@ -159,15 +192,26 @@ class Streamer:
             self.counts.rejected += 1
             log.warning("ignored a robot message with %d joints (the plan has %d)", msg.joints.size, self.n)
             return None
+        return msg
+
+    def handle(self, data: bytes, t_recv: float, clock) -> bytes | None:
+        """The answer to one datagram (None: not answered); ``clock()`` gives the send time [s]. Raises
+        ExecutionError when the first robot message does not match the plan."""
+        self.counts.received += 1
+        msg = self._decoded(data)
+        if msg is None:
+            return None
         kind = self._sequence(msg.seqno)
         if kind == "old":
             return None
         if kind == "duplicate" and self._last_reply is not None:
             return self._last_reply
         self._last_seq = msg.seqno
-        self._advance(float(msg.tm))
-        q, qd, plan, theta = self.table.at(self._tau)
-        q, qd = self.correct(q, qd * self._scale, msg.joints)
+        if self._tm0 is None:
+            self._tm0 = float(msg.tm)
+        self._now = max(self._now, ((msg.tm - self._tm0) % 2**32) / 1000.0)
+        tau = self._now - self._segment_start
+        q, qd, plan, theta = self._segment.at(tau)
         safe = np.clip(q, self.lower, self.upper)
         speed = np.clip(qd, -self.velocity, self.velocity)
         if np.any(safe != q) or np.any(speed != qd):
@@ -178,10 +222,6 @@ class Streamer:
         if t_send - t_recv > defaults.EGM_LATE:
             self.counts.late += 1
         self.counts.answered += 1
-        self.records.append(Record(t_recv, t_send, msg.seqno, float(msg.tm), self._tau, theta, msg.joints, safe, plan))
+        self.records.append(Record(t_recv, t_send, msg.seqno, float(msg.tm), tau, theta, msg.joints, safe, plan))
         self._last_reply = reply
         return reply
-
-    def correct(self, q: np.ndarray, qd: np.ndarray, reported: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The feedback correction of the reference (none here: the table is the whole reference)."""
-        return q, qd
