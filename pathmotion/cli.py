@@ -566,7 +566,7 @@ def _stdin_commands():
 def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
             egm: int = typer.Option(defaults.EGM_PORT, "--egm", help="UDP port to listen on for the controller's EGM messages"),
             out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
-            correction: str = typer.Option("shaping", help="none | shaping: pre-compensate the drives and EGM"),
+            correction: str = typer.Option("shaping", help="none | shaping (pre-compensate the drives and EGM) | orbital (shaping + transverse loop)"),
             drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)")):
     """Plan, then stream the motion to an ABB controller over EGM (answer each EgmRobot with an EgmSensor);
     stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
@@ -639,8 +639,7 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
             _fail(f"virtual robot: no EGM cycle ran ({run.ended})", EXIT_FAILED_RESULT)
         theta = traj.profile.state_at_time(cols["t"])[0]
         summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep}
-        summary.update(execution_figures(setup.robot, traj.path, cols["t"], cols["q"], theta,
-                                         traj.duration, traj.duration))
+        summary.update(execution_figures(setup.robot, traj, cols["t"], cols["q"], theta, traj.duration))
         with result_folder(out) as folder:
             table = {"t": cols["t"], "answered": cols["answered"].astype(float)}
             for name in ("q", "qm", "reference", "tau"):

@@ -88,7 +88,7 @@ def test_shaping_beats_none_on_elastic_gears(planned):
     for mode in ("none", "shaping"):
         st = _streamer(planned, mode)
         run = run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0)
-        out[mode] = arm_figures(robot, result.trajectory.path, run)["path_accuracy_m"]
+        out[mode] = arm_figures(robot, run)["path_accuracy_m"]
     assert out["shaping"] < out["none"]
     assert out["shaping"] <= 0.25e-3
 

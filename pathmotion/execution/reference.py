@@ -16,19 +16,22 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pinocchio as pin
 
 from .. import defaults
 from ..robot import Robot, rnea
 from .drive_file import DriveParameters
 
-MODES = ("none", "shaping")
+MODES = ("none", "shaping", "orbital")
 
 
 @dataclass(frozen=True, eq=False)
 class ReferenceTable:
     """References at times t (K,) [s] of plan time: q (K, n) [rad], qd (K, n) [rad/s] (what is sent), theta (K,)
-    and plan (K, n) (the plan's own joints, for the record); duration [s]; path, profile: the motion's
-    JointPath and Profile (plan time 0 = the profile's first point)."""
+    and plan (K, n) (the plan's own joints, for the record); deflection (K, n) [rad]: the gear deflection
+    the shaping planned at each time (0 without shaping); duration [s]; path, profile: the motion's
+    JointPath and Profile (plan time 0 = the profile's first point); motion (K, 3): theta, theta_dot,
+    theta_ddot of the references (the profile's, averaged when shaped)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -36,8 +39,10 @@ class ReferenceTable:
     theta: np.ndarray
     plan: np.ndarray
     duration: float
+    deflection: np.ndarray
     path: object = None
     profile: object = None
+    motion: np.ndarray | None = None
 
     @property
     def end(self) -> float:
@@ -45,19 +50,22 @@ class ReferenceTable:
         return float(self.t[-1])
 
     def state(self, tau: float) -> tuple[float, float, float]:
-        """(theta, theta_dot, theta_ddot) of the motion at plan time tau [s]."""
-        th, thd, thdd = self.profile.state_at_time(np.array([min(max(tau, 0.0), self.duration)]))
-        return float(th[0]), float(thd[0]), float(thdd[0])
-
-    def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-        """(q, qd, plan q, theta) at plan time tau (clipped to [0, duration]), linearly interpolated."""
-        tau = min(max(tau, 0.0), self.duration)
+        """(theta, theta_dot, theta_ddot) of the references' motion at plan time tau [s]."""
+        tau = min(max(tau, 0.0), self.end)
         k = min(int(tau / self.t[1]), len(self.t) - 2) if len(self.t) > 1 else 0
+        row = self.motion[k] if len(self.t) == 1 else self.motion[k] + (tau - self.t[k]) / (
+            self.t[k + 1] - self.t[k]) * (self.motion[k + 1] - self.motion[k])
+        return float(row[0]), max(float(row[1]), 0.0), float(row[2])
+
+    def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
+        """(q, qd, plan q, theta, deflection) at plan time tau (clipped to [0, end]), linearly interpolated."""
         if len(self.t) == 1:
-            return self.q[0], self.qd[0], self.plan[0], float(self.theta[0])
+            return self.q[0], self.qd[0], self.plan[0], float(self.theta[0]), self.deflection[0]
+        tau = min(max(tau, 0.0), self.end)
+        k = min(int(tau / self.t[1]), len(self.t) - 2)
         w = (tau - self.t[k]) / (self.t[k + 1] - self.t[k])
         lerp = lambda a: a[k] + w * (a[k + 1] - a[k])  # noqa: E731
-        return lerp(self.q), lerp(self.qd), lerp(self.plan), float(lerp(self.theta))
+        return lerp(self.q), lerp(self.qd), lerp(self.plan), float(lerp(self.theta)), lerp(self.deflection)
 
 
 def gear_deflection(robot: Robot, drives: DriveParameters, q, qd, qdd) -> np.ndarray:
@@ -78,22 +86,62 @@ def _invert_lowpass(x: np.ndarray, alpha: float, per: int) -> np.ndarray:
     return (x - (1.0 - alpha) * prev) / alpha
 
 
+def shaping_window(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> float:
+    """The period [s] of the lowest locked-motor gear mode at q0, sqrt(K / J_link) (0 without elastic axes)."""
+    elastic = drives.elastic
+    if not elastic.any():
+        return 0.0
+    model = robot.model
+    inertia = np.diag(pin.crba(model, model.createData(), np.asarray(q0, float))) - np.asarray(model.armature, float)
+    omega = np.sqrt(drives.stiffness[elastic] / np.maximum(inertia[elastic], 1e-9))
+    return float(2.0 * np.pi / omega.min())
+
+
+def path_motion(profile, t: np.ndarray, window: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s, evenly spaced] of the profile's motion averaged
+    over the last ``window`` seconds (a moving average in the path coordinate: the motion stays on the path,
+    its acceleration becomes continuous and the frequencies k / window vanish from it); window 0: the
+    profile itself. The averaged motion lasts the profile's duration plus the window."""
+    if window <= 0.0:
+        return profile.state_at_time(t)
+    state = profile.state_at_time
+    step = t[1] - t[0] if len(t) > 1 else window
+    m = max(1, int(round(window / step)))
+    window = m * step
+    fine = np.concatenate([t[0] - step * np.arange(m, 0, -1), t])
+    theta, theta_dot, _ = state(fine)
+    mid = 0.5 * (theta[1:] + theta[:-1]) * step
+    area = np.concatenate([[0.0], np.cumsum(mid)])
+    averaged = (area[m:] - area[:-m]) / window
+    now_dot, before_dot = theta_dot[m:], theta_dot[:-m]
+    return averaged, (theta[m:] - theta[:-m]) / window, (now_dot - before_dot) / window
+
+
 def build_reference(robot: Robot, trajectory, mode: str, drives: DriveParameters | None,
-                    step: float = defaults.EGM_TABLE_STEP) -> ReferenceTable:
-    """The table of references for ``trajectory`` (a planning.Trajectory) in ``mode`` (one of MODES)."""
-    duration = float(trajectory.duration)
+                    step: float = defaults.EGM_TABLE_STEP, window: float = 0.0) -> ReferenceTable:
+    """The table of references for ``trajectory`` (a planning.Trajectory) in ``mode`` (one of MODES); with
+    shaping, its motion averaged in the path coordinate over ``window`` [s] (see :func:`path_motion`)."""
+    path, profile = trajectory.path, trajectory.profile
+    window = window if mode != "none" else 0.0
+    duration = float(trajectory.duration) + window
     lead = 0.0 if mode == "none" else drives.transport_delay
     t = np.arange(0.0, duration + lead + step, step)
-    s = trajectory.at_time(t)
-    q, qd = s.q, s.qd
+    theta, theta_dot, theta_ddot = path_motion(profile, t, window)
+    q, dq, ddq = path.evaluate(theta)
+    qd = dq * theta_dot[:, None]
+    deflection = np.zeros_like(q)
+    sent_q, sent_qd = q, qd
     if mode != "none":
-        ahead = trajectory.at_time(t + lead)
-        m = ahead.q + gear_deflection(robot, drives, ahead.q, ahead.qd, ahead.qdd)
-        md = np.gradient(m, step, axis=0) if len(t) > 2 else ahead.qd
+        qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
+        deflection = gear_deflection(robot, drives, q, qd, qdd)
+        ahead = min(int(round(lead / step)), len(t) - 1)
+        m = np.concatenate([(q + deflection)[ahead:], np.repeat((q + deflection)[-1:], ahead, axis=0)])
+        md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
         alpha = 1.0 - np.exp(-2.0 * np.pi * drives.lowpass_bandwidth * drives.cycle)
         per = max(1, int(round(drives.cycle / step)))
-        q, qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)
+        sent_q, sent_qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)
     lim = robot.limits
-    q = np.clip(q, lim.lower, lim.upper)
-    qd = np.clip(qd, -lim.velocity, lim.velocity)
-    return ReferenceTable(t, q, qd, s.theta, s.q, duration, trajectory.path, trajectory.profile)
+    sent_q = np.clip(sent_q, lim.lower, lim.upper)
+    sent_qd = np.clip(sent_qd, -lim.velocity, lim.velocity)
+    return ReferenceTable(t, sent_q, sent_qd, theta, q, duration, deflection, path, profile,
+                          np.stack([theta, theta_dot, theta_ddot], axis=1))

@@ -21,7 +21,8 @@ from .drive_file import DriveParameters
 from .drives import VirtualArm
 from .figures import execution_figures
 from .messages import decode_sensor, encode_robot
-from .reference import MODES, build_reference
+from .orbital import TransverseLoop
+from .reference import MODES, build_reference, shaping_window
 from .streamer import Streamer
 
 log = logging.getLogger(__name__)
@@ -48,9 +49,13 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
             profile = retimer.remaining(*state, override=override)
         return build_reference(robot, Trajectory(path, profile, robot), mode, drives)
 
-    table = build_reference(robot, plan_result.trajectory, mode, drives)
+    start = plan_result.trajectory.at_time([0.0]).q[0]
+    table = build_reference(robot, plan_result.trajectory, mode, drives,
+                            window=shaping_window(robot, drives, start))
     lim = robot.limits
-    return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance)
+    loop = TransverseLoop(path) if mode == "orbital" else None
+    return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
+                    plan=plan_result.trajectory)
 
 
 def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
@@ -66,8 +71,8 @@ def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
         t -= t[0]
         q = np.array([r.reported for r in recs])
         compute = np.array([r.t_send - r.t_recv for r in recs])
-        summary.update(execution_figures(robot, streamer.table.path, t, q, np.array([r.theta for r in recs]),
-                                         streamer.rest_time, streamer.table.duration))
+        summary.update(execution_figures(robot, streamer.plan, t, q, np.array([r.theta for r in recs]),
+                                         streamer.rest_time))
         summary["cycle_compute_p99_s"] = float(np.percentile(compute, 99))
         summary["cycle_compute_max_s"] = float(np.max(compute))
     return summary
@@ -123,7 +128,6 @@ def run_inprocess(streamer: Streamer, arm: VirtualArm, max_time: float, stop_at:
     return InProcess(streamer, arm, np.array(t), np.array(q), np.array(theta))
 
 
-def arm_figures(robot: Robot, path, run: InProcess) -> dict:
+def arm_figures(robot: Robot, run: InProcess) -> dict:
     """ISO figures of the arm's link side (the TCP that really moves) in an in-process run."""
-    return execution_figures(robot, path, run.t, run.q, run.theta, run.streamer.rest_time,
-                             run.streamer.table.duration)
+    return execution_figures(robot, run.streamer.plan, run.t, run.q, run.theta, run.streamer.rest_time)

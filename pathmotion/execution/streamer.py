@@ -62,7 +62,9 @@ class Streamer:
     """execute's logic. ``table``: the plan's references; ``retime(kind, state, override)``: the re-timed
     table of a stop ("stop"), an override ("override") or a resume ("resume") from ``state`` = (theta,
     theta_dot, theta_ddot); ``lower``/``upper``/``velocity`` (n,): the joint limits no sent reference
-    leaves; ``tolerance`` [rad]: largest start distance; ``mode``: the correction mode."""
+    leaves; ``tolerance`` [rad]: largest start distance; ``mode``: the correction mode; ``loop``: the
+    transverse loop of the orbital mode (a :class:`.orbital.TransverseLoop`) or None; ``plan``: the planned
+    planning.Trajectory (for the figures)."""
 
     table: ReferenceTable
     retime: Callable
@@ -72,6 +74,8 @@ class Streamer:
     mode: str = "none"
     tolerance: float = defaults.EGM_START_TOLERANCE
     settle: float = defaults.EGM_SETTLE_WINDOW
+    loop: object = None
+    plan: object = None
     counts: Counts = field(default_factory=Counts)
     records: list = field(default_factory=list)
     stop_reason: str | None = None
@@ -211,7 +215,9 @@ class Streamer:
             self._tm0 = float(msg.tm)
         self._now = max(self._now, ((msg.tm - self._tm0) % 2**32) / 1000.0)
         tau = self._now - self._segment_start
-        q, qd, plan, theta = self._segment.at(tau)
+        q, qd, plan, theta, deflection = self._segment.at(tau)
+        if self.loop is not None:
+            q = q + self.loop.update(msg.joints, deflection, theta)
         safe = np.clip(q, self.lower, self.upper)
         speed = np.clip(qd, -self.velocity, self.velocity)
         if np.any(safe != q) or np.any(speed != qd):
