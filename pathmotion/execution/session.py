@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
-from ..errors import ExecutionError, PathmotionError
+from ..errors import ExecutionError, PathmotionError, StateInfeasibleError
+from ..planning.profile import Profile
 from ..planning.retime import Retimer
 from ..planning.trajectory import Trajectory
 from ..io import exports
@@ -28,6 +29,19 @@ from .streamer import Streamer
 log = logging.getLogger(__name__)
 
 
+def _stop(retimer: Retimer, state: tuple) -> Profile:
+    """The Retimer's shortest stop along the path; when its jerk-limited stop finds none, its stop within the
+    second-order limits (acceleration, torque: the arm still stops on the path, with steps in acceleration)."""
+    try:
+        return retimer.stop(*state)
+    except StateInfeasibleError as exc:
+        if not retimer.third_order:
+            raise
+        log.warning("no jerk-limited stop from theta = %.6g (%s); stopping within the second-order limits", state[0], exc)
+        theta, x0, _ = retimer._state(*state)
+        return Profile(*retimer._stop2(theta, x0))
+
+
 def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
                   tolerance: float = defaults.EGM_START_TOLERANCE) -> Streamer:
     """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; stops, overrides and
@@ -42,7 +56,7 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
 
     def retime(kind: str, state: tuple, override: float):
         if kind == "stop":
-            profile = retimer.stop(*state)
+            profile = _stop(retimer, state)
         elif kind == "resume":
             profile = retimer.remaining(state[0], 0.0, 0.0, override)
         else:
