@@ -64,8 +64,9 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
         return build_reference(robot, Trajectory(path, profile, robot), mode, drives)
 
     start = plan_result.trajectory.at_time([0.0]).q[0]
-    table = build_reference(robot, plan_result.trajectory, mode, drives,
-                            window=shaping_window(robot, drives, start))
+    # the average makes a second-order plan's acceleration continuous; a jerk-limited plan's already is
+    window = 0.0 if plan_result.profile.smooth else shaping_window(robot, drives, start)
+    table = build_reference(robot, plan_result.trajectory, mode, drives, window=window)
     lim = robot.limits
     loop = TransverseLoop(path) if mode == "orbital" else None
     return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
