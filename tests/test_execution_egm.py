@@ -238,3 +238,42 @@ def test_address_errors():
     for bad in ("6510", "host:", "host:70000", ":1"):
         with pytest.raises(ExecutionError, match="HOST:PORT"):
             parse_address(bad)
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.slow
+def test_cli_execute_against_virtual_robot(tmp_path):
+    """The two commands as processes: execute started second, both exit 0 and write their files."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import time
+
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(SHORT)
+    port = _free_port()
+    env = dict(os.environ, PYTHONPATH=os.getcwd())
+    cli = [sys.executable, "-m", "pathmotion.cli"]
+    robot = subprocess.Popen(cli + ["virtual-robot", str(scenario), "--egm", f"127.0.0.1:{port}", "--lockstep",
+                                    "--out", str(tmp_path / "robot")], env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT)
+    time.sleep(0.5)
+    try:
+        ex = subprocess.run(cli + ["execute", str(scenario), "--egm", str(port), "--out", str(tmp_path / "run")],
+                            env=env, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120)
+        out, _ = robot.communicate(timeout=60)
+    finally:
+        robot.kill()
+    assert ex.returncode == 0, ex.stdout + ex.stderr
+    assert robot.returncode == 0, out
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["ended"] == "done" and summary["packets_lost"] == 0
+    assert (tmp_path / "run" / "execution.csv").is_file() and (tmp_path / "robot" / "robot.csv").is_file()
+    arm = json.loads((tmp_path / "robot" / "summary.json").read_text())
+    assert arm["ended"] == "done" and arm["path_accuracy_m"] < 1e-3
