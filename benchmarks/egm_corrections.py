@@ -4,6 +4,7 @@ moves), and the residual vibration after its stops (at the path's end, and after
 requested at half the planned time). Lockstep EGM in one process, through the encoded messages.
 
     PYTHONPATH=. python benchmarks/egm_corrections.py [--scenarios circle_smooth,corner_g2,abb_cycle] [--json F]
+        [--unknown-payload KG]   (the arm carries KG 0.1 m beyond the flange; the plan and the drives' model not)
 """
 
 from __future__ import annotations
@@ -19,13 +20,15 @@ from pathmotion import api
 from pathmotion.execution.drive_file import drive_file_for, load_drives
 from pathmotion.execution.drives import VirtualArm
 from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess
+from pathmotion.robot import Payload
 
 MODES = ("none", "shaping", "orbital")
 
 
-def run(setup, result, drives, mode, stop_at=None):
+def run(setup, result, drives, mode, stop_at=None, payload=0.0):
     streamer = make_streamer(setup.robot, result, mode, drives)
-    arm = VirtualArm(setup.robot, drives, streamer.table.plan[0])
+    plant = setup.robot.with_payload(Payload(mass=payload, com=(0.0, 0.0, 0.1))) if payload > 0 else None
+    arm = VirtualArm(setup.robot, drives, streamer.table.plan[0], plant_robot=plant)
     out = run_inprocess(streamer, arm, result.duration + 2.0, stop_at=stop_at)
     return arm_figures(setup.robot, out)
 
@@ -34,6 +37,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", default="circle_smooth,corner_g2,abb_cycle")
     ap.add_argument("--json", default=None, help="write the rows to this JSON file")
+    ap.add_argument("--unknown-payload", type=float, default=0.0, help="kg the arm carries unknown to the plan")
     args = ap.parse_args()
     rows = []
     print("| scenario | gears | correction | path accuracy [mm] | cycle [s] | cycle / planned | vibration after end [mm] "
@@ -47,8 +51,8 @@ def main() -> None:
         for gears, drives in (("rigid", elastic.rigid()), ("elastic", elastic)):
             for mode in MODES:
                 t0 = time.perf_counter()
-                f = run(setup, result, drives, mode)
-                s = run(setup, result, drives, mode, stop_at=0.5 * result.duration)
+                f = run(setup, result, drives, mode, payload=args.unknown_payload)
+                s = run(setup, result, drives, mode, stop_at=0.5 * result.duration, payload=args.unknown_payload)
                 row = {"scenario": name, "gears": gears, "correction": mode, "planned_s": result.duration,
                        "path_accuracy_m": f["path_accuracy_m"], "cycle_time_s": f["cycle_time_s"],
                        "vibration_end_m": f["residual_vibration_m"], "vibration_stop_m": s["residual_vibration_m"],

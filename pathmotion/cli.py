@@ -583,7 +583,6 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         setup, result, params = _egm_setup(scenario, set_, drives)
         streamer = make_streamer(setup.robot, result, correction, params)
         sock = open_listener(egm)
-        logger.info("execute: listening on UDP port %d (%s correction)", sock.getsockname()[1], correction)
         commands, interrupted = _stdin_commands(), False
         try:
             while True:
@@ -620,6 +619,8 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
 
     Example: [bold]pathmotion virtual-robot scenarios/corner_g2.toml --egm 127.0.0.1:6510 --lockstep[/]
     """
+    import numpy as np
+
     from .execution.drives import VirtualArm
     from .execution.figures import execution_figures
     from .execution.loops import parse_address, run_virtual_robot
@@ -638,8 +639,10 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
         if not len(cols["t"]):
             _fail(f"virtual robot: no EGM cycle ran ({run.ended})", EXIT_FAILED_RESULT)
         theta = traj.profile.state_at_time(cols["t"])[0]
+        moving = np.flatnonzero(np.any(np.diff(cols["reference"], axis=0) != 0.0, axis=1))
+        rest = float(cols["t"][moving[-1] + 1]) if moving.size else 0.0  # the references' last change
         summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep}
-        summary.update(execution_figures(setup.robot, traj, cols["t"], cols["q"], theta, traj.duration))
+        summary.update(execution_figures(setup.robot, traj, cols["t"], cols["q"], theta, rest))
         with result_folder(out) as folder:
             table = {"t": cols["t"], "answered": cols["answered"].astype(float)}
             for name in ("q", "qm", "reference", "tau"):

@@ -46,6 +46,7 @@ def serve(sock: socket.socket, streamer: Streamer, *, commands=None, interrupted
     ``interrupted()``: a reason string once Ctrl-C/SIGTERM arrived."""
     clock = time.perf_counter
     last = clock()
+    log.info("execute: listening on UDP port %d (%s correction)", sock.getsockname()[1], streamer.mode)
     while True:
         reason = interrupted()
         if reason:

@@ -192,6 +192,7 @@ class Streamer:
             return None
         if self._last_seq is None:
             self._check_first(msg)
+            log.info("first robot message (seqno %d): %d joints at the plan's start; streaming", msg.seqno, self.n)
         elif msg.joints.size != self.n:
             self.counts.rejected += 1
             log.warning("ignored a robot message with %d joints (the plan has %d)", msg.joints.size, self.n)
