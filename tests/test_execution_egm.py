@@ -277,3 +277,29 @@ def test_cli_execute_against_virtual_robot(tmp_path):
     assert (tmp_path / "run" / "execution.csv").is_file() and (tmp_path / "robot" / "robot.csv").is_file()
     arm = json.loads((tmp_path / "robot" / "summary.json").read_text())
     assert arm["ended"] == "done" and arm["path_accuracy_m"] < 1e-3
+
+
+def test_stdin_commands(planned, caplog):
+    """'override F', 'stop', 'resume' lines; a bad line is logged and ignored."""
+    from pathmotion.execution.loops import apply_command
+
+    robot, result, drives = planned
+    st = _streamer(planned, "none")
+    q = st.table.q[0]
+    for k in range(10):  # moving
+        st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
+    apply_command(st, "override 2")
+    assert "ignored the command" in caplog.text and st.override_scale == 1.0
+    apply_command(st, "override 0.5")
+    assert st.override_scale == 0.5
+    apply_command(st, "stop")
+    assert st.stop_reason == "stop requested"
+    k = 10
+    while st.records[-1].tau < st.segment.duration:  # until the stop has come to rest
+        st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
+        k += 1
+    assert st.records[-1].theta < result.trajectory.path.domain[1]
+    apply_command(st, "resume")
+    assert st.stop_reason is None and st.segment.duration > 0
+    apply_command(st, "jump 3")
+    assert "give 'override F', 'stop' or 'resume'" in caplog.text

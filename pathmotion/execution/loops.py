@@ -39,18 +39,15 @@ def open_listener(port: int, host: str = "0.0.0.0") -> socket.socket:
     return sock
 
 
-def serve(sock: socket.socket, streamer: Streamer, *, commands=None, interrupted=lambda: None,
+def serve(sock: socket.socket, streamer: Streamer, *, commands=None,
           first_timeout: float = defaults.EGM_FIRST_MESSAGE_TIMEOUT, silence: float = defaults.EGM_SILENCE) -> str:
     """Answer robot datagrams on ``sock`` until the motion is over; returns how it ended: "done", "silent"
-    (the controller stopped sending mid-motion), or the stop's reason. ``commands()``: pending stdin lines;
-    ``interrupted()``: a reason string once Ctrl-C/SIGTERM arrived."""
+    (the controller stopped sending mid-motion), or the stop's reason. ``commands()``: pending stdin lines.
+    A KeyboardInterrupt leaves it; the caller stops the streamer and serves on."""
     clock = time.perf_counter
     last = clock()
     log.info("execute: listening on UDP port %d (%s correction)", sock.getsockname()[1], streamer.mode)
     while True:
-        reason = interrupted()
-        if reason:
-            streamer.stop(reason)
         for line in (commands() if commands else ()):
             apply_command(streamer, line)
         wait = first_timeout if not streamer.started else silence
