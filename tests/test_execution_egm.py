@@ -8,6 +8,9 @@ import threading
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis.extra.numpy import arrays as st_arrays
+from hypothesis.strategies import floats as st_floats
 
 pytest.importorskip("abb_robot_client")
 
@@ -58,15 +61,18 @@ def _inside_limits(robot, records):
 def test_udp_lockstep_loop_either_side_first(planned):
     """The virtual robot starts first (its messages are refused until execute listens, and sent again), the
     motion completes through real datagrams, every reference inside the limits, no packet lost."""
+    import time
+
     robot, result, drives = planned
-    sock = open_listener(0, "127.0.0.1")
-    port = sock.getsockname()[1]
+    port = _free_port()
     streamer = _streamer(planned)
     arm = VirtualArm(robot, drives, streamer.table.plan[0])
     box = {}
     robot_thread = threading.Thread(target=lambda: box.setdefault(
         "run", run_virtual_robot(arm, ("127.0.0.1", port), lockstep=True, max_time=result.duration + 2.0)))
     robot_thread.start()
+    time.sleep(0.2)  # nobody listens yet: the robot's first messages go unanswered and are sent again
+    sock = open_listener(port, "127.0.0.1")
     try:
         ended = serve(sock, streamer, first_timeout=10.0, silence=2.0)
     finally:
@@ -74,6 +80,7 @@ def test_udp_lockstep_loop_either_side_first(planned):
         sock.close()
     run = box["run"]
     assert ended == "done" and run.ended == "done"
+    assert run.resent >= 1
     assert streamer.counts.lost == 0 and streamer.counts.rejected == 0
     assert _inside_limits(robot, streamer.records)
     # the arm ends where the plan ends (link side), independent of the messages' route
@@ -303,3 +310,30 @@ def test_stdin_commands(planned, caplog):
     assert st.stop_reason is None and st.segment.duration > 0
     apply_command(st, "jump 3")
     assert "give 'override F', 'stop' or 'resume'" in caplog.text
+
+
+@settings(max_examples=50, deadline=None)
+@given(st_arrays(np.float64, (20, 6), elements=st_floats(-3.0, 3.0)), st_arrays(np.float64, (20, 6), elements=st_floats(-3.0, 3.0)))
+def test_no_sent_reference_leaves_the_limits(scale_q, scale_qd):
+    """Whatever the table holds (here up to 3x the limits), what is sent lies inside the position and speed
+    limits, and each clipped answer is counted."""
+    from pathmotion.execution.reference import ReferenceTable
+    from pathmotion.execution.streamer import Streamer
+    from pathmotion.robot import load_robot
+
+    lim = load_robot("irb140").limits
+    t = np.arange(20) * 0.004
+    q = scale_q * np.maximum(np.abs(lim.lower), np.abs(lim.upper))
+    qd = scale_qd * lim.velocity
+    table = ReferenceTable(t, q, qd, t, q, float(t[-1]), np.zeros_like(q), motion=np.zeros((20, 3)))
+    inside = lim.lower + 0.5 * (lim.upper - lim.lower)
+    table.q[0] = inside  # the robot's start
+    streamer = Streamer(table, None, lim.lower, lim.upper, lim.velocity, tolerance=1e-9)
+    outside = 0
+    for k in range(20):
+        reply = streamer.handle(encode_robot(k + 1, 4 * k, inside, inside), 0.0, lambda: 0.0)
+        sent = decode_sensor(reply, 6)
+        assert np.all(sent.joints >= lim.lower - 1e-12) and np.all(sent.joints <= lim.upper + 1e-12)
+        assert np.all(np.abs(sent.speed) <= lim.velocity + 1e-12)
+        outside += bool(np.any(q[k] < lim.lower) or np.any(q[k] > lim.upper) or np.any(np.abs(qd[k]) > lim.velocity))
+    assert streamer.counts.clipped == outside
