@@ -634,6 +634,7 @@ def second_order_plan(setup: Setup, result: PlanResult) -> PlanResult | None:
 def simulation_settings(setup: Setup):
     from .control import OrbitalGains, TrackingGains
     from .simulation import Realism, SimulationSettings
+    from .simulation.events import Event
 
     sim = setup.scenario.simulate
     rs = sim.realism
@@ -646,7 +647,8 @@ def simulation_settings(setup: Setup):
     kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
                   path_tolerance=sim.path_tolerance, joint_tolerance=sim.joint_tolerance,
                   saturation_limit=sim.saturation_limit, laps=sim.laps, plant=sim.plant,
-                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload)
+                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload,
+                  events=tuple(Event(e.t, e.override, e.stop, e.resume) for e in sim.events))
     if sim.gains:
         cls, field = (OrbitalGains, "orbital_gains") if sim.controller == "orbital" else (
             TrackingGains, "computed_torque_gains" if sim.controller == "computed_torque" else "pd_gains")
@@ -662,14 +664,17 @@ def simulation_settings(setup: Setup):
 
 def simulate_scenario(setup: Setup, result: PlanResult):
     """Closed-loop simulation of the planned motion with the scenario's controller and plant (the reserve
-    search's run when ``result`` is the plan it chose)."""
+    search's run when ``result`` is the plan it chose; with simulate.events, the plan re-timed at each)."""
+    from .planning import Retimer
     from .simulation import simulate
 
     run = setup.reserve_run
     if run is not None and result is run[0] and run[1] is not None:
         return run[1]
     settings = simulation_settings(setup)
-    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
+    retimer = Retimer(result) if settings.events else None
+    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings,
+                    retimer=retimer)
 
 
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:

@@ -232,6 +232,22 @@ class RealismSpec(_Model):
     delay: bool = Field(False, description="one-sample delay of the applied torque")
 
 
+class EventSpec(_Model):
+    """A re-timing event of the closed loop (pathmotion.simulation.events): exactly one of override, stop, resume."""
+
+    t: float = Field(ge=0, description="time of the event [s]")
+    override: float | None = Field(None, gt=0, le=1, description="speed override from then on (1 = the plan's "
+                                   "speed; velocity x override, acceleration x override^2)")
+    stop: bool = Field(False, description="stop on the path, as fast as the limits allow")
+    resume: bool = Field(False, description="resume from a stop to the path's end")
+
+    @model_validator(mode="after")
+    def _one_action(self):
+        if (self.override is not None) + self.stop + self.resume != 1:
+            raise ValueError("give exactly one of override = <0..1>, stop = true, resume = true")
+        return self
+
+
 class SimulateSpec(_Model):
     controller: Controller = Controller.ORBITAL
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, le=0.1, description="controller sample time [s]")
@@ -256,6 +272,8 @@ class SimulateSpec(_Model):
                                    "[s], payload_noise [rad/s^2], payload_speed_noise [rad/s])")
     saturation_limit: float = Field(defaults.SATURATION_LIMIT, ge=0,
                                     description="longest stretch a torque may stay saturated [s]")
+    events: list[EventSpec] = Field([], description="re-timing events (orbital controller): e.g. [{t = 0.3, "
+                                    "override = 0.5}, {t = 0.6, stop = true}, {t = 1.0, resume = true}]")
 
 
 # ----------------------------------------------------------------------------------------- rapid

@@ -104,6 +104,7 @@ IDENTIFIED_PAYLOAD = _k("identified_payload_kg", "payload the controller identif
 IDENTIFIED_PAYLOAD_COM = _k("identified_payload_com_m", "identified payload's centre of mass, flange frame", "mm", 1e3)
 IDENTIFIED_VISCOUS = _k("identified_viscous_friction", "identified viscous friction per joint", "N m s/rad")
 IDENTIFIED_COULOMB = _k("identified_coulomb_friction", "identified Coulomb friction per joint", "N m")
+EVENTS = _k("events", "re-timing events: time, kind, re-timing time [ms], reaction time [s], stop distance")
 
 #: Tables written before issue 13: the closed loop's time under its old name (read, never written).
 LEGACY_SIMULATED_DURATION = _k("simulated_duration_s", "simulated duration (older tables)", "s", short="simulated")

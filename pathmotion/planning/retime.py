@@ -39,7 +39,7 @@ from ..modes import BoundaryMode, Connections
 from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _with_knots, certified_bounds,
                       effective_limits)
 from .profile import Profile
-from .retime_kernels import brake, greedy_from, least_u, step_down, step_up, stop_inside
+from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
 from .topp import _interval_rows, _project, controllable_sets
 from .verify import LimitRatios, limit_ratios, summarize_intervals
@@ -54,11 +54,17 @@ MERGE_FRACTION = 1e-6
 STATE_TOLERANCE = 1e-7
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
 STOP_ITERATIONS = 4
+#: Points of the finer grid the second-order stop is computed on again [-].
+STOP_POINTS = 2000
 #: Third-order stop: grid points of each trial stop, the growth of the trial distance and the relative
 #: accuracy of its bisection [-].
 SMOOTH_STOP_POINTS = 40
 SMOOTH_STOP_GROWTH = 1.25
 SMOOTH_STOP_ACCURACY = 0.01
+#: Third-order: the speed-up cap of the first linearization point is sampled at this many times over this
+#: horizon [s] (cubically graded towards the state) [-], [s].
+JERK_CAP_SAMPLES = 400
+JERK_CAP_HORIZON = 5.0
 #: Third-order: relative lowerings of x at the state tried when the LP from the state itself is infeasible
 #: by round-off, or above a limit by less than the limit tolerance [-].
 START_NUDGES = (1e-6, 1e-5, 1e-4, defaults.LIMIT_TOLERANCE)
@@ -128,8 +134,25 @@ class Retimer:
         self._rlo, self._rhi = np.ascontiguousarray(self._rest_sets.lo), np.ascontiguousarray(self._rest_sets.hi)
         self._no_target = np.full(len(grid), -1.0)
         self._buffer = np.empty(len(grid) + 1)
+        self._fine_buffer = np.empty(STOP_POINTS)
+        # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at)
+        self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
+                              for n in ("a", "b", "c", "lo", "hi", "x_max"))
         log.debug("retimer: %d grid points, %d rows per interval, %d stops", len(grid), self._P.shape[1],
                   len(self._stops))
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """One query of each kind, so that the first one in a control loop does not load the compiled kernels
+        (second-order limits; the third-order solves are LPs)."""
+        if self.third_order:
+            return
+        k = int(np.argmax(self.plan.profile.x))
+        try:
+            self.remaining(float(self.grid[0]), 0.0)
+            self.stop(float(self.grid[k]), float(np.sqrt(self.plan.profile.x[k])))
+        except PathmotionError:  # a plan that cannot be re-timed says so at the first real query
+            pass
 
     # ----------------------------------------------------------------------------------------------- queries
 
@@ -155,7 +178,7 @@ class Retimer:
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
                                   "there is nothing to stop")
-        grid, x = self._stop2(theta, x0)
+        grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
         if self.third_order:
             return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
         return Profile(grid, x)
@@ -272,6 +295,19 @@ class Retimer:
                         STOP_ITERATIONS)
         return self._stop_grid(theta, x0, g[j:last + 1], xs, d, g[last + 1] - g[last])
 
+    def _fine_stop(self, theta: float, x0: float, grid: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The stop again on STOP_POINTS uniform points from theta to the plan-grid stop's end, the rows
+        interpolated linearly inside each plan interval: a stop spans few plan intervals, and the constant-u
+        intervals' first-order error would lengthen it by percents. Returns the finer stop, or the plan-grid
+        stop (grid, x) when the finer one does not end sooner."""
+        xs = self._fine_buffer
+        k, d = fine_brake(self.grid, *self._stacked, theta, x0, grid[-1], STOP_POINTS, xs, STOP_ITERATIONS)
+        if k < 0 or not np.isfinite(d):
+            return grid, x
+        h = (grid[-1] - theta) / (STOP_POINTS - 1)
+        fine = theta + h * np.arange(1, k + 1)
+        return self._stop_grid(theta, x0, fine, xs[1:k + 1].copy(), d, h)
+
     @staticmethod
     def _stop_grid(theta, x0, inner_grid, inner_x, d, width) -> tuple[np.ndarray, np.ndarray]:
         """The stop's (grid, x): the state, the inner points, and the stop point ``d`` after the last of them
@@ -352,11 +388,13 @@ class Retimer:
 
     def _smooth_lp(self, grid, samp, scale, x_start, rest, fixed, fixed_u) -> Profile:
         """One sequential-LP solve; a start on the edge of the feasible set (the plan's own state, say) can
-        be infeasible by round-off: it is retried with x_0 lowered by START_NUDGES (relative)."""
+        be infeasible by round-off or by the plans' limit tolerance: it is retried with x_0 and u_0 moved
+        towards 0 by START_NUDGES (relative)."""
         for nudge in (0.0, *START_NUDGES):
             moved = {i: v * (1.0 - nudge) if i == 0 else v for i, v in fixed.items()}
+            moved_u = {i: v * (1.0 - nudge) for i, v in fixed_u.items()}
             try:
-                return solve_from_state(grid, samp, self.limits, scale, x_start, rest, moved, fixed_u)[0]
+                return solve_from_state(grid, samp, self.limits, scale, x_start, rest, moved, moved_u)[0]
             except InfeasibleError:
                 if nudge == START_NUDGES[-1] or 0 not in fixed:
                     raise
@@ -372,14 +410,38 @@ class Retimer:
         end = self.settings.end_condition
         end_x = None if end == BoundaryMode.MAX else float(self.plan.profile.x[-1]) / s2
         rest_end = end_x is not None and end_x == 0.0
+        # graded towards the state, as the planner grades towards a start: the first intervals carry the turn
+        # of the acceleration from the state's at the jerk limit
+        step = grid[1] - grid[0]
+        fine = np.union1d(grid, grid[0] + step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1))
+        x2, grid = np.interp(fine, grid, x2), fine
+        x_start = np.minimum(x2, self._jerk_cap(grid, x0, u0)) / s2
         try:
-            p = self._smooth_solve(grid, x2 / s2, x0 / s2, u0 / s2, rest_end, end_x)
+            p = self._smooth_solve(grid, x_start, x0 / s2, u0 / s2, rest_end, end_x)
         except InfeasibleError as err:
             raise StateInfeasibleError(
                 f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot be "
                 f"brought to the plan's end within the jerk and torque-rate limits at override {np.sqrt(s2):.4g} "
                 f"({err}); stop first (Retimer.stop), or raise the override") from err
         return Profile(p.grid, p.x * s2, p.u_nodes * s2)
+
+    def _jerk_cap(self, grid: np.ndarray, x0: float, u0: float) -> np.ndarray:
+        """x (K,) on ``grid`` of the fastest speed-up from (x0, u0) at the state's path jerk bound (min over the
+        joints of J_j / |Phi'_j|, held constant): the first linearization point stays below it. Far above, the
+        first tangents of the jerk rows would leave no feasible x next to the state (the planner caps its
+        start from rest the same way). inf where no jerk limit is active."""
+        jerk = next((lim for lim in self.limits if lim.name == "jerk"), None)
+        if jerk is None:
+            return np.full(len(grid), np.inf)
+        dphi = np.abs(np.asarray(self.path.evaluate(float(grid[0]))[1], float))
+        with np.errstate(divide="ignore"):
+            j = float(np.min(np.asarray(jerk.values, float) / dphi))
+        t = np.linspace(0.0, 1.0, JERK_CAP_SAMPLES) ** 3 * JERK_CAP_HORIZON
+        v0 = np.sqrt(x0)
+        v = v0 + u0 * t + 0.5 * j * t**2
+        theta = grid[0] + v0 * t + 0.5 * u0 * t**2 + j * t**3 / 6.0
+        ok = np.concatenate([[True], np.diff(theta) > 0]) & (v >= 0)
+        return np.interp(grid, theta[ok], v[ok] ** 2, right=np.inf)
 
     def _smooth_stop(self, theta: float, x0: float, u0: float, d2: float) -> Profile:
         """Third-order shortest stop: the least distance (from the second-order stop distance ``d2``, a lower

@@ -115,3 +115,76 @@ def stop_inside(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x0, width, iteration
         if d > width:
             return np.inf
     return d
+
+
+@njit(cache=True)
+def rows_at(g, a, b, c, lo, hi, xm, oa, ob, oc, olo, ohi, t, right):
+    """Rows at ``t`` seen from the interval after it (``right``) or before it, linear inside each plan
+    interval between the right-side rows (first index) and the left-side rows (second index) of its ends;
+    written into oa..ohi (m,); returns x_max there. a..xm: (2, K, m) / (2, K) stacks [right, left]."""
+    k = g.shape[0]
+    if right:
+        i = np.searchsorted(g, t, side="right") - 1
+    else:
+        i = np.searchsorted(g, t, side="left") - 1
+    i = min(max(i, 0), k - 2)
+    f = (t - g[i]) / (g[i + 1] - g[i])
+    for r in range(a.shape[2]):
+        oa[r] = (1.0 - f) * a[0, i, r] + f * a[1, i + 1, r]
+        ob[r] = (1.0 - f) * b[0, i, r] + f * b[1, i + 1, r]
+        oc[r] = (1.0 - f) * c[0, i, r] + f * c[1, i + 1, r]
+        olo[r] = (1.0 - f) * lo[0, i, r] + f * lo[1, i + 1, r]
+        ohi[r] = (1.0 - f) * hi[0, i, r] + f * hi[1, i + 1, r]
+    return (1.0 - f) * xm[0, i] + f * xm[1, i + 1]
+
+
+@njit(cache=True)
+def _next_x_range(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x, h):
+    """Range of x_1 at the end of an interval of width h from x at its start, u = (x_1 - x) / (2 h)
+    constant, the start rows (a0..hi0) at x and the end rows (a1..hi1) at x_1."""
+    low, high = -np.inf, np.inf
+    k2 = 0.5 / h
+    for r in range(a0.shape[0]):
+        top, bot = hi0[r] - c0[r] - b0[r] * x, lo0[r] - c0[r] - b0[r] * x
+        if a0[r] > 0.0:
+            low, high = max(low, x + bot / (a0[r] * k2)), min(high, x + top / (a0[r] * k2))
+        elif a0[r] < 0.0:
+            low, high = max(low, x + top / (a0[r] * k2)), min(high, x + bot / (a0[r] * k2))
+        elif top < 0.0 or bot > 0.0:
+            return np.inf, -np.inf
+        q = a1[r] * k2 + b1[r]
+        top, bot = hi1[r] - c1[r] + a1[r] * k2 * x, lo1[r] - c1[r] + a1[r] * k2 * x
+        if q > 0.0:
+            low, high = max(low, bot / q), min(high, top / q)
+        elif q < 0.0:
+            low, high = max(low, top / q), min(high, bot / q)
+        elif top < 0.0 or bot > 0.0:
+            return np.inf, -np.inf
+    return low, high
+
+
+@njit(cache=True)
+def fine_brake(g, a, b, c, lo, hi, xm, theta, x0, end, n, xs, iterations):
+    """Maximum deceleration from (theta, x0) on n uniform points up to ``end``, the rows interpolated at each
+    (rows_at): xs[k] = x at point k. Returns (k, d): x reaches 0 at d after point k; (-1, 0) when it does
+    not before ``end`` or the rows admit no x there."""
+    m = a.shape[2]
+    w = np.empty((10, m))
+    h = (end - theta) / (n - 1)
+    x = x0
+    xs[0] = x0
+    rows_at(g, a, b, c, lo, hi, xm, w[0], w[1], w[2], w[3], w[4], theta, True)
+    for k in range(n - 1):
+        t1 = theta + (k + 1) * h
+        x_max = rows_at(g, a, b, c, lo, hi, xm, w[5], w[6], w[7], w[8], w[9], t1, False)
+        low, high = _next_x_range(w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9], x, h)
+        high = min(high, x_max)
+        if low > high:
+            return -1, 0.0
+        if low <= 0.0:
+            d = stop_inside(w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9], x, h, iterations)
+            return k, min(d, h)
+        x = low
+        xs[k + 1] = x
+        rows_at(g, a, b, c, lo, hi, xm, w[0], w[1], w[2], w[3], w[4], t1, True)
+    return -1, 0.0
