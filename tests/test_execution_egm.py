@@ -301,8 +301,8 @@ def test_stdin_commands(planned, caplog):
     assert st.override_scale == 0.5
     apply_command(st, "stop")
     assert st.stop_reason == "stop requested"
-    k = 10
-    while st.records[-1].tau < st.segment.duration:  # until the stop has come to rest
+    k, stop_segment = 10, st.segment
+    while k == 10 or st.records[-1].tau < stop_segment.duration:  # until the stop has come to rest
         st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
         k += 1
     assert st.records[-1].theta < result.trajectory.path.domain[1]
