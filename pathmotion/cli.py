@@ -567,7 +567,9 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
             egm: int = typer.Option(defaults.EGM_PORT, "--egm", help="UDP port to listen on for the controller's EGM messages"),
             out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
             correction: str = typer.Option("shaping", help="none | shaping (pre-compensate the drives and EGM) | orbital (shaping + transverse loop)"),
-            drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)")):
+            drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)"),
+            start_tolerance: float = typer.Option(defaults.EGM_START_TOLERANCE, help="largest distance \\[rad] of "
+                                                  "the robot's joints from the plan's start")):
     """Plan, then stream the motion to an ABB controller over EGM (answer each EgmRobot with an EgmSensor);
     stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
     Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130).
@@ -581,7 +583,9 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     out = _out(_default_out(out, scenario, {}))
     with output_lock(out):
         setup, result, params = _egm_setup(scenario, set_, drives)
-        streamer = make_streamer(setup.robot, result, correction, params)
+        if not 0.0 <= start_tolerance < float("inf"):
+            _fail(f"--start-tolerance {start_tolerance!r}: give a distance >= 0 in rad")
+        streamer = make_streamer(setup.robot, result, correction, params, tolerance=start_tolerance)
         sock = open_listener(egm)
         commands, interrupted = _stdin_commands(), False
         try:

@@ -242,6 +242,10 @@ def test_drive_file_errors_name_the_key():
 
 def test_address_errors():
     assert parse_address("127.0.0.1:6510") == ("127.0.0.1", 6510)
+    with pytest.raises(ExecutionError, match="a UDP port is 0-65535"):
+        open_listener(70000)
+    with open_listener(0, "127.0.0.1") as taken, pytest.raises(ExecutionError, match="cannot listen on UDP port"):
+        open_listener(taken.getsockname()[1], "127.0.0.1")
     for bad in ("6510", "host:", "host:70000", ":1"):
         with pytest.raises(ExecutionError, match="HOST:PORT"):
             parse_address(bad)

@@ -30,12 +30,14 @@ def parse_address(text: str) -> tuple[str, int]:
 
 def open_listener(port: int, host: str = "0.0.0.0") -> socket.socket:
     """A UDP socket bound to (host, port) (port 0: an ephemeral one)."""
+    if not 0 <= port < 65536:
+        raise ExecutionError(f"--egm {port}: a UDP port is 0-65535 (6510 is EGM's usual one)")
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
         sock.bind((host, port))
     except OSError as exc:
         sock.close()
-        raise ExecutionError(f"cannot listen on UDP port {port}: {exc.strerror}; choose another --egm port") from None
+        raise ExecutionError(f"cannot listen on UDP port {port}: {exc.strerror or exc}; choose another --egm port") from None
     return sock
 
 

@@ -165,7 +165,7 @@ class Streamer:
         if gap[j] > self.tolerance:
             raise ExecutionError(f"the robot is not at the plan's start: joint {j + 1} is {np.degrees(gap[j]):.3f} deg "
                                  f"({gap[j]:.4g} rad) away (tolerance {self.tolerance:.4g} rad); move it to the start "
-                                 f"(planned.joints of the first reply) or raise the start tolerance")
+                                 f"(planned.joints of the first reply) or raise --start-tolerance")
 
     def _sequence(self, seq: int) -> str:
         """'new', 'duplicate' or 'old', counting lost messages."""
