@@ -29,9 +29,9 @@ MODES = ("none", "shaping", "orbital")
 class ReferenceTable:
     """References at times t (K,) [s] of plan time: q (K, n) [rad], qd (K, n) [rad/s] (what is sent), theta (K,)
     and plan (K, n) (the plan's own joints, for the record); deflection (K, n) [rad]: the gear deflection
-    the shaping planned at each time (0 without shaping); duration [s]; path, profile: the motion's
-    JointPath and Profile (plan time 0 = the profile's first point); motion (K, 3): theta, theta_dot,
-    theta_ddot of the references (the profile's, averaged when shaped)."""
+    the shaping planned at each time (0 without shaping); duration [s]; path: the motion's JointPath; raw:
+    the :class:`RawMotion` the references follow (time 0 = its profile's first point); motion (K, 3): theta,
+    theta_dot, theta_ddot of the references (the raw motion's, averaged when shaped)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -41,7 +41,7 @@ class ReferenceTable:
     duration: float
     deflection: np.ndarray
     path: object = None
-    profile: object = None
+    raw: object = None
     motion: np.ndarray | None = None
 
     @property
@@ -50,12 +50,9 @@ class ReferenceTable:
         return float(self.t[-1])
 
     def state(self, tau: float) -> tuple[float, float, float]:
-        """(theta, theta_dot, theta_ddot) of the references' motion at plan time tau [s]."""
-        tau = min(max(tau, 0.0), self.end)
-        k = min(int(tau / self.t[1]), len(self.t) - 2) if len(self.t) > 1 else 0
-        row = self.motion[k] if len(self.t) == 1 else self.motion[k] + (tau - self.t[k]) / (
-            self.t[k + 1] - self.t[k]) * (self.motion[k + 1] - self.motion[k])
-        return float(row[0]), max(float(row[1]), 0.0), float(row[2])
+        """(theta, theta_dot, theta_ddot) of the raw motion at plan time tau [s]: a re-timing starts there."""
+        th, thd, thdd = self.raw.state(np.array([max(tau, 0.0)]))
+        return float(th[0]), max(float(thd[0]), 0.0), float(thdd[0])
 
     def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
         """(q, qd, plan q, theta, deflection) at plan time tau (clipped to [0, end]), linearly interpolated."""
@@ -97,19 +94,45 @@ def shaping_window(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> flo
     return float(2.0 * np.pi / omega.min())
 
 
-def path_motion(profile, t: np.ndarray, window: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s, evenly spaced] of the profile's motion averaged
-    over the last ``window`` seconds (a moving average in the path coordinate: the motion stays on the path,
-    its acceleration becomes continuous and the frequencies k / window vanish from it); window 0: the
-    profile itself. The averaged motion lasts the profile's duration plus the window."""
+@dataclass(frozen=True, eq=False)
+class RawMotion:
+    """A motion along the path in time: ``profile`` from time 0 on (at rest at its end), and before 0 the
+    ``previous`` raw motion at time t + ``offset`` (the segment this one was re-timed from), or the profile's
+    start at rest."""
+
+    profile: object
+    previous: "RawMotion | None" = None
+    offset: float = 0.0
+
+    @property
+    def duration(self) -> float:
+        return float(self.profile.duration)
+
+    def state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s]."""
+        t = np.asarray(t, float)
+        out = [np.asarray(v, float) for v in self.profile.state_at_time(np.maximum(t, 0.0))]
+        before = t < 0.0
+        if self.previous is not None and before.any():
+            for arr, v in zip(out, self.previous.state(t[before] + self.offset)):
+                arr[before] = v
+        elif before.any():
+            out[1][before], out[2][before] = 0.0, 0.0
+        return out[0], out[1], out[2]
+
+
+def path_motion(raw: RawMotion, t: np.ndarray, window: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s, evenly spaced] of the raw motion averaged over
+    the last ``window`` seconds (a moving average in the path coordinate: the motion stays on the path, its
+    acceleration becomes continuous and the frequencies k / window vanish from it); window 0: the raw motion
+    itself. The averaged motion lasts the raw one plus the window."""
     if window <= 0.0:
-        return profile.state_at_time(t)
-    state = profile.state_at_time
+        return raw.state(t)
     step = t[1] - t[0] if len(t) > 1 else window
     m = max(1, int(round(window / step)))
     window = m * step
     fine = np.concatenate([t[0] - step * np.arange(m, 0, -1), t])
-    theta, theta_dot, _ = state(fine)
+    theta, theta_dot, _ = raw.state(fine)
     mid = 0.5 * (theta[1:] + theta[:-1]) * step
     area = np.concatenate([[0.0], np.cumsum(mid)])
     averaged = (area[m:] - area[:-m]) / window
@@ -117,16 +140,18 @@ def path_motion(profile, t: np.ndarray, window: float) -> tuple[np.ndarray, np.n
     return averaged, (theta[m:] - theta[:-m]) / window, (now_dot - before_dot) / window
 
 
-def build_reference(robot: Robot, trajectory, mode: str, drives: DriveParameters | None,
+def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: DriveParameters | None,
                     step: float = defaults.EGM_TABLE_STEP, window: float = 0.0) -> ReferenceTable:
-    """The table of references for ``trajectory`` (a planning.Trajectory) in ``mode`` (one of MODES); with
-    shaping, its motion averaged in the path coordinate over ``window`` [s] (see :func:`path_motion`)."""
-    path, profile = trajectory.path, trajectory.profile
+    """The table of references for the raw motion ``raw`` along ``path`` in ``mode`` (one of MODES); with
+    shaping, the motion averaged in the path coordinate over ``window`` [s] (see :func:`path_motion`). The
+    table starts one EGM cycle early (the raw motion before 0 is what ran before), so that the low-pass
+    inverse at its first row continues the references already sent."""
     window = window if mode != "none" else 0.0
-    duration = float(trajectory.duration) + window
+    duration = raw.duration + window
     lead = 0.0 if mode == "none" else drives.transport_delay
-    t = np.arange(0.0, duration + lead + step, step)
-    theta, theta_dot, theta_ddot = path_motion(profile, t, window)
+    per = 0 if mode == "none" else max(1, int(round(drives.cycle / step)))
+    t = np.arange(-per, int(np.ceil((duration + lead) / step)) + 1) * step
+    theta, theta_dot, theta_ddot = path_motion(raw, t, window)
     q, dq, ddq = path.evaluate(theta)
     qd = dq * theta_dot[:, None]
     deflection = np.zeros_like(q)
@@ -138,10 +163,10 @@ def build_reference(robot: Robot, trajectory, mode: str, drives: DriveParameters
         m = np.concatenate([(q + deflection)[ahead:], np.repeat((q + deflection)[-1:], ahead, axis=0)])
         md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
         alpha = 1.0 - np.exp(-2.0 * np.pi * drives.lowpass_bandwidth * drives.cycle)
-        per = max(1, int(round(drives.cycle / step)))
         sent_q, sent_qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)
     lim = robot.limits
-    sent_q = np.clip(sent_q, lim.lower, lim.upper)
-    sent_qd = np.clip(sent_qd, -lim.velocity, lim.velocity)
-    return ReferenceTable(t, sent_q, sent_qd, theta, q, duration, deflection, path, profile,
-                          np.stack([theta, theta_dot, theta_ddot], axis=1))
+    sent_q = np.clip(sent_q, lim.lower, lim.upper)[per:]
+    sent_qd = np.clip(sent_qd, -lim.velocity, lim.velocity)[per:]
+    cut = slice(per, None)
+    return ReferenceTable(t[cut] - t[per], sent_q, sent_qd, theta[cut], q[cut], duration, deflection[cut], path, raw,
+                          np.stack([theta, theta_dot, theta_ddot], axis=1)[cut])

@@ -14,7 +14,6 @@ from .. import defaults
 from ..errors import ExecutionError, PathmotionError, StateInfeasibleError
 from ..planning.profile import Profile
 from ..planning.retime import Retimer
-from ..planning.trajectory import Trajectory
 from ..io import exports
 from ..io.atomic import write_json
 from ..robot import Robot
@@ -23,7 +22,7 @@ from .drives import VirtualArm
 from .figures import execution_figures
 from .messages import decode_sensor, encode_robot
 from .orbital import TransverseLoop
-from .reference import MODES, build_reference, shaping_window
+from .reference import MODES, RawMotion, build_reference, shaping_window
 from .streamer import Streamer
 
 log = logging.getLogger(__name__)
@@ -53,20 +52,21 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
     except PathmotionError as exc:
         raise ExecutionError(f"execute needs a plan it can stop along the path: {exc}") from None
     path = plan_result.trajectory.path
+    start = plan_result.trajectory.at_time([0.0]).q[0]
+    # the average makes a second-order plan's acceleration continuous (a jerk-limited plan's already is); one
+    # window for every segment of the run, so that a re-timed segment continues the references sent
+    window = 0.0 if plan_result.profile.smooth else shaping_window(robot, drives, start)
 
-    def retime(kind: str, state: tuple, override: float):
+    def retime(kind: str, state: tuple, override: float, previous: RawMotion, offset: float):
         if kind == "stop":
             profile = _stop(retimer, state)
         elif kind == "resume":
             profile = retimer.remaining(state[0], 0.0, 0.0, override)
         else:
             profile = retimer.remaining(*state, override=override)
-        return build_reference(robot, Trajectory(path, profile, robot), mode, drives)
+        return build_reference(robot, path, RawMotion(profile, previous, offset), mode, drives, window=window)
 
-    start = plan_result.trajectory.at_time([0.0]).q[0]
-    # the average makes a second-order plan's acceleration continuous; a jerk-limited plan's already is
-    window = 0.0 if plan_result.profile.smooth else shaping_window(robot, drives, start)
-    table = build_reference(robot, plan_result.trajectory, mode, drives, window=window)
+    table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, window=window)
     lim = robot.limits
     loop = TransverseLoop(path) if mode == "orbital" else None
     return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
