@@ -341,3 +341,17 @@ def test_no_sent_reference_leaves_the_limits(scale_q, scale_qd):
         assert np.all(np.abs(sent.speed) <= lim.velocity + 1e-12)
         outside += bool(np.any(q[k] < lim.lower) or np.any(q[k] > lim.upper) or np.any(np.abs(qd[k]) > lim.velocity))
     assert streamer.counts.clipped == outside
+
+
+def test_a_shaped_stop_continues_the_references(planned):
+    """With shaping (the averaged second-order plan), a stop's references start where the plan's left off: the
+    step between consecutive references at the switch is no larger than the steps of the motion before it."""
+    robot, result, drives = planned
+    st = _streamer(planned, "shaping")
+    stop_at = 0.4 * result.duration
+    run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0, stop_at=stop_at)
+    sent = np.array([r.sent for r in st.records])
+    steps = np.abs(np.diff(sent, axis=0)).max(axis=1)
+    k = int(round(stop_at / drives.cycle))
+    assert steps[k - 1:k + 2].max() <= 1.5 * steps[:k - 1].max()
+    assert _inside_limits(robot, st.records)
