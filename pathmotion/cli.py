@@ -551,6 +551,139 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     _result_verdict([f.message for f in failures], plan_summary["export_notes"], force)
 
 
+def _egm_setup(scenario: Path, set_, drives: Optional[Path]):
+    """(setup, plan result, drive parameters) for the EGM commands."""
+    from . import api
+    from .execution.drive_file import drive_file_for, load_drives
+
+    setup = api.load(scenario, _overrides(set_))
+    result = api.plan_scenario(setup)
+    name = setup.scenario.robot.name if drives is None else None
+    params = load_drives(drives if drives is not None else drive_file_for(str(name)), setup.robot.n)
+    return setup, result, params
+
+
+def _stdin_commands():
+    """A function returning the stdin lines read so far (a daemon thread reads them; none without a stdin)."""
+    import queue
+    import threading
+
+    lines: queue.Queue = queue.Queue()
+    if sys.stdin is None or sys.stdin.closed or not hasattr(sys.stdin, "readline"):
+        return lambda: []
+
+    def read():
+        for line in sys.stdin:
+            lines.put(line)
+
+    threading.Thread(target=read, daemon=True).start()
+
+    def pending():
+        out = []
+        while not lines.empty():
+            out.append(lines.get_nowait())
+        return out
+
+    return pending
+
+
+@app.command()
+@guarded
+def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
+            egm: int = typer.Option(defaults.EGM_PORT, "--egm", help="UDP port to listen on for the controller's EGM messages"),
+            out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
+            correction: str = typer.Option("shaping", help="none | shaping (pre-compensate the drives and EGM) | orbital (shaping + transverse loop)"),
+            drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)"),
+            start_tolerance: float = typer.Option(defaults.EGM_START_TOLERANCE, help="largest distance \\[rad] of "
+                                                  "the robot's joints from the plan's start")):
+    """Plan, then stream the motion to an ABB controller over EGM (answer each EgmRobot with an EgmSensor);
+    stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
+    Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130).
+
+    Example: [bold]pathmotion execute scenarios/corner_g2.toml --egm 6510 --out out/run[/]
+    """
+    from .execution.loops import open_listener, serve
+    from .execution.session import make_streamer, write_execution
+    from .io.atomic import output_lock, result_folder
+
+    out = _out(_default_out(out, scenario, {}))
+    with output_lock(out):
+        setup, result, params = _egm_setup(scenario, set_, drives)
+        if not 0.0 <= start_tolerance < float("inf"):
+            _fail(f"--start-tolerance {start_tolerance!r}: give a distance >= 0 in rad")
+        streamer = make_streamer(setup.robot, result, correction, params, tolerance=start_tolerance)
+        sock = open_listener(egm)
+        commands, interrupted = _stdin_commands(), False
+        try:
+            while True:
+                try:
+                    ended = serve(sock, streamer, commands=commands)
+                    break
+                except KeyboardInterrupt:
+                    if interrupted or not streamer.started:
+                        raise
+                    interrupted = True
+                    _SIGNALLED.clear()
+                    streamer.stop("interrupted (Ctrl-C or SIGTERM)")
+        finally:
+            sock.close()
+        with result_folder(out) as folder:
+            summary = write_execution(folder, setup.robot, streamer, ended)
+    _print_table(_summary_table(f"execute {setup.name} -> {out}", summary))
+    if interrupted:
+        raise typer.Exit(130)
+    if ended != "done":
+        _fail(f"the motion did not complete: {ended}", EXIT_FAILED_RESULT)
+
+
+@app.command("virtual-robot")
+@guarded
+def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file (the arm starts at its start)"),
+                  egm: str = typer.Option(..., "--egm", help="HOST:PORT of the EGM sensor (pathmotion execute)"),
+                  lockstep: bool = typer.Option(False, help="wait for each answer (deterministic) instead of 4 ms"),
+                  rigid: bool = typer.Option(False, help="rigid gearboxes (the drive file's stiffness ignored)"),
+                  out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
+                  drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)")):
+    """A virtual IRC5: send EgmRobot every 4 ms (or in lockstep), move the arm (drives, elastic gears) by the
+    answers; writes robot.csv and summary.json (ISO figures of the link side, the TCP that really moves).
+
+    Example: [bold]pathmotion virtual-robot scenarios/corner_g2.toml --egm 127.0.0.1:6510 --lockstep[/]
+    """
+    import numpy as np
+
+    from .execution.drives import VirtualArm
+    from .execution.figures import execution_figures
+    from .execution.loops import parse_address, run_virtual_robot
+    from .io import exports
+    from .io.atomic import output_lock, result_folder, write_json
+
+    address = parse_address(egm)
+    out = _out(out if out is not None else Path(f"{_default_out(None, scenario, {})}_robot"))
+    with output_lock(out):
+        setup, result, params = _egm_setup(scenario, set_, drives)
+        traj = result.trajectory
+        start = traj.at_time([0.0])
+        arm = VirtualArm(setup.robot, params.rigid() if rigid else params, start.q[0])
+        run = run_virtual_robot(arm, address, lockstep=lockstep, max_time=3.0 * traj.duration + 2.0)
+        cols = run.arrays()
+        if not len(cols["t"]):
+            _fail(f"virtual robot: no EGM cycle ran ({run.ended})", EXIT_FAILED_RESULT)
+        theta = traj.profile.state_at_time(cols["t"])[0]
+        moving = np.flatnonzero(np.any(np.diff(cols["reference"], axis=0) != 0.0, axis=1))
+        rest = float(cols["t"][moving[-1] + 1]) if moving.size else 0.0  # the references' last change
+        summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep}
+        summary.update(execution_figures(setup.robot, traj, cols["t"], cols["q"], theta, rest))
+        with result_folder(out) as folder:
+            table = {"t": cols["t"], "answered": cols["answered"].astype(float)}
+            for name in ("q", "qm", "reference", "tau"):
+                table.update({f"{name}{j + 1}": cols[name][:, j] for j in range(arm.n)})
+            exports.write_table_csv(folder / "robot.csv", table)
+            write_json(folder / "summary.json", summary)
+    _print_table(_summary_table(f"virtual-robot {setup.name} -> {out}", summary))
+    if run.ended != "done":
+        _fail(f"virtual robot: {run.ended}", EXIT_FAILED_RESULT)
+
+
 @app.command()
 @guarded
 def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
