@@ -153,3 +153,8 @@ def require_finite(values, what: str, change: str, error: type = PathmotionError
         col = columns[idx[-1]] if columns is not None and idx[-1] < len(columns) else f"column {idx[-1]}"
         where = f" at point {idx[0]} ({col})"
     raise error(f"{what} is not finite{where} (value {arr[idx]!r}); {change}")
+
+
+class ExecutionError(PathmotionError):
+    """Streaming to a controller cannot go on: a malformed or foreign EGM message, a robot that does not match
+    the plan or is not at its start, a silent controller (a stop along the path follows where one is possible)."""

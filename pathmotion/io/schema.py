@@ -160,7 +160,7 @@ IDENTIFIED_VISCOUS = _k("identified_viscous_friction", "identified viscous frict
 IDENTIFIED_COULOMB = _k("identified_coulomb_friction", "identified Coulomb friction per joint", "N m")
 EVENTS = _k("events", "re-timing events: time, kind, re-timing time [ms], reaction time [s], stop distance")
 
-#: Tables written before issue 13: the closed loop's time under its old name (read, never written).
+#: The closed loop's time under the name older tables use (read, never written).
 LEGACY_SIMULATED_DURATION = _k("simulated_duration_s", "simulated duration (older tables)", "s", short="simulated")
 
 # ------------------------------------------------------------------------------------ study

@@ -57,7 +57,7 @@ ROWS_PER_ROUND = 4
 #: The duration's discretization error is estimated as this times the larger change of the duration from
 #: the grid to its two nested coarse grids (even and odd points; _nested_estimate) [-]. Measured
 #: (benchmarks/bench_third_order.py; verified plans, the planner adds the tightening's change): the error
-#: against the converged reference was 0.07-0.24 of the estimate on issue 12's circle cases (jerk 10x and 4x
+#: against the converged reference was 0.07-0.24 of the estimate on the benchmark's circle cases (jerk 10x and 4x
 #: the acceleration limits; 50, 100, 200 grid points) and 0.41-0.73 on the benchmark's 5 splines: the
 #: change alone does not track the error (the grid's alignment with the profile's switches moves it).
 ERROR_FACTOR = 8.0

@@ -28,7 +28,7 @@ from . import interactive as fig
 from .atlas import atlas_section
 from .blocks import Section, cell, figure_html, fmt, section_title
 from .discovery import ResultFolder, discover
-from .tables import joint_columns, read_columns, read_json, read_rows
+from .tables import RANGE_LABEL, in_range, joint_columns, read_columns, read_json, read_rows
 
 #: Key figures of summary.json: key -> (label, unit, scale applied to the value).
 PLAN_KEYS = schema.display(schema.PLAN)
@@ -141,8 +141,7 @@ def _limit_panels(traj: dict[str, np.ndarray], limits: dict) -> list[tuple[str, 
     if q.shape[1] != n:
         raise PathmotionError(f"report: trajectory.csv has {q.shape[1]} joints but {LIMITS_FILE} next to it has {n}; "
                               "re-run the plan")
-    panels = [("joint position in its range: (q − centre) / half range", (q - 0.5 * (lim["upper"] + lim["lower"]))
-               / (0.5 * (lim["upper"] - lim["lower"])), None),
+    panels = [(RANGE_LABEL, in_range(q, lim["lower"], lim["upper"]), None),
               ("joint velocity / limit", qd / lim["velocity"], scale.get("velocity"))]
     if qdd is not None and lim["acceleration"] is not None:
         panels.append(("joint acceleration / limit", qdd / lim["acceleration"], scale.get("acceleration")))
