@@ -22,8 +22,12 @@ import numpy as np
 
 from .io import schema
 from .errors import InfeasibleError, PathmotionError, ScenarioError, UnreachableError
-from .geometry import (Arc, Circle, FixedOrientation, Line, TaskPath, blended_corners, max_deviation, waypoint_path,
-                       with_blends)
+from .geometry import (Arc, Circle, FixedOrientation, Line, SlerpOrientation, TaskPath, blended_corners, max_deviation,
+                       waypoint_path, with_blends)
+from .geometry.orientation import zoned_keys
+from .geometry.targets import target_thetas
+from .geometry.waypoints import waypoint_rotations
+from .lift.program import TargetConf, check_targets, program_start
 from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
@@ -145,6 +149,33 @@ def _segments(specs) -> list:
     return segs
 
 
+def _task_orientation(spec, segs: list):
+    """The tool orientation of a ``type = "task"`` path: fixed (``path.orientation``), or with segment
+    quaternions a slerp from ``path.orientation`` at the start through each segment's end orientation,
+    blended over each ``orientation_zone``."""
+    start = np.array(defaults.TOOL_DOWN_ROTATION) if spec.orientation == "down" else np.asarray(spec.orientation, float)
+    if spec.segments[0].quaternion is None:
+        return FixedOrientation(start)
+    ends = waypoint_rotations([s.quaternion for s in spec.segments], len(segs), "path.segments quaternion")
+    thetas = np.concatenate([[0.0], np.cumsum([s.length for s in segs])])
+    zones = [0.0] + [s.orientation_zone for s in spec.segments]
+    keys, rots = zoned_keys(thetas, np.concatenate([start[None], ends]), zones)
+    try:
+        return SlerpOrientation(tuple(keys), rots)
+    except PathmotionError as exc:
+        raise ScenarioError(f"path.segments quaternions: {exc}") from None
+
+
+def _program_targets(spec) -> list:
+    """The program targets (lift.program.TargetConf) of a task path whose segments carry program moves:
+    the start, then each segment's end; [] when they carry none."""
+    moves = [spec.start_program] + [s.program for s in spec.segments]
+    if all(m is None for m in moves):
+        return []
+    return [TargetConf("the path's start" if m is None else f"line {m.line}, target {m.target}",
+                       None if m is None else m.robconf, True if m is None else m.conf) for m in moves]
+
+
 def _waypoint_task_path(spec, base_dir: Path) -> tuple[TaskPath, TaskPath | None, str]:
     """(task path, the path before blends or None, where) of a ``type = "waypoints"`` path."""
     if spec.file is not None:
@@ -199,9 +230,8 @@ def build_path(scenario: Scenario, robot: Robot,
             raise ScenarioError(f"path.waypoints[{k}]: joint {robot.joint_names[j]} = {wp[k, j]:g} rad is outside "
                                 f"its range [{robot.limits.lower[j]:.4f}, {robot.limits.upper[j]:.4f}]")
         return SplineJointPath.from_waypoints(wp, robot.joint_names), None, None
-    orientation = FixedOrientation() if spec.orientation == "down" else FixedOrientation(
-        np.asarray(spec.orientation, float))
-    task = TaskPath(tuple(_segments(spec.segments)), orientation)
+    segs = _segments(spec.segments)
+    task = TaskPath(tuple(segs), _task_orientation(spec, segs))
     original = task if spec.blends else None
     chosen: dict[int, int] = {}  # connection index (0-based) -> k of path.blends[k]
     conns = list(task.connections) + ([task.closure] if task.closure is not None else [])
@@ -234,9 +264,16 @@ def build_path(scenario: Scenario, robot: Robot,
         blends.update({c: ("g2_shape", shape) for c, shape in shapes.items()})
     task = with_blends(task, blends, names)
     q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    targets = _program_targets(spec)
+    if q_start is None and targets:
+        q_start = program_start(robot, task.evaluate(0.0)[0], task.orientation(0.0)[0], targets[0])
     log.info("lift: IK along the task path (%d segments, %.4g m, %d blended corners)", len(task.segments),
              task.length, len(blends))
     path = lift(robot, task, q_start, original=original)
+    if targets:
+        sharp = original if original is not None else task
+        points = [sharp.segments[0].start_point] + [s.end_point for s in sharp.segments]
+        check_targets(robot, path, target_thetas(task, points, [s.length for s in sharp.segments]), targets)
     log.debug("lifted joint path: theta in [%.6g, %.6g], %d kinks", *path.domain, len(path.kinks))
     return path, task, original
 

@@ -99,7 +99,8 @@ def test_abb_zone_table(zone, mm):
 
 def test_unsupported_instructions_are_listed_with_line_numbers(frames):
     lines = [ln for ln, _ in frames.unsupported]
-    assert lines == [22, 24, 25]
+    assert lines == [22, 24]  # WaitTime (line 25) is a dwell after the last move
+    assert frames.moves[-1].dwell == 0.5
     assert "SingArea" in frames.unsupported[0][1] and "MoveAbsJ" in frames.unsupported[1][1]
 
 
@@ -110,7 +111,7 @@ def test_unsupported_instructions_are_listed_with_line_numbers(frames):
     ("MoveL [[0,0,0],[1,0,0,0]], v100, fine, tool0 \\Corr;", r"prog.mod:3: optional argument \\corr"),
     ("MoveL [[0,0,0],[1,0,0,0]], v100, fine, tool0;\nMoveL [[0,0,0],[1,0,0,0]], v100, fine, tool1;",
      r"prog.mod:4: tool tool1 is not declared"),
-    ("MoveL [[0,0,0],[2,0,0,0]], v100, fine, tool0;", r"prog.mod:3: .*quaternion.*norm 2"),
+    ("MoveL [[0,0,0],[0,0,0,0]], v100, fine, tool0;", r"prog.mod:3: .*quaternion.*not a rotation"),
     ("MoveL [[0,0,0],[1,0,0,0]], v100, fine, tool0;", r"prog.mod: PROC main has 1 MoveL"),
 ])
 def test_errors_name_file_line_and_fix(body, match):

@@ -50,13 +50,44 @@ class RobotSpec(_Model):
 
 
 # ------------------------------------------------------------------------------------------ path
-class LineSpec(_Model):
+Quat = tuple[float, float, float, float]
+RobConf = tuple[int, int, int, int]
+
+
+class ProgramMoveSpec(_Model):
+    """The robot-program move a segment came from (``pathmotion import-rapid`` writes it; ``plan`` reads it
+    for moves.csv, and robconf with conf for the IK branch)."""
+
+    line: int = Field(ge=1, description="line of the move in the program")
+    target: str = Field("", description="the target as written in the program")
+    move: Literal["MoveL", "MoveC", "MoveJ"] = Field(description="the move instruction")
+    speed: float | None = Field(None, gt=0, description="programmed TCP speed [m/s] (absent with a time)")
+    time: float | None = Field(None, gt=0, description="programmed move time (\\T) [s]")
+    zone: str = Field("fine", description="the zone as written (fine, z10, a zonedata name)")
+    robconf: RobConf | None = Field(None, description="ABB robconf [cf1, cf4, cf6, cfx] of the target")
+    conf: bool = Field(True, description="ConfL / ConfJ \\On: the planned configuration at the target must have "
+                                         "the robconf (\\Off: the branch continuous with the previous one)")
+    dwell: float = Field(0.0, ge=0, description="WaitTime after the move [s]: the motion stops at its target")
+
+
+class _Keyed(_Model):
+    """Keys every task segment takes: the tool orientation at its end and the program move behind it."""
+
+    quaternion: Quat | None = Field(None, description="tool orientation at the segment's end, unit quaternion "
+                                    "[w, x, y, z] in the base frame; given on every segment or on none")
+    orientation_zone: float = Field(0.0, ge=0, description="path distance [m] either side of the segment's end over "
+                                    "which the orientation turns straight on to the next one (a zone's pzone_ori; "
+                                    "0: the end orientation is met exactly)")
+    program: ProgramMoveSpec | None = None
+
+
+class LineSpec(_Keyed):
     type: Literal["line"]
     start: Vec3 | None = Field(None, description="start point [m] (default: the previous segment's end)")
     end: Vec3 = Field(description="end point [m]")
 
 
-class ArcSpec(_Model):
+class ArcSpec(_Keyed):
     type: Literal["arc"]
     start: Vec3 | None = Field(None, description="start point [m] (default: previous end)")
     center: Vec3 = Field(description="circle centre [m]")
@@ -64,7 +95,7 @@ class ArcSpec(_Model):
     sweep: float = Field(description="signed sweep angle [rad]")
 
 
-class CircleSpec(_Model):
+class CircleSpec(_Keyed):
     type: Literal["circle"]
     center: Vec3 = Field(description="centre [m]")
     radius: float = Field(gt=0, description="radius [m]")
@@ -107,9 +138,23 @@ class TaskPathSpec(_Model):
     type: Literal["task"]
     segments: list[SegmentSpec] = Field(min_length=1)
     blends: list[BlendSpec] = []
-    orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation matrix")
+    orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation "
+                                                "matrix; with segment quaternions, the orientation at the start")
     start_configuration: tuple[float, ...] | None = Field(
         None, description="joint configuration [rad] the IK branch stays continuous with")
+    start_program: ProgramMoveSpec | None = Field(None, description="the program move whose target is the start "
+                                                  "(its robconf picks the IK branch at the start)")
+
+    @model_validator(mode="after")
+    def _keys(self):
+        given = [s.quaternion is not None for s in self.segments]
+        if any(given) and not all(given):
+            k = given.index(False)
+            raise ValueError(f"segments[{k}] has no quaternion but others do; give every segment its end "
+                             "orientation, or none")
+        if not any(given) and any(s.orientation_zone for s in self.segments):
+            raise ValueError("orientation_zone needs segment quaternions (a fixed orientation does not turn)")
+        return self
 
 
 class JointPathSpec(_Model):

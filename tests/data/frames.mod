@@ -6,9 +6,9 @@ module FrameTest
     PERS wobjdata wTable := [FALSE, TRUE, "",
         [[400, 100, 300], [0.7071067812, 0, 0, 0.7071067812]],   ! user frame: turned 90 deg about z
         [[10, 0, 0], [1, 0, 0, 0]]];                              ! object frame: 10 mm along user x
-    CONST robtarget p10 := [[100, 0, 200], [0, 1, 0, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
+    CONST robtarget p10 := [[100, 0, 200], [0, 1, 0, 0], [0, -1, 1, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
     CONST robtarget pCir := [[150, 50, 200], [0, 1, 0, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
-    CONST robtarget p20 := [[100, 100, 200], [0, 1, 0, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
+    CONST robtarget p20 := [[100, 100, 200], [0, 1, 0, 0], [0, -1, 1, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
     VAR speeddata vSlow := [250, 500, 5000, 1000];
     CONST zonedata zTight := [FALSE, 3, 4.5, 4.5, 0.45, 4.5, 0.45];
 
