@@ -556,6 +556,7 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
     tcp = fk(setup.robot, samples.q[idx])[0]
     exports.write_table_csv(out / "tcp_path.csv", {"t": samples.t[idx], **{f"tcp_{a}": tcp[:, k]
                                                                           for k, a in enumerate("xyz")}})
+    write_moves(setup, result, samples, out)
     if setup.scenario_text:
         write_text(out / "scenario.toml", setup.scenario_text)
     summary = plan_summary(setup, result)
@@ -564,6 +565,21 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
     summary[schema.EXPORT_NOTES.key] = notes
     write_json(out / "summary.json", summary)
     return summary
+
+
+def write_moves(setup: Setup, result: PlanResult, samples, out: Path) -> None:
+    """moves.csv (planning/program_moves.py): one row per program move of a task path whose segments carry
+    program moves; an earlier moves.csv is removed when they carry none."""
+    from .planning.program_moves import move_table
+
+    table = None
+    if setup.task_path is not None and getattr(setup.scenario.path, "segments", None):
+        table = move_table(setup.scenario.path, setup.task_path, setup.original_task_path, result.profile, samples,
+                           enforced_limits(setup.robot, result.settings), setup.robot.joint_names)
+    if table is None:
+        (out / schema.MOVES_FILE).unlink(missing_ok=True)
+    else:
+        exports.write_rows_csv(out / schema.MOVES_FILE, table)
 
 
 def plan_failures(result: PlanResult, setup: Setup | None = None) -> list[str]:

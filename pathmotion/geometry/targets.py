@@ -13,9 +13,10 @@ from .chain import TaskPath
 
 #: Samples of each search window between consecutive targets [-].
 WINDOW_SAMPLES = 64
-#: A window reaches this many times the sharp path's distance between the targets past the last match:
-#: a blend only shortens the path between two targets, by less than this slack allows [-].
-WINDOW_REACH = 1.5
+#: A window reaches the sharp path's distance between the targets past the last match plus this share of
+#: the shorter neighbouring segment: a blend shortens the path between two targets, and a target the path
+#: comes back to (up, down, up again) lies at least two segments further on [-].
+WINDOW_SLACK = 0.5
 #: Newton steps refining each match (the distance is smooth there) [-].
 NEWTON_STEPS = 4
 
@@ -29,7 +30,7 @@ def target_thetas(path: TaskPath, points, spacing) -> np.ndarray:
     out[-1] = path.length
     for k in range(1, len(pts) - 1):
         lo = out[k - 1]
-        hi = min(path.length, lo + WINDOW_REACH * float(spacing[k - 1]))
+        hi = min(path.length, lo + float(spacing[k - 1]) + WINDOW_SLACK * min(float(spacing[k - 1]), float(spacing[k])))
         grid = np.linspace(lo, hi, WINDOW_SAMPLES)
         p = path.evaluate(grid)[0]
         th = float(grid[int(np.argmin(np.linalg.norm(p - pts[k], axis=1)))])
