@@ -27,7 +27,9 @@ from .geometry import (Arc, Circle, FixedOrientation, Line, SlerpOrientation, Ta
 from .geometry.orientation import zoned_keys
 from .geometry.targets import target_thetas
 from .geometry.waypoints import waypoint_rotations
-from .lift.program import TargetConf, check_targets, program_start
+from .lift.program import TargetConf, check_targets
+from .robot.ik import has_closed_form, ik
+from .robot.robconf import ik_robconf
 from . import defaults
 from .io import exports
 from .io.atomic import write_json, write_text
@@ -35,7 +37,10 @@ from .io.files import read_input
 from .io.scenario import Scenario, parse_scenario, unit_slips
 from .io.waypoints import load_waypoints_csv
 from .lift.joint_path import JointPath, SplineJointPath
+from .lift.chain import Dwell, JointMove, TaskRun, lift_chain
 from .lift.constraint import lift
+from .lift.joint_move import PiecewiseJointPath, check_joint_target
+from .io.rapid import quaternion_matrix
 from .planning import PlanResult, PlanSettings, plan
 from .planning.limits import REGISTRY as LIMIT_REGISTRY, limit_choices
 from .robot import Payload, Robot, Tool, builtin_robot_names, fk, load_robot
@@ -116,10 +121,11 @@ def build_robot(scenario: Scenario, base_dir: Path) -> Robot:
     return robot
 
 
-def _segments(specs) -> list:
+def _segments(specs, prev_end=None, first: int = 0) -> list:
+    """The geometry segments of line/arc/circle ``specs`` (path.segments[first], ...); ``prev_end`` (3,) [m]: where
+    the path is before them (the default start of the first one)."""
     segs = []
-    prev_end = None
-    for k, s in enumerate(specs):
+    for k, s in enumerate(specs, start=first):
         where = f"path.segments[{k}]"
         start = s.start if getattr(s, "start", None) is not None else prev_end
         try:
@@ -149,16 +155,20 @@ def _segments(specs) -> list:
     return segs
 
 
-def _task_orientation(spec, segs: list):
-    """The tool orientation of a ``type = "task"`` path: fixed (``path.orientation``), or with segment
-    quaternions a slerp from ``path.orientation`` at the start through each segment's end orientation,
+def _start_rotation(spec) -> np.ndarray:
+    """The tool rotation (3, 3) at a task path's start: ``path.orientation``."""
+    return np.array(defaults.TOOL_DOWN_ROTATION) if spec.orientation == "down" else np.asarray(spec.orientation, float)
+
+
+def _task_orientation(start: np.ndarray, specs, segs: list):
+    """The tool orientation along the line/arc/circle ``specs`` (geometry ``segs``) starting with rotation
+    ``start`` (3, 3): fixed, or with segment quaternions a slerp through each segment's end orientation,
     blended over each ``orientation_zone``."""
-    start = np.array(defaults.TOOL_DOWN_ROTATION) if spec.orientation == "down" else np.asarray(spec.orientation, float)
-    if spec.segments[0].quaternion is None:
+    if specs[0].quaternion is None:
         return FixedOrientation(start)
-    ends = waypoint_rotations([s.quaternion for s in spec.segments], len(segs), "path.segments quaternion")
+    ends = waypoint_rotations([s.quaternion for s in specs], len(segs), "path.segments quaternion")
     thetas = np.concatenate([[0.0], np.cumsum([s.length for s in segs])])
-    zones = [0.0] + [s.orientation_zone for s in spec.segments]
+    zones = [0.0] + [s.orientation_zone for s in specs]
     keys, rots = zoned_keys(thetas, np.concatenate([start[None], ends]), zones)
     try:
         return SlerpOrientation(tuple(keys), rots)
@@ -166,14 +176,67 @@ def _task_orientation(spec, segs: list):
         raise ScenarioError(f"path.segments quaternions: {exc}") from None
 
 
+def _start_configuration(spec, robot: Robot) -> np.ndarray | None:
+    """The configuration (n,) [rad] a task path starts from: ``start_configuration``, or the IK of ``start_pose`` on
+    its robconf (the branch nearest the zero configuration without one, or on an arm without the closed form);
+    None when neither is given."""
+    if spec.start_configuration is not None:
+        return np.asarray(spec.start_configuration, float)
+    pose = spec.start_pose
+    if pose is None:
+        return None
+    program = spec.start_program
+    where = "path.start_pose" + ("" if program is None else f" (line {program.line}, target {program.target})")
+    rotation = quaternion_matrix(pose.quaternion, f"{where}.quaternion")
+    position = np.asarray(pose.position, float)
+    if pose.robconf is not None and robot.n == 6 and has_closed_form(robot):
+        return ik_robconf(robot, position, rotation, pose.robconf, where)
+    try:
+        return ik(robot, position, rotation, np.clip(np.zeros(robot.n), robot.limits.lower, robot.limits.upper))
+    except UnreachableError as exc:
+        raise UnreachableError(f"{where}: {exc}", reason=exc.reason) from None
+
+
 def _program_targets(spec) -> list:
     """The program targets (lift.program.TargetConf) of a task path whose segments carry program moves:
     the start, then each segment's end; [] when they carry none."""
-    moves = [spec.start_program] + [s.program for s in spec.segments]
+    moves = [spec.start_program] + [getattr(s, "program", None) for s in spec.segments]
     if all(m is None for m in moves):
         return []
     return [TargetConf("the path's start" if m is None else f"line {m.line}, target {m.target}",
                        None if m is None else m.robconf, True if m is None else m.conf) for m in moves]
+
+
+def program_thetas(spec, robot: Robot, path: JointPath) -> tuple[np.ndarray, list[float]]:
+    """(theta (K + 1,) [m] where the planned ``path`` passes the start and each of the K segments' ends of a
+    ``type = "task"`` path (geometry.targets.target_thetas on its TCP path; a dwell's is the previous one's), the
+    K segments' lengths before blending [m] (a joint move's: its TCP arc length; a dwell's: 0))."""
+    prev = fk(robot, path(path.domain[0]))[0]
+    points, spacing, lengths = [prev], [], []
+    joints = iter(p.path.domain for p in getattr(path, "pieces", ()) if p.kind == "joint")
+    for k, seg in enumerate(spec.segments):
+        if seg.type == "dwell":
+            lengths.append(0.0)
+            continue
+        if seg.type == "joint":
+            prev = (np.asarray(seg.end_pose.position, float) if seg.end_pose is not None
+                    else fk(robot, np.asarray(seg.end, float))[0])
+            lo, hi = next(joints)
+            length = hi - lo
+        else:
+            geo = _segments([seg], prev, k)[0]
+            prev, length = geo.end_point, geo.length
+        points.append(prev)
+        spacing.append(length)
+        lengths.append(length)
+    task = getattr(path, "task_path", None)
+    if task is None:
+        raise ScenarioError("program targets need a task path")
+    motion = iter(target_thetas(task, np.array(points), spacing))
+    out = [next(motion)]
+    for seg in spec.segments:
+        out.append(out[-1] if seg.type == "dwell" else next(motion))
+    return np.array(out), lengths
 
 
 def _waypoint_task_path(spec, base_dir: Path) -> tuple[TaskPath, TaskPath | None, str]:
@@ -230,8 +293,14 @@ def build_path(scenario: Scenario, robot: Robot,
             raise ScenarioError(f"path.waypoints[{k}]: joint {robot.joint_names[j]} = {wp[k, j]:g} rad is outside "
                                 f"its range [{robot.limits.lower[j]:.4f}, {robot.limits.upper[j]:.4f}]")
         return SplineJointPath.from_waypoints(wp, robot.joint_names), None, None
+    if any(seg.type in ("joint", "dwell") for seg in spec.segments):
+        path = chain_path(spec, robot)
+        targets = _program_targets(spec)
+        if targets:
+            check_targets(robot, path, program_thetas(spec, robot, path)[0], targets)
+        return path, path.task_path, path.original_task_path
     segs = _segments(spec.segments)
-    task = TaskPath(tuple(segs), _task_orientation(spec, segs))
+    task = TaskPath(tuple(segs), _task_orientation(_start_rotation(spec), spec.segments, segs))
     original = task if spec.blends else None
     chosen: dict[int, int] = {}  # connection index (0-based) -> k of path.blends[k]
     conns = list(task.connections) + ([task.closure] if task.closure is not None else [])
@@ -263,19 +332,117 @@ def build_path(scenario: Scenario, robot: Robot,
                                  joined=[c for c in optimal if spec.blends[chosen[c]].join_ends])
         blends.update({c: ("g2_shape", shape) for c, shape in shapes.items()})
     task = with_blends(task, blends, names)
-    q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    q_start = _start_configuration(spec, robot)
     targets = _program_targets(spec)
-    if q_start is None and targets:
-        q_start = program_start(robot, task.evaluate(0.0)[0], task.orientation(0.0)[0], targets[0])
     log.info("lift: IK along the task path (%d segments, %.4g m, %d blended corners)", len(task.segments),
              task.length, len(blends))
     path = lift(robot, task, q_start, original=original)
     if targets:
-        sharp = original if original is not None else task
-        points = [sharp.segments[0].start_point] + [s.end_point for s in sharp.segments]
-        check_targets(robot, path, target_thetas(task, points, [s.length for s in sharp.segments]), targets)
+        check_targets(robot, path, program_thetas(spec, robot, path)[0], targets)
     log.debug("lifted joint path: theta in [%.6g, %.6g], %d kinks", *path.domain, len(path.kinks))
     return path, task, original
+
+
+def _chain_items(spec, robot: Robot, q_prev) -> tuple[list, list[int]]:
+    """(items for :func:`~pathmotion.lift.chain.lift_chain`, the item of each of path.segments) of a task path
+    with joint moves or dwells, starting at ``q_prev`` (n,) [rad] or None: consecutive line/arc/circle segments
+    form one TaskRun, whose tool orientation starts where the previous motion's ends."""
+    items, owner, run, prev_end = [], [], [], None
+    prev_rot = _start_rotation(spec)
+    if q_prev is not None and len(q_prev) == robot.n:
+        prev_end = fk(robot, q_prev)[0]
+
+    def close_run():
+        nonlocal prev_rot
+        if run:
+            first = run[0][0]
+            segs = _segments([s for _, s in run], prev_end, first)
+            where = f"path.segments[{first}..{run[-1][0]}]" if len(run) > 1 else f"path.segments[{first}]"
+            start = prev_rot if run[0][1].quaternion is not None else _start_rotation(spec)  # keyed: from the last
+            task = TaskPath(tuple(segs), _task_orientation(start, [s for _, s in run], segs))
+            items.append(TaskRun(task, None, where))
+            prev_rot = task.orientation(task.length)[0]
+            run.clear()
+            return segs[-1].end_point
+        return prev_end
+
+    for k, seg in enumerate(spec.segments):
+        program = getattr(seg, "program", None)
+        where = f"path.segments[{k}]" + ("" if program is None else f" (line {program.line}, target {program.target})")
+        if seg.type in ("line", "arc", "circle"):
+            run.append((k, seg))
+            owner.append(len(items))
+            continue
+        prev_end = close_run()
+        owner.append(len(items))
+        if seg.type == "dwell":
+            items.append(Dwell(seg.time, where))
+        elif seg.end is not None:
+            end = check_joint_target(robot, seg.end, where)
+            items.append(JointMove(end, None, where))
+            prev_end, prev_rot = fk(robot, end)
+        else:
+            pose = seg.end_pose
+            rotation = quaternion_matrix(pose.quaternion, f"{where}.end_pose.quaternion")
+            items.append(JointMove(None, (np.asarray(pose.position, float), rotation, pose.robconf), where))
+            prev_end, prev_rot = np.asarray(pose.position, float), rotation
+    close_run()
+    return items, owner
+
+
+def _chain_blends(spec, items: list, owner: list[int]) -> tuple[dict, dict]:
+    """({item: {local connection: (kind, value)}} of the task runs' corners, {motion connection: tolerance [m]}
+    of the joint-move zones) from path.blends; ScenarioError for what a chain cannot blend."""
+    motion = [i for i, it in enumerate(items) if not isinstance(it, Dwell)]
+    run_blends: dict[int, dict] = {}
+    zones: dict[int, float] = {}
+    for k, blend in enumerate(spec.blends):
+        where = f"path.blends[{k}]"
+        if blend.type == "optimal":
+            raise ScenarioError(f"{where}: 'optimal' blends are not searched on paths with joint moves or dwells; "
+                                "use type = 'g2' with a tolerance")
+        value = blend.radius if blend.type == "circle" else blend.tolerance
+        if blend.corner == "all":
+            for i, item in enumerate(items):
+                if isinstance(item, TaskRun):
+                    for c in range(len(item.path.connections)):
+                        if item.path.connections[c].kind != "smooth":
+                            run_blends.setdefault(i, {})[c] = (blend.type.value, value)
+            if blend.type == "g2":
+                zones.update({m: value for m, (a, b) in enumerate(zip(motion[:-1], motion[1:])) if b == a + 1})
+            continue
+        c = blend.corner - 1
+        if not 0 <= c < len(spec.segments) - 1:
+            raise ScenarioError(f"{where}.corner = {blend.corner}: the path has {len(spec.segments) - 1} "
+                                f"connection(s), numbered 1..{len(spec.segments) - 1} (1 = between segments 1 and 2)")
+        a, b = owner[c], owner[c + 1]
+        if isinstance(items[a], Dwell) or isinstance(items[b], Dwell):
+            raise ScenarioError(f"{where}: corner {blend.corner} is at a dwell, where the motion stops; remove the "
+                                "blend")
+        if a == b:
+            local = c - owner.index(a)
+            run_blends.setdefault(a, {})[local] = (blend.type.value, value)
+        elif blend.type != "g2":
+            raise ScenarioError(f"{where}: corner {blend.corner} joins a joint move; its zone is type = 'g2' with "
+                                "tolerance = the zone [m]")
+        else:
+            zones[motion.index(a)] = value
+    return run_blends, zones
+
+
+def chain_path(spec, robot: Robot):
+    """The PiecewiseJointPath of a ``type = "task"`` path whose segments include joint moves or dwells."""
+    q_start = _start_configuration(spec, robot)
+    items, owner = _chain_items(spec, robot, q_start)
+    run_blends, zones = _chain_blends(spec, items, owner)
+    for i, blends in run_blends.items():
+        run = items[i]
+        names = {c: f"path.blends (corner {c + 1} of {run.where})" for c in blends}
+        items[i] = TaskRun(with_blends(run.path, blends, names), run.path, run.where)
+    log.info("lift: a chain of %d task runs, %d joint moves, %d dwells, %d joint zones",
+             sum(isinstance(i, TaskRun) for i in items), sum(isinstance(i, JointMove) for i in items),
+             sum(isinstance(i, Dwell) for i in items), len(zones))
+    return lift_chain(robot, items, q_start, zones)
 
 
 def _optimal_shapes(robot: Robot, task: TaskPath, optimal: dict[int, float], scenario: Scenario,
@@ -508,28 +675,34 @@ def rapid_zone_tolerances(program) -> list:
     """G2 blend tolerance [m] per corner of an imported RAPID program (io.rapid.RapidProgram): the deviation of
     the blend that starts at the zone radius from the target (ABB's corner path starts where the TCP enters the
     zone), the cut kept below RAPID_ZONE_CUT of each neighbour so a segment between two zones keeps a straight
-    middle; None at fine points and where the moves join without a corner."""
+    middle; at a joint move (MoveJ) the zone radius itself (the joint zone's TCP tolerance); None at fine points and
+    where the moves join without a corner."""
     from .geometry.blends import g2_deviation
+    from .geometry.chain import classify
     from .io.rapid import effective_zones, segments
 
-    segs = [Line(start, mv.point) if arc is None else Arc(arc.center, start, arc.normal, arc.sweep)
-            for mv, start, arc, _ in segments(program)]
-    path = TaskPath(tuple(segs), FixedOrientation())
+    segs = [None if mv.kind == "J" else Line(start, mv.point) if arc is None else
+            Arc(arc.center, start, arc.normal, arc.sweep) for mv, start, arc, _ in segments(program)]
     out = []
     for k, zone in enumerate(effective_zones(program)):
-        A, B = path.segments[k], path.segments[k + 1]
+        A, B = segs[k], segs[k + 1]
+        if A is None or B is None:  # a joint move's zone: its size
+            out.append(zone if zone > 0 else None)
+            continue
         cut = min(zone, RAPID_ZONE_CUT * A.length, RAPID_ZONE_CUT * B.length)
-        usable = path.connections[k].kind in ("corner", "tangent") and cut > 0
+        usable = classify(A, B, k, 0.0).kind in ("corner", "tangent") and cut > 0
         out.append(g2_deviation(A, B, cut).upper if usable else None)
     return out
 
 
-def _rapid_estimate(setup: Setup) -> float:
+def _rapid_estimate(setup: Setup) -> float | None:
     """The RAPID program's constant-speed duration on the path before blends (io.rapid.rapid_estimate_s)."""
     from .io.rapid import rapid_estimate_s
 
     path = setup.original_task_path if setup.original_task_path is not None else setup.task_path
     spec = setup.scenario.rapid
+    if len(path.segments) != len(spec.speeds):  # joint moves: the TCP trace is not one segment per move
+        return None
     return rapid_estimate_s([s.length for s in path.segments], spec.speeds, spec.zones,
                             [c.angle for c in path.connections])
 
@@ -572,9 +745,10 @@ def write_moves(setup: Setup, result: PlanResult, samples, out: Path) -> None:
     program moves; an earlier moves.csv is removed when they carry none."""
     from .planning.program_moves import move_table
 
-    table = None
-    if setup.task_path is not None and getattr(setup.scenario.path, "segments", None):
-        table = move_table(setup.scenario.path, setup.task_path, setup.original_task_path, result.profile, samples,
+    table, spec = None, setup.scenario.path
+    if setup.task_path is not None and spec.type == "task" and _program_targets(spec):
+        bounds, lengths = program_thetas(spec, setup.robot, setup.path)
+        table = move_table(spec, bounds, lengths, result.profile, samples,
                            enforced_limits(setup.robot, result.settings), setup.robot.joint_names)
     if table is None:
         (out / schema.MOVES_FILE).unlink(missing_ok=True)
@@ -771,7 +945,10 @@ def simulation_columns(sim) -> dict[str, np.ndarray]:
 # ------------------------------------------------------------------------------------ check
 def path_is_closed(setup: Setup) -> bool:
     """Whether the path ends where it starts (a full circle does), whether or not it is planned as a
-    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion)."""
+    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion). A chain with joint moves
+    or dwells is always an open motion."""
+    if isinstance(setup.path, PiecewiseJointPath):
+        return False
     if setup.task_path is not None:
         return bool(setup.task_path.closed)
     q = setup.path.evaluate(np.array(setup.path.domain, float))[0]

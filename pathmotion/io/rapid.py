@@ -126,7 +126,7 @@ class RapidMove:
     radius [m] (0 = fine point); ``zone_ori`` the zone's pzone_ori [m] and ``zone_ori_angle`` its
     zone_ori [rad]; ``target`` the target as written; ``quaternion`` (4,) the target's [q1..q4] as
     written (normalized); ``robconf`` (cf1, cf4, cf6, cfx); ``conf`` True when ConfL / ConfJ \\On
-    holds the robconf for this move; ``dwell`` the WaitTime after it [s]."""
+    holds the robconf for this move; ``dwell`` the WaitTime after it [s], ``dwell_line`` the line of the first."""
 
     kind: str
     line: int
@@ -146,6 +146,7 @@ class RapidMove:
     zone_ori: float = 0.0
     zone_ori_angle: float = 0.0
     dwell: float = 0.0
+    dwell_line: int = 0
 
     @property
     def instruction(self) -> str:
@@ -649,7 +650,7 @@ class _Parser:
             self.remarks.append(f"line {line}: WaitTime {t:g} s before the first move is not part of the path")
             return
         last = self.moves[-1]
-        self.moves[-1] = dataclasses.replace(last, dwell=last.dwell + t)
+        self.moves[-1] = dataclasses.replace(last, dwell=last.dwell + t, dwell_line=last.dwell_line or line)
 
 
 def _target_name(text: str) -> str:
@@ -678,14 +679,19 @@ def _drop_repeats(moves: list[RapidMove], source: str, remarks: list[str]) -> li
     for mv in moves[1:]:
         prev = out[-1]
         if mv.kind != "C" and float(np.linalg.norm(mv.point - prev.point)) < defaults.MIN_SEGMENT_LENGTH:
-            if np.max(np.abs(mv.rotation - prev.rotation)) > _SAME_ROTATION:
+            turns = np.max(np.abs(mv.rotation - prev.rotation)) > _SAME_ROTATION
+            if turns and mv.kind == "J":  # a joint move turning the tool in place is a motion
+                out.append(mv)
+                continue
+            if turns:
                 raise ScenarioError(f"{source}:{mv.line}: {mv.instruction} to {mv.target} only turns the tool (its "
                                     f"position is that of line {prev.line}); a reorientation in place has no path "
                                     "length: move the TCP as well, or remove the move")
             remarks.append(f"line {mv.line}: {mv.instruction} to {mv.target} repeats the pose of line {prev.line} (a "
                            "zero-length move); dropped")
             if mv.dwell or mv.zone == 0.0:
-                out[-1] = dataclasses.replace(prev, dwell=prev.dwell + mv.dwell, zone=min(prev.zone, mv.zone))
+                out[-1] = dataclasses.replace(prev, dwell=prev.dwell + mv.dwell, zone=min(prev.zone, mv.zone),
+                                              dwell_line=prev.dwell_line or mv.dwell_line)
             continue
         out.append(mv)
     return out
@@ -777,7 +783,7 @@ def segments(program: RapidProgram) -> list[tuple[RapidMove, np.ndarray, ArcThro
             out.append((mv, prev.point, arc, arc.length))
         else:
             length = float(np.linalg.norm(mv.point - prev.point))
-            if length < defaults.MIN_SEGMENT_LENGTH:
+            if length < defaults.MIN_SEGMENT_LENGTH and mv.kind != "J":  # a joint move may only turn the tool
                 raise ScenarioError(f"{where}: the move goes to the point it starts from ({mv.text[:60]}); remove it "
                                     "(a path has no zero-length segments)")
             out.append((mv, prev.point, None, length))
@@ -911,8 +917,8 @@ def notes(program: RapidProgram) -> list[str]:
     out = [f"the first move (line {program.moves[0].line}) only gives the start point"]
     joint = [m.line for m in program.moves[1:] if m.kind == "J"]
     if joint:
-        out.append(f"MoveJ at line(s) {', '.join(map(str, joint))} planned as straight TCP lines (joint "
-                   "interpolation is not a task path)")
+        out.append(f"MoveJ at line(s) {', '.join(map(str, joint))}: joint moves, linear in the joints to the IK of "
+                   "the target on its robconf")
     off = [m.line for m in program.moves if not m.conf and m.robconf is not None]
     if off:
         out.append(f"ConfL/ConfJ \\Off at line(s) {', '.join(map(str, off))}: the configuration there is the one "
@@ -947,6 +953,7 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
         raise ScenarioError(f"{program.source}: {len(tolerances)} blend tolerances for {len(zones)} corners")
     name = name or program.module or Path(program.source).stem
     info = notes(program)
+    quats = base_quaternions(program)
     t = program.tool
     rpy = matrix_rpy(t.frame.rotation)
     lines = [f"# Imported from the RAPID module {Path(program.source).name} (PROC {program.procedure}) by "
@@ -960,33 +967,66 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
              "", f"[robot.payload]  # tooldata {t.name}: tload", f"mass = {_num(t.mass)}", f"com = {_vec(t.com)}",
              "inertia = [" + ", ".join(_vec(r) for r in t.inertia) + "]",
              "", "[path]", 'type = "task"', f"orientation = {_orientation(program)}",
+             "", f"[path.start_pose]  # line {program.moves[0].line}: {program.moves[0].target[:60]}, the start",
+             f"position = {_vec(program.moves[0].point)}", f"quaternion = {_vec(quats[0])}",
+             *([f"robconf = [{', '.join(map(str, program.moves[0].robconf))}]"] if program.moves[0].robconf else []),
              "", f"[path.start_program]  # line {program.moves[0].line}: the start", *_program(program.moves[0])]
-    quats = base_quaternions(program)
-    ori_zones = [*orientation_zones(program), 0.0]
-    for k, (mv, start, arc, _) in enumerate(segs):
-        lines += ["", f"[[path.segments]]  # line {mv.line}: {mv.text[:90]}"]
-        if arc is None:
-            lines += ['type = "line"'] + ([f"start = {_vec(start)}"] if k == 0 else []) + [f"end = {_vec(mv.point)}"]
-        else:
-            lines += ['type = "arc"'] + ([f"start = {_vec(start)}"] if k == 0 else []) + [
-                f"center = {_vec(arc.center)}", f"normal = {_vec(arc.normal)}", f"sweep = {_num(arc.sweep)}"]
-        lines += [f"quaternion = {_vec(quats[k + 1])}  # tool orientation at {mv.target[:40]} in the base frame"]
-        if ori_zones[k]:
-            lines += [f"orientation_zone = {_num(ori_zones[k])}  # {mv.zone_name}: pzone_ori / zone_ori [m]"]
-        lines += ["[path.segments.program]", *_program(mv)]
+    lines += _segment_lines(program, segs, quats)
+    chain = any(m.kind == "J" or m.dwell for m in program.moves[1:])
+    kind = "g2" if chain else blend
+    corner = _corners(program)
     for k, (tol, z) in enumerate(zip(tolerances, zones)):
         if tol is not None:
             mv = program.moves[k + 1]
             lines += ["", f"[[path.blends]]  # {mv.zone_name} at line {mv.line}: a blend that starts {z * 1000:.4g} mm "
                           "from the target (the zone radius) deviates at most this from the path"
-                      + ("" if blend == "g2" else "; the optimal blend stays within it"),
-                      f"corner = {k + 1}", f"type = {_quote(blend)}", f"tolerance = {_num(tol)}"]
+                      + ("" if kind == "g2" else "; the optimal blend stays within it"),
+                      f"corner = {corner[k]}", f"type = {_quote(kind)}", f"tolerance = {_num(tol)}"]
     lines += ["", "[plan]", 'start = "zero"', 'end = "zero"',
               "", "[rapid]  # the program's speeds and zones: the summary's rapid_estimate_s",
               f"source = {_quote(Path(program.source).name)}",
               f"speeds = {_vec(segment_speeds(program))}  # programmed TCP speed per segment [m/s]",
               f"zones = {_vec(zones)}  # zone radius per corner [m], 0 = fine point", ""]
     return "\n".join(lines)
+
+
+def _corners(program: RapidProgram) -> list[int]:
+    """The scenario's corner number (1-based connection of path.segments) at the end of each move after the first
+    but the last: each move is a segment, each WaitTime a dwell segment after its move."""
+    out, index = [], 0
+    for mv in program.moves[1:-1]:
+        index += 1
+        out.append(index)
+        index += 1 if mv.dwell else 0
+    return out
+
+
+def _segment_lines(program: RapidProgram, segs, quats: np.ndarray) -> list[str]:
+    """The [[path.segments]] of the moves after the first: line, arc or joint (MoveJ: a joint move to the
+    target's pose on its robconf), each followed by a dwell segment for its WaitTime."""
+    lines = []
+    ori_zones = [*orientation_zones(program), 0.0]
+    for k, (mv, start, arc, _) in enumerate(segs):
+        lines += ["", f"[[path.segments]]  # line {mv.line}: {mv.text[:90]}"]
+        if mv.kind == "J":
+            lines += ['type = "joint"', "[path.segments.end_pose]", f"position = {_vec(mv.point)}",
+                      f"quaternion = {_vec(quats[k + 1])}"]
+            lines += [f"robconf = [{', '.join(map(str, mv.robconf))}]"] if mv.robconf else []
+        else:
+            if arc is None:
+                lines += ['type = "line"'] + ([f"start = {_vec(start)}"] if k == 0 else []) + [f"end = {_vec(mv.point)}"]
+            else:
+                lines += ['type = "arc"'] + ([f"start = {_vec(start)}"] if k == 0 else []) + [
+                    f"center = {_vec(arc.center)}", f"normal = {_vec(arc.normal)}", f"sweep = {_num(arc.sweep)}"]
+            lines += [f"quaternion = {_vec(quats[k + 1])}  # tool orientation at {mv.target[:40]} in the base frame"]
+            if ori_zones[k]:
+                lines += [f"orientation_zone = {_num(ori_zones[k])}  # {mv.zone_name}: pzone_ori / zone_ori [m]"]
+        lines += ["[path.segments.program]", *_program(mv)]
+        if mv.dwell:
+            lines += ["", f"[[path.segments]]  # line {mv.dwell_line}: WaitTime", 'type = "dwell"',
+                      f"time = {_num(mv.dwell)}", "[path.segments.program]", f"line = {mv.dwell_line}",
+                      f"target = {_quote(mv.target[:200])}", 'move = "WaitTime"']
+    return lines
 
 
 def _program(mv: RapidMove) -> list[str]:
@@ -996,8 +1036,6 @@ def _program(mv: RapidMove) -> list[str]:
            f"zone = {_quote(mv.zone_name)}"]
     if mv.robconf is not None:
         out += [f"robconf = [{', '.join(map(str, mv.robconf))}]", f"conf = {'true' if mv.conf else 'false'}"]
-    if mv.dwell:
-        out += [f"dwell = {_num(mv.dwell)}  # WaitTime [s]"]
     return out
 
 

@@ -60,14 +60,13 @@ class ProgramMoveSpec(_Model):
 
     line: int = Field(ge=1, description="line of the move in the program")
     target: str = Field("", description="the target as written in the program")
-    move: Literal["MoveL", "MoveC", "MoveJ"] = Field(description="the move instruction")
+    move: Literal["MoveL", "MoveC", "MoveJ", "MoveAbsJ", "WaitTime"] = Field(description="the instruction")
     speed: float | None = Field(None, gt=0, description="programmed TCP speed [m/s] (absent with a time)")
     time: float | None = Field(None, gt=0, description="programmed move time (\\T) [s]")
     zone: str = Field("fine", description="the zone as written (fine, z10, a zonedata name)")
     robconf: RobConf | None = Field(None, description="ABB robconf [cf1, cf4, cf6, cfx] of the target")
     conf: bool = Field(True, description="ConfL / ConfJ \\On: the planned configuration at the target must have "
                                          "the robconf (\\Off: the branch continuous with the previous one)")
-    dwell: float = Field(0.0, ge=0, description="WaitTime after the move [s]: the motion stops at its target")
 
 
 class _Keyed(_Model):
@@ -104,7 +103,43 @@ class CircleSpec(_Keyed):
     start: Vec3 | None = Field(None, description="start point instead of start_angle (default: previous end, if any)")
 
 
-SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec], Field(discriminator="type")]
+class PoseTargetSpec(_Model):
+    """A TCP pose solved by IK on the branch its robconf names (ABB's confdata)."""
+
+    position: Vec3 = Field(description="TCP position [m]")
+    quaternion: tuple[float, float, float, float] = Field(description="tool orientation, unit quaternion "
+                                                          "[w, x, y, z] (normalised when off by rounding)")
+    robconf: tuple[int, int, int, int] | None = Field(
+        None, description="[cf1, cf4, cf6, cfx]: quadrants of axes 1, 4 and 6 and the arm/wrist configuration "
+                          "number 0..7 (ABB's convention); default: the branch nearest the move's start")
+
+
+class JointSegmentSpec(_Model):
+    """A joint move (MoveJ / MoveAbsJ): linear in the joints from the previous segment's end configuration."""
+
+    type: Literal["joint"]
+    program: ProgramMoveSpec | None = None
+    end: tuple[float, ...] | None = Field(None, description="joint values at the end [rad]")
+    end_pose: PoseTargetSpec | None = Field(None, description="the end as a TCP pose solved by IK")
+
+    @model_validator(mode="after")
+    def _target(self):
+        if (self.end is None) == (self.end_pose is None):
+            raise ValueError("a joint segment needs exactly one of end = [joint values, rad] or "
+                             "end_pose = {position, quaternion, robconf}")
+        return self
+
+
+class DwellSpec(_Model):
+    """A wait at rest (WaitTime): the motion stops where the previous segment ends and waits."""
+
+    type: Literal["dwell"]
+    program: ProgramMoveSpec | None = None
+    time: float = Field(ge=0, description="time at rest [s]")
+
+
+SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec, JointSegmentSpec, DwellSpec],
+                        Field(discriminator="type")]
 
 
 class BlendSpec(_Model):
@@ -136,23 +171,26 @@ class BlendSpec(_Model):
 
 class TaskPathSpec(_Model):
     type: Literal["task"]
-    segments: list[SegmentSpec] = Field(min_length=1)
+    segments: list[SegmentSpec] = Field(min_length=1, description="line, arc, circle, joint (a joint move: linear "
+                                        "in the joints) or dwell (a wait at rest), each from where the previous ends")
     blends: list[BlendSpec] = []
     orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation "
                                                 "matrix; with segment quaternions, the orientation at the start")
     start_configuration: tuple[float, ...] | None = Field(
         None, description="joint configuration [rad] the IK branch stays continuous with")
-    start_program: ProgramMoveSpec | None = Field(None, description="the program move whose target is the start "
-                                                  "(its robconf picks the IK branch at the start)")
+    start_pose: PoseTargetSpec | None = Field(None, description="the pose the path starts at, solved by IK on its "
+                                              "robconf: the start configuration (when start_configuration is absent)")
+    start_program: ProgramMoveSpec | None = Field(None, description="the program move whose target is the start")
 
     @model_validator(mode="after")
     def _keys(self):
-        given = [s.quaternion is not None for s in self.segments]
+        keyed = [s for s in self.segments if s.type in ("line", "arc", "circle")]
+        given = [s.quaternion is not None for s in keyed]
         if any(given) and not all(given):
-            k = given.index(False)
-            raise ValueError(f"segments[{k}] has no quaternion but others do; give every segment its end "
-                             "orientation, or none")
-        if not any(given) and any(s.orientation_zone for s in self.segments):
+            k = self.segments.index(keyed[given.index(False)])
+            raise ValueError(f"segments[{k}] has no quaternion but others do; give every line, arc and circle its "
+                             "end orientation, or none")
+        if not any(given) and any(s.orientation_zone for s in keyed):
             raise ValueError("orientation_zone needs segment quaternions (a fixed orientation does not turn)")
         return self
 
@@ -337,7 +375,7 @@ def _loc(loc: tuple) -> str:
     for k, part in enumerate(loc):
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in ("line", "arc", "circle", "task", "joint", "float", "int", "str", "bool") or not str(
+        elif part in ("line", "arc", "circle", "dwell", "task", "joint", "float", "int", "str", "bool") or not str(
                 part).isidentifier():
             continue  # discriminator and union-member tags that pydantic inserts (e.g. "literal['zero','max']")
         elif part == "waypoints" and k > 0 and loc[k - 1] == "path":
@@ -516,6 +554,10 @@ def _lengths(scenario: Scenario):
     """(key, value) of the scenario's points (tuples [m], measured from the base) and lengths [m]."""
     path = scenario.path
     for k, seg in enumerate(getattr(path, "segments", ())):
+        if seg.type == "joint":  # joint values [rad]; its end_pose position is a point [m]
+            if seg.end_pose is not None:
+                yield f"path.segments[{k}].end_pose.position", tuple(seg.end_pose.position)
+            continue
         for name in ("start", "end", "center", "radius"):
             value = getattr(seg, name, None)
             if value is not None:

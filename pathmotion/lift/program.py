@@ -1,14 +1,9 @@
-"""A robot program's configurations on a lifted path: the start branch its robconf names, and the
-ConfL / ConfJ \\On check at every target.
-
-* :func:`program_start` -- the joint vector at the path's start with the first target's robconf
-  (:func:`pathmotion.robot.robconf.ik_robconf`); the lift follows the branch continuously from there.
-* :func:`check_targets` -- at each target whose move holds its robconf (ConfL \\On), the planned
-  configuration must have that robconf; with \\Off the lift's continuous branch (the one nearest the
-  previous configuration) is taken as the controller does, and nothing is checked.
-
-Both need an arm with the closed form (OPW); for any other arm the robconf is not defined and is
-ignored with a log note.
+"""A robot program's ConfL / ConfJ \\On check on a lifted path: at each target whose move holds its
+robconf, the planned configuration must have that robconf (:func:`check_targets`). With \\Off the
+lift's continuous branch (the one nearest the previous configuration) is taken, as the controller
+does, and nothing is checked. The path's start branch is the first target's robconf (its IK on that
+robconf is where the lift starts). It needs an arm with the closed form (OPW); for any other arm the
+robconf is not defined and is ignored with a log note.
 """
 
 from __future__ import annotations
@@ -21,7 +16,7 @@ import numpy as np
 from ..errors import UnreachableError
 from ..robot import Robot
 from ..robot.ik import has_closed_form
-from ..robot.robconf import ik_robconf, robconf_of
+from ..robot.robconf import has_robconf, robconf_of
 from .joint_path import JointPath
 
 log = logging.getLogger(__name__)
@@ -44,15 +39,6 @@ def _closed_form(robot: Robot) -> bool:
     return False
 
 
-def program_start(robot: Robot, position, rotation, start: TargetConf) -> np.ndarray | None:
-    """The joint vector (6,) [rad] at the start pose (position (3,) [m], rotation (3, 3)) with the start
-    target's robconf; None when it has none (or the arm has no closed form). UnreachableError naming the
-    target when the robconf cannot reach the pose."""
-    if start.robconf is None or not _closed_form(robot):
-        return None
-    return ik_robconf(robot, position, rotation, start.robconf, start.label)
-
-
 def check_targets(robot: Robot, path: JointPath, thetas, targets: list[TargetConf]) -> None:
     """UnreachableError naming the first target whose held robconf the planned configuration at
     ``thetas`` (K,) [m] (where the path passes each target) does not have, and the robconfs that do reach
@@ -63,8 +49,8 @@ def check_targets(robot: Robot, path: JointPath, thetas, targets: list[TargetCon
     for k, target in enumerate(targets):
         if target.robconf is None or not target.held:
             continue
-        have = robconf_of(robot, q[k])
-        if have != tuple(target.robconf):
+        if not has_robconf(robot, q[k], tuple(target.robconf)):
+            have = robconf_of(robot, q[k])
             raise UnreachableError(
                 f"{target.label}: the move arrives with robconf [{', '.join(map(str, have))}], not the programmed "
                 f"[{', '.join(map(str, target.robconf))}] (ConfL/ConfJ \\On; a linear move keeps its arm "
@@ -72,4 +58,4 @@ def check_targets(robot: Robot, path: JointPath, thetas, targets: list[TargetCon
                 reason="robconf")
 
 
-__all__ = ["TargetConf", "check_targets", "program_start"]
+__all__ = ["TargetConf", "check_targets"]

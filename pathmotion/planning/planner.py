@@ -11,6 +11,7 @@ re-solve (bounded) -> baselines.
 
 from __future__ import annotations
 
+
 import logging
 import time
 from dataclasses import dataclass, field, replace
@@ -309,6 +310,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         raise ScenarioError(f"path has {path.n} joints, robot {robot.name} has {robot.n}")
     if settings.periodic and not path.closed:
         raise ScenarioError(_not_closed_message(path))
+    _check_dwells(path, settings)
     limits = effective_limits(robot, settings)
     if limits.third_order and settings.connections == Connections.MAX:  # refused before any solve
         raise ScenarioError("jerk and torque-rate limits need a continuous profile: connections = 'max' makes "
@@ -348,8 +350,24 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
                                  tcp_gain(solved.samp.left), path, robot, limits, settings)
         log.debug("baselines: fitted %.6g s, constant speed %s", base.fitted.duration,
                   f"{base.constant_speed.duration:.6g} s" if base.constant_speed else base.constant_speed_error)
-    return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
+    profile = sol.profile
+    if path.dwells:  # the waits at rest (dwells) join the motion's timing
+        profile = profile.with_holds(path.dwells)
+        traj = replace(traj, profile=profile)
+        log.info("dwells: %s s at rest, cycle %.6g s", " + ".join(f"{w:g}" for _, w in path.dwells), profile.duration)
+    return PlanResult(profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
                       iterations, sol.jump_intervals, settings, estimate)
+
+
+def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
+    """A dwell at the path's start or end needs the motion at rest there (plan.start / plan.end)."""
+    for theta, _ in path.dwells:
+        for end, key, condition in ((path.domain[0], "start", settings.start_condition),
+                                    (path.domain[1], "end", settings.end_condition)):
+            if theta == end and not at_rest(condition):
+                raise ScenarioError(f"a dwell at the path's {key} (theta = {theta:.6g} m) waits at rest, but "
+                                    f"plan.{key} = {condition!r} moves through it; set plan.{key} = 'zero' or "
+                                    "remove the dwell")
 
 
 def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None = None, scale: dict | None = None,

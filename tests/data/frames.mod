@@ -17,7 +17,7 @@ module FrameTest
         MoveC pCir, p20, vSlow, z5, tPen \WObj:=wTable;   ! half circle, radius 50 mm
         MOVEL Offs(p20, 0, 100, 0),
               v1000 \V:=800, zTight, tPen \WObj:=wTable;
-        MoveJ [[0, 200, 200], [0, 1, 0, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]],
+        MoveJ [[0, 200, 200], [0, 1, 0, 0], [0, -1, 1, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]],
               v200 \T:=0.5, z10 \Z:=7, tPen \WObj:=wTable;
         SingArea \Wrist;
         TPWrite "done";
