@@ -194,7 +194,7 @@ ORIENTATION_ZONE_SHARE = 0.49
 #: An orientation zone shorter than this share of its shorter neighbouring interval is not blended: its two
 #: keys would make the tool stop turning twice within a short stretch (w = 0 at every key), a large dw for
 #: an orientation change of at most the zone's own small turn; the key is met exactly instead [-].
-ORIENTATION_ZONE_MIN_SHARE = 0.05
+ORIENTATION_ZONE_MIN_SHARE = 0.01
 
 
 def zoned_keys(thetas, rotations, zones) -> tuple[np.ndarray, np.ndarray]:
