@@ -143,7 +143,9 @@ def test_cli_import_refuses_unsupported_then_skips_them(tmp_path):
     scenario, _ = load_scenario(out)
     assert scenario.robot.tool.translation == pytest.approx((0, 0, 0.1))
     assert scenario.robot.tool.rotation_rpy == pytest.approx((0, math.pi / 4, 0))
-    assert [s.type for s in scenario.path.segments] == ["arc", "line", "line"]
+    assert [s.type for s in scenario.path.segments] == ["arc", "line", "joint", "dwell"]  # MoveJ, WaitTime
+    assert scenario.path.segments[2].end_pose.robconf == (0, -1, 1, 0)
+    assert scenario.path.segments[3].time == 0.5 and scenario.path.segments[3].program.line == 25
     assert scenario.rapid.speeds == pytest.approx(segment_speeds(read_rapid(DATA / "frames.mod")))
     assert "MoveJ at line(s) 20" in scenario.description and "skipped: line 22" in scenario.description
 
