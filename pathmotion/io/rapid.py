@@ -5,33 +5,35 @@ over any number of lines):
 
 * ``CONST`` / ``PERS`` / ``VAR`` declarations of ``robtarget`` ([[x, y, z] mm, [q1..q4],
   [cf1, cf4, cf6, cfx], [eax_a..eax_f]]), ``tooldata``, ``wobjdata``, ``speeddata``,
-  ``zonedata`` and ``num``; other data types are ignored (data, not motion).
-* ``MoveL`` / ``MoveJ`` / ``MoveC`` in ``PROC main`` (or the only procedure with moves), with
-  targets given by name, inline, as ``Offs(p, dx, dy, dz)`` or ``RelTool(p, dx, dy, dz)``; speeds
-  ``v5`` ... ``v7000``, custom speeddata (its ``v_tcp``), ``\\V:=`` [mm/s] and ``\\T:=`` [s]; zones
-  ``fine``, ``z0`` ... ``z200`` (ABB's table of TCP zone radii), custom zonedata (``pzone_tcp``)
-  and ``\\Z:=``; the tool (``tframe``, and ``tload`` as the payload) and ``\\WObj:=`` (``uframe``
-  and ``oframe``).
+  ``zonedata`` and ``num``, wherever they are; other data types are ignored (data, not motion).
+* ``PROC main`` (or the only procedure with moves) run as the controller reads it: calls of
+  procedures without parameters inlined (recursion is an error), ``FOR`` loops with constant bounds
+  unrolled, ``WaitTime`` a dwell after the last move, ``ConfL`` / ``ConfJ`` ``\\On`` / ``\\Off``.
+* ``MoveL`` / ``MoveJ`` / ``MoveC`` with targets given by name, inline, as ``Offs(p, dx, dy, dz)`` or
+  ``RelTool(p, dx, dy, dz)`` (num expressions of numbers and num names); speeds ``v5`` ... ``v7000``,
+  custom speeddata (its ``v_tcp``), ``\\V:=`` [mm/s] and ``\\T:=`` [s]; zones ``fine``, ``z0`` ...
+  ``z200`` (ABB's table of pzone_tcp, pzone_ori and zone_ori), custom zonedata and ``\\Z:=``; the tool
+  (``tframe``, and ``tload`` as the payload) and ``\\WObj:=`` (``uframe`` and ``oframe``); ``\\Conc``
+  is ignored with a note.
 
 Frames: a robtarget is the TCP pose in the object frame, so the TCP pose in the robot base frame is
 T_base_tcp = T_uframe T_oframe T_target (quaternions [q1, q2, q3, q4] = [w, x, y, z]). The robot base
 is the world frame (no ``baseframe``). Positions are converted from mm to m.
 
-What it is not: a RAPID interpreter. Control flow, procedure calls, assignments at run time, I/O,
-waits and every other motion instruction (``MoveAbsJ``, ``SearchL``, ``TriggL``, ``ConfL``,
-``SingArea``, ...) are listed as unsupported with their line numbers: an error unless skipped.
+What it is not: a RAPID interpreter. Other control flow, calls with arguments, assignments at run
+time, I/O and every other motion instruction (``MoveAbsJ``, ``SearchL``, ``TriggL``, ``SingArea``, ...)
+are listed as unsupported with their line numbers: an error unless skipped.
 
-Modelling choices, also written into the scenario:
+The scenario (see docs/program.md for the mapping):
 
-* ``MoveJ`` moves the joints, not the TCP along a line; it becomes a straight line in task space
-  (flagged in the scenario's description).
-* The first move's target is the path's start: where the robot comes from is not in the program.
-* A task path has one tool orientation today: the targets' common one, or the first target's with a
-  warning when they differ.
+* Each move is a segment carrying its target's orientation (``quaternion``) and its program data
+  (``[path.segments.program]``: line, target, instruction, speed, zone, robconf, ConfL state): ``MoveL``
+  a line, ``MoveC`` an arc, ``MoveJ`` a joint move to the target's pose on its robconf; each
+  ``WaitTime`` a dwell segment. The first move's target is the start pose (``[path.start_pose]``).
 * A zone is the sphere around the target where ABB's corner path starts; as on the controller it is
-  reduced to half the distance to the neighbouring programmed positions. A fine point is a stop (a
-  sharp corner; the planner stops at sharp corners; a fine point between two collinear moves is not
-  a stop in the plan).
+  reduced to half the distance to the neighbouring programmed positions. Its orientation zone is
+  written as the segment's ``orientation_zone``. A fine point (and a move followed by a WaitTime) is
+  a stop.
 
 :func:`rapid_estimate_s` is the program's duration on an ideal constant-speed controller with zone
 blending: a lower bound of what the real controller achieves (it ignores acceleration).
@@ -953,6 +955,9 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
         raise ScenarioError(f"{program.source}: {len(tolerances)} blend tolerances for {len(zones)} corners")
     name = name or program.module or Path(program.source).stem
     info = notes(program)
+    if blend == "optimal" and any(m.kind == "J" or m.dwell for m in program.moves[1:]):
+        info.append("the zones are symmetric G2 blends: optimal blends are not searched on a path with MoveJ or "
+                    "WaitTime")
     quats = base_quaternions(program)
     t = program.tool
     rpy = matrix_rpy(t.frame.rotation)
@@ -973,7 +978,7 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
              "", f"[path.start_program]  # line {program.moves[0].line}: the start", *_program(program.moves[0])]
     lines += _segment_lines(program, segs, quats)
     chain = any(m.kind == "J" or m.dwell for m in program.moves[1:])
-    kind = "g2" if chain else blend
+    kind = "g2" if chain else blend  # optimal blends are not searched on chains with joint moves or dwells
     corner = _corners(program)
     for k, (tol, z) in enumerate(zip(tolerances, zones)):
         if tol is not None:
