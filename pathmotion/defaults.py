@@ -18,9 +18,9 @@ TIGHTEN_TRIGGER = 0.5
 #: Most samples one resample of a trajectory may hold (output files, verification): beyond it a
 #: motion is far longer than any real one at that sample time (usually a limit set far too small) [-].
 MAX_TRAJECTORY_SAMPLES = 2_000_000
-#: Adaptive planner grid: requested relative error of the duration (``plan.tolerance``) [-].
+#: Adaptive planner grid: requested relative error of the duration (``plan.duration_tolerance``) [-].
 PLAN_TOLERANCE = 5e-4
-#: Largest plan.tolerance accepted, exclusive (a 10 % error in the duration is no longer an optimum) [-].
+#: Largest plan.duration_tolerance accepted, exclusive (a 10 % error in the duration is no longer an optimum) [-].
 MAX_PLAN_TOLERANCE = 0.1
 #: Adaptive planner grid: uniform points of the initial grid (grading, breaks and knots added) [-].
 GRID_INITIAL_POINTS = 200
@@ -276,8 +276,8 @@ BLEND_DETECTION_DISTANCE = 1e-7
 BLEND_PIECE_MIN_POINTS = 50
 #: Corner atlas (`pathmotion corners --meshes`): the free-shape references' meshes (total intervals, each twice
 #: the last). Not free_shape.MESHES' 200 intervals, which cost minutes per solve (30 deg / 1 mm's whole tube hit
-#: IPOPT's iteration cap there from two starts and took 7 minutes); docs/study.md, "Four meshes", solves every
-#: row's corner-confined reference on all four.
+#: IPOPT's iteration cap there from two starts and took 7 minutes); benchmarks/refine_references.py solves
+#: the references on more meshes.
 ATLAS_MESHES = (25, 50, 100)
 #: Study score: seconds of cycle time one metre of mean TCP deviation from the sharp path costs [s/m]
 #: (100 s/m: 1 mm of mean deviation weighs as much as 0.1 s of cycle time).
@@ -332,5 +332,32 @@ THIRD_ORDER_TOLERANCE = 1e-4
 THIRD_ORDER_ITERATIONS = 60
 #: Planner, third-order limits: uniform grid points of the default grid (grid_points unset), plus the
 #: usual grading towards the ends and connections. The smooth profile's duration on it is within 0.62 %
-#: of the converged optimum on issue 12's circle cases (benchmarks/bench_third_order.py) [-].
+#: of the converged optimum on the circle cases of benchmarks/bench_third_order.py [-].
 THIRD_ORDER_GRID_POINTS = 100
+#: EGM (pathmotion execute / virtual-robot): the UDP port ABB's examples and abb-robot-client use.
+EGM_PORT = 6510
+#: EGM: largest joint distance [rad] between the robot's first reported joints and the plan's start before
+#: execute refuses to move (0.01 rad ~ 0.6 deg: a robot jogged to the start by hand is within it).
+EGM_START_TOLERANCE = 0.01
+#: EGM: the controller counts as silent (execute stops along the path) after this long without a message [s].
+EGM_SILENCE = 0.1
+#: EGM: execute waits this long for the controller's first message before giving up [s].
+EGM_FIRST_MESSAGE_TIMEOUT = 30.0
+#: EGM: a robot message answered later than this after it arrived counts as late [s] (one EGM cycle).
+EGM_LATE = 0.004
+#: EGM: the virtual robot sends a robot message again after this long without an answer (--lockstep) [s],
+#: and gives up after this many silent repeats.
+EGM_RESEND = 0.05
+EGM_RESEND_LIMIT = 100
+#: EGM: the virtual robot keeps streaming this long after the sensor's references come to rest [s] (the arm
+#: settles; residual vibration is measured there).
+EGM_SETTLE_WINDOW = 0.3
+#: EGM: largest datagram read [bytes] (UDP's own maximum); a larger one is truncated and rejected.
+EGM_MAX_DATAGRAM = 65536
+#: EGM: the reference is tabulated on this time step before streaming (linear interpolation between
+#: samples: error qdd dt^2 / 8, ~1e-6 rad at 10 rad/s^2) [s].
+EGM_TABLE_STEP = 0.001
+#: EGM, --correction orbital: fraction of the measured transverse error (the link side estimated from the
+#: motor-side feedback less the modelled gear deflection) added to the reference's correction per cycle [-]
+#: (an integral loop of 0.1 / 4 ms = 25 rad/s crossover, ~60 deg phase margin against EGM's ~20 ms lag).
+EGM_ORBITAL_GAIN = 0.1

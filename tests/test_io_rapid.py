@@ -176,7 +176,7 @@ def test_plan_summary_reports_the_rapid_estimate(cycle_z10):
                             [math.pi / 2, math.pi / 2, math.pi, math.pi / 2, math.pi / 2])
     # by hand: 0.71 m of lines, each of the 4 zones swaps 20 mm for a 10 mm-radius quarter circle, at 1 m/s
     assert want == pytest.approx(0.71 - 4 * 0.02 + 4 * math.pi / 2 * 0.01)
-    assert api._rapid_estimate(setup) == pytest.approx(want)
+    assert api.rapid_estimate(setup) == pytest.approx(want)
 
 
 def test_rapid_section_counts_are_validated(tmp_path):
@@ -198,7 +198,7 @@ def test_import_with_optimal_blends_keeps_each_zones_deviation_and_is_faster(cyc
     optimal, _ = load_scenario(out)
     assert [b.type.value for b in optimal.path.blends] == ["optimal"] * len(g2.path.blends)
     assert [(b.corner, b.tolerance) for b in optimal.path.blends] == [(b.corner, b.tolerance) for b in g2.path.blends]
-    fast, slow = api.load(out), api.load(cycle_z10)
+    fast, slow = api.search(api.load(out)), api.load(cycle_z10)
     t_fast, t_slow = api.plan_scenario(fast).profile.duration, api.plan_scenario(slow).profile.duration
     assert t_fast < t_slow
     assert len(fast.task_path.kinks) == len(slow.task_path.kinks) == 1  # the fine point between the moves down and up

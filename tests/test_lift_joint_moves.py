@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import assume, given, settings, strategies as st
 
 from pathmotion import api, defaults
 from pathmotion.errors import PathError, PathmotionError, ScenarioError, UnreachableError
+from pathmotion.lift.chain import JointMove, lift_chain
 from pathmotion.lift.joint_move import PiecewiseJointPath, tcp_arc_length
 from pathmotion.robot import fk, ik, jacobian, load_robot
 from pathmotion.robot.robconf import has_robconf, robconf_of
@@ -228,8 +229,8 @@ def test_a_pose_target_is_reached_exactly(robot, mixed):
     np.testing.assert_allclose(p, [0.45, 0.2, 0.45], atol=1e-8)  # 0.01 um
     angle = np.arccos(np.clip((np.trace(r.T @ DOWN) - 1.0) / 2.0, -1.0, 1.0))
     assert angle < np.radians(1e-6)
-    assert has_robconf(robot, piece.path.q1, (0, 0, 2, 0))  # q4 = 0 sits on a quadrant boundary
-    assert robconf_of(robot, piece.path.q1)[2:] == (2, 0)
+    assert has_robconf(robot, piece.path.q1, (0, 0, 2, 0))
+    assert robconf_of(robot, piece.path.q1) == (0, 0, 2, 0)  # q4 = -0.0 counts in quadrant 0
 
 
 @settings(max_examples=8)
@@ -278,3 +279,34 @@ end = [0.5, 0.2, 0.5]
     left, right = path.evaluate(path.kinks[0], side="left"), path.evaluate(path.kinks[0], side="right")
     np.testing.assert_allclose(left[0], right[0], atol=1e-12)  # the same configuration on both sides
     np.testing.assert_allclose(fk(robot, right[0])[0], [0.5, 0.1, 0.5], atol=1e-12)
+
+
+def test_a_corner_blended_twice_is_an_error(home):
+    twice = ('[[path.blends]]\ncorner = "all"\ntype = "g2"\ntolerance = 0.01\n'
+             '[[path.blends]]\ncorner = 1\ntype = "g2"\ntolerance = 0.02\n')
+    with pytest.raises(ScenarioError, match=r"path.blends\[1\]: connection 1 is already blended by path.blends\[0\]"):
+        api.load_text(scenario(home, MIXED % np.asarray(home).tolist(), twice))
+    circle = '[[path.blends]]\ncorner = 1\ntype = "circle"\nradius = 0.01\n'
+    with pytest.raises(ScenarioError, match=r"path.blends\[0\]: corner 1 joins a joint move"):
+        api.load_text(scenario(home, MIXED % np.asarray(home).tolist(), circle))
+
+
+@settings(max_examples=10)
+@given(st.lists(st.floats(-0.6, 0.6), min_size=18, max_size=18), st.floats(0.002, 0.03), st.floats(0.002, 0.03))
+def test_zones_between_random_joint_moves(robot, values, tol_a, tol_b):
+    lim = robot.limits
+    mid, half = 0.5 * (lim.lower + lim.upper), 0.5 * (lim.upper - lim.lower)
+    q = [mid + np.asarray(values[6 * k:6 * k + 6]) * half for k in range(3)]
+    assume(min(np.max(np.abs(q[k + 1] - q[k])) for k in range(2)) > 0.05)
+    items = [JointMove(q[1], None, "a"), JointMove(q[2], None, "b"), JointMove(q[0], None, "c")]
+    path = lift_chain(robot, items, q[0], {0: tol_a, 1: tol_b})
+    sharp = path.original_task_path
+    for piece, tol in zip([p for p in path.pieces if p.kind == "blend"], (tol_a, tol_b)):
+        for end in (piece.lo, piece.hi):  # C2 where the blend meets the joint moves
+            for a, b in zip(path.evaluate(end, side="left"), path.evaluate(end, side="right")):
+                np.testing.assert_allclose(a, b, atol=1e-9 * max(1.0, np.max(np.abs(a))))
+        theta = np.linspace(piece.lo, piece.hi, 501)
+        qs = path.evaluate(theta)[0]
+        assert np.all((qs >= lim.lower) & (qs <= lim.upper))
+        tcp = fk(robot, qs)[0]
+        assert np.max(np.min([seg.closest(tcp)[1] for seg in sharp.segments], axis=0)) <= tol * (1 + 1e-6)

@@ -20,7 +20,7 @@ from pathmotion.report.tables import read_rows
 from pathmotion.robot import fk, load_robot
 
 DATA = Path(__file__).parent / "data" / "rapid"
-FAST = {"plan.verify": "off", "plan.tolerance": 0.01}
+FAST = {"plan.verify": "off", "plan.duration_tolerance": 0.01}
 
 
 def imported(text_or_path, overrides=None):

@@ -361,8 +361,8 @@ def _stationary(solve, dim: int, candidates: list[np.ndarray]) -> np.ndarray:
     states ``keep`` -- for the first candidate that has a finite one, zero elsewhere; zero if none has.
 
     Why the whole state: with P_end zero on I and xi_I the speed feedback fades out over the last 1/speed_rate of
-    the segment, and a robot slowed by friction stopped just short of the clock play near the end (issue 13:
-    circle_zero with 2 N m Coulomb friction stalled at 95 % of the path)."""
+    the segment, and a robot slowed by friction stopped just short of the clock play near the end
+    (circle_zero with 2 N m Coulomb friction stalls at 95 % of the path without it)."""
     p_end = np.zeros((dim, dim))
     for keep in candidates:
         sub = np.ix_(keep, keep)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -234,7 +234,7 @@ PathSpec = Annotated[Union[TaskPathSpec, JointPathSpec, WaypointPathSpec], Field
 # ---------------------------------------------------------------------------------------- limits
 class LimitsSpec(_Model):
     """The [limits] table: overrides of the robot's joint limits, and the keys of each registered
-    limit class (``scenario_keys`` in pathmotion/planning/limits/; a test checks they match)."""
+    limit class (``keys`` in pathmotion/planning/limits/; a test checks they match)."""
 
     velocity: tuple[float, ...] | None = Field(None, description="joint speed limits [rad/s], override")
     acceleration: tuple[float, ...] | None = Field(None, description="joint acceleration limits [rad/s^2], override")
@@ -279,7 +279,7 @@ Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]
 
 class PlanSpec(_Model):
     grid_points: int | None = Field(None, ge=10, le=1_000_000, description="a fixed planner grid of this many "
-                                    "points; absent: adaptive, refined until the duration is within tolerance")
+                                    "points; absent: adaptive, refined until the duration is within duration_tolerance")
     start: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the start: 'zero', 'max' or a value [1/s]")
     end: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the end: 'zero', 'max' or a value")
     periodic: bool = Field(False, description="closed path: the steady-state cycle")
@@ -290,8 +290,11 @@ class PlanSpec(_Model):
                                "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
-    tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE, description="adaptive grid: requested relative "
-                             "error of the duration (0.0005 = 0.05 %)")
+    duration_tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE,
+                                      description="adaptive grid: requested relative error of the duration "
+                                                  "(0.0005 = 0.05 %)")
+    #: Former keys of this table -> their names now (an old key gets an error naming the new one).
+    RENAMED: ClassVar[dict[str, str]] = {"tolerance": "duration_tolerance"}
 
 
 # ------------------------------------------------------------------------------------ simulation
@@ -313,6 +316,22 @@ class RealismSpec(_Model):
     position_noise: float = Field(0.0, ge=0, description="measurement noise std [rad]")
     velocity_noise: float = Field(0.0, ge=0, description="measurement noise std [rad/s]")
     delay: bool = Field(False, description="one-sample delay of the applied torque")
+
+
+class EventSpec(_Model):
+    """A re-timing event of the closed loop (pathmotion.simulation.events): exactly one of override, stop, resume."""
+
+    t: float = Field(ge=0, description="time of the event [s]")
+    override: float | None = Field(None, gt=0, le=1, description="speed override from then on (1 = the plan's "
+                                   "speed; velocity x override, acceleration x override^2)")
+    stop: bool = Field(False, description="stop on the path, as fast as the limits allow")
+    resume: bool = Field(False, description="resume from a stop to the path's end")
+
+    @model_validator(mode="after")
+    def _one_action(self):
+        if (self.override is not None) + self.stop + self.resume != 1:
+            raise ValueError("give exactly one of override = <0..1>, stop = true, resume = true")
+        return self
 
 
 class SimulateSpec(_Model):
@@ -339,6 +358,8 @@ class SimulateSpec(_Model):
                                    "[s], payload_noise [rad/s^2], payload_speed_noise [rad/s])")
     saturation_limit: float = Field(defaults.SATURATION_LIMIT, ge=0,
                                     description="longest stretch a torque may stay saturated [s]")
+    events: list[EventSpec] = Field([], description="re-timing events (orbital controller): e.g. [{t = 0.3, "
+                                    "override = 0.5}, {t = 0.6, stop = true}, {t = 1.0, resume = true}]")
 
 
 # ----------------------------------------------------------------------------------------- rapid
@@ -433,6 +454,9 @@ def _did_you_mean(loc: tuple, doc) -> str:
     cls = _model_at(loc, doc)
     if cls is None:
         return ""
+    renamed = getattr(cls, "RENAMED", {}).get(str(loc[-1]))
+    if renamed is not None:
+        return f"; it is now called {renamed!r}: rename the key"
     allowed = list(cls.model_fields)
     close = difflib.get_close_matches(str(loc[-1]), allowed, n=1, cutoff=0.6)
     return f"; did you mean {close[0]!r}?" if close else f"; allowed here: {', '.join(allowed)}"

@@ -234,7 +234,8 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
         idx = getattr(exc, "index", None)
         if idx is None:
             raise
-        raise UnreachableError(describe_point(task_path, theta[idx], p[idx]) + f": {exc}") from None
+        raise UnreachableError(describe_point(task_path, theta[idx], p[idx]) + f": {exc}", reason=exc.reason,
+                               position=p[idx]) from exc
     # continuity: unwrap every joint along the dense reference
     q = np.unwrap(q, axis=0)
     path = TaskJointPath(
@@ -325,7 +326,8 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
     try:
         q0 = ik_dls(robot, p0[0], r0[0], q_start)
     except UnreachableError as exc:
-        raise UnreachableError(describe_point(task_path, theta[0], p0[0]) + f": {exc}", reason=exc.reason) from None
+        raise UnreachableError(describe_point(task_path, theta[0], p0[0]) + f": {exc}", reason=exc.reason,
+                               position=p0[0]) from exc
     winv = redundancy.joint_weights(robot)
     gain = defaults.REDUNDANCY_NULLSPACE_GAIN if robot.n > 6 else 0.0
     try:
@@ -333,7 +335,8 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
     except UnreachableError as exc:
         i = exc.index or 0
         p_i = task_path.evaluate(theta[i])[0]
-        raise UnreachableError(describe_point(task_path, theta[i], p_i) + f": {exc}", reason=exc.reason) from None
+        raise UnreachableError(describe_point(task_path, theta[i], p_i) + f": {exc}", reason=exc.reason,
+                               position=p_i) from exc
     p = task_path.evaluate(theta)[0]
     check = _check_path(robot, task_path, theta, q, p, singularity_threshold)
     closed = bool(getattr(task_path, "closed", False)) and bool(np.max(np.abs(q[-1] - q[0])) < CLOSURE_MATCH)
@@ -353,8 +356,7 @@ def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathChe
         raise UnreachableError(
             f"{describe_point(task_path, theta[k], p[k])}: joint {lim.names[j]} would be at {q[k, j]:.4f} rad, outside "
             f"its range [{lim.lower[j]:.4f}, {lim.upper[j]:.4f}] on this IK branch; move the path or give "
-            "path.start_configuration for another branch"
-        )
+            "path.start_configuration for another branch", reason="joint_range", position=p[k])
     margin = np.minimum(q - lim.lower, lim.upper - q)
     k, j = np.unravel_index(np.argmin(margin), margin.shape)
     sv = np.linalg.svd(jacobian(robot, q), compute_uv=False)[:, -1]
@@ -367,7 +369,7 @@ def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathChe
     if checked[kc] < threshold:
         raise UnreachableError(
             f"{describe_point(task_path, theta[kc], p[kc])}: the arm is (near) singular there (smallest Jacobian "
-            f"singular value {sv[kc]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity"
-        )
+            f"singular value {sv[kc]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity",
+            reason="singular", position=p[kc])
     return PathCheck(float(sv[ks]), float(theta[ks]), float(margin[k, j]), float(theta[k]), lim.names[j],
                      tuple(float(x) for x in task_path.kinks), len(theta))

@@ -30,9 +30,10 @@ _QUARTER = 0.5 * np.pi
 
 
 def robconf_of(robot: Robot, q) -> tuple[int, int, int, int]:
-    """(cf1, cf4, cf6, cfx) of the configuration q (6,) [rad]."""
+    """(cf1, cf4, cf6, cfx) of the configuration q (6,) [rad]; a joint within QUADRANT_SLACK below a quadrant
+    boundary (e.g. -1e-17 rad) counts in the quadrant above it."""
     q = np.asarray(q, dtype=float)
-    cf1, cf4, cf6 = (int(np.floor(q[j] / _QUARTER)) for j in (0, 3, 5))
+    cf1, cf4, cf6 = (int(np.floor((q[j] + QUADRANT_SLACK) / _QUARTER)) for j in (0, 3, 5))  # a boundary: above
     axis, arm, wrist = cfx_margins(robot, q)
     return cf1, cf4, cf6, 4 * int(axis < 0.0) + 2 * int(arm < 0.0) + int(wrist < 0.0)
 
@@ -73,7 +74,7 @@ def ik_robconf(robot: Robot, position, rotation, robconf, where: str = "target")
     try:
         solutions = ik_all(robot, position, rotation)
     except UnreachableError as exc:
-        raise UnreachableError(f"{where}: {exc}", reason=exc.reason) from None
+        raise exc.in_context(where) from exc
     for q in solutions:
         if has_robconf(robot, q, conf):
             return q

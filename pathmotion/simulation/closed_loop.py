@@ -36,10 +36,12 @@ from ..lift.joint_path import JointPath
 from ..planning.profile import Profile
 from ..robot import Robot
 from .end_rules import FLAT_SPEED2, Sample, end_rules
+from .events import EventPlayer
 from .metrics import (Failure, SimulationResult, polyline_distance_local, cornering_deviation, line_window,
                       original_path_deviation, planned_tcp_line, polish_projection, tcp_path_deviation)
 from .monitor import monitor_state
-from .plant import PLANT_NAMES, make_plant, saturate
+from .plant import PLANT_NAMES, make_plant
+from .saturation import saturate
 from .realism import Realism, Sensor
 
 log = logging.getLogger(__name__)
@@ -57,7 +59,8 @@ class SimulationSettings:
     observed after the arrival (open paths ending at rest); sampled_design: the orbital gains designed on the
     sampled transverse linearization at sample_time with the realism's delay in the model; design_cache: read and
     write the path table and the orbital design in the on-disk cache (:mod:`pathmotion.control.design_cache`); plant: "builtin" or "mujoco" (see
-    :func:`.plant.make_plant`)."""
+    :func:`.plant.make_plant`); events: re-timing events (:class:`.events.Event`: override, stop, resume at a time),
+    played by the orbital controller (simulate then needs the plan's Retimer)."""
 
     sample_time: float = defaults.SAMPLE_TIME
     substeps: int = defaults.PLANT_SUBSTEPS
@@ -77,6 +80,7 @@ class SimulationSettings:
     sampled_design: bool = defaults.ORBITAL_SAMPLED_DESIGN
     design_cache: bool = defaults.DESIGN_CACHE
     identify_payload: bool = defaults.PAYLOAD_IDENTIFICATION
+    events: tuple = ()
 
     def __post_init__(self):
         for name in ("sample_time", "path_tolerance", "joint_tolerance", "time_budget_factor"):
@@ -152,7 +156,10 @@ def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: st
     its OK means that simulate starts. Returns (table, command, plant, planned TCP line, end rules,
     time budget [s])."""
     _check_inputs(robot, path, profile)
-    budget = time_budget(settings, profile.duration, path.closed)
+    if settings.events and controller != "orbital":
+        raise SimulationError(f"simulate.events need the orbital controller (it follows a re-timed profile), "
+                              f"not {controller!r}")
+    budget = time_budget(settings, profile.duration, path.closed) + events_allowance(settings, profile.duration)
     ts, substeps = settings.sample_time, settings.substeps
     if design is None and settings.design_cache:
         if controller == "orbital":
@@ -169,6 +176,15 @@ def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: st
     plant.check_step(np.array(path.evaluate(path.domain[0])[0], dtype=float), ts, substeps)
     line = planned_tcp_line(robot, path, table.grid)
     return table, control, plant, line, end_rules(table, profile, line, budget, settings), budget
+
+
+def events_allowance(settings: SimulationSettings, duration: float) -> float:
+    """Extra time budget [s] for the events: the last event's time, and the planned ``duration`` [s] stretched
+    by the lowest override (time_budget_factor x duration x (1 / override - 1))."""
+    if not settings.events:
+        return 0.0
+    lowest = min([e.override for e in settings.events if e.override is not None], default=1.0)
+    return max(e.t for e in settings.events) + settings.time_budget_factor * duration * (1.0 / lowest - 1.0)
 
 
 def time_budget(settings: SimulationSettings, duration: float, closed: bool) -> float:
@@ -188,15 +204,19 @@ def time_budget(settings: SimulationSettings, duration: float, closed: bool) -> 
 @blas_single_threaded
 def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
              settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None,
-             plant: PlantModel | None = None) -> SimulationResult:
+             plant: PlantModel | None = None, retimer=None) -> SimulationResult:
     """Run ``controller`` on ``robot`` along q = Phi(theta) with the planned ``profile``.
 
     The run starts on the plan: q = Phi(theta_start), qd = Phi'(theta_start) sqrt(x*(theta_start)).
     ``design``: a prebuilt OrbitalDesign on this path and profile (reused across runs), optional.
     ``plant``: a prebuilt plant (:class:`PlantModel`); default ``make_plant(settings.plant, robot, settings.realism)``.
+    ``retimer``: the plan's :class:`~pathmotion.planning.retime.Retimer`, needed by ``settings.events``.
     Raises SimulationError only for unusable inputs; tracking failures are in the result.
     """
+    if settings.events and retimer is None:
+        raise SimulationError("simulate: settings.events need the plan's Retimer (retimer=Retimer(plan_result))")
     table, control, plant, line, rules, budget = prepare_loop(robot, path, profile, controller, settings, design, plant)
+    player = EventPlayer(settings.events, retimer, robot, path, profile, settings) if settings.events else None
     ts, substeps = settings.sample_time, settings.substeps
     phi0, dphi0, _ = path.evaluate(path.domain[0])
     q, qd = np.array(phi0, dtype=float), np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
@@ -217,6 +237,8 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         if verdict is not None and arrival.update(verdict):
             keep = verdict.keep
             break
+        if player is not None:
+            player.step(sample.t, sample.theta, sample.theta_dot, control)
         cmd = control(sample.t, q, qd)  # control
         rec.cmd[k] = cmd
         tau = rec.tau[k]
@@ -232,8 +254,9 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
     log.info("loop end at t = %.4g s: %s", k * ts, f"failed ({failure.reason}): {failure.message}"
              if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
              else "no arrival")
+    events = tuple(r.as_dict() for r in player.reports) if player is not None else ()
     return _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
-                   control.identified())
+                   control.identified(), events)
 
 
 def _first_check(rules, sample: Sample):
@@ -365,7 +388,7 @@ class _Record:
 
 
 def _result(robot, path, profile, controller, settings, table, line, rec: _Record, last: int, arrival: _Arrived,
-            failure, identified: dict | None = None) -> SimulationResult:
+            failure, identified: dict | None = None, events: tuple = ()) -> SimulationResult:
     q, qd, tau, cmd, theta = rec.trimmed(last)
     saturation = rec.saturated * settings.sample_time
     t = np.arange(len(q)) * settings.sample_time
@@ -382,5 +405,5 @@ def _result(robot, path, profile, controller, settings, table, line, rec: _Recor
         path_deviation=path_dev, corner_deviation=corner, torque_limit=np.asarray(robot.limits.torque, float),
         planned_duration=profile.duration, cycle_time=arrival.time if ok else None, saturation_time=float(saturation),
         failure=failure, settle_time=arrival.settle if ok else None, path_tolerance=settings.path_tolerance,
-        cornering_deviation=cornering_deviation(path, tcp, theta_p), identified=identified,
+        cornering_deviation=cornering_deviation(path, tcp, theta_p), identified=identified, events=events,
     )

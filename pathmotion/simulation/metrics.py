@@ -71,7 +71,8 @@ class SimulationResult:
     within the path tolerance (open; the plan's own time inside that ball credited) or the mean period
     (closed), None if not reached or tracking failed; settle_time [s]: when it entered that ball for good
     (open paths ending at rest). path_tolerance [m]: the tolerance the verdict used. identified: what the
-    controller's payload identification held at the end (:meth:`.PayloadEstimator.identified`), or None.
+    controller's payload identification held at the end (:meth:`.PayloadEstimator.identified`), or None. events:
+    one dict per re-timing event (simulation/events.py: kind, time, reaction time, stop distance).
     """
 
     controller: str
@@ -98,6 +99,7 @@ class SimulationResult:
     path_tolerance: float | None = None
     cornering_deviation: np.ndarray | None = None
     identified: dict | None = None
+    events: tuple = ()
 
     @property
     def tracking_ok(self) -> bool:
@@ -130,6 +132,7 @@ class SimulationResult:
             "identified_payload_com_m": None if self.identified is None else self.identified["com_m"],
             "identified_viscous_friction": None if self.identified is None else self.identified["viscous_friction"],
             "identified_coulomb_friction": None if self.identified is None else self.identified["coulomb_friction"],
+            "events": [dict(e) for e in self.events] or None,
         }
 
 

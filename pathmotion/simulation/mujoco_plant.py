@@ -36,7 +36,7 @@ import numpy as np
 from .. import defaults
 from ..errors import RobotModelError, SimulationError
 from ..robot import Robot
-from .plant import saturate as _saturate
+from .saturation import saturate as _saturate
 from .realism import Realism
 
 log = logging.getLogger(__name__)

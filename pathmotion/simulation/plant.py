@@ -58,22 +58,6 @@ def _minus_friction(tau, qd, viscous, coulomb, speed, out):
         out[i] = tau[i] - viscous[i] * qd[i] - coulomb[i] * np.tanh(qd[i] / speed)
 
 
-@numba.njit(cache=True)
-def saturate(tau, limit, out):
-    """out = tau clipped to +-limit (n,); returns (all finite, any clipped)."""
-    finite, clipped = True, False
-    for i in range(tau.shape[0]):
-        v = tau[i]
-        if not np.isfinite(v):
-            finite = False
-        if v > limit[i]:
-            v, clipped = limit[i], True
-        elif v < -limit[i]:
-            v, clipped = -limit[i], True
-        out[i] = v
-    return finite, clipped
-
-
 @dataclass(frozen=True, eq=False)
 class Plant:
     """model: the plant's Pinocchio model; torque_limit (n,) [N m]; viscous (n,) [N m s/rad];
