@@ -120,7 +120,8 @@ def row(label: str, name: str, overrides: dict, loop: dict) -> list[str]:
     planned, cycle = result.duration, s["cycle_time_s"]
     verdict = "yes" if s["tracking_ok"] else f"**no** ({s['failure']['reason']} at t = {s['failure']['t']:.3f} s)"
     search = setup.reserve_search
-    reserve = setup.plan_settings.torque_reserve if setup.plan_settings.torque else None
+    torque = setup.plan_settings.limits["torque"]
+    reserve = torque.value if torque.on else None
     tried = "" if search is None else " (" + ", ".join(f"{t.reserve:g} {t.verdict.value}" for t in search.trials) + ")"
     return [label, f"{reserve:g}{tried}" if reserve is not None else "-", _s(planned), _s(cycle),
             "-" if cycle is None else f"{cycle / planned:.3f}", _mm(s["path_accuracy_m"]), verdict,

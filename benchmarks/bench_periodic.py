@@ -106,7 +106,7 @@ def main(argv=None) -> None:
     ratios = []
     for name, path in cases(robot, args.polygons, args.seed).items():
         for torque in (False, True):
-            settings = PlanSettings(periodic=True, torque=torque, verify=False, baselines=False)
+            settings = PlanSettings(periodic=True, limits={"use_torque": torque}, verify=False, baselines=False)
             times = {True: [], False: []}
             info = {laps: run(path, robot, settings, laps) for laps in (True, False)}  # warm-up
             for _ in range(args.repeat):

@@ -62,8 +62,8 @@ def case(jerk: bool):
     robot = irb.with_limits(replace(irb.limits, acceleration=ACC))
     wp = np.random.default_rng(SEED).uniform(-1.5, 1.5, size=(WAYPOINTS, 6))
     path = SplineJointPath.from_waypoints(wp)
-    extra = dict(jerk_limit=tuple(JERK_FACTOR * ACC)) if jerk else {}
-    settings = PlanSettings(torque=True, grid_points=GRID_3 if jerk else GRID_2, **extra)
+    limits = {"use_torque": True, **({"use_jerk": True, "jerk": tuple(JERK_FACTOR * ACC)} if jerk else {})}
+    settings = PlanSettings(grid_points=GRID_3 if jerk else GRID_2, limits=limits)
     return robot, wp, path, plan(path, robot, settings)
 
 

@@ -194,7 +194,7 @@ def _grid_note(setup, summary: dict) -> dict:
     """Why the reported grid_points differs from plan.grid_points (empty when it does not)."""
     asked = setup.scenario.plan.grid_points
     if asked is None:
-        return {"grid_points": "adaptive grid: refined until the duration is within plan.tolerance "
+        return {"grid_points": "adaptive grid: refined until the duration is within plan.duration_tolerance "
                                "(plan.grid_points fixes the grid)"}
     if summary.get("grid_points") == asked:
         return {}
@@ -480,8 +480,10 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
             if figures:
                 _plan_figures(folder)
         progress.update(task, advance=1)
-    _print_table(_summary_table(f"plan {setup.name} -> {out}", summary, _grid_note(setup, summary)))
-    _result_verdict(summary["failures"], summary["export_notes"], force)
+    failures = [f["message"] for f in summary["failures"]]
+    _print_table(_summary_table(f"plan {setup.name} -> {out}", {**summary, "failures": failures},
+                                _grid_note(setup, summary)))
+    _result_verdict(failures, summary["export_notes"], force)
 
 
 @app.command()
@@ -514,7 +516,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         progress.update(task, advance=1, description="simulate: writing")
         with result_folder(out) as folder:  # plan and simulation files replace the folder as one unit
             summary = api.write_simulation(setup, result, sim, folder)
-            failures = api.plan_failures(result, setup) + [r for r in (api.tracking_failure(summary),) if r]
+            failures = api.plan_failures(result, setup) + [f for f in (api.tracking_failure(summary),) if f]
             plan_summary = api.write_plan(setup, result, folder / "plan", failures, force_exports=force)
             if figures:
                 _plan_figures(folder / "plan")
@@ -522,7 +524,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
         progress.update(task, advance=1)
     summary.pop("plan", None)
     _print_table(_summary_table(f"simulate {setup.name} -> {out}", summary))
-    _result_verdict(failures, plan_summary["export_notes"], force)
+    _result_verdict([f.message for f in failures], plan_summary["export_notes"], force)
 
 
 @app.command()

@@ -18,9 +18,9 @@ TIGHTEN_TRIGGER = 0.5
 #: Most samples one resample of a trajectory may hold (output files, verification): beyond it a
 #: motion is far longer than any real one at that sample time (usually a limit set far too small) [-].
 MAX_TRAJECTORY_SAMPLES = 2_000_000
-#: Adaptive planner grid: requested relative error of the duration (``plan.tolerance``) [-].
+#: Adaptive planner grid: requested relative error of the duration (``plan.duration_tolerance``) [-].
 PLAN_TOLERANCE = 5e-4
-#: Largest plan.tolerance accepted, exclusive (a 10 % error in the duration is no longer an optimum) [-].
+#: Largest plan.duration_tolerance accepted, exclusive (a 10 % error in the duration is no longer an optimum) [-].
 MAX_PLAN_TOLERANCE = 0.1
 #: Adaptive planner grid: uniform points of the initial grid (grading, breaks and knots added) [-].
 GRID_INITIAL_POINTS = 200

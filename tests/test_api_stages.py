@@ -53,7 +53,7 @@ def test_loading_optimal_blends_builds_without_planning(no_planning):
 def test_loading_an_auto_reserve_builds_without_planning(no_planning):
     setup = api.load(scenario_path("circle_zero"), {"limits.torque_reserve": "auto"})
     assert setup.pending == ('torque_reserve = "auto"',) and setup.reserve_search is None
-    assert setup.plan_settings.torque_reserve == 0.0  # the search's first run
+    assert setup.plan_settings.limits["torque"].value == 0.0  # the search's first run
     with pytest.raises(ScenarioError, match="torque_reserve"):
         api.plan_scenario(setup)
 
@@ -85,3 +85,22 @@ def test_a_lift_failure_carries_the_position_it_names():
     x, y, z = info.value.position
     assert f"position ({x:.4f}, {y:.4f}, {z:.4f}) m" in str(info.value)
     assert np.isclose(y, 0.1) and 0.5 < x < 1.5  # on the segment from waypoint 2 to 3
+
+
+def test_failures_are_typed_values():
+    """A 'max' connection makes the path speed jump there: the failure's kind and place are data (the place is
+    the plan's own jump interval); a failed closed loop's summary gives a TRACKING failure with its time."""
+    setup = api.load(scenario_path("corner_max"), {"plan.grid_points": 200})
+    result = api.plan_scenario(setup)
+    failures = api.plan_failures(result, setup)
+    jumps = [f for f in failures if f.kind is api.FailureKind.SPEED_JUMP]
+    assert len(jumps) == len(result.jump_intervals) >= 1
+    a, b = result.jump_intervals[0]
+    assert jumps[0].where == f"theta = {a:.6g} .. {b:.6g}" and jumps[0].record()["kind"] == "speed_jump"
+    tracked = {"tracking_ok": True, "failure": None}
+    failed = {"tracking_ok": False, "failure": {"reason": "path_tolerance", "t": 0.31, "theta": 0.2,
+                                                "message": "the TCP left the path"}}
+    assert api.tracking_failure(tracked) is None
+    f = api.tracking_failure(failed)
+    assert (f.kind, f.message, f.where) == (api.FailureKind.TRACKING, "tracking failed: the TCP left the path",
+                                            "t = 0.31 s, theta = 0.2")

@@ -34,7 +34,7 @@ LINE = 4.0 * np.array([0.6, -0.3, 0.4, 1.0, -0.8, 1.2])  # straight joint line q
 def spline_plan():
     """A torque-limited plan on a random 6-joint spline (fixed grid, certified)."""
     path = SplineJointPath.from_waypoints(np.random.default_rng(3).uniform(-1.2, 1.2, (4, 6)))
-    return plan(path, ROBOT, PlanSettings(torque=True, grid_points=300))
+    return plan(path, ROBOT, PlanSettings(grid_points=300, limits={"use_torque": True}))
 
 
 @pytest.fixture(scope="module")
@@ -159,7 +159,7 @@ def test_bad_queries_are_refused_with_a_message(line, call):
 
 def test_jerk_limited_remaining_stop_and_resume_meet_every_limit():
     path = SplineJointPath.from_waypoints(np.random.default_rng(1).uniform(-1.2, 1.2, (4, 6)))
-    res = plan(path, ROBOT, PlanSettings(grid_points=60, jerk_limit=tuple(10 * ACC)))
+    res = plan(path, ROBOT, PlanSettings(grid_points=60, limits={"use_jerk": True, "jerk": tuple(10 * ACC)}))
     rt = Retimer(res)
     theta = 0.4
     v, a = float(res.profile.theta_dot_at(theta)), float(res.profile.theta_ddot_at(theta))

@@ -136,7 +136,7 @@ def test_no_reserve_tracks_is_a_failed_result(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["torque_reserve"] == TOP
     assert {r["verdict"] for r in summary["torque_reserve_search"]} == {"fails"}
-    assert any("torque_reserve" in f for f in summary["failures"])
+    assert [f["where"] for f in summary["failures"] if f["kind"] == "no_reserve"] == ["limits.torque_reserve"]
 
 
 # --------------------------------------------------------------------------------- validation

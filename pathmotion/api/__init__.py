@@ -4,7 +4,7 @@
 - :mod:`.searches`: the searches a scenario can ask for (optimal blends, ``torque_reserve = "auto"``), each
   made of many plans; :mod:`.reserve` is the reserve search's bisection and record.
 - :mod:`.plan`: plan, summarize and write a plan; :mod:`.simulate`: the closed loop and its files;
-  :mod:`.check`: ``pathmotion check``; :mod:`.rapid`: a RAPID program's figures; :mod:`.demo`: shipped runs.
+  :mod:`.check`: ``pathmotion check``; :mod:`.failures`: why a result failed, as typed values; :mod:`.rapid`: a RAPID program's figures; :mod:`.demo`: shipped runs.
 
 Each CLI subcommand is a few lines over these functions::
 
@@ -17,6 +17,7 @@ Each CLI subcommand is a few lines over these functions::
 
 from .check import check_scenario, path_is_closed
 from .demo import DEMO_COLUMNS, DEMO_SCENARIOS, run_shipped, write_demo_table
+from .failures import FailureKind, ResultFailure
 from .plan import (enforced_limits, limit_settings_summary, phase_plane_columns, plan_failures, plan_scenario,
                    plan_summary, reserve_summary, second_order_plan, write_plan, write_report_data)
 from .rapid import rapid_estimate, rapid_zone_tolerances
@@ -27,7 +28,7 @@ from .simulate import (simulate_scenario, simulation_columns, simulation_setting
                        tracking_failure, write_simulation)
 
 __all__ = [
-    "BlendRequest", "DEMO_COLUMNS", "DEMO_SCENARIOS", "Setup", "build", "build_path", "build_robot", "check_scenario",
+    "BlendRequest", "DEMO_COLUMNS", "DEMO_SCENARIOS", "FailureKind", "ResultFailure", "Setup", "build", "build_path", "build_robot", "check_scenario",
     "enforced_limits", "limit_settings_summary", "load", "load_text", "path_is_closed", "phase_plane_columns",
     "plan_failures", "plan_scenario", "plan_settings", "plan_summary", "rapid_estimate", "rapid_zone_tolerances",
     "reach_bound", "reserve_summary", "resolve_torque_reserve", "run_shipped", "search", "search_blends",

@@ -10,6 +10,7 @@ import numpy as np
 from .. import defaults
 from ..errors import InfeasibleError
 from ..io import schema
+from ..lift.joint_move import PiecewiseJointPath
 from ..planning.reduced import reduced_dynamics
 from ..planning.trajectory import sample_times
 from ..simulation import prepare_loop
@@ -24,7 +25,10 @@ STILL_PATH_SPEED = 1e-12
 
 def path_is_closed(setup: Setup) -> bool:
     """Whether the path ends where it starts (a full circle does), whether or not it is planned as a
-    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion)."""
+    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion). A chain with joint moves
+    or dwells is always an open motion."""
+    if isinstance(setup.path, PiecewiseJointPath):
+        return False
     if setup.task_path is not None:
         return bool(setup.task_path.closed)
     q = setup.path.evaluate(np.array(setup.path.domain, float))[0]
@@ -62,22 +66,23 @@ def check_scenario(setup: Setup) -> dict:
 def _pointwise_feasibility(setup: Setup) -> dict:
     """The gravity torque's largest share of its limit (InfeasibleError at or above 1) and the smallest
     velocity-limited path speed [rad/s of theta], on 400 points of the path."""
-    path, robot, ps = setup.path, setup.robot, setup.plan_settings
+    path, robot = setup.path, setup.robot
+    torque, velocity = setup.plan_settings.limits["torque"], setup.plan_settings.limits["velocity"]
     out = {}
     theta = np.linspace(*path.domain, 400)
     q, dq, ddq = path.evaluate(theta)
-    if ps.torque:
+    if torque.on:
         red = reduced_dynamics(robot, q, dq, ddq)
-        ratio = np.abs(red.gamma) / robot.limits.torque / ps.torque_scale
+        ratio = np.abs(red.gamma) / robot.limits.torque / torque.scale
         k, j = np.unravel_index(np.argmax(ratio), ratio.shape)
         out["max_gravity_torque_ratio"] = float(ratio[k, j])
         if ratio[k, j] >= 1:
             raise InfeasibleError(f"gravity torque of {robot.joint_names[j]} at theta = {theta[k]:.4f} is "
                                   f"{abs(red.gamma[k, j]):.1f} N m, above its limit "
-                                  f"{robot.limits.torque[j] * ps.torque_scale:.1f} N m; "
+                                  f"{robot.limits.torque[j] * torque.scale:.1f} N m; "
                                   "raise the torque limit or move the path")
-    if ps.velocity:
-        speed = np.abs(dq) / robot.limits.velocity / ps.velocity_scale
+    if velocity.on:
+        speed = np.abs(dq) / robot.limits.velocity / velocity.scale
         peak = np.max(speed, axis=1)
         vmax = 1.0 / np.maximum(peak, STILL_PATH_SPEED)
         out["min_velocity_limited_theta_dot"] = float(np.min(vmax))

@@ -18,6 +18,7 @@ from ..planning.limit_curves import X_UNBOUNDED, limit_curves, steady_curves
 from ..planning.limits import REGISTRY as LIMIT_REGISTRY
 from ..robot import Robot, fk
 from ..robot.arm import arm_points
+from .failures import FailureKind, ResultFailure
 from .rapid import rapid_estimate
 from .setup import Setup
 
@@ -40,18 +41,18 @@ def plan_scenario(setup: Setup) -> PlanResult:
     return result
 
 
-def plan_failures(result: PlanResult, setup: Setup | None = None) -> list[str]:
+def plan_failures(result: PlanResult, setup: Setup | None = None) -> list[ResultFailure]:
     """Why the planned motion must not be run as it is (empty when it may): a jump in the path speed
     (theta_dot) at a connection, a limit exceeded by more than LIMIT_TOLERANCE on the verification
     resample (a kink crossed at speed makes the acceleration and torque unbounded), and with ``setup``:
     a ``torque_reserve = "auto"`` search that found no reserve with which the closed loop tracks."""
-    out = [f"the path speed jumps at theta = {a:.6g} .. {b:.6g} (a 'max' connection)"
-           for a, b in result.jump_intervals]
+    out = [ResultFailure(FailureKind.SPEED_JUMP, f"the path speed jumps at theta = {a:.6g} .. {b:.6g} (a 'max' "
+                         "connection)", f"theta = {a:.6g} .. {b:.6g}") for a, b in result.jump_intervals]
     r = result.ratios
     if r is not None and not r.within():
-        out.append(f"a limit is exceeded: {r.worst}")
+        out.append(ResultFailure(FailureKind.LIMIT_EXCEEDED, f"a limit is exceeded: {r.worst}", r.worst))
     if setup is not None and setup.reserve_search is not None and not setup.reserve_search.ok:
-        out.append(setup.reserve_search.failure())
+        out.append(ResultFailure(FailureKind.NO_RESERVE, setup.reserve_search.failure(), "limits.torque_reserve"))
     return out
 
 
@@ -166,9 +167,8 @@ def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> 
     REPORT_ARM_FRAMES of the times t (N,) [s] with joint positions q (N, n) [rad]) and, when blends
     replaced corners, original_path.csv (the sharp path, x, y, z [m])."""
     ps = setup.plan_settings
-    scales = {"velocity": ps.velocity_scale if ps.velocity else None,
-              "acceleration": ps.acceleration_scale if ps.acceleration else None,
-              "torque": ps.torque_scale if ps.torque else None}
+    scales = {name: ps.limits[name].scale if ps.limits[name].on else None
+              for name in ("velocity", "acceleration", "torque")}
     record = exports.limits_record(setup.robot.joint_names, setup.robot.limits, scales)
     record["enforced"] = enforced_limits(setup.robot, ps)
     write_json(out / "limits.json", record)
@@ -180,14 +180,15 @@ def write_report_data(setup: Setup, out: Path, t: np.ndarray, q: np.ndarray) -> 
         exports.write_table_csv(out / "original_path.csv", {a: points[:, k] for k, a in enumerate("xyz")})
 
 
-def _write_exports(setup: Setup, samples, out: Path, failures: list[str], force: bool) -> list[str]:
+def _write_exports(setup: Setup, samples, out: Path, failures: list[ResultFailure], force: bool) -> list[str]:
     """The ROS 2, EGM and RAPID exports, each headed by :func:`exports.export_notes`; for a failed plan
     none (stale ones removed) unless ``force``. Returns the notes ([] when refused)."""
     if failures and not force:
         for name in exports.EXPORT_FILES:
             (out / name).unlink(missing_ok=True)
         return []
-    notes, abb = exports.export_notes(samples, failures), exports.export_notes(samples, failures, degrees=True)
+    messages = [f.message for f in failures]
+    notes, abb = exports.export_notes(samples, messages), exports.export_notes(samples, messages, degrees=True)
     ros, egm, rapid = (out / name for name in exports.EXPORT_FILES)
     exports.write_ros2_yaml(ros, samples, setup.robot.joint_names, setup.scenario.plan.sample_time, notes=notes)
     exports.write_egm_csv(egm, samples, notes=abb)
@@ -195,7 +196,7 @@ def _write_exports(setup: Setup, samples, out: Path, failures: list[str], force:
     return notes
 
 
-def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list[str] | None = None,
+def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list[ResultFailure] | None = None,
                force_exports: bool = False) -> dict:
     """Write trajectory.csv/.parquet, summary.json, phase_plane.csv, the exports and the data the
     report and the figures read (limits.json, arm.csv, tcp_path.csv, original_path.csv); figures are
@@ -221,7 +222,7 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
         write_text(out / "scenario.toml", setup.scenario_text)
     summary = plan_summary(setup, result)
     summary[schema.SECOND_ORDER_DURATION.key] = None if second is None else second.duration
-    summary[schema.FAILURES.key] = failures
+    summary[schema.FAILURES.key] = [f.record() for f in failures]
     summary[schema.EXPORT_NOTES.key] = notes
     write_json(out / "summary.json", summary)
     return summary

@@ -93,11 +93,13 @@ def _reserve_trial(setup: Setup, reserve: float, runs: dict) -> ReserveTrial:
     failures = plan_failures(result)
     if failures:
         runs[reserve] = (result, None)
-        return ReserveTrial(reserve, Verdict.FAILS, "the plan failed: " + "; ".join(failures), result.duration)
+        return ReserveTrial(reserve, Verdict.FAILS, "the plan failed: " + "; ".join(f.message for f in failures),
+                            result.duration)
     sim = simulate_scenario(trial, result)
     runs[reserve] = (result, sim)
     summary = sim.summary()
-    reason = tracking_failure(summary)
-    return ReserveTrial(reserve, Verdict.FAILS if reason else Verdict.TRACKS, reason, result.duration,
+    failure = tracking_failure(summary)
+    return ReserveTrial(reserve, Verdict.TRACKS if failure is None else Verdict.FAILS,
+                        "" if failure is None else failure.message, result.duration,
                         summary[schema.CYCLE_TIME.key], summary[schema.PATH_ACCURACY.key])
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathmotionError, ScenarioError, UnreachableError
-from ..geometry import Arc, Circle, FixedOrientation, Line, TaskPath, blended_corners, waypoint_path, with_blends
+from ..geometry import FixedOrientation, TaskPath, blended_corners, waypoint_path, with_blends
 from ..io.files import read_input
 from ..io.scenario import Scenario, parse_scenario, unit_slips
 from ..io.waypoints import load_waypoints_csv
@@ -26,13 +26,12 @@ from ..lift.joint_path import JointPath, SplineJointPath
 from ..planning import PlanSettings
 from ..planning.limits import limit_choices
 from ..robot import Payload, Robot, Tool, builtin_robot_names, load_robot
+from .chain import chain_path, is_chain
 from .reserve import AUTO, ReserveSearch
+from .segments import task_segments
 
 log = logging.getLogger(__name__)
 
-#: Largest difference between a circle's given radius and its centre-to-start distance [m]
-#: (a scenario's numbers are typed by hand: 1 um is far below any path tolerance, far above round-off).
-RADIUS_MATCH = 1e-6
 #: Distance [m] within which a lift failure is reported "at waypoint k" rather than between two.
 NEAR_WAYPOINT = 1e-3
 
@@ -143,44 +142,6 @@ def reach_bound(robot: Robot) -> float:
 
 
 # ------------------------------------------------------------------------------------- the paths
-def _segment(s, start, where: str):
-    """One task segment of ``path.segments`` (``start``: its start point, given or the previous end)."""
-    if s.type == "line":
-        if start is None:
-            raise ScenarioError(f"{where}: the first line needs a start point")
-        return Line(start, s.end)
-    if s.type == "arc":
-        if start is None:
-            raise ScenarioError(f"{where}: the first arc needs a start point")
-        return Arc(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float), float(s.sweep))
-    # circle: through the given or previous end point, else at start_angle
-    if start is not None:
-        seg = Circle(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float))
-    else:
-        seg = Circle.from_centre(s.center, s.radius, s.normal, s.start_angle)
-    if abs(seg.radius - s.radius) > RADIUS_MATCH:
-        raise ScenarioError(f"{where}: the start point is {seg.radius:.6g} m from the centre, not the "
-                            f"radius {s.radius:.6g} m; fix radius or centre")
-    return seg
-
-
-def _segments(specs) -> list:
-    segs = []
-    prev_end = None
-    for k, s in enumerate(specs):
-        where = f"path.segments[{k}]"
-        start = s.start if getattr(s, "start", None) is not None else prev_end
-        try:
-            seg = _segment(s, start, where)
-        except ScenarioError:
-            raise
-        except PathmotionError as exc:
-            raise exc.in_context(where) from exc
-        segs.append(seg)
-        prev_end = seg.end_point
-    return segs
-
-
 def _waypoints_where(spec) -> str:
     """The scenario key a waypoint path's errors name: ``path.file <name>`` or ``path.points``."""
     return f"path.file {spec.file}" if spec.file is not None else "path.points"
@@ -247,7 +208,7 @@ def _segment_task_path(spec) -> tuple[TaskPath, TaskPath | None, BlendRequest | 
     before blends or None; the optimal blends' request or None) of a segment path."""
     orientation = FixedOrientation() if spec.orientation == "down" else FixedOrientation(
         np.asarray(spec.orientation, float))
-    task = TaskPath(tuple(_segments(spec.segments)), orientation)
+    task = TaskPath(tuple(task_segments(spec.segments)), orientation)
     original = task if spec.blends else None
     chosen = _chosen_blends(spec, task)
     blends = {c: (spec.blends[k].type, spec.blends[k].radius if spec.blends[k].type == "circle"
@@ -348,6 +309,9 @@ def build_path(scenario: Scenario, robot: Robot, base_dir: str | Path = "."
     spec = scenario.path
     if spec.type == "joint":
         return open_unless_periodic(scenario, _joint_waypoint_path(spec, robot)), None, None, None
+    if is_chain(spec):  # joint moves or dwells among the segments
+        path = chain_path(spec, robot)
+        return path, path.task_path, path.original_task_path, None
     if spec.type == "waypoints":
         task, original = _waypoint_task_path(spec, Path(base_dir))
         request = _waypoint_request(spec, task)
@@ -367,7 +331,7 @@ def plan_settings(scenario: Scenario, torque_reserve: float | None = None) -> Pl
         lim = lim.model_copy(update={"torque_reserve": 0.0 if torque_reserve is None else float(torque_reserve)})
     periodic = p.periodic
     return PlanSettings(
-        grid_points=p.grid_points, tolerance=p.tolerance, limits=limit_choices(lim),
+        grid_points=p.grid_points, duration_tolerance=p.duration_tolerance, limits=limit_choices(lim),
         start=None if periodic else p.start, end=None if periodic else p.end,
         periodic=periodic, connections=p.connections, verify=p.verify, baselines=True,
     )

@@ -15,6 +15,7 @@ from ..io.atomic import write_json, write_text
 from ..planning import PlanResult, Retimer
 from ..simulation import Realism, SimulationSettings, simulate
 from ..simulation.events import Event
+from .failures import FailureKind, ResultFailure
 from .plan import plan_summary, reserve_summary, write_report_data
 from .setup import Setup
 
@@ -61,13 +62,17 @@ def simulate_scenario(setup: Setup, result: PlanResult):
                     retimer=retimer)
 
 
-def tracking_failure(sim_summary: dict) -> str:
-    """Why a simulation summary's closed loop failed, "tracking failed: <its failure message>" ("" when it
-    tracked): the line that joins a simulate run's failures and the reserve search's reasons."""
+def tracking_failure(sim_summary: dict) -> ResultFailure | None:
+    """Why a simulation summary's closed loop failed (message "tracking failed: <its failure message>", where
+    "t = ... s, theta = ..."), None when it tracked: joins a simulate run's failures and is the reserve
+    search's reason."""
     if sim_summary.get(schema.TRACKING_OK.key, True):
-        return ""
+        return None
     failure = sim_summary.get(schema.FAILURE.key)
-    return "tracking failed" + (f": {failure['message']}" if failure else "")
+    if not failure:
+        return ResultFailure(FailureKind.TRACKING, "tracking failed")
+    return ResultFailure(FailureKind.TRACKING, f"tracking failed: {failure['message']}",
+                         f"t = {failure['t']:.4g} s, theta = {failure['theta']:.4g}")
 
 
 def simulation_summary(setup: Setup, result: PlanResult, sim) -> dict:

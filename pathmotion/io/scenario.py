@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -73,7 +73,41 @@ class CircleSpec(_Model):
     start: Vec3 | None = Field(None, description="start point instead of start_angle (default: previous end, if any)")
 
 
-SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec], Field(discriminator="type")]
+class PoseTargetSpec(_Model):
+    """A TCP pose solved by IK on the branch its robconf names (ABB's confdata)."""
+
+    position: Vec3 = Field(description="TCP position [m]")
+    quaternion: tuple[float, float, float, float] = Field(description="tool orientation, unit quaternion "
+                                                          "[w, x, y, z] (normalised when off by rounding)")
+    robconf: tuple[int, int, int, int] | None = Field(
+        None, description="[cf1, cf4, cf6, cfx]: quadrants of axes 1, 4 and 6 and the arm/wrist configuration "
+                          "number 0..7 (ABB's convention); default: the branch nearest the move's start")
+
+
+class JointSegmentSpec(_Model):
+    """A joint move (MoveJ / MoveAbsJ): linear in the joints from the previous segment's end configuration."""
+
+    type: Literal["joint"]
+    end: tuple[float, ...] | None = Field(None, description="joint values at the end [rad]")
+    end_pose: PoseTargetSpec | None = Field(None, description="the end as a TCP pose solved by IK")
+
+    @model_validator(mode="after")
+    def _target(self):
+        if (self.end is None) == (self.end_pose is None):
+            raise ValueError("a joint segment needs exactly one of end = [joint values, rad] or "
+                             "end_pose = {position, quaternion, robconf}")
+        return self
+
+
+class DwellSpec(_Model):
+    """A wait at rest (WaitTime): the motion stops where the previous segment ends and waits."""
+
+    type: Literal["dwell"]
+    time: float = Field(ge=0, description="time at rest [s]")
+
+
+SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec, JointSegmentSpec, DwellSpec],
+                        Field(discriminator="type")]
 
 
 class BlendSpec(_Model):
@@ -105,7 +139,8 @@ class BlendSpec(_Model):
 
 class TaskPathSpec(_Model):
     type: Literal["task"]
-    segments: list[SegmentSpec] = Field(min_length=1)
+    segments: list[SegmentSpec] = Field(min_length=1, description="line, arc, circle, joint (a joint move: linear "
+                                        "in the joints) or dwell (a wait at rest), each from where the previous ends")
     blends: list[BlendSpec] = []
     orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation matrix")
     start_configuration: tuple[float, ...] | None = Field(
@@ -151,7 +186,7 @@ PathSpec = Annotated[Union[TaskPathSpec, JointPathSpec, WaypointPathSpec], Field
 # ---------------------------------------------------------------------------------------- limits
 class LimitsSpec(_Model):
     """The [limits] table: overrides of the robot's joint limits, and the keys of each registered
-    limit class (``scenario_keys`` in pathmotion/planning/limits/; a test checks they match)."""
+    limit class (``keys`` in pathmotion/planning/limits/; a test checks they match)."""
 
     velocity: tuple[float, ...] | None = Field(None, description="joint speed limits [rad/s], override")
     acceleration: tuple[float, ...] | None = Field(None, description="joint acceleration limits [rad/s^2], override")
@@ -196,7 +231,7 @@ Boundary = Union[BoundaryMode, Annotated[float, Field(ge=0)]]
 
 class PlanSpec(_Model):
     grid_points: int | None = Field(None, ge=10, le=1_000_000, description="a fixed planner grid of this many "
-                                    "points; absent: adaptive, refined until the duration is within tolerance")
+                                    "points; absent: adaptive, refined until the duration is within duration_tolerance")
     start: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the start: 'zero', 'max' or a value [1/s]")
     end: Boundary = Field(BoundaryMode.ZERO, description="theta_dot at the end: 'zero', 'max' or a value")
     periodic: bool = Field(False, description="closed path: the steady-state cycle")
@@ -207,8 +242,11 @@ class PlanSpec(_Model):
                                "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
-    tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE, description="adaptive grid: requested relative "
-                             "error of the duration (0.0005 = 0.05 %)")
+    duration_tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE,
+                                      description="adaptive grid: requested relative error of the duration "
+                                                  "(0.0005 = 0.05 %)")
+    #: Former keys of this table -> their names now (an old key gets an error naming the new one).
+    RENAMED: ClassVar[dict[str, str]] = {"tolerance": "duration_tolerance"}
 
 
 # ------------------------------------------------------------------------------------ simulation
@@ -310,7 +348,7 @@ def _loc(loc: tuple) -> str:
     for k, part in enumerate(loc):
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in ("line", "arc", "circle", "task", "joint", "float", "int", "str", "bool") or not str(
+        elif part in ("line", "arc", "circle", "dwell", "task", "joint", "float", "int", "str", "bool") or not str(
                 part).isidentifier():
             continue  # discriminator and union-member tags that pydantic inserts (e.g. "literal['zero','max']")
         elif part == "waypoints" and k > 0 and loc[k - 1] == "path":
@@ -368,6 +406,9 @@ def _did_you_mean(loc: tuple, doc) -> str:
     cls = _model_at(loc, doc)
     if cls is None:
         return ""
+    renamed = getattr(cls, "RENAMED", {}).get(str(loc[-1]))
+    if renamed is not None:
+        return f"; it is now called {renamed!r}: rename the key"
     allowed = list(cls.model_fields)
     close = difflib.get_close_matches(str(loc[-1]), allowed, n=1, cutoff=0.6)
     return f"; did you mean {close[0]!r}?" if close else f"; allowed here: {', '.join(allowed)}"
@@ -489,6 +530,10 @@ def _lengths(scenario: Scenario):
     """(key, value) of the scenario's points (tuples [m], measured from the base) and lengths [m]."""
     path = scenario.path
     for k, seg in enumerate(getattr(path, "segments", ())):
+        if seg.type == "joint":  # joint values [rad]; its end_pose position is a point [m]
+            if seg.end_pose is not None:
+                yield f"path.segments[{k}].end_pose.position", tuple(seg.end_pose.position)
+            continue
         for name in ("start", "end", "center", "radius"):
             value = getattr(seg, name, None)
             if value is not None:

@@ -3,9 +3,8 @@
 Each :class:`Key` says what the value is (``label``), the unit it is shown in (``unit``) and the
 factor from the stored SI value to that unit (``scale``: 1e3 shows metres as mm). Tables, the
 report, the study's score and the CSV writers name keys through the constants below, never through
-string literals of their own. The ratio and settings keys of each limit (``max_<limit>_ratio``,
-e.g. ``torque_reserve``) belong to its class in ``planning/limits`` (adding a limit is one file);
-the common ones are listed here too, for their labels.
+string literals of their own. Each limit's names (its scenario keys, summary keys, report labels) are one
+row of :data:`LIMITS`, which its class in ``planning/limits`` reads.
 """
 
 from __future__ import annotations
@@ -46,14 +45,60 @@ GRID_POINTS = _k("grid_points", "planner grid points")
 DURATION_ERROR_ESTIMATE = _k("duration_error_estimate", "estimated discretization error of the duration (adaptive "
                              "grid, or jerk / torque-rate plans' nested coarse grids; null on a fixed grid "
                              "otherwise)", "ms", 1e3, short="duration error est.")
-MAX_VELOCITY_RATIO = _k("max_velocity_ratio", "largest joint velocity / limit", "-")
-MAX_ACCELERATION_RATIO = _k("max_acceleration_ratio", "largest joint acceleration / limit", "-")
-MAX_PLAN_TORQUE_RATIO = _k("max_torque_ratio", "largest joint torque / limit", "-")
-MAX_TCP_SPEED_RATIO = _k("max_tcp_speed_ratio", "largest TCP speed / limit", "-")
-MAX_TORQUE_SPEED_RATIO = _k("max_torque_speed_ratio", "largest joint torque / torque-speed envelope", "-")
-MAX_JERK_RATIO = _k("max_jerk_ratio", "largest joint jerk / limit", "-")
-MAX_TORQUE_RATE_RATIO = _k("max_torque_rate_ratio", "largest joint torque rate / limit", "-")
 TORQUE_RESERVE = _k("torque_reserve", "torque reserve kept free for feedback (fraction of each torque limit)", "-")
+
+
+@dataclass(frozen=True)
+class LimitNames:
+    """Every name of one limit, in one row: ``name`` (ratios, limits.json, phase_plane.csv columns); ``keys``:
+    its ``[limits]`` keys (PlanSettings(limits=...) takes the same) -> the LimitChoice field each sets
+    ("on", "scale", "value"); ``ratio``: summary.json's key of its largest |value| / limit; ``settings``:
+    its other summary.json keys; ``unit`` of its enforced values; ``label``: its row in the report;
+    ``curve``: the phase plane's legend of its own maximum-velocity curve ("" for the third-order limits,
+    which have none); ``steady``: the legend of a third-order limit's steady-speed curve; ``color`` of
+    both curves."""
+
+    name: str
+    keys: dict
+    ratio: Key
+    unit: str
+    label: str
+    curve: str = ""
+    steady: str = ""
+    color: str = ""
+    settings: tuple[Key, ...] = ()
+
+
+#: The limits' names, by limit name (the planner's classes in planning/limits/ read theirs from here).
+LIMITS = {row.name: row for row in (
+    LimitNames("velocity", {"use_velocity": "on", "velocity_scale": "scale"},
+               _k("max_velocity_ratio", "largest joint velocity / limit", "-"), "rad/s", "velocity",
+               "joint velocity limit", color="#9467bd"),
+    LimitNames("acceleration", {"use_acceleration": "on", "acceleration_scale": "scale"},
+               _k("max_acceleration_ratio", "largest joint acceleration / limit", "-"), "rad/s²", "acceleration",
+               "joint acceleration limit", color="#ff7f0e"),
+    LimitNames("torque", {"use_torque": "on", "torque_scale": "scale", "torque_reserve": "value"},
+               _k("max_torque_ratio", "largest joint torque / limit", "-"), "N m", "torque", "joint torque limit",
+               color="#8c564b", settings=(TORQUE_RESERVE,)),
+    LimitNames("tcp_speed", {"tcp_speed": "value"}, _k("max_tcp_speed_ratio", "largest TCP speed / limit", "-"),
+               "m/s", "TCP speed", "TCP speed limit", color="#bcbd22"),
+    LimitNames("torque_speed", {"torque_speed": "value"},
+               _k("max_torque_speed_ratio", "largest joint torque / torque-speed envelope", "-"),
+               "knee / at top speed", "torque-speed envelope", "torque-speed envelope", color="#e377c2"),
+    LimitNames("jerk", {"use_jerk": "on", "jerk_scale": "scale", "jerk": "value"},
+               _k("max_jerk_ratio", "largest joint jerk / limit", "-"), "rad/s³", "jerk",
+               steady="jerk limit at constant speed", color="#111111"),
+    LimitNames("torque_rate", {"use_torque_rate": "on", "torque_rate_scale": "scale", "torque_rate": "value"},
+               _k("max_torque_rate_ratio", "largest joint torque rate / limit", "-"), "N m/s", "torque rate",
+               steady="torque-rate limit at constant speed", color="#17becf"),
+)}
+MAX_VELOCITY_RATIO = LIMITS["velocity"].ratio
+MAX_ACCELERATION_RATIO = LIMITS["acceleration"].ratio
+MAX_PLAN_TORQUE_RATIO = LIMITS["torque"].ratio
+MAX_TCP_SPEED_RATIO = LIMITS["tcp_speed"].ratio
+MAX_TORQUE_SPEED_RATIO = LIMITS["torque_speed"].ratio
+MAX_JERK_RATIO = LIMITS["jerk"].ratio
+MAX_TORQUE_RATE_RATIO = LIMITS["torque_rate"].ratio
 SECOND_ORDER_DURATION = _k("second_order_duration_s", "time-optimal duration without the jerk and torque-rate "
                            "limits", "s", short="without jerk / torque rate")
 WORST_LIMIT = _k("worst_limit", "where the largest ratio is")
@@ -71,7 +116,7 @@ WRIST_CROSSINGS = _k("wrist_singularity_crossings", "wrist passages near q5 = 0:
                      "passed, each with its speed cost (velocity-limited path speed in it vs at its edges, planned "
                      "speed)")
 RAPID_ESTIMATE = _k("rapid_estimate_s", "RAPID program at its programmed speeds (estimate)", "s")
-FAILURES = _k("failures", "why the plan must not be run (empty: it may)")
+FAILURES = _k("failures", "why the plan must not be run, each {kind, message, where} (empty: it may)")
 EXPORT_NOTES = _k("export_notes", "notes at the top of the exports (ROS 2, EGM, RAPID)")
 JOINT_RANGE_MARGIN = _k("joint_range_margin_rad", "smallest joint-range margin", "rad")
 TORQUE_RESERVE_SEARCH = _k("torque_reserve_search", 'torque_reserve = "auto": the reserves tried, in order, with '

@@ -49,7 +49,7 @@ from __future__ import annotations
 import itertools
 import logging
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -943,16 +943,8 @@ def _rests(settings: PlanSettings) -> tuple[bool, bool]:
 
 
 def replace_settings(settings: PlanSettings, **changes) -> PlanSettings:
-    """A copy of ``settings`` with ``changes`` (PlanSettings validates in __init__)."""
-    kw = {"grid_points": settings.grid_points, "tolerance": settings.tolerance, "limits": settings.limits,
-          "start": settings.start,
-          "end": settings.end, "periodic": settings.periodic, "connections": settings.connections,
-          "limit_tolerance": settings.limit_tolerance, "verify": settings.verify,
-          "verify_sample_time": settings.verify_sample_time,
-          "max_tighten_iterations": settings.max_tighten_iterations, "baselines": settings.baselines,
-          "fitted_margin": settings.fitted_margin}
-    kw.update(changes)
-    return PlanSettings(**kw)
+    """A copy of ``settings`` with ``changes`` (checked again, as PlanSettings always is)."""
+    return replace(settings, **changes)
 
 
 __all__ = ["OptimalBlend", "duration_with", "optimal_blends"]

@@ -167,11 +167,9 @@ def _arm(data: FolderData, reference: np.ndarray | None, anchor: str, what: str)
     return figure_html(fig.arm_animation_figure(t, points, reference, title, frame_time), f"{anchor}-arm")
 
 
-#: Unit of each enforced limit in limits.json (SI), by limit name.
-LIMIT_UNITS = {"velocity": "rad/s", "acceleration": "rad/s²", "torque": "N m", "tcp_speed": "m/s",
-               "torque_speed": "knee / at top speed", "jerk": "rad/s³", "torque_rate": "N m/s"}
-#: Row labels of the enforced-limits table where the limit's name with spaces would not do.
-LIMIT_ROW_LABELS = {"tcp_speed": "TCP speed", "torque_speed": "torque-speed envelope"}
+#: Unit of each enforced limit in limits.json (SI) and its row label, by limit name (io/schema.py's LIMITS).
+LIMIT_UNITS = {name: row.unit for name, row in schema.LIMITS.items()}
+LIMIT_ROW_LABELS = {name: row.label for name, row in schema.LIMITS.items()}
 
 
 def _enforced_table(limits: dict | None, summary: dict) -> str:
@@ -198,7 +196,7 @@ def _enforced_table(limits: dict | None, summary: dict) -> str:
         label = LIMIT_ROW_LABELS.get(name, name.replace("_", " "))
         if name == "torque" and summary.get(schema.TORQUE_RESERVE.key):
             label += f" (with {100 * summary[schema.TORQUE_RESERVE.key]:.3g} % reserve)"
-        ratio = summary.get(f"max_{name}_ratio")
+        ratio = summary.get(schema.LIMITS[name].ratio.key if name in schema.LIMITS else f"max_{name}_ratio")
         rows.append(f'<tr><th title="{escape(name)}">{escape(label)} [{escape(LIMIT_UNITS.get(name, "-"))}]</th>'
                     f"{cells}{cell(ratio)}</tr>")
     return ('<table class="limits"><caption>Limits the plan enforced (limits.json) and the largest ratio of each '

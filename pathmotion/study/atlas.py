@@ -150,12 +150,15 @@ def check_torque_reserve(reserve, torque: bool, name: str = "torque_reserve", sw
 
 
 # ------------------------------------------------------------------------------------ one row
-def _settings(torque: bool = False, **kw):
-    """The atlas' plan settings: rest to rest, velocity and acceleration limits, torque limits when ``torque`` (and
-    ``torque_reserve`` in ``kw``, see PlanSettings)."""
+def _settings(torque: bool = False, torque_reserve: float | None = None, **kw):
+    """The atlas' plan settings: rest to rest, velocity and acceleration limits, torque limits when ``torque`` (with
+    ``torque_reserve`` [-] when given); ``kw``: other PlanSettings fields."""
     from ..planning import PlanSettings
 
-    return PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=torque, **kw)
+    limits = {"use_velocity": True, "use_acceleration": True, "use_torque": torque}
+    if torque_reserve is not None:
+        limits["torque_reserve"] = torque_reserve
+    return PlanSettings(start="zero", end="zero", limits=limits, **kw)
 
 
 def reserved(robot, torque_reserve: float):

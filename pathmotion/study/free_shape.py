@@ -340,8 +340,9 @@ def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = No
     orient = FixedOrientation() if rotation is None else FixedOrientation(np.asarray(rotation, float))
     path = lift(robot, TaskPath(segs, orient))
     kw = {} if grid_points is None else {"grid_points": grid_points}
-    settings = PlanSettings(start="zero", end="zero", connections="zero", velocity=True, acceleration=True,
-                            torque=torque, baselines=False, **kw)
+    settings = PlanSettings(start="zero", end="zero", connections="zero",
+                            limits={"use_velocity": True, "use_acceleration": True, "use_torque": torque},
+                            baselines=False, **kw)
     return path, plan(path, robot, settings)
 
 
