@@ -91,7 +91,7 @@ def test_sub_path_evaluates_as_the_path():
 def test_a_stop_at_rest_holds_until_the_resume_and_a_replay_of_the_plan_changes_nothing():
     robot = load_robot("irb140")
     path = SplineJointPath.from_waypoints(np.random.default_rng(5).uniform(-1, 1, (3, 6)))
-    res = plan(path, robot, PlanSettings(torque=True))
+    res = plan(path, robot, PlanSettings(limits={"use_torque": True}))
     rt = Retimer(res)
     base = simulate(robot, path, res.profile, "orbital", SimulationSettings(), retimer=rt)
     held = simulate(robot, path, res.profile, "orbital",
