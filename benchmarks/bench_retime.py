@@ -264,13 +264,17 @@ COMPARISONS = (("vs_offline", "remaining vs offline plan"), ("vs_toppra", "remai
                ("stop_vs_shortest", "stop vs shortest distance"), ("stop_vs_second_order", "stop vs second-order stop"))
 
 
-def timing_table(results: list) -> Table:
-    """One row per case and call: p50, p99 and worst of wall and CPU time [ms]."""
-    table = Table("The re-timer: time per call from a measured state", [
+def timing_table() -> Table:
+    """The timing part's table, started before the measurement (its date and load at the start)."""
+    return Table("The re-timer: time per call from a measured state", [
         ("case", "case"), ("plan", "plan points / duration [s]"), ("build_ms", "Retimer built [ms]"),
         ("remaining_points", "remaining grids >= points"), ("call", "call"), ("calls", "calls"),
         ("wall", "wall p50 / p99 / worst [ms]"), ("cpu", "CPU p50 / p99 / worst [ms]"), ("unsaveable", "unsaveable"),
         ("load", "load before / after")])
+
+
+def fill_timing(table: Table, results: list) -> Table:
+    """One row per case and call: p50, p99 and worst of wall and CPU time [ms]."""
     ms = lambda v: f"{v['p50_ms']:.3f} / {v['p99_ms']:.3f} / {v['worst_ms']:.3f}"  # noqa: E731
     for r in results:
         for name, t in r["timing"].items():
@@ -284,11 +288,15 @@ def timing_table(results: list) -> Table:
     return table
 
 
-def optimality_table(results: list) -> Table:
-    """One row per case and comparison: the relative difference's median and range [%]."""
-    table = Table("The re-timer: optimality against independent references", [
+def optimality_table() -> Table:
+    """The optimality part's table, started before the measurement (its date and load at the start)."""
+    return Table("The re-timer: optimality against independent references", [
         ("case", "case"), ("comparison", "comparison"), ("median", "median [%]"), ("range", "range [%]"),
         ("n", "states"), ("ratio", "worst certified limit ratio"), ("saveable", "saveable / states")])
+
+
+def fill_optimality(table: Table, results: list) -> Table:
+    """One row per case and comparison: the relative difference's median and range [%]."""
     for r in results:
         s = r["optimality"]["summary"]
         for key, text in COMPARISONS:
@@ -323,14 +331,15 @@ def main(argv=None) -> int:
         n2, n3, o2, o3 = (*(args.states or (n2, n3)), 0, 0)
     elif args.part == "optimality":
         n2, n3, o2, o3 = (0, 0, *(args.states or (o2, o3)))
+    table = {"timing": timing_table, "optimality": optimality_table}[args.part]() if args.json else None
     with single_blas_thread():
         results = [run("second order (velocity, acceleration, torque)", False, n2, o2),
                    run(f"jerk {JERK_FACTOR:g} x acceleration (plus the second-order limits)", True, n3, o3)]
     for r in results:
         report(r)
     if args.json:
-        table = (timing_table if args.part == "timing" else optimality_table)(results)
-        print(f"\nwrote {table.write(args.json)}")
+        fill = fill_timing if args.part == "timing" else fill_optimality
+        print(f"\nwrote {fill(table, results).write(args.json)}")
     return 0
 
 
