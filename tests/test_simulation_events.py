@@ -86,3 +86,19 @@ def test_sub_path_evaluates_as_the_path():
     assert sub.knots == (0.25, 0.5) and sub.domain == (0.0, 0.6)
     with pytest.raises(Exception, match="outside"):
         sub.evaluate(0.7)
+
+
+def test_a_stop_at_rest_holds_until_the_resume_and_a_replay_of_the_plan_changes_nothing():
+    robot = load_robot("irb140")
+    path = SplineJointPath.from_waypoints(np.random.default_rng(5).uniform(-1, 1, (3, 6)))
+    res = plan(path, robot, PlanSettings(limits={"use_torque": True}))
+    rt = Retimer(res)
+    base = simulate(robot, path, res.profile, "orbital", SimulationSettings(), retimer=rt)
+    held = simulate(robot, path, res.profile, "orbital",
+                    SimulationSettings(events=(Event(0.0, stop=True), Event(0.2, resume=True))), retimer=rt)
+    assert held.tracking_ok and held.cycle_time == pytest.approx(base.cycle_time + 0.2, abs=0.02)
+    assert np.max(np.abs(held.qd[held.t < 0.19])) < 1e-3
+    # re-timing from the plan's own state mid-motion (a resume while moving, override 1) keeps the plan
+    again = simulate(robot, path, res.profile, "orbital", SimulationSettings(events=(Event(0.1, resume=True),)),
+                     retimer=rt)
+    assert again.tracking_ok and again.cycle_time == pytest.approx(base.cycle_time, abs=0.01)

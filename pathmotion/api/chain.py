@@ -10,36 +10,44 @@ import logging
 import numpy as np
 
 from ..errors import ScenarioError
-from ..geometry import FixedOrientation, TaskPath, blended_corners, with_blends
+from ..geometry import TaskPath, blended_corners, with_blends
 from ..io.rapid import quaternion_matrix
 from ..lift.chain import Dwell, JointMove, TaskRun, lift_chain
 from ..lift.joint_move import PiecewiseJointPath, check_joint_target
 from ..robot import Robot, fk
+from .program import start_configuration, start_rotation, task_orientation
 from .segments import task_segments
 
 log = logging.getLogger(__name__)
 
 
-def _chain_items(spec, robot: Robot, orientation) -> tuple[list, list[int]]:
+def _chain_items(spec, robot: Robot, q_prev) -> tuple[list, list[int]]:
     """(items for :func:`~pathmotion.lift.chain.lift_chain`, the item of each of path.segments) of a task path
-    with joint moves or dwells: consecutive line/arc/circle segments form one TaskRun."""
+    with joint moves or dwells, starting at ``q_prev`` (n,) [rad] or None: consecutive line/arc/circle segments
+    form one TaskRun; a run whose segments carry quaternions turns the tool from where the previous motion
+    left it, one without keeps ``path.orientation``."""
     items, owner, run, prev_end = [], [], [], None
-    q_prev = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    prev_rot = start_rotation(spec)
     if q_prev is not None and len(q_prev) == robot.n:
         prev_end = fk(robot, q_prev)[0]
 
     def close_run():
+        nonlocal prev_rot
         if run:
             first = run[0][0]
             segs = task_segments([s for _, s in run], prev_end, first)
             where = f"path.segments[{first}..{run[-1][0]}]" if len(run) > 1 else f"path.segments[{first}]"
-            items.append(TaskRun(TaskPath(tuple(segs), orientation), None, where))
+            start = prev_rot if run[0][1].quaternion is not None else start_rotation(spec)
+            task = TaskPath(tuple(segs), task_orientation(start, [s for _, s in run], segs))
+            items.append(TaskRun(task, None, where))
+            prev_rot = task.orientation(task.length)[0]
             run.clear()
             return segs[-1].end_point
         return prev_end
 
     for k, seg in enumerate(spec.segments):
-        where = f"path.segments[{k}]"
+        program = getattr(seg, "program", None)
+        where = f"path.segments[{k}]" + ("" if program is None else f" (line {program.line}, target {program.target})")
         if seg.type in ("line", "arc", "circle"):
             run.append((k, seg))
             owner.append(len(items))
@@ -51,12 +59,12 @@ def _chain_items(spec, robot: Robot, orientation) -> tuple[list, list[int]]:
         elif seg.end is not None:
             end = check_joint_target(robot, seg.end, where)
             items.append(JointMove(end, None, where))
-            prev_end = fk(robot, end)[0]
+            prev_end, prev_rot = fk(robot, end)
         else:
             pose = seg.end_pose
             rotation = quaternion_matrix(pose.quaternion, f"{where}.end_pose.quaternion")
             items.append(JointMove(None, (np.asarray(pose.position, float), rotation, pose.robconf), where))
-            prev_end = np.asarray(pose.position, float)
+            prev_end, prev_rot = np.asarray(pose.position, float), rotation
     close_run()
     return items, owner
 
@@ -126,15 +134,13 @@ def is_chain(spec) -> bool:
 
 def chain_path(spec, robot: Robot) -> PiecewiseJointPath:
     """The PiecewiseJointPath of a ``type = "task"`` path whose segments include joint moves or dwells."""
-    orientation = FixedOrientation() if spec.orientation == "down" else FixedOrientation(
-        np.asarray(spec.orientation, float))
-    items, owner = _chain_items(spec, robot, orientation)
+    q_start = start_configuration(spec, robot)
+    items, owner = _chain_items(spec, robot, q_start)
     run_blends, zones = _chain_blends(spec, items, owner)
     for i, blends in run_blends.items():
         run = items[i]
         names = {c: f"path.blends (corner {c + 1} of {run.where})" for c in blends}
         items[i] = TaskRun(with_blends(run.path, blends, names), run.path, run.where)
-    q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
     log.info("lift: a chain of %d task runs, %d joint moves, %d dwells, %d joint zones",
              sum(isinstance(i, TaskRun) for i in items), sum(isinstance(i, JointMove) for i in items),
              sum(isinstance(i, Dwell) for i in items), len(zones))

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathmotionError, ScenarioError, UnreachableError
-from ..geometry import FixedOrientation, TaskPath, blended_corners, waypoint_path, with_blends
+from ..geometry import TaskPath, blended_corners, waypoint_path, with_blends
 from ..io.files import read_input
 from ..io.scenario import Scenario, degrees_hint, parse_scenario, unit_slips, velocity_slip
 from ..io.waypoints import load_waypoints_csv
@@ -27,6 +27,7 @@ from ..planning import PlanSettings
 from ..planning.limits import limit_choices
 from ..robot import Payload, Robot, Tool, builtin_robot_names, load_robot
 from .chain import chain_path, is_chain
+from .program import check_program, start_configuration, start_rotation, task_orientation
 from .reserve import AUTO, ReserveSearch
 from .segments import task_segments
 
@@ -206,9 +207,8 @@ def _chosen_blends(spec, task: TaskPath) -> dict[int, int]:
 def _segment_task_path(spec) -> tuple[TaskPath, TaskPath | None, BlendRequest | None]:
     """(task path with its blends, or with every corner sharp when optimal blends are asked for; the path
     before blends or None; the optimal blends' request or None) of a segment path."""
-    orientation = FixedOrientation() if spec.orientation == "down" else FixedOrientation(
-        np.asarray(spec.orientation, float))
-    task = TaskPath(tuple(task_segments(spec.segments)), orientation)
+    segs = task_segments(spec.segments)
+    task = TaskPath(tuple(segs), task_orientation(start_rotation(spec), spec.segments, segs))
     original = task if spec.blends else None
     chosen = _chosen_blends(spec, task)
     blends = {c: (spec.blends[k].type, spec.blends[k].radius if spec.blends[k].type == "circle"
@@ -262,7 +262,8 @@ def lift_task_path(scenario: Scenario, robot: Robot, task: TaskPath, original: T
     waypoint path's errors name the waypoint or the two waypoints the failure lies at or between. A closed
     path not planned as a periodic cycle is an open motion (run once, rest to rest or with given speeds)."""
     spec = scenario.path
-    q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    q_start = start_configuration(spec, robot) if spec.type == "task" else (
+        None if spec.start_configuration is None else np.asarray(spec.start_configuration, float))
     log.info("lift: IK along the task path (%d segments, %.4g m)", len(task.segments), task.length)
     try:
         path = lift(robot, task, q_start, original=original)
@@ -274,6 +275,8 @@ def lift_task_path(scenario: Scenario, robot: Robot, task: TaskPath, original: T
             where = f"{where}: {_near_waypoint(task, original, exc.position)}"
         raise exc.in_context(where) from exc
     log.debug("lifted joint path: theta in [%.6g, %.6g], %d kinks", *path.domain, len(path.kinks))
+    if spec.type == "task":
+        check_program(spec, robot, path)
     return open_unless_periodic(scenario, path)
 
 
@@ -312,6 +315,7 @@ def build_path(scenario: Scenario, robot: Robot, base_dir: str | Path = "."
         return open_unless_periodic(scenario, _joint_waypoint_path(spec, robot)), None, None, None
     if is_chain(spec):  # joint moves or dwells among the segments
         path = chain_path(spec, robot)
+        check_program(spec, robot, path)
         return path, path.task_path, path.original_task_path, None
     if spec.type == "waypoints":
         task, original = _waypoint_task_path(spec, Path(base_dir))

@@ -77,6 +77,21 @@ def write_table_csv(path: str | Path, columns: dict[str, np.ndarray]) -> Path:
     return write_text(path, buf.getvalue())
 
 
+def write_rows_csv(path: str | Path, columns: dict[str, list]) -> Path:
+    """CSV of mixed columns (numbers, text, None as an empty cell) with a header line; numbers in full
+    precision (repr round-trips)."""
+    import csv
+
+    names = list(columns)
+    buf = _io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(names)
+    for row in zip(*(columns[k] for k in names)):
+        writer.writerow(["" if v is None else repr(float(v)) if isinstance(v, (float, np.floating)) else v
+                         for v in row])
+    return write_text(path, buf.getvalue())
+
+
 def write_table_parquet(path: str | Path, columns: dict[str, np.ndarray]) -> Path:
     import pyarrow as pa
     import pyarrow.parquet as pq

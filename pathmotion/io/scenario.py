@@ -50,13 +50,43 @@ class RobotSpec(_Model):
 
 
 # ------------------------------------------------------------------------------------------ path
-class LineSpec(_Model):
+Quat = tuple[float, float, float, float]
+RobConf = tuple[int, int, int, int]
+
+
+class ProgramMoveSpec(_Model):
+    """The robot-program move a segment came from (``pathmotion import-rapid`` writes it; ``plan`` reads it
+    for moves.csv, and robconf with conf for the IK branch)."""
+
+    line: int = Field(ge=1, description="line of the move in the program")
+    target: str = Field("", description="the target as written in the program")
+    move: Literal["MoveL", "MoveC", "MoveJ", "MoveAbsJ", "WaitTime"] = Field(description="the instruction")
+    speed: float | None = Field(None, gt=0, description="programmed TCP speed [m/s] (absent with a time)")
+    time: float | None = Field(None, gt=0, description="programmed move time (\\T) [s]")
+    zone: str = Field("fine", description="the zone as written (fine, z10, a zonedata name)")
+    robconf: RobConf | None = Field(None, description="ABB robconf [cf1, cf4, cf6, cfx] of the target")
+    conf: bool = Field(True, description="ConfL / ConfJ \\On: the planned configuration at the target must have "
+                                         "the robconf (\\Off: the branch continuous with the previous one)")
+
+
+class _Keyed(_Model):
+    """Keys every task segment takes: the tool orientation at its end and the program move behind it."""
+
+    quaternion: Quat | None = Field(None, description="tool orientation at the segment's end, unit quaternion "
+                                    "[w, x, y, z] in the base frame; given on every segment or on none")
+    orientation_zone: float = Field(0.0, ge=0, description="path distance [m] either side of the segment's end over "
+                                    "which the orientation turns straight on to the next one (a zone's pzone_ori; "
+                                    "0: the end orientation is met exactly)")
+    program: ProgramMoveSpec | None = None
+
+
+class LineSpec(_Keyed):
     type: Literal["line"]
     start: Vec3 | None = Field(None, description="start point [m] (default: the previous segment's end)")
     end: Vec3 = Field(description="end point [m]")
 
 
-class ArcSpec(_Model):
+class ArcSpec(_Keyed):
     type: Literal["arc"]
     start: Vec3 | None = Field(None, description="start point [m] (default: previous end)")
     center: Vec3 = Field(description="circle centre [m]")
@@ -64,7 +94,7 @@ class ArcSpec(_Model):
     sweep: float = Field(description="signed sweep angle [rad]")
 
 
-class CircleSpec(_Model):
+class CircleSpec(_Keyed):
     type: Literal["circle"]
     center: Vec3 = Field(description="centre [m]")
     radius: float = Field(gt=0, description="radius [m]")
@@ -88,6 +118,7 @@ class JointSegmentSpec(_Model):
     """A joint move (MoveJ / MoveAbsJ): linear in the joints from the previous segment's end configuration."""
 
     type: Literal["joint"]
+    program: ProgramMoveSpec | None = None
     end: tuple[float, ...] | None = Field(None, description="joint values at the end [rad]")
     end_pose: PoseTargetSpec | None = Field(None, description="the end as a TCP pose solved by IK")
 
@@ -103,6 +134,7 @@ class DwellSpec(_Model):
     """A wait at rest (WaitTime): the motion stops where the previous segment ends and waits."""
 
     type: Literal["dwell"]
+    program: ProgramMoveSpec | None = None
     time: float = Field(ge=0, description="time at rest [s]")
 
 
@@ -142,9 +174,25 @@ class TaskPathSpec(_Model):
     segments: list[SegmentSpec] = Field(min_length=1, description="line, arc, circle, joint (a joint move: linear "
                                         "in the joints) or dwell (a wait at rest), each from where the previous ends")
     blends: list[BlendSpec] = []
-    orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation matrix")
+    orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation "
+                                                "matrix; with segment quaternions, the orientation at the start")
     start_configuration: tuple[float, ...] | None = Field(
         None, description="joint configuration [rad] the IK branch stays continuous with")
+    start_pose: PoseTargetSpec | None = Field(None, description="the pose the path starts at, solved by IK on its "
+                                              "robconf: the start configuration (when start_configuration is absent)")
+    start_program: ProgramMoveSpec | None = Field(None, description="the program move whose target is the start")
+
+    @model_validator(mode="after")
+    def _keys(self):
+        keyed = [s for s in self.segments if s.type in ("line", "arc", "circle")]
+        given = [s.quaternion is not None for s in keyed]
+        if any(given) and not all(given):
+            k = self.segments.index(keyed[given.index(False)])
+            raise ValueError(f"segments[{k}] has no quaternion but others do; give every line, arc and circle its "
+                             "end orientation, or none")
+        if not any(given) and any(s.orientation_zone for s in keyed):
+            raise ValueError("orientation_zone needs segment quaternions (a fixed orientation does not turn)")
+        return self
 
 
 class JointPathSpec(_Model):

@@ -196,6 +196,8 @@ DEMO = (SCENARIO, PLANNED_DURATION, CYCLE_TIME, TRACKING_OK, MAX_JOINT_DEVIATION
 # ------------------------------------------------------------------------------- phase plane
 #: phase_plane.csv, written with the plan: theta (the planner's grid) and theta_dot columns.
 PHASE_PLANE_FILE = "phase_plane.csv"
+#: One row per program move of an imported robot program (planning/program_moves.py).
+MOVES_FILE = "moves.csv"
 PHASE_THETA = "theta"
 #: The plan's profile, the planner's curves (all limits together), the baselines.
 PHASE_OPTIMAL = "theta_dot_optimal"

@@ -41,6 +41,7 @@ from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _wi
 from .profile import Profile
 from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
+from .limit_rows import limit_rows
 from .topp import _interval_rows, _project, controllable_sets
 from .verify import LimitRatios, limit_ratios, summarize_intervals
 from .trajectory import Trajectory
@@ -54,12 +55,13 @@ MERGE_FRACTION = 1e-6
 STATE_TOLERANCE = 1e-7
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
 STOP_ITERATIONS = 4
-#: Points of the finer grid the second-order stop is computed on again [-], and the relative narrowing of
-#: every order-2 limit there: the rows are interpolated linearly between the plan's points, which the plan's
-#: certification does not cover (at one limit tolerance a stop near a graded start was certified 0.12 % over;
-#: three keep the certified bounds of tests/test_planning_retime.py within the tolerance) [-].
+#: Points of the finer grid the second-order stop is computed on again, and its reach relative to the first
+#: answer's stop distance [-].
 STOP_POINTS = 1200
-STOP_MARGIN = 3.0 * defaults.LIMIT_TOLERANCE
+STOP_REACH = 1.1
+#: The rows there are interpolated linearly between the plan's points, and every bound is narrowed by this
+#: times the interpolation's error at the middle of its plan interval (as certify.py's REMAINDER_SAFETY) [-].
+INTERPOLATION_SAFETY = 2.0
 #: Third-order stop: grid points of each trial stop, the growth of the trial distance and the relative
 #: accuracy of its bisection [-].
 SMOOTH_STOP_POINTS = 40
@@ -140,16 +142,32 @@ class Retimer:
         self._no_target = np.full(len(grid), -1.0)
         self._buffer = np.empty(len(grid) + 1)
         self._fine_buffer = np.empty(STOP_POINTS)
-        # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at), their
-        # bounds narrowed by STOP_MARGIN: linear interpolation between the plan's points is not exact
-        stacked = {n: np.stack([getattr(self._right, n), getattr(self._left, n)]) for n in ("a", "b", "c", "lo", "hi",
-                                                                                          "x_max")}
-        for n in ("lo", "hi"):
-            stacked[n] = stacked["c"] + (1.0 - STOP_MARGIN) * (stacked[n] - stacked["c"])
-        self._stacked = tuple(np.ascontiguousarray(stacked[n]) for n in ("a", "b", "c", "lo", "hi", "x_max"))
+        # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at), and
+        # the bounds of its error on every plan interval
+        self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
+                              for n in ("a", "b", "c", "lo", "hi", "x_max"))
+        self._interpolation_error = self._row_interpolation_error(x_ref)
         log.debug("retimer: %d grid points, %d rows per interval, %d stops", len(grid), self._P.shape[1],
                   len(self._stops))
         self._warm_up()
+
+    def _row_interpolation_error(self, x_ref) -> np.ndarray:
+        """(5, K - 1, m): INTERPOLATION_SAFETY x |exact - linear| of a, b, c, lo, hi at the middle of every plan
+        interval (the largest error of linear interpolation of a smooth function on an interval is about its
+        error at the middle: a parabola's)."""
+        g = self.grid
+        mids = 0.5 * (g[:-1] + g[1:])
+        samp = _sample(self.path, self.robot, mids, ())
+        ref = None if x_ref is None else np.interp(mids, g, x_ref)
+        rows = limit_rows(samp.right, self.limits, self.limits.unit_scale(len(mids), self.robot.n),
+                          defaults.PLANNER_X_CAP, ref)
+        out = np.zeros((5,) + rows.a.shape)
+        for k, n in enumerate(("a", "b", "c", "lo", "hi")):
+            exact, linear = getattr(rows, n), 0.5 * (getattr(self._right, n)[:-1] + getattr(self._left, n)[1:])
+            with np.errstate(invalid="ignore"):
+                diff = np.abs(exact - linear)
+            out[k] = INTERPOLATION_SAFETY * np.where(np.isfinite(diff), diff, 0.0)
+        return np.ascontiguousarray(out)
 
     def _warm_up(self) -> None:
         """One query of each kind, so that the first one in a control loop does not load the compiled kernels
@@ -310,10 +328,14 @@ class Retimer:
         intervals' first-order error would lengthen it by percents. Returns the finer stop, or the plan-grid
         stop (grid, x) when the finer one does not end sooner."""
         xs = self._fine_buffer
-        k, d = fine_brake(self.grid, *self._stacked, theta, x0, grid[-1], STOP_POINTS, xs, STOP_ITERATIONS)
+        # a little past the first answer's end: the narrowed rows may need it; never past the next stop point
+        end = min(theta + STOP_REACH * (grid[-1] - theta), self.grid[self._next_stop(int(np.searchsorted(self.grid,
+                                                                                                          theta)))])
+        k, d = fine_brake(self.grid, *self._stacked, self._interpolation_error, theta, x0, end, STOP_POINTS, xs,
+                          STOP_ITERATIONS)
         if k < 0 or not np.isfinite(d):
             return grid, x
-        h = (grid[-1] - theta) / (STOP_POINTS - 1)
+        h = (end - theta) / (STOP_POINTS - 1)
         fine = theta + h * np.arange(1, k + 1)
         return self._stop_grid(theta, x0, fine, xs[1:k + 1].copy(), d, h)
 

@@ -118,10 +118,12 @@ def stop_inside(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x0, width, iteration
 
 
 @njit(cache=True)
-def rows_at(g, a, b, c, lo, hi, xm, oa, ob, oc, olo, ohi, t, right):
+def rows_at(g, a, b, c, lo, hi, xm, oa, ob, oc, olo, ohi, t, right, err, x, u):
     """Rows at ``t`` seen from the interval after it (``right``) or before it, linear inside each plan
     interval between the right-side rows (first index) and the left-side rows (second index) of its ends;
-    written into oa..ohi (m,); returns x_max there. a..xm: (2, K, m) / (2, K) stacks [right, left]."""
+    written into oa..ohi (m,); returns x_max there. a..xm: (2, K, m) / (2, K) stacks [right, left].
+    err (5, K - 1, m): bounds of the interpolation's error of a, b, c, lo, hi on each plan interval; the
+    bounds lo, hi are narrowed by the error of the row's value at x and |u| = ``u``."""
     k = g.shape[0]
     if right:
         i = np.searchsorted(g, t, side="right") - 1
@@ -133,8 +135,9 @@ def rows_at(g, a, b, c, lo, hi, xm, oa, ob, oc, olo, ohi, t, right):
         oa[r] = (1.0 - f) * a[0, i, r] + f * a[1, i + 1, r]
         ob[r] = (1.0 - f) * b[0, i, r] + f * b[1, i + 1, r]
         oc[r] = (1.0 - f) * c[0, i, r] + f * c[1, i + 1, r]
-        olo[r] = (1.0 - f) * lo[0, i, r] + f * lo[1, i + 1, r]
-        ohi[r] = (1.0 - f) * hi[0, i, r] + f * hi[1, i + 1, r]
+        margin = err[0, i, r] * u + err[1, i, r] * x + err[2, i, r]
+        olo[r] = (1.0 - f) * lo[0, i, r] + f * lo[1, i + 1, r] + margin + err[3, i, r]
+        ohi[r] = (1.0 - f) * hi[0, i, r] + f * hi[1, i + 1, r] - margin - err[4, i, r]
     return (1.0 - f) * xm[0, i] + f * xm[1, i + 1]
 
 
@@ -164,20 +167,24 @@ def _next_x_range(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x, h):
 
 
 @njit(cache=True)
-def fine_brake(g, a, b, c, lo, hi, xm, theta, x0, end, n, xs, iterations):
+def fine_brake(g, a, b, c, lo, hi, xm, err, theta, x0, end, n, xs, iterations):
     """Maximum deceleration from (theta, x0) on n uniform points up to ``end``, the rows interpolated at each
-    (rows_at): xs[k] = x at point k. Returns (k, d): x reaches 0 at d after point k; (-1, 0) when it does
-    not before ``end`` or the rows admit no x there."""
+    (rows_at, narrowed by the interpolation's error ``err`` at the previous step's |u|; the first step is
+    taken twice, the second time at its own |u|): xs[k] = x at point k. Returns (k, d): x reaches 0 at d
+    after point k; (-1, 0) when it does not before ``end`` or the rows admit no x there."""
     m = a.shape[2]
     w = np.empty((10, m))
     h = (end - theta) / (n - 1)
     x = x0
     xs[0] = x0
-    rows_at(g, a, b, c, lo, hi, xm, w[0], w[1], w[2], w[3], w[4], theta, True)
+    u = 0.0
     for k in range(n - 1):
-        t1 = theta + (k + 1) * h
-        x_max = rows_at(g, a, b, c, lo, hi, xm, w[5], w[6], w[7], w[8], w[9], t1, False)
-        low, high = _next_x_range(w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9], x, h)
+        t0, t1 = theta + k * h, theta + (k + 1) * h
+        for _ in range(2 if k == 0 else 1):
+            rows_at(g, a, b, c, lo, hi, xm, w[0], w[1], w[2], w[3], w[4], t0, True, err, x, u)
+            x_max = rows_at(g, a, b, c, lo, hi, xm, w[5], w[6], w[7], w[8], w[9], t1, False, err, x, u)
+            low, high = _next_x_range(w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9], x, h)
+            u = abs(low - x) / (2.0 * h) if np.isfinite(low) else u
         high = min(high, x_max)
         if low > high:
             return -1, 0.0
@@ -186,5 +193,4 @@ def fine_brake(g, a, b, c, lo, hi, xm, theta, x0, end, n, xs, iterations):
             return k, min(d, h)
         x = low
         xs[k + 1] = x
-        rows_at(g, a, b, c, lo, hi, xm, w[0], w[1], w[2], w[3], w[4], t1, True)
     return -1, 0.0

@@ -138,7 +138,9 @@ class EventPlayer:
             self.override = float(event.override)
         clock = time.perf_counter()
         try:
-            if event.stop:
+            if theta >= self.path.domain[1]:  # the motion is over: nothing is left to re-time
+                tail = None
+            elif event.stop:
                 tail = self.retimer.stop(theta, v_ref, u_ref) if v_ref > 0 else None
             elif event.resume or not self.stopped:  # an override while stopped applies at the resume
                 tail = self.retimer.remaining(theta, v_ref, u_ref if v_ref > 0 else 0.0, self.override)
@@ -148,16 +150,25 @@ class EventPlayer:
             raise SimulationError(f"event {event.kind} at t = {event.t:g} s, theta = {theta:.6g}: {err}") from err
         spent = 1e3 * (time.perf_counter() - clock)
         report = _Report(event, theta, v_ref, spent)
+        held = False
         if tail is not None:
+            for r in self.reports:  # superseded: the target they were judged against is gone
+                if r.reaction_time is None and not r.event.stop:
+                    r.goal = None
             self.target = _joined(self.target, tail, theta)
             self.stopped = bool(event.stop)
             self._switch(command, t)
+        elif event.stop and not self.stopped and theta < self.path.domain[1]:  # at rest already: hold there
+            command.controller = _Held(command.controller, t)
+            self.stopped = held = True
         report.scale = max(v_ref, 1e-9)
-        if tail is None:
-            report.goal = None
-        elif event.stop:
+        if held:
+            report.planned_stop_distance = report.stop_distance = report.reaction_time = 0.0
+        elif event.stop and tail is not None:
             report.planned_stop_distance = float(self.target.grid[-1] - theta)
             report.goal = lambda th: 0.0
+        elif tail is None:
+            report.goal = None
         elif event.resume:
             report.scale = top = float(np.sqrt(np.max(tail.x)))
 
@@ -173,7 +184,8 @@ class EventPlayer:
 
     def _switch(self, command, t: float) -> None:
         """The running orbital controller replaced by one designed for the new target, with its state."""
-        old = command.controller
+        running = command.controller
+        old = getattr(running, "inner", running)
         path = self.path if self.target.grid[-1] >= self.path.domain[1] else SubPath.of(self.path, self.target.grid[-1])
         s = self.settings
         table = PathTable.from_path(path, s.table_points)
@@ -181,8 +193,43 @@ class EventPlayer:
         design = OrbitalDesign.build(table, self.target, s.orbital_gains, *sampled)
         new = OrbitalController(design, self.robot, s.sample_time, int(s.realism.delay), s.sampled_design,
                                 s.identify_payload)
-        _take_over(new, old, t)
+        _take_over(new, old, t, running.t_ref if isinstance(running, _Held) else None)
         command.controller = new
+
+
+class _Held:
+    """A running orbital controller ``inner`` holding the arm where its reference rests at time t [s] (a stop
+    while the reference is at rest, e.g. before the motion starts): computed torque on the controller's model
+    with its clock-play gains towards Phi(theta) at rest (the clock play itself would feed the plan's
+    acceleration forward)."""
+
+    def __init__(self, inner: OrbitalController, t: float):
+        self.inner = inner
+        self.t_ref, self.theta_hold = _played(inner, t)
+        self.q_hold = np.asarray(inner.design.table.evaluate_scalar(self.theta_hold)[0], dtype=float)
+
+    def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        c = self.inner
+        q, qd = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(qd, dtype=float)
+        c.observer.measure(q, qd)
+        kp, kd, _ = c._clock_gains
+        v = kp * (self.q_hold - q) - kd * qd
+        return c.observer.command(c._model_torque(q, qd, v, self.theta_hold, None), c._offset)
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+
+def _played(c: OrbitalController, t: float) -> tuple[float, float]:
+    """(planned time [s], theta) of the running controller's reference at time t: in the clock play the
+    played one (at most the end of its target), else its projected theta's."""
+    d = c.design
+    if c.clock is not None:  # c.theta is where the play began; the reference has moved on since
+        _, t0, plan0 = c.clock
+        played = min(plan0 + (t - t0), d.profile.duration)
+        return played, float(d.profile.profile.state_at_time(np.array([played]))[0][0])
+    theta = min(max(c.theta, d.table.domain[0]), d.table.domain[1])
+    return d.profile.time(theta), theta
 
 
 def _joined(old: Profile, tail: Profile, theta: float) -> Profile:
@@ -191,19 +238,26 @@ def _joined(old: Profile, tail: Profile, theta: float) -> Profile:
     return Profile(np.concatenate([old.grid[keep], tail.grid]), np.concatenate([old.x[keep], tail.x]))
 
 
-def _take_over(new: OrbitalController, old: OrbitalController, t: float) -> None:
-    """``new`` continues ``old``'s run at time t [s]: its theta, integrals, observer and payload estimate, and
-    the clock zone of the new design it is in (zones already passed are not entered again)."""
-    new.theta, new.theta_dot = old.theta, old.theta_dot
+def _take_over(new: OrbitalController, old: OrbitalController, t: float, held: float | None = None) -> None:
+    """``new`` continues ``old``'s run at time t [s]: its path position (in the clock play the played
+    reference's, the end of old's target at most: a held stop resumes from there), integrals, observer and
+    payload estimate, and the clock zone of the new design it is in (zones already passed are not entered
+    again). The new target equals the old one up to the switch, so their planned times agree there. ``held``:
+    the planned time [s] old's reference was held at (a stop at rest), else None."""
+    theta = _played(old, t)[1] if held is None else \
+        float(old.design.profile.profile.state_at_time(np.array([held]))[0][0])
+    d = new.design
+    theta = min(max(theta, d.table.domain[0]), d.table.domain[1])
+    new.theta, new.theta_dot = theta, old.theta_dot
     new.observer, new.payload, new.v = old.observer, old.payload, old.v
     if new.xi.shape == old.xi.shape:
         new.xi[:], new.xi_q[:] = old.xi, old.xi_q
-    d = new.design
-    planned = d.profile.time(min(max(new.theta, d.table.domain[0]), d.table.domain[1]))
+    planned = d.profile.time(theta)
     zone = d.zone_at(planned)
     if zone is not None:
         new.clock, new.next_zone = (zone, t, planned), zone + 1
-        new._integral_to_joints(new.theta) if old.clock is None else None
+        if old.clock is None:
+            new._integral_to_joints(theta)
     else:
         new.clock = None
         new.next_zone = next((i for i, (z0, _) in enumerate(d.zones) if z0 > planned), len(d.zones))
