@@ -174,4 +174,10 @@ def test_jerk_limited_remaining_stop_and_resume_meet_every_limit():
     own = rt.remaining(theta, v, a)
     rest = res.duration - float(np.interp(theta, res.profile.grid, res.profile.times))
     assert abs(own.duration - rest) <= 5e-3 * rest
-    assert s.grid[-1] - theta >= rt._stop2(theta, v * v)[0][-1] - theta  # no shorter than without jerk limits
+    # the second-order stop (the fallback when no jerk-limited stop exists) is no longer, and within the
+    # velocity, acceleration and torque limits on the dense resample
+    s2 = rt.stop(theta, v, a, second_order=True)
+    assert not s2.smooth and s2.x[-1] == 0.0 and np.isclose(np.sqrt(s2.x[0]), v, rtol=1e-12)
+    assert s.grid[-1] - theta >= s2.grid[-1] - theta
+    second = {k: r for k, r in rt.dense_ratios(s2, DT).values.items() if k not in ("jerk", "torque_rate") and r is not None}
+    assert max(second.values()) <= 1.0 + TOL

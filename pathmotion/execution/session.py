@@ -37,8 +37,7 @@ def _stop(retimer: Retimer, state: tuple) -> Profile:
         if not retimer.third_order:
             raise
         log.warning("no jerk-limited stop from theta = %.6g (%s); stopping within the second-order limits", state[0], exc)
-        theta, x0, _ = retimer._state(*state)
-        return Profile(*retimer._stop2(theta, x0))
+        return retimer.stop(*state, second_order=True)
 
 
 def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,

@@ -196,17 +196,19 @@ class Retimer:
         grid, x = self._remaining2(theta, x0, s2)
         return Profile(grid, x)
 
-    def stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0) -> Profile:
+    def stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, *, second_order: bool = False) -> Profile:
         """The shortest stop along the path within the plan's limits (a category 2 stop: the arm stays on
         the path and stops with theta_dot = 0 at the profile's last grid point). The state must move
         (theta_dot > 0). StateInfeasibleError when no in-limit stop ends before the path's end (or the
-        next kink, which the arm cannot pass at speed)."""
+        next kink, which the arm cannot pass at speed). ``second_order=True`` leaves out the plan's jerk and
+        torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step): the
+        fallback of a caller that must stop when no jerk-limited stop exists."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
                                   "there is nothing to stop")
         grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
-        if self.third_order:
+        if self.third_order and not second_order:
             return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
         return Profile(grid, x)
 
