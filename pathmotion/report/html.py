@@ -268,10 +268,10 @@ def _moves(folder: Path, anchor: str) -> tuple[str, int]:
     names, rows = read_rows(folder / schema.MOVES_FILE)
     cols = [c for c in MOVE_COLUMNS if c in names]
     head = "".join(f"<th>{escape(MOVE_COLUMNS[c][0])}</th>" for c in cols)
-    body = "".join("<tr>" + "".join(_cell(r.get(c), MOVE_COLUMNS[c][1]) for c in cols) + "</tr>" for r in rows)
+    body = "".join("<tr>" + "".join(cell(r.get(c), MOVE_COLUMNS[c][1]) for c in cols) + "</tr>" for r in rows)
     table = (f'<div class="scroll"><table class="rows sortable"><caption>Program moves ({schema.MOVES_FILE}; click '
              f"a column to sort)</caption><tr>{head}</tr>{body}</table></div>")
-    return table + _figure_html(fig.moves_figure(rows), f"{anchor}-moves"), 1
+    return table + figure_html(fig.moves_figure(rows), f"{anchor}-moves"), 1
 
 
 def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section:
