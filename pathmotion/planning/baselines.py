@@ -79,6 +79,46 @@ def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
     return float(min(rows.min(initial=np.inf), caps.min(initial=np.inf)))
 
 
+#: A limit row whose largest possible value stays below its bound by this fraction is left out of the
+#: constant-speed search's feasibility test (it cannot bind) [-].
+UNREACHED_ROW_MARGIN = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class _BindingRows:
+    """The rows of an :class:`IntervalProblem` that a TCP-speed profile up to ``v_top`` can violate: row r joins
+    points ``at[r]`` and ``at[r] + 1`` with coefficients ``P``, ``Q`` and bound ``R`` (each (n,)); ``x_max`` (K,).
+    :meth:`holds` is ``max_feasible_scale(problem, x) >= 1`` for every such profile, on the rows that can bind
+    (on a program of many corners most rows are far from their bound at any speed the search tries)."""
+
+    at: np.ndarray
+    P: np.ndarray
+    Q: np.ndarray
+    R: np.ndarray
+    x_max: np.ndarray
+
+    @classmethod
+    def of(cls, problem: IntervalProblem, gain: np.ndarray, v_top: float) -> "_BindingRows":
+        """``gain`` (K,) TCP speed per unit theta_dot [m]; x <= v_top^2 / gain^2 where the TCP moves, x_max
+        where it does not (see :func:`_trapezoid`), and x >= 0."""
+        moving = gain > STILL_GAIN_FRACTION * gain.max()
+        with np.errstate(divide="ignore", over="ignore"):
+            top = np.where(moving, v_top ** 2 / np.where(moving, gain, 1.0) ** 2, problem.x_max)
+        top = top * (1.0 + UNREACHED_ROW_MARGIN)
+        reach = np.maximum(problem.P, 0.0) * top[:-1, None] + np.maximum(problem.Q, 0.0) * top[1:, None]
+        keep = ~(reach * (1.0 + UNREACHED_ROW_MARGIN) < problem.R)
+        at, col = np.nonzero(keep)
+        return cls(at, problem.P[at, col], problem.Q[at, col], problem.R[at, col], problem.x_max)
+
+    def holds(self, x: np.ndarray) -> bool:
+        """Whether the profile x (K,) >= 0 meets every row and x <= x_max (as :func:`max_feasible_scale` >= 1)."""
+        den = self.P * x[self.at] + self.Q * x[self.at + 1]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            rows = np.where(den > 0, self.R / np.where(den > 0, den, 1.0), np.inf)
+            caps = np.where(x > 0, self.x_max / np.where(x > 0, x, 1.0), np.inf)
+        return bool(min(rows.min(initial=np.inf), caps.min(initial=np.inf)) >= 1.0)
+
+
 def _cuts(chain_args: dict, size: int) -> list[int]:
     split = set(chain_args["stops"])
     if chain_args["connections"] != Connections.CHAIN:
@@ -191,7 +231,7 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
         return [_trapezoid(sub.grid, g, sub.x_max, v, a, r0, r1) for sub, g, (r0, r1) in zip(subs, gains, rests)]
 
     def feasible(v, a):
-        return all(max_feasible_scale(sub, x) >= 1.0 for sub, x in zip(subs, pieces_for(v, a)))
+        return all(rows.holds(x) for rows, x in zip(binding, pieces_for(v, a)))
 
     def best_speed(a):
         lo, hi = 0.0, v_top
@@ -209,6 +249,7 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
         return sum(_piece_time(sub.grid, x) for sub, x in zip(subs, pieces_for(v, a))), v
 
     v_top = float(np.max(np.sqrt(np.concatenate(x_opt)) * np.concatenate(gains)))
+    binding = [_BindingRows.of(sub, g, v_top) for sub, g in zip(subs, gains)]
     ramps = any(r0 or r1 for r0, r1 in rests)
     accs = np.geomspace(*RAMP_ACCELERATIONS) if ramps else np.array([1.0])
     results = [duration(a) for a in accs]
