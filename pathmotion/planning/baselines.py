@@ -79,45 +79,71 @@ def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
     return float(min(rows.min(initial=np.inf), caps.min(initial=np.inf)))
 
 
-#: A limit row whose largest possible value stays below its bound by this fraction is left out of the
-#: constant-speed search's feasibility test (it cannot bind) [-].
-UNREACHED_ROW_MARGIN = 1e-6
-
-
 @dataclass(frozen=True, eq=False)
-class _BindingRows:
-    """The rows of an :class:`IntervalProblem` that a TCP-speed profile up to ``v_top`` can violate: row r joins
-    points ``at[r]`` and ``at[r] + 1`` with coefficients ``P``, ``Q`` and bound ``R`` (each (n,)); ``x_max`` (K,).
-    :meth:`holds` is ``max_feasible_scale(problem, x) >= 1`` for every such profile, on the rows that can bind
-    (on a program of many corners most rows are far from their bound at any speed the search tries)."""
+class _TrapezoidRows:
+    """The limit rows of one piece arranged for the constant-speed search (:func:`_trapezoid` profiles with cruise
+    speed v and ramp acceleration a): where the ramp speed is at least v (cruise) x = v^2 / gain^2, so a row joining
+    two cruise points holds while v^2 <= R / (P / gain_i^2 + Q / gain_(i+1)^2), its ``cruise`` bound (K-1,),
+    the least over the interval's rows; a point on a ramp, at rest or not moving has x independent of v
+    (:meth:`ramps`, once per a). A test costs O(K), not O(K M)."""
 
-    at: np.ndarray
-    P: np.ndarray
-    Q: np.ndarray
-    R: np.ndarray
-    x_max: np.ndarray
+    problem: IntervalProblem
+    gain: np.ndarray
+    rests: tuple[bool, bool]
+    cruise: np.ndarray
+    cap: np.ndarray
+    moving: np.ndarray
 
     @classmethod
-    def of(cls, problem: IntervalProblem, gain: np.ndarray, v_top: float) -> "_BindingRows":
-        """``gain`` (K,) TCP speed per unit theta_dot [m]; x <= v_top^2 / gain^2 where the TCP moves, x_max
-        where it does not (see :func:`_trapezoid`), and x >= 0."""
+    def of(cls, problem: IntervalProblem, gain: np.ndarray, rests: tuple[bool, bool]) -> "_TrapezoidRows":
         moving = gain > STILL_GAIN_FRACTION * gain.max()
-        with np.errstate(divide="ignore", over="ignore"):
-            top = np.where(moving, v_top ** 2 / np.where(moving, gain, 1.0) ** 2, problem.x_max)
-        top = top * (1.0 + UNREACHED_ROW_MARGIN)
-        reach = np.maximum(problem.P, 0.0) * top[:-1, None] + np.maximum(problem.Q, 0.0) * top[1:, None]
-        keep = ~(reach * (1.0 + UNREACHED_ROW_MARGIN) < problem.R)
-        at, col = np.nonzero(keep)
-        return cls(at, problem.P[at, col], problem.Q[at, col], problem.R[at, col], problem.x_max)
+        inv = np.where(moving, 1.0 / np.where(moving, gain, 1.0) ** 2, np.nan)
+        D = problem.P * inv[:-1, None] + problem.Q * inv[1:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = np.where(D > 0, problem.R / np.where(D > 0, D, 1.0), np.inf)
+        return cls(problem, gain, rests, u.min(axis=1, initial=np.inf), problem.x_max / np.where(moving, inv, np.nan),
+                   moving)
 
-    def holds(self, x: np.ndarray) -> bool:
-        """Whether the profile x (K,) >= 0 meets every row and x <= x_max (as :func:`max_feasible_scale` >= 1)."""
-        den = self.P * x[self.at] + self.Q * x[self.at + 1]
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            rows = np.where(den > 0, self.R / np.where(den > 0, den, 1.0), np.inf)
-            caps = np.where(x > 0, self.x_max / np.where(x > 0, x, 1.0), np.inf)
-        return bool(min(rows.min(initial=np.inf), caps.min(initial=np.inf)) >= 1.0)
+    def ramps(self, a: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For ramp acceleration a: the x (K,) of every point as if v were unbounded (finite where x does not depend on
+        v: ramps, rest, still TCP; inf where it cruises), whether each row (K-1,) between two such points holds, and
+        whether each such point (K,) keeps x <= x_max."""
+        sub = self.problem
+        x = _trapezoid(sub.grid, self.gain, sub.x_max, np.inf, a, *self.rests)
+        fixed = np.isfinite(x)
+        both = fixed[:-1] & fixed[1:]
+        xf = np.where(fixed, x, 0.0)
+        den = sub.P[both] * xf[:-1][both, None] + sub.Q[both] * xf[1:][both, None]
+        ok = np.ones(len(both), bool)
+        ok[both] = _rows_hold(den, sub.R[both])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            caps = ~fixed | (x <= 0) | (sub.x_max / np.where(x > 0, x, 1.0) >= 1.0)
+        return x, ok, caps
 
+    def holds(self, v: float, ramp: tuple[np.ndarray, np.ndarray, bool]) -> bool:
+        """Whether the trapezoid of cruise speed v (and the a of ``ramp`` = :meth:`ramps`) meets every row and x_max
+        (as ``max_feasible_scale >= 1`` does, the cruise rows up to round-off)."""
+        x_inf, ok, caps = ramp
+        sub = self.problem
+        with np.errstate(divide="ignore"):
+            cruise_x = v ** 2 / self.gain ** 2
+        fixed = (x_inf < cruise_x) | ~self.moving  # on a ramp, at rest, or the TCP still: x is not v's
+        both_fixed, both_cruise = fixed[:-1] & fixed[1:], ~fixed[:-1] & ~fixed[1:]
+        if not (np.all(caps[fixed]) and np.all(ok[both_fixed]) and np.all(v ** 2 <= self.cruise[both_cruise])):
+            return False
+        if np.any(~fixed & (self.cap < v ** 2)):
+            return False
+        mixed = ~both_fixed & ~both_cruise
+        x = np.where(fixed, x_inf, cruise_x)
+        den = sub.P[mixed] * x[:-1][mixed, None] + sub.Q[mixed] * x[1:][mixed, None]
+        return bool(np.all(_rows_hold(den, sub.R[mixed])))
+
+
+def _rows_hold(den: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Per row (first axis) whether every R / den >= 1 where den > 0 (the test of :func:`max_feasible_scale`)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ratio = np.where(den > 0, R / np.where(den > 0, den, 1.0), np.inf)
+    return np.all(ratio >= 1.0, axis=1) if ratio.ndim == 2 else ratio >= 1.0
 
 def _cuts(chain_args: dict, size: int) -> list[int]:
     split = set(chain_args["stops"])
@@ -230,16 +256,18 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
     def pieces_for(v, a):
         return [_trapezoid(sub.grid, g, sub.x_max, v, a, r0, r1) for sub, g, (r0, r1) in zip(subs, gains, rests)]
 
-    def feasible(v, a):
-        return all(rows.holds(x) for rows, x in zip(binding, pieces_for(v, a)))
-
     def best_speed(a):
+        ramp = [rows.ramps(a) for rows in arranged]
+
+        def feasible(v):
+            return all(rows.holds(v, r) for rows, r in zip(arranged, ramp))
+
         lo, hi = 0.0, v_top
-        if feasible(hi, a):
+        if feasible(hi):
             return hi
         while hi - lo > defaults.BASELINE_SPEED_TOLERANCE * v_top:
             mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if feasible(mid, a) else (lo, mid)
+            lo, hi = (mid, hi) if feasible(mid) else (lo, mid)
         return lo
 
     def duration(a):
@@ -249,7 +277,7 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
         return sum(_piece_time(sub.grid, x) for sub, x in zip(subs, pieces_for(v, a))), v
 
     v_top = float(np.max(np.sqrt(np.concatenate(x_opt)) * np.concatenate(gains)))
-    binding = [_BindingRows.of(sub, g, v_top) for sub, g in zip(subs, gains)]
+    arranged = [_TrapezoidRows.of(sub, g, r) for sub, g, r in zip(subs, gains, rests)]
     ramps = any(r0 or r1 for r0, r1 in rests)
     accs = np.geomspace(*RAMP_ACCELERATIONS) if ramps else np.array([1.0])
     results = [duration(a) for a in accs]
