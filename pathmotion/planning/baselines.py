@@ -104,13 +104,15 @@ class _TrapezoidRows:
         return cls(problem, gain, rests, u.min(axis=1, initial=np.inf), problem.x_max / np.where(moving, inv, np.nan),
                    moving)
 
-    def ramps(self, a: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def ramps(self, a: float, v_top: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For ramp acceleration a: the x (K,) of every point as if v were unbounded (finite where x does not depend on
         v: ramps, rest, still TCP; inf where it cruises), whether each row (K-1,) between two such points holds, and
-        whether each such point (K,) keeps x <= x_max."""
+        whether each such point (K,) keeps x <= x_max; for cruise speeds up to ``v_top`` (a point whose ramp is
+        faster cruises at every such speed)."""
         sub = self.problem
         x = _trapezoid(sub.grid, self.gain, sub.x_max, np.inf, a, *self.rests)
-        fixed = np.isfinite(x)
+        with np.errstate(divide="ignore"):
+            fixed = (x < v_top ** 2 / self.gain ** 2) | ~self.moving
         both = fixed[:-1] & fixed[1:]
         xf = np.where(fixed, x, 0.0)
         den = sub.P[both] * xf[:-1][both, None] + sub.Q[both] * xf[1:][both, None]
@@ -257,7 +259,7 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
         return [_trapezoid(sub.grid, g, sub.x_max, v, a, r0, r1) for sub, g, (r0, r1) in zip(subs, gains, rests)]
 
     def best_speed(a):
-        ramp = [rows.ramps(a) for rows in arranged]
+        ramp = [rows.ramps(a, v_top) for rows in arranged]
 
         def feasible(v):
             return all(rows.holds(v, r) for rows, r in zip(arranged, ramp))
