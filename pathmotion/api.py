@@ -178,7 +178,8 @@ def build_path(scenario: Scenario, robot: Robot,
         corners = blended_corners(task, where) if spec.blend == "optimal" else []
         if corners:
             names = {c: f"{where} (blend_tolerance {spec.blend_tolerance:g} m at waypoint {c + 1})" for c in corners}
-            shapes = _optimal_shapes(robot, task, dict.fromkeys(corners, spec.blend_tolerance), scenario, names)
+            shapes = _optimal_shapes(robot, task, dict.fromkeys(corners, spec.blend_tolerance), scenario, names,
+                                     searches=dict.fromkeys(corners, spec.search))
             task = with_blends(task, {c: ("g2_shape", shape) for c, shape in shapes.items()}, names)
         q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
         try:
@@ -230,7 +231,8 @@ def build_path(scenario: Scenario, robot: Robot,
     if optimal:  # shapes searched with the other corners left sharp, then everything applied in one pass
         shapes = _optimal_shapes(robot, task, optimal, scenario, names,
                                  planar=[c for c in optimal if spec.blends[chosen[c]].planar],
-                                 joined=[c for c in optimal if spec.blends[chosen[c]].join_ends])
+                                 joined=[c for c in optimal if spec.blends[chosen[c]].join_ends],
+                                 searches={c: spec.blends[chosen[c]].search for c in optimal})
         blends.update({c: ("g2_shape", shape) for c, shape in shapes.items()})
     task = with_blends(task, blends, names)
     q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
@@ -242,23 +244,30 @@ def build_path(scenario: Scenario, robot: Robot,
 
 
 def _optimal_shapes(robot: Robot, task: TaskPath, optimal: dict[int, float], scenario: Scenario,
-                    names: dict[int, str], planar=(), joined=()) -> dict:
+                    names: dict[int, str], planar=(), joined=(), searches: dict[int, str] | None = None) -> dict:
     """{connection index: G2Shape} of the optimal blends (planning/blend_search.py) within ``optimal``
-    {connection index: tolerance [m]} of ``task`` under the scenario's plan settings; errors prefixed with
-    ``names`` (the scenario keys)."""
-    from .planning.blend_search import optimal_blends
+    {connection index: tolerance [m]} of ``task`` under the scenario's plan settings, each corner searched as
+    ``searches`` names it ("fast" by default; the corners are independent, so each kind is one search, on
+    plan.workers processes); errors prefixed with ``names`` (the scenario keys)."""
+    from .planning.blend_search import SEARCHES, optimal_blends
 
     spec = scenario.path
     q0 = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
-    try:
-        found = optimal_blends(robot, task, optimal, list(optimal), plan_settings(scenario), q0, planar=list(planar),
-                               joined_ends=list(joined), names=names)
-    except PathmotionError as exc:
-        if str(exc).startswith(tuple(names.values())):
-            raise
-        where = "; ".join(names[c] for c in sorted(optimal))  # e.g. a blended path out of reach: all of them
-        raise type(exc)(f"{where}: {exc}") from None
-    return found.shapes
+    searches = searches or dict.fromkeys(optimal, "fast")
+    shapes: dict = {}
+    for kind in sorted(set(searches.values())):
+        mine = {c: t for c, t in optimal.items() if searches[c] == kind}
+        try:
+            found = optimal_blends(robot, task, mine, list(mine), plan_settings(scenario), q0, search=SEARCHES[kind],
+                                   planar=[c for c in planar if c in mine], joined_ends=[c for c in joined if c in mine],
+                                   names=names, workers=scenario.plan.workers)
+        except PathmotionError as exc:
+            if str(exc).startswith(tuple(names.values())):
+                raise
+            where = "; ".join(names[c] for c in sorted(mine))  # e.g. a blended path out of reach: all of them
+            raise type(exc)(f"{where}: {exc}") from None
+        shapes.update(found.shapes)
+    return shapes
 
 
 def _split_first_segment(task: TaskPath, closing: int) -> TaskPath:
