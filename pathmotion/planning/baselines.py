@@ -42,6 +42,9 @@ STILL_GAIN_FRACTION = 1e-12
 #: and the points of the refinement around the best.
 RAMP_ACCELERATIONS = (1e-2, 1e4, 19)
 RAMP_REFINE_POINTS = 15
+#: A baseline is verified on at most this many samples (a program's motion of minutes at 0.1 ms would need
+#: millions; the baselines are references, the optimal plan is verified interval by interval) [-].
+BASELINE_SAMPLES = 400_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,12 +187,14 @@ def _fit_piece(theta: np.ndarray, x: np.ndarray, periodic: bool, degree: int) ->
 
 
 def _verified(name, description, problem, cuts, pieces, path, robot, limits, settings, joint_names) -> Baseline:
-    """Join, verify on the dense resample, and scale x down until the ratios pass (bounded)."""
+    """Join, verify on the dense resample (every verify_sample_time, or at most BASELINE_SAMPLES samples on a long
+    motion), and scale x down until the ratios pass (bounded)."""
     for _ in range(_VERIFY_ROUNDS):
         prof, jumps = join_segments(problem.grid, cuts, pieces)
         traj = Trajectory(path, prof, robot)
-        samples, r = sample_ratios(traj, limits, settings.verify_sample_time, jumps)
-        ratios = summarize(samples, r, limits, settings.verify_sample_time, (), joint_names)
+        dt = max(settings.verify_sample_time, prof.duration / BASELINE_SAMPLES)
+        samples, r = sample_ratios(traj, limits, dt, jumps)
+        ratios = summarize(samples, r, limits, dt, (), joint_names)
         worst = worst_outside(samples, r, jumps)
         if worst <= 1.0 + settings.limit_tolerance:
             return Baseline(name, prof, ratios, description)
