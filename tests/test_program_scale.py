@@ -142,8 +142,8 @@ def test_workers_give_the_same_blends():
     one process."""
     path = _contour_path(4)
     kw = dict(settings=SETTINGS, search=bs.FAST, polish_plans=4, racing_steps=2, steps=2)
-    one = bs.optimal_blends(ROBOT, path, 0.0015, **kw)
-    two = bs.optimal_blends(ROBOT, path, 0.0015, workers=2, **kw)
+    one = bs.optimal_blends(ROBOT, path, 0.001, **kw)
+    two = bs.optimal_blends(ROBOT, path, 0.001, workers=2, **kw)
     assert one.shapes == two.shapes
     assert one.duration == two.duration and one.plans == two.plans
     assert one.duration <= one.symmetric_duration
