@@ -40,6 +40,11 @@ slower than any of them; the polish keeps it unless it finds a faster one. About
 global stage, 785-1550 with free ends and the wide starts, and the global stage's GLOBAL_PLANS (all twice when
 capped), then the polish's 150 on the full grid.
 
+How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
+atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 on the search grid and a short
+polish (FAST_POLISH_PLANS) on the full grid. Each corner is searched from the symmetric blends at the others (a
+:class:`_CornerJob`), so ``workers`` > 1 searches the corners on local processes with the same result.
+
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "Tolerance-optimal corners (issue 17)".
 """
