@@ -171,6 +171,6 @@ def test_generated_contour_program_plans():
     result = api.plan_scenario(setup)
     assert not api.plan_failures(result, setup)
     p_end = setup.task_path.evaluate(setup.task_path.length)[0]
-    np.testing.assert_allclose(p_end, points(120)[-1], atol=1e-9)
+    np.testing.assert_allclose(p_end, points(120)[-1], atol=5e-7)  # the scenario holds targets to 1 um
     assert result.profile.x[-1] == 0.0
     assert result.profile.duration > setup.task_path.length / 2.5  # IRB140 TCP speeds stay below 2.5 m/s here
