@@ -88,7 +88,7 @@ class BlendSpec(_Model):
                                                "the motion rests there (default: the blend may leave the start and reach "
                                                "the end at an angle, within the tolerance)")
     search: Literal["fast", "thorough"] = Field("fast", description="type optimal: 'fast' the quintic and the racing "
-                                                "line (about 1 s of CPU per corner), 'thorough' every stage of the "
+                                                "line (2-4 s of CPU per corner), 'thorough' every stage of the "
                                                 "search (15-45 s per corner; the corner atlas' search)")
 
     @model_validator(mode="after")

@@ -796,7 +796,7 @@ class SearchSettings:
 #: Every stage (the corner atlas' search; 15-45 s of CPU per corner).
 THOROUGH = SearchSettings()
 #: The quintic and the racing line (S-curve offset pieces) on the search grid, each corner's winner polished
-#: briefly on the full grid: about 1 s of CPU per corner for most of the thorough search's gain over the
+#: briefly on the full grid: 2-4 s of CPU per corner for 66-94 % of the thorough search's gain over the
 #: symmetric G2 blend (benchmarks/bench_fast_search.py measures both on the corner atlas' rows).
 FAST = SearchSettings(free_plans=0, rise_plans=0, end_plans=0, joint_plans=0, wide_plans=0, wide_normal_plans=0,
                       restart_plans=0, global_plans=0, retry_capped=False, polish_plans=FAST_POLISH_PLANS)
