@@ -110,7 +110,7 @@ def _never(summary: dict) -> str:
 def row(label: str, name: str, overrides: dict, loop: dict) -> list[str]:
     """One table row: the case planned (and its reserve searched) and run in the closed loop, then relaxed."""
     start = time.perf_counter()
-    setup = api.load(scenario_path(name), {**overrides, **loop})
+    setup = api.search(api.load(scenario_path(name), {**overrides, **loop}))
     result = api.plan_scenario(setup)
     s = api.simulation_summary(setup, result, api.simulate_scenario(setup, result))
     settings = dataclasses.replace(api.simulation_settings(setup), **RELAXED)
@@ -120,7 +120,8 @@ def row(label: str, name: str, overrides: dict, loop: dict) -> list[str]:
     planned, cycle = result.duration, s["cycle_time_s"]
     verdict = "yes" if s["tracking_ok"] else f"**no** ({s['failure']['reason']} at t = {s['failure']['t']:.3f} s)"
     search = setup.reserve_search
-    reserve = setup.plan_settings.torque_reserve if setup.plan_settings.torque else None
+    torque = setup.plan_settings.limits["torque"]
+    reserve = torque.value if torque.on else None
     tried = "" if search is None else " (" + ", ".join(f"{t.reserve:g} {t.verdict.value}" for t in search.trials) + ")"
     return [label, f"{reserve:g}{tried}" if reserve is not None else "-", _s(planned), _s(cycle),
             "-" if cycle is None else f"{cycle / planned:.3f}", _mm(s["path_accuracy_m"]), verdict,

@@ -94,7 +94,7 @@ class Case:
 
 
 def _kinematic(name, path, robot, grid) -> Case:
-    return Case(name, path, robot, PlanSettings(grid_points=grid, torque=False, jerk=True))
+    return Case(name, path, robot, PlanSettings(grid_points=grid, limits={"use_torque": False, "use_jerk": True}))
 
 
 def _line_text(seed: int) -> str:

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from pathmotion.api import _split_first_segment
+from pathmotion.api import split_first_segment
 from pathmotion.lift.constraint import lift
 from pathmotion.geometry import FixedOrientation, Line, TaskPath, circle_with_vertical_circle, horizontal_circle
 from pathmotion.geometry import with_blends
@@ -33,7 +33,7 @@ def _polygon(robot, points: np.ndarray, tolerance: float):
     """A closed polygon through ``points`` (N, 3) [m], every corner (the closing one too) G2-blended."""
     task = TaskPath(tuple(Line(points[i], points[(i + 1) % len(points)]) for i in range(len(points))),
                     FixedOrientation())
-    task = _split_first_segment(task, len(points) - 1)
+    task = split_first_segment(task, len(points) - 1)
     return lift(robot, with_blends(task, {k: ("g2", tolerance) for k in range(len(points))}), original=task)
 
 
@@ -106,7 +106,7 @@ def main(argv=None) -> None:
     ratios = []
     for name, path in cases(robot, args.polygons, args.seed).items():
         for torque in (False, True):
-            settings = PlanSettings(periodic=True, torque=torque, verify=False, baselines=False)
+            settings = PlanSettings(periodic=True, limits={"use_torque": torque}, verify=False, baselines=False)
             times = {True: [], False: []}
             info = {laps: run(path, robot, settings, laps) for laps in (True, False)}  # warm-up
             for _ in range(args.repeat):

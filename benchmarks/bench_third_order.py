@@ -23,6 +23,8 @@ Run: ``.venv/bin/python benchmarks/bench_third_order.py`` (about a minute on a l
 
 from __future__ import annotations
 
+import dataclasses
+
 import argparse
 import os
 import time
@@ -52,11 +54,11 @@ TOPPRA_POINTS = 1000
 def cases(robot) -> dict[str, dict]:
     acc = robot.limits.acceleration
     return {
-        "vel + acc": dict(torque=False),
-        "+ jerk 10x acc": dict(torque=False, jerk_limit=tuple(10.0 * acc)),
-        "+ jerk 4x acc": dict(torque=False, jerk_limit=tuple(4.0 * acc)),
-        "vel + torque, acc off": dict(acceleration=False),
-        "vel + torque, reserve 0.2": dict(acceleration=False, torque_reserve=0.2),
+        "vel + acc": dict(limits={"use_torque": False}),
+        "+ jerk 10x acc": dict(limits={"use_torque": False, "jerk": tuple(10.0 * acc)}),
+        "+ jerk 4x acc": dict(limits={"use_torque": False, "jerk": tuple(4.0 * acc)}),
+        "vel + torque, acc off": dict(limits={"use_acceleration": False}),
+        "vel + torque, reserve 0.2": dict(limits={"use_acceleration": False, "torque_reserve": 0.2}),
     }
 
 
@@ -115,11 +117,8 @@ def speed(scenario: str, grids: list, repeat: int) -> None:
 
 
 def _with_grid(settings: PlanSettings, grid_points):
-    """``settings`` with ``grid_points`` and the baselines off (PlanSettings is frozen with a custom init)."""
-    values = {k: getattr(settings, k) for k in ("tolerance", "limits", "start", "end", "periodic", "connections",
-                                                "limit_tolerance", "verify", "verify_sample_time",
-                                                "max_tighten_iterations", "fitted_margin")}
-    return PlanSettings(grid_points=grid_points, baselines=False, **values)
+    """``settings`` with ``grid_points`` and the baselines off."""
+    return dataclasses.replace(settings, grid_points=grid_points, baselines=False)
 
 
 def optimality_circle(scenario: str, grids: list, reference_grids) -> list:
@@ -170,7 +169,8 @@ def optimality_splines(count: int, reference_grids, robot) -> list:
             t_ref, order, _ = ref.converged_duration(path, robot, limits, reference_grids or (200, 400, 800))
         else:
             t_ref, order = RECORDED_SPLINE_REFERENCE[seed], float("nan")
-        res = plan(path, robot, PlanSettings(torque=False, baselines=False, jerk_limit=tuple(10.0 * lim.acceleration)))
+        res = plan(path, robot, PlanSettings(limits={"use_torque": False, "jerk": tuple(10.0 * lim.acceleration)},
+                                             baselines=False))
         diff = 100 * (res.duration / t_ref - 1)
         diffs.append(diff)
         order_text = f"{order:6.2f}" if np.isfinite(order) else f"{'rec.':>6s}"

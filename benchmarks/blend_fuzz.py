@@ -60,7 +60,8 @@ def main() -> None:
             break
         pts, tol, start, end, torque = polyline(seed)
         tag = f"seed {seed}: {len(pts) - 2} corners, {tol * 1e3:.2f} mm, {start} -> {end}, torque {torque}"
-        settings = PlanSettings(start=start, end=end, velocity=True, acceleration=True, torque=torque)
+        settings = PlanSettings(start=start, end=end,
+                                limits={"use_velocity": True, "use_acceleration": True, "use_torque": torque})
         t0 = time.process_time()
         try:
             best = optimal_blends(robot, _task(pts), tol, settings=settings)

@@ -33,7 +33,8 @@ import time
 import numpy as np
 
 
-def main() -> None:
+def _arguments() -> argparse.Namespace:
+    """The command line (see the module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("angle", type=float, help="turn angle [deg]")
     ap.add_argument("tolerance", type=float, help="tube radius [m]")
@@ -57,7 +58,89 @@ def main() -> None:
                          "only within each window")
     ap.add_argument("--rise-plans", type=int, default=None,
                     help="plans of the blend search's out-of-plane stage (default RISE_PLANS; 0: in the plane)")
-    a = ap.parse_args()
+    return ap.parse_args()
+
+
+def _print_resampled(a, nodes, optimum_path, own: float, duration) -> None:
+    """--resample: the optimum's path rebuilt at every k-th node, with and without its curvature jumps."""
+    for every in (int(k) for k in a.resample.split(",") if k):
+        knots = nodes[::every]
+        if knots[-1] < optimum_path.domain[1]:
+            knots = np.append(knots, optimum_path.domain[1])
+        cells = []
+        for jumps in (True, False):
+            T = duration(hermite_chain(optimum_path, knots, np.full(len(knots), jumps)))
+            cells.append(f"{T:.5f} s ({100 * (T / own - 1):+.2f} %)")
+        print(f"  optimum path rebuilt at every {every}. node ({len(knots) - 1} pieces): curvature jumps kept "
+              f"{cells[0]}, smoothed (G2) {cells[1]}, vs the optimum path")
+
+
+def _print_smoothed(a, nodes, optimum_path, own: float, duration) -> None:
+    """--smooth-windows: the optimum's path smoothed (G2) only within each window of its arc."""
+    if a.smooth_windows:
+        jump = np.array([np.linalg.norm(np.subtract(*(optimum_path.pose(np.array([x]), side=side)[2][0]
+                                                      for side in ("left", "right")))) for x in nodes])
+        away = np.flatnonzero((nodes > 0.01) & (nodes < nodes[-1] - 0.01))  # the short pieces at a resting end aside
+        inner = away[np.argsort(jump[away])[::-1][:5]]
+        print("  the optimum's largest curvature jumps between its pieces, 10 mm or more from its ends: "
+              + ", ".join(f"{jump[i]:.2f} 1/m at {nodes[i] * 1e3:.1f} mm" for i in inner)
+              + f" of {nodes[-1] * 1e3:.1f} mm (median {np.median(jump[away]):.2f} 1/m)")
+        for window in a.smooth_windows.split(","):
+            lo, hi = (float(v) * 1e-3 for v in window.split(":"))
+            T = duration(hermite_chain(optimum_path, nodes, (nodes < lo) | (nodes > hi)))
+            print(f"  optimum path rebuilt at every node, smoothed (G2) only within {lo * 1e3:g}-{hi * 1e3:g} mm of "
+                  f"arc: {T:.5f} s ({100 * (T / own - 1):+.2f} %) vs the optimum path")
+
+
+def _print_behind(a, profiles: dict) -> None:
+    """--behind: how far the blend trails the optimum's own path, every 5 % of arc."""
+    if a.behind:
+        print(f"  the blend behind the optimum's own path (arc lengths {profiles['blend'][1] * 1e3:.1f} / "
+              f"{profiles['optimum'][1] * 1e3:.1f} mm), at shares of each one's arc:")
+        for share in np.linspace(0.0, 1.0, 21):
+            t = {k: float(np.interp(share * L, p.grid, p.times)) for k, (p, L) in profiles.items()}
+            print(f"    {share:4.2f}: optimum path {t['optimum']:.4f} s, blend {t['blend']:.4f} s, "
+                  f"behind {1e3 * (t['blend'] - t['optimum']):+6.2f} ms")
+
+
+def _print_speeds(a, pts, profiles: dict, optimum_path, best) -> None:
+    """--speeds: both planned paths' speed, curvature and time near the corner."""
+    if a.speeds:
+        print("  speed [m/s], curvature [1/m] and time [s] within 60 mm of each path's point nearest the corner:")
+        near = {}
+        for name, path in (("optimum", optimum_path), ("blend", best.path)):
+            theta = np.linspace(0.0, path.domain[1], 20001)
+            p, _, ddp = path.pose(theta)[:3]
+            apex = theta[int(np.argmin(np.linalg.norm(p - pts[1], axis=1)))]
+            near[name] = (theta, theta - apex, np.linalg.norm(ddp, axis=1))
+        for d in np.arange(-0.06, 0.06 + 1e-9, 0.004):
+            cells = []
+            for name in ("optimum", "blend"):
+                profile, _ = profiles[name]
+                theta, rel, curvature = near[name]
+                i = int(np.argmin(np.abs(rel - d)))
+                cells.append(f"{name} {np.sqrt(profile.x_at(theta[i])):.3f} m/s, {curvature[i]:6.1f} 1/m, "
+                             f"{np.interp(theta[i], profile.grid, profile.times):.4f} s")
+            print(f"    {d * 1e3:+4.0f} mm: " + "   ".join(cells))
+
+
+def _print_profile(a, pts, normal, optimum_path, best) -> None:
+    """--profile: both paths every 10 mm of arc (distance, height, curvature)."""
+    from pathmotion.study import free_shape as fs
+
+    if a.profile:
+        for name, path in (("optimum", optimum_path), ("optimal blend", best.path)):
+            print(f"  {name}'s path every 10 mm of arc (from the corner's arc position on the sharp path):")
+            theta = np.arange(0.0, path.domain[1], 0.01)
+            p, _, ddp = path.pose(theta)[:3]
+            dist = fs.Polyline(pts).distance(p)
+            for th, x, d, k in zip(theta, p, dist, np.linalg.norm(ddp, axis=1)):
+                print(f"    arc {th - np.linalg.norm(pts[1] - pts[0]):+.3f} m: {d * 1e3:6.3f} mm from the sharp path, "
+                      f"{(x - pts[1]) @ normal * 1e3:+7.3f} mm above the corner's plane, curvature {k:7.2f} 1/m")
+
+
+def main() -> None:
+    a = _arguments()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     import pathmotion.study.optimum_path as op
@@ -71,7 +154,7 @@ def main() -> None:
     robot = load_robot("irb140")
     pts = corner_points(a.angle)
     task = _task(pts)
-    grid = {"grid_points": a.grid} if a.plan_tolerance is None else {"tolerance": a.plan_tolerance}
+    grid = {"grid_points": a.grid} if a.plan_tolerance is None else {"duration_tolerance": a.plan_tolerance}
     settings = _settings(baselines=False, verify=False, **grid)
     profiles = {}
 
@@ -115,62 +198,11 @@ def main() -> None:
     for name, T in rows:
         print(f"  {name:28s} {T:.5f} s  {100 * (T / sol.duration - 1):+.2f} % vs the finest NLP mesh")
     nodes = np.concatenate([[0.0], np.cumsum([seg.length for seg in optimum_path.segments])])
-    for every in (int(k) for k in a.resample.split(",") if k):
-        knots = nodes[::every]
-        if knots[-1] < optimum_path.domain[1]:
-            knots = np.append(knots, optimum_path.domain[1])
-        cells = []
-        for jumps in (True, False):
-            T = duration(hermite_chain(optimum_path, knots, np.full(len(knots), jumps)))
-            cells.append(f"{T:.5f} s ({100 * (T / own - 1):+.2f} %)")
-        print(f"  optimum path rebuilt at every {every}. node ({len(knots) - 1} pieces): curvature jumps kept "
-              f"{cells[0]}, smoothed (G2) {cells[1]}, vs the optimum path")
-    if a.smooth_windows:
-        jump = np.array([np.linalg.norm(np.subtract(*(optimum_path.pose(np.array([x]), side=side)[2][0]
-                                                      for side in ("left", "right")))) for x in nodes])
-        away = np.flatnonzero((nodes > 0.01) & (nodes < nodes[-1] - 0.01))  # the short pieces at a resting end aside
-        inner = away[np.argsort(jump[away])[::-1][:5]]
-        print("  the optimum's largest curvature jumps between its pieces, 10 mm or more from its ends: "
-              + ", ".join(f"{jump[i]:.2f} 1/m at {nodes[i] * 1e3:.1f} mm" for i in inner)
-              + f" of {nodes[-1] * 1e3:.1f} mm (median {np.median(jump[away]):.2f} 1/m)")
-        for window in a.smooth_windows.split(","):
-            lo, hi = (float(v) * 1e-3 for v in window.split(":"))
-            T = duration(hermite_chain(optimum_path, nodes, (nodes < lo) | (nodes > hi)))
-            print(f"  optimum path rebuilt at every node, smoothed (G2) only within {lo * 1e3:g}-{hi * 1e3:g} mm of "
-                  f"arc: {T:.5f} s ({100 * (T / own - 1):+.2f} %) vs the optimum path")
-    if a.behind:
-        print(f"  the blend behind the optimum's own path (arc lengths {profiles['blend'][1] * 1e3:.1f} / "
-              f"{profiles['optimum'][1] * 1e3:.1f} mm), at shares of each one's arc:")
-        for share in np.linspace(0.0, 1.0, 21):
-            t = {k: float(np.interp(share * L, p.grid, p.times)) for k, (p, L) in profiles.items()}
-            print(f"    {share:4.2f}: optimum path {t['optimum']:.4f} s, blend {t['blend']:.4f} s, "
-                  f"behind {1e3 * (t['blend'] - t['optimum']):+6.2f} ms")
-    if a.speeds:
-        print("  speed [m/s], curvature [1/m] and time [s] within 60 mm of each path's point nearest the corner:")
-        near = {}
-        for name, path in (("optimum", optimum_path), ("blend", best.path)):
-            theta = np.linspace(0.0, path.domain[1], 20001)
-            p, _, ddp = path.pose(theta)[:3]
-            apex = theta[int(np.argmin(np.linalg.norm(p - pts[1], axis=1)))]
-            near[name] = (theta, theta - apex, np.linalg.norm(ddp, axis=1))
-        for d in np.arange(-0.06, 0.06 + 1e-9, 0.004):
-            cells = []
-            for name in ("optimum", "blend"):
-                profile, _ = profiles[name]
-                theta, rel, curvature = near[name]
-                i = int(np.argmin(np.abs(rel - d)))
-                cells.append(f"{name} {np.sqrt(profile.x_at(theta[i])):.3f} m/s, {curvature[i]:6.1f} 1/m, "
-                             f"{np.interp(theta[i], profile.grid, profile.times):.4f} s")
-            print(f"    {d * 1e3:+4.0f} mm: " + "   ".join(cells))
-    if a.profile:
-        for name, path in (("optimum", optimum_path), ("optimal blend", best.path)):
-            print(f"  {name}'s path every 10 mm of arc (from the corner's arc position on the sharp path):")
-            theta = np.arange(0.0, path.domain[1], 0.01)
-            p, _, ddp = path.pose(theta)[:3]
-            dist = fs.Polyline(pts).distance(p)
-            for th, x, d, k in zip(theta, p, dist, np.linalg.norm(ddp, axis=1)):
-                print(f"    arc {th - np.linalg.norm(pts[1] - pts[0]):+.3f} m: {d * 1e3:6.3f} mm from the sharp path, "
-                      f"{(x - pts[1]) @ normal * 1e3:+7.3f} mm above the corner's plane, curvature {k:7.2f} 1/m")
+    _print_resampled(a, nodes, optimum_path, own, duration)
+    _print_smoothed(a, nodes, optimum_path, own, duration)
+    _print_behind(a, profiles)
+    _print_speeds(a, pts, profiles, optimum_path, best)
+    _print_profile(a, pts, normal, optimum_path, best)
     print(f"  blend search: {best.plans} plans ({rise} out of the plane), {t1 - t0:.0f} s CPU; blend rises "
           f"{shape.rise_entry[0] * 1e3:+.2f} / {shape.rise_exit[0] * 1e3:+.2f} mm, offsets "
           f"{shape.offset_entry * 1e3:.2f} / {shape.offset_exit * 1e3:.2f} mm")

@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, example, given, reject, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
-from pathmotion.api import load_text, plan_summary, plan_scenario
+from pathmotion.api import load_text, plan_summary, plan_scenario, search
 from pathmotion.lift.constraint import lift
 from pathmotion.errors import PathError, ScenarioError, UnreachableError
 from pathmotion.geometry import BezierSegment, FixedOrientation, Line, TaskPath, max_deviation, with_g2_blend
@@ -298,7 +298,8 @@ def test_the_search_frees_the_ends_only_where_the_motion_rests():
     assert shape.departure is not None and shape.arrival is not None
     assert free.duration < joined.duration * (1 - 0.005)
     assert max_deviation(free.path, path, rel_tol=1e-6).upper <= 0.01 * (1 + 2e-6)
-    moving = PlanSettings(start="max", end="zero", velocity=True, acceleration=True, torque=False, grid_points=400,
+    moving = PlanSettings(start="max", end="zero",
+                          limits={"use_velocity": True, "use_acceleration": True, "use_torque": False}, grid_points=400,
                           verify=False, baselines=False)
     started = optimal_blends(_robot(), path, 0.01, settings=moving, **kw).shapes[0]
     assert started.departure is None  # the start is not at rest; the end still is
@@ -439,7 +440,8 @@ def test_the_crossed_wide_starts_go_up_the_entry_and_out_along_the_exit(caplog):
     assert entry_rise > 0.5 * 0.007 and exit_out > 0.5 * 0.007 and without.shapes[0].rise_entry[0] < 0.25 * 0.007
     assert max_deviation(crossed.path, path, rel_tol=1e-6).upper <= 0.007 * (1 + 2e-6)
     caplog.clear()
-    moving = PlanSettings(start="max", end="zero", velocity=True, acceleration=True, torque=False, grid_points=300,
+    moving = PlanSettings(start="max", end="zero",
+                          limits={"use_velocity": True, "use_acceleration": True, "use_torque": False}, grid_points=300,
                           verify=False, baselines=False)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         optimal_blends(_robot(), path, 0.007, **{**kw, "wide_crossed_plans": 150, "settings": moving})
@@ -613,7 +615,8 @@ def _robot():
     return ROBOT
 
 
-SETTINGS = PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False, grid_points=400,
+SETTINGS = PlanSettings(start="zero", end="zero",
+                        limits={"use_velocity": True, "use_acceleration": True, "use_torque": False}, grid_points=400,
                         verify=False, baselines=False)
 
 
@@ -662,7 +665,8 @@ def test_optimal_blends_on_a_3d_polyline_keep_the_bound_and_beat_the_symmetric_g
         lift(_robot(), path)
     except UnreachableError:
         reject()  # the sharp path itself: an input error of its own (tests/test_lift.py), not the blend's
-    plan_settings = PlanSettings(start=ends[0], end=ends[1], velocity=True, acceleration=True, torque=False,
+    plan_settings = PlanSettings(start=ends[0], end=ends[1],
+                                 limits={"use_velocity": True, "use_acceleration": True, "use_torque": False},
                                  grid_points=400, verify=False, baselines=False)
     kw = dict(settings=plan_settings, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16,
               rise_plans=30, end_plans=12, joint_plans=20, wide_plans=20, wide_normal_plans=20, restart_plans=20,
@@ -700,7 +704,8 @@ def test_a_corners_window_ranks_its_shapes_as_the_whole_path_does(points, corner
     from pathmotion.planning.blend_search import _corner_window, _Objective
 
     path, tol = _polyline(points), 0.004
-    full = PlanSettings(velocity=True, acceleration=True, torque=False, verify=False, baselines=False, **plan_ends)
+    full = PlanSettings(limits={"use_velocity": True, "use_acceleration": True, "use_torque": False}, verify=False,
+                        baselines=False, **plan_ends)
     chosen = [c.index for c in path.connections]
     shapes = {k: g2_shape_for_tolerance(path, k, tol, 0.5, 0.7, 0.7, shared=(k - 1 in chosen, k + 1 in chosen))
               for k in chosen}
@@ -734,7 +739,8 @@ def test_a_corners_window_ranks_its_shapes_as_the_whole_path_does(points, corner
     assert np.all(np.abs(d_window - d_whole)[big] <= 0.15 * np.abs(d_whole[big])), np.c_[d_whole, d_window]
 
 
-_LIMITS = dict(velocity=True, acceleration=True, torque=False, grid_points=400, verify=False, baselines=False)
+_LIMITS = dict(limits={"use_velocity": True, "use_acceleration": True, "use_torque": False}, grid_points=400,
+               verify=False, baselines=False)
 
 
 def test_a_window_ends_at_a_stop_where_the_neighbouring_corner_stays_sharp():
@@ -848,8 +854,8 @@ def test_optimal_blend_scenario_beats_g2_with_a_certified_deviation():
     """The same turn as a task path with corner = "all" and as a list of waypoints with blend = "optimal": the
     same search, so the same blend; faster than the G2 blend, within the tolerance on a dense projection."""
     g2 = load_text(SCENARIO % ("g2", "tolerance = 0.003"))
-    opt = load_text(SCENARIO % ("optimal", "tolerance = 0.003"))
-    waypoints = load_text(WAYPOINTS)
+    opt = search(load_text(SCENARIO % ("optimal", "tolerance = 0.003")))
+    waypoints = search(load_text(WAYPOINTS))
     t_g2, result = plan_scenario(g2).profile.duration, plan_scenario(opt)
     t_opt = result.profile.duration
     summary = plan_summary(opt, result)

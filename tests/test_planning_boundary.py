@@ -97,7 +97,7 @@ def test_max_connection_with_unequal_speeds_reports_the_jump(irb140):
     wp = [np.zeros(6), np.array([0.5, 0, 0, 0, 0, 0]), np.array([2.5, 0, 0, 0, 0, 0])]
     path = PolylinePath.through(wp)  # same direction, different Phi' scale: break, not a kink
     assert path.kinks == () and path.breaks == (1.0,)
-    res = plan(path, irb140, PlanSettings(connections="max", torque=False, **FAST))
+    res = plan(path, irb140, PlanSettings(connections="max", limits={"use_torque": False}, **FAST))
     assert len(res.jump_intervals) == 1
     a, b = res.jump_intervals[0]
     assert b == 1.0 and 0 < b - a < 1e-4
@@ -175,7 +175,7 @@ def test_the_periodic_cycle_is_the_bisections_and_the_laps_bound_holds(irb140, m
         return solve(problem, where)
 
     monkeypatch.setattr(segments, "solve_periodic", capture)
-    cfg = PlanSettings(periodic=True, torque=torque, **FAST)
+    cfg = PlanSettings(periodic=True, limits={"use_torque": torque}, **FAST)
     cyc = plan(path, irb140, cfg)
     problem = problems[-1]
     reference = _bisection_top(problem)

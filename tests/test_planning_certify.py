@@ -20,12 +20,12 @@ from tests.planning_paths import PolylinePath, assert_bounds_cover, dense_interv
 
 #: Limit sets: keyword arguments of PlanSettings (the torque-speed envelope exercises the sampled form).
 LIMIT_SETS = {
-    "vel+acc": dict(torque=False),
+    "vel+acc": dict(limits={"use_torque": False}),
     "torque": dict(),
-    "torque-binding": dict(torque_scale=0.35),
-    "payload": dict(acceleration_scale=2.0),
-    "tcp": dict(torque=False, tcp_speed_limit=0.6),
-    "envelope": dict(torque_speed={"knee": 0.4, "at_max_speed": 0.5}),
+    "torque-binding": dict(limits={"torque_scale": 0.35}),
+    "payload": dict(limits={"acceleration_scale": 2.0}),
+    "tcp": dict(limits={"use_torque": False, "tcp_speed": 0.6}),
+    "envelope": dict(limits={"torque_speed": {"knee": 0.4, "at_max_speed": 0.5}}),
 }
 DENSE_DT = 2e-4
 
@@ -85,8 +85,8 @@ def test_default_plan_passes_the_dense_resample(irb140, limit_set):
 
 def test_dense_mode_still_available_and_agrees(irb140):
     path = _spline(5, 4)
-    cert = plan(path, irb140, PlanSettings(torque_scale=0.35))
-    dense = plan(path, irb140, PlanSettings(torque_scale=0.35, verify="dense"))
+    cert = plan(path, irb140, PlanSettings(limits={"torque_scale": 0.35}))
+    dense = plan(path, irb140, PlanSettings(limits={"torque_scale": 0.35}, verify="dense"))
     assert dense.ratios.method == "dense" and dense.ratios.sample_time == pytest.approx(1e-4)
     assert dense.ratios.max_ratio <= 1.001
     assert abs(cert.duration - dense.duration) <= 5e-4 * dense.duration  # both tighten; the bound more

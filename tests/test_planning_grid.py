@@ -6,7 +6,6 @@ error."""
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -20,10 +19,11 @@ from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, effective_limits, plan
 from pathmotion.planning.verify import sample_ratios
 from pathmotion.planning.grid import ORDER, Grid, make_grid, pieces_for
+from pathmotion.scenarios import scenario_path
 
 ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
 CASES = [(1, 7), (2, 12), (3, 4)]  # (seed, waypoints) of random clamped splines
-CIRCLE = Path(api.__file__).parent / "scenarios" / "circle_zero.toml"
+CIRCLE = scenario_path("circle_zero")
 
 
 @pytest.fixture(scope="module")
@@ -116,7 +116,7 @@ def test_adaptive_duration_converges_to_toppras_optimum(robot, seed, waypoints):
     t_star = _toppra_t_star(path, robot, ACC, torque=False)
     estimates = []
     for tol in (2e-3, 5e-4, 1.25e-4):
-        r = plan(path, robot, PlanSettings(tolerance=tol))
+        r = plan(path, robot, PlanSettings(duration_tolerance=tol))
         err = abs(r.duration - t_star)
         assert err <= tol * t_star, (tol, err / t_star)
         assert err <= r.duration_error_estimate, (tol, err, r.duration_error_estimate)
@@ -132,7 +132,7 @@ def test_adaptive_circle_scenario_within_tolerance_of_toppra(irb140):
     active = {lim.name for lim in effective_limits(setup.robot, settings)}
     acc = setup.robot.limits.acceleration if "acceleration" in active else None
     t_star = _toppra_t_star(setup.path, setup.robot, acc, torque=True)
-    assert abs(r.duration - t_star) <= settings.tolerance * t_star
+    assert abs(r.duration - t_star) <= settings.duration_tolerance * t_star
     assert abs(r.duration - t_star) <= r.duration_error_estimate
 
 
@@ -145,13 +145,18 @@ def test_grid_points_gives_a_fixed_grid_without_estimate(robot):
 
 @pytest.mark.parametrize("bad", [0.0, -1e-3, 0.5, True])
 def test_tolerance_out_of_range_names_the_key(bad):
-    with pytest.raises(ScenarioError, match="plan.tolerance"):
-        PlanSettings(tolerance=bad)
+    with pytest.raises(ScenarioError, match="plan.duration_tolerance"):
+        PlanSettings(duration_tolerance=bad)
+
+
+def test_the_former_key_plan_tolerance_names_the_new_one():
+    with pytest.raises(ScenarioError, match="unknown key 'tolerance'; it is now called 'duration_tolerance'"):
+        api.load(CIRCLE, {"plan.tolerance": 2e-3})
 
 
 def test_scenario_tolerance_reaches_the_plan_and_the_summary():
-    setup = api.load(CIRCLE, {"plan.tolerance": 2e-3})
-    assert setup.plan_settings.tolerance == 2e-3 and setup.plan_settings.grid_points is None
+    setup = api.load(CIRCLE, {"plan.duration_tolerance": 2e-3})
+    assert setup.plan_settings.duration_tolerance == 2e-3 and setup.plan_settings.grid_points is None
     result = plan(setup.path, setup.robot, replace(setup.plan_settings, baselines=False))
     summary = api.plan_summary(setup, result)
     assert 0 < summary["duration_error_estimate"] <= 2e-3 * result.duration
@@ -167,7 +172,7 @@ def test_refinement_nests_its_grids_and_splits_by_the_error(robot):
     from pathmotion.planning.planner import _solve_on
 
     path = _spline(2, 7)
-    settings = PlanSettings(tolerance=5e-4)
+    settings = PlanSettings(duration_tolerance=5e-4)
     limits = effective_limits(robot, settings)
     seen = []
 

@@ -68,7 +68,8 @@ def test_straight_line_matches_the_analytic_s_curve(jerk_factor, length):
     path = _line(length)
     acc = ROBOT.limits.acceleration
     jerk = jerk_factor * acc
-    res = plan(path, ROBOT, PlanSettings(grid_points=300, torque=False, baselines=False, jerk_limit=tuple(jerk)))
+    res = plan(path, ROBOT, PlanSettings(grid_points=300, limits={"use_torque": False, "jerk": tuple(jerk)},
+                                         baselines=False))
     d = np.abs(path.direction)
     v, a, j = (float(np.min(lim / d)) for lim in (ROBOT.limits.velocity, acc, jerk))
     exact = s_curve_time(length, v, a, j)
@@ -79,17 +80,19 @@ def test_straight_line_matches_the_analytic_s_curve(jerk_factor, length):
 
 def test_huge_jerk_equals_the_second_order_optimum():
     path = SplineJointPath.from_waypoints(np.random.default_rng(3).uniform(-1.0, 1.0, (4, 6)))
-    common = dict(grid_points=400, torque=False, baselines=False)
+    common = dict(grid_points=400, limits={"use_torque": False}, baselines=False)
     second = plan(path, ROBOT, PlanSettings(**common))
-    third = plan(path, ROBOT, PlanSettings(**common, jerk_limit=tuple(1e5 * ROBOT.limits.acceleration)))
+    third = plan(path, ROBOT, PlanSettings(**{**common, "limits": {"use_torque": False,
+                                                                    "jerk": tuple(1e5 * ROBOT.limits.acceleration)}}))
     assert third.duration == pytest.approx(second.duration, rel=1e-3)
 
 
 def test_jerk_costs_time_and_the_rest_ends_have_zero_acceleration():
     path = SplineJointPath.from_waypoints(np.random.default_rng(4).uniform(-1.0, 1.0, (4, 6)))
-    common = dict(grid_points=200, torque=False, baselines=False)
+    common = dict(grid_points=200, limits={"use_torque": False}, baselines=False)
     second = plan(path, ROBOT, PlanSettings(**common))
-    third = plan(path, ROBOT, PlanSettings(**common, jerk_limit=tuple(3.0 * ROBOT.limits.acceleration)))
+    third = plan(path, ROBOT, PlanSettings(**{**common, "limits": {"use_torque": False,
+                                                                    "jerk": tuple(3.0 * ROBOT.limits.acceleration)}}))
     assert third.duration > second.duration * 1.01
     s = third.trajectory.at_time([0.0, third.duration])
     assert np.allclose(s.qdd, 0.0, atol=1e-9) and np.allclose(s.qd, 0.0, atol=1e-12)
@@ -100,7 +103,7 @@ def test_jerk_costs_time_and_the_rest_ends_have_zero_acceleration():
 def test_random_splines_meet_every_limit_on_the_resample(seed, factor):
     path = SplineJointPath.from_waypoints(np.random.default_rng(seed).uniform(-1.2, 1.2, (4, 6)))
     res = plan(path, ROBOT, PlanSettings(grid_points=120, baselines=False,
-                                         jerk_limit=tuple(factor * ROBOT.limits.acceleration)))
+                                         limits={"jerk": tuple(factor * ROBOT.limits.acceleration)}))
     assert res.ratios.max_ratio <= 1.001
     # the reported jerk is the jerk of the motion: finite differences of the sampled qdd
     # (the mean jerk over [t - dt, t + dt] lies between its values at both ends: jerk jumps at grid points)
@@ -161,10 +164,12 @@ def test_torque_rate_derivatives_match_finite_differences():
 
 def test_torque_rate_limit_is_met():
     setup = api.load("pathmotion/scenarios/circle_zero.toml", {"plan.grid_points": 150})
-    free = plan(setup.path, setup.robot, PlanSettings(grid_points=150, acceleration=False, baselines=False))
+    free = plan(setup.path, setup.robot, PlanSettings(grid_points=150, limits={"use_acceleration": False},
+                                                      baselines=False))
     rate = 0.5 * np.max(np.abs(np.gradient(free.trajectory.sample(1e-3).tau, 1e-3, axis=0)), axis=0)
-    res = plan(setup.path, setup.robot, PlanSettings(grid_points=150, acceleration=False, baselines=False,
-                                                     torque_rate_limit=tuple(rate)))
+    res = plan(setup.path, setup.robot, PlanSettings(grid_points=150,
+                                                     limits={"use_acceleration": False, "torque_rate": tuple(rate)},
+                                                     baselines=False))
     assert res.ratios.torque_rate <= 1.001
     assert res.ratios.torque_rate > 0.98
     assert res.duration > free.duration
@@ -190,7 +195,7 @@ CIRCLE_OPTIMUM = {10.0: 1.2131, 4.0: 1.5543}
 def test_circle_is_within_one_percent_of_the_optimum_and_the_error_estimate_covers_it(factor):
     setup = api.load("pathmotion/scenarios/circle_zero.toml")
     jerk = tuple(factor * ROBOT.limits.acceleration)
-    res = plan(setup.path, ROBOT, PlanSettings(torque=False, jerk_limit=jerk))
+    res = plan(setup.path, ROBOT, PlanSettings(limits={"use_torque": False, "jerk": jerk}))
     optimum = CIRCLE_OPTIMUM[factor]
     assert abs(res.duration / optimum - 1.0) <= 0.01
     assert res.ratios.max_ratio <= 1.001
@@ -203,7 +208,7 @@ def test_spline_error_estimate_covers_the_change_to_a_fine_grid():
     """The default grid's estimate bounds its difference from a solve on a 4x finer grid (which is
     itself nearer the optimum), and is no vacuous bound."""
     path = SplineJointPath.from_waypoints(np.random.default_rng(0).uniform(-1.2, 1.2, (4, 6)))
-    common = dict(torque=False, baselines=False, jerk_limit=tuple(10.0 * ROBOT.limits.acceleration))
+    common = dict(limits={"use_torque": False, "jerk": tuple(10.0 * ROBOT.limits.acceleration)}, baselines=False)
     res = plan(path, ROBOT, PlanSettings(**common))
     fine = plan(path, ROBOT, PlanSettings(grid_points=400, **common))
     est = res.duration_error_estimate
@@ -213,7 +218,7 @@ def test_spline_error_estimate_covers_the_change_to_a_fine_grid():
 
 def test_second_order_fixed_grid_still_has_no_error_estimate():
     path = SplineJointPath.from_waypoints(np.random.default_rng(0).uniform(-1.2, 1.2, (4, 6)))
-    assert plan(path, ROBOT, PlanSettings(grid_points=100, torque=False)).duration_error_estimate is None
+    assert plan(path, ROBOT, PlanSettings(grid_points=100, limits={"use_torque": False})).duration_error_estimate is None
 
 
 def test_slp_duration_and_gradient_match_the_profile_and_finite_differences():
@@ -224,7 +229,8 @@ def test_slp_duration_and_gradient_match_the_profile_and_finite_differences():
     from pathmotion.planning.planner import _sample
 
     setup = api.load("pathmotion/scenarios/circle_zero.toml")
-    s = PlanSettings(grid_points=40, torque=False, jerk_limit=tuple(10.0 * ROBOT.limits.acceleration), verify="off")
+    s = PlanSettings(grid_points=40, limits={"use_torque": False, "jerk": tuple(10.0 * ROBOT.limits.acceleration)},
+                     verify="off")
     res = plan(setup.path, ROBOT, s)
     prof = res.profile
     limits = effective_limits_for(ROBOT, s.limits)

@@ -27,7 +27,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from planning_paths import PolylinePath  # noqa: E402
 
 TOL = defaults.LIMIT_TOLERANCE
-OFF = dict(velocity=False, acceleration=False, torque=False, baselines=False, grid_points=200)
+OFF = {"use_velocity": False, "use_acceleration": False, "use_torque": False}
+FAST = dict(baselines=False, grid_points=200)
 
 
 class PathSpeedLimit(Limit):
@@ -37,8 +38,7 @@ class PathSpeedLimit(Limit):
     order = 1
     per_joint = False
     unit = "1/s"
-    settings_keys = {"path_speed_limit": "value"}
-    scenario_keys = {"path_speed": "value"}
+    keys = {"path_speed": "value"}
 
     def __init__(self, v_max):
         self.v_max = v_max
@@ -71,8 +71,7 @@ class PathAccelerationLimit(Limit):
     order = 2
     per_joint = False
     unit = "1/s^2"
-    settings_keys = {"path_acceleration_limit": "value"}
-    scenario_keys = {"path_acceleration": "value"}
+    keys = {"path_acceleration": "value"}
 
     def __init__(self, a_max):
         self.a_max = a_max
@@ -115,7 +114,7 @@ def toy_registry():
 def test_a_registered_limit_class_is_enforced_and_verified(toy_registry, irb140):
     line = PolylinePath.through([np.zeros(6), np.array([0.4, 0.2, -0.2, 0.1, 0.1, 0.0])])
     v, a = 0.8, 2.0  # v^2 / a = 0.32 < L = 1: cruise between two ramps
-    res = plan(line, irb140, PlanSettings(path_speed_limit=v, path_acceleration_limit=a, **OFF))
+    res = plan(line, irb140, PlanSettings(limits={**OFF, "path_speed": v, "path_acceleration": a}, **FAST))
     assert res.duration == pytest.approx(1.0 / v + v / a, rel=1e-3)
     assert res.ratios.path_speed == pytest.approx(1.0, abs=TOL)  # both bind
     assert res.ratios.path_acceleration == pytest.approx(1.0, abs=TOL)
@@ -124,20 +123,20 @@ def test_a_registered_limit_class_is_enforced_and_verified(toy_registry, irb140)
     summary = res.ratios.summary()
     assert summary["max_path_acceleration_ratio"] == res.ratios.path_acceleration
     assert summary["max_torque_ratio"] is None  # off
-    settings = PlanSettings(path_speed_limit=v, **OFF)
-    assert settings.path_speed_limit == v and settings.path_acceleration_limit is None
+    settings = PlanSettings(limits={**OFF, "path_speed": v}, **FAST)
+    assert settings.limits["path_speed"].value == v and settings.limits["path_acceleration"].value is None
 
 
 def test_toy_limit_reads_from_scenario_keys(toy_registry):
     choices = limit_choices({"path_speed": 0.5, "use_torque": False})
     assert choices["path_speed"] == LimitChoice(on=True, scale=1.0, value=0.5)
     assert choices["path_acceleration"].on is False and choices["torque"].on is False
-    with pytest.raises(ScenarioError, match="path_speed_limit must be > 0"):
-        PlanSettings(path_speed_limit=-1.0)
+    with pytest.raises(ScenarioError, match=r"limits\.path_speed must be > 0"):
+        PlanSettings(limits={"path_speed": -1.0})
 
 
 def test_registry_keys_match_the_scenario_file_format():
-    keys = {k for cls in REGISTRY for k in cls.scenario_keys}
+    keys = {k for cls in REGISTRY for k in cls.keys}
     overrides = {"velocity", "acceleration", "torque"}  # the robot's joint limits, replaced per joint
     assert keys == set(LimitsSpec.model_fields) - overrides
     assert len({cls.name for cls in REGISTRY}) == len(REGISTRY)
@@ -148,13 +147,33 @@ def test_scenario_limits_become_settings():
     sc = parse_scenario('[path]\ntype = "joint"\nwaypoints = [[0.0], [1.0]]\n'
                         '[limits]\nuse_torque = false\nvelocity_scale = 0.5\ntcp_speed = 0.3\n')
     settings = PlanSettings(limits=limit_choices(sc.limits))
-    assert settings.torque is False and settings.velocity_scale == 0.5 and settings.tcp_speed_limit == 0.3
-    assert settings.acceleration is True and settings.acceleration_scale == 1.0
+    limits = settings.limits
+    assert limits["torque"].on is False and limits["velocity"].scale == 0.5 and limits["tcp_speed"].value == 0.3
+    assert limits["acceleration"].on is True and limits["acceleration"].scale == 1.0
+    # Python takes the same keys as the scenario file
+    assert PlanSettings(limits={"use_torque": False, "velocity_scale": 0.5, "tcp_speed": 0.3}) == settings
 
 
-def test_unknown_limit_keyword_is_refused():
-    with pytest.raises(ScenarioError, match="unknown keyword"):
-        PlanSettings(snap=True)  # jerk is a limit since issue 12; snap is not
+def test_unknown_limit_key_is_refused_and_a_switch_named():
+    with pytest.raises(ScenarioError, match="unknown limit key"):
+        PlanSettings(limits={"snap": True})  # jerk is a limit; snap is not
+    with pytest.raises(ScenarioError, match=r"limits\.jerk holds the limits .*the switch is limits\.use_jerk"):
+        PlanSettings(limits={"jerk": True})  # the values are [rad/s^3]
+    with pytest.raises(ScenarioError, match="the switch of 'torque' is 'use_torque'"):
+        PlanSettings(limits={"torque": False})
+
+
+def test_settings_are_a_plain_frozen_value():
+    """Equal settings hash equal whichever form the limits were given in; replace() checks again."""
+    import dataclasses
+
+    a = PlanSettings(grid_points=100, limits={"use_jerk": True, "jerk_scale": 0.5})
+    b = dataclasses.replace(PlanSettings(), grid_points=100, limits=a.limits)
+    assert a == b and hash(a) == hash(b) and len({a, b}) == 1
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        a.grid_points = 3
+    with pytest.raises(ScenarioError, match="duration_tolerance"):
+        dataclasses.replace(a, duration_tolerance=0.5)
 
 
 def test_modes_are_enums_validated_once():
@@ -177,8 +196,7 @@ def test_every_registered_limit_says_what_it_enforces():
 def test_limits_json_lists_every_active_limit_with_its_values(irb140):
     """All seven limits on: "enforced" names each active limit, JSON-ready, and its values follow from the
     robot's limits and the settings (scales, reserve, user values)."""
-    settings = PlanSettings(velocity_scale=0.5, torque_scale=0.9, torque_reserve=0.2, tcp_speed_limit=1.2,
-                            torque_speed=((0.4,), (0.6,)), jerk=True, torque_rate=True, jerk_scale=0.5)
+    settings = PlanSettings(limits={"velocity_scale": 0.5, "torque_scale": 0.9, "torque_reserve": 0.2, "tcp_speed": 1.2, "torque_speed": ((0.4,), (0.6,)), "use_jerk": True, "use_torque_rate": True, "jerk_scale": 0.5})
     active = [lim.name for lim in effective_limits(irb140, settings)]
     assert active == [cls.name for cls in REGISTRY]
     enforced = json.loads(json.dumps(api.enforced_limits(irb140, settings)))
@@ -191,3 +209,18 @@ def test_limits_json_lists_every_active_limit_with_its_values(irb140):
     assert enforced["torque_speed"] == {"knee": [0.4] * 6, "at_max_speed": [0.6] * 6}
     assert enforced["jerk"] == pytest.approx((0.5 * lim.jerk).tolist())
     assert enforced["torque_rate"] == pytest.approx(lim.torque_rate.tolist())
+
+
+def test_every_limit_reads_its_names_from_the_one_table():
+    """Scenario keys, summary keys and report labels of each limit are one row of io/schema.py's LIMITS."""
+    from pathmotion.io import schema
+    from pathmotion.report import html, tables
+
+    assert list(schema.LIMITS) == [cls.name for cls in REGISTRY]
+    for cls in REGISTRY:
+        row = schema.LIMITS[cls.name]
+        assert cls.names is row and cls.keys is row.keys and cls.summary_key() == row.ratio.key
+        assert html.LIMIT_UNITS[cls.name] == row.unit and html.LIMIT_ROW_LABELS[cls.name] == row.label
+        assert tables.LIMIT_COLORS[cls.name] == row.color
+        assert (tables.limit_curve_label(cls.name, {}) == row.curve) if row.curve else (
+            tables.steady_curve_label(cls.name) == row.steady)

@@ -62,7 +62,7 @@ def test_single_joint_line_matches_trapezoid(irb140, distance, vmax, amax):
     q1 = np.zeros(6)
     q1[0] = distance
     path = PolylinePath.through([np.zeros(6), q1])
-    res = plan(path, robot, PlanSettings(torque=False, baselines=False))
+    res = plan(path, robot, PlanSettings(limits={"use_torque": False}, baselines=False))
     if distance >= vmax**2 / amax:
         expected = distance / vmax + vmax / amax
         peak = vmax
@@ -82,7 +82,7 @@ def test_single_joint_line_matches_trapezoid(irb140, distance, vmax, amax):
 def test_torques_recomputed_with_pinocchio_stay_within_limits(irb140, spline_path):
     """Torque limits binding (scaled down); tau recomputed by pinocchio.rnea from q, qd, qdd."""
     robot = _with(irb140, acceleration=ACC * 10)
-    res = plan(spline_path, robot, PlanSettings(torque_scale=0.4, baselines=False))
+    res = plan(spline_path, robot, PlanSettings(limits={"torque_scale": 0.4}, baselines=False))
     assert res.ratios.torque == pytest.approx(1.0, abs=defaults.LIMIT_TOLERANCE)  # binding
     s = res.trajectory.sample(defaults.VERIFY_SAMPLE_TIME)
     model, data = robot.model, robot.model.createData()
@@ -97,7 +97,7 @@ def test_torques_recomputed_with_pinocchio_stay_within_limits(irb140, spline_pat
 
 
 def test_tcp_speed_limit_holds(irb140, spline_path):
-    res = plan(spline_path, irb140, PlanSettings(tcp_speed_limit=0.5, baselines=False, grid_points=400))
+    res = plan(spline_path, irb140, PlanSettings(limits={"tcp_speed": 0.5}, baselines=False, grid_points=400))
     assert 0.99 < res.ratios.tcp_speed <= 1.0 + defaults.LIMIT_TOLERANCE
 
 
@@ -108,7 +108,7 @@ def test_same_optimum_as_toppra(bench_robot, spline_path):
     import toppra.algorithm as algo
     import toppra.constraint as constraint
 
-    res = plan(spline_path, bench_robot, PlanSettings(torque=False, baselines=False, verify=False))
+    res = plan(spline_path, bench_robot, PlanSettings(limits={"use_torque": False}, baselines=False, verify=False))
     lim = bench_robot.limits
     tpath = ta.SplineInterpolator(np.linspace(0, 1, 5), spline_path.waypoints, bc_type="clamped")
     cons = [constraint.JointVelocityConstraint(np.vstack([-lim.velocity, lim.velocity]).T),
@@ -124,10 +124,10 @@ def test_same_optimum_as_toppra(bench_robot, spline_path):
 
 
 def test_grid_convergence(bench_robot, spline_path):
-    """The default (adaptive) plan is within plan.tolerance of the optimum extrapolated from two fixed
+    """The default (adaptive) plan is within plan.duration_tolerance of the optimum extrapolated from two fixed
     fine grids (first order in the step: T* = 2 T(h / 2) - T(h)), and its error estimate bounds its
     true error (measured: 0.036 % against 0.05 %, estimate 1.14 ms against 0.94 ms)."""
-    base = PlanSettings(torque=False, baselines=False, verify=False)
+    base = PlanSettings(limits={"use_torque": False}, baselines=False, verify=False)
     adaptive = plan(spline_path, bench_robot, base)
     coarse, fine = (plan(spline_path, bench_robot, replace(base, grid_points=n)).duration for n in (4000, 8000))
     t_star = 2.0 * fine - coarse
@@ -166,7 +166,7 @@ def test_property_random_paths_and_limits(irb140, wp, vel, acc, torque):
         return
     robot = _with(irb140, velocity=vel, acceleration=acc)
     path = SplineJointPath.from_waypoints(wp)
-    res = plan(path, robot, PlanSettings(grid_points=300, torque=torque, baselines=False))
+    res = plan(path, robot, PlanSettings(grid_points=300, limits={"use_torque": torque}, baselines=False))
     s = res.trajectory.sample(defaults.VERIFY_SAMPLE_TIME)
     vel, acc = np.asarray(vel), np.asarray(acc)
     assert np.max(np.abs(s.qd) / vel) <= 1.0 + defaults.LIMIT_TOLERANCE

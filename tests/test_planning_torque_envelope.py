@@ -53,7 +53,8 @@ def test_reserve_keeps_torque_free(plain):
     assert res.ratios.torque == pytest.approx(peak / 0.8, rel=2e-3)  # reported against the reduced limit
     assert res.duration > plain[1].duration
     # a second route to the same problem: the torque limits scaled by 0.8
-    scaled = plan(setup.path, setup.robot, PlanSettings(grid_points=GRID, acceleration=False, torque_scale=0.8,
+    scaled = plan(setup.path, setup.robot, PlanSettings(grid_points=GRID,
+                                                        limits={"use_acceleration": False, "torque_scale": 0.8},
                                                         baselines=False))
     assert res.duration == pytest.approx(scaled.duration, rel=1e-9)
 

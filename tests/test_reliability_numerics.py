@@ -35,7 +35,7 @@ def test_duration_converges_smoothly_with_the_grid_from_10_points(robot, spline)
     grids = (10, 20, 40, 80, 160, 320, 640, 1280, 2560)
     durations = []
     for k in grids:
-        res = plan(spline, robot, PlanSettings(grid_points=k, torque=False, baselines=False))
+        res = plan(spline, robot, PlanSettings(grid_points=k, limits={"use_torque": False}, baselines=False))
         assert within_limits(res), (k, res.ratios.worst)
         durations.append(res.duration)
     d = np.array(durations)
@@ -53,7 +53,7 @@ def test_dynamic_singularities_under_torque_limits_are_crossed(robot, spline):
     crossings = np.sum(np.diff(np.sign(red.alpha), axis=0) != 0, axis=0)
     assert crossings.sum() >= 3, crossings  # the path really has alpha_i = 0 points
     loose = plan(spline, robot, PlanSettings(grid_points=400, baselines=False))
-    tight = plan(spline, robot, PlanSettings(grid_points=400, torque_scale=0.2, baselines=False))
+    tight = plan(spline, robot, PlanSettings(grid_points=400, limits={"torque_scale": 0.2}, baselines=False))
     assert within_limits(tight), tight.ratios.worst
     assert tight.ratios.torque > 1.0 - TOL  # the torque limit is active (0.15 is below gravity)
     assert tight.duration > loose.duration
@@ -64,7 +64,8 @@ def test_a_limit_is_touched_exactly_not_exceeded(robot):
     exactly that speed: the largest ratio is 1 (to the tolerance), never above."""
     task = TaskPath((Line((0.5, -0.2, 0.5), (0.5, 0.2, 0.5)),))
     path = lift(robot, task)
-    res = plan(path, robot, PlanSettings(grid_points=300, torque=False, tcp_speed_limit=0.2, baselines=False))
+    res = plan(path, robot, PlanSettings(grid_points=300, limits={"use_torque": False, "tcp_speed": 0.2},
+                                         baselines=False))
     assert 1.0 - TOL <= res.ratios.tcp_speed <= 1.0 + TOL
     # cruise time of 0.4 m at 0.2 m/s bounds the duration from below, and the ramps are short
     assert 2.0 < res.duration < 2.3
@@ -90,7 +91,8 @@ def test_a_path_of_50_segments(robot):
     task = TaskPath(tuple(Line(p, q) for p, q in zip(pts[:-1], pts[1:])))
     path = lift(robot, task)
     assert len(path.kinks) == 49
-    chain = plan(path, robot, PlanSettings(grid_points=3000, torque=False, baselines=False))
-    each = plan(path, robot, PlanSettings(grid_points=3000, torque=False, baselines=False, connections="zero"))
+    chain = plan(path, robot, PlanSettings(grid_points=3000, limits={"use_torque": False}, baselines=False))
+    each = plan(path, robot, PlanSettings(grid_points=3000, limits={"use_torque": False}, baselines=False,
+                                          connections="zero"))
     assert within_limits(chain) and within_limits(each)
     assert chain.duration == pytest.approx(each.duration, rel=1e-3)

@@ -180,7 +180,7 @@ def test_steady_speed_curves_are_where_constant_speed_reaches_the_third_order_li
     from pathmotion.planning.limit_curves import steady_curves
 
     path, robot = smooth.path, smooth.robot
-    settings = PlanSettings(acceleration=False, jerk=True, torque_rate=True, torque_rate_scale=0.05)
+    settings = PlanSettings(limits={"use_acceleration": False, "use_jerk": True, "use_torque_rate": True, "torque_rate_scale": 0.05})
     theta = path.domain[0] + np.array(FRACTIONS) * (path.domain[1] - path.domain[0])
     curves = steady_curves(path, robot, settings, theta)
     assert list(curves) == ["jerk", "torque_rate"]

@@ -29,7 +29,7 @@ def test_use_jerk_alone_plans_with_the_file_estimates():
     res = plan(setup.path, setup.robot, setup.plan_settings)
     lim = setup.robot.limits
     explicit = plan(setup.path, setup.robot, PlanSettings(grid_points=100, baselines=False,
-                                                          jerk_limit=tuple(10.0 * lim.acceleration)))
+                                                          limits={"jerk": tuple(10.0 * lim.acceleration)}))
     assert res.duration == pytest.approx(explicit.duration, rel=1e-9)
     assert 0.9 < res.ratios.jerk <= 1.001  # the estimate binds and holds on the resample
     second = plan(setup.path, setup.robot, PlanSettings(grid_points=100, baselines=False))

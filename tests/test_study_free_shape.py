@@ -115,7 +115,8 @@ def test_straight_line_reproduces_the_planners_optimum(robot):
     """Two collinear segments: the NLP starts from the stop in the middle and must find the chain."""
     pts = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.6, -0.1, 0.45)])
     path, stop = fs.stop_plan(robot, fs.Polyline(pts))
-    chain = plan(path, robot, PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False,
+    chain = plan(path, robot, PlanSettings(start="zero", end="zero",
+                                           limits={"use_velocity": True, "use_acceleration": True, "use_torque": False},
                                            baselines=False))
     assert stop.profile.duration > 1.05 * chain.profile.duration  # the guess is far from the answer
     opt = fs.free_shape_optimum(robot, pts, 0.0, meshes=(25, 50, 100))

@@ -28,7 +28,8 @@ def robot():
 
 def _planned(robot, pts, path) -> float:
     """pathmotion's time-optimal duration [s] along ``path``, rest to rest, v + a limits (the NLP's)."""
-    settings = PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False,
+    settings = PlanSettings(start="zero", end="zero",
+                            limits={"use_velocity": True, "use_acceleration": True, "use_torque": False},
                             baselines=False, verify=False, grid_points=2000)
     return plan(lift(robot, path, original=_task(pts)), robot, settings).profile.duration
 

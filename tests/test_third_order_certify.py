@@ -20,11 +20,11 @@ ROBOT = load_robot("irb140")
 ACC = ROBOT.limits.acceleration
 #: Limit sets (PlanSettings keywords); the jerk limits are multiples of the acceleration estimates.
 LIMIT_SETS = {
-    "jerk 3x": dict(torque=False, jerk_limit=tuple(3.0 * ACC)),
-    "jerk 10x + torque": dict(jerk_limit=tuple(10.0 * ACC)),
-    "torque rate": dict(acceleration=False, torque_rate=True, torque_scale=0.6),
-    "jerk + reserve + envelope": dict(acceleration=False, jerk_limit=tuple(10.0 * ACC), torque_reserve=0.2,
-                                      torque_speed={"knee": 0.5, "at_max_speed": 0.5}),
+    "jerk 3x": dict(limits={"use_torque": False, "jerk": tuple(3.0 * ACC)}),
+    "jerk 10x + torque": dict(limits={"jerk": tuple(10.0 * ACC)}),
+    "torque rate": dict(limits={"use_acceleration": False, "use_torque_rate": True, "torque_scale": 0.6}),
+    "jerk + reserve + envelope": dict(limits={"use_acceleration": False, "jerk": tuple(10.0 * ACC), "torque_reserve": 0.2,
+                                              "torque_speed": {"knee": 0.5, "at_max_speed": 0.5}}),
 }
 DENSE_DT = 1e-4
 
@@ -74,5 +74,5 @@ def test_a_jerk_through_zero_inside_an_interval_does_not_stall_the_tightening():
     """Seed 2 of the benchmark's splines: the jerk of joint 2 falls through zero inside the interval
     before a knot; before the signs were recovered its bound stayed at 1.0024 through 8 re-solves."""
     path = SplineJointPath.from_waypoints(np.random.default_rng(2).uniform(-1.2, 1.2, (4, 6)))
-    res = plan(path, ROBOT, PlanSettings(torque=False, jerk_limit=tuple(10.0 * ACC)))
+    res = plan(path, ROBOT, PlanSettings(limits={"use_torque": False, "jerk": tuple(10.0 * ACC)}))
     assert res.ratios.max_ratio <= 1.001 and res.tighten_iterations <= 3

@@ -220,13 +220,16 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     theta = np.linspace(lo, hi, count)
     breaks = np.asarray(task_path.breaks, dtype=float)
     theta = np.unique(np.concatenate([theta, breaks[(breaks > lo) & (breaks < hi)]]))
+    given = q_start is not None
     if q_start is None:
         q_start = np.clip(np.zeros(robot.n), robot.limits.lower, robot.limits.upper)
     q_start = np.asarray(q_start, dtype=float)
     if q_start.shape != (robot.n,):
         raise PathError(f"start configuration has {q_start.size} values, the robot has {robot.n} joints")
     if robot.n > 6 or not has_closed_form(robot):
-        return _lift_ode(robot, task_path, q_start, original, reference_step, singularity_threshold)
+        if given:
+            return _lift_ode(robot, task_path, q_start, original, reference_step, singularity_threshold)
+        return _lift_ode_from_starts(robot, task_path, original, reference_step, singularity_threshold)
     p, dp, ddp, rot, w, dw = task_path.pose(theta)
     try:
         q = ik_batch(robot, p, rot, q_start)
@@ -234,7 +237,8 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
         idx = getattr(exc, "index", None)
         if idx is None:
             raise
-        raise UnreachableError(describe_point(task_path, theta[idx], p[idx]) + f": {exc}") from None
+        raise UnreachableError(describe_point(task_path, theta[idx], p[idx]) + f": {exc}", reason=exc.reason,
+                               position=p[idx]) from exc
     # continuity: unwrap every joint along the dense reference
     q = np.unwrap(q, axis=0)
     path = TaskJointPath(
@@ -311,6 +315,39 @@ class ResolvedRateJointPath(TaskJointPath):
         return tuple(o[0] for o in out) if scalar else out
 
 
+def start_candidates(robot: Robot) -> np.ndarray:
+    """(k, n) starting configurations for the first point's IK when none is given: zero (clipped to the
+    ranges), the middle of the ranges, then defaults.DLS_RANDOM_STARTS seeded uniform draws in the ranges
+    (an infinite range bounded at +-pi)."""
+    lo = np.where(np.isfinite(robot.limits.lower), robot.limits.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.limits.upper), robot.limits.upper, np.pi)
+    rng = np.random.default_rng(defaults.DLS_RANDOM_START_SEED)
+    return np.vstack([np.clip(np.zeros(robot.n), lo, hi), 0.5 * (lo + hi),
+                      rng.uniform(lo, hi, (defaults.DLS_RANDOM_STARTS, robot.n))])
+
+
+def _lift_ode_from_starts(robot: Robot, task_path, original, reference_step: float, threshold: float):
+    """:func:`_lift_ode` from each of :func:`start_candidates` in turn (each start is also the reference the
+    null-space motion stays near); the first that lifts the whole path, else the first start's error with
+    the number of starts tried."""
+    first = None
+    candidates = start_candidates(robot)
+    for k, q_start in enumerate(candidates):
+        try:
+            path = _lift_ode(robot, task_path, q_start, original, reference_step, threshold)
+        except UnreachableError as exc:
+            first = first or exc
+            continue
+        if k:
+            log.info("lift: first point reached from start candidate %d of %d (%s)", k + 1, len(candidates),
+                     "the middle of the joint ranges" if k == 1 else "a seeded random configuration")
+        return path
+    raise UnreachableError(f"{first} (tried {len(candidates)} starts: zero, the middle of the joint ranges and "
+                           f"{defaults.DLS_RANDOM_STARTS} seeded random configurations; give "
+                           "path.start_configuration near a configuration that reaches the first point)",
+                           index=first.index, reason=first.reason) from None
+
+
 def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
                     singularity_threshold: float) -> ResolvedRateJointPath:
     """The lift of an arm without closed-form IK: Phi(0) by DLS IK from q_start, then the ODE (RK4) on a
@@ -325,7 +362,8 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
     try:
         q0 = ik_dls(robot, p0[0], r0[0], q_start)
     except UnreachableError as exc:
-        raise UnreachableError(describe_point(task_path, theta[0], p0[0]) + f": {exc}", reason=exc.reason) from None
+        raise UnreachableError(describe_point(task_path, theta[0], p0[0]) + f": {exc}", reason=exc.reason,
+                               position=p0[0]) from exc
     winv = redundancy.joint_weights(robot)
     gain = defaults.REDUNDANCY_NULLSPACE_GAIN if robot.n > 6 else 0.0
     try:
@@ -333,7 +371,8 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
     except UnreachableError as exc:
         i = exc.index or 0
         p_i = task_path.evaluate(theta[i])[0]
-        raise UnreachableError(describe_point(task_path, theta[i], p_i) + f": {exc}", reason=exc.reason) from None
+        raise UnreachableError(describe_point(task_path, theta[i], p_i) + f": {exc}", reason=exc.reason,
+                               position=p_i) from exc
     p = task_path.evaluate(theta)[0]
     check = _check_path(robot, task_path, theta, q, p, singularity_threshold)
     closed = bool(getattr(task_path, "closed", False)) and bool(np.max(np.abs(q[-1] - q[0])) < CLOSURE_MATCH)
@@ -353,8 +392,7 @@ def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathChe
         raise UnreachableError(
             f"{describe_point(task_path, theta[k], p[k])}: joint {lim.names[j]} would be at {q[k, j]:.4f} rad, outside "
             f"its range [{lim.lower[j]:.4f}, {lim.upper[j]:.4f}] on this IK branch; move the path or give "
-            "path.start_configuration for another branch"
-        )
+            "path.start_configuration for another branch", reason="joint_range", position=p[k])
     margin = np.minimum(q - lim.lower, lim.upper - q)
     k, j = np.unravel_index(np.argmin(margin), margin.shape)
     sv = np.linalg.svd(jacobian(robot, q), compute_uv=False)[:, -1]
@@ -367,7 +405,7 @@ def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathChe
     if checked[kc] < threshold:
         raise UnreachableError(
             f"{describe_point(task_path, theta[kc], p[kc])}: the arm is (near) singular there (smallest Jacobian "
-            f"singular value {sv[kc]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity"
-        )
+            f"singular value {sv[kc]:.2e} < {threshold:g}); move the path away from the wrist/elbow/shoulder singularity",
+            reason="singular", position=p[kc])
     return PathCheck(float(sv[ks]), float(theta[ks]), float(margin[k, j]), float(theta[k]), lim.names[j],
                      tuple(float(x) for x in task_path.kinks), len(theta))

@@ -171,7 +171,8 @@ def find_passages(robot: Robot, task_path, theta: np.ndarray, q: np.ndarray, ik_
             sigma = float(np.linalg.svd(jacobian(robot, q_star), compute_uv=False)[-1])
             if sign_change or sigma < threshold:
                 raise UnreachableError(_flip_message(robot, task_path, theta, passage, q_star, sigma, threshold,
-                                                     sign_change, q_start), reason="singular")
+                                                     sign_change, q_start), reason="singular",
+                                       position=passage.position)
         out.append(passage)
     return out
 
@@ -252,12 +253,13 @@ def _corner_error(robot: Robot, task_path, theta, star: float, jump, q_start) ->
     """Raise the error for a corner at q5 = 0 whose sides need different q4/q6 splits (jump (6,) or None)."""
     size = ("" if jump is None else
             f" by {jump[3]:+.3f} rad (q6 by {jump[5]:+.3f} rad)")
+    position = task_path.evaluate(star)[0]
     raise UnreachableError(
-        f"{describe_point(task_path, star, task_path.evaluate(star)[0])}: "
+        f"{describe_point(task_path, star, position)}: "
         f"the path has a corner exactly at the wrist singularity (q5 = 0) where q4 would have to jump{size} with "
         f"the TCP at rest, which no path-following motion can do; "
         f"{suggest_tool_rotation(robot, task_path, theta, q_start)}, or move the corner off the singularity",
-        reason="singular")
+        reason="singular", position=position)
 
 
 def _pieces(star: float, h: float, cuts: np.ndarray) -> list[tuple[float, float]]:

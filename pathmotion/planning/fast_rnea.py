@@ -2,7 +2,7 @@
 
 Pinocchio has no batched call from Python: robot/dynamics.py loops over its C++ RNEA, and at a few
 microseconds of Python overhead per call the three calls per grid point of the reduced dynamics
-(planning/reduced.py) dominated the planner's time with torque limits (issue 14). This module runs the
+(planning/reduced.py) dominated the planner's time with torque limits. This module runs the
 same recursive Newton-Euler algorithm (Featherstone's, in each body's frame, as Pinocchio does)
 over all points in one compiled loop, and the three coefficient sets share one pass of kinematics.
 
@@ -135,6 +135,59 @@ def _transforms(kind, axis, rot, pos, q, R, P):
                 P[b, k] += (axis[b, 0] * rot[b, k, 0] + axis[b, 1] * rot[b, k, 1] + axis[b, 2] * rot[b, k, 2]) * q[b]
 
 
+@njit(cache=True, inline="always")  # inlined: no call per body
+def _body_force(b, mass, com, inertia, M, F):
+    """The spatial force F[b + 1] (force, moment about the body origin) body ``b`` needs for its motion M[b + 1]
+    (velocity and acceleration, body frame): f = I a + v x* (I v)."""
+    i = b + 1
+    # I (mass m, com c, inertia ic about c) times (lin, ang): h = m (lin + ang x c),
+    # n = ic ang + c x h; v x* (h, n) = (w x h, w x n + v x h)
+    m, c0, c1, c2 = mass[b], com[b, 0], com[b, 1], com[b, 2]
+    w0, w1, w2, v0, v1, v2 = M[i, 0], M[i, 1], M[i, 2], M[i, 3], M[i, 4], M[i, 5]
+    a0, a1, a2, l0, l1, l2 = M[i, 6], M[i, 7], M[i, 8], M[i, 9], M[i, 10], M[i, 11]
+    f0 = m * (l0 + a1 * c2 - a2 * c1)
+    f1 = m * (l1 + a2 * c0 - a0 * c2)
+    f2 = m * (l2 + a0 * c1 - a1 * c0)
+    n0 = inertia[b, 0, 0] * a0 + inertia[b, 0, 1] * a1 + inertia[b, 0, 2] * a2 + c1 * f2 - c2 * f1
+    n1 = inertia[b, 1, 0] * a0 + inertia[b, 1, 1] * a1 + inertia[b, 1, 2] * a2 + c2 * f0 - c0 * f2
+    n2 = inertia[b, 2, 0] * a0 + inertia[b, 2, 1] * a1 + inertia[b, 2, 2] * a2 + c0 * f1 - c1 * f0
+    h0 = m * (v0 + w1 * c2 - w2 * c1)
+    h1 = m * (v1 + w2 * c0 - w0 * c2)
+    h2 = m * (v2 + w0 * c1 - w1 * c0)
+    k0 = inertia[b, 0, 0] * w0 + inertia[b, 0, 1] * w1 + inertia[b, 0, 2] * w2 + c1 * h2 - c2 * h1
+    k1 = inertia[b, 1, 0] * w0 + inertia[b, 1, 1] * w1 + inertia[b, 1, 2] * w2 + c2 * h0 - c0 * h2
+    k2 = inertia[b, 2, 0] * w0 + inertia[b, 2, 1] * w1 + inertia[b, 2, 2] * w2 + c0 * h1 - c1 * h0
+    F[i, 0] = f0 + w1 * h2 - w2 * h1
+    F[i, 1] = f1 + w2 * h0 - w0 * h2
+    F[i, 2] = f2 + w0 * h1 - w1 * h0
+    F[i, 3] = n0 + w1 * k2 - w2 * k1 + v1 * h2 - v2 * h1
+    F[i, 4] = n1 + w2 * k0 - w0 * k2 + v2 * h0 - v0 * h2
+    F[i, 5] = n2 + w0 * k1 - w1 * k0 + v0 * h1 - v1 * h0
+
+
+@njit(cache=True, inline="always")  # inlined: no call per body
+def _backward_pass(parent, kind, axis, armature, qdd, R, P, F, tau, n):
+    """tau[n] (B,) from the bodies' forces F, tip to base: each joint takes its axis' component (plus the
+    armature's torque), each parent the child's force carried to its frame."""
+    nb = len(parent)
+    for b in range(nb - 1, -1, -1):
+        i, lam = b + 1, parent[b]
+        off = 3 if kind[b] == 0 else 0
+        tau[n, b] = axis[b, 0] * F[i, off] + axis[b, 1] * F[i, off + 1] + axis[b, 2] * F[i, off + 2] \
+            + armature[b] * qdd[n, b]
+        if lam > 0:  # the parent takes (R f, R n + p x R f)
+            p0, p1, p2 = P[b, 0], P[b, 1], P[b, 2]
+            t0 = R[b, 0, 0] * F[i, 0] + R[b, 0, 1] * F[i, 1] + R[b, 0, 2] * F[i, 2]
+            t1 = R[b, 1, 0] * F[i, 0] + R[b, 1, 1] * F[i, 1] + R[b, 1, 2] * F[i, 2]
+            t2 = R[b, 2, 0] * F[i, 0] + R[b, 2, 1] * F[i, 1] + R[b, 2, 2] * F[i, 2]
+            F[lam, 0] += t0
+            F[lam, 1] += t1
+            F[lam, 2] += t2
+            F[lam, 3] += R[b, 0, 0] * F[i, 3] + R[b, 0, 1] * F[i, 4] + R[b, 0, 2] * F[i, 5] + p1 * t2 - p2 * t1
+            F[lam, 4] += R[b, 1, 0] * F[i, 3] + R[b, 1, 1] * F[i, 4] + R[b, 1, 2] * F[i, 5] + p2 * t0 - p0 * t2
+            F[lam, 5] += R[b, 2, 0] * F[i, 3] + R[b, 2, 1] * F[i, 4] + R[b, 2, 2] * F[i, 5] + p0 * t1 - p1 * t0
+
+
 @njit(cache=True)
 def _body_pass(parent, kind, axis, mass, com, inertia, armature, qd, qdd, g0, g1, g2, R, P, M, F, tau, n):
     """One RNEA at one point: qd, qdd (B,) rows ``n`` of (N, B) arrays, base acceleration -g; R, P the joint
@@ -181,44 +234,8 @@ def _body_pass(parent, kind, axis, mass, com, inertia, armature, qd, qdd, g0, g1
             M[i, 11] += w0 * s1 - w1 * s0 + axis[b, 2] * qdd[n, b]
             v0, v1, v2 = v0 + s0, v1 + s1, v2 + s2
             M[i, 3], M[i, 4], M[i, 5] = v0, v1, v2
-        # f = I a + v x* (I v); I (mass m, com c, inertia ic about c) times (lin, ang): h = m (lin + ang x c),
-        # n = ic ang + c x h; v x* (h, n) = (w x h, w x n + v x h)
-        m, c0, c1, c2 = mass[b], com[b, 0], com[b, 1], com[b, 2]
-        a0, a1, a2, l0, l1, l2 = M[i, 6], M[i, 7], M[i, 8], M[i, 9], M[i, 10], M[i, 11]
-        f0 = m * (l0 + a1 * c2 - a2 * c1)
-        f1 = m * (l1 + a2 * c0 - a0 * c2)
-        f2 = m * (l2 + a0 * c1 - a1 * c0)
-        n0 = inertia[b, 0, 0] * a0 + inertia[b, 0, 1] * a1 + inertia[b, 0, 2] * a2 + c1 * f2 - c2 * f1
-        n1 = inertia[b, 1, 0] * a0 + inertia[b, 1, 1] * a1 + inertia[b, 1, 2] * a2 + c2 * f0 - c0 * f2
-        n2 = inertia[b, 2, 0] * a0 + inertia[b, 2, 1] * a1 + inertia[b, 2, 2] * a2 + c0 * f1 - c1 * f0
-        h0 = m * (v0 + w1 * c2 - w2 * c1)
-        h1 = m * (v1 + w2 * c0 - w0 * c2)
-        h2 = m * (v2 + w0 * c1 - w1 * c0)
-        k0 = inertia[b, 0, 0] * w0 + inertia[b, 0, 1] * w1 + inertia[b, 0, 2] * w2 + c1 * h2 - c2 * h1
-        k1 = inertia[b, 1, 0] * w0 + inertia[b, 1, 1] * w1 + inertia[b, 1, 2] * w2 + c2 * h0 - c0 * h2
-        k2 = inertia[b, 2, 0] * w0 + inertia[b, 2, 1] * w1 + inertia[b, 2, 2] * w2 + c0 * h1 - c1 * h0
-        F[i, 0] = f0 + w1 * h2 - w2 * h1
-        F[i, 1] = f1 + w2 * h0 - w0 * h2
-        F[i, 2] = f2 + w0 * h1 - w1 * h0
-        F[i, 3] = n0 + w1 * k2 - w2 * k1 + v1 * h2 - v2 * h1
-        F[i, 4] = n1 + w2 * k0 - w0 * k2 + v2 * h0 - v0 * h2
-        F[i, 5] = n2 + w0 * k1 - w1 * k0 + v0 * h1 - v1 * h0
-    for b in range(nb - 1, -1, -1):
-        i, lam = b + 1, parent[b]
-        off = 3 if kind[b] == 0 else 0
-        tau[n, b] = axis[b, 0] * F[i, off] + axis[b, 1] * F[i, off + 1] + axis[b, 2] * F[i, off + 2] \
-            + armature[b] * qdd[n, b]
-        if lam > 0:  # the parent takes (R f, R n + p x R f)
-            p0, p1, p2 = P[b, 0], P[b, 1], P[b, 2]
-            t0 = R[b, 0, 0] * F[i, 0] + R[b, 0, 1] * F[i, 1] + R[b, 0, 2] * F[i, 2]
-            t1 = R[b, 1, 0] * F[i, 0] + R[b, 1, 1] * F[i, 1] + R[b, 1, 2] * F[i, 2]
-            t2 = R[b, 2, 0] * F[i, 0] + R[b, 2, 1] * F[i, 1] + R[b, 2, 2] * F[i, 2]
-            F[lam, 0] += t0
-            F[lam, 1] += t1
-            F[lam, 2] += t2
-            F[lam, 3] += R[b, 0, 0] * F[i, 3] + R[b, 0, 1] * F[i, 4] + R[b, 0, 2] * F[i, 5] + p1 * t2 - p2 * t1
-            F[lam, 4] += R[b, 1, 0] * F[i, 3] + R[b, 1, 1] * F[i, 4] + R[b, 1, 2] * F[i, 5] + p2 * t0 - p0 * t2
-            F[lam, 5] += R[b, 2, 0] * F[i, 3] + R[b, 2, 1] * F[i, 4] + R[b, 2, 2] * F[i, 5] + p0 * t1 - p1 * t0
+        _body_force(b, mass, com, inertia, M, F)
+    _backward_pass(parent, kind, axis, armature, qdd, R, P, F, tau, n)
 
 
 @njit(cache=True)

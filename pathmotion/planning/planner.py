@@ -1,6 +1,6 @@
 """The time-optimal planner: settings, result and :func:`plan`.
 
-Flow: grid (adaptive, refined until the duration's estimated error is within ``tolerance``, grid.py;
+Flow: grid (adaptive, refined until the duration's estimated error is within ``duration_tolerance``, grid.py;
 or fixed with ``grid_points``) -> path derivatives on both sides of each connection -> limit rows from every active limit object
 (limits/, limit_rows.py) -> reachability analysis
 (topp.py) with the boundary conditions (boundary.py) and connection mode (segments.py) ->
@@ -11,9 +11,11 @@ re-solve (bounded) -> baselines.
 
 from __future__ import annotations
 
+
 import logging
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Union
 
 import numpy as np
@@ -28,7 +30,7 @@ from .certify import CertifyContext, certify
 from .grid import Grid, make_grid, refine
 from .boundary import X_CAP_FRACTION, Boundary, at_rest
 from .limit_rows import LimitRows, limit_rows
-from .limits import REGISTRY, EffectiveLimits, LimitChoice, PathPoints, effective_limits_for, tcp_gain
+from .limits import EffectiveLimits, LimitChoice, LimitChoices, PathPoints, effective_limits_for, tcp_gain
 from .profile import Profile
 from .segments import solve_chain
 from .third_order import solve_third_order
@@ -46,18 +48,17 @@ CLOSURE_KINK_TOLERANCE = 1e-6
 TIGHTEN_TARGET = 0.25
 
 
-@dataclass(frozen=True, init=False)
+@dataclass(frozen=True)
 class PlanSettings:
-    """What to plan and under which limits.
+    """What to plan and under which limits; a frozen value (change it with ``dataclasses.replace``).
 
     grid_points: None (default): an adaptive grid, refined until the duration's estimated error is
-    within ``tolerance`` (relative; planning/grid.py); a number: a fixed grid of that many uniform
+    within ``duration_tolerance`` (relative; planning/grid.py); a number: a fixed grid of that many uniform
     points (segment connections, spline knots and grading towards the ends are added).
-    limits: {name: LimitChoice} for the registered limits (planning/limits/); each limit's keywords
-    may be given instead (its ``settings_keys``): velocity / acceleration / torque: limit on or off;
-    *_scale multiplies the robot's limit (acceleration is off anyway when the robot has no
-    acceleration limits); tcp_speed_limit: TCP speed limit [m/s] or None. They read back as
-    attributes too (``settings.torque_scale``).
+    limits: the limits' choices (planning/limits/), as LimitChoices, {limit name: LimitChoice} or the keys of
+    a scenario's ``[limits]`` table, e.g. ``{"use_torque": False, "velocity_scale": 0.5, "jerk": [...],
+    "use_jerk": True}``; stored as LimitChoices (every limit, defaults filled in): ``settings.limits["torque"]
+    .scale``.
     start, end: "zero", "max" (boundary-level velocity) or theta_dot [unit theta / s]; None = "zero".
     periodic: steady-state cycle on a closed path (start/end must then be None).
     connections: "chain" | "zero" | "max" (see segments.py).
@@ -66,97 +67,59 @@ class PlanSettings:
     planning/certify.py), "dense" (the 0.1 ms time resample) or "off"; True/False mean
     "certified"/"off". The verify-and-tighten loop lowers the limits locally where the bound exceeds
     1 + limit_tolerance and re-solves. baselines: compute the baselines (off by default).
+    Strings are turned into their enums and everything is checked on construction (ScenarioError).
     """
 
-    grid_points: int | None
-    tolerance: float
-    limits: dict
-    start: Union[BoundaryMode, float, None]
-    end: Union[BoundaryMode, float, None]
-    periodic: bool
-    connections: Connections
-    limit_tolerance: float
-    verify: VerifyMode
-    verify_sample_time: float
-    max_tighten_iterations: int
-    baselines: bool
-    fitted_margin: float
+    grid_points: int | None = None
+    duration_tolerance: float = defaults.PLAN_TOLERANCE
+    limits: LimitChoices = field(default_factory=LimitChoices)
+    start: Union[BoundaryMode, float, None] = None
+    end: Union[BoundaryMode, float, None] = None
+    periodic: bool = False
+    connections: Connections = Connections.CHAIN
+    limit_tolerance: float = defaults.LIMIT_TOLERANCE
+    verify: VerifyMode = VerifyMode.CERTIFIED
+    verify_sample_time: float = defaults.VERIFY_SAMPLE_TIME
+    max_tighten_iterations: int = defaults.PLAN_MAX_TIGHTEN_ITERATIONS
+    baselines: bool = False
+    fitted_margin: float = defaults.FITTED_PROFILE_MARGIN
 
-    def __init__(self, grid_points: int | None = None, tolerance: float = defaults.PLAN_TOLERANCE,
-                 limits: dict | None = None,
-                 start: Union[str, float, None] = None, end: Union[str, float, None] = None,
-                 periodic: bool = False, connections: str = Connections.CHAIN,
-                 limit_tolerance: float = defaults.LIMIT_TOLERANCE, verify: Union[str, bool] = VerifyMode.CERTIFIED,
-                 verify_sample_time: float = defaults.VERIFY_SAMPLE_TIME,
-                 max_tighten_iterations: int = defaults.PLAN_MAX_TIGHTEN_ITERATIONS, baselines: bool = False,
-                 fitted_margin: float = defaults.FITTED_PROFILE_MARGIN, **limit_keywords):
-        choices = dict(limits or {})
-        for cls in REGISTRY:
-            given = {field: limit_keywords.pop(key) for key, field in cls.settings_keys.items() if key in limit_keywords}
-            if given:
-                base = choices.get(cls.name, cls.default_choice())
-                if "value" in given and "on" not in cls.settings_keys.values():
-                    given["on"] = given["value"] is not None
-                choices[cls.name] = replace(base, **given)
-        if limit_keywords:
-            keys = sorted(k for cls in REGISTRY for k in cls.settings_keys)
-            raise ScenarioError(f"PlanSettings: unknown keyword(s) {sorted(limit_keywords)}; limit keywords are {keys}")
-        for cls in REGISTRY:
-            if cls.name in choices:
-                choices[cls.name] = cls.check_choice(choices[cls.name])
-        values = dict(grid_points=grid_points, tolerance=tolerance, limits=choices, start=start, end=end, periodic=periodic,
-                      connections=connections, limit_tolerance=limit_tolerance, verify=verify,
-                      verify_sample_time=verify_sample_time, max_tighten_iterations=max_tighten_iterations,
-                      baselines=baselines, fitted_margin=fitted_margin)
-        for key, value in values.items():
-            object.__setattr__(self, key, value)
-        self._validate()
+    def __post_init__(self):
+        """Normalize the given forms (limits, mode strings) to their types, then check every field."""
+        set_ = partial(object.__setattr__, self)  # a frozen dataclass normalizes its own fields here only
+        set_("limits", LimitChoices.of(self.limits))
+        for name in ("start", "end"):
+            v = getattr(self, name)
+            if isinstance(v, str):
+                set_(name, parse_mode(BoundaryMode, v, f"planner {name} ('zero', 'max' or a theta_dot >= 0)"))
+            elif v is not None and (isinstance(v, bool) or not np.isfinite(v) or v < 0):
+                raise ScenarioError(f"planner {name} must be 'zero', 'max' or a theta_dot >= 0, got {v!r}")
+        set_("connections", parse_mode(Connections, self.connections, "connections"))
+        verify = self.verify
+        if isinstance(verify, (bool, np.bool_)):
+            verify = VerifyMode.CERTIFIED if verify else VerifyMode.OFF
+        set_("verify", parse_mode(VerifyMode, verify, "plan.verify"))
+        self._check()
 
-    def __getattr__(self, key: str):
-        """A limit's settings keyword read back (``settings.torque_scale``, ``settings.tcp_speed_limit``)."""
-        if key != "limits":
-            for cls in REGISTRY:
-                if key in cls.settings_keys:
-                    return getattr(self.choice(cls), cls.settings_keys[key])
-        raise AttributeError(f"PlanSettings has no attribute {key!r}")
-
-    def __hash__(self):
-        return hash((self.grid_points, self.tolerance, tuple(sorted(self.limits.items())), self.start, self.end, self.periodic,
-                     self.connections, self.limit_tolerance, self.verify, self.verify_sample_time,
-                     self.max_tighten_iterations, self.baselines, self.fitted_margin))
-
-    def choice(self, cls) -> LimitChoice:
-        """The choice for the limit class ``cls`` (its default when not given)."""
-        return self.limits.get(cls.name, cls.default_choice())
-
-    def _validate(self):
+    def _check(self):
         if self.grid_points is not None and (isinstance(self.grid_points, bool) or
                                              int(self.grid_points) != self.grid_points or self.grid_points < 3):
             raise ScenarioError(f"planner grid_points must be an integer >= 3 (or None: adaptive grid), "
                                 f"got {self.grid_points}")
-        if isinstance(self.tolerance, bool) or not (0 < self.tolerance < defaults.MAX_PLAN_TOLERANCE):
-            raise ScenarioError(f"plan.tolerance (relative error of the duration on the adaptive grid) must be in "
-                                f"(0, {defaults.MAX_PLAN_TOLERANCE}), got {self.tolerance!r}")
-        for name in ("start", "end"):
-            v = getattr(self, name)
-            if v is None:
-                continue
-            if isinstance(v, str):
-                object.__setattr__(self, name, parse_mode(BoundaryMode, v, f"planner {name} ('zero', 'max' or a "
-                                                                            "theta_dot >= 0)"))
-            elif isinstance(v, bool) or not np.isfinite(v) or v < 0:
-                raise ScenarioError(f"planner {name} must be 'zero', 'max' or a theta_dot >= 0, got {v!r}")
+        tol = self.duration_tolerance
+        if isinstance(tol, bool) or not (0 < tol < defaults.MAX_PLAN_TOLERANCE):
+            raise ScenarioError(f"plan.duration_tolerance (relative error of the duration on the adaptive grid) must "
+                                f"be in (0, {defaults.MAX_PLAN_TOLERANCE}), got {tol!r}")
         if self.periodic and (self.start is not None or self.end is not None):
             raise ScenarioError("periodic planning fixes both ends (equal theta_dot); leave start and end unset")
-        object.__setattr__(self, "connections", parse_mode(Connections, self.connections, "connections"))
-        verify = self.verify
-        if isinstance(verify, (bool, np.bool_)):
-            verify = VerifyMode.CERTIFIED if verify else VerifyMode.OFF
-        object.__setattr__(self, "verify", parse_mode(VerifyMode, verify, "plan.verify"))
         if not self.limit_tolerance >= 0:
             raise ScenarioError(f"limit_tolerance must be >= 0, got {self.limit_tolerance}")
         if not (0 <= self.fitted_margin < 1):
             raise ScenarioError(f"fitted_margin must be in [0, 1), got {self.fitted_margin}")
+
+    def choice(self, cls) -> LimitChoice:
+        """The choice for the limit class ``cls``."""
+        return self.limits[cls.name]
 
     @property
     def start_condition(self) -> Boundary:
@@ -309,6 +272,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         raise ScenarioError(f"path has {path.n} joints, robot {robot.name} has {robot.n}")
     if settings.periodic and not path.closed:
         raise ScenarioError(_not_closed_message(path))
+    _check_dwells(path, settings)
     limits = effective_limits(robot, settings)
     if limits.third_order and settings.connections == Connections.MAX:  # refused before any solve
         raise ScenarioError("jerk and torque-rate limits need a continuous profile: connections = 'max' makes "
@@ -324,7 +288,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
             last[:] = [out[2]]
             return out
 
-        refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.tolerance)
+        refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.duration_tolerance)
         solved, estimate = refined.solved, refined.error_estimate
     else:
         points = settings.grid_points or defaults.THIRD_ORDER_GRID_POINTS
@@ -348,8 +312,24 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
                                  tcp_gain(solved.samp.left), path, robot, limits, settings)
         log.debug("baselines: fitted %.6g s, constant speed %s", base.fitted.duration,
                   f"{base.constant_speed.duration:.6g} s" if base.constant_speed else base.constant_speed_error)
-    return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
+    profile = sol.profile
+    if path.dwells:  # the waits at rest (dwells) join the motion's timing
+        profile = profile.with_holds(path.dwells)
+        traj = replace(traj, profile=profile)
+        log.info("dwells: %s s at rest, cycle %.6g s", " + ".join(f"{w:g}" for _, w in path.dwells), profile.duration)
+    return PlanResult(profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
                       iterations, sol.jump_intervals, settings, estimate)
+
+
+def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
+    """A dwell at the path's start or end needs the motion at rest there (plan.start / plan.end)."""
+    for theta, _ in path.dwells:
+        for end, key, condition in ((path.domain[0], "start", settings.start_condition),
+                                    (path.domain[1], "end", settings.end_condition)):
+            if theta == end and not at_rest(condition):
+                raise ScenarioError(f"a dwell at the path's {key} (theta = {theta:.6g} m) waits at rest, but "
+                                    f"plan.{key} = {condition!r} moves through it; set plan.{key} = 'zero' or "
+                                    "remove the dwell")
 
 
 def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None = None, scale: dict | None = None,
@@ -357,6 +337,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     """Solve on ``grid`` (path data sampled unless ``samp`` is given, reusing ``donor``'s at shared points;
     unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
     theta = grid.theta
+    _check_grid_memory(len(theta), robot.n, settings, len(grid.breaks) + 1)
     if samp is None:
         sides = _with_knots(path, theta, grid.breaks) if limits.third_order else grid.breaks
         samp = _sample(path, robot, theta, sides, donor, third=limits.third_order)
@@ -373,6 +354,22 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     _check_bounded(theta, sol.x)
     log.debug("solve on %d grid points: duration %.9g s", len(theta), sol.profile.duration)
     return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol, estimate)
+
+
+def _check_grid_memory(points: int, joints: int, settings, segments: int) -> None:
+    """ScenarioError before a grid of ``points`` is sampled when its memory estimate (PLAN_BYTES_PER_POINT_JOINT)
+    exceeds what the run may use; the message gives the largest grid (fixed) or path (adaptive) that fits."""
+    from ..io.memory import check_memory
+
+    each = defaults.PLAN_BYTES_PER_POINT_JOINT * joints
+    if settings.grid_points is not None:
+        check_memory(points, each, f"plan.grid_points = {settings.grid_points:,} (a grid of {points:,} points)",
+                     lambda largest: f"give plan.grid_points <= {largest:,}")
+        return
+    per_segment = points / max(segments, 1)
+    check_memory(points, each, f"the adaptive planner grid of {points:,} points for {segments:,} segments",
+                 lambda largest: f"the largest grid that fits has {largest:,} points: plan the path in parts of at "
+                                 f"most {int(largest / per_segment):,} segments, or raise plan.tolerance")
 
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):

@@ -1,4 +1,4 @@
-"""The corner atlas' section of the HTML report (``pathmotion corners --out DIR``, issue 17): its
+"""The corner atlas' section of the HTML report (``pathmotion corners --out DIR``): its
 table (corners.csv), T(delta) per turn angle and the gain over the stop against the angle, as
 interactive figures. Read from the folder's files only."""
 
@@ -9,6 +9,7 @@ from pathlib import Path
 
 import plotly.graph_objects as go
 
+from .blocks import Section, cell, figure_html, section_title
 from .discovery import ResultFolder
 from .tables import read_rows
 
@@ -71,8 +72,6 @@ def gain_figure(rows: list[dict]) -> go.Figure:
 
 
 def _table(rows: list[dict]) -> str:
-    from .html import _cell
-
     head = "".join(f"<th>{escape(label)}</th>" for _, label, _ in TABLE)
     body = []
     for r in rows:
@@ -82,32 +81,30 @@ def _table(rows: list[dict]) -> str:
             if key in ("status", "error") and v and v != "ok":
                 cells.append(f'<td class="bad error">{escape(str(v))}</td>')
             else:
-                cells.append(_cell(v, scale))
+                cells.append(cell(v, scale))
         body.append(f"<tr>{''.join(cells)}</tr>")
     return (f'<div class="scroll"><table class="rows"><caption>corners.csv</caption><tr>{head}</tr>'
             f"{''.join(body)}</table></div>")
 
 
-def atlas_section(result: ResultFolder, root: Path, anchor: str):
+def atlas_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """The atlas' Section: an explanation, the T(delta) and gain-vs-angle figures, the table."""
-    from .html import Section, _figure_html, _title
-
     _, rows = read_rows(result.path / "corners.csv")
     done = [r for r in rows if not r.get("error")]
     bad = len(rows) - sum(1 for r in rows if r.get("status") == "ok")
-    parts = [f"<p>The corner atlas (issue 17): two 0.2 m lines turning by each angle, rest to rest, every way "
+    parts = [f"<p>The corner atlas: two 0.2 m lines turning by each angle, rest to rest, every way "
              f"to take the corner within the tolerance against the free-shape optimum. {len(rows)} rows, "
              f"{bad} with an error, an unconverged optimum or a failed closed-loop check (status column).</p>"]
     figures = 0
     if done:
-        parts += [_figure_html(tdelta_figure(done), f"{anchor}-tdelta"), _figure_html(gain_figure(done), f"{anchor}-gain")]
+        parts += [figure_html(tdelta_figure(done), f"{anchor}-tdelta"), figure_html(gain_figure(done), f"{anchor}-gain")]
         figures = 2
     parts.append(_table(rows))
     best = max(done, key=lambda r: r.get("gain_vs_stop") or 0.0, default=None)
     summary = {"points": f"{len(rows)} rows, {bad} not ok"}
     if best is not None:
         summary["planned"] = best.get("optimal_s")
-    return Section(anchor, _title("Corner atlas", result, root, None), "".join(parts), figures, summary)
+    return Section(anchor, section_title("Corner atlas", result, root, None), "".join(parts), figures, summary)
 
 
 __all__ = ["atlas_section", "gain_figure", "tdelta_figure"]

@@ -12,7 +12,7 @@ stick figure come from the data files the writer (:mod:`pathmotion.api`) left in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 from typing import Sequence
@@ -25,11 +25,10 @@ from ..io import schema
 from ..io.atomic import write_text
 from ..io.exports import arm_points_from
 from . import interactive as fig
+from .atlas import atlas_section
+from .blocks import Section, cell, figure_html, fmt, section_title
 from .discovery import ResultFolder, discover
-from .tables import joint_columns, read_columns, read_json, read_rows
-
-PLOTLY_CONFIG = {"displaylogo": False, "responsive": True,
-                 "toImageButtonOptions": {"format": "png", "scale": 2}}
+from .tables import RANGE_LABEL, in_range, joint_columns, read_columns, read_json, read_rows
 
 #: Key figures of summary.json: key -> (label, unit, scale applied to the value).
 PLAN_KEYS = schema.display(schema.PLAN)
@@ -41,49 +40,14 @@ DEVIATION_KEYS = schema.keys((schema.MAX_SHARP_DEVIATION, schema.PATH_ACCURACY))
 SWEEP_COLUMNS = schema.display(schema.SWEEP_TABLE, short=True)
 
 
-@dataclass(frozen=True)
-class Section:
-    """One section of the page: its anchor, title, HTML body, the number of Plotly figures in it and
-    its row of the summary table ({column: HTML cell})."""
-
-    anchor: str
-    title: str
-    body: str
-    figures: int
-    summary: dict = field(default_factory=dict)
-
-
 # ---------------------------------------------------------------------------------- formatting
-def _fmt(value, scale: float = 1.0) -> str:
-    if value is None:
-        return "–"
-    if isinstance(value, bool):
-        return "yes" if value else "NO"
-    if isinstance(value, (int, np.integer)) and scale == 1.0:
-        return str(value)
-    if isinstance(value, (int, float, np.floating)):
-        v = float(value) * scale
-        return "–" if not math.isfinite(v) else f"{v:.4g}"
-    if isinstance(value, (list, tuple)):
-        return escape(", ".join(str(v) for v in value)) if value else "none"
-    return escape(str(value))
-
-
-def _cell(value, scale: float = 1.0) -> str:
-    """A table cell; booleans coloured (ok green, NO red), errors red."""
-    text = _fmt(value, scale)
-    if isinstance(value, bool):
-        return f'<td class="{"ok" if value else "bad"}">{text}</td>'
-    return f"<td>{text}</td>"
-
-
 def _key_table(summary: dict, keys: dict, caption: str) -> str:
     rows = []
     for key, (label, unit, scale) in keys.items():
         if key in summary:
             unit_text = f" [{unit}]" if unit else ""
             rows.append(f'<tr><th title="{escape(key)}">{escape(label)}{unit_text}</th>'
-                        f"{_cell(summary[key], scale)}</tr>")
+                        f"{cell(summary[key], scale)}</tr>")
     return f'<table class="keys"><caption>{escape(caption)}</caption>{"".join(rows)}</table>'
 
 
@@ -91,15 +55,8 @@ def _other_values(summary: dict, shown: Sequence[str]) -> str:
     rest = {k: v for k, v in summary.items() if k not in shown and not isinstance(v, dict)}
     if not rest:
         return ""
-    rows = "".join(f"<tr><th>{escape(k)}</th>{_cell(v)}</tr>" for k, v in sorted(rest.items()))
+    rows = "".join(f"<tr><th>{escape(k)}</th>{cell(v)}</tr>" for k, v in sorted(rest.items()))
     return f'<details><summary>all other values of summary.json</summary><table class="keys">{rows}</table></details>'
-
-
-def _figure_html(figure, div_id: str) -> str:
-    import plotly.io as pio
-
-    return ('<div class="figure">' + pio.to_html(figure, include_plotlyjs=False, full_html=False, div_id=div_id,
-                                                 config=PLOTLY_CONFIG, auto_play=False) + "</div>")
 
 
 def _note(text: str) -> str:
@@ -171,7 +128,7 @@ def _phase_plane(plan_dir: Path, plan_summary: dict, anchor: str) -> str:
                  "second_order": plan_summary.get(schema.SECOND_ORDER_DURATION.key),
                  "fitted": plan_summary.get(schema.FITTED_DURATION.key),
                  "constant_speed": plan_summary.get(schema.BASELINE_DURATION.key)}
-    return _figure_html(fig.phase_plane_figure(cols, durations, plan_summary.get("path_kind", "task"), plan_summary),
+    return figure_html(fig.phase_plane_figure(cols, durations, plan_summary.get("path_kind", "task"), plan_summary),
                         f"{anchor}-phase")
 
 
@@ -184,8 +141,7 @@ def _limit_panels(traj: dict[str, np.ndarray], limits: dict) -> list[tuple[str, 
     if q.shape[1] != n:
         raise PathmotionError(f"report: trajectory.csv has {q.shape[1]} joints but {LIMITS_FILE} next to it has {n}; "
                               "re-run the plan")
-    panels = [("joint position in its range: (q − centre) / half range", (q - 0.5 * (lim["upper"] + lim["lower"]))
-               / (0.5 * (lim["upper"] - lim["lower"])), None),
+    panels = [(RANGE_LABEL, in_range(q, lim["lower"], lim["upper"]), None),
               ("joint velocity / limit", qd / lim["velocity"], scale.get("velocity"))]
     if qdd is not None and lim["acceleration"] is not None:
         panels.append(("joint acceleration / limit", qdd / lim["acceleration"], scale.get("acceleration")))
@@ -196,7 +152,7 @@ def _limit_panels(traj: dict[str, np.ndarray], limits: dict) -> list[tuple[str, 
 
 def _joint_limits(traj: dict[str, np.ndarray], limits: dict, anchor: str) -> str:
     title = "Planned joint motion against the limits (dashed: robot limits; dotted: scaled limits used by the plan)"
-    return _figure_html(fig.limit_ratio_figure(traj["t"], _limit_panels(traj, limits), limits["joint_names"], title),
+    return figure_html(fig.limit_ratio_figure(traj["t"], _limit_panels(traj, limits), limits["joint_names"], title),
                         f"{anchor}-limits")
 
 
@@ -207,14 +163,12 @@ def _arm(data: FolderData, reference: np.ndarray | None, anchor: str, what: str)
     speed = duration / max(len(t) - 1, 1) / frame_time
     title = (f"The arm playing the {what} (stick figure through the joint origins; "
              f"playback at {speed:.2g}× real time)")
-    return _figure_html(fig.arm_animation_figure(t, points, reference, title, frame_time), f"{anchor}-arm")
+    return figure_html(fig.arm_animation_figure(t, points, reference, title, frame_time), f"{anchor}-arm")
 
 
-#: Unit of each enforced limit in limits.json (SI), by limit name.
-LIMIT_UNITS = {"velocity": "rad/s", "acceleration": "rad/s²", "torque": "N m", "tcp_speed": "m/s",
-               "torque_speed": "knee / at top speed", "jerk": "rad/s³", "torque_rate": "N m/s"}
-#: Row labels of the enforced-limits table where the limit's name with spaces would not do.
-LIMIT_ROW_LABELS = {"tcp_speed": "TCP speed", "torque_speed": "torque-speed envelope"}
+#: Unit of each enforced limit in limits.json (SI) and its row label, by limit name (io/schema.py's LIMITS).
+LIMIT_UNITS = {name: row.unit for name, row in schema.LIMITS.items()}
+LIMIT_ROW_LABELS = {name: row.label for name, row in schema.LIMITS.items()}
 
 
 def _enforced_table(limits: dict | None, summary: dict) -> str:
@@ -233,17 +187,17 @@ def _enforced_table(limits: dict | None, summary: dict) -> str:
         if isinstance(value, dict):  # the envelope: knee / at_max_speed per joint (or one for all)
             knee, low = (list(value.get(k) or []) for k in ("knee", "at_max_speed"))
             knee, low = ((v * width if len(v) == 1 else v) for v in (knee, low))
-            cells = "".join(f"<td>{_fmt(a)} / {_fmt(b)}</td>" for a, b in zip(knee, low))
+            cells = "".join(f"<td>{fmt(a)} / {fmt(b)}</td>" for a, b in zip(knee, low))
         elif isinstance(value, list):
-            cells = "".join(_cell(v) for v in value)
+            cells = "".join(cell(v) for v in value)
         else:
-            cells = f'<td colspan="{width}">{_fmt(value)}</td>'
+            cells = f'<td colspan="{width}">{fmt(value)}</td>'
         label = LIMIT_ROW_LABELS.get(name, name.replace("_", " "))
         if name == "torque" and summary.get(schema.TORQUE_RESERVE.key):
             label += f" (with {100 * summary[schema.TORQUE_RESERVE.key]:.3g} % reserve)"
-        ratio = summary.get(f"max_{name}_ratio")
+        ratio = summary.get(schema.LIMITS[name].ratio.key if name in schema.LIMITS else f"max_{name}_ratio")
         rows.append(f'<tr><th title="{escape(name)}">{escape(label)} [{escape(LIMIT_UNITS.get(name, "-"))}]</th>'
-                    f"{cells}{_cell(ratio)}</tr>")
+                    f"{cells}{cell(ratio)}</tr>")
     return ('<table class="limits"><caption>Limits the plan enforced (limits.json) and the largest ratio of each '
             f'(summary.json)</caption><tr><th>limit</th>{head}<th>largest ratio</th></tr>{"".join(rows)}</table>')
 
@@ -262,15 +216,6 @@ def _plan_summary_row(summary: dict) -> dict:
             "baseline": summary.get(schema.BASELINE_DURATION.key)}
 
 
-def _title(kind: str, result: ResultFolder, root: Path, scenario) -> str:
-    """'Plan: corner_g2 (out/g2)': the scenario's name and the folder (the root by its own name, not '.')."""
-    label = result.label(root)
-    folder = root.resolve().name if label == "." else label
-    if scenario and str(scenario) != folder:
-        return f"{kind}: {scenario} ({folder})"
-    return f"{kind}: {folder}"
-
-
 def plan_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     """Key figures, phase plane, joint limits, the planned TCP path and the arm of a plan folder."""
     folder = result.path
@@ -287,13 +232,46 @@ def plan_section(result: ResultFolder, root: Path, anchor: str) -> Section:
         tcp_cols = read_columns(folder / TCP_FILE, ("tcp_x", "tcp_y", "tcp_z"))
         tcp = np.column_stack([tcp_cols[f"tcp_{a}"] for a in "xyz"])
         parts += [_joint_limits(traj, data.limits, anchor),
-                  _figure_html(fig.task_space_figure(tcp, original=data.original,
+                  figure_html(fig.task_space_figure(tcp, original=data.original,
                                                      title="Planned TCP path (forward kinematics of the plan)"),
                                f"{anchor}-task"),
                   _arm(data, tcp, anchor, "planned motion")]
         count += 3
+    moves, figures = _moves(folder, anchor)
+    parts.append(moves)
+    count += figures
     row = _plan_summary_row(summary)
-    return Section(anchor, _title("Plan", result, root, summary.get("scenario")), "".join(parts), count, row)
+    return Section(anchor, section_title("Plan", result, root, summary.get("scenario")), "".join(parts), count, row)
+
+
+#: moves.csv columns shown, with (label, scale to the shown unit).
+MOVE_COLUMNS = {"move": ("#", 1.0), "line": ("RAPID line", 1.0), "target": ("target", 1.0),
+                "instruction": ("move", 1.0), "planned_time_s": ("planned [s]", 1.0), "dwell_s": ("dwell [s]", 1.0),
+                "programmed_time_s": ("programmed-speed estimate [s]", 1.0),
+                "mean_tcp_speed_m_s": ("mean TCP speed [m/s]", 1.0), "peak_tcp_speed_m_s": ("peak TCP speed [m/s]", 1.0),
+                "binding_limit": ("binding limit", 1.0), "binding_joint": ("joint", 1.0),
+                "binding_ratio": ("use of the limit [-]", 1.0), "blend_tolerance_m": ("blend tolerance [mm]", 1e3)}
+#: Sorts a table.sortable by the clicked column (numbers as numbers, empty cells last).
+SORT_JS = """document.addEventListener('click',function(e){var th=e.target.closest('table.sortable th');if(!th)return;
+var tr=th.parentNode,table=tr.closest('table'),i=Array.prototype.indexOf.call(tr.children,th),
+rows=Array.prototype.slice.call(table.querySelectorAll('tr')).slice(1),up=th.dataset.dir!=='up';
+th.dataset.dir=up?'up':'down';function v(r){var t=r.children[i].textContent.trim(),n=parseFloat(t);
+return t===''||t==='–'?null:(isNaN(n)?t:n);}rows.sort(function(a,b){var x=v(a),y=v(b);if(x===null)return 1;
+if(y===null)return -1;return (x<y?-1:x>y?1:0)*(up?1:-1);});rows.forEach(function(r){r.parentNode.appendChild(r);});});"""
+
+
+def _moves(folder: Path, anchor: str) -> tuple[str, int]:
+    """(HTML, figure count) of moves.csv: the table of program moves (sortable by any column) and the bar
+    chart of the cycle by move; ("", 0) without moves.csv."""
+    if not (folder / schema.MOVES_FILE).is_file():
+        return "", 0
+    names, rows = read_rows(folder / schema.MOVES_FILE)
+    cols = [c for c in MOVE_COLUMNS if c in names]
+    head = "".join(f"<th>{escape(MOVE_COLUMNS[c][0])}</th>" for c in cols)
+    body = "".join("<tr>" + "".join(cell(r.get(c), MOVE_COLUMNS[c][1]) for c in cols) + "</tr>" for r in rows)
+    table = (f'<div class="scroll"><table class="rows sortable"><caption>Program moves ({schema.MOVES_FILE}; click '
+             f"a column to sort)</caption><tr>{head}</tr>{body}</table></div>")
+    return table + figure_html(fig.moves_figure(rows), f"{anchor}-moves"), 1
 
 
 def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section:
@@ -330,12 +308,12 @@ def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section
     deviations = {"distance from the planned (blended) path": sim["path_deviation"]}
     if "sharp_deviation" in sim:
         deviations["distance from the original sharp path"] = sim["sharp_deviation"]
-    parts.append(_figure_html(fig.task_space_figure(desired, tcp, data.original, t, deviations,
+    parts.append(figure_html(fig.task_space_figure(desired, tcp, data.original, t, deviations,
                                                     title="Task space: TCP path and its deviation"), f"{anchor}-task"))
     q = joint_columns(sim, "q")
     failure = summary.get("failure") if isinstance(summary.get("failure"), dict) else None
     names = data.joint_names(q.shape[1])
-    parts.append(_figure_html(fig.tracking_figure(t, q - joint_columns(sim, "q_desired"), names, failure),
+    parts.append(figure_html(fig.tracking_figure(t, q - joint_columns(sim, "q_desired"), names, failure),
                               f"{anchor}-tracking"))
     count += 2
     if data.arm is not None:
@@ -344,7 +322,7 @@ def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section
     row = _plan_summary_row(plan_summary)
     row.update(simulated=summary.get(schema.CYCLE_TIME.key), path_dev=summary.get(schema.PATH_ACCURACY.key),
                sharp_dev=summary.get(schema.MAX_SHARP_DEVIATION.key), tracking=summary.get(schema.TRACKING_OK.key))
-    return Section(anchor, _title("Simulation", result, root, plan_summary.get("scenario")), "".join(parts), count,
+    return Section(anchor, section_title("Simulation", result, root, plan_summary.get("scenario")), "".join(parts), count,
                    row)
 
 
@@ -403,7 +381,7 @@ def _rows_table(rows: list[dict], first: Sequence[str], highlight: set[int], cap
             if c == "error" and r.get(c):
                 cells.append(f'<td class="bad error">{escape(str(r[c]))}</td>')
             else:
-                cells.append(_cell(r.get(c), SWEEP_COLUMNS.get(c, ("", "", 1.0))[2]))
+                cells.append(cell(r.get(c), SWEEP_COLUMNS.get(c, ("", "", 1.0))[2]))
         cls = ' class="best"' if i in highlight else ""
         body.append(f"<tr{cls}><td>{i}</td>{''.join(cells)}</tr>")
     return (f'<div class="scroll"><table class="rows"><caption>{escape(caption)}</caption>'
@@ -426,12 +404,12 @@ def _tradeoff_section(rows, names, params, best_index, anchor, title, best_label
         front = pareto_front(rows, x_key=x_key, y_key=y_key)
 
         def default_label(row):
-            return ", ".join(f"{p} = {_fmt(row.get(p))}" for p in params) or "point"
+            return ", ".join(f"{p} = {fmt(row.get(p))}" for p in params) or "point"
 
         figure = fig.tradeoff_figure(rows, x_key, y_key, front, best_index, label or default_label, title,
                                      fallback_y_key=_first(names, (schema.PLANNED_DURATION.key,)), group_key=group_key,
                                      best_label=best_label)
-        parts.append(_figure_html(figure, f"{anchor}-tradeoff"))
+        parts.append(figure_html(figure, f"{anchor}-tradeoff"))
         count = 1
     else:
         parts.append(_note(f"the table has no deviation column ({', '.join(DEVIATION_KEYS)}) or no time column "
@@ -478,14 +456,14 @@ def sweep_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     parts, count, _ = _tradeoff_section(
         rows, names, varying, best_index, anchor, title, f"best score ({source})")
     fixed = [p for p in params if p not in varying]
-    fixed_text = ", ".join(f"{p} = {_fmt(rows[0].get(p))}" for p in fixed) if rows else ""
+    fixed_text = ", ".join(f"{p} = {fmt(rows[0].get(p))}" for p in fixed) if rows else ""
     intro = (f"<p>Sweep of {escape(Path(str(scenario)).name if scenario else 'a scenario')} over "
              f"{escape(', '.join(varying) or 'no named parameter')}"
              + (f" (fixed: {escape(fixed_text)})" if fixed_text else "")
              + f": {outcome_text(rows)}.")
     if best_index is not None:
         rule = best.get("rule", "") if isinstance(best, dict) else ""
-        values = ", ".join(f"{p} = {_fmt(best.get(p))}" for p in varying)
+        values = ", ".join(f"{p} = {fmt(best.get(p))}" for p in varying)
         intro += (f" Best score ({escape(source)}): point #{best_index}"
                   + (f", {escape(values)}" if values else " (no parameter varies)")
                   + (f" <span class=\"muted\">({escape(rule)})</span>" if rule else "") + ".")
@@ -494,7 +472,7 @@ def sweep_section(result: ResultFolder, root: Path, anchor: str) -> Section:
                                         "Points (sweep.csv); the best point is highlighted")]
     row = _summary_from_row(rows[best_index] if best_index is not None else rows[0] if len(rows) == 1 else None)
     row.update(scenario=scenario and Path(str(scenario)).stem, points=outcome_text(rows))
-    return Section(anchor, _title("Sweep", result, root, scenario and Path(str(scenario)).stem), "".join(parts),
+    return Section(anchor, section_title("Sweep", result, root, scenario and Path(str(scenario)).stem), "".join(parts),
                    count, row)
 
 
@@ -509,7 +487,7 @@ def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     best_index = _matching_row(rows, best, [p for p in ("case", "parameter", "value") if p in names])
 
     def label(row):
-        value = f" = {_fmt(row.get('value'))}" if row.get("value") is not None else ""
+        value = f" = {fmt(row.get('value'))}" if row.get("value") is not None else ""
         return f"{row.get('case')}: {row.get('parameter') or ''}{value}"
 
     title = f"Corner study: deviation from the sharp path against cycle time ({len(rows)} runs)"
@@ -522,14 +500,7 @@ def study_section(result: ResultFolder, root: Path, anchor: str) -> Section:
                          "Runs (corner_study.csv); the best-scored run is highlighted")]
     row = _summary_from_row(rows[best_index] if best_index is not None else None)
     row["points"] = outcome_text(rows, "run")
-    return Section(anchor, _title("Corner study", result, root, None), "".join(parts), count, row)
-
-
-def atlas_section(result: ResultFolder, root: Path, anchor: str) -> Section:
-    """The corner atlas (report/atlas.py)."""
-    from .atlas import atlas_section as section
-
-    return section(result, root, anchor)
+    return Section(anchor, section_title("Corner study", result, root, None), "".join(parts), count, row)
 
 
 RENDERERS = {"plan": plan_section, "simulation": simulation_section, "sweep": sweep_section, "study": study_section,
@@ -555,7 +526,7 @@ tr.best td{background:#fff6d5}
 .figure{background:#fff;border:1px solid #e3e3e3;margin:1em 0;padding:.3em}
 .failure{color:#c62828;font-weight:600;border-left:4px solid #c62828;padding:.3em .8em;background:#fdecea}
 .note{color:#8a6d00;background:#fff8e1;border-left:4px solid #e6a700;padding:.3em .8em}
-.muted{color:#666} .scroll{overflow-x:auto} details{margin:.5em 0}
+table.sortable th{cursor:pointer} .muted{color:#666} .scroll{overflow-x:auto} details{margin:.5em 0}
 """
 
 SUMMARY_COLUMNS = (("kind", "kind"), ("scenario", "scenario"), ("planned", "planned duration [s]"),
@@ -574,7 +545,7 @@ def _summary_table(sections: Sequence[Section]) -> str:
         if isinstance(row.get("planned"), (int, float)) and isinstance(row.get("baseline"), (int, float)) \
                 and row["planned"] > 0:
             row["speedup"] = row["baseline"] / row["planned"]
-        cells = "".join(_cell(row.get(k), 1e3 if k.endswith("_dev") else 1.0) for k, _ in SUMMARY_COLUMNS)
+        cells = "".join(cell(row.get(k), 1e3 if k.endswith("_dev") else 1.0) for k, _ in SUMMARY_COLUMNS)
         body.append(f'<tr><td><a href="#{s.anchor}">{escape(s.title.split(": ", 1)[-1])}</a></td>{cells}</tr>')
     return (f'<div class="scroll"><table class="rows"><tr><th>folder</th>{head}</tr>{"".join(body)}</table></div>')
 
@@ -595,6 +566,7 @@ def render_page(root: Path, sections: Sequence[Section]) -> str:
 <title>pathmotion report: {escape(root.resolve().name)}</title>
 <style>{CSS}</style>
 <script type="text/javascript">{get_plotlyjs()}</script>
+<script type="text/javascript">{SORT_JS}</script>
 </head><body><main>
 <h1>pathmotion report: {escape(root.resolve().name)}</h1>
 <p class="muted">{len(sections)} result folder(s) under {escape(str(root))}, {total} interactive figures

@@ -14,29 +14,27 @@ import numpy as np
 
 from ..errors import PathmotionError
 from ..io.files import read_input
+from ..io.schema import LIMITS
 
 #: Both phase-plane plots (PNG and interactive) cut the limit curves at PLOT_HEADROOM times the fastest
 #: profile, plus PLOT_FLOOR so that a profile at rest still gets an axis [-], [unit of theta_dot].
 PLOT_HEADROOM = 1.6
 PLOT_FLOOR = 1e-9
 
-#: Colour of each limit's own curve in both phase-plane plots (PNG and interactive), by limit name; a limit
-#: not named here takes the SPARE_LIMIT_COLORS in turn, then FALLBACK_LIMIT_COLOR.
-LIMIT_COLORS = {"velocity": "#9467bd", "acceleration": "#ff7f0e", "torque": "#8c564b", "torque_speed": "#e377c2",
-                "tcp_speed": "#bcbd22", "jerk": "#111111", "torque_rate": "#17becf"}
+#: Colour of each limit's own curve in both phase-plane plots (PNG and interactive), by limit name (io/schema.py's
+#: LIMITS); a limit not listed there takes the SPARE_LIMIT_COLORS in turn, then FALLBACK_LIMIT_COLOR.
+LIMIT_COLORS = {name: row.color for name, row in LIMITS.items()}
 SPARE_LIMIT_COLORS = ("#7f7f7f", "#aec7e8")
 FALLBACK_LIMIT_COLOR = "#333333"
 
 #: Legend text of each limit's own maximum-velocity curve in the phase plane (by limit name).
-LIMIT_CURVE_LABELS = {"velocity": "joint velocity limit", "acceleration": "joint acceleration limit",
-                      "torque": "joint torque limit", "tcp_speed": "TCP speed limit",
-                      "torque_speed": "torque-speed envelope"}
+LIMIT_CURVE_LABELS = {name: row.curve for name, row in LIMITS.items() if row.curve}
 #: What the phase plane says about third-order limits, which have no maximum-velocity curve.
 THIRD_ORDER_NOTE = ("jerk and torque-rate limits bound how fast the speed may change, not the speed itself, so they "
                     "have no limit curve; dotted: the fastest constant speed within them (the motion may pass above "
                     "it while it speeds up or slows down); blue dashed: the optimum without them")
 #: Legend text of each third-order limit's steady-speed curve (by limit name).
-STEADY_CURVE_LABELS = {"jerk": "jerk limit at constant speed", "torque_rate": "torque-rate limit at constant speed"}
+STEADY_CURVE_LABELS = {name: row.steady for name, row in LIMITS.items() if row.steady}
 
 
 def steady_curve_label(name: str) -> str:
@@ -47,7 +45,7 @@ def steady_curve_label(name: str) -> str:
 def limit_curve_label(name: str, summary: dict) -> str:
     """Legend text of limit ``name``'s curve; the torque limits name the reserve of a plan's ``summary``."""
     text = LIMIT_CURVE_LABELS.get(name, name.replace("_", " ") + " limit")
-    reserve = summary.get("torque_reserve")
+    reserve = summary.get(LIMITS["torque"].settings[0].key)
     if name in ("torque", "torque_speed") and reserve:
         text += f" ({100 * reserve:.3g} % kept free)"
     return text
@@ -123,6 +121,17 @@ def read_json(path: str | Path, default=None):
         return json.loads(read_input(path, "result"))
     except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise PathmotionError(f"report: cannot read {path}: {exc}; re-run the command that wrote it") from None
+
+
+#: The joint-position panel's title, in the PNG and in the report: each joint's position scaled to its range.
+RANGE_LABEL = "joint position in its range: (q − centre) / half range"
+
+
+def in_range(q: np.ndarray, lower, upper) -> np.ndarray:
+    """q (N, n) [rad] scaled to each joint's range [-]: -1 at its lower, +1 at its upper limit, 0 at its centre
+    (so the position panel shares the +-1 limit lines of the velocity, acceleration and torque panels)."""
+    lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+    return (np.asarray(q, float) - 0.5 * (upper + lower)) / (0.5 * (upper - lower))
 
 
 def joint_columns(cols: dict[str, np.ndarray], prefix: str) -> np.ndarray | None:

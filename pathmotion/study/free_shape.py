@@ -1,5 +1,5 @@
 """The physical limit of cornering: the minimum-time motion of the whole arm whose TCP stays within
-``delta`` of a sharp polyline (a reference, not a planner; issue 17).
+``delta`` of a sharp polyline (a reference, not a planner).
 
 Formulation (direct multiple shooting in time with an exact integrator). The motion is split into
 phases; phase i has its own duration T_i (free, > 0), N_i intervals of length h_i = T_i / N_i and
@@ -72,6 +72,8 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from ..errors import PathError, PathmotionError
+from .symbolic import casadi_module, rodrigues
+from .symbolic_dynamics import inverse_dynamics_function
 
 log = logging.getLogger(__name__)
 
@@ -120,7 +122,7 @@ STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"), 
 #: at 1e-9 and adapts (mu_strategy adaptive). Why: at 30 deg / 0.1 mm the whole tube from the corner-confined solutions
 #: hit the cap on 100 intervals with TUBE_IPOPT (the barrier of 1e-4 pushed the iterate off the active bounds); with
 #: their multipliers and the monotone barrier fixed at 1e-9 it hit the cap too (600 iterations on 25 intervals, tiny
-#: steps), with a monotone barrier from 1e-6 on 50 intervals; the adaptive barrier converged (see docs/study.md).
+#: steps), with a monotone barrier from 1e-6 on 50 intervals; the adaptive barrier converged.
 WARM_IPOPT = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-9, "warm_start_bound_frac": 1e-9,
               "warm_start_slack_bound_push": 1e-9, "warm_start_slack_bound_frac": 1e-9,
               "warm_start_mult_bound_push": 1e-9, "mu_init": 1e-9, "mu_strategy": "adaptive", "max_iter": 600}
@@ -140,14 +142,6 @@ SPAN_ROUNDING = 1e-9
 NORM_SMOOTHING = 0.3
 
 
-def _casadi():
-    try:
-        import casadi
-    except ImportError:  # pragma: no cover - depends on the environment
-        raise PathmotionError('the free-shape optimum needs CasADi: pip install "pathmotion[optimal]"') from None
-    return casadi
-
-
 # ----------------------------------------------------------------------------------- kinematics
 def _axis(joint) -> np.ndarray:
     """Unit axis (3,) of a revolute joint; PathmotionError for any other joint type."""
@@ -160,17 +154,10 @@ def _axis(joint) -> np.ndarray:
     return motion[1]
 
 
-def _rodrigues(ca, axis: np.ndarray, angle):
-    """Rotation about the unit ``axis`` by ``angle`` (CasADi expression), (3, 3)."""
-    k = ca.DM(axis)
-    K = ca.skew(k)
-    return ca.DM.eye(3) + ca.sin(angle) * K + (1 - ca.cos(angle)) * (K @ K)
-
-
 def tcp_function(robot, frame: str | int | None = None):
     """CasADi Function q (n,) -> (p (3,), R (3, 3)) of ``frame`` (default TCP) in the base frame,
     built from the Pinocchio model's joint placements and axes (a chain of revolute joints)."""
-    ca = _casadi()
+    ca = casadi_module()
     model = robot.model
     fid = robot.frame_id(frame)
     q = ca.SX.sym("q", robot.n)
@@ -183,7 +170,7 @@ def tcp_function(robot, frame: str | int | None = None):
         placement = model.jointPlacements[i]
         Rj = R0 @ ca.DM(placement.rotation)
         pj = p0 + R0 @ ca.DM(placement.translation)
-        poses[i] = (Rj @ _rodrigues(ca, _axis(model.joints[i]), q[model.joints[i].idx_q]), pj)
+        poses[i] = (Rj @ rodrigues(ca, _axis(model.joints[i]), q[model.joints[i].idx_q]), pj)
     frm = model.frames[fid]
     parent = frm.parentJoint if hasattr(frm, "parentJoint") else frm.parent
     R0, p0 = poses[parent]
@@ -353,8 +340,9 @@ def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = No
     orient = FixedOrientation() if rotation is None else FixedOrientation(np.asarray(rotation, float))
     path = lift(robot, TaskPath(segs, orient))
     kw = {} if grid_points is None else {"grid_points": grid_points}
-    settings = PlanSettings(start="zero", end="zero", connections="zero", velocity=True, acceleration=True,
-                            torque=torque, baselines=False, **kw)
+    settings = PlanSettings(start="zero", end="zero", connections="zero",
+                            limits={"use_velocity": True, "use_acceleration": True, "use_torque": torque},
+                            baselines=False, **kw)
     return path, plan(path, robot, settings)
 
 
@@ -514,11 +502,11 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                multipliers: dict | None = None) -> FreeShapeSolution:
     """Solve the minimum-time NLP on the mesh of ``guess`` (its node counts per phase), from it;
     ``ipopt``: options over the defaults; ``form``: the tube constraint's form, "norm" (what STARTS
-    uses), "squared" or "scaled" (:func:`_tube`; kept to reproduce docs/study.md's comparison);
+    uses), "squared" or "scaled" (:func:`_tube`; kept to compare the forms);
     ``torque``: also |tau| <= the robot's torque limits at TORQUE_POINTS of every interval (:func:`_torque`);
     ``multipliers``: a solution's on the same nodes (FreeShapeSolution.multipliers) as IPOPT's initial multipliers,
     by constraint (_Constraints.start; give WARM_IPOPT's options with them). The solution keeps its multipliers."""
-    ca = _casadi()
+    ca = casadi_module()
     tcp = tcp_function(robot)
     n = robot.n
     lim = robot.limits
@@ -653,8 +641,6 @@ def _torque(con: "_Constraints", ca, robot, points: list[tuple], tau_max: np.nda
     one symbolic RNEA Function. The NLP is then not expanded (solve_mesh): CasADi differentiates the
     Function once for all calls, where expanding inlines every call (50 intervals at delta = 0: 18 s
     with expansion, 7 s without; one mapped call, unexpanded: 11 s)."""
-    from .symbolic_dynamics import inverse_dynamics_function
-
     rnea = inverse_dynamics_function(robot)
     scale = ca.DM(1.0 / np.asarray(tau_max, float))
     for i, (q, qd, qdd) in enumerate(points):

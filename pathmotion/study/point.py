@@ -47,7 +47,7 @@ def point_summary(setup, result, sim) -> tuple[dict, dict]:
     plan = plan_summary(setup, result)
     summary[schema.BASELINE_DURATION.key] = plan[schema.BASELINE_DURATION.key]
     summary[schema.BLEND_MAX_DEVIATION.key] = plan.get(schema.BLEND_MAX_DEVIATION.key)
-    summary[schema.MEAN_PATH_DEVIATION.key] = float(np.mean(sim.path_deviation)) if sim.path_deviation.size else 0.0
+    summary[schema.MEAN_PATH_DEVIATION.key] = float(np.mean(sim.path_deviation[sim.on_path()])) if sim.path_deviation.size else 0.0
     sharp = _sharp_path(setup)
     if sharp is not None and len(sim.tcp):
         dist, near = sharp_path_deviation(sharp, sim.tcp)
@@ -86,12 +86,12 @@ def run_point(scenario_text: str, base_dir: str, overrides: tuple[tuple[str, Any
     arrays, "wall_time_s": seconds spent}. A
     PathmotionError becomes the ``error`` (with what it was: "PathError: ..."); so does any other
     exception ("internal error ..."), so one bad point never stops a sweep."""
-    from ..api import load_text, plan_scenario, simulate_scenario
+    from ..api import load_text, plan_scenario, search, simulate_scenario
 
     started = time.perf_counter()
     trace = None
     try:
-        setup = load_text(scenario_text, base_dir, dict(overrides))
+        setup = search(load_text(scenario_text, base_dir, dict(overrides)))
         result = plan_scenario(setup)
         sim = simulate_scenario(setup, result)
         summary, extra = point_summary(setup, result, sim)

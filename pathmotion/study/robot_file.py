@@ -82,7 +82,7 @@ def load_robot_file(path: str | Path):
     try:
         return build_robot(spec, path.parent)
     except (RobotModelError, ScenarioError) as exc:
-        raise type(exc)(f"{where}: {exc}") from None
+        raise exc.in_context(where) from exc
 
 
 def robot_digest(robot) -> str:

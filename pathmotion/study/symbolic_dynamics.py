@@ -1,5 +1,5 @@
 """Symbolic inverse dynamics tau(q, qd, qdd) as a CasADi Function, for the free-shape reference's
-torque limits (:mod:`.free_shape`; issue 17).
+torque limits (:mod:`.free_shape`).
 
 PyPI ``pin`` has no ``pinocchio.casadi``, so, like :func:`.free_shape.tcp_function`, this builds the
 expression by hand from the Pinocchio model: the recursive Newton-Euler algorithm in each body's
@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import PathmotionError
 from ..robot.joints import REVOLUTE, joint_motion
-from .free_shape import _casadi, _rodrigues
+from .symbolic import casadi_module, rodrigues
 
 
 def _joint(model, i: int) -> tuple[int, np.ndarray]:
@@ -52,7 +52,7 @@ def _forces(ca, inertia, w, v, a, al):
 def inverse_dynamics_function(robot):
     """CasADi Function (q, qd, qdd) (n,) each -> tau (n,) = M(q) qdd + C(q, qd) qd + G(q) [N m], with
     the robot's payload, gravity and armature (the planner's torque model, see the module docstring)."""
-    ca = _casadi()
+    ca = casadi_module()
     model = robot.model
     n = robot.n
     if model.nq != n or model.nv != n:
@@ -69,7 +69,7 @@ def inverse_dynamics_function(robot):
         kind, axis = _joint(model, i)
         k = model.joints[i].idx_v
         placement = model.jointPlacements[i]
-        R = ca.DM(placement.rotation) @ (_rodrigues(ca, axis, q[k]) if kind == REVOLUTE else ca.DM.eye(3))
+        R = ca.DM(placement.rotation) @ (rodrigues(ca, axis, q[k]) if kind == REVOLUTE else ca.DM.eye(3))
         p = ca.DM(placement.translation) + (ca.DM(placement.rotation) @ ca.DM(axis) * q[k] if kind != REVOLUTE else 0)
         frames[i] = (R, p)
         pw, pv, pa, pl = motion[model.parents[i]]

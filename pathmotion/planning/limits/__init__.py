@@ -2,16 +2,18 @@
 the verification, the settings and the scenario loading loop over.
 
 Adding a limit: write a :class:`Limit` subclass in a new file here and append it to ``REGISTRY``
-(and give its ``scenario_keys`` in the scenario file format, ``io/scenario.py``'s LimitsSpec).
+(and give its ``keys`` in the scenario file format, ``io/scenario.py``'s LimitsSpec).
 The order of ``REGISTRY`` is the order of the ratios in messages and outputs.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from dataclasses import replace
 
 import numpy as np
 
+from ...errors import ScenarioError
 from ...robot import Robot
 from .acceleration import AccelerationLimit
 from .base import Limit, LimitChoice, PathPoints, RowForm, Rows
@@ -78,23 +80,78 @@ def effective_limits_for(robot: Robot, choices: Mapping[str, LimitChoice]) -> Ef
     return EffectiveLimits(tuple(active))
 
 
-def limit_choices(source, keys: str = "scenario_keys") -> dict[str, LimitChoice]:
-    """{name: LimitChoice} read from an object (e.g. a scenario's LimitsSpec) or a mapping, by each
-    registered limit's ``scenario_keys`` (or ``settings_keys``); missing keys keep the defaults."""
+class LimitChoices(Mapping):
+    """{limit name: LimitChoice} for every registered limit (defaults where not given), checked by each
+    limit's ``check_choice``; immutable and hashable, so settings holding it are too."""
+
+    def __init__(self, choices: Mapping[str, LimitChoice] | None = None):
+        given = dict(choices or {})
+        unknown = sorted(set(given) - {cls.name for cls in REGISTRY})
+        if unknown:
+            raise ScenarioError(f"unknown limit(s) {unknown}; the limits are {[cls.name for cls in REGISTRY]}")
+        self._choices = {cls.name: cls.check_choice(given.get(cls.name, cls.default_choice())) for cls in REGISTRY}
+
+    def __getitem__(self, name: str) -> LimitChoice:
+        return self._choices[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._choices)
+
+    def __len__(self) -> int:
+        return len(self._choices)
+
+    def __hash__(self) -> int:
+        return hash(tuple(self._choices.items()))
+
+    def __repr__(self) -> str:
+        return f"LimitChoices({self._choices!r})"
+
+    def replace(self, name: str, **changes) -> "LimitChoices":
+        """A copy with the choice of limit ``name`` changed (``on``, ``scale``, ``value``)."""
+        return LimitChoices({**self._choices, name: replace(self._choices[name], **changes)})
+
+    @classmethod
+    def of(cls, source) -> "LimitChoices":
+        """``source`` as LimitChoices: LimitChoices, {limit name: LimitChoice}, the ``[limits]`` keys
+        {key: value} (e.g. ``{"use_torque": False, "jerk": [...]}``) or an object with them as attributes
+        (a scenario's LimitsSpec)."""
+        if isinstance(source, LimitChoices):
+            return source
+        if isinstance(source, Mapping) and source and all(isinstance(v, LimitChoice) for v in source.values()):
+            return cls(source)
+        return limit_choices(source)
+
+
+def limit_keys() -> list[str]:
+    """Every registered limit's ``[limits]`` keys, in registry order."""
+    return [key for cls in REGISTRY for key in cls.keys]
+
+
+def limit_choices(source) -> LimitChoices:
+    """LimitChoices read by each registered limit's ``keys`` from a mapping {key: value} (missing keys keep the
+    defaults, an unknown key is refused) or an object with the keys as attributes (a scenario's LimitsSpec)."""
+    if isinstance(source, Mapping):
+        unknown = sorted(set(source) - set(limit_keys()))
+        if unknown:
+            hint = "".join(f"; the switch of {k!r} is 'use_{k}'"
+                           for k in unknown if f"use_{k}" in limit_keys())
+            raise ScenarioError(f"unknown limit key(s) {unknown}{hint}; the keys are {limit_keys()}")
     out = {}
     for cls in REGISTRY:
         base = cls.default_choice()
         fields = {}
-        for key, field in getattr(cls, keys).items():
-            value = source.get(key, getattr(base, field)) if isinstance(source, Mapping) else getattr(source, key)
-            fields[field] = value
-        if "value" in fields and "on" not in getattr(cls, keys).values():
+        for key, field in cls.keys.items():
+            if isinstance(source, Mapping):
+                fields[field] = source.get(key, getattr(base, field))
+            else:
+                fields[field] = getattr(source, key)
+        if "value" in fields and "on" not in cls.keys.values():
             fields["on"] = fields["value"] is not None
-        out[cls.name] = cls.check_choice(LimitChoice(**{**base.__dict__, **fields}))
-    return out
+        out[cls.name] = LimitChoice(**{**base.__dict__, **fields})
+    return LimitChoices(out)
 
 
 __all__ = [
-    "AccelerationLimit", "EffectiveLimits", "JerkLimit", "TorqueRateLimit", "Limit", "LimitChoice", "PathPoints", "REGISTRY", "RowForm", "Rows",
-    "TcpSpeedLimit", "TorqueLimit", "TorqueSpeedLimit", "VelocityLimit", "limit_choices", "effective_limits_for", "tcp_gain",
+    "AccelerationLimit", "EffectiveLimits", "LimitChoices", "JerkLimit", "TorqueRateLimit", "Limit", "LimitChoice", "PathPoints", "REGISTRY", "RowForm", "Rows",
+    "TcpSpeedLimit", "TorqueLimit", "TorqueSpeedLimit", "VelocityLimit", "limit_choices", "limit_keys", "effective_limits_for", "tcp_gain",
 ]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...io.schema import LIMITS
 from .base import Limit, LimitChoice, RowForm, Rows
 
 
@@ -13,8 +14,8 @@ class AccelerationLimit(Limit):
 
     name = "acceleration"
     order = 2
-    settings_keys = {"acceleration": "on", "acceleration_scale": "scale"}
-    scenario_keys = {"use_acceleration": "on", "acceleration_scale": "scale"}
+    names = LIMITS["acceleration"]
+    keys = names.keys
 
     def __init__(self, qdd_max: np.ndarray):
         self.qdd_max = np.asarray(qdd_max, float)

@@ -26,6 +26,7 @@ from typing import Callable, ClassVar, NamedTuple
 import numpy as np
 
 from ...errors import ScenarioError
+from ...io.schema import LimitNames
 from ...lift.joint_path import JointPath
 from ...robot import Robot
 from ..trajectory import Samples
@@ -137,9 +138,13 @@ class Limit:
     per_joint: ClassVar[bool] = True
     #: The verification needs joint torques on the resample.
     needs_torque: ClassVar[bool] = False
-    #: PlanSettings keywords -> LimitChoice field ("on", "scale", "value"), and [limits] scenario keys.
-    settings_keys: ClassVar[dict[str, str]]
-    scenario_keys: ClassVar[dict[str, str]]
+    #: Its names (io/schema.py's LIMITS row: keys, summary keys, report labels); None for a limit the table
+    #: does not list (its summary key is then max_<name>_ratio).
+    names: ClassVar[LimitNames | None] = None
+    #: Its keys of a scenario's ``[limits]`` table, which PlanSettings(limits={...}) takes too -> the
+    #: LimitChoice field each sets ("on", "scale", "value"): ``use_<name>`` switches, ``<name>_scale``
+    #: scales, the bare name holds a value the user gives (``names.keys`` for a listed limit).
+    keys: ClassVar[dict[str, str]]
     #: Unit of a user-given value, in messages.
     unit: ClassVar[str] = ""
     #: Rows depend on ``x_ref`` (a conservative linearization, e.g. a torque-speed envelope): the
@@ -154,7 +159,12 @@ class Limit:
     @classmethod
     def summary_key(cls) -> str:
         """summary.json key of the largest ratio, e.g. "max_torque_ratio"."""
-        return f"max_{cls.name}_ratio"
+        return cls.names.ratio.key if cls.names is not None else f"max_{cls.name}_ratio"
+
+    @classmethod
+    def key_for(cls, field: str) -> str:
+        """Its ``[limits]`` key that sets the LimitChoice field ``field`` ("on", "scale", "value")."""
+        return next(key for key, f in cls.keys.items() if f == field)
 
     @classmethod
     def default_choice(cls) -> LimitChoice:
@@ -163,14 +173,14 @@ class Limit:
     @classmethod
     def check_choice(cls, choice: LimitChoice) -> LimitChoice:
         """ScenarioError unless scale > 0 and value is None or > 0 (both finite)."""
-        for key, field in cls.settings_keys.items():
+        for key, field in cls.keys.items():
             v = getattr(choice, field)
             if field == "on" and not isinstance(v, (bool, np.bool_)):
-                raise ScenarioError(f"planner {key} must be true or false, got {v!r}")
+                raise ScenarioError(f"limits.{key} must be true or false, got {v!r}")
             if field == "scale" and not (np.isfinite(v) and v > 0):
-                raise ScenarioError(f"planner {key} must be > 0, got {v}")
+                raise ScenarioError(f"limits.{key} must be > 0, got {v}")
             if field == "value" and v is not None and not (np.isfinite(v) and v > 0):
-                raise ScenarioError(f"{key} must be > 0 {cls.unit} or None, got {v}")
+                raise ScenarioError(f"limits.{key} must be > 0 {cls.unit} or None, got {v}")
         return choice
 
     @classmethod

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...io.schema import LIMITS
 from .base import Rows3
 from .third import PerJointThirdOrder
 
@@ -14,6 +15,8 @@ class JerkLimit(PerJointThirdOrder):
 
     name = "jerk"
     robot_key = "jerk"
+    names = LIMITS["jerk"]
+    keys = names.keys
     unit = "rad/s^3"
 
     def rows3(self, points, scale):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...io.schema import LIMITS
 from ...robot import jacobian
 from .base import Limit, LimitChoice, PathPoints, RowForm, safe_ratio_bound
 
@@ -20,14 +21,14 @@ def tcp_gain(points: PathPoints) -> np.ndarray:
 
 
 class TcpSpeedLimit(Limit):
-    """v_max [m/s]: a TCP speed the user gives (``tcp_speed_limit``; off when None)."""
+    """v_max [m/s]: a TCP speed the user gives (``tcp_speed``; off when None)."""
 
     name = "tcp_speed"
     order = 1
     per_joint = False
     unit = "m/s"
-    settings_keys = {"tcp_speed_limit": "value"}
-    scenario_keys = {"tcp_speed": "value"}
+    names = LIMITS["tcp_speed"]
+    keys = names.keys
 
     def __init__(self, v_max: float):
         self.v_max = float(v_max)

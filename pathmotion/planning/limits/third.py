@@ -13,17 +13,11 @@ from .base import Limit, LimitChoice
 
 
 class PerJointThirdOrder(Limit):
-    """Base of a third-order per-joint limit; subclasses set ``robot_key`` (JointLimits field)."""
+    """Base of a third-order per-joint limit; subclasses set ``robot_key`` (the JointLimits field of the
+    robot's own values) and ``keys``."""
 
     order = 3
     robot_key: str = ""
-
-    def __init_subclass__(cls, **kwargs):
-        """The keys follow from ``robot_key``: ``[limits] <key>``, ``use_<key>``, ``<key>_scale``."""
-        super().__init_subclass__(**kwargs)
-        key = cls.robot_key
-        cls.settings_keys = {key: "on", f"{key}_scale": "scale", f"{key}_limit": "value"}
-        cls.scenario_keys = {f"use_{key}": "on", f"{key}_scale": "scale", key: "value"}
 
     def __init__(self, values: np.ndarray):
         self.values = np.asarray(values, float)  # (n,) in the limit's unit
@@ -43,8 +37,11 @@ class PerJointThirdOrder(Limit):
 
     @classmethod
     def check_choice(cls, choice: LimitChoice) -> LimitChoice:
-        key = f"limits.{cls.robot_key}"
+        key = f"limits.{cls.key_for('value')}"
         value = choice.value
+        if isinstance(value, (bool, np.bool_)):
+            raise ScenarioError(f"{key} holds the limits ({cls.unit}, one per joint), got {value!r}; the switch is "
+                                f"limits.{cls.key_for('on')}")
         if value is not None:
             arr = np.atleast_1d(np.asarray(value, dtype=object))
             ok = arr.ndim == 1 and arr.size > 0 and all(
@@ -57,9 +54,9 @@ class PerJointThirdOrder(Limit):
         if on is None:
             on = value is not None
         if not isinstance(on, (bool, np.bool_)):
-            raise ScenarioError(f"limits.use_{cls.robot_key} must be true or false, got {on!r}")
+            raise ScenarioError(f"limits.{cls.key_for('on')} must be true or false, got {on!r}")
         if not (np.isfinite(choice.scale) and choice.scale > 0):
-            raise ScenarioError(f"limits.{cls.robot_key}_scale must be > 0, got {choice.scale}")
+            raise ScenarioError(f"limits.{cls.key_for('scale')} must be > 0, got {choice.scale}")
         return replace(choice, on=bool(on), value=value)
 
     @classmethod
@@ -67,7 +64,7 @@ class PerJointThirdOrder(Limit):
         """The effective per-joint values (n,) (user's or robot's, times the scale), None when off."""
         if not choice.on:
             return None
-        key = f"limits.{cls.robot_key}"
+        key = f"limits.{cls.key_for('value')}"
         if choice.value is not None:
             value = np.asarray(choice.value, float)
             if value.shape != (robot.n,):
@@ -76,6 +73,6 @@ class PerJointThirdOrder(Limit):
         else:
             value = getattr(robot.limits, cls.robot_key, None)
             if value is None:
-                raise ScenarioError(f"limits.use_{cls.robot_key} is on but robot {robot.name} has no "
+                raise ScenarioError(f"limits.{cls.key_for('on')} is on but robot {robot.name} has no "
                                     f"{cls.robot_key} limits: give {key} = [...] ({cls.unit}, one per joint)")
         return np.asarray(value, float) * choice.scale

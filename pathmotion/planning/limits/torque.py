@@ -14,6 +14,7 @@ import numpy as np
 
 from ... import defaults
 from ...errors import InfeasibleError, ScenarioError
+from ...io.schema import LIMITS
 from ..fast_rnea import reduced_batch, supported
 from ..reduced import reduced_dynamics
 from .base import Limit, LimitChoice, PathPoints, RowForm, Rows
@@ -70,9 +71,9 @@ class TorqueLimit(Limit):
     name = "torque"
     order = 2
     needs_torque = True
-    settings_keys = {"torque": "on", "torque_scale": "scale", "torque_reserve": "value"}
-    scenario_keys = {"use_torque": "on", "torque_scale": "scale", "torque_reserve": "value"}
-    extra_summary_keys = ("torque_reserve",)
+    names = LIMITS["torque"]
+    keys = names.keys
+    extra_summary_keys = tuple(k.key for k in names.settings)  # torque_reserve
 
     def __init__(self, tau_max: np.ndarray, reserve: float = 0.0):
         self.tau_max = np.asarray(tau_max, float)
@@ -100,7 +101,7 @@ class TorqueLimit(Limit):
         return self.tau_max.tolist()
 
     def summary_values(self) -> dict:
-        return {"torque_reserve": self.reserve}
+        return {self.extra_summary_keys[0]: self.reserve}
 
     def rows(self, points, scale, x_ref=None):
         alpha, beta, gamma = reduced(points)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...io.schema import LIMITS
 from ..reduced import reduced_derivatives
 from .base import Rows3
 from .third import PerJointThirdOrder
@@ -21,6 +22,8 @@ class TorqueRateLimit(PerJointThirdOrder):
 
     name = "torque_rate"
     robot_key = "torque_rate"
+    names = LIMITS["torque_rate"]
+    keys = names.keys
     unit = "N m/s"
     needs_torque = True
 

@@ -20,6 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ...io.schema import LIMITS
 from ...errors import ScenarioError
 from .base import Limit, LimitChoice, Rows
 from .torque import TorqueLimit, reduced, torque_reserve
@@ -57,8 +58,8 @@ class TorqueSpeedLimit(Limit):
     needs_torque = True
     relinearize = True
     uses_choices = True
-    settings_keys = {"torque_speed": "value"}
-    scenario_keys = {"torque_speed": "value"}
+    names = LIMITS["torque_speed"]
+    keys = names.keys
 
     def __init__(self, tau_max: np.ndarray, qd_max: np.ndarray, knee: np.ndarray, at_max_speed: np.ndarray):
         self.tau_max = np.asarray(tau_max, float)

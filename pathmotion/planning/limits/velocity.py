@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...io.schema import LIMITS
 from .base import Limit, LimitChoice, RowForm, safe_ratio_bound
 
 
@@ -12,8 +13,8 @@ class VelocityLimit(Limit):
 
     name = "velocity"
     order = 1
-    settings_keys = {"velocity": "on", "velocity_scale": "scale"}
-    scenario_keys = {"use_velocity": "on", "velocity_scale": "scale"}
+    names = LIMITS["velocity"]
+    keys = names.keys
 
     def __init__(self, qd_max: np.ndarray):
         self.qd_max = np.asarray(qd_max, float)

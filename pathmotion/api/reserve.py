@@ -11,8 +11,8 @@ lower-bound bisection over s .. top, at most ceil(log2(top / s + 1)) further run
 0.025). A reserve so large that the reduced torque cannot hold the path (the plan is infeasible) bounds
 the search from above like a tracking one, but is never chosen.
 
-This module holds the search and its record only; each run (plan + closed loop at one reserve) is the
-api layer's (``pathmotion.api.resolve_torque_reserve``), passed in as a function.
+This module holds the search and its record only; each run (plan + closed loop at one reserve) is passed in
+as a function (:func:`pathmotion.api.searches.resolve_torque_reserve`).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Callable
 
-from . import defaults
+from .. import defaults
 
 log = logging.getLogger(__name__)
 
