@@ -26,7 +26,8 @@ from pathmotion.robot import load_robot
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 from program_contour import points, scenario  # noqa: E402
 
-SETTINGS = PlanSettings(start="zero", end="zero", velocity=True, acceleration=True, torque=False, grid_points=400,
+SETTINGS = PlanSettings(start="zero", end="zero",
+                        limits={"use_velocity": True, "use_acceleration": True, "use_torque": False}, grid_points=400,
                         verify=False, baselines=False)
 ROBOT = load_robot("irb140")
 
