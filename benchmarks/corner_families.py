@@ -64,7 +64,7 @@ def main() -> None:
     coarse = bs.replace_settings(full, grid_points=bs.SEARCH_GRID_POINTS)
     t0 = time.process_time()
     obj = bs._Objective(robot, task, {}, 0, a.tolerance, coarse, None, free_ends=(True, True))
-    bs._search_corner(obj, True, bs.SEARCH_CYCLES, bs.GOLDEN_STEPS, bs.RACING_STEPS, bs.FREE_PLANS)
+    bs._search_corner(obj, True, bs.THOROUGH)
     T, shape, x = obj.best()
     print(f"{a.angle:g} deg, {a.tolerance * 1e3:g} mm: the search's blend (stages 1-6 and the global stage, "
           f"no polish): coarse {T:.5f} s, full {bs.duration_with(robot, task, {0: shape}, full):.5f} s "

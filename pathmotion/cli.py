@@ -339,6 +339,8 @@ def _default_out(out: Optional[Path], scenario: Path, overrides: dict) -> Path:
 OutOpt = typer.Option(None, "--out", help="output folder (default: out/<scenario name>)")
 SetOpt = typer.Option(None, "--set", metavar="KEY=VALUE",
                       help="override a scenario key, e.g. --set plan.grid_points=2000")
+WorkersOpt = typer.Option(None, "--workers", min=1, help="local processes that search the optimal blends' corners "
+                          "in parallel (plan.workers; the same result as 1)")
 VerifyOpt = typer.Option(None, "--verify", help="certified (default: a certified bound per grid interval) | dense "
                          "(the 0.1 ms resample) | off; sets plan.verify")
 ForceOpt = typer.Option(False, "--force", help="write the exports (ROS 2, EGM, RAPID) even of a failed plan, "
@@ -488,7 +490,8 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
 
 @app.command()
 @guarded
-def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_: Optional[List[str]] = SetOpt):
+def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_: Optional[List[str]] = SetOpt,
+          workers: Optional[int] = WorkersOpt):
     """Validate a scenario and run every check plan runs (reachability, singularity margin, the plan itself and its
     limits), writing nothing.
 
@@ -496,11 +499,18 @@ def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_:
     """
     from . import api
 
-    report = api.check_scenario(api.search(api.load(scenario, _overrides(set_))))
+    report = api.check_scenario(api.search(api.load(scenario, _with_workers(_overrides(set_), workers))))
     notes = {"closed": "it ends where it starts; " + ("planned as a periodic cycle" if report["periodic"] else
                                                       "run once; plan.periodic = true plans the cycle")}
     _print_table(_summary_table(f"check {scenario}: OK", report, notes if report["closed"] else None))
     _result_verdict([], report.get("export_notes", []), False)
+
+
+def _with_workers(overrides: dict, workers: Optional[int]) -> dict:
+    """``overrides`` with plan.workers set from the --workers option."""
+    if workers is not None:
+        overrides["plan.workers"] = workers
+    return overrides
 
 
 def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
@@ -515,7 +525,7 @@ def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
 def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
          out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
          figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
-         force: bool = ForceOpt):
+         force: bool = ForceOpt, workers: Optional[int] = WorkersOpt):
     """Plan the time-optimal motion: writes trajectory.csv/.parquet, summary.json, exports and figures.
     A failed plan (a path-speed jump, a limit exceeded) exits 4 after writing its files.
 
@@ -524,7 +534,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from . import api
     from .io.atomic import output_lock, result_folder
 
-    overrides = _with_verify(_overrides(set_), verify)
+    overrides = _with_workers(_with_verify(_overrides(set_), verify), workers)
     out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)

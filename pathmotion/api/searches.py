@@ -14,7 +14,7 @@ from .. import defaults
 from ..errors import InfeasibleError, PathmotionError
 from ..geometry import with_blends
 from ..io import schema
-from ..planning.blend_search import optimal_blends
+from ..planning.blend_search import SEARCHES, optimal_blends
 from .plan import plan_failures, plan_scenario
 from .reserve import AUTO, ReserveTrial, Verdict, search_reserve
 from .setup import BlendRequest, Setup, lift_task_path, plan_settings
@@ -46,20 +46,28 @@ def search_blends(setup: Setup) -> Setup:
 
 
 def _optimal_shapes(setup: Setup, request: BlendRequest) -> dict:
-    """{connection index: G2Shape} of the optimal blends of ``request``; errors start with the scenario key
-    of their corner, or of every searched corner when they concern them all (a blended path out of reach)."""
+    """{connection index: G2Shape} of the optimal blends of ``request``, each corner searched as
+    ``request.searches`` names it (the corners are independent, so each kind is one search, on
+    plan.workers processes); errors start with the scenario key of their corner, or of every searched
+    corner when they concern them all (a blended path out of reach)."""
     spec = setup.scenario.path
     q0 = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
-    optimal, names = request.tolerances, request.names
-    log.info("optimal blends: searching %d corner(s)", len(optimal))
-    try:
-        found = optimal_blends(setup.robot, request.sharp, optimal, list(optimal), plan_settings(setup.scenario), q0,
-                               planar=list(request.planar), joined_ends=list(request.joined), names=names)
-    except PathmotionError as exc:
-        if exc.where in names.values():
-            raise
-        raise exc.in_context("; ".join(names[c] for c in sorted(optimal))) from exc
-    return found.shapes
+    kinds = {c: request.searches.get(c, "fast") for c in request.tolerances}
+    shapes: dict = {}
+    for kind in sorted(set(kinds.values())):
+        optimal = {c: t for c, t in request.tolerances.items() if kinds[c] == kind}
+        log.info("optimal blends: searching %d corner(s), %s search", len(optimal), kind)
+        try:
+            found = optimal_blends(setup.robot, request.sharp, optimal, list(optimal), plan_settings(setup.scenario),
+                                   q0, search=SEARCHES[kind], planar=[c for c in request.planar if c in optimal],
+                                   joined_ends=[c for c in request.joined if c in optimal], names=request.names,
+                                   workers=setup.scenario.plan.workers)
+        except PathmotionError as exc:
+            if exc.where in request.names.values():
+                raise
+            raise exc.in_context("; ".join(request.names[c] for c in sorted(optimal))) from exc
+        shapes.update(found.shapes)
+    return shapes
 
 
 # ------------------------------------------------------------------------- torque_reserve = "auto"

@@ -43,7 +43,8 @@ class BlendRequest:
     blended corner sharp, ``blends`` the other blends {connection index: (kind, value)} applied with them,
     ``tolerances`` {connection index: tolerance [m]} of the optimal ones, ``names`` {connection index:
     scenario key} for errors, the corners kept ``planar`` and those whose blend joins the lines
-    (``joined``)."""
+    (``joined``), and how hard each corner is searched (``searches`` {connection index: "fast" | "thorough"},
+    "fast" where absent)."""
 
     sharp: TaskPath
     blends: dict
@@ -51,6 +52,7 @@ class BlendRequest:
     names: dict[int, str]
     planar: tuple[int, ...] = ()
     joined: tuple[int, ...] = ()
+    searches: dict = dataclasses.field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,7 +180,8 @@ def _waypoint_request(spec, task: TaskPath) -> BlendRequest | None:
     if not corners:
         return None
     names = {c: f"{where} (blend_tolerance {spec.blend_tolerance:g} m at waypoint {c + 1})" for c in corners}
-    return BlendRequest(task, {}, dict.fromkeys(corners, spec.blend_tolerance), names)
+    return BlendRequest(task, {}, dict.fromkeys(corners, spec.blend_tolerance), names,
+                        searches=dict.fromkeys(corners, spec.search))
 
 
 def _chosen_blends(spec, task: TaskPath) -> dict[int, int]:
@@ -223,7 +226,8 @@ def _segment_task_path(spec) -> tuple[TaskPath, TaskPath | None, BlendRequest | 
     others = {c: b for c, b in blends.items() if c not in optimal}
     request = BlendRequest(task, others, optimal, names,
                            planar=tuple(c for c in optimal if spec.blends[chosen[c]].planar),
-                           joined=tuple(c for c in optimal if spec.blends[chosen[c]].join_ends))
+                           joined=tuple(c for c in optimal if spec.blends[chosen[c]].join_ends),
+                           searches={c: spec.blends[chosen[c]].search for c in optimal})
     return task, original, request
 
 

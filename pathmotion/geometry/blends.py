@@ -60,7 +60,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathError
-from .chain import Connection, TaskPath
+from .chain import Connection, TaskPath, classify
 from .deviation import Deviation, certified_max, distance_to_segments
 from .quintic_deviation import bezier_lines_max, bezier_pieces_lines_max
 from .segments import Arc, BezierSegment, Line, Segment, _fmt
@@ -96,6 +96,43 @@ class _Corner:
 
     def where(self) -> str:
         return self.conn.describe()
+
+
+class _Draft:
+    """A path being blended from its last corner to its first: its segments and the theta maps of the edits so far,
+    a :class:`TaskPath` only at the end (:meth:`path`). Connection k (classified on demand) and every theta before
+    it are the original path's while only connections after k were edited, so a program of N corners costs O(N),
+    not N paths of N connections each."""
+
+    def __init__(self, path: TaskPath, segments: tuple | None = None, maps: list | None = None):
+        self.original = path
+        self.segments = path.segments if segments is None else segments
+        self.maps = [] if maps is None else maps  # shared along the chain of drafts: each is used once
+        self.closed = path.closed
+
+    def connection(self, index: int) -> Connection:
+        """Connection ``index`` of the current segments (only valid before any edit at index or below)."""
+        if not 0 <= index < len(self.segments) - 1:
+            return self.original.connection(index)
+        return classify(self.segments[index], self.segments[index + 1], index, self.original.offsets[index + 1])
+
+    def with_segments(self, segments, theta_map=None) -> "_Draft":
+        if theta_map is not None:
+            self.maps.append(theta_map)
+        return _Draft(self.original, tuple(segments), self.maps)
+
+    def path(self) -> TaskPath:
+        """The blended :class:`TaskPath` (its tool orientation's keys mapped by every edit, in order)."""
+        if not self.maps and self.segments is self.original.segments:
+            return self.original
+
+        def mapped(th):
+            for fn in self.maps:
+                th = fn(th)
+            return th
+
+        orient = self.original.tool_orientation
+        return TaskPath(self.segments, orient if not self.maps else orient.remapped(mapped))
 
 
 def _corner(path: TaskPath, index: int, kinds: tuple[str, ...], what: str,
@@ -280,12 +317,12 @@ def _apply_all(path: TaskPath, corners: list[int], kinds: tuple[str, ...], what:
     indices stay valid); a segment blended at both ends gives each blend at most
     SHARED_SEGMENT_FRACTION of its length."""
     chosen = set(corners)
-    out = path
+    out = _Draft(path)
     for k in sorted(chosen, reverse=True):
         c = _corner(path, k, kinds, what, shared=(k - 1 in chosen, k + 1 in chosen))
         c = _Corner(out.connection(k), out.segments[k], out.segments[k + 1], c.max_a, c.max_b)
         out = one(out, c)
-    return out
+    return out.path()
 
 
 def with_transition(path: TaskPath, corner: int, radius: float) -> TaskPath:
@@ -381,7 +418,7 @@ def with_blends(path: TaskPath, blends: Mapping[int, tuple[str, float]],
     segment blended at both ends gives each blend at most SHARED_SEGMENT_FRACTION of its length).
     A PathError is prefixed with ``names[index]`` (e.g. the scenario key) when given."""
     chosen = set(blends)
-    out = path
+    out = _Draft(path)
     for k in sorted(chosen, reverse=True):
         kind, value = blends[k]
         try:
@@ -400,7 +437,7 @@ def with_blends(path: TaskPath, blends: Mapping[int, tuple[str, float]],
             if names is None or k not in names:
                 raise
             raise exc.in_context(names[k]) from exc
-    return out
+    return out.path()
 
 
 def largest_g2_tolerance(path: TaskPath, corner: int, shape: float = defaults.G2_BLEND_SHAPE) -> float:
@@ -814,10 +851,10 @@ def with_shaped_g2_blends(path: TaskPath, shapes: dict[int, G2Shape]) -> TaskPat
     """``path`` with each connection k of ``shapes`` replaced by the blend shapes[k] (applied from the
     last to the first, so the indices stay valid; shapes computed on ``path`` with ``shared`` flags
     for neighbouring blended corners never overlap)."""
-    out = path
+    out = _Draft(path)
     for k in sorted(shapes, reverse=True):
         out = with_shaped_g2_blend(out, k, shapes[k])
-    return out
+    return out.path()
 
 
 __all__ = ["G2Shape", "blended_corners", "g2_blend_pieces", "g2_control_points", "g2_deviation", "g2_shape_for_tolerance", "g2_shaped_control_points",

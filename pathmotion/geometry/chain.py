@@ -77,6 +77,21 @@ def classify(before: Segment, after: Segment, index: int, theta: float) -> Conne
     return Connection(index, float(theta), kind, angle, jump, tuple(float(x) for x in p0))
 
 
+def segment_groups(k: np.ndarray):
+    """(j, indices) for each distinct segment index j in ``k`` (N,) int, indices (into k) in their order: one sort,
+    so evaluating N points on a path of S segments costs O(N log N), not O(N S)."""
+    if k.size and np.all(k[1:] >= k[:-1]):  # sorted thetas (the usual case): contiguous runs
+        order = np.arange(k.size)
+        sk = k
+    else:
+        order = np.argsort(k, kind="stable")
+        sk = k[order]
+    starts = np.flatnonzero(np.concatenate([[True], sk[1:] != sk[:-1]])) if k.size else np.array([], int)
+    ends = np.append(starts[1:], k.size)
+    for a, b in zip(starts, ends):
+        yield int(sk[a]), order[a:b]
+
+
 @dataclass(frozen=True, eq=False)
 class TaskPath:
     """A chain of segments (tuple of :class:`~pathmotion.geometry.segments.Segment`) and a tool
@@ -184,8 +199,7 @@ class TaskPath:
         th, scalar = self._theta(theta)
         k = self._index(th, side)
         out = np.empty((3, len(th), 3))
-        for j in np.unique(k):
-            m = k == j
+        for j, m in segment_groups(k):
             out[:, m] = self.segments[j].evaluate(th[m] - self.offsets[j])
         return tuple(o[0] for o in out) if scalar else tuple(out)
 
@@ -207,8 +221,7 @@ class TaskPath:
         th, scalar = self._theta(theta)
         k = self._index(th, side)
         out = np.empty((4, len(th), 3))
-        for j in np.unique(k):
-            m = k == j
+        for j, m in segment_groups(k):
             out[:, m] = self.segments[j].evaluate3(th[m] - self.offsets[j])
         return tuple(o[0] for o in out) if scalar else tuple(out)
 

@@ -207,7 +207,8 @@ def write_ros2_yaml(path, samples, joint_names, sample_time: float = defaults.SA
 
     msg = ros2_joint_trajectory(samples, joint_names, sample_time)
     head = "".join(f"# {n}\n" for n in notes)
-    return write_text(path, head + yaml.safe_dump(msg, sort_keys=False, default_flow_style=None, width=1000))
+    dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's emitter: the same text, ~10x faster
+    return write_text(path, head + yaml.dump(msg, Dumper=dumper, sort_keys=False, default_flow_style=None, width=1000))
 
 
 def write_egm_csv(path, samples, sample_time: float = defaults.SAMPLE_TIME, notes=()) -> Path:

@@ -153,6 +153,9 @@ class BlendSpec(_Model):
     join_ends: bool = Field(False, description="type optimal: join the lines at the path's start and end even where "
                                                "the motion rests there (default: the blend may leave the start and reach "
                                                "the end at an angle, within the tolerance)")
+    search: Literal["fast", "thorough"] = Field("fast", description="type optimal: 'fast' the quintic and the racing "
+                                                "line (2-4 s of CPU per corner), 'thorough' every stage of the "
+                                                "search (15-45 s per corner; the corner atlas' search)")
 
     @model_validator(mode="after")
     def _size(self):
@@ -163,6 +166,8 @@ class BlendSpec(_Model):
         if self.planar and self.type != BlendType.OPTIMAL:
             raise ValueError(f"planar = true is for 'optimal' blends (a '{self.type.value}' blend is always in the "
                              "corner's plane); remove it")
+        if "search" in self.model_fields_set and self.type != BlendType.OPTIMAL:
+            raise ValueError(f"search is for 'optimal' blends (a '{self.type.value}' blend is not searched); remove it")
         if self.join_ends and self.type != BlendType.OPTIMAL:
             raise ValueError(f"join_ends = true is for 'optimal' blends (a '{self.type.value}' blend always joins the "
                              "lines); remove it")
@@ -212,6 +217,8 @@ class WaypointPathSpec(_Model):
     blend: Literal["g2", "optimal"] = Field("g2", description="the blend at each corner: 'g2' the symmetric G2 "
                                             "blend, 'optimal' the G2 blend shape with the shortest time-optimal "
                                             "duration within blend_tolerance (as [[path.blends]] type = 'optimal')")
+    search: Literal["fast", "thorough"] = Field("fast", description="blend = 'optimal': how hard each corner is "
+                                                "searched (as [[path.blends]] search)")
     orientation: Literal["down"] | Mat3 | None = Field(None, description="fixed tool orientation when the points "
                                                        "carry none: 'down' (default) or a rotation matrix")
     start_configuration: tuple[float, ...] | None = Field(
@@ -288,6 +295,8 @@ class PlanSpec(_Model):
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, le=1.0, description="output sample time [s]")
     verify: VerifyMode = Field(VerifyMode.CERTIFIED, description="'certified': a certified bound of every limit "
                                "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
+    workers: int = Field(1, ge=1, le=256, description="local processes that search the optimal blends' corners "
+                         "in parallel (the same result as 1)")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
     duration_tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE,

@@ -42,6 +42,9 @@ STILL_GAIN_FRACTION = 1e-12
 #: and the points of the refinement around the best.
 RAMP_ACCELERATIONS = (1e-2, 1e4, 19)
 RAMP_REFINE_POINTS = 15
+#: A baseline is verified on at most this many samples (a program's motion of minutes at 0.1 ms would need
+#: millions; the baselines are references, the optimal plan is verified interval by interval) [-].
+BASELINE_SAMPLES = 400_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,6 +81,74 @@ def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
         caps = np.where(x > 0, problem.x_max / np.where(x > 0, x, 1.0), np.inf)
     return float(min(rows.min(initial=np.inf), caps.min(initial=np.inf)))
 
+
+@dataclass(frozen=True, eq=False)
+class _TrapezoidRows:
+    """The limit rows of one piece arranged for the constant-speed search (:func:`_trapezoid` profiles with cruise
+    speed v and ramp acceleration a): where the ramp speed is at least v (cruise) x = v^2 / gain^2, so a row joining
+    two cruise points holds while v^2 <= R / (P / gain_i^2 + Q / gain_(i+1)^2), its ``cruise`` bound (K-1,),
+    the least over the interval's rows; a point on a ramp, at rest or not moving has x independent of v
+    (:meth:`ramps`, once per a). A test costs O(K), not O(K M)."""
+
+    problem: IntervalProblem
+    gain: np.ndarray
+    rests: tuple[bool, bool]
+    cruise: np.ndarray
+    cap: np.ndarray
+    moving: np.ndarray
+
+    @classmethod
+    def of(cls, problem: IntervalProblem, gain: np.ndarray, rests: tuple[bool, bool]) -> "_TrapezoidRows":
+        moving = gain > STILL_GAIN_FRACTION * gain.max()
+        inv = np.where(moving, 1.0 / np.where(moving, gain, 1.0) ** 2, np.nan)
+        D = problem.P * inv[:-1, None] + problem.Q * inv[1:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = np.where(D > 0, problem.R / np.where(D > 0, D, 1.0), np.inf)
+        return cls(problem, gain, rests, u.min(axis=1, initial=np.inf), problem.x_max / np.where(moving, inv, np.nan),
+                   moving)
+
+    def ramps(self, a: float, v_top: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For ramp acceleration a: the x (K,) of every point as if v were unbounded (finite where x does not depend on
+        v: ramps, rest, still TCP; inf where it cruises), whether each row (K-1,) between two such points holds, and
+        whether each such point (K,) keeps x <= x_max; for cruise speeds up to ``v_top`` (a point whose ramp is
+        faster cruises at every such speed)."""
+        sub = self.problem
+        x = _trapezoid(sub.grid, self.gain, sub.x_max, np.inf, a, *self.rests)
+        with np.errstate(divide="ignore"):
+            fixed = (x < v_top ** 2 / self.gain ** 2) | ~self.moving
+        both = fixed[:-1] & fixed[1:]
+        xf = np.where(fixed, x, 0.0)
+        den = sub.P[both] * xf[:-1][both, None] + sub.Q[both] * xf[1:][both, None]
+        ok = np.ones(len(both), bool)
+        ok[both] = _rows_hold(den, sub.R[both])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            caps = ~fixed | (x <= 0) | (sub.x_max / np.where(x > 0, x, 1.0) >= 1.0)
+        return x, ok, caps
+
+    def holds(self, v: float, ramp: tuple[np.ndarray, np.ndarray, bool]) -> bool:
+        """Whether the trapezoid of cruise speed v (and the a of ``ramp`` = :meth:`ramps`) meets every row and x_max
+        (as ``max_feasible_scale >= 1`` does, the cruise rows up to round-off)."""
+        x_inf, ok, caps = ramp
+        sub = self.problem
+        with np.errstate(divide="ignore"):
+            cruise_x = v ** 2 / self.gain ** 2
+        fixed = (x_inf < cruise_x) | ~self.moving  # on a ramp, at rest, or the TCP still: x is not v's
+        both_fixed, both_cruise = fixed[:-1] & fixed[1:], ~fixed[:-1] & ~fixed[1:]
+        if not (np.all(caps[fixed]) and np.all(ok[both_fixed]) and np.all(v ** 2 <= self.cruise[both_cruise])):
+            return False
+        if np.any(~fixed & (self.cap < v ** 2)):
+            return False
+        mixed = ~both_fixed & ~both_cruise
+        x = np.where(fixed, x_inf, cruise_x)
+        den = sub.P[mixed] * x[:-1][mixed, None] + sub.Q[mixed] * x[1:][mixed, None]
+        return bool(np.all(_rows_hold(den, sub.R[mixed])))
+
+
+def _rows_hold(den: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Per row (first axis) whether every R / den >= 1 where den > 0 (the test of :func:`max_feasible_scale`)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ratio = np.where(den > 0, R / np.where(den > 0, den, 1.0), np.inf)
+    return np.all(ratio >= 1.0, axis=1) if ratio.ndim == 2 else ratio >= 1.0
 
 def _cuts(chain_args: dict, size: int) -> list[int]:
     split = set(chain_args["stops"])
@@ -116,12 +187,14 @@ def _fit_piece(theta: np.ndarray, x: np.ndarray, periodic: bool, degree: int) ->
 
 
 def _verified(name, description, problem, cuts, pieces, path, robot, limits, settings, joint_names) -> Baseline:
-    """Join, verify on the dense resample, and scale x down until the ratios pass (bounded)."""
+    """Join, verify on the dense resample (every verify_sample_time, or at most BASELINE_SAMPLES samples on a long
+    motion), and scale x down until the ratios pass (bounded)."""
     for _ in range(_VERIFY_ROUNDS):
         prof, jumps = join_segments(problem.grid, cuts, pieces)
         traj = Trajectory(path, prof, robot)
-        samples, r = sample_ratios(traj, limits, settings.verify_sample_time, jumps)
-        ratios = summarize(samples, r, limits, settings.verify_sample_time, (), joint_names)
+        dt = max(settings.verify_sample_time, prof.duration / BASELINE_SAMPLES)
+        samples, r = sample_ratios(traj, limits, dt, jumps)
+        ratios = summarize(samples, r, limits, dt, (), joint_names)
         worst = worst_outside(samples, r, jumps)
         if worst <= 1.0 + settings.limit_tolerance:
             return Baseline(name, prof, ratios, description)
@@ -190,16 +263,18 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
     def pieces_for(v, a):
         return [_trapezoid(sub.grid, g, sub.x_max, v, a, r0, r1) for sub, g, (r0, r1) in zip(subs, gains, rests)]
 
-    def feasible(v, a):
-        return all(max_feasible_scale(sub, x) >= 1.0 for sub, x in zip(subs, pieces_for(v, a)))
-
     def best_speed(a):
+        ramp = [rows.ramps(a, v_top) for rows in arranged]
+
+        def feasible(v):
+            return all(rows.holds(v, r) for rows, r in zip(arranged, ramp))
+
         lo, hi = 0.0, v_top
-        if feasible(hi, a):
+        if feasible(hi):
             return hi
         while hi - lo > defaults.BASELINE_SPEED_TOLERANCE * v_top:
             mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if feasible(mid, a) else (lo, mid)
+            lo, hi = (mid, hi) if feasible(mid) else (lo, mid)
         return lo
 
     def duration(a):
@@ -209,6 +284,7 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
         return sum(_piece_time(sub.grid, x) for sub, x in zip(subs, pieces_for(v, a))), v
 
     v_top = float(np.max(np.sqrt(np.concatenate(x_opt)) * np.concatenate(gains)))
+    arranged = [_TrapezoidRows.of(sub, g, r) for sub, g, r in zip(subs, gains, rests)]
     ramps = any(r0 or r1 for r0, r1 in rests)
     accs = np.geomspace(*RAMP_ACCELERATIONS) if ramps else np.array([1.0])
     results = [duration(a) for a in accs]

@@ -40,12 +40,18 @@ slower than any of them; the polish keeps it unless it finds a faster one. About
 global stage, 785-1550 with free ends and the wide starts, and the global stage's GLOBAL_PLANS (all twice when
 capped), then the polish's 150 on the full grid.
 
+How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
+atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 on the search grid and a short
+polish (FAST_POLISH_PLANS) on the full grid. Each corner is searched from the symmetric blends at the others (a
+:class:`_CornerJob`), so ``workers`` > 1 searches the corners on local processes with the same result.
+
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "The optimal blend's search".
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import logging
 import warnings
@@ -140,6 +146,8 @@ POLISH_PLANS = 150
 #: for about 6 s more CPU per start and corner (28-35 s for the search; benchmarks/search_spread.py --polish-starts
 #: 3): not worth the atlas' time budget by default.
 POLISH_STARTS = 1
+#: The fast search's polish: plans per corner on the full grid from its fastest blend.
+FAST_POLISH_PLANS = 30
 
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
 #: run_entry, run_exit [run unit] (7: S-curve offset pieces), then (11: free offset pieces) each
@@ -754,70 +762,161 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
     return duration, shapes, run
 
 
-def _search_corner(objective: _Objective, racing: bool, cycles: int, steps: int, racing_steps: int,
-                   free_plans: int, rise_plans: int = RISE_PLANS, end_plans: int = END_PLANS,
-                   planar: bool = False, joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
-                   wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
-                   wide_crossed_plans: int = CROSSED_DEFAULT_PLANS, global_plans: int = GLOBAL_PLANS
-                   ) -> tuple[G2Shape | None, ...]:
-    """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the
-    racing-line stage from the best quintic, the free stage from the best racing line (``free_plans``
-    > 0), the rise stage from the best free blend (``rise_plans`` > 0, not ``planar``), the free-ends
-    stage (``end_plans`` > 0, objective.free_ends), the joint stage (``joint_plans`` > 0), the wide starts
-    (``wide_plans``, ``wide_normal_plans``, ``wide_crossed_plans`` > 0), the wide restart (``restart_plans`` > 0)
-    and the global stage (``free_plans`` and ``global_plans`` > 0) (module docstring).
-    Returns the fastest shape before the joint stage when that, a wide start or the restart ran, the fastest before
-    the wide starts when they or the restart ran, the fastest before the restart when it ran, the fastest before
-    the crossed starts when they ran, and the fastest before the global stage when it ran, each else None
-    (candidates of their own: a later stage's blend is faster on the search's coarse grid, not always on the full
-    one)."""
+@dataclass(frozen=True)
+class SearchSettings:
+    """How hard :func:`optimal_blends` searches each corner (the stages of the module docstring): ``cycles`` passes
+    of the quintic stage's scalar searches of ``steps`` golden steps; ``racing`` the racing line (at line-line corners;
+    its searches ``racing_steps`` steps); plans (0 skips the stage): ``free_plans`` the free offset pieces (0: no
+    later stage but the capped retry and the polish), ``rise_plans`` the rise, ``end_plans`` the free ends,
+    ``joint_plans`` the joint stage, ``wide_plans`` / ``wide_normal_plans`` / ``wide_crossed_plans`` the wide starts,
+    ``restart_plans`` the wide restart, ``global_plans`` the global stage; ``retry_capped`` stage 7;
+    ``polish_plans`` stage 8 from ``polish_starts`` candidates; ``search_grid_points`` the search's grid;
+    ``windows`` each corner on its window (else every plan on the whole path)."""
+
+    cycles: int = SEARCH_CYCLES
+    steps: int = GOLDEN_STEPS
+    racing_steps: int = RACING_STEPS
+    racing: bool = True
+    search_grid_points: int = SEARCH_GRID_POINTS
+    free_plans: int = FREE_PLANS
+    rise_plans: int = RISE_PLANS
+    end_plans: int = END_PLANS
+    joint_plans: int = JOINT_PLANS
+    wide_plans: int = WIDE_PLANS
+    wide_normal_plans: int = WIDE_NORMAL_PLANS
+    wide_crossed_plans: int = CROSSED_DEFAULT_PLANS
+    restart_plans: int = RESTART_PLANS
+    global_plans: int = GLOBAL_PLANS
+    retry_capped: bool = True
+    polish_plans: int = POLISH_PLANS
+    polish_starts: int = POLISH_STARTS
+    windows: bool = True
+
+
+#: Every stage (the corner atlas' search; 15-45 s of CPU per corner).
+THOROUGH = SearchSettings()
+#: The quintic and the racing line (S-curve offset pieces) on the search grid, each corner's winner polished
+#: briefly on the full grid: 2-4 s of CPU per corner for 66-94 % of the thorough search's gain over the
+#: symmetric G2 blend (benchmarks/bench_fast_search.py measures both on the corner atlas' rows).
+FAST = SearchSettings(free_plans=0, rise_plans=0, end_plans=0, joint_plans=0, wide_plans=0, wide_normal_plans=0,
+                      restart_plans=0, global_plans=0, retry_capped=False, polish_plans=FAST_POLISH_PLANS)
+#: The searches by name (scenario ``search = "fast" | "thorough"``).
+SEARCHES = {"fast": FAST, "thorough": THOROUGH}
+
+
+@dataclass(frozen=True, eq=False)
+class _Found:
+    """What one corner's search found (on the search grid): the fastest blend (``best``), the fastest of each class
+    (one quintic, S-curves, in the corner's plane, joined to the lines), the fastest before each late stage (that
+    stage's own candidate; ``best`` where it did not run), the first search's fastest when the capped retry won
+    (``capped``), the searches themselves (``searched``: [_Objective], for the polish) and the ``plans`` run."""
+
+    best: G2Shape
+    quintic: G2Shape
+    s_curve: G2Shape
+    in_plane: G2Shape
+    joined: G2Shape
+    before_joint: G2Shape
+    before_wide: G2Shape
+    before_restart: G2Shape
+    before_crossed: G2Shape
+    before_global: G2Shape
+    capped: G2Shape | None
+    searched: tuple
+    plans: int
+
+
+@dataclass(frozen=True, eq=False)
+class _CornerJob:
+    """One corner's search, self-contained (it runs in a worker process as well): the path ``original`` with the
+    symmetric blends ``shapes`` at every chosen corner, the ``corner``, its ``tolerance`` [m], the search's plan
+    ``settings``, ``ends`` (free ends where the motion rests), ``racing`` (a line-line corner), ``planar``,
+    ``windowed`` (on its window)."""
+
+    robot: object
+    original: TaskPath
+    shapes: dict
+    corner: int
+    tolerance: float
+    settings: PlanSettings
+    q_start: object
+    ends: tuple[bool, bool]
+    racing: bool
+    planar: bool
+    windowed: bool
+    search: SearchSettings
+
+
+@dataclass(frozen=True)
+class _Stages:
+    """The fastest blend so far before each late stage of one search (None where that stage did not run)."""
+
+    before_joint: G2Shape | None = None
+    before_wide: G2Shape | None = None
+    before_restart: G2Shape | None = None
+    before_crossed: G2Shape | None = None
+    before_global: G2Shape | None = None
+
+
+def _late_stages(objective: _Objective, search: SearchSettings, planar: bool) -> _Stages:
+    """The free-ends stage and the stages after it (joint, wide starts, restart, crossed starts), where the corner
+    has a free end; the fastest blend before each (module docstring)."""
+    _end_stage(objective, search.end_plans, planar)
+    before = objective.best()[1]
+    if search.joint_plans > 0:
+        _joint_stage(objective, search.joint_plans, planar)
+        if _late_end_stage(objective, search.end_plans, planar):
+            _joint_stage(objective, search.joint_plans, planar)
+    before_wide = objective.best()[1]
+    if search.wide_plans > 0:
+        _wide_stage(objective, search.wide_plans, planar)
+    if search.wide_normal_plans > 0:
+        _wide_stage(objective, search.wide_normal_plans, planar, along_normal=True)
+    ahead, before_restart, _ = objective.best()
+    restart = search.restart_plans > 0 and search.joint_plans > 0  # the joint stage once more: not without it
+    if restart:
+        _joint_stage(objective, search.restart_plans, planar, share=RESTART_RADIUS_SHARE)
+        log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.label,
+                 ahead, objective.best()[0])
+    crossed = search.wide_crossed_plans > 0 and search.joint_plans > 0  # joint stages, as the restart
+    before_crossed = objective.best()[1]
+    for directions in CROSSED_DIRECTIONS if crossed else ():
+        _wide_stage(objective, search.wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE)
+    wide = search.wide_plans > 0 or search.wide_normal_plans > 0 or crossed or restart
+    return _Stages(before if search.joint_plans > 0 or wide else None, before_wide if wide else None,
+                   before_restart if restart else None, before_crossed if crossed else None)
+
+
+def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, planar: bool = False) -> _Stages:
+    """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the racing-line stage
+    from the best quintic, the free stage (``search.free_plans`` > 0), the rise (not ``planar``), the free ends and
+    the stages after them (_late_stages, at a corner with a free end) and the global stage (module docstring).
+    Returns the fastest blend before each late stage that ran (candidates of their own: a later stage's blend is
+    faster on the search's coarse grid, not always on the full one)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
-    for _ in range(cycles):
+    for _ in range(search.cycles):
         for i, box in ((_BALANCE, BALANCE_RANGE), (_SHAPE_A, SHAPE_RANGE), (_SHAPE_B, SHAPE_RANGE)):
-            _line_search(objective, np.array(objective.best()[2]), (i,), *box, steps)
+            _line_search(objective, np.array(objective.best()[2]), (i,), *box, search.steps)
     if not racing:
-        return None, None, None, None, None
-    found = (None, None, None, None)
+        return _Stages()
+    found = _Stages()
     for _ in range(RACING_CYCLES):
         for indices, box in _RACING_MOVES:
-            _line_search(objective, np.array(objective.best()[2]), indices, *box, racing_steps)
-    if free_plans > 0:
-        _free_stage(objective, free_plans)
-        if rise_plans > 0 and not planar:
-            _rise_stage(objective, rise_plans)
-        if end_plans > 0 and any(objective.free_ends):
-            _end_stage(objective, end_plans, planar)
-            before = objective.best()[1]
-            if joint_plans > 0:
-                _joint_stage(objective, joint_plans, planar)
-                if _late_end_stage(objective, end_plans, planar):
-                    _joint_stage(objective, joint_plans, planar)
-            before_wide = objective.best()[1]
-            if wide_plans > 0:
-                _wide_stage(objective, wide_plans, planar)
-            if wide_normal_plans > 0:
-                _wide_stage(objective, wide_normal_plans, planar, along_normal=True)
-            ahead, before_restart, _ = objective.best()
-            restart = restart_plans > 0 and joint_plans > 0  # the joint stage once more: not without it
-            if restart:
-                _joint_stage(objective, restart_plans, planar, share=RESTART_RADIUS_SHARE)
-                log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.label,
-                         ahead, objective.best()[0])
-            crossed = wide_crossed_plans > 0 and joint_plans > 0  # joint stages, as the restart: not without one
-            before_crossed = objective.best()[1]
-            for directions in CROSSED_DIRECTIONS if crossed else ():
-                _wide_stage(objective, wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE)
-            wide = wide_plans > 0 or wide_normal_plans > 0 or crossed or restart
-            found = ((before if joint_plans > 0 or wide else None), (before_wide if wide else None),
-                     (before_restart if restart else None), (before_crossed if crossed else None))
-    before_global = None
-    if free_plans > 0 and global_plans > 0:
+            _line_search(objective, np.array(objective.best()[2]), indices, *box, search.racing_steps)
+    if search.free_plans > 0:
+        _free_stage(objective, search.free_plans)
+        if search.rise_plans > 0 and not planar:
+            _rise_stage(objective, search.rise_plans)
+        if search.end_plans > 0 and any(objective.free_ends):
+            found = _late_stages(objective, search, planar)
+    if search.free_plans > 0 and search.global_plans > 0:
         ahead, before_global, _ = objective.best()
-        drawn, why = _global_stage(objective, global_plans, planar)
+        drawn, why = _global_stage(objective, search.global_plans, planar)
         log.info("blend search: corner %d: the global stage: %.6g -> %.6g s (coarse grid), %d candidates, "
                  "stopped by %s", objective.label, ahead, objective.best()[0], drawn, why)
-    return (*found, before_global)
+        found = dataclasses.replace(found, before_global=before_global)
+    return found
 
 
 def _racing_possible(path: TaskPath, corner: int) -> bool:
@@ -826,96 +925,117 @@ def _racing_possible(path: TaskPath, corner: int) -> bool:
             and isinstance(path.segments[corner + 1], Line))
 
 
+def _search_one(job: _CornerJob) -> _Found:
+    """Stages 1-7 at one corner (module docstring): its search, and the capped retry where the neighbours, not the
+    tolerance, capped the blend; the faster kept, the candidates of both."""
+    k, search = job.corner, job.search
+    window = (_corner_window(job.robot, job.original, job.shapes, k, job.settings, job.q_start)
+              if job.windowed else None)
+    plans = 2 * (window is not None)  # the whole path's plan for its ends, and the window's check
+    obj = _objective(job.robot, job.original, job.shapes, k, job.tolerance, job.settings, job.q_start, job.ends,
+                     window)
+    stages = _search_corner(obj, job.racing, search, job.planar)
+    searched, reached, capped = [obj], obj.best()[1].deviation, None
+    if search.retry_capped and reached < CAPPED_SHARE * job.tolerance:  # the neighbours capped the blend: stage 7
+        again = _objective(job.robot, job.original, job.shapes, k, reached, job.settings, job.q_start, job.ends,
+                           window)
+        stages_again = _search_corner(again, job.racing, search, job.planar)
+        searched.append(again)
+        log.info("blend search: corner %d: the fastest blend within %.6g m reached only %.6g m; searched again "
+                 "within that: %.6g s against %.6g s (coarse grid)", k, job.tolerance, reached, again.best()[0],
+                 obj.best()[0])
+        if again.best()[0] < obj.best()[0]:
+            capped, obj, stages = obj.best()[1], again, stages_again
+
+    def fastest(**kind) -> G2Shape:  # over both searches when capped: the retry adds candidates, never drops any
+        return min((o.best(**kind) for o in searched), key=lambda r: r[0])[1]
+
+    best = obj.best()[1]
+    plans += sum(o.plans for o in searched)
+    log.info("blend search: corner %d: %d plans, shape %s", k, plans - 2 * (window is not None), best)
+    return _Found(best, fastest(quintic_only=True), fastest(s_curve_only=True), fastest(planar=True),
+                  fastest(joined=True), stages.before_joint or best, stages.before_wide or best,
+                  stages.before_restart or best, stages.before_crossed or best, stages.before_global or best,
+                  capped, tuple(searched), plans)
+
+
+def _search_all(jobs: list[_CornerJob], workers: int) -> dict[int, _Found]:
+    """Every corner's search, on ``workers`` local processes (1: in this process), in corner order."""
+    if workers <= 1 or len(jobs) <= 1:
+        return {job.corner: _search_one(job) for job in jobs}
+    from concurrent.futures import ProcessPoolExecutor
+
+    log.info("blend search: %d corners on %d worker processes", len(jobs), workers)
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+        return dict(zip((job.corner for job in jobs), pool.map(_search_one, jobs)))
+
+
+#: The candidate classes of every corner, in the order they are planned on the full grid (ties: the first wins).
+_CLASSES = ("quintic", "s_curve", "in_plane", "joined", "before_joint", "before_wide", "before_restart",
+            "before_crossed", "before_global")
+
+
 def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: Sequence[int] | None = None,
-                   settings: PlanSettings | None = None, q_start=None, *, cycles: int = SEARCH_CYCLES,
-                   steps: int = GOLDEN_STEPS, racing_steps: int = RACING_STEPS, racing: bool = True,
-                   search_grid_points: int = SEARCH_GRID_POINTS, free_plans: int = FREE_PLANS,
-                   rise_plans: int = RISE_PLANS, planar: Sequence[int] = (), end_plans: int = END_PLANS,
-                   joined_ends: Sequence[int] = (), joint_plans: int = JOINT_PLANS, wide_plans: int = WIDE_PLANS,
-                   wide_normal_plans: int = WIDE_NORMAL_PLANS, restart_plans: int = RESTART_PLANS,
-                   retry_capped: bool = True, polish_plans: int = POLISH_PLANS,
-                   names: Mapping[int, str] | None = None, windows: bool = True,
-                   wide_crossed_plans: int = CROSSED_DEFAULT_PLANS, polish_starts: int = POLISH_STARTS,
-                   global_plans: int = GLOBAL_PLANS) -> OptimalBlend:
-    """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection
-    indices, default every sharp corner) of ``original`` that minimise the time-optimal duration
-    under ``settings`` (see the module docstring; ``racing`` False: the quintic stage only;
-    ``free_plans`` 0: no free offset pieces and no rise; ``rise_plans`` 0: no rise; the corners in
-    ``planar`` stay in their plane; the corners in ``joined_ends``, or all with ``end_plans`` 0, join
-    the lines even at a path end where the motion rests; ``joint_plans`` 0: no joint stage; ``wide_plans`` 0: no
-    wide start outwards, ``wide_normal_plans`` 0: none along the normal, ``wide_crossed_plans`` 0 (the default): no
-    crossed ones; ``restart_plans`` 0: no wide restart; ``global_plans`` 0: no global stage (nor without
-    ``free_plans``); ``retry_capped`` False: no stage 7; ``polish_plans`` 0: no stage 8, ``polish_starts``: how many
-    candidates it starts from; ``windows`` False: every plan on the whole path). PathError as
+                   settings: PlanSettings | None = None, q_start=None, *, search: SearchSettings = THOROUGH,
+                   planar: Sequence[int] = (), joined_ends: Sequence[int] = (),
+                   names: Mapping[int, str] | None = None, workers: int = 1, **changes) -> OptimalBlend:
+    """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection indices, default
+    every sharp corner) of ``original`` that minimise the time-optimal duration under ``settings`` (module docstring),
+    searched as ``search`` says (``changes``: SearchSettings fields to override, e.g. ``polish_plans=0``). The
+    corners in ``planar`` stay in their plane; those in ``joined_ends`` join the lines even at a path end where the
+    motion rests. Each corner is searched from the symmetric blends at the others, so the corners are independent:
+    ``workers`` > 1 searches them on that many local processes, with the same result. PathError as
     :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does not
     fit."""
+    search = dataclasses.replace(search, **changes) if changes else search
     settings = settings or PlanSettings()
     chosen = [c.index for c in original.connections if c.kind == "corner"] if corners is None else sorted(corners)
     tol = dict(tolerance) if isinstance(tolerance, dict) else {k: float(tolerance) for k in chosen}
     # the symmetric blends, and their errors (a tolerance too large: the largest that fits)
     symmetric = with_blends(original, {k: ("g2", tol[k]) for k in chosen}, names)
-    fast = replace_settings(settings, grid_points=search_grid_points, verify=False, baselines=False)
-    shapes = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
-                                        shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
-    initial, quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted, uncrossed, unglobal = (
-        dict(shapes) for _ in range(10))
-    capped: dict = {}  # a corner searched again (stage 7): the first search's fastest blend
-    searches: dict = {}  # every corner's searches, for the polish (stage 8)
-    plans, rests = 0, (False, False) if original.closed else _rests(settings)
-    windowed = windows and _windows_apply(original)
+    coarse = replace_settings(settings, grid_points=search.search_grid_points, verify=False, baselines=False)
+    initial = {k: g2_shape_for_tolerance(original, k, tol[k], 0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE,
+                                         shared=(k - 1 in chosen, k + 1 in chosen)) for k in chosen}
+    rests = (False, False) if original.closed else _rests(settings)
+    windowed = search.windows and _windows_apply(original)
+    jobs = []
     for k in chosen:
-        free = racing and _racing_possible(original, k) and k not in joined_ends
+        racing = search.racing and _racing_possible(original, k)
+        free = racing and k not in joined_ends
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
-        search = (racing and _racing_possible(original, k), cycles, steps, racing_steps, free_plans, rise_plans,
-                  end_plans, k in planar, joint_plans, wide_plans, wide_normal_plans, restart_plans, wide_crossed_plans,
-                  global_plans)
-        window = _corner_window(robot, original, shapes, k, fast, q_start) if windowed else None
-        plans += 2 * (window is not None)  # the whole path's plan for its ends, and the window's check
-        obj = _objective(robot, original, shapes, k, tol[k], fast, q_start, ends, window)
-        before_joint, before_wide, before_restart, before_crossed, before_global = _search_corner(obj, *search)
-        searched, reached = [obj], obj.best()[1].deviation
-        if retry_capped and reached < CAPPED_SHARE * tol[k]:  # the neighbours capped the blend: stage 7
-            again = _objective(robot, original, shapes, k, reached, fast, q_start, ends, window)
-            before_again = _search_corner(again, *search)  # (before the joint stage, ..., the global stage)
-            searched.append(again)
-            log.info("blend search: corner %d: the fastest blend within %.6g m reached only %.6g m; searched again "
-                     "within that: %.6g s against %.6g s (coarse grid)", k, tol[k], reached, again.best()[0],
-                     obj.best()[0])
-            if again.best()[0] < obj.best()[0]:
-                capped[k] = obj.best()[1]
-                obj, (before_joint, before_wide, before_restart, before_crossed, before_global) = again, before_again
-        def fastest(**kind) -> G2Shape:  # over both searches when capped: the retry adds candidates, never drops any
-            return min((o.best(**kind) for o in searched), key=lambda r: r[0])[1]
+        jobs.append(_CornerJob(robot, original, initial, k, tol[k], coarse, q_start, ends, racing, k in planar,
+                               windowed, search))
+    found = _search_all(jobs, workers)
+    return _chosen(robot, original, symmetric, initial, found, settings, q_start, search, planar, windowed)
 
-        quintic[k], s_curve[k], in_plane[k], joined[k], shapes[k] = (
-            fastest(quintic_only=True), fastest(s_curve_only=True), fastest(planar=True), fastest(joined=True),
-            obj.best()[1])
-        unjoint[k], unwide[k], unrestarted[k], uncrossed[k], unglobal[k] = (
-            before_joint or shapes[k], before_wide or shapes[k], before_restart or shapes[k],
-            before_crossed or shapes[k], before_global or shapes[k])
-        searches[k] = searched
-        corner_plans = sum(o.plans for o in searched)
-        plans += corner_plans
-        log.info("blend search: corner %d: %d plans, shape %s", k, corner_plans, shapes[k])
+
+def _chosen(robot, original: TaskPath, symmetric: TaskPath, initial: dict, found: dict[int, _Found],
+            settings: PlanSettings, q_start, search: SearchSettings, planar: Sequence[int],
+            windowed: bool) -> OptimalBlend:
+    """Stage 8 and the choice: every class's fastest blends (and the symmetric ones) planned on the full grid, the
+    fastest polished (module docstring); the OptimalBlend with the class durations."""
+    plans = sum(f.plans for f in found.values())
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    stages = ((quintic, s_curve, in_plane, joined, unjoint, unwide, unrestarted, uncrossed, unglobal)
-              + (({**shapes, **capped},) if capped else ())
-              + (shapes,))
-    for found in [c for i, c in enumerate(stages) if c not in stages[:i]]:
-        candidates.append((duration_with(robot, original, found, full, q_start), found, None))
+    shapes = {k: f.best for k, f in found.items()}
+    capped = {k: f.capped for k, f in found.items() if f.capped is not None}
+    stages = (tuple({**initial, **{k: getattr(f, name) for k, f in found.items()}} for name in _CLASSES)
+              + (({**shapes, **capped},) if capped else ()) + ({**initial, **shapes},))
+    for stage in [c for i, c in enumerate(stages) if c not in stages[:i]]:
+        candidates.append((duration_with(robot, original, stage, full, q_start), stage, None))
     plans += len(candidates)
     quintic_T = candidates[1][0]
     joined_T = min(c[0] for c in candidates if all(_joined(shape) for shape in c[1].values()))
     planar_T = min(c[0] for c in candidates if all(shape.planar for shape in c[1].values()))
     ranked = sorted(candidates, key=lambda c: c[0])  # stable: the first (symmetric) wins ties
-    T, found, path = ranked[0]
-    quintic_only = [k for k in chosen if not (racing and _racing_possible(original, k))]
-    starts = [c for i, c in enumerate(ranked) if all(c[1] != d[1] for d in ranked[:i])][:polish_starts]
-    for start_T, start, _ in starts if polish_plans > 0 else ():
+    T, best, path = ranked[0]
+    quintic_only = [k for k in found if not (search.racing and _racing_possible(original, k))]
+    starts = [c for i, c in enumerate(ranked) if all(c[1] != d[1] for d in ranked[:i])][:search.polish_starts]
+    searches = {k: list(f.searched) for k, f in found.items()}
+    for start_T, start, _ in starts if search.polish_plans > 0 else ():
         polished_T, polished, polish_run = _polish(robot, original, start, start_T, searches, full, q_start,
-                                                   polish_plans, planar, quintic_only, windowed)
+                                                   search.polish_plans, planar, quintic_only, windowed)
         plans += polish_run
         if polished_T < start_T:
             shapes_now = polished.values()  # the polished blend counts for the classes it still belongs to
@@ -925,8 +1045,8 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         log.info("blend search: polished from the candidate of %.6g s: %.6g s (fastest so far %.6g s)", start_T,
                  polished_T, min(T, polished_T))
         if polished_T < T:
-            T, found, path = polished_T, polished, None
-    return OptimalBlend(found, symmetric if path is not None else with_shaped_g2_blends(original, found), T, sym_T,
+            T, best, path = polished_T, polished, None
+    return OptimalBlend(best, symmetric if path is not None else with_shaped_g2_blends(original, best), T, sym_T,
                         plans, quintic_T, planar_T, joined_T)
 
 
@@ -947,4 +1067,4 @@ def replace_settings(settings: PlanSettings, **changes) -> PlanSettings:
     return replace(settings, **changes)
 
 
-__all__ = ["OptimalBlend", "duration_with", "optimal_blends"]
+__all__ = ["FAST", "OptimalBlend", "SEARCHES", "SearchSettings", "THOROUGH", "duration_with", "optimal_blends"]
