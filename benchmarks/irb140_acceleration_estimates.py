@@ -27,6 +27,8 @@ LOWER_DEG = np.array([-90.0, -40.0, -110.0, -90.0, -90.0, -180.0])
 UPPER_DEG = np.array([90.0, 80.0, 20.0, 90.0, 90.0, 180.0])
 PERCENTILE = 90.0  #: the estimate: this percentile of the torque-allowed acceleration ...
 ROUND_TO = 5.0  #: ... rounded to this [rad/s^2]
+#: the estimates this rule gives [rad/s^2] (docs/robot.md's proposal; the limits file still holds 10-25 rad/s^2)
+PROPOSED = np.array([100.0, 55.0, 65.0, 100.0, 80.0, 100.0])
 ABB_TCP_ACCELERATION = 57.0  #: [m/s^2], ABB product specification, IRB 140T, nominal load, gravity included
 DIRECTIONS = np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [0, 0, -1.0]])
 GRAVITY = np.array([0.0, 0.0, -9.81])
@@ -97,18 +99,23 @@ def main() -> None:
     A = torque_allowed(robot, Q)
     pct = np.percentile(A, [10, 50, 90], axis=0)
     print(f"torque-allowed single-axis acceleration [rad/s^2], 6 kg, {a.configs} configurations")
-    print("| joint | p10 | median | p90 | estimate (p90 to 5) | limits file |")
+    print("| joint | p10 | median | p90 | estimate (p90 to 5) | limits file |")  # the estimate is PROPOSED
     print("|---|---|---|---|---|---|")
     est = estimates(robot, Q)
     for i, name in enumerate(robot.limits.names):
         print(f"| {name} | {pct[0, i]:.1f} | {pct[1, i]:.1f} | {pct[2, i]:.1f} | {est[i]:.0f} | "
               f"{robot.limits.acceleration[i]:g} |")
     Qt = Q[: a.tcp_configs]
-    no_armature = robot.with_limits(dataclasses.replace(robot.limits, armature=np.zeros(6)))
+    def armature(scale):
+        return robot.with_limits(dataclasses.replace(robot.limits, armature=scale * robot.limits.armature))
+
     print(f"\nlargest TCP acceleration [m/s^2] over {a.tcp_configs} configurations (p10 / median / p90 / max); "
           f"ABB: {ABB_TCP_ACCELERATION:g}")
     for label, r, box in (("torques + armature", robot, None), ("torques + armature + acceleration box", robot,
-                          robot.limits.acceleration), ("torques, no armature", no_armature, None),
+                          robot.limits.acceleration), ("torques + armature + proposed box", robot, PROPOSED),
+                          ("torques, half the armature", armature(0.5), None),
+                          ("torques, a quarter of the armature", armature(0.25), None),
+                          ("torques, no armature", armature(0.0), None),
                           ("torques + armature, 1 kg at the flange", load_robot("irb140", payload=Payload(1.0)), None)):
         acc, force = tcp_table(r, Qt, box)
         fmt = " / ".join(f"{v:.1f}" for v in np.percentile(acc, [10, 50, 90, 100]))

@@ -24,9 +24,9 @@ from pathmotion.planning.reduced import reduced_derivatives, reduced_dynamics, t
 from pathmotion.robot import load_robot
 
 #: The accelerations [rad/s^2] the references below were stated for (issue 12's transcription of the circle); on a
-#: path bound by the velocity limits (the IRB140's own, higher acceleration estimates make the random splines
-#: so) a huge jerk meets the second-order optimum only to 0.1-0.3 %: the optimum switches the limiting joint
-#: with a step in theta_ddot that any finite jerk rounds off.
+#: path bound by the velocity limits (the random splines with the torque-derived accelerations of docs/robot.md)
+#: a huge jerk meets the second-order optimum only to 0.1-0.3 %: the optimum switches the limiting joint with a
+#: step in theta_ddot that any finite jerk rounds off.
 ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
 ROBOT = load_robot("irb140")
 ROBOT = ROBOT.with_limits(replace(ROBOT.limits, acceleration=ACC))
