@@ -121,8 +121,10 @@ def test_the_plan_folder_holds_every_limit_curve_and_the_second_order_optimum(wr
     summary = read_json(out / "summary.json")
     second = summary[schema.SECOND_ORDER_DURATION.key]
     assert second < summary[schema.DURATION.key]  # the jerk limit costs time
-    # the second-order optimum stays under its curve (removing the jerk limit never lifts the curves)
-    assert np.all(cols[schema.PHASE_SECOND_ORDER] <= cols[schema.PHASE_POINTWISE] * (1 + 1e-3) + 1e-9)
+    # the second-order optimum stays under every limit's own curve (checked against RNEA above); not under the
+    # pointwise column, which is the third-order plan's curve (it can lie below the second-order plan's: 5 % with
+    # the torque-derived accelerations of docs/robot.md, where both profiles ride it)
+    assert np.all(cols[schema.PHASE_SECOND_ORDER] <= lowest * (1 + 1e-3) + 1e-9)
     enforced = read_json(out / "limits.json")["enforced"]
     assert enforced["torque"] == pytest.approx((0.8 * setup.robot.limits.torque).tolist())
     assert enforced["jerk"] == pytest.approx(setup.robot.limits.jerk.tolist())
