@@ -369,7 +369,7 @@ def _check_grid_memory(points: int, joints: int, settings, segments: int) -> Non
     per_segment = points / max(segments, 1)
     check_memory(points, each, f"the adaptive planner grid of {points:,} points for {segments:,} segments",
                  lambda largest: f"the largest grid that fits has {largest:,} points: plan the path in parts of at "
-                                 f"most {int(largest / per_segment):,} segments, or raise plan.tolerance")
+                                 f"most {int(largest / per_segment):,} segments, or raise plan.duration_tolerance")
 
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
