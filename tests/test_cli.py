@@ -167,8 +167,8 @@ def test_tracking_failure_exits_4_writes_every_file_and_refuses_exports(tmp_path
     for name in ("simulation.csv", "tracking_task.png", "plan/trajectory.csv", "plan/summary.json"):
         assert (tmp_path / "m" / name).is_file(), name
     assert not any((tmp_path / "m" / "plan" / name).exists() for name in EXPORTS)
-    assert any(f.startswith("tracking failed") for f in json.loads((tmp_path / "m" / "plan" / "summary.json")
-                                                                   .read_text())["failures"])
+    failures = json.loads((tmp_path / "m" / "plan" / "summary.json").read_text())["failures"]
+    assert [f["kind"] for f in failures if f["kind"] == "tracking"] == ["tracking"]
 
 
 def test_failed_plan_exits_4_and_forced_exports_carry_a_warning(tmp_path):

@@ -132,7 +132,7 @@ def test_grid_convergence(bench_robot, spline_path):
     coarse, fine = (plan(spline_path, bench_robot, replace(base, grid_points=n)).duration for n in (4000, 8000))
     t_star = 2.0 * fine - coarse
     error = abs(adaptive.duration - t_star)
-    assert error <= base.tolerance * t_star, error / t_star
+    assert error <= base.duration_tolerance * t_star, error / t_star
     assert error <= adaptive.duration_error_estimate, (error, adaptive.duration_error_estimate)
 
 

@@ -51,6 +51,7 @@ def simulation_settings(setup: Setup) -> SimulationSettings:
 def simulate_scenario(setup: Setup, result: PlanResult):
     """Closed-loop simulation of the planned motion with the scenario's controller and plant (the reserve
     search's run when ``result`` is the plan it chose)."""
+    setup.require_searched("simulate_scenario")
     run = setup.reserve_run
     if run is not None and result is run[0] and run[1] is not None:
         return run[1]
