@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test install browser clean
+.PHONY: demo test results install browser clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PY) -m venv $(VENV)
@@ -27,6 +27,11 @@ demo: $(STAMP)
 test: $(STAMP) browser
 	$(BIN)/lint-imports
 	$(BIN)/python -m pytest -q -n 2
+
+# docs/results.md from the benchmarks' JSON tables (benchmarks/results/*.json; each benchmark writes its own with
+# --json PATH, e.g. python benchmarks/bench_irb140.py demo --json benchmarks/results/irb140_demo.json).
+results:
+	$(PY) benchmarks/results.py
 
 clean:
 	rm -rf $(VENV) out

@@ -1,11 +1,12 @@
 """The corner atlas' own work, without the free-shape references: what `pathmotion corners` does once every
-optimum is cached (issue 17's target: under 10 minutes on 2 cores), without the hours of NLPs a cache costs to
+optimum is cached (the target: under 10 minutes on 2 cores), without the hours of NLPs a cache costs to
 fill. Every row runs through the atlas' sweep machinery (`corner_atlas(..., references=False)`, the same
 worker processes), in a fresh folder; prints each row's wall time and optimal blend, the total wall time, and the
 machine load. A real cached run adds only the cache look-ups (JSON files) and the figures.
 
     python benchmarks/atlas_rows.py                                  # the whole atlas, 2 workers
     python benchmarks/atlas_rows.py --angles 90 --tolerances 0.001,0.01 --workers 1
+    python benchmarks/atlas_rows.py --angles 90 --json benchmarks/results/atlas_rows_90.json    # for make results
 """
 
 from __future__ import annotations
@@ -17,12 +18,29 @@ import time
 from pathlib import Path
 
 
+#: The JSON table's columns (corner_atlas row keys, and each row's wall time).
+COLUMNS = [("angle_deg", "angle [deg]"), ("tolerance_m", "tolerance [m]"), ("stop_s", "stop [s]"),
+           ("industrial_zone_s", "parabolic zone, constant speed [s]"), ("circle_s", "circle [s]"),
+           ("g2_s", "G2 [s]"), ("optimal_s", "optimal blend [s]"), ("gain_vs_stop", "optimal vs stop"),
+           ("closed_loop_ok", "closed loop tracks"), ("closed_loop_path_accuracy_m", "closed-loop accuracy [m]"),
+           ("row_wall_s", "row wall time [s]"), ("error", "error")]
+
+
+def _rounded(v):
+    return round(v, 6) if isinstance(v, float) else v
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--angles", default="30,60,90,120,150", help="turn angles [deg], comma-separated")
     ap.add_argument("--tolerances", default="0.0001,0.001,0.005,0.01,0.05", help="tolerances [m], comma-separated")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--json", type=Path, help="write the rows as a JSON table here (benchmarks/results.py)")
     a = ap.parse_args()
+    from result_json import Table
+
+    table = Table("The corner atlas without the free-shape references (`corners --no-references`): the planned "
+                  "motions per corner", COLUMNS)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from pathmotion.study.atlas import corner_atlas
     from pathmotion.study.sweep import load_finished
@@ -44,6 +62,12 @@ def main() -> None:
                  else f"{r['optimal_entry_m'] * 1e3:.1f} / {r['optimal_exit_m'] * 1e3:.1f}")  # which reference applies
         print(f"{r['angle_deg']:6g} {r['tolerance_m'] * 1e3:8g} mm {opt:>12} {spans:>15} "
               f"{'-' if row_wall is None else f'{row_wall:.1f}':>13}  {r.get('error') or r.get('status')}")
+        table.add(**{k: _rounded(r.get(k)) for k, _ in COLUMNS if k != "row_wall_s"},
+                  row_wall_s=None if row_wall is None else round(row_wall, 1))
+    table.notes.append(f"{len(atlas.rows)} rows, {a.workers} workers: {wall:.0f} s wall for the atlas, "
+                       f"{sum(v or 0.0 for v in times.values()):.0f} s of row wall time.")
+    if a.json:
+        print(f"wrote {table.write(a.json)}")
     print(f"rows: {len(atlas.rows)}, sum of row wall times {sum(v or 0.0 for v in times.values()):.0f} s, "
           f"atlas wall {wall:.0f} s ({wall / 60:.1f} min)")
     print(f"load average at end: {os.getloadavg()[0]:.2f}")

@@ -19,7 +19,7 @@ PYTHONPATH on a worktree of the other commit).
     python benchmarks/blend_search_stages.py --stage polish 120:0.001
     python benchmarks/blend_search_stages.py --stage crossed 135:0.007 135:0.002 105:0.007 45:0.002
     python benchmarks/blend_search_stages.py --stage global 60:0.01 60:0.005 30:0.005 120:0.005
-    git worktree add /tmp/old COMMIT && PYTHONPATH=/tmp/old python benchmarks/blend_search_stages.py --stage none
+    git worktree add ../old COMMIT && PYTHONPATH=../old python benchmarks/blend_search_stages.py --stage none
 """
 
 from __future__ import annotations

@@ -27,10 +27,10 @@ _EXPORTS = {
     "api": ("Setup", "build", "check_scenario", "load", "load_text", "plan_scenario", "search", "simulate_scenario",
             "write_plan", "write_simulation"),
     "errors": ("InfeasibleError", "PathError", "PathmotionError", "RobotModelError", "ScenarioError",
-               "SimulationError", "UnreachableError"),
+               "SimulationError", "StateInfeasibleError", "UnreachableError"),
     "geometry": ("waypoint_path",),
     "lift": ("JointPath", "SplineJointPath", "TaskJointPath", "lift"),
-    "planning": ("PlanResult", "PlanSettings", "Profile", "Trajectory", "plan"),
+    "planning": ("PlanResult", "PlanSettings", "Profile", "Retimer", "Trajectory", "plan"),
     "robot": ("JointLimits", "Payload", "Robot", "Tool", "load_robot"),
     "simulation": ("SimulationResult", "SimulationSettings", "simulate"),
 }

@@ -10,6 +10,7 @@ Set PATHMOTION_DEBUG=1 to see the traceback of an internal error.
 from __future__ import annotations
 
 import functools
+import importlib.util
 import json
 import logging
 import os
@@ -25,12 +26,21 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from . import defaults
-from .errors import PathmotionError, ScenarioError, printable
+from .errors import PathmotionError, ScenarioError, clipped, printable
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode="rich",
                   help="Time-optimal path-constrained motion for robot arms, proven in closed-loop simulation.")
-console = Console(stderr=False)
-err_console = Console(stderr=True)
+console = Console(stderr=False, soft_wrap=True)  # a message line (a command to copy) is never wrapped
+err_console = Console(stderr=True, soft_wrap=True)
+_option_type = typer.core.TyperOption.display_type_rich
+
+
+def _shown_type(self, ctx):
+    """Typer's type label beside an option in --help, but none beside a flag (Typer writes <bool>)."""
+    return None if self.is_flag else _option_type(self, ctx)
+
+
+typer.core.TyperOption.display_type_rich = _shown_type
 logger = logging.getLogger(__name__)
 
 
@@ -43,10 +53,15 @@ EXIT_FAILED_RESULT = 4
 _LOG_HANDLER = None
 
 
+#: Longest line of an error or warning printed [characters]: a message quoting unbounded input is cut, the rest
+#: counted (each quote is already cut to errors.MAX_QUOTED_CHARS where the message is made).
+MAX_MESSAGE_LINE_CHARS = 1000
+
+
 def _print_message(label: str, message: str, empty: str) -> None:
     """``label`` (Rich markup) and the first line of ``message`` (``empty`` if it has none) on stderr, its further lines
     indented below it: each one line, never wrapped, non-printable characters escaped, markup-like text verbatim."""
-    lines = [printable(line) for line in (message.strip() or empty).split("\n")]
+    lines = [printable(clipped(line, MAX_MESSAGE_LINE_CHARS)) for line in (message.strip() or empty).split("\n")]
     err_console.print(f"{label} {escape(lines[0])}", highlight=False, soft_wrap=True)
     for line in lines[1:]:
         err_console.print(f"  {escape(line)}", highlight=False, soft_wrap=True)
@@ -109,6 +124,8 @@ def guarded(fn):
             raise
         except PathmotionError as exc:
             _fail(str(exc))
+        except BrokenPipeError:
+            _pipe_closed()
         except OSError as exc:  # a file or folder the run uses: name it and say why
             _fail(f"{exc.filename or 'a file'}: {os_reason(exc)}")
         except KeyboardInterrupt:
@@ -125,6 +142,18 @@ def guarded(fn):
     return wrapper
 
 
+def _pipe_closed():
+    """The reader of our output went away (``pathmotion schema | head``): a normal end, exit 0 without a word.
+    stdout now points at /dev/null, so the interpreter's final flush does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # no real stdout (a test runner's): nothing to redirect
+        pass
+    raise typer.Exit(0)
+
+
 def _interrupted():
     """The clean exit of an interrupted command: one line, code 130 (atomic writes left no half-written file)."""
     err_console.print("[yellow]interrupted[/]: finished files are complete, nothing half-written remains")
@@ -135,11 +164,20 @@ def _log_warning(message, category, filename, lineno, file=None, line=None):
     logger.debug("%s: %s (%s:%s)", category.__name__, message, filename, lineno)
 
 
-def _out(out: Path) -> Path:
-    """``--out`` checked before any work: a creatable, writable folder (else a one-line error, exit 1)."""
+def _out(out: Path, *inputs: Optional[Path]) -> Path:
+    """``--out`` checked before any work: a creatable, writable folder that holds none of ``inputs`` (the
+    run's input files), nor the current or home folder, and is new, empty or an earlier result (else a
+    one-line error, exit 1)."""
     from .io.files import check_output_dir
 
-    return check_output_dir(out)
+    return check_output_dir(out, keep=[k for k in inputs if k is not None])
+
+
+def _out_file(out: Path, *inputs: Path) -> Path:
+    """A file ``--out`` checked before any work: a file name, not a folder, none of ``inputs``."""
+    from .io.files import check_output_file
+
+    return check_output_file(out, inputs)
 
 
 def _scheduler(address: Optional[str]) -> Optional[str]:
@@ -162,7 +200,10 @@ def _overrides(sets: Optional[List[str]]) -> dict:
         if "=" not in item:
             _fail(f"--set {item!r}: expected KEY=VALUE, e.g. --set plan.grid_points=2000", code=2)
         key, value = item.split("=", 1)
-        out[key.strip()] = parse_value(value)
+        try:
+            out[key.strip()] = parse_value(value)
+        except ScenarioError as exc:
+            _fail(f"--set {clipped(key.strip())}: {exc}")
     return out
 
 
@@ -172,6 +213,16 @@ def _progress() -> Progress:
     return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                     TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(), console=err_console,
                     transient=True, disable=not err_console.is_terminal)
+
+
+def _on_result(progress: Progress, task, label: str):
+    """A study's callback (done, total): moves the bar on a terminal, else prints one line per finished point (a
+    log still shows that an hours-long run is alive)."""
+    def on_result(done: int, total: int) -> None:
+        progress.update(task, completed=done, total=total)
+        if not err_console.is_terminal:
+            err_console.print(f"{label}: {done}/{total} points done", highlight=False, soft_wrap=True)
+    return on_result
 
 
 _NUMBER = re.compile(r"^[-+]?(\d[\d,_]*\.?\d*|\.\d+)([eE][-+]?\d+)?( \.\. [-+]?\d+\.?\d*)?$")
@@ -286,7 +337,8 @@ def _default_out(out: Optional[Path], scenario: Path, overrides: dict) -> Path:
 
 
 OutOpt = typer.Option(None, "--out", help="output folder (default: out/<scenario name>)")
-SetOpt = typer.Option(None, "--set", help="override a scenario key, e.g. --set plan.grid_points=2000")
+SetOpt = typer.Option(None, "--set", metavar="KEY=VALUE",
+                      help="override a scenario key, e.g. --set plan.grid_points=2000")
 VerifyOpt = typer.Option(None, "--verify", help="certified (default: a certified bound per grid interval) | dense "
                          "(the 0.1 ms resample) | off; sets plan.verify")
 ForceOpt = typer.Option(False, "--force", help="write the exports (ROS 2, EGM, RAPID) even of a failed plan, "
@@ -362,7 +414,8 @@ def init(path: Path = typer.Argument(Path("scenario.toml"), help="file to write"
          force: bool = typer.Option(False, "--force", help="overwrite an existing file")):
     """Write a commented example scenario (or a shipped one) to start from.
 
-    Example: [bold]pathmotion init my_corner.toml[/]   or   [bold]pathmotion init c.toml --from corner_g2[/]
+    Examples: [bold]pathmotion init my_corner.toml[/]
+      [bold]pathmotion init c.toml --from corner_g2[/]
     """
     from importlib import resources
 
@@ -391,7 +444,7 @@ def schema(out: Optional[Path] = typer.Option(None, "--out", help="write to this
     from .io.scenario import scenario_json_schema
 
     if out:
-        write_json(out, scenario_json_schema())
+        write_json(_out_file(out), scenario_json_schema())
         console.print(f"wrote {escape(str(out))}")
     else:
         print(json.dumps(scenario_json_schema(), indent=2))
@@ -406,7 +459,8 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
                  robot: str = typer.Option("irb140", "--robot", help="robot of the scenario"),
                  blend: str = typer.Option("g2", "--blend", help="the blend at each zone: g2 (symmetric, the "
                                            "zone's deviation) | optimal (the fastest G2 blend within that deviation; "
-                                           "a search of about a thousand plans per zone)")):
+                                           "a search of several thousand coarse plans per zone, about a minute of "
+                                           "CPU each)")):
     """Turn an ABB RAPID program (MoveL/MoveJ/MoveC, speeds, zones, tool, work object) into a scenario.
 
     Example: [bold]pathmotion import-rapid tests/data/abb_cycle.mod --out cycle.toml[/]
@@ -417,6 +471,7 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
     from .io.scenario import parse_scenario
 
     check_blend_type(blend, f"--blend {blend}")  # before reading the program
+    out = _out_file(out, program)
     prog = read_rapid(program)
     if prog.unsupported and not skip_unsupported:
         listed = "; ".join(f"line {ln}: {text}" for ln, text in prog.unsupported)
@@ -434,7 +489,8 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
 @app.command()
 @guarded
 def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_: Optional[List[str]] = SetOpt):
-    """Validate a scenario and report reachability, singularity margin and feasibility, without planning.
+    """Validate a scenario and run every check plan runs (reachability, singularity margin, the plan itself and its
+    limits), writing nothing.
 
     Example: [bold]pathmotion check scenarios/corner_g2.toml[/]
     """
@@ -444,6 +500,7 @@ def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_:
     notes = {"closed": "it ends where it starts; " + ("planned as a periodic cycle" if report["periodic"] else
                                                       "run once; plan.periodic = true plans the cycle")}
     _print_table(_summary_table(f"check {scenario}: OK", report, notes if report["closed"] else None))
+    _result_verdict([], report.get("export_notes", []), False)
 
 
 def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
@@ -468,7 +525,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from .io.atomic import output_lock, result_folder
 
     overrides = _with_verify(_overrides(set_), verify)
-    out = _out(_default_out(out, scenario, overrides))
+    out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
         setup = api.search(api.load(scenario, overrides))
@@ -492,7 +549,9 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
              out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
              controller: Optional[str] = typer.Option(None, help="orbital | computed_torque | pd_gravity"),
              figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
-             force: bool = ForceOpt):
+             force: bool = ForceOpt,
+             full: bool = typer.Option(False, "--full", help="go on after the first failure to the end of the motion "
+                                       "(by default the run stops there and its figures cover [0, t_fail])")):
     """Plan, then simulate the closed loop (controller at 4 ms, full arm dynamics); writes
     simulation.csv, summary.json and figures; plus the plan's files in OUT/plan. A failed result
     (a failed plan, or tracking failed) exits 4 after writing every file.
@@ -505,14 +564,14 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     overrides = _with_verify(_overrides(set_), verify)
     if controller:
         overrides["simulate.controller"] = controller
-    out = _out(_default_out(out, scenario, overrides))
+    out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("simulate: load", total=4)
         setup = api.search(api.load(scenario, overrides))
         progress.update(task, advance=1, description="simulate: plan")
         result = api.plan_scenario(setup)
         progress.update(task, advance=1, description="simulate: closed loop")
-        sim = api.simulate_scenario(setup, result)
+        sim = api.simulate_scenario(setup, result, full=full)
         progress.update(task, advance=1, description="simulate: writing")
         with result_folder(out) as folder:  # plan and simulation files replace the folder as one unit
             summary = api.write_simulation(setup, result, sim, folder)
@@ -527,10 +586,144 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     _result_verdict([f.message for f in failures], plan_summary["export_notes"], force)
 
 
+def _egm_setup(scenario: Path, set_, drives: Optional[Path]):
+    """(setup, plan result, drive parameters) for the EGM commands."""
+    from . import api
+    from .execution.drive_file import drive_file_for, load_drives
+
+    setup = api.load(scenario, _overrides(set_))
+    result = api.plan_scenario(setup)
+    name = setup.scenario.robot.name if drives is None else None
+    params = load_drives(drives if drives is not None else drive_file_for(str(name)), setup.robot.n)
+    return setup, result, params
+
+
+def _stdin_commands():
+    """A function returning the stdin lines read so far (a daemon thread reads them; none without a stdin)."""
+    import queue
+    import threading
+
+    lines: queue.Queue = queue.Queue()
+    if sys.stdin is None or sys.stdin.closed or not hasattr(sys.stdin, "readline"):
+        return lambda: []
+
+    def read():
+        for line in sys.stdin:
+            lines.put(line)
+
+    threading.Thread(target=read, daemon=True).start()
+
+    def pending():
+        out = []
+        while not lines.empty():
+            out.append(lines.get_nowait())
+        return out
+
+    return pending
+
+
+@app.command()
+@guarded
+def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
+            egm: int = typer.Option(defaults.EGM_PORT, "--egm", help="UDP port to listen on for the controller's EGM messages"),
+            out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
+            correction: str = typer.Option("shaping", help="none | shaping (pre-compensate the drives and EGM) | orbital (shaping + transverse loop)"),
+            drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)"),
+            start_tolerance: float = typer.Option(defaults.EGM_START_TOLERANCE, help="largest distance \\[rad] of "
+                                                  "the robot's joints from the plan's start")):
+    """Plan, then stream the motion to an ABB controller over EGM (answer each EgmRobot with an EgmSensor);
+    stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
+    Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130).
+
+    Example: [bold]pathmotion execute scenarios/corner_g2.toml --egm 6510 --out out/run[/]
+    """
+    from .execution.loops import open_listener, serve
+    from .execution.session import make_streamer, write_execution
+    from .io.atomic import output_lock, result_folder
+
+    out = _out(_default_out(out, scenario, {}))
+    with output_lock(out):
+        setup, result, params = _egm_setup(scenario, set_, drives)
+        if not 0.0 <= start_tolerance < float("inf"):
+            _fail(f"--start-tolerance {start_tolerance!r}: give a distance >= 0 in rad")
+        streamer = make_streamer(setup.robot, result, correction, params, tolerance=start_tolerance)
+        sock = open_listener(egm)
+        commands, interrupted = _stdin_commands(), False
+        try:
+            while True:
+                try:
+                    ended = serve(sock, streamer, commands=commands)
+                    break
+                except KeyboardInterrupt:
+                    if interrupted or not streamer.started:
+                        raise
+                    interrupted = True
+                    _SIGNALLED.clear()
+                    streamer.stop("interrupted (Ctrl-C or SIGTERM)")
+        finally:
+            sock.close()
+        with result_folder(out) as folder:
+            summary = write_execution(folder, setup.robot, streamer, ended)
+    _print_table(_summary_table(f"execute {setup.name} -> {out}", summary))
+    if interrupted:
+        raise typer.Exit(130)
+    if ended != "done":
+        _fail(f"the motion did not complete: {ended}", EXIT_FAILED_RESULT)
+
+
+@app.command("virtual-robot")
+@guarded
+def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file (the arm starts at its start)"),
+                  egm: str = typer.Option(..., "--egm", help="HOST:PORT of the EGM sensor (pathmotion execute)"),
+                  lockstep: bool = typer.Option(False, help="wait for each answer (deterministic) instead of 4 ms"),
+                  rigid: bool = typer.Option(False, help="rigid gearboxes (the drive file's stiffness ignored)"),
+                  out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
+                  drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)")):
+    """A virtual IRC5: send EgmRobot every 4 ms (or in lockstep), move the arm (drives, elastic gears) by the
+    answers; writes robot.csv and summary.json (ISO figures of the link side, the TCP that really moves).
+
+    Example: [bold]pathmotion virtual-robot scenarios/corner_g2.toml --egm 127.0.0.1:6510 --lockstep[/]
+    """
+    import numpy as np
+
+    from .execution.drives import VirtualArm
+    from .execution.figures import execution_figures
+    from .execution.loops import parse_address, run_virtual_robot
+    from .io import exports
+    from .io.atomic import output_lock, result_folder, write_json
+
+    address = parse_address(egm)
+    out = _out(out if out is not None else Path(f"{_default_out(None, scenario, {})}_robot"))
+    with output_lock(out):
+        setup, result, params = _egm_setup(scenario, set_, drives)
+        traj = result.trajectory
+        start = traj.at_time([0.0])
+        arm = VirtualArm(setup.robot, params.rigid() if rigid else params, start.q[0])
+        run = run_virtual_robot(arm, address, lockstep=lockstep, max_time=3.0 * traj.duration + 2.0)
+        cols = run.arrays()
+        if not len(cols["t"]):
+            _fail(f"virtual robot: no EGM cycle ran ({run.ended})", EXIT_FAILED_RESULT)
+        theta = traj.profile.state_at_time(cols["t"])[0]
+        moving = np.flatnonzero(np.any(np.diff(cols["reference"], axis=0) != 0.0, axis=1))
+        rest = float(cols["t"][moving[-1] + 1]) if moving.size else 0.0  # the references' last change
+        summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep}
+        summary.update(execution_figures(setup.robot, traj, cols["t"], cols["q"], theta, rest))
+        with result_folder(out) as folder:
+            table = {"t": cols["t"], "answered": cols["answered"].astype(float)}
+            for name in ("q", "qm", "reference", "tau"):
+                table.update({f"{name}{j + 1}": cols[name][:, j] for j in range(arm.n)})
+            exports.write_table_csv(folder / "robot.csv", table)
+            write_json(folder / "summary.json", summary)
+    _print_table(_summary_table(f"virtual-robot {setup.name} -> {out}", summary))
+    if run.ended != "done":
+        _fail(f"virtual robot: {run.ended}", EXIT_FAILED_RESULT)
+
+
 @app.command()
 @guarded
 def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
-          set_: List[str] = typer.Option(..., "--set", help="NAME=V1,V2,... (repeat for a grid)"),
+          set_: List[str] = typer.Option(..., "--set", metavar="KEY=V1,V2,...", help="the values of a scenario key "
+                                         "(repeat for a grid)"),
           out: Path = typer.Option(..., "--out", help="output folder (a re-run resumes)"),
           scheduler: Optional[str] = typer.Option(None, help="Dask scheduler, tcp://HOST:PORT"),
           workers: int = typer.Option(2, min=1, help="local worker processes"),
@@ -538,22 +731,19 @@ def sweep(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     """Run plan + simulate for every combination of --set values, in parallel; writes sweep.csv,
     sweep.parquet, best.json and figures. Failed points are rows with an error.
 
-    Example: [bold]pathmotion sweep scenarios/corner_transition.toml --set "path.blends[0].radius=0.02,0.04,0.06" --out out/rt[/]
+    Example: [bold]pathmotion sweep scenarios/corner_transition.toml \\
+      --set "path.blends\\[0].radius=0.02,0.03,0.04" --out out/rt[/]
     """
     from .io.atomic import output_lock
     from .study import run_study_sweep
     from .study.sweep import parse_sets
 
-    out, scheduler = _out(out), _scheduler(scheduler)
+    out, scheduler = _out(out, scenario), _scheduler(scheduler)
     grid = parse_sets(set_)
     with output_lock(out), _progress() as progress:  # (a sweep's folder resumes in place: no swap)
         task = progress.add_task("sweep", total=None)
-
-        def on_result(done, total):
-            progress.update(task, completed=done, total=total)
-
         outcome = run_study_sweep(scenario, grid, out, workers=workers, scheduler=scheduler,
-                                  on_result=on_result, figures=figures)
+                                  on_result=_on_result(progress, task, "sweep"), figures=figures)
     from .study.score import outcome_text
 
     console.print(f"{outcome_text(outcome.rows)} -> {escape(str(out / 'sweep.csv'))}")
@@ -583,14 +773,20 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
                 "...) and \\[limits] velocity / acceleration / torque; default: the built-in IRB140"),
             bounds: bool = typer.Option(True, help="also bound the corner-confined optimum from above by a motion that "
                                                    "holds the tube on a dense resample (corner_bound_s; one to four "
-                                                   "more NLPs per row, cached)")):
+                                                   "more NLPs per row, cached)"),
+            references: bool = typer.Option(True, help="solve the free-shape references (CasADi NLPs, tens of "
+                                                        "minutes per row uncached); --no-references: the planned motions and "
+                                                        "their closed-loop check only, minutes per row, no CasADi")):
     """The corner atlas: every way to take a corner (stop, zone, circle, G2, optimal blend) against
-    the free-shape optimum, per turn angle and tolerance; writes corners.csv. Needs CasADi
+    the free-shape optimum, per turn angle and tolerance; writes corners.csv. The references need CasADi
     (pip install "pathmotion\\[optimal]"). --torque adds the joint torque limits to every motion and
     reference (its optima are cached apart), --torque-reserve keeps a share of them free for the
     closed loop's feedback, --robot takes another arm, payload or drives.
 
-    Example: [bold]pathmotion corners --angles 60,90,120 --tolerances 0.001,0.01 --out out/corners[/]
+    Examples (minutes, then hours uncached):
+      [bold]pathmotion corners --angles 90 --tolerances 0.005 --no-references \\
+        --out out/corners[/]
+      [bold]pathmotion corners --angles 60,90,120 --tolerances 0.001,0.01 --out out/atlas[/]
     """
     from .study.atlas import check_torque_reserve, corner_atlas
 
@@ -601,19 +797,22 @@ def corners(angles: str = typer.Option("30,60,90,120,150", help="turn angles \\[
             _fail(f"--{what} {text!r}: give comma-separated numbers", code=2)
 
     reserve = check_torque_reserve(torque_reserve, torque, name="--torque-reserve", switch="--torque")
+    if references and importlib.util.find_spec("casadi") is None:
+        _fail('corners solves its free-shape references with CasADi, which is not installed: '
+              'pip install "pathmotion[optimal]", or add --no-references (the planned motions only)')
+    out = _out(out, robot)
     with _progress() as progress:
         task = progress.add_task("corners", total=None)
-
-        def on_result(done, total):
-            progress.update(task, completed=done, total=total)
-
+        on_result = _on_result(progress, task, "corners")
         atlas = corner_atlas(out, numbers(angles, "angles"), numbers(tolerances, "tolerances"),
                              meshes=numbers(meshes, "meshes"), workers=workers,
                              scheduler=scheduler, on_result=on_result, figures=figures, torque=torque,
-                             torque_reserve=reserve if torque else None, robot_file=robot, bounds=bounds)
-    failed = sum(1 for r in atlas.rows if r.get("error") or r.get("status") != "ok")
-    console.print(f"{len(atlas.rows)} rows, {failed} with an error or an unconverged optimum "
-                  f"-> {escape(str(out / 'corners.csv'))}")
+                             torque_reserve=reserve if torque else None, robot_file=robot, bounds=bounds,
+                             references=references)
+    failed = sum(1 for r in atlas.rows if r.get("error") or any(
+        part != "ok" and "(references off)" not in part for part in (r.get("status") or "ok").split("; ")))
+    console.print(f"{len(atlas.rows)} rows, {failed} with an error, an unconverged optimum or a failed closed-loop "
+                  f"check -> {escape(str(out / 'corners.csv'))}")
 
 
 @app.command()
@@ -626,7 +825,7 @@ def report(folder: Path = typer.Argument(..., help="a folder written by plan, si
     """
     from .report.html import build_report
 
-    path = build_report(folder, out)
+    path = build_report(folder, None if out is None else _out_file(out))
     console.print(f"wrote {escape(str(path))}")
 
 
@@ -646,10 +845,13 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
     from .io import schema
     from .io.atomic import output_lock, result_folder
 
+    from .io.files import mark_result
+
     out = _out(out)
     names = api.DEMO_SCENARIOS
     rows = []
     with output_lock(out), _progress() as progress:
+        mark_result(out)
         task = progress.add_task("demo", total=len(names))
         for name in names:
             progress.update(task, description=f"demo: {name}")
@@ -671,7 +873,7 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="output folder
         with _progress() as progress:
             task = progress.add_task("corner study", total=None)
             result = corner_study(out / "corner_study", workers=workers,
-                                  on_result=lambda done, total: progress.update(task, completed=done, total=total))
+                                  on_result=_on_result(progress, task, "corner study"))
         console.print(f"corner study: {len(result.rows)} runs, figures in {escape(str(result.out))}")
         if result.best is not None:
             _print_table(_summary_table(f"{BEST_SCORE_TITLE} (corner_study.json)", result.best))

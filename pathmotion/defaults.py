@@ -28,6 +28,16 @@ GRID_INITIAL_POINTS = 200
 #: returned with its (larger) error estimate and a warning [-].
 GRID_MAX_REFINEMENTS = 16
 GRID_MAX_POINTS = 200_000
+#: Memory a plan holds per grid point and joint, an upper estimate [bytes]: the adaptive planner on a
+#: 6-joint, 200- to 800-segment path peaked at 41-45 KB per grid point (tracemalloc); a fixed grid on one
+#: line at 4 KB. A grid whose estimate exceeds MEMORY_FRACTION of the machine's available memory is refused
+#: before it is built.
+PLAN_BYTES_PER_POINT_JOINT = 8_000
+#: Joint speed limit above which a limits file or [limits] velocity gets a "degrees?" warning [rad/s]
+#: (1,146 deg/s; the IRB140's fastest joint turns at 450 deg/s = 7.9 rad/s).
+PLAUSIBLE_JOINT_SPEED = 20.0
+#: Share of the available memory (MemAvailable) one run may plan to use [-].
+MEMORY_FRACTION = 0.5
 #: Adaptive planner grid: rounds of halving the intervals whose certified limit bound exceeds the
 #: tolerance before the verify-and-tighten loop tightens limits instead [-].
 PLAN_MAX_REFINE_ROUNDS = 4
@@ -41,6 +51,11 @@ DLS_MAX_ITERATIONS = 200
 #: Damped-least-squares IK: largest joint step per iteration [rad] and damping growth factor [-].
 DLS_MAX_STEP = 0.5
 DLS_DAMPING_GROWTH = 10.0
+#: Lift of an arm without closed-form IK and without path.start_configuration: the first point's IK
+#: is tried from the zero configuration, the middle of the joint ranges, then this many seeded random
+#: configurations in the ranges (deterministic: seed DLS_RANDOM_START_SEED) before the path is refused.
+DLS_RANDOM_STARTS = 16
+DLS_RANDOM_START_SEED = 0
 #: Closed-form (OPW) IK: tolerance of the structure detection and of its FK check [m, rad];
 #: configurations (seeded) on which the detected parameters are checked against Pinocchio's FK.
 OPW_TOLERANCE = 1e-9
@@ -83,6 +98,9 @@ FITTED_PROFILE_MARGIN = 0.05
 #: Closed-loop verdict (ISO 9283 terms): the TCP must stay within this distance of the PLANNED path, and
 #: arrives when it is this close to the end point [m].
 PATH_TOLERANCE = 1e-3
+#: Closed-loop verdict: the tool's orientation must stay within this angle of the PLANNED orientation (ISO 9283's
+#: orientation path accuracy, ATo) [deg]: 1 mm at a tool lever of about 0.11 m.
+PATH_TOLERANCE_DEG = 0.5
 #: Closed-loop verdict: joint deviation |q - Phi(theta)| (max over joints) beyond which tracking has failed
 #: [rad]; a coarse backstop behind the path tolerance (0.05 rad is 25 mm at 0.5 m of reach).
 JOINT_TOLERANCE = 0.05
@@ -93,6 +111,8 @@ SATURATION_LIMIT = 0.05
 #: drives' armature in the model, the IRB140's state after 1 s of a torque that moves the joints by 4 rad
 #: is within 1.3e-9 rad of a DOP853 reference at rtol 1e-10 (2.2e-8 rad with one step per sample).
 PLANT_SUBSTEPS = 2
+#: Most plant sub-steps per controller sample (simulate.substeps, or the count the friction needs) [-].
+MAX_PLANT_SUBSTEPS = 1000
 #: The closed loop's plant: "builtin" (Pinocchio ABA + our RK4) or "mujoco" (MuJoCo's parse of the same URDF,
 #: MuJoCo's RK4; needs pip install "pathmotion[mujoco]").
 PLANT = "builtin"
@@ -201,6 +221,9 @@ PAYLOAD_LEVER = 0.2
 PAYLOAD_MASS_FRACTION = 0.1
 #: Below this identified payload mass [kg] the summary gives no centre of mass (m c / m would be noise).
 IDENTIFIED_MASS_FLOOR = 0.1
+#: An identified payload mass is reported when it is at least this many standard errors (the filter's) from 0;
+#: a smaller one is what the model lacks at the flange (link inertia errors, noise), not a payload [-].
+IDENTIFIED_SIGNIFICANCE = 2.0
 #: Payload identification prior: each joint's Coulomb friction as this fraction of its torque limit, its viscous
 #: friction reaching the same at the velocity limit (standard deviations) [-].
 FRICTION_PRIOR_FRACTION = 0.05
@@ -276,8 +299,8 @@ BLEND_DETECTION_DISTANCE = 1e-7
 BLEND_PIECE_MIN_POINTS = 50
 #: Corner atlas (`pathmotion corners --meshes`): the free-shape references' meshes (total intervals, each twice
 #: the last). Not free_shape.MESHES' 200 intervals, which cost minutes per solve (30 deg / 1 mm's whole tube hit
-#: IPOPT's iteration cap there from two starts and took 7 minutes); docs/study.md, "Four meshes", solves every
-#: row's corner-confined reference on all four.
+#: IPOPT's iteration cap there from two starts and took 7 minutes); benchmarks/refine_references.py solves
+#: the references on more meshes.
 ATLAS_MESHES = (25, 50, 100)
 #: Study score: seconds of cycle time one metre of mean TCP deviation from the sharp path costs [s/m]
 #: (100 s/m: 1 mm of mean deviation weighs as much as 0.1 s of cycle time).
@@ -332,5 +355,32 @@ THIRD_ORDER_TOLERANCE = 1e-4
 THIRD_ORDER_ITERATIONS = 60
 #: Planner, third-order limits: uniform grid points of the default grid (grid_points unset), plus the
 #: usual grading towards the ends and connections. The smooth profile's duration on it is within 0.62 %
-#: of the converged optimum on issue 12's circle cases (benchmarks/bench_third_order.py) [-].
+#: of the converged optimum on the circle cases of benchmarks/bench_third_order.py [-].
 THIRD_ORDER_GRID_POINTS = 100
+#: EGM (pathmotion execute / virtual-robot): the UDP port ABB's examples and abb-robot-client use.
+EGM_PORT = 6510
+#: EGM: largest joint distance [rad] between the robot's first reported joints and the plan's start before
+#: execute refuses to move (0.01 rad ~ 0.6 deg: a robot jogged to the start by hand is within it).
+EGM_START_TOLERANCE = 0.01
+#: EGM: the controller counts as silent (execute stops along the path) after this long without a message [s].
+EGM_SILENCE = 0.1
+#: EGM: execute waits this long for the controller's first message before giving up [s].
+EGM_FIRST_MESSAGE_TIMEOUT = 30.0
+#: EGM: a robot message answered later than this after it arrived counts as late [s] (one EGM cycle).
+EGM_LATE = 0.004
+#: EGM: the virtual robot sends a robot message again after this long without an answer (--lockstep) [s],
+#: and gives up after this many silent repeats.
+EGM_RESEND = 0.05
+EGM_RESEND_LIMIT = 100
+#: EGM: the virtual robot keeps streaming this long after the sensor's references come to rest [s] (the arm
+#: settles; residual vibration is measured there).
+EGM_SETTLE_WINDOW = 0.3
+#: EGM: largest datagram read [bytes] (UDP's own maximum); a larger one is truncated and rejected.
+EGM_MAX_DATAGRAM = 65536
+#: EGM: the reference is tabulated on this time step before streaming (linear interpolation between
+#: samples: error qdd dt^2 / 8, ~1e-6 rad at 10 rad/s^2) [s].
+EGM_TABLE_STEP = 0.001
+#: EGM, --correction orbital: fraction of the measured transverse error (the link side estimated from the
+#: motor-side feedback less the modelled gear deflection) added to the reference's correction per cycle [-]
+#: (an integral loop of 0.1 / 4 ms = 25 rad/s crossover, ~60 deg phase margin against EGM's ~20 ms lag).
+EGM_ORBITAL_GAIN = 0.1

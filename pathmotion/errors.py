@@ -59,6 +59,29 @@ class InfeasibleError(PathmotionError):
     """Limits cannot be met: gravity torque above a limit, impossible boundary velocity, ..."""
 
 
+class StateInfeasibleError(InfeasibleError):
+    """A moving state that no motion within the limits can bring to where it must go (planning/retime.py).
+
+    ``limit_factor``: the factor on every limit's dynamic part (acceleration, torque; velocity by its square
+    root) that would just save it; ``end_speed``: theta_dot still left at the path's end (or the next kink)
+    when braking within the limits (nan when unknown); ``overshoot``: how far past it (unit theta) that
+    braking would stop; ``stop``: the Profile of the stop that ends there with the limits times
+    ``limit_factor`` (None when that could not be computed)."""
+
+    def __init__(self, message: str, *, limit_factor: float = float("nan"), end_speed: float = float("nan"),
+                 overshoot: float = float("nan"), stop=None):
+        super().__init__(message)
+        self.limit_factor, self.end_speed, self.overshoot, self.stop = limit_factor, end_speed, overshoot, stop
+
+    def __reduce__(self):
+        return (_rebuild_state_infeasible, (str(self), self.limit_factor, self.end_speed, self.overshoot, self.stop))
+
+
+def _rebuild_state_infeasible(message, limit_factor, end_speed, overshoot, stop):
+    return StateInfeasibleError(message, limit_factor=limit_factor, end_speed=end_speed, overshoot=overshoot,
+                                stop=stop)
+
+
 class SimulationError(PathmotionError):
     """A closed-loop simulation could not be set up (not a tracking failure, which is a result)."""
 
@@ -71,6 +94,34 @@ def printable(text) -> str:
     """``text`` (str() of it) with every non-printable character (a newline in a file name, a user's control bytes,
     \\x1e, \\u2028: a terminal or ``splitlines`` would break the line there) written as its Python escape."""
     return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in str(text))
+
+
+#: Most characters of the user's input one error message quotes (a key, a value, a list of names); the rest
+#: is counted, never echoed.
+MAX_QUOTED_CHARS = 200
+
+
+def clipped(text, limit: int = MAX_QUOTED_CHARS) -> str:
+    """``text`` (str() of it) cut to ``limit`` characters, the rest counted: 'kkk... (3,800 more characters)'."""
+    text = str(text)
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text) - limit:,} more characters)"
+
+
+def listed(items, limit: int = MAX_QUOTED_CHARS) -> str:
+    """The repr of each of ``items``, comma-separated, as many as fit in about ``limit`` characters, the rest
+    counted: "'g0', 'g1', ... (99,990 more)"."""
+    items = list(items)
+    shown, size = [], 0
+    for item in items:
+        text = clipped(repr(item), limit)
+        if shown and size + len(text) > limit:
+            break
+        shown.append(text)
+        size += len(text) + 2
+    rest = len(items) - len(shown)
+    return ", ".join(shown) + (f", ... ({rest:,} more)" if rest else "")
 
 
 def check_finite(name: str, value, where: str = "") -> None:
@@ -102,3 +153,8 @@ def require_finite(values, what: str, change: str, error: type = PathmotionError
         col = columns[idx[-1]] if columns is not None and idx[-1] < len(columns) else f"column {idx[-1]}"
         where = f" at point {idx[0]} ({col})"
     raise error(f"{what} is not finite{where} (value {arr[idx]!r}); {change}")
+
+
+class ExecutionError(PathmotionError):
+    """Streaming to a controller cannot go on: a malformed or foreign EGM message, a robot that does not match
+    the plan or is not at its start, a silent controller (a stop along the path follows where one is possible)."""

@@ -10,9 +10,14 @@ Profiles (``HYPOTHESIS_PROFILE=ci|dev``; without it ``ci`` when ``CI`` is true, 
   ``--hypothesis-seed``) and the local example database, which replays earlier failures first.
 
 Tests set their own ``max_examples``; the profile decides only how examples are drawn and timed.
+
+The controller design cache (``PATHMOTION_CACHE_DIR``) is a temporary folder for the whole session, shared by
+the xdist workers and removed at the end: the tests never read or fill the user's ~/.cache/pathmotion.
 """
 
 import os
+import shutil
+import tempfile
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -35,6 +40,22 @@ def hypothesis_profile() -> str:
 
 
 settings.load_profile(hypothesis_profile())
+
+_SESSION_CACHE = []
+
+
+def pytest_configure(config):
+    """The session's own design cache, set before the xdist workers start (they inherit the environment)."""
+    if hasattr(config, "workerinput"):
+        return
+    folder = tempfile.mkdtemp(prefix="pathmotion-test-cache-")
+    _SESSION_CACHE.append(folder)
+    os.environ["PATHMOTION_CACHE_DIR"] = folder
+
+
+def pytest_unconfigure(config):
+    for folder in _SESSION_CACHE:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def pytest_report_header(config):

@@ -99,7 +99,8 @@ def test_abb_zone_table(zone, mm):
 
 def test_unsupported_instructions_are_listed_with_line_numbers(frames):
     lines = [ln for ln, _ in frames.unsupported]
-    assert lines == [22, 24, 25]
+    assert lines == [22, 24]  # WaitTime (line 25) is a dwell after the last move
+    assert frames.moves[-1].dwell == 0.5
     assert "SingArea" in frames.unsupported[0][1] and "MoveAbsJ" in frames.unsupported[1][1]
 
 
@@ -110,7 +111,7 @@ def test_unsupported_instructions_are_listed_with_line_numbers(frames):
     ("MoveL [[0,0,0],[1,0,0,0]], v100, fine, tool0 \\Corr;", r"prog.mod:3: optional argument \\corr"),
     ("MoveL [[0,0,0],[1,0,0,0]], v100, fine, tool0;\nMoveL [[0,0,0],[1,0,0,0]], v100, fine, tool1;",
      r"prog.mod:4: tool tool1 is not declared"),
-    ("MoveL [[0,0,0],[2,0,0,0]], v100, fine, tool0;", r"prog.mod:3: .*quaternion.*norm 2"),
+    ("MoveL [[0,0,0],[0,0,0,0]], v100, fine, tool0;", r"prog.mod:3: .*quaternion.*not a rotation"),
     ("MoveL [[0,0,0],[1,0,0,0]], v100, fine, tool0;", r"prog.mod: PROC main has 1 MoveL"),
 ])
 def test_errors_name_file_line_and_fix(body, match):
@@ -142,7 +143,9 @@ def test_cli_import_refuses_unsupported_then_skips_them(tmp_path):
     scenario, _ = load_scenario(out)
     assert scenario.robot.tool.translation == pytest.approx((0, 0, 0.1))
     assert scenario.robot.tool.rotation_rpy == pytest.approx((0, math.pi / 4, 0))
-    assert [s.type for s in scenario.path.segments] == ["arc", "line", "line"]
+    assert [s.type for s in scenario.path.segments] == ["arc", "line", "joint", "dwell"]  # MoveJ, WaitTime
+    assert scenario.path.segments[2].end_pose.robconf == (0, -1, 1, 0)
+    assert scenario.path.segments[3].time == 0.5 and scenario.path.segments[3].program.line == 25
     assert scenario.rapid.speeds == pytest.approx(segment_speeds(read_rapid(DATA / "frames.mod")))
     assert "MoveJ at line(s) 20" in scenario.description and "skipped: line 22" in scenario.description
 

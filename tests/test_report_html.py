@@ -214,7 +214,7 @@ def test_3d_coordinates_lose_rounding_noise_but_keep_micrometres():
 
 # ------------------------------------------------------------------------------------ arm points
 def test_arm_points_at_zero_match_the_irb140_reference(irb140):
-    # /work/shared/reference/irb140.md: OPW a1 = 0.070, c1 = 0.352, c2 = 0.360, c3 = 0.380, c4 = 0.065 m.
+    # ABB's IRB140 product specification (docs/robot.md): OPW a1 = 0.070, c1 = 0.352, c2 = 0.360, c3 = 0.380, c4 = 0.065 m.
     p = arm_points(irb140, np.zeros(6))
     assert p.shape == (6 + 3, 3)
     np.testing.assert_allclose(p[0], [0, 0, 0], atol=1e-12)  # base
@@ -397,4 +397,3 @@ def test_report_renders_offline_in_chromium(results, report, tmp_path):
     assert seen["scatter_points"] > 0  # the trade-off markers are drawn
     assert seen["animated"]
     assert shot.stat().st_size > 50_000
-    shutil.copy(shot, Path(tempfile.gettempdir()) / "pathmotion_report_screenshot.png")

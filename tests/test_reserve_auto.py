@@ -100,7 +100,7 @@ def test_auto_picks_the_smallest_reserve_that_tracks(auto):
     # the chosen plan, simulated afresh (not the search's run), tracks with the same figures
     sim = simulate(auto.robot, auto.path, result.profile, "orbital", api.simulation_settings(auto))
     assert sim.tracking_ok
-    assert float(np.max(sim.path_deviation)) == pytest.approx(by_reserve[chosen].path_accuracy_m, rel=1e-9)
+    assert sim.path_accuracy() == pytest.approx(by_reserve[chosen].path_accuracy_m, rel=1e-9)
     assert api.simulate_scenario(auto, result).tracking_ok
 
 

@@ -4,6 +4,7 @@ and robot files (corners --torque-reserve, --robot) down to a real weak-drive ro
 
 import csv
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -477,6 +478,21 @@ def test_a_robot_file_changed_since_the_atlas_started_is_each_rows_error():
     assert result["summary"]["status"] == "error" and "changed since this atlas started" in result["error"]
     result = atlas.atlas_point(spec, ".", (("angle_deg", 30.0), ("tolerance_m", 0.05)))  # the same file: it runs
     assert "give a tolerance below" in result["error"] and result["summary"]["torque_reserve"] == 0.0
+
+
+def test_the_spec_names_its_robot_file_and_cache_relative_to_its_folder(tmp_path):
+    """atlas_spec.toml holds no path of the machine: the robot file and the cache are relative to the spec's folder,
+    so a moved folder still finds them."""
+    from pathmotion.study.robot_file import load_robot_file, robot_digest
+
+    digest = robot_digest(load_robot_file(WEAK_ROBOT_FILE))
+    where = os.path.relpath(WEAK_ROBOT_FILE, tmp_path)
+    spec = f'robot_file = {json.dumps(where)}\nrobot_digest = "{digest}"\ncache = "optimum_cache"\ntorque = true\n'
+    result = atlas.atlas_point(spec, str(tmp_path), (("angle_deg", 30.0), ("tolerance_m", 0.05)))
+    assert "give a tolerance below" in result["error"]  # the robot file was found from the spec's folder
+    elsewhere = tmp_path / "a" / "b"  # another folder: the same relative path names no file there
+    result = atlas.atlas_point(spec, str(elsewhere), (("angle_deg", 30.0), ("tolerance_m", 0.05)))
+    assert result["summary"]["status"] == "error" and "give a tolerance below" not in result["error"]
 
 
 #: Optimum keys written by fdb4d31 (before the reserve and robot files), 90 deg / 5 mm, corner span 10 mm, meshes

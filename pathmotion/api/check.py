@@ -9,7 +9,8 @@ import numpy as np
 
 from .. import defaults
 from ..errors import InfeasibleError
-from ..io import schema
+from ..io import exports, schema
+from ..lift.joint_move import PiecewiseJointPath
 from ..planning.reduced import reduced_dynamics
 from ..planning.trajectory import sample_times
 from ..simulation import prepare_loop
@@ -24,7 +25,10 @@ STILL_PATH_SPEED = 1e-12
 
 def path_is_closed(setup: Setup) -> bool:
     """Whether the path ends where it starts (a full circle does), whether or not it is planned as a
-    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion)."""
+    periodic cycle (``plan.periodic``; a closed path run once is planned as an open motion). A chain with joint moves
+    or dwells is always an open motion."""
+    if isinstance(setup.path, PiecewiseJointPath):
+        return False
     if setup.task_path is not None:
         return bool(setup.task_path.closed)
     q = setup.path.evaluate(np.array(setup.path.domain, float))[0]
@@ -56,6 +60,7 @@ def check_scenario(setup: Setup) -> dict:
         out[schema.WRIST_CROSSINGS.key] = [ps.summary() for ps in check.wrist_passages]
     out.update(_pointwise_feasibility(setup))
     out.update(_check_like_plan_and_simulate(setup))
+    out[schema.EXPORT_NOTES.key] = list(exports.unsupported_exports(robot.n).values())
     return out
 
 

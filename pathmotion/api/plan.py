@@ -19,6 +19,8 @@ from ..planning.limits import REGISTRY as LIMIT_REGISTRY
 from ..robot import Robot, fk
 from ..robot.arm import arm_points
 from .failures import FailureKind, ResultFailure
+from ..planning.program_moves import move_table
+from .program import program_targets, program_thetas
 from .rapid import rapid_estimate
 from .setup import Setup
 
@@ -115,6 +117,20 @@ def plan_summary(setup: Setup, result: PlanResult) -> dict:
     return out
 
 
+def write_moves(setup: Setup, result: PlanResult, samples, out: Path) -> None:
+    """moves.csv (planning/program_moves.py): one row per program move of a task path whose segments carry
+    program moves; an earlier moves.csv is removed when they carry none."""
+    table, spec = None, setup.scenario.path
+    if setup.task_path is not None and program_targets(spec):
+        bounds, lengths = program_thetas(spec, setup.robot, setup.path)
+        table = move_table(spec, bounds, lengths, result.profile, samples,
+                           enforced_limits(setup.robot, result.settings), setup.robot.joint_names)
+    if table is None:
+        (out / schema.MOVES_FILE).unlink(missing_ok=True)
+    else:
+        exports.write_rows_csv(out / schema.MOVES_FILE, table)
+
+
 def enforced_limits(robot: Robot, settings: PlanSettings) -> dict:
     """limits.json's "enforced": {limit name: ``Limit.enforced()``} for every active limit, SI units:
     per-joint lists (velocity, acceleration, torque with its reserve and scale, jerk, torque rate), one
@@ -189,11 +205,18 @@ def _write_exports(setup: Setup, samples, out: Path, failures: list[ResultFailur
         return []
     messages = [f.message for f in failures]
     notes, abb = exports.export_notes(samples, messages), exports.export_notes(samples, messages, degrees=True)
-    ros, egm, rapid = (out / name for name in exports.EXPORT_FILES)
-    exports.write_ros2_yaml(ros, samples, setup.robot.joint_names, setup.scenario.plan.sample_time, notes=notes)
-    exports.write_egm_csv(egm, samples, notes=abb)
-    exports.write_rapid(rapid, samples, notes=abb)
-    return notes
+    skipped = exports.unsupported_exports(setup.robot.n)
+    writers = {"trajectory_ros2.yaml": lambda path: exports.write_ros2_yaml(
+                   path, samples, setup.robot.joint_names, setup.scenario.plan.sample_time, notes=notes),
+               "trajectory_egm.csv": lambda path: exports.write_egm_csv(path, samples, notes=abb),
+               "trajectory_rapid.mod": lambda path: exports.write_rapid(path, samples, notes=abb)}
+    for name in exports.EXPORT_FILES:
+        if name in skipped:
+            (out / name).unlink(missing_ok=True)
+            log.info("%s", skipped[name])
+        else:
+            writers[name](out / name)
+    return notes + list(skipped.values())
 
 
 def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list[ResultFailure] | None = None,
@@ -218,6 +241,7 @@ def write_plan(setup: Setup, result: PlanResult, out: str | Path, failures: list
     tcp = fk(setup.robot, samples.q[idx])[0]
     exports.write_table_csv(out / "tcp_path.csv", {"t": samples.t[idx], **{f"tcp_{a}": tcp[:, k]
                                                                           for k, a in enumerate("xyz")}})
+    write_moves(setup, result, samples, out)
     if setup.scenario_text:
         write_text(out / "scenario.toml", setup.scenario_text)
     summary = plan_summary(setup, result)

@@ -3,7 +3,8 @@ constant-speed duration estimate (summary.json's ``rapid_estimate_s``)."""
 
 from __future__ import annotations
 
-from ..geometry import Arc, FixedOrientation, Line, TaskPath
+from ..geometry import Arc, Line
+from ..geometry.chain import classify
 from ..geometry.blends import g2_deviation
 from ..io.rapid import effective_zones, rapid_estimate_s, segments
 from .setup import Setup
@@ -16,22 +17,28 @@ def rapid_zone_tolerances(program) -> list:
     """G2 blend tolerance [m] per corner of an imported RAPID program (io.rapid.RapidProgram): the deviation of
     the blend that starts at the zone radius from the target (ABB's corner path starts where the TCP enters the
     zone), the cut kept below RAPID_ZONE_CUT of each neighbour so a segment between two zones keeps a straight
-    middle; None at fine points and where the moves join without a corner."""
-    segs = [Line(start, mv.point) if arc is None else Arc(arc.center, start, arc.normal, arc.sweep)
-            for mv, start, arc, _ in segments(program)]
-    path = TaskPath(tuple(segs), FixedOrientation())
+    middle; at a joint move (MoveJ) the zone radius itself (the joint zone's TCP tolerance); None at fine points
+    and where the moves join without a corner."""
+    segs = [None if mv.kind == "J" else Line(start, mv.point) if arc is None else
+            Arc(arc.center, start, arc.normal, arc.sweep) for mv, start, arc, _ in segments(program)]
     out = []
     for k, zone in enumerate(effective_zones(program)):
-        A, B = path.segments[k], path.segments[k + 1]
+        A, B = segs[k], segs[k + 1]
+        if A is None or B is None:  # a joint move's zone: its size
+            out.append(zone if zone > 0 else None)
+            continue
         cut = min(zone, RAPID_ZONE_CUT * A.length, RAPID_ZONE_CUT * B.length)
-        usable = path.connections[k].kind in ("corner", "tangent") and cut > 0
+        usable = classify(A, B, k, 0.0).kind in ("corner", "tangent") and cut > 0
         out.append(g2_deviation(A, B, cut).upper if usable else None)
     return out
 
 
-def rapid_estimate(setup: Setup) -> float:
-    """The RAPID program's constant-speed duration [s] on the path before blends (io.rapid.rapid_estimate_s)."""
+def rapid_estimate(setup: Setup) -> float | None:
+    """The RAPID program's constant-speed duration [s] on the path before blends (io.rapid.rapid_estimate_s); None
+    on a path with joint moves (its TCP trace is not one segment per move)."""
     path = setup.original_task_path if setup.original_task_path is not None else setup.task_path
     spec = setup.scenario.rapid
+    if len(path.segments) != len(spec.speeds):
+        return None
     return rapid_estimate_s([s.length for s in path.segments], spec.speeds, spec.zones,
                             [c.angle for c in path.connections])

@@ -17,22 +17,22 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathmotionError, ScenarioError, UnreachableError
-from ..geometry import Arc, Circle, FixedOrientation, Line, TaskPath, blended_corners, waypoint_path, with_blends
+from ..geometry import TaskPath, blended_corners, waypoint_path, with_blends
 from ..io.files import read_input
-from ..io.scenario import Scenario, parse_scenario, unit_slips
+from ..io.scenario import Scenario, degrees_hint, parse_scenario, unit_slips, velocity_slip
 from ..io.waypoints import load_waypoints_csv
 from ..lift.constraint import lift
 from ..lift.joint_path import JointPath, SplineJointPath
 from ..planning import PlanSettings
 from ..planning.limits import limit_choices
 from ..robot import Payload, Robot, Tool, builtin_robot_names, load_robot
+from .chain import chain_path, is_chain
+from .program import check_program, start_configuration, start_rotation, task_orientation
 from .reserve import AUTO, ReserveSearch
+from .segments import task_segments
 
 log = logging.getLogger(__name__)
 
-#: Largest difference between a circle's given radius and its centre-to-start distance [m]
-#: (a scenario's numbers are typed by hand: 1 um is far below any path tolerance, far above round-off).
-RADIUS_MATCH = 1e-6
 #: Distance [m] within which a lift failure is reported "at waypoint k" rather than between two.
 NEAR_WAYPOINT = 1e-3
 
@@ -143,44 +143,6 @@ def reach_bound(robot: Robot) -> float:
 
 
 # ------------------------------------------------------------------------------------- the paths
-def _segment(s, start, where: str):
-    """One task segment of ``path.segments`` (``start``: its start point, given or the previous end)."""
-    if s.type == "line":
-        if start is None:
-            raise ScenarioError(f"{where}: the first line needs a start point")
-        return Line(start, s.end)
-    if s.type == "arc":
-        if start is None:
-            raise ScenarioError(f"{where}: the first arc needs a start point")
-        return Arc(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float), float(s.sweep))
-    # circle: through the given or previous end point, else at start_angle
-    if start is not None:
-        seg = Circle(np.asarray(s.center, float), np.asarray(start, float), np.asarray(s.normal, float))
-    else:
-        seg = Circle.from_centre(s.center, s.radius, s.normal, s.start_angle)
-    if abs(seg.radius - s.radius) > RADIUS_MATCH:
-        raise ScenarioError(f"{where}: the start point is {seg.radius:.6g} m from the centre, not the "
-                            f"radius {s.radius:.6g} m; fix radius or centre")
-    return seg
-
-
-def _segments(specs) -> list:
-    segs = []
-    prev_end = None
-    for k, s in enumerate(specs):
-        where = f"path.segments[{k}]"
-        start = s.start if getattr(s, "start", None) is not None else prev_end
-        try:
-            seg = _segment(s, start, where)
-        except ScenarioError:
-            raise
-        except PathmotionError as exc:
-            raise exc.in_context(where) from exc
-        segs.append(seg)
-        prev_end = seg.end_point
-    return segs
-
-
 def _waypoints_where(spec) -> str:
     """The scenario key a waypoint path's errors name: ``path.file <name>`` or ``path.points``."""
     return f"path.file {spec.file}" if spec.file is not None else "path.points"
@@ -245,9 +207,8 @@ def _chosen_blends(spec, task: TaskPath) -> dict[int, int]:
 def _segment_task_path(spec) -> tuple[TaskPath, TaskPath | None, BlendRequest | None]:
     """(task path with its blends, or with every corner sharp when optimal blends are asked for; the path
     before blends or None; the optimal blends' request or None) of a segment path."""
-    orientation = FixedOrientation() if spec.orientation == "down" else FixedOrientation(
-        np.asarray(spec.orientation, float))
-    task = TaskPath(tuple(_segments(spec.segments)), orientation)
+    segs = task_segments(spec.segments)
+    task = TaskPath(tuple(segs), task_orientation(start_rotation(spec), spec.segments, segs))
     original = task if spec.blends else None
     chosen = _chosen_blends(spec, task)
     blends = {c: (spec.blends[k].type, spec.blends[k].radius if spec.blends[k].type == "circle"
@@ -301,7 +262,8 @@ def lift_task_path(scenario: Scenario, robot: Robot, task: TaskPath, original: T
     waypoint path's errors name the waypoint or the two waypoints the failure lies at or between. A closed
     path not planned as a periodic cycle is an open motion (run once, rest to rest or with given speeds)."""
     spec = scenario.path
-    q_start = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+    q_start = start_configuration(spec, robot) if spec.type == "task" else (
+        None if spec.start_configuration is None else np.asarray(spec.start_configuration, float))
     log.info("lift: IK along the task path (%d segments, %.4g m)", len(task.segments), task.length)
     try:
         path = lift(robot, task, q_start, original=original)
@@ -313,6 +275,8 @@ def lift_task_path(scenario: Scenario, robot: Robot, task: TaskPath, original: T
             where = f"{where}: {_near_waypoint(task, original, exc.position)}"
         raise exc.in_context(where) from exc
     log.debug("lifted joint path: theta in [%.6g, %.6g], %d kinks", *path.domain, len(path.kinks))
+    if spec.type == "task":
+        check_program(spec, robot, path)
     return open_unless_periodic(scenario, path)
 
 
@@ -335,7 +299,8 @@ def _joint_waypoint_path(spec, robot: Robot) -> JointPath:
     if bad.any():
         k, j = np.argwhere(bad)[0]
         raise ScenarioError(f"path.waypoints[{k}]: joint {robot.joint_names[j]} = {wp[k, j]:g} rad is outside "
-                            f"its range [{robot.limits.lower[j]:.4f}, {robot.limits.upper[j]:.4f}]")
+                            f"its range [{robot.limits.lower[j]:.4f}, {robot.limits.upper[j]:.4f}]"
+                            + degrees_hint(wp, robot.limits.lower, robot.limits.upper))
     return SplineJointPath.from_waypoints(wp, robot.joint_names)
 
 
@@ -348,6 +313,10 @@ def build_path(scenario: Scenario, robot: Robot, base_dir: str | Path = "."
     spec = scenario.path
     if spec.type == "joint":
         return open_unless_periodic(scenario, _joint_waypoint_path(spec, robot)), None, None, None
+    if is_chain(spec):  # joint moves or dwells among the segments
+        path = chain_path(spec, robot)
+        check_program(spec, robot, path)
+        return path, path.task_path, path.original_task_path, None
     if spec.type == "waypoints":
         task, original = _waypoint_task_path(spec, Path(base_dir))
         request = _waypoint_request(spec, task)
@@ -380,6 +349,10 @@ def build(scenario: Scenario, base_dir: str | Path = ".", text: str = "") -> Set
     base_dir = Path(base_dir)
     robot = build_robot(scenario, base_dir)
     unit_slips(scenario, reach_bound(robot), defaults.RATED_PAYLOAD.get(scenario.robot.name.lower()), robot.name)
+    slip = velocity_slip(robot.limits.velocity, robot.joint_names, "limits.velocity" if scenario.limits.velocity
+                         else f"limits of {scenario.robot.limits or scenario.robot.name}")
+    if slip:
+        log.warning("%s", slip)
     path, task, original, request = build_path(scenario, robot, base_dir)
     return Setup(scenario, text, base_dir, robot, path, task, original, plan_settings(scenario), request)
 

@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from ..control import OrbitalGains, TrackingGains
-from ..errors import ScenarioError
+from ..errors import ScenarioError, listed
 from ..io import exports, schema
 from ..io.atomic import write_json, write_text
-from ..planning import PlanResult
+from ..planning import PlanResult, Retimer
 from ..simulation import Realism, SimulationSettings, simulate
+from ..simulation.events import Event
 from .failures import FailureKind, ResultFailure
 from .plan import plan_summary, reserve_summary, write_report_data
 from .setup import Setup
@@ -33,30 +34,35 @@ def simulation_settings(setup: Setup) -> SimulationSettings:
         realism_kwargs["payload_com"] = rs.payload_com
     kwargs = dict(sample_time=sim.sample_time, substeps=sim.substeps, realism=Realism(**realism_kwargs),
                   path_tolerance=sim.path_tolerance, joint_tolerance=sim.joint_tolerance,
+                  path_tolerance_deg=sim.path_tolerance_deg,
                   saturation_limit=sim.saturation_limit, laps=sim.laps, plant=sim.plant,
-                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload)
+                  sampled_design=sim.sampled_design, identify_payload=sim.identify_payload,
+                  events=tuple(Event(e.t, e.override, e.stop, e.resume) for e in sim.events))
     if sim.gains:
         cls, name = (OrbitalGains, "orbital_gains") if sim.controller == "orbital" else (
             TrackingGains, "computed_torque_gains" if sim.controller == "computed_torque" else "pd_gains")
         allowed = [f.name for f in dataclasses.fields(cls)]
         unknown = sorted(set(sim.gains) - set(allowed))
         if unknown:
-            raise ScenarioError(f"simulate.gains: unknown gain(s) {unknown} for controller {sim.controller!r}; "
-                                f"allowed: {allowed}")
+            raise ScenarioError(f"simulate.gains: unknown gain(s) {listed(unknown)} for controller "
+                                f"{getattr(sim.controller, 'value', sim.controller)!r}; allowed: {', '.join(allowed)}")
         base = getattr(SimulationSettings(), name)
         kwargs[name] = dataclasses.replace(base, **sim.gains)
     return SimulationSettings(**kwargs)
 
 
-def simulate_scenario(setup: Setup, result: PlanResult):
+def simulate_scenario(setup: Setup, result: PlanResult, full: bool = False):
     """Closed-loop simulation of the planned motion with the scenario's controller and plant (the reserve
-    search's run when ``result`` is the plan it chose)."""
+    search's run when ``result`` is the plan it chose; with simulate.events, the plan re-timed at each). ``full``: go on
+    after the first failure to the end (SimulationSettings.run_to_end); by default the run stops there."""
     setup.require_searched("simulate_scenario")
     run = setup.reserve_run
-    if run is not None and result is run[0] and run[1] is not None:
+    if run is not None and result is run[0] and run[1] is not None and not (full and not run[1].tracking_ok):
         return run[1]
-    settings = simulation_settings(setup)
-    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings)
+    settings = dataclasses.replace(simulation_settings(setup), run_to_end=full)
+    retimer = Retimer(result) if settings.events else None
+    return simulate(setup.robot, setup.path, result.profile, setup.scenario.simulate.controller, settings,
+                    retimer=retimer)
 
 
 def tracking_failure(sim_summary: dict) -> ResultFailure | None:

@@ -6,7 +6,8 @@ Entries are .npz files in :func:`cache_dir`, named by a SHA-256 key of everythin
 
 * the table: the path's class, domain, breaks, kinks, closedness and its (Phi, Phi', Phi'') at
   ``FINGERPRINT_POINTS`` theta values (a changed path changes them), and the number of table points;
-* the design, in addition: the profile's grid and x*, the gains, the sample time, the delay and the design kind;
+* the design, in addition: the profile's grid, x* and holds (dwells), the gains, the sample time, the delay
+  and the design kind;
 * both: this format's version, every number in :mod:`pathmotion.defaults` and the source of the control
   package (a change of either invalidates every entry).
 
@@ -93,6 +94,8 @@ def design_key(table_hash: str, profile, gains: OrbitalGains, sample_time: float
     h = hashlib.sha256(table_hash.encode())
     h.update(f"{gains!r} sample_time={sample_time!r} delay={int(delay)}".encode())
     _update(h, profile.grid, profile.x)
+    if profile.holds is not None:  # the dwells move the clock zones (a profile without them keeps its key)
+        _update(h, profile.holds)
     return h.hexdigest()
 
 

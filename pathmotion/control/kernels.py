@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from ..planning.profile import piece_x
+from ..planning.profile import HOLD_ROUNDING, piece_x
 
 #: |Phi'|^2 below which the projection treats Phi' as zero (clamped spline ends) and nudges theta [rad^2].
 ZERO_SPEED2 = 1e-24
@@ -209,7 +209,12 @@ def profile_at_time(profile, t):
     t = min(max(t, 0.0), times[-1])
     i = min(max(np.searchsorted(times, t, side="right") - 1, 0), len(grid) - 2)
     tau = t - times[i]
-    theta = min(grid[i] + np.sqrt(profile.x[i]) * tau + 0.5 * u[i] * tau * tau, grid[i + 1])
+    if tau < 0.0:  # a hold at the start (a dwell): at rest
+        return grid[i], 0.0, 0.0
+    v0, v1 = np.sqrt(profile.x[i]), np.sqrt(profile.x[i + 1])
+    if v0 + v1 > 0.0 and tau > 2.0 * (grid[i + 1] - grid[i]) / (v0 + v1) + HOLD_ROUNDING:
+        return grid[i + 1], 0.0, 0.0  # arrived at a stop with a hold (a dwell): at rest until the departure
+    theta = min(grid[i] + v0 * tau + 0.5 * u[i] * tau * tau, grid[i + 1])
     return theta, np.sqrt(profile_x(grid, profile.x, u, i, theta)), u[i]
 
 

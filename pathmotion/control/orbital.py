@@ -101,15 +101,17 @@ def with_integral(a: np.ndarray, b: np.ndarray, ni: int) -> tuple[np.ndarray, np
 
 
 def clock_zones(times: np.ndarray, joint_speed: np.ndarray, min_speed: float,
-                window: float, duration: float) -> tuple[tuple[float, float], ...]:
-    """Planned-time intervals [s] where the planned joint speed |Phi'| sqrt(x*) (at the grid times (M,))
-    is below ``min_speed``, widened by ``window`` on each side, merged and sorted."""
+                window: float, duration: float, arrivals: np.ndarray | None = None) -> tuple[tuple[float, float], ...]:
+    """Planned-time intervals [s] where the planned joint speed |Phi'| sqrt(x*) (at the grid times (M,), the
+    departure times; ``arrivals`` (M,) the arrival times where the plan waits, default the same) is below
+    ``min_speed``, widened by ``window`` on each side, merged and sorted."""
+    arrivals = times if arrivals is None else arrivals
     slow = joint_speed < min_speed
     edges = np.diff(np.concatenate([[0], slow.astype(int), [0]]))
     starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0] - 1
     zones: list[list[float]] = []
     for a, b in zip(starts, stops):
-        z0, z1 = max(0.0, times[a] - window), min(duration, times[b] + window)
+        z0, z1 = max(0.0, arrivals[a] - window), min(duration, times[b] + window)
         if zones and z0 <= zones[-1][1]:
             zones[-1][1] = max(zones[-1][1], z1)
         else:
@@ -193,7 +195,7 @@ controller reads K only; :attr:`riccati` puts P on the grid when asked);
         x_grid = lookup.states(theta)[:, 0]
         joint_speed = np.linalg.norm(dphi_grid, axis=1) * np.sqrt(x_grid)
         zones = () if table.closed else clock_zones(times, joint_speed, gains.min_speed, gains.terminal_time_to_go,
-                                                    lookup.duration)
+                                                    lookup.duration, times - profile.holds_at(theta))
         in_zone = np.zeros(len(theta), bool)
         for z0, z1 in zones:
             in_zone |= (times >= z0) & (times <= z1)
@@ -359,8 +361,8 @@ def _stationary(solve, dim: int, candidates: list[np.ndarray]) -> np.ndarray:
     states ``keep`` -- for the first candidate that has a finite one, zero elsewhere; zero if none has.
 
     Why the whole state: with P_end zero on I and xi_I the speed feedback fades out over the last 1/speed_rate of
-    the segment, and a robot slowed by friction stopped just short of the clock play near the end (issue 13:
-    circle_zero with 2 N m Coulomb friction stalled at 95 % of the path)."""
+    the segment, and a robot slowed by friction stopped just short of the clock play near the end
+    (circle_zero with 2 N m Coulomb friction stalls at 95 % of the path without it)."""
     p_end = np.zeros((dim, dim))
     for keep in candidates:
         sub = np.ix_(keep, keep)

@@ -261,15 +261,18 @@ class PayloadEstimator:
         return friction
 
     def identified(self) -> dict:
-        """What the run identified, for the summary (SI units): the payload's mass [kg] (negative: a phantom),
-        its centre of mass [m] in ``frame`` (the flange frame for :meth:`for_robot`, else the flange body's joint frame;
-        None below ``defaults.IDENTIFIED_MASS_FLOOR``, where m c / m is noise), and each joint's viscous [N m s/rad] and
+        """What the run identified, for the summary (SI units): the payload's mass [kg] (negative: a phantom) and
+        its standard error [kg] (the filter's), whether the mass is significant (at least
+        ``defaults.IDENTIFIED_SIGNIFICANCE`` standard errors from 0 and ``defaults.IDENTIFIED_MASS_FLOOR``), its
+        centre of mass [m] in ``frame`` (the flange frame for :meth:`for_robot`, else the flange body's joint frame;
+        None unless the mass is significant: m c / m would be noise), and each joint's viscous [N m s/rad] and
         Coulomb [N m] friction."""
         p, n, m = PAYLOAD_PARAMETERS, self.n, self.mass
-        com = (self.frame.actInv(self.estimate[1:p] / m).tolist() if abs(m) >= defaults.IDENTIFIED_MASS_FLOOR
-               else None)
-        return {"mass_kg": m, "com_m": com, "viscous_friction": self.estimate[p:p + n].tolist(),
-                "coulomb_friction": self.estimate[p + n:].tolist()}
+        std = float(np.sqrt(max(self.covariance[0, 0], 0.0)))
+        significant = abs(m) >= max(defaults.IDENTIFIED_SIGNIFICANCE * std, defaults.IDENTIFIED_MASS_FLOOR)
+        com = self.frame.actInv(self.estimate[1:p] / m).tolist() if significant else None
+        return {"mass_kg": m, "mass_std_kg": std, "significant": bool(significant), "com_m": com,
+                "viscous_friction": self.estimate[p:p + n].tolist(), "coulomb_friction": self.estimate[p + n:].tolist()}
 
     @property
     def mass(self) -> float:

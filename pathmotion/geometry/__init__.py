@@ -8,11 +8,12 @@ from .deviation import Deviation, certified_max, distance_to_segments, max_devia
 from .library import (circle_with_radial_line, circle_with_radial_line_transition, circle_with_vertical_circle,
                       horizontal_circle, thesis_circle)
 from .orientation import FixedOrientation, SlerpOrientation, smoothstep5
+from .sampled import HermiteSegment
 from .segments import Arc, BezierSegment, Circle, Line, Segment
 from .waypoints import waypoint_path
 
 __all__ = [
-    "Arc", "BezierSegment", "Circle", "Connection", "Deviation", "FixedOrientation", "Line", "Segment",
+    "Arc", "BezierSegment", "Circle", "Connection", "Deviation", "FixedOrientation", "HermiteSegment", "Line", "Segment",
     "SlerpOrientation", "TaskPath", "blended_corners", "certified_max", "circle_with_radial_line", "circle_with_radial_line_transition",
     "circle_with_vertical_circle", "describe_point",
     "distance_to_segments", "g2_control_points", "g2_deviation", "horizontal_circle", "largest_g2_tolerance",

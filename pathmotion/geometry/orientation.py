@@ -186,3 +186,44 @@ class SlerpOrientation:
 
 
 Orientation = FixedOrientation | SlerpOrientation
+
+
+#: Largest share of the key interval on either side an orientation zone may take (below half: two zones
+#: never overlap, and the keys stay strictly increasing) [-].
+ORIENTATION_ZONE_SHARE = 0.49
+#: An orientation zone shorter than this share of its shorter neighbouring interval is not blended: its two
+#: keys would make the tool stop turning twice within a short stretch (w = 0 at every key), a large dw for
+#: an orientation change of at most the zone's own small turn; the key is met exactly instead [-].
+ORIENTATION_ZONE_MIN_SHARE = 0.01
+
+
+def zoned_keys(thetas, rotations, zones) -> tuple[np.ndarray, np.ndarray]:
+    """Key thetas (M,) and rotations (M, 3, 3) of a :class:`SlerpOrientation` whose interior keys blend.
+
+    ``thetas`` (K,) [m] strictly increasing, ``rotations`` (K, 3, 3), ``zones`` (K,) [m]: the orientation
+    zone at each key (0: the key is met exactly; the first and last keys are always met). A key with a
+    zone z > 0 is replaced by two keys at theta_k - a and theta_k + b, a and b = z kept within
+    ORIENTATION_ZONE_SHARE of the neighbouring intervals, carrying the rotations the slerp towards and
+    away from R_k has there (the share a / h of the way along); between them the orientation turns
+    straight from one to the other without passing R_k, as a controller's orientation zone does. A zone
+    shorter than ORIENTATION_ZONE_MIN_SHARE of the shorter interval keeps its key exact."""
+    th = np.asarray(thetas, float)
+    rots = np.asarray(rotations, float)
+    z = np.asarray(zones, float)
+    out_t, out_r = [th[0]], [rots[0]]
+    for k in range(1, len(th) - 1):
+        a = min(z[k], ORIENTATION_ZONE_SHARE * (th[k] - th[k - 1]))
+        b = min(z[k], ORIENTATION_ZONE_SHARE * (th[k + 1] - th[k]))
+        shortest = min(th[k] - th[k - 1], th[k + 1] - th[k])
+        if a <= 0.0 or b <= 0.0 or min(a, b) < ORIENTATION_ZONE_MIN_SHARE * shortest:
+            out_t.append(th[k])
+            out_r.append(rots[k])
+            continue
+        before = Rotation.from_matrix(rots[k].T @ rots[k - 1]).as_rotvec() * a / (th[k] - th[k - 1])
+        after = Rotation.from_matrix(rots[k].T @ rots[k + 1]).as_rotvec() * b / (th[k + 1] - th[k])
+        out_t += [th[k] - a, th[k] + b]
+        out_r += [rots[k] @ Rotation.from_rotvec(before).as_matrix(), rots[k] @ Rotation.from_rotvec(after).as_matrix()]
+    if len(th) > 1:
+        out_t.append(th[-1])
+        out_r.append(rots[-1])
+    return np.array(out_t), np.array(out_r)

@@ -4,8 +4,7 @@ The optimal blend search sizes each candidate blend by bisection on its certifie
 (:func:`~pathmotion.geometry.blends.g2_shape_for_tolerance`): about 30 certified maxima per size, each a
 few rounds of :func:`~pathmotion.geometry.deviation.certified_max` over a quintic against the corner's two
 lines, some 50 000 maxima per corner. In numpy each round is some 20 calls on arrays of a few hundred
-points, so the time went into numpy's per-call overhead (two thirds of a corner's search, measured in
-session 13). :func:`quintic_lines_max` runs the same branch and bound, operation for operation, in one
+points, so the time would go into numpy's per-call overhead (two thirds of a corner's search). :func:`quintic_lines_max` runs the same branch and bound, operation for operation, in one
 compiled call.
 
 Same operations means same numbers: the curve by Horner's rule as ``BezierSegment._polyval``, each

@@ -16,7 +16,7 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from .files import output_error
+from .files import check_replaceable, mark_result, output_error
 
 
 def umask() -> int:
@@ -264,11 +264,13 @@ def result_folder(out: str | Path):
     without an error it replaces ``out`` as one unit (atomic exchange where the OS has it, else two
     renames with the old folder kept until the new one is in place). On an error or interrupt the
     temporary folder is removed and ``out`` is untouched. Holds the lock of ``out`` meanwhile and first
-    removes what an earlier interrupted run left."""
+    removes what an earlier interrupted run left. Only a folder :func:`~.files.check_replaceable` allows is
+    replaced; the new one holds the mark :data:`~.files.RESULT_MARK`."""
     import shutil
 
     out = Path(out).absolute()
     with output_lock(out):
+        check_replaceable(out)
         try:
             _clean_stale(out)
         except OSError as exc:
@@ -286,6 +288,7 @@ def result_folder(out: str | Path):
                         new = _new_sibling(out)
             except OSError as exc:
                 raise output_error(exc, out) from None
+            mark_result(new)
             yield new
             try:
                 _swap_in(new, out)

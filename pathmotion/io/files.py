@@ -13,6 +13,7 @@ import errno
 import os
 import re
 import stat
+import sys
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -163,14 +164,18 @@ def parse_toml(text: str, where: str, error: type = ScenarioError) -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{where}: not valid TOML: {exc}") from None
+    except ValueError:  # tomllib's int() of a number beyond Python's int-to-str digit limit (4,300 digits)
+        raise error(f"{where}: an integer of more than {sys.get_int_max_str_digits():,} digits, far beyond any "
+                    "limit; give a number of sensible size") from None
     except RecursionError:
         raise error(f"{where}: nested too deeply to parse (defaults.MAX_TOML_DEPTH); flatten the document") from None
 
 
 # ------------------------------------------------------------------------------------- outputs
-def check_output_dir(out: str | Path) -> Path:
+def check_output_dir(out: str | Path, keep=()) -> Path:
     """Check, before any work, that ``out`` is (or can be created as) a writable folder: not a file, not
-    under a file, not in /proc, /sys or /dev, not too long, on a writable file system. Creates nothing."""
+    under a file, not in /proc, /sys or /dev, not too long, on a writable file system, and replaceable
+    (:func:`check_replaceable`, ``keep``: the run's input files). Creates nothing."""
     name = os.fspath(out)
     _check_name(name, "output folder", OutputError)
     shown = printable(name)
@@ -187,10 +192,75 @@ def check_output_dir(out: str | Path) -> Path:
         ancestor = ancestor.parent
     if not ancestor.is_dir():
         raise OutputError(f"output folder {shown} lies under {ancestor}, which is a file; choose another --out")
+    check_replaceable(path, keep)
     try:  # the only sure test of writability (root ignores permission bits, a read-only mount does not)
         os.rmdir(tempfile.mkdtemp(prefix=".pathmotion-probe-", dir=ancestor))
     except OSError as exc:
         raise OutputError(f"output folder {shown} cannot be created in {ancestor}: {os_reason(exc)}") from None
+    return path
+
+
+#: The file every result folder holds: only a folder with it (or an empty or missing one) may be replaced.
+RESULT_MARK = ".pathmotion-result"
+
+
+def _holds(folder: str, inner: str) -> bool:
+    """True when the real path ``inner`` is ``folder`` or lies inside it."""
+    return inner == folder or inner.startswith(folder.rstrip("/") + "/")
+
+
+def check_replaceable(out: str | Path, keep=()) -> None:
+    """Refuse an output folder whose replacement could lose files that are not a result: a symbolic link,
+    a folder holding the current folder, the home folder or any of ``keep`` (the run's input files), and a
+    non-empty folder without :data:`RESULT_MARK`. Paths are compared after resolving symbolic links."""
+    name = os.fspath(out)
+    shown = printable(name)
+    path = Path(name)
+    if path.is_symlink():
+        raise OutputError(f"output folder {shown} is a symbolic link (to {printable(os.readlink(path))}); "
+                          "give a new folder as --out, not a link")
+    real = os.path.realpath(path)
+    guarded = [(os.getcwd(), "the current folder"), (str(Path.home()), "your home folder")]
+    guarded += [(str(Path(k).absolute().parent), f"the input {printable(os.fspath(k))}") for k in keep]
+    for folder, what in guarded:
+        if _holds(real, os.path.realpath(folder)):
+            raise OutputError(f"output folder {shown} ({printable(real)}) is or holds {what}, which a result "
+                              "folder would replace; give a new folder, e.g. --out out/run")
+    if path.is_dir() and not (path / RESULT_MARK).exists():
+        try:
+            entries = next(os.scandir(path), None)
+        except OSError as exc:
+            raise OutputError(f"output folder {shown} cannot be read: {os_reason(exc)}") from None
+        if entries is not None:
+            raise OutputError(f"output folder {shown} holds files that are not a pathmotion result (no "
+                              f"{RESULT_MARK} in it), which a result folder would replace; give a new or empty "
+                              "folder as --out, or remove its files")
+
+
+def mark_result(folder: str | Path) -> None:
+    """Create ``folder`` if needed and put :data:`RESULT_MARK` in it (a folder written in place)."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        if not (folder / RESULT_MARK).exists():
+            (folder / RESULT_MARK).write_text("written by pathmotion; this folder may be replaced by a new result\n")
+    except OSError as exc:
+        raise output_error(exc, folder / RESULT_MARK) from None
+
+
+def check_output_file(out: str | Path, inputs=()) -> Path:
+    """Check an output file's name before any work: not empty, not an existing folder, not one of ``inputs``."""
+    name = os.fspath(out)
+    if name in ("", "."):
+        raise OutputError("output file name is empty or '.'; give a file name, e.g. --out result.toml")
+    _check_name(name, "output file", OutputError)
+    path = Path(name)
+    if path.is_dir():
+        raise OutputError(f"output file {printable(name)} is a folder; give a file name in it")
+    for k in inputs:
+        if os.path.exists(k) and os.path.realpath(k) == os.path.realpath(path):
+            raise OutputError(f"output file {printable(name)} is the input {printable(os.fspath(k))}, which it "
+                              "would overwrite; give another file name")
     return path
 
 

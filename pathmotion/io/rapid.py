@@ -5,33 +5,35 @@ over any number of lines):
 
 * ``CONST`` / ``PERS`` / ``VAR`` declarations of ``robtarget`` ([[x, y, z] mm, [q1..q4],
   [cf1, cf4, cf6, cfx], [eax_a..eax_f]]), ``tooldata``, ``wobjdata``, ``speeddata``,
-  ``zonedata`` and ``num``; other data types are ignored (data, not motion).
-* ``MoveL`` / ``MoveJ`` / ``MoveC`` in ``PROC main`` (or the only procedure with moves), with
-  targets given by name, inline, as ``Offs(p, dx, dy, dz)`` or ``RelTool(p, dx, dy, dz)``; speeds
-  ``v5`` ... ``v7000``, custom speeddata (its ``v_tcp``), ``\\V:=`` [mm/s] and ``\\T:=`` [s]; zones
-  ``fine``, ``z0`` ... ``z200`` (ABB's table of TCP zone radii), custom zonedata (``pzone_tcp``)
-  and ``\\Z:=``; the tool (``tframe``, and ``tload`` as the payload) and ``\\WObj:=`` (``uframe``
-  and ``oframe``).
+  ``zonedata`` and ``num``, wherever they are; other data types are ignored (data, not motion).
+* ``PROC main`` (or the only procedure with moves) run as the controller reads it: calls of
+  procedures without parameters inlined (recursion is an error), ``FOR`` loops with constant bounds
+  unrolled, ``WaitTime`` a dwell after the last move, ``ConfL`` / ``ConfJ`` ``\\On`` / ``\\Off``.
+* ``MoveL`` / ``MoveJ`` / ``MoveC`` with targets given by name, inline, as ``Offs(p, dx, dy, dz)`` or
+  ``RelTool(p, dx, dy, dz)`` (num expressions of numbers and num names); speeds ``v5`` ... ``v7000``,
+  custom speeddata (its ``v_tcp``), ``\\V:=`` [mm/s] and ``\\T:=`` [s]; zones ``fine``, ``z0`` ...
+  ``z200`` (ABB's table of pzone_tcp, pzone_ori and zone_ori), custom zonedata and ``\\Z:=``; the tool
+  (``tframe``, and ``tload`` as the payload) and ``\\WObj:=`` (``uframe`` and ``oframe``); ``\\Conc``
+  is ignored with a note.
 
 Frames: a robtarget is the TCP pose in the object frame, so the TCP pose in the robot base frame is
 T_base_tcp = T_uframe T_oframe T_target (quaternions [q1, q2, q3, q4] = [w, x, y, z]). The robot base
 is the world frame (no ``baseframe``). Positions are converted from mm to m.
 
-What it is not: a RAPID interpreter. Control flow, procedure calls, assignments at run time, I/O,
-waits and every other motion instruction (``MoveAbsJ``, ``SearchL``, ``TriggL``, ``ConfL``,
-``SingArea``, ...) are listed as unsupported with their line numbers: an error unless skipped.
+What it is not: a RAPID interpreter. Other control flow, calls with arguments, assignments at run
+time, I/O and every other motion instruction (``MoveAbsJ``, ``SearchL``, ``TriggL``, ``SingArea``, ...)
+are listed as unsupported with their line numbers: an error unless skipped.
 
-Modelling choices, also written into the scenario:
+The scenario (see docs/program.md for the mapping):
 
-* ``MoveJ`` moves the joints, not the TCP along a line; it becomes a straight line in task space
-  (flagged in the scenario's description).
-* The first move's target is the path's start: where the robot comes from is not in the program.
-* A task path has one tool orientation today: the targets' common one, or the first target's with a
-  warning when they differ.
+* Each move is a segment carrying its target's orientation (``quaternion``) and its program data
+  (``[path.segments.program]``: line, target, instruction, speed, zone, robconf, ConfL state): ``MoveL``
+  a line, ``MoveC`` an arc, ``MoveJ`` a joint move to the target's pose on its robconf; each
+  ``WaitTime`` a dwell segment. The first move's target is the start pose (``[path.start_pose]``).
 * A zone is the sphere around the target where ABB's corner path starts; as on the controller it is
-  reduced to half the distance to the neighbouring programmed positions. A fine point is a stop (a
-  sharp corner; the planner stops at sharp corners; a fine point between two collinear moves is not
-  a stop in the plan).
+  reduced to half the distance to the neighbouring programmed positions. Its orientation zone is
+  written as the segment's ``orientation_zone``. A fine point (and a move followed by a WaitTime) is
+  a stop.
 
 :func:`rapid_estimate_s` is the program's duration on an ideal constant-speed controller with zone
 blending: a lower bound of what the real controller achieves (it ignores acceleration).
@@ -39,22 +41,35 @@ blending: a lower bound of what the real controller achieves (it ignores acceler
 
 from __future__ import annotations
 
+import ast
+import dataclasses
+import logging
 import math
+import operator
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from scipy.spatial.transform import Rotation
+
 from .. import defaults
 from ..errors import ScenarioError
+
+log = logging.getLogger(__name__)
 
 #: ABB's predefined speeddata: v_tcp [mm/s].
 SPEEDS_MM_S = {f"v{v}": float(v) for v in (5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600,
                                            800, 1000, 1500, 2000, 2500, 3000, 4000, 5000, 6000, 7000)}
-#: ABB's predefined zonedata: pzone_tcp [mm] (fine = stop point, 0).
-ZONES_MM = {"fine": 0.0, "z0": 0.3, "z1": 1.0, "z5": 5.0, "z10": 10.0, "z15": 15.0, "z20": 20.0, "z30": 30.0,
-            "z40": 40.0, "z50": 50.0, "z60": 60.0, "z80": 80.0, "z100": 100.0, "z150": 150.0, "z200": 200.0}
+#: ABB's predefined zonedata: (pzone_tcp [mm], pzone_ori [mm], zone_ori [deg]); fine = stop point, 0.
+ZONEDATA = {"fine": (0.0, 0.0, 0.0), "z0": (0.3, 0.3, 0.03), "z1": (1.0, 1.0, 0.1), "z5": (5.0, 8.0, 0.8),
+            "z10": (10.0, 15.0, 1.5), "z15": (15.0, 23.0, 2.3), "z20": (20.0, 30.0, 3.0), "z30": (30.0, 45.0, 4.5),
+            "z40": (40.0, 60.0, 6.0), "z50": (50.0, 75.0, 7.5), "z60": (60.0, 90.0, 9.0),
+            "z80": (80.0, 120.0, 12.0), "z100": (100.0, 150.0, 15.0), "z150": (150.0, 225.0, 23.0),
+            "z200": (200.0, 300.0, 30.0)}
+#: ABB's predefined zonedata: pzone_tcp [mm].
+ZONES_MM = {name: z[0] for name, z in ZONEDATA.items()}
 #: Statements that neither move the robot nor change its motion or timing.
 _HARMLESS = {"tpwrite", "tperase", "errwrite", "tpshow"}
 #: Block keywords: their lines carry no ``;``.
@@ -72,6 +87,13 @@ _RIGHT_ANGLE_MARGIN = 1e-15  # keeps tan(half turn) finite at a full reversal [r
 #: The blends an import can write at each zone: the zone's symmetric G2 blend, or the fastest within its deviation.
 BLEND_TYPES = ("g2", "optimal")
 _ZONE_ROUNDING = 1e-12  # a zone reduced by less than this is not reported as reduced [m]
+_HALF_TURN_MARGIN = 1e-6  # consecutive targets closer than this to a half turn apart have no turn direction [rad]
+_ZERO_QUATERNION = 1e-6  # a quaternion shorter than this has no direction to normalize to [-]
+#: Most moves an import unrolls (procedure calls and FOR loops), against a loop that never ends in practice.
+MAX_PROGRAM_MOVES = 200_000
+#: Arithmetic a num expression may use (``Offs(p, i * 50, 0, 0)``; numbers and num names).
+_ARITH = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+          ast.USub: operator.neg, ast.UAdd: operator.pos}
 
 
 # ------------------------------------------------------------------------------------ plain data
@@ -103,7 +125,10 @@ class RapidMove:
     """One Move instruction: ``kind`` "L", "J" or "C"; ``point`` (3,) TCP target in the base frame [m];
     ``rotation`` (3, 3) TCP orientation in the base frame; ``via`` (3,) MoveC circle point [m];
     ``speed`` v_tcp [m/s] (None when ``time`` [s] is given by ``\\T``); ``zone`` programmed zone
-    radius [m] (0 = fine point)."""
+    radius [m] (0 = fine point); ``zone_ori`` the zone's pzone_ori [m] and ``zone_ori_angle`` its
+    zone_ori [rad]; ``target`` the target as written; ``quaternion`` (4,) the target's [q1..q4] as
+    written (normalized); ``robconf`` (cf1, cf4, cf6, cfx); ``conf`` True when ConfL / ConfJ \\On
+    holds the robconf for this move; ``dwell`` the WaitTime after it [s], ``dwell_line`` the line of the first."""
 
     kind: str
     line: int
@@ -116,12 +141,26 @@ class RapidMove:
     zone: float
     zone_name: str
     tool: str
+    target: str = ""
+    quaternion: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    robconf: tuple[int, int, int, int] | None = None
+    conf: bool = True
+    zone_ori: float = 0.0
+    zone_ori_angle: float = 0.0
+    dwell: float = 0.0
+    dwell_line: int = 0
+
+    @property
+    def instruction(self) -> str:
+        """The RAPID instruction: MoveL, MoveJ or MoveC."""
+        return "Move" + self.kind
 
 
 @dataclass(frozen=True)
 class RapidProgram:
     """A parsed RAPID module: the moves of its main procedure, the one tool they use and the
-    statements that were not understood, as (line, text)."""
+    statements that were not understood, as (line, text), and what the import changed or ignored
+    (``remarks``, one sentence each: a quaternion normalized, a \\Conc ignored, a repeated target dropped)."""
 
     source: str
     module: str
@@ -129,18 +168,34 @@ class RapidProgram:
     moves: tuple[RapidMove, ...]
     tool: RapidTool
     unsupported: tuple[tuple[int, str], ...]
+    remarks: tuple[str, ...] = ()
 
 
 # ------------------------------------------------------------------------------------- helpers
-def quaternion_matrix(q, where: str = "quaternion") -> np.ndarray:
-    """Rotation matrix (3, 3) of an ABB quaternion [q1, q2, q3, q4] = [w, x, y, z] (normalized here;
-    ScenarioError if it is far from unit length)."""
-    w, x, y, z = (float(v) for v in q)
-    n = math.sqrt(w * w + x * x + y * y + z * z)
-    if not abs(n - 1.0) < 1e-3:
-        raise ScenarioError(f"{where}: quaternion {list(q)} has norm {n:.6g}, not 1; give a unit quaternion "
-                            "[q1, q2, q3, q4] = [w, x, y, z]")
-    w, x, y, z = w / n, x / n, y / n, z / n
+def unit_quaternion(q, where: str = "quaternion", remarks: list | None = None) -> np.ndarray:
+    """ABB quaternion [q1, q2, q3, q4] = [w, x, y, z] normalized (4,); a norm more than
+    defaults.QUATERNION_NORM_TOLERANCE from 1 is logged and added to ``remarks``; ScenarioError for a
+    zero, non-finite or wrongly sized one."""
+    try:
+        v = np.array([float(c) for c in q], float)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"{where}: quaternion {q!r} must be four numbers [q1, q2, q3, q4] = [w, x, y, z]") from None
+    n = float(np.linalg.norm(v)) if v.shape == (4,) else float("nan")
+    if not (math.isfinite(n) and n > _ZERO_QUATERNION):
+        raise ScenarioError(f"{where}: quaternion {list(q)} is not a rotation (four finite numbers, not all 0); "
+                            "give a unit quaternion [q1, q2, q3, q4] = [w, x, y, z]")
+    if abs(n - 1.0) > defaults.QUATERNION_NORM_TOLERANCE:
+        msg = f"{where}: quaternion {list(q)} has norm {n:.6g}, not 1; normalized to unit length"
+        log.warning(msg)
+        if remarks is not None:
+            remarks.append(msg)
+    return v / n
+
+
+def quaternion_matrix(q, where: str = "quaternion", remarks: list | None = None) -> np.ndarray:
+    """Rotation matrix (3, 3) of an ABB quaternion [q1, q2, q3, q4] = [w, x, y, z], normalized by
+    :func:`unit_quaternion` (which reports a norm off 1)."""
+    w, x, y, z = unit_quaternion(q, where, remarks)
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
                      [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
@@ -217,9 +272,14 @@ class _Parser:
         self.where = where
         self.data: dict[str, tuple[str, object, int]] = {}  # name (lower) -> (type, value, line)
         self.module = ""
-        self.procs: dict[str, list] = {}
-        self.unsupported: dict[str, list[tuple[int, str]]] = {"": []}
+        self.procs: dict[str, list[tuple[int, str]]] = {}  # name -> its statements (line, text)
+        self.params: dict[str, bool] = {}  # procedure name (lower) -> it takes parameters
+        self.names: dict[str, str] = {}  # procedure name (lower) -> as declared
+        self.unsupported: dict[int, str] = {}  # line -> what was skipped there
+        self.remarks: list[str] = []
         self.proc = ""
+        self.moves: list[RapidMove] = []
+        self.conf = {"l": True, "j": True}  # ConfL / ConfJ \On (the controller's default)
 
     def fail(self, line: int, msg: str):
         raise ScenarioError(f"{self.where}:{line}: {msg}")
@@ -250,10 +310,32 @@ class _Parser:
                         "(expressions are not evaluated)")
 
     def number(self, text: str, line: int) -> float:
-        v = self.value(text, line)
+        """A num: a literal, a num name or arithmetic (+ - * /) of them."""
+        t = text.strip()
+        if re.fullmatch(r"[\w.\s+\-*/()]+", t) and not re.fullmatch(r"-?\s*[\w.]+", t):
+            return self.arithmetic(t, line)
+        v = self.value(t, line)
         if not isinstance(v, float):
-            self.fail(line, f"expected a number, got {text.strip()[:40]!r}")
+            self.fail(line, f"expected a number, got {t[:40]!r}")
         return v
+
+    def arithmetic(self, text: str, line: int) -> float:
+        """The value of a num expression of numbers, num names, + - * / and parentheses."""
+        def ev(node):
+            if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
+                return float(node.value)
+            if isinstance(node, ast.Name):
+                return self.number(node.id, line)
+            if isinstance(node, ast.BinOp) and type(node.op) in _ARITH:
+                return _ARITH[type(node.op)](ev(node.left), ev(node.right))
+            if isinstance(node, ast.UnaryOp) and type(node.op) in _ARITH:
+                return _ARITH[type(node.op)](ev(node.operand))
+            raise ValueError
+        try:
+            return float(ev(ast.parse(text, mode="eval").body))
+        except (SyntaxError, ValueError, ZeroDivisionError):
+            self.fail(line, f"cannot evaluate {text[:60]!r}: num expressions may use numbers, num names, + - * / "
+                            "and parentheses")
 
     def typed(self, text: str, kind: str, line: int):
         """A value of RAPID type ``kind``: a literal, or the name of a declaration of that type."""
@@ -284,7 +366,7 @@ class _Parser:
             p = np.array([float(v) for v in trans], float) / 1000.0
             if p.shape != (3,):
                 raise ValueError
-            return Frame(p, quaternion_matrix(quat, f"{self.where}:{line}: {what}"))
+            return Frame(p, quaternion_matrix(quat, f"{self.where}:{line}: {what}", self.remarks))
         except (TypeError, ValueError, IndexError):
             self.fail(line, f"{what}: expected a pose [[x, y, z], [q1, q2, q3, q4]] (mm), got {str(value)[:80]}")
 
@@ -328,6 +410,31 @@ class _Parser:
 
     def target(self, text: str, line: int) -> Frame:
         """A robtarget expression (name, aggregate, Offs(...), RelTool(...)) as a pose in its object frame."""
+        return self.robtarget(text, line)[0]
+
+    def robtarget(self, text: str, line: int) -> tuple[Frame, np.ndarray, tuple[int, int, int, int] | None]:
+        """(pose in its object frame, quaternion (4,) as written (normalized), robconf or None when the aggregate
+        has none) of a robtarget expression."""
+        t = text.strip()
+        m = re.fullmatch(r"(?is)(offs|reltool)\s*\((.*)\)", t)
+        if m:
+            _, quat, conf = self.robtarget(_split_top(m.group(2))[0], line)
+            return self.offset(t, line), quat, conf
+        value = self.target_value(t, line)
+        frame = self.pose(value, line, f"robtarget {t[:40]}")
+        quat = unit_quaternion(value[1], f"{self.where}:{line}: robtarget {t[:40]}")
+        if len(value) < 3:
+            return frame, quat, None
+        try:
+            conf = tuple(int(round(float(c))) for c in value[2])
+            if len(conf) != 4:
+                raise ValueError
+        except (TypeError, ValueError, IndexError):
+            self.fail(line, f"robtarget {t[:40]}: robconf must be [cf1, cf4, cf6, cfx], got {str(value[2:3])[:60]}")
+        return frame, quat, conf
+
+    def offset(self, text: str, line: int) -> Frame:
+        """The pose of an Offs(...) / RelTool(...) expression, or of a plain target."""
         t = text.strip()
         m = re.fullmatch(r"(?is)(offs|reltool)\s*\((.*)\)", t)
         if m:
@@ -335,16 +442,24 @@ class _Parser:
             if any(a.startswith("\\") or "\\" in a for a in args) or len(args) != 4:
                 self.fail(line, f"{m.group(1)}(...) with rotations or {len(args)} arguments is not supported; use "
                                 f"{m.group(1)}(p, dx, dy, dz) in mm")
-            base = self.target(args[0], line)
+            base = self.offset(args[0], line)
             d = np.array([self.number(a, line) for a in args[1:]]) / 1000.0
             shift = d if m.group(1).lower() == "offs" else base.rotation @ d
             return Frame(base.translation + shift, base.rotation)
+        return self.pose(self.target_value(t, line), line, f"robtarget {t[:40]}")
+
+    def target_value(self, t: str, line: int):
+        """The robtarget aggregate of a name or a literal."""
         if t.lower() in self.data and self.data[t.lower()][0] != "robtarget":
             self.fail(line, f"{t} is a {self.data[t.lower()][0]}, not a robtarget")
         if not t.startswith("[") and t.lower() not in self.data:
             self.fail(line, f"robtarget {t!r} is not declared with a value; declare CONST robtarget {t} := [...] "
-                            "before the move (run-time assignments are not evaluated)")
-        return self.pose(self.value(t, line), line, f"robtarget {t[:40]}")
+                            "(run-time assignments are not evaluated)")
+        value = self.value(t, line)
+        if not isinstance(value, list) or len(value) < 2:
+            self.fail(line, f"robtarget {t[:40]}: expected [[x, y, z], [q1, q2, q3, q4], [cf1, cf4, cf6, cfx], "
+                            f"[eax_a, ...]], got {str(value)[:80]}")
+        return value
 
     # --- speed and zone -------------------------------------------------------------------------
     def speed(self, text: str, opts: dict, line: int) -> tuple[float | None, float | None]:
@@ -368,22 +483,27 @@ class _Parser:
             self.fail(line, f"speed {text.strip()!r}: v_tcp = {v:g} mm/s must be positive")
         return v / 1000.0, None
 
-    def zone(self, text: str, opts: dict, line: int) -> tuple[float, str]:
-        """(zone radius [m], its name); 0 for fine."""
+    def zone(self, text: str, opts: dict, line: int) -> tuple[float, str, float, float]:
+        """(zone radius [m], its name, pzone_ori [m], zone_ori [rad]); 0 for fine. pzone_ori is at least
+        the zone radius (the controller raises a smaller one to it)."""
         name = text.strip()
-        if name.lower() in ZONES_MM and name.lower() not in self.data:
-            z = ZONES_MM[name.lower()]
+        if name.lower() in ZONEDATA and name.lower() not in self.data:
+            z, z_ori, a_ori = ZONEDATA[name.lower()]
         else:
             zd = self.typed(name, "zonedata", line) if name.lower() in self.data or "[" in name else None
-            if not isinstance(zd, list) or len(zd) < 2:
-                self.fail(line, f"zone {name!r}: give fine, z0 ... z200 or a zonedata [finep, pzone_tcp, ...]")
-            z = 0.0 if zd[0] is True else float(zd[1])
+            if not isinstance(zd, list) or len(zd) < 2 or not all(isinstance(v, float) for v in zd[1:]):
+                self.fail(line, f"zone {name!r}: give fine, z0 ... z200 or a zonedata [finep, pzone_tcp, pzone_ori, "
+                                "pzone_eax, zone_ori, zone_leax, zone_reax]")
+            fine = zd[0] is True
+            z = 0.0 if fine else zd[1]
+            z_ori = 0.0 if fine or len(zd) < 3 else zd[2]
+            a_ori = 0.0 if fine or len(zd) < 5 else zd[4]
         if "z" in opts:
             z = self.number(opts["z"], line)
             name = f"{name}\\Z:={z:g}"
-        if z < 0:
-            self.fail(line, f"zone {name!r}: the zone radius must not be negative")
-        return z / 1000.0, name
+        if z < 0 or z_ori < 0 or a_ori < 0:
+            self.fail(line, f"zone {name!r}: zone sizes must not be negative")
+        return z / 1000.0, name, max(z, z_ori) / 1000.0, math.radians(a_ori)
 
     # --- statements -----------------------------------------------------------------------------
     def move(self, line: int, kind: str, args_text: str, text: str) -> RapidMove:
@@ -406,52 +526,198 @@ class _Parser:
         a = dict(zip(names, mains))
         tool = self.tool(a["tool"], line)
         obj = self.wobj(opts["wobj"], line) if opts.get("wobj") else Frame()
-        tcp = obj @ self.target(a["to"], line)
+        frame, quat, robconf = self.robtarget(a["to"], line)
+        tcp = obj @ frame
         via = (obj @ self.target(a["via"], line)).translation if "via" in a else None
         speed, time = self.speed(a["speed"], opts, line)
-        zone, zone_name = self.zone(a["zone"], opts, line)
-        return RapidMove(kind[-1].upper(), line, " ".join(text.split()), tcp.translation, tcp.rotation, via,
-                         speed, time, zone, zone_name, tool.name)
+        zone, zone_name, zone_ori, zone_angle = self.zone(a["zone"], opts, line)
+        if "conc" in opts:
+            self.remarks.append(f"line {line}: \\Conc ignored (on the controller it lets the next statements run "
+                                "while the robot moves; the motion is the same)")
+        letter = kind[-1].lower()
+        return RapidMove(letter.upper(), line, " ".join(text.split()), tcp.translation, tcp.rotation, via,
+                         speed, time, zone, zone_name, tool.name, target=_target_name(a["to"]), quaternion=quat,
+                         robconf=robconf,
+                         conf=self.conf["j" if letter == "j" else "l"], zone_ori=zone_ori, zone_ori_angle=zone_angle)
 
     def statement(self, line: int, text: str) -> None:
+        """Collect one statement: declarations are read now, procedure bodies are run by :meth:`run`."""
         word = re.match(r"[A-Za-z_]\w*", text)
         head = word.group(0).lower() if word else ""
         decl = re.fullmatch(r"(?is)(?:(?:local|task)\s+)?(const|pers|var)\s+(\w+)\s+(\w+)\s*(\{[^}]*\})?"
                             r"\s*(?::=\s*(.*))?", text)
+        header = re.match(r"(?is)(local\s+)?proc\s+(\w+)\s*(\((.*)\))?", text)
         if decl:
             self.declaration(line, decl)
         elif head == "module":
             self.module = text.split()[1].split("(")[0] if len(text.split()) > 1 else ""
-        elif head in ("proc", "local") and re.match(r"(?i)(local\s+)?proc\s+(\w+)", text):
-            self.proc = re.match(r"(?i)(local\s+)?proc\s+(\w+)", text).group(2)
+        elif head in ("proc", "local") and header:
+            self.proc = header.group(2)
             self.procs.setdefault(self.proc, [])
-            self.unsupported.setdefault(self.proc, [])
+            self.names[self.proc.lower()] = self.proc
+            self.params[self.proc.lower()] = bool((header.group(4) or "").strip())
         elif head == "endproc":
             self.proc = ""
         elif head == "endmodule" or head in _HARMLESS:
             pass
-        elif head in _MOVE_ARGS and self.proc:
-            self.procs[self.proc].append(self.move(line, head, text[len(head):], text))
+        elif self.proc:
+            self.procs[self.proc].append((line, text))
         else:
-            why = " (control flow is not followed)" if head in _BLOCKS else ""
-            self.unsupported[self.proc].append((line, " ".join(text.split())[:80] + why))
+            self.skip(line, text)
+
+    def skip(self, line: int, text: str, why: str = "") -> None:
+        head = (re.match(r"[A-Za-z_]\w*", text) or [""])[0].lower()
+        why = why or (" (control flow is not followed)" if head in _BLOCKS else "")
+        self.unsupported.setdefault(line, " ".join(text.split())[:80] + why)
+
+    # --- running a procedure ----------------------------------------------------------------------
+    def run(self, body: list[tuple[int, str]], stack: tuple[str, ...]) -> None:
+        """Run the statements ``body`` of the procedure chain ``stack`` (outermost first): moves appended
+        to self.moves, procedure calls inlined, FOR loops unrolled, WaitTime and ConfL / ConfJ applied."""
+        i = 0
+        while i < len(body):
+            line, text = body[i]
+            head = (re.match(r"[A-Za-z_]\w*", text) or [""])[0].lower()
+            if head == "for":
+                end = _block_end(body, i, "for", "endfor")
+                if end is None:
+                    self.fail(line, "FOR without its ENDFOR")
+                self.loop(line, text, body[i + 1:end], stack)
+                i = end + 1
+                continue
+            self.execute(line, text, head, stack)
+            i += 1
+
+    def execute(self, line: int, text: str, head: str, stack: tuple[str, ...]) -> None:
+        rest = text[len(head):].strip()
+        if head in _MOVE_ARGS:
+            if len(self.moves) >= MAX_PROGRAM_MOVES:
+                self.fail(line, f"the program unrolls to more than {MAX_PROGRAM_MOVES} moves; shorten its loops")
+            self.moves.append(self.move(line, head, text[len(head):], text))
+        elif head == "waittime":
+            self.wait(line, rest)
+        elif head in ("confl", "confj"):
+            switch = rest.replace(" ", "").lower()
+            if switch not in ("\\on", "\\off"):
+                self.fail(line, f"{head}: give \\On or \\Off")
+            self.conf[head[-1]] = switch == "\\on"
+        elif head in self.names and not rest:
+            self.call(line, head, stack)
+        elif head in self.names:
+            self.skip(line, text, " (procedure calls with arguments are not followed)")
+        else:
+            self.skip(line, text)
+
+    def call(self, line: int, name: str, stack: tuple[str, ...]) -> None:
+        proc = self.names[name]
+        if proc.lower() in (s.lower() for s in stack):
+            chain = " -> ".join(stack + (proc,))
+            self.fail(line, f"procedure {proc} calls itself ({chain}); recursion is not unrolled, write the repeats "
+                            "as a FOR loop")
+        if self.params[name]:
+            self.fail(line, f"procedure {proc} takes parameters; only procedures without parameters are inlined")
+        self.run(self.procs[proc], stack + (proc,))
+
+    def loop(self, line: int, text: str, body: list[tuple[int, str]], stack: tuple[str, ...]) -> None:
+        """Unroll ``FOR v FROM a TO b [STEP s] DO`` with constant a, b, s."""
+        m = re.fullmatch(r"(?is)for\s+(\w+)\s+from\s+(.+?)\s+to\s+(.+?)(?:\s+step\s+(.+?))?\s+do", text.strip())
+        if not m:
+            self.fail(line, "FOR: expected FOR v FROM a TO b [STEP s] DO")
+        var = m.group(1).lower()
+        lo, hi = self.number(m.group(2), line), self.number(m.group(3), line)
+        step = self.number(m.group(4), line) if m.group(4) else (1.0 if hi >= lo else -1.0)
+        if step == 0:
+            self.fail(line, "FOR: STEP 0 never ends; give a non-zero step")
+        count = max(int(math.floor((hi - lo) / step + 1e-9)) + 1, 0)
+        if count > MAX_PROGRAM_MOVES:
+            self.fail(line, f"FOR runs {count} times, more than {MAX_PROGRAM_MOVES}; shorten the loop")
+        saved = self.data.get(var)
+        for k in range(count):
+            self.data[var] = ("num", lo + k * step, line)
+            self.run(body, stack)
+        if saved is None:
+            self.data.pop(var, None)
+        else:
+            self.data[var] = saved
+
+    def wait(self, line: int, rest: str) -> None:
+        """WaitTime [\\InPos,] t: a dwell of t [s] at rest after the last move."""
+        args = [a for a in _split_top(rest) if a and not a.startswith("\\")]
+        if len(args) != 1:
+            self.fail(line, "WaitTime: expected WaitTime [\\InPos,] time")
+        t = self.number(args[0], line)
+        if t < 0:
+            self.fail(line, f"WaitTime {t:g}: the time must not be negative")
+        if not self.moves:
+            self.remarks.append(f"line {line}: WaitTime {t:g} s before the first move is not part of the path")
+            return
+        last = self.moves[-1]
+        self.moves[-1] = dataclasses.replace(last, dwell=last.dwell + t, dwell_line=last.dwell_line or line)
+
+
+def _target_name(text: str) -> str:
+    """A target as moves.csv names it: as written, an inline aggregate by its position ("inline [x, y, z]")."""
+    t = " ".join(text.split())
+    if t.startswith("["):
+        return "inline " + _split_top(t[1:-1])[0]
+    return t
+
+
+def _block_end(body: list[tuple[int, str]], start: int, open_word: str, close_word: str) -> int | None:
+    """Index of the ``close_word`` statement matching the ``open_word`` one at ``start``, or None."""
+    depth = 0
+    for k in range(start, len(body)):
+        head = (re.match(r"[A-Za-z_]\w*", body[k][1]) or [""])[0].lower()
+        depth += (head == open_word) - (head == close_word)
+        if depth == 0:
+            return k
+    return None
+
+
+def _drop_repeats(moves: list[RapidMove], source: str, remarks: list[str]) -> list[RapidMove]:
+    """The moves without those that repeat the previous target's pose (a zero-length move, noted); ScenarioError
+    for one that only turns the tool (a reorientation in place has no path length)."""
+    out = moves[:1]
+    for mv in moves[1:]:
+        prev = out[-1]
+        if mv.kind != "C" and float(np.linalg.norm(mv.point - prev.point)) < defaults.MIN_SEGMENT_LENGTH:
+            turns = np.max(np.abs(mv.rotation - prev.rotation)) > _SAME_ROTATION
+            if turns and mv.kind == "J":  # a joint move turning the tool in place is a motion
+                out.append(mv)
+                continue
+            if turns:
+                raise ScenarioError(f"{source}:{mv.line}: {mv.instruction} to {mv.target} only turns the tool (its "
+                                    f"position is that of line {prev.line}); a reorientation in place has no path "
+                                    "length: move the TCP as well, or remove the move")
+            remarks.append(f"line {mv.line}: {mv.instruction} to {mv.target} repeats the pose of line {prev.line} (a "
+                           "zero-length move); dropped")
+            if mv.dwell or mv.zone == 0.0:
+                out[-1] = dataclasses.replace(prev, dwell=prev.dwell + mv.dwell, zone=min(prev.zone, mv.zone),
+                                              dwell_line=prev.dwell_line or mv.dwell_line)
+            continue
+        out.append(mv)
+    return out
 
 
 def parse_rapid(text: str, source: str = "program.mod") -> RapidProgram:
     """Parse RAPID module text (``source`` names it in errors: "file:line: what; what to change").
 
-    Reads ``PROC main``, or the only procedure with moves. ScenarioError if there are no moves, if
-    the moves use more than one tool, or on a value it cannot read."""
+    Runs ``PROC main`` (or the only procedure with moves): procedure calls without arguments are
+    inlined, FOR loops unrolled. ScenarioError if there are fewer than two moves, if the moves use more
+    than one tool, or on a value it cannot read."""
     p = _Parser(source)
     for line, stmt in _statements(text):
         p.statement(line, stmt)
-    with_moves = [name for name, moves in p.procs.items() if moves]
+    with_moves = [name for name, body in p.procs.items()
+                  if any((re.match(r"[A-Za-z_]\w*", t) or [""])[0].lower() in _MOVE_ARGS for _, t in body)]
     main = next((name for name in p.procs if name.lower() == "main"), None)
     if main is None and len(with_moves) > 1:
         raise ScenarioError(f"{source}: procedures {', '.join(with_moves)} all have moves and there is no PROC main; "
                             "the import reads PROC main or the only procedure with moves")
     proc = main or (with_moves[0] if with_moves else "")
-    moves = tuple(p.procs.get(proc, []))
+    if proc:
+        p.run(p.procs[proc], (proc,))
+    moves = tuple(_drop_repeats(p.moves, source, p.remarks))
     if len(moves) < 2:
         raise ScenarioError(f"{source}: {'PROC ' + proc if proc else 'the module'} has {len(moves)} MoveL/MoveJ/MoveC "
                             "instructions; a path needs at least two (the first target is the start point)")
@@ -460,8 +726,8 @@ def parse_rapid(text: str, source: str = "program.mod") -> RapidProgram:
         raise ScenarioError(f"{source}: the moves use tools {', '.join(tools)}; a scenario has one tool: use one "
                             "tooldata in every move")
     tool = p.tool(moves[0].tool, moves[0].line)
-    unsupported = tuple(sorted(p.unsupported[""] + p.unsupported.get(proc, [])))
-    return RapidProgram(source, p.module, proc, moves, tool, unsupported)
+    return RapidProgram(source, p.module, proc, moves, tool, tuple(sorted(p.unsupported.items())),
+                        tuple(dict.fromkeys(p.remarks)))
 
 
 def read_rapid(path: str | Path) -> RapidProgram:
@@ -519,7 +785,7 @@ def segments(program: RapidProgram) -> list[tuple[RapidMove, np.ndarray, ArcThro
             out.append((mv, prev.point, arc, arc.length))
         else:
             length = float(np.linalg.norm(mv.point - prev.point))
-            if length < defaults.MIN_SEGMENT_LENGTH:
+            if length < defaults.MIN_SEGMENT_LENGTH and mv.kind != "J":  # a joint move may only turn the tool
                 raise ScenarioError(f"{where}: the move goes to the point it starts from ({mv.text[:60]}); remove it "
                                     "(a path has no zero-length segments)")
             out.append((mv, prev.point, None, length))
@@ -535,7 +801,34 @@ def effective_zones(program: RapidProgram) -> list[float]:
     for k in range(1, len(moves) - 1):
         here = moves[k].point
         near = [moves[k - 1].point, moves[k + 1].point] + [m.via for m in (moves[k], moves[k + 1]) if m.via is not None]
-        out.append(min([moves[k].zone] + [0.5 * float(np.linalg.norm(q - here)) for q in near]))
+        zone = 0.0 if moves[k].dwell > 0 else moves[k].zone  # a WaitTime stops the robot at the target
+        out.append(min([zone] + [0.5 * float(np.linalg.norm(q - here)) for q in near]))
+    return out
+
+
+def _turn(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle [rad] of the rotation from ``a`` to ``b`` (3, 3)."""
+    return float(np.arccos(np.clip(0.5 * (np.trace(a.T @ b) - 1.0), -1.0, 1.0)))
+
+
+def orientation_zones(program: RapidProgram) -> list[float]:
+    """Orientation zone [m] at each interior target: the path distance either side over which the tool
+    turns straight on to the next orientation. The programmed pzone_ori (at least the zone radius),
+    reduced to where the turn left to the target is zone_ori (on both neighbouring moves, the turn taken
+    as even along each) and, like the zone, to half the neighbouring moves; 0 at fine points and dwells."""
+    out = []
+    moves, lengths = program.moves, [length for *_, length in segments(program)]
+    for k in range(1, len(moves) - 1):
+        mv = moves[k]
+        if mv.zone == 0.0 or mv.dwell > 0:
+            out.append(0.0)
+            continue
+        size = [mv.zone_ori, 0.5 * lengths[k - 1], 0.5 * lengths[k]]
+        for other, length in ((moves[k - 1], lengths[k - 1]), (moves[k + 1], lengths[k])):
+            turn = _turn(other.rotation, mv.rotation)
+            if turn > _STRAIGHT:
+                size.append(length * mv.zone_ori_angle / turn)
+        out.append(min(size))
     return out
 
 
@@ -587,17 +880,38 @@ def _vec(v) -> str:
     return "[" + ", ".join(_num(x) for x in v) + "]"
 
 
-def _orientation(program: RapidProgram) -> tuple[str, str | None]:
-    """(TOML value of path.orientation, warning or None)."""
+def _orientation(program: RapidProgram) -> str:
+    """TOML value of path.orientation: the first target's tool orientation."""
     first = program.moves[0].rotation
-    differ = [m.line for m in program.moves if np.max(np.abs(m.rotation - first)) > _SAME_ROTATION]
-    warning = None
-    if differ:
-        warning = (f"the targets' tool orientations differ (first at line {differ[0]}); a task path has one orientation: "
-                   f"the first target's (line {program.moves[0].line}) is used throughout")
     if np.max(np.abs(first - np.array(defaults.TOOL_DOWN_ROTATION))) <= _SAME_ROTATION:
-        return '"down"', warning
-    return "[" + ", ".join(_vec(row) for row in first) + "]", warning
+        return '"down"'
+    return "[" + ", ".join(_vec(row) for row in first) + "]"
+
+
+def base_quaternions(program: RapidProgram) -> np.ndarray:
+    """Each target's tool orientation in the base frame as a unit quaternion (K, 4) [w, x, y, z], each on
+    the side (q or -q, one rotation) nearer the previous one. ScenarioError when two consecutive targets
+    are half a turn apart (the direction of the turn is then undefined)."""
+    out = np.array([Rotation.from_matrix(m.rotation).as_quat()[[3, 0, 1, 2]] for m in program.moves])
+    for k in range(1, len(out)):
+        if out[k] @ out[k - 1] < 0.0:
+            out[k] = -out[k]
+        if out[k] @ out[k - 1] < math.cos(0.5 * (math.pi - _HALF_TURN_MARGIN)):
+            a, b = program.moves[k - 1], program.moves[k]
+            raise ScenarioError(f"{program.source}:{b.line}: the tool turns half a turn from {a.target} (line "
+                                f"{a.line}) to {b.target}, so the direction of the turn is undefined; add a target "
+                                "in between")
+    return out
+
+
+def flips(program: RapidProgram) -> list[str]:
+    """One sentence per pair of consecutive targets whose written quaternions have opposite signs."""
+    out = []
+    for a, b in zip(program.moves[:-1], program.moves[1:]):
+        if a.quaternion @ b.quaternion < 0.0:
+            out.append(f"the quaternions of {a.target} (line {a.line}) and {b.target} (line {b.line}) have opposite "
+                       "signs (q and -q are one rotation): the shorter turn between them is taken")
+    return out
 
 
 def notes(program: RapidProgram) -> list[str]:
@@ -605,11 +919,13 @@ def notes(program: RapidProgram) -> list[str]:
     out = [f"the first move (line {program.moves[0].line}) only gives the start point"]
     joint = [m.line for m in program.moves[1:] if m.kind == "J"]
     if joint:
-        out.append(f"MoveJ at line(s) {', '.join(map(str, joint))} planned as straight TCP lines (joint "
-                   "interpolation is not a task path)")
-    warning = _orientation(program)[1]
-    if warning:
-        out.append(warning)
+        out.append(f"MoveJ at line(s) {', '.join(map(str, joint))}: joint moves, linear in the joints to the IK of "
+                   "the target on its robconf")
+    off = [m.line for m in program.moves if not m.conf and m.robconf is not None]
+    if off:
+        out.append(f"ConfL/ConfJ \\Off at line(s) {', '.join(map(str, off))}: the configuration there is the one "
+                   "continuous with the previous target, the robconf is not checked")
+    out += flips(program) + list(program.remarks)
     reduced = [(m.line, m.zone, z) for m, z in zip(program.moves[1:-1], effective_zones(program)) if z < m.zone - _ZONE_ROUNDING]
     for line, zone, z in reduced:
         out.append(f"the zone at line {line} ({zone * 1000:g} mm) is reduced to {z * 1000:.4g} mm, half the distance "
@@ -639,6 +955,10 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
         raise ScenarioError(f"{program.source}: {len(tolerances)} blend tolerances for {len(zones)} corners")
     name = name or program.module or Path(program.source).stem
     info = notes(program)
+    if blend == "optimal" and any(m.kind == "J" or m.dwell for m in program.moves[1:]):
+        info.append("the zones are symmetric G2 blends: optimal blends are not searched on a path with MoveJ or "
+                    "WaitTime")
+    quats = base_quaternions(program)
     t = program.tool
     rpy = matrix_rpy(t.frame.rotation)
     lines = [f"# Imported from the RAPID module {Path(program.source).name} (PROC {program.procedure}) by "
@@ -651,27 +971,77 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
              f"rotation_rpy = {_vec(rpy)}",
              "", f"[robot.payload]  # tooldata {t.name}: tload", f"mass = {_num(t.mass)}", f"com = {_vec(t.com)}",
              "inertia = [" + ", ".join(_vec(r) for r in t.inertia) + "]",
-             "", "[path]", 'type = "task"', f"orientation = {_orientation(program)[0]}"]
-    for k, (mv, start, arc, _) in enumerate(segs):
-        lines += ["", f"[[path.segments]]  # line {mv.line}: {mv.text[:90]}"]
-        if arc is None:
-            lines += ['type = "line"'] + ([f"start = {_vec(start)}"] if k == 0 else []) + [f"end = {_vec(mv.point)}"]
-        else:
-            lines += ['type = "arc"'] + ([f"start = {_vec(start)}"] if k == 0 else []) + [
-                f"center = {_vec(arc.center)}", f"normal = {_vec(arc.normal)}", f"sweep = {_num(arc.sweep)}"]
+             "", "[path]", 'type = "task"', f"orientation = {_orientation(program)}",
+             "", f"[path.start_pose]  # line {program.moves[0].line}: {program.moves[0].target[:60]}, the start",
+             f"position = {_vec(program.moves[0].point)}", f"quaternion = {_vec(quats[0])}",
+             *([f"robconf = [{', '.join(map(str, program.moves[0].robconf))}]"] if program.moves[0].robconf else []),
+             "", f"[path.start_program]  # line {program.moves[0].line}: the start", *_program(program.moves[0])]
+    lines += _segment_lines(program, segs, quats)
+    chain = any(m.kind == "J" or m.dwell for m in program.moves[1:])
+    kind = "g2" if chain else blend  # optimal blends are not searched on chains with joint moves or dwells
+    corner = _corners(program)
     for k, (tol, z) in enumerate(zip(tolerances, zones)):
         if tol is not None:
             mv = program.moves[k + 1]
             lines += ["", f"[[path.blends]]  # {mv.zone_name} at line {mv.line}: a blend that starts {z * 1000:.4g} mm "
                           "from the target (the zone radius) deviates at most this from the path"
-                      + ("" if blend == "g2" else "; the optimal blend stays within it"),
-                      f"corner = {k + 1}", f"type = {_quote(blend)}", f"tolerance = {_num(tol)}"]
+                      + ("" if kind == "g2" else "; the optimal blend stays within it"),
+                      f"corner = {corner[k]}", f"type = {_quote(kind)}", f"tolerance = {_num(tol)}"]
     lines += ["", "[plan]", 'start = "zero"', 'end = "zero"',
               "", "[rapid]  # the program's speeds and zones: the summary's rapid_estimate_s",
               f"source = {_quote(Path(program.source).name)}",
               f"speeds = {_vec(segment_speeds(program))}  # programmed TCP speed per segment [m/s]",
               f"zones = {_vec(zones)}  # zone radius per corner [m], 0 = fine point", ""]
     return "\n".join(lines)
+
+
+def _corners(program: RapidProgram) -> list[int]:
+    """The scenario's corner number (1-based connection of path.segments) at the end of each move after the first
+    but the last: each move is a segment, each WaitTime a dwell segment after its move."""
+    out, index = [], 0
+    for mv in program.moves[1:-1]:
+        index += 1
+        out.append(index)
+        index += 1 if mv.dwell else 0
+    return out
+
+
+def _segment_lines(program: RapidProgram, segs, quats: np.ndarray) -> list[str]:
+    """The [[path.segments]] of the moves after the first: line, arc or joint (MoveJ: a joint move to the
+    target's pose on its robconf), each followed by a dwell segment for its WaitTime."""
+    lines = []
+    ori_zones = [*orientation_zones(program), 0.0]
+    for k, (mv, start, arc, _) in enumerate(segs):
+        lines += ["", f"[[path.segments]]  # line {mv.line}: {mv.text[:90]}"]
+        if mv.kind == "J":
+            lines += ['type = "joint"', "[path.segments.end_pose]", f"position = {_vec(mv.point)}",
+                      f"quaternion = {_vec(quats[k + 1])}"]
+            lines += [f"robconf = [{', '.join(map(str, mv.robconf))}]"] if mv.robconf else []
+        else:
+            if arc is None:
+                lines += ['type = "line"'] + ([f"start = {_vec(start)}"] if k == 0 else []) + [f"end = {_vec(mv.point)}"]
+            else:
+                lines += ['type = "arc"'] + ([f"start = {_vec(start)}"] if k == 0 else []) + [
+                    f"center = {_vec(arc.center)}", f"normal = {_vec(arc.normal)}", f"sweep = {_num(arc.sweep)}"]
+            lines += [f"quaternion = {_vec(quats[k + 1])}  # tool orientation at {mv.target[:40]} in the base frame"]
+            if ori_zones[k]:
+                lines += [f"orientation_zone = {_num(ori_zones[k])}  # {mv.zone_name}: pzone_ori / zone_ori [m]"]
+        lines += ["[path.segments.program]", *_program(mv)]
+        if mv.dwell:
+            lines += ["", f"[[path.segments]]  # line {mv.dwell_line}: WaitTime", 'type = "dwell"',
+                      f"time = {_num(mv.dwell)}", "[path.segments.program]", f"line = {mv.dwell_line}",
+                      f"target = {_quote(mv.target[:200])}", 'move = "WaitTime"']
+    return lines
+
+
+def _program(mv: RapidMove) -> list[str]:
+    """The keys of a ProgramMoveSpec for ``mv``."""
+    out = [f"line = {mv.line}", f"target = {_quote(mv.target[:200])}", f"move = {_quote(mv.instruction)}",
+           f"speed = {_num(mv.speed)}" if mv.speed is not None else f"time = {_num(mv.time)}",
+           f"zone = {_quote(mv.zone_name)}"]
+    if mv.robconf is not None:
+        out += [f"robconf = [{', '.join(map(str, mv.robconf))}]", f"conf = {'true' if mv.conf else 'false'}"]
+    return out
 
 
 def _quote(text: str) -> str:

@@ -14,7 +14,7 @@ from typing import Annotated, Any, ClassVar, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .. import defaults
-from ..errors import ScenarioError
+from ..errors import ScenarioError, clipped
 from ..modes import BlendType, BoundaryMode, Connections, Controller, VerifyMode
 from .files import parse_toml, read_input
 
@@ -50,13 +50,43 @@ class RobotSpec(_Model):
 
 
 # ------------------------------------------------------------------------------------------ path
-class LineSpec(_Model):
+Quat = tuple[float, float, float, float]
+RobConf = tuple[int, int, int, int]
+
+
+class ProgramMoveSpec(_Model):
+    """The robot-program move a segment came from (``pathmotion import-rapid`` writes it; ``plan`` reads it
+    for moves.csv, and robconf with conf for the IK branch)."""
+
+    line: int = Field(ge=1, description="line of the move in the program")
+    target: str = Field("", description="the target as written in the program")
+    move: Literal["MoveL", "MoveC", "MoveJ", "MoveAbsJ", "WaitTime"] = Field(description="the instruction")
+    speed: float | None = Field(None, gt=0, description="programmed TCP speed [m/s] (absent with a time)")
+    time: float | None = Field(None, gt=0, description="programmed move time (\\T) [s]")
+    zone: str = Field("fine", description="the zone as written (fine, z10, a zonedata name)")
+    robconf: RobConf | None = Field(None, description="ABB robconf [cf1, cf4, cf6, cfx] of the target")
+    conf: bool = Field(True, description="ConfL / ConfJ \\On: the planned configuration at the target must have "
+                                         "the robconf (\\Off: the branch continuous with the previous one)")
+
+
+class _Keyed(_Model):
+    """Keys every task segment takes: the tool orientation at its end and the program move behind it."""
+
+    quaternion: Quat | None = Field(None, description="tool orientation at the segment's end, unit quaternion "
+                                    "[w, x, y, z] in the base frame; given on every segment or on none")
+    orientation_zone: float = Field(0.0, ge=0, description="path distance [m] either side of the segment's end over "
+                                    "which the orientation turns straight on to the next one (a zone's pzone_ori; "
+                                    "0: the end orientation is met exactly)")
+    program: ProgramMoveSpec | None = None
+
+
+class LineSpec(_Keyed):
     type: Literal["line"]
     start: Vec3 | None = Field(None, description="start point [m] (default: the previous segment's end)")
     end: Vec3 = Field(description="end point [m]")
 
 
-class ArcSpec(_Model):
+class ArcSpec(_Keyed):
     type: Literal["arc"]
     start: Vec3 | None = Field(None, description="start point [m] (default: previous end)")
     center: Vec3 = Field(description="circle centre [m]")
@@ -64,7 +94,7 @@ class ArcSpec(_Model):
     sweep: float = Field(description="signed sweep angle [rad]")
 
 
-class CircleSpec(_Model):
+class CircleSpec(_Keyed):
     type: Literal["circle"]
     center: Vec3 = Field(description="centre [m]")
     radius: float = Field(gt=0, description="radius [m]")
@@ -73,7 +103,43 @@ class CircleSpec(_Model):
     start: Vec3 | None = Field(None, description="start point instead of start_angle (default: previous end, if any)")
 
 
-SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec], Field(discriminator="type")]
+class PoseTargetSpec(_Model):
+    """A TCP pose solved by IK on the branch its robconf names (ABB's confdata)."""
+
+    position: Vec3 = Field(description="TCP position [m]")
+    quaternion: tuple[float, float, float, float] = Field(description="tool orientation, unit quaternion "
+                                                          "[w, x, y, z] (normalised when off by rounding)")
+    robconf: tuple[int, int, int, int] | None = Field(
+        None, description="[cf1, cf4, cf6, cfx]: quadrants of axes 1, 4 and 6 and the arm/wrist configuration "
+                          "number 0..7 (ABB's convention); default: the branch nearest the move's start")
+
+
+class JointSegmentSpec(_Model):
+    """A joint move (MoveJ / MoveAbsJ): linear in the joints from the previous segment's end configuration."""
+
+    type: Literal["joint"]
+    program: ProgramMoveSpec | None = None
+    end: tuple[float, ...] | None = Field(None, description="joint values at the end [rad]")
+    end_pose: PoseTargetSpec | None = Field(None, description="the end as a TCP pose solved by IK")
+
+    @model_validator(mode="after")
+    def _target(self):
+        if (self.end is None) == (self.end_pose is None):
+            raise ValueError("a joint segment needs exactly one of end = [joint values, rad] or "
+                             "end_pose = {position, quaternion, robconf}")
+        return self
+
+
+class DwellSpec(_Model):
+    """A wait at rest (WaitTime): the motion stops where the previous segment ends and waits."""
+
+    type: Literal["dwell"]
+    program: ProgramMoveSpec | None = None
+    time: float = Field(ge=0, description="time at rest [s]")
+
+
+SegmentSpec = Annotated[Union[LineSpec, ArcSpec, CircleSpec, JointSegmentSpec, DwellSpec],
+                        Field(discriminator="type")]
 
 
 class BlendSpec(_Model):
@@ -105,11 +171,28 @@ class BlendSpec(_Model):
 
 class TaskPathSpec(_Model):
     type: Literal["task"]
-    segments: list[SegmentSpec] = Field(min_length=1)
+    segments: list[SegmentSpec] = Field(min_length=1, description="line, arc, circle, joint (a joint move: linear "
+                                        "in the joints) or dwell (a wait at rest), each from where the previous ends")
     blends: list[BlendSpec] = []
-    orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation matrix")
+    orientation: Literal["down"] | Mat3 = Field("down", description="fixed tool orientation: 'down' or a rotation "
+                                                "matrix; with segment quaternions, the orientation at the start")
     start_configuration: tuple[float, ...] | None = Field(
         None, description="joint configuration [rad] the IK branch stays continuous with")
+    start_pose: PoseTargetSpec | None = Field(None, description="the pose the path starts at, solved by IK on its "
+                                              "robconf: the start configuration (when start_configuration is absent)")
+    start_program: ProgramMoveSpec | None = Field(None, description="the program move whose target is the start")
+
+    @model_validator(mode="after")
+    def _keys(self):
+        keyed = [s for s in self.segments if s.type in ("line", "arc", "circle")]
+        given = [s.quaternion is not None for s in keyed]
+        if any(given) and not all(given):
+            k = self.segments.index(keyed[given.index(False)])
+            raise ValueError(f"segments[{k}] has no quaternion but others do; give every line, arc and circle its "
+                             "end orientation, or none")
+        if not any(given) and any(s.orientation_zone for s in keyed):
+            raise ValueError("orientation_zone needs segment quaternions (a fixed orientation does not turn)")
+        return self
 
 
 class JointPathSpec(_Model):
@@ -235,10 +318,27 @@ class RealismSpec(_Model):
     delay: bool = Field(False, description="one-sample delay of the applied torque")
 
 
+class EventSpec(_Model):
+    """A re-timing event of the closed loop (pathmotion.simulation.events): exactly one of override, stop, resume."""
+
+    t: float = Field(ge=0, description="time of the event [s]")
+    override: float | None = Field(None, gt=0, le=1, description="speed override from then on (1 = the plan's "
+                                   "speed; velocity x override, acceleration x override^2)")
+    stop: bool = Field(False, description="stop on the path, as fast as the limits allow")
+    resume: bool = Field(False, description="resume from a stop to the path's end")
+
+    @model_validator(mode="after")
+    def _one_action(self):
+        if (self.override is not None) + self.stop + self.resume != 1:
+            raise ValueError("give exactly one of override = <0..1>, stop = true, resume = true")
+        return self
+
+
 class SimulateSpec(_Model):
     controller: Controller = Controller.ORBITAL
     sample_time: float = Field(defaults.SAMPLE_TIME, gt=0, le=0.1, description="controller sample time [s]")
-    substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=1000, description="RK4 plant steps per sample")
+    substeps: int = Field(defaults.PLANT_SUBSTEPS, ge=1, le=defaults.MAX_PLANT_SUBSTEPS,
+                          description="RK4 plant steps per sample (raised to the count the friction needs)")
     plant: Literal["builtin", "mujoco"] = Field(defaults.PLANT, description="the simulated arm: builtin (Pinocchio + "
                                                 "RK4) or mujoco (pip install \"pathmotion[mujoco]\")")
     laps: int = Field(1, ge=1, le=100, description="laps of a closed path")
@@ -250,6 +350,8 @@ class SimulateSpec(_Model):
                                                     "bandwidth, damping)")
     path_tolerance: float = Field(defaults.PATH_TOLERANCE, gt=0,
                                   description="largest TCP distance from the planned path [m]")
+    path_tolerance_deg: float = Field(defaults.PATH_TOLERANCE_DEG, gt=0, le=180,
+                                      description="largest angle of the tool's orientation from the planned one [deg]")
     joint_tolerance: float = Field(defaults.JOINT_TOLERANCE, gt=0,
                                    description="largest joint deviation from the path [rad]")
     sampled_design: bool = Field(defaults.ORBITAL_SAMPLED_DESIGN, description="orbital gains designed at the "
@@ -259,6 +361,8 @@ class SimulateSpec(_Model):
                                    "[s], payload_noise [rad/s^2], payload_speed_noise [rad/s])")
     saturation_limit: float = Field(defaults.SATURATION_LIMIT, ge=0,
                                     description="longest stretch a torque may stay saturated [s]")
+    events: list[EventSpec] = Field([], description="re-timing events (orbital controller): e.g. [{t = 0.3, "
+                                    "override = 0.5}, {t = 0.6, stop = true}, {t = 1.0, resume = true}]")
 
 
 # ----------------------------------------------------------------------------------------- rapid
@@ -295,7 +399,7 @@ def _loc(loc: tuple) -> str:
     for k, part in enumerate(loc):
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in ("line", "arc", "circle", "task", "joint", "float", "int", "str", "bool") or not str(
+        elif part in ("line", "arc", "circle", "dwell", "task", "joint", "float", "int", "str", "bool") or not str(
                 part).isidentifier():
             continue  # discriminator and union-member tags that pydantic inserts (e.g. "literal['zero','max']")
         elif part == "waypoints" and k > 0 and loc[k - 1] == "path":
@@ -365,18 +469,25 @@ def _error_line(err: dict, doc, where: str, overrides: dict) -> str:
     loc = _loc(err["loc"])
     given = next((k for k in overrides if loc == _loc(tuple(_parse_key(k))) or loc.startswith(
         _loc(tuple(_parse_key(k))) + ".")), None)
-    place = f"--set {given}" if given is not None else where
-    loc = "" if given == loc else f" {loc}:"
+    place = f"--set {clipped(given)}" if given is not None else where
+    loc = "" if given == loc else f" {clipped(loc)}:"
     msg = err["msg"]
     if err["type"] == "extra_forbidden":
-        msg = f"unknown key {err['loc'][-1]!r}{_did_you_mean(err['loc'], doc)}"
+        msg = f"unknown key {clipped(repr(err['loc'][-1]))}{_did_you_mean(err['loc'], doc)}"
     elif err["type"] == "missing":
         msg = "missing required key"
     elif err["type"] == "value_error":  # our validators' own sentences, without pydantic's label
         msg = msg.removeprefix("Value error, ")
     value = err.get("input")
-    shown = "" if err["type"] in ("missing", "extra_forbidden") or isinstance(value, dict) else f" (got {value!r:.60})"
+    shown = "" if err["type"] in ("missing", "extra_forbidden") or isinstance(value, dict) else f" (got {_quoted(value)})"
     return f"{place}:{loc} {msg}{shown}"
+
+
+def _quoted(value) -> str:
+    """The start of ``value``'s repr (60 characters); an integer too long to print is described by its size."""
+    if isinstance(value, int) and value.bit_length() > 4000:  # repr would exceed Python's int-to-str digit limit
+        return f"an integer of about {int(value.bit_length() * 0.30103):,} digits"
+    return f"{value!r:.60}"
 
 
 def _merge_union_errors(errors: list[dict]) -> list[dict]:
@@ -455,6 +566,35 @@ def unit_slips(scenario: Scenario, reach: float | None = None, rated_payload: fl
                                     "grams? the unit is kg (a heavier payload is outside the arm's rating)")
 
 
+def degrees_hint(values, lower=None, upper=None) -> str:
+    """'; degrees? ...' when angles ``values`` [rad] look like degrees: one of them beyond a full turn, or one
+    beyond half a turn and all of them inside [``lower``, ``upper``] once read as degrees; else ''."""
+    import numpy as np
+
+    v = np.asarray(values, dtype=float)
+    if not v.size:
+        return ""
+    beyond = np.abs(v) > 2 * math.pi + FULL_TURN_SLACK
+    fits = (lower is not None and np.max(np.abs(v)) > math.pi
+            and np.all((np.radians(v) >= lower) & (np.radians(v) <= upper)))
+    if not (beyond.any() or fits):
+        return ""
+    x = float(v.flat[int(np.argmax(np.abs(v)))])
+    return f"; degrees? the unit is rad (e.g. {x:g} deg = {math.radians(x):.6g} rad)"
+
+
+def velocity_slip(velocity, names, where: str) -> str | None:
+    """A warning when a joint speed limit [rad/s] is above defaults.PLAUSIBLE_JOINT_SPEED (deg/s typed as
+    rad/s?), naming the joint, ``where`` the limits come from and the value read as degrees; else None."""
+    fast = [j for j, v in enumerate(velocity) if v > defaults.PLAUSIBLE_JOINT_SPEED]
+    if not fast:
+        return None
+    j = fast[0]
+    return (f"{where}: velocity limit of {names[j]} is {velocity[j]:g} rad/s ({math.degrees(velocity[j]):,.0f} deg/s), "
+            f"faster than any arm joint (> {defaults.PLAUSIBLE_JOINT_SPEED:g} rad/s) on {len(fast)} joint(s): degrees? "
+            f"the unit is rad/s (e.g. {velocity[j]:g} deg/s = {math.radians(velocity[j]):.4g} rad/s)")
+
+
 def _show(value, scale: float = 1.0) -> str:
     if isinstance(value, tuple):
         return "[" + ", ".join(f"{v * scale:g}" for v in value) + "]"
@@ -477,6 +617,10 @@ def _lengths(scenario: Scenario):
     """(key, value) of the scenario's points (tuples [m], measured from the base) and lengths [m]."""
     path = scenario.path
     for k, seg in enumerate(getattr(path, "segments", ())):
+        if seg.type == "joint":  # joint values [rad]; its end_pose position is a point [m]
+            if seg.end_pose is not None:
+                yield f"path.segments[{k}].end_pose.position", tuple(seg.end_pose.position)
+            continue
         for name in ("start", "end", "center", "radius"):
             value = getattr(seg, name, None)
             if value is not None:
@@ -559,7 +703,10 @@ def parse_value(text: str):
     else:
         try:
             value = tomllib.loads(f"v = {t}")["v"]
-        except tomllib.TOMLDecodeError:
+        except ValueError as exc:  # (a TOMLDecodeError is a ValueError)
+            if not isinstance(exc, tomllib.TOMLDecodeError):  # an integer beyond Python's int-to-str digit limit
+                raise ScenarioError(f"value {clipped(text, 60)}: an integer of {len(t):,} characters, far beyond "
+                                    "any limit; give a number of sensible size") from None
             if t[:1] in ('"', "'"):
                 raise ScenarioError(f"value {text[:60]!r} is not a valid TOML string (an unclosed quote?)") from None
             try:
@@ -567,7 +714,7 @@ def parse_value(text: str):
             except ValueError:
                 return t
     if isinstance(value, float) and not math.isfinite(value):
-        raise ScenarioError(f"value {text!r} is not a finite number")
+        raise ScenarioError(f"value {clipped(repr(text))} is not a finite number")
     return value
 
 

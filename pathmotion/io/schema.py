@@ -126,6 +126,8 @@ TORQUE_RESERVE_SEARCH = _k("torque_reserve_search", 'torque_reserve = "auto": th
 CONTROLLER = _k("controller", "controller")
 PLANT = _k("plant", "plant (simulator)")
 SAMPLE_TIME = _k("sample_time_s", "controller sample time", "ms", 1e3)
+SUBSTEPS = _k("substeps", "plant sub-steps per controller sample", "-")
+SUBSTEPS_NOTE = _k("substeps_note", "why the plant took more sub-steps than simulate.substeps")
 PLANNED_DURATION = _k("planned_duration_s", "planned duration", "s", short="planned")
 CYCLE_TIME = _k("cycle_time_s", "cycle time, closed loop (the TCP at the end within the path tolerance)", "s",
                 short="cycle time")
@@ -135,6 +137,9 @@ RMS_JOINT_DEVIATION = _k("rms_joint_deviation_rad", "RMS joint tracking error", 
 PATH_TOLERANCE = _k("path_tolerance_m", "path tolerance of the verdict", "mm", 1e3)
 PATH_ACCURACY = _k("path_accuracy_m", "path accuracy: largest TCP distance from the planned path", "mm", 1e3,
                    short="path accuracy")
+PATH_TOLERANCE_DEG = _k("path_tolerance_deg", "orientation tolerance of the verdict", "deg")
+PATH_ACCURACY_DEG = _k("path_accuracy_deg", "orientation path accuracy: largest tool angle from the planned orientation",
+                       "deg", short="orientation accuracy")
 CORNERING_DEVIATION = _k("cornering_deviation_m", "largest TCP distance from the sharp path, per corner", "mm", 1e3)
 MAX_SHARP_DEVIATION = _k("max_sharp_deviation_m", "largest TCP distance from the original sharp path", "mm", 1e3,
                          short="max dev. from sharp path")
@@ -143,14 +148,19 @@ MAX_COMMANDED_TORQUE_RATIO = _k("max_commanded_torque_ratio", "largest commanded
                                 "-")
 SATURATION_TIME = _k("saturation_time_s", "time with a torque saturated", "s")
 TRACKING_OK = _k("tracking_ok", "tracking ok")
+FIGURES_COVER = _k("figures_cover_t_s", "the time the figures cover [start, end]", "s")
+COVERAGE_NOTE = _k("coverage_note", "why the figures cover less than the whole motion")
 FAILURE = _k("failure", "failure")
 IDENTIFIED_PAYLOAD = _k("identified_payload_kg", "payload the controller identified (negative: the model's is too heavy)",
                         "kg", short="identified payload")
+IDENTIFIED_PAYLOAD_STD = _k("identified_payload_std_kg", "standard error of the identified payload mass", "kg")
+IDENTIFIED_PAYLOAD_NOTE = _k("identified_payload_note", "why no payload mass is reported (not significant)")
 IDENTIFIED_PAYLOAD_COM = _k("identified_payload_com_m", "identified payload's centre of mass, flange frame", "mm", 1e3)
 IDENTIFIED_VISCOUS = _k("identified_viscous_friction", "identified viscous friction per joint", "N m s/rad")
 IDENTIFIED_COULOMB = _k("identified_coulomb_friction", "identified Coulomb friction per joint", "N m")
+EVENTS = _k("events", "re-timing events: time, kind, re-timing time [ms], reaction time [s], stop distance")
 
-#: Tables written before issue 13: the closed loop's time under its old name (read, never written).
+#: The closed loop's time under the name older tables use (read, never written).
 LEGACY_SIMULATED_DURATION = _k("simulated_duration_s", "simulated duration (older tables)", "s", short="simulated")
 
 # ------------------------------------------------------------------------------------ study
@@ -167,9 +177,9 @@ PLAN = (DURATION, SECOND_ORDER_DURATION, FITTED_DURATION, BASELINE_DURATION, MAX
         MAX_TORQUE_RATE_RATIO, TORQUE_RESERVE, WORST_LIMIT, PATH_LENGTH, BLEND_MAX_DEVIATION,
         MIN_SINGULAR_VALUE, JOINT_RANGE_MARGIN, CONNECTIONS, GRID_POINTS, DURATION_ERROR_ESTIMATE, SOLVE_TIME)
 #: Headline keys of a simulation's summary.json, in display order.
-SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK, PATH_TOLERANCE,
-              PATH_ACCURACY, MAX_SHARP_DEVIATION, CORNERING_DEVIATION, MAX_JOINT_DEVIATION, RMS_JOINT_DEVIATION,
-              MAX_TORQUE_RATIO, MAX_COMMANDED_TORQUE_RATIO, SATURATION_TIME, IDENTIFIED_PAYLOAD)
+SIMULATION = (CONTROLLER, PLANT, SAMPLE_TIME, SUBSTEPS, PLANNED_DURATION, CYCLE_TIME, SETTLE_TIME, TRACKING_OK,
+              PATH_TOLERANCE, PATH_ACCURACY, PATH_TOLERANCE_DEG, PATH_ACCURACY_DEG, MAX_SHARP_DEVIATION,
+              CORNERING_DEVIATION, MAX_JOINT_DEVIATION, RMS_JOINT_DEVIATION, MAX_TORQUE_RATIO, MAX_COMMANDED_TORQUE_RATIO, SATURATION_TIME, IDENTIFIED_PAYLOAD)
 #: Columns a sweep row holds after the parameters, in this order (then ``error``).
 SWEEP_ROW = (CYCLE_TIME, PLANNED_DURATION, SETTLE_TIME, TRACKING_OK, FAILURE_REASON, MAX_SHARP_DEVIATION,
              MEAN_SHARP_DEVIATION, PATH_ACCURACY, MEAN_PATH_DEVIATION, BLEND_MAX_DEVIATION,
@@ -186,6 +196,8 @@ DEMO = (SCENARIO, PLANNED_DURATION, CYCLE_TIME, TRACKING_OK, MAX_JOINT_DEVIATION
 # ------------------------------------------------------------------------------- phase plane
 #: phase_plane.csv, written with the plan: theta (the planner's grid) and theta_dot columns.
 PHASE_PLANE_FILE = "phase_plane.csv"
+#: One row per program move of an imported robot program (planning/program_moves.py).
+MOVES_FILE = "moves.csv"
 PHASE_THETA = "theta"
 #: The plan's profile, the planner's curves (all limits together), the baselines.
 PHASE_OPTIMAL = "theta_dot_optimal"

@@ -85,6 +85,7 @@ def parse_waypoints_csv(text: str, where: str = "waypoints") -> tuple[np.ndarray
     if not orient:
         return points, None
     if orient == _RPY:
+        _check_turns(values[:, 3:6], body, where)
         return points, Rotation.from_euler("ZYX", values[:, [5, 4, 3]]).as_matrix()
     quat = values[:, 3:7]
     norm = np.linalg.norm(quat, axis=1)
@@ -94,6 +95,16 @@ def parse_waypoints_csv(text: str, where: str = "waypoints") -> tuple[np.ndarray
         raise ScenarioError(f"{where}: line {body[k][0]}, columns qw, qx, qy, qz: the quaternion has norm "
                             f"{norm[k]:.6g}, not 1; give a unit quaternion")
     return points, quat / norm[:, None]
+
+
+def _check_turns(rpy: np.ndarray, body: list, where: str) -> None:
+    """ScenarioError at the first roll, pitch or yaw [rad] beyond a full turn: degrees typed as radians."""
+    beyond = np.abs(rpy) > 2 * math.pi + 1e-9
+    if beyond.any():
+        k, j = np.argwhere(beyond)[0]
+        v = float(rpy[k, j])
+        raise ScenarioError(f"{where}: line {body[k][0]}, column {_RPY[j]}: {v:g} rad is more than a full turn "
+                            f"(2 pi = 6.283 rad): degrees? the unit is rad (e.g. {v:g} deg = {math.radians(v):.6g} rad)")
 
 
 def load_waypoints_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:

@@ -220,13 +220,16 @@ def lift(robot: Robot, task_path, q_start=None, *, original=None,
     theta = np.linspace(lo, hi, count)
     breaks = np.asarray(task_path.breaks, dtype=float)
     theta = np.unique(np.concatenate([theta, breaks[(breaks > lo) & (breaks < hi)]]))
+    given = q_start is not None
     if q_start is None:
         q_start = np.clip(np.zeros(robot.n), robot.limits.lower, robot.limits.upper)
     q_start = np.asarray(q_start, dtype=float)
     if q_start.shape != (robot.n,):
         raise PathError(f"start configuration has {q_start.size} values, the robot has {robot.n} joints")
     if robot.n > 6 or not has_closed_form(robot):
-        return _lift_ode(robot, task_path, q_start, original, reference_step, singularity_threshold)
+        if given:
+            return _lift_ode(robot, task_path, q_start, original, reference_step, singularity_threshold)
+        return _lift_ode_from_starts(robot, task_path, original, reference_step, singularity_threshold)
     p, dp, ddp, rot, w, dw = task_path.pose(theta)
     try:
         q = ik_batch(robot, p, rot, q_start)
@@ -310,6 +313,39 @@ class ResolvedRateJointPath(TaskJointPath):
             np.concatenate([dddp, ddw], axis=1), self.q_ref, self.gain, self.weights_inv)
         out = (q, dq, ddq, dddq)
         return tuple(o[0] for o in out) if scalar else out
+
+
+def start_candidates(robot: Robot) -> np.ndarray:
+    """(k, n) starting configurations for the first point's IK when none is given: zero (clipped to the
+    ranges), the middle of the ranges, then defaults.DLS_RANDOM_STARTS seeded uniform draws in the ranges
+    (an infinite range bounded at +-pi)."""
+    lo = np.where(np.isfinite(robot.limits.lower), robot.limits.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.limits.upper), robot.limits.upper, np.pi)
+    rng = np.random.default_rng(defaults.DLS_RANDOM_START_SEED)
+    return np.vstack([np.clip(np.zeros(robot.n), lo, hi), 0.5 * (lo + hi),
+                      rng.uniform(lo, hi, (defaults.DLS_RANDOM_STARTS, robot.n))])
+
+
+def _lift_ode_from_starts(robot: Robot, task_path, original, reference_step: float, threshold: float):
+    """:func:`_lift_ode` from each of :func:`start_candidates` in turn (each start is also the reference the
+    null-space motion stays near); the first that lifts the whole path, else the first start's error with
+    the number of starts tried."""
+    first = None
+    candidates = start_candidates(robot)
+    for k, q_start in enumerate(candidates):
+        try:
+            path = _lift_ode(robot, task_path, q_start, original, reference_step, threshold)
+        except UnreachableError as exc:
+            first = first or exc
+            continue
+        if k:
+            log.info("lift: first point reached from start candidate %d of %d (%s)", k + 1, len(candidates),
+                     "the middle of the joint ranges" if k == 1 else "a seeded random configuration")
+        return path
+    raise UnreachableError(f"{first} (tried {len(candidates)} starts: zero, the middle of the joint ranges and "
+                           f"{defaults.DLS_RANDOM_STARTS} seeded random configurations; give "
+                           "path.start_configuration near a configuration that reaches the first point)",
+                           index=first.index, reason=first.reason) from None
 
 
 def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,

@@ -8,7 +8,8 @@ A :class:`JointPath` maps the path coordinate theta (one coordinate for the whol
 ``kinks`` lists the theta values where Phi' jumps (sharp task-space corners without a blend):
 any admissible motion must stop there. ``breaks`` lists every segment connection (kinks
 included), for segment-by-segment planning. ``peaks`` lists the theta values of the task path's
-curvature peaks inside its segments, where the planner grades its grid as at breaks. At a break,
+curvature peaks inside its segments, where the planner grades its grid as at breaks. ``dwells`` lists
+(theta, time [s]) where the motion waits at rest (each theta a kink or an end). At a break,
 ``side="right"`` (default) evaluates the segment that starts there and ``side="left"`` the one that ends
 there.
 """
@@ -41,6 +42,7 @@ class JointPath:
     breaks: tuple[float, ...] = ()
     joint_names: tuple[str, ...] | None = None
     peaks: tuple[float, ...] = ()
+    dwells: tuple[tuple[float, float], ...] = ()
 
     def evaluate(self, theta, side: str = "right") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(Phi, Phi', Phi'') at ``theta`` (scalar or (N,)); each (N, n), or (n,) for a scalar."""

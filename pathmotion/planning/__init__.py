@@ -8,11 +8,12 @@ from .limits import REGISTRY, EffectiveLimits, Limit, LimitChoice
 from .planner import LimitCurves, PlanResult, PlanSettings, effective_limits, plan
 from .profile import Profile
 from .reduced import ReducedDynamics, reduced_dynamics
+from .retime import Retimer
 from .trajectory import Samples, Trajectory
 from .verify import LimitRatios, limit_ratios
 
 __all__ = [
     "Baseline", "Baselines", "Boundary", "EffectiveLimits", "Limit", "LimitChoice", "LimitCurves", "LimitRatios",
-    "PlanResult", "PlanSettings", "REGISTRY", "Profile", "ReducedDynamics", "Samples", "Trajectory", "effective_limits", "limit_ratios",
+    "PlanResult", "PlanSettings", "REGISTRY", "Profile", "ReducedDynamics", "Retimer", "Samples", "Trajectory", "effective_limits", "limit_ratios",
     "plan", "reduced_dynamics",
 ]

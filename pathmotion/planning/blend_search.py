@@ -1,4 +1,4 @@
-"""The tolerance-optimal blend (issue 17): at each corner, the G2 blend shape (geometry/blends.py, G2Shape) that
+"""The tolerance-optimal blend: at each corner, the G2 blend shape (geometry/blends.py, G2Shape) that
 minimises the time-optimal duration of the whole path within a certified deviation bound.
 
 Every candidate shape is sized by :func:`~pathmotion.geometry.blends.g2_shape_for_tolerance` (its corner quintic
@@ -41,7 +41,7 @@ global stage, 785-1550 with free ends and the wide starts, and the global stage'
 capped), then the polish's 150 on the full grid.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
-docs/study.md, "Tolerance-optimal corners (issue 17)".
+docs/study.md, "The optimal blend's search".
 """
 
 from __future__ import annotations
@@ -124,7 +124,7 @@ RESTART_RADIUS_SHARE = 1.0
 #: scaled to [-1, 1] and pycma's seed (the search is deterministic). At 60 deg / 10 mm, from the stages' blend
 #: (0.61355 s), 3000 plans ended at 0.61092-0.61167 s in two runs, 10000 at 0.61027 s; step 0.3 at 0.61065 s. Over
 #: the atlas' 20 rows the gain at 2500 plans is 0.00-0.09 % short of the gain at 3000, which would take the atlas
-#: past 10 minutes on 2 cores (docs/study.md, "The global stage").
+#: past 10 minutes on 2 cores (benchmarks/atlas_rows.py).
 GLOBAL_PLANS = 2500
 GLOBAL_SIGMA = 0.15
 GLOBAL_SEED = 1
@@ -593,7 +593,7 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     freed at that end and bulged out to the tube's edge (WIDE_PROFILE): outwards in the corner's plane, at the sides
     not free yet, or (``along_normal``, not ``planar``) along the corner's normal at every resting side, towards the
     side of the plane the fastest blend rises to there (up if it stays in the plane). Nothing if there is no such
-    side. The whole-tube optimum does both (benchmarks/issue_turn.py, docs/study.md): on issue 17's turn at 10 mm it
+    side. The whole-tube optimum does both (benchmarks/issue_turn.py, docs/study.md): on benchmarks/issue_turn.py's turn at 10 mm it
     leaves the start outwards and runs at the tube's edge 50 mm before the corner, where the fastest joined blend used
     45 mm of the 100 mm entry line and stage 5 left that end joined; at the atlas' 30 deg / 10 mm it rises out of
     the plane by 7-10 mm along both lines. ``crossed`` (a direction per side, "out", "up" or "down" along the corner's

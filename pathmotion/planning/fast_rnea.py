@@ -2,7 +2,7 @@
 
 Pinocchio has no batched call from Python: robot/dynamics.py loops over its C++ RNEA, and at a few
 microseconds of Python overhead per call the three calls per grid point of the reduced dynamics
-(planning/reduced.py) dominated the planner's time with torque limits (issue 14). This module runs the
+(planning/reduced.py) dominated the planner's time with torque limits. This module runs the
 same recursive Newton-Euler algorithm (Featherstone's, in each body's frame, as Pinocchio does)
 over all points in one compiled loop, and the three coefficient sets share one pass of kinematics.
 

@@ -1,4 +1,4 @@
-"""Planner grids: the graded initial grid and its adaptive refinement (issue 14).
+"""Planner grids: the graded initial grid and its adaptive refinement.
 
 The discretized optimum converges to the continuous one at first order in the grid step (measured:
 halving every interval divides the duration's change by 1.95-2.05, i.e. order 0.96-1.04, on random

@@ -11,6 +11,7 @@ re-solve (bounded) -> baselines.
 
 from __future__ import annotations
 
+
 import logging
 import time
 from dataclasses import dataclass, field, replace
@@ -271,6 +272,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         raise ScenarioError(f"path has {path.n} joints, robot {robot.name} has {robot.n}")
     if settings.periodic and not path.closed:
         raise ScenarioError(_not_closed_message(path))
+    _check_dwells(path, settings)
     limits = effective_limits(robot, settings)
     if limits.third_order and settings.connections == Connections.MAX:  # refused before any solve
         raise ScenarioError("jerk and torque-rate limits need a continuous profile: connections = 'max' makes "
@@ -310,8 +312,24 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
                                  tcp_gain(solved.samp.left), path, robot, limits, settings)
         log.debug("baselines: fitted %.6g s, constant speed %s", base.fitted.duration,
                   f"{base.constant_speed.duration:.6g} s" if base.constant_speed else base.constant_speed_error)
-    return PlanResult(sol.profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
+    profile = sol.profile
+    if path.dwells:  # the waits at rest (dwells) join the motion's timing
+        profile = profile.with_holds(path.dwells)
+        traj = replace(traj, profile=profile)
+        log.info("dwells: %s s at rest, cycle %.6g s", " + ".join(f"{w:g}" for _, w in path.dwells), profile.duration)
+    return PlanResult(profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
                       iterations, sol.jump_intervals, settings, estimate)
+
+
+def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
+    """A dwell at the path's start or end needs the motion at rest there (plan.start / plan.end)."""
+    for theta, _ in path.dwells:
+        for end, key, condition in ((path.domain[0], "start", settings.start_condition),
+                                    (path.domain[1], "end", settings.end_condition)):
+            if theta == end and not at_rest(condition):
+                raise ScenarioError(f"a dwell at the path's {key} (theta = {theta:.6g} m) waits at rest, but "
+                                    f"plan.{key} = {condition!r} moves through it; set plan.{key} = 'zero' or "
+                                    "remove the dwell")
 
 
 def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None = None, scale: dict | None = None,
@@ -319,6 +337,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     """Solve on ``grid`` (path data sampled unless ``samp`` is given, reusing ``donor``'s at shared points;
     unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
     theta = grid.theta
+    _check_grid_memory(len(theta), robot.n, settings, len(grid.breaks) + 1)
     if samp is None:
         sides = _with_knots(path, theta, grid.breaks) if limits.third_order else grid.breaks
         samp = _sample(path, robot, theta, sides, donor, third=limits.third_order)
@@ -335,6 +354,22 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     _check_bounded(theta, sol.x)
     log.debug("solve on %d grid points: duration %.9g s", len(theta), sol.profile.duration)
     return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol, estimate)
+
+
+def _check_grid_memory(points: int, joints: int, settings, segments: int) -> None:
+    """ScenarioError before a grid of ``points`` is sampled when its memory estimate (PLAN_BYTES_PER_POINT_JOINT)
+    exceeds what the run may use; the message gives the largest grid (fixed) or path (adaptive) that fits."""
+    from ..io.memory import check_memory
+
+    each = defaults.PLAN_BYTES_PER_POINT_JOINT * joints
+    if settings.grid_points is not None:
+        check_memory(points, each, f"plan.grid_points = {settings.grid_points:,} (a grid of {points:,} points)",
+                     lambda largest: f"give plan.grid_points <= {largest:,}")
+        return
+    per_segment = points / max(segments, 1)
+    check_memory(points, each, f"the adaptive planner grid of {points:,} points for {segments:,} segments",
+                 lambda largest: f"the largest grid that fits has {largest:,} points: plan the path in parts of at "
+                                 f"most {int(largest / per_segment):,} segments, or raise plan.tolerance")
 
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):

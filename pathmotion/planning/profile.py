@@ -17,6 +17,10 @@ x ~ s^(4/3) is represented exactly; theta itself where no rest point is near). x
 form, theta_dddot = du/dtheta theta_dot, times by Gauss-Legendre quadrature in xi, theta(t) by
 Newton's method. ``u`` stays the chord (x_{i+1} - x_i) / (2 Delta_i) for consumers that read
 piecewise-linear x (the controllers).
+
+Dwells (``holds``, (K,) [s]): the motion waits at rest at a grid point (x = 0 there) before it goes on.
+``times`` are departure times (arrival plus the hold), so t*(theta) = times[i] + the motion time from
+grid[i] holds on every interval, and a time inside a hold gives theta = grid[i], theta_dot = theta_ddot = 0.
 """
 
 from __future__ import annotations
@@ -28,6 +32,10 @@ import numpy as np
 
 from ..errors import PathmotionError
 from . import smooth
+
+
+#: Time [s] past an interval's planned motion time that is a hold (a dwell), not round-off.
+HOLD_ROUNDING = 1e-12
 
 
 def piece_x(grid, x, u, i, theta):
@@ -44,6 +52,7 @@ class Profile:
     grid: np.ndarray
     x: np.ndarray
     u_nodes: np.ndarray | None = None
+    holds: np.ndarray | None = None
 
     def __post_init__(self):
         grid = np.asarray(self.grid, dtype=float)
@@ -69,6 +78,15 @@ class Profile:
             if un.shape != x.shape or not np.all(np.isfinite(un)):
                 raise PathmotionError(f"profile: u_nodes {un.shape} must be finite and shaped like x {x.shape}")
             object.__setattr__(self, "u_nodes", un)
+        if self.holds is not None:
+            holds = np.asarray(self.holds, dtype=float)
+            if holds.shape != x.shape or not np.all(np.isfinite(holds)) or np.any(holds < 0):
+                raise PathmotionError(f"profile: holds {holds.shape} must be finite, >= 0 and shaped like x {x.shape}")
+            if np.any((holds > 0) & (x > 0)):
+                i = int(np.argmax((holds > 0) & (x > 0)))
+                raise PathmotionError(f"profile: a hold at theta = {grid[i]:.6g} where the motion does not stop "
+                                      f"(theta_dot^2 = {x[i]:.3g}); a dwell needs a stop")
+            object.__setattr__(self, "holds", holds)
 
     @cached_property
     def coords(self) -> tuple[np.ndarray, np.ndarray]:
@@ -86,14 +104,42 @@ class Profile:
         return np.diff(self.x) / (2.0 * np.diff(self.grid))
 
     @cached_property
-    def times(self) -> np.ndarray:
-        """Time at each grid point [s], (K,), starting at 0."""
+    def intervals(self) -> np.ndarray:
+        """Motion time of each interval [s], (K-1,) (holds excluded)."""
         if self.smooth:
-            dt = _smooth_interval_times(self)
-        else:
-            sq = np.sqrt(self.x)
-            dt = 2.0 * np.diff(self.grid) / (sq[:-1] + sq[1:])
-        return np.concatenate([[0.0], np.cumsum(dt)])
+            return _smooth_interval_times(self)
+        sq = np.sqrt(self.x)
+        return 2.0 * np.diff(self.grid) / (sq[:-1] + sq[1:])
+
+    @cached_property
+    def times(self) -> np.ndarray:
+        """Time [s] at which the motion leaves each grid point, (K,): 0 at the start, plus the holds so far."""
+        times = np.concatenate([[0.0], np.cumsum(self.intervals)])
+        return times if self.holds is None else times + np.cumsum(self.holds)
+
+    @cached_property
+    def motion(self) -> "Profile":
+        """The same motion without the holds."""
+        return self if self.holds is None else Profile(self.grid, self.x, self.u_nodes)
+
+    def holds_at(self, theta) -> np.ndarray:
+        """The hold [s] at each theta (N,): a grid point's hold where theta is that grid point, else 0."""
+        th = np.atleast_1d(np.asarray(theta, dtype=float))
+        out = np.zeros(len(th))
+        if self.holds is not None:
+            for i in np.nonzero(self.holds)[0]:
+                out[np.abs(th - self.grid[i]) <= 1e-12 * max(1.0, abs(self.grid[i]))] += self.holds[i]
+        return out
+
+    def with_holds(self, dwells) -> "Profile":
+        """This profile waiting ``time`` [s] at rest at each (theta [m], time) of ``dwells`` (theta on the grid)."""
+        holds = np.zeros_like(self.x) if self.holds is None else self.holds.copy()
+        for theta, wait in dwells:
+            i = int(np.argmin(np.abs(self.grid - theta)))
+            if abs(self.grid[i] - theta) > 1e-9 * max(1.0, abs(theta)):
+                raise PathmotionError(f"profile: the dwell at theta = {theta:.6g} is not a grid point")
+            holds[i] += wait
+        return Profile(self.grid, self.x, self.u_nodes, holds)
 
     @property
     def duration(self) -> float:
@@ -131,6 +177,8 @@ class Profile:
         t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         i = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.grid) - 2)
         tau = t - self.times[i]
+        if self.holds is not None:
+            return _with_rest(self, i, tau)
         if self.smooth:  # vectorized over intervals: a scalar time goes through as one element
             out = _smooth_at_time(self, np.atleast_1d(i), np.atleast_1d(tau))
             return tuple(v.reshape(t.shape) for v in out)
@@ -141,8 +189,23 @@ class Profile:
         return theta, theta_dot, u, np.zeros_like(theta)
 
     def scaled(self, factor: float) -> "Profile":
-        """The same shape with theta_dot multiplied by ``factor`` (x by factor^2)."""
-        return Profile(self.grid, self.x * factor**2, None if self.u_nodes is None else self.u_nodes * factor**2)
+        """The same shape with theta_dot multiplied by ``factor`` (x by factor^2); the holds unchanged."""
+        return Profile(self.grid, self.x * factor**2, None if self.u_nodes is None else self.u_nodes * factor**2,
+                       self.holds)
+
+
+def _with_rest(p: Profile, i: np.ndarray, tau: np.ndarray):
+    """state3_at_time of a profile with holds: the motion state at tau (clipped to interval i's motion), and
+    rest (theta at the grid point, zero rates) before the interval's departure or after its arrival."""
+    period = p.intervals[i]
+    before, after = tau < 0.0, tau > period + HOLD_ROUNDING
+    moving = p.motion
+    clipped = moving.times[i] + np.clip(tau, 0.0, period)
+    theta, theta_dot, theta_ddot, jerk = (np.array(v, dtype=float) for v in moving.state3_at_time(clipped))
+    rest = before | after
+    theta = np.where(before, p.grid[i], np.where(after, p.grid[i + 1], theta))
+    return (theta, np.where(rest, 0.0, theta_dot), np.where(rest, 0.0, np.broadcast_to(theta_ddot, theta.shape)),
+            np.where(rest, 0.0, jerk))
 
 
 #: Gauss-Legendre nodes and weights on [0, 1] for the smooth profile's interval times.
@@ -187,7 +250,7 @@ def _smooth_interval_times(p: Profile) -> np.ndarray:
 def _smooth_at_time(p: Profile, i: np.ndarray, tau: np.ndarray):
     """(theta, theta_dot, theta_ddot, theta_dddot) at tau after the start of interval i: Newton's
     method on the fraction lambda of the interval's xi range (t(lambda) by quadrature)."""
-    period = np.diff(p.times)[i]
+    period = p.intervals[i]
     lam = np.clip(tau / np.where(period > 0, period, 1.0), 0.0, 1.0)
     for _ in range(NEWTON_STEPS):
         _, rate = _rate(p, i[:, None], lam[:, None] * _GL_T[None, :])

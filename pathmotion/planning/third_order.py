@@ -57,7 +57,7 @@ ROWS_PER_ROUND = 4
 #: The duration's discretization error is estimated as this times the larger change of the duration from
 #: the grid to its two nested coarse grids (even and odd points; _nested_estimate) [-]. Measured
 #: (benchmarks/bench_third_order.py; verified plans, the planner adds the tightening's change): the error
-#: against the converged reference was 0.07-0.24 of the estimate on issue 12's circle cases (jerk 10x and 4x
+#: against the converged reference was 0.07-0.24 of the estimate on the benchmark's circle cases (jerk 10x and 4x
 #: the acceleration limits; 50, 100, 200 grid points) and 0.41-0.73 on the benchmark's 5 splines: the
 #: change alone does not track the error (the grid's alignment with the profile's switches moves it).
 ERROR_FACTOR = 8.0
@@ -94,7 +94,7 @@ def _node_points(p: "_Problem", src, scale: dict, side: str, idx: np.ndarray) ->
 class _Problem:
     """The LP data that do not change between iterations (for one set of limit scales)."""
 
-    def __init__(self, grid, samp, limits: EffectiveLimits, scale, rest, fixed, periodic):
+    def __init__(self, grid, samp, limits: EffectiveLimits, scale, rest, fixed, periodic, fixed_u=None):
         self.grid, self.samp, self.limits, self.scale = grid, samp, limits, scale
         self.k = k = len(grid)
         self.d = d = np.diff(grid)
@@ -132,6 +132,8 @@ class _Problem:
         self.rest_distance = np.clip(self.rest_distance, np.min(d), length)
         self.u_lo = np.where(rest, 0.0, -np.inf)
         self.u_hi = np.where(rest, 0.0, np.inf)
+        for idx, value in (fixed_u or {}).items():  # a given theta_ddot (re-timing from a moving state)
+            self.u_lo[idx] = self.u_hi[idx] = value
         self._row_points(samp, scale, right, left)
         self.quadrature = _Quadrature(self)
 
@@ -473,6 +475,17 @@ def solve_third_order(grid, samp, limits: EffectiveLimits, scale: dict, x_start:
     profile, lps = _slp(p, lp, np.minimum(x_start, _s_curve_cap(p)), None, tolerance, max_iterations)
     estimate, c_lps = _nested_estimate(p, samp, limits, scale, fixed, periodic, profile, tolerance)
     return profile, lps + c_lps, estimate
+
+
+def solve_from_state(grid, samp, limits: EffectiveLimits, scale: dict, x_start: np.ndarray, rest: np.ndarray,
+                     fixed: dict, fixed_u: dict, tolerance: float = defaults.THIRD_ORDER_TOLERANCE,
+                     max_iterations: int = defaults.THIRD_ORDER_ITERATIONS) -> tuple[Profile, int]:
+    """The smooth time-optimal profile with x and u given at some points (``fixed`` and ``fixed_u``
+    {index: value}; planning/retime.py starts it at the measured state), linearized first around
+    ``x_start`` (K,) (the second-order optimum from that state; capped by the S-curve next to the rest points,
+    as :func:`solve_third_order` does); (profile, LP count). No error estimate."""
+    p = _Problem(grid, samp, limits, scale, rest, fixed, False, fixed_u)
+    return _slp(p, _Lp(), np.minimum(x_start, _s_curve_cap(p)), None, tolerance, max_iterations)
 
 
 def _nested_estimate(p: _Problem, samp, limits, scale, fixed, periodic, profile: Profile,

@@ -1,4 +1,4 @@
-"""The corner atlas' section of the HTML report (``pathmotion corners --out DIR``, issue 17): its
+"""The corner atlas' section of the HTML report (``pathmotion corners --out DIR``): its
 table (corners.csv), T(delta) per turn angle and the gain over the stop against the angle, as
 interactive figures. Read from the folder's files only."""
 
@@ -92,7 +92,7 @@ def atlas_section(result: ResultFolder, root: Path, anchor: str) -> Section:
     _, rows = read_rows(result.path / "corners.csv")
     done = [r for r in rows if not r.get("error")]
     bad = len(rows) - sum(1 for r in rows if r.get("status") == "ok")
-    parts = [f"<p>The corner atlas (issue 17): two 0.2 m lines turning by each angle, rest to rest, every way "
+    parts = [f"<p>The corner atlas: two 0.2 m lines turning by each angle, rest to rest, every way "
              f"to take the corner within the tolerance against the free-shape optimum. {len(rows)} rows, "
              f"{bad} with an error, an unconverged optimum or a failed closed-loop check (status column).</p>"]
     figures = 0

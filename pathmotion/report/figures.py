@@ -16,7 +16,8 @@ from ..io import schema  # noqa: E402
 from ..io.atomic import atomic_path  # noqa: E402
 from .style import TITLE_WIDTH, legend_outside, wrapped  # noqa: E402,F401 (TITLE_WIDTH: the figures' width)
 from .tables import (FALLBACK_LIMIT_COLOR, LIMIT_COLORS, PLOT_FLOOR, PLOT_HEADROOM, SPARE_LIMIT_COLORS,  # noqa: E402
-                     THIRD_ORDER_NOTE, joint_columns, limit_curve_label, read_columns, read_json, steady_curve_label)
+                     THIRD_ORDER_NOTE, in_range, joint_columns, limit_curve_label, read_columns, read_json,
+                     steady_curve_label)
 
 
 def _save(fig, path: Path) -> Path:
@@ -24,6 +25,13 @@ def _save(fig, path: Path) -> Path:
         fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight")
     plt.close(fig)
     return path
+
+
+def _title(fig, text: str, **kw) -> None:
+    """The figure's title above its axes, wrapped; however many lines it takes, it grows upwards (bottom-anchored
+    just above the top axes), never into them."""
+    top = max(ax.get_position().y1 for ax in fig.axes)
+    fig.suptitle(wrapped(text), y=top + 0.02, va="bottom", **kw)
 
 
 def _joint_names(folder: Path, n: int) -> list[str]:
@@ -50,18 +58,23 @@ def phase_plane(cols: dict[str, np.ndarray], summary: dict, ax=None):
     th = cols[schema.PHASE_THETA]
     profiles = [k for k in (schema.PHASE_OPTIMAL, schema.PHASE_SECOND_ORDER) if k in cols]
     top = PLOT_HEADROOM * max(float(np.max(cols[k])) for k in profiles) + PLOT_FLOOR
-    ax.plot(th, np.minimum(cols[schema.PHASE_POINTWISE], top), color="0.6", lw=4, alpha=0.45,
-            solid_capstyle="butt", label="all limits (planner's curve)")
+    def bound(values, label, **style):  # a limit curve clipped at the plot's top; one wholly above it is only named
+        values = np.asarray(values, float)
+        if np.all(~np.isfinite(values) | (values >= top)):
+            ax.plot([], [], label=f"{label} (above the plot everywhere)", **style)
+        else:
+            ax.plot(th, np.minimum(values, top), label=label, **style)
+
+    bound(cols[schema.PHASE_POINTWISE], "all limits (planner's curve)", color="0.6", lw=4, alpha=0.45,
+          solid_capstyle="butt")
     spare = iter(SPARE_LIMIT_COLORS)
     for name in schema.limit_curve_names(cols):
         color = LIMIT_COLORS.get(name) or next(spare, FALLBACK_LIMIT_COLOR)
-        ax.plot(th, np.minimum(cols[schema.limit_curve_column(name)], top), color=color, lw=1.1,
-                label=limit_curve_label(name, summary))
+        bound(cols[schema.limit_curve_column(name)], limit_curve_label(name, summary), color=color, lw=1.1)
     for name in schema.steady_curve_names(cols):
-        ax.plot(th, np.minimum(cols[schema.steady_curve_column(name)], top),
-                color=LIMIT_COLORS.get(name, FALLBACK_LIMIT_COLOR), lw=1.2, ls=":", label=steady_curve_label(name))
-    ax.plot(th, np.minimum(cols[schema.PHASE_CONTROLLABLE], top), color="0.3", lw=1, ls="--",
-            label="controllable bound")
+        bound(cols[schema.steady_curve_column(name)], steady_curve_label(name),
+              color=LIMIT_COLORS.get(name, FALLBACK_LIMIT_COLOR), lw=1.2, ls=":")
+    bound(cols[schema.PHASE_CONTROLLABLE], "controllable bound", color="0.3", lw=1, ls="--")
     if schema.PHASE_SECOND_ORDER in cols:
         second = summary.get(schema.SECOND_ORDER_DURATION.key)
         ax.plot(th, cols[schema.PHASE_SECOND_ORDER], color="C0", lw=1.3, ls=(0, (4, 2)),
@@ -103,7 +116,8 @@ def plan_figures(folder: str | Path) -> list[Path]:
     lim = read_json(out / "limits.json", {}) or {}
     q = joint_columns(traj, "q")
     names = _joint_names(out, q.shape[1])
-    rows = [("q in range", _in_range(q, lim), "range") if lim.get("lower") is not None else ("q [rad]", q, None),
+    rows = [("q in range [-]", in_range(q, lim["lower"], lim["upper"]), "range") if lim.get("lower") is not None
+            else ("q [rad]", q, None),
             ("qd / limit", joint_columns(traj, "qd"), lim.get("velocity"))]
     qdd, tau = joint_columns(traj, "qdd"), joint_columns(traj, "tau")
     if qdd is not None and lim.get("acceleration") is not None:
@@ -116,10 +130,7 @@ def plan_figures(folder: str | Path) -> list[Path]:
         for j in range(arr.shape[1]):
             ratio = arr[:, j] if limit is None or isinstance(limit, str) else arr[:, j] / limit[j]
             ax.plot(traj["t"], ratio, lw=1, label=names[j])
-        if isinstance(limit, str):  # the joint range: 0 = lower, 1 = upper end
-            for y in (0, 1):
-                ax.axhline(y, color="k", lw=0.8, ls="--")
-        elif limit is not None:
+        if limit is not None:  # the limits, and the joint range's ends: -1 = lower, +1 = upper
             ax.axhline(1, color="k", lw=0.8, ls="--")
             ax.axhline(-1, color="k", lw=0.8, ls="--")
         ax.set_ylabel(label if limit is not None else label.replace(" / limit", ""))  # no limits.json: raw values
@@ -127,16 +138,10 @@ def plan_figures(folder: str | Path) -> list[Path]:
     axes = np.atleast_1d(axes)
     legend_outside(axes[0])
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle(wrapped(f"{summary.get(schema.SCENARIO.key, out.name)}: planned joint motion against the limits "
-                          "(dashed: the limits; q: 0 = lower, 1 = upper end of its range)"))
+    _title(fig, f"{summary.get(schema.SCENARIO.key, out.name)}: planned joint motion against the limits "
+                "(dashed: the limits; q: -1 = lower, +1 = upper end of its range)")
     paths.append(_save(fig, out / "joints.png"))
     return paths
-
-
-def _in_range(q: np.ndarray, lim: dict) -> np.ndarray:
-    """q (N, n) [rad] as the fraction of each joint's range [-]: 0 at its lower, 1 at its upper limit."""
-    lower, upper = np.asarray(lim["lower"], float), np.asarray(lim["upper"], float)
-    return (q - lower) / (upper - lower)
 
 
 def _tracking_joints(out: Path, summary: dict, sim: dict[str, np.ndarray]) -> Path:
@@ -149,14 +154,14 @@ def _tracking_joints(out: Path, summary: dict, sim: dict[str, np.ndarray]) -> Pa
     legend_outside(axes[0])
     axes[0].grid(alpha=0.3)
     axes[1].plot(sim["t"], sim["theta"], lw=1.2)
-    axes[1].set_ylabel("theta")
+    axes[1].set_ylabel(phase_plane_labels((summary.get("plan") or {}).get(schema.PATH_KIND.key, "task"))[0])
     axes[1].set_xlabel("t [s]")
     axes[1].grid(alpha=0.3)
     failure = summary.get(schema.FAILURE.key) if isinstance(summary.get(schema.FAILURE.key), dict) else {}
     ok = summary.get(schema.TRACKING_OK.key, True)
     status = "tracking ok" if ok else f"tracking FAILED: {failure.get('message', '')}"
     name = (summary.get("plan") or {}).get(schema.SCENARIO.key, out.name)
-    fig.suptitle(wrapped(f"{name}: joint tracking ({summary.get(schema.CONTROLLER.key)}) - {status}"), fontsize=10)
+    _title(fig, f"{name}: joint tracking ({summary.get(schema.CONTROLLER.key)}) - {status}", fontsize=10)
     return _save(fig, out / "tracking_joints.png")
 
 
@@ -195,6 +200,6 @@ def simulation_figures(folder: str | Path) -> list[Path]:
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15))
     ax.grid(alpha=0.3)
     name = (summary.get("plan") or {}).get(schema.SCENARIO.key, out.name)
-    fig.suptitle(wrapped(f"{name}: task-space tracking ({summary.get(schema.CONTROLLER.key)})"), fontsize=10)
+    _title(fig, f"{name}: task-space tracking ({summary.get(schema.CONTROLLER.key)})", fontsize=10)
     paths.append(_save(fig, out / "tracking_task.png"))
     return paths

@@ -28,7 +28,7 @@ from . import interactive as fig
 from .atlas import atlas_section
 from .blocks import Section, cell, figure_html, fmt, section_title
 from .discovery import ResultFolder, discover
-from .tables import joint_columns, read_columns, read_json, read_rows
+from .tables import RANGE_LABEL, in_range, joint_columns, read_columns, read_json, read_rows
 
 #: Key figures of summary.json: key -> (label, unit, scale applied to the value).
 PLAN_KEYS = schema.display(schema.PLAN)
@@ -141,8 +141,7 @@ def _limit_panels(traj: dict[str, np.ndarray], limits: dict) -> list[tuple[str, 
     if q.shape[1] != n:
         raise PathmotionError(f"report: trajectory.csv has {q.shape[1]} joints but {LIMITS_FILE} next to it has {n}; "
                               "re-run the plan")
-    panels = [("joint position in its range: (q − centre) / half range", (q - 0.5 * (lim["upper"] + lim["lower"]))
-               / (0.5 * (lim["upper"] - lim["lower"])), None),
+    panels = [(RANGE_LABEL, in_range(q, lim["lower"], lim["upper"]), None),
               ("joint velocity / limit", qd / lim["velocity"], scale.get("velocity"))]
     if qdd is not None and lim["acceleration"] is not None:
         panels.append(("joint acceleration / limit", qdd / lim["acceleration"], scale.get("acceleration")))
@@ -238,8 +237,41 @@ def plan_section(result: ResultFolder, root: Path, anchor: str) -> Section:
                                f"{anchor}-task"),
                   _arm(data, tcp, anchor, "planned motion")]
         count += 3
+    moves, figures = _moves(folder, anchor)
+    parts.append(moves)
+    count += figures
     row = _plan_summary_row(summary)
     return Section(anchor, section_title("Plan", result, root, summary.get("scenario")), "".join(parts), count, row)
+
+
+#: moves.csv columns shown, with (label, scale to the shown unit).
+MOVE_COLUMNS = {"move": ("#", 1.0), "line": ("RAPID line", 1.0), "target": ("target", 1.0),
+                "instruction": ("move", 1.0), "planned_time_s": ("planned [s]", 1.0), "dwell_s": ("dwell [s]", 1.0),
+                "programmed_time_s": ("programmed-speed estimate [s]", 1.0),
+                "mean_tcp_speed_m_s": ("mean TCP speed [m/s]", 1.0), "peak_tcp_speed_m_s": ("peak TCP speed [m/s]", 1.0),
+                "binding_limit": ("binding limit", 1.0), "binding_joint": ("joint", 1.0),
+                "binding_ratio": ("use of the limit [-]", 1.0), "blend_tolerance_m": ("blend tolerance [mm]", 1e3)}
+#: Sorts a table.sortable by the clicked column (numbers as numbers, empty cells last).
+SORT_JS = """document.addEventListener('click',function(e){var th=e.target.closest('table.sortable th');if(!th)return;
+var tr=th.parentNode,table=tr.closest('table'),i=Array.prototype.indexOf.call(tr.children,th),
+rows=Array.prototype.slice.call(table.querySelectorAll('tr')).slice(1),up=th.dataset.dir!=='up';
+th.dataset.dir=up?'up':'down';function v(r){var t=r.children[i].textContent.trim(),n=parseFloat(t);
+return t===''||t==='–'?null:(isNaN(n)?t:n);}rows.sort(function(a,b){var x=v(a),y=v(b);if(x===null)return 1;
+if(y===null)return -1;return (x<y?-1:x>y?1:0)*(up?1:-1);});rows.forEach(function(r){r.parentNode.appendChild(r);});});"""
+
+
+def _moves(folder: Path, anchor: str) -> tuple[str, int]:
+    """(HTML, figure count) of moves.csv: the table of program moves (sortable by any column) and the bar
+    chart of the cycle by move; ("", 0) without moves.csv."""
+    if not (folder / schema.MOVES_FILE).is_file():
+        return "", 0
+    names, rows = read_rows(folder / schema.MOVES_FILE)
+    cols = [c for c in MOVE_COLUMNS if c in names]
+    head = "".join(f"<th>{escape(MOVE_COLUMNS[c][0])}</th>" for c in cols)
+    body = "".join("<tr>" + "".join(cell(r.get(c), MOVE_COLUMNS[c][1]) for c in cols) + "</tr>" for r in rows)
+    table = (f'<div class="scroll"><table class="rows sortable"><caption>Program moves ({schema.MOVES_FILE}; click '
+             f"a column to sort)</caption><tr>{head}</tr>{body}</table></div>")
+    return table + figure_html(fig.moves_figure(rows), f"{anchor}-moves"), 1
 
 
 def simulation_section(result: ResultFolder, root: Path, anchor: str) -> Section:
@@ -494,7 +526,7 @@ tr.best td{background:#fff6d5}
 .figure{background:#fff;border:1px solid #e3e3e3;margin:1em 0;padding:.3em}
 .failure{color:#c62828;font-weight:600;border-left:4px solid #c62828;padding:.3em .8em;background:#fdecea}
 .note{color:#8a6d00;background:#fff8e1;border-left:4px solid #e6a700;padding:.3em .8em}
-.muted{color:#666} .scroll{overflow-x:auto} details{margin:.5em 0}
+table.sortable th{cursor:pointer} .muted{color:#666} .scroll{overflow-x:auto} details{margin:.5em 0}
 """
 
 SUMMARY_COLUMNS = (("kind", "kind"), ("scenario", "scenario"), ("planned", "planned duration [s]"),
@@ -534,6 +566,7 @@ def render_page(root: Path, sections: Sequence[Section]) -> str:
 <title>pathmotion report: {escape(root.resolve().name)}</title>
 <style>{CSS}</style>
 <script type="text/javascript">{get_plotlyjs()}</script>
+<script type="text/javascript">{SORT_JS}</script>
 </head><body><main>
 <h1>pathmotion report: {escape(root.resolve().name)}</h1>
 <p class="muted">{len(sections)} result folder(s) under {escape(str(root))}, {total} interactive figures

@@ -314,3 +314,26 @@ def arm_animation_figure(t: np.ndarray, points: np.ndarray, reference: np.ndarra
                       currentvalue=dict(prefix="t = ", suffix=" s", visible=True))],
     )
     return _layout(fig, title, 700)
+
+
+# ------------------------------------------------------------------------------------- program moves
+def moves_figure(rows: Sequence[dict]) -> go.Figure:
+    """The cycle by program move (moves.csv rows): one bar per move, its planned time and its dwell
+    (WaitTime) stacked [s], labelled by RAPID line and target; the hover says the binding limit."""
+    label = [f"{r.get('move')}: line {r.get('line')} {r.get('target') or ''}" for r in rows]
+
+    def num(key):
+        return [float(r[key]) if isinstance(r.get(key), (int, float)) else 0.0 for r in rows]
+
+    hover = [f"{r.get('instruction')} {r.get('target')}<br>binding: {r.get('binding_limit') or '–'} "
+             f"{r.get('binding_joint') or ''}" for r in rows]
+    fig = go.Figure()
+    fig.add_trace(go.Bar(x=label, y=num("planned_time_s"), name="planned motion", marker_color=COLORS["optimal"],
+                         customdata=hover, hovertemplate="%{customdata}<br>%{y:.4g} s<extra></extra>"))
+    if any(num("dwell_s")):
+        fig.add_trace(go.Bar(x=label, y=num("dwell_s"), name="dwell (WaitTime)", marker_color=COLORS["limit"],
+                             hovertemplate="dwell %{y:.4g} s<extra></extra>"))
+    fig.update_layout(barmode="stack")
+    fig.update_xaxes(title_text="move (RAPID line, target)", type="category")
+    fig.update_yaxes(title_text="time [s]")
+    return _layout(fig, f"Cycle by move: {sum(num('cycle_s')):.4g} s in {len(rows)} moves", 420)

@@ -123,6 +123,17 @@ def read_json(path: str | Path, default=None):
         raise PathmotionError(f"report: cannot read {path}: {exc}; re-run the command that wrote it") from None
 
 
+#: The joint-position panel's title, in the PNG and in the report: each joint's position scaled to its range.
+RANGE_LABEL = "joint position in its range: (q − centre) / half range"
+
+
+def in_range(q: np.ndarray, lower, upper) -> np.ndarray:
+    """q (N, n) [rad] scaled to each joint's range [-]: -1 at its lower, +1 at its upper limit, 0 at its centre
+    (so the position panel shares the +-1 limit lines of the velocity, acceleration and torque panels)."""
+    lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+    return (np.asarray(q, float) - 0.5 * (upper + lower)) / (0.5 * (upper - lower))
+
+
 def joint_columns(cols: dict[str, np.ndarray], prefix: str) -> np.ndarray | None:
     """The columns prefix1..prefixn stacked as (N, n), or None when prefix1 is absent."""
     names = []

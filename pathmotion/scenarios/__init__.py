@@ -1,4 +1,5 @@
-"""Shipped scenarios (TOML): the thesis' experiments on the IRB140 and a joint-space example.
+"""Shipped scenarios (TOML): the thesis' experiments on the IRB140, a joint-space example, an imported RAPID cycle
+and a pick-and-place cycle of joint moves, straight moves and waits.
 
 ``pathmotion init --from NAME`` copies one; ``scenario_path(NAME)`` gives its file.
 """

@@ -19,6 +19,7 @@ count is bounded by the budget).
 from __future__ import annotations
 
 import logging
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -36,8 +37,10 @@ from ..lift.joint_path import JointPath
 from ..planning.profile import Profile
 from ..robot import Robot
 from .end_rules import FLAT_SPEED2, Sample, end_rules
+from .events import EventPlayer
 from .metrics import (Failure, SimulationResult, polyline_distance_local, cornering_deviation, line_window,
-                      original_path_deviation, planned_tcp_line, polish_projection, tcp_path_deviation)
+                      orientation_deviation, original_path_deviation, planned_tcp_line, polish_projection,
+                      tcp_path_deviation)
 from .monitor import monitor_state
 from .plant import PLANT_NAMES, make_plant
 from .saturation import saturate
@@ -58,7 +61,10 @@ class SimulationSettings:
     observed after the arrival (open paths ending at rest); sampled_design: the orbital gains designed on the
     sampled transverse linearization at sample_time with the realism's delay in the model; design_cache: read and
     write the path table and the orbital design in the on-disk cache (:mod:`pathmotion.control.design_cache`); plant: "builtin" or "mujoco" (see
-    :func:`.plant.make_plant`)."""
+    :func:`.plant.make_plant`); events: re-timing events (:class:`.events.Event`: override, stop, resume at a time),
+    played by the orbital controller (simulate then needs the plan's Retimer); run_to_end: go on after the first
+    failure (it stays the verdict) until the arrival or the time budget, instead of stopping there (the default, and
+    the only way after a non-finite torque)."""
 
     sample_time: float = defaults.SAMPLE_TIME
     substeps: int = defaults.PLANT_SUBSTEPS
@@ -67,6 +73,7 @@ class SimulationSettings:
     computed_torque_gains: TrackingGains = field(default_factory=TrackingGains)
     pd_gains: TrackingGains = field(default_factory=default_pd_gains)
     path_tolerance: float = defaults.PATH_TOLERANCE
+    path_tolerance_deg: float = defaults.PATH_TOLERANCE_DEG
     joint_tolerance: float = defaults.JOINT_TOLERANCE
     saturation_limit: float = defaults.SATURATION_LIMIT
     time_budget_factor: float = defaults.TIME_BUDGET_FACTOR
@@ -78,9 +85,11 @@ class SimulationSettings:
     sampled_design: bool = defaults.ORBITAL_SAMPLED_DESIGN
     design_cache: bool = defaults.DESIGN_CACHE
     identify_payload: bool = defaults.PAYLOAD_IDENTIFICATION
+    events: tuple = ()
+    run_to_end: bool = False
 
     def __post_init__(self):
-        for name in ("sample_time", "path_tolerance", "joint_tolerance", "time_budget_factor"):
+        for name in ("sample_time", "path_tolerance", "path_tolerance_deg", "joint_tolerance", "time_budget_factor"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise SimulationError(f"SimulationSettings.{name} = {v!r}; it must be a number > 0")
@@ -142,6 +151,8 @@ class PlantModel(Protocol):
 
     def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None: ...
 
+    def substeps_needed(self, q: np.ndarray, dt: float) -> tuple[int, str]: ...
+
 
 @blas_single_threaded
 def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
@@ -153,7 +164,10 @@ def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: st
     its OK means that simulate starts. Returns (table, command, plant, planned TCP line, end rules,
     time budget [s])."""
     _check_inputs(robot, path, profile)
-    budget = time_budget(settings, profile.duration, path.closed)
+    if settings.events and controller != "orbital":
+        raise SimulationError(f"simulate.events need the orbital controller (it follows a re-timed profile), "
+                              f"not {controller!r}")
+    budget = time_budget(settings, profile.duration, path.closed) + events_allowance(settings, profile.duration)
     ts, substeps = settings.sample_time, settings.substeps
     if design is None and settings.design_cache:
         if controller == "orbital":
@@ -167,9 +181,33 @@ def prepare_loop(robot: Robot, path: JointPath, profile: Profile, controller: st
     control = _Command(make_controller(controller, robot, path, profile, table, settings, budget + ts, design),
                        Sensor(settings.realism), settings.realism.delay)
     plant = make_plant(settings.plant, robot, settings.realism) if plant is None else plant
-    plant.check_step(np.array(path.evaluate(path.domain[0])[0], dtype=float), ts, substeps)
+    substeps = plant_substeps(plant, np.array(path.evaluate(path.domain[0])[0], dtype=float), ts, substeps)
     line = planned_tcp_line(robot, path, table.grid)
-    return table, control, plant, line, end_rules(table, profile, line, budget, settings), budget
+    return table, control, plant, line, end_rules(table, profile, line, budget, settings), budget, substeps
+
+
+def plant_substeps(plant: PlantModel, q: np.ndarray, ts: float, asked: int) -> tuple[int, str]:
+    """(sub-steps per sample, note): ``asked`` (simulate.substeps), raised to the count the plant needs at
+    ``q`` to integrate its friction accurately (the note says so; empty when not raised); a SimulationError
+    naming the scenario keys when that count exceeds defaults.MAX_PLANT_SUBSTEPS."""
+    need, why = plant.substeps_needed(q, ts)
+    if need <= asked:
+        return asked, ""
+    if need > defaults.MAX_PLANT_SUBSTEPS:
+        plant.check_step(q, ts, asked)  # raises, naming the keys to change
+    note = (f"simulate.substeps {asked} raised to {need}: {why}; a plant step of at most {ts / need:.3g} s "
+            "integrates it accurately")
+    log.info("%s", note)
+    return need, note
+
+
+def events_allowance(settings: SimulationSettings, duration: float) -> float:
+    """Extra time budget [s] for the events: the last event's time, and the planned ``duration`` [s] stretched
+    by the lowest override (time_budget_factor x duration x (1 / override - 1))."""
+    if not settings.events:
+        return 0.0
+    lowest = min([e.override for e in settings.events if e.override is not None], default=1.0)
+    return max(e.t for e in settings.events) + settings.time_budget_factor * duration * (1.0 / lowest - 1.0)
 
 
 def time_budget(settings: SimulationSettings, duration: float, closed: bool) -> float:
@@ -189,16 +227,21 @@ def time_budget(settings: SimulationSettings, duration: float, closed: bool) -> 
 @blas_single_threaded
 def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = "orbital",
              settings: SimulationSettings = SimulationSettings(), design: OrbitalDesign | None = None,
-             plant: PlantModel | None = None) -> SimulationResult:
+             plant: PlantModel | None = None, retimer=None) -> SimulationResult:
     """Run ``controller`` on ``robot`` along q = Phi(theta) with the planned ``profile``.
 
     The run starts on the plan: q = Phi(theta_start), qd = Phi'(theta_start) sqrt(x*(theta_start)).
     ``design``: a prebuilt OrbitalDesign on this path and profile (reused across runs), optional.
     ``plant``: a prebuilt plant (:class:`PlantModel`); default ``make_plant(settings.plant, robot, settings.realism)``.
+    ``retimer``: the plan's :class:`~pathmotion.planning.retime.Retimer`, needed by ``settings.events``.
     Raises SimulationError only for unusable inputs; tracking failures are in the result.
     """
-    table, control, plant, line, rules, budget = prepare_loop(robot, path, profile, controller, settings, design, plant)
-    ts, substeps = settings.sample_time, settings.substeps
+    if settings.events and retimer is None:
+        raise SimulationError("simulate: settings.events need the plan's Retimer (retimer=Retimer(plan_result))")
+    table, control, plant, line, rules, budget, (substeps, note) = prepare_loop(robot, path, profile, controller,
+                                                                                settings, design, plant)
+    player = EventPlayer(settings.events, retimer, robot, path, profile, settings) if settings.events else None
+    ts = settings.sample_time
     phi0, dphi0, _ = path.evaluate(path.domain[0])
     q, qd = np.array(phi0, dtype=float), np.array(dphi0, dtype=float) * np.sqrt(profile.x[0])
     log.info("loop start: %s controller, %s plant, Ts = %g s (%d sub-steps), time budget %.4g s", controller,
@@ -211,30 +254,43 @@ def simulate(robot: Robot, path: JointPath, profile: Profile, controller: str = 
         rec.q[k], rec.qd[k] = q, qd
         sample = monitor.measure(k, k * ts, q, qd, arrival.time is not None)  # measure (the true state)
         rec.theta[k] = sample.theta
-        verdict = _first_check(rules, sample)
-        if isinstance(verdict, Failure):
-            failure = verdict
-            break
-        if verdict is not None and arrival.update(verdict):
+        if settings.run_to_end:
+            found, verdict = _all_checks(rules, sample)
+            failure = failure or found
+        else:
+            verdict = _first_check(rules, sample)
+            if isinstance(verdict, Failure):
+                failure = verdict
+                break
+        if verdict is not None and arrival.update(verdict, k):
             keep = verdict.keep
             break
+        if player is not None:
+            player.step(sample.t, sample.theta, sample.theta_dot, control)
         cmd = control(sample.t, q, qd)  # control
         rec.cmd[k] = cmd
         tau = rec.tau[k]
         finite, clipped = saturate(cmd, plant.torque_limit, tau)
-        failure = _first_torque_check(rules, sample, cmd, tau, finite, clipped)
-        if failure is not None:
+        torque_failure = _first_torque_check(rules, sample, cmd, tau, finite, clipped)
+        if torque_failure is not None:
+            failure = failure or torque_failure
             if not finite:
                 rec.cmd[k], rec.tau[k] = 0.0, 0.0
-            break
+            if not (settings.run_to_end and finite):
+                break
         rec.saturated += clipped
         q, qd = plant.step(q, qd, tau, ts, substeps)  # step
+    stopped = failure is not None and not settings.run_to_end
     failure = _earliest([failure, *(rule.finish(sample) for rule in rules)])
     log.info("loop end at t = %.4g s: %s", k * ts, f"failed ({failure.reason}): {failure.message}"
              if failure is not None else f"arrived, cycle time {arrival.time:.6g} s" if arrival.time is not None
              else "no arrival")
-    return _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
-                   control.identified())
+    events = tuple(r.as_dict() for r in player.reports) if player is not None else ()
+    result = dataclasses.replace(
+        _result(robot, path, profile, controller, settings, table, line, rec, k + keep, arrival, failure,
+                control.identified(), events), substeps=substeps, substeps_note=note or None,
+        stopped_at_failure=stopped, path_end_index=None if path.closed or failure is not None else arrival.index)
+    return orientation_verdict(result, settings.path_tolerance_deg)
 
 
 def _first_check(rules, sample: Sample):
@@ -244,6 +300,33 @@ def _first_check(rules, sample: Sample):
         if verdict is not None:
             return verdict
     return None
+
+
+def orientation_verdict(result: SimulationResult, tolerance_deg: float) -> SimulationResult:
+    """``result`` judged on the tool's orientation too: when its orientation path accuracy (on the path) exceeds
+    ``tolerance_deg`` [deg] and it has no earlier failure, it fails there ("orientation_tolerance"), with the
+    angle's largest value; its cycle and settle times are then None."""
+    angles = np.degrees(result.orientation_deviation[result.on_path()])
+    over = np.flatnonzero(angles > tolerance_deg)
+    if not over.size:
+        return result
+    i, peak = int(over[0]), int(np.argmax(angles))
+    failure = Failure("orientation_tolerance", float(result.t[i]), float(result.theta[i]),
+                      f"the tool's orientation left the {tolerance_deg:.4g} deg tolerance at t = {result.t[i]:.4g} s, "
+                      f"theta = {result.theta[i]:.6g} and turned {angles[peak]:.4g} deg from the planned orientation "
+                      f"(largest at t = {result.t[peak]:.4g} s); slow the motion down there or raise "
+                      "simulate.path_tolerance_deg", value=float(angles[peak]), limit=tolerance_deg, unit="deg")
+    if result.failure is not None and result.failure.t <= failure.t:
+        return result
+    return dataclasses.replace(result, failure=failure, cycle_time=None, settle_time=None)
+
+
+def _all_checks(rules, sample: Sample):
+    """(the first failure among every rule's verdict on ``sample``, the first verdict that is not a failure);
+    either None. Every rule sees every sample (a run that goes on after a failure)."""
+    verdicts = [rule.check(sample) for rule in rules]
+    return (next((v for v in verdicts if isinstance(v, Failure)), None),
+            next((v for v in verdicts if v is not None and not isinstance(v, Failure)), None))
 
 
 def _first_torque_check(rules, sample: Sample, cmd: np.ndarray, tau: np.ndarray, finite: bool, clipped: bool):
@@ -278,10 +361,13 @@ class _Arrived:
     """The cycle and settle times the arrival verdicts have set."""
 
     def __init__(self):
-        self.time, self.settle = None, None
+        self.time, self.settle, self.index = None, None, None
 
-    def update(self, verdict) -> bool:
-        """Take an Arrival's times; True when it ends the run."""
+    def update(self, verdict, k: int) -> bool:
+        """Take an Arrival's times (and ``k``, the sample of the first cycle time: the end of the path, after which
+        an open path only settles); True when it ends the run."""
+        if verdict.time is not None and self.index is None:
+            self.index = k
         self.time = verdict.time if verdict.time is not None else self.time
         self.settle = verdict.settle if verdict.settle is not None else self.settle
         return verdict.stop
@@ -366,14 +452,14 @@ class _Record:
 
 
 def _result(robot, path, profile, controller, settings, table, line, rec: _Record, last: int, arrival: _Arrived,
-            failure, identified: dict | None = None) -> SimulationResult:
+            failure, identified: dict | None = None, events: tuple = ()) -> SimulationResult:
     q, qd, tau, cmd, theta = rec.trimmed(last)
     saturation = rec.saturated * settings.sample_time
     t = np.arange(len(q)) * settings.sample_time
     finite = np.all(np.isfinite(q), axis=1)
     q_ok, th_ok = q[finite], theta[finite]
     theta_p, q_des = polish_projection(path, q_ok, th_ok) if len(q_ok) else (th_ok, q_ok.copy())
-    tcp, tcp_des, path_dev = tcp_path_deviation(robot, path, q_ok, theta_p, table.grid, line)
+    tcp, tcp_des, path_dev = tcp_path_deviation(robot, path, q_ok, th_ok, table.grid, line)  # the verdict's theta
     corner = original_path_deviation(path, tcp)
     ok = failure is None
     return SimulationResult(
@@ -383,5 +469,6 @@ def _result(robot, path, profile, controller, settings, table, line, rec: _Recor
         path_deviation=path_dev, corner_deviation=corner, torque_limit=np.asarray(robot.limits.torque, float),
         planned_duration=profile.duration, cycle_time=arrival.time if ok else None, saturation_time=float(saturation),
         failure=failure, settle_time=arrival.settle if ok else None, path_tolerance=settings.path_tolerance,
-        cornering_deviation=cornering_deviation(path, tcp, theta_p), identified=identified,
+        cornering_deviation=cornering_deviation(path, tcp, theta_p), identified=identified, events=events,
+        orientation_deviation=orientation_deviation(robot, q_ok, q_des), path_tolerance_deg=settings.path_tolerance_deg,
     )

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from .. import defaults
 from ..control.kernels import ZERO_SPEED2
 from ..lift.joint_path import JointPath
 from ..robot import Robot, fk
@@ -36,7 +37,8 @@ CORNER_TIE = 1e-6
 #: Phi's Taylor series about the start (error |Phi'''| step^3 / 6: ~1e-24 rad for a 1 m path).
 POLISH_TAYLOR_STEP = 1e-8
 #: Failure reasons, in the order they are checked each sample.
-FAILURE_REASONS = ("diverged", "left_path_range", "path_tolerance", "joint_tolerance", "saturation", "timeout")
+FAILURE_REASONS = ("diverged", "left_path_range", "path_tolerance", "orientation_tolerance", "joint_tolerance",
+                   "saturation", "timeout")
 
 
 @dataclass(frozen=True)
@@ -71,7 +73,8 @@ class SimulationResult:
     within the path tolerance (open; the plan's own time inside that ball credited) or the mean period
     (closed), None if not reached or tracking failed; settle_time [s]: when it entered that ball for good
     (open paths ending at rest). path_tolerance [m]: the tolerance the verdict used. identified: what the
-    controller's payload identification held at the end (:meth:`.PayloadEstimator.identified`), or None.
+    controller's payload identification held at the end (:meth:`.PayloadEstimator.identified`), or None. events:
+    one dict per re-timing event (simulation/events.py: kind, time, reaction time, stop distance).
     """
 
     controller: str
@@ -98,10 +101,36 @@ class SimulationResult:
     path_tolerance: float | None = None
     cornering_deviation: np.ndarray | None = None
     identified: dict | None = None
+    events: tuple = ()
+    substeps: int | None = None
+    substeps_note: str | None = None
+    stopped_at_failure: bool = False
+    path_end_index: int | None = None
+    orientation_deviation: np.ndarray | None = None
+    path_tolerance_deg: float | None = None
 
     @property
     def tracking_ok(self) -> bool:
         return self.failure is None
+
+    def on_path(self) -> slice:
+        """The samples on the path (ISO 9283's path accuracy is over the path): all of them, except after an open
+        path's arrival (``path_end_index``: the sample of the cycle time), where the arm only settles at the end
+        (settle_time_s judges that)."""
+        return slice(None) if self.path_end_index is None else slice(0, self.path_end_index + 1)
+
+    def path_accuracy(self) -> float:
+        """The largest TCP distance [m] from the planned path on the path (:meth:`on_path`); 0 without samples."""
+        dev = self.path_deviation[self.on_path()]
+        return float(np.max(dev)) if dev.size else 0.0
+
+    def path_accuracy_deg(self) -> float | None:
+        """ISO 9283's orientation path accuracy (ATo): the largest angle [deg] between the tool's orientation and
+        the planned one on the path (:meth:`on_path`); None when not computed."""
+        if self.orientation_deviation is None:
+            return None
+        ang = self.orientation_deviation[self.on_path()]
+        return float(np.degrees(np.max(ang))) if ang.size else 0.0
 
     def summary(self) -> dict:
         """Headline figures (SI units), JSON-serializable."""
@@ -110,11 +139,15 @@ class SimulationResult:
         return {
             "controller": self.controller,
             "sample_time_s": self.sample_time,
+            "substeps": self.substeps,
+            "substeps_note": self.substeps_note,
             "planned_duration_s": self.planned_duration,
             "cycle_time_s": self.cycle_time,
             "settle_time_s": self.settle_time,
             "path_tolerance_m": self.path_tolerance,
-            "path_accuracy_m": float(np.max(self.path_deviation)) if self.path_deviation.size else 0.0,
+            "path_accuracy_m": self.path_accuracy(),
+            "path_tolerance_deg": self.path_tolerance_deg,
+            "path_accuracy_deg": self.path_accuracy_deg(),
             "max_sharp_deviation_m": (None if self.corner_deviation is None or not self.corner_deviation.size
                                       else float(np.max(self.corner_deviation))),
             "cornering_deviation_m": None if corner is None else [float(c) for c in corner],
@@ -125,12 +158,30 @@ class SimulationResult:
             else 0.0,
             "saturation_time_s": self.saturation_time,
             "tracking_ok": self.tracking_ok,
+            "figures_cover_t_s": [0.0, float(self.t[-1])] if self.t.size else [0.0, 0.0],
+            "coverage_note": (f"the run stopped at its first failure: every figure covers t in [0, {self.t[-1]:.4g}] s "
+                              "only (simulate --full runs to the end)") if self.stopped_at_failure and self.t.size
+            else None,
             "failure": None if self.failure is None else self.failure.as_dict(),
-            "identified_payload_kg": None if self.identified is None else self.identified["mass_kg"],
-            "identified_payload_com_m": None if self.identified is None else self.identified["com_m"],
+            **_identified_payload(self.identified),
             "identified_viscous_friction": None if self.identified is None else self.identified["viscous_friction"],
             "identified_coulomb_friction": None if self.identified is None else self.identified["coulomb_friction"],
+            "events": [dict(e) for e in self.events] or None,
         }
+
+
+def _identified_payload(identified: dict | None) -> dict:
+    """The summary's payload keys: the identified mass [kg] and centre of mass [m] when significant (else None,
+    with a note saying what the figure is), and the mass's standard error [kg]."""
+    if identified is None:
+        return {"identified_payload_kg": None, "identified_payload_com_m": None, "identified_payload_std_kg": None,
+                "identified_payload_note": None}
+    m, std, significant = identified["mass_kg"], identified.get("mass_std_kg"), identified.get("significant", True)
+    note = None if significant else (
+        f"{m:.3g} kg +- {std:.3g} kg at the flange is within {defaults.IDENTIFIED_SIGNIFICANCE:g} standard errors of "
+        "0: no payload identified (what the model lacks there, e.g. link inertia errors, not a payload)")
+    return {"identified_payload_kg": m if significant else None, "identified_payload_com_m": identified["com_m"],
+            "identified_payload_std_kg": std, "identified_payload_note": note}
 
 
 def _wrap(path: JointPath, theta: np.ndarray) -> np.ndarray:
@@ -263,6 +314,19 @@ def tcp_path_deviation(robot: Robot, path: JointPath, q: np.ndarray, theta: np.n
     dist, near = polyline_distance_local(np.ascontiguousarray(tcp), line, centre.astype(np.int64),
                                           line_window(len(grid)), bool(path.closed))
     return tcp, near, dist
+
+
+def orientation_deviation(robot: Robot, q: np.ndarray, q_desired: np.ndarray) -> np.ndarray:
+    """(K,) [rad]: the angle of the rotation between the tool's orientation at q (K, n) and at q_desired (K, n)
+    (the planned orientation at the projection), |log(R_d^T R)|."""
+    if not len(q):
+        return np.zeros(0)
+    rot, rot_d = fk(robot, q)[1], fk(robot, q_desired)[1]
+    rel = np.einsum("kji,kjl->kil", rot_d, rot)
+    cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+    sin = np.linalg.norm(np.stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0],
+                                   rel[:, 1, 0] - rel[:, 0, 1]], axis=1), axis=1) / 2.0
+    return np.arctan2(sin, cos)  # accurate for small and large angles alike
 
 
 def sharp_path_deviation(task_path, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -37,6 +37,7 @@ from .. import defaults
 from ..errors import RobotModelError, SimulationError
 from ..robot import Robot
 from .saturation import saturate as _saturate
+from .stiffness import check_substeps
 from .realism import Realism
 
 log = logging.getLogger(__name__)
@@ -241,19 +242,20 @@ class MujocoPlant:
         self._mujoco.mj_step(m, d, substeps)
         return d.qpos.copy(), d.qvel.copy()
 
-    def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None:
-        """SimulationError when joint damping is too stiff for explicit RK4 at this step (h F_v / M_jj > 1).
+    def substeps_needed(self, q: np.ndarray, dt: float) -> tuple[int, str]:
+        """The fewest MuJoCo steps per sample ``dt`` [s] for which explicit RK4 integrates the joint damping
+        accurately (h F_v / M_jj <= 1), and why (empty when one does).
 
         ``implicitfast`` integrates damping implicitly and has no such bound; MuJoCo's friction loss is a
         soft constraint whose time constant follows the step (2 h), so it needs no check.
         """
         if self.integrator is not MujocoIntegrator.RK4 or not np.any(self.viscous > 0):
-            return
-        h = dt / substeps
+            return 1, ""
         rate = self.viscous / np.diag(self.mass_matrix(np.asarray(q, float)))
         j = int(np.argmax(rate))
-        if h * rate[j] > 1.0:
-            raise SimulationError(
-                f"joint {self.model.joint(j).name}: damping {self.viscous[j]:.3g} N m s/rad decays in {1.0 / rate[j]:.3g} s, "
-                f"shorter than the MuJoCo step {h:.3g} s; raise substeps to >= {int(np.ceil(dt * rate[j]))} or lower "
-                "that joint's viscous friction")
+        return (max(1, int(np.ceil(dt * rate[j] - 1e-12))),
+                f"joint {self.model.joint(j).name}: damping {self.viscous[j]:.3g} N m s/rad decays in {1.0 / rate[j]:.3g} s")
+
+    def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None:
+        """SimulationError when ``substeps`` MuJoCo steps per sample are fewer than :meth:`substeps_needed`."""
+        check_substeps(self.substeps_needed(q, dt), dt, substeps, "simulate.realism.viscous_friction of that joint")

@@ -20,6 +20,7 @@ import pinocchio as pin
 from ..errors import SimulationError
 from ..robot import Robot
 from .realism import Realism, plant_model
+from .stiffness import check_substeps
 
 
 # RK4 arithmetic between the ABA calls, compiled and in place (no arrays returned to Python): one call per
@@ -141,27 +142,28 @@ class Plant:
             _combine(q, qd, a1, a2, a3, a4, h)
         return q, qd
 
-    def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None:
-        """Raise SimulationError when friction makes the ODE too stiff for RK4 at this step.
+    def substeps_needed(self, q: np.ndarray, dt: float) -> tuple[int, str]:
+        """The fewest RK4 sub-steps per sample ``dt`` [s] that integrate the friction accurately at ``q``, and
+        why (empty when one does).
 
         Friction adds a damping d tau_f/d qd = F_v + F_c / v_c; with the joint inertia M_jj the mode
         decays at lambda = (F_v + F_c / v_c) / M_jj. Classical RK4 is stable for h lambda < 2.78; this
         asks for h lambda <= 1 (accurate, not merely stable) at the start configuration.
         """
         if not self.has_friction:
-            return
-        h = dt / substeps
+            return 1, ""
         inertia = np.diag(pin.crba(self.model, self.data, np.asarray(q, float)))
         rate = (self.viscous + self.coulomb / self.coulomb_speed) / inertia
         j = int(np.argmax(rate))
-        if h * rate[j] > 1.0:
-            name = self.model.names[j + 1]
-            need = int(np.ceil(dt * rate[j]))
-            raise SimulationError(
-                f"joint {name}: friction damping {self.viscous[j] + self.coulomb[j] / self.coulomb_speed:.3g} N m s/rad on "
-                f"an inertia of {inertia[j]:.3g} kg m^2 decays in {1.0 / rate[j]:.3g} s, shorter than the plant step "
-                f"{h:.3g} s; raise substeps to >= {need}, Realism.coulomb_smoothing, or lower that joint's friction"
-            )
+        need = max(1, int(np.ceil(dt * rate[j] - 1e-12)))
+        return need, (f"joint {self.model.names[j + 1]}: friction damping "
+                      f"{self.viscous[j] + self.coulomb[j] / self.coulomb_speed:.3g} N m s/rad on an inertia of "
+                      f"{inertia[j]:.3g} kg m^2 decays in {1.0 / rate[j]:.3g} s")
+
+    def check_step(self, q: np.ndarray, dt: float, substeps: int) -> None:
+        """Raise SimulationError when ``substeps`` RK4 steps per sample are fewer than :meth:`substeps_needed`."""
+        check_substeps(self.substeps_needed(q, dt), dt, substeps,
+                       "simulate.realism.viscous_friction or coulomb_friction of that joint")
 
 
 PLANT_NAMES = ("builtin", "mujoco")

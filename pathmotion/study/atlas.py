@@ -1,10 +1,10 @@
-"""The corner atlas (issue 17): for each turn angle and tolerance, the duration of every way to take
+"""The corner atlas: for each turn angle and tolerance, the duration of every way to take
 the corner, against the physical limit.
 
 Geometry: two lines of ATLAS_SEGMENT_LENGTH in the horizontal plane z = ATLAS_HEIGHT, the first along
 +x ending at ATLAS_CORNER, the second turning left by ``angle_deg`` (0 = straight on, 180 = back).
-The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the issue's
-reference), and with ``torque`` its joint torque limits too, for every motion and both references
+The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the reference turn of
+benchmarks/issue_turn.py), and with ``torque`` its joint torque limits too, for every motion and both references
 (the ``torque`` column; the optima's cache key then holds the torque limits, payload, armature and
 gravity). ``torque_reserve`` r (the ``torque_reserve`` column, the scenario key ``[limits] torque_reserve``)
 keeps r tau_max of every joint free for feedback: every motion is planned, and both references are solved,
@@ -49,6 +49,7 @@ import functools
 import hashlib
 import json
 import logging
+import os
 import time
 import tomllib
 from dataclasses import dataclass
@@ -60,6 +61,7 @@ import numpy as np
 from .. import defaults
 from ..errors import PathError, PathmotionError, ScenarioError
 from ..io.atomic import write_json, write_text
+from ..io.files import mark_result
 
 log = logging.getLogger(__name__)
 
@@ -124,8 +126,9 @@ def check_inputs(angles: Sequence[float], tolerances: Sequence[float],
     half = 0.5 * ATLAS_SEGMENT_LENGTH
     for tol in tolerances:
         if not (np.isfinite(tol) and 0 < tol < half):
+            mm = f"; mm? the unit is m (e.g. {tol:g} mm = {tol * 1e-3:g} m)" if 0 < tol * 1e-3 < half else ""
             raise PathError(f"corner atlas: tolerance {tol!r} m must be a positive distance below half a segment "
-                            f"({half:g} m)")
+                            f"({half:g} m){mm}")
     return checked
 
 
@@ -356,7 +359,7 @@ def closed_loop_check(robot, path, profile, tolerance: float) -> dict:
     from ..simulation import SimulationSettings, simulate
 
     sim = simulate(robot, path, profile, "orbital", SimulationSettings(sample_time=defaults.SAMPLE_TIME))
-    acc = float(np.max(sim.path_deviation)) if sim.path_deviation.size else 0.0
+    acc = sim.path_accuracy()
     corner = None if sim.cornering_deviation is None else float(np.max(sim.cornering_deviation))
     ok = (sim.tracking_ok and acc <= CLOSED_LOOP_PATH_ACCURACY and corner is not None
           and corner <= tolerance + acc)
@@ -365,7 +368,7 @@ def closed_loop_check(robot, path, profile, tolerance: float) -> dict:
 
 
 #: A reference may exceed a motion feasible in its tube (the stop, the optimal blend: planner durations, good to
-#: ~0.05 %) by its own convergence error plus this fraction of that motion's duration [-] (issue 17's 0.2 %).
+#: ~0.05 %) by its own convergence error plus this fraction of that motion's duration [-] (0.2 %).
 FEASIBLE_MARGIN = 0.002
 
 
@@ -624,8 +627,9 @@ def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> di
     torque = bool(spec.get("torque", False))
     summary.update(angle_deg=given["angle_deg"], tolerance_m=given["tolerance_m"], torque=torque)
     try:
-        robot = _spec_robot(spec)
-        atlas_row(robot, given["angle_deg"], given["tolerance_m"], Path(spec["cache"]), spec.get("meshes"),
+        robot = _spec_robot(spec, Path(base_dir))
+        cache = Path(base_dir) / spec["cache"]
+        atlas_row(robot, given["angle_deg"], given["tolerance_m"], cache, spec.get("meshes"),
                   row=summary, closed_loop=spec.get("closed_loop", True), torque=torque,
                   torque_reserve=spec.get("torque_reserve"), references=spec.get("references", True),
                   bounds=spec.get("bounds", True))
@@ -636,15 +640,15 @@ def atlas_point(text: str, base_dir: str, overrides, traces: bool = False) -> di
     return {"summary": summary, "error": error, "trace": None, "wall_time_s": time.perf_counter() - t0}
 
 
-def _spec_robot(spec: dict):
-    """The atlas spec's robot: the built-in ``robot``, or the ``robot_file`` (robot_file.load_robot_file) when it
-    still describes the robot the atlas started with (``robot_digest``)."""
+def _spec_robot(spec: dict, base_dir: Path):
+    """The atlas spec's robot: the built-in ``robot``, or the ``robot_file`` (robot_file.load_robot_file; relative
+    to the spec's folder ``base_dir``) when it still describes the robot the atlas started with (``robot_digest``)."""
     from ..robot import load_robot
     from .robot_file import load_robot_file, robot_digest
 
     if "robot_file" not in spec:
         return load_robot(spec["robot"])
-    robot = load_robot_file(spec["robot_file"])
+    robot = load_robot_file(base_dir / spec["robot_file"])
     if robot_digest(robot) != spec["robot_digest"]:
         raise ScenarioError(f"robot file {spec['robot_file']} (or a file it names) changed since this atlas started; "
                             "run the changed robot into another --out folder, or restore the file")
@@ -682,18 +686,19 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     if robot_file is None:
         arm = f'robot = "{robot}"\n'
     else:
-        robot_file = Path(robot_file).absolute()
         digest = robot_digest(load_robot_file(robot_file))
-        arm = f'robot_file = {json.dumps(str(robot_file))}\nrobot_digest = "{digest}"\n'
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    mark_result(out)
+    if robot_file is not None:  # relative to the spec's folder, so the folder can move with its robot file
+        where = os.path.relpath(Path(robot_file).resolve(), out.resolve())
+        arm = f'robot_file = {json.dumps(where)}\nrobot_digest = "{digest}"\n'
     spec = out / "atlas_spec.toml"
     write_text(spec, f'version = {ROW_VERSION}\n{arm}meshes = {meshes}\nclosed_loop = '
                      f'{str(closed_loop).lower()}\ntorque = {str(torque).lower()}\n'
                      + (f"torque_reserve = {reserve!r}\n" if torque else "")
                      + ("" if references else "references = false\n")
                      + ("" if bounds else "bounds = false\n")
-                     + f'cache = "{(out / "optimum_cache").resolve()}"\n')
+                     + 'cache = "optimum_cache"\n')  # relative to the spec's folder
     points, _ = run_sweep(spec, {"angle_deg": angles, "tolerance_m": tolerances}, out / "points_sweep",
                           workers=workers, scheduler=scheduler, on_result=on_result, point_fn=atlas_point)
     finished = load_finished(out / "points_sweep")
@@ -709,13 +714,15 @@ def corner_atlas(out, angles: Sequence[float], tolerances: Sequence[float], *, r
     return CornerAtlas(rows, out, written)
 
 
-_CURVES = (("stop_s", "stop at the corner", "k--"), ("industrial_zone_s", "constant speed, parabolic zone", "x:"),
+_CURVES = (("industrial_zone_s", "constant speed, parabolic zone", "x:"),
            ("circle_s", "transition circle", "o-"), ("g2_s", "G2 blend", "s-"), ("optimal_s", "optimal blend", "D-"),
            ("corner_optimum_s", "corner-confined optimum", "^-."), ("free_shape_optimum_s", "whole-tube optimum", "v-."))
 
 
 def tdelta_figure(rows: list[dict], path: Path) -> Path:
-    """T(delta): duration against tolerance, one panel per angle, every method."""
+    """T(delta): duration against tolerance, one panel per angle, every method; the stop, which does not depend on
+    the tolerance, as a horizontal line across the panel. The legend sits right of the last panel."""
+    from ..report.style import legend_outside
     from .figures import MM, _plt, _save
 
     plt = _plt()
@@ -723,6 +730,9 @@ def tdelta_figure(rows: list[dict], path: Path) -> Path:
     f, axes = plt.subplots(1, len(angles), figsize=(3.6 * len(angles), 3.8), squeeze=False)
     for ax, a in zip(axes[0], angles):
         mine = sorted((r for r in rows if r["angle_deg"] == a), key=lambda r: r["tolerance_m"])
+        stops = [r["stop_s"] for r in mine if r.get("stop_s") is not None]
+        if stops:
+            ax.axhline(stops[0], color="k", ls="--", lw=1, label="stop at the corner")
         for key, label, style in _CURVES:
             pts = [(r["tolerance_m"] * MM, r[key]) for r in mine if r.get(key) is not None]
             if pts:
@@ -732,8 +742,8 @@ def tdelta_figure(rows: list[dict], path: Path) -> Path:
         ax.set_xlabel("tolerance delta [mm]")
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("duration, rest to rest [s]")
-    axes[0][-1].legend(fontsize=7)
     f.tight_layout()
+    legend_outside(axes[0][-1], fontsize=7)
     return _save(f, path)
 
 

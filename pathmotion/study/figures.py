@@ -46,13 +46,14 @@ def tradeoff_figure(rows: Sequence[dict], front: Sequence[int], best: dict | Non
                     labels: dict[int, str] | None = None, x_key: str = schema.MAX_SHARP_DEVIATION.key,
                     y_key: str = schema.CYCLE_TIME.key, point_label=None, title: str = "") -> Path:
     """Deviation [mm] vs cycle time [s]; ``labels``: row index -> text for named points;
-    ``point_label(row)`` gives every point's small label (default none). Failed rows are listed
-    in the legend only (they have no cycle time)."""
+    ``point_label(row)`` gives every point's small label (default none). Rows with an error (no result) and rows
+    that lost tracking are counted apart in the legend only (they have no cycle time)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7.5, 5.0))
     ok = [i for i, r in enumerate(rows) if _finite(r.get(x_key)) and _finite(r.get(y_key))
           and not r.get("error") and r.get("tracking_ok") is True]
-    failed = len(rows) - len(ok)
+    errors = sum(1 for r in rows if r.get("error"))  # no result: bad geometry, an infeasible plan, a crash
+    lost = sum(1 for i, r in enumerate(rows) if i not in ok and not r.get("error"))  # ran, but did not track
     ax.scatter([rows[i][x_key] * MM for i in ok], [rows[i][y_key] for i in ok], s=28, color="tab:blue",
                label=f"points ({len(ok)})", zorder=2)
     if front:
@@ -68,8 +69,10 @@ def tradeoff_figure(rows: Sequence[dict], front: Sequence[int], best: dict | Non
     small = [] if point_label is None else [(point_label(rows[i]), rows[i][x_key] * MM, rows[i][y_key]) for i in ok
                                             if i not in (labels or {})]
     _place_labels(ax, named + small, fontsize=8, color="0.25")  # named points first: they get a place
-    if failed:
-        ax.plot([], [], " ", label=f"{failed} point(s) failed or lost tracking (not shown)")
+    if errors:
+        ax.plot([], [], " ", label=f"{errors} point(s) with an error, no result (not shown)")
+    if lost:
+        ax.plot([], [], " ", label=f"{lost} point(s) lost tracking (not shown)")
     ax.set_xlabel("largest TCP distance from the sharp path [mm]")
     ax.set_ylabel("cycle time (closed loop) [s]")
     ax.set_title(wrapped(title or "Deviation vs cycle time", 70))

@@ -1,5 +1,5 @@
 """The physical limit of cornering: the minimum-time motion of the whole arm whose TCP stays within
-``delta`` of a sharp polyline (a reference, not a planner; issue 17).
+``delta`` of a sharp polyline (a reference, not a planner).
 
 Formulation (direct multiple shooting in time with an exact integrator). The motion is split into
 phases; phase i has its own duration T_i (free, > 0), N_i intervals of length h_i = T_i / N_i and
@@ -122,7 +122,7 @@ STARTS_WARM = (("start", TUBE_IPOPT, "norm"), ("previous", TUBE_IPOPT, "norm"), 
 #: at 1e-9 and adapts (mu_strategy adaptive). Why: at 30 deg / 0.1 mm the whole tube from the corner-confined solutions
 #: hit the cap on 100 intervals with TUBE_IPOPT (the barrier of 1e-4 pushed the iterate off the active bounds); with
 #: their multipliers and the monotone barrier fixed at 1e-9 it hit the cap too (600 iterations on 25 intervals, tiny
-#: steps), with a monotone barrier from 1e-6 on 50 intervals; the adaptive barrier converged (see docs/study.md).
+#: steps), with a monotone barrier from 1e-6 on 50 intervals; the adaptive barrier converged.
 WARM_IPOPT = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-9, "warm_start_bound_frac": 1e-9,
               "warm_start_slack_bound_push": 1e-9, "warm_start_slack_bound_frac": 1e-9,
               "warm_start_mult_bound_push": 1e-9, "mu_init": 1e-9, "mu_strategy": "adaptive", "max_iter": 600}
@@ -502,7 +502,7 @@ def solve_mesh(robot, line: Polyline, phases: Sequence[Phase], guess: Guess, rot
                multipliers: dict | None = None) -> FreeShapeSolution:
     """Solve the minimum-time NLP on the mesh of ``guess`` (its node counts per phase), from it;
     ``ipopt``: options over the defaults; ``form``: the tube constraint's form, "norm" (what STARTS
-    uses), "squared" or "scaled" (:func:`_tube`; kept to reproduce docs/study.md's comparison);
+    uses), "squared" or "scaled" (:func:`_tube`; kept to compare the forms);
     ``torque``: also |tau| <= the robot's torque limits at TORQUE_POINTS of every interval (:func:`_torque`);
     ``multipliers``: a solution's on the same nodes (FreeShapeSolution.multipliers) as IPOPT's initial multipliers,
     by constraint (_Constraints.start; give WARM_IPOPT's options with them). The solution keeps its multipliers."""

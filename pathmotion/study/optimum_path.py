@@ -1,4 +1,4 @@
-"""The free-shape optimum's own TCP path as a task path, to plan along (issue 17).
+"""The free-shape optimum's own TCP path as a task path, to plan along.
 
 A free-shape solution (:mod:`.free_shape`) moves the joints with a piecewise-constant acceleration
 u_k on each interval [t_k, t_k+1], so its TCP path p(q(t)) is smooth on each interval and its
@@ -20,7 +20,7 @@ What it is for: planning along this path with pathmotion's planner must give (up
 grid and the orientation, which the NLP fixes only at its nodes and midpoints) the solution's own
 duration or less, since the solution's timing is one feasible timing of the path. That cross-checks
 the two algorithms (tests), and measures where a blend family loses time
-(benchmarks/replan_optimum.py, docs/study.md "Where the blend loses time").
+(benchmarks/replan_optimum.py; docs/study.md, "The optimal blend's search").
 """
 
 from __future__ import annotations

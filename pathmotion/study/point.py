@@ -47,7 +47,7 @@ def point_summary(setup, result, sim) -> tuple[dict, dict]:
     plan = plan_summary(setup, result)
     summary[schema.BASELINE_DURATION.key] = plan[schema.BASELINE_DURATION.key]
     summary[schema.BLEND_MAX_DEVIATION.key] = plan.get(schema.BLEND_MAX_DEVIATION.key)
-    summary[schema.MEAN_PATH_DEVIATION.key] = float(np.mean(sim.path_deviation)) if sim.path_deviation.size else 0.0
+    summary[schema.MEAN_PATH_DEVIATION.key] = float(np.mean(sim.path_deviation[sim.on_path()])) if sim.path_deviation.size else 0.0
     sharp = _sharp_path(setup)
     if sharp is not None and len(sim.tcp):
         dist, near = sharp_path_deviation(sharp, sim.tcp)

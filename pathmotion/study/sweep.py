@@ -33,6 +33,7 @@ import numpy as np
 
 from ..errors import PathmotionError, ScenarioError
 from ..io.atomic import atomic_path, write_json, write_text
+from ..io.files import mark_result
 from ..io import schema
 from ..io.scenario import parse_value
 from .point import SUMMARY_KEYS, run_point
@@ -218,6 +219,7 @@ def run_sweep(scenario_path: str | Path, grid: dict[str, list], out: str | Path,
     text, base_dir = read_scenario(scenario_path)
     points = sweep_points(grid, scenario_digest(text))
     names = [*grid, *SUMMARY_KEYS, "error"]
+    mark_result(out)
     _points_dir(out).mkdir(parents=True, exist_ok=True)
     write_json(out / "sweep_spec.json", {"scenario": str(scenario_path), "grid": grid, "columns": names})
     finished = load_finished(out)

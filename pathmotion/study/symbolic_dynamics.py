@@ -1,5 +1,5 @@
 """Symbolic inverse dynamics tau(q, qd, qdd) as a CasADi Function, for the free-shape reference's
-torque limits (:mod:`.free_shape`; issue 17).
+torque limits (:mod:`.free_shape`).
 
 PyPI ``pin`` has no ``pinocchio.casadi``, so, like :func:`.free_shape.tcp_function`, this builds the
 expression by hand from the Pinocchio model: the recursive Newton-Euler algorithm in each body's

@@ -9,8 +9,8 @@ MODULE AbbCycleZ1
     PERS tooldata tGripper := [TRUE, [[0, 0, 0], [1, 0, 0, 0]],
                                [1, [0, 0, 0], [1, 0, 0, 0], 0, 0, 0]];   ! 1 kg at the flange
     PERS wobjdata wCycle := [FALSE, TRUE, "", [[500, 0, 500], [1, 0, 0, 0]], [[0, 0, 0], [1, 0, 0, 0]]];
-    CONST robtarget pPick := [[0, -152.5, 0], [0, 1, 0, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
-    CONST robtarget pPlace := [[0, 152.5, 0], [0, 1, 0, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
+    CONST robtarget pPick := [[0, -152.5, 0], [0, 1, 0, 0], [-1, 0, 1, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
+    CONST robtarget pPlace := [[0, 152.5, 0], [0, 1, 0, 0], [0, 0, 2, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]];
     CONST num hUp := 25;
 
     PROC main()

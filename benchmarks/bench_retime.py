@@ -1,0 +1,275 @@
+"""Benchmark: the re-timer (planning/retime.py), timing and optimality.
+
+Case: a random 6-joint clamped cubic spline through WAYPOINTS waypoints (numpy.random.default_rng(SEED)
+.uniform(-1.5, 1.5)) on the IRB140 with its velocity and torque limits and accelerations ACC:
+  second order  planned on a fixed grid of GRID_2 points (certified); the states lie in the first
+                STATE_SPAN of the path, so every remaining grid has >= 1,000 points;
+  jerk          the same limits plus joint jerk JERK_FACTOR x ACC, planned on GRID_3 points.
+
+States: theta uniform; theta_dot a uniform fraction in [0, 1) of the largest savable speed there
+(Retimer.max_speed: above and below the plan's profile); theta_ddot uniform in [-3, 3].
+
+Timing: WARMUP calls, then ``remaining`` and ``stop`` from every state, interleaved in a random order;
+wall time (perf_counter) and the process's CPU time per call; p50, p99 and the worst. Machine load
+(os.getloadavg) before and after.
+
+Optimality:
+  remaining vs an offline plan of the same limits on the path from the state's theta (the planner with
+  start = theta_dot on the tail of the path, GRID_2 points on it), and vs toppra (ParametrizeConstAccel,
+  sd_start = theta_dot, the same limits, on the remaining grid itself); relative duration differences.
+  Jerk: vs the offline jerk plan from the same speed, re-timed from that plan's own start acceleration.
+  stop vs the shortest stop distance from an independent computation: a forward integration in theta
+  (STOP_STEPS steps) at the largest deceleration allowed by the joint velocity, acceleration and torque
+  limits, the torque from Pinocchio's RNEA at each step.
+
+    python benchmarks/bench_retime.py                   # full run
+    python benchmarks/bench_retime.py --quick           # fewer states
+    python benchmarks/bench_retime.py --json out.json   # also write the numbers as JSON
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from pathmotion.control.threads import single_blas_thread
+from pathmotion.errors import PathmotionError, StateInfeasibleError
+from pathmotion.io.atomic import write_text
+from pathmotion.lift.joint_path import SplineJointPath
+from pathmotion.planning import PlanSettings, Retimer, plan
+from pathmotion.robot import load_robot
+
+ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
+SEED, WAYPOINTS = 1, 5
+GRID_2, GRID_3 = 1100, 120
+STATE_SPAN = 0.08
+JERK_FACTOR = 10.0
+WARMUP = 50
+STOP_STEPS = 4000
+
+
+def case(jerk: bool):
+    irb = load_robot("irb140")
+    robot = irb.with_limits(replace(irb.limits, acceleration=ACC))
+    wp = np.random.default_rng(SEED).uniform(-1.5, 1.5, size=(WAYPOINTS, 6))
+    path = SplineJointPath.from_waypoints(wp)
+    limits = {"use_torque": True, **({"use_jerk": True, "jerk": tuple(JERK_FACTOR * ACC)} if jerk else {})}
+    settings = PlanSettings(grid_points=GRID_3 if jerk else GRID_2, limits=limits)
+    return robot, wp, path, plan(path, robot, settings)
+
+
+def states(rt: Retimer, n: int, span: float, rng, below_plan: bool) -> list:
+    """``n`` states in the first ``span`` of the path: theta_dot up to the largest savable speed (or, with
+    ``below_plan``, up to the plan's own speed there: jerk limits leave far fewer fast states savable)."""
+    out = []
+    for _ in range(n):
+        theta = rng.uniform(0.0, span) * rt.grid[-1]
+        top = float(rt.plan.profile.theta_dot_at(theta)) if below_plan else rt.max_speed(theta)
+        out.append((theta, rng.uniform(0.0, 1.0) * top, rng.uniform(-3.0, 3.0)))
+    return out
+
+
+def percentiles(v) -> dict:
+    v = 1e3 * np.asarray(v)
+    return dict(p50_ms=float(np.percentile(v, 50)), p99_ms=float(np.percentile(v, 99)), worst_ms=float(v.max()))
+
+
+def timing(rt: Retimer, sts: list) -> dict:
+    """Interleaved calls of remaining and stop from every state after WARMUP calls."""
+    for theta, v, a in sts[:WARMUP]:
+        for fn in (rt.remaining, rt.stop):
+            try:
+                fn(theta, v, a)
+            except PathmotionError:
+                pass
+    calls = [("remaining", s) for s in sts] + [("stop", s) for s in sts if s[1] > 0]
+    random.Random(0).shuffle(calls)
+    wall, cpu = {"remaining": [], "stop": []}, {"remaining": [], "stop": []}
+    refused = {"remaining": 0, "stop": 0}
+    for name, (theta, v, a) in calls:
+        fn = rt.remaining if name == "remaining" else rt.stop
+        t, c = time.perf_counter(), time.process_time()
+        try:
+            fn(theta, v, a)
+        except StateInfeasibleError:  # timed too: the error is the answer for that state
+            refused[name] += 1
+        wall[name].append(time.perf_counter() - t)
+        cpu[name].append(time.process_time() - c)
+    return {name: dict(wall=percentiles(wall[name]), cpu=percentiles(cpu[name]), calls=len(wall[name]),
+                       unsaveable=refused[name]) for name in wall}
+
+
+def toppra_duration(robot, wp, grid, v0) -> float:
+    import toppra as ta
+    import toppra.algorithm as algo
+    import toppra.constraint as constraint
+
+    lim = robot.limits
+    model, data = robot.model, robot.model.createData()
+    cons = [constraint.JointVelocityConstraint(np.vstack([-lim.velocity, lim.velocity]).T),
+            constraint.JointAccelerationConstraint(np.vstack([-lim.acceleration, lim.acceleration]).T),
+            constraint.JointTorqueConstraint(lambda q, v, a: pin.rnea(model, data, q, v, a),
+                                             np.vstack([-lim.torque, lim.torque]).T, np.zeros(robot.n),
+                                             discretization_scheme=constraint.DiscretizationType.Interpolation)]
+    class Tail(ta.SplineInterpolator):  # the same spline, on the remaining part [grid[0], grid[-1]]
+        @property
+        def path_interval(self):
+            return np.array([grid[0], grid[-1]])
+
+    path = Tail(np.linspace(0, 1, len(wp)), wp, bc_type="clamped")
+    traj = algo.TOPPRA(cons, path, gridpoints=grid, parametrizer="ParametrizeConstAccel").compute_trajectory(
+        sd_start=v0, sd_end=0.0)
+    return float(traj.duration) if traj is not None else float("nan")
+
+
+def shortest_stop(path, robot, theta0, v0, steps_hint) -> float:
+    """Stop distance at the largest deceleration the limits allow, by forward Euler in theta (independent
+    of the planner's rows: the torque from RNEA at each step)."""
+    model, data = robot.model, robot.model.createData()
+    lim = robot.limits
+    x, theta, h = v0 * v0, theta0, steps_hint / STOP_STEPS
+    end = path.domain[1]
+    while x > 0.0 and theta < end:
+        q, d1, d2 = path.evaluate(theta)
+        g = pin.rnea(model, data, q, np.zeros(6), np.zeros(6))
+        alpha = pin.rnea(model, data, q, np.zeros(6), d1) - g
+        beta = pin.rnea(model, data, q, d1, d2) - g
+        lo = -np.inf
+        zero = np.zeros(6)
+        for a, b, c, top in ((d1, d2 * x, zero, lim.acceleration), (alpha, beta * x, g, lim.torque)):
+            for j in range(6):  # -top <= a u + b + c <= top: the least u allowed
+                if a[j] > 0:
+                    lo = max(lo, (-top[j] - c[j] - b[j]) / a[j])
+                elif a[j] < 0:
+                    lo = max(lo, (top[j] - c[j] - b[j]) / a[j])
+        step = min(h, x / (-2.0 * lo)) if lo < 0 else h
+        x, theta = x + 2.0 * lo * step, theta + step
+    return theta - theta0
+
+
+#: Jerk case: shares of the offline plan's start acceleration tried in turn (it lies on the boundary of the
+#: jerk-limited set, within the plans' limit tolerance, where the re-timer's exact rows can refuse it).
+ACCELERATION_SHARES = (1.0, 0.99, 0.95)
+
+
+def _from_offline_acceleration(rt, theta, v, u0):
+    for share in ACCELERATION_SHARES:
+        try:
+            return rt.remaining(theta, v, share * u0), share * u0, share
+        except StateInfeasibleError:
+            continue
+    return None, None, None
+
+
+def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
+    rows = []
+    for theta, v, a in sts:
+        tail = replace(path, domain=(theta, path.domain[1]))
+        try:
+            if jerk:  # from the offline plan's own start acceleration (the planner cannot be given one)
+                off = plan(tail, robot, replace(res.settings, start=v, grid_points=GRID_3))
+                ours, a, share = _from_offline_acceleration(rt, theta, v, float(off.profile.u_nodes[0]))
+                if ours is None:
+                    continue
+                row = dict(theta=theta, theta_dot=v, ours=ours.duration, offline=off.duration, acceleration_share=share)
+            else:
+                ours = rt.remaining(theta, v, a)
+                off = plan(tail, robot, replace(res.settings, start=v, grid_points=GRID_2))
+                row = dict(theta=theta, theta_dot=v, ours=ours.duration, offline=off.duration,
+                           toppra=toppra_duration(robot, wp, ours.grid, v))
+            row["ratio"] = rt.certify(ours).max_ratio
+            if v > 0 and jerk:  # no independent jerk-limited reference: the second-order stop bounds it below
+                s = rt.stop(theta, v, a)
+                row.update(stop=float(s.grid[-1] - theta), stop_ratio=rt.certify(s).max_ratio,
+                           second_order_stop=float(rt._stop2(theta, v * v)[0][-1] - theta))
+            elif v > 0:
+                s = rt.stop(theta, v, a)
+                row.update(stop=float(s.grid[-1] - theta),
+                           shortest=shortest_stop(path, robot, theta, v, s.grid[-1] - theta),
+                           stop_ratio=rt.certify(s).max_ratio)
+        except StateInfeasibleError:
+            continue
+        rows.append(row)
+    rel = lambda k: [(r["ours"] - r[k]) / r[k] for r in rows if k in r and np.isfinite(r[k])]  # noqa: E731
+    stop = [(r["stop"] - r["shortest"]) / r["shortest"] for r in rows if "shortest" in r]
+    above = [(r["stop"] - r["second_order_stop"]) / r["second_order_stop"] for r in rows if "second_order_stop" in r]
+    summary = dict(vs_offline=_spread(rel("offline")), stop_vs_shortest=_spread(stop),
+                   stop_vs_second_order=_spread(above),
+                   worst_certified_ratio=max((max(r["ratio"], r.get("stop_ratio", 0.0)) for r in rows), default=None),
+                   states=len(sts), saveable=len(rows))
+    if not jerk:
+        summary["vs_toppra"] = _spread(rel("toppra"))
+    return dict(summary=summary, rows=rows)
+
+
+def _spread(v) -> dict:
+    v = np.asarray(v, float)
+    return dict(median=float(np.median(v)), min=float(v.min()), max=float(v.max()), worst_abs=float(np.abs(v).max()),
+                n=int(v.size)) if v.size else {}
+
+
+def run(label: str, jerk: bool, n_time: int, n_opt: int) -> dict:
+    robot, wp, path, res = case(jerk)
+    t = time.perf_counter()
+    rt = Retimer(res)
+    build = time.perf_counter() - t
+    rng = np.random.default_rng(7)
+    sts = states(rt, n_time, STATE_SPAN, rng, jerk)
+    remaining_points = [len(res.profile.grid) - int(np.searchsorted(res.profile.grid, s[0])) + 1 for s in sts]
+    load0 = os.getloadavg()
+    out = dict(label=label, plan_points=len(res.profile.grid), plan_duration=res.duration, build_s=build,
+               remaining_points_min=int(min(remaining_points)), timing=timing(rt, sts), load_before=load0)
+    out["load_after"] = os.getloadavg()
+    out["optimality"] = optimality(robot, wp, path, res, rt, states(rt, n_opt, 0.9, rng, jerk), jerk)
+    return out
+
+
+def report(r: dict) -> None:
+    print(f"\n== {r['label']}: plan {r['plan_points']} points, {r['plan_duration']:.4f} s; Retimer built in "
+          f"{1e3 * r['build_s']:.1f} ms; remaining grids >= {r['remaining_points_min']} points")
+    print(f"   load before {r['load_before'][0]:.2f}, after {r['load_after'][0]:.2f} (1-min average, 2 cores)")
+    print("   call        calls   wall p50 / p99 / worst [ms]     cpu p50 / p99 / worst [ms]")
+    for name, t in r["timing"].items():
+        w, c = t["wall"], t["cpu"]
+        print(f"   {name:10s} {t['calls']:6d}   {w['p50_ms']:7.3f} / {w['p99_ms']:7.3f} / {w['worst_ms']:7.3f}"
+              f"      {c['p50_ms']:7.3f} / {c['p99_ms']:7.3f} / {c['worst_ms']:7.3f}   ({t['unsaveable']} unsaveable)")
+    s = r["optimality"]["summary"]
+    for key, text in (("vs_offline", "remaining vs offline plan"), ("vs_toppra", "remaining vs toppra"),
+                      ("stop_vs_shortest", "stop vs shortest distance"),
+                      ("stop_vs_second_order", "stop vs second-order stop")):
+        if s.get(key):
+            v = s[key]
+            print(f"   {text:28s} median {100 * v['median']:+.3f} %, range [{100 * v['min']:+.3f}, "
+                  f"{100 * v['max']:+.3f}] %, n = {v['n']}")
+    print(f"   worst certified limit ratio of the re-timed profiles: {s['worst_certified_ratio']} "
+          f"({s['saveable']} of {s['states']} states saveable)")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer states")
+    ap.add_argument("--json", type=Path, help="also write the results as JSON to this file")
+    args = ap.parse_args(argv)
+    n2, n3, o2, o3 = (300, 10, 6, 3) if args.quick else (3000, 40, 20, 6)
+    with single_blas_thread():
+        results = [run("second order (velocity, acceleration, torque)", False, n2, o2),
+                   run(f"jerk {JERK_FACTOR:g} x acceleration (plus the second-order limits)", True, n3, o3)]
+    for r in results:
+        report(r)
+    if args.json:
+        write_text(args.json, json.dumps(dict(results=results, argv=sys.argv[1:]), indent=1, default=float))
+        print(f"\nwrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

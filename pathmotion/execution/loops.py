@@ -1,0 +1,180 @@
+"""The two UDP loops: execute's (answer every robot datagram) and the virtual IRC5's (send every 4 ms, or
+wait for each answer in lockstep). Loopback or any address; bounded by timeouts, never by a busy wait."""
+
+from __future__ import annotations
+
+import logging
+import select
+import socket
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import defaults
+from ..errors import ExecutionError
+from .drives import VirtualArm
+from .messages import decode_sensor, encode_robot
+from .streamer import Streamer
+
+log = logging.getLogger(__name__)
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    """'HOST:PORT' -> (host, port) (a clear error otherwise)."""
+    host, sep, port = str(text).rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ExecutionError(f"--egm {text!r}: give HOST:PORT, e.g. 127.0.0.1:6510")
+    return host, int(port)
+
+
+def open_listener(port: int, host: str = "0.0.0.0") -> socket.socket:
+    """A UDP socket bound to (host, port) (port 0: an ephemeral one)."""
+    if not 0 <= port < 65536:
+        raise ExecutionError(f"--egm {port}: a UDP port is 0-65535 (6510 is EGM's usual one)")
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        raise ExecutionError(f"cannot listen on UDP port {port}: {exc.strerror or exc}; choose another --egm port") from None
+    return sock
+
+
+def serve(sock: socket.socket, streamer: Streamer, *, commands=None,
+          first_timeout: float = defaults.EGM_FIRST_MESSAGE_TIMEOUT, silence: float = defaults.EGM_SILENCE) -> str:
+    """Answer robot datagrams on ``sock`` until the motion is over; returns how it ended: "done", "silent"
+    (the controller stopped sending mid-motion), or the stop's reason. ``commands()``: pending stdin lines.
+    A KeyboardInterrupt leaves it; the caller stops the streamer and serves on."""
+    clock = time.perf_counter
+    last = clock()
+    log.info("execute: listening on UDP port %d (%s correction)", sock.getsockname()[1], streamer.mode)
+    while True:
+        for line in (commands() if commands else ()):
+            apply_command(streamer, line)
+        wait = first_timeout if not streamer.started else silence
+        ready, _, _ = select.select([sock], [], [], min(wait, 0.05))
+        now = clock()
+        if not ready:
+            if now - last < wait:
+                continue
+            if not streamer.started:
+                raise ExecutionError(f"no robot message within {first_timeout:g} s on UDP port "
+                                     f"{sock.getsockname()[1]}; is EGM running on the controller?")
+            streamer.stop("the controller went silent")
+            return "silent"
+        data, addr = sock.recvfrom(defaults.EGM_MAX_DATAGRAM)
+        last = now
+        reply = streamer.handle(data, now, clock)
+        if reply is not None:
+            sock.sendto(reply, addr)
+        if streamer.finished:
+            return streamer.stop_reason or "done"
+
+
+def apply_command(streamer: Streamer, line: str) -> None:
+    """One stdin line: 'override F', 'stop' or 'resume' (others are logged and ignored)."""
+    words = line.split()
+    try:
+        if words[:1] == ["override"] and len(words) == 2:
+            streamer.override(float(words[1]))
+        elif words == ["stop"]:
+            streamer.stop("stop requested")
+        elif words == ["resume"]:
+            streamer.resume()
+        elif words:
+            log.warning("ignored the command %r; give 'override F', 'stop' or 'resume'", line.strip())
+    except (ValueError, ExecutionError) as exc:
+        log.warning("ignored the command %r: %s", line.strip(), exc)
+
+
+@dataclass
+class RobotRun:
+    """What the virtual arm did at each EGM cycle: t (K,) [s]; q link side, qm motor side, reference (K, n)
+    [rad]; answered (K,) bool; tau (K, n) [N m]; resent: robot messages sent again for want of an answer."""
+
+    t: list = field(default_factory=list)
+    q: list = field(default_factory=list)
+    qm: list = field(default_factory=list)
+    reference: list = field(default_factory=list)
+    tau: list = field(default_factory=list)
+    answered: list = field(default_factory=list)
+    resent: int = 0
+    ended: str = ""
+
+    def arrays(self) -> dict:
+        return {k: np.asarray(getattr(self, k)) for k in ("t", "q", "qm", "reference", "tau", "answered")}
+
+
+def _receive(sock: socket.socket, n: int, timeout: float):
+    """The newest valid sensor message within ``timeout`` (None if none)."""
+    got = None
+    end = time.perf_counter() + timeout
+    while True:
+        left = end - time.perf_counter()
+        ready, _, _ = select.select([sock], [], [], max(left, 0.0) if got is None else 0.0)
+        if not ready:
+            return got
+        try:
+            data = sock.recv(defaults.EGM_MAX_DATAGRAM)
+        except OSError:  # nobody listening yet (ICMP port unreachable on a connected socket)
+            if got is None and time.perf_counter() < end:
+                time.sleep(min(0.005, max(end - time.perf_counter(), 0.0)))
+                continue
+            return got
+        try:
+            got = decode_sensor(data, n)
+        except ExecutionError as exc:
+            log.warning("virtual robot: ignored a datagram: %s", exc)
+
+
+def run_virtual_robot(arm: VirtualArm, address: tuple[str, int], *, lockstep: bool, max_time: float,
+                      resend: float = defaults.EGM_RESEND, resend_limit: int = defaults.EGM_RESEND_LIMIT) -> RobotRun:
+    """Stream EgmRobot to ``address`` and move ``arm`` by the answers until the sensor says done, ``max_time``
+    [s] of arm time passes, or (lockstep) ``resend_limit`` repeats go unanswered."""
+    dt = arm.params.cycle
+    run = RobotRun()
+    ref = arm.feedback
+    speed = np.zeros(arm.n)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.connect(address)
+    try:
+        k, next_send = 0, time.perf_counter()
+        while k * dt <= max_time:
+            packet = encode_robot(k + 1, int(round(k * dt * 1000)), arm.feedback, ref)
+            answer, tries = None, 0
+            while answer is None:
+                try:
+                    sock.send(packet)
+                except OSError:
+                    pass  # nobody listening yet (ICMP refused): the controller keeps sending
+                if lockstep:
+                    answer = _receive(sock, arm.n, resend)
+                    tries += answer is None
+                    run.resent += answer is None
+                    if tries > resend_limit:
+                        run.ended = "the sensor stopped answering"
+                        return run
+                else:
+                    next_send += dt
+                    answer = _receive(sock, arm.n, max(0.0, next_send - time.perf_counter()))
+                    break
+            if answer is not None:
+                ref, speed = answer.joints, answer.speed if answer.speed is not None else np.zeros(arm.n)
+            else:
+                speed = np.zeros(arm.n)  # no new reference: hold the last position
+            arm.cycle(ref, speed)
+            run.t.append(k * dt)
+            run.q.append(arm.state.q.copy())
+            run.qm.append(arm.state.qm.copy())
+            run.reference.append(np.asarray(ref, float).copy())
+            run.tau.append(arm.tau.copy())
+            run.answered.append(answer is not None)
+            k += 1
+            if answer is not None and answer.done:
+                run.ended = "done"
+                return run
+        run.ended = "time limit"
+        return run
+    finally:
+        sock.close()

@@ -1,0 +1,172 @@
+"""The joint references execute streams: the plan tabulated in time, shaped for the drives, time-scaled.
+
+``none`` streams q(t), qd(t) of the plan. ``shaping`` pre-compensates the known drive and EGM dynamics
+(from the drive file), so that the arm's link side, not the reference, follows the plan:
+
+    m(t) = q(t) + K^-1 tau_g(t)             the motor position that bends each elastic gear by its load
+                                            (tau_g: the link-side torque of the plan, rotors excluded)
+    m(t + L)                                lead by the transport delay L (whole EGM cycles)
+    p_k = (m_k - (1 - a) m_(k-1)) / a       the exact inverse of EGM's first-order low-pass (a per cycle)
+
+and the same for the speed reference. Every reference is clipped into the joint limits (position and speed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .. import defaults
+from ..robot import Robot, rnea
+from .drive_file import DriveParameters
+
+MODES = ("none", "shaping", "orbital")
+
+
+@dataclass(frozen=True, eq=False)
+class ReferenceTable:
+    """References at times t (K,) [s] of plan time: q (K, n) [rad], qd (K, n) [rad/s] (what is sent), theta (K,)
+    and plan (K, n) (the plan's own joints, for the record); deflection (K, n) [rad]: the gear deflection
+    the shaping planned at each time (0 without shaping); duration [s]; path: the motion's JointPath; raw:
+    the :class:`RawMotion` the references follow (time 0 = its profile's first point); motion (K, 3): theta,
+    theta_dot, theta_ddot of the references (the raw motion's, averaged when shaped)."""
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    theta: np.ndarray
+    plan: np.ndarray
+    duration: float
+    deflection: np.ndarray
+    path: object = None
+    raw: object = None
+    motion: np.ndarray | None = None
+
+    @property
+    def end(self) -> float:
+        """Plan time of the last reference [s] (the duration plus the shaping's lead)."""
+        return float(self.t[-1])
+
+    def state(self, tau: float) -> tuple[float, float, float]:
+        """(theta, theta_dot, theta_ddot) of the raw motion at plan time tau [s]: a re-timing starts there."""
+        th, thd, thdd = self.raw.state(np.array([max(tau, 0.0)]))
+        return float(th[0]), max(float(thd[0]), 0.0), float(thdd[0])
+
+    def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
+        """(q, qd, plan q, theta, deflection) at plan time tau (clipped to [0, end]), linearly interpolated."""
+        if len(self.t) == 1:
+            return self.q[0], self.qd[0], self.plan[0], float(self.theta[0]), self.deflection[0]
+        tau = min(max(tau, 0.0), self.end)
+        k = min(int(tau / self.t[1]), len(self.t) - 2)
+        w = (tau - self.t[k]) / (self.t[k + 1] - self.t[k])
+        lerp = lambda a: a[k] + w * (a[k + 1] - a[k])  # noqa: E731
+        return lerp(self.q), lerp(self.qd), lerp(self.plan), float(lerp(self.theta)), lerp(self.deflection)
+
+
+def gear_deflection(robot: Robot, drives: DriveParameters, q, qd, qdd) -> np.ndarray:
+    """K^-1 tau_g (N, n) [rad]: each elastic gear's deflection under the plan's link-side torque (rotor inertia
+    excluded: it is on the motor side of the gear); 0 on rigid axes."""
+    elastic = drives.elastic
+    if not elastic.any():
+        return np.zeros_like(q)
+    tau = rnea(robot, q, qd, qdd)
+    if robot.limits.armature is not None:
+        tau = tau - qdd * np.asarray(robot.limits.armature, float)  # the link side only
+    return np.where(elastic, tau / np.where(elastic, drives.stiffness, 1.0), 0.0)
+
+
+def _invert_lowpass(x: np.ndarray, alpha: float, per: int) -> np.ndarray:
+    """y with the low-pass y -> x undone at the EGM cycle (``per`` table steps per cycle)."""
+    prev = np.concatenate([np.repeat(x[:1], per, axis=0), x[:-per]]) if len(x) > per else np.repeat(x[:1], len(x), 0)
+    return (x - (1.0 - alpha) * prev) / alpha
+
+
+def shaping_window(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> float:
+    """The period [s] of the lowest locked-motor gear mode at q0, sqrt(K / J_link) (0 without elastic axes)."""
+    elastic = drives.elastic
+    if not elastic.any():
+        return 0.0
+    model = robot.model
+    inertia = np.diag(pin.crba(model, model.createData(), np.asarray(q0, float))) - np.asarray(model.armature, float)
+    omega = np.sqrt(drives.stiffness[elastic] / np.maximum(inertia[elastic], 1e-9))
+    return float(2.0 * np.pi / omega.min())
+
+
+@dataclass(frozen=True, eq=False)
+class RawMotion:
+    """A motion along the path in time: ``profile`` from time 0 on (at rest at its end), and before 0 the
+    ``previous`` raw motion at time t + ``offset`` (the segment this one was re-timed from), or the profile's
+    start at rest."""
+
+    profile: object
+    previous: "RawMotion | None" = None
+    offset: float = 0.0
+
+    @property
+    def duration(self) -> float:
+        return float(self.profile.duration)
+
+    def state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s]."""
+        t = np.asarray(t, float)
+        out = [np.asarray(v, float) for v in self.profile.state_at_time(np.maximum(t, 0.0))]
+        before = t < 0.0
+        if self.previous is not None and before.any():
+            for arr, v in zip(out, self.previous.state(t[before] + self.offset)):
+                arr[before] = v
+        elif before.any():
+            out[1][before], out[2][before] = 0.0, 0.0
+        return out[0], out[1], out[2]
+
+
+def path_motion(raw: RawMotion, t: np.ndarray, window: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s, evenly spaced] of the raw motion averaged over
+    the last ``window`` seconds (a moving average in the path coordinate: the motion stays on the path, its
+    acceleration becomes continuous and the frequencies k / window vanish from it); window 0: the raw motion
+    itself. The averaged motion lasts the raw one plus the window."""
+    if window <= 0.0:
+        return raw.state(t)
+    step = t[1] - t[0] if len(t) > 1 else window
+    m = max(1, int(round(window / step)))
+    window = m * step
+    fine = np.concatenate([t[0] - step * np.arange(m, 0, -1), t])
+    theta, theta_dot, _ = raw.state(fine)
+    mid = 0.5 * (theta[1:] + theta[:-1]) * step
+    area = np.concatenate([[0.0], np.cumsum(mid)])
+    averaged = (area[m:] - area[:-m]) / window
+    now_dot, before_dot = theta_dot[m:], theta_dot[:-m]
+    return averaged, (theta[m:] - theta[:-m]) / window, (now_dot - before_dot) / window
+
+
+def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: DriveParameters | None,
+                    step: float = defaults.EGM_TABLE_STEP, window: float = 0.0) -> ReferenceTable:
+    """The table of references for the raw motion ``raw`` along ``path`` in ``mode`` (one of MODES); with
+    shaping, the motion averaged in the path coordinate over ``window`` [s] (see :func:`path_motion`). The
+    table starts one EGM cycle early (the raw motion before 0 is what ran before), so that the low-pass
+    inverse at its first row continues the references already sent."""
+    window = window if mode != "none" else 0.0
+    duration = raw.duration + window
+    lead = 0.0 if mode == "none" else drives.transport_delay
+    per = 0 if mode == "none" else max(1, int(round(drives.cycle / step)))
+    t = np.arange(-per, int(np.ceil((duration + lead) / step)) + 1) * step
+    theta, theta_dot, theta_ddot = path_motion(raw, t, window)
+    q, dq, ddq = path.evaluate(theta)
+    qd = dq * theta_dot[:, None]
+    deflection = np.zeros_like(q)
+    sent_q, sent_qd = q, qd
+    if mode != "none":
+        qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
+        deflection = gear_deflection(robot, drives, q, qd, qdd)
+        ahead = min(int(round(lead / step)), len(t) - 1)
+        m = np.concatenate([(q + deflection)[ahead:], np.repeat((q + deflection)[-1:], ahead, axis=0)])
+        md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
+        alpha = 1.0 - np.exp(-2.0 * np.pi * drives.lowpass_bandwidth * drives.cycle)
+        sent_q, sent_qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)
+    lim = robot.limits
+    sent_q = np.clip(sent_q, lim.lower, lim.upper)[per:]
+    sent_qd = np.clip(sent_qd, -lim.velocity, lim.velocity)[per:]
+    cut = slice(per, None)
+    return ReferenceTable(t[cut] - t[per], sent_q, sent_qd, theta[cut], q[cut], duration, deflection[cut], path, raw,
+                          np.stack([theta, theta_dot, theta_ddot], axis=1)[cut])

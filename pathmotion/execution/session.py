@@ -1,0 +1,147 @@
+"""Whole EGM runs: execute's (listen, stream, write execution.csv and summary.json), the virtual IRC5's (send,
+move, write robot.csv and summary.json), and both in one process through the same messages (lockstep, no
+socket) for studies and tests."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import defaults
+from ..errors import ExecutionError, PathmotionError, StateInfeasibleError
+from ..planning.profile import Profile
+from ..planning.retime import Retimer
+from ..io import exports
+from ..io.atomic import write_json
+from ..robot import Robot
+from .drive_file import DriveParameters
+from .drives import VirtualArm
+from .figures import execution_figures
+from .messages import decode_sensor, encode_robot
+from .orbital import TransverseLoop
+from .reference import MODES, RawMotion, build_reference, shaping_window
+from .streamer import Streamer
+
+log = logging.getLogger(__name__)
+
+
+def _stop(retimer: Retimer, state: tuple) -> Profile:
+    """The Retimer's shortest stop along the path; when its jerk-limited stop finds none, its stop within the
+    second-order limits (acceleration, torque: the arm still stops on the path, with steps in acceleration)."""
+    try:
+        return retimer.stop(*state)
+    except StateInfeasibleError as exc:
+        if not retimer.third_order:
+            raise
+        log.warning("no jerk-limited stop from theta = %.6g (%s); stopping within the second-order limits", state[0], exc)
+        return retimer.stop(*state, second_order=True)
+
+
+def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
+                  tolerance: float = defaults.EGM_START_TOLERANCE) -> Streamer:
+    """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; stops, overrides and
+    resumes re-timed by the plan's Retimer."""
+    if mode not in MODES:
+        raise ExecutionError(f"--correction {mode!r}: choose one of {', '.join(MODES)}")
+    try:
+        retimer = Retimer(plan_result)
+    except PathmotionError as exc:
+        raise ExecutionError(f"execute needs a plan it can stop along the path: {exc}") from None
+    path = plan_result.trajectory.path
+    start = plan_result.trajectory.at_time([0.0]).q[0]
+    # the average makes a second-order plan's acceleration continuous (a jerk-limited plan's already is); one
+    # window for every segment of the run, so that a re-timed segment continues the references sent
+    window = 0.0 if plan_result.profile.smooth else shaping_window(robot, drives, start)
+
+    def retime(kind: str, state: tuple, override: float, previous: RawMotion, offset: float):
+        if kind == "stop":
+            profile = _stop(retimer, state)
+        elif kind == "resume":
+            profile = retimer.remaining(state[0], 0.0, 0.0, override)
+        else:
+            profile = retimer.remaining(*state, override=override)
+        return build_reference(robot, path, RawMotion(profile, previous, offset), mode, drives, window=window)
+
+    table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, window=window)
+    lim = robot.limits
+    loop = TransverseLoop(path) if mode == "orbital" else None
+    return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
+                    plan=plan_result.trajectory)
+
+
+def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
+    """summary.json of execute: ISO 9283 figures of the reported (motor-side) joints, packets, timing."""
+    recs = streamer.records
+    c = streamer.counts
+    summary = {"ended": ended, "correction": streamer.mode, "messages_answered": c.answered,
+               "packets_received": c.received, "packets_lost": c.lost, "packets_late": c.late,
+               "packets_duplicated": c.duplicated, "packets_out_of_order": c.out_of_order,
+               "packets_rejected": c.rejected, "references_clipped": c.clipped}
+    if recs:
+        t = np.array([r.tm for r in recs]) / 1000.0
+        t -= t[0]
+        q = np.array([r.reported for r in recs])
+        compute = np.array([r.t_send - r.t_recv for r in recs])
+        summary.update(execution_figures(robot, streamer.plan, t, q, np.array([r.theta for r in recs]),
+                                         streamer.rest_time))
+        summary["cycle_compute_p99_s"] = float(np.percentile(compute, 99))
+        summary["cycle_compute_max_s"] = float(np.max(compute))
+    return summary
+
+
+def write_execution(out: Path, robot: Robot, streamer: Streamer, ended: str) -> dict:
+    """execution.csv (per answered message: receive/send times, seqno, plan time, reported, sent and planned
+    joints) and summary.json into ``out``; returns the summary."""
+    recs = streamer.records
+    cols = {"t_recv": np.array([r.t_recv for r in recs]), "t_send": np.array([r.t_send for r in recs]),
+            "seqno": np.array([r.seqno for r in recs], float), "robot_tm_s": np.array([r.tm for r in recs]) / 1e3,
+            "segment_time": np.array([r.tau for r in recs]), "theta": np.array([r.theta for r in recs])}
+    for name, attr in (("reported", "reported"), ("sent", "sent"), ("planned", "plan")):
+        arr = np.array([getattr(r, attr) for r in recs]).reshape(len(recs), -1)
+        cols.update({f"{name}{j + 1}": arr[:, j] for j in range(arr.shape[1])})
+    exports.write_table_csv(out / "execution.csv", cols)
+    summary = execution_summary(robot, streamer, ended)
+    write_json(out / "summary.json", summary)
+    return summary
+
+
+@dataclass
+class InProcess:
+    """A lockstep run without a socket: the streamer's messages carried to the arm and back."""
+
+    streamer: Streamer
+    arm: VirtualArm
+    t: np.ndarray
+    q: np.ndarray
+    theta: np.ndarray
+
+
+def run_inprocess(streamer: Streamer, arm: VirtualArm, max_time: float, stop_at: float | None = None) -> InProcess:
+    """Lockstep EGM between ``streamer`` and ``arm`` through encoded messages, for at most ``max_time`` [s] of
+    arm time; ``stop_at`` [s]: request a stop along the path then."""
+    dt = arm.params.cycle
+    ref, t, q, theta = arm.feedback, [], [], []
+    k = 0
+    while k * dt <= max_time:
+        if stop_at is not None and k * dt >= stop_at:
+            streamer.stop("stop requested")
+        reply = streamer.handle(encode_robot(k + 1, int(round(k * dt * 1000)), arm.feedback, ref), 0.0,
+                                lambda: 0.0)
+        answer = decode_sensor(reply, arm.n)
+        ref = answer.joints
+        arm.cycle(answer.joints, answer.speed if answer.speed is not None else np.zeros(arm.n))
+        t.append(k * dt)
+        q.append(arm.state.q.copy())
+        theta.append(streamer.records[-1].theta)
+        k += 1
+        if answer.done:
+            break
+    return InProcess(streamer, arm, np.array(t), np.array(q), np.array(theta))
+
+
+def arm_figures(robot: Robot, run: InProcess) -> dict:
+    """ISO figures of the arm's link side (the TCP that really moves) in an in-process run."""
+    return execution_figures(robot, run.streamer.plan, run.t, run.q, run.theta, run.streamer.rest_time)

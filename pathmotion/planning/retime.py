@@ -1,0 +1,526 @@
+"""Re-timing on the fly: the time-optimal rest of a plan from a measured state, a stop that keeps the
+path, and a resume from rest, for a controller that changes its mind while the arm moves.
+
+Built once per plan (:class:`Retimer`), everything that does not depend on the state is computed at
+construction, on the plan's own grid: the canonical rows lo <= a u + b x + c <= hi at every grid point
+(both sides of each connection; x = theta_dot^2, u = theta_ddot), the interval rows P x_i + Q x_{i+1} <= R
+of planning/topp.py, and the controllable sets K_i (backward reachability from the plan's end, and to rest
+at the end for the stop). A query then costs one compiled forward pass over the remaining points:
+
+* ``remaining``: one interval from the state's theta to the next grid point (rows interpolated at theta),
+  then the greedy pass through K (time-optimal, Pham & Pham 2018).
+* ``stop``: the lowest profile (the least x_{i+1} the rows allow from x_i: maximum deceleration) until x
+  can reach 0 inside an interval; the stop point in that interval from the rows at both of its ends.
+* override s: every limit scaled as a controller's override does (velocity x s, acceleration and the
+  dynamic part of the torque x s^2, jerk and torque rate x s^3) maps the problem onto itself with
+  x -> x / s^2, u -> u / s^2: the answer is s^2 times the unit-override answer from (x / s^2, u / s^2),
+  with no extra data. A state above the override's envelope (the override was just lowered) brakes with
+  the full limits (the lowest profile) until it enters the envelope s^2 K, and goes on from there.
+* A state above K (no in-limit motion reaches the end as the plan requires) raises
+  :class:`StateInfeasibleError`: the limit factor that would save it (the same scaling: x0 / max K),
+  how fast the in-limit braking still is at the path's end and how far past it it would stop.
+
+Third-order limits (jerk, torque rate): the second-order answer is the first linearization point of the
+project's sequential LP (planning/third_order.py) on the remaining grid, started at the state's x and u;
+the stop searches the shortest stop distance whose smooth profile exists. These are LP solves, not the
+compiled pass, and take tens to hundreds of milliseconds.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import defaults
+from ..errors import InfeasibleError, PathmotionError, StateInfeasibleError
+from ..modes import BoundaryMode, Connections
+from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _with_knots, certified_bounds,
+                      effective_limits)
+from .profile import Profile
+from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
+from .third_order import solve_from_state
+from .limit_rows import limit_rows
+from .topp import _interval_rows, _project, controllable_sets
+from .verify import LimitRatios, limit_ratios, summarize_intervals
+from .trajectory import Trajectory
+
+log = logging.getLogger(__name__)
+
+#: A state closer to the next grid point than this fraction of its interval starts its first interval
+#: at the point after (no sliver interval, whose rows would lose the b x terms to round-off) [-].
+MERGE_FRACTION = 1e-6
+#: Relative slack on a state's membership in a controllable set [-] (round-off of the rows).
+STATE_TOLERANCE = 1e-7
+#: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
+STOP_ITERATIONS = 4
+#: Points of the finer grid the second-order stop is computed on again, and its reach relative to the first
+#: answer's stop distance [-].
+STOP_POINTS = 1200
+STOP_REACH = 1.1
+#: The rows there are interpolated linearly between the plan's points, and every bound is narrowed by this
+#: times the interpolation's error at the middle of its plan interval (as certify.py's REMAINDER_SAFETY) [-].
+INTERPOLATION_SAFETY = 2.0
+#: Third-order stop: grid points of each trial stop, the growth of the trial distance and the relative
+#: accuracy of its bisection [-].
+SMOOTH_STOP_POINTS = 40
+SMOOTH_STOP_GROWTH = 1.25
+SMOOTH_STOP_ACCURACY = 0.01
+#: Third-order: the speed-up cap of the first linearization point is sampled at this many times over this
+#: horizon [s] (cubically graded towards the state) [-], [s].
+JERK_CAP_SAMPLES = 400
+JERK_CAP_HORIZON = 5.0
+#: Third-order: relative lowerings of x at the state tried when the LP from the state itself is infeasible
+#: by round-off, or above a limit by less than the limit tolerance [-].
+START_NUDGES = (1e-6, 1e-5, 1e-4, defaults.LIMIT_TOLERANCE)
+
+
+@dataclass(frozen=True, eq=False)
+class _PointRows:
+    """Canonical rows a, b, c, lo, hi (K, m) on one side of every grid point, and x_max (K,)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    x_max: np.ndarray
+
+    @classmethod
+    def of(cls, rows) -> "_PointRows":
+        arrays = (np.ascontiguousarray(getattr(rows, n), dtype=float) for n in ("a", "b", "c", "lo", "hi", "x_max"))
+        return cls(*arrays)
+
+    def at(self, k: int) -> tuple:
+        return self.a[k], self.b[k], self.c[k], self.lo[k], self.hi[k]
+
+    def between(self, other: "_PointRows", i: int, f: float) -> tuple:
+        """Rows linearly interpolated at the fraction ``f`` from point i (self) to point i + 1 (other)."""
+        return tuple((1.0 - f) * p + f * q for p, q in zip(self.at(i), other.at(i + 1)))
+
+
+class Retimer:
+    """Re-timing of one plan from any state (see the module docstring). ``plan_result``: a PlanResult of
+    an open or closed path planned with "chain" or "zero" connections (a continuous profile). Queries
+    share work buffers: one Retimer per thread."""
+
+    def __init__(self, plan_result: PlanResult):
+        settings = plan_result.settings
+        if settings.connections == Connections.MAX:
+            raise PathmotionError("Retimer: a plan with connections = 'max' jumps in theta_dot at its connections; "
+                                  "re-time a plan with connections 'chain' or 'zero'")
+        traj = plan_result.trajectory
+        self.plan, self.path, self.robot, self.settings = plan_result, traj.path, traj.robot, settings
+        self.limits = limits = effective_limits(self.robot, settings)
+        self.grid = grid = plan_result.profile.grid
+        self.third_order = limits.third_order
+        breaks = _grid_breaks(self.path, grid)
+        samp = _sample(self.path, self.robot, grid, breaks)
+        self._scale = limits.unit_scale(len(grid), self.robot.n)
+        x_ref = plan_result.profile.x if limits.relinearize else None
+        problem, right, left = _build(grid, samp, limits, self._scale, x_ref)
+        stops = np.searchsorted(grid, [k for k in self.path.kinks if grid[0] < k < grid[-1]])
+        if settings.connections == Connections.ZERO:
+            stops = np.union1d(stops, breaks).astype(int)
+        bound = np.full(len(grid), np.inf)
+        bound[stops] = 0.0
+        self._stops = np.append(np.asarray(stops, int), len(grid) - 1)
+        self._problem = problem = problem.capped(bound)
+        self._right, self._left = _PointRows.of(right), _PointRows.of(left)
+        self._P, self._Q, self._R = problem.P, problem.Q, problem.R
+        self._x_max = np.ascontiguousarray(problem.x_max)
+        end = settings.end_condition
+        end_x = float(problem.x_max[-1]) if end == BoundaryMode.MAX else float(plan_result.profile.x[-1])
+        self._sets = controllable_sets(problem, 0.0 if end == BoundaryMode.MAX else end_x, end_x)
+        self._rest_sets = self._sets if end_x == 0.0 else controllable_sets(problem, 0.0, 0.0)
+        if self._sets.failed_at >= 0 or self._rest_sets.failed_at >= 0:
+            raise InfeasibleError("Retimer: the plan's own limits admit no motion to its end on its grid "
+                                  "(the plan was tightened beyond them?); plan again without tightening")
+        self._klo, self._khi = np.ascontiguousarray(self._sets.lo), np.ascontiguousarray(self._sets.hi)
+        self._rlo, self._rhi = np.ascontiguousarray(self._rest_sets.lo), np.ascontiguousarray(self._rest_sets.hi)
+        self._no_target = np.full(len(grid), -1.0)
+        self._buffer = np.empty(len(grid) + 1)
+        self._fine_buffer = np.empty(STOP_POINTS)
+        # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at), and
+        # the bounds of its error on every plan interval
+        self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
+                              for n in ("a", "b", "c", "lo", "hi", "x_max"))
+        self._interpolation_error = self._row_interpolation_error(x_ref)
+        log.debug("retimer: %d grid points, %d rows per interval, %d stops", len(grid), self._P.shape[1],
+                  len(self._stops))
+        self._warm_up()
+
+    def _row_interpolation_error(self, x_ref) -> np.ndarray:
+        """(5, K - 1, m): INTERPOLATION_SAFETY x |exact - linear| of a, b, c, lo, hi at the middle of every plan
+        interval (the largest error of linear interpolation of a smooth function on an interval is about its
+        error at the middle: a parabola's)."""
+        g = self.grid
+        mids = 0.5 * (g[:-1] + g[1:])
+        samp = _sample(self.path, self.robot, mids, ())
+        ref = None if x_ref is None else np.interp(mids, g, x_ref)
+        rows = limit_rows(samp.right, self.limits, self.limits.unit_scale(len(mids), self.robot.n),
+                          defaults.PLANNER_X_CAP, ref)
+        out = np.zeros((5,) + rows.a.shape)
+        for k, n in enumerate(("a", "b", "c", "lo", "hi")):
+            exact, linear = getattr(rows, n), 0.5 * (getattr(self._right, n)[:-1] + getattr(self._left, n)[1:])
+            with np.errstate(invalid="ignore"):
+                diff = np.abs(exact - linear)
+            out[k] = INTERPOLATION_SAFETY * np.where(np.isfinite(diff), diff, 0.0)
+        return np.ascontiguousarray(out)
+
+    def _warm_up(self) -> None:
+        """One query of each kind, so that the first one in a control loop does not load the compiled kernels
+        (second-order limits; the third-order solves are LPs)."""
+        if self.third_order:
+            return
+        k = int(np.argmax(self.plan.profile.x))
+        try:
+            self.remaining(float(self.grid[0]), 0.0)
+            self.stop(float(self.grid[k]), float(np.sqrt(self.plan.profile.x[k])))
+        except PathmotionError:  # a plan that cannot be re-timed says so at the first real query
+            pass
+
+    # ----------------------------------------------------------------------------------------------- queries
+
+    def remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, override: float = 1.0) -> Profile:
+        """The time-optimal profile from the state (theta, theta_dot [unit theta / s], theta_ddot
+        [unit theta / s^2]) to the plan's end under the plan's limits scaled by ``override`` in (0, 1]
+        (velocity x override, acceleration and torque's dynamic part x override^2, jerk and torque rate x
+        override^3). Its first point is the state. StateInfeasibleError when no motion within the limits
+        ends as the plan does."""
+        theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
+        s2 = _override(override) ** 2
+        if self.third_order:
+            return self._smooth_remaining(theta, x0, u0, s2)
+        grid, x = self._remaining2(theta, x0, s2)
+        return Profile(grid, x)
+
+    def stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, *, second_order: bool = False) -> Profile:
+        """The shortest stop along the path within the plan's limits (a category 2 stop: the arm stays on
+        the path and stops with theta_dot = 0 at the profile's last grid point). The state must move
+        (theta_dot > 0). StateInfeasibleError when no in-limit stop ends before the path's end (or the
+        next kink, which the arm cannot pass at speed). ``second_order=True`` leaves out the plan's jerk and
+        torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step): the
+        fallback of a caller that must stop when no jerk-limited stop exists."""
+        theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
+        if x0 <= 0.0:
+            raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
+                                  "there is nothing to stop")
+        grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
+        if self.third_order and not second_order:
+            return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
+        return Profile(grid, x)
+
+    def resume(self, theta: float) -> Profile:
+        """The time-optimal profile from rest at ``theta`` to the plan's end."""
+        return self.remaining(theta, 0.0, 0.0)
+
+    def max_speed(self, theta: float, override: float = 1.0) -> float:
+        """The largest theta_dot at ``theta`` from which the plan's end is reachable within the limits (at
+        ``override``; the controllable set's bound, second-order limits) [unit theta / s]."""
+        theta = self._state(theta, 0.0, 0.0)[0]
+        i, j, f, _, P0, Q0, R0 = self._first(theta)
+        hi = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, self._x_max_at(i, f), 0.0)[1]
+        return float(_override(override) * np.sqrt(max(hi, 0.0)))
+
+    def certify(self, profile: Profile) -> LimitRatios:
+        """Certified bound of every active limit's ratio over ``profile`` (planning/certify.py, as ``plan``'s
+        default verification); within the limits when ``.within(settings.limit_tolerance)``."""
+        bounds = certified_bounds(self.path, self.robot, profile, self.settings)
+        return summarize_intervals(profile, bounds, self.limits, (), self.robot.joint_names)
+
+    def dense_ratios(self, profile: Profile, dt: float | None = None) -> LimitRatios:
+        """Every active limit's ratio on the dense time resample of ``profile`` (every ``dt`` [s], the plan's
+        verification sample time by default): the independent check of :meth:`certify`."""
+        dt = self.settings.verify_sample_time if dt is None else dt
+        return limit_ratios(Trajectory(self.path, profile, self.robot), self.limits, dt,
+                            joint_names=self.robot.joint_names)
+
+    # --------------------------------------------------------------------------------------- second order
+
+    def _state(self, theta, theta_dot, theta_ddot) -> tuple[float, float, float]:
+        lo, hi = float(self.grid[0]), float(self.grid[-1])
+        values = (theta, theta_dot, theta_ddot)
+        if not all(isinstance(v, (int, float, np.floating, np.integer)) and np.isfinite(v) for v in values):
+            raise PathmotionError(f"Retimer: theta, theta_dot and theta_ddot must be finite numbers, got {values}")
+        if not lo <= theta < hi:
+            raise PathmotionError(f"Retimer: theta = {theta:.6g} lies outside the plan's path [{lo:.6g}, {hi:.6g}) "
+                                  "(at its end nothing remains)")
+        if theta_dot < 0:
+            raise PathmotionError(f"Retimer: theta_dot = {theta_dot:.6g} < 0; the re-timer moves forward along the "
+                                  "path (plan the reversed path to move back)")
+        return float(theta), float(theta_dot) ** 2, float(theta_ddot)
+
+    def _first(self, theta: float) -> tuple[int, int, float, tuple, np.ndarray, np.ndarray, np.ndarray]:
+        """(i, j, f, start rows, P0, Q0, R0): theta lies in grid interval i at the fraction f; the first
+        interval runs from theta to grid point j (i + 1, or i + 2 when theta is within MERGE_FRACTION of
+        i + 1); its rows (1, M) in planning/topp.py's interval form."""
+        g = self.grid
+        i = int(min(max(np.searchsorted(g, theta, side="right") - 1, 0), len(g) - 2))
+        f = (theta - g[i]) / (g[i + 1] - g[i])
+        j = i + 2 if (i + 2 < len(g) and f > 1.0 - MERGE_FRACTION and not np.isin(i + 1, self._stops)) else i + 1
+        start = self._right.between(self._left, i, f)
+        end = self._left.at(j)
+        P0, Q0, R0 = _interval_rows(np.array([theta, g[j]]), *(v[None, :] for v in start), *(v[None, :] for v in end))
+        return i, j, f, start, P0, Q0, R0
+
+    def _x_max_at(self, i: int, f: float) -> float:
+        return float(min((1.0 - f) * self._right.x_max[i] + f * self._left.x_max[i + 1],
+                         max(self._right.x_max[i], self._left.x_max[i + 1])))
+
+    def _remaining2(self, theta: float, x0: float, s2: float) -> tuple[np.ndarray, np.ndarray]:
+        """Second-order remaining profile (grid, x) from (theta, x0) at the override s^2 = ``s2``."""
+        g, P, Q, R = self.grid, self._P, self._Q, self._R
+        i, j, f, _, P0, Q0, R0 = self._first(theta)
+        y0 = x0 / s2
+        lo, hi = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, self._x_max_at(i, f), 0.0)
+        out = self._buffer
+        if lo * (1 - STATE_TOLERANCE) - STATE_TOLERANCE <= y0 <= hi * (1 + STATE_TOLERANCE):
+            xj = max(step_up(P0, Q0, R0, 0, y0, self._khi[j]), self._klo[j])
+            greedy_from(P, Q, R, self._klo, self._khi, j, xj, out)
+            return np.concatenate([[theta], g[j:]]), s2 * np.concatenate([[y0], out[:len(g) - j]])
+        lo1, hi1 = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, np.inf, 0.0)
+        if not (s2 < 1.0 and x0 <= hi1 * (1 + STATE_TOLERANCE)) or y0 < lo:
+            raise self._unsaveable(theta, x0, hi1, "the plan's end")
+        # the override was lowered under the state: brake with the full limits into the envelope s^2 K
+        target = s2 * self._khi
+        lo_j, hi_j = step_down(P0, Q0, R0, 0, x0)
+        hi_j = min(hi_j, self._x_max[j])
+        if lo_j > hi_j:
+            raise self._unsaveable(theta, x0, hi1, "the plan's end")
+        if lo_j <= target[j]:
+            k, first = j, min(target[j], hi_j)
+        else:
+            k = brake(P, Q, R, j, lo_j, target, self._x_max, out)
+            if k < 0:
+                raise self._unsaveable(theta, x0, hi1, "the plan's end")
+            first = out[k - j]
+        braked = out[:k - j].copy() if k > j else np.empty(0)
+        greedy_from(P, Q, R, self._klo, self._khi, k, first / s2, out)
+        tail = s2 * out[:len(g) - k]
+        tail[0] = first
+        return np.concatenate([[theta], g[j:]]), np.concatenate([[x0], braked, tail])
+
+    def _stop2(self, theta: float, x0: float) -> tuple[np.ndarray, np.ndarray]:
+        """Second-order shortest stop (grid, x) from (theta, x0): maximum deceleration, stop point inside
+        the interval where x can reach 0."""
+        g = self.grid
+        i, j, f, start, P0, Q0, R0 = self._first(theta)
+        lo, hi = step_down(P0, Q0, R0, 0, x0)
+        hi = min(hi, self._x_max[j])
+        out = self._buffer
+        if lo <= 0.0 <= hi:
+            d = stop_inside(*start, *self._left.at(j), x0, g[j] - theta, STOP_ITERATIONS)
+            return self._stop_grid(theta, x0, np.empty(0), np.empty(0), d, g[j] - theta)
+        k = -1 if lo > hi else brake(self._P, self._Q, self._R, j, lo, self._no_target, self._x_max, out)
+        if k >= -1:
+            hi1 = _project(P0, Q0, R0, 0, self._rlo[j], self._rhi[j], 0.0, np.inf, 0.0)[1]
+            raise self._unsaveable(theta, x0, hi1, "the path's end" if self._next_stop(j) == len(g) - 1
+                                   else "the next kink")
+        last = -k - 2  # the interval where x reaches 0
+        xs = out[:last - j + 1].copy()
+        d = stop_inside(*self._right.at(last), *self._left.at(last + 1), xs[-1], g[last + 1] - g[last],
+                        STOP_ITERATIONS)
+        return self._stop_grid(theta, x0, g[j:last + 1], xs, d, g[last + 1] - g[last])
+
+    def _fine_stop(self, theta: float, x0: float, grid: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The stop again on STOP_POINTS uniform points from theta to the plan-grid stop's end, the rows
+        interpolated linearly inside each plan interval: a stop spans few plan intervals, and the constant-u
+        intervals' first-order error would lengthen it by percents. Returns the finer stop, or the plan-grid
+        stop (grid, x) when the finer one does not end sooner."""
+        xs = self._fine_buffer
+        # a little past the first answer's end: the narrowed rows may need it; never past the next stop point
+        end = min(theta + STOP_REACH * (grid[-1] - theta), self.grid[self._next_stop(int(np.searchsorted(self.grid,
+                                                                                                          theta)))])
+        k, d = fine_brake(self.grid, *self._stacked, self._interpolation_error, theta, x0, end, STOP_POINTS, xs,
+                          STOP_ITERATIONS)
+        if k < 0 or not np.isfinite(d):
+            return grid, x
+        h = (end - theta) / (STOP_POINTS - 1)
+        fine = theta + h * np.arange(1, k + 1)
+        return self._stop_grid(theta, x0, fine, xs[1:k + 1].copy(), d, h)
+
+    @staticmethod
+    def _stop_grid(theta, x0, inner_grid, inner_x, d, width) -> tuple[np.ndarray, np.ndarray]:
+        """The stop's (grid, x): the state, the inner points, and the stop point ``d`` after the last of them
+        (the interval's end ``width`` when the rows gave no shorter distance)."""
+        d = width if not np.isfinite(d) else min(max(d, 1e-9 * width), width)
+        last = inner_grid[-1] if inner_grid.size else theta
+        return np.concatenate([[theta], inner_grid, [last + d]]), np.concatenate([[x0], inner_x, [0.0]])
+
+    def _next_stop(self, j: int) -> int:
+        return int(self._stops[np.searchsorted(self._stops, j)])
+
+    def _unsaveable(self, theta: float, x0: float, x_top: float, where: str) -> StateInfeasibleError:
+        """The error for a state above what the limits can save (x_top: the largest savable x there)."""
+        g = self.grid
+        factor = x0 / max(x_top, 1e-300)
+        _, j, _, _, P0, Q0, R0 = self._first(theta)
+        ks = self._next_stop(j)
+        lo, hi = step_down(P0, Q0, R0, 0, x0)
+        x_end = max(lo, 0.0) if lo <= hi else np.nan
+        if ks > j and np.isfinite(x_end):
+            out = np.full(ks - j + 2, np.nan)
+            k = brake(self._P[:ks], self._Q[:ks], self._R[:ks], j, x_end, self._no_target[:ks + 1],
+                      np.full(ks + 1, np.inf), out)
+            x_end = 0.0 if k <= -2 else out[ks - j]
+        past = np.nan
+        if np.isfinite(x_end):
+            u_least = least_u(*self._left.at(ks), x_end)[0]
+            past = x_end / (-2.0 * u_least) if u_least < 0 else np.inf
+        stop = None
+        if np.isfinite(factor) and factor > 1.0:
+            try:
+                lam = factor * (1.0 + 10 * STATE_TOLERANCE)
+                grid, x = self._stop2(theta, x0 / lam)
+                stop = Profile(grid, x * lam)
+            except PathmotionError:
+                stop = None
+        speed = np.sqrt(x_end) if np.isfinite(x_end) else np.nan
+        braking = (f"Braking within the limits it still moves at theta_dot = {speed:.4g} at theta = {g[ks]:.6g} and "
+                   f"would stop about {past:.4g} past it" if np.isfinite(speed) else
+                   f"Braking within the limits it cannot stop before theta = {g[ks]:.6g}")
+        return StateInfeasibleError(
+            f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g} cannot be saved: no motion within the "
+            f"limits reaches {where} as the plan requires (theta_dot <= {np.sqrt(max(x_top, 0.0)):.6g} there). "
+            f"{braking}; a stop before it needs the acceleration and torque limits x {factor:.4g} (velocity x "
+            f"{np.sqrt(factor):.4g}); lower the speed earlier or raise the limits",
+            limit_factor=float(factor), end_speed=float(speed), overshoot=float(past), stop=stop)
+
+    # --------------------------------------------------------------------------------------- third order
+
+    def _smooth_solve(self, grid: np.ndarray, x_start: np.ndarray, x0: float, u0: float, rest_end: bool,
+                      end_x: float | None) -> Profile:
+        """The third-order profile on ``grid`` from (x0, u0) (rest when x0 = 0) by the sequential LP,
+        linearized first around ``x_start``; at rest at its end (``rest_end``) or with x = ``end_x``."""
+        breaks = _grid_breaks(self.path, grid)
+        samp = _sample(self.path, self.robot, grid, _with_knots(self.path, grid, breaks), third=True)
+        k = len(grid)
+        rest = np.zeros(k, bool)
+        rest[np.searchsorted(grid, [p for p in self.path.kinks if grid[0] < p < grid[-1]])] = True
+        rest[-1] = rest_end
+        fixed, fixed_u = {}, {}
+        if x0 <= 0.0:
+            rest[0] = True
+        else:
+            fixed[0], fixed_u[0] = x0, u0
+        if not rest_end and end_x is not None:
+            fixed[k - 1] = end_x
+        scale, tol = self.limits.unit_scale(k, self.robot.n), self.settings.limit_tolerance
+        for tighten in range(self.settings.max_tighten_iterations + 1):
+            profile = self._smooth_lp(grid, samp, scale, np.where(rest, 0.0, x_start), rest, fixed, fixed_u)
+            bounds = certified_bounds(self.path, self.robot, profile, self.settings)
+            worst = max((float(b.max()) for b in bounds.values() if b.size), default=0.0)
+            log.debug("retimer: third-order profile on %d points, worst certified ratio %.5f", k, worst)
+            if worst <= 1.0 + tol:
+                return profile
+            scale, x_start = _tightened(scale, bounds, tol), profile.x
+        raise InfeasibleError(f"third-order re-timing: the profile still exceeds a limit by {100 * (worst - 1):.3g} % "
+                              f"between grid points after {tighten} tightening iterations; raise limit_tolerance")
+
+    def _smooth_lp(self, grid, samp, scale, x_start, rest, fixed, fixed_u) -> Profile:
+        """One sequential-LP solve. Its first tangents, taken at the second-order answer, can leave no
+        feasible x next to a state with a given acceleration: then the profile with the acceleration free
+        (as the planner starts) is the linearization point of the solve with it fixed. A start on the edge of
+        the feasible set (the plan's own state, say) can be infeasible by round-off or by the plans' limit
+        tolerance: it is retried with x_0 and u_0 moved towards 0 by START_NUDGES (relative)."""
+        for nudge in (0.0, *START_NUDGES):
+            moved = {i: v * (1.0 - nudge) if i == 0 else v for i, v in fixed.items()}
+            moved_u = {i: v * (1.0 - nudge) for i, v in fixed_u.items()}
+            try:
+                return solve_from_state(grid, samp, self.limits, scale, x_start, rest, moved, moved_u)[0]
+            except InfeasibleError:
+                if not fixed_u:
+                    raise
+            if nudge == 0.0:
+                try:
+                    free = solve_from_state(grid, samp, self.limits, scale, x_start, rest, fixed, {})[0]
+                    x_start = free.x
+                    return solve_from_state(grid, samp, self.limits, scale, x_start, rest, moved, moved_u)[0]
+                except InfeasibleError:
+                    pass
+        raise InfeasibleError(f"third-order limits: no smooth profile from theta_dot = {np.sqrt(fixed.get(0, 0.0)):.6g}"
+                              f", theta_ddot = {fixed_u.get(0, 0.0):.6g} meets the limits on this grid")
+
+    def _smooth_remaining(self, theta: float, x0: float, u0: float, s2: float) -> Profile:
+        """Third-order remaining profile: the sequential LP from the second-order answer (an upper bound)."""
+        try:
+            grid, x2 = self._remaining2(theta, x0, s2)
+        except StateInfeasibleError:  # the smooth interpolation may lie a little above the interval form's K
+            _, j, _, _, _, _, _ = self._first(theta)
+            grid, x2 = np.concatenate([[theta], self.grid[j:]]), s2 * np.concatenate([[x0 / s2], self._khi[j:]])
+        end = self.settings.end_condition
+        end_x = None if end == BoundaryMode.MAX else float(self.plan.profile.x[-1]) / s2
+        rest_end = end_x is not None and end_x == 0.0
+        # graded towards the state, as the planner grades towards a start: the first intervals carry the turn
+        # of the acceleration from the state's at the jerk limit
+        step = grid[1] - grid[0]
+        fine = np.union1d(grid, grid[0] + step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1))
+        x2, grid = np.interp(fine, grid, x2), fine
+        x_start = np.minimum(x2, self._jerk_cap(grid, x0, u0)) / s2
+        try:
+            p = self._smooth_solve(grid, x_start, x0 / s2, u0 / s2, rest_end, end_x)
+        except InfeasibleError as err:
+            raise StateInfeasibleError(
+                f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot be "
+                f"brought to the plan's end within the jerk and torque-rate limits at override {np.sqrt(s2):.4g} "
+                f"({err}); stop first (Retimer.stop), or raise the override") from err
+        return Profile(p.grid, p.x * s2, p.u_nodes * s2)
+
+    def _jerk_cap(self, grid: np.ndarray, x0: float, u0: float) -> np.ndarray:
+        """x (K,) on ``grid`` of the fastest speed-up from (x0, u0) at the state's path jerk bound (min over the
+        joints of J_j / |Phi'_j|, held constant): the first linearization point stays below it. Far above, the
+        first tangents of the jerk rows would leave no feasible x next to the state (the planner caps its
+        start from rest the same way). inf where no jerk limit is active."""
+        jerk = next((lim for lim in self.limits if lim.name == "jerk"), None)
+        if jerk is None:
+            return np.full(len(grid), np.inf)
+        dphi = np.abs(np.asarray(self.path.evaluate(float(grid[0]))[1], float))
+        with np.errstate(divide="ignore"):
+            j = float(np.min(np.asarray(jerk.values, float) / dphi))
+        t = np.linspace(0.0, 1.0, JERK_CAP_SAMPLES) ** 3 * JERK_CAP_HORIZON
+        v0 = np.sqrt(x0)
+        v = v0 + u0 * t + 0.5 * j * t**2
+        theta = grid[0] + v0 * t + 0.5 * u0 * t**2 + j * t**3 / 6.0
+        ok = np.concatenate([[True], np.diff(theta) > 0]) & (v >= 0)
+        return np.interp(grid, theta[ok], v[ok] ** 2, right=np.inf)
+
+    def _smooth_stop(self, theta: float, x0: float, u0: float, d2: float) -> Profile:
+        """Third-order shortest stop: the least distance (from the second-order stop distance ``d2``, a lower
+        bound, grown by SMOOTH_STOP_GROWTH, then bisected to SMOOTH_STOP_ACCURACY) whose smooth stop exists."""
+        _, j, _, _, _, _, _ = self._first(theta)
+        d_max = float(self.grid[self._next_stop(j)] - theta)
+        unit = np.linspace(0.0, 1.0, SMOOTH_STOP_POINTS)
+
+        def trial(d):
+            grid = theta + d * unit
+            try:
+                return self._smooth_solve(grid, x0 * (1.0 - unit), x0, u0, True, None)
+            except InfeasibleError:
+                return None
+
+        lo, d, best = d2, d2, None
+        while best is None:
+            d = min(d * SMOOTH_STOP_GROWTH, d_max)
+            best = trial(d)
+            if best is None and d >= d_max:
+                raise StateInfeasibleError(
+                    f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot "
+                    f"stop within the jerk limits before theta = {theta + d_max:.6g} (the path's end or a kink); "
+                    f"without jerk limits it would stop after {d2:.4g}", end_speed=np.nan)
+            if best is None:
+                lo = d
+        hi = d
+        while hi - lo > SMOOTH_STOP_ACCURACY * hi:
+            mid = 0.5 * (lo + hi)
+            found = trial(mid)
+            lo, hi, best = (lo, mid, found) if found is not None else (mid, hi, best)
+        return best
+
+
+def _override(override) -> float:
+    """``override`` checked: a number in (0, 1]."""
+    if isinstance(override, bool) or not isinstance(override, (int, float, np.floating)) or not 0.0 < override <= 1.0:
+        raise PathmotionError(f"Retimer: override must be a number in (0, 1] (1 = the plan's speed), got {override!r}")
+    return float(override)

@@ -1,0 +1,357 @@
+"""EGM execution: a real UDP loop on localhost (execute's serve against the virtual IRC5 in lockstep), the
+drive model against analytic cases, and the malformed / foreign / late inputs of the protocol."""
+
+from __future__ import annotations
+
+import socket
+import threading
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis.extra.numpy import arrays as st_arrays
+from hypothesis.strategies import floats as st_floats
+
+pytest.importorskip("abb_robot_client")
+
+from pathmotion import api  # noqa: E402
+from pathmotion.errors import ExecutionError  # noqa: E402
+from pathmotion.execution.drive_file import drive_file_for, load_drives, parse_drives  # noqa: E402
+from pathmotion.execution.drives import VirtualArm  # noqa: E402
+from pathmotion.execution.loops import open_listener, parse_address, run_virtual_robot, serve  # noqa: E402
+from pathmotion.execution.messages import decode_robot, decode_sensor, encode_robot  # noqa: E402
+from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess  # noqa: E402
+
+SHORT = """
+name = "egm_short"
+[robot]
+name = "irb140"
+[path]
+type = "task"
+orientation = "down"
+[[path.segments]]
+type = "line"
+start = [0.45, -0.03, 0.5]
+end = [0.45, 0.03, 0.5]
+[plan]
+start = "zero"
+end = "zero"
+"""
+
+
+@pytest.fixture(scope="module")
+def planned():
+    setup = api.load_text(SHORT)
+    result = api.plan_scenario(setup)
+    drives = load_drives(drive_file_for("irb140"), setup.robot.n)
+    return setup.robot, result, drives
+
+
+def _streamer(planned, mode="shaping", **kw):
+    robot, result, drives = planned
+    return make_streamer(robot, result, mode, drives, **kw)
+
+
+def _inside_limits(robot, records):
+    sent = np.array([r.sent for r in records])
+    lim = robot.limits
+    return bool(np.all(sent >= lim.lower) and np.all(sent <= lim.upper))
+
+
+def test_udp_lockstep_loop_either_side_first(planned):
+    """The virtual robot starts first (its messages are refused until execute listens, and sent again), the
+    motion completes through real datagrams, every reference inside the limits, no packet lost."""
+    import time
+
+    robot, result, drives = planned
+    port = _free_port()
+    streamer = _streamer(planned)
+    arm = VirtualArm(robot, drives, streamer.table.plan[0])
+    box = {}
+    robot_thread = threading.Thread(target=lambda: box.setdefault(
+        "run", run_virtual_robot(arm, ("127.0.0.1", port), lockstep=True, max_time=result.duration + 2.0)))
+    robot_thread.start()
+    time.sleep(0.2)  # nobody listens yet: the robot's first messages go unanswered and are sent again
+    sock = open_listener(port, "127.0.0.1")
+    try:
+        ended = serve(sock, streamer, first_timeout=10.0, silence=2.0)
+    finally:
+        robot_thread.join(20.0)
+        sock.close()
+    run = box["run"]
+    assert ended == "done" and run.ended == "done"
+    assert run.resent >= 1
+    assert streamer.counts.lost == 0 and streamer.counts.rejected == 0
+    assert _inside_limits(robot, streamer.records)
+    # the arm ends where the plan ends (link side), independent of the messages' route
+    end = result.trajectory.at_time([result.duration]).q[0]
+    assert np.abs(arm.state.q - end).max() < 1e-3  # still ringing within the settle window
+
+
+def test_shaping_beats_none_on_elastic_gears(planned):
+    """Through the elastic drives, shaping's path accuracy is better than the raw plan's, and within 0.25 mm."""
+    robot, result, drives = planned
+    out = {}
+    for mode in ("none", "shaping"):
+        st = _streamer(planned, mode)
+        run = run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0)
+        out[mode] = arm_figures(robot, run)["path_accuracy_m"]
+    assert out["shaping"] < out["none"]
+    assert out["shaping"] <= 0.25e-3
+
+
+def test_rigid_drive_follows_a_ramp_exactly():
+    """Rigid gears, constant-speed ramp on axis 1: the link ends on the ramp's end (feed-forward + integral)."""
+    from pathmotion.robot import load_robot
+
+    robot = load_robot("irb140")
+    drives = load_drives(drive_file_for("irb140"), 6).rigid()
+    q0 = np.radians([0, 20, -10, 0, 40, 0])
+    arm = VirtualArm(robot, drives, q0)
+    speed = 0.5
+    for k in range(300):
+        t = k * drives.cycle
+        p = q0.copy()
+        p[0] += speed * min(t, 0.4)
+        s = np.zeros(6)
+        s[0] = speed if t < 0.4 else 0.0
+        arm.cycle(p, s)
+    assert arm.state.q[0] == pytest.approx(q0[0] + 0.2, abs=1e-6)
+
+
+def test_elastic_gear_holds_the_static_deflection():
+    """Held still, an elastic gear's deflection equals gravity torque / stiffness (the analytic static case)."""
+    import pinocchio as pin
+    from pathmotion.robot import load_robot
+
+    robot = load_robot("irb140")
+    drives = load_drives(drive_file_for("irb140"), 6)
+    q0 = np.radians([0, 30, -20, 0, 30, 0])
+    arm = VirtualArm(robot, drives, q0)
+    hold = arm.feedback
+    for _ in range(100):
+        arm.cycle(hold, np.zeros(6))
+    g = pin.computeGeneralizedGravity(robot.model, robot.model.createData(), arm.state.q)
+    wind = (arm.state.qm - arm.state.q)[:3]
+    assert wind == pytest.approx(g[:3] / drives.stiffness[:3], rel=1e-3, abs=1e-7)
+
+
+def _feed(streamer, packets):
+    replies = []
+    for p in packets:
+        replies.append(streamer.handle(p, 0.0, lambda: 0.0))
+    return replies
+
+
+def test_garbage_truncated_and_huge_datagrams_are_rejected(planned):
+    st = _streamer(planned)
+    good = encode_robot(1, 0, st.table.q[0], st.table.q[0])
+    replies = _feed(st, [b"not a protobuf \xff\xff", good[: len(good) - 3], b"\x00" * 65536, good])
+    assert replies[:3] == [None, None, None] and replies[3] is not None
+    assert st.counts.rejected == 3
+    with pytest.raises(ExecutionError, match="bytes are not an EgmRobot"):
+        decode_robot(b"\xff" * 20)
+
+
+def test_a_seven_joint_robot_is_refused(planned):
+    st = _streamer(planned)
+    q7 = np.append(st.table.q[0], 0.0)
+    with pytest.raises(ExecutionError, match="reports 7 joints, the plan has 6"):
+        st.handle(encode_robot(1, 0, q7, q7), 0.0, lambda: 0.0)
+
+
+def test_a_robot_away_from_the_start_is_refused_with_the_distance(planned):
+    st = _streamer(planned)
+    q = st.table.q[0].copy()
+    q[2] += 0.1
+    with pytest.raises(ExecutionError, match=r"joint 3 is 5\.7\d+ deg"):
+        st.handle(encode_robot(1, 0, q, q), 0.0, lambda: 0.0)
+
+
+def test_sequence_numbers_lost_duplicated_out_of_order(planned):
+    st = _streamer(planned)
+    q = st.table.q[0]
+    seqs = [1, 2, 2, 5, 4, 6]
+    replies = _feed(st, [encode_robot(s, 4 * s, q, q) for s in seqs])
+    assert st.counts.duplicated == 1 and st.counts.lost == 2 and st.counts.out_of_order == 1
+    assert replies[2] == replies[1]  # a repeated message gets the same answer again
+    assert replies[4] is None  # an older message is not answered
+    assert [decode_sensor(r, 6).seqno for r in replies if r is not None] == [1, 2, 2, 3, 4]
+
+
+def test_stop_along_the_path_never_jumps_and_stays_in_limits(planned):
+    """A stop mid-motion (the Retimer's shortest stop): every reference lies on the plan's joint path at its
+    own theta, theta never runs back, the arm comes to rest before the path's end, inside the limits."""
+    robot, result, drives = planned
+    st = _streamer(planned, "none")
+    run = run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0,
+                        stop_at=0.4 * result.duration)
+    path = result.trajectory.path
+    theta = np.array([r.theta for r in st.records])
+    assert st.stop_reason == "stop requested"
+    assert theta[-1] < path.domain[1] - 1e-6  # stopped before the end
+    assert np.all(np.diff(theta) >= -1e-12)  # never runs back
+    sent = np.array([r.sent for r in st.records])
+    assert np.abs(sent - path.evaluate(theta)[0]).max() < 1e-5  # on the path (table interpolation)
+    assert np.abs(np.diff(sent, axis=0)).max() < robot.limits.velocity.max() * 0.004
+    assert _inside_limits(robot, st.records)
+    assert np.abs(run.arm.state.qd).max() < 1e-2
+
+
+def test_override_slows_the_rest_of_the_motion(planned):
+    """override 0.5 at the start: the motion takes longer than the plan (the Retimer's re-timed rest)."""
+    robot, result, drives = planned
+    st = _streamer(planned, "none")
+    q = st.table.q[0]
+    st.handle(encode_robot(1, 0, q, q), 0.0, lambda: 0.0)
+    st.override(0.5)
+    assert st.segment.duration > 1.3 * result.duration
+
+
+def test_a_controller_that_vanishes_mid_motion_ends_in_a_stop(planned):
+    robot, result, drives = planned
+    sock = open_listener(0, "127.0.0.1")
+    port = sock.getsockname()[1]
+    st = _streamer(planned)
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    tx.settimeout(2.0)
+    q = st.table.plan[0]
+    box = {}
+    server = threading.Thread(target=lambda: box.setdefault("ended", serve(sock, st, first_timeout=5.0, silence=0.2)))
+    server.start()
+    try:
+        for k in range(10):
+            tx.sendto(encode_robot(k + 1, 4 * k, q, q), ("127.0.0.1", port))
+            tx.recv(65536)
+        server.join(5.0)
+    finally:
+        tx.close()
+        sock.close()
+    assert box["ended"] == "silent"
+    assert st.stop_reason == "the controller went silent"
+
+
+def test_drive_file_errors_name_the_key():
+    text = drive_file_for("irb140").read_text()
+    with pytest.raises(Exception, match="6 \\[\\[axes\\]\\] tables for a 7-joint arm"):
+        parse_drives(text, 7)
+    with pytest.raises(Exception, match="egm.lowpass_bandwidth.status"):
+        parse_drives(text.replace('lowpass_bandwidth = { value = 20.0, status = "estimate"',
+                                  'lowpass_bandwidth = { value = 20.0, status = "guess"'), 6)
+
+
+def test_address_errors():
+    assert parse_address("127.0.0.1:6510") == ("127.0.0.1", 6510)
+    with pytest.raises(ExecutionError, match="a UDP port is 0-65535"):
+        open_listener(70000)
+    with open_listener(0, "127.0.0.1") as taken, pytest.raises(ExecutionError, match="cannot listen on UDP port"):
+        open_listener(taken.getsockname()[1], "127.0.0.1")
+    for bad in ("6510", "host:", "host:70000", ":1"):
+        with pytest.raises(ExecutionError, match="HOST:PORT"):
+            parse_address(bad)
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.slow
+def test_cli_execute_against_virtual_robot(tmp_path):
+    """The two commands as processes: execute started second, both exit 0 and write their files."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import time
+
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(SHORT)
+    port = _free_port()
+    env = dict(os.environ, PYTHONPATH=os.getcwd())
+    cli = [sys.executable, "-m", "pathmotion.cli"]
+    robot = subprocess.Popen(cli + ["virtual-robot", str(scenario), "--egm", f"127.0.0.1:{port}", "--lockstep",
+                                    "--out", str(tmp_path / "robot")], env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT)
+    time.sleep(0.5)
+    try:
+        ex = subprocess.run(cli + ["execute", str(scenario), "--egm", str(port), "--out", str(tmp_path / "run")],
+                            env=env, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120)
+        out, _ = robot.communicate(timeout=60)
+    finally:
+        robot.kill()
+    assert ex.returncode == 0, ex.stdout + ex.stderr
+    assert robot.returncode == 0, out
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["ended"] == "done" and summary["packets_lost"] == 0
+    assert (tmp_path / "run" / "execution.csv").is_file() and (tmp_path / "robot" / "robot.csv").is_file()
+    arm = json.loads((tmp_path / "robot" / "summary.json").read_text())
+    assert arm["ended"] == "done" and arm["path_accuracy_m"] < 1e-3
+
+
+def test_stdin_commands(planned, caplog):
+    """'override F', 'stop', 'resume' lines; a bad line is logged and ignored."""
+    from pathmotion.execution.loops import apply_command
+
+    robot, result, drives = planned
+    st = _streamer(planned, "none")
+    q = st.table.q[0]
+    for k in range(10):  # moving
+        st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
+    apply_command(st, "override 2")
+    assert "ignored the command" in caplog.text and st.override_scale == 1.0
+    apply_command(st, "override 0.5")
+    assert st.override_scale == 0.5
+    apply_command(st, "stop")
+    assert st.stop_reason == "stop requested"
+    k, stop_segment = 10, st.segment
+    while k == 10 or st.records[-1].tau < stop_segment.duration:  # until the stop has come to rest
+        st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
+        k += 1
+    assert st.records[-1].theta < result.trajectory.path.domain[1]
+    apply_command(st, "resume")
+    assert st.stop_reason is None and st.segment.duration > 0
+    apply_command(st, "jump 3")
+    assert "give 'override F', 'stop' or 'resume'" in caplog.text
+
+
+@settings(max_examples=50, deadline=None)
+@given(st_arrays(np.float64, (20, 6), elements=st_floats(-3.0, 3.0)), st_arrays(np.float64, (20, 6), elements=st_floats(-3.0, 3.0)))
+def test_no_sent_reference_leaves_the_limits(scale_q, scale_qd):
+    """Whatever the table holds (here up to 3x the limits), what is sent lies inside the position and speed
+    limits, and each clipped answer is counted."""
+    from pathmotion.execution.reference import ReferenceTable
+    from pathmotion.execution.streamer import Streamer
+    from pathmotion.robot import load_robot
+
+    lim = load_robot("irb140").limits
+    t = np.arange(20) * 0.004
+    q = scale_q * np.maximum(np.abs(lim.lower), np.abs(lim.upper))
+    qd = scale_qd * lim.velocity
+    table = ReferenceTable(t, q, qd, t, q, float(t[-1]), np.zeros_like(q), motion=np.zeros((20, 3)))
+    inside = lim.lower + 0.5 * (lim.upper - lim.lower)
+    table.q[0] = inside  # the robot's start
+    streamer = Streamer(table, None, lim.lower, lim.upper, lim.velocity, tolerance=1e-9)
+    outside = 0
+    for k in range(20):
+        reply = streamer.handle(encode_robot(k + 1, 4 * k, inside, inside), 0.0, lambda: 0.0)
+        sent = decode_sensor(reply, 6)
+        assert np.all(sent.joints >= lim.lower - 1e-12) and np.all(sent.joints <= lim.upper + 1e-12)
+        assert np.all(np.abs(sent.speed) <= lim.velocity + 1e-12)
+        outside += bool(np.any(q[k] < lim.lower) or np.any(q[k] > lim.upper) or np.any(np.abs(qd[k]) > lim.velocity))
+    assert streamer.counts.clipped == outside
+
+
+def test_a_shaped_stop_continues_the_references(planned):
+    """With shaping (the averaged second-order plan), a stop's references start where the plan's left off: the
+    step between consecutive references at the switch is no larger than the steps of the motion before it."""
+    robot, result, drives = planned
+    st = _streamer(planned, "shaping")
+    stop_at = 0.4 * result.duration
+    run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0, stop_at=stop_at)
+    sent = np.array([r.sent for r in st.records])
+    steps = np.abs(np.diff(sent, axis=0)).max(axis=1)
+    k = int(round(stop_at / drives.cycle))
+    assert steps[k - 1:k + 2].max() <= 1.5 * steps[:k - 1].max()
+    assert _inside_limits(robot, st.records)
