@@ -24,7 +24,7 @@ __version__ = "0.1.0"
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 _EXPORTS = {
-    "api": ("Setup", "build", "check_scenario", "load", "load_text", "plan_scenario", "simulate_scenario",
+    "api": ("Setup", "build", "check_scenario", "load", "load_text", "plan_scenario", "search", "simulate_scenario",
             "write_plan", "write_simulation"),
     "errors": ("InfeasibleError", "PathError", "PathmotionError", "RobotModelError", "ScenarioError",
                "SimulationError", "StateInfeasibleError", "UnreachableError"),

@@ -601,7 +601,7 @@ def _egm_setup(scenario: Path, set_, drives: Optional[Path]):
     from . import api
     from .execution.drive_file import drive_file_for, load_drives
 
-    setup = api.load(scenario, _overrides(set_))
+    setup = api.search(api.load(scenario, _overrides(set_)))
     result = api.plan_scenario(setup)
     name = setup.scenario.robot.name if drives is None else None
     params = load_drives(drives if drives is not None else drive_file_for(str(name)), setup.robot.n)

@@ -55,6 +55,7 @@ def simulate_scenario(setup: Setup, result: PlanResult, full: bool = False):
     """Closed-loop simulation of the planned motion with the scenario's controller and plant (the reserve
     search's run when ``result`` is the plan it chose; with simulate.events, the plan re-timed at each). ``full``: go on
     after the first failure to the end (SimulationSettings.run_to_end); by default the run stops there."""
+    setup.require_searched("simulate_scenario")
     run = setup.reserve_run
     if run is not None and result is run[0] and run[1] is not None and not (full and not run[1].tracking_ok):
         return run[1]
