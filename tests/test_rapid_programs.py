@@ -106,7 +106,7 @@ def test_moves_csv_is_the_cycle_by_move(planned, tmp_path):
     assert "Program moves" in html and "sortable" in html and f"in {len(rows)} moves" in html
 
 
-@pytest.mark.parametrize("name", ["palletizing", "glue_bead", "tending"])
+@pytest.mark.parametrize("name", ["palletizing", "glue_bead", "deburring", "tending"])
 def test_programs_simulate_within_tracking(name):
     _, setup = imported(DATA / f"{name}.mod")
     result = api.plan_scenario(setup)
