@@ -24,7 +24,9 @@ FAST = {"plan.verify": "off", "plan.duration_tolerance": 0.01}
 
 
 def imported(text_or_path, overrides=None):
-    prog = read_rapid(text_or_path) if isinstance(text_or_path, Path) else parse_rapid(text_or_path, "prog.mod")
+    flange = api.rapid_flange("irb140")
+    prog = read_rapid(text_or_path, flange) if isinstance(text_or_path, Path) else parse_rapid(text_or_path, "prog.mod",
+                                                                                             flange)
     text = scenario_toml(prog, api.rapid_zone_tolerances(prog))
     return prog, api.load_text(text, DATA, {**FAST, **(overrides or {})})
 
@@ -64,7 +66,7 @@ def tool_of(decl, path: Path):
 
 
 # ------------------------------------------------------------------------------------------ the programs
-@pytest.fixture(scope="module", params=["palletizing", "glue_bead", "deburring", "tending"])
+@pytest.fixture(scope="module", params=["palletizing", "glue_bead", "deburring", "tending", "abs_joint"])
 def planned(request):
     prog, setup = imported(DATA / f"{request.param}.mod")
     return request.param, prog, setup, api.plan_scenario(setup)
@@ -259,3 +261,56 @@ def test_the_1000_move_contour_imports_to_a_valid_scenario():
     scenario = parse_scenario(scenario_toml(prog, tolerances), "contour_1000.toml")
     assert len(scenario.path.segments) == 1000 and len(scenario.path.blends) == 999
     assert all(s.program.move == "MoveL" and s.quaternion == (0.0, 1.0, 0.0, 0.0) for s in scenario.path.segments)
+
+
+def _jointtargets_deg(text: str) -> dict:
+    """{name or "inline k": robax (6,) [deg]} of every jointtarget, read here by regular expression."""
+    out = {m.group(1).lower(): _numbers(m.group(2))[:6]
+           for m in re.finditer(r"(?i)jointtarget\s+(\w+)\s*:=\s*\[\s*(\[[^\]]*\])", text)}
+    for k, m in enumerate(re.finditer(r"(?i)MoveAbsJ\s*\[\s*(\[[^\]]*\])", text)):
+        out[f"inline {k}"] = _numbers(m.group(1))[:6]
+    return out
+
+
+def test_moveabsj_is_a_joint_move_to_the_jointtarget_in_radians():
+    """abs_joint.mod starts at the jointtarget jHome and ends by MoveAbsJ at an inline one: the path starts and
+    ends at those axes, degrees read here and converted by numpy (1e-9 rad). The MoveAbsJ segment is a joint
+    segment with ``end``, the move before it a MoveL whose TCP is where the joint move starts."""
+    text = (DATA / "abs_joint.mod").read_text()
+    want = _jointtargets_deg(text)
+    prog, setup = imported(DATA / "abs_joint.mod")
+    path = setup.scenario.path
+    assert [m.instruction for m in prog.moves] == ["MoveAbsJ", "MoveJ", "MoveL", "MoveL", "MoveJ", "MoveL", "MoveL", "MoveAbsJ"]
+    assert np.allclose(path.start_configuration, np.deg2rad(want["jhome"]), rtol=0, atol=1e-9)
+    last = path.segments[-1]
+    assert last.type == "joint" and last.program.move == "MoveAbsJ"
+    assert np.allclose(last.end, np.deg2rad(want["inline 0"]), rtol=0, atol=1e-9)
+    lo, hi = setup.path.domain
+    assert np.allclose(setup.path(lo), np.deg2rad(want["jhome"]), rtol=0, atol=1e-9)
+    assert np.allclose(setup.path(hi), np.deg2rad(want["inline 0"]), rtol=0, atol=1e-9)
+    # the import's TCP at the inline jointtarget: bare flange FK times the tool read here
+    _, decl = fine_targets(DATA / "abs_joint.mod")
+    tool_p, tool_r = tool_of(decl, DATA / "abs_joint.mod")
+    flange_p, flange_r = fk(load_robot("irb140"), np.deg2rad(want["inline 0"]))
+    assert np.allclose(prog.moves[-1].point, flange_p + flange_r @ tool_p, atol=1e-12)
+    assert np.allclose(prog.moves[-1].rotation, flange_r @ tool_r, atol=1e-12)
+
+
+@pytest.mark.parametrize("body, match", [
+    ("MoveAbsJ [[0, 0, 0, 0, 90], [9E9]], v100, fine, tool0;\nMoveL [[500, 0, 500], [0, 1, 0, 0]], v100, fine, tool0;",
+     "expected \\[\\[robax_a"),
+    ("MoveAbsJ jNone, v100, fine, tool0;\nMoveL [[500, 0, 500], [0, 1, 0, 0]], v100, fine, tool0;",
+     "jointtarget 'jNone' is not declared"),
+    ("MoveAbsJ pA, v100, fine, tool0;\nMoveL [[500, 0, 500], [0, 1, 0, 0]], v100, fine, tool0;",
+     "pA is a robtarget, expected a jointtarget"),
+])
+def test_bad_jointtargets_are_clear_errors(body, match):
+    head = "MODULE m\nCONST robtarget pA := [[500, 0, 500], [0, 1, 0, 0], [0, 0, 0, 0], [9E9]];\nPROC main()\n"
+    with pytest.raises(ScenarioError, match=match):
+        parse_rapid(head + body + "\nENDPROC\nENDMODULE\n", "prog.mod", api.rapid_flange())
+
+
+def test_moveabsj_without_kinematics_says_what_to_pass():
+    text = "MODULE m\nPROC main()\nMoveAbsJ [[0, 0, 0, 0, 90, 0], [9E9]], v100, fine, tool0;\nENDPROC\nENDMODULE\n"
+    with pytest.raises(ScenarioError, match="prog.mod:3: MoveAbsJ needs the robot's kinematics"):
+        parse_rapid(text, "prog.mod")

@@ -3,10 +3,15 @@ constant-speed duration estimate (summary.json's ``rapid_estimate_s``)."""
 
 from __future__ import annotations
 
+import functools
+
+import numpy as np
+
 from ..geometry import Arc, Line
 from ..geometry.chain import classify
 from ..geometry.blends import g2_deviation
 from ..io.rapid import effective_zones, rapid_estimate_s, segments
+from ..robot import fk, load_robot
 from .setup import Setup
 
 #: Largest share of a neighbouring segment a RAPID zone may cut (below half: two zones never meet).
@@ -17,9 +22,9 @@ def rapid_zone_tolerances(program) -> list:
     """G2 blend tolerance [m] per corner of an imported RAPID program (io.rapid.RapidProgram): the deviation of
     the blend that starts at the zone radius from the target (ABB's corner path starts where the TCP enters the
     zone), the cut kept below RAPID_ZONE_CUT of each neighbour so a segment between two zones keeps a straight
-    middle; at a joint move (MoveJ) the zone radius itself (the joint zone's TCP tolerance); None at fine points
+    middle; at a joint move (MoveJ, MoveAbsJ) the zone radius itself (the joint zone's TCP tolerance); None at fine points
     and where the moves join without a corner."""
-    segs = [None if mv.kind == "J" else Line(start, mv.point) if arc is None else
+    segs = [None if mv.joint else Line(start, mv.point) if arc is None else
             Arc(arc.center, start, arc.normal, arc.sweep) for mv, start, arc, _ in segments(program)]
     out = []
     for k, zone in enumerate(effective_zones(program)):
@@ -31,6 +36,18 @@ def rapid_zone_tolerances(program) -> list:
         usable = classify(A, B, k, 0.0).kind in ("corner", "tangent") and cut > 0
         out.append(g2_deviation(A, B, cut).upper if usable else None)
     return out
+
+
+def rapid_flange(robot: str = "irb140"):
+    """The flange kinematics io.rapid.parse_rapid needs for MoveAbsJ: joints (6,) [rad] -> (position (3,) [m],
+    rotation (3, 3)) of the bare robot ``robot``'s flange in its base frame (the robot is loaded at the first call)."""
+    @functools.cache
+    def bare():
+        return load_robot(robot)
+
+    def flange(joints):
+        return fk(bare(), np.asarray(joints, float))
+    return flange
 
 
 def rapid_estimate(setup: Setup) -> float | None:
