@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from pathmotion import api
 from pathmotion.errors import ScenarioError, UnreachableError
 from pathmotion.geometry.orientation import smoothstep5
+from pathmotion.api.program import axis_times
 from pathmotion.io.rapid import parse_rapid, read_rapid, scenario_toml
 from pathmotion.io.scenario import parse_scenario
 from pathmotion.report.html import build_report
@@ -314,3 +315,30 @@ def test_moveabsj_without_kinematics_says_what_to_pass():
     text = "MODULE m\nPROC main()\nMoveAbsJ [[0, 0, 0, 0, 90, 0], [9E9]], v100, fine, tool0;\nENDPROC\nENDMODULE\n"
     with pytest.raises(ScenarioError, match="prog.mod:3: MoveAbsJ needs the robot's kinematics"):
         parse_rapid(text, "prog.mod")
+
+
+def test_a_joint_move_takes_at_least_its_slowest_axis_at_max_speed():
+    """abs_joint.mod's last move, MoveAbsJ v2000 from the fine point pPlaceAbove: its slowest axis at max speed
+    (dq from the jointtarget read here and the planned joints at pPlaceAbove, the IRB140's axis speeds) takes
+    longer than its TCP arc length at 2 m/s, so that is its programmed time. The estimate of this chain is the sum
+    of the moves' programmed times: the MoveL moves' lengths are the robtargets' distances read here."""
+    text = (DATA / "abs_joint.mod").read_text()
+    _, setup = imported(DATA / "abs_joint.mod")
+    spec, robot, path = setup.scenario.path, setup.robot, setup.path
+    end = np.deg2rad(_jointtargets_deg(text)["inline 0"])
+    slowest = float(np.max(np.abs(end - path(path.kinks[-1])) / load_robot("irb140").limits.velocity))
+    _, lengths = api.program_thetas(spec, robot, path)
+    assert lengths[-1] == pytest.approx(path.domain[1] - path.kinks[-1], rel=1e-12)
+    assert lengths[-1] / 2.0 < slowest  # the axis binds, not the TCP speed
+    floors = axis_times(spec, robot, path)
+    assert floors[-1] == pytest.approx(slowest, rel=1e-9)
+    assert [f for s, f in zip(spec.segments, floors) if s.type != "joint"] == [0.0] * 4
+    _, decl = fine_targets(DATA / "abs_joint.mod")
+    point = {n: np.array(_numbers(decl[n][1])[:3]) / 1000 for n in ("ppick", "ppickabove", "pplace", "pplaceabove")}
+    drop = np.linalg.norm(point["ppick"] - point["ppickabove"])
+    place = np.linalg.norm(point["pplace"] - point["pplaceabove"])
+    assert np.allclose([lengths[k] for k in (1, 2, 4, 5)], [drop, drop, place, place], rtol=1e-12)
+    moves = [s.program for s in spec.segments]
+    want = sum(max(length / mv.speed, floor) for mv, length, floor in zip(moves, lengths, floors))
+    assert api.rapid_estimate(setup) == pytest.approx(want, rel=1e-12)
+    assert want > sum(length / mv.speed for mv, length in zip(moves, lengths)) + slowest - lengths[-1] / 2.0 - 1e-12

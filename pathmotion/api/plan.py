@@ -124,7 +124,8 @@ def write_moves(setup: Setup, result: PlanResult, samples, out: Path) -> None:
     if setup.task_path is not None and program_targets(spec):
         bounds, lengths = program_thetas(spec, setup.robot, setup.path)
         table = move_table(spec, bounds, lengths, result.profile, samples,
-                           enforced_limits(setup.robot, result.settings), setup.robot.joint_names)
+                           enforced_limits(setup.robot, result.settings), setup.robot.joint_names,
+                           axis_times(spec, setup.robot, setup.path))
     if table is None:
         (out / schema.MOVES_FILE).unlink(missing_ok=True)
     else:

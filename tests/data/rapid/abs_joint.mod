@@ -17,6 +17,6 @@ MODULE AbsJoint
         MoveJ pPlaceAbove, v2000, z20, tGripper;
         MoveL pPlace, v500, fine, tGripper;
         MoveL pPlaceAbove, v1000, fine, tGripper;
-        MoveAbsJ [[-20, 15, 10, 10, 65, 150], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]], v1000, fine, tGripper \WObj:=wobj0;
+        MoveAbsJ [[-20, 15, 10, 10, 65, 150], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]], v2000, fine, tGripper \WObj:=wobj0;
     ENDPROC
 ENDMODULE
