@@ -20,7 +20,7 @@ from ..robot import Robot, fk
 from ..robot.arm import arm_points
 from .failures import FailureKind, ResultFailure
 from ..planning.program_moves import move_table
-from .program import program_targets, program_thetas
+from .program import axis_times, program_targets, program_thetas
 from .rapid import rapid_estimate
 from .setup import Setup
 
