@@ -109,7 +109,7 @@ def test_moves_csv_is_the_cycle_by_move(planned, tmp_path):
     assert "Program moves" in html and "sortable" in html and f"in {len(rows)} moves" in html
 
 
-@pytest.mark.parametrize("name", ["palletizing", "glue_bead", "deburring", "tending"])
+@pytest.mark.parametrize("name", ["palletizing", "glue_bead", "deburring", "tending", "abs_joint"])
 def test_programs_simulate_within_tracking(name):
     _, setup = imported(DATA / f"{name}.mod")
     result = api.plan_scenario(setup)
@@ -281,7 +281,8 @@ def test_moveabsj_is_a_joint_move_to_the_jointtarget_in_radians():
     want = _jointtargets_deg(text)
     prog, setup = imported(DATA / "abs_joint.mod")
     path = setup.scenario.path
-    assert [m.instruction for m in prog.moves] == ["MoveAbsJ", "MoveJ", "MoveL", "MoveL", "MoveJ", "MoveL", "MoveL", "MoveAbsJ"]
+    assert [m.instruction for m in prog.moves] == ["MoveAbsJ", "MoveJ", "MoveL", "MoveL", "MoveJ", "MoveL", "MoveL",
+                                                   "MoveAbsJ"]
     assert np.allclose(path.start_configuration, np.deg2rad(want["jhome"]), rtol=0, atol=1e-9)
     last = path.segments[-1]
     assert last.type == "joint" and last.program.move == "MoveAbsJ"

@@ -25,8 +25,8 @@ def rapid_zone_tolerances(program) -> list:
     """G2 blend tolerance [m] per corner of an imported RAPID program (io.rapid.RapidProgram): the deviation of
     the blend that starts at the zone radius from the target (ABB's corner path starts where the TCP enters the
     zone), the cut kept below RAPID_ZONE_CUT of each neighbour so a segment between two zones keeps a straight
-    middle; at a joint move (MoveJ, MoveAbsJ) the zone radius itself (the joint zone's TCP tolerance); None at fine points
-    and where the moves join without a corner."""
+    middle; at a joint move (MoveJ, MoveAbsJ) the zone radius itself (the joint zone's TCP tolerance); None at fine
+    points and where the moves join without a corner."""
     segs = [None if mv.joint else Line(start, mv.point) if arc is None else
             Arc(arc.center, start, arc.normal, arc.sweep) for mv, start, arc, _ in segments(program)]
     out = []

@@ -557,9 +557,9 @@ class _Parser:
             self.remarks.append(f"line {line}: \\Conc ignored (on the controller it lets the next statements run "
                                 "while the robot moves; the motion is the same)")
         letter = kind[-1].lower()
-        return RapidMove("AbsJ" if joints is not None else letter.upper(), line, " ".join(text.split()), tcp.translation, tcp.rotation, via,
-                         speed, time, zone, zone_name, tool.name, target=_target_name(a["to"]), quaternion=quat,
-                         robconf=robconf,
+        return RapidMove("AbsJ" if joints is not None else letter.upper(), line, " ".join(text.split()),
+                         tcp.translation, tcp.rotation, via, speed, time, zone, zone_name, tool.name,
+                         target=_target_name(a["to"]), quaternion=quat, robconf=robconf,
                          conf=self.conf["j" if letter == "j" else "l"], zone_ori=zone_ori, zone_ori_angle=zone_angle,
                          joints=joints)
 
@@ -773,8 +773,8 @@ def parse_rapid(text: str, source: str = "program.mod", flange=None) -> RapidPro
         p.run(p.procs[proc], (proc,))
     moves = tuple(_drop_repeats(p.moves, source, p.remarks))
     if len(moves) < 2:
-        raise ScenarioError(f"{source}: {'PROC ' + proc if proc else 'the module'} has {len(moves)} MoveL/MoveJ/MoveC/MoveAbsJ "
-                            "instructions; a path needs at least two (the first target is the start point)")
+        raise ScenarioError(f"{source}: {'PROC ' + proc if proc else 'the module'} has {len(moves)} "
+                            "MoveL/MoveJ/MoveC/MoveAbsJ instructions; a path needs at least two (the first target is the start point)")
     tools = sorted({m.tool for m in moves}, key=str.lower)
     if len({t.lower() for t in tools}) > 1:
         raise ScenarioError(f"{source}: the moves use tools {', '.join(tools)}; a scenario has one tool: use one "
@@ -1014,8 +1014,8 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
     name = name or program.module or Path(program.source).stem
     info = notes(program)
     if blend == "optimal" and any(m.joint or m.dwell for m in program.moves[1:]):
-        info.append("the zones are symmetric G2 blends: optimal blends are not searched on a path with MoveJ or "
-                    "WaitTime")
+        info.append("the zones are symmetric G2 blends: optimal blends are not searched on a path with MoveJ, "
+                    "MoveAbsJ or WaitTime")
     quats = base_quaternions(program)
     t = program.tool
     rpy = matrix_rpy(t.frame.rotation)
