@@ -11,14 +11,16 @@ receive to send on the answering side.
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing as mp
 import os
 import select
 import socket
 import time
+from pathlib import Path
 
 import numpy as np
+
+from result_json import Table
 
 CYCLE = 0.004
 
@@ -117,8 +119,12 @@ def measure(name, port, q0, answer, compute, sock, cycles):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=10_000)
-    ap.add_argument("--json", default=None)
+    ap.add_argument("--json", type=Path, help="write the table as JSON here (for benchmarks/results.py)")
     args = ap.parse_args()
+    table = Table("EGM real time on localhost: 4 ms cycles answered by pathmotion execute and by its peer",
+                  [("side", "answering side"), ("cycles", "cycles"), ("late", "late"), ("missing", "missing"),
+                   ("median_ms", "compute median [ms]"), ("p99_ms", "p99 [ms]"), ("p99_9_ms", "p99.9 [ms]"),
+                   ("max_ms", "max [ms]"), ("load", "load (1 min)")])
     port, q0, answer, compute, sock = serve_pathmotion(args.cycles)
     rows = [measure("pathmotion execute (serve, shaping)", port, q0, answer, compute, sock, args.cycles)]
     port, answer, compute, sock = serve_peer(args.cycles, q0)
@@ -129,10 +135,19 @@ def main() -> None:
         print(f"{r['side']:38s} {r['cycles']:7d} {r['late']:5d} {1e3 * r['compute_median_s']:10.3f} "
               f"{1e3 * r['compute_p99_s']:8.3f} {1e3 * r['compute_p99_9_s']:9.3f} {1e3 * r['compute_max_s']:8.3f} "
               f"{r['load_1min']:5.2f}")
-    print(f"compute p99.9 ratio pathmotion / peer: {rows[0]['compute_p99_9_s'] / rows[1]['compute_p99_9_s']:.2f}")
+    ratio = rows[0]["compute_p99_9_s"] / rows[1]["compute_p99_9_s"]
+    print(f"compute p99.9 ratio pathmotion / peer: {ratio:.2f}")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
+        for r in rows:
+            table.add(side=r["side"], cycles=r["cycles"], late=r["late"], missing=r["missing"],
+                      **{k: round(1e3 * r[f"compute_{k[:-3]}_s"], 3) for k in ("median_ms", "p99_ms", "p99_9_ms",
+                                                                                 "max_ms")},
+                      load=round(r["load_1min"], 2))
+        table.notes += [f"Compute p99.9 ratio pathmotion / peer: {ratio:.2f}.",
+                        "Late: the answer had not arrived when the sender's next 4 ms cycle began; missing: not "
+                        "within 50 ms either. Compute: receive to send on the answering side. The robot sender "
+                        "runs in its own process on an absolute 4 ms clock."]
+        print(f"wrote {table.write(args.json)}")
 
 
 if __name__ == "__main__":

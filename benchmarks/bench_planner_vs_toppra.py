@@ -34,6 +34,8 @@ its range over BLOCKS consecutive blocks of rounds, the machine load before and 
     python benchmarks/bench_planner_vs_toppra.py --quick    # 1 seed x (4, 7, 12), fewer repetitions
     python benchmarks/bench_planner_vs_toppra.py --sets binding torque --waypoints 4   # a subset
     python benchmarks/bench_planner_vs_toppra.py --direct --sets binding --waypoints 4  # certification cost
+    python benchmarks/bench_planner_vs_toppra.py --quick --json benchmarks/results/planner_vs_toppra.json
+(--json writes the speed-up summary as a table for benchmarks/results.py; --repeats sets the repetitions.)
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ import random
 import statistics
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -57,6 +60,7 @@ from pathmotion.planning.grid import make_grid
 from pathmotion.planning.verify import sample_ratios
 from pathmotion.robot import load_robot
 from pathmotion.robot.model import Payload
+from result_json import Table
 
 ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
 GRIDS = [int(round(100 * 2 ** (k / 2))) for k in range(17)]  # 100 ... 25600, x sqrt(2)
@@ -230,37 +234,79 @@ def print_row(r):
           f"(CPU time) {r['certify_cost_cpu']:.2f}")
 
 
-def summarize(rows):
-    def rng(vals, digits=1):
-        return f"{statistics.median(vals):7.{digits}f}x ({min(vals):.{digits}f}-{max(vals):.{digits}f})"
+#: The summary's speed-ups: (key, text, the timing of ours it divides toppra on its own grid by).
+SPEEDUPS = (("verified", "verified", "ours verified"), ("bare", "bare", "ours bare"),
+            ("adaptive", "adaptive 0.1%", "ours adaptive 0.1%"), ("default", "default", "ours default"))
 
-    print("\nspeed-up = toppra on its own grid / ours; median (min-max) over cases")
+
+def speedups(rows) -> dict:
+    """{limit set or "all": {key: [speed-up per case]}}: toppra on its own grid / ours (SPEEDUPS), toppra on our
+    grid / ours bare ("same") and toppra own grid / toppra our grid ("grid"), over the cases toppra solved."""
+    out = {}
     for label in sorted({r["label"] for r in rows}) + ["all"]:
         sel = [r for r in rows if (label == "all" or r["label"] == label) and "toppra own grid" in r]
-        if not sel:
-            continue
-        sp = lambda k: [r["toppra own grid"] / r[k] for r in sel]  # noqa: E731
-        same = [r["toppra our grid"] / r["ours bare"] for r in sel]
-        print(f"{label:8s} verified {rng(sp('ours verified'))} | bare {rng(sp('ours bare'))} | adaptive 0.1% "
-              f"{rng(sp('ours adaptive 0.1%'))} | default {rng(sp('ours default'))} | same grid, solver only "
-              f"{rng(same)} | grid (toppra own / toppra ours) {rng([r['toppra own grid'] / r['toppra our grid'] for r in sel])}")
+        if sel:
+            out[label] = {key: [r["toppra own grid"] / r[name] for r in sel] for key, _, name in SPEEDUPS}
+            out[label]["same"] = [r["toppra our grid"] / r["ours bare"] for r in sel]
+            out[label]["grid"] = [r["toppra own grid"] / r["toppra our grid"] for r in sel]
+    return out
+
+
+def spread(vals, digits=1) -> str:
+    return f"{statistics.median(vals):.{digits}f}x ({min(vals):.{digits}f}-{max(vals):.{digits}f})"
+
+
+def summarize(rows):
+    rng = lambda vals, digits=1: f"{spread(vals, digits):>7s}"  # noqa: E731
+    print("\nspeed-up = toppra on its own grid / ours; median (min-max) over cases")
+    for label, sp in speedups(rows).items():
+        print(f"{label:8s} " + " | ".join(f"{text} {rng(sp[key])}" for key, text, _ in SPEEDUPS)
+              + f" | same grid, solver only {rng(sp['same'])} | grid (toppra own / toppra ours) {rng(sp['grid'])}")
+    for line in findings(rows):
+        print(line)
+
+
+def findings(rows) -> list[str]:
+    """The certification's cost, the cases below the speed target, the default settings' accuracy."""
+    out = []
     for key, what in (("certify_cost_cpu", "CPU time"), ("certify_cost_wall", "wall clock")):
         torque = [r[key] for r in rows if r["label"] != "vel+acc"]
         if torque:
-            print(f"certification cost with torque (verified / bare on the same grid, {what}, ratio of medians): "
-                  f"{rng(torque, 2)} (target 1.5x); vel+acc: "
-                  f"{rng([r[key] for r in rows if r['label'] == 'vel+acc'] or [0], 2)}")
+            out.append(f"certification cost with torque (verified / bare on the same grid, {what}, ratio of medians): "
+                       f"{spread(torque, 2)} (target 1.5x); vel+acc: "
+                       f"{spread([r[key] for r in rows if r['label'] == 'vel+acc'] or [0], 2)}")
     for key, target in (("ours adaptive 0.1%", 3.0), ("ours verified", 3.0)):
         slow = [f"{r['label']} seed {r['seed']} wp {r['wp']} ({r['toppra own grid'] / r[key]:.1f}x)" for r in rows
                 if "toppra own grid" in r and r["toppra own grid"] / r[key] < target]
-        print(f"{key}: cases below {target:g}x: {', '.join(slow) or 'none'}")
+        out.append(f"{key}: cases below {target:g}x: {', '.join(slow) or 'none'}")
     worst_err = max(abs(r["default_err"]) for r in rows)
-    print(f"default settings: largest |error| {100 * worst_err:.4f} % of T* (target 0.05 %); every estimate bounds "
-          f"its error: {all(abs(r['default_err']) <= r['default_est'] for r in rows)}; largest dense ratio "
-          f"{max(r['dense'] for r in rows):.5f} (target 1.001)")
+    out.append(f"default settings: largest |error| {100 * worst_err:.4f} % of T* (target 0.05 %); every estimate "
+               f"bounds its error: {all(abs(r['default_err']) <= r['default_est'] for r in rows)}; largest dense "
+               f"ratio {max(r['dense'] for r in rows):.5f} (target 1.001)")
     binding = [r["torque_ratio"] for r in rows if r["label"] == "binding"]
     if binding:
-        print(f"binding set: torque ratio {min(binding):.5f}-{max(binding):.5f}")
+        out.append(f"binding set: torque ratio {min(binding):.5f}-{max(binding):.5f}")
+    return out
+
+
+def speedup_table() -> Table:
+    """The summary's result table, started before the measurement (its date and load at the start)."""
+    return Table("Planner against toppra at equal accuracy (0.1 % of T*): speed-up = toppra's time / ours",
+                  [("set", "limit set"), ("cases", "cases"), *((k, t) for k, t, _ in SPEEDUPS),
+                   ("same", "same grid, solver only"), ("grid", "toppra own grid / our grid")])
+
+
+def fill_speedups(table: Table, rows, seeds, repeats) -> Table:
+    """One row per limit set (and all): speed-ups median (min-max) over cases; the findings as notes."""
+    for label, sp in speedups(rows).items():
+        table.add(set=label, cases=len(sp["bare"]), **{k: spread(v) for k, v in sp.items()})
+    table.notes += [f"Random 6-joint clamped splines (seeds {', '.join(map(str, seeds))}; "
+                    f"{', '.join(str(w) for w in sorted({r['wp'] for r in rows}))} waypoints) on the IRB140; "
+                    f"wall-time medians of {repeats} interleaved repetitions per case, median (min-max) over cases. "
+                    "toppra: ParametrizeConstAccel on the smallest grid within 0.1 % of T* (Richardson from both "
+                    "tools); ours verified/bare: the same search; adaptive: duration_tolerance 0.1 %; default: the "
+                    "default settings (adaptive 0.05 %, certified).", *findings(rows)]
+    return table
 
 
 def main():
@@ -269,12 +315,17 @@ def main():
     ap.add_argument("--sets", nargs="+", choices=list(robots()), help="limit sets (default: all three)")
     ap.add_argument("--waypoints", nargs="+", type=int, help=f"waypoint counts (default: {WAYPOINTS})")
     ap.add_argument("--seeds", nargs="+", type=int, help=f"seeds (default: {SEEDS}; --quick: 1)")
+    ap.add_argument("--repeats", type=int, help="timed repetitions per case (default: 7; --quick: 3)")
+    ap.add_argument("--json", type=Path, help="write the speed-up summary as JSON here (for benchmarks/results.py)")
     ap.add_argument("--direct", action="store_true", help="time only bare vs verified plan() on the searched "
                     f"grid, {ROUNDS} interleaved rounds per case (the certification's cost)")
     args = ap.parse_args()
+    if args.json and args.direct:
+        ap.error("--json writes the speed-up summary, which --direct does not measure")
     logging.disable(logging.WARNING)
     seeds, repeats = ((1,), 3) if args.quick else (SEEDS, 7)
-    seeds = tuple(args.seeds or seeds)
+    seeds, repeats = tuple(args.seeds or seeds), args.repeats or repeats
+    table = speedup_table()
     print(f"load average at start: {os.getloadavg()} on {os.cpu_count()} cores")
     # both tools run with BLAS on one thread: OpenBLAS's second thread otherwise spins after a call and its CPU
     # time lands in whichever sub-millisecond call comes next (process CPU time counts every thread)
@@ -293,6 +344,8 @@ def main():
                         print_row(rows[-1])
     (summarize_direct if args.direct else summarize)(rows)
     print(f"load average at end: {os.getloadavg()}")
+    if args.json:
+        print(f"wrote {fill_speedups(table, rows, seeds, repeats).write(args.json)}")
 
 
 if __name__ == "__main__":

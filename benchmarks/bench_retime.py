@@ -22,15 +22,17 @@ Optimality:
   (STOP_STEPS steps) at the largest deceleration allowed by the joint velocity, acceleration and torque
   limits, the torque from Pinocchio's RNEA at each step.
 
-    python benchmarks/bench_retime.py                   # full run
+    python benchmarks/bench_retime.py                   # full run: timing and optimality
     python benchmarks/bench_retime.py --quick           # fewer states
-    python benchmarks/bench_retime.py --json out.json   # also write the numbers as JSON
+    python benchmarks/bench_retime.py --part timing --json benchmarks/results/retime_timing.json
+    python benchmarks/bench_retime.py --part optimality --json benchmarks/results/retime_optimality.json
+(--json writes the part's table for benchmarks/results.py; --states N2 N3 sets the second-order and jerk state
+counts of the part.)
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import random
 import sys
@@ -43,10 +45,10 @@ import pinocchio as pin
 
 from pathmotion.control.threads import single_blas_thread
 from pathmotion.errors import PathmotionError, StateInfeasibleError
-from pathmotion.io.atomic import write_text
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, Retimer, plan
 from pathmotion.robot import load_robot
+from result_json import Table
 
 ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
 SEED, WAYPOINTS = 1, 5
@@ -190,7 +192,7 @@ def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
             if v > 0 and jerk:  # no independent jerk-limited reference: the second-order stop bounds it below
                 s = rt.stop(theta, v, a)
                 row.update(stop=float(s.grid[-1] - theta), stop_ratio=rt.certify(s).max_ratio,
-                           second_order_stop=float(rt._stop2(theta, v * v)[0][-1] - theta))
+                           second_order_stop=float(rt.stop(theta, v, a, second_order=True).grid[-1] - theta))
             elif v > 0:
                 s = rt.stop(theta, v, a)
                 row.update(stop=float(s.grid[-1] - theta),
@@ -218,56 +220,126 @@ def _spread(v) -> dict:
 
 
 def run(label: str, jerk: bool, n_time: int, n_opt: int) -> dict:
+    """One case: the timing of ``n_time`` states and the optimality of ``n_opt`` states (0: that part skipped)."""
     robot, wp, path, res = case(jerk)
     t = time.perf_counter()
     rt = Retimer(res)
     build = time.perf_counter() - t
     rng = np.random.default_rng(7)
-    sts = states(rt, n_time, STATE_SPAN, rng, jerk)
-    remaining_points = [len(res.profile.grid) - int(np.searchsorted(res.profile.grid, s[0])) + 1 for s in sts]
-    load0 = os.getloadavg()
-    out = dict(label=label, plan_points=len(res.profile.grid), plan_duration=res.duration, build_s=build,
-               remaining_points_min=int(min(remaining_points)), timing=timing(rt, sts), load_before=load0)
-    out["load_after"] = os.getloadavg()
-    out["optimality"] = optimality(robot, wp, path, res, rt, states(rt, n_opt, 0.9, rng, jerk), jerk)
+    out = dict(label=label, plan_points=len(res.profile.grid), plan_duration=res.duration, build_s=build)
+    if n_time:
+        sts = states(rt, n_time, STATE_SPAN, rng, jerk)
+        remaining_points = [len(res.profile.grid) - int(np.searchsorted(res.profile.grid, s[0])) + 1 for s in sts]
+        out.update(remaining_points_min=int(min(remaining_points)), load_before=os.getloadavg())
+        out["timing"] = timing(rt, sts)
+        out["load_after"] = os.getloadavg()
+    if n_opt:
+        out["optimality"] = optimality(robot, wp, path, res, rt, states(rt, n_opt, 0.9, rng, jerk), jerk)
     return out
 
 
 def report(r: dict) -> None:
     print(f"\n== {r['label']}: plan {r['plan_points']} points, {r['plan_duration']:.4f} s; Retimer built in "
-          f"{1e3 * r['build_s']:.1f} ms; remaining grids >= {r['remaining_points_min']} points")
-    print(f"   load before {r['load_before'][0]:.2f}, after {r['load_after'][0]:.2f} (1-min average, 2 cores)")
-    print("   call        calls   wall p50 / p99 / worst [ms]     cpu p50 / p99 / worst [ms]")
-    for name, t in r["timing"].items():
-        w, c = t["wall"], t["cpu"]
-        print(f"   {name:10s} {t['calls']:6d}   {w['p50_ms']:7.3f} / {w['p99_ms']:7.3f} / {w['worst_ms']:7.3f}"
-              f"      {c['p50_ms']:7.3f} / {c['p99_ms']:7.3f} / {c['worst_ms']:7.3f}   ({t['unsaveable']} unsaveable)")
-    s = r["optimality"]["summary"]
-    for key, text in (("vs_offline", "remaining vs offline plan"), ("vs_toppra", "remaining vs toppra"),
-                      ("stop_vs_shortest", "stop vs shortest distance"),
-                      ("stop_vs_second_order", "stop vs second-order stop")):
-        if s.get(key):
-            v = s[key]
-            print(f"   {text:28s} median {100 * v['median']:+.3f} %, range [{100 * v['min']:+.3f}, "
-                  f"{100 * v['max']:+.3f}] %, n = {v['n']}")
-    print(f"   worst certified limit ratio of the re-timed profiles: {s['worst_certified_ratio']} "
-          f"({s['saveable']} of {s['states']} states saveable)")
+          f"{1e3 * r['build_s']:.1f} ms")
+    if "timing" in r:
+        print(f"   remaining grids >= {r['remaining_points_min']} points; load before {r['load_before'][0]:.2f}, "
+              f"after {r['load_after'][0]:.2f} (1-min average, {os.cpu_count()} cores)")
+        print("   call        calls   wall p50 / p99 / worst [ms]     cpu p50 / p99 / worst [ms]")
+        for name, t in r["timing"].items():
+            w, c = t["wall"], t["cpu"]
+            print(f"   {name:10s} {t['calls']:6d}   {w['p50_ms']:7.3f} / {w['p99_ms']:7.3f} / {w['worst_ms']:7.3f}"
+                  f"      {c['p50_ms']:7.3f} / {c['p99_ms']:7.3f} / {c['worst_ms']:7.3f}   ({t['unsaveable']} unsaveable)")
+    if "optimality" in r:
+        s = r["optimality"]["summary"]
+        for key, text in COMPARISONS:
+            if s.get(key):
+                v = s[key]
+                print(f"   {text:28s} median {100 * v['median']:+.3f} %, range [{100 * v['min']:+.3f}, "
+                      f"{100 * v['max']:+.3f}] %, n = {v['n']}")
+        print(f"   worst certified limit ratio of the re-timed profiles: {s['worst_certified_ratio']} "
+              f"({s['saveable']} of {s['states']} states saveable)")
+
+
+COMPARISONS = (("vs_offline", "remaining vs offline plan"), ("vs_toppra", "remaining vs toppra"),
+               ("stop_vs_shortest", "stop vs shortest distance"), ("stop_vs_second_order", "stop vs second-order stop"))
+
+
+def timing_table() -> Table:
+    """The timing part's table, started before the measurement (its date and load at the start)."""
+    return Table("The re-timer: time per call from a measured state", [
+        ("case", "case"), ("plan", "plan points / duration [s]"), ("build_ms", "Retimer built [ms]"),
+        ("remaining_points", "remaining grids >= points"), ("call", "call"), ("calls", "calls"),
+        ("wall", "wall p50 / p99 / worst [ms]"), ("cpu", "CPU p50 / p99 / worst [ms]"), ("unsaveable", "unsaveable"),
+        ("load", "load before / after")])
+
+
+def fill_timing(table: Table, results: list) -> Table:
+    """One row per case and call: p50, p99 and worst of wall and CPU time [ms]."""
+    ms = lambda v: f"{v['p50_ms']:.3f} / {v['p99_ms']:.3f} / {v['worst_ms']:.3f}"  # noqa: E731
+    for r in results:
+        for name, t in r["timing"].items():
+            table.add(case=r["label"], plan=f"{r['plan_points']} / {r['plan_duration']:.4f}",
+                      build_ms=round(1e3 * r["build_s"], 1), remaining_points=r["remaining_points_min"], call=name,
+                      calls=t["calls"], wall=ms(t["wall"]), cpu=ms(t["cpu"]), unsaveable=t["unsaveable"],
+                      load=f"{r['load_before'][0]:.2f} / {r['load_after'][0]:.2f}")
+    table.notes.append("States in the first 8 % of a random 6-joint spline on the IRB140, interleaved calls of "
+                       "remaining and stop in a random order after a warm-up; CPU: the process's CPU time (the wall "
+                       "time's tail on a shared machine is mostly waiting for a core).")
+    return table
+
+
+def optimality_table() -> Table:
+    """The optimality part's table, started before the measurement (its date and load at the start)."""
+    return Table("The re-timer: optimality against independent references", [
+        ("case", "case"), ("comparison", "comparison"), ("median", "median [%]"), ("range", "range [%]"),
+        ("n", "states"), ("ratio", "worst certified limit ratio"), ("saveable", "saveable / states")])
+
+
+def fill_optimality(table: Table, results: list) -> Table:
+    """One row per case and comparison: the relative difference's median and range [%]."""
+    for r in results:
+        s = r["optimality"]["summary"]
+        for key, text in COMPARISONS:
+            if s.get(key):
+                v = s[key]
+                table.add(case=r["label"], comparison=text, median=f"{100 * v['median']:+.4f}",
+                          range=f"{100 * v['min']:+.4f} to {100 * v['max']:+.4f}", n=v["n"],
+                          ratio=round(s["worst_certified_ratio"], 6), saveable=f"{s['saveable']} / {s['states']}")
+    table.notes += ["Relative difference of the re-timer's duration (remaining) or stop distance (stop) from the "
+                    "reference: the offline plan of the same limits from the same state, toppra "
+                    "(ParametrizeConstAccel, same limits, same grid), the shortest stop by forward integration at "
+                    "the largest deceleration the limits allow (torque from Pinocchio's RNEA); for the jerk case "
+                    "the second-order stop bounds the stop below. The worst certified limit ratio covers every "
+                    "re-timed profile of the case."]
+    return table
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer states")
-    ap.add_argument("--json", type=Path, help="also write the results as JSON to this file")
+    ap.add_argument("--part", choices=("timing", "optimality"), help="measure only this part (default: both)")
+    ap.add_argument("--states", nargs=2, type=int, metavar=("N2", "N3"),
+                    help="states of the part for the second-order and the jerk case")
+    ap.add_argument("--json", type=Path, help="write the part's table as JSON here (for benchmarks/results.py)")
     args = ap.parse_args(argv)
+    if args.json and not args.part:
+        ap.error("--json writes one table: name the part with --part timing or --part optimality")
+    if args.states and not args.part:
+        ap.error("--states sets the states of one part: name it with --part")
     n2, n3, o2, o3 = (300, 10, 6, 3) if args.quick else (3000, 40, 20, 6)
+    if args.part == "timing":
+        n2, n3, o2, o3 = (*(args.states or (n2, n3)), 0, 0)
+    elif args.part == "optimality":
+        n2, n3, o2, o3 = (0, 0, *(args.states or (o2, o3)))
+    table = {"timing": timing_table, "optimality": optimality_table}[args.part]() if args.json else None
     with single_blas_thread():
         results = [run("second order (velocity, acceleration, torque)", False, n2, o2),
                    run(f"jerk {JERK_FACTOR:g} x acceleration (plus the second-order limits)", True, n3, o3)]
     for r in results:
         report(r)
     if args.json:
-        write_text(args.json, json.dumps(dict(results=results, argv=sys.argv[1:]), indent=1, default=float))
-        print(f"\nwrote {args.json}")
+        fill = fill_timing if args.part == "timing" else fill_optimality
+        print(f"\nwrote {fill(table, results).write(args.json)}")
     return 0
 
 

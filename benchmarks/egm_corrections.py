@@ -10,9 +10,9 @@ requested at half the planned time). Lockstep EGM in one process, through the en
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 
@@ -21,8 +21,12 @@ from pathmotion.execution.drive_file import drive_file_for, load_drives
 from pathmotion.execution.drives import VirtualArm
 from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess
 from pathmotion.robot import Payload
+from result_json import Table
 
 MODES = ("none", "shaping", "orbital")
+COLUMNS = [("scenario", "scenario"), ("gears", "gears"), ("correction", "correction"),
+           ("planned_s", "planned [s]"),            ("path_accuracy_mm", "path accuracy [mm]"), ("cycle_s", "cycle [s]"), ("cycle_ratio", "cycle / planned"),
+           ("vibration_end_mm", "vibration after end [mm]"), ("vibration_stop_mm", "vibration after a stop [mm]")]
 
 
 def run(setup, result, drives, mode, stop_at=None, payload=0.0):
@@ -36,13 +40,13 @@ def run(setup, result, drives, mode, stop_at=None, payload=0.0):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", default="circle_smooth,corner_g2,abb_cycle")
-    ap.add_argument("--json", default=None, help="write the rows to this JSON file")
+    ap.add_argument("--json", type=Path, help="write the table as JSON here (for benchmarks/results.py)")
     ap.add_argument("--unknown-payload", type=float, default=0.0, help="kg the arm carries unknown to the plan")
     args = ap.parse_args()
-    rows = []
-    print("| scenario | gears | correction | path accuracy [mm] | cycle [s] | cycle / planned | vibration after end [mm] "
-          "| vibration after a stop [mm] |")
-    print("|---|---|---|---|---|---|---|---|")
+    payload = f", the arm carrying {args.unknown_payload:g} kg unknown to the plan" if args.unknown_payload else ""
+    table = Table(f"EGM corrections through the virtual IRC5{payload}", COLUMNS)
+    print("| " + " | ".join(h for _, h in COLUMNS) + " |")
+    print("|" + "---|" * len(COLUMNS))
     for name in args.scenarios.split(","):
         text = resources.files("pathmotion.scenarios").joinpath(f"{name}.toml").read_text()
         setup = api.load_text(text)
@@ -53,19 +57,22 @@ def main() -> None:
                 t0 = time.perf_counter()
                 f = run(setup, result, drives, mode, payload=args.unknown_payload)
                 s = run(setup, result, drives, mode, stop_at=0.5 * result.duration, payload=args.unknown_payload)
-                row = {"scenario": name, "gears": gears, "correction": mode, "planned_s": result.duration,
-                       "path_accuracy_m": f["path_accuracy_m"], "cycle_time_s": f["cycle_time_s"],
-                       "vibration_end_m": f["residual_vibration_m"], "vibration_stop_m": s["residual_vibration_m"],
-                       "wall_s": time.perf_counter() - t0}
-                rows.append(row)
-                cyc = row["cycle_time_s"]
-                print(f"| {name} | {gears} | {mode} | {1e3 * row['path_accuracy_m']:.3f} | "
-                      f"{'-' if cyc is None else f'{cyc:.3f}'} | "
-                      f"{'-' if cyc is None else f'{cyc / result.duration:.4f}'} | "
-                      f"{1e3 * row['vibration_end_m']:.3f} | {1e3 * row['vibration_stop_m']:.3f} |", flush=True)
+                cyc = f["cycle_time_s"]
+                table.add(scenario=name, gears=gears, correction=mode, planned_s=round(result.duration, 4),
+                          path_accuracy_mm=round(1e3 * f["path_accuracy_m"], 3),
+                          cycle_s=None if cyc is None else round(cyc, 3),
+                          cycle_ratio=None if cyc is None else round(cyc / result.duration, 4),
+                          vibration_end_mm=round(1e3 * f["residual_vibration_m"], 3),
+                          vibration_stop_mm=round(1e3 * s["residual_vibration_m"], 3))
+                row = table.rows[-1]
+                print("| " + " | ".join("-" if row[k] is None else str(row[k]) for k, _ in COLUMNS) + " |"
+                      f"  ({time.perf_counter() - t0:.1f} s)", flush=True)
+    table.notes.append("Lockstep EGM through the virtual IRC5, the link side's TCP. Cycle as `simulate` counts it: "
+                       "the TCP first within 1 mm of the path's end plus the plan's own time inside that ball. "
+                       "Vibration: the TCP's largest distance from where it finally rests, after the reference came "
+                       "to rest, at the path's end and after a stop requested at half the planned time.")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
+        print(f"wrote {table.write(args.json)}")
 
 
 if __name__ == "__main__":
