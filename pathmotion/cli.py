@@ -463,18 +463,18 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
                                            "zone's deviation) | optimal (the fastest G2 blend within that deviation; "
                                            "a search of several thousand coarse plans per zone, about a minute of "
                                            "CPU each)")):
-    """Turn an ABB RAPID program (MoveL/MoveJ/MoveC, speeds, zones, tool, work object) into a scenario.
+    """Turn an ABB RAPID program (MoveL/MoveJ/MoveC/MoveAbsJ, speeds, zones, tool, work object) into a scenario.
 
     Example: [bold]pathmotion import-rapid tests/data/abb_cycle.mod --out cycle.toml[/]
     """
-    from .api import rapid_zone_tolerances
+    from .api import rapid_flange, rapid_zone_tolerances
     from .io.atomic import write_text
     from .io.rapid import check_blend_type, read_rapid, scenario_toml
     from .io.scenario import parse_scenario
 
     check_blend_type(blend, f"--blend {blend}")  # before reading the program
     out = _out_file(out, program)
-    prog = read_rapid(program)
+    prog = read_rapid(program, rapid_flange(robot))
     if prog.unsupported and not skip_unsupported:
         listed = "; ".join(f"line {ln}: {text}" for ln, text in prog.unsupported)
         _fail(f"{program}: {len(prog.unsupported)} unsupported instruction(s), rerun with --skip-unsupported to skip "

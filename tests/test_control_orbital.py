@@ -5,15 +5,18 @@ own x_at / state_at_time, np.interp of the gains), and the exact geometry of a t
 polyline (the nearest point is known in closed form).
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from hypothesis import given, strategies as st
 
 import control_reference as ref
 from pathmotion import defaults
 from pathmotion.control import OrbitalDesign, OrbitalGains, PathTable, ProfileLookup
 from pathmotion.control.kernels import ProfileArrays, orbital_command, profile_at_time
+from pathmotion.control.orbital import SAMPLE_MERGE, sample_grid
 from pathmotion.lift.joint_path import JointPath, SplineJointPath
 from pathmotion.planning.profile import Profile
 from pathmotion.simulation import SimulationSettings, simulate
@@ -154,3 +157,48 @@ def test_a_smooth_profile_runs_through_the_clock_zones(irb140):
     starts = [z0 for z0, _ in design.zones]
     assert len(starts) == 2
     assert np.allclose(c._zone_theta, [profile.state_at_time(np.array([t]))[0][0] for t in starts], rtol=0, atol=1e-12)
+
+
+def _stop_after_a_short_move(first_duration: float):
+    """The 135 degree joint-space polyline with a stop at the kink: [0, 1] a rest-to-rest trapezoid (acceleration
+    500 /s^2) of ``first_duration`` [s], then [1, 2] a slow one (0.4 /s, also 500 /s^2: only the stops are below min_speed). Returns (path, profile)."""
+    acc = 500.0  # T = 1/v + v/a, the smaller root
+    v = acc * (first_duration - math.sqrt(first_duration**2 - 4.0 / acc)) / 2.0
+    ta, tb = v * v / (2 * acc), 0.4**2 / (2 * acc)
+    grid = np.array([0.0, ta, 1 - ta, 1.0, 1 + tb, 2 - tb, 2.0])
+    profile = Profile(grid, np.array([0.0, v * v, v * v, 0.0, 0.16, 0.16, 0.0]))
+    d1 = np.array([0.4, 0.0, 0.0, 0.0, 0.0, 0.0])
+    d2 = np.array([-0.4, 0.4, 0.0, 0.0, 0.0, 0.0]) / np.sqrt(2.0)
+    q0 = np.array([0.0, 0.2, -0.3, 0.0, 0.6, 0.0])
+    return Polyline(n=6, domain=(0.0, 2.0), kinks=(1.0,), breaks=(1.0,), a=q0, d1=d1, d2=d2), profile
+
+
+@pytest.mark.parametrize("gap_samples, merged", [(0.225, True), (3.0, False)])
+def test_clock_zones_less_than_a_sample_apart_are_one(gap_samples, merged):
+    """A short move between two stops whose clock zones (terminal_time_to_go w each side of a stop) leave a gap
+    of less than one sample: the sampled design merges the zones (a controller sample cannot fall on the orbit
+    there; the few grid points in the gap once gave a design over an empty sample grid). A gap of three samples
+    keeps its orbital segment. Expected zones from the profile's own times."""
+    ts, w = 0.004, OrbitalGains().terminal_time_to_go
+    path, profile = _stop_after_a_short_move(2 * w + gap_samples * ts)
+    t_stop = float(profile.times[3])
+    assert t_stop - 2 * w == pytest.approx(gap_samples * ts, rel=1e-9)
+    design = OrbitalDesign.build(PathTable.from_path(path), profile, OrbitalGains(), ts)
+    end = (profile.duration - w, profile.duration)
+    want = [(0.0, t_stop + w), end] if merged else [(0.0, w), (t_stop - w, t_stop + w), end]
+    assert np.allclose(design.zones, want, rtol=0, atol=1e-9)
+    assert np.isfinite(design.gain).all()
+
+
+@given(st.floats(0.0, 10.0), st.floats(1e-6, 0.1), st.floats(1e-3, 0.01))
+def test_sample_grid_covers_any_open_interval(t0, span, ts):
+    """Open segments: at least one sample, from t0 to t1, every interval ts but the last, which is within
+    (SAMPLE_MERGE ts, (1 + SAMPLE_MERGE) ts] unless it is the only one (then it is the whole span)."""
+    t = sample_grid(np.array([t0, t0 + span]), ts, periodic=False)
+    steps = np.diff(t)
+    assert len(t) >= 2 and t[0] == t0 and t[-1] == t0 + span
+    assert np.allclose(steps[:-1], ts, rtol=1e-9)
+    if len(steps) == 1:
+        assert steps[0] == pytest.approx(span, rel=1e-9) or SAMPLE_MERGE * ts < steps[0] <= (1 + SAMPLE_MERGE) * ts
+    else:
+        assert SAMPLE_MERGE * ts * (1 - 1e-9) < steps[-1] <= (1 + SAMPLE_MERGE) * ts * (1 + 1e-9)

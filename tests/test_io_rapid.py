@@ -101,7 +101,7 @@ def test_unsupported_instructions_are_listed_with_line_numbers(frames):
     lines = [ln for ln, _ in frames.unsupported]
     assert lines == [22, 24]  # WaitTime (line 25) is a dwell after the last move
     assert frames.moves[-1].dwell == 0.5
-    assert "SingArea" in frames.unsupported[0][1] and "MoveAbsJ" in frames.unsupported[1][1]
+    assert "SingArea" in frames.unsupported[0][1] and "SetDO" in frames.unsupported[1][1]
 
 
 @pytest.mark.parametrize("body, match", [

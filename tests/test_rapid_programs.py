@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from pathmotion import api
 from pathmotion.errors import ScenarioError, UnreachableError
 from pathmotion.geometry.orientation import smoothstep5
+from pathmotion.api.program import axis_times
 from pathmotion.io.rapid import parse_rapid, read_rapid, scenario_toml
 from pathmotion.io.scenario import parse_scenario
 from pathmotion.report.html import build_report
@@ -24,7 +25,9 @@ FAST = {"plan.verify": "off", "plan.duration_tolerance": 0.01}
 
 
 def imported(text_or_path, overrides=None):
-    prog = read_rapid(text_or_path) if isinstance(text_or_path, Path) else parse_rapid(text_or_path, "prog.mod")
+    flange = api.rapid_flange("irb140")
+    prog = read_rapid(text_or_path, flange) if isinstance(text_or_path, Path) else parse_rapid(text_or_path, "prog.mod",
+                                                                                             flange)
     text = scenario_toml(prog, api.rapid_zone_tolerances(prog))
     return prog, api.load_text(text, DATA, {**FAST, **(overrides or {})})
 
@@ -64,7 +67,7 @@ def tool_of(decl, path: Path):
 
 
 # ------------------------------------------------------------------------------------------ the programs
-@pytest.fixture(scope="module", params=["palletizing", "glue_bead", "deburring", "tending"])
+@pytest.fixture(scope="module", params=["palletizing", "glue_bead", "deburring", "tending", "abs_joint"])
 def planned(request):
     prog, setup = imported(DATA / f"{request.param}.mod")
     return request.param, prog, setup, api.plan_scenario(setup)
@@ -106,7 +109,7 @@ def test_moves_csv_is_the_cycle_by_move(planned, tmp_path):
     assert "Program moves" in html and "sortable" in html and f"in {len(rows)} moves" in html
 
 
-@pytest.mark.parametrize("name", ["palletizing", "glue_bead", "tending"])
+@pytest.mark.parametrize("name", ["palletizing", "glue_bead", "deburring", "tending", "abs_joint"])
 def test_programs_simulate_within_tracking(name):
     _, setup = imported(DATA / f"{name}.mod")
     result = api.plan_scenario(setup)
@@ -259,3 +262,84 @@ def test_the_1000_move_contour_imports_to_a_valid_scenario():
     scenario = parse_scenario(scenario_toml(prog, tolerances), "contour_1000.toml")
     assert len(scenario.path.segments) == 1000 and len(scenario.path.blends) == 999
     assert all(s.program.move == "MoveL" and s.quaternion == (0.0, 1.0, 0.0, 0.0) for s in scenario.path.segments)
+
+
+def _jointtargets_deg(text: str) -> dict:
+    """{name or "inline k": robax (6,) [deg]} of every jointtarget, read here by regular expression."""
+    out = {m.group(1).lower(): _numbers(m.group(2))[:6]
+           for m in re.finditer(r"(?i)jointtarget\s+(\w+)\s*:=\s*\[\s*(\[[^\]]*\])", text)}
+    for k, m in enumerate(re.finditer(r"(?i)MoveAbsJ\s*\[\s*(\[[^\]]*\])", text)):
+        out[f"inline {k}"] = _numbers(m.group(1))[:6]
+    return out
+
+
+def test_moveabsj_is_a_joint_move_to_the_jointtarget_in_radians():
+    """abs_joint.mod starts at the jointtarget jHome and ends by MoveAbsJ at an inline one: the path starts and
+    ends at those axes, degrees read here and converted by numpy (1e-9 rad). The MoveAbsJ segment is a joint
+    segment with ``end``, the move before it a MoveL whose TCP is where the joint move starts."""
+    text = (DATA / "abs_joint.mod").read_text()
+    want = _jointtargets_deg(text)
+    prog, setup = imported(DATA / "abs_joint.mod")
+    path = setup.scenario.path
+    assert [m.instruction for m in prog.moves] == ["MoveAbsJ", "MoveJ", "MoveL", "MoveL", "MoveJ", "MoveL", "MoveL",
+                                                   "MoveAbsJ"]
+    assert np.allclose(path.start_configuration, np.deg2rad(want["jhome"]), rtol=0, atol=1e-9)
+    last = path.segments[-1]
+    assert last.type == "joint" and last.program.move == "MoveAbsJ"
+    assert np.allclose(last.end, np.deg2rad(want["inline 0"]), rtol=0, atol=1e-9)
+    lo, hi = setup.path.domain
+    assert np.allclose(setup.path(lo), np.deg2rad(want["jhome"]), rtol=0, atol=1e-9)
+    assert np.allclose(setup.path(hi), np.deg2rad(want["inline 0"]), rtol=0, atol=1e-9)
+    # the import's TCP at the inline jointtarget: bare flange FK times the tool read here
+    _, decl = fine_targets(DATA / "abs_joint.mod")
+    tool_p, tool_r = tool_of(decl, DATA / "abs_joint.mod")
+    flange_p, flange_r = fk(load_robot("irb140"), np.deg2rad(want["inline 0"]))
+    assert np.allclose(prog.moves[-1].point, flange_p + flange_r @ tool_p, atol=1e-12)
+    assert np.allclose(prog.moves[-1].rotation, flange_r @ tool_r, atol=1e-12)
+
+
+@pytest.mark.parametrize("body, match", [
+    ("MoveAbsJ [[0, 0, 0, 0, 90], [9E9]], v100, fine, tool0;\nMoveL [[500, 0, 500], [0, 1, 0, 0]], v100, fine, tool0;",
+     "expected \\[\\[robax_a"),
+    ("MoveAbsJ jNone, v100, fine, tool0;\nMoveL [[500, 0, 500], [0, 1, 0, 0]], v100, fine, tool0;",
+     "jointtarget 'jNone' is not declared"),
+    ("MoveAbsJ pA, v100, fine, tool0;\nMoveL [[500, 0, 500], [0, 1, 0, 0]], v100, fine, tool0;",
+     "pA is a robtarget, expected a jointtarget"),
+])
+def test_bad_jointtargets_are_clear_errors(body, match):
+    head = "MODULE m\nCONST robtarget pA := [[500, 0, 500], [0, 1, 0, 0], [0, 0, 0, 0], [9E9]];\nPROC main()\n"
+    with pytest.raises(ScenarioError, match=match):
+        parse_rapid(head + body + "\nENDPROC\nENDMODULE\n", "prog.mod", api.rapid_flange())
+
+
+def test_moveabsj_without_kinematics_says_what_to_pass():
+    text = "MODULE m\nPROC main()\nMoveAbsJ [[0, 0, 0, 0, 90, 0], [9E9]], v100, fine, tool0;\nENDPROC\nENDMODULE\n"
+    with pytest.raises(ScenarioError, match="prog.mod:3: MoveAbsJ needs the robot's kinematics"):
+        parse_rapid(text, "prog.mod")
+
+
+def test_a_joint_move_takes_at_least_its_slowest_axis_at_max_speed():
+    """abs_joint.mod's last move, MoveAbsJ v2000 from the fine point pPlaceAbove: its slowest axis at max speed
+    (dq from the jointtarget read here and the planned joints at pPlaceAbove, the IRB140's axis speeds) takes
+    longer than its TCP arc length at 2 m/s, so that is its programmed time. The estimate of this chain is the sum
+    of the moves' programmed times: the MoveL moves' lengths are the robtargets' distances read here."""
+    text = (DATA / "abs_joint.mod").read_text()
+    _, setup = imported(DATA / "abs_joint.mod")
+    spec, robot, path = setup.scenario.path, setup.robot, setup.path
+    end = np.deg2rad(_jointtargets_deg(text)["inline 0"])
+    slowest = float(np.max(np.abs(end - path(path.kinks[-1])) / load_robot("irb140").limits.velocity))
+    _, lengths = api.program_thetas(spec, robot, path)
+    assert lengths[-1] == pytest.approx(path.domain[1] - path.kinks[-1], rel=1e-12)
+    assert lengths[-1] / 2.0 < slowest  # the axis binds, not the TCP speed
+    floors = axis_times(spec, robot, path)
+    assert floors[-1] == pytest.approx(slowest, rel=1e-9)
+    assert [f for s, f in zip(spec.segments, floors) if s.type != "joint"] == [0.0] * 4
+    _, decl = fine_targets(DATA / "abs_joint.mod")
+    point = {n: np.array(_numbers(decl[n][1])[:3]) / 1000 for n in ("ppick", "ppickabove", "pplace", "pplaceabove")}
+    drop = np.linalg.norm(point["ppick"] - point["ppickabove"])
+    place = np.linalg.norm(point["pplace"] - point["pplaceabove"])
+    assert np.allclose([lengths[k] for k in (1, 2, 4, 5)], [drop, drop, place, place], rtol=1e-12)
+    moves = [s.program for s in spec.segments]
+    want = sum(max(length / mv.speed, floor) for mv, length, floor in zip(moves, lengths, floors))
+    assert api.rapid_estimate(setup) == pytest.approx(want, rel=1e-12)
+    assert want > sum(length / mv.speed for mv, length in zip(moves, lengths)) + slowest - lengths[-1] / 2.0 - 1e-12

@@ -21,7 +21,7 @@ from .failures import FailureKind, ResultFailure
 from .plan import (enforced_limits, limit_settings_summary, phase_plane_columns, plan_failures, plan_scenario,
                    plan_summary, reserve_summary, second_order_plan, write_plan, write_report_data)
 from .program import program_thetas
-from .rapid import rapid_estimate, rapid_zone_tolerances
+from .rapid import rapid_estimate, rapid_flange, rapid_zone_tolerances
 from .searches import resolve_torque_reserve, search, search_blends
 from .setup import (BlendRequest, Setup, build, build_path, build_robot, load, load_text, plan_settings,
                     reach_bound, split_first_segment)
@@ -31,7 +31,7 @@ from .simulate import (simulate_scenario, simulation_columns, simulation_setting
 __all__ = [
     "BlendRequest", "DEMO_COLUMNS", "DEMO_SCENARIOS", "FailureKind", "ResultFailure", "Setup", "build", "build_path", "build_robot", "check_scenario",
     "enforced_limits", "limit_settings_summary", "load", "load_text", "path_is_closed", "phase_plane_columns",
-    "plan_failures", "plan_scenario", "plan_settings", "plan_summary", "program_thetas", "rapid_estimate", "rapid_zone_tolerances",
+    "plan_failures", "plan_scenario", "plan_settings", "plan_summary", "program_thetas", "rapid_estimate", "rapid_flange", "rapid_zone_tolerances",
     "reach_bound", "reserve_summary", "resolve_torque_reserve", "run_shipped", "search", "search_blends",
     "second_order_plan", "simulate_scenario", "simulation_columns", "simulation_settings", "simulation_summary",
     "split_first_segment", "tracking_failure", "write_demo_table", "write_plan", "write_report_data",

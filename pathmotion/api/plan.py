@@ -20,7 +20,7 @@ from ..robot import Robot, fk
 from ..robot.arm import arm_points
 from .failures import FailureKind, ResultFailure
 from ..planning.program_moves import move_table
-from .program import program_targets, program_thetas
+from .program import axis_times, program_targets, program_thetas
 from .rapid import rapid_estimate
 from .setup import Setup
 
@@ -124,7 +124,8 @@ def write_moves(setup: Setup, result: PlanResult, samples, out: Path) -> None:
     if setup.task_path is not None and program_targets(spec):
         bounds, lengths = program_thetas(spec, setup.robot, setup.path)
         table = move_table(spec, bounds, lengths, result.profile, samples,
-                           enforced_limits(setup.robot, result.settings), setup.robot.joint_names)
+                           enforced_limits(setup.robot, result.settings), setup.robot.joint_names,
+                           axis_times(spec, setup.robot, setup.path))
     if table is None:
         (out / schema.MOVES_FILE).unlink(missing_ok=True)
     else:

@@ -111,6 +111,23 @@ def program_thetas(spec, robot: Robot, path: JointPath) -> tuple[np.ndarray, lis
     return np.array(out), lengths
 
 
+def axis_times(spec, robot: Robot, path: JointPath) -> list[float]:
+    """Per segment of a ``type = "task"`` path: a joint move's slowest-axis time at max speed [s],
+    max_i |q_i(end) - q_i(start)| / qd_max_i over the move before blending (the robot's velocity limits); 0 for
+    the other segments."""
+    joints = iter(p.path for p in getattr(path, "pieces", ()) if p.kind == "joint")
+    out = []
+    for seg in spec.segments:
+        if seg.type != "joint":
+            out.append(0.0)
+            continue
+        move = next(joints)
+        lo, hi = move.domain
+        dq = np.abs(np.asarray(move(hi), float) - np.asarray(move(lo), float))
+        out.append(float(np.max(dq / np.asarray(robot.limits.velocity, float))))
+    return out
+
+
 def check_program(spec, robot: Robot, path: JointPath) -> None:
     """The ConfL / ConfJ \\On check of a program path's targets (lift.program.check_targets); nothing without
     program moves."""
@@ -119,5 +136,5 @@ def check_program(spec, robot: Robot, path: JointPath) -> None:
         check_targets(robot, path, program_thetas(spec, robot, path)[0], targets)
 
 
-__all__ = ["check_program", "program_targets", "program_thetas", "start_configuration", "start_rotation",
+__all__ = ["axis_times", "check_program", "program_targets", "program_thetas", "start_configuration", "start_rotation",
            "task_orientation"]

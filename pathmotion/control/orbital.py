@@ -100,11 +100,12 @@ def with_integral(a: np.ndarray, b: np.ndarray, ni: int) -> tuple[np.ndarray, np
     return aa, bb
 
 
-def clock_zones(times: np.ndarray, joint_speed: np.ndarray, min_speed: float,
-                window: float, duration: float, arrivals: np.ndarray | None = None) -> tuple[tuple[float, float], ...]:
+def clock_zones(times: np.ndarray, joint_speed: np.ndarray, min_speed: float, window: float, duration: float,
+                arrivals: np.ndarray | None = None, min_gap: float = 0.0) -> tuple[tuple[float, float], ...]:
     """Planned-time intervals [s] where the planned joint speed |Phi'| sqrt(x*) (at the grid times (M,), the
     departure times; ``arrivals`` (M,) the arrival times where the plan waits, default the same) is below
-    ``min_speed``, widened by ``window`` on each side, merged and sorted."""
+    ``min_speed``, widened by ``window`` on each side, merged and sorted. Zones less than ``min_gap`` [s] apart
+    are merged too: a sampled controller cannot take one whole sample on the orbit between them."""
     arrivals = times if arrivals is None else arrivals
     slow = joint_speed < min_speed
     edges = np.diff(np.concatenate([[0], slow.astype(int), [0]]))
@@ -112,7 +113,7 @@ def clock_zones(times: np.ndarray, joint_speed: np.ndarray, min_speed: float,
     zones: list[list[float]] = []
     for a, b in zip(starts, stops):
         z0, z1 = max(0.0, arrivals[a] - window), min(duration, times[b] + window)
-        if zones and z0 <= zones[-1][1]:
+        if zones and z0 <= zones[-1][1] + min_gap:
             zones[-1][1] = max(zones[-1][1], z1)
         else:
             zones.append([z0, z1])
@@ -195,7 +196,8 @@ controller reads K only; :attr:`riccati` puts P on the grid when asked);
         x_grid = lookup.states(theta)[:, 0]
         joint_speed = np.linalg.norm(dphi_grid, axis=1) * np.sqrt(x_grid)
         zones = () if table.closed else clock_zones(times, joint_speed, gains.min_speed, gains.terminal_time_to_go,
-                                                    lookup.duration, times - profile.holds_at(theta))
+                                                    lookup.duration, times - profile.holds_at(theta),
+                                                    sample_time or 0.0)
         in_zone = np.zeros(len(theta), bool)
         for z0, z1 in zones:
             in_zone |= (times >= z0) & (times <= z1)
@@ -281,12 +283,17 @@ def _interpolate(knots: np.ndarray, theta: np.ndarray, values: np.ndarray) -> np
 
 def sample_grid(times: np.ndarray, sample_time: float, periodic: bool) -> np.ndarray:
     """Planned times (N+1,) [s] of the samples over [times[0], times[-1]]: ``sample_time`` apart, the last
-    interval shorter (open), or N equal intervals nearest ``sample_time`` (one period of a closed path)."""
+    interval shorter (open; merged into the one before when shorter than ``SAMPLE_MERGE`` samples, unless it
+    is the only one), or N equal intervals nearest ``sample_time`` (one period of a closed path). N >= 1."""
     t0, t1 = float(times[0]), float(times[-1])
+    if not t1 > t0:
+        raise SimulationError(f"an orbital segment at planned time {t0:.6g} s has no duration (it ends at "
+                              f"{t1:.6g} s): the plan's speed profile is at rest over it")
     if periodic:
         return np.linspace(t0, t1, max(1, int(round((t1 - t0) / sample_time))) + 1)
     grid = np.arange(t0, t1, sample_time)
-    return np.append(grid, t1) if t1 - grid[-1] > SAMPLE_MERGE * sample_time else np.append(grid[:-1], t1)
+    merge = len(grid) > 1 and t1 - grid[-1] <= SAMPLE_MERGE * sample_time
+    return np.append(grid[:-1] if merge else grid, t1)
 
 
 def _strictly_increasing(theta: np.ndarray, length: float) -> np.ndarray:

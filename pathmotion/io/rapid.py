@@ -5,7 +5,8 @@ over any number of lines):
 
 * ``CONST`` / ``PERS`` / ``VAR`` declarations of ``robtarget`` ([[x, y, z] mm, [q1..q4],
   [cf1, cf4, cf6, cfx], [eax_a..eax_f]]), ``tooldata``, ``wobjdata``, ``speeddata``,
-  ``zonedata`` and ``num``, wherever they are; other data types are ignored (data, not motion).
+  ``zonedata``, ``jointtarget`` ([[robax_a..robax_f] deg, [extax_a..extax_f]]) and ``num``, wherever they
+  are; other data types are ignored (data, not motion).
 * ``PROC main`` (or the only procedure with moves) run as the controller reads it: calls of
   procedures without parameters inlined (recursion is an error), ``FOR`` loops with constant bounds
   unrolled, ``WaitTime`` a dwell after the last move, ``ConfL`` / ``ConfJ`` ``\\On`` / ``\\Off``.
@@ -15,21 +16,27 @@ over any number of lines):
   ``z200`` (ABB's table of pzone_tcp, pzone_ori and zone_ori), custom zonedata and ``\\Z:=``; the tool
   (``tframe``, and ``tload`` as the payload) and ``\\WObj:=`` (``uframe`` and ``oframe``); ``\\Conc``
   is ignored with a note.
+* ``MoveAbsJ`` to a jointtarget (by name or inline; speed, zone, tool and ``\\WObj`` as for ``MoveJ``): a
+  joint move to its axes, degrees to radians. The external axes are not read (a value other than 9E9 is
+  noted). Its TCP pose, which the zones, lengths and the next move's start need, is ``flange(joints)``
+  times the tool frame: :func:`parse_rapid` takes the robot's flange kinematics as a function (this layer
+  does not know the robot). The work object does not move a jointtarget.
 
 Frames: a robtarget is the TCP pose in the object frame, so the TCP pose in the robot base frame is
 T_base_tcp = T_uframe T_oframe T_target (quaternions [q1, q2, q3, q4] = [w, x, y, z]). The robot base
 is the world frame (no ``baseframe``). Positions are converted from mm to m.
 
 What it is not: a RAPID interpreter. Other control flow, calls with arguments, assignments at run
-time, I/O and every other motion instruction (``MoveAbsJ``, ``SearchL``, ``TriggL``, ``SingArea``, ...)
+time, I/O and every other motion instruction (``SearchL``, ``TriggL``, ``SingArea``, ...)
 are listed as unsupported with their line numbers: an error unless skipped.
 
 The scenario (see docs/program.md for the mapping):
 
 * Each move is a segment carrying its target's orientation (``quaternion``) and its program data
   (``[path.segments.program]``: line, target, instruction, speed, zone, robconf, ConfL state): ``MoveL``
-  a line, ``MoveC`` an arc, ``MoveJ`` a joint move to the target's pose on its robconf; each
-  ``WaitTime`` a dwell segment. The first move's target is the start pose (``[path.start_pose]``).
+  a line, ``MoveC`` an arc, ``MoveJ`` a joint move to the target's pose on its robconf, ``MoveAbsJ`` a
+  joint move to ``end`` [rad]; each ``WaitTime`` a dwell segment. The first move's target is the start
+  pose (``[path.start_pose]``), or with ``MoveAbsJ`` the start configuration (``start_configuration``).
 * A zone is the sphere around the target where ABB's corner path starts; as on the controller it is
   reduced to half the distance to the neighbouring programmed positions. Its orientation zone is
   written as the segment's ``orientation_zone``. A fine point (and a move followed by a WaitTime) is
@@ -77,8 +84,10 @@ _BLOCKS = {"module", "endmodule", "proc", "endproc", "func", "endfunc", "trap", 
            "elseif", "endif", "for", "endfor", "while", "endwhile", "test", "case", "default", "endtest",
            "error", "undo", "backward", "local", "task"}
 _MOVE_ARGS = {"movel": ("to", "speed", "zone", "tool"), "movej": ("to", "speed", "zone", "tool"),
-              "movec": ("via", "to", "speed", "zone", "tool")}
-_OPTIONAL = {"v", "t", "z", "wobj", "conc", "inpos", "id"}
+              "movec": ("via", "to", "speed", "zone", "tool"), "moveabsj": ("to", "speed", "zone", "tool")}
+#: A jointtarget's external axis value that means "no axis" (ABB's 9E9); smaller ones are noted as not read.
+_NO_EXTAX = 8.9e9
+_OPTIONAL = {"v", "t", "z", "wobj", "conc", "inpos", "id", "noeoffs"}  # \NoEOffs: external axes, not read
 _SAME_ROTATION = 1e-6  # largest element difference of two rotation matrices taken as equal [-]
 _GIMBAL_LOCK = 1e-12  # cos(pitch) below which roll and yaw are one turn (all put in roll) [-]
 _COLLINEAR = 1e-9  # |ab x ac| / (longest side)^2 below which three circle points are a line [-]
@@ -122,13 +131,14 @@ class RapidTool:
 
 @dataclass(frozen=True)
 class RapidMove:
-    """One Move instruction: ``kind`` "L", "J" or "C"; ``point`` (3,) TCP target in the base frame [m];
+    """One Move instruction: ``kind`` "L", "J", "C" or "AbsJ"; ``point`` (3,) TCP target in the base frame [m];
     ``rotation`` (3, 3) TCP orientation in the base frame; ``via`` (3,) MoveC circle point [m];
     ``speed`` v_tcp [m/s] (None when ``time`` [s] is given by ``\\T``); ``zone`` programmed zone
     radius [m] (0 = fine point); ``zone_ori`` the zone's pzone_ori [m] and ``zone_ori_angle`` its
     zone_ori [rad]; ``target`` the target as written; ``quaternion`` (4,) the target's [q1..q4] as
     written (normalized); ``robconf`` (cf1, cf4, cf6, cfx); ``conf`` True when ConfL / ConfJ \\On
-    holds the robconf for this move; ``dwell`` the WaitTime after it [s], ``dwell_line`` the line of the first."""
+    holds the robconf for this move; ``dwell`` the WaitTime after it [s], ``dwell_line`` the line of the first;
+    ``joints`` (6,) [rad] the jointtarget's axes of a MoveAbsJ (None otherwise)."""
 
     kind: str
     line: int
@@ -149,11 +159,17 @@ class RapidMove:
     zone_ori_angle: float = 0.0
     dwell: float = 0.0
     dwell_line: int = 0
+    joints: np.ndarray | None = None
 
     @property
     def instruction(self) -> str:
-        """The RAPID instruction: MoveL, MoveJ or MoveC."""
+        """The RAPID instruction: MoveL, MoveJ, MoveC or MoveAbsJ."""
         return "Move" + self.kind
+
+    @property
+    def joint(self) -> bool:
+        """A joint-space move (MoveJ, MoveAbsJ)."""
+        return self.kind in ("J", "AbsJ")
 
 
 @dataclass(frozen=True)
@@ -268,8 +284,9 @@ def _statements(text: str) -> list[tuple[int, str]]:
 class _Parser:
     """State of one parse: declared data, the tool and work object frames, the moves."""
 
-    def __init__(self, where: str):
+    def __init__(self, where: str, flange=None):
         self.where = where
+        self.flange = flange  # joints (6,) [rad] -> (position (3,) [m], rotation (3, 3)) of the flange, or None
         self.data: dict[str, tuple[str, object, int]] = {}  # name (lower) -> (type, value, line)
         self.module = ""
         self.procs: dict[str, list[tuple[int, str]]] = {}  # name -> its statements (line, text)
@@ -356,7 +373,7 @@ class _Parser:
             return
         if init is None:
             return  # declared without a value: only an error if a move uses it
-        if dtype in ("robtarget", "tooldata", "wobjdata", "speeddata", "zonedata", "num"):
+        if dtype in ("robtarget", "tooldata", "wobjdata", "speeddata", "zonedata", "jointtarget", "num"):
             self.data[name.lower()] = (dtype, self.value(init, line), line)
 
     # --- frames ---------------------------------------------------------------------------------
@@ -517,7 +534,7 @@ class _Parser:
                 key = key.strip().lower()
                 if key not in _OPTIONAL:
                     self.fail(line, f"optional argument \\{key} of {kind} is not supported (supported: "
-                                    "\\V, \\T, \\Z, \\WObj, \\Conc, \\Inpos, \\ID); remove it")
+                                    "\\V, \\T, \\Z, \\WObj, \\Conc, \\Inpos, \\ID, \\NoEOffs); remove it")
                 opts[key] = val.strip()
             if head.strip():
                 mains.append(head.strip())
@@ -526,8 +543,13 @@ class _Parser:
         a = dict(zip(names, mains))
         tool = self.tool(a["tool"], line)
         obj = self.wobj(opts["wobj"], line) if opts.get("wobj") else Frame()
-        frame, quat, robconf = self.robtarget(a["to"], line)
-        tcp = obj @ frame
+        joints = self.jointtarget(a["to"], line) if kind == "moveabsj" else None
+        if joints is None:
+            frame, quat, robconf = self.robtarget(a["to"], line)
+            tcp = obj @ frame
+        else:  # the work object does not move a jointtarget
+            tcp, robconf = self.flange_pose(joints, line) @ tool.frame, None
+            quat = Rotation.from_matrix(tcp.rotation).as_quat()[[3, 0, 1, 2]]
         via = (obj @ self.target(a["via"], line)).translation if "via" in a else None
         speed, time = self.speed(a["speed"], opts, line)
         zone, zone_name, zone_ori, zone_angle = self.zone(a["zone"], opts, line)
@@ -535,10 +557,39 @@ class _Parser:
             self.remarks.append(f"line {line}: \\Conc ignored (on the controller it lets the next statements run "
                                 "while the robot moves; the motion is the same)")
         letter = kind[-1].lower()
-        return RapidMove(letter.upper(), line, " ".join(text.split()), tcp.translation, tcp.rotation, via,
-                         speed, time, zone, zone_name, tool.name, target=_target_name(a["to"]), quaternion=quat,
-                         robconf=robconf,
-                         conf=self.conf["j" if letter == "j" else "l"], zone_ori=zone_ori, zone_ori_angle=zone_angle)
+        return RapidMove("AbsJ" if joints is not None else letter.upper(), line, " ".join(text.split()),
+                         tcp.translation, tcp.rotation, via, speed, time, zone, zone_name, tool.name,
+                         target=_target_name(a["to"]), quaternion=quat, robconf=robconf,
+                         conf=self.conf["j" if letter == "j" else "l"], zone_ori=zone_ori, zone_ori_angle=zone_angle,
+                         joints=joints)
+
+    def jointtarget(self, text: str, line: int) -> np.ndarray:
+        """The robot axes (6,) [rad] of a jointtarget (a name or an aggregate [[robax deg x 6], [extax x 6]])."""
+        t = text.strip()
+        if not t.startswith("[") and t.lower() not in self.data:
+            self.fail(line, f"jointtarget {t!r} is not declared with a value; declare CONST jointtarget {t} := "
+                            "[[a1, ..., a6], [9E9, ...]] (run-time assignments are not evaluated)")
+        value = self.typed(t, "jointtarget", line)
+        try:
+            robax = np.array([float(v) for v in value[0]], float)
+            extax = [float(v) for v in value[1]] if len(value) > 1 else []
+            if robax.shape != (6,) or not np.all(np.isfinite(robax)):
+                raise ValueError
+        except (TypeError, ValueError, IndexError):
+            self.fail(line, f"jointtarget {t[:40]}: expected [[robax_a, ..., robax_f] (6 finite angles, deg), "
+                            f"[extax_a, ..., extax_f]], got {str(value)[:80]}")
+        if any(abs(e) < _NO_EXTAX for e in extax):
+            self.remarks.append(f"line {line}: the external axes of jointtarget {t[:40]} are not read (one robot, no "
+                                "external axes)")
+        return np.radians(robax)
+
+    def flange_pose(self, joints: np.ndarray, line: int) -> Frame:
+        """The flange pose in the base frame at ``joints`` (6,) [rad], from the robot's kinematics."""
+        if self.flange is None:
+            self.fail(line, "MoveAbsJ needs the robot's kinematics to know where the TCP is; read the program with "
+                            "parse_rapid(..., flange=api.rapid_flange(robot)) (pathmotion import-rapid does)")
+        position, rotation = self.flange(joints)
+        return Frame(np.asarray(position, float), np.asarray(rotation, float))
 
     def statement(self, line: int, text: str) -> None:
         """Collect one statement: declarations are read now, procedure bodies are run by :meth:`run`."""
@@ -682,7 +733,9 @@ def _drop_repeats(moves: list[RapidMove], source: str, remarks: list[str]) -> li
         prev = out[-1]
         if mv.kind != "C" and float(np.linalg.norm(mv.point - prev.point)) < defaults.MIN_SEGMENT_LENGTH:
             turns = np.max(np.abs(mv.rotation - prev.rotation)) > _SAME_ROTATION
-            if turns and mv.kind == "J":  # a joint move turning the tool in place is a motion
+            if mv.joints is not None and not turns:  # the same pose on other axes (a branch, a turn of axis 6)
+                turns = prev.joints is None or np.max(np.abs(mv.joints - prev.joints)) > _SAME_ROTATION
+            if turns and mv.joint:  # a joint move turning the tool in place is a motion
                 out.append(mv)
                 continue
             if turns:
@@ -699,13 +752,14 @@ def _drop_repeats(moves: list[RapidMove], source: str, remarks: list[str]) -> li
     return out
 
 
-def parse_rapid(text: str, source: str = "program.mod") -> RapidProgram:
+def parse_rapid(text: str, source: str = "program.mod", flange=None) -> RapidProgram:
     """Parse RAPID module text (``source`` names it in errors: "file:line: what; what to change").
 
     Runs ``PROC main`` (or the only procedure with moves): procedure calls without arguments are
-    inlined, FOR loops unrolled. ScenarioError if there are fewer than two moves, if the moves use more
-    than one tool, or on a value it cannot read."""
-    p = _Parser(source)
+    inlined, FOR loops unrolled. ``flange``: joints (6,) [rad] -> (position (3,) [m], rotation (3, 3)) of
+    the robot's flange in its base frame, needed by ``MoveAbsJ`` only. ScenarioError if there are fewer
+    than two moves, if the moves use more than one tool, or on a value it cannot read."""
+    p = _Parser(source, flange)
     for line, stmt in _statements(text):
         p.statement(line, stmt)
     with_moves = [name for name, body in p.procs.items()
@@ -719,8 +773,8 @@ def parse_rapid(text: str, source: str = "program.mod") -> RapidProgram:
         p.run(p.procs[proc], (proc,))
     moves = tuple(_drop_repeats(p.moves, source, p.remarks))
     if len(moves) < 2:
-        raise ScenarioError(f"{source}: {'PROC ' + proc if proc else 'the module'} has {len(moves)} MoveL/MoveJ/MoveC "
-                            "instructions; a path needs at least two (the first target is the start point)")
+        raise ScenarioError(f"{source}: {'PROC ' + proc if proc else 'the module'} has {len(moves)} "
+                            "MoveL/MoveJ/MoveC/MoveAbsJ instructions; a path needs at least two (the first target is the start point)")
     tools = sorted({m.tool for m in moves}, key=str.lower)
     if len({t.lower() for t in tools}) > 1:
         raise ScenarioError(f"{source}: the moves use tools {', '.join(tools)}; a scenario has one tool: use one "
@@ -730,13 +784,13 @@ def parse_rapid(text: str, source: str = "program.mod") -> RapidProgram:
                         tuple(dict.fromkeys(p.remarks)))
 
 
-def read_rapid(path: str | Path) -> RapidProgram:
-    """Read and parse a RAPID module file (see :func:`parse_rapid`)."""
+def read_rapid(path: str | Path, flange=None) -> RapidProgram:
+    """Read and parse a RAPID module file (see :func:`parse_rapid`; ``flange`` for MoveAbsJ)."""
     from .files import read_input_bytes
 
     path = Path(path)  # regular files only, at most defaults.MAX_TOML_BYTES (a FIFO or /dev/zero is refused)
     text = read_input_bytes(path, "rapid").decode("utf-8", errors="replace")
-    return parse_rapid(text, str(path))
+    return parse_rapid(text, str(path), flange)
 
 
 # -------------------------------------------------------------------------------- path geometry
@@ -785,7 +839,7 @@ def segments(program: RapidProgram) -> list[tuple[RapidMove, np.ndarray, ArcThro
             out.append((mv, prev.point, arc, arc.length))
         else:
             length = float(np.linalg.norm(mv.point - prev.point))
-            if length < defaults.MIN_SEGMENT_LENGTH and mv.kind != "J":  # a joint move may only turn the tool
+            if length < defaults.MIN_SEGMENT_LENGTH and not mv.joint:  # a joint move may only turn the tool
                 raise ScenarioError(f"{where}: the move goes to the point it starts from ({mv.text[:60]}); remove it "
                                     "(a path has no zero-length segments)")
             out.append((mv, prev.point, None, length))
@@ -921,6 +975,10 @@ def notes(program: RapidProgram) -> list[str]:
     if joint:
         out.append(f"MoveJ at line(s) {', '.join(map(str, joint))}: joint moves, linear in the joints to the IK of "
                    "the target on its robconf")
+    absolute = [m.line for m in program.moves if m.kind == "AbsJ"]
+    if absolute:
+        out.append(f"MoveAbsJ at line(s) {', '.join(map(str, absolute))}: joint moves, linear in the joints to the "
+                   "jointtarget's axes (degrees to radians)")
     off = [m.line for m in program.moves if not m.conf and m.robconf is not None]
     if off:
         out.append(f"ConfL/ConfJ \\Off at line(s) {', '.join(map(str, off))}: the configuration there is the one "
@@ -955,9 +1013,9 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
         raise ScenarioError(f"{program.source}: {len(tolerances)} blend tolerances for {len(zones)} corners")
     name = name or program.module or Path(program.source).stem
     info = notes(program)
-    if blend == "optimal" and any(m.kind == "J" or m.dwell for m in program.moves[1:]):
-        info.append("the zones are symmetric G2 blends: optimal blends are not searched on a path with MoveJ or "
-                    "WaitTime")
+    if blend == "optimal" and any(m.joint or m.dwell for m in program.moves[1:]):
+        info.append("the zones are symmetric G2 blends: optimal blends are not searched on a path with MoveJ, "
+                    "MoveAbsJ or WaitTime")
     quats = base_quaternions(program)
     t = program.tool
     rpy = matrix_rpy(t.frame.rotation)
@@ -972,12 +1030,10 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
              "", f"[robot.payload]  # tooldata {t.name}: tload", f"mass = {_num(t.mass)}", f"com = {_vec(t.com)}",
              "inertia = [" + ", ".join(_vec(r) for r in t.inertia) + "]",
              "", "[path]", 'type = "task"', f"orientation = {_orientation(program)}",
-             "", f"[path.start_pose]  # line {program.moves[0].line}: {program.moves[0].target[:60]}, the start",
-             f"position = {_vec(program.moves[0].point)}", f"quaternion = {_vec(quats[0])}",
-             *([f"robconf = [{', '.join(map(str, program.moves[0].robconf))}]"] if program.moves[0].robconf else []),
+             *_start(program.moves[0], quats[0]),
              "", f"[path.start_program]  # line {program.moves[0].line}: the start", *_program(program.moves[0])]
     lines += _segment_lines(program, segs, quats)
-    chain = any(m.kind == "J" or m.dwell for m in program.moves[1:])
+    chain = any(m.joint or m.dwell for m in program.moves[1:])
     kind = "g2" if chain else blend  # optimal blends are not searched on chains with joint moves or dwells
     corner = _corners(program)
     for k, (tol, z) in enumerate(zip(tolerances, zones)):
@@ -993,6 +1049,15 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
               f"speeds = {_vec(segment_speeds(program))}  # programmed TCP speed per segment [m/s]",
               f"zones = {_vec(zones)}  # zone radius per corner [m], 0 = fine point", ""]
     return "\n".join(lines)
+
+
+def _start(first: RapidMove, quat: np.ndarray) -> list[str]:
+    """The start's keys: a MoveAbsJ's axes as the start configuration, else the target as the start pose."""
+    if first.joints is not None:
+        return [f"start_configuration = {_vec(first.joints)}  # line {first.line}: {first.target[:60]} [rad]"]
+    return ["", f"[path.start_pose]  # line {first.line}: {first.target[:60]}, the start",
+            f"position = {_vec(first.point)}", f"quaternion = {_vec(quat)}",
+            *([f"robconf = [{', '.join(map(str, first.robconf))}]"] if first.robconf else [])]
 
 
 def _corners(program: RapidProgram) -> list[int]:
@@ -1013,7 +1078,9 @@ def _segment_lines(program: RapidProgram, segs, quats: np.ndarray) -> list[str]:
     ori_zones = [*orientation_zones(program), 0.0]
     for k, (mv, start, arc, _) in enumerate(segs):
         lines += ["", f"[[path.segments]]  # line {mv.line}: {mv.text[:90]}"]
-        if mv.kind == "J":
+        if mv.joints is not None:
+            lines += ['type = "joint"', f"end = {_vec(mv.joints)}  # {mv.target[:40]} [rad]"]
+        elif mv.kind == "J":
             lines += ['type = "joint"', "[path.segments.end_pose]", f"position = {_vec(mv.point)}",
                       f"quaternion = {_vec(quats[k + 1])}"]
             lines += [f"robconf = [{', '.join(map(str, mv.robconf))}]"] if mv.robconf else []

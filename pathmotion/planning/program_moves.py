@@ -6,8 +6,9 @@ itself, mid-blend at a zone); a WaitTime is a row of its own. Per move:
 
 * ``planned_time_s`` -- the plan's time over that stretch [s]; ``dwell_s`` -- its WaitTime [s];
   ``cycle_s`` -- their sum, so the column sums to the program's cycle.
-* ``programmed_time_s`` -- the programmed-speed estimate: the move's length on the sharp path over its
-  programmed TCP speed (or its \\T time) [s], acceleration and zones ignored.
+* ``programmed_time_s`` -- the programmed-speed estimate (:func:`programmed_time`): the move's length on the
+  sharp path over its programmed TCP speed (or its \\T time) [s], acceleration and zones ignored; a joint
+  move (MoveJ, MoveAbsJ) takes at least the slowest axis's time at its max speed.
 * ``mean_tcp_speed_m_s`` / ``peak_tcp_speed_m_s`` -- length over planned time, and the largest path
   speed theta_dot over the stretch (theta is the TCP's arc length on task and joint moves alike, so
   theta_dot is the TCP speed) [m/s].
@@ -61,10 +62,27 @@ def _tolerances(spec, count: int) -> list[float]:
     return out
 
 
-def move_table(spec, bounds, lengths, profile, samples, enforced: dict, joint_names) -> dict[str, list] | None:
+def programmed_time(seg, move, length: float, axis_time: float = 0.0) -> float | None:
+    """The programmed-speed estimate [s] of one segment ``seg`` with its program ``move`` (ProgramMoveSpec or
+    None): a dwell its time; a move with \\T its time; else ``length`` [m] over the programmed TCP speed. A joint
+    move takes at least ``axis_time`` [s], the slowest axis's time at its max speed, max_i |dq_i| / qd_max_i: the
+    controller moves the axes synchronized at the programmed TCP speed unless an axis would exceed its max speed
+    (the more faithful of the two readings of MoveJ's speed). None without a program."""
+    if seg.type == "dwell":
+        return seg.time
+    if move is None:
+        return None
+    if move.time is not None:
+        return move.time
+    return max(length / move.speed, axis_time) if move.speed else None
+
+
+def move_table(spec, bounds, lengths, profile, samples, enforced: dict, joint_names,
+               axis_times=None) -> dict[str, list] | None:
     """moves.csv's columns (:data:`COLUMNS`) of a planned ``type = "task"`` path whose segments carry program
     moves (``spec``: its TaskPathSpec); ``bounds`` (K + 1,) [m]: theta where the plan passes the start and each
-    segment's end; ``lengths`` (K,) [m]: each segment's length before blending; ``profile``: the plan's Profile;
+    segment's end; ``lengths`` (K,) [m]: each segment's length before blending; ``axis_times`` (K,) [s]: a joint
+    move's slowest-axis time at max speed (0 elsewhere; default all 0); ``profile``: the plan's Profile;
     ``samples``: its trajectory samples; ``enforced``: {limit name: enforced value} as limits.json has them.
     None when the segments carry no program. A dwell segment's row has its wait as ``dwell_s``."""
     moves = [getattr(s, "program", None) for s in spec.segments]
@@ -74,6 +92,7 @@ def move_table(spec, bounds, lengths, profile, samples, enforced: dict, joint_na
     times = np.interp(bounds, motion.grid, motion.times)
     speed = np.sqrt(profile.x)
     tol = _tolerances(spec, len(moves))
+    axis_times = [0.0] * len(moves) if axis_times is None else axis_times
     cols: dict[str, list] = {c: [] for c in COLUMNS}
     for k, (seg, mv) in enumerate(zip(spec.segments, moves)):
         lo, hi = bounds[k], bounds[k + 1]
@@ -82,9 +101,7 @@ def move_table(spec, bounds, lengths, profile, samples, enforced: dict, joint_na
         rows = (samples.theta >= lo) & (samples.theta <= hi) & (hi > lo)
         limit, joint, ratio = _utilisation(samples, enforced, joint_names, rows)
         dwell = seg.time if seg.type == "dwell" else 0.0
-        programmed = dwell if seg.type == "dwell" else None
-        if mv is not None and seg.type != "dwell":
-            programmed = mv.time if mv.time is not None else (lengths[k] / mv.speed if mv.speed else None)
+        programmed = programmed_time(seg, mv, lengths[k], axis_times[k])
         values = {"move": k + 1, "line": None if mv is None else mv.line, "target": "" if mv is None else mv.target,
                   "instruction": seg.type if mv is None else mv.move, "planned_time_s": planned, "dwell_s": dwell,
                   "cycle_s": planned + dwell, "programmed_time_s": programmed,
@@ -97,4 +114,4 @@ def move_table(spec, bounds, lengths, profile, samples, enforced: dict, joint_na
     return cols
 
 
-__all__ = ["COLUMNS", "move_table"]
+__all__ = ["COLUMNS", "move_table", "programmed_time"]

@@ -21,7 +21,7 @@ module FrameTest
               v200 \T:=0.5, z10 \Z:=7, tPen \WObj:=wTable;
         SingArea \Wrist;
         TPWrite "done";
-        MoveAbsJ [[0, 0, 0, 0, 30, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]], v100, fine, tPen;
+        SetDO doGrip, 1;
         WaitTime 0.5;
     ENDPROC
 ENDMODULE
