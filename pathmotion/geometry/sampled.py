@@ -107,11 +107,7 @@ class HermiteSegment(Segment):
             s = np.clip(s - step, 0.0, self.length)
             if np.max(np.abs(step)) < NEWTON_ROUNDING * max(1.0, self.length):
                 break
-        cand = np.stack([s, np.zeros_like(s), np.full_like(s, self.length)], axis=1)
-        dist = np.stack([np.linalg.norm(self.evaluate(c)[0] - x, axis=1) for c in cand.T], axis=1)
-        k = np.argmin(dist, axis=1)
-        rows = np.arange(len(x))
-        return cand[rows, k], dist[rows, k]
+        return self._nearer_than_ends(s, x)
 
     def describe(self) -> str:
         return f"{self.label} from {_fmt(self.p[0])} to {_fmt(self.p[-1])} (length {self.length:.4g} m)"

@@ -186,6 +186,11 @@ class Segment:
             s = np.clip(s - step, 0.0, self.length)
             if np.max(np.abs(step)) < NEWTON_ROUNDING * max(1.0, self.length):
                 break
+        return self._nearer_than_ends(s, x)
+
+    def _nearer_than_ends(self, s: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(s (N,), distance (N,) [m]): for each point of ``x`` (N, 3), the nearest of its candidate ``s``
+        (N,) and the segment's two ends."""
         cand = np.stack([s, np.zeros_like(s), np.full_like(s, self.length)], axis=1)
         dist = np.stack([np.linalg.norm(self.evaluate(c)[0] - x, axis=1) for c in cand.T], axis=1)
         k = np.argmin(dist, axis=1)
