@@ -50,6 +50,8 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the server forks: no BLAS threads in the parent
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
+from pathmotion.io.files import RESULT_MARK  # noqa: E402 - after the thread settings (a light module)
+
 #: Valid bases, coarse. SQUARE is closed with every corner blended (the closing one included).
 JOINT = """name = "joint"
 [path]
@@ -451,7 +453,8 @@ def _prepare(doc: Doc, folder: Path) -> tuple[list, Path | None]:
 
 #: The complete earlier result an interrupted or locked-out run must leave intact (or replace as a whole).
 PREVIOUS = {"summary.json": '{"scenario": "previous", "duration_s": 1.0}\n', "trajectory.csv": "t,q1\n0,0\n1,0\n",
-            "previous.marker": "the earlier run's folder\n"}
+            "previous.marker": "the earlier run's folder\n",
+            RESULT_MARK: "written by pathmotion; this folder may be replaced by a new result\n"}
 
 
 def _child(args: list, folder: Path, mem_bytes: int, cpu_s: float) -> None:

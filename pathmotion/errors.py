@@ -6,7 +6,6 @@ user can change. The CLI prints ``str(error)`` on one or two lines and exits non
 
 from __future__ import annotations
 
-import copy
 from typing import Self
 
 
@@ -21,7 +20,8 @@ class PathmotionError(Exception):
     def in_context(self, where: str) -> Self:
         """A copy of this error (same type, same attributes) whose message starts with ``where``: the way to
         add the caller's context without losing what the error carries."""
-        new = copy.copy(self)
+        new = type(self).__new__(type(self), *self.args)  # not copy.copy: a copy that shares nothing with self
+        new.__dict__.update(self.__dict__)
         new.args = (f"{where}: {self}",)
         new.where = where
         return new
