@@ -461,8 +461,9 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
                  robot: str = typer.Option("irb140", "--robot", help="robot of the scenario"),
                  blend: str = typer.Option("g2", "--blend", help="the blend at each zone: g2 (symmetric, the "
                                            "zone's deviation) | optimal (the fastest G2 blend within that deviation; "
-                                           "a search of several thousand coarse plans per zone, about a minute of "
-                                           "CPU each)")):
+                                           "searched per zone with the scenario's default search = \"fast\", "
+                                           "a few seconds of CPU each; set search = \"thorough\" in the written "
+                                           "scenario for a longer search)")):
     """Turn an ABB RAPID program (MoveL/MoveJ/MoveC/MoveAbsJ, speeds, zones, tool, work object) into a scenario.
 
     Example: [bold]pathmotion import-rapid tests/data/abb_cycle.mod --out cycle.toml[/]
