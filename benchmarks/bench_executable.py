@@ -1,4 +1,4 @@
-"""What executable motion buys (issue 12): the IRB140 circle in closed loop with the realism of docs/control.md.
+"""What executable motion buys: the IRB140 circle in closed loop with the realism of docs/control.md.
 
 Every case is planned, then run in the same closed loop: the orbital controller with its default gains and
 design (the sampled design with the delay in the model, the disturbance observer, the payload and friction

@@ -1,6 +1,6 @@
-"""What joint torque limits cost at a corner (issue 17): the free-shape minimum-time reference with and
+"""What joint torque limits cost at a corner: the free-shape minimum-time reference with and
 without them (``free_shape_optimum(..., torque=True)``), next to pathmotion's time-optimal stop with
-and without them, on issue 17's 90 degree turn (0.1 m + 0.2 m, rest to rest).
+and without them, on the 90 degree turn (0.1 m + 0.2 m, rest to rest).
 
 The arm: the IRB140 with a payload (default its rated 6 kg, 0.1 m below the flange, 0.01 kg m^2 about
 each axis) and drives at a fraction of the shipped torque limits (``--drives``, default 0.35: with the

@@ -1,4 +1,4 @@
-"""Peak memory of planning on large grids and of simulating a long motion (issue 8).
+"""Peak memory of planning on large grids and of simulating a long motion.
 
 Each case runs in a fresh process (so peaks do not mix) and reports that process's peak resident set size
 (``ru_maxrss``) and its baseline after the imports, next to the grid size or the simulated time. The bounds

@@ -1,4 +1,4 @@
-"""Peer benchmark (issue 12): MoveIt's pipeline, reproduced (toppra, then Ruckig smoothing through the
+"""Peer benchmark: MoveIt's pipeline, reproduced (toppra, then Ruckig smoothing through the
 same samples), against pathmotion's jerk-limited plan on the same paths and limits.
 
 What is reproduced of MoveIt (moveit2, moveit_core/trajectory_processing/src/ruckig_traj_smoothing.cpp,

@@ -1,4 +1,4 @@
-"""Benchmark: pathmotion's time-optimal planner against toppra at equal accuracy (issue 14).
+"""Benchmark: pathmotion's time-optimal planner against toppra at equal accuracy.
 
 Cases: random 6-joint clamped cubic splines through 4, 7 and 12 waypoints drawn with
 numpy.random.default_rng(seed).uniform(-1.5, 1.5), knots evenly spaced on [0, 1]; three limit sets:

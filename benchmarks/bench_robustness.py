@@ -1,4 +1,4 @@
-"""Robustness matrix of the closed loop (issue 13): path accuracy and verdict of the orbital controller and the
+"""Robustness matrix of the closed loop: path accuracy and verdict of the orbital controller and the
 two baselines on plants that differ from the controllers' model, at 1, 4 and 12 ms.
 
     .venv/bin/python benchmarks/bench_robustness.py                  # the full matrix (about 100 runs)

@@ -1,4 +1,4 @@
-"""A 1,000-point sweep on 2 worker processes, some points failing on purpose (issue 8).
+"""A 1,000-point sweep on 2 worker processes, some points failing on purpose.
 
 The scenario is cheap on purpose: the shipped joint-waypoint spline on a 30-point grid with the torque
 limit off (inactive on this path; its dense verification is the slow part). The grid sweeps the end speed

@@ -9,7 +9,7 @@ interleaved with toppra's acceleration-only solve (``reference_topp.toppra_insta
 before and after, and the ratio of the medians are printed.
 
 Optimality: the planner at its default grid (and ``--grids``) against the converged reference
-(``benchmarks/reference_topp.py``) on issue 12's circle_zero table (recorded below from its run over
+(``benchmarks/reference_topp.py``) on the circle_zero table (recorded below from its run over
 200..6400 intervals; ``--reference 200 400 800`` recomputes it), and on ``--splines`` random joint
 splines (seeded, 4 waypoints uniform in [-1.2, 1.2] rad, velocity + acceleration + jerk 10x the
 acceleration limits), whose references were converged over 200, 400, 800 intervals (Richardson;

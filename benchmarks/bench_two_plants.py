@@ -1,11 +1,11 @@
-"""The shipped scenarios on both plants: the built-in RK4 plant and MuJoCo (issue 13's second plant).
+"""The shipped scenarios on both plants: the built-in RK4 plant and MuJoCo (a second, independent plant).
 
 For each scenario in scenarios/*.toml: plan once, simulate the scenario's controller on ``plant = "builtin"``
 and on ``plant = "mujoco"`` (same controller, sample time and realism), and print the verdict, the cycle time
 (and the relative difference, target within 1 %), the TCP path accuracy and the largest joint deviation of each.
 Then the friction rows: circle_zero with docs/control.md's joint friction (REALISTIC_VISCOUS_FRICTION,
 REALISTIC_COULOMB_FRICTION; MuJoCo maps it to dof_damping and dof_frictionloss) and with 2 N m s/rad + 2 N m on
-every joint (where the orbital controller used to stall, issue 13).
+every joint (a hard case for the orbital controller).
 Run: python benchmarks/bench_two_plants.py [scenario names...]   (needs ``pip install "pathmotion[mujoco]"``)
 """
 

@@ -1,4 +1,4 @@
-"""What one stage of the optimal blend search (planning/blend_search.py) buys (issue 17).
+"""What one stage of the optimal blend search (planning/blend_search.py) buys.
 
 Per atlas-style corner (two 0.2 m lines, rest to rest, velocity and acceleration limits: the atlas'
 settings), the search without the stage and with it, one after the other on the same corner: the full-grid

@@ -1,5 +1,5 @@
 """Extensions of the optimal blend's search, tried at one atlas corner, each from the search's fastest blend
-(issue 17: where the blend stays above the free-shape optimum, do other starts or a richer corner help?).
+(where the blend stays above the free-shape optimum, do other starts or a richer corner help?).
 
 * ``--tilts``: wide starts tilted between outwards and the corner's normal, per side (entry/exit angles [deg]: 0
   outwards, 90 along the normal, negative below the plane), each the joint stage (``--plans`` plans) from the

@@ -1,4 +1,4 @@
-"""The project's own command-line fuzzer (issue 15): hostile scenario documents through ``check`` and
+"""The project's own command-line fuzzer: hostile scenario documents through ``check`` and
 ``plan``, each run in a forked child of a warm server (pathmotion imported once), under a memory limit
 (RLIMIT_AS) and a CPU-time limit. One reproducer per escape goes into OUT/escapes.
 

@@ -1,5 +1,5 @@
 """Bracket the corner-confined free-shape optimum of atlas rows from both sides and measure the optimal blend
-against both (issue 17).
+against both.
 
 A mesh imposes the tube only at its points, so between them the TCP may leave it, and each mesh's duration (and
 their extrapolation, the atlas' ``corner_optimum_s``) may lie below the true minimum time. The feasible bound

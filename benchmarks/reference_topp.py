@@ -1,6 +1,6 @@
 """Reference minimum-time motion along a fixed path, by direct transcription (CasADi + IPOPT).
 
-An independent check for the planner (issue 12, "Targets"): it shares only the path (Phi and its
+An independent check for the planner: it shares only the path (Phi and its
 exact derivatives, :meth:`JointPath.evaluate3`) and the reduced dynamics coefficients
 (:func:`pathmotion.planning.reduced.reduced_dynamics`, three RNEA calls) with pathmotion.
 
@@ -42,11 +42,11 @@ effect. The optimum converges as O(dt^p) with p about 1..2 (switching times fall
 :func:`converged_duration` solves on doubling grids, warm-starting each from the last, and
 extrapolates (Richardson) with the order estimated from the last three grids.
 
-Run ``python benchmarks/reference_topp.py`` for the table of issue 12 on scenarios/circle_zero.toml
+Run ``python benchmarks/reference_topp.py`` for the table of recorded converged optima on scenarios/circle_zero.toml
 (about 20 minutes on a loaded 2-core machine, 2 minutes per 6400-interval solve;
 ``--grids 200 400 800`` for a quick look). Result (IRB140 limits file, 200..6400 intervals):
 
-    limits                        reference [s]  order  finest [s]  issue 12 [s] difference
+    limits                        reference [s]  order  finest [s]  recorded [s] difference
     vel + acc                          1.087412   0.99    1.087492       1.08740    +0.001 %
     + jerk 10x acc                     1.213063   1.01    1.213117       1.21310    -0.003 %
     + jerk 4x acc                      1.554302   0.98    1.554468       1.55430    +0.000 %
@@ -362,7 +362,7 @@ def toppra_duration(path, robot, velocity, acceleration, gridpoints: int = 4001)
 
 
 # ------------------------------------------------------------------------------------ the table
-ISSUE_TABLE = (  # (label, converged optimum of issue 12)
+RECORDED_OPTIMA = (  # (label, recorded converged optimum)
     ("vel + acc", 1.0874),
     ("+ jerk 10x acc", 1.2131),
     ("+ jerk 4x acc", 1.5543),
@@ -395,19 +395,19 @@ def main(argv=None) -> None:
     path, robot = setup.path, setup.robot
     print(f"{args.scenario}: path length {path.length:.6f} m; grids {args.grids}")
     rows = []
-    for label, issue in ISSUE_TABLE:
+    for label, recorded in RECORDED_OPTIMA:
         limits = circle_cases(robot)[label]
         print(f"  {label}:")
         T, p, profiles = converged_duration(path, robot, limits, args.grids, log=print)
-        rows.append((label, T, p, profiles[-1].duration, issue))
+        rows.append((label, T, p, profiles[-1].duration, recorded))
     lim = robot.limits
     t_toppra = toppra_duration(path, robot, lim.velocity, lim.acceleration)
     acc_only = load(args.scenario, {"limits.use_torque": False})
     t_plan = plan_scenario(acc_only).duration
-    print(f"\n{'limits':28s} {'reference [s]':>14s} {'order':>6s} {'finest [s]':>11s} {'issue 12 [s]':>13s} "
+    print(f"\n{'limits':28s} {'reference [s]':>14s} {'order':>6s} {'finest [s]':>11s} {'recorded [s]':>13s} "
           f"{'difference':>10s}")
-    for label, T, p, finest, issue in rows:
-        print(f"{label:28s} {T:14.6f} {p:6.2f} {finest:11.6f} {issue:13.5f} {100 * (T / issue - 1):+9.3f} %")
+    for label, T, p, finest, recorded in rows:
+        print(f"{label:28s} {T:14.6f} {p:6.2f} {finest:11.6f} {recorded:13.5f} {100 * (T / recorded - 1):+9.3f} %")
     ref = rows[0][1]
     print(f"\nacceleration-only check: toppra (4001 points) {t_toppra:.6f} s ({100 * (t_toppra / ref - 1):+.4f} %), "
           f"pathmotion planner {t_plan:.6f} s ({100 * (t_plan / ref - 1):+.4f} %)")

@@ -1,4 +1,4 @@
-"""The atlas' corner-confined references on a finer mesh sequence: does the 1 % verdict hold (issue 17)?
+"""The atlas' corner-confined references on a finer mesh sequence: does the 1 % verdict hold?
 
 The atlas (``pathmotion corners``) solves each free-shape reference on defaults.ATLAS_MESHES (25, 50, 100 intervals) and
 extrapolates (free_shape.extrapolate). Its stated error is |extrapolated - finest|, which assumes the three meshes

@@ -1,4 +1,4 @@
-"""Where the optimal blend loses time against the corner-confined free-shape optimum (issue 17).
+"""Where the optimal blend loses time against the corner-confined free-shape optimum.
 
 For one atlas corner (angle, tolerance): the optimal blend (planning/blend_search.py), the corner-
 confined free-shape optimum on the blend's own spans (study/free_shape.py, CasADi + IPOPT), and

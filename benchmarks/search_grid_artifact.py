@@ -1,6 +1,6 @@
-"""A blend the search's coarse grid misjudges (open problem of issue 17, found 2026-12-03).
+"""A blend the search's coarse grid misjudges.
 
-On issue 17's 90 degree turn at 10 mm the blend search (SEARCH_GRID_POINTS = 300 per fast plan) ranked this shape
+On the 90 degree turn at 10 mm the blend search (SEARCH_GRID_POINTS = 300 per fast plan) ranked this shape
 fastest of every stage, at 0.550 s; on any finer grid it takes 0.73 s. Its corner quintic is 0.6 mm long with a
 curvature peak of about 5500 1/m (radius 0.18 mm). The search's full-grid candidates and polish then ended at
 0.5754 s, where a tolerance smaller by 1e-9 (relative) gave 0.5703 s. This script plans the shape on several fixed
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from issue_turn import TURN  # noqa: E402  (issue 17's turn, defined once there)
+from right_turn import TURN  # noqa: E402  (the 90 degree turn, defined once there)
 
 #: The shape, as the search logged it ("blend search: corner 0: ... shape G2Shape(...)"), tolerance 0.01 m.
 SHAPE = dict(entry=0.09999989999999997, exit=0.12153108143347184, shape_entry=0.723292583974,

@@ -3,7 +3,7 @@ blend_search.py) run on one corner at delta (1 + e) for several tiny e. Its stag
 on comparisons (which S-curve the racing stage ends at, whether a blend reaches a path end), so a change of 1e-9 of the
 tolerance can end in another local optimum: the spread printed is how far one atlas number is from luck.
 
-    python benchmarks/search_spread.py                       # issue 17's 90 deg turn at 10 mm
+    python benchmarks/search_spread.py                       # the 90 deg turn at 10 mm
     python benchmarks/search_spread.py --angle 30 --tolerance 0.005
     python benchmarks/search_spread.py --relative 0,1e-9,-1e-9 --wide-plans 0 --wide-normal-plans 0
     python benchmarks/search_spread.py --angle 30 --tolerance 0.005 --restart-plans 0   # without the wide restart
@@ -24,13 +24,13 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from issue_turn import TURN  # noqa: E402  (issue 17's turn, defined once there)
+from right_turn import TURN  # noqa: E402  (the 90 degree turn, defined once there)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--angle", type=float, default=None,
-                    help="an atlas corner's turn angle [deg] (default: issue 17's turn)")
+                    help="an atlas corner's turn angle [deg] (default: the 90 degree turn)")
     ap.add_argument("--tolerance", type=float, default=0.01, help="tube radius [m]")
     ap.add_argument("--relative", default="0,1e-9,-1e-9,2e-9,-2e-9,1e-7,-1e-7",
                     help="relative changes e of the tolerance, comma-separated")
@@ -67,7 +67,7 @@ def main() -> None:
           "polish_plans": bs.POLISH_PLANS if a.polish_plans is None else a.polish_plans,
           "global_plans": bs.GLOBAL_PLANS if a.global_plans is None else a.global_plans,
           "polish_starts": bs.POLISH_STARTS if a.polish_starts is None else a.polish_starts}
-    where = "issue 17's turn" if a.angle is None else f"{a.angle:g} deg atlas corner"
+    where = "the 90 deg turn" if a.angle is None else f"{a.angle:g} deg atlas corner"
     print(f"{where}, {a.tolerance * 1e3:g} mm, {kw}, load {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     durations = []
     for e in (float(v) for v in a.relative.split(",")):

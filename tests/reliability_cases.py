@@ -1,4 +1,4 @@
-"""The catalogue of bad inputs (issue 8): one entry per case, grouped in classes, each with the error it
+"""The catalogue of bad inputs: one entry per case, grouped in classes, each with the error it
 must raise and words its message must hold (what, where, what to change). docs/bad-inputs.md lists the
 same ids; tests/test_reliability_inputs.py runs every case through the API and the command line."""
 
@@ -338,7 +338,7 @@ CASES = (
     # (the plan itself is solved; sampling its 3e8 s motion for the files is refused, before any file is written)
     Case("tcp_speed_far_too_small", "output far too large", _limits("tcp_speed = 1e-9"), PathmotionError,
          ("samples, more than", "tcp_speed"), stage="write"),
-    # --- non-finite intermediate results (issue 15): refused by name before they reach a limit or a file
+    # --- non-finite intermediate results: refused by name before they reach a limit or a file
     Case("payload_com_overflow", "non-finite intermediate result", JOINT + "[robot.payload]\nmass = 1.0\ncom = [1e308, 0, 0]\n",
          RobotModelError, (r"payload mass x \|com\|\^2 overflows", "robot.payload")),
     Case("payload_com_huge", "non-finite intermediate result", JOINT + "[robot.payload]\nmass = 1.0\ncom = [1e150, 0, 0]\n",
@@ -348,7 +348,7 @@ CASES = (
          ("asymmetric by 0.001", r"I\[i\]\[j\] = I\[j\]\[i\]")),
     Case("tool_translation_huge", "non-finite intermediate result", LINE + "[robot.tool]\ntranslation = [1e9, 0, 0]\n",
          UnreachableError, ("theta = 0", r"position error 1e\+09 m")),
-    # --- closed polygons (issue 15): corner N is the closing corner
+    # --- closed polygons: corner N is the closing corner
     Case("closing_corner_number_too_high", "closed polygon", _square("5"), ScenarioError,
          (r"numbered 1\.\.4", "4 = the closing corner")),
     Case("closing_corner_blend_too_large", "closed polygon", _square("4", "0.3"), PathError,

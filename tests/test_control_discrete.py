@@ -1,4 +1,4 @@
-"""The orbital controller designed for its sample time (issue 13): the transverse linearization sampled with a
+"""The orbital controller designed for its sample time: the transverse linearization sampled with a
 zero-order hold and the command applied one sample late, and a periodic discrete Riccati design on it.
 
 Independent check: the closed loop of the SAMPLED linearization -- integrated here with RK4 through each hold

@@ -139,7 +139,7 @@ def test_the_run_stops_at_the_kink_and_goes_on(irb140):
 
 def test_a_smooth_profile_runs_through_the_clock_zones(irb140):
     """A jerk-limited (smooth, u_nodes given) profile: the controller looks its zones up with the profile's own
-    state_at_time, which takes arrays (a scalar raised IndexError: circle_smooth, issue 12's executable motion,
+    state_at_time, which takes arrays (a scalar raised IndexError: circle_smooth, the executable motion,
     could not be simulated). The zone thetas equal the profile's, and a run from rest to rest arrives on time."""
     grid = np.linspace(0.0, 1.0, 41)
     x = 0.6 * np.sin(np.pi * grid)  # theta_dot^2, at rest at both ends

@@ -22,7 +22,7 @@ from pathmotion.planning.blend_search import _side, duration_with, optimal_blend
 from pathmotion.robot import load_robot
 from pathmotion.study.free_shape import Polyline
 
-TURN = ((0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45))  # issue 17's 90 degree turn
+TURN = ((0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45))  # the 90 degree turn
 
 
 def _dense_deviation(new: TaskPath, original: TaskPath, spacing: float) -> tuple[float, float]:
@@ -361,7 +361,7 @@ def test_an_end_the_joint_stage_reaches_is_freed_too(caplog, monkeypatch):
 
 
 def test_the_wide_start_frees_an_end_the_joined_blend_stops_short_of(caplog):
-    """Issue 17's 90 degree turn at 10 mm, rest to rest: the fastest joined blend uses under half of the 100 mm entry
+    """The 90 degree turn at 10 mm, rest to rest: the fastest joined blend uses under half of the 100 mm entry
     line, so stage 5 leaves the start joined; the wide start frees it, bulged out to the tube's edge as the
     whole-tube optimum runs, and the joint stage from there finds a blend that leaves the start at an angle, faster
     (by 0.9 % with this small search; 2 % with the default one, docs/study.md) and within the certified

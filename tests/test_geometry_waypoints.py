@@ -1,4 +1,4 @@
-"""Waypoint paths (issue 16): CSV and array input, blends within tolerance, orientation interpolated
+"""Waypoint paths: CSV and array input, blends within tolerance, orientation interpolated
 along the path with derivatives checked by finite differences, and named errors."""
 
 from __future__ import annotations

@@ -80,7 +80,11 @@ def test_code_and_docs_carry_no_history():
     import re
 
     marker = re.compile(r"\b(issue|session)s? #?\d+|\(issue\b|\bissue \d+'s\b", re.I)
-    texts = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "pathmotion").rglob("*.py"))]
+    texts = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "pathmotion").rglob("*.py")),
+             *sorted((ROOT / "pathmotion").rglob("*.toml")), *sorted((ROOT / "benchmarks").glob("*.py")),
+             *sorted((ROOT / "tests").glob("*.py"))]
     for path in texts:
         for n, line in enumerate(path.read_text().splitlines(), 1):
+            if path.name == "test_packaging.py" and "marker = re.compile" in line:
+                continue  # (the rule itself)
             assert not marker.search(line), f"{path.relative_to(ROOT)}:{n}: {line.strip()}"

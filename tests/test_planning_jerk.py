@@ -1,4 +1,4 @@
-"""Third-order limits (issue 12): joint jerk and torque rate.
+"""Third-order limits: joint jerk and torque rate.
 
 Independent references: the analytic rest-to-rest S-curve (velocity, acceleration and jerk limits
 on a straight joint line: the closed-form seven-phase optimum), the second-order planner (TOPP-RA)
@@ -23,7 +23,7 @@ from pathmotion.planning.profile import Profile
 from pathmotion.planning.reduced import reduced_derivatives, reduced_dynamics, torque_derivative
 from pathmotion.robot import load_robot
 
-#: The accelerations [rad/s^2] the references below were stated for (issue 12's transcription of the circle); on a
+#: The accelerations [rad/s^2] the references below were stated for (the direct transcription of the circle); on a
 #: path bound by the velocity limits (the random splines with the torque-derived accelerations of docs/robot.md)
 #: a huge jerk meets the second-order optimum only to 0.1-0.3 %: the optimum switches the limiting joint with a
 #: step in theta_ddot that any finite jerk rounds off.
@@ -192,7 +192,7 @@ def test_bad_third_order_inputs_name_the_key(key, value):
         plan(setup.path, setup.robot, setup.plan_settings)
 
 
-#: Issue 12's converged optima on circle_zero (an independent direct transcription over 200-6400
+#: The converged optima on circle_zero (an independent direct transcription over 200-6400
 #: intervals): velocity + ACC + jerk (factor x ACC) [s].
 CIRCLE_OPTIMUM = {10.0: 1.2131, 4.0: 1.5543}
 

@@ -1,4 +1,4 @@
-"""Torque reserve and torque-speed envelope (issue 12), checked with torques computed independently
+"""Torque reserve and torque-speed envelope, checked with torques computed independently
 of the planner (Pinocchio's CRBA mass matrix and non-linear effects, not the RNEA the planner and
 the verification use) on a dense resample of the planned motion."""
 

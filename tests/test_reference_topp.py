@@ -14,7 +14,7 @@ from benchmark_modules import load_benchmark  # noqa: E402
 
 ref = load_benchmark("reference_topp")
 
-TOLERANCE = 2e-3  # issue 12: the reference agrees with toppra to 0.2 % in the acceleration-only case
+TOLERANCE = 2e-3  # the reference agrees with toppra to 0.2 % in the acceleration-only case
 GRIDS = (100, 200, 400)
 S_CURVE_TOLERANCE = 1e-4  # the analytic case converges fast: 2e-5 at these grids
 

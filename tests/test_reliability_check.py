@@ -1,4 +1,4 @@
-"""check means OK (issue 15): every scenario of the bad-input catalogue that load, plan, the plan's
+"""check means OK: every scenario of the bad-input catalogue that load, plan, the plan's
 writing or the simulation settings refuse, ``check`` refuses too, with the same error class; and closed
 polygons: ``corner = "all"`` blends the closing corner too, which ``corner = N`` names."""
 

@@ -1,4 +1,4 @@
-"""Finite or refused (issue 15): every intermediate array that reaches a limit check or an output is
+"""Finite or refused: every intermediate array that reaches a limit check or an output is
 finite, or the run stops with a one-line error naming the quantity and what to change."""
 
 import numpy as np

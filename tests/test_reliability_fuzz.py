@@ -3,7 +3,7 @@ documents, and arbitrary values put into valid documents. The only outcomes allo
 PathmotionError with a one-line message (exit 1 on the command line), never another exception, an
 internal error (exit 3), a traceback, or a file left half-written (no ``*.tmp``).
 
-Example counts are stated in the settings below (issue 8 asks for them in its note)."""
+Example counts are stated in the settings below."""
 
 import math
 import string

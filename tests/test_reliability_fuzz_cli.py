@@ -1,4 +1,4 @@
-"""The project's own command-line fuzzer (benchmarks/fuzz_cli.py, issue 15): its escape rules catch what
+"""The project's own command-line fuzzer (benchmarks/fuzz_cli.py): its escape rules catch what
 they must, and CI's seeded 500-document slice finds no escape (about 5 minutes on 2 loaded cores)."""
 
 import json

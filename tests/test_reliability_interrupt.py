@@ -1,4 +1,4 @@
-"""Interruption, determinism and sweeps with failing points (issue 8).
+"""Interruption, determinism and sweeps with failing points.
 
 * ``pathmotion plan`` killed by SIGINT or SIGTERM at points marked by the output folder's state leaves, for every file, the
   previous complete version or a complete new one (CSV/JSON/Parquet/PNG parsed), never a ``*.tmp``;

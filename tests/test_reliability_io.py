@@ -1,4 +1,4 @@
-"""The I/O edges of issue 15 through the command line: special input files, byte caps, TOML depth, output
+"""The I/O edges through the command line: special input files, byte caps, TOML depth, output
 folders checked before any work, write errors named, a result folder replaced as one unit under a lock,
 umask-respecting modes, warnings and parser lines kept off the terminal. Each refusal: exit 1, one
 ``error:`` line, no traceback, no temporary file left."""

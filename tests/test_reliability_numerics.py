@@ -1,4 +1,4 @@
-"""Numerical edge cases of the planner (issue 8): grids from 10 points up (100,000 in
+"""Numerical edge cases of the planner: grids from 10 points up (100,000 in
 benchmarks/bench_memory.py), dynamic singularities (alpha_i(theta) = 0 under torque limits), a limit
 touched exactly, a very short segment between long ones, a path of 50 segments. Each converges with
 every limit kept on the 0.1 ms resample, or says why; the duration varies smoothly with the grid."""

@@ -1,4 +1,4 @@
-"""The phase plane's new limit curves (issue 12): each limit's maximum-velocity curve written to
+"""The phase plane's new limit curves: each limit's maximum-velocity curve written to
 phase_plane.csv against a brute-force computation on RNEA, the optimum without the jerk limits, and
 the report's rows for the new limits."""
 

@@ -1,4 +1,4 @@
-"""``[limits] torque_reserve = "auto"`` (issue 12): the bisection against a linear scan, the search on a real
+"""``[limits] torque_reserve = "auto"``: the bisection against a linear scan, the search on a real
 scenario whose closed loop needs a reserve, a search that finds none (a failed result, exit 4), and the
 scenario's validation of the key."""
 

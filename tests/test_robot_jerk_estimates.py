@@ -1,4 +1,4 @@
-"""The IRB140 limits file's jerk and torque-rate estimates (issue 12): loaded, used by use_jerk = true."""
+"""The IRB140 limits file's jerk and torque-rate estimates: loaded, used by use_jerk = true."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Other arms (issue 16): locked joints, redundancy resolution for >6 joints, and the whole flow (plan and
+"""Other arms: locked joints, redundancy resolution for >6 joints, and the whole flow (plan and
 simulate a circle and a blended corner) on the UR5 and the Panda of PyPI example-robot-data (dev extra).
 
 Limits: tests/data/ur5_limits.toml and panda_limits.toml (ranges, speeds and torques from the URDFs; the

@@ -176,7 +176,7 @@ def test_realistic_plant_orbital_beats_both_baselines_on_tcp_deviation():
 
 @pytest.mark.parametrize("sampled", [True, False], ids=["sampled", "continuous"])
 def test_strong_friction_does_not_stall_the_orbital_controller_before_the_end(circle_zero, sampled):
-    """Issue 13: with 2 N m s/rad + 2 N m friction on every joint the orbital controller stopped at 95 % of the
+    """With 2 N m s/rad + 2 N m friction on every joint the orbital controller stopped at 95 % of the
     circle (timeout) while the baselines finished: the Riccati solution ended at zero on I and int I, so the
     speed feedback faded out over the last 1/speed_rate of the orbital segment, and the robot, slowed by
     friction and facing the plan's deceleration as feedforward, stopped short of the clock play that takes

@@ -347,7 +347,7 @@ def test_a_whole_tube_within_the_errors_of_the_corner_confined_reference_is_kept
 
 
 def _weak_drives():
-    """issue 17's torque case (bench_free_shape_torque.py): the IRB140 with its rated 6 kg 0.1 m below the flange
+    """the torque case (bench_free_shape_torque.py): the IRB140 with its rated 6 kg 0.1 m below the flange
     and drives at 35 % of the shipped torque limits, where the torque limit binds."""
     import dataclasses
 

@@ -15,7 +15,7 @@ from pathmotion.planning import PlanSettings, plan  # noqa: E402
 from pathmotion.robot import fk, load_robot  # noqa: E402
 from pathmotion.study import free_shape as fs  # noqa: E402
 
-TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])  # issue 17's 90 degree turn
+TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])  # the 90 degree turn
 
 
 def atlas_points(deg: float) -> np.ndarray:
@@ -24,7 +24,7 @@ def atlas_points(deg: float) -> np.ndarray:
     return atlas.corner_points(deg)
 
 
-#: issue 17's case: the IRB140's official speeds with these accelerations [rad/s^2] (its 0.7196 s stop and the
+#: the case: the IRB140's official speeds with these accelerations [rad/s^2] (its 0.7196 s stop and the
 #: iteration counts below are for them; the NLP is the same for any limits)
 TURN_ACCELERATION = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
 
@@ -193,7 +193,7 @@ def test_corner_confined_optimum_converges_from_the_blend_and_is_below_it(robot)
 
 
 def test_whole_tube_at_a_tenth_of_a_millimetre_converges(robot):
-    """Issue 17's atlas, 30 degrees, 0.1 mm, 25 intervals: IPOPT hit its cap (800) here with the
+    """The atlas, 30 degrees, 0.1 mm, 25 intervals: IPOPT hit its cap (800) here with the
     squared tube constraint; the norm form converges, below the stop (feasible for the NLP)."""
     from pathmotion.study import atlas
 

@@ -1,7 +1,7 @@
 """The free-shape reference with joint torque limits (free_shape_optimum(..., torque=True)) against
 pathmotion's own time-optimal stop planned with them (PlanSettings(torque=True)).
 
-The case: issue 17's 90 degree turn on an IRB140 with its rated 6 kg payload (10 cm below the flange)
+The case: the 90 degree turn on an IRB140 with its rated 6 kg payload (10 cm below the flange)
 and drives at 35 % of the shipped torque limits. The shipped limits do not bind on this turn (the
 stop takes 0.7197 s with and without them, even with a 10 kg payload; the acceleration limits bind
 first), so weaker drives make the torque limit the active one: the stop takes 0.7867 s with it."""
@@ -17,7 +17,7 @@ from pathmotion.robot import load_robot  # noqa: E402
 from pathmotion.robot.model import Payload  # noqa: E402
 from pathmotion.study import free_shape as fs  # noqa: E402
 
-TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])  # issue 17's 90 degree turn
+TURN = np.array([(0.4, -0.1, 0.45), (0.5, -0.1, 0.45), (0.5, 0.1, 0.45)])  # the 90 degree turn
 #: Fraction of the shipped torque limits the test's drives have.
 WEAK_DRIVES = 0.35
 #: Meshes: delta = 0 needs the extrapolation over three (25 intervals alone are 3 % short: the path is imposed at

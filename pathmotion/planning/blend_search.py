@@ -601,7 +601,7 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     freed at that end and bulged out to the tube's edge (WIDE_PROFILE): outwards in the corner's plane, at the sides
     not free yet, or (``along_normal``, not ``planar``) along the corner's normal at every resting side, towards the
     side of the plane the fastest blend rises to there (up if it stays in the plane). Nothing if there is no such
-    side. The whole-tube optimum does both (benchmarks/issue_turn.py, docs/study.md): on benchmarks/issue_turn.py's turn at 10 mm it
+    side. The whole-tube optimum does both (benchmarks/right_turn.py, docs/study.md): on benchmarks/right_turn.py's turn at 10 mm it
     leaves the start outwards and runs at the tube's edge 50 mm before the corner, where the fastest joined blend used
     45 mm of the 100 mm entry line and stage 5 left that end joined; at the atlas' 30 deg / 10 mm it rises out of
     the plane by 7-10 mm along both lines. ``crossed`` (a direction per side, "out", "up" or "down" along the corner's

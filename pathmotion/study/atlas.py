@@ -4,7 +4,7 @@ the corner, against the physical limit.
 Geometry: two lines of ATLAS_SEGMENT_LENGTH in the horizontal plane z = ATLAS_HEIGHT, the first along
 +x ending at ATLAS_CORNER, the second turning left by ``angle_deg`` (0 = straight on, 180 = back).
 The IRB140 from rest to rest, tool down, joint velocity and acceleration limits (as in the reference turn of
-benchmarks/issue_turn.py), and with ``torque`` its joint torque limits too, for every motion and both references
+benchmarks/right_turn.py), and with ``torque`` its joint torque limits too, for every motion and both references
 (the ``torque`` column; the optima's cache key then holds the torque limits, payload, armature and
 gravity). ``torque_reserve`` r (the ``torque_reserve`` column, the scenario key ``[limits] torque_reserve``)
 keeps r tau_max of every joint free for feedback: every motion is planned, and both references are solved,

@@ -1,10 +1,10 @@
-"""Issue 17's 90 degree turn, (0.4, -0.1, 0.45) -> (0.5, -0.1, 0.45) -> (0.5, 0.1, 0.45) m, tool down, rest to
+"""The 90 degree turn, (0.4, -0.1, 0.45) -> (0.5, -0.1, 0.45) -> (0.5, 0.1, 0.45) m, tool down, rest to
 rest, velocity and acceleration limits: the stop, the G2 blend, the optimal blend and BOTH free-shape references
 (corner-confined on the optimal blend's own spans, and the whole tube), as the atlas solves them (study/atlas.py:
 the same starts, retries and cache), with the share of the whole tube's gain over the stop that each takes.
 
-    python benchmarks/issue_turn.py                              # 1, 3 and 10 mm, meshes 25/50/100
-    python benchmarks/issue_turn.py --tolerances 0.01 --cache out/turn_cache
+    python benchmarks/right_turn.py                              # 1, 3 and 10 mm, meshes 25/50/100
+    python benchmarks/right_turn.py --tolerances 0.01 --cache out/turn_cache
 
 Reading: the moonshot asks the optimal blend for >= 90 % of the whole tube's gain. "corner-confined capture" is
 what even the best motion that deviates only over the blend's own spans can take; where it is below 90 %, the
@@ -28,7 +28,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--tolerances", default="0.001,0.003,0.01", help="tube radii [m], comma-separated")
     ap.add_argument("--meshes", default="25,50,100", help="NLP meshes (intervals), each twice the previous")
-    ap.add_argument("--cache", default="out/issue_turn_cache", help="free-shape optimum cache folder")
+    ap.add_argument("--cache", default="out/right_turn_cache", help="free-shape optimum cache folder")
     a = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
