@@ -40,6 +40,14 @@ class LimitRows:
     row_kind: tuple[str, ...]
     row_column: tuple[int, ...]
 
+    def at(self, k: int) -> tuple:
+        """The rows (a, b, c, lo, hi) at point ``k``, each (m,)."""
+        return self.a[k], self.b[k], self.c[k], self.lo[k], self.hi[k]
+
+    def between(self, other: "LimitRows", i: int, f: float) -> tuple:
+        """The rows linearly interpolated at the fraction ``f`` from point i (self) to point i + 1 (other)."""
+        return tuple((1.0 - f) * p + f * q for p, q in zip(self.at(i), other.at(i + 1)))
+
     def slice(self, sl: slice) -> "LimitRows":
         """The rows at the points ``sl``."""
         return LimitRows(self.a[sl], self.b[sl], self.c[sl], self.lo[sl], self.hi[sl], self.x_max[sl],

@@ -29,7 +29,6 @@ compiled pass, and take tens to hundreds of milliseconds.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -76,30 +75,6 @@ JERK_CAP_HORIZON = 5.0
 START_NUDGES = (1e-6, 1e-5, 1e-4, defaults.LIMIT_TOLERANCE)
 
 
-@dataclass(frozen=True, eq=False)
-class _PointRows:
-    """Canonical rows a, b, c, lo, hi (K, m) on one side of every grid point, and x_max (K,)."""
-
-    a: np.ndarray
-    b: np.ndarray
-    c: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-    x_max: np.ndarray
-
-    @classmethod
-    def of(cls, rows) -> "_PointRows":
-        arrays = (np.ascontiguousarray(getattr(rows, n), dtype=float) for n in ("a", "b", "c", "lo", "hi", "x_max"))
-        return cls(*arrays)
-
-    def at(self, k: int) -> tuple:
-        return self.a[k], self.b[k], self.c[k], self.lo[k], self.hi[k]
-
-    def between(self, other: "_PointRows", i: int, f: float) -> tuple:
-        """Rows linearly interpolated at the fraction ``f`` from point i (self) to point i + 1 (other)."""
-        return tuple((1.0 - f) * p + f * q for p, q in zip(self.at(i), other.at(i + 1)))
-
-
 class Retimer:
     """Re-timing of one plan from any state (see the module docstring). ``plan_result``: a PlanResult of
     an open or closed path planned with "chain" or "zero" connections (a continuous profile). Queries
@@ -127,7 +102,7 @@ class Retimer:
         bound[stops] = 0.0
         self._stops = np.append(np.asarray(stops, int), len(grid) - 1)
         self._problem = problem = problem.capped(bound)
-        self._right, self._left = _PointRows.of(right), _PointRows.of(left)
+        self._right, self._left = right, left  # LimitRows: C-contiguous float arrays, as the kernels take
         self._P, self._Q, self._R = problem.P, problem.Q, problem.R
         self._x_max = np.ascontiguousarray(problem.x_max)
         end = settings.end_condition

@@ -81,18 +81,24 @@ def brake(P, Q, R, j, xj, target, x_max, out):
     return -1
 
 
+@njit(cache=True, inline="always")
+def _narrow(low, high, q, bot, top, offset):
+    """[low, high] narrowed to the y = offset + v with bot <= q v <= top: (low, high, False when no v
+    satisfies it, q = 0 with 0 outside [bot, top])."""
+    if q > 0.0:
+        return max(low, offset + bot / q), min(high, offset + top / q), True
+    if q < 0.0:
+        return max(low, offset + top / q), min(high, offset + bot / q), True
+    return low, high, not (top < 0.0 or bot > 0.0)
+
+
 @njit(cache=True)
 def least_u(a, b, c, lo, hi, x):
     """(least, largest) u with lo <= a u + b x + c <= hi on every row at one point, x given."""
     umin, umax = -np.inf, np.inf
     for r in range(a.shape[0]):
-        ar = a[r]
-        top, bot = hi[r] - c[r] - b[r] * x, lo[r] - c[r] - b[r] * x
-        if ar > 0.0:
-            umin, umax = max(umin, bot / ar), min(umax, top / ar)
-        elif ar < 0.0:
-            umin, umax = max(umin, top / ar), min(umax, bot / ar)
-        elif top < 0.0 or bot > 0.0:
+        umin, umax, ok = _narrow(umin, umax, a[r], lo[r] - c[r] - b[r] * x, hi[r] - c[r] - b[r] * x, 0.0)
+        if not ok:
             return np.inf, -np.inf
     return umin, umax
 
@@ -148,20 +154,13 @@ def _next_x_range(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x, h):
     low, high = -np.inf, np.inf
     k2 = 0.5 / h
     for r in range(a0.shape[0]):
-        top, bot = hi0[r] - c0[r] - b0[r] * x, lo0[r] - c0[r] - b0[r] * x
-        if a0[r] > 0.0:
-            low, high = max(low, x + bot / (a0[r] * k2)), min(high, x + top / (a0[r] * k2))
-        elif a0[r] < 0.0:
-            low, high = max(low, x + top / (a0[r] * k2)), min(high, x + bot / (a0[r] * k2))
-        elif top < 0.0 or bot > 0.0:
+        # the start rows bound x_1 - x through u; the end rows bound x_1 itself
+        low, high, ok = _narrow(low, high, a0[r] * k2, lo0[r] - c0[r] - b0[r] * x, hi0[r] - c0[r] - b0[r] * x, x)
+        if not ok:
             return np.inf, -np.inf
-        q = a1[r] * k2 + b1[r]
-        top, bot = hi1[r] - c1[r] + a1[r] * k2 * x, lo1[r] - c1[r] + a1[r] * k2 * x
-        if q > 0.0:
-            low, high = max(low, bot / q), min(high, top / q)
-        elif q < 0.0:
-            low, high = max(low, top / q), min(high, bot / q)
-        elif top < 0.0 or bot > 0.0:
+        low, high, ok = _narrow(low, high, a1[r] * k2 + b1[r], lo1[r] - c1[r] + a1[r] * k2 * x,
+                                hi1[r] - c1[r] + a1[r] * k2 * x, 0.0)
+        if not ok:
             return np.inf, -np.inf
     return low, high
 
