@@ -321,7 +321,7 @@ RELINEARIZE_TOLERANCE = 1e-5
 MAX_TORQUE_RESERVE = 0.5
 #: Feedback reserve when none is given ([limits] torque_reserve, corners --torque-reserve) [-]: none, the plan may use
 #: the whole torque limit (a closed loop on drives the plan saturates needs one: give it, or "auto" in a scenario).
-TORQUE_RESERVE = 0.0
+TORQUE_RESERVE = 0.2
 #: torque_reserve = "auto": the reserves searched are 0, AUTO_RESERVE_STEP, 2 AUTO_RESERVE_STEP, ...,
 #: AUTO_RESERVE_MAX [-] (a bisection: at most 6 plan + closed-loop runs for 0.45 in steps of 0.025; a step
 #: of 2.5 % of the torque changes the plan's duration by about 1.5 % on the IRB140 circle).

@@ -9,6 +9,7 @@ from pathmotion.geometry.library import circle_with_radial_line, circle_with_rad
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.lift.constraint import lift
 from pathmotion.planning import PlanSettings, plan
+from pathmotion.robot import jacobian
 from pathmotion.simulation import simulate
 
 WAYPOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0],
@@ -37,11 +38,14 @@ def test_time_optimal_plan_on_a_joint_spline(irb140):
 def test_thesis_horizontal_circle_periodic(irb140):
     path = lift(irb140, horizontal_circle())
     profile = plan(path, irb140, PlanSettings(grid_points=400, periodic=True, baselines=False)).profile
-    s = simulate(irb140, path, profile, "orbital").summary()
+    r = simulate(irb140, path, profile, "orbital")
+    s = r.summary()
     assert path.closed and s["tracking_ok"]
     assert within(s["cycle_time_s"], profile.duration, 0.01)  # the period
     assert s["max_joint_deviation_rad"] <= THESIS_MAX_DEVIATION
-    assert s["path_accuracy_m"] < 1e-4 and s["max_sharp_deviation_m"] is None
+    # the TCP error the thesis' joint accuracy allows: |J_v dq| <= sum_j |J_v[:, j]| |dq_j| (first order)
+    lever = np.max(np.sum(np.linalg.norm(jacobian(irb140, r.q)[:, :3, :], axis=1), axis=1))
+    assert s["path_accuracy_m"] <= lever * THESIS_MAX_DEVIATION and s["max_sharp_deviation_m"] is None
 
 
 def test_transition_circle_corner_deviation(irb140):
