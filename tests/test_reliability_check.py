@@ -2,6 +2,8 @@
 writing or the simulation settings refuse, ``check`` refuses too, with the same error class; and closed
 polygons: ``corner = "all"`` blends the closing corner too, which ``corner = N`` names."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -50,7 +52,7 @@ def test_corner_n_names_the_closing_corner_and_n_plus_1_is_refused():
         api.load_text(SQUARE.replace("CORNER", "5"))
 
 
-DESIGN_FAILS = """name = "design_fails"
+ALL_NEAR_STOPS = """name = "all_near_stops"
 [path]
 type = "joint"
 waypoints = [[0, 0, 0, 0, 0.5, 0], [0.3, 0.2, -0.2, 0.3, 0.8, 0.5]]
@@ -62,30 +64,34 @@ gains = { terminal_time_to_go = 1000.0 }
 """
 
 
-def test_check_fails_where_the_simulation_design_fails(tmp_path):
-    """The orbital controller's design (the Riccati sweep, here refused: every point of the motion is within
-    terminal_time_to_go of a stop) runs in check too: check fails with simulate's message, and simulate
-    writes nothing."""
+def test_check_builds_the_design_simulate_uses(tmp_path):
+    """The orbital controller's design runs in check too and is cached for simulate. A motion every point of
+    which is within terminal_time_to_go of a stop has no orbital stretch: the design plays the whole plan on the
+    clock (one zone from 0 to the planned duration), check passes and simulate tracks with it."""
     from typer.testing import CliRunner
 
     from pathmotion.cli import app
 
     scenario = tmp_path / "s.toml"
-    scenario.write_text(DESIGN_FAILS)
+    scenario.write_text(ALL_NEAR_STOPS)
     runner = CliRunner()
     env = {"PATHMOTION_CACHE_DIR": str(tmp_path / "cache")}
     checked = runner.invoke(app, ["check", str(scenario)], env=env)
+    assert checked.exit_code == 0, checked.output
+    designs = list((tmp_path / "cache").glob("design-*.npz"))
+    assert len(designs) == 1
+    zones = np.load(designs[0])["zones"]
     simulated = runner.invoke(app, ["simulate", str(scenario), "--out", str(tmp_path / "out"), "--no-figures"],
                               env=env)
-    assert checked.exit_code == simulated.exit_code == 1, (checked.output, simulated.output)
-    error = [ln for ln in checked.output.splitlines() if ln.startswith("error:")]
-    assert len(error) == 1 and "too short for orbital stabilization" in error[0]
-    assert error == [ln for ln in simulated.output.splitlines() if ln.startswith("error:")]
-    assert not (tmp_path / "out").exists()
+    assert simulated.exit_code == 0, simulated.output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["tracking_ok"]
+    np.testing.assert_allclose(zones, [[0.0, summary["planned_duration_s"]]], rtol=1e-12)
+    assert list((tmp_path / "cache").glob("design-*.npz")) == designs  # simulate read check's design
     # the same scenario with the default terminal time passes check, and the design it built is cached
-    scenario.write_text(DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", ""))
+    scenario.write_text(ALL_NEAR_STOPS.replace("gains = { terminal_time_to_go = 1000.0 }", ""))
     assert runner.invoke(app, ["check", str(scenario)], env=env).exit_code == 0
-    assert list((tmp_path / "cache").glob("design-*.npz"))
+    assert len(list((tmp_path / "cache").glob("design-*.npz"))) == 2
 
 
 def test_a_smooth_profile_answers_a_scalar_time_like_an_array():

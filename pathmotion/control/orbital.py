@@ -40,7 +40,7 @@ from .path_table import PathTable
 from .profile_lookup import ProfileLookup
 from .riccati import sampled_cost, solve_discrete_riccati, solve_riccati, with_delay
 from .threads import blas_single_threaded
-from .transverse import TransverseBasis, transverse_linearization
+from .transverse import ZERO_SPEED, TransverseBasis, transverse_linearization
 
 log = logging.getLogger(__name__)
 
@@ -235,7 +235,7 @@ controller reads K only; :attr:`riccati` puts P on the grid when asked);
         gain = np.zeros((len(theta), table.n, d))
         riccati = []
         active = (np.concatenate([np.arange(i0, i1) for i0, i1 in segments]) if segments
-                  else np.arange(len(theta)))
+                  else np.nonzero(np.linalg.norm(dphi_grid, axis=1) > ZERO_SPEED)[0])
         basis = TransverseBasis.for_table(table, theta[active])
         for i0, i1 in segments:
             sl = slice(i0, i1)
