@@ -121,7 +121,7 @@ def test_a_vanishing_bandwidth_is_no_internal_error(bandwidth, sampled, tmp_path
     benchmarks/fuzz_cli.py). The design now starts from a zero terminal cost where the algebraic equation has
     no solution: check passes or refuses with a PathmotionError, for both designs, never another exception."""
     monkeypatch.setenv("PATHMOTION_CACHE_DIR", str(tmp_path))
-    text = DESIGN_FAILS.replace("terminal_time_to_go = 1000.0", f"bandwidth = {bandwidth!r}").replace(
+    text = ALL_NEAR_STOPS.replace("terminal_time_to_go = 1000.0", f"bandwidth = {bandwidth!r}").replace(
         "0.8, 0.5]]", "0.8, 0.5], [0.5, 0.1, 0.0, 0.0, 0.6, 1.0]]")  # the fuzzer's joint path
     text += f"sampled_design = {str(sampled).lower()}\n"
     try:
@@ -132,12 +132,12 @@ def test_a_vanishing_bandwidth_is_no_internal_error(bandwidth, sampled, tmp_path
 
 
 def test_check_refuses_a_closed_loop_too_long_for_its_sample_budget():
-    """simulate.sample_time = 1e-9 s: the closed loop of a ~1 s plan would hold ~1e9 samples, far above
+    """simulate.sample_time = 1e-9 s: the closed loop of this short plan would hold over 1e8 samples, far above
     defaults.MAX_TRAJECTORY_SAMPLES; check (like simulate) refuses it before any array is built, and says
     how many samples and which setting to raise."""
     from pathmotion import defaults
 
-    text = DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9")
+    text = ALL_NEAR_STOPS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9")
     setup = api.load_text(text)
     settings = api.simulation_settings(setup)
     duration = api.plan_scenario(setup).profile.duration
@@ -159,7 +159,7 @@ def test_library_simulate_refuses_a_sample_budget_before_building_anything(monke
     from pathmotion import simulation
     from pathmotion.simulation import closed_loop
 
-    setup = api.load_text(DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9"))
+    setup = api.load_text(ALL_NEAR_STOPS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9"))
     settings = replace(api.simulation_settings(setup), design_cache=False)
     profile = api.plan_scenario(setup).profile
     built = []
