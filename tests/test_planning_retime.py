@@ -18,6 +18,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from pathmotion.errors import PathmotionError, StateInfeasibleError
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, Retimer, plan
+from pathmotion.planning.profile import Profile
 from pathmotion.robot import load_robot
 
 from planning_paths import PolylinePath
@@ -181,3 +182,31 @@ def test_jerk_limited_remaining_stop_and_resume_meet_every_limit():
     assert s.grid[-1] - theta >= s2.grid[-1] - theta
     second = {k: r for k, r in rt.dense_ratios(s2, DT).values.items() if k not in ("jerk", "torque_rate") and r is not None}
     assert max(second.values()) <= 1.0 + TOL
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(where=st.floats(0.0, 0.97), speed=st.floats(0.05, 0.999), acc=st.floats(-6.0, 6.0),
+       override=st.sampled_from([1.0, 0.7]))
+def test_remaining_keeps_the_states_acceleration_at_the_switch(spline, where, speed, acc, override):
+    theta, v, a = _state(spline, where, speed, acc)
+    p = spline.remaining(theta, v, a, override)
+    assert _feasible(spline, p) <= 1.0 + TOL and p.x[-1] == 0.0
+    first = float(p.theta_ddot_at(theta))
+    if np.isclose(first, a, rtol=1e-9, atol=1e-9 * max(1.0, abs(a))):
+        return  # no jump in acceleration at the switch
+    if a > first:  # only when the steepest first step the limits allow is gentler
+        assert first == float(spline.remaining(theta, v, 1e9, override).theta_ddot_at(theta))
+        return
+    # a < first: keeping a on the first interval would bring the arm to rest there, break a limit, or leave a
+    # state from which the plan's end is out of reach
+    h = p.grid[1] - theta
+    kept = v * v + 2.0 * a * h
+    if kept <= 0.0:
+        return
+    piece = Profile(np.array([theta, p.grid[1]]), np.array([v * v, kept]))
+    broken = _feasible(spline, piece) > 1.0 - TOL
+    try:
+        spline.remaining(float(p.grid[1]), float(np.sqrt(kept)), 0.0, override)
+    except StateInfeasibleError:
+        broken = True
+    assert broken

@@ -168,7 +168,7 @@ class Retimer:
         s2 = _override(override) ** 2
         if self.third_order:
             return self._smooth_remaining(theta, x0, u0, s2)
-        grid, x = self._remaining2(theta, x0, s2)
+        grid, x = self._remaining2(theta, x0, s2, u0)
         return Profile(grid, x)
 
     def stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, *, second_order: bool = False) -> Profile:
@@ -244,8 +244,12 @@ class Retimer:
         return float(min((1.0 - f) * self._right.x_max[i] + f * self._left.x_max[i + 1],
                          max(self._right.x_max[i], self._left.x_max[i + 1])))
 
-    def _remaining2(self, theta: float, x0: float, s2: float) -> tuple[np.ndarray, np.ndarray]:
-        """Second-order remaining profile (grid, x) from (theta, x0) at the override s^2 = ``s2``."""
+    def _remaining2(self, theta: float, x0: float, s2: float, u0: float | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Second-order remaining profile (grid, x) from (theta, x0) at the override s^2 = ``s2``. Its first
+        interval (theta to the next grid point) keeps the state's acceleration ``u0`` where the rows and K
+        allow it (the nearest allowed u otherwise; the greedy step when that u would bring the arm to rest before
+        the grid point; None: the greedy step), then the greedy pass."""
         g, P, Q, R = self.grid, self._P, self._Q, self._R
         i, j, f, _, P0, Q0, R0 = self._first(theta)
         y0 = x0 / s2
@@ -253,6 +257,11 @@ class Retimer:
         out = self._buffer
         if lo * (1 - STATE_TOLERANCE) - STATE_TOLERANCE <= y0 <= hi * (1 + STATE_TOLERANCE):
             xj = max(step_up(P0, Q0, R0, 0, y0, self._khi[j]), self._klo[j])
+            if u0 is not None:  # the state's acceleration, within the interval's rows and K_j; not to rest
+                low = max(step_down(P0, Q0, R0, 0, y0)[0], self._klo[j], 0.0)
+                kept = y0 + 2.0 * (u0 / s2) * (g[j] - theta)
+                if kept > 0.0 or low > 0.0:
+                    xj = min(max(kept, low), xj)
             greedy_from(P, Q, R, self._klo, self._khi, j, xj, out)
             return np.concatenate([[theta], g[j:]]), s2 * np.concatenate([[y0], out[:len(g) - j]])
         lo1, hi1 = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, np.inf, 0.0)
