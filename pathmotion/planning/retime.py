@@ -66,6 +66,10 @@ INTERPOLATION_SAFETY = 2.0
 SMOOTH_STOP_POINTS = 40
 SMOOTH_STOP_GROWTH = 1.25
 SMOOTH_STOP_ACCURACY = 0.01
+#: Third-order stop: its grid is graded towards the state by this many geometric points from this fraction of
+#: the trial distance up to the uniform spacing [-].
+SMOOTH_STOP_GRADED = 12
+SMOOTH_STOP_FIRST = 1e-4
 #: Third-order: the speed-up cap of the first linearization point is sampled at this many times over this
 #: horizon [s] (cubically graded towards the state) [-], [s].
 JERK_CAP_SAMPLES = 400
@@ -475,7 +479,10 @@ class Retimer:
         bound, grown by SMOOTH_STOP_GROWTH, then bisected to SMOOTH_STOP_ACCURACY) whose smooth stop exists."""
         _, j, _, _, _, _, _ = self._first(theta)
         d_max = float(self.grid[self._next_stop(j)] - theta)
-        unit = np.linspace(0.0, 1.0, SMOOTH_STOP_POINTS)
+        # graded towards the state: a state with a large acceleration turns it at the jerk limit within a
+        # small fraction of the stop, which the uniform points alone do not resolve (no trial would succeed)
+        unit = np.union1d(np.linspace(0.0, 1.0, SMOOTH_STOP_POINTS),
+                          np.geomspace(SMOOTH_STOP_FIRST, 1.0 / (SMOOTH_STOP_POINTS - 1), SMOOTH_STOP_GRADED))
 
         def trial(d):
             grid = theta + d * unit
