@@ -38,6 +38,7 @@ from ..modes import BoundaryMode, Connections
 from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _with_knots, certified_bounds,
                       effective_limits)
 from .profile import Profile
+from .retime_jerk import JerkPass
 from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
 from .limit_rows import limit_rows
@@ -126,6 +127,7 @@ class Retimer:
         self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
                               for n in ("a", "b", "c", "lo", "hi", "x_max"))
         self._interpolation_error = self._row_interpolation_error(x_ref)
+        self._jerk = self._jerk_pass() if self.third_order else None
         log.debug("retimer: %d grid points, %d rows per interval, %d stops", len(grid), self._P.shape[1],
                   len(self._stops))
         self._warm_up()
@@ -148,30 +150,49 @@ class Retimer:
             out[k] = INTERPOLATION_SAFETY * np.where(np.isfinite(diff), diff, 0.0)
         return np.ascontiguousarray(out)
 
+    def _jerk_pass(self) -> JerkPass | None:
+        """The compiled third-order pass's data (planning/retime_jerk.py), its ceiling the smooth time-optimal
+        profile to the plan's end from a free start; None when the sequential LP finds none."""
+        g = self.grid
+        samp = _sample(self.path, self.robot, g, _with_knots(self.path, g, _grid_breaks(self.path, g)), third=True)
+        end = self.settings.end_condition
+        end_x = None if end == BoundaryMode.MAX else float(self.plan.profile.x[-1])
+        try:
+            ceiling, scale = self._smooth_solve(g, self._khi.copy(), None, 0.0, end_x is not None and end_x == 0.0,
+                                                end_x, with_scale=True)
+        except InfeasibleError as err:
+            log.warning("retimer: no smooth ceiling profile (%s); third-order queries solve LPs", err)
+            return None
+        return JerkPass(self.path, self.robot, g, samp, self.limits, scale, ceiling)
+
     def _warm_up(self) -> None:
         """One query of each kind, so that the first one in a control loop does not load the compiled kernels
-        (second-order limits; the third-order solves are LPs)."""
-        if self.third_order:
-            return
+        (third-order limits: the remaining profile's pass; their stop solves LPs)."""
         k = int(np.argmax(self.plan.profile.x))
+        state = float(self.grid[k]), float(np.sqrt(self.plan.profile.x[k]))
         try:
+            if self.third_order:
+                self.remaining(*state)
+                return
             self.remaining(float(self.grid[0]), 0.0)
-            self.stop(float(self.grid[k]), float(np.sqrt(self.plan.profile.x[k])))
+            self.stop(*state)
         except PathmotionError:  # a plan that cannot be re-timed says so at the first real query
             pass
 
     # ----------------------------------------------------------------------------------------------- queries
 
-    def remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, override: float = 1.0) -> Profile:
+    def remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, override: float = 1.0, *,
+                  reference: bool = False) -> Profile:
         """The time-optimal profile from the state (theta, theta_dot [unit theta / s], theta_ddot
         [unit theta / s^2]) to the plan's end under the plan's limits scaled by ``override`` in (0, 1]
         (velocity x override, acceleration and torque's dynamic part x override^2, jerk and torque rate x
         override^3). Its first point is the state. StateInfeasibleError when no motion within the limits
-        ends as the plan does."""
+        ends as the plan does. ``reference`` (jerk limits): the sequential LP's answer instead of the compiled
+        pass's (slow; the reference the pass is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         s2 = _override(override) ** 2
         if self.third_order:
-            return self._smooth_remaining(theta, x0, u0, s2)
+            return self._smooth_remaining(theta, x0, u0, s2, reference)
         grid, x = self._remaining2(theta, x0, s2, u0)
         return Profile(grid, x)
 
@@ -378,10 +399,11 @@ class Retimer:
 
     # --------------------------------------------------------------------------------------- third order
 
-    def _smooth_solve(self, grid: np.ndarray, x_start: np.ndarray, x0: float, u0: float, rest_end: bool,
-                      end_x: float | None) -> Profile:
-        """The third-order profile on ``grid`` from (x0, u0) (rest when x0 = 0) by the sequential LP,
-        linearized first around ``x_start``; at rest at its end (``rest_end``) or with x = ``end_x``."""
+    def _smooth_solve(self, grid: np.ndarray, x_start: np.ndarray, x0: float | None, u0: float, rest_end: bool,
+                      end_x: float | None, with_scale: bool = False):
+        """The third-order profile on ``grid`` from (x0, u0) (rest when x0 = 0; a free start when x0 is None) by
+        the sequential LP, linearized first around ``x_start``; at rest at its end (``rest_end``) or with x =
+        ``end_x``. ``with_scale``: (profile, the limits' point-wise scales it was tightened to)."""
         breaks = _grid_breaks(self.path, grid)
         samp = _sample(self.path, self.robot, grid, _with_knots(self.path, grid, breaks), third=True)
         k = len(grid)
@@ -389,9 +411,9 @@ class Retimer:
         rest[np.searchsorted(grid, [p for p in self.path.kinks if grid[0] < p < grid[-1]])] = True
         rest[-1] = rest_end
         fixed, fixed_u = {}, {}
-        if x0 <= 0.0:
+        if x0 is not None and x0 <= 0.0:
             rest[0] = True
-        else:
+        elif x0 is not None:
             fixed[0], fixed_u[0] = x0, u0
         if not rest_end and end_x is not None:
             fixed[k - 1] = end_x
@@ -402,7 +424,7 @@ class Retimer:
             worst = max((float(b.max()) for b in bounds.values() if b.size), default=0.0)
             log.debug("retimer: third-order profile on %d points, worst certified ratio %.5f", k, worst)
             if worst <= 1.0 + tol:
-                return profile
+                return (profile, scale) if with_scale else profile
             scale, x_start = _tightened(scale, bounds, tol), profile.x
         raise InfeasibleError(f"third-order re-timing: the profile still exceeds a limit by {100 * (worst - 1):.3g} % "
                               f"between grid points after {tighten} tightening iterations; raise limit_tolerance")
@@ -431,8 +453,22 @@ class Retimer:
         raise InfeasibleError(f"third-order limits: no smooth profile from theta_dot = {np.sqrt(fixed.get(0, 0.0)):.6g}"
                               f", theta_ddot = {fixed_u.get(0, 0.0):.6g} meets the limits on this grid")
 
-    def _smooth_remaining(self, theta: float, x0: float, u0: float, s2: float) -> Profile:
-        """Third-order remaining profile: the sequential LP from the second-order answer (an upper bound)."""
+    def _smooth_remaining(self, theta: float, x0: float, u0: float, s2: float, reference: bool = False) -> Profile:
+        """Third-order remaining profile: the compiled pass (planning/retime_jerk.py) from a moving state, else
+        (or with ``reference``) the sequential LP from the second-order answer (an upper bound)."""
+        i, j, f, *_ = self._first(theta)
+        if not reference and self._jerk is not None and self._jerk.applies(theta, i, j, x0):
+            got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
+            if got is not None:
+                return Profile(np.concatenate([[theta], self.grid[j:]]), got[0] * s2, got[1] * s2)
+            if not self._jerk.near_ceiling(i, theta, x0 / s2):
+                raise StateInfeasibleError(
+                    f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot be "
+                    f"brought to the plan's end within the jerk and torque-rate limits at override {np.sqrt(s2):.4g}: "
+                    "no smooth motion from it joins the fastest one to the end; stop first (Retimer.stop), or raise "
+                    "the override", end_speed=np.nan)
+            # a state on the ceiling's limits (a plan's own state, say): its merges are too tight for the pass
+            log.debug("retimer: no merge from theta = %.6g next to the ceiling; sequential LP", theta)
         try:
             grid, x2 = self._remaining2(theta, x0, s2)
         except StateInfeasibleError:  # the smooth interpolation may lie a little above the interval form's K
