@@ -13,6 +13,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from pathmotion.errors import StateInfeasibleError
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, Retimer, plan
 from pathmotion.robot import load_robot
@@ -46,3 +49,39 @@ def test_stop_from_a_large_acceleration_where_the_spline_starts(torque_jerk):
     assert s.smooth and s.x[-1] == 0.0 and np.isclose(s.u_nodes[0], a) and np.isclose(np.sqrt(s.x[0]), v)
     assert s.grid[-1] < path.domain[1]
     assert rt.dense_ratios(s, DT).max_ratio <= 1.0 + 2 * TOL
+
+
+def _answer(rt, theta, v, a, **kw):
+    try:
+        return rt.remaining(theta, v, a, **kw)
+    except StateInfeasibleError:
+        return None
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(where=st.floats(0.01, 0.9), speed=st.floats(0.05, 1.3), acc=st.floats(-3.0, 3.0))
+def test_compiled_pass_against_the_sequential_lp_from_random_states(torque_jerk, where, speed, acc):
+    # moving states (the pass answers those), theta_dot above and below the plan's own speed there, theta_ddot not
+    # the plan's
+    path, res, rt = torque_jerk
+    theta = where * path.domain[1]
+    v, a = speed * float(res.profile.theta_dot_at(theta)), acc
+    fast, lp = rt.compiled_remaining(theta, v, a), _answer(rt, theta, v, a, reference=True)
+    if fast is None:  # remaining answers with the sequential LP (or refuses with it)
+        assert (_answer(rt, theta, v, a) is None) == (lp is None)
+        return
+    assert fast.smooth and fast.grid[0] == theta and fast.grid[-1] == path.domain[1] and fast.x[-1] == 0.0
+    assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and np.isclose(fast.u_nodes[0], a, rtol=1e-12)  # no jump
+    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+    if lp is not None:  # never faster than the LP's optimum (to its tolerance); slower by at most a few percent
+        assert 1.0 - 2e-3 <= fast.duration / lp.duration <= 1.1
+
+
+def test_compiled_pass_scales_exactly_with_the_override(torque_jerk):
+    path, res, rt = torque_jerk
+    theta = 0.3
+    v, a = 0.4 * float(res.profile.theta_dot_at(theta)), 0.2
+    for s in (0.8, 0.5):
+        scaled, unit = rt.remaining(theta, v, a, s), rt.remaining(theta, v / s, a / s**2)
+        assert np.allclose(scaled.x, s * s * unit.x, rtol=1e-12) and np.allclose(scaled.u_nodes, s * s * unit.u_nodes)
+        assert np.isclose(scaled.duration, unit.duration / s, rtol=1e-12)

@@ -212,6 +212,25 @@ class Retimer:
             return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
         return Profile(grid, x)
 
+    def compiled_remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0,
+                           override: float = 1.0) -> Profile | None:
+        """Jerk limits: the compiled pass's remaining profile alone (planning/retime_jerk.py), None where it gives
+        no answer (a state at rest, a state it finds no merge from: ``remaining`` then solves the sequential LP)."""
+        theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
+        if not self.third_order:
+            raise PathmotionError("Retimer.compiled_remaining: the plan has no jerk or torque-rate limit; "
+                                  "use remaining (its second-order pass is compiled)")
+        return self._compiled(theta, x0, u0, _override(override) ** 2)
+
+    def _compiled(self, theta: float, x0: float, u0: float, s2: float) -> Profile | None:
+        i, j, f, *_ = self._first(theta)
+        if self._jerk is None or not self._jerk.applies(theta, i, j, x0):
+            return None
+        got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
+        if got is None:
+            return None
+        return Profile(np.concatenate([[theta], self.grid[j:]]), got[0] * s2, got[1] * s2)
+
     def resume(self, theta: float) -> Profile:
         """The time-optimal profile from rest at ``theta`` to the plan's end."""
         return self.remaining(theta, 0.0, 0.0)
@@ -456,19 +475,11 @@ class Retimer:
     def _smooth_remaining(self, theta: float, x0: float, u0: float, s2: float, reference: bool = False) -> Profile:
         """Third-order remaining profile: the compiled pass (planning/retime_jerk.py) from a moving state, else
         (or with ``reference``) the sequential LP from the second-order answer (an upper bound)."""
-        i, j, f, *_ = self._first(theta)
-        if not reference and self._jerk is not None and self._jerk.applies(theta, i, j, x0):
-            got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
-            if got is not None:
-                return Profile(np.concatenate([[theta], self.grid[j:]]), got[0] * s2, got[1] * s2)
-            if not self._jerk.near_ceiling(i, theta, x0 / s2):
-                raise StateInfeasibleError(
-                    f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot be "
-                    f"brought to the plan's end within the jerk and torque-rate limits at override {np.sqrt(s2):.4g}: "
-                    "no smooth motion from it joins the fastest one to the end; stop first (Retimer.stop), or raise "
-                    "the override", end_speed=np.nan)
-            # a state on the ceiling's limits (a plan's own state, say): its merges are too tight for the pass
-            log.debug("retimer: no merge from theta = %.6g next to the ceiling; sequential LP", theta)
+        if not reference:
+            fast = self._compiled(theta, x0, u0, s2)
+            if fast is not None:
+                return fast
+            log.debug("retimer: no answer of the compiled pass from theta = %.6g; sequential LP", theta)
         try:
             grid, x2 = self._remaining2(theta, x0, s2)
         except StateInfeasibleError:  # the smooth interpolation may lie a little above the interval form's K

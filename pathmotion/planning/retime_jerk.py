@@ -43,9 +43,6 @@ PASS_MARGIN = 0.01
 #: The state itself may exceed an order-2 row by this fraction (the rows at the state are interpolated
 #: between the grid's check points; a plan's own state can lie that far above them) [-].
 STATE_TOLERANCE = 0.02
-#: A state whose x lies within this fraction of C's is next to the ceiling (Retimer: the sequential LP
-#: answers it when the pass finds no merge) [-].
-NEAR_CEILING = 0.02
 #: Least x (relative to the state's) at a point where the motion does not rest [-].
 X_FLOOR = 1e-12
 
@@ -129,11 +126,6 @@ class JerkPass:
         after a rest point C's is measured from that rest point, a profile from a moving state's is not)."""
         nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
         return x0 > 0.0 and not np.any(self.sign[i:nxt] > 0)
-
-    def near_ceiling(self, i: int, theta: float, x0: float) -> bool:
-        """Whether x0 at theta (grid interval i) lies within NEAR_CEILING of C's x there: a state on the limits
-        C rides (a plan's own state), from which the pass's merges may all exceed them by a little."""
-        return abs(x0 / max(self.ceiling_at(i, theta)[0], 1e-300) - 1.0) <= NEAR_CEILING
 
     def remaining(self, theta: float, i: int, f: float, j: int, x0: float, u0: float):
         """(x, u) on [theta, grid[j:]] from the state (x0 > 0, u0) at theta (grid interval i at the fraction f;
