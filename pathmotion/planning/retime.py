@@ -51,6 +51,9 @@ log = logging.getLogger(__name__)
 #: A state closer to the next grid point than this fraction of its interval starts its first interval
 #: at the point after (no sliver interval, whose rows would lose the b x terms to round-off) [-].
 MERGE_FRACTION = 1e-6
+#: Second order: the first interval keeps the state's acceleration, but none that leaves less than this fraction
+#: of the larger of the state's x and the greedy step's at its end (it would all but stop there) [-].
+KEPT_FLOOR = 0.25
 #: Relative slack on a state's membership in a controllable set [-] (round-off of the rows).
 STATE_TOLERANCE = 1e-7
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
@@ -292,8 +295,9 @@ class Retimer:
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Second-order remaining profile (grid, x) from (theta, x0) at the override s^2 = ``s2``. Its first
         interval (theta to the next grid point) keeps the state's acceleration ``u0`` where the rows and K
-        allow it (the nearest allowed u otherwise; the greedy step when that u would bring the arm to rest before
-        the grid point; None: the greedy step), then the greedy pass."""
+        allow it, from a moving state (the nearest allowed u otherwise, and never one that leaves less than
+        KEPT_FLOOR of the larger of x0 and the greedy step's x at the grid point; None: the greedy step), then the
+        greedy pass."""
         g, P, Q, R = self.grid, self._P, self._Q, self._R
         i, j, f, _, P0, Q0, R0 = self._first(theta)
         y0 = x0 / s2
@@ -301,11 +305,9 @@ class Retimer:
         out = self._buffer
         if lo * (1 - STATE_TOLERANCE) - STATE_TOLERANCE <= y0 <= hi * (1 + STATE_TOLERANCE):
             xj = max(step_up(P0, Q0, R0, 0, y0, self._khi[j]), self._klo[j])
-            if u0 is not None:  # the state's acceleration, within the interval's rows and K_j; not to rest
-                low = max(step_down(P0, Q0, R0, 0, y0)[0], self._klo[j], 0.0)
-                kept = y0 + 2.0 * (u0 / s2) * (g[j] - theta)
-                if kept > 0.0 or low > 0.0:
-                    xj = min(max(kept, low), xj)
+            if u0 is not None and y0 > 0.0:  # the moving state's acceleration, within the rows and K_j
+                low = max(step_down(P0, Q0, R0, 0, y0)[0], self._klo[j], KEPT_FLOOR * max(y0, xj))
+                xj = min(max(y0 + 2.0 * (u0 / s2) * (g[j] - theta), low), xj)
             greedy_from(P, Q, R, self._klo, self._khi, j, xj, out)
             return np.concatenate([[theta], g[j:]]), s2 * np.concatenate([[y0], out[:len(g) - j]])
         lo1, hi1 = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, np.inf, 0.0)

@@ -40,9 +40,9 @@ ROW_SLACK = 1e-9
 #: The pass keeps this fraction below every limit (velocity, order-2 and order-3 rows) at its check points,
 #: for what the rows do between them; along a merge the margin fades out to the ceiling's full limits [-].
 PASS_MARGIN = 0.01
-#: The state itself may exceed an order-2 row by this fraction (the rows at the state are interpolated
-#: between the grid's check points; a plan's own state can lie that far above them) [-].
-STATE_TOLERANCE = 0.02
+#: The state itself may exceed an order-2 row by this fraction (the plans' limit tolerance: a plan's own state
+#: lies on its limits within it) [-].
+STATE_TOLERANCE = defaults.LIMIT_TOLERANCE
 #: Least x (relative to the state's) at a point where the motion does not rest [-].
 X_FLOOR = 1e-12
 
@@ -64,7 +64,8 @@ class JerkPass:
         self.tc = np.ascontiguousarray(np.concatenate([np.cumsum(ceiling.intervals[::-1])[::-1], [0.0]]))
         self.origin, self.sign = smooth.coordinates(grid, self.rest)
         self.pc = point_coefficients(grid, self.origin, self.sign)
-        inner_scale = {n: np.minimum(v[:-1], v[1:]) for n, v in scale.items()}
+        self.path, self.robot, self.limits = path, robot, limits
+        self._inner_scale = inner_scale = {n: np.minimum(v[:-1], v[1:]) for n, v in scale.items()}
         inner = [(_sample_points(path, robot, (1.0 - a) * grid[:-1] + a * grid[1:]), inner_scale, slice(None))
                  for a in CHECK_POINTS[1:-1]]
         points = [(samp.right, scale, slice(0, -1)), *inner, (samp.left, scale, slice(1, None))]
@@ -84,41 +85,31 @@ class JerkPass:
 
     def _first(self, theta: float, i: int, f: float, j: int) -> tuple:
         """The first output interval [theta, grid[j]]: its check points' rows (five (Q, m2)), (five (Q, m3)),
-        x_max (Q,) and coefficients (4, Q), the rows interpolated linearly between the check points of grid
-        interval i."""
+        x_max (Q,) and coefficients (4, Q); the path data sampled at its points (its end: grid point j's), the
+        limits scaled as on grid interval i."""
         g = self.grid
-        first = np.array([theta, g[j]])
-        pc = point_coefficients(first, self.origin[j - 1:j], self.sign[j - 1:j])[:, :, 0]
-        # fractions of interval i at the first interval's check points (its end: grid point j)
-        at = np.minimum((theta + np.array(CHECK_POINTS) * (g[j] - theta) - g[i]) / (g[i + 1] - g[i]), 1.0)
-        where = np.minimum(np.searchsorted(CHECK_POINTS, at, side="right") - 1, len(CHECK_POINTS) - 2)
-        frac = (at - np.take(CHECK_POINTS, where)) / np.diff(CHECK_POINTS)[where]
-
-        def rows(r):  # r (Q, K-1, m) at interval i, linear between its check points
-            return np.ascontiguousarray(np.stack([(1.0 - t) * r[q, i] + t * r[q + 1, i] for q, t in zip(where, frac)]))
-
-        if j > i + 1:  # the first interval ends at the next grid point's next: its end is that point's left side
-            end = lambda r: r[-1, j - 1]  # noqa: E731
-        else:
-            end = None
-        p2 = tuple(rows(r) for r in self.p2)
-        p3 = tuple(rows(r) for r in self.p3)
-        px = np.array([min(v, max(self.px[0, i], self.px[2, i])) for v in rows(self.px[:, :, None])[:, 0]])
-        if end is not None:
-            for arr, r in zip(p2 + p3, self.p2 + self.p3):
-                arr[-1] = end(r)
-            px[-1] = self.px[-1, j - 1]
-        return p2, p3, np.ascontiguousarray(px), np.ascontiguousarray(pc)
+        pc = point_coefficients(np.array([theta, g[j]]), self.origin[j - 1:j], self.sign[j - 1:j])[:, :, 0]
+        inner = theta + np.array(CHECK_POINTS[:-1]) * (g[j] - theta)
+        pts = _sample_points(self.path, self.robot, inner)
+        scale = {n: np.repeat(v[i:i + 1], len(inner), axis=0) for n, v in self._inner_scale.items()}
+        rows2 = limit_rows(pts, self.limits, scale, defaults.PLANNER_X_CAP)
+        rows3 = [lim.rows3(pts, scale[lim.name]) for lim in self.limits if lim.order == 3]
+        p2 = tuple(np.ascontiguousarray(np.concatenate([getattr(rows2, n), r[-1, j - 1][None]]))
+                   for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
+        p3 = tuple(np.ascontiguousarray(np.concatenate([np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1),
+                                                        r[-1, j - 1][None]])) for k, r in enumerate(self.p3))
+        px = np.ascontiguousarray(np.append(rows2.x_max, self.px[-1, j - 1]))
+        return p2, p3, px, np.ascontiguousarray(pc)
 
     @staticmethod
     def _state_share(first, x0: float, u0: float) -> float:
-        """The share of the order-2 limits the state (x0, u0) takes at its point, at least 1 + the plans' limit
-        tolerance (a plan's own state lies on its limits within it): the limits at the state."""
+        """The share of the order-2 limits the state (x0, u0) takes at its point, at least 1 + STATE_TOLERANCE:
+        the limits at the state (the pass refuses a state above 1 + STATE_TOLERANCE)."""
         a, b, c, lo, hi = (r[0] for r in first[0])
         val = a * u0 + b * x0 + c
         with np.errstate(divide="ignore", invalid="ignore"):
             share = np.where(val > 0, val / hi, val / lo)
-        return float(max(np.max(share[np.isfinite(share)], initial=0.0), 1.0 + defaults.LIMIT_TOLERANCE))
+        return float(max(np.max(share[np.isfinite(share)], initial=0.0), 1.0 + STATE_TOLERANCE))
 
     def applies(self, theta: float, i: int, j: int, x0: float) -> bool:
         """Whether the pass answers from (theta in grid interval i, j the first grid point after it, x0): a moving
