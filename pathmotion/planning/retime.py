@@ -20,10 +20,12 @@ at the end for the stop). A query then costs one compiled forward pass over the 
   :class:`StateInfeasibleError`: the limit factor that would save it (the same scaling: x0 / max K),
   how fast the in-limit braking still is at the path's end and how far past it it would stop.
 
-Third-order limits (jerk, torque rate): the second-order answer is the first linearization point of the
-project's sequential LP (planning/third_order.py) on the remaining grid, started at the state's x and u;
-the stop searches the shortest stop distance whose smooth profile exists. These are LP solves, not the
-compiled pass, and take tens to hundreds of milliseconds.
+Third-order limits (jerk, torque rate): ``remaining`` from a moving state is the compiled pass of
+planning/retime_jerk.py (a walk that merges into the smooth time-optimal ceiling profile, solved at
+construction). Where it gives no answer, and with ``reference=True``, the second-order answer is the first
+linearization point of the project's sequential LP (planning/third_order.py) on the remaining grid, started
+at the state's x and u. The stop searches the shortest stop distance whose smooth profile exists (LP solves,
+tens to hundreds of milliseconds).
 """
 
 from __future__ import annotations
@@ -58,6 +60,8 @@ KEPT_FLOOR = 0.25
 STATE_TOLERANCE = 1e-7
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
 STOP_ITERATIONS = 4
+#: Intervals the second-order stop's last interval (to rest) is cut into [-].
+STOP_SUBDIVISION = 4
 #: Points of the finer grid the second-order stop is computed on again, and its reach relative to the first
 #: answer's stop distance [-].
 STOP_POINTS = 1200
@@ -374,10 +378,15 @@ class Retimer:
     @staticmethod
     def _stop_grid(theta, x0, inner_grid, inner_x, d, width) -> tuple[np.ndarray, np.ndarray]:
         """The stop's (grid, x): the state, the inner points, and the stop point ``d`` after the last of them
-        (the interval's end ``width`` when the rows gave no shorter distance)."""
+        (the interval's end ``width`` when the rows gave no shorter distance). The last interval (constant u, x
+        linear in theta) carries STOP_SUBDIVISION points: the same motion, whose certified bound is then as
+        tight as on the others (a stop where Phi' = 0 is one short interval, whose bound alone is loose)."""
         d = width if not np.isfinite(d) else min(max(d, 1e-9 * width), width)
         last = inner_grid[-1] if inner_grid.size else theta
-        return np.concatenate([[theta], inner_grid, [last + d]]), np.concatenate([[x0], inner_x, [0.0]])
+        x_last = inner_x[-1] if inner_x.size else x0
+        share = np.arange(1, STOP_SUBDIVISION) / STOP_SUBDIVISION
+        return (np.concatenate([[theta], inner_grid, last + d * share, [last + d]]),
+                np.concatenate([[x0], inner_x, x_last * (1.0 - share), [0.0]]))
 
     def _next_stop(self, j: int) -> int:
         return int(self._stops[np.searchsorted(self._stops, j)])
