@@ -13,12 +13,13 @@ sequential LP, certified and tightened as a plan is), the fastest smooth motion 
 A query (:func:`forward`) walks from the state over the grid points up to the next rest point. Its step is
 the largest u_{k+1} the rows allow from which the descent (u turned towards C's u as fast as the rows
 allow) still ends on or below C, found by bisection when the largest step does not; above C the least
-step. At every point of the walk, and where its descent ends, merges into C over N = 2, 3, 4, 6, ...
+step. At every point of the walk, and where its descent ends, merges into C over N = MERGE_LENGTHS
 intervals are tried: u = u_C + d (1 - s) + alpha s (1 - s), s the fraction of the merge, d the offset
 from u_C, alpha the value that ends the merge on C's x. Of those whose rows hold, the one of the least
 total time (walk, descent, merge, C's rest) is the answer, C from its end on. Every step and merge meets
-every row at the start, the middle and the end of each interval (the middle's path data sampled at
-construction); the certified bounds of a result are checked like a plan's (Retimer.certify).
+every row at CHECK_POINTS of each interval (the inner points' path data sampled at construction, the first
+interval's at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
+certified bounds of a result are checked like a plan's (Retimer.certify) in the tests and the benchmark.
 """
 
 from __future__ import annotations
@@ -381,12 +382,32 @@ def _rows2_right(k, j, grid_data, x, u):
 
 
 @njit(cache=True)
+def _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u):
+    """The largest u_{k+1} in [the descent's own step, hi] (of output interval k from (x, u), weights w0, w1)
+    from which the descent still ends on or below C: hi, else by BISECTION_STEPS bisections."""
+    if _descend(k + 1, x + 2.0 * (w0 * u + w1 * hi), hi, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u,
+                False)[0] >= 0:
+        return hi
+    _, ucn = _ceiling(k + 1, j, grid_data, xc0, uc0)
+    low, top = max(lo, min(hi, ucn)), hi  # the descent's own step ends below C
+    for _ in range(BISECTION_STEPS):
+        mid = 0.5 * (low + top)
+        if _descend(k + 1, x + 2.0 * (w0 * u + w1 * mid), mid, last, j, grid_data, first, xc0, uc0, floor, out_x,
+                    out_u, False)[0] >= 0:
+            low = mid
+        else:
+            top = mid
+    return low
+
+
+@njit(cache=True)
 def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_u):
     """The pass from the state (x0, u0) (output point 0) over the output points 1.. = grid points j.. up to
     the rest point ``nxt`` (grid index): fills out_x, out_u up to the best merge's end and returns (its total
-    time [s], the first output point from which the profile is C's); (inf, -1) when no merge is found. ``grid_data``: (p2, p3, px, pc, cx,
-    cu) of JerkPass; ``first``: the first interval's check points (JerkPass._first); tc (K,): C's time to the
-    end from each grid point; C at the state: xc0, uc0.
+    time [s], the first output point from which the profile is C's); (inf, -1) when no merge is found.
+    ``grid_data``: (p2, p3, px, pc, cx, cu) of JerkPass; ``first``: the first interval's check points and the
+    state's share of the limits (JerkPass._first, _state_share); tc (K,): C's time to the end from each grid
+    point; C at the state: xc0, uc0.
 
     The walk: below C the largest step from which the descent still ends on or below C (the largest step the
     rows allow, else a bisection down to the descent's own step), above C the least step. At every point of
@@ -423,19 +444,7 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_
         elif m < 0:
             break
         else:
-            v = hi
-            if _descend(k + 1, x + 2.0 * (w0 * u + w1 * hi), hi, last, j, grid_data, first, xc0, uc0, floor, out_x,
-                        out_u, False)[0] < 0:
-                _, ucn = _ceiling(k + 1, j, grid_data, xc0, uc0)
-                low, top = max(lo, min(hi, ucn)), hi  # the descent's own step ends below C
-                for _ in range(BISECTION_STEPS):
-                    mid = 0.5 * (low + top)
-                    if _descend(k + 1, x + 2.0 * (w0 * u + w1 * mid), mid, last, j, grid_data, first, xc0, uc0, floor,
-                                out_x, out_u, False)[0] >= 0:
-                        low = mid
-                    else:
-                        top = mid
-                v = low
+            v = _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u)
         x1 = x + 2.0 * (w0 * u + w1 * v)
         if not _interval_ok(k, j, grid_data, first, x, u, v, floor, True, _start_keep(k, 1.0 - PASS_MARGIN, first),
                             1.0 - PASS_MARGIN) or \
