@@ -36,7 +36,7 @@ def _segment_distance(points, a, b):
 @pytest.fixture(scope="module")
 def mixed():
     setup = api.search(api.load(MIXED, {"plan.duration_tolerance": 0.01}))  # the final plan certified
-    symmetric = api.load(MIXED, {**QUICK, "path.blends[0].type": "g2"})
+    symmetric = api.load(MIXED, {"plan.duration_tolerance": 0.01, "path.blends[0].type": "g2"})
     return setup, api.plan_scenario(setup), symmetric, api.plan_scenario(symmetric)
 
 
