@@ -225,6 +225,18 @@ def _on_result(progress: Progress, task, label: str):
     return on_result
 
 
+def _stage(progress: Progress, task, description: str, advance: int = 1) -> None:
+    """Move a command's bar on to the stage ``description`` ("plan: time-optimal profile"): logged, and off a
+    terminal (without -v) one line on stderr per stage, as a study's line per point: a CI log shows where a long
+    run is."""
+    progress.update(task, advance=advance, description=description)
+    state = next(t for t in progress.tasks if t.id == task)
+    line = f"{description} (stage {int(state.completed) + 1}/{int(state.total)})"
+    logger.info("%s", line)
+    if not err_console.is_terminal and not logger.isEnabledFor(logging.INFO):  # -v: the log has the line
+        err_console.print(line, highlight=False, soft_wrap=True, markup=False)
+
+
 _NUMBER = re.compile(r"^[-+]?(\d[\d,_]*\.?\d*|\.\d+)([eE][-+]?\d+)?( \.\. [-+]?\d+\.?\d*)?$")
 
 
@@ -539,10 +551,11 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
+        _stage(progress, task, "plan: load and search", advance=0)
         setup = api.search(api.load(scenario, overrides))
-        progress.update(task, advance=1, description="plan: time-optimal profile")
+        _stage(progress, task, "plan: time-optimal profile")
         result = api.plan_scenario(setup)
-        progress.update(task, advance=1, description="plan: writing")
+        _stage(progress, task, "plan: writing")
         with result_folder(out) as folder:  # the folder is replaced as one unit
             summary = api.write_plan(setup, result, folder, force_exports=force)
             if figures:
@@ -578,12 +591,13 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("simulate: load", total=4)
+        _stage(progress, task, "simulate: load and search", advance=0)
         setup = api.search(api.load(scenario, overrides))
-        progress.update(task, advance=1, description="simulate: plan")
+        _stage(progress, task, "simulate: plan")
         result = api.plan_scenario(setup)
-        progress.update(task, advance=1, description="simulate: closed loop")
+        _stage(progress, task, "simulate: closed loop")
         sim = api.simulate_scenario(setup, result, full=full)
-        progress.update(task, advance=1, description="simulate: writing")
+        _stage(progress, task, "simulate: writing")
         with result_folder(out) as folder:  # plan and simulation files replace the folder as one unit
             summary = api.write_simulation(setup, result, sim, folder)
             failures = api.plan_failures(result, setup) + [f for f in (api.tracking_failure(summary),) if f]

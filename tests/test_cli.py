@@ -153,6 +153,15 @@ def test_simulate_writes_results_and_the_plan(tmp_path):
     assert header[:2] == ["t", "theta"] and "q_desired6" in header and "tcp_desired_z" in header
     assert (out / "plan" / "trajectory.csv").is_file()
     assert (out / "tracking_task.png").is_file() and (out / "tracking_joints.png").is_file()
+    assert _in_order(text, [f"simulate: {stage} (stage {k}/4)" for k, stage in
+                            enumerate(("load and search", "plan", "closed loop", "writing"), 1)])
+
+
+def _in_order(text: str, lines: list[str]) -> bool:
+    """Every one of ``lines`` is a line of ``text``, in that order."""
+    got = [line.strip() for line in text.splitlines()]
+    return all(line in got for line in lines) and [got.index(line) for line in lines] == sorted(
+        got.index(line) for line in lines)
 
 
 EXPORTS = ("trajectory_ros2.yaml", "trajectory_egm.csv", "trajectory_rapid.mod")
@@ -305,6 +314,8 @@ def test_plan_defaults_out_to_out_slash_the_scenario_name_and_report_takes_out(t
     code, text = run("plan", scenario_path("circle_zero"), "--set", "plan.grid_points=100", "--no-figures")
     assert code == 0, text
     assert (tmp_path / "out" / "circle_zero" / "summary.json").is_file()
+    stages = ["plan: load and search (stage 1/3)", "plan: time-optimal profile (stage 2/3)", "plan: writing (stage 3/3)"]
+    assert _in_order(text, stages)  # not a terminal: one progress line per stage
     code, text = run("report", tmp_path / "out" / "circle_zero", "--out", tmp_path / "elsewhere" / "r.html")
     assert code == 0, text
     assert (tmp_path / "elsewhere" / "r.html").read_text().startswith("<!DOCTYPE html>")
