@@ -181,9 +181,9 @@ def _out_file(out: Path, *inputs: Path) -> Path:
 
 
 def _scheduler(address: Optional[str]) -> Optional[str]:
-    """``--scheduler`` checked before any work (study.sweep.check_scheduler_address): [PROTOCOL://]HOST:PORT."""
+    """``--scheduler`` checked before any work (io.scheduler.check_scheduler_address): [PROTOCOL://]HOST:PORT."""
     if address is not None:
-        from .study.sweep import check_scheduler_address
+        from .io.scheduler import check_scheduler_address
 
         try:
             check_scheduler_address(address)
@@ -223,6 +223,10 @@ def _on_result(progress: Progress, task, label: str):
         if not err_console.is_terminal:
             err_console.print(f"{label}: {done}/{total} points done", highlight=False, soft_wrap=True)
     return on_result
+
+
+#: The progress line of a stage (``_stage``), as tools reading stderr recognise it.
+PROGRESS_LINE = re.compile(r"^(plan|simulate): [a-z -]+ \(stage \d+/\d+\)$")
 
 
 def _stage(progress: Progress, task, description: str, advance: int = 1) -> None:
@@ -353,6 +357,9 @@ SetOpt = typer.Option(None, "--set", metavar="KEY=VALUE",
                       help="override a scenario key, e.g. --set plan.grid_points=2000")
 WorkersOpt = typer.Option(None, "--workers", min=1, help="local processes that search the optimal blends' corners "
                           "in parallel (plan.workers; the same result as 1)")
+SchedulerOpt = typer.Option(None, "--scheduler", help="Dask scheduler, tcp://HOST:PORT: a program's task runs (between "
+                            "joint moves, dwells and stops) search their optimal blends on its workers "
+                            "(plan.scheduler; the same result)")
 VerifyOpt = typer.Option(None, "--verify", help="certified (default: a certified bound per grid interval) | dense "
                          "(the 0.1 ms resample) | off; sets plan.verify")
 ForceOpt = typer.Option(False, "--force", help="write the exports (ROS 2, EGM, RAPID) even of a failed plan, "
@@ -504,7 +511,7 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
 @app.command()
 @guarded
 def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_: Optional[List[str]] = SetOpt,
-          workers: Optional[int] = WorkersOpt):
+          workers: Optional[int] = WorkersOpt, scheduler: Optional[str] = SchedulerOpt):
     """Validate a scenario and run every check plan runs (reachability, singularity margin, the plan itself and its
     limits), writing nothing.
 
@@ -512,17 +519,19 @@ def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_:
     """
     from . import api
 
-    report = api.check_scenario(api.search(api.load(scenario, _with_workers(_overrides(set_), workers))))
+    report = api.check_scenario(api.search(api.load(scenario, _with_workers(_overrides(set_), workers, scheduler))))
     notes = {"closed": "it ends where it starts; " + ("planned as a periodic cycle" if report["periodic"] else
                                                       "run once; plan.periodic = true plans the cycle")}
     _print_table(_summary_table(f"check {scenario}: OK", report, notes if report["closed"] else None))
     _result_verdict([], report.get("export_notes", []), False)
 
 
-def _with_workers(overrides: dict, workers: Optional[int]) -> dict:
-    """``overrides`` with plan.workers set from the --workers option."""
+def _with_workers(overrides: dict, workers: Optional[int], scheduler: Optional[str] = None) -> dict:
+    """``overrides`` with plan.workers and plan.scheduler set from the --workers and --scheduler options."""
     if workers is not None:
         overrides["plan.workers"] = workers
+    if _scheduler(scheduler) is not None:
+        overrides["plan.scheduler"] = scheduler
     return overrides
 
 
@@ -538,7 +547,7 @@ def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
 def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
          out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
          figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
-         force: bool = ForceOpt, workers: Optional[int] = WorkersOpt):
+         force: bool = ForceOpt, workers: Optional[int] = WorkersOpt, scheduler: Optional[str] = SchedulerOpt):
     """Plan the time-optimal motion: writes trajectory.csv/.parquet, summary.json, exports and figures.
     A failed plan (a path-speed jump, a limit exceeded) exits 4 after writing its files.
 
@@ -547,7 +556,7 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from . import api
     from .io.atomic import output_lock, result_folder
 
-    overrides = _with_workers(_with_verify(_overrides(set_), verify), workers)
+    overrides = _with_workers(_with_verify(_overrides(set_), verify), workers, scheduler)
     out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
@@ -573,7 +582,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
              out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
              controller: Optional[str] = typer.Option(None, help="orbital | computed_torque | pd_gravity"),
              figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
-             force: bool = ForceOpt,
+             force: bool = ForceOpt, workers: Optional[int] = WorkersOpt, scheduler: Optional[str] = SchedulerOpt,
              full: bool = typer.Option(False, "--full", help="go on after the first failure to the end of the motion "
                                        "(by default the run stops there and its figures cover [0, t_fail])")):
     """Plan, then simulate the closed loop (controller at 4 ms, full arm dynamics); writes
@@ -585,7 +594,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from . import api
     from .io.atomic import output_lock, result_folder
 
-    overrides = _with_verify(_overrides(set_), verify)
+    overrides = _with_workers(_with_verify(_overrides(set_), verify), workers, scheduler)
     if controller:
         overrides["simulate.controller"] = controller
     out = _out(_default_out(out, scenario, overrides), scenario)

@@ -5,6 +5,7 @@ RAPID fixtures against their robtargets with the reader of tests/test_rapid_prog
 
 import dataclasses
 import math
+import socket
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,8 @@ from scipy.spatial.transform import Rotation
 
 from pathmotion import api
 from pathmotion.api import searches
-from pathmotion.errors import ScenarioError
+from pathmotion.api.cluster import run_on_cluster
+from pathmotion.errors import PathmotionError, ScenarioError
 from pathmotion.io.rapid import read_rapid, scenario_toml
 from pathmotion.planning.blend_search import FAST
 from pathmotion.robot import fk, load_robot
@@ -107,3 +109,31 @@ def test_fixture_programs_plan_with_optimal_blends_and_meet_their_fine_points(na
 def test_an_optimal_blend_at_a_dwell_is_refused():
     with pytest.raises(ScenarioError, match=r"path.blends\[0\]: corner 3 is at a dwell"):
         api.load(MIXED, {**QUICK, "path.blends[0].corner": 3})
+
+
+# ------------------------------------------------------------------------------------------- on a Dask cluster
+def test_runs_searched_on_a_dask_cluster_equal_the_serial_search(monkeypatch):
+    distributed = pytest.importorskip("distributed")
+    monkeypatch.setitem(searches.SEARCHES, "fast", QUINTIC)
+    serial = api.search(api.load(MIXED, QUICK))
+    calls = []
+    monkeypatch.setattr(searches, "run_on_cluster", lambda *a, **k: calls.append(a) or run_on_cluster(*a, **k))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                   dashboard_address=None) as cluster:
+        clustered = api.search(api.load(MIXED, {**QUICK, "plan.scheduler": cluster.scheduler_address}))
+    assert len(calls) == 1 and len(calls[0][2]) == 2  # both task runs went to the cluster
+    for a, b in zip(serial.path.pieces, clustered.path.pieces):
+        assert (a.kind, a.lo, a.hi) == (b.kind, b.lo, b.hi)
+        theta = np.linspace(a.lo, a.hi, 50)
+        np.testing.assert_array_equal(serial.path(theta), clustered.path(theta))
+    assert api.plan_scenario(serial).duration == api.plan_scenario(clustered).duration
+
+
+def test_a_bad_or_unreachable_scheduler_is_one_clear_error():
+    with pytest.raises(ScenarioError, match=r"plan.scheduler.*not a Dask scheduler address"):
+        api.load(MIXED, {**QUICK, "plan.scheduler": "localhost"})
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with pytest.raises(PathmotionError, match="cannot reach the Dask scheduler"):
+        api.search(api.load(MIXED, {**QUICK, "plan.scheduler": f"tcp://127.0.0.1:{port}"}))

@@ -1,8 +1,9 @@
 """Optimal blends on a chain (a task path with joint moves or dwells; docs/program.md, "Optimal blends in a
 program"): each task run's optimal corners are searched on that run (planning/blend_search.py), entered and left
 at the path speeds a plan of the whole chain with symmetric G2 blends has at the run's ends (at rest after a
-dwell, a fine point or a joint move without a zone); the joint-space zones and the stops stay as they are. A
-run's found blends replace its symmetric ones only when the chain with them plans faster."""
+dwell, a fine point or a joint move without a zone); the joint-space zones and the stops stay as they are. The
+runs' searches are independent (a Dask cluster may run them). A run's found blends replace its symmetric ones
+only when the chain with them plans faster."""
 
 from __future__ import annotations
 
@@ -20,8 +21,8 @@ from .blend_request import BlendRequest, ChainBlendRequest
 
 log = logging.getLogger(__name__)
 
-#: find(request, settings, q_start) -> {connection: G2Shape}: one task run's optimal blends.
-FindShapes = Callable[[BlendRequest, PlanSettings, np.ndarray], dict]
+#: find_all([(request, settings, q_start)]) -> [{connection: G2Shape}]: the optimal blends of task runs, in order.
+FindAll = Callable[[list[tuple[BlendRequest, PlanSettings, np.ndarray]]], list[dict]]
 
 
 def chain_with(robot, request: ChainBlendRequest, chosen: dict) -> PiecewiseJointPath:
@@ -57,21 +58,25 @@ def run_settings(path: PiecewiseJointPath, profile, settings: PlanSettings, wher
 
 
 def search_chain_blends(robot, request: ChainBlendRequest, settings: PlanSettings,
-                        find: FindShapes) -> PiecewiseJointPath:
-    """The chain of ``request`` with each run's optimal blends found by ``find`` (module docstring) under the plan
-    ``settings`` (verification and baselines off). A run's found blends are kept where the chain with them plans
-    faster than without them (the run searched on its own sees its ends at fixed speeds, not the joint zone or
-    joint move beyond them); elsewhere that run keeps its symmetric G2 blends."""
+                        find_all: FindAll) -> PiecewiseJointPath:
+    """The chain of ``request`` with each run's optimal blends found by ``find_all`` (module docstring) under the
+    plan ``settings`` (verification and baselines off). The runs are searched independently, each between the
+    speeds of the chain's plan with symmetric G2 blends. A run's found blends are then kept, run by run, where the
+    chain with them plans faster than without them (the run searched on its own sees its ends at fixed speeds,
+    not the joint zone or joint move beyond them); elsewhere that run keeps its symmetric G2 blends."""
     settings = replace_settings(settings, verify="off", baselines=False)
     chosen = {i: {c: ("g2", t) for c, t in run.tolerances.items()} for i, run in request.runs.items()}
     path = chain_with(robot, request, chosen)
     symmetric = best = plan(path, robot, settings)
+    jobs = []
     for i, run in request.runs.items():
         where = request.items[i].where
-        settings_i, q_i = run_settings(path, best.profile, settings, where)
+        settings_i, q_i = run_settings(path, symmetric.profile, settings, where)
         log.info("optimal blends: task run %s, %d corner(s), entered at %s, left at %s", where, len(run.tolerances),
                  _condition(settings_i.start), _condition(settings_i.end))
-        trial = {**chosen, i: {c: ("g2_shape", shape) for c, shape in find(run, settings_i, q_i).items()}}
+        jobs.append((run, settings_i, q_i))
+    for i, found in zip(request.runs, find_all(jobs)):
+        trial = {**chosen, i: {c: ("g2_shape", shape) for c, shape in found.items()}}
         trial_path = chain_with(robot, request, trial)
         trial_plan = plan(trial_path, robot, settings)
         if trial_plan.duration <= best.duration:
@@ -79,7 +84,7 @@ def search_chain_blends(robot, request: ChainBlendRequest, settings: PlanSetting
             continue
         log.info("optimal blends: task run %s: the chain plans in %.6g s with its searched blends, %.6g s without "
                  "(its ends join joint moves the run's search does not see); its symmetric G2 blends are kept",
-                 where, trial_plan.duration, best.duration)
+                 request.items[i].where, trial_plan.duration, best.duration)
     log.info("optimal blends: the chain plans in %.6g s (%.6g s with the symmetric G2 blends)", best.duration,
              symmetric.duration)
     return path
