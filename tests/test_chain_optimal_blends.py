@@ -14,10 +14,11 @@ from scipy.spatial.transform import Rotation
 
 from pathmotion import api
 from pathmotion.api import searches
-from pathmotion.api.cluster import run_on_cluster
+from pathmotion.io.scheduler import run_on_cluster
 from pathmotion.errors import PathmotionError, ScenarioError
 from pathmotion.io.rapid import read_rapid, scenario_toml
 from pathmotion.planning.blend_search import FAST
+from pathmotion.report.tables import read_rows
 from pathmotion.robot import fk, load_robot
 from tests.test_rapid_programs import fine_targets, tool_of
 
@@ -87,9 +88,13 @@ def _imported(name, monkeypatch, overrides=None):
 
 
 @pytest.mark.parametrize("name", ["palletizing", "tending"])
-def test_fixture_programs_plan_with_optimal_blends_and_meet_their_fine_points(name, monkeypatch):
+def test_fixture_programs_plan_with_optimal_blends_and_meet_their_fine_points(name, monkeypatch, tmp_path):
     text, setup = _imported(name, monkeypatch)
     result = api.plan_scenario(setup)
+    api.write_plan(setup, result, tmp_path)
+    _, rows = read_rows(tmp_path / "moves.csv")  # one row per program move, the cycle split among them
+    assert len(rows) == len(setup.scenario.path.segments)
+    assert sum(r["cycle_s"] for r in rows) == pytest.approx(result.duration, rel=1e-6)
     g2 = api.load_text(text.replace('type = "optimal"', 'type = "g2"'), RAPID, QUICK)
     assert result.duration <= api.plan_scenario(g2).duration * (1 + 1e-9)
     assert ('type = "optimal"' in text) == (name == "tending")  # palletizing's zones all join MoveJ

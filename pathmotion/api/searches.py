@@ -14,11 +14,11 @@ from .. import defaults
 from ..errors import InfeasibleError, PathmotionError
 from ..geometry import with_blends
 from ..io import schema
+from ..io.scheduler import run_on_cluster
 from ..planning import PlanSettings
 from ..planning.blend_search import SEARCHES, optimal_blends
 from .blend_request import BlendRequest, ChainBlendRequest
 from .chain_blends import search_chain_blends
-from .cluster import run_on_cluster
 from .plan import plan_failures, plan_scenario
 from .program import check_program
 from .reserve import AUTO, ReserveTrial, Verdict, search_reserve

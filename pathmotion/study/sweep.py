@@ -35,7 +35,7 @@ from ..io.atomic import atomic_path, write_json, write_text
 from ..io.files import mark_result
 from ..io import schema
 from ..io.scenario import parse_value
-from ..api.cluster import dask_client
+from ..io.scheduler import dask_client
 from .point import SUMMARY_KEYS, run_point
 
 log = logging.getLogger(__name__)
