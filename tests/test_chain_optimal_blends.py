@@ -142,3 +142,14 @@ def test_a_bad_or_unreachable_scheduler_is_one_clear_error():
         port = s.getsockname()[1]
     with pytest.raises(PathmotionError, match="cannot reach the Dask scheduler"):
         api.search(api.load(MIXED, {**QUICK, "plan.scheduler": f"tcp://127.0.0.1:{port}"}))
+
+
+def test_plan_refuses_a_bad_scheduler_option_before_any_work(tmp_path):
+    from typer.testing import CliRunner
+
+    from pathmotion.cli import app
+
+    res = CliRunner().invoke(app, ["plan", str(MIXED), "--out", str(tmp_path / "o"), "--scheduler", "no-port"])
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert res.exit_code == 1 and len(lines) == 1 and lines[0].startswith("error: --scheduler"), res.output
+    assert "tcp://HOST:PORT" in lines[0] and not (tmp_path / "o").exists()
