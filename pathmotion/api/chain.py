@@ -1,7 +1,8 @@
 """A ``type = "task"`` path with joint moves (MoveJ / MoveAbsJ) or dwells (WaitTime) among its segments: the scenario's
 segments turned into the items of :func:`pathmotion.lift.chain.lift_chain` (runs of task segments, joint moves,
 dwells) and its ``[[path.blends]]`` into task-corner blends and joint zones (docs/geometry.md, "Joint moves and
-dwells")."""
+dwells"); with optimal blends at task corners, the request of their search per task run (:mod:`.chain_blends`,
+docs/program.md, "Optimal blends in a program")."""
 
 from __future__ import annotations
 
@@ -15,8 +16,8 @@ from ..io.rapid import quaternion_matrix
 from ..lift.chain import Dwell, JointMove, TaskRun, lift_chain
 from ..lift.joint_move import PiecewiseJointPath, check_joint_target
 from ..robot import Robot, fk
-from .program import start_configuration, start_rotation, task_orientation
 from .blend_request import BlendRequest, ChainBlendRequest
+from .program import start_configuration, start_rotation, task_orientation
 from .segments import task_segments
 
 log = logging.getLogger(__name__)
