@@ -362,6 +362,9 @@ EGM_PORT = 6510
 #: EGM: largest joint distance [rad] between the robot's first reported joints and the plan's start before
 #: execute refuses to move (0.01 rad ~ 0.6 deg: a robot jogged to the start by hand is within it).
 EGM_START_TOLERANCE = 0.01
+#: execute PLAN_DIR: largest joint difference [rad] between the plan rebuilt from the folder (scenario.toml,
+#: phase_plane.csv) and its trajectory.csv before the folder is refused as edited or from another version.
+PLAN_FOLDER_TOLERANCE = 1e-6
 #: EGM: the controller counts as silent (execute stops along the path) after this long without a message [s].
 EGM_SILENCE = 0.1
 #: EGM: execute waits this long for the controller's first message before giving up [s].
