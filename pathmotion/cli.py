@@ -713,6 +713,8 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
                   egm: str = typer.Option(..., "--egm", help="HOST:PORT of the EGM sensor (pathmotion execute)"),
                   lockstep: bool = typer.Option(False, help="wait for each answer (deterministic) instead of 4 ms"),
                   rigid: bool = typer.Option(False, help="rigid gearboxes (the drive file's stiffness ignored)"),
+                  plant: Optional[str] = typer.Option(None, help="builtin | mujoco: what moves the links (default: the "
+                                                      "scenario's simulate.plant)"),
                   out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
                   drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)")):
     """A virtual IRC5: send EgmRobot every 4 ms (or in lockstep), move the arm (drives, elastic gears) by the
@@ -734,7 +736,8 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
         setup, result, params = _egm_setup(scenario, set_, drives)
         traj = result.trajectory
         start = traj.at_time([0.0])
-        arm = VirtualArm(setup.robot, params.rigid() if rigid else params, start.q[0])
+        arm = VirtualArm(setup.robot, params.rigid() if rigid else params, start.q[0],
+                         plant=plant or setup.scenario.simulate.plant)
         run = run_virtual_robot(arm, address, lockstep=lockstep, max_time=3.0 * traj.duration + 2.0)
         cols = run.arrays()
         if not len(cols["t"]):
@@ -742,7 +745,7 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
         theta = traj.profile.state_at_time(cols["t"])[0]
         moving = np.flatnonzero(np.any(np.diff(cols["reference"], axis=0) != 0.0, axis=1))
         rest = float(cols["t"][moving[-1] + 1]) if moving.size else 0.0  # the references' last change
-        summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep}
+        summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep, "plant": arm.plant}
         summary.update(execution_figures(setup.robot, traj, cols["t"], cols["q"], theta, rest))
         with result_folder(out) as folder:
             table = {"t": cols["t"], "answered": cols["answered"].astype(float)}
