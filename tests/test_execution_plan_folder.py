@@ -116,3 +116,39 @@ def test_cli_execute_refuses_a_folder_that_is_not_a_plan(tmp_path):
     assert res.exit_code == 1, res.output
     assert "not a pathmotion result folder" in res.output and ".pathmotion-result" in res.output
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.slow
+def test_cli_execute_a_plan_folder_against_the_virtual_robot_on_mujoco(tmp_path):
+    """The commands as processes on a plan folder: execute PLAN_DIR and virtual-robot PLAN_DIR --lockstep
+    --plant mujoco exit 0; the arm (MuJoCo links, elastic gears) follows the folder's plan within 0.25 mm."""
+    import json
+    import os
+    import socket
+    import subprocess
+    import sys
+    import time
+
+    pytest.importorskip("mujoco")
+    _, _, folder = _written(tmp_path, LINE)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = dict(os.environ, PYTHONPATH=os.getcwd())
+    cli = [sys.executable, "-m", "pathmotion.cli"]
+    robot = subprocess.Popen(cli + ["virtual-robot", str(folder), "--egm", f"127.0.0.1:{port}", "--lockstep",
+                                    "--plant", "mujoco"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    time.sleep(0.5)
+    try:
+        ex = subprocess.run(cli + ["execute", str(folder), "--egm", str(port)], env=env, stdin=subprocess.DEVNULL,
+                            capture_output=True, text=True, timeout=120)
+        out, _ = robot.communicate(timeout=60)
+    finally:
+        robot.kill()
+    assert ex.returncode == 0, ex.stdout + ex.stderr
+    assert robot.returncode == 0, out
+    summary = json.loads((tmp_path / "plan_execute" / "summary.json").read_text())
+    assert summary["ended"] == "done" and summary["packets_lost"] == 0
+    arm = json.loads((tmp_path / "plan_robot" / "summary.json").read_text())
+    assert arm["plant"] == "mujoco" and arm["ended"] == "done" and arm["path_accuracy_m"] < 0.25e-3
+    assert (folder / "trajectory.csv").is_file()  # the plan folder is kept
