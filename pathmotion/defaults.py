@@ -383,7 +383,7 @@ EGM_MAX_DATAGRAM = 65536
 #: EGM: the reference is tabulated on this time step before streaming (linear interpolation between
 #: samples: error qdd dt^2 / 8, ~1e-6 rad at 10 rad/s^2) [s].
 EGM_TABLE_STEP = 0.001
-#: EGM, --correction orbital: fraction of the measured transverse error (the link side estimated from the
-#: motor-side feedback less the modelled gear deflection) added to the reference's correction per cycle [-]
-#: (an integral loop of 0.1 / 4 ms = 25 rad/s crossover, ~60 deg phase margin against EGM's ~20 ms lag).
-EGM_ORBITAL_GAIN = 0.1
+#: EGM, --correction orbital: the phase [rad] the drives' lag takes at the transverse integral loop's crossover
+#: (0.25 rad: the loop's bandwidth a quarter of what the lag allows, so that it follows slow errors only);
+#: the gain per cycle follows from the drive file's lag (execution/orbital.py, loop_gain): 0.05 on the IRB 140.
+EGM_ORBITAL_CROSSOVER_PHASE = 0.25

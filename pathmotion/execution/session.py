@@ -21,7 +21,7 @@ from .drive_file import DriveParameters
 from .drives import VirtualArm
 from .figures import execution_figures
 from .messages import decode_sensor, encode_robot
-from .orbital import TransverseLoop
+from .orbital import TransverseLoop, loop_gain
 from .reference import MODES, RawMotion, build_reference, gear_period
 from .streamer import Streamer
 
@@ -67,7 +67,7 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
 
     table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, period=period)
     lim = robot.limits
-    loop = TransverseLoop(path) if mode == "orbital" else None
+    loop = TransverseLoop(path, loop_gain(drives)) if mode == "orbital" else None
     return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
                     plan=plan_result.trajectory)
 
