@@ -95,16 +95,18 @@ def read_plan(folder: str | Path, tolerance: float = defaults.PLAN_FOLDER_TOLERA
     n = setup.robot.n
     names = [f"q{j + 1}" for j in range(n)]
     if any(name not in export for name in names) or f"q{n + 1}" in export:
-        raise ScenarioError(f"{folder / 'trajectory.csv'}: its joints are not the {n} of the scenario's robot; plan again")
-    q = np.column_stack([export[name] for name in names])
-    gap = np.abs(traj.at_time(export["t"]).q - q)
-    k, j = np.unravel_index(int(np.argmax(gap)), gap.shape)
-    if gap[k, j] > tolerance or abs(traj.duration - float(export["t"][-1])) > 1e-9 + 1e-9 * traj.duration:
-        raise ScenarioError(f"{folder}: phase_plane.csv and scenario.toml do not reproduce trajectory.csv (joint {j + 1} "
-                            f"differs by {gap[k, j]:.3g} rad at t = {export['t'][k]:.4g} s, duration {traj.duration:.6g} "
-                            f"against {export['t'][-1]:.6g} s): the folder was edited or written by another version; "
+        raise ScenarioError(f"{folder / 'trajectory.csv'}: its joints are not the {n} of the scenario's robot; "
                             "plan again")
+    t = export["t"]
+    gap = np.abs(traj.at_time(t).q - np.column_stack([export[name] for name in names]))
+    k, j = np.unravel_index(int(np.argmax(gap)), gap.shape)
+    if gap[k, j] > tolerance or abs(traj.duration - float(t[-1])) > 1e-9 + 1e-9 * traj.duration:
+        raise ScenarioError(f"{folder}: phase_plane.csv and scenario.toml do not reproduce trajectory.csv (joint "
+                            f"{j + 1} differs by {gap[k, j]:.3g} rad at t = {t[k]:.4g} s, duration "
+                            f"{traj.duration:.6g} against {t[-1]:.6g} s): the folder was edited or written by "
+                            "another version; plan again")
     result = PlanResult(profile, traj, (profile,), None, None, None, 0.0, len(profile.grid), 0, (),
                         setup.plan_settings)
-    log.info("read the plan of %s from %s (%.6g s, %d grid points)", setup.name, folder, traj.duration, len(profile.grid))
+    log.info("read the plan of %s from %s (%.6g s, %d grid points)", setup.name, folder, traj.duration,
+             len(profile.grid))
     return setup, result
