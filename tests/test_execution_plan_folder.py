@@ -104,7 +104,8 @@ def test_folders_that_are_not_a_plan_are_refused(tmp_path):
 
 
 def test_cli_execute_refuses_a_folder_that_is_not_a_plan(tmp_path):
-    """Exit 1 and one line saying what is missing; nothing written, no port opened."""
+    """Exit 1 and one line saying what is missing; nothing written, no port opened. A plan folder with --set, or
+    as its own output folder, is refused too."""
     from typer.testing import CliRunner
 
     from pathmotion.cli import app
@@ -116,6 +117,11 @@ def test_cli_execute_refuses_a_folder_that_is_not_a_plan(tmp_path):
     assert res.exit_code == 1, res.output
     assert "not a pathmotion result folder" in res.output and ".pathmotion-result" in res.output
     assert not (tmp_path / "run").exists()
+    _, _, plan = _written(tmp_path, LINE)
+    res = CliRunner().invoke(app, ["execute", str(plan), "--egm", "0", "--set", "plan.grid_points=50"])
+    assert res.exit_code == 1 and "is a plan folder" in res.output, res.output
+    res = CliRunner().invoke(app, ["execute", str(plan), "--egm", "0", "--out", str(plan)])
+    assert res.exit_code == 1 and "holds the input" in res.output, res.output
 
 
 @pytest.mark.slow
