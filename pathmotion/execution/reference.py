@@ -158,13 +158,21 @@ def path_motion(raw: RawMotion, t: np.ndarray, period: float) -> tuple[np.ndarra
     return tuple(0.5 * (a + b) for a, b in zip(first, second))
 
 
+def _lead_rows(k: np.ndarray, start: int, ahead: int, first: bool) -> np.ndarray:
+    """Rows of the motion each table row k (K,) sends: ``ahead`` rows later; on the first segment of a run
+    (``first``) the lead grows from 0 at row ``start`` (time 0) to ``ahead``, so that the first reference is
+    the robot's start and the lead is caught up over the transport delay at twice the motion's pace."""
+    lead = np.clip(k - start, 0, ahead) if first else np.full_like(k, ahead)
+    return np.minimum(k + lead, len(k) - 1)
+
+
 def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: DriveParameters | None,
-                    step: float = defaults.EGM_TABLE_STEP, period: float = 0.0) -> ReferenceTable:
+                    step: float = defaults.EGM_TABLE_STEP, period: float = 0.0, first: bool = False) -> ReferenceTable:
     """The table of references for the raw motion ``raw`` along ``path`` in ``mode`` (one of MODES); with
     shaping, the motion shaped in the path coordinate for a gear mode of ``period`` [s] (see
-    :func:`path_motion`). The
-    table starts one EGM cycle early (the raw motion before 0 is what ran before), so that the low-pass
-    inverse at its first row continues the references already sent."""
+    :func:`path_motion`). The table starts one EGM cycle early (the raw motion before 0 is what ran before),
+    so that the low-pass inverse at its first row continues the references already sent; ``first``: the
+    run's first segment, from rest (its first reference is then the start, see :func:`_lead_rows`)."""
     period = period if mode != "none" else 0.0
     duration = raw.duration + shaper_support(period)
     lead = 0.0 if mode == "none" else drives.transport_delay
@@ -178,8 +186,7 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     if mode != "none":
         qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
         deflection = gear_deflection(robot, drives, q, qd, qdd)
-        ahead = min(int(round(lead / step)), len(t) - 1)
-        m = np.concatenate([(q + deflection)[ahead:], np.repeat((q + deflection)[-1:], ahead, axis=0)])
+        m = (q + deflection)[_lead_rows(np.arange(len(t)), per, int(round(lead / step)), first)]
         md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
         alpha = 1.0 - np.exp(-2.0 * np.pi * drives.lowpass_bandwidth * drives.cycle)
         sent_q, sent_qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)

@@ -65,7 +65,7 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
             profile = retimer.remaining(*state, override=override)
         return build_reference(robot, path, RawMotion(profile, previous, offset), mode, drives, period=period)
 
-    table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, period=period)
+    table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, period=period, first=True)
     lim = robot.limits
     loop = TransverseLoop(path, loop_gain(drives)) if mode == "orbital" else None
     return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
