@@ -5,7 +5,8 @@
 
     m(t) = q(t) + K^-1 tau_g(t)             the motor position that bends each elastic gear by its load
                                             (tau_g: the link-side torque of the plan, rotors excluded)
-    m(t + L)                                lead by the transport delay L (whole EGM cycles)
+    m(t + L)                                lead by the transport delay L (whole EGM cycles; on a run's
+                                            first segment L grows from 0 over the delay: it starts at rest)
     p_k = (m_k - (1 - a) m_(k-1)) / a       the exact inverse of EGM's first-order low-pass (a per cycle)
 
 and the same for the speed reference. A second-order plan (steps in acceleration, which no motor passes
