@@ -10,6 +10,7 @@ folder shows.
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
 from pathlib import Path
 
@@ -40,8 +41,6 @@ def is_plan_folder(folder: str | Path) -> bool:
 
 def _check_files(folder: Path) -> dict:
     """The folder's summary.json; ScenarioError naming every plan file that is missing or a failed plan."""
-    import json
-
     if not folder.is_dir():
         raise ScenarioError(f"{folder}: not a folder; give a scenario file or the output folder of pathmotion plan")
     missing = [name for name in PLAN_FILES if not (folder / name).is_file()]
