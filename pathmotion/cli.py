@@ -621,15 +621,38 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
 
 def _egm_setup(scenario: Path, set_, drives: Optional[Path]):
-    """(setup, plan result, drive parameters) for the EGM commands."""
+    """(setup, plan result, drive parameters) for the EGM commands: the scenario planned, or a directory read
+    as the output folder of ``pathmotion plan`` (no planning)."""
     from . import api
+    from .api.plan_folder import read_plan
     from .execution.drive_file import drive_file_for, load_drives
 
-    setup = api.search(api.load(scenario, _overrides(set_)))
-    result = api.plan_scenario(setup)
+    if scenario.is_dir():
+        if set_:
+            _fail(f"--set changes a scenario before planning; {scenario} is a plan folder (planned already): "
+                  "plan again with --set, or give the scenario file")
+        setup, result = read_plan(scenario)
+    else:
+        setup = api.search(api.load(scenario, _overrides(set_)))
+        result = api.plan_scenario(setup)
     name = setup.scenario.robot.name if drives is None else None
     params = load_drives(drives if drives is not None else drive_file_for(str(name)), setup.robot.n)
     return setup, result, params
+
+
+def _egm_out(out: Optional[Path], scenario: Path, suffix: str) -> Path:
+    """The EGM commands' output folder: ``out``, else out/<scenario name><suffix>, or for a plan folder the
+    sibling <folder>_execute / <folder>_robot (never the plan folder itself)."""
+    if out is not None:
+        return out
+    if scenario.is_dir():
+        return scenario.parent / f"{scenario.name}{suffix or '_execute'}"
+    return Path(f"{_default_out(None, scenario, {})}{suffix}")
+
+
+def _egm_inputs(scenario: Path) -> tuple[Path, ...]:
+    """The input files an EGM command's output folder must not replace (a plan folder: the folder itself)."""
+    return (scenario / "scenario.toml",) if scenario.is_dir() else (scenario,)
 
 
 def _stdin_commands():
@@ -658,24 +681,25 @@ def _stdin_commands():
 
 @app.command()
 @guarded
-def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
+def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or the output folder of pathmotion plan"),
             egm: int = typer.Option(defaults.EGM_PORT, "--egm", help="UDP port to listen on for the controller's EGM messages"),
             out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
             correction: str = typer.Option("shaping", help="none | shaping (pre-compensate the drives and EGM) | orbital (shaping + transverse loop)"),
             drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)"),
             start_tolerance: float = typer.Option(defaults.EGM_START_TOLERANCE, help="largest distance \\[rad] of "
                                                   "the robot's joints from the plan's start")):
-    """Plan, then stream the motion to an ABB controller over EGM (answer each EgmRobot with an EgmSensor);
-    stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
+    """Plan (or read the plan folder pathmotion plan wrote), then stream the motion to an ABB controller over EGM
+    (answer each EgmRobot with an EgmSensor); stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
     Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130).
 
     Example: [bold]pathmotion execute scenarios/corner_g2.toml --egm 6510 --out out/run[/]
+    or, planned before: [bold]pathmotion execute out/g2_plan --egm 6510[/]
     """
     from .execution.loops import open_listener, serve
     from .execution.session import make_streamer, write_execution
     from .io.atomic import output_lock, result_folder
 
-    out = _out(_default_out(out, scenario, {}))
+    out = _out(_egm_out(out, scenario, ""), *_egm_inputs(scenario))
     with output_lock(out):
         setup, result, params = _egm_setup(scenario, set_, drives)
         if not 0.0 <= start_tolerance < float("inf"):
@@ -707,10 +731,13 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
 @app.command("virtual-robot")
 @guarded
-def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file (the arm starts at its start)"),
+def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file or plan folder (the arm starts at "
+                                                 "its start)"),
                   egm: str = typer.Option(..., "--egm", help="HOST:PORT of the EGM sensor (pathmotion execute)"),
                   lockstep: bool = typer.Option(False, help="wait for each answer (deterministic) instead of 4 ms"),
                   rigid: bool = typer.Option(False, help="rigid gearboxes (the drive file's stiffness ignored)"),
+                  plant: Optional[str] = typer.Option(None, help="builtin | mujoco: what moves the links (default: the "
+                                                      "scenario's simulate.plant)"),
                   out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
                   drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)")):
     """A virtual IRC5: send EgmRobot every 4 ms (or in lockstep), move the arm (drives, elastic gears) by the
@@ -727,12 +754,13 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
     from .io.atomic import output_lock, result_folder, write_json
 
     address = parse_address(egm)
-    out = _out(out if out is not None else Path(f"{_default_out(None, scenario, {})}_robot"))
+    out = _out(_egm_out(out, scenario, "_robot"), *_egm_inputs(scenario))
     with output_lock(out):
         setup, result, params = _egm_setup(scenario, set_, drives)
         traj = result.trajectory
         start = traj.at_time([0.0])
-        arm = VirtualArm(setup.robot, params.rigid() if rigid else params, start.q[0])
+        arm = VirtualArm(setup.robot, params.rigid() if rigid else params, start.q[0],
+                         plant=plant or setup.scenario.simulate.plant)
         run = run_virtual_robot(arm, address, lockstep=lockstep, max_time=3.0 * traj.duration + 2.0)
         cols = run.arrays()
         if not len(cols["t"]):
@@ -740,7 +768,7 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
         theta = traj.profile.state_at_time(cols["t"])[0]
         moving = np.flatnonzero(np.any(np.diff(cols["reference"], axis=0) != 0.0, axis=1))
         rest = float(cols["t"][moving[-1] + 1]) if moving.size else 0.0  # the references' last change
-        summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep}
+        summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep, "plant": arm.plant}
         summary.update(execution_figures(setup.robot, traj, cols["t"], cols["q"], theta, rest))
         with result_folder(out) as folder:
             table = {"t": cols["t"], "answered": cols["answered"].astype(float)}
