@@ -367,11 +367,11 @@ def test_a_shaped_stop_continues_the_references(planned):
 
 
 @pytest.mark.parametrize("rigid", [True, False], ids=["rigid", "elastic"])
-def test_the_first_reference_is_the_robots_start(planned, rigid):
+def test_the_first_reference_is_the_robots_start(planned_smooth, rigid):
     """With shaping (gear deflection, transport lead, low-pass inverse), the first reference sent is where the
-    robot reports it is (the motor side, wound up by gravity on elastic gears), and the references leave it
-    with no larger step than the motion's own later steps; none is clipped."""
-    robot, result, drives = planned
+    robot reports it is (the motor side, wound up by gravity on elastic gears), and the references of a
+    jerk-limited plan leave it with no larger step than the motion's own later steps; none is clipped."""
+    robot, result, drives = planned_smooth
     drives = drives.rigid() if rigid else drives
     st = make_streamer(robot, result, "shaping", drives)
     arm = VirtualArm(robot, drives, st.table.plan[0])
