@@ -630,7 +630,8 @@ def test_optimal_blend_is_never_slower_than_the_symmetric_g2(deg, tol):
     best = optimal_blends(_robot(), path, tol, free_plans=16, global_plans=30, rise_plans=30, **kw)
     # the same search up to the S-curves, then more candidates; the polish is local, from the fastest candidate, so
     # the guarantee is against the smaller search's candidates, not its polish (module docstring, stage 8)
-    s_curves = optimal_blends(_robot(), path, tol, free_plans=0, polish_plans=0, **kw)
+    s_curves = optimal_blends(_robot(), path, tol, free_plans=0, rise_plans=0, end_plans=0, global_plans=0,
+                              polish_plans=0, **kw)
     assert best.duration <= s_curves.duration
     assert best.duration <= best.planar_duration <= s_curves.duration  # the rise adds candidates to the plane's
     sym_shape = g2_shape_for_tolerance(path, 0, tol, 0.5, 0.7, 0.7)

@@ -782,8 +782,8 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 class SearchSettings:
     """How hard :func:`optimal_blends` searches each corner (the stages of the module docstring): ``cycles`` passes
     of the quintic stage's scalar searches of ``steps`` golden steps; ``racing`` the racing line (at line-line corners;
-    its searches ``racing_steps`` steps); plans (0 skips the stage): ``free_plans`` the free offset pieces (0: no
-    later stage but the capped retry and the polish), ``rise_plans`` the rise, ``end_plans`` the free ends,
+    its searches ``racing_steps`` steps); plans (0 skips the stage; each runs on its own): ``free_plans`` the free
+    offset pieces, ``rise_plans`` the rise, ``end_plans`` the free ends,
     ``joint_plans`` the joint stage, ``wide_plans`` / ``wide_normal_plans`` / ``wide_crossed_plans`` the wide starts,
     ``restart_plans`` the wide restart, ``global_plans`` the global stage; ``retry_capped`` stage 7;
     ``polish_plans`` stage 8 from ``polish_starts`` candidates, on ``polish_grid_points`` grid points (None: the full
@@ -813,7 +813,7 @@ class SearchSettings:
     polish_grid_points: int | None = None
 
 
-#: Every stage (the corner atlas' search; 15-45 s of CPU per corner).
+#: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
 THOROUGH = SearchSettings()
 #: The quintic and the racing line (S-curve offset pieces) on the search grid, short free-ends and joint stages where
 #: the motion rests at a path end the blend reaches, each corner's winner polished briefly on a fixed grid
