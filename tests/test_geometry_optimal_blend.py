@@ -804,7 +804,7 @@ def test_windowed_search_keeps_the_guarantees_on_many_corners(caplog, monkeypatc
 
 
 def test_the_neighbour_pass_keeps_the_guarantees_and_is_deterministic(caplog):
-    """Three corners of the zigzag, rest to rest, the small fast search: each corner is searched again with its
+    """Three corners of the zigzag, rest to rest, a small fast search: each corner is searched again with its
     neighbours' found blends in place. Without the polish the result is never slower than the first pass alone (its
     candidates are candidates too) nor than the symmetric G2 blends; the reported duration is the returned blends'
     own plan on the whole path, the deviation is certified on a dense check, and searching the corners on two worker
@@ -817,7 +817,7 @@ def test_the_neighbour_pass_keeps_the_guarantees_and_is_deterministic(caplog):
     kw = dict(settings=SETTINGS, search=FAST, steps=2, racing_steps=2, search_grid_points=200, polish_plans=0)
     alone = optimal_blends(_robot(), path, tol, neighbour_pass=False, **kw)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
-        both = optimal_blends(_robot(), path, tol, **kw)
+        both = optimal_blends(_robot(), path, tol, neighbour_pass=True, **kw)
     assert "the neighbour pass: 3 corners" in caplog.text
     assert both.plans > alone.plans
     assert both.duration <= alone.duration <= both.symmetric_duration
@@ -825,7 +825,7 @@ def test_the_neighbour_pass_keeps_the_guarantees_and_is_deterministic(caplog):
     assert all(shape.deviation <= tol * (1 + 1e-9) for shape in both.shapes.values())
     samples = both.path.evaluate(np.linspace(0.0, both.path.length, 20001))[0]
     assert np.max(Polyline(ZIGZAG).distance(samples)) <= tol * (1 + 1e-6)
-    parallel = optimal_blends(_robot(), path, tol, workers=2, **kw)
+    parallel = optimal_blends(_robot(), path, tol, workers=2, neighbour_pass=True, **kw)
     assert parallel.shapes == both.shapes and parallel.duration == both.duration
 
 
