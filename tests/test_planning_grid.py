@@ -18,7 +18,7 @@ from pathmotion.errors import ScenarioError
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, effective_limits, plan
 from pathmotion.planning.verify import sample_ratios
-from pathmotion.planning.grid import ORDER, Grid, make_grid, pieces_for
+from pathmotion.planning.grid import ORDER, Grid, make_grid, pieces_for, pieces_within
 from pathmotion.scenarios import scenario_path
 
 ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
@@ -100,6 +100,52 @@ def test_pieces_follow_the_square_root_of_the_change_and_meet_the_target():
     n = pieces_for(change, 1e-6)
     assert n[0] == 1 and list(n[1:] / n[1]) == pytest.approx([1, 2, 4], rel=0.2)
     assert float(np.sum(change / n)) <= 1e-6
+
+
+@settings(max_examples=60, deadline=None)
+@given(error=st.lists(st.floats(0.0, 1e-3), min_size=1, max_size=40), room=st.integers(-5, 400))
+def test_pieces_within_a_room_add_at_most_that_many_points_and_follow_the_error(error, room):
+    """The capped split adds at most ``room`` points, splits a larger error into at least as many parts, and
+    uses the room up to the parts of a single interval (the next larger multiplier would overflow it)."""
+    from pathmotion.planning.grid import MAX_PIECES
+
+    error = np.array(error)
+    n = pieces_within(error, room)
+    assert n.shape == error.shape and n.min() >= 1 and n.max() <= MAX_PIECES
+    assert int(np.sum(n - 1)) <= max(room, 0)
+    order = np.argsort(error, kind="stable")
+    assert np.all(np.diff(n[order]) >= 0), (error, n)
+    free = (error > 0) & (n < MAX_PIECES)
+    if room > 0 and free.any():  # not leaving room for another part of every interval with an error
+        assert int(np.sum(n - 1)) > room - int(np.sum(free)) * MAX_PIECES
+
+
+def test_the_adaptive_grid_stops_at_its_largest_and_says_so(robot, caplog):
+    """With max_points below what the tolerance needs, no grid after the first halving exceeds it, the last grid
+    is filled up to it, and the result carries the estimate of that grid (above the tolerance) and a warning."""
+    from pathmotion.planning.grid import refine
+    from pathmotion.planning.planner import _solve_on
+
+    path = _spline(2, 7)
+    settings = PlanSettings(duration_tolerance=5e-4)
+    limits = effective_limits(robot, settings)
+    initial = make_grid(path, 200)
+    seen = []
+
+    def solve(g):
+        seen.append(len(g.theta))
+        return _solve_on(path, robot, settings, limits, g)
+
+    free = refine(solve, initial, 5e-5)
+    cap = (seen[1] + seen[-1]) // 2
+    assert cap < seen[-1], "the tolerance must need more than the cap for this test"
+    seen.clear()
+    with caplog.at_level("WARNING", logger="pathmotion.planning.grid"):
+        capped = refine(solve, initial, 5e-5, max_points=cap)
+    assert max(seen[2:]) <= cap and seen[-1] > 0.9 * cap
+    assert len(capped.grid.theta) == seen[-1] and capped.error_estimate > 5e-5 * capped.solved.sol.profile.duration
+    assert capped.error_estimate > free.error_estimate
+    assert "at its largest" in caplog.text
 
 
 def test_measured_convergence_order_is_the_one_the_estimate_assumes(robot):
@@ -210,9 +256,10 @@ def test_a_short_piece_gets_grid_points_inside_whatever_the_first_segment(first,
         inside = grid[(grid > lo) & (grid < hi)]
         if hi - lo >= step / 4:
             assert inside.size >= 2, (lo, hi, inside)
-    for b in breaks[1:-1]:  # the first grading point on each side, half a step away, where it fits
+    for i in range(1, len(breaks) - 1):  # the first grading point on each side, half a step away, where it fits
+        b = breaks[i]  # (in its own neighbouring segment: beyond the next break the grid grades towards that one)
         for c in (b - step / 2, b + step / 2):
-            if 0.0 < c < length and not np.any(np.abs(np.array(breaks) - c) < 1e-3 * step):
+            if breaks[i - 1] < c < breaks[i + 1] and not np.any(np.abs(np.array(breaks) - c) < 1e-3 * step):
                 assert np.min(np.abs(grid - c)) < 1e-6 * step, (b, c)  # or its rounding twin (GRID_MIN_GAP)
 
 

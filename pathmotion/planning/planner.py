@@ -288,7 +288,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
             last[:] = [out[2]]
             return out
 
-        refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.duration_tolerance)
+        refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.duration_tolerance,
+                         max_points=_largest_grid(robot.n))
         solved, estimate = refined.solved, refined.error_estimate
     else:
         points = settings.grid_points or defaults.THIRD_ORDER_GRID_POINTS
@@ -356,20 +357,31 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol, estimate)
 
 
+def _largest_grid(joints: int) -> int:
+    """The most points the adaptive grid may reach: defaults.GRID_MAX_POINTS, or fewer where the memory this
+    run may use (io/memory.py) holds fewer at PLAN_BYTES_PER_POINT_JOINT."""
+    from ..io.memory import largest_count
+
+    fits = largest_count(defaults.PLAN_BYTES_PER_POINT_JOINT * joints, defaults.PLAN_MEMORY_BASE)
+    return defaults.GRID_MAX_POINTS if fits is None else min(defaults.GRID_MAX_POINTS, fits)
+
+
 def _check_grid_memory(points: int, joints: int, settings, segments: int) -> None:
-    """ScenarioError before a grid of ``points`` is sampled when its memory estimate (PLAN_BYTES_PER_POINT_JOINT)
-    exceeds what the run may use; the message gives the largest grid (fixed) or path (adaptive) that fits."""
+    """ScenarioError before a grid of ``points`` is sampled when its memory estimate (PLAN_MEMORY_BASE +
+    PLAN_BYTES_PER_POINT_JOINT per point and joint) exceeds what the run may use; the message gives the largest
+    grid (fixed) or path (adaptive) that fits."""
     from ..io.memory import check_memory
 
     each = defaults.PLAN_BYTES_PER_POINT_JOINT * joints
     if settings.grid_points is not None:
         check_memory(points, each, f"plan.grid_points = {settings.grid_points:,} (a grid of {points:,} points)",
-                     lambda largest: f"give plan.grid_points <= {largest:,}")
+                     lambda largest: f"give plan.grid_points <= {largest:,}", defaults.PLAN_MEMORY_BASE)
         return
     per_segment = points / max(segments, 1)
     check_memory(points, each, f"the adaptive planner grid of {points:,} points for {segments:,} segments",
                  lambda largest: f"the largest grid that fits has {largest:,} points: plan the path in parts of at "
-                                 f"most {int(largest / per_segment):,} segments, or raise plan.duration_tolerance")
+                                 f"most {int(largest / per_segment):,} segments, or raise plan.duration_tolerance",
+                 defaults.PLAN_MEMORY_BASE)
 
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
