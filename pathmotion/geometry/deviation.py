@@ -46,13 +46,64 @@ class Deviation:
         return self.lower
 
 
+#: SegmentIndex: fewer segments than this are all measured against every point [-].
+INDEX_MIN_SEGMENTS = 16
+#: SegmentIndex: a segment's ball radius is half its length times (1 + this) plus BALL_ROUNDING [-], [m]
+#: (arc length parameters of blends are numerical: |p'| = 1 up to rounding).
+BALL_SLACK = 1e-6
+BALL_ROUNDING = 1e-12
+
+
 def distance_to_segments(points: np.ndarray, segments: Sequence[Segment]) -> np.ndarray:
     """Distance [m] (N,) from each point (N, 3) to the nearest point of any of ``segments``."""
-    pts = np.atleast_2d(points)
-    d = segments[0].closest(pts)[1]
-    for seg in segments[1:]:
-        d = np.minimum(d, seg.closest(pts)[1])
-    return d
+    return SegmentIndex(segments).distance(points)
+
+
+class SegmentIndex:
+    """The segments of a path, for the distance from points to their nearest one in time linear in the points,
+    not points x segments: a segment lies in the ball of radius length / 2 about its middle point (arc length
+    parameter), so only segments whose ball is nearer than the distance to the nearest ball centre's segment are
+    measured (a k-d tree of the centres). The distances are those of measuring every segment (a blend's to
+    rounding: its closest point is found iteratively on the batch of points given)."""
+
+    def __init__(self, segments: Sequence[Segment]):
+        self.segments = tuple(segments)
+        if len(self.segments) >= INDEX_MIN_SEGMENTS:
+            from scipy.spatial import cKDTree
+
+            half = np.array([0.5 * seg.length for seg in self.segments])
+            self.centres = np.array([seg.evaluate(np.array([h]))[0][0] for seg, h in zip(self.segments, half)])
+            self.radii = half * (1.0 + BALL_SLACK) + BALL_ROUNDING
+            self.tree = cKDTree(self.centres)
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance [m] (N,) from each point (N, 3) to the nearest point of any segment."""
+        pts = np.atleast_2d(np.asarray(points, float))
+        if len(self.segments) < INDEX_MIN_SEGMENTS:
+            d = self.segments[0].closest(pts)[1]
+            for seg in self.segments[1:]:
+                d = np.minimum(d, seg.closest(pts)[1])
+            return d
+        d = np.full(len(pts), np.inf)
+        self._measure(pts, d, np.arange(len(pts)), self.tree.query(pts)[1])
+        rows, cols = [], []
+        for i, near in enumerate(self.tree.query_ball_point(pts, d + self.radii.max())):
+            near = np.asarray(near, int)
+            near = near[np.linalg.norm(self.centres[near] - pts[i], axis=1) - self.radii[near] < d[i]]
+            rows.append(np.full(len(near), i))
+            cols.append(near)
+        if rows:
+            self._measure(pts, d, np.concatenate(rows), np.concatenate(cols))
+        return d
+
+    def _measure(self, pts: np.ndarray, d: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
+        """d[rows] = min(d[rows], distance of pts[rows] to segments[cols]), one call per segment."""
+        order = np.argsort(cols, kind="stable")
+        rows, cols = rows[order], cols[order]
+        starts = np.flatnonzero(np.r_[True, cols[1:] != cols[:-1]]) if len(cols) else np.array([], int)
+        for a, b in zip(starts, np.r_[starts[1:], len(cols)]):
+            idx = rows[a:b]
+            np.minimum.at(d, idx, self.segments[cols[a]].closest(pts[idx])[1])
 
 
 def certified_max(fn: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, lipschitz: float,
@@ -106,5 +157,6 @@ def max_deviation(path: TaskPath, reference: TaskPath | Sequence[Segment],
     if not (path.domain[0] <= lo < hi <= path.domain[1] + DOMAIN_ROUNDING):
         raise PathError(f"max_deviation: theta_range ({lo:.6g}, {hi:.6g}) is not inside the path's domain "
                         f"(0, {path.length:.6g}) m")
-    return certified_max(lambda th: distance_to_segments(path.evaluate(np.minimum(th, path.length))[0], segs),
+    index = SegmentIndex(segs)
+    return certified_max(lambda th: index.distance(path.evaluate(np.minimum(th, path.length))[0]),
                          lo, min(hi, path.length), 1.0, rel_tol)
