@@ -210,8 +210,12 @@ class _Reusing(PathPoints):
 def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, ...],
             donor: PathPoints | None = None, third: bool = False) -> _Sampled:
     """Path data on ``grid``, from both sides of ``breaks``; ``third``: Phi''' too, from the same
-    evaluation (third-order limits need it; path.evaluate3 repeats path.evaluate's work)."""
-    data = path.evaluate3(grid, "right") if third else path.evaluate(grid, "right")
+    evaluation (third-order limits need it; path.evaluate3 repeats path.evaluate's work). Where a point of
+    ``grid`` is one of ``donor``'s (an earlier grid's right-side data), its Phi, Phi', Phi'' are copied."""
+    if third:
+        data = path.evaluate3(grid, "right")
+    else:
+        data = path.evaluate(grid, "right") if donor is None else _evaluate_reusing(path, grid, donor)
     q, dq, ddq = data[:3]
     dq_l, ddq_l = dq.copy(), ddq.copy()
     idx = np.array(list(breaks) + [len(grid) - 1], dtype=int)
@@ -222,6 +226,20 @@ def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, 
     if third:
         right._cache["dddq"] = np.atleast_2d(data[3])
     return _Sampled(right, PathPoints(robot, path, grid, q, dq_l, ddq_l, base=right, changed=idx, side="left"))
+
+
+def _evaluate_reusing(path: JointPath, grid: np.ndarray, donor: PathPoints) -> tuple[np.ndarray, ...]:
+    """path.evaluate(grid, "right") (Phi, Phi', Phi'' (K, n)), copied from ``donor`` at its points and evaluated at
+    the new ones only: the lift is point by point, and the refinements' grids contain their parents'."""
+    pos = np.clip(np.searchsorted(donor.theta, grid), 0, len(donor.theta) - 1)
+    shared = donor.theta[pos] == grid
+    out = tuple(np.empty((len(grid),) + d.shape[1:]) for d in (donor.q, donor.dq, donor.ddq))
+    for o, d in zip(out, (donor.q, donor.dq, donor.ddq)):
+        o[shared] = d[pos[shared]]
+    if not shared.all():
+        for o, fresh in zip(out, path.evaluate(grid[~shared], "right")):
+            o[~shared] = fresh
+    return out
 
 
 def _build(grid, s: _Sampled, limits: EffectiveLimits, scale: dict,
