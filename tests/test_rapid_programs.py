@@ -281,7 +281,7 @@ def test_the_1000_move_contour_is_checked_and_planned_within_every_limit(tmp_pat
     np.testing.assert_allclose(flange_p[0] + flange_r[0] @ tool_p, last[0], atol=1e-5)
     assert math.degrees(Rotation.from_matrix((flange_r[0] @ tool_r).T @ last[1]).magnitude()) < 0.01
     api.write_plan(setup, result, tmp_path)
-    rows = read_rows(tmp_path / "moves.csv")
+    _, rows = read_rows(tmp_path / "moves.csv")
     assert len(rows) == 1000 and sum(r["cycle_s"] for r in rows) == pytest.approx(result.duration, rel=1e-6)
     peak = max(r["peak_tcp_speed_m_s"] for r in rows)
     assert result.duration >= setup.task_path.length / peak
