@@ -15,6 +15,7 @@ lower <= true max <= upper (up to floating-point rounding).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import chain
 from typing import Callable, Sequence
 
 import numpy as np
@@ -86,14 +87,13 @@ class SegmentIndex:
             return d
         d = np.full(len(pts), np.inf)
         self._measure(pts, d, np.arange(len(pts)), self.tree.query(pts)[1])
-        rows, cols = [], []
-        for i, near in enumerate(self.tree.query_ball_point(pts, d + self.radii.max())):
-            near = np.asarray(near, int)
-            near = near[np.linalg.norm(self.centres[near] - pts[i], axis=1) - self.radii[near] < d[i]]
-            rows.append(np.full(len(near), i))
-            cols.append(near)
-        if rows:
-            self._measure(pts, d, np.concatenate(rows), np.concatenate(cols))
+        near = self.tree.query_ball_point(pts, d + self.radii.max())
+        counts = np.fromiter(map(len, near), int, len(near))
+        cols = np.fromiter(chain.from_iterable(near), int, int(counts.sum()))
+        rows = np.repeat(np.arange(len(pts)), counts)
+        gap = np.sqrt(np.add.reduce((self.centres[cols] - pts[rows]) ** 2, axis=1)) - self.radii[cols]
+        keep = gap < d[rows]
+        self._measure(pts, d, rows[keep], cols[keep])
         return d
 
     def _measure(self, pts: np.ndarray, d: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
