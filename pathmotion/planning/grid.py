@@ -219,6 +219,7 @@ def refine(solve: Callable[[Grid], tuple[float, np.ndarray, Any]], initial: Grid
     full = False  # the latest grid used all the points max_points allows
     for iteration in range(1, max_iterations + 1):
         fine = grid.split(pieces)
+        solved = None  # the coarser grid's solve is not kept while the finer one is built
         t_fine, x_fine, solved = solve(fine)
         change = change_per_interval(grid, x, fine, x_fine, pieces)
         # an interval split into n parts: its change is e (1 - 1/n), e its error before; unsplit ones keep theirs

@@ -302,18 +302,22 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         last = []  # the latest solve: its path data seeds the next grid's
 
         def solve(g: Grid):
-            out = _solve_on(path, robot, settings, limits, g, donor=last[-1].samp.right if last else None)
+            donor = last.pop().samp.right if last else None  # the earlier solve's rows are freed before these
+            out = _solve_on(path, robot, settings, limits, g, donor=donor)
             last[:] = [out[2]]
             return out
 
         refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.duration_tolerance,
                          max_points=_largest_grid(robot.n))
-        solved, estimate = refined.solved, refined.error_estimate
+        estimate, held = refined.error_estimate, [refined.solved]
+        del refined
+        last.clear()  # only ``held`` refers to the solve: _solve_verified frees it when it solves a finer grid
     else:
         points = settings.grid_points or defaults.THIRD_ORDER_GRID_POINTS
         solved = _solve_on(path, robot, settings, limits, make_grid(path, points))[2]
         first, estimate = solved.sol.profile.duration, solved.error_estimate
-    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, solved, adaptive)
+        held = [solved]
+    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, held.pop(), adaptive)
     if not adaptive and estimate is not None:  # the tightening's change is part of the discretization error
         estimate += abs(solved.sol.profile.duration - first)
     sol, grid = solved.sol, solved.grid.theta
@@ -431,7 +435,9 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
                 if b.size:
                     over |= (b > 1.0 + defaults.TIGHTEN_TRIGGER * tol).any(axis=1)
             log.info("refining the %d grid intervals where a limit is exceeded, then solving again", int(over.sum()))
-            s = _solve_on(path, robot, settings, limits, s.grid.halved(over), donor=s.samp.right)[2]
+            grid, donor = s.grid.halved(over), s.samp.right
+            s = None  # its rows are freed before the finer grid's are built
+            s = _solve_on(path, robot, settings, limits, grid, donor=donor)[2]
             rounds += 1
             continue
         if iterations >= settings.max_tighten_iterations:
