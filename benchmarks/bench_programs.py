@@ -120,7 +120,8 @@ COLUMNS = [("segments", "segments"), ("load", "load avg"), ("check_wall_s", "che
            ("check_cpu_s", "check CPU [s]"), ("check_peak_mib", "check peak [MiB]"), ("plan_wall_s", "plan wall [s]"),
            ("plan_cpu_s", "plan CPU [s]"), ("plan_peak_mib", "plan peak [MiB]"),
            ("plan_cpu_per_segment_ms", "plan CPU / segment [ms]"), ("grid_points", "grid points"),
-           ("duration_s", "cycle [s]"), ("error_estimate_pct", "duration error estimate [%]"), ("exit", "exit check/plan")]
+           ("duration_s", "cycle [s]"), ("error_estimate_pct", "duration error estimate [%]"),
+           ("exit", "exit check/plan")]
 
 
 def _r(v, digits=2):

@@ -30,8 +30,8 @@ def module() -> str:
     for k in range(MOVES + 1):
         x, y, z = point(k)
         zone = "fine" if k in (0, MOVES) else "z1"
-        lines.append(f"        MoveL [[{x:.4f}, {y:.4f}, {z:.4f}], [0, 1, 0, 0], [0, 0, -2, 0], [9E9, 9E9, 9E9, 9E9, 9E9, "
-                     f"9E9]], v500, {zone}, tTorch;")
+        lines.append(f"        MoveL [[{x:.4f}, {y:.4f}, {z:.4f}], [0, 1, 0, 0], [0, 0, -2, 0], "
+                     f"[9E9, 9E9, 9E9, 9E9, 9E9, 9E9]], v500, {zone}, tTorch;")
     lines += ["    ENDPROC", "ENDMODULE", ""]
     return "\n".join(lines)
 
