@@ -311,3 +311,24 @@ def test_path_data_of_a_refined_grid_is_the_parents_where_shared_and_evaluated_e
     shared = np.isin(fine.theta, coarse.theta)
     assert 0 < shared.sum() < len(fine.theta)
     np.testing.assert_array_equal(reused.right.q[shared], donor.q)
+
+
+def test_grading_towards_a_break_stops_at_the_next_break():
+    """On a path of many short segments (10,000 of 1 mm, the uniform step of 200 points 50 mm) the initial grid
+    grades each break only inside its neighbouring segments: the levels finer than a segment, on both sides of each
+    break, and no coarser ones, which would land among other breaks' points."""
+    from types import SimpleNamespace
+
+    points, length, n = 200, 10.0, 10_000
+    step = length / (points - 1)
+    breaks = tuple(np.linspace(0.0, length, n + 1))
+    grid = make_grid(SimpleNamespace(domain=(0.0, length), breaks=breaks, kinks=()), points).theta
+    gap = length / n
+    grades = step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1)
+    fitting = grades[grades < gap]  # the finest levels only
+    assert 0 < len(fitting) < len(grades)
+    assert len(grid) <= points + (n + 1) * (1 + 2 * len(fitting))
+    for b in np.asarray(breaks[1:-1])[::997]:  # the grading points of a break, on both sides, within its segments
+        for d in fitting:
+            for side in (-1, 1):
+                assert np.min(np.abs(grid - (b + side * d))) < 1e-9 * step
