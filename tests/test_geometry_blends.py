@@ -284,6 +284,7 @@ def test_segment_index_distances_are_those_of_every_segment(seed, n, spread):
     rng = np.random.default_rng(seed)
     pts = np.cumsum(rng.normal(0.0, 0.05, (n // 2 + 2, 3)), axis=0)
     pts[1::2, 0] += 0.1  # a zigzag: corners a blend of 0.2 mm fits
+    pts = np.vstack([pts, pts[-1] + (0.0, 0.6, 0.0)])  # and one long move: balls of very different radii
     try:
         path = with_g2_blends(TaskPath(tuple(Line(a, b) for a, b in zip(pts[:-1], pts[1:]))), 2e-4)
     except PathError:

@@ -62,10 +62,11 @@ def distance_to_segments(points: np.ndarray, segments: Sequence[Segment]) -> np.
 
 class SegmentIndex:
     """The segments of a path, for the distance from points to their nearest one in time linear in the points,
-    not points x segments: a segment lies in the ball of radius length / 2 about its middle point (arc length
-    parameter), so only segments whose ball is nearer than the distance to the nearest ball centre's segment are
-    measured (a k-d tree of the centres). The distances are those of measuring every segment (a blend's to
-    rounding: its closest point is found iteratively on the batch of points given)."""
+    not points x segments. A segment lies in the ball of radius length / 2 about its middle point (arc length
+    parameter). The balls are grouped by radius (powers of two), each group in a k-d tree of its centres: a point is
+    first measured against the segment whose ball's far side is nearest, then against the segments whose ball is
+    nearer than that distance, so one long segment does not widen every query. The distances are those of measuring
+    every segment (a blend's to rounding: its closest point is found iteratively on the batch of points given)."""
 
     def __init__(self, segments: Sequence[Segment]):
         self.segments = tuple(segments)
@@ -75,7 +76,9 @@ class SegmentIndex:
             half = np.array([0.5 * seg.length for seg in self.segments])
             self.centres = np.array([seg.evaluate(np.array([h]))[0][0] for seg, h in zip(self.segments, half)])
             self.radii = half * (1.0 + BALL_SLACK) + BALL_ROUNDING
-            self.tree = cKDTree(self.centres)
+            size = np.floor(np.log2(self.radii)).astype(int)
+            self.groups = [(idx, cKDTree(self.centres[idx]), float(self.radii[idx].max()))
+                           for idx in (np.flatnonzero(size == k) for k in np.unique(size))]
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Distance [m] (N,) from each point (N, 3) to the nearest point of any segment."""
@@ -85,15 +88,22 @@ class SegmentIndex:
             for seg in self.segments[1:]:
                 d = np.minimum(d, seg.closest(pts)[1])
             return d
+        far, first = np.full(len(pts), np.inf), np.zeros(len(pts), int)
+        for idx, tree, _ in self.groups:  # the ball whose far side is nearest: an upper bound of the distance
+            dist, k = tree.query(pts)
+            bound = dist + self.radii[idx[k]]
+            better = bound < far
+            far[better], first[better] = bound[better], idx[k[better]]
         d = np.full(len(pts), np.inf)
-        self._measure(pts, d, np.arange(len(pts)), self.tree.query(pts)[1])
-        near = self.tree.query_ball_point(pts, d + self.radii.max())
-        counts = np.fromiter(map(len, near), int, len(near))
-        cols = np.fromiter(chain.from_iterable(near), int, int(counts.sum()))
-        rows = np.repeat(np.arange(len(pts)), counts)
-        gap = np.sqrt(np.add.reduce((self.centres[cols] - pts[rows]) ** 2, axis=1)) - self.radii[cols]
-        keep = gap < d[rows]
-        self._measure(pts, d, rows[keep], cols[keep])
+        self._measure(pts, d, np.arange(len(pts)), first)
+        for idx, tree, largest in self.groups:
+            near = tree.query_ball_point(pts, d + largest)
+            counts = np.fromiter(map(len, near), int, len(near))
+            cols = idx[np.fromiter(chain.from_iterable(near), int, int(counts.sum()))]
+            rows = np.repeat(np.arange(len(pts)), counts)
+            gap = np.sqrt(np.add.reduce((self.centres[cols] - pts[rows]) ** 2, axis=1)) - self.radii[cols]
+            keep = gap < d[rows]
+            self._measure(pts, d, rows[keep], cols[keep])
         return d
 
     def _measure(self, pts: np.ndarray, d: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
