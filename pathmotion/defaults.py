@@ -364,6 +364,9 @@ EGM_PORT = 6510
 #: EGM: largest joint distance [rad] between the robot's first reported joints and the plan's start before
 #: execute refuses to move (0.01 rad ~ 0.6 deg: a robot jogged to the start by hand is within it).
 EGM_START_TOLERANCE = 0.01
+#: execute PLAN_DIR: largest joint difference [rad] between the plan rebuilt from the folder (scenario.toml,
+#: phase_plane.csv) and its trajectory.csv before the folder is refused as edited or from another version.
+PLAN_FOLDER_TOLERANCE = 1e-6
 #: EGM: the controller counts as silent (execute stops along the path) after this long without a message [s].
 EGM_SILENCE = 0.1
 #: EGM: execute waits this long for the controller's first message before giving up [s].
@@ -382,7 +385,7 @@ EGM_MAX_DATAGRAM = 65536
 #: EGM: the reference is tabulated on this time step before streaming (linear interpolation between
 #: samples: error qdd dt^2 / 8, ~1e-6 rad at 10 rad/s^2) [s].
 EGM_TABLE_STEP = 0.001
-#: EGM, --correction orbital: fraction of the measured transverse error (the link side estimated from the
-#: motor-side feedback less the modelled gear deflection) added to the reference's correction per cycle [-]
-#: (an integral loop of 0.1 / 4 ms = 25 rad/s crossover, ~60 deg phase margin against EGM's ~20 ms lag).
-EGM_ORBITAL_GAIN = 0.1
+#: EGM, --correction orbital: the phase [rad] the drives' lag takes at the transverse integral loop's crossover
+#: (0.25 rad: the loop's bandwidth a quarter of what the lag allows, so that it follows slow errors only);
+#: the gain per cycle follows from the drive file's lag (execution/orbital.py, loop_gain): 0.05 on the IRB 140.
+EGM_ORBITAL_CROSSOVER_PHASE = 0.25
