@@ -2,8 +2,10 @@
 EgmRobot on an absolute 4 ms clock and reading the answer), answered by pathmotion execute's loop
 (execution.loops.serve, shaping references of circle_smooth, held at rest after its end) and, as the peer in
 the same run, by abb-robot-client's own EGM class (receive_from_robot + send_to_robot with the same
-reference). An answer is late when it has not arrived when the sender's next cycle begins. Per-cycle compute:
-receive to send on the answering side.
+reference). Each answer is matched to its robot message (execute echoes the robot's time, the peer the
+robot's seqno); it is late when it arrives more than one 4 ms cycle after its message left, missing when it
+never arrives; cycles where the sender itself woke more than half a cycle late are counted apart (sender
+slips). Per-cycle compute: receive to send on the answering side.
 
     PYTHONPATH=. python benchmarks/bench_egm.py [--cycles 10000] [--json FILE]
 """
@@ -25,39 +27,49 @@ from result_json import Table
 CYCLE = 0.004
 
 
-def robot_sender(port: int, cycles: int, q0: list, result) -> None:
-    """Send EgmRobot every CYCLE seconds (absolute schedule); count answers that miss their cycle."""
+def _request_of(answer, echo: str) -> int:
+    """The index of the robot message an answer belongs to: execute echoes the robot's time (header.tm, 4 ms per
+    message); the peer echoes the robot's seqno in its first speed reference."""
+    if echo == "tm":
+        return int(round(answer.tm / (CYCLE * 1000)))
+    return int(round(np.degrees(answer.speed[0]))) - 1  # sent in deg/s, decoded in rad/s
+
+
+def robot_sender(port: int, cycles: int, q0: list, echo: str, result) -> None:
+    """Send EgmRobot on an absolute CYCLE schedule; take every answer as it arrives and match it to its message.
+    An answer is late when it arrives more than one cycle after its message actually left (the sender's own
+    slips are counted apart, so a late sender does not count against the answering side); missing when none
+    arrives before the run ends (0.2 s after the last message)."""
     from pathmotion.execution.messages import decode_sensor, encode_robot
 
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.connect(("127.0.0.1", port))
     q = np.asarray(q0)
-    late, missing, slip = 0, 0, 0.0
+    sent, arrived = np.full(cycles, np.nan), np.full(cycles, np.nan)
     start = time.perf_counter() + 0.2
+
+    def drain(until: float) -> None:
+        while True:
+            ready, _, _ = select.select([sock], [], [], max(until - time.perf_counter(), 0.0))
+            if not ready:
+                return
+            answer = decode_sensor(sock.recv(65536), len(q))
+            k = _request_of(answer, echo)
+            if 0 <= k < cycles and np.isnan(arrived[k]):
+                arrived[k] = time.perf_counter()
+
     for k in range(cycles):
         tick = start + k * CYCLE
-        now = time.perf_counter()
-        if now < tick:
-            time.sleep(tick - now)
-        slip = max(slip, time.perf_counter() - tick)
+        drain(tick)
+        sent[k] = time.perf_counter()
         sock.send(encode_robot(k + 1, int(round(k * CYCLE * 1000)), q, q))
-        got = False
-        while True:
-            left = tick + CYCLE - time.perf_counter()
-            ready, _, _ = select.select([sock], [], [], max(left, 0.0))
-            if not ready:
-                break
-            q = decode_sensor(sock.recv(65536), len(q)).joints
-            got = True
-            break
-        if not got:
-            late += 1
-            ready, _, _ = select.select([sock], [], [], 0.05)  # a late answer still drains
-            if ready:
-                sock.recv(65536)
-            else:
-                missing += 1
-    result.put({"late": late, "missing": missing, "max_send_slip_s": slip})
+    drain(time.perf_counter() + 0.2)
+    slip = sent - (start + CYCLE * np.arange(cycles))
+    rtt = arrived - sent
+    answered = ~np.isnan(rtt)
+    result.put({"late": int(np.sum(rtt[answered] > CYCLE)), "missing": int(np.sum(~answered)),
+                "sender_slips": int(np.sum(slip > 0.5 * CYCLE)), "max_send_slip_s": float(slip.max()),
+                "rtt_p99_9_s": float(np.percentile(rtt[answered], 99.9)) if answered.any() else float("nan")})
 
 
 def serve_pathmotion(cycles: int):
@@ -96,14 +108,16 @@ def serve_peer(cycles: int, q0: list):
             ok, state = egm.receive_from_robot(0.05)
             if ok:
                 t0 = time.perf_counter()
-                egm.send_to_robot(ref, np.zeros(len(ref)))
+                echo = np.zeros(len(ref))
+                echo[0] = state.robot_message.header.seqno  # for the sender to match the answer to its message
+                egm.send_to_robot(ref, echo)
                 times.append(time.perf_counter() - t0)
     return port, answer, lambda: np.array(times), egm.socket
 
 
-def measure(name, port, q0, answer, compute, sock, cycles):
+def measure(name, port, q0, answer, compute, sock, cycles, echo):
     result = mp.Queue()
-    sender = mp.Process(target=robot_sender, args=(port, cycles, q0, result))
+    sender = mp.Process(target=robot_sender, args=(port, cycles, q0, echo, result))
     sender.start()
     answer(lambda: not sender.is_alive() and not result.empty() or False)
     got = result.get(timeout=30)
@@ -123,16 +137,18 @@ def main() -> None:
     args = ap.parse_args()
     table = Table("EGM real time on localhost: 4 ms cycles answered by pathmotion execute and by its peer",
                   [("side", "answering side"), ("cycles", "cycles"), ("late", "late"), ("missing", "missing"),
+                   ("sender_slips", "sender slips"), ("rtt_p99_9_ms", "round trip p99.9 [ms]"),
                    ("median_ms", "compute median [ms]"), ("p99_ms", "p99 [ms]"), ("p99_9_ms", "p99.9 [ms]"),
                    ("max_ms", "max [ms]"), ("load", "load (1 min)")])
     port, q0, answer, compute, sock = serve_pathmotion(args.cycles)
-    rows = [measure("pathmotion execute (serve, shaping)", port, q0, answer, compute, sock, args.cycles)]
+    rows = [measure("pathmotion execute (serve, shaping)", port, q0, answer, compute, sock, args.cycles, "tm")]
     port, answer, compute, sock = serve_peer(args.cycles, q0)
-    rows.append(measure("abb-robot-client EGM (peer)", port, q0, answer, compute, sock, args.cycles))
-    print(f"{'side':38s} {'cycles':>7s} {'late':>5s} {'median ms':>10s} {'p99 ms':>8s} {'p99.9 ms':>9s} "
-          f"{'max ms':>8s} {'load':>5s}")
+    rows.append(measure("abb-robot-client EGM (peer)", port, q0, answer, compute, sock, args.cycles, "seqno"))
+    print(f"{'side':38s} {'cycles':>7s} {'late':>5s} {'missing':>7s} {'slips':>5s} {'median ms':>10s} {'p99 ms':>8s} "
+          f"{'p99.9 ms':>9s} {'max ms':>8s} {'load':>5s}")
     for r in rows:
-        print(f"{r['side']:38s} {r['cycles']:7d} {r['late']:5d} {1e3 * r['compute_median_s']:10.3f} "
+        print(f"{r['side']:38s} {r['cycles']:7d} {r['late']:5d} {r['missing']:7d} {r['sender_slips']:5d} "
+              f"{1e3 * r['compute_median_s']:10.3f} "
               f"{1e3 * r['compute_p99_s']:8.3f} {1e3 * r['compute_p99_9_s']:9.3f} {1e3 * r['compute_max_s']:8.3f} "
               f"{r['load_1min']:5.2f}")
     ratio = rows[0]["compute_p99_9_s"] / rows[1]["compute_p99_9_s"]
@@ -140,13 +156,15 @@ def main() -> None:
     if args.json:
         for r in rows:
             table.add(side=r["side"], cycles=r["cycles"], late=r["late"], missing=r["missing"],
+                      sender_slips=r["sender_slips"], rtt_p99_9_ms=round(1e3 * r["rtt_p99_9_s"], 3),
                       **{k: round(1e3 * r[f"compute_{k[:-3]}_s"], 3) for k in ("median_ms", "p99_ms", "p99_9_ms",
                                                                                  "max_ms")},
                       load=round(r["load_1min"], 2))
         table.notes += [f"Compute p99.9 ratio pathmotion / peer: {ratio:.2f}.",
-                        "Late: the answer had not arrived when the sender's next 4 ms cycle began; missing: not "
-                        "within 50 ms either. Compute: receive to send on the answering side. The robot sender "
-                        "runs in its own process on an absolute 4 ms clock."]
+                        "Late: the answer, matched to its robot message, arrived more than 4 ms after that message "
+                        "left; missing: it never arrived. Sender slips: cycles where the sender (its own process, "
+                        "absolute 4 ms clock) sent more than 2 ms after its tick. Compute: receive to send on the "
+                        "answering side."]
         print(f"wrote {table.write(args.json)}")
 
 

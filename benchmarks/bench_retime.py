@@ -9,15 +9,21 @@ Case: a random 6-joint clamped cubic spline through WAYPOINTS waypoints (numpy.r
 States: theta uniform; theta_dot a uniform fraction in [0, 1) of the largest savable speed there
 (Retimer.max_speed: above and below the plan's profile); theta_ddot uniform in [-3, 3].
 
-Timing: WARMUP calls, then ``remaining`` and ``stop`` from every state, interleaved in a random order;
-wall time (perf_counter) and the process's CPU time per call; p50, p99 and the worst. Machine load
-(os.getloadavg) before and after.
+Timing: WARMUP calls, then every timed call from every state, interleaved in a random order: second order
+``remaining``, ``stop`` and, as the peer, toppra from the same speed on the same remaining grid (every
+PEER_EVERY-th state); jerk ``remaining`` (the compiled pass, the sequential LP where it gives no answer), the
+compiled pass alone, the sequential-LP reference and ``stop``. Wall time (perf_counter), the process's and the
+calling thread's CPU time per call; p50, p99 and the worst. Machine load (os.getloadavg) before and after.
+The machine is shared: the CPU times are what a call costs, the wall time's tail is waiting for a core.
 
 Optimality:
   remaining vs an offline plan of the same limits on the path from the state's theta (the planner with
   start = theta_dot on the tail of the path, GRID_2 points on it), and vs toppra (ParametrizeConstAccel,
-  sd_start = theta_dot, the same limits, on the remaining grid itself); relative duration differences.
-  Jerk: vs the offline jerk plan from the same speed, re-timed from that plan's own start acceleration.
+  sd_start = theta_dot, the same limits, on the remaining grid itself); relative duration differences. The
+  re-timer keeps the state's theta_ddot on its first interval, the references choose their start
+  acceleration: it is given the offline plan's (and, as a separate row, the cost of a random theta_ddot).
+  Jerk: vs the offline jerk plan from the same speed, re-timed from that plan's own start acceleration, and
+  the compiled pass vs the sequential-LP reference from that same state.
   stop vs the shortest stop distance from an independent computation: a forward integration in theta
   (STOP_STEPS steps) at the largest deceleration allowed by the joint velocity, acceleration and torque
   limits, the torque from Pinocchio's RNEA at each step.
@@ -85,29 +91,54 @@ def percentiles(v) -> dict:
     return dict(p50_ms=float(np.percentile(v, 50)), p99_ms=float(np.percentile(v, 99)), worst_ms=float(v.max()))
 
 
-def timing(rt: Retimer, sts: list) -> dict:
-    """Interleaved calls of remaining and stop from every state after WARMUP calls."""
+def _calls(rt: Retimer, robot, wp, jerk: bool) -> dict:
+    """The timed calls of a case by name: fn(theta, theta_dot, theta_ddot). Second order: the re-timer and toppra
+    from the same speed on the re-timer's remaining grid (the peer: what an offline TOPP costs from that state);
+    jerk: the re-timer's answer (the compiled pass, the LP where it gives none), the compiled pass alone and the
+    sequential LP reference from the same state, and the stop."""
+    if jerk:
+        return {"remaining": rt.remaining, "remaining: compiled pass": rt.compiled_remaining,
+                "remaining: LP reference": lambda t, v, a: rt.remaining(t, v, a, reference=True), "stop": rt.stop}
+    return {"remaining": rt.remaining, "stop": rt.stop,
+            "toppra from the same speed": lambda t, v, a: toppra_duration(robot, wp, _remaining_grid(rt, t), v)}
+
+
+def _remaining_grid(rt: Retimer, theta: float) -> np.ndarray:
+    """The re-timer's remaining grid from theta (theta, then the plan's points after it)."""
+    return np.concatenate([[theta], rt.grid[np.searchsorted(rt.grid, theta, side="right"):]])
+
+
+#: Second order: toppra is timed from every this-many-th state (it takes ~100 times longer per call).
+PEER_EVERY = 20
+
+
+def timing(rt: Retimer, sts: list, calls: dict) -> dict:
+    """Interleaved calls of every function in ``calls`` from every state (the second-order toppra peer from every
+    PEER_EVERY-th) after WARMUP calls, in a random order: wall time, the process's CPU time and the calling
+    thread's CPU time per call."""
     for theta, v, a in sts[:WARMUP]:
-        for fn in (rt.remaining, rt.stop):
+        for fn in calls.values():
             try:
                 fn(theta, v, a)
             except PathmotionError:
                 pass
-    calls = [("remaining", s) for s in sts] + [("stop", s) for s in sts if s[1] > 0]
-    random.Random(0).shuffle(calls)
-    wall, cpu = {"remaining": [], "stop": []}, {"remaining": [], "stop": []}
-    refused = {"remaining": 0, "stop": 0}
-    for name, (theta, v, a) in calls:
-        fn = rt.remaining if name == "remaining" else rt.stop
-        t, c = time.perf_counter(), time.process_time()
+    order = [(name, s) for name in calls for k, s in enumerate(sts)
+             if (name != "stop" or s[1] > 0) and (not name.startswith("toppra") or k % PEER_EVERY == 0)]
+    random.Random(0).shuffle(order)
+    out = {name: {"wall": [], "cpu": [], "thread": [], "refused": 0, "none": 0} for name in calls}
+    for name, (theta, v, a) in order:
+        rec = out[name]
+        t, c, th = time.perf_counter(), time.process_time(), time.thread_time()
         try:
-            fn(theta, v, a)
+            got = calls[name](theta, v, a)
+            rec["none"] += got is None
         except StateInfeasibleError:  # timed too: the error is the answer for that state
-            refused[name] += 1
-        wall[name].append(time.perf_counter() - t)
-        cpu[name].append(time.process_time() - c)
-    return {name: dict(wall=percentiles(wall[name]), cpu=percentiles(cpu[name]), calls=len(wall[name]),
-                       unsaveable=refused[name]) for name in wall}
+            rec["refused"] += 1
+        rec["wall"].append(time.perf_counter() - t)
+        rec["cpu"].append(time.process_time() - c)
+        rec["thread"].append(time.thread_time() - th)
+    return {name: dict(wall=percentiles(r["wall"]), cpu=percentiles(r["cpu"]), thread=percentiles(r["thread"]),
+                       calls=len(r["wall"]), unsaveable=r["refused"], no_answer=r["none"]) for name, r in out.items()}
 
 
 def toppra_duration(robot, wp, grid, v0) -> float:
@@ -183,11 +214,19 @@ def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
                 if ours is None:
                     continue
                 row = dict(theta=theta, theta_dot=v, ours=ours.duration, offline=off.duration, acceleration_share=share)
+                fast = rt.compiled_remaining(theta, v, a)
+                row.update(pass_duration=np.nan if fast is None else fast.duration,
+                           lp_reference=rt.remaining(theta, v, a, reference=True).duration)
+                if fast is not None:
+                    row["pass_ratio"] = rt.certify(fast).max_ratio
             else:
-                ours = rt.remaining(theta, v, a)
+                # from the offline plan's own start acceleration: the references choose theirs, the re-timer
+                # keeps the state's on its first interval
                 off = plan(tail, robot, replace(res.settings, start=v, grid_points=GRID_2))
+                ours = rt.remaining(theta, v, float(off.profile.u[0]))
                 row = dict(theta=theta, theta_dot=v, ours=ours.duration, offline=off.duration,
-                           toppra=toppra_duration(robot, wp, ours.grid, v))
+                           toppra=toppra_duration(robot, wp, ours.grid, v),
+                           own_acceleration=rt.remaining(theta, v, a).duration)
             row["ratio"] = rt.certify(ours).max_ratio
             if v > 0 and jerk:  # no independent jerk-limited reference: the second-order stop bounds it below
                 s = rt.stop(theta, v, a)
@@ -204,9 +243,14 @@ def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
     rel = lambda k: [(r["ours"] - r[k]) / r[k] for r in rows if k in r and np.isfinite(r[k])]  # noqa: E731
     stop = [(r["stop"] - r["shortest"]) / r["shortest"] for r in rows if "shortest" in r]
     above = [(r["stop"] - r["second_order_stop"]) / r["second_order_stop"] for r in rows if "second_order_stop" in r]
-    summary = dict(vs_offline=_spread(rel("offline")), stop_vs_shortest=_spread(stop),
+    own = [(r["own_acceleration"] - r["ours"]) / r["ours"] for r in rows if "own_acceleration" in r]
+    pass_lp = [(r["pass_duration"] - r["lp_reference"]) / r["lp_reference"] for r in rows
+               if np.isfinite(r.get("pass_duration", np.nan))]
+    summary = dict(vs_offline=_spread(rel("offline")), pass_vs_lp=_spread(pass_lp), stop_vs_shortest=_spread(stop),
+                   state_acceleration=_spread(own),
                    stop_vs_second_order=_spread(above),
-                   worst_certified_ratio=max((max(r["ratio"], r.get("stop_ratio", 0.0)) for r in rows), default=None),
+                   worst_certified_ratio=max((max(r["ratio"], r.get("stop_ratio", 0.0), r.get("pass_ratio", 0.0))
+                                              for r in rows), default=None),
                    states=len(sts), saveable=len(rows))
     if not jerk:
         summary["vs_toppra"] = _spread(rel("toppra"))
@@ -231,7 +275,7 @@ def run(label: str, jerk: bool, n_time: int, n_opt: int) -> dict:
         sts = states(rt, n_time, STATE_SPAN, rng, jerk)
         remaining_points = [len(res.profile.grid) - int(np.searchsorted(res.profile.grid, s[0])) + 1 for s in sts]
         out.update(remaining_points_min=int(min(remaining_points)), load_before=os.getloadavg())
-        out["timing"] = timing(rt, sts)
+        out["timing"] = timing(rt, sts, _calls(rt, robot, wp, jerk))
         out["load_after"] = os.getloadavg()
     if n_opt:
         out["optimality"] = optimality(robot, wp, path, res, rt, states(rt, n_opt, 0.9, rng, jerk), jerk)
@@ -244,11 +288,11 @@ def report(r: dict) -> None:
     if "timing" in r:
         print(f"   remaining grids >= {r['remaining_points_min']} points; load before {r['load_before'][0]:.2f}, "
               f"after {r['load_after'][0]:.2f} (1-min average, {os.cpu_count()} cores)")
-        print("   call        calls   wall p50 / p99 / worst [ms]     cpu p50 / p99 / worst [ms]")
+        print("   call                          calls   wall / process CPU / thread CPU p50, p99, worst [ms]")
         for name, t in r["timing"].items():
-            w, c = t["wall"], t["cpu"]
-            print(f"   {name:10s} {t['calls']:6d}   {w['p50_ms']:7.3f} / {w['p99_ms']:7.3f} / {w['worst_ms']:7.3f}"
-                  f"      {c['p50_ms']:7.3f} / {c['p99_ms']:7.3f} / {c['worst_ms']:7.3f}   ({t['unsaveable']} unsaveable)")
+            ms = lambda v: f"{v['p50_ms']:.3f} {v['p99_ms']:.3f} {v['worst_ms']:.3f}"  # noqa: E731
+            print(f"   {name:28s} {t['calls']:6d}   {ms(t['wall'])} | {ms(t['cpu'])} | {ms(t['thread'])}   "
+                  f"({t['unsaveable']} unsaveable, {t['no_answer']} without an answer)")
     if "optimality" in r:
         s = r["optimality"]["summary"]
         for key, text in COMPARISONS:
@@ -261,6 +305,8 @@ def report(r: dict) -> None:
 
 
 COMPARISONS = (("vs_offline", "remaining vs offline plan"), ("vs_toppra", "remaining vs toppra"),
+               ("pass_vs_lp", "compiled pass vs LP reference"),
+               ("state_acceleration", "remaining keeping a random theta_ddot vs keeping the offline one"),
                ("stop_vs_shortest", "stop vs shortest distance"), ("stop_vs_second_order", "stop vs second-order stop"))
 
 
@@ -269,22 +315,28 @@ def timing_table() -> Table:
     return Table("The re-timer: time per call from a measured state", [
         ("case", "case"), ("plan", "plan points / duration [s]"), ("build_ms", "Retimer built [ms]"),
         ("remaining_points", "remaining grids >= points"), ("call", "call"), ("calls", "calls"),
-        ("wall", "wall p50 / p99 / worst [ms]"), ("cpu", "CPU p50 / p99 / worst [ms]"), ("unsaveable", "unsaveable"),
+        ("wall", "wall p50 / p99 / worst [ms]"), ("cpu", "process CPU p50 / p99 / worst [ms]"),
+        ("thread", "thread CPU p50 / p99 / worst [ms]"), ("unsaveable", "refused / no answer"),
         ("load", "load before / after")])
 
 
 def fill_timing(table: Table, results: list) -> Table:
-    """One row per case and call: p50, p99 and worst of wall and CPU time [ms]."""
+    """One row per case and call: p50, p99 and worst of wall, process CPU and thread CPU time [ms]."""
     ms = lambda v: f"{v['p50_ms']:.3f} / {v['p99_ms']:.3f} / {v['worst_ms']:.3f}"  # noqa: E731
     for r in results:
         for name, t in r["timing"].items():
             table.add(case=r["label"], plan=f"{r['plan_points']} / {r['plan_duration']:.4f}",
                       build_ms=round(1e3 * r["build_s"], 1), remaining_points=r["remaining_points_min"], call=name,
-                      calls=t["calls"], wall=ms(t["wall"]), cpu=ms(t["cpu"]), unsaveable=t["unsaveable"],
+                      calls=t["calls"], wall=ms(t["wall"]), cpu=ms(t["cpu"]), thread=ms(t["thread"]),
+                      unsaveable=f"{t['unsaveable']} / {t['no_answer']}",
                       load=f"{r['load_before'][0]:.2f} / {r['load_after'][0]:.2f}")
-    table.notes.append("States in the first 8 % of a random 6-joint spline on the IRB140, interleaved calls of "
-                       "remaining and stop in a random order after a warm-up; CPU: the process's CPU time (the wall "
-                       "time's tail on a shared machine is mostly waiting for a core).")
+    table.notes.append("States in the first 8 % of a random 6-joint spline on the IRB140, every call of a case "
+                       "interleaved in a random order after a warm-up (the second-order toppra peer from every "
+                       f"{PEER_EVERY}th state). CPU: the process's and the calling thread's CPU time per call; the "
+                       "wall time's tail on this shared machine is mostly waiting for a core (the load column). Jerk: "
+                       "'remaining' is what the re-timer answers (the compiled pass; the sequential LP where the pass "
+                       "gives none: 'no answer' of the pass row), the LP reference is the sequential LP from the same "
+                       "state; 'refused': StateInfeasibleError (timed too).")
     return table
 
 

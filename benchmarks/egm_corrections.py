@@ -5,6 +5,7 @@ requested at half the planned time). Lockstep EGM in one process, through the en
 
     PYTHONPATH=. python benchmarks/egm_corrections.py [--scenarios circle_smooth,corner_g2,abb_cycle] [--json F]
         [--unknown-payload KG]   (the arm carries KG 0.1 m beyond the flange; the plan and the drives' model not)
+        [--plant builtin|mujoco] (what moves the links: the built-in two-mass RK4 or MuJoCo)
 """
 
 from __future__ import annotations
@@ -29,10 +30,10 @@ COLUMNS = [("scenario", "scenario"), ("gears", "gears"), ("correction", "correct
            ("vibration_end_mm", "vibration after end [mm]"), ("vibration_stop_mm", "vibration after a stop [mm]")]
 
 
-def run(setup, result, drives, mode, stop_at=None, payload=0.0):
+def run(setup, result, drives, mode, stop_at=None, payload=0.0, plant="builtin"):
     streamer = make_streamer(setup.robot, result, mode, drives)
-    plant = setup.robot.with_payload(Payload(mass=payload, com=(0.0, 0.0, 0.1))) if payload > 0 else None
-    arm = VirtualArm(setup.robot, drives, streamer.table.plan[0], plant_robot=plant)
+    carried = setup.robot.with_payload(Payload(mass=payload, com=(0.0, 0.0, 0.1))) if payload > 0 else None
+    arm = VirtualArm(setup.robot, drives, streamer.table.plan[0], plant_robot=carried, plant=plant)
     out = run_inprocess(streamer, arm, result.duration + 2.0, stop_at=stop_at)
     return arm_figures(setup.robot, out)
 
@@ -42,9 +43,11 @@ def main() -> None:
     ap.add_argument("--scenarios", default="circle_smooth,corner_g2,abb_cycle")
     ap.add_argument("--json", type=Path, help="write the table as JSON here (for benchmarks/results.py)")
     ap.add_argument("--unknown-payload", type=float, default=0.0, help="kg the arm carries unknown to the plan")
+    ap.add_argument("--plant", default="builtin", choices=("builtin", "mujoco"), help="what moves the links")
     args = ap.parse_args()
     payload = f", the arm carrying {args.unknown_payload:g} kg unknown to the plan" if args.unknown_payload else ""
-    table = Table(f"EGM corrections through the virtual IRC5{payload}", COLUMNS)
+    on = ", MuJoCo moving the links" if args.plant == "mujoco" else ""
+    table = Table(f"EGM corrections through the virtual IRC5{payload}{on}", COLUMNS)
     print("| " + " | ".join(h for _, h in COLUMNS) + " |")
     print("|" + "---|" * len(COLUMNS))
     for name in args.scenarios.split(","):
@@ -55,8 +58,9 @@ def main() -> None:
         for gears, drives in (("rigid", elastic.rigid()), ("elastic", elastic)):
             for mode in MODES:
                 t0 = time.perf_counter()
-                f = run(setup, result, drives, mode, payload=args.unknown_payload)
-                s = run(setup, result, drives, mode, stop_at=0.5 * result.duration, payload=args.unknown_payload)
+                f = run(setup, result, drives, mode, payload=args.unknown_payload, plant=args.plant)
+                s = run(setup, result, drives, mode, stop_at=0.5 * result.duration, payload=args.unknown_payload,
+                        plant=args.plant)
                 cyc = f["cycle_time_s"]
                 table.add(scenario=name, gears=gears, correction=mode, planned_s=round(result.duration, 4),
                           path_accuracy_mm=round(1e3 * f["path_accuracy_m"], 3),

@@ -5,7 +5,7 @@
 Escapes: internal error (exit 3), any other exit code than 0/1/2, a traceback, a hang, a memory
 kill (a signal or MemoryError), an error that is not one ``error: ...`` line (further validation errors of the same document
 indented below it; only ``warning: ...`` lines before it), stderr on success other than ``warning: ...`` and ``note: ...``
-lines, a run that exits 0 without
+lines (a stage's progress line, ``plan: writing (stage 3/3)``, is allowed anywhere), a run that exits 0 without
 a complete finite contract file (summary.json, trajectory.csv), a temporary file or folder left behind,
 or a folder written by a run that failed.
 
@@ -50,6 +50,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the server forks: no BLAS threads in the parent
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
+from pathmotion.cli import PROGRESS_LINE  # noqa: E402 - after the thread settings (numpy is imported lazily there)
 from pathmotion.io.files import RESULT_MARK  # noqa: E402 - after the thread settings (a light module)
 
 #: Valid bases, coarse. SQUARE is closed with every corner blended (the closing one included).
@@ -567,7 +568,7 @@ def verdict(run: Run, status: int | None, elapsed: float, cpu: float = 0.0, cpu_
         return f"exit {code}" + (" (internal error)" if code == 3 else "") + f": {err.strip()[-300:]}"
     if "Traceback" in err or "Traceback" in out:
         return "traceback"
-    lines = [ln for ln in err.splitlines() if ln.strip()]
+    lines = [ln for ln in err.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]  # a stage's progress line
     warned = _warnings(lines)  # the warnings logged before the run ended (a corner left sharp), one line each
     lines = lines[warned:]
     # one error: line; several validation errors of one document follow it indented (the CLI's _fail)

@@ -181,9 +181,9 @@ def _out_file(out: Path, *inputs: Path) -> Path:
 
 
 def _scheduler(address: Optional[str]) -> Optional[str]:
-    """``--scheduler`` checked before any work (study.sweep.check_scheduler_address): [PROTOCOL://]HOST:PORT."""
+    """``--scheduler`` checked before any work (io.scheduler.check_scheduler_address): [PROTOCOL://]HOST:PORT."""
     if address is not None:
-        from .study.sweep import check_scheduler_address
+        from .io.scheduler import check_scheduler_address
 
         try:
             check_scheduler_address(address)
@@ -223,6 +223,22 @@ def _on_result(progress: Progress, task, label: str):
         if not err_console.is_terminal:
             err_console.print(f"{label}: {done}/{total} points done", highlight=False, soft_wrap=True)
     return on_result
+
+
+#: The progress line of a stage (``_stage``), as tools reading stderr recognise it.
+PROGRESS_LINE = re.compile(r"^(plan|simulate): [a-z -]+ \(stage \d+/\d+\)$")
+
+
+def _stage(progress: Progress, task, description: str, advance: int = 1) -> None:
+    """Move a command's bar on to the stage ``description`` ("plan: time-optimal profile"): logged, and off a
+    terminal (without -v) one line on stderr per stage, as a study's line per point: a CI log shows where a long
+    run is."""
+    progress.update(task, advance=advance, description=description)
+    state = next(t for t in progress.tasks if t.id == task)
+    line = f"{description} (stage {int(state.completed) + 1}/{int(state.total)})"
+    logger.info("%s", line)
+    if not err_console.is_terminal and not logger.isEnabledFor(logging.INFO):  # -v: the log has the line
+        err_console.print(line, highlight=False, soft_wrap=True, markup=False)
 
 
 _NUMBER = re.compile(r"^[-+]?(\d[\d,_]*\.?\d*|\.\d+)([eE][-+]?\d+)?( \.\. [-+]?\d+\.?\d*)?$")
@@ -341,6 +357,9 @@ SetOpt = typer.Option(None, "--set", metavar="KEY=VALUE",
                       help="override a scenario key, e.g. --set plan.grid_points=2000")
 WorkersOpt = typer.Option(None, "--workers", min=1, help="local processes that search the optimal blends' corners "
                           "in parallel (plan.workers; the same result as 1)")
+SchedulerOpt = typer.Option(None, "--scheduler", help="Dask scheduler, tcp://HOST:PORT: a program's task runs (between "
+                            "joint moves, dwells and stops) search their optimal blends on its workers "
+                            "(plan.scheduler; the same result)")
 VerifyOpt = typer.Option(None, "--verify", help="certified (default: a certified bound per grid interval) | dense "
                          "(the 0.1 ms resample) | off; sets plan.verify")
 ForceOpt = typer.Option(False, "--force", help="write the exports (ROS 2, EGM, RAPID) even of a failed plan, "
@@ -492,7 +511,7 @@ def import_rapid(program: Path = typer.Argument(..., help="RAPID module (.mod)")
 @app.command()
 @guarded
 def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_: Optional[List[str]] = SetOpt,
-          workers: Optional[int] = WorkersOpt):
+          workers: Optional[int] = WorkersOpt, scheduler: Optional[str] = SchedulerOpt):
     """Validate a scenario and run every check plan runs (reachability, singularity margin, the plan itself and its
     limits), writing nothing.
 
@@ -500,17 +519,19 @@ def check(scenario: Path = typer.Argument(..., help="scenario TOML file"), set_:
     """
     from . import api
 
-    report = api.check_scenario(api.search(api.load(scenario, _with_workers(_overrides(set_), workers))))
+    report = api.check_scenario(api.search(api.load(scenario, _with_workers(_overrides(set_), workers, scheduler))))
     notes = {"closed": "it ends where it starts; " + ("planned as a periodic cycle" if report["periodic"] else
                                                       "run once; plan.periodic = true plans the cycle")}
     _print_table(_summary_table(f"check {scenario}: OK", report, notes if report["closed"] else None))
     _result_verdict([], report.get("export_notes", []), False)
 
 
-def _with_workers(overrides: dict, workers: Optional[int]) -> dict:
-    """``overrides`` with plan.workers set from the --workers option."""
+def _with_workers(overrides: dict, workers: Optional[int], scheduler: Optional[str] = None) -> dict:
+    """``overrides`` with plan.workers and plan.scheduler set from the --workers and --scheduler options."""
     if workers is not None:
         overrides["plan.workers"] = workers
+    if _scheduler(scheduler) is not None:
+        overrides["plan.scheduler"] = scheduler
     return overrides
 
 
@@ -526,7 +547,7 @@ def _with_verify(overrides: dict, verify: Optional[str]) -> dict:
 def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
          out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
          figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
-         force: bool = ForceOpt, workers: Optional[int] = WorkersOpt):
+         force: bool = ForceOpt, workers: Optional[int] = WorkersOpt, scheduler: Optional[str] = SchedulerOpt):
     """Plan the time-optimal motion: writes trajectory.csv/.parquet, summary.json, exports and figures.
     A failed plan (a path-speed jump, a limit exceeded) exits 4 after writing its files.
 
@@ -535,14 +556,15 @@ def plan(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from . import api
     from .io.atomic import output_lock, result_folder
 
-    overrides = _with_workers(_with_verify(_overrides(set_), verify), workers)
+    overrides = _with_workers(_with_verify(_overrides(set_), verify), workers, scheduler)
     out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("plan", total=3)
+        _stage(progress, task, "plan: load and search", advance=0)
         setup = api.search(api.load(scenario, overrides))
-        progress.update(task, advance=1, description="plan: time-optimal profile")
+        _stage(progress, task, "plan: time-optimal profile")
         result = api.plan_scenario(setup)
-        progress.update(task, advance=1, description="plan: writing")
+        _stage(progress, task, "plan: writing")
         with result_folder(out) as folder:  # the folder is replaced as one unit
             summary = api.write_plan(setup, result, folder, force_exports=force)
             if figures:
@@ -560,7 +582,7 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
              out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
              controller: Optional[str] = typer.Option(None, help="orbital | computed_torque | pd_gravity"),
              figures: bool = typer.Option(True, help="write PNG figures"), verify: Optional[str] = VerifyOpt,
-             force: bool = ForceOpt,
+             force: bool = ForceOpt, workers: Optional[int] = WorkersOpt, scheduler: Optional[str] = SchedulerOpt,
              full: bool = typer.Option(False, "--full", help="go on after the first failure to the end of the motion "
                                        "(by default the run stops there and its figures cover [0, t_fail])")):
     """Plan, then simulate the closed loop (controller at 4 ms, full arm dynamics); writes
@@ -572,18 +594,19 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
     from . import api
     from .io.atomic import output_lock, result_folder
 
-    overrides = _with_verify(_overrides(set_), verify)
+    overrides = _with_workers(_with_verify(_overrides(set_), verify), workers, scheduler)
     if controller:
         overrides["simulate.controller"] = controller
     out = _out(_default_out(out, scenario, overrides), scenario)
     with output_lock(out), _progress() as progress:
         task = progress.add_task("simulate: load", total=4)
+        _stage(progress, task, "simulate: load and search", advance=0)
         setup = api.search(api.load(scenario, overrides))
-        progress.update(task, advance=1, description="simulate: plan")
+        _stage(progress, task, "simulate: plan")
         result = api.plan_scenario(setup)
-        progress.update(task, advance=1, description="simulate: closed loop")
+        _stage(progress, task, "simulate: closed loop")
         sim = api.simulate_scenario(setup, result, full=full)
-        progress.update(task, advance=1, description="simulate: writing")
+        _stage(progress, task, "simulate: writing")
         with result_folder(out) as folder:  # plan and simulation files replace the folder as one unit
             summary = api.write_simulation(setup, result, sim, folder)
             failures = api.plan_failures(result, setup) + [f for f in (api.tracking_failure(summary),) if f]
@@ -598,15 +621,38 @@ def simulate(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
 
 def _egm_setup(scenario: Path, set_, drives: Optional[Path]):
-    """(setup, plan result, drive parameters) for the EGM commands."""
+    """(setup, plan result, drive parameters) for the EGM commands: the scenario planned, or a directory read
+    as the output folder of ``pathmotion plan`` (no planning)."""
     from . import api
+    from .api.plan_folder import read_plan
     from .execution.drive_file import drive_file_for, load_drives
 
-    setup = api.search(api.load(scenario, _overrides(set_)))
-    result = api.plan_scenario(setup)
+    if scenario.is_dir():
+        if set_:
+            _fail(f"--set changes a scenario before planning; {scenario} is a plan folder (planned already): "
+                  "plan again with --set, or give the scenario file")
+        setup, result = read_plan(scenario)
+    else:
+        setup = api.search(api.load(scenario, _overrides(set_)))
+        result = api.plan_scenario(setup)
     name = setup.scenario.robot.name if drives is None else None
     params = load_drives(drives if drives is not None else drive_file_for(str(name)), setup.robot.n)
     return setup, result, params
+
+
+def _egm_out(out: Optional[Path], scenario: Path, suffix: str) -> Path:
+    """The EGM commands' output folder: ``out``, else out/<scenario name><suffix>, or for a plan folder the
+    sibling <folder>_execute / <folder>_robot (never the plan folder itself)."""
+    if out is not None:
+        return out
+    if scenario.is_dir():
+        return scenario.parent / f"{scenario.name}{suffix or '_execute'}"
+    return Path(f"{_default_out(None, scenario, {})}{suffix}")
+
+
+def _egm_inputs(scenario: Path) -> tuple[Path, ...]:
+    """The input files an EGM command's output folder must not replace (a plan folder: the folder itself)."""
+    return (scenario / "scenario.toml",) if scenario.is_dir() else (scenario,)
 
 
 def _stdin_commands():
@@ -635,24 +681,25 @@ def _stdin_commands():
 
 @app.command()
 @guarded
-def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
+def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or the output folder of pathmotion plan"),
             egm: int = typer.Option(defaults.EGM_PORT, "--egm", help="UDP port to listen on for the controller's EGM messages"),
             out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
             correction: str = typer.Option("shaping", help="none | shaping (pre-compensate the drives and EGM) | orbital (shaping + transverse loop)"),
             drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)"),
             start_tolerance: float = typer.Option(defaults.EGM_START_TOLERANCE, help="largest distance \\[rad] of "
                                                   "the robot's joints from the plan's start")):
-    """Plan, then stream the motion to an ABB controller over EGM (answer each EgmRobot with an EgmSensor);
-    stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
+    """Plan (or read the plan folder pathmotion plan wrote), then stream the motion to an ABB controller over EGM
+    (answer each EgmRobot with an EgmSensor); stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
     Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130).
 
     Example: [bold]pathmotion execute scenarios/corner_g2.toml --egm 6510 --out out/run[/]
+    or, planned before: [bold]pathmotion execute out/g2_plan --egm 6510[/]
     """
     from .execution.loops import open_listener, serve
     from .execution.session import make_streamer, write_execution
     from .io.atomic import output_lock, result_folder
 
-    out = _out(_default_out(out, scenario, {}))
+    out = _out(_egm_out(out, scenario, ""), *_egm_inputs(scenario))
     with output_lock(out):
         setup, result, params = _egm_setup(scenario, set_, drives)
         if not 0.0 <= start_tolerance < float("inf"):
@@ -684,10 +731,13 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file"),
 
 @app.command("virtual-robot")
 @guarded
-def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file (the arm starts at its start)"),
+def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file or plan folder (the arm starts at "
+                                                 "its start)"),
                   egm: str = typer.Option(..., "--egm", help="HOST:PORT of the EGM sensor (pathmotion execute)"),
                   lockstep: bool = typer.Option(False, help="wait for each answer (deterministic) instead of 4 ms"),
                   rigid: bool = typer.Option(False, help="rigid gearboxes (the drive file's stiffness ignored)"),
+                  plant: Optional[str] = typer.Option(None, help="builtin | mujoco: what moves the links (default: the "
+                                                      "scenario's simulate.plant)"),
                   out: Optional[Path] = OutOpt, set_: Optional[List[str]] = SetOpt,
                   drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)")):
     """A virtual IRC5: send EgmRobot every 4 ms (or in lockstep), move the arm (drives, elastic gears) by the
@@ -704,12 +754,13 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
     from .io.atomic import output_lock, result_folder, write_json
 
     address = parse_address(egm)
-    out = _out(out if out is not None else Path(f"{_default_out(None, scenario, {})}_robot"))
+    out = _out(_egm_out(out, scenario, "_robot"), *_egm_inputs(scenario))
     with output_lock(out):
         setup, result, params = _egm_setup(scenario, set_, drives)
         traj = result.trajectory
         start = traj.at_time([0.0])
-        arm = VirtualArm(setup.robot, params.rigid() if rigid else params, start.q[0])
+        arm = VirtualArm(setup.robot, params.rigid() if rigid else params, start.q[0],
+                         plant=plant or setup.scenario.simulate.plant)
         run = run_virtual_robot(arm, address, lockstep=lockstep, max_time=3.0 * traj.duration + 2.0)
         cols = run.arrays()
         if not len(cols["t"]):
@@ -717,7 +768,7 @@ def virtual_robot(scenario: Path = typer.Argument(..., help="scenario TOML file 
         theta = traj.profile.state_at_time(cols["t"])[0]
         moving = np.flatnonzero(np.any(np.diff(cols["reference"], axis=0) != 0.0, axis=1))
         rest = float(cols["t"][moving[-1] + 1]) if moving.size else 0.0  # the references' last change
-        summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep}
+        summary = {"ended": run.ended, "resent": run.resent, "rigid": rigid, "lockstep": lockstep, "plant": arm.plant}
         summary.update(execution_figures(setup.robot, traj, cols["t"], cols["q"], theta, rest))
         with result_folder(out) as folder:
             table = {"t": cols["t"], "answered": cols["answered"].astype(float)}

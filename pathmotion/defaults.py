@@ -28,11 +28,13 @@ GRID_INITIAL_POINTS = 200
 #: returned with its (larger) error estimate and a warning [-].
 GRID_MAX_REFINEMENTS = 16
 GRID_MAX_POINTS = 200_000
-#: Memory a plan holds per grid point and joint, an upper estimate [bytes]: the adaptive planner on a
-#: 6-joint, 200- to 800-segment path peaked at 41-45 KB per grid point (tracemalloc); a fixed grid on one
-#: line at 4 KB. A grid whose estimate exceeds MEMORY_FRACTION of the machine's available memory is refused
-#: before it is built.
-PLAN_BYTES_PER_POINT_JOINT = 8_000
+#: Memory a plan holds, an upper estimate: PLAN_MEMORY_BASE plus PLAN_BYTES_PER_POINT_JOINT per grid point and
+#: joint [bytes]. Measured (tracemalloc peak of plan with baselines, 6 joints): 1.12 GB on the 100-move contour's
+#: 158,000 points (7.1 KB per point), 69 MB on a 30-segment zigzag's 3,055 points, 16 MB on a fixed grid of
+#: 3,024 points on one line. A grid whose estimate exceeds MEMORY_FRACTION of the machine's available memory
+#: is refused before it is built, and the adaptive grid stops at the largest that fits (planner.py).
+PLAN_MEMORY_BASE = 128 * 2**20
+PLAN_BYTES_PER_POINT_JOINT = 1_400
 #: Joint speed limit above which a limits file or [limits] velocity gets a "degrees?" warning [rad/s]
 #: (1,146 deg/s; the IRB140's fastest joint turns at 450 deg/s = 7.9 rad/s).
 PLAUSIBLE_JOINT_SPEED = 20.0
@@ -362,6 +364,9 @@ EGM_PORT = 6510
 #: EGM: largest joint distance [rad] between the robot's first reported joints and the plan's start before
 #: execute refuses to move (0.01 rad ~ 0.6 deg: a robot jogged to the start by hand is within it).
 EGM_START_TOLERANCE = 0.01
+#: execute PLAN_DIR: largest joint difference [rad] between the plan rebuilt from the folder (scenario.toml,
+#: phase_plane.csv) and its trajectory.csv before the folder is refused as edited or from another version.
+PLAN_FOLDER_TOLERANCE = 1e-6
 #: EGM: the controller counts as silent (execute stops along the path) after this long without a message [s].
 EGM_SILENCE = 0.1
 #: EGM: execute waits this long for the controller's first message before giving up [s].
@@ -380,7 +385,7 @@ EGM_MAX_DATAGRAM = 65536
 #: EGM: the reference is tabulated on this time step before streaming (linear interpolation between
 #: samples: error qdd dt^2 / 8, ~1e-6 rad at 10 rad/s^2) [s].
 EGM_TABLE_STEP = 0.001
-#: EGM, --correction orbital: fraction of the measured transverse error (the link side estimated from the
-#: motor-side feedback less the modelled gear deflection) added to the reference's correction per cycle [-]
-#: (an integral loop of 0.1 / 4 ms = 25 rad/s crossover, ~60 deg phase margin against EGM's ~20 ms lag).
-EGM_ORBITAL_GAIN = 0.1
+#: EGM, --correction orbital: the phase [rad] the drives' lag takes at the transverse integral loop's crossover
+#: (0.25 rad: the loop's bandwidth a quarter of what the lag allows, so that it follows slow errors only);
+#: the gain per cycle follows from the drive file's lag (execution/orbital.py, loop_gain): 0.05 on the IRB 140.
+EGM_ORBITAL_CROSSOVER_PHASE = 0.25

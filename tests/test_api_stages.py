@@ -4,6 +4,7 @@ their attributes when a caller adds its context."""
 from __future__ import annotations
 
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -48,6 +49,19 @@ def test_loading_optimal_blends_builds_without_planning(no_planning):
         api.plan_scenario(setup)
     with pytest.raises(ScenarioError, match="check_scenario"):
         api.check_scenario(setup)
+
+
+def test_loading_optimal_blends_on_a_chain_builds_without_planning(no_planning):
+    """A path with joint moves and a dwell: one request per task run with optimal corners, each run left sharp."""
+    setup = api.load(Path(__file__).parent / "data" / "chains" / "mixed_optimal.toml")
+    assert setup.pending == ("optimal blends",) and setup.path is None
+    runs = setup.blend_request.runs
+    assert sorted(runs) == [1, 3]  # items: joint move, run, dwell, run, joint move
+    assert [r.tolerances for r in runs.values()] == [{0: 0.005}, {0: 0.005}]
+    assert [len(r.sharp.segments) for r in runs.values()] == [2, 2]
+    assert setup.blend_request.zones == {0: 0.005, 2: 0.005}  # the joint moves' zones (motion connections), kept
+    with pytest.raises(ScenarioError, match=r"asks for optimal blends; run pathmotion\.api\.search"):
+        api.plan_scenario(setup)
 
 
 def test_loading_an_auto_reserve_builds_without_planning(no_planning):

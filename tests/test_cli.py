@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -153,6 +154,15 @@ def test_simulate_writes_results_and_the_plan(tmp_path):
     assert header[:2] == ["t", "theta"] and "q_desired6" in header and "tcp_desired_z" in header
     assert (out / "plan" / "trajectory.csv").is_file()
     assert (out / "tracking_task.png").is_file() and (out / "tracking_joints.png").is_file()
+    assert _in_order(text, [f"simulate: {stage} (stage {k}/4)" for k, stage in
+                            enumerate(("load and search", "plan", "closed loop", "writing"), 1)])
+
+
+def _in_order(text: str, lines: list[str]) -> bool:
+    """Every one of ``lines`` is a line of ``text``, in that order."""
+    got = [line.strip() for line in text.splitlines()]
+    return all(line in got for line in lines) and [got.index(line) for line in lines] == sorted(
+        got.index(line) for line in lines)
 
 
 EXPORTS = ("trajectory_ros2.yaml", "trajectory_egm.csv", "trajectory_rapid.mod")
@@ -262,11 +272,15 @@ PICK_AND_BACK = _then('[[path.segments]]\ntype = "line"\nend = [0.6, 0.1, 0.5]\n
 
 def test_corner_all_leaves_a_reversal_sharp_and_the_default_output_says_so(tmp_path):
     """corner = "all" blends every corner a blend can round; where the path turns back it stays sharp (the
-    motion stops), and that warning reaches stderr without -v, as one line (the stages' INFO lines do not)."""
+    motion stops), and that warning reaches stderr without -v, as one line beside the progress line of each stage
+    (the stages' INFO log lines do not reach it)."""
     (tmp_path / "s.toml").write_text(PICK_AND_BACK)
     run = _cli_process("plan", "s.toml", "--out", tmp_path / "out", "--no-figures", tmp_path=tmp_path)
     assert run.returncode == 0, run.stderr
-    lines = run.stderr.splitlines()  # one line, never wrapped at the console's width: what a CI log greps
+    progress = [line for line in run.stderr.splitlines() if re.fullmatch(r"plan: [a-z -]+ \(stage \d/3\)", line)]
+    assert len(progress) == 3
+    lines = [line for line in run.stderr.splitlines() if line not in progress]  # one line, never wrapped at the
+    # console's width: what a CI log greps
     assert len(lines) == 1 and lines[0].startswith('warning: path.blends[0] (corner = "all"): the path turns back at '
                                                    "connection 1") and lines[0].endswith("the motion stops there")
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
@@ -305,6 +319,8 @@ def test_plan_defaults_out_to_out_slash_the_scenario_name_and_report_takes_out(t
     code, text = run("plan", scenario_path("circle_zero"), "--set", "plan.grid_points=100", "--no-figures")
     assert code == 0, text
     assert (tmp_path / "out" / "circle_zero" / "summary.json").is_file()
+    stages = ["plan: load and search (stage 1/3)", "plan: time-optimal profile (stage 2/3)", "plan: writing (stage 3/3)"]
+    assert _in_order(text, stages)  # not a terminal: one progress line per stage
     code, text = run("report", tmp_path / "out" / "circle_zero", "--out", tmp_path / "elsewhere" / "r.html")
     assert code == 0, text
     assert (tmp_path / "elsewhere" / "r.html").read_text().startswith("<!DOCTYPE html>")

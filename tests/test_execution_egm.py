@@ -355,3 +355,20 @@ def test_a_shaped_stop_continues_the_references(planned):
     k = int(round(stop_at / drives.cycle))
     assert steps[k - 1:k + 2].max() <= 1.5 * steps[:k - 1].max()
     assert _inside_limits(robot, st.records)
+
+
+@pytest.mark.parametrize("rigid", [True, False], ids=["rigid", "elastic"])
+def test_the_first_reference_is_the_robots_start(planned, rigid):
+    """With shaping (gear deflection, transport lead, low-pass inverse), the first reference sent is where the
+    robot reports it is (the motor side, wound up by gravity on elastic gears), and the references leave it
+    with no larger step than the motion's own later steps; none is clipped."""
+    robot, result, drives = planned
+    drives = drives.rigid() if rigid else drives
+    st = make_streamer(robot, result, "shaping", drives)
+    arm = VirtualArm(robot, drives, st.table.plan[0])
+    start = arm.feedback
+    run_inprocess(st, arm, result.duration + 0.5)
+    sent = np.array([r.sent for r in st.records])
+    assert np.abs(sent[0] - start).max() < 1e-12
+    steps = np.abs(np.diff(sent, axis=0)).max(axis=1)
+    assert steps[:5].max() <= steps[5:].max() and st.counts.clipped == 0

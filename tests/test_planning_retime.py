@@ -18,6 +18,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from pathmotion.errors import PathmotionError, StateInfeasibleError
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, Retimer, plan
+from pathmotion.planning.profile import Profile
 from pathmotion.robot import load_robot
 
 from planning_paths import PolylinePath
@@ -74,15 +75,17 @@ def test_remaining_from_random_states_is_feasible_continuous_and_ends_at_the_pla
     assert _feasible(spline, p) <= 1.0 + TOL
     # above the plan's profile there; at override 1 never slower than the plan from its own state further up
     if override == 1.0 and v <= float(spline_plan.profile.theta_dot_at(theta)):
-        assert p.duration >= spline.remaining(theta, float(spline_plan.profile.theta_dot_at(theta))).duration
+        own = spline.remaining(theta, float(spline_plan.profile.theta_dot_at(theta)),
+                               float(spline_plan.profile.theta_ddot_at(theta)))
+        assert p.duration >= own.duration * (1.0 - 1e-12)
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-@given(where=st.floats(1e-3, 0.97), speed=st.floats(0.02, 0.999), acc=st.floats(-3.0, 3.0))
+@given(where=st.one_of(st.floats(0.0, 0.97), st.floats(0.0, 1e-6)), speed=st.floats(0.02, 0.999),
+       acc=st.floats(-3.0, 3.0))
 def test_stop_from_random_states_is_feasible_and_ends_at_rest_on_the_path(spline, where, speed, acc):
-    # (not at theta = 0: the clamped spline's Phi' vanishes there, the joints rest whatever theta_dot is, and
-    # the stop is one interval of ~1e-12 whose certified bound (sampled form) is loose: 1.04 with the dense
-    # resample within the limits)
+    # (from theta = 0 too: at the clamped spline's start Phi' = 0, the joints rest whatever theta_dot is, and the
+    # stop is one short constant-deceleration interval)
     theta, v, a = _state(spline, where, speed, acc)
     s = spline.stop(theta, v, a)
     assert s.grid[0] == theta and np.isclose(np.sqrt(s.x[0]), v, rtol=1e-12, atol=1e-12)
@@ -181,3 +184,38 @@ def test_jerk_limited_remaining_stop_and_resume_meet_every_limit():
     assert s.grid[-1] - theta >= s2.grid[-1] - theta
     second = {k: r for k, r in rt.dense_ratios(s2, DT).values.items() if k not in ("jerk", "torque_rate") and r is not None}
     assert max(second.values()) <= 1.0 + TOL
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(where=st.floats(1e-3, 0.97), speed=st.floats(0.05, 0.999), acc=st.floats(-6.0, 6.0),
+       override=st.sampled_from([1.0, 0.7]))
+def test_remaining_keeps_the_states_acceleration_at_the_switch(spline, where, speed, acc, override):
+    # (from theta >= 1e-3: at the clamped spline's start Phi' = 0 and the rows force the first, graded intervals'
+    # acceleration, which the dense resample's first sample cannot tell)
+    theta, v, a = _state(spline, where, speed, acc)
+    p = spline.remaining(theta, v, a, override)
+    assert _feasible(spline, p) <= 1.0 + TOL and p.x[-1] == 0.0
+    first = float(p.theta_ddot_at(theta))
+    if np.isclose(first, a, rtol=1e-9, atol=1e-9 * max(1.0, abs(a))):
+        return  # no jump in acceleration at the switch
+    greedy = spline.remaining(theta, v, 1e9, override)
+    if a > first:  # only when the steepest first step the limits allow is gentler
+        assert first == float(greedy.theta_ddot_at(theta))
+        return
+    # a < first: keeping a on the first interval would all but stop the arm there (less than a quarter of
+    # theta_dot^2 now or after the steepest step), break a limit, or leave a state from which the plan's end is
+    # out of reach
+    h = p.grid[1] - theta
+    kept = v * v + 2.0 * a * h
+    floor = 0.25 * max(v * v, greedy.x[1])
+    if kept < floor:
+        assert p.x[1] >= floor * (1 - 1e-12)
+        return
+    # (the override's limits: velocity x s, acceleration x s^2, i.e. the piece slowed by s under the full ones)
+    piece = Profile(np.array([theta, p.grid[1]]), np.array([v * v, kept]) / override**2)
+    broken = _feasible(spline, piece) > 1.0 - TOL
+    try:
+        spline.remaining(float(p.grid[1]), float(np.sqrt(kept)), 0.0, override)
+    except StateInfeasibleError:
+        broken = True
+    assert broken

@@ -39,6 +39,10 @@ def test_the_escape_rules(tmp_path):
     assert "not one line" in v(_run(tmp_path, "error: x\nwarning: y\n"), _exit(1), 1.0)
     assert v(_run(tmp_path, "warning: y\nnote: exports: the first sample is not at rest\n"), _exit(0), 1.0) is None
     assert v(_run(tmp_path, "progress 3/5\n"), _exit(0), 1.0).startswith("stderr on success")
+    # a stage's progress line (stderr not a terminal) may come anywhere, on success and before an error
+    assert v(_run(tmp_path, "plan: load and search (stage 1/3)\nplan: writing (stage 3/3)\n"), _exit(0), 1.0) is None
+    assert v(_run(tmp_path, "plan: load and search (stage 1/3)\nwarning: y\nerror: x\n"), _exit(1), 1.0) is None
+    assert "not one line" in v(_run(tmp_path, "plan: load and search\nerror: x\n"), _exit(1), 1.0)
     assert v(_run(tmp_path, "Traceback (most recent call last):\n"), _exit(1), 1.0) == "traceback"
     assert v(_run(tmp_path), None, 120.0).startswith("hang")
     assert "signal 9" in v(_run(tmp_path), 9, 1.0)  # SIGKILL well inside the CPU budget: memory

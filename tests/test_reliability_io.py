@@ -19,7 +19,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pathmotion import defaults
-from pathmotion.cli import app
+from pathmotion.cli import PROGRESS_LINE, app
 from pathmotion.errors import OutputError, ScenarioError
 from pathmotion.io import atomic, files
 
@@ -29,7 +29,8 @@ runner = CliRunner()
 
 
 def one_error_line(res, *words) -> str:
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    """The one ``error:`` line of a failed run (the progress line of each stage it started aside)."""
+    lines = [ln for ln in res.output.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
     assert res.exit_code == 1, (res.exit_code, res.output)
     assert len(lines) == 1 and lines[0].startswith("error: "), res.output
     for w in words:

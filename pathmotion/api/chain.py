@@ -1,7 +1,8 @@
 """A ``type = "task"`` path with joint moves (MoveJ / MoveAbsJ) or dwells (WaitTime) among its segments: the scenario's
 segments turned into the items of :func:`pathmotion.lift.chain.lift_chain` (runs of task segments, joint moves,
 dwells) and its ``[[path.blends]]`` into task-corner blends and joint zones (docs/geometry.md, "Joint moves and
-dwells")."""
+dwells"); with optimal blends at task corners, the request of their search per task run (:mod:`.chain_blends`,
+docs/program.md, "Optimal blends in a program")."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from ..io.rapid import quaternion_matrix
 from ..lift.chain import Dwell, JointMove, TaskRun, lift_chain
 from ..lift.joint_move import PiecewiseJointPath, check_joint_target
 from ..robot import Robot, fk
+from .blend_request import BlendRequest, ChainBlendRequest
 from .program import start_configuration, start_rotation, task_orientation
 from .segments import task_segments
 
@@ -85,9 +87,32 @@ def _chain_corners(items: list, owner: list[int]) -> list[tuple]:
     return out
 
 
+def _picked(blend, k: int, corners: list, sharp: set) -> list[int]:
+    """The connections ``path.blends[k]`` blends: with corner = "all", every sharp corner inside a task run and,
+    for a g2 or optimal blend, every connection with a joint move; else its own (ScenarioError where it cannot
+    be blended: a dwell, or a circle at a joint move)."""
+    where = f"path.blends[{k}]"
+    if blend.corner == "all":
+        return [c for c, kind in enumerate(corners)
+                if c in sharp or (kind[0] == "zone" and blend.type in ("g2", "optimal"))]
+    c = blend.corner - 1
+    if not 0 <= c < len(corners):
+        raise ScenarioError(f"{where}.corner = {blend.corner}: the path has {len(corners)} connection(s), "
+                            f"numbered 1..{len(corners)} (1 = between segments 1 and 2)")
+    if corners[c][0] == "dwell":
+        raise ScenarioError(f"{where}: corner {blend.corner} is at a dwell, where the motion stops; remove "
+                            "the blend")
+    if corners[c][0] == "zone" and blend.type not in ("g2", "optimal"):
+        raise ScenarioError(f"{where}: corner {blend.corner} joins a joint move; its zone is type = 'g2' "
+                            "with tolerance = the zone [m]")
+    return [c]
+
+
 def _chain_blends(spec, items: list, owner: list[int]) -> tuple[dict, dict]:
-    """({item: {local connection: (kind, value)}} of the task runs' corners, {motion connection: tolerance [m]}
-    of the joint-move zones) from path.blends; ScenarioError for what a chain cannot blend."""
+    """({item: {local connection: (kind, value, k of path.blends[k])}} of the task runs' corners, {motion
+    connection: tolerance [m]} of the joint-move zones) from path.blends; ScenarioError for what a chain cannot
+    blend. An optimal blend at a joint move is that connection's joint-space zone within its tolerance (logged:
+    the zone is not searched)."""
     corners = _chain_corners(items, owner)
     sharp = {c for c, kind in enumerate(corners) if kind[0] == "run"
              and kind[2] in blended_corners(items[kind[1]].path, f"path.segments (connection {c + 1})")}
@@ -95,35 +120,21 @@ def _chain_blends(spec, items: list, owner: list[int]) -> tuple[dict, dict]:
     zones: dict[int, float] = {}
     chosen: dict[int, int] = {}
     for k, blend in enumerate(spec.blends):
-        where = f"path.blends[{k}]"
-        if blend.type == "optimal":
-            raise ScenarioError(f"{where}: 'optimal' blends are not searched on paths with joint moves or dwells; "
-                                "use type = 'g2' with a tolerance")
-        if blend.corner == "all":
-            picked = [c for c, kind in enumerate(corners) if c in sharp or (kind[0] == "zone" and blend.type == "g2")]
-        else:
-            c = blend.corner - 1
-            if not 0 <= c < len(corners):
-                raise ScenarioError(f"{where}.corner = {blend.corner}: the path has {len(corners)} connection(s), "
-                                    f"numbered 1..{len(corners)} (1 = between segments 1 and 2)")
-            if corners[c][0] == "dwell":
-                raise ScenarioError(f"{where}: corner {blend.corner} is at a dwell, where the motion stops; remove "
-                                    "the blend")
-            if corners[c][0] == "zone" and blend.type != "g2":
-                raise ScenarioError(f"{where}: corner {blend.corner} joins a joint move; its zone is type = 'g2' "
-                                    "with tolerance = the zone [m]")
-            picked = [c]
         value = blend.radius if blend.type == "circle" else blend.tolerance
-        for c in picked:
+        for c in _picked(blend, k, corners, sharp):
             if c in chosen:
-                raise ScenarioError(f"{where}: connection {c + 1} is already blended by path.blends[{chosen[c]}]; "
-                                    "give one blend per corner")
+                raise ScenarioError(f"path.blends[{k}]: connection {c + 1} is already blended by "
+                                    f"path.blends[{chosen[c]}]; give one blend per corner")
             chosen[c] = k
             kind = corners[c]
             if kind[0] == "run":
-                run_blends.setdefault(kind[1], {})[kind[2]] = (blend.type.value, value)
-            else:
-                zones[kind[1]] = value
+                run_blends.setdefault(kind[1], {})[kind[2]] = (blend.type.value, value, k)
+                continue
+            zones[kind[1]] = value
+            if blend.type == "optimal":
+                log.info("path.blends[%d] at connection %d (a joint move): the joint-space zone within %g m, not "
+                         "searched (optimal blends are searched at the corners between task segments)", k, c + 1,
+                         value)
     return run_blends, zones
 
 
@@ -132,16 +143,36 @@ def is_chain(spec) -> bool:
     return spec.type == "task" and any(seg.type in ("joint", "dwell") for seg in spec.segments)
 
 
-def chain_path(spec, robot: Robot) -> PiecewiseJointPath:
-    """The PiecewiseJointPath of a ``type = "task"`` path whose segments include joint moves or dwells."""
+def _run_request(spec, run: TaskRun, blends: dict, first: int) -> BlendRequest:
+    """The BlendRequest of a task run's optimal corners (``blends`` {local connection: (kind, value, k)}; the
+    run's first segment is path.segments[``first``])."""
+    names = {c: f"path.blends[{k}] (corner {first + c + 1})" for c, (_, _, k) in blends.items()}
+    optimal = {c: value for c, (kind, value, _) in blends.items() if kind == "optimal"}
+    others = {c: (kind, value) for c, (kind, value, _) in blends.items() if kind != "optimal"}
+    return BlendRequest(run.path, others, optimal, names,
+                        planar=tuple(c for c in optimal if spec.blends[blends[c][2]].planar),
+                        joined=tuple(c for c in optimal if spec.blends[blends[c][2]].join_ends),
+                        searches={c: spec.blends[blends[c][2]].search for c in optimal})
+
+
+def chain_setup(spec, robot: Robot) -> tuple[PiecewiseJointPath | None, ChainBlendRequest | None]:
+    """(the PiecewiseJointPath, None) of a ``type = "task"`` path whose segments include joint moves or dwells;
+    (None, its ChainBlendRequest) when it asks for optimal blends at corners between task segments."""
     q_start = start_configuration(spec, robot)
     items, owner = _chain_items(spec, robot, q_start)
     run_blends, zones = _chain_blends(spec, items, owner)
+    runs = {}
     for i, blends in run_blends.items():
         run = items[i]
-        names = {c: f"path.blends (corner {c + 1} of {run.where})" for c in blends}
-        items[i] = TaskRun(with_blends(run.path, blends, names), run.path, run.where)
-    log.info("lift: a chain of %d task runs, %d joint moves, %d dwells, %d joint zones",
+        if any(kind == "optimal" for kind, _, _ in blends.values()):
+            runs[i] = _run_request(spec, run, blends, owner.index(i))
+            continue
+        names = {c: f"path.blends[{k}] (corner {c + 1} of {run.where})" for c, (_, _, k) in blends.items()}
+        items[i] = TaskRun(with_blends(run.path, {c: b[:2] for c, b in blends.items()}, names), run.path, run.where)
+    log.info("lift: a chain of %d task runs, %d joint moves, %d dwells, %d joint zones%s",
              sum(isinstance(i, TaskRun) for i in items), sum(isinstance(i, JointMove) for i in items),
-             sum(isinstance(i, Dwell) for i in items), len(zones))
-    return lift_chain(robot, items, q_start, zones)
+             sum(isinstance(i, Dwell) for i in items), len(zones),
+             f", optimal blends to search in {len(runs)} task run(s)" if runs else "")
+    if runs:
+        return None, ChainBlendRequest(tuple(items), runs, zones, q_start)
+    return lift_chain(robot, items, q_start, zones), None

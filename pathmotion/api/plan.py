@@ -160,6 +160,10 @@ def phase_plane_columns(result: PlanResult, setup: Setup | None = None,
     :func:`second_order_plan`), its profile."""
     grid = result.profile.grid
     cols = {schema.PHASE_THETA: grid, schema.PHASE_OPTIMAL: np.sqrt(result.profile.x)}
+    if result.profile.u_nodes is not None:
+        cols[schema.PHASE_OPTIMAL_DDOT] = result.profile.u_nodes
+    if result.profile.holds is not None:
+        cols[schema.PHASE_HOLDS] = result.profile.holds
     c = result.curves
     for key, x in ((schema.PHASE_POINTWISE, c.x_max), (schema.PHASE_CONTROLLABLE, c.x_controllable)):
         cols[key] = np.sqrt(np.maximum(np.interp(grid, c.grid, np.minimum(x, X_UNBOUNDED)), 0))

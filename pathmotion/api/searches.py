@@ -14,10 +14,15 @@ from .. import defaults
 from ..errors import InfeasibleError, PathmotionError
 from ..geometry import with_blends
 from ..io import schema
+from ..io.scheduler import run_on_cluster
+from ..planning import PlanSettings
 from ..planning.blend_search import SEARCHES, optimal_blends
+from .blend_request import BlendRequest, ChainBlendRequest
+from .chain_blends import search_chain_blends
 from .plan import plan_failures, plan_scenario
+from .program import check_program
 from .reserve import AUTO, ReserveTrial, Verdict, search_reserve
-from .setup import BlendRequest, Setup, lift_task_path, plan_settings
+from .setup import Setup, lift_task_path, plan_settings
 from .simulate import simulate_scenario, tracking_failure
 
 log = logging.getLogger(__name__)
@@ -36,32 +41,49 @@ def search(setup: Setup) -> Setup:
 # ------------------------------------------------------------------------------------- optimal blends
 def search_blends(setup: Setup) -> Setup:
     """``setup`` with its optimal blends found (planning/blend_search.py, under the scenario's plan
-    settings), applied with the scenario's other blends in one pass, and the blended path lifted."""
-    request = setup.blend_request
-    shapes = _optimal_shapes(setup, request)
+    settings), applied with the scenario's other blends in one pass, and the blended path lifted; on a chain
+    (joint moves or dwells among the segments) in each task run (:mod:`.chain_blends`)."""
+    request, scenario = setup.blend_request, setup.scenario
+    if isinstance(request, ChainBlendRequest):
+        path = search_chain_blends(setup.robot, request, plan_settings(scenario),
+                                   lambda jobs: _runs_shapes(setup, jobs))
+        check_program(scenario.path, setup.robot, path)
+        return dataclasses.replace(setup, path=path, task_path=path.task_path,
+                                   original_task_path=path.original_task_path, blend_request=None)
+    q0 = None if scenario.path.start_configuration is None else np.asarray(scenario.path.start_configuration, float)
+    shapes = _optimal_shapes(setup.robot, request, plan_settings(scenario), q0, scenario.plan.workers)
     task = with_blends(request.sharp, {**request.blends, **{c: ("g2_shape", s) for c, s in shapes.items()}},
                        request.names)
-    path = lift_task_path(setup.scenario, setup.robot, task, setup.original_task_path)
+    path = lift_task_path(scenario, setup.robot, task, setup.original_task_path)
     return dataclasses.replace(setup, path=path, task_path=task, blend_request=None)
 
 
-def _optimal_shapes(setup: Setup, request: BlendRequest) -> dict:
-    """{connection index: G2Shape} of the optimal blends of ``request``, each corner searched as
-    ``request.searches`` names it (the corners are independent, so each kind is one search, on
-    plan.workers processes); errors start with the scenario key of their corner, or of every searched
-    corner when they concern them all (a blended path out of reach)."""
-    spec = setup.scenario.path
-    q0 = None if spec.start_configuration is None else np.asarray(spec.start_configuration, float)
+def _runs_shapes(setup: Setup, jobs: list) -> list[dict]:
+    """The optimal blends of the task runs ``jobs`` [(BlendRequest, PlanSettings, start configuration)], in order:
+    each a task on the Dask cluster at plan.scheduler (its corners in one process), else one after the other
+    (each run's corners on plan.workers processes)."""
+    plan_spec = setup.scenario.plan
+    if plan_spec.scheduler is None or len(jobs) <= 1:
+        return [_optimal_shapes(setup.robot, *job, plan_spec.workers) for job in jobs]
+    return run_on_cluster(plan_spec.scheduler, _optimal_shapes, [(setup.robot, *job, 1) for job in jobs],
+                          "optimal-blends")
+
+
+def _optimal_shapes(robot, request: BlendRequest, settings: PlanSettings, q0, workers: int) -> dict:
+    """{connection index: G2Shape} of the optimal blends of ``request`` planned under ``settings`` from ``q0``
+    (n,) [rad] or None, each corner searched as ``request.searches`` names it (the corners are independent, so
+    each kind is one search, on ``workers`` processes); errors start with the scenario key of their corner, or
+    of every searched corner when they concern them all (a blended path out of reach)."""
     kinds = {c: request.searches.get(c, "fast") for c in request.tolerances}
     shapes: dict = {}
     for kind in sorted(set(kinds.values())):
         optimal = {c: t for c, t in request.tolerances.items() if kinds[c] == kind}
         log.info("optimal blends: searching %d corner(s), %s search", len(optimal), kind)
         try:
-            found = optimal_blends(setup.robot, request.sharp, optimal, list(optimal), plan_settings(setup.scenario),
-                                   q0, search=SEARCHES[kind], planar=[c for c in request.planar if c in optimal],
+            found = optimal_blends(robot, request.sharp, optimal, list(optimal), settings, q0,
+                                   search=SEARCHES[kind], planar=[c for c in request.planar if c in optimal],
                                    joined_ends=[c for c in request.joined if c in optimal], names=request.names,
-                                   workers=setup.scenario.plan.workers)
+                                   workers=workers)
         except PathmotionError as exc:
             if exc.where in request.names.values():
                 raise

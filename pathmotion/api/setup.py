@@ -26,7 +26,8 @@ from ..lift.joint_path import JointPath, SplineJointPath
 from ..planning import PlanSettings
 from ..planning.limits import limit_choices
 from ..robot import Payload, Robot, Tool, builtin_robot_names, load_robot
-from .chain import chain_path, is_chain
+from .blend_request import BlendRequest, ChainBlendRequest
+from .chain import chain_setup, is_chain
 from .program import check_program, start_configuration, start_rotation, task_orientation
 from .reserve import AUTO, ReserveSearch
 from .segments import task_segments
@@ -35,24 +36,6 @@ log = logging.getLogger(__name__)
 
 #: Distance [m] within which a lift failure is reported "at waypoint k" rather than between two.
 NEAR_WAYPOINT = 1e-3
-
-
-@dataclass(frozen=True)
-class BlendRequest:
-    """The optimal blends a scenario asks for, before their search: ``sharp`` the task path with every
-    blended corner sharp, ``blends`` the other blends {connection index: (kind, value)} applied with them,
-    ``tolerances`` {connection index: tolerance [m]} of the optimal ones, ``names`` {connection index:
-    scenario key} for errors, the corners kept ``planar`` and those whose blend joins the lines
-    (``joined``), and how hard each corner is searched (``searches`` {connection index: "fast" | "thorough"},
-    "fast" where absent)."""
-
-    sharp: TaskPath
-    blends: dict
-    tolerances: dict[int, float]
-    names: dict[int, str]
-    planar: tuple[int, ...] = ()
-    joined: tuple[int, ...] = ()
-    searches: dict = dataclasses.field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,7 +58,7 @@ class Setup:
     task_path: TaskPath | None
     original_task_path: TaskPath | None
     plan_settings: PlanSettings
-    blend_request: BlendRequest | None = None
+    blend_request: BlendRequest | ChainBlendRequest | None = None
     reserve_search: ReserveSearch | None = None
     reserve_run: tuple | None = field(default=None, repr=False)
 
@@ -309,7 +292,7 @@ def _joint_waypoint_path(spec, robot: Robot) -> JointPath:
 
 
 def build_path(scenario: Scenario, robot: Robot, base_dir: str | Path = "."
-               ) -> tuple[JointPath | None, TaskPath | None, TaskPath | None, BlendRequest | None]:
+               ) -> tuple[JointPath | None, TaskPath | None, TaskPath | None, BlendRequest | ChainBlendRequest | None]:
     """(joint path, task path, original task path before blends, optimal blends' request) of the scenario;
     joint path and task path are None when optimal blends are still to be searched, the task path and the
     original are None for a joint path, the request None without optimal blends. ``base_dir``: the folder
@@ -318,7 +301,9 @@ def build_path(scenario: Scenario, robot: Robot, base_dir: str | Path = "."
     if spec.type == "joint":
         return open_unless_periodic(scenario, _joint_waypoint_path(spec, robot)), None, None, None
     if is_chain(spec):  # joint moves or dwells among the segments
-        path = chain_path(spec, robot)
+        path, chain_request = chain_setup(spec, robot)
+        if chain_request is not None:
+            return None, None, None, chain_request
         check_program(spec, robot, path)
         return path, path.task_path, path.original_task_path, None
     if spec.type == "waypoints":

@@ -16,8 +16,14 @@ and the servo, every ``rate`` seconds, per axis on the motor (link-side units):
 
 The arm: the motor J_m qdd_m = tau - s_g on an elastic axis, s_g = K (q_m - q) + D (qd_m - qd) the gear's
 torque, and the links M(q) qdd + h(q, qd) = s_g (elastic axes) or tau (rigid axes, rotor inertia on the
-diagonal), integrated by classical RK4 with tau held over each servo period. The feedback EGM reports is
-the motor side q_m (the IRC5 measures motor angles); the TCP follows the link side q.
+diagonal). The built-in plant integrates motors and links together by classical RK4 with tau held over each
+servo period (Pinocchio ABA for the links). The MuJoCo plant (``plant="mujoco"``, simulation's
+:class:`~pathmotion.simulation.mujoco_plant.MujocoPlant`: MuJoCo's own reading of the URDF and its RK4) moves
+the links: each servo period is split into short coupling steps; over each, MuJoCo moves the links under the
+gear torque of the step's start (tau on rigid axes), then the motors are integrated by RK4 against the links'
+motion over the step (linear between its ends). The splitting is first order in the coupling step, which is
+chosen so that it spans at most 1/20 rad of the fastest gear mode. The feedback EGM reports is the motor
+side q_m (the IRC5 measures motor angles); the TCP follows the link side q.
 """
 
 from __future__ import annotations
@@ -30,7 +36,11 @@ import pinocchio as pin
 
 from ..errors import ExecutionError
 from ..robot import Robot
+from ..simulation.plant import PLANT_NAMES, make_plant
 from .drive_file import DriveParameters
+
+#: The MuJoCo plant's coupling step spans at most this phase [rad] of the fastest gear mode.
+COUPLING_PHASE = 0.05
 
 
 @dataclass
@@ -82,9 +92,11 @@ class EgmFilter:
 class VirtualArm:
     """The arm behind a virtual IRC5: EGM filter + servo + (elastic) plant; :meth:`cycle` advances one EGM
     cycle. ``robot``: the controller's model (its armature = rotor inertias, its torque limits = the motors');
-    ``plant_robot``: the arm that moves (default the same; a scenario's payload or model error goes here)."""
+    ``plant_robot``: the arm that moves (default the same; a scenario's payload or model error goes here);
+    ``plant``: "builtin" (Pinocchio, RK4 of motors and links together) or "mujoco" (MuJoCo moves the links)."""
 
-    def __init__(self, robot: Robot, params: DriveParameters, q0: np.ndarray, plant_robot: Robot | None = None):
+    def __init__(self, robot: Robot, params: DriveParameters, q0: np.ndarray, plant_robot: Robot | None = None,
+                 plant: str = "builtin"):
         n = robot.n
         if params.stiffness.shape != (n,):
             raise ExecutionError(f"drive file has {params.stiffness.size} axes for a {n}-joint robot")
@@ -92,11 +104,11 @@ class VirtualArm:
         self.robot, self.params, self.n = robot, params, n
         self.rotor = np.zeros(n) if lim.armature is None else np.asarray(lim.armature, float).copy()
         self.elastic = params.elastic & (self.rotor > 0)
-        plant = (plant_robot or robot).model.copy()
-        arm = np.array(plant.armature, float)
+        links = (plant_robot or robot).model.copy()
+        arm = np.array(links.armature, float)
         arm[self.elastic] = 0.0  # the rotor is the motor mass of an elastic axis, not the link's
-        plant.armature = arm
-        self.model, self.data = plant, plant.createData()
+        links.armature = arm
+        self.model, self.data = links, links.createData()
         self.ctrl_model, self.ctrl_data = robot.model, robot.model.createData()
         self.k, self.d = params.stiffness * self.elastic, params.damping * self.elastic
         self.kv = params.speed_bandwidth * np.maximum(self.rotor, 1e-6)
@@ -111,7 +123,12 @@ class VirtualArm:
         self.h = params.cycle / self.substeps
         self.tau = np.zeros(n)
         self.saturated = False
-        self._check_modes(q0)
+        omega = self._check_modes(q0)
+        if plant not in PLANT_NAMES:
+            raise ExecutionError(f"plant {plant!r}: choose one of {', '.join(PLANT_NAMES)}")
+        self.plant = plant
+        self.mujoco = self._mujoco_links(plant_robot or robot) if plant == "mujoco" else None
+        self.couplings = max(1, int(np.ceil(self.h * omega / COUPLING_PHASE)))
 
     def _held_at(self, q0: np.ndarray) -> ArmState:
         """At rest with the link at q0: each elastic gear wound up by its gravity load, K (q_m - q0) = g(q0)."""
@@ -121,16 +138,55 @@ class VirtualArm:
             state.qm = np.where(self.elastic, q0 + g / np.where(self.elastic, self.k, 1.0), q0)
         return state
 
-    def _check_modes(self, q0: np.ndarray) -> None:
-        """Refuse a servo period too long for the gear modes (RK4 needs h omega well below 2.8)."""
+    def _check_modes(self, q0: np.ndarray) -> float:
+        """The fastest gear mode [rad/s] at q0 (0 without elastic axes); refuse a servo period too long for it
+        (RK4 needs h omega well below 2.8)."""
         if not self.elastic.any():
-            return
+            return 0.0
         link = np.diag(pin.crba(self.model, self.data, np.asarray(q0, float)))
         j = self.elastic
         omega = np.sqrt(self.k[j] * (1.0 / self.rotor[j] + 1.0 / np.maximum(link[j], 1e-9)))
         if self.h * omega.max() > 1.0:
             raise ExecutionError(f"drive file: a gear mode of {omega.max() / (2 * np.pi):.0f} Hz is too fast for the "
                                  f"servo period {self.h:g} s; lower servo.rate or the stiffness")
+        return float(omega.max())
+
+    def _mujoco_links(self, plant_robot: Robot):
+        """simulation's MuJoCo plant of ``plant_robot`` with the rotors on the rigid axes only (an elastic axis's
+        rotor is the motor mass, on the other side of the gear)."""
+        from ..simulation.mujoco_plant import import_mujoco
+
+        plant = make_plant("mujoco", plant_robot)
+        plant.model.dof_armature[self.elastic] = 0.0
+        mujoco = import_mujoco()
+        mujoco.mj_setConst(plant.model, mujoco.MjData(plant.model))  # the constants that follow the armature
+        return plant
+
+    def _mujoco_step(self, tau: np.ndarray) -> None:
+        """One servo period on the MuJoCo plant: coupling steps of links (MuJoCo) then motors (RK4)."""
+        s, el = self.state, self.elastic
+        c = self.h / self.couplings
+        rotor = np.where(el, self.rotor, 1.0)
+
+        def motor_accel(qm, qmd, q, qd):
+            return np.where(el, (tau - self.k * (qm - q) - self.d * (qmd - qd)) / rotor, 0.0)
+
+        for _ in range(self.couplings):
+            q0, qd0 = s.q, s.qd
+            gear = self.k * (s.qm - q0) + self.d * (s.qmd - qd0)
+            q1, qd1 = self.mujoco.step(q0, qd0, np.where(el, gear, tau), c, 1)
+            qmid, qdmid = 0.5 * (q0 + q1), 0.5 * (qd0 + qd1)
+            qm, qmd = s.qm, s.qmd
+            a1 = motor_accel(qm, qmd, q0, qd0)
+            a2 = motor_accel(qm + 0.5 * c * qmd, qmd + 0.5 * c * a1, qmid, qdmid)
+            v2 = qmd + 0.5 * c * a1
+            a3 = motor_accel(qm + 0.5 * c * v2, qmd + 0.5 * c * a2, qmid, qdmid)
+            v3 = qmd + 0.5 * c * a2
+            a4 = motor_accel(qm + c * v3, qmd + c * a3, q1, qd1)
+            v4 = qmd + c * a3
+            s.q, s.qd = q1, qd1
+            s.qm = np.where(el, qm + c / 6.0 * (qmd + 2 * v2 + 2 * v3 + v4), q1)
+            s.qmd = np.where(el, qmd + c / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4), qd1)
 
     def envelope(self, qmd: np.ndarray) -> np.ndarray:
         """The motor torque limit (n,) [N m] at motor speed qmd (n,)."""
@@ -183,7 +239,10 @@ class VirtualArm:
                 saturated = True
                 self.integral -= err * self.h  # anti-windup: no integration while the motor is at its limit
             self.tau = clipped
-            self._rk4(clipped)
+            if self.mujoco is None:
+                self._rk4(clipped)
+            else:
+                self._mujoco_step(clipped)
         self.saturated = saturated
         if not np.all(np.isfinite(self.state.q)):
             raise ExecutionError("the virtual arm's state diverged (a drive parameter makes the loop unstable)")

@@ -5,10 +5,13 @@
 
     m(t) = q(t) + K^-1 tau_g(t)             the motor position that bends each elastic gear by its load
                                             (tau_g: the link-side torque of the plan, rotors excluded)
-    m(t + L)                                lead by the transport delay L (whole EGM cycles)
+    m(t + L)                                lead by the transport delay L (whole EGM cycles; on a run's
+                                            first segment L grows from 0 over the delay: it starts at rest)
     p_k = (m_k - (1 - a) m_(k-1)) / a       the exact inverse of EGM's first-order low-pass (a per cycle)
 
-and the same for the speed reference. Every reference is clipped into the joint limits (position and speed).
+and the same for the speed reference. A second-order plan (steps in acceleration, which no motor passes
+through a spring) is first shaped in the path coordinate for the lowest locked-motor gear mode
+(:func:`path_motion`). Every reference is clipped into the joint limits (position and speed).
 """
 
 from __future__ import annotations
@@ -83,7 +86,7 @@ def _invert_lowpass(x: np.ndarray, alpha: float, per: int) -> np.ndarray:
     return (x - (1.0 - alpha) * prev) / alpha
 
 
-def shaping_window(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> float:
+def gear_period(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> float:
     """The period [s] of the lowest locked-motor gear mode at q0, sqrt(K / J_link) (0 without elastic axes)."""
     elastic = drives.elastic
     if not elastic.any():
@@ -121,37 +124,62 @@ class RawMotion:
         return out[0], out[1], out[2]
 
 
-def path_motion(raw: RawMotion, t: np.ndarray, window: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _box_average(raw: RawMotion, t: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s, evenly spaced] of the raw motion averaged over
-    the last ``window`` seconds (a moving average in the path coordinate: the motion stays on the path, its
-    acceleration becomes continuous and the frequencies k / window vanish from it); window 0: the raw motion
-    itself. The averaged motion lasts the raw one plus the window."""
-    if window <= 0.0:
-        return raw.state(t)
-    step = t[1] - t[0] if len(t) > 1 else window
-    m = max(1, int(round(window / step)))
-    window = m * step
+    the last ``width`` seconds (rounded to whole table steps)."""
+    step = t[1] - t[0] if len(t) > 1 else width
+    m = max(1, int(round(width / step)))
+    width = m * step
     fine = np.concatenate([t[0] - step * np.arange(m, 0, -1), t])
     theta, theta_dot, _ = raw.state(fine)
     mid = 0.5 * (theta[1:] + theta[:-1]) * step
     area = np.concatenate([[0.0], np.cumsum(mid)])
-    averaged = (area[m:] - area[:-m]) / window
+    averaged = (area[m:] - area[:-m]) / width
     now_dot, before_dot = theta_dot[m:], theta_dot[:-m]
-    return averaged, (theta[m:] - theta[:-m]) / window, (now_dot - before_dot) / window
+    return averaged, (theta[m:] - theta[:-m]) / width, (now_dot - before_dot) / width
+
+
+def shaper_support(period: float) -> float:
+    """How much longer [s] the shaped motion lasts than the raw one (0 for period 0): 3/4 of the period."""
+    return 0.75 * period if period > 0.0 else 0.0
+
+
+def path_motion(raw: RawMotion, t: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s, evenly spaced] of the raw motion shaped for a
+    gear mode of ``period`` [s] (0: the raw motion itself). The shaper, in the path coordinate, is the mean
+    of two copies of the motion half a period apart (a zero-vibration shaper: the mode's frequency and its
+    odd multiples vanish from the motion), each averaged over the last quarter period (the acceleration
+    becomes continuous; 4x the frequency vanishes too). Its weights are positive, so the motion stays on the
+    path and never runs back; it lasts the raw one plus 3/4 of the period, and its centroid lags the raw
+    motion by 3/8 of it (a moving average over the whole period, which also removes the mode, lags by 1/2)."""
+    if period <= 0.0:
+        return raw.state(t)
+    first = _box_average(raw, t, 0.25 * period)
+    second = _box_average(raw, t - 0.5 * period, 0.25 * period)
+    return tuple(0.5 * (a + b) for a, b in zip(first, second))
+
+
+def _lead_rows(k: np.ndarray, start: int, ahead: int, first: bool) -> np.ndarray:
+    """Rows of the motion each table row k (K,) sends: ``ahead`` rows later; on the first segment of a run
+    (``first``) the lead grows from 0 at row ``start`` (time 0) to ``ahead``, so that the first reference is
+    the robot's start and the lead is caught up over the transport delay at twice the motion's pace."""
+    lead = np.clip(k - start, 0, ahead) if first else np.full_like(k, ahead)
+    return np.minimum(k + lead, len(k) - 1)
 
 
 def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: DriveParameters | None,
-                    step: float = defaults.EGM_TABLE_STEP, window: float = 0.0) -> ReferenceTable:
+                    step: float = defaults.EGM_TABLE_STEP, period: float = 0.0, first: bool = False) -> ReferenceTable:
     """The table of references for the raw motion ``raw`` along ``path`` in ``mode`` (one of MODES); with
-    shaping, the motion averaged in the path coordinate over ``window`` [s] (see :func:`path_motion`). The
-    table starts one EGM cycle early (the raw motion before 0 is what ran before), so that the low-pass
-    inverse at its first row continues the references already sent."""
-    window = window if mode != "none" else 0.0
-    duration = raw.duration + window
+    shaping, the motion shaped in the path coordinate for a gear mode of ``period`` [s] (see
+    :func:`path_motion`). The table starts one EGM cycle early (the raw motion before 0 is what ran before),
+    so that the low-pass inverse at its first row continues the references already sent; ``first``: the
+    run's first segment, from rest (its first reference is then the start, see :func:`_lead_rows`)."""
+    period = period if mode != "none" else 0.0
+    duration = raw.duration + shaper_support(period)
     lead = 0.0 if mode == "none" else drives.transport_delay
     per = 0 if mode == "none" else max(1, int(round(drives.cycle / step)))
     t = np.arange(-per, int(np.ceil((duration + lead) / step)) + 1) * step
-    theta, theta_dot, theta_ddot = path_motion(raw, t, window)
+    theta, theta_dot, theta_ddot = path_motion(raw, t, period)
     q, dq, ddq = path.evaluate(theta)
     qd = dq * theta_dot[:, None]
     deflection = np.zeros_like(q)
@@ -159,8 +187,7 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     if mode != "none":
         qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
         deflection = gear_deflection(robot, drives, q, qd, qdd)
-        ahead = min(int(round(lead / step)), len(t) - 1)
-        m = np.concatenate([(q + deflection)[ahead:], np.repeat((q + deflection)[-1:], ahead, axis=0)])
+        m = (q + deflection)[_lead_rows(np.arange(len(t)), per, int(round(lead / step)), first)]
         md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
         alpha = 1.0 - np.exp(-2.0 * np.pi * drives.lowpass_bandwidth * drives.cycle)
         sent_q, sent_qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)

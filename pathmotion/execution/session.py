@@ -21,8 +21,8 @@ from .drive_file import DriveParameters
 from .drives import VirtualArm
 from .figures import execution_figures
 from .messages import decode_sensor, encode_robot
-from .orbital import TransverseLoop
-from .reference import MODES, RawMotion, build_reference, shaping_window
+from .orbital import TransverseLoop, loop_gain
+from .reference import MODES, RawMotion, build_reference, gear_period
 from .streamer import Streamer
 
 log = logging.getLogger(__name__)
@@ -52,9 +52,9 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
         raise ExecutionError(f"execute needs a plan it can stop along the path: {exc}") from None
     path = plan_result.trajectory.path
     start = plan_result.trajectory.at_time([0.0]).q[0]
-    # the average makes a second-order plan's acceleration continuous (a jerk-limited plan's already is); one
-    # window for every segment of the run, so that a re-timed segment continues the references sent
-    window = 0.0 if plan_result.profile.smooth else shaping_window(robot, drives, start)
+    # the shaper makes a second-order plan's acceleration continuous (a jerk-limited plan's already is); one
+    # shaper for every segment of the run, so that a re-timed segment continues the references sent
+    period = 0.0 if plan_result.profile.smooth else gear_period(robot, drives, start)
 
     def retime(kind: str, state: tuple, override: float, previous: RawMotion, offset: float):
         if kind == "stop":
@@ -63,11 +63,11 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
             profile = retimer.remaining(state[0], 0.0, 0.0, override)
         else:
             profile = retimer.remaining(*state, override=override)
-        return build_reference(robot, path, RawMotion(profile, previous, offset), mode, drives, window=window)
+        return build_reference(robot, path, RawMotion(profile, previous, offset), mode, drives, period=period)
 
-    table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, window=window)
+    table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, period=period, first=True)
     lim = robot.limits
-    loop = TransverseLoop(path) if mode == "orbital" else None
+    loop = TransverseLoop(path, loop_gain(drives)) if mode == "orbital" else None
     return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
                     plan=plan_result.trajectory)
 

@@ -15,6 +15,7 @@ import numpy as np
 from .. import defaults
 from ..errors import PathmotionError
 from .atomic import atomic_path, write_text
+from .files import read_input
 
 
 def trajectory_columns(samples, n: int | None = None) -> dict[str, np.ndarray]:
@@ -100,6 +101,32 @@ def write_table_parquet(path: str | Path, columns: dict[str, np.ndarray]) -> Pat
     with atomic_path(path) as tmp:
         pq.write_table(table, tmp)
     return Path(path)
+
+
+def read_table_csv(path: str | Path, required=(), who: str = "read") -> dict[str, np.ndarray]:
+    """A numeric CSV with a header line (as :func:`write_table_csv` writes it) as {column: (N,) float array};
+    PathmotionError (headed ``who``) when it cannot be read, a ``required`` column is missing or the table has
+    no rows while columns are required."""
+    path = Path(path)
+    text = read_input(path, "result")  # a regular file under the result cap (a FIFO would hang)
+    try:
+        fh = _io.StringIO(text, newline="")
+        header = fh.readline().strip().split(",")
+        data = np.loadtxt(fh, delimiter=",", ndmin=2) if header != [""] else np.empty((0, 0))
+    except ValueError as exc:
+        raise PathmotionError(f"{who}: cannot read the table {path}: {exc}; re-run the command that wrote it") from None
+    if header == [""] or (data.size and data.shape[1] != len(header)):
+        raise PathmotionError(f"{who}: {path} has {data.shape[1] if data.size else 0} values per row but "
+                              f"{len(header)} column names; re-run the command that wrote it")
+    missing = [name for name in required if name not in header]
+    if missing:
+        raise PathmotionError(f"{who}: {path} has no column(s) {missing}; it was written by another version of "
+                              "pathmotion or edited: re-run the command that wrote it")
+    if not data.size:
+        if required:
+            raise PathmotionError(f"{who}: {path} has no rows; re-run the command that wrote it")
+        return {name: np.empty(0) for name in header}
+    return {name: data[:, k] for k, name in enumerate(header)}
 
 
 def write_trajectory_csv(path, samples) -> Path:
@@ -207,8 +234,31 @@ def write_ros2_yaml(path, samples, joint_names, sample_time: float = defaults.SA
 
     msg = ros2_joint_trajectory(samples, joint_names, sample_time)
     head = "".join(f"# {n}\n" for n in notes)
-    dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's emitter: the same text, ~10x faster
-    return write_text(path, head + yaml.dump(msg, Dumper=dumper, sort_keys=False, default_flow_style=None, width=1000))
+    points = msg.pop("points")
+    dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's emitter for the header and the names
+    text = yaml.dump(msg, Dumper=dumper, sort_keys=False, default_flow_style=None, width=1000)
+    return write_text(path, head + text + "points:\n" + "".join(_yaml_point(pt) for pt in points))
+
+
+def _yaml_float(v: float) -> str:
+    """A float as PyYAML's SafeRepresenter writes it (repr, lower case, '.0' before a bare exponent)."""
+    if v != v:
+        return ".nan"
+    if v in (np.inf, -np.inf):
+        return ".inf" if v > 0 else "-.inf"
+    text = repr(float(v)).lower()
+    return text.replace("e", ".0e", 1) if "." not in text and "e" in text else text
+
+
+def _yaml_point(pt: dict) -> str:
+    """One JointTrajectoryPoint of :func:`ros2_joint_trajectory` as the item of the block sequence ``points`` that
+    yaml.dump(default_flow_style=None) writes (flow lists and mapping of scalars), formatted directly: the
+    representer of PyYAML spends about 20 us per number, a motion of minutes has millions."""
+    rows = [f"{key}: [{', '.join(_yaml_float(v) for v in pt[key])}]"
+            for key in ("positions", "velocities", "accelerations", "effort")]
+    t = pt["time_from_start"]
+    rows.append(f"time_from_start: {{sec: {int(t['sec'])}, nanosec: {int(t['nanosec'])}}}")
+    return "- " + "\n  ".join(rows) + "\n"
 
 
 def write_egm_csv(path, samples, sample_time: float = defaults.SAMPLE_TIME, notes=()) -> Path:

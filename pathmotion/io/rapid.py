@@ -1013,9 +1013,9 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
         raise ScenarioError(f"{program.source}: {len(tolerances)} blend tolerances for {len(zones)} corners")
     name = name or program.module or Path(program.source).stem
     info = notes(program)
-    if blend == "optimal" and any(m.joint or m.dwell for m in program.moves[1:]):
-        info.append("the zones are symmetric G2 blends: optimal blends are not searched on a path with MoveJ, "
-                    "MoveAbsJ or WaitTime")
+    if blend == "optimal" and any(m.joint for m in program.moves[1:]):
+        info.append("optimal blends at the zones between MoveL/MoveC; the zones at a MoveJ/MoveAbsJ are joint-space "
+                    "zones of the zone's size (type g2), not searched")
     quats = base_quaternions(program)
     t = program.tool
     rpy = matrix_rpy(t.frame.rotation)
@@ -1033,12 +1033,11 @@ def scenario_toml(program: RapidProgram, tolerances: list[float | None], robot: 
              *_start(program.moves[0], quats[0]),
              "", f"[path.start_program]  # line {program.moves[0].line}: the start", *_program(program.moves[0])]
     lines += _segment_lines(program, segs, quats)
-    chain = any(m.joint or m.dwell for m in program.moves[1:])
-    kind = "g2" if chain else blend  # optimal blends are not searched on chains with joint moves or dwells
     corner = _corners(program)
     for k, (tol, z) in enumerate(zip(tolerances, zones)):
         if tol is not None:
             mv = program.moves[k + 1]
+            kind = "g2" if mv.joint or program.moves[k + 2].joint else blend  # a joint zone is not searched
             lines += ["", f"[[path.blends]]  # {mv.zone_name} at line {mv.line}: a blend that starts {z * 1000:.4g} mm "
                           "from the target (the zone radius) deviates at most this from the path"
                       + ("" if kind == "g2" else "; the optimal blend stays within it"),

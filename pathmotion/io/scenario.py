@@ -17,6 +17,7 @@ from .. import defaults
 from ..errors import ScenarioError, clipped
 from ..modes import BlendType, BoundaryMode, Connections, Controller, VerifyMode
 from .files import parse_toml, read_input
+from .scheduler import check_scheduler_address
 
 Vec3 = tuple[float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
@@ -298,6 +299,9 @@ class PlanSpec(_Model):
                                "on every grid interval; 'dense': the 0.1 ms time resample; 'off'")
     workers: int = Field(1, ge=1, le=256, description="local processes that search the optimal blends' corners "
                          "in parallel (the same result as 1)")
+    scheduler: str | None = Field(None, description="a Dask scheduler, tcp://HOST:PORT: the task runs of a path with "
+                                  "joint moves or dwells search their optimal blends as tasks on its workers (the "
+                                  "same result as without)")
     blend_speed_scale: float = Field(1.0, gt=0, le=1, description="path speed on the blend segments as a fraction "
                                      "of the optimal profile's there (1 = optimal; see pathmotion.planning.blend_speed)")
     duration_tolerance: float = Field(defaults.PLAN_TOLERANCE, gt=0, lt=defaults.MAX_PLAN_TOLERANCE,
@@ -305,6 +309,16 @@ class PlanSpec(_Model):
                                                   "(0.0005 = 0.05 %)")
     #: Former keys of this table -> their names now (an old key gets an error naming the new one).
     RENAMED: ClassVar[dict[str, str]] = {"tolerance": "duration_tolerance"}
+
+    @field_validator("scheduler")
+    @classmethod
+    def _address(cls, value):
+        if value is not None:
+            try:
+                check_scheduler_address(value, "the address")
+            except ScenarioError as exc:
+                raise ValueError(str(exc)) from None
+        return value
 
 
 # ------------------------------------------------------------------------------------ simulation

@@ -201,6 +201,10 @@ MOVES_FILE = "moves.csv"
 PHASE_THETA = "theta"
 #: The plan's profile, the planner's curves (all limits together), the baselines.
 PHASE_OPTIMAL = "theta_dot_optimal"
+#: The plan's own profile beyond theta_dot, written when it has them (so that a plan folder is the plan):
+#: a jerk-limited profile's theta_ddot at the grid points, and the dwell [s] at each grid point.
+PHASE_OPTIMAL_DDOT = "theta_ddot_optimal"
+PHASE_HOLDS = "hold_s"
 PHASE_POINTWISE = "theta_dot_max_pointwise"
 PHASE_CONTROLLABLE = "theta_dot_controllable"
 PHASE_FITTED = "theta_dot_fitted"

@@ -20,10 +20,12 @@ at the end for the stop). A query then costs one compiled forward pass over the 
   :class:`StateInfeasibleError`: the limit factor that would save it (the same scaling: x0 / max K),
   how fast the in-limit braking still is at the path's end and how far past it it would stop.
 
-Third-order limits (jerk, torque rate): the second-order answer is the first linearization point of the
-project's sequential LP (planning/third_order.py) on the remaining grid, started at the state's x and u;
-the stop searches the shortest stop distance whose smooth profile exists. These are LP solves, not the
-compiled pass, and take tens to hundreds of milliseconds.
+Third-order limits (jerk, torque rate): ``remaining`` from a moving state is the compiled pass of
+planning/retime_jerk.py (a walk that merges into the smooth time-optimal ceiling profile, solved at
+construction). Where it gives no answer, and with ``reference=True``, the second-order answer is the first
+linearization point of the project's sequential LP (planning/third_order.py) on the remaining grid, started
+at the state's x and u. The stop searches the shortest stop distance whose smooth profile exists (LP solves,
+tens to hundreds of milliseconds).
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from ..modes import BoundaryMode, Connections
 from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _with_knots, certified_bounds,
                       effective_limits)
 from .profile import Profile
+from .retime_jerk import JerkPass
 from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
 from .limit_rows import limit_rows
@@ -50,10 +53,15 @@ log = logging.getLogger(__name__)
 #: A state closer to the next grid point than this fraction of its interval starts its first interval
 #: at the point after (no sliver interval, whose rows would lose the b x terms to round-off) [-].
 MERGE_FRACTION = 1e-6
+#: Second order: the first interval keeps the state's acceleration, but none that leaves less than this fraction
+#: of the larger of the state's x and the greedy step's at its end (it would all but stop there) [-].
+KEPT_FLOOR = 0.25
 #: Relative slack on a state's membership in a controllable set [-] (round-off of the rows).
 STATE_TOLERANCE = 1e-7
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
 STOP_ITERATIONS = 4
+#: Intervals the second-order stop's last interval (to rest) is cut into [-].
+STOP_SUBDIVISION = 4
 #: Points of the finer grid the second-order stop is computed on again, and its reach relative to the first
 #: answer's stop distance [-].
 STOP_POINTS = 1200
@@ -66,6 +74,10 @@ INTERPOLATION_SAFETY = 2.0
 SMOOTH_STOP_POINTS = 40
 SMOOTH_STOP_GROWTH = 1.25
 SMOOTH_STOP_ACCURACY = 0.01
+#: Third-order stop: its grid is graded towards the state by this many geometric points from this fraction of
+#: the trial distance up to the uniform spacing [-].
+SMOOTH_STOP_GRADED = 12
+SMOOTH_STOP_FIRST = 1e-4
 #: Third-order: the speed-up cap of the first linearization point is sampled at this many times over this
 #: horizon [s] (cubically graded towards the state) [-], [s].
 JERK_CAP_SAMPLES = 400
@@ -122,6 +134,7 @@ class Retimer:
         self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
                               for n in ("a", "b", "c", "lo", "hi", "x_max"))
         self._interpolation_error = self._row_interpolation_error(x_ref)
+        self._jerk = self._jerk_pass() if self.third_order else None
         log.debug("retimer: %d grid points, %d rows per interval, %d stops", len(grid), self._P.shape[1],
                   len(self._stops))
         self._warm_up()
@@ -144,31 +157,50 @@ class Retimer:
             out[k] = INTERPOLATION_SAFETY * np.where(np.isfinite(diff), diff, 0.0)
         return np.ascontiguousarray(out)
 
+    def _jerk_pass(self) -> JerkPass | None:
+        """The compiled third-order pass's data (planning/retime_jerk.py), its ceiling the smooth time-optimal
+        profile to the plan's end from a free start; None when the sequential LP finds none."""
+        g = self.grid
+        samp = _sample(self.path, self.robot, g, _with_knots(self.path, g, _grid_breaks(self.path, g)), third=True)
+        end = self.settings.end_condition
+        end_x = None if end == BoundaryMode.MAX else float(self.plan.profile.x[-1])
+        try:
+            ceiling, scale = self._smooth_solve(g, self._khi.copy(), None, 0.0, end_x is not None and end_x == 0.0,
+                                                end_x, with_scale=True)
+        except InfeasibleError as err:
+            log.warning("retimer: no smooth ceiling profile (%s); third-order queries solve LPs", err)
+            return None
+        return JerkPass(self.path, self.robot, g, samp, self.limits, scale, ceiling)
+
     def _warm_up(self) -> None:
         """One query of each kind, so that the first one in a control loop does not load the compiled kernels
-        (second-order limits; the third-order solves are LPs)."""
-        if self.third_order:
-            return
+        (third-order limits: the remaining profile's pass; their stop solves LPs)."""
         k = int(np.argmax(self.plan.profile.x))
+        state = float(self.grid[k]), float(np.sqrt(self.plan.profile.x[k]))
         try:
+            if self.third_order:
+                self.remaining(*state)
+                return
             self.remaining(float(self.grid[0]), 0.0)
-            self.stop(float(self.grid[k]), float(np.sqrt(self.plan.profile.x[k])))
+            self.stop(*state)
         except PathmotionError:  # a plan that cannot be re-timed says so at the first real query
             pass
 
     # ----------------------------------------------------------------------------------------------- queries
 
-    def remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, override: float = 1.0) -> Profile:
+    def remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, override: float = 1.0, *,
+                  reference: bool = False) -> Profile:
         """The time-optimal profile from the state (theta, theta_dot [unit theta / s], theta_ddot
         [unit theta / s^2]) to the plan's end under the plan's limits scaled by ``override`` in (0, 1]
         (velocity x override, acceleration and torque's dynamic part x override^2, jerk and torque rate x
         override^3). Its first point is the state. StateInfeasibleError when no motion within the limits
-        ends as the plan does."""
+        ends as the plan does. ``reference`` (jerk limits): the sequential LP's answer instead of the compiled
+        pass's (slow; the reference the pass is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         s2 = _override(override) ** 2
         if self.third_order:
-            return self._smooth_remaining(theta, x0, u0, s2)
-        grid, x = self._remaining2(theta, x0, s2)
+            return self._smooth_remaining(theta, x0, u0, s2, reference)
+        grid, x = self._remaining2(theta, x0, s2, u0)
         return Profile(grid, x)
 
     def stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, *, second_order: bool = False) -> Profile:
@@ -186,6 +218,25 @@ class Retimer:
         if self.third_order and not second_order:
             return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
         return Profile(grid, x)
+
+    def compiled_remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0,
+                           override: float = 1.0) -> Profile | None:
+        """Jerk limits: the compiled pass's remaining profile alone (planning/retime_jerk.py), None where it gives
+        no answer (a state at rest, a state it finds no merge from: ``remaining`` then solves the sequential LP)."""
+        theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
+        if not self.third_order:
+            raise PathmotionError("Retimer.compiled_remaining: the plan has no jerk or torque-rate limit; "
+                                  "use remaining (its second-order pass is compiled)")
+        return self._compiled(theta, x0, u0, _override(override) ** 2)
+
+    def _compiled(self, theta: float, x0: float, u0: float, s2: float) -> Profile | None:
+        i, j, f, *_ = self._first(theta)
+        if self._jerk is None or not self._jerk.applies(theta, i, j, x0):
+            return None
+        got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
+        if got is None:
+            return None
+        return Profile(np.concatenate([[theta], self.grid[j:]]), got[0] * s2, got[1] * s2)
 
     def resume(self, theta: float) -> Profile:
         """The time-optimal profile from rest at ``theta`` to the plan's end."""
@@ -244,8 +295,13 @@ class Retimer:
         return float(min((1.0 - f) * self._right.x_max[i] + f * self._left.x_max[i + 1],
                          max(self._right.x_max[i], self._left.x_max[i + 1])))
 
-    def _remaining2(self, theta: float, x0: float, s2: float) -> tuple[np.ndarray, np.ndarray]:
-        """Second-order remaining profile (grid, x) from (theta, x0) at the override s^2 = ``s2``."""
+    def _remaining2(self, theta: float, x0: float, s2: float, u0: float | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Second-order remaining profile (grid, x) from (theta, x0) at the override s^2 = ``s2``. Its first
+        interval (theta to the next grid point) keeps the state's acceleration ``u0`` where the rows and K
+        allow it, from a moving state (the nearest allowed u otherwise, and never one that leaves less than
+        KEPT_FLOOR of the larger of x0 and the greedy step's x at the grid point; None: the greedy step), then the
+        greedy pass."""
         g, P, Q, R = self.grid, self._P, self._Q, self._R
         i, j, f, _, P0, Q0, R0 = self._first(theta)
         y0 = x0 / s2
@@ -253,6 +309,9 @@ class Retimer:
         out = self._buffer
         if lo * (1 - STATE_TOLERANCE) - STATE_TOLERANCE <= y0 <= hi * (1 + STATE_TOLERANCE):
             xj = max(step_up(P0, Q0, R0, 0, y0, self._khi[j]), self._klo[j])
+            if u0 is not None and y0 > 0.0:  # the moving state's acceleration, within the rows and K_j
+                low = max(step_down(P0, Q0, R0, 0, y0)[0], self._klo[j], KEPT_FLOOR * max(y0, xj))
+                xj = min(max(y0 + 2.0 * (u0 / s2) * (g[j] - theta), low), xj)
             greedy_from(P, Q, R, self._klo, self._khi, j, xj, out)
             return np.concatenate([[theta], g[j:]]), s2 * np.concatenate([[y0], out[:len(g) - j]])
         lo1, hi1 = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, np.inf, 0.0)
@@ -319,10 +378,15 @@ class Retimer:
     @staticmethod
     def _stop_grid(theta, x0, inner_grid, inner_x, d, width) -> tuple[np.ndarray, np.ndarray]:
         """The stop's (grid, x): the state, the inner points, and the stop point ``d`` after the last of them
-        (the interval's end ``width`` when the rows gave no shorter distance)."""
+        (the interval's end ``width`` when the rows gave no shorter distance). The last interval (constant u, x
+        linear in theta) carries STOP_SUBDIVISION points: the same motion, whose certified bound is then as
+        tight as on the others (a stop where Phi' = 0 is one short interval, whose bound alone is loose)."""
         d = width if not np.isfinite(d) else min(max(d, 1e-9 * width), width)
         last = inner_grid[-1] if inner_grid.size else theta
-        return np.concatenate([[theta], inner_grid, [last + d]]), np.concatenate([[x0], inner_x, [0.0]])
+        x_last = inner_x[-1] if inner_x.size else x0
+        share = np.arange(1, STOP_SUBDIVISION) / STOP_SUBDIVISION
+        return (np.concatenate([[theta], inner_grid, last + d * share, [last + d]]),
+                np.concatenate([[x0], inner_x, x_last * (1.0 - share), [0.0]]))
 
     def _next_stop(self, j: int) -> int:
         return int(self._stops[np.searchsorted(self._stops, j)])
@@ -365,10 +429,11 @@ class Retimer:
 
     # --------------------------------------------------------------------------------------- third order
 
-    def _smooth_solve(self, grid: np.ndarray, x_start: np.ndarray, x0: float, u0: float, rest_end: bool,
-                      end_x: float | None) -> Profile:
-        """The third-order profile on ``grid`` from (x0, u0) (rest when x0 = 0) by the sequential LP,
-        linearized first around ``x_start``; at rest at its end (``rest_end``) or with x = ``end_x``."""
+    def _smooth_solve(self, grid: np.ndarray, x_start: np.ndarray, x0: float | None, u0: float, rest_end: bool,
+                      end_x: float | None, with_scale: bool = False):
+        """The third-order profile on ``grid`` from (x0, u0) (rest when x0 = 0; a free start when x0 is None) by
+        the sequential LP, linearized first around ``x_start``; at rest at its end (``rest_end``) or with x =
+        ``end_x``. ``with_scale``: (profile, the limits' point-wise scales it was tightened to)."""
         breaks = _grid_breaks(self.path, grid)
         samp = _sample(self.path, self.robot, grid, _with_knots(self.path, grid, breaks), third=True)
         k = len(grid)
@@ -376,9 +441,9 @@ class Retimer:
         rest[np.searchsorted(grid, [p for p in self.path.kinks if grid[0] < p < grid[-1]])] = True
         rest[-1] = rest_end
         fixed, fixed_u = {}, {}
-        if x0 <= 0.0:
+        if x0 is not None and x0 <= 0.0:
             rest[0] = True
-        else:
+        elif x0 is not None:
             fixed[0], fixed_u[0] = x0, u0
         if not rest_end and end_x is not None:
             fixed[k - 1] = end_x
@@ -389,7 +454,7 @@ class Retimer:
             worst = max((float(b.max()) for b in bounds.values() if b.size), default=0.0)
             log.debug("retimer: third-order profile on %d points, worst certified ratio %.5f", k, worst)
             if worst <= 1.0 + tol:
-                return profile
+                return (profile, scale) if with_scale else profile
             scale, x_start = _tightened(scale, bounds, tol), profile.x
         raise InfeasibleError(f"third-order re-timing: the profile still exceeds a limit by {100 * (worst - 1):.3g} % "
                               f"between grid points after {tighten} tightening iterations; raise limit_tolerance")
@@ -418,8 +483,14 @@ class Retimer:
         raise InfeasibleError(f"third-order limits: no smooth profile from theta_dot = {np.sqrt(fixed.get(0, 0.0)):.6g}"
                               f", theta_ddot = {fixed_u.get(0, 0.0):.6g} meets the limits on this grid")
 
-    def _smooth_remaining(self, theta: float, x0: float, u0: float, s2: float) -> Profile:
-        """Third-order remaining profile: the sequential LP from the second-order answer (an upper bound)."""
+    def _smooth_remaining(self, theta: float, x0: float, u0: float, s2: float, reference: bool = False) -> Profile:
+        """Third-order remaining profile: the compiled pass (planning/retime_jerk.py) from a moving state, else
+        (or with ``reference``) the sequential LP from the second-order answer (an upper bound)."""
+        if not reference:
+            fast = self._compiled(theta, x0, u0, s2)
+            if fast is not None:
+                return fast
+            log.debug("retimer: no answer of the compiled pass from theta = %.6g; sequential LP", theta)
         try:
             grid, x2 = self._remaining2(theta, x0, s2)
         except StateInfeasibleError:  # the smooth interpolation may lie a little above the interval form's K
@@ -466,7 +537,10 @@ class Retimer:
         bound, grown by SMOOTH_STOP_GROWTH, then bisected to SMOOTH_STOP_ACCURACY) whose smooth stop exists."""
         _, j, _, _, _, _, _ = self._first(theta)
         d_max = float(self.grid[self._next_stop(j)] - theta)
-        unit = np.linspace(0.0, 1.0, SMOOTH_STOP_POINTS)
+        # graded towards the state: a state with a large acceleration turns it at the jerk limit within a
+        # small fraction of the stop, which the uniform points alone do not resolve (no trial would succeed)
+        unit = np.union1d(np.linspace(0.0, 1.0, SMOOTH_STOP_POINTS),
+                          np.geomspace(SMOOTH_STOP_FIRST, 1.0 / (SMOOTH_STOP_POINTS - 1), SMOOTH_STOP_GRADED))
 
         def trial(d):
             grid = theta + d * unit

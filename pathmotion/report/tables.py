@@ -13,6 +13,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import PathmotionError
+from ..io.exports import read_table_csv
 from ..io.files import read_input
 from ..io.schema import LIMITS
 
@@ -53,29 +54,8 @@ def limit_curve_label(name: str, summary: dict) -> str:
 
 def read_columns(path: str | Path, required: Sequence[str] = ()) -> dict[str, np.ndarray]:
     """A numeric CSV with a header line (trajectory.csv, simulation.csv, phase_plane.csv) as
-    {column: (N,) float array}; PathmotionError when a ``required`` column is missing or the table
-    has no rows while columns are required."""
-    path = Path(path)
-    text = read_input(path, "result")  # a regular file under the result cap (a FIFO would hang)
-    try:
-        fh = io.StringIO(text, newline="")
-        header = fh.readline().strip().split(",")
-        data = np.loadtxt(fh, delimiter=",", ndmin=2) if header != [""] else np.empty((0, 0))
-    except ValueError as exc:
-        raise PathmotionError(f"report: cannot read the table {path}: {exc}; "
-                              "re-run the command that wrote it") from None
-    if header == [""] or (data.size and data.shape[1] != len(header)):
-        raise PathmotionError(f"report: {path} has {data.shape[1] if data.size else 0} values per row but "
-                              f"{len(header)} column names; re-run the command that wrote it")
-    missing = [name for name in required if name not in header]
-    if missing:
-        raise PathmotionError(f"report: {path} has no column(s) {missing}; it was written by another version of "
-                              "pathmotion or edited: re-run the command that wrote it")
-    if not data.size:
-        if required:
-            raise PathmotionError(f"report: {path} has no rows; re-run the command that wrote it")
-        return {name: np.empty(0) for name in header}
-    return {name: data[:, k] for k, name in enumerate(header)}
+    {column: (N,) float array} (:func:`pathmotion.io.exports.read_table_csv`, errors headed "report")."""
+    return read_table_csv(path, required, "report")
 
 
 def _cell(text: str):

@@ -22,7 +22,6 @@ import itertools
 import json
 import logging
 import math
-import re
 import signal
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -31,17 +30,15 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from ..errors import PathmotionError, ScenarioError
+from ..errors import ScenarioError
 from ..io.atomic import atomic_path, write_json, write_text
 from ..io.files import mark_result
 from ..io import schema
 from ..io.scenario import parse_value
+from ..io.scheduler import dask_client
 from .point import SUMMARY_KEYS, run_point
 
 log = logging.getLogger(__name__)
-
-#: [PROTOCOL://]HOST:PORT of a Dask scheduler (the form --scheduler accepts).
-_DASK_ADDRESS = re.compile(r"^((tcp|tls|ws|wss|ucx)://)?([A-Za-z0-9_.\-]+|\[[0-9a-fA-F:]+\]):(\d{1,5})/?$")
 
 #: A sweep's progress callback: on_result(done, total) after each finished point (and once at the start).
 OnResult = Callable[[int, int], None]
@@ -292,36 +289,10 @@ def _run_processes(workers: int, args, todo, record, point_fn, traces) -> None:
     pool.shutdown(wait=True)
 
 
-def _bad_address(address, detail: str = "") -> ScenarioError:
-    """The error for a --scheduler value that is not [PROTOCOL://]HOST:PORT (``detail``: Dask's reason)."""
-    return ScenarioError(f"scheduler address {str(address)[:80]!r} is not a Dask scheduler address{detail}; give "
-                         "tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786")
-
-
-def check_scheduler_address(address) -> str:
-    """``address`` when it has the form [PROTOCOL://]HOST:PORT of a Dask scheduler (PORT 1..65535), else a
-    ScenarioError; checked before any work (distributed itself may assert on a malformed one)."""
-    match = _DASK_ADDRESS.match(address) if isinstance(address, str) else None
-    if match is None or not 0 < int(match.group(4)) < 65536:
-        raise _bad_address(address)
-    return address
-
-
 def _run_dask(address: str, args, todo, record, point_fn, traces) -> None:
-    try:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
-    except ImportError:  # pragma: no cover - dask is a runtime dependency
-        raise PathmotionError("--scheduler needs dask distributed: pip install 'dask[distributed]'") from None
-    check_scheduler_address(address)
-    try:
-        client = Client(address, timeout="10s")
-    except (ValueError, TypeError) as exc:  # malformed: no port, unknown scheme
-        raise _bad_address(address, f" ({exc})") from None
-    except (OSError, TimeoutError) as exc:
-        raise PathmotionError(f"cannot reach the Dask scheduler at {address}: {exc}; is it running "
-                              "(dask scheduler) with workers (dask worker ADDRESS)?") from None
-    try:
+    from distributed import as_completed as dask_completed
+
+    with dask_client(address) as client:
         futures = {client.submit(point_fn, *args, p.overrides, traces, key=f"pathmotion-point-{p.key}", pure=False): p
                    for p in todo}
         for fut in dask_completed(list(futures)):
@@ -330,5 +301,3 @@ def _run_dask(address: str, args, todo, record, point_fn, traces) -> None:
             except Exception as exc:  # a lost worker: record it, keep the others
                 result = _lost(exc)
             record(futures[fut], result)
-    finally:
-        client.close()

@@ -1,0 +1,463 @@
+"""Compiled jerk-limited re-timing: a forward pass from a moving state that merges into a ceiling profile.
+
+The smooth profile's form is that of planning/third_order.py and planning/smooth.py: x = theta_dot^2 and
+u = theta_ddot at the grid points, u linear in each interval's stretched coordinate xi, so that
+x_{k+1} = x_k + 2 (w0_k u_k + w1_k u_{k+1}) and u' = du/dtheta = (u_{k+1} - u_k) dl_k at the interval's start,
+(u_{k+1} - u_k) dh_k at its end. The limits at every point: the order-2 rows lo <= a u + b x + c <= hi, the
+bound x <= x_max, and the order-3 rows |sqrt(x) (a3 u' + a u + b x + c)| <= lim (joint jerk, torque rate).
+
+At construction (:class:`JerkPass`), on the plan's grid: the rows on both sides of every point, the
+interval weights, and the ceiling C: the smooth time-optimal profile with a free start (the project's
+sequential LP, certified and tightened as a plan is), the fastest smooth motion to the plan's end.
+
+A query (:func:`forward`) walks from the state over the grid points up to the next rest point. Its step is
+the largest u_{k+1} the rows allow from which the descent (u turned towards C's u as fast as the rows
+allow) still ends on or below C, found by bisection when the largest step does not; above C the least
+step. At every point of the walk, and where its descent ends, merges into C over N = MERGE_LENGTHS
+intervals are tried: u = u_C + d (1 - s) + alpha s (1 - s), s the fraction of the merge, d the offset
+from u_C, alpha the value that ends the merge on C's x. Of those whose rows hold, the one of the least
+total time (walk, descent, merge, C's rest) is the answer, C from its end on. Every step and merge meets
+every row at CHECK_POINTS of each interval (the inner points' path data sampled at construction, the first
+interval's at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
+certified bounds of a result are checked like a plan's (Retimer.certify) in the tests and the benchmark.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .. import defaults
+from . import smooth
+from .limit_rows import limit_rows
+from .planner import _sample
+
+#: Where each interval's rows are checked: fractions of the interval from its start to its end [-].
+CHECK_POINTS = (0.0, 0.25, 0.5, 0.75, 1.0)
+#: Merge lengths tried, in grid intervals [-].
+MERGE_LENGTHS = np.array([2, 4, 8, 16, 32])
+#: Relative slack of the rows' checks (round-off) [-].
+ROW_SLACK = 1e-9
+#: The pass keeps this fraction below every limit (velocity, order-2 and order-3 rows) at its check points,
+#: for what the rows do between them; along a merge the margin fades out to the ceiling's full limits [-].
+PASS_MARGIN = 0.01
+#: The state itself may exceed an order-2 row by this fraction (the plans' limit tolerance: a plan's own state
+#: lies on its limits within it) [-].
+STATE_TOLERANCE = defaults.LIMIT_TOLERANCE
+#: Least x (relative to the state's) at a point where the motion does not rest [-].
+X_FLOOR = 1e-12
+
+
+class JerkPass:
+    """The state-independent data of the pass on ``grid`` (K,): ``samp`` the third-order path data (both
+    sides), ``scale`` the limits' point-wise scales {name: (K, m)}, ``ceiling`` the smooth Profile C on
+    ``grid``. Every interval carries Q check points (CHECK_POINTS: its start, inner points, its end): their rows
+    p2 (five (Q, K-1, m2)), p3 (five (Q, K-1, m3)), x_max px (Q, K-1), and pc (4, Q, K-1): x = x_k + 2 u_k pc[0] +
+    2 (u_{k+1} - u_k) pc[1], u = u_k + pc[2] (u_{k+1} - u_k), u' = pc[3] (u_{k+1} - u_k) there."""
+
+    def __init__(self, path, robot, grid, samp, limits, scale, ceiling):
+        self.grid = grid = np.ascontiguousarray(grid, float)
+        self.cx = np.ascontiguousarray(ceiling.x)
+        self.cu = np.ascontiguousarray(ceiling.u_nodes)
+        self.rest = self.cx <= 0.0
+        self.rest_index = np.nonzero(self.rest)[0]
+        self._buffers = (np.empty(len(grid) + 1), np.empty(len(grid) + 1))  # the pass's work arrays
+        self.tc = np.ascontiguousarray(np.concatenate([np.cumsum(ceiling.intervals[::-1])[::-1], [0.0]]))
+        self.origin, self.sign = smooth.coordinates(grid, self.rest)
+        self.pc = point_coefficients(grid, self.origin, self.sign)
+        self.path, self.robot, self.limits = path, robot, limits
+        self._inner_scale = inner_scale = {n: np.minimum(v[:-1], v[1:]) for n, v in scale.items()}
+        inner = [(_sample_points(path, robot, (1.0 - a) * grid[:-1] + a * grid[1:]), inner_scale, slice(None))
+                 for a in CHECK_POINTS[1:-1]]
+        points = [(samp.right, scale, slice(0, -1)), *inner, (samp.left, scale, slice(1, None))]
+        rows2 = [limit_rows(pts, limits, sc, defaults.PLANNER_X_CAP) for pts, sc, _ in points]
+        self.p2 = tuple(np.ascontiguousarray(np.stack([getattr(r, n)[sl] for r, (_, _, sl) in zip(rows2, points)]))
+                        for n in ("a", "b", "c", "lo", "hi"))
+        self.px = np.ascontiguousarray(np.stack([r.x_max[sl] for r, (_, _, sl) in zip(rows2, points)]))
+        third = [[lim.rows3(pts, sc[lim.name]) for lim in limits if lim.order == 3] for pts, sc, _ in points]
+        self.p3 = tuple(np.ascontiguousarray(np.stack([np.concatenate([np.asarray(r[f]) for r in side], axis=1)[sl]
+                                                       for side, (_, _, sl) in zip(third, points)]))
+                        for f in range(5))
+
+    def ceiling_at(self, i: int, theta: float) -> tuple[float, float]:
+        """(x, u) of C at theta in grid interval i."""
+        x, u, _ = smooth.state(self.grid, self.cx, self.cu, self.origin, self.sign, np.array(i), np.array(theta))
+        return float(x), float(u)
+
+    def _first(self, theta: float, i: int, f: float, j: int) -> tuple:
+        """The first output interval [theta, grid[j]]: its check points' rows (five (Q, m2)), (five (Q, m3)),
+        x_max (Q,) and coefficients (4, Q); the path data sampled at its points (its end: grid point j's), the
+        limits scaled as on grid interval i."""
+        g = self.grid
+        pc = point_coefficients(np.array([theta, g[j]]), self.origin[j - 1:j], self.sign[j - 1:j])[:, :, 0]
+        inner = theta + np.array(CHECK_POINTS[:-1]) * (g[j] - theta)
+        pts = _sample_points(self.path, self.robot, inner)
+        scale = {n: np.repeat(v[i:i + 1], len(inner), axis=0) for n, v in self._inner_scale.items()}
+        rows2 = limit_rows(pts, self.limits, scale, defaults.PLANNER_X_CAP)
+        rows3 = [lim.rows3(pts, scale[lim.name]) for lim in self.limits if lim.order == 3]
+        p2 = tuple(np.ascontiguousarray(np.concatenate([getattr(rows2, n), r[-1, j - 1][None]]))
+                   for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
+        p3 = tuple(np.ascontiguousarray(np.concatenate([np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1),
+                                                        r[-1, j - 1][None]])) for k, r in enumerate(self.p3))
+        px = np.ascontiguousarray(np.append(rows2.x_max, self.px[-1, j - 1]))
+        return p2, p3, px, np.ascontiguousarray(pc)
+
+    @staticmethod
+    def _state_share(first, x0: float, u0: float) -> float:
+        """The share of the order-2 limits the state (x0, u0) takes at its point, at least 1 + STATE_TOLERANCE:
+        the limits at the state (the pass refuses a state above 1 + STATE_TOLERANCE)."""
+        a, b, c, lo, hi = (r[0] for r in first[0])
+        val = a * u0 + b * x0 + c
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.where(val > 0, val / hi, val / lo)
+        return float(max(np.max(share[np.isfinite(share)], initial=0.0), 1.0 + STATE_TOLERANCE))
+
+    def applies(self, theta: float, i: int, j: int, x0: float) -> bool:
+        """Whether the pass answers from (theta in grid interval i, j the first grid point after it, x0): a moving
+        state (x0 > 0) where C's coordinate is measured from the next rest point (before the middle of a stretch
+        after a rest point C's is measured from that rest point, a profile from a moving state's is not)."""
+        nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
+        return x0 > 0.0 and not np.any(self.sign[i:nxt] > 0)
+
+    def remaining(self, theta: float, i: int, f: float, j: int, x0: float, u0: float):
+        """(x, u) on [theta, grid[j:]] from the state (x0 > 0, u0) at theta (grid interval i at the fraction f;
+        j the first grid point after it; the pass must apply there), or None when the pass finds no merge."""
+        nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
+        xc0, uc0 = self.ceiling_at(i, theta)
+        grid_data = (self.p2, self.p3, self.px, self.pc, self.cx, self.cu)
+        first = self._first(theta, i, f, j)
+        share = self._state_share(first, x0, u0)
+        if share > 1.0 + STATE_TOLERANCE:
+            return None
+        first = (*first, share)
+        xs, us = self._buffers
+        end = forward(grid_data, first, self.tc, j, nxt, x0, u0, xc0, uc0, MERGE_LENGTHS, xs, us)[1]
+        if end < 0:
+            return None
+        return (np.concatenate([xs[:end], self.cx[j + end - 1:]]), np.concatenate([us[:end], self.cu[j + end - 1:]]))
+
+
+def _sample_points(path, robot, theta):
+    """Third-order path data at the points ``theta`` (interior points of the path's pieces)."""
+    return _sample(path, robot, theta, (), third=True).right
+
+
+def point_coefficients(grid, origin, sign) -> np.ndarray:
+    """(4, Q, K-1): per interval of ``grid`` in the coordinates (origin, sign) (planning/smooth.py) and per
+    check point (CHECK_POINTS), the coefficients (cxu, cxv, lam, dp) of x = x_k + 2 u_k cxu + 2 (u_{k+1} - u_k)
+    cxv, u = u_k + lam (u_{k+1} - u_k), u' = dp (u_{k+1} - u_k)."""
+    lo, hi = grid[:-1], grid[1:]
+    xi_lo, xi_hi, _, w1 = smooth.weights(grid, origin, sign)
+    span = xi_hi - xi_lo
+    out = np.zeros((4, len(CHECK_POINTS), len(lo)))
+    with np.errstate(divide="ignore"):  # infinite next to a rest point, where no row is checked
+        for q, a in enumerate(CHECK_POINTS):
+            th = hi if a == 1.0 else (1.0 - a) * lo + a * hi
+            xi = xi_hi if a == 1.0 else (xi_lo if a == 0.0 else smooth.xi_of(origin, sign, th))
+            out[0, q] = th - lo
+            out[1, q] = w1 if a == 1.0 else smooth.xi_integral(origin, sign, lo, th) / span
+            out[2, q] = (xi - xi_lo) / span
+            out[3, q] = 1.0 / (smooth.dtheta_dxi(sign, xi) * span)
+    return np.ascontiguousarray(out)
+
+
+# ----------------------------------------------------------------------------------------------- kernels
+
+
+@njit(cache=True, inline="always")
+def _cut(low, high, q, bot, top):
+    """[low, high] narrowed to the v with bot <= q v <= top; (low, high, False) when none."""
+    if q > 0.0:
+        return max(low, bot / q), min(high, top / q), True
+    if q < 0.0:
+        return max(low, top / q), min(high, bot / q), True
+    return low, high, not (top < 0.0 or bot > 0.0)
+
+
+@njit(cache=True, inline="always")
+def _point(k, q, j, grid_data, first):
+    """Check point q (CHECK_POINTS) of output interval k (0: the first, from the state; k >= 1:
+    grid interval j + k - 1): (rows2, rows3, x_max, cxu, cxv, lam, dp)."""
+    p2, p3, px, pc, _, _ = grid_data
+    if k == 0:
+        f2, f3, fx, fc, _ = first
+        return ((f2[0][q], f2[1][q], f2[2][q], f2[3][q], f2[4][q]), (f3[0][q], f3[1][q], f3[2][q], f3[3][q], f3[4][q]),
+                fx[q], fc[0, q], fc[1, q], fc[2, q], fc[3, q])
+    g = j + k - 1
+    return ((p2[0][q, g], p2[1][q, g], p2[2][q, g], p2[3][q, g], p2[4][q, g]),
+            (p3[0][q, g], p3[1][q, g], p3[2][q, g], p3[3][q, g], p3[4][q, g]),
+            px[q, g], pc[0, q, g], pc[1, q, g], pc[2, q, g], pc[3, q, g])
+
+
+@njit(cache=True, inline="always")
+def _ceiling(k, j, grid_data, xc0, uc0):
+    """(x, u) of C at output point k."""
+    if k == 0:
+        return xc0, uc0
+    cx, cu = grid_data[4], grid_data[5]
+    return cx[j + k - 1], cu[j + k - 1]
+
+
+@njit(cache=True)
+def _interval_ok(k, j, grid_data, first, x, u, v, floor, check_end, keep0, keep1):
+    """Whether every row holds at the check points of output interval k from (x, u) with u_{k+1} = v, the
+    limits times ``keep0`` at its start to ``keep1`` at its end (linear between; the end point's order-2 rows
+    and bounds only with ``check_end``)."""
+    nq = grid_data[3].shape[1]
+    for q in range(nq):
+        r2, r3, xmax, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
+        keep = keep0 + (keep1 - keep0) * q / (nq - 1)
+        xp = x + 2.0 * u * cxu + 2.0 * (v - u) * cxv
+        up = u + lam * (v - u)
+        if q > 0 and (q < nq - 1 or check_end):
+            if xp < floor or xp > xmax * keep * keep:
+                return False
+            if not _rows2_within(r2, xp, up, keep):
+                return False
+        if xp > 0.0 and np.isfinite(dp):
+            a3, a, b, c, lim = r3
+            sx = np.sqrt(xp)
+            for r in range(a3.shape[0]):
+                if abs(sx * (a3[r] * dp * (v - u) + a[r] * up + b[r] * xp + c[r])) > keep * lim[r] * (1.0 + ROW_SLACK):
+                    return False
+    return True
+
+
+@njit(cache=True)
+def _rows2_within(r2, x, u, keep):
+    """lo keep <= a u + b x + c <= hi keep on the rows r2 = (a, b, c, lo, hi)."""
+    a, b, c, lo, hi = r2
+    for r in range(a.shape[0]):
+        val = a[r] * u + b[r] * x + c[r]
+        slack = ROW_SLACK * (abs(lo[r]) + abs(hi[r]))
+        if val > keep * hi[r] + slack or val < keep * lo[r] - slack:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _start_keep(k, keep, first):
+    """The share of the limits kept at the start of output interval k: ``keep``, but at the state (k = 0) what
+    the state itself takes (first[4]; the state is given, the margin fades in over its interval)."""
+    return first[4] if k == 0 else keep
+
+
+@njit(cache=True)
+def _bounds(k, j, grid_data, first, x, u, floor):
+    """(least, largest) u_{k+1} that output interval k's check points allow from (x, u) at its start, and the
+    interval's (w0, w1); (inf, -inf) when none. The order-3 rows at the middle and the end take sqrt(x) at its
+    largest over the range: conservative for every u_{k+1} in it."""
+    low, high, ok = -np.inf, np.inf, True
+    nq = grid_data[3].shape[1]
+    keep0 = _start_keep(k, 1.0 - PASS_MARGIN, first)
+    for q in range(1, nq):
+        keep = keep0 + (1.0 - PASS_MARGIN - keep0) * q / (nq - 1)
+        r2, _, xmax, cxu, cxv, lam, _ = _point(k, q, j, grid_data, first)
+        base = x + 2.0 * u * (cxu - cxv)  # x there = base + 2 cxv v
+        low, high, ok2 = _cut(low, high, 2.0 * cxv, floor - base, keep * keep * xmax - base)
+        ok = ok and ok2
+        a, b, c, lo, hi = r2
+        for r in range(a.shape[0]):
+            rest = a[r] * u * (1.0 - lam) + b[r] * base + c[r]
+            low, high, ok2 = _cut(low, high, a[r] * lam + 2.0 * b[r] * cxv, keep * lo[r] - rest, keep * hi[r] - rest)
+            ok = ok and ok2
+    if not ok or low > high:
+        return np.inf, -np.inf, 0.0, 0.0
+    for q in range(nq):
+        keep = keep0 + (1.0 - PASS_MARGIN - keep0) * q / (nq - 1)
+        _, r3, _, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
+        base = x + 2.0 * u * (cxu - cxv)
+        top = base + 2.0 * cxv * high
+        if top <= 0.0 or not np.isfinite(dp):
+            continue
+        sx = np.sqrt(top)
+        a3, a, b, c, lim = r3
+        for r in range(a3.shape[0]):
+            rest = -a3[r] * dp * u + a[r] * u * (1.0 - lam) + b[r] * base + c[r]
+            low, high, ok2 = _cut(low, high, a3[r] * dp + a[r] * lam + 2.0 * b[r] * cxv, -keep * lim[r] / sx - rest,
+                                  keep * lim[r] / sx - rest)
+            ok = ok and ok2
+    if not ok or low > high:
+        return np.inf, -np.inf, 0.0, 0.0
+    _, _, _, cxu, cxv, _, _ = _point(k, nq - 1, j, grid_data, first)
+    return low, high, cxu - cxv, cxv
+
+
+@njit(cache=True)
+def _merge(k, x, u, n, last, j, grid_data, first, xc0, uc0, floor, tc, budget, out_x, out_u, write):
+    """The merge from output point k (state x, u) into C over n intervals: its time [s] (chords: x linear per
+    interval), or nan when a row fails or when its time plus C's from where it stands reaches ``budget`` [s]
+    (``last``: the output point where the motion rests; tc: C's time to the end from each grid point).
+    ``write``: its points into out_x, out_u."""
+    xc, uc = _ceiling(k, j, grid_data, xc0, uc0)
+    d, e = u - uc, x - xc
+    sa, sb = 0.0, 0.0
+    nq = grid_data[3].shape[1]
+    for i in range(n):
+        a0, a1 = i / n, (i + 1) / n
+        _, _, _, cxu, cxv, _, _ = _point(k + i, nq - 1, j, grid_data, first)
+        sa += (cxu - cxv) * (1.0 - a0) + cxv * (1.0 - a1)
+        sb += (cxu - cxv) * a0 * (1.0 - a0) + cxv * a1 * (1.0 - a1)
+    if sb <= 0.0:
+        return np.nan
+    alpha = -(e + 2.0 * d * sa) / (2.0 * sb)
+    xi, ui, time = x, u, 0.0
+    keep = _start_keep(k, 1.0 - PASS_MARGIN, first)
+    for i in range(n):
+        p = k + i + 1
+        s = (i + 1) / n
+        xcp, ucp = _ceiling(p, j, grid_data, xc0, uc0)
+        v = ucp + d * (1.0 - s) + alpha * s * (1.0 - s)
+        if i == n - 1:
+            v = ucp
+        # the margin fades out along the merge: it ends on the ceiling, which keeps the limits in full (from the
+        # state itself, what the state takes)
+        if not _interval_ok(k + i, j, grid_data, first, xi, ui, v, floor, p < last and i < n - 1,
+                            keep + (1.0 - keep) * i / n, keep + (1.0 - keep) * s):
+            return np.nan
+        _, _, _, cxu, cxv, _, _ = _point(k + i, nq - 1, j, grid_data, first)
+        x1 = xcp if i == n - 1 else xi + 2.0 * ui * cxu + 2.0 * (v - ui) * cxv
+        if write:
+            out_x[p], out_u[p] = x1, v
+        time += 2.0 * cxu / (np.sqrt(xi) + np.sqrt(x1))
+        if time + tc[j + p - 1] >= budget:
+            return np.nan
+        xi, ui = x1, v
+    return time
+
+
+#: The walk goes on this many points after the point of the best merge [-].
+STALL = 3
+#: Bisection steps of the largest step from which the descent still stays below C [-].
+BISECTION_STEPS = 6
+#: x above C's by more than this fraction counts as above C [-].
+CROSS = 1e-9
+
+
+@njit(cache=True)
+def _descend(k, x, u, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u, write):
+    """The descent from output point k: u turned towards C's as fast as the rows allow (the least step while
+    above C) until it lies on or below C with u <= u_C there. Returns (m, x_m, u_m, time [s]) at that point,
+    m = -1 when it crosses above C (having been below) or the rows admit no step first. ``write``: its points
+    into out_x, out_u."""
+    xc, uc = _ceiling(k, j, grid_data, xc0, uc0)
+    above = x > xc * (1.0 + CROSS)
+    time = 0.0
+    for i in range(k, last):
+        xc, uc = _ceiling(i, j, grid_data, xc0, uc0)
+        if x <= xc * (1.0 + CROSS):
+            if u <= uc:
+                return i, x, u, time
+            above = False
+        elif not above:
+            return -1, x, u, time
+        if i == last - 1:
+            break
+        lo, hi, w0, w1 = _bounds(i, j, grid_data, first, x, u, floor)
+        if lo > hi:
+            break
+        _, ucn = _ceiling(i + 1, j, grid_data, xc0, uc0)
+        v = lo if x > xc * (1.0 + CROSS) else max(lo, min(hi, ucn))
+        x1 = x + 2.0 * (w0 * u + w1 * v)
+        if not _interval_ok(i, j, grid_data, first, x, u, v, floor, True, _start_keep(i, 1.0 - PASS_MARGIN, first),
+                            1.0 - PASS_MARGIN) or \
+                not _rows2_right(i + 1, j, grid_data, x1, v):
+            break
+        time += 2.0 * (w0 + w1) / (np.sqrt(x) + np.sqrt(x1))
+        x, u = x1, v
+        if write:
+            out_x[i + 1], out_u[i + 1] = x, u
+    return -1, x, u, time
+
+
+@njit(cache=True)
+def _rows2_right(k, j, grid_data, x, u):
+    """The order-2 rows at output point k >= 1 seen from the interval after it (they differ from the end
+    point's at breaks and knots); true at the grid's last point."""
+    p2 = grid_data[0]
+    g = j + k - 1
+    if g >= p2[0].shape[1]:
+        return True
+    return _rows2_within((p2[0][0, g], p2[1][0, g], p2[2][0, g], p2[3][0, g], p2[4][0, g]), x, u, 1.0 - PASS_MARGIN)
+
+
+@njit(cache=True)
+def _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u):
+    """The largest u_{k+1} in [the descent's own step, hi] (of output interval k from (x, u), weights w0, w1)
+    from which the descent still ends on or below C: hi, else by BISECTION_STEPS bisections."""
+    if _descend(k + 1, x + 2.0 * (w0 * u + w1 * hi), hi, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u,
+                False)[0] >= 0:
+        return hi
+    _, ucn = _ceiling(k + 1, j, grid_data, xc0, uc0)
+    low, top = max(lo, min(hi, ucn)), hi  # the descent's own step ends below C
+    for _ in range(BISECTION_STEPS):
+        mid = 0.5 * (low + top)
+        if _descend(k + 1, x + 2.0 * (w0 * u + w1 * mid), mid, last, j, grid_data, first, xc0, uc0, floor, out_x,
+                    out_u, False)[0] >= 0:
+            low = mid
+        else:
+            top = mid
+    return low
+
+
+@njit(cache=True)
+def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_u):
+    """The pass from the state (x0, u0) (output point 0) over the output points 1.. = grid points j.. up to
+    the rest point ``nxt`` (grid index): fills out_x, out_u up to the best merge's end and returns (its total
+    time [s], the first output point from which the profile is C's); (inf, -1) when no merge is found.
+    ``grid_data``: (p2, p3, px, pc, cx, cu) of JerkPass; ``first``: the first interval's check points and the
+    state's share of the limits (JerkPass._first, _state_share); tc (K,): C's time to the end from each grid
+    point; C at the state: xc0, uc0.
+
+    The walk: below C the largest step from which the descent still ends on or below C (the largest step the
+    rows allow, else a bisection down to the descent's own step), above C the least step. At every point of
+    the walk, the merges of every length from there and from where its descent ends are candidates; the one
+    of the least total time (walk, descent, merge, C's rest) is taken."""
+    last = nxt - j + 1
+    floor = X_FLOOR * x0
+    x, u = x0, u0
+    out_x[0], out_u[0] = x0, u0
+    if not _rows2_within(_point(0, 0, j, grid_data, first)[0], x0, u0, first[4]):
+        return np.inf, -1  # the state breaks a limit itself
+    best_t, best_k, best_m, best_n, t = np.inf, -1, -1, 0, 0.0
+    for k in range(last):
+        m, xd, ud, td = _descend(k, x, u, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u, False)
+        for start in range(2):
+            s0, sx, su, st = (k, x, u, 0.0) if start == 0 else (m, xd, ud, td)
+            if start == 1 and m <= k:
+                break
+            for n in lengths:
+                if s0 + n > last:
+                    break
+                tm = _merge(s0, sx, su, n, last, j, grid_data, first, xc0, uc0, floor, tc, best_t - t - st, out_x,
+                            out_u, False)
+                if np.isfinite(tm) and t + st + tm + tc[j + s0 + n - 1] < best_t:
+                    best_t, best_k, best_m, best_n = t + st + tm + tc[j + s0 + n - 1], k, s0, n
+        if (best_k >= 0 and k - best_k > STALL) or k == last - 1:
+            break
+        lo, hi, w0, w1 = _bounds(k, j, grid_data, first, x, u, floor)
+        if lo > hi:
+            break
+        xc, _ = _ceiling(k, j, grid_data, xc0, uc0)
+        if x > xc * (1.0 + CROSS):
+            v = lo
+        elif m < 0:
+            break
+        else:
+            v = _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u)
+        x1 = x + 2.0 * (w0 * u + w1 * v)
+        if not _interval_ok(k, j, grid_data, first, x, u, v, floor, True, _start_keep(k, 1.0 - PASS_MARGIN, first),
+                            1.0 - PASS_MARGIN) or \
+                not _rows2_right(k + 1, j, grid_data, x1, v):
+            break
+        t += 2.0 * (w0 + w1) / (np.sqrt(x) + np.sqrt(x1))
+        x, u = x1, v
+        out_x[k + 1], out_u[k + 1] = x, u
+    if best_k < 0:
+        return np.inf, -1
+    if best_m > best_k:
+        _descend(best_k, out_x[best_k], out_u[best_k], last, j, grid_data, first, xc0, uc0, floor, out_x, out_u,
+                 True)
+    _merge(best_m, out_x[best_m], out_u[best_m], best_n, last, j, grid_data, first, xc0, uc0, floor, tc, np.inf,
+           out_x, out_u, True)
+    return best_t, best_m + best_n
