@@ -829,6 +829,27 @@ def test_the_neighbour_pass_keeps_the_guarantees_and_is_deterministic(caplog):
     assert parallel.shapes == both.shapes and parallel.duration == both.duration
 
 
+def test_corners_searched_on_a_dask_cluster_equal_the_search_in_one_process(caplog):
+    """With a scheduler, every corner's search (both passes) is a task on the Dask cluster, and the blends equal
+    those searched in this process."""
+    import logging
+
+    distributed = pytest.importorskip("distributed")
+    from pathmotion.planning.blend_search import FAST
+
+    path, tol = _polyline(ZIGZAG), 0.004
+    kw = dict(settings=SETTINGS, search=FAST, steps=2, racing_steps=2, search_grid_points=200, polish_plans=0,
+              neighbour_pass=True)
+    here = optimal_blends(_robot(), path, tol, **kw)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                   dashboard_address=None) as cluster, \
+            caplog.at_level(logging.INFO, logger="pathmotion.io.scheduler"):
+        clustered = optimal_blends(_robot(), path, tol, scheduler=cluster.scheduler_address, **kw)
+    # the first pass (3 corners) and the neighbour pass's even corners (2); its one odd corner runs here
+    assert caplog.text.count("corner-search: ") == 2
+    assert clustered.shapes == here.shapes and clustered.duration == here.duration
+
+
 def test_the_polish_on_a_fixed_grid_reports_the_full_grids_duration(caplog):
     """Stage 8 on ``polish_grid_points`` grid points: its blend is planned on the full grid, where the duration is
     reported and kept only if faster than the candidate it started from, so the result is never slower than without

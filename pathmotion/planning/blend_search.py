@@ -990,8 +990,14 @@ def _search_one(job: _CornerJob) -> _Found:
                   capped, tuple(searched), plans)
 
 
-def _search_all(jobs: list[_CornerJob], workers: int) -> dict[int, _Found]:
-    """Every corner's search, on ``workers`` local processes (1: in this process), in corner order."""
+def _search_all(jobs: list[_CornerJob], workers: int, scheduler: str | None = None) -> dict[int, _Found]:
+    """Every corner's search, in corner order: each a task on the Dask cluster at ``scheduler`` ([PROTOCOL://]HOST:PORT)
+    when given, else on ``workers`` local processes (1: in this process)."""
+    if scheduler is not None and len(jobs) > 1:
+        from ..io.scheduler import run_on_cluster
+
+        return dict(zip((job.corner for job in jobs), run_on_cluster(scheduler, _search_one, [(job,) for job in jobs],
+                                                                      "corner-search")))
     if workers <= 1 or len(jobs) <= 1:
         return {job.corner: _search_one(job) for job in jobs}
     from concurrent.futures import ProcessPoolExecutor
@@ -1009,13 +1015,15 @@ _CLASSES = ("quintic", "s_curve", "in_plane", "joined", "before_joint", "before_
 def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: Sequence[int] | None = None,
                    settings: PlanSettings | None = None, q_start=None, *, search: SearchSettings = THOROUGH,
                    planar: Sequence[int] = (), joined_ends: Sequence[int] = (),
-                   names: Mapping[int, str] | None = None, workers: int = 1, **changes) -> OptimalBlend:
+                   names: Mapping[int, str] | None = None, workers: int = 1, scheduler: str | None = None,
+                   **changes) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection indices, default
     every sharp corner) of ``original`` that minimise the time-optimal duration under ``settings`` (module docstring),
     searched as ``search`` says (``changes``: SearchSettings fields to override, e.g. ``polish_plans=0``). The
     corners in ``planar`` stay in their plane; those in ``joined_ends`` join the lines even at a path end where the
     motion rests. Each corner is searched from the symmetric blends at the others, so the corners are independent:
-    ``workers`` > 1 searches them on that many local processes, with the same result. PathError as
+    ``workers`` > 1 searches them on that many local processes, ``scheduler`` (a Dask scheduler's address) on its
+    cluster, with the same result. PathError as
     :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does not
     fit."""
     search = dataclasses.replace(search, **changes) if changes else search
@@ -1036,23 +1044,25 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         jobs.append(_CornerJob(robot, original, initial, k, tol[k], coarse, q_start, ends, racing, k in planar,
                                windowed, search))
-    found, first = _search_all(jobs, workers), None
+    found, first = _search_all(jobs, workers, scheduler), None
     if search.neighbour_pass and len(jobs) > 1:
-        first, found = found, _neighbour_pass(jobs, found, workers)
+        first, found = found, _neighbour_pass(jobs, found, workers, scheduler)
     return _chosen(robot, original, symmetric, initial, found, settings, q_start, search, planar, windowed, first)
 
 
-def _neighbour_pass(jobs: list[_CornerJob], found: dict[int, _Found], workers: int) -> dict[int, _Found]:
+def _neighbour_pass(jobs: list[_CornerJob], found: dict[int, _Found], workers: int, scheduler: str | None = None
+                    ) -> dict[int, _Found]:
     """Every corner searched again from its first-pass blend (``found``) with its neighbours' found blends in place:
     the corners at even places in corner order first (their neighbours' first-pass blends), then those at odd places
-    (their neighbours' blends just found), so that each half's searches are independent (on ``workers`` processes).
+    (their neighbours' blends just found), so that each half's searches are independent (on ``workers`` processes
+    or the cluster at ``scheduler``).
     A corner's blend changes the speed its neighbours' windows are entered and left at, and so their fastest blends.
     Returns what both passes found per corner: the second pass's blends, the candidates of both."""
     shapes = {**jobs[0].shapes, **{k: f.best for k, f in found.items()}}
     again: dict[int, _Found] = {}
     for half in (jobs[0::2], jobs[1::2]):
         redo = [dataclasses.replace(job, shapes=dict(shapes), warm=_coordinates(found[job.corner])) for job in half]
-        for k, f in _search_all(redo, workers).items():
+        for k, f in _search_all(redo, workers, scheduler).items():
             again[k], shapes[k] = f, f.best
     log.info("blend search: the neighbour pass: %d corners searched again with their neighbours' blends", len(again))
     return {k: dataclasses.replace(again[k], searched=found[k].searched + again[k].searched,
