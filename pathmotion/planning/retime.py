@@ -215,7 +215,8 @@ class Retimer:
         torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step): the
         fallback of a caller that must stop when no jerk-limited stop exists. With jerk limits the stop is the
         compiled one (planning/retime_stop.py), the sequential-LP search where it finds none or with
-        ``reference`` (slow; the reference the compiled stop is tested against)."""
+        ``reference`` (slow; the reference the compiled stop is tested against), and where neither finds one
+        (without ``reference``), the time-optimal motion to the next point where the plan's profile rests."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
@@ -227,8 +228,27 @@ class Retimer:
             log.debug("retimer: no compiled jerk-limited stop from theta = %.6g; sequential LP", theta)
         grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
         if self.third_order and not second_order:
-            return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
+            try:
+                return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
+            except StateInfeasibleError:
+                rest = None if reference else self._to_next_rest(theta, x0, u0)
+                if rest is None:
+                    raise
+                log.info("retimer: no shorter jerk-limited stop from theta = %.6g; the time-optimal motion to the "
+                         "next rest point %.6g", theta, rest.grid[-1])
+                return rest
         return Profile(grid, x)
+
+    def _to_next_rest(self, theta: float, x0: float, u0: float) -> Profile | None:
+        """Jerk limits: the remaining profile from the state (the compiled pass, else the sequential LP) up to its
+        first rest point after it (a kink, a stop of the plan or the path's end): a stop within every limit where
+        none shorter is found; None where no remaining profile exists."""
+        try:
+            got = self._smooth_remaining(theta, x0, u0, 1.0)
+        except StateInfeasibleError:
+            return None
+        k = int(np.argmax(got.x[1:] <= 0.0)) + 1
+        return Profile(got.grid[:k + 1], got.x[:k + 1], got.u_nodes[:k + 1])
 
     def compiled_stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0) -> Profile | None:
         """Jerk limits: the compiled stop alone (planning/retime_stop.py), None where it finds none (``stop``
@@ -245,11 +265,11 @@ class Retimer:
             return None
         end = float(self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))])
         s, x, u = self._stop_buffers
-        n, stop = retime_stop.shortest(theta, x0, u0, 1.0 + defaults.LIMIT_TOLERANCE, end, self.grid, jp.p2, jp.p3, jp.px,
-                                    s, x, u)
+        n, _ = retime_stop.shortest(theta, x0, u0, 1.0 + defaults.LIMIT_TOLERANCE, end, self.grid, jp.p2, jp.p3,
+                                    jp.px, s, x, u)
         if n < 0:
             return None
-        got = retime_stop.profile_of(s[:n], x[:n], u[:n], stop)
+        got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, self.grid, jp.p2, jp.p3, jp.px)
         return None if got is None else Profile(*got)
 
     def compiled_remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0,
