@@ -94,7 +94,8 @@ def _lp_stop(rt, theta, v, a):
         return None
 
 
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(where=st.floats(0.05, 0.9), speed=st.floats(0.05, 1.0), acc=st.floats(-1.0, 1.0))
 def test_compiled_stop_against_the_sequential_lp_from_random_states(torque_jerk, where, speed, acc):
     # the compiled stop, where it answers: feasible on the dense resample, continuous at the switch (speed,

@@ -10,8 +10,9 @@ over STEPS_PER_STOP):
   forbid the positive jerk of a close at speed), then the constant-jerk close J = u^2 / (2 theta_dot) that
   brings u to 0 as theta_dot reaches 0 (distance 2 x / (3 |u|)), checked along its length.
 
-Of the depths DEPTHS, the braking points (a coarse stride, then halving strides around the best) and the m,
-the stop that ends first is taken. The rows are those the compiled remaining pass stores at Retimer
+Of the depths DEPTHS (until DEPTH_MISSES in a row stop no sooner), the braking points (a coarse stride, then
+halving strides around the best) and the m, the stop that ends first is taken; along a tail, the first close
+the jerk allows. The rows are those the compiled remaining pass stores at Retimer
 construction (planning/retime_jerk.py: order-2 rows, x_max and order-3 rows at the CHECK_POINTS of every plan
 interval), interpolated linearly between neighbouring check points, and met with MARGIN to spare (faded in
 from the state's own share where the state itself takes more). A step's jerk is checked as the smooth profile
@@ -47,6 +48,8 @@ COARSE = 16
 CHECK_SPACING = 0.125
 #: Braking depths tried: shares of the least u the order-2 rows allow [-].
 DEPTHS = np.array([1.0, 0.85, 0.7, 0.55, 0.4, 0.25])
+#: The search over the depths ends after this many in a row that stop no sooner than the best so far [-].
+DEPTH_MISSES = 2
 #: Intervals of the tail in the returned profile (equal in xi) [-].
 TAIL_INTERVALS = 4
 #: Re-evaluations of the order-3 rows at a braking step's end [-].
@@ -230,7 +233,8 @@ def _dt(k, dt):
 @njit(cache=True)
 def _brake(s0, x0, u0, share, depth, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
     """The braking steps from the state (aimed at ``depth`` times the least u the rows allow) until a step
-    breaks a row or reaches s_end: their points (the state first) into out_s, out_x, out_u; returns their number."""
+    breaks a row or reaches s_end (a tail from there would end after it): their points (the state first) into
+    out_s, out_x, out_u; returns their number."""
     s, v, a = s0, np.sqrt(x0), u0
     out_s[0], out_x[0], out_u[0] = s, x0, a
     for k in range(min(out_s.shape[0] - 1, MAX_STEPS)):
@@ -252,10 +256,15 @@ def _tail(k, steps, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_
         keep = _keep(k + m, share)
         if a >= 0.0 or s >= best:
             break
+        # the close's stop point moves back while the largest jerk is below the close's, then on: the first
+        # close the jerk allows is the tail's best
         stop = s + 2.0 * v * v / (3.0 * -a)
-        if not write and stop < best and a * a / (2.0 * v) <= _j_range(s, v * v, a, keep, grid, p3)[1] and \
-                _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
-            best_m, best = m, stop
+        if not write and a * a / (2.0 * v) <= _j_range(s, v * v, a, keep, grid, p3)[1]:
+            if stop >= best:
+                break
+            if _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
+                best_m, best = m, stop
+                break
         if m == steps:
             break
         s, v, a, ok = _up_step(s, v, a, keep, _dt(k + m, dt), grid, p2, p3, px)
@@ -291,9 +300,10 @@ def _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_
 
 @njit(cache=True)
 def shortest(s0, x0, u0, share, s_end, grid, p2, p3, px, out_s, out_x, out_u):
-    """The stop of the least distance: for every braking depth of DEPTHS the braking (_brake) and its best
-    switch to a tail (_best_switch). Fills out_s, out_x, out_u with its points (the state first, the close's start last) and returns (their number, the stop point);
-    (-1, inf) when none is found. ``share``: the share of the limits the state may take (see _keep), where it
+    """The stop of the least distance: for the braking depths of DEPTHS (until DEPTH_MISSES in a row stop no
+    sooner) the braking (_brake) and its best switch to a tail (_best_switch). Fills out_s, out_x, out_u with
+    its points (the state first, the close's start last) and returns (their number, the stop point); (-1, inf)
+    when none is found. ``share``: the share of the limits the state may take (see _keep), where it
     does not leave the margin itself."""
     v = np.sqrt(x0)
     lo, hi = _u_range(s0, x0, 1.0 - MARGIN, grid, p2, px)
@@ -318,13 +328,16 @@ def shortest(s0, x0, u0, share, s_end, grid, p2, p3, px, out_s, out_x, out_u):
 @njit(cache=True)
 def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
     """:func:`shortest` with the time step dt [s]."""
-    best, best_depth, bk, bm = np.inf, -1.0, -1, -1
+    best, best_depth, bk, bm, misses = np.inf, -1.0, -1, -1, 0
     for depth in DEPTHS:
-        n = _brake(s0, x0, u0, share, depth, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+        n = _brake(s0, x0, u0, share, depth, min(s_end, best), dt, grid, p2, p3, px, out_s, out_x, out_u)
         k, m, stop = _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
         if k < 0:
+            misses += best_depth > 0.0
+            if misses == DEPTH_MISSES:  # the stops lengthen with a shallower depth from here
+                break
             continue
-        best, best_depth, bk, bm = stop, depth, k, m
+        best, best_depth, bk, bm, misses = stop, depth, k, m, 0
     if best_depth < 0.0 or bk + bm + 2 > out_s.shape[0]:
         return -1, np.inf
     _brake(s0, x0, u0, share, best_depth, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
