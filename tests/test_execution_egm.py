@@ -372,3 +372,41 @@ def test_the_first_reference_is_the_robots_start(planned, rigid):
     assert np.abs(sent[0] - start).max() < 1e-12
     steps = np.abs(np.diff(sent, axis=0)).max(axis=1)
     assert steps[:5].max() <= steps[5:].max() and st.counts.clipped == 0
+
+
+def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
+    """A collection of the whole heap takes about 25 EGM cycles: serve answers with it paused, and leaves the
+    collector as it found it, also when the loop raises."""
+    import gc
+    import socket
+
+    from pathmotion.execution.loops import open_listener, serve
+
+    seen = []
+
+    class OneMessage:
+        mode, started, stop_reason = "none", False, None
+        finished = False
+
+        def handle(self, data, t_recv, clock):
+            seen.append(gc.isenabled())
+            self.started = self.finished = True
+            return b"ok"
+
+    sock = open_listener(0, "127.0.0.1")
+    robot = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    robot.sendto(b"x", sock.getsockname())
+    assert gc.isenabled()
+    assert serve(sock, OneMessage(), first_timeout=5.0) == "done"
+    assert seen == [False] and gc.isenabled() and robot.recv(16) == b"ok"
+
+    class Raises(OneMessage):
+        def handle(self, data, t_recv, clock):
+            raise KeyboardInterrupt
+
+    robot.sendto(b"x", sock.getsockname())
+    with pytest.raises(KeyboardInterrupt):
+        serve(sock, Raises(), first_timeout=5.0)
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    sock.close()
+    robot.close()
