@@ -14,7 +14,7 @@ from hypothesis.strategies import floats as st_floats
 
 pytest.importorskip("abb_robot_client")
 
-from pathmotion import api  # noqa: E402
+from egm_support import irb140_task, line, planned as planned_scenario  # noqa: E402
 from pathmotion.errors import ExecutionError  # noqa: E402
 from pathmotion.execution.drive_file import drive_file_for, load_drives, parse_drives  # noqa: E402
 from pathmotion.execution.drives import VirtualArm  # noqa: E402
@@ -22,29 +22,12 @@ from pathmotion.execution.loops import open_listener, parse_address, run_virtual
 from pathmotion.execution.messages import decode_robot, decode_sensor, encode_robot  # noqa: E402
 from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess  # noqa: E402
 
-SHORT = """
-name = "egm_short"
-[robot]
-name = "irb140"
-[path]
-type = "task"
-orientation = "down"
-[[path.segments]]
-type = "line"
-start = [0.45, -0.03, 0.5]
-end = [0.45, 0.03, 0.5]
-[plan]
-start = "zero"
-end = "zero"
-"""
+SHORT = irb140_task("egm_short", line([0.45, -0.03, 0.5], [0.45, 0.03, 0.5]))
 
 
 @pytest.fixture(scope="module")
 def planned():
-    setup = api.load_text(SHORT)
-    result = api.plan_scenario(setup)
-    drives = load_drives(drive_file_for("irb140"), setup.robot.n)
-    return setup.robot, result, drives
+    return planned_scenario(SHORT)
 
 
 def _streamer(planned, mode="shaping", **kw):
