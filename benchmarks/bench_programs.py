@@ -8,7 +8,10 @@ columns and the ratio of each size's CPU per segment to the smallest size's say 
 The optimal rows plan the same contour with `type = "optimal"` (search = fast, then thorough on the smallest) and
 report (their CPU - the G2 plan's CPU) / corners and the cycle time gained over G2.
 
-    python benchmarks/bench_programs.py --json out/bench_programs.json
+The table is written with --json in the format of benchmarks/result_json.py (docs/results.md, `make results`):
+
+    nice python benchmarks/bench_programs.py --sizes 10,100,1000,10000 --optimal-sizes 0 \
+        --json benchmarks/results/programs.json
     python benchmarks/bench_programs.py --sizes 10,100 --optimal-sizes 10 --workers 2
 """
 
@@ -25,6 +28,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from program_contour import scenario  # noqa: E402
+from result_json import Table, load_average  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -52,18 +56,26 @@ def _measured(args: list[str], timeout: float) -> dict:
             "exit": proc.returncode, "stderr": last}
 
 
-def _duration(folder: Path) -> float | None:
+def _summary(folder: Path) -> dict:
     f = folder / "summary.json"
-    return json.loads(f.read_text()).get("duration_s") if f.is_file() else None
+    return json.loads(f.read_text()) if f.is_file() else {}
+
+
+def _duration(folder: Path) -> float | None:
+    return _summary(folder).get("duration_s")
 
 
 def program_row(n: int, tmp: Path, timeout: float) -> dict:
-    """check and plan of the N-move G2 contour."""
+    """check and plan of the N-move G2 contour, with the load average before each, the plan's grid points, duration
+    and estimated duration error."""
     toml = tmp / f"contour{n}.toml"
     toml.write_text(scenario(n, "g2", 0.0005))
+    load = load_average()
     check = _measured(["check", str(toml)], timeout)
     plan = _measured(["plan", str(toml), "--out", str(tmp / f"plan{n}"), "--no-figures"], timeout)
-    return {"segments": n, "check": check, "plan": plan, "duration_s": _duration(tmp / f"plan{n}")}
+    s = _summary(tmp / f"plan{n}")
+    return {"segments": n, "load": load, "check": check, "plan": plan, "duration_s": s.get("duration_s"),
+            "grid_points": s.get("grid_points"), "error_estimate_s": s.get("duration_error_estimate")}
 
 
 def optimal_row(n: int, tmp: Path, timeout: float, search: str, workers: int, g2: dict) -> dict:
@@ -104,6 +116,46 @@ def print_table(rows: list[dict], optimal: list[dict]) -> None:
                   f"{_f(o['gain_over_g2_pct'], '{:.2f}'):>7}")
 
 
+COLUMNS = [("segments", "segments"), ("load", "load avg"), ("check_wall_s", "check wall [s]"),
+           ("check_cpu_s", "check CPU [s]"), ("check_peak_mib", "check peak [MiB]"), ("plan_wall_s", "plan wall [s]"),
+           ("plan_cpu_s", "plan CPU [s]"), ("plan_peak_mib", "plan peak [MiB]"),
+           ("plan_cpu_per_segment_ms", "plan CPU / segment [ms]"), ("grid_points", "grid points"),
+           ("duration_s", "cycle [s]"), ("error_estimate_pct", "duration error estimate [%]"),
+           ("exit", "exit check/plan")]
+
+
+def _r(v, digits=2):
+    return None if v is None else round(float(v), digits)
+
+
+def table_row(r: dict) -> dict:
+    """One program row in the result_json columns (COLUMNS)."""
+    c, p, n, T, e = r["check"], r["plan"], r["segments"], r["duration_s"], r["error_estimate_s"]
+    return {"segments": n, "load": _r(r["load"]), "check_wall_s": _r(c["wall_s"], 1), "check_cpu_s": _r(c["cpu_s"], 1),
+            "check_peak_mib": _r(c["peak_mib"], 0), "plan_wall_s": _r(p["wall_s"], 1), "plan_cpu_s": _r(p["cpu_s"], 1),
+            "plan_peak_mib": _r(p["peak_mib"], 0), "plan_cpu_per_segment_ms": _r(1e3 * p["cpu_s"] / n, 1),
+            "grid_points": r["grid_points"], "duration_s": _r(T, 4),
+            "error_estimate_pct": None if T is None or e is None else _r(100 * e / T, 3),
+            "exit": f"{c['exit']}/{p['exit']}"}
+
+
+TITLE = "Program scale: check and plan of the generated contour (G2 blends within 0.5 mm)"
+
+
+def write_json(table: Table, path: Path, rows: list[dict], optimal: list[dict]) -> None:
+    """The program rows into ``table`` (started before the runs), the optimal rows, if any, as its notes."""
+    for r in rows:
+        table.add(**table_row(r))
+    table.notes.append("Each command is a niced CLI process; CPU is user + system, peak is its maximum resident "
+                       "memory (wait4). The contour: benchmarks/program_contour.py (12 mm moves, 90 deg corners).")
+    for o in optimal:
+        table.notes.append(f"optimal blends, {o['segments']} segments, search {o['search']}, {o['workers']} workers: "
+                           f"{_f(o['cpu_per_corner_s'], '{:.2f}')} s CPU per corner, cycle "
+                           f"{_f(o['duration_s'], '{:.4f}')} s against G2 {_f(o['g2_duration_s'], '{:.4f}')} s "
+                           f"({_f(o['gain_over_g2_pct'], '{:.2f}')} % gain)")
+    print(f"wrote {table.write(path)}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", default="10,100,1000,10000", help="moves per program, comma-separated")
@@ -115,6 +167,7 @@ def main() -> None:
     a = ap.parse_args()
     sizes = sorted(int(v) for v in a.sizes.split(","))
     opt_sizes = {int(v) for v in a.optimal_sizes.split(",") if v}
+    table = Table(TITLE, COLUMNS)
     load0 = os.getloadavg()[0]
     print(f"load average at start: {load0:.2f} ({os.cpu_count()} cores); commands niced")
     rows, optimal = [], []
@@ -129,8 +182,7 @@ def main() -> None:
     print(f"load average at end: {load1:.2f}")
     if a.json is not None:
         a.json.parent.mkdir(parents=True, exist_ok=True)
-        a.json.write_text(json.dumps({"load_start": load0, "load_end": load1, "cores": os.cpu_count(),
-                                      "programs": rows, "optimal": optimal}, indent=1))
+        write_json(table, a.json, rows, optimal)
 
 
 if __name__ == "__main__":

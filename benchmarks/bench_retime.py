@@ -12,8 +12,9 @@ States: theta uniform; theta_dot a uniform fraction in [0, 1) of the largest sav
 Timing: WARMUP calls, then every timed call from every state, interleaved in a random order: second order
 ``remaining``, ``stop`` and, as the peer, toppra from the same speed on the same remaining grid (every
 PEER_EVERY-th state); jerk ``remaining`` (the compiled pass, the sequential LP where it gives no answer), the
-compiled pass alone, the sequential-LP reference and ``stop``. Wall time (perf_counter), the process's and the
-calling thread's CPU time per call; p50, p99 and the worst. Machine load (os.getloadavg) before and after.
+compiled pass alone, the sequential-LP reference; ``stop``, the compiled stop alone and the LP reference
+stop. Wall time (perf_counter), the process's and the calling thread's CPU time per call; p50, p99 and the
+worst. Machine load (os.getloadavg) before and after.
 The machine is shared: the CPU times are what a call costs, the wall time's tail is waiting for a core.
 
 Optimality:
@@ -23,7 +24,8 @@ Optimality:
   re-timer keeps the state's theta_ddot on its first interval, the references choose their start
   acceleration: it is given the offline plan's (and, as a separate row, the cost of a random theta_ddot).
   Jerk: vs the offline jerk plan from the same speed, re-timed from that plan's own start acceleration, and
-  the compiled pass vs the sequential-LP reference from that same state.
+  the compiled pass vs the sequential-LP reference from that same state; the compiled stop's distance vs the
+  LP reference stop's from that state.
   stop vs the shortest stop distance from an independent computation: a forward integration in theta
   (STOP_STEPS steps) at the largest deceleration allowed by the joint velocity, acceleration and torque
   limits, the torque from Pinocchio's RNEA at each step.
@@ -95,10 +97,12 @@ def _calls(rt: Retimer, robot, wp, jerk: bool) -> dict:
     """The timed calls of a case by name: fn(theta, theta_dot, theta_ddot). Second order: the re-timer and toppra
     from the same speed on the re-timer's remaining grid (the peer: what an offline TOPP costs from that state);
     jerk: the re-timer's answer (the compiled pass, the LP where it gives none), the compiled pass alone and the
-    sequential LP reference from the same state, and the stop."""
+    sequential LP reference from the same state; the same three for the stop."""
     if jerk:
         return {"remaining": rt.remaining, "remaining: compiled pass": rt.compiled_remaining,
-                "remaining: LP reference": lambda t, v, a: rt.remaining(t, v, a, reference=True), "stop": rt.stop}
+                "remaining: LP reference": lambda t, v, a: rt.remaining(t, v, a, reference=True), "stop": rt.stop,
+                "stop: compiled": rt.compiled_stop,
+                "stop: LP reference": lambda t, v, a: rt.stop(t, v, a, reference=True)}
     return {"remaining": rt.remaining, "stop": rt.stop,
             "toppra from the same speed": lambda t, v, a: toppra_duration(robot, wp, _remaining_grid(rt, t), v)}
 
@@ -123,7 +127,7 @@ def timing(rt: Retimer, sts: list, calls: dict) -> dict:
             except PathmotionError:
                 pass
     order = [(name, s) for name in calls for k, s in enumerate(sts)
-             if (name != "stop" or s[1] > 0) and (not name.startswith("toppra") or k % PEER_EVERY == 0)]
+             if (not name.startswith("stop") or s[1] > 0) and (not name.startswith("toppra") or k % PEER_EVERY == 0)]
     random.Random(0).shuffle(order)
     out = {name: {"wall": [], "cpu": [], "thread": [], "refused": 0, "none": 0} for name in calls}
     for name, (theta, v, a) in order:
@@ -232,6 +236,7 @@ def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
                 s = rt.stop(theta, v, a)
                 row.update(stop=float(s.grid[-1] - theta), stop_ratio=rt.certify(s).max_ratio,
                            second_order_stop=float(rt.stop(theta, v, a, second_order=True).grid[-1] - theta))
+                row.update(_compiled_stop_row(rt, theta, v, a))
             elif v > 0:
                 s = rt.stop(theta, v, a)
                 row.update(stop=float(s.grid[-1] - theta),
@@ -246,7 +251,9 @@ def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
     own = [(r["own_acceleration"] - r["ours"]) / r["ours"] for r in rows if "own_acceleration" in r]
     pass_lp = [(r["pass_duration"] - r["lp_reference"]) / r["lp_reference"] for r in rows
                if np.isfinite(r.get("pass_duration", np.nan))]
-    summary = dict(vs_offline=_spread(rel("offline")), pass_vs_lp=_spread(pass_lp), stop_vs_shortest=_spread(stop),
+    compiled = [(r["compiled_stop"] - r["lp_stop"]) / r["lp_stop"] for r in rows if "compiled_stop" in r]
+    summary = dict(vs_offline=_spread(rel("offline")), compiled_stop_vs_lp=_spread(compiled),
+                   pass_vs_lp=_spread(pass_lp), stop_vs_shortest=_spread(stop),
                    state_acceleration=_spread(own),
                    stop_vs_second_order=_spread(above),
                    worst_certified_ratio=max((max(r["ratio"], r.get("stop_ratio", 0.0), r.get("pass_ratio", 0.0))
@@ -255,6 +262,20 @@ def optimality(robot, wp, path, res, rt, sts, jerk: bool) -> dict:
     if not jerk:
         summary["vs_toppra"] = _spread(rel("toppra"))
     return dict(summary=summary, rows=rows)
+
+
+def _compiled_stop_row(rt, theta, v, a) -> dict:
+    """The compiled stop's distance and certified ratio and the LP reference stop's distance from the state (both
+    where both answer)."""
+    fast = rt.compiled_stop(theta, v, a)
+    try:
+        lp = rt.stop(theta, v, a, reference=True)
+    except StateInfeasibleError:
+        return {}
+    if fast is None:
+        return {}
+    return dict(compiled_stop=float(fast.grid[-1] - theta), lp_stop=float(lp.grid[-1] - theta),
+                stop_ratio=max(rt.certify(fast).max_ratio, rt.certify(lp).max_ratio))
 
 
 def _spread(v) -> dict:
@@ -307,7 +328,9 @@ def report(r: dict) -> None:
 COMPARISONS = (("vs_offline", "remaining vs offline plan"), ("vs_toppra", "remaining vs toppra"),
                ("pass_vs_lp", "compiled pass vs LP reference"),
                ("state_acceleration", "remaining keeping a random theta_ddot vs keeping the offline one"),
-               ("stop_vs_shortest", "stop vs shortest distance"), ("stop_vs_second_order", "stop vs second-order stop"))
+               ("stop_vs_shortest", "stop vs shortest distance"),
+               ("compiled_stop_vs_lp", "compiled stop vs LP reference stop"),
+               ("stop_vs_second_order", "stop vs second-order stop"))
 
 
 def timing_table() -> Table:

@@ -28,11 +28,13 @@ GRID_INITIAL_POINTS = 200
 #: returned with its (larger) error estimate and a warning [-].
 GRID_MAX_REFINEMENTS = 16
 GRID_MAX_POINTS = 200_000
-#: Memory a plan holds per grid point and joint, an upper estimate [bytes]: the adaptive planner on a
-#: 6-joint, 200- to 800-segment path peaked at 41-45 KB per grid point (tracemalloc); a fixed grid on one
-#: line at 4 KB. A grid whose estimate exceeds MEMORY_FRACTION of the machine's available memory is refused
-#: before it is built.
-PLAN_BYTES_PER_POINT_JOINT = 8_000
+#: Memory a plan holds, an upper estimate: PLAN_MEMORY_BASE plus PLAN_BYTES_PER_POINT_JOINT per grid point and
+#: joint [bytes]. Measured (tracemalloc peak of plan with baselines, 6 joints): 1.12 GB on the 100-move contour's
+#: 158,000 points (7.1 KB per point), 69 MB on a 30-segment zigzag's 3,055 points, 16 MB on a fixed grid of
+#: 3,024 points on one line. A grid whose estimate exceeds MEMORY_FRACTION of the machine's available memory
+#: is refused before it is built, and the adaptive grid stops at the largest that fits (planner.py).
+PLAN_MEMORY_BASE = 128 * 2**20
+PLAN_BYTES_PER_POINT_JOINT = 1_400
 #: Joint speed limit above which a limits file or [limits] velocity gets a "degrees?" warning [rad/s]
 #: (1,146 deg/s; the IRB140's fastest joint turns at 450 deg/s = 7.9 rad/s).
 PLAUSIBLE_JOINT_SPEED = 20.0

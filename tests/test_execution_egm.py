@@ -14,7 +14,7 @@ from hypothesis.strategies import floats as st_floats
 
 pytest.importorskip("abb_robot_client")
 
-from pathmotion import api  # noqa: E402
+from egm_support import irb140_task, line, planned as planned_scenario  # noqa: E402
 from pathmotion.errors import ExecutionError  # noqa: E402
 from pathmotion.execution.drive_file import drive_file_for, load_drives, parse_drives  # noqa: E402
 from pathmotion.execution.drives import VirtualArm  # noqa: E402
@@ -22,29 +22,12 @@ from pathmotion.execution.loops import open_listener, parse_address, run_virtual
 from pathmotion.execution.messages import decode_robot, decode_sensor, encode_robot  # noqa: E402
 from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess  # noqa: E402
 
-SHORT = """
-name = "egm_short"
-[robot]
-name = "irb140"
-[path]
-type = "task"
-orientation = "down"
-[[path.segments]]
-type = "line"
-start = [0.45, -0.03, 0.5]
-end = [0.45, 0.03, 0.5]
-[plan]
-start = "zero"
-end = "zero"
-"""
+SHORT = irb140_task("egm_short", line([0.45, -0.03, 0.5], [0.45, 0.03, 0.5]))
 
 
 @pytest.fixture(scope="module")
 def planned():
-    setup = api.load_text(SHORT)
-    result = api.plan_scenario(setup)
-    drives = load_drives(drive_file_for("irb140"), setup.robot.n)
-    return setup.robot, result, drives
+    return planned_scenario(SHORT)
 
 
 def _streamer(planned, mode="shaping", **kw):
@@ -381,3 +364,41 @@ def test_the_first_reference_is_the_robots_start(planned_smooth, rigid):
     assert np.abs(sent[0] - start).max() < 1e-12
     steps = np.abs(np.diff(sent, axis=0)).max(axis=1)
     assert steps[:5].max() <= steps[5:].max() and st.counts.clipped == 0
+
+
+def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
+    """A collection of the whole heap takes about 25 EGM cycles: serve answers with it paused, and leaves the
+    collector as it found it, also when the loop raises."""
+    import gc
+    import socket
+
+    from pathmotion.execution.loops import open_listener, serve
+
+    seen = []
+
+    class OneMessage:
+        mode, started, stop_reason = "none", False, None
+        finished = False
+
+        def handle(self, data, t_recv, clock):
+            seen.append(gc.isenabled())
+            self.started = self.finished = True
+            return b"ok"
+
+    sock = open_listener(0, "127.0.0.1")
+    robot = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    robot.sendto(b"x", sock.getsockname())
+    assert gc.isenabled()
+    assert serve(sock, OneMessage(), first_timeout=5.0) == "done"
+    assert seen == [False] and gc.isenabled() and robot.recv(16) == b"ok"
+
+    class Raises(OneMessage):
+        def handle(self, data, t_recv, clock):
+            raise KeyboardInterrupt
+
+    robot.sendto(b"x", sock.getsockname())
+    with pytest.raises(KeyboardInterrupt):
+        serve(sock, Raises(), first_timeout=5.0)
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    sock.close()
+    robot.close()

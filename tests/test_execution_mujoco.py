@@ -13,36 +13,20 @@ import pytest
 pytest.importorskip("abb_robot_client")
 pytest.importorskip("mujoco")
 
-from pathmotion import api  # noqa: E402
+from egm_support import irb140_task, line, planned as planned_scenario  # noqa: E402
 from pathmotion.errors import ExecutionError  # noqa: E402
 from pathmotion.execution import drives as drives_module  # noqa: E402
-from pathmotion.execution.drive_file import drive_file_for, load_drives  # noqa: E402
 from pathmotion.execution.drives import VirtualArm  # noqa: E402
 from pathmotion.execution.loops import open_listener, run_virtual_robot, serve  # noqa: E402
 from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess  # noqa: E402
 from pathmotion.robot import fk  # noqa: E402
 
-LINE = """
-name = "egm_mujoco"
-[robot]
-name = "irb140"
-[path]
-type = "task"
-orientation = "down"
-[[path.segments]]
-type = "line"
-start = [0.45, -0.05, 0.5]
-end = [0.45, 0.05, 0.45]
-[plan]
-start = "zero"
-end = "zero"
-"""
+LINE = irb140_task("egm_mujoco", line([0.45, -0.05, 0.5], [0.45, 0.05, 0.45]))
 
 
 @pytest.fixture(scope="module")
 def planned():
-    setup = api.load_text(LINE)
-    return setup.robot, api.plan_scenario(setup), load_drives(drive_file_for("irb140"), setup.robot.n)
+    return planned_scenario(LINE)
 
 
 def _run(robot, result, drives, plant):

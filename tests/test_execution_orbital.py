@@ -10,6 +10,7 @@ import pytest
 
 pytest.importorskip("abb_robot_client")
 
+from egm_support import irb140_task, line  # noqa: E402
 from pathmotion import api  # noqa: E402
 from pathmotion.execution.drive_file import drive_file_for, load_drives  # noqa: E402
 from pathmotion.execution.drives import VirtualArm  # noqa: E402
@@ -17,28 +18,8 @@ from pathmotion.execution.orbital import loop_gain, loop_lag  # noqa: E402
 from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess  # noqa: E402
 from pathmotion.robot import Payload, load_robot  # noqa: E402
 
-ARC = """
-name = "egm_orbital"
-[robot]
-name = "irb140"
-[path]
-type = "task"
-orientation = "down"
-[[path.segments]]
-type = "line"
-start = [0.40, -0.10, 0.45]
-end = [0.50, 0.00, 0.45]
-[[path.segments]]
-type = "line"
-end = [0.40, 0.10, 0.45]
-[[path.blends]]
-corner = 1
-type = "g2"
-tolerance = 0.005
-[plan]
-start = "zero"
-end = "zero"
-"""
+ARC = irb140_task("egm_orbital", line([0.40, -0.10, 0.45], [0.50, 0.00, 0.45]) + line(None, [0.40, 0.10, 0.45])
+                  + '[[path.blends]]\ncorner = 1\ntype = "g2"\ntolerance = 0.005\n')
 
 
 def test_loop_lag_is_the_drive_models_mean_step_delay():

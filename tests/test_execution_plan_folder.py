@@ -9,6 +9,7 @@ import pytest
 
 pytest.importorskip("abb_robot_client")
 
+from egm_support import irb140_task, line  # noqa: E402
 from pathmotion import api  # noqa: E402
 from pathmotion.api.plan_folder import is_plan_folder, read_plan  # noqa: E402
 from pathmotion.errors import ScenarioError  # noqa: E402
@@ -17,27 +18,8 @@ from pathmotion.execution.drives import VirtualArm  # noqa: E402
 from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess  # noqa: E402
 from pathmotion.io.files import RESULT_MARK  # noqa: E402
 
-LINE = """
-name = "egm_folder"
-[robot]
-name = "irb140"
-[path]
-type = "task"
-orientation = "down"
-[[path.segments]]
-type = "line"
-start = [0.45, -0.03, 0.5]
-end = [0.45, 0.03, 0.5]
-[[path.segments]]
-type = "dwell"
-time = 0.05
-[[path.segments]]
-type = "line"
-end = [0.45, 0.03, 0.45]
-[plan]
-start = "zero"
-end = "zero"
-"""
+LINE = irb140_task("egm_folder", line([0.45, -0.03, 0.5], [0.45, 0.03, 0.5])
+                   + '[[path.segments]]\ntype = "dwell"\ntime = 0.05\n' + line(None, [0.45, 0.03, 0.45]))
 JERK = LINE + "[limits]\nuse_jerk = true\n"
 
 

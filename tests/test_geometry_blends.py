@@ -6,7 +6,7 @@ import re
 import numpy as np
 import pytest
 from geometry_support import incoming, outgoing
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 from scipy.spatial import cKDTree
@@ -271,3 +271,28 @@ def test_small_transition_radii_fit(radius):
     original = circle_with_radial_line()
     dev = max_deviation(with_transition(original, 0, radius), original).distance
     assert dev == pytest.approx(radius * (1 - np.sin(np.pi / 4)), rel=2 * radius / 0.1 + 1e-3)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), n=st.integers(16, 60), spread=st.floats(1e-3, 0.5))
+def test_segment_index_distances_are_those_of_every_segment(seed, n, spread):
+    """The indexed distance (balls about segment middles, a k-d tree) equals the minimum over every segment of a
+    G2-blended random polyline (lines and quintic blends), for points near and far from it (to rounding: a blend's
+    closest point is iterated on the batch of points it is given)."""
+    from pathmotion.geometry.deviation import INDEX_MIN_SEGMENTS, SegmentIndex
+
+    rng = np.random.default_rng(seed)
+    pts = np.cumsum(rng.normal(0.0, 0.05, (n // 2 + 2, 3)), axis=0)
+    pts[1::2, 0] += 0.1  # a zigzag: corners a blend of 0.2 mm fits
+    pts = np.vstack([pts, pts[-1] + (0.0, 0.6, 0.0)])  # and one long move: balls of very different radii
+    try:
+        path = with_g2_blends(TaskPath(tuple(Line(a, b) for a, b in zip(pts[:-1], pts[1:]))), 2e-4)
+    except PathError:
+        assume(False)
+    segs = path.segments
+    assert len(segs) >= INDEX_MIN_SEGMENTS
+    q = path.evaluate(rng.uniform(0.0, path.length, 300))[0] + rng.normal(0.0, spread, (300, 3))
+    brute = segs[0].closest(q)[1]
+    for seg in segs[1:]:
+        brute = np.minimum(brute, seg.closest(q)[1])
+    np.testing.assert_allclose(SegmentIndex(segs).distance(q), brute, rtol=1e-12, atol=1e-15)

@@ -637,7 +637,8 @@ def test_optimal_blend_is_never_slower_than_the_symmetric_g2(deg, tol):
     best = optimal_blends(_robot(), path, tol, free_plans=16, global_plans=30, rise_plans=30, **kw)
     # the same search up to the S-curves, then more candidates; the polish is local, from the fastest candidate, so
     # the guarantee is against the smaller search's candidates, not its polish (module docstring, stage 8)
-    s_curves = optimal_blends(_robot(), path, tol, free_plans=0, polish_plans=0, **kw)
+    s_curves = optimal_blends(_robot(), path, tol, free_plans=0, rise_plans=0, end_plans=0, global_plans=0,
+                              polish_plans=0, **kw)
     assert best.duration <= s_curves.duration
     assert best.duration <= best.planar_duration <= s_curves.duration  # the rise adds candidates to the plane's
     sym_shape = g2_shape_for_tolerance(path, 0, tol, 0.5, 0.7, 0.7)
@@ -807,6 +808,67 @@ def test_windowed_search_keeps_the_guarantees_on_many_corners(caplog, monkeypatc
     assert all(shape.deviation <= tol * (1 + 1e-9) for shape in best.shapes.values())
     samples = best.path.evaluate(np.linspace(0.0, best.path.length, 20001))[0]
     assert np.max(Polyline(points).distance(samples)) <= tol * (1 + 1e-6)
+
+
+def test_the_neighbour_pass_keeps_the_guarantees_and_is_deterministic(caplog):
+    """Three corners of the zigzag, rest to rest, a small fast search: each corner is searched again with its
+    neighbours' found blends in place. Without the polish the result is never slower than the first pass alone (its
+    candidates are candidates too) nor than the symmetric G2 blends; the reported duration is the returned blends'
+    own plan on the whole path, the deviation is certified on a dense check, and searching the corners on two worker
+    processes gives the same blends as one."""
+    import logging
+
+    from pathmotion.planning.blend_search import FAST
+
+    path, tol = _polyline(ZIGZAG), 0.004
+    kw = dict(settings=SETTINGS, search=FAST, steps=2, racing_steps=2, search_grid_points=200, polish_plans=0)
+    alone = optimal_blends(_robot(), path, tol, neighbour_pass=False, **kw)
+    with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
+        both = optimal_blends(_robot(), path, tol, neighbour_pass=True, **kw)
+    assert "the neighbour pass: 3 corners" in caplog.text
+    assert both.plans > alone.plans
+    assert both.duration <= alone.duration <= both.symmetric_duration
+    assert both.duration == pytest.approx(duration_with(_robot(), path, both.shapes, SETTINGS), rel=1e-12)
+    assert all(shape.deviation <= tol * (1 + 1e-9) for shape in both.shapes.values())
+    samples = both.path.evaluate(np.linspace(0.0, both.path.length, 20001))[0]
+    assert np.max(Polyline(ZIGZAG).distance(samples)) <= tol * (1 + 1e-6)
+    parallel = optimal_blends(_robot(), path, tol, workers=2, neighbour_pass=True, **kw)
+    assert parallel.shapes == both.shapes and parallel.duration == both.duration
+
+
+def test_corners_searched_on_a_dask_cluster_equal_the_search_in_one_process(caplog):
+    """With a scheduler, every corner's search (both passes) is a task on the Dask cluster, and the blends equal
+    those searched in this process."""
+    import logging
+
+    distributed = pytest.importorskip("distributed")
+    from pathmotion.planning.blend_search import FAST
+
+    path, tol = _polyline(ZIGZAG), 0.004
+    kw = dict(settings=SETTINGS, search=FAST, steps=2, racing_steps=2, search_grid_points=200, polish_plans=0,
+              neighbour_pass=True)
+    here = optimal_blends(_robot(), path, tol, **kw)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                   dashboard_address=None) as cluster, \
+            caplog.at_level(logging.INFO, logger="pathmotion.io.scheduler"):
+        clustered = optimal_blends(_robot(), path, tol, scheduler=cluster.scheduler_address, **kw)
+    # the first pass (3 corners) and the neighbour pass's even corners (2); its one odd corner runs here
+    assert caplog.text.count("corner-search: ") == 2
+    assert clustered.shapes == here.shapes and clustered.duration == here.duration
+
+
+def test_the_polish_on_a_fixed_grid_reports_the_full_grids_duration(caplog):
+    """Stage 8 on ``polish_grid_points`` grid points: its blend is planned on the full grid, where the duration is
+    reported and kept only if faster than the candidate it started from, so the result is never slower than without
+    the polish; the deviation stays certified."""
+    path = _turn(90)
+    kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=0,
+              rise_plans=0, end_plans=0, global_plans=0)
+    without = optimal_blends(_robot(), path, 0.005, polish_plans=0, **kw)
+    polished = optimal_blends(_robot(), path, 0.005, polish_plans=20, polish_grid_points=300, **kw)
+    assert polished.duration <= without.duration
+    assert polished.duration == pytest.approx(duration_with(_robot(), path, polished.shapes, SETTINGS), rel=1e-12)
+    assert max_deviation(polished.path, path, rel_tol=1e-6).upper <= 0.005 * (1 + 2e-6)
 
 
 def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():

@@ -57,6 +57,19 @@ def test_ros2_yaml_parses_back_one_point_per_cycle(tmp_path, samples, irb140):
         np.testing.assert_allclose(msg["points"][k]["accelerations"], samples.qdd[i], rtol=0, atol=1e-9)
 
 
+def test_ros2_yaml_text_is_what_pyyaml_writes(tmp_path, samples, irb140):
+    """The points are formatted directly; the text is the one yaml.dump writes for the same message."""
+    from dataclasses import replace
+
+    bent = replace(samples, q=samples.q * np.array([1.0, 1e-7, -3e5, 1e17, 1.0, 0.0]))  # exponents, 0, large
+    for s in (samples, bent):
+        path = exports.write_ros2_yaml(tmp_path / "traj.yaml", s, irb140.joint_names, notes=["a note"])
+        msg = exports.ros2_joint_trajectory(s, irb140.joint_names)
+        expected = "# a note\n" + yaml.dump(msg, Dumper=yaml.SafeDumper, sort_keys=False, default_flow_style=None,
+                                             width=1000)
+        assert path.read_text() == expected
+
+
 def test_ros2_rejects_wrong_joint_names(samples):
     with pytest.raises(PathmotionError, match="joint names"):
         exports.ros2_joint_trajectory(samples, ["a", "b"])

@@ -110,3 +110,16 @@ def test_all_supported_joint_kinds_match_pinocchio():
     data = model.createData()
     expected = np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)])
     assert np.allclose(rnea_batch(robot, q, qd, qdd), expected, rtol=1e-12, atol=1e-10 * np.abs(expected).max())
+
+
+def test_trajectory_samples_carry_pinocchios_torques(irb140):
+    """Trajectory.at_time computes tau with the compiled RNEA: equal to Pinocchio's at its samples."""
+    from pathmotion import api
+    from pathmotion.planning import PlanSettings, plan
+    from pathmotion.scenarios import scenario_path
+
+    setup = api.load(scenario_path("circle_zero"))
+    result = plan(setup.path, setup.robot, PlanSettings(grid_points=60, verify="off"))
+    s = result.trajectory.at_time(np.linspace(0.0, result.duration, 200))
+    expected = _pinocchio(setup.robot, s.q, s.qd, s.qdd)
+    assert np.allclose(s.tau, expected, rtol=1e-12, atol=1e-10 * np.abs(expected).max())

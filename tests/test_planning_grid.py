@@ -18,7 +18,7 @@ from pathmotion.errors import ScenarioError
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, effective_limits, plan
 from pathmotion.planning.verify import sample_ratios
-from pathmotion.planning.grid import ORDER, Grid, make_grid, pieces_for
+from pathmotion.planning.grid import ORDER, Grid, make_grid, pieces_for, pieces_within
 from pathmotion.scenarios import scenario_path
 
 ACC = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
@@ -102,6 +102,52 @@ def test_pieces_follow_the_square_root_of_the_change_and_meet_the_target():
     n = pieces_for(change, 1e-6)
     assert n[0] == 1 and list(n[1:] / n[1]) == pytest.approx([1, 2, 4], rel=0.2)
     assert float(np.sum(change / n)) <= 1e-6
+
+
+@settings(max_examples=60, deadline=None)
+@given(error=st.lists(st.floats(0.0, 1e-3), min_size=1, max_size=40), room=st.integers(-5, 400))
+def test_pieces_within_a_room_add_at_most_that_many_points_and_follow_the_error(error, room):
+    """The capped split adds at most ``room`` points, splits a larger error into at least as many parts, and
+    uses the room up to the parts of a single interval (the next larger multiplier would overflow it)."""
+    from pathmotion.planning.grid import MAX_PIECES
+
+    error = np.array(error)
+    n = pieces_within(error, room)
+    assert n.shape == error.shape and n.min() >= 1 and n.max() <= MAX_PIECES
+    assert int(np.sum(n - 1)) <= max(room, 0)
+    order = np.argsort(error, kind="stable")
+    assert np.all(np.diff(n[order]) >= 0), (error, n)
+    free = (error > 0) & (n < MAX_PIECES)
+    if room > 0 and free.any():  # not leaving room for another part of every interval with an error
+        assert int(np.sum(n - 1)) > room - int(np.sum(free)) * MAX_PIECES
+
+
+def test_the_adaptive_grid_stops_at_its_largest_and_says_so(robot, caplog):
+    """With max_points below what the tolerance needs, no grid after the first halving exceeds it, the last grid
+    is filled up to it, and the result carries the estimate of that grid (above the tolerance) and a warning."""
+    from pathmotion.planning.grid import refine
+    from pathmotion.planning.planner import _solve_on
+
+    path = _spline(2, 7)
+    settings = PlanSettings(duration_tolerance=5e-4)
+    limits = effective_limits(robot, settings)
+    initial = make_grid(path, 200)
+    seen = []
+
+    def solve(g):
+        seen.append(len(g.theta))
+        return _solve_on(path, robot, settings, limits, g)
+
+    free = refine(solve, initial, 5e-5)
+    cap = (seen[1] + seen[-1]) // 2
+    assert cap < seen[-1], "the tolerance must need more than the cap for this test"
+    seen.clear()
+    with caplog.at_level("WARNING", logger="pathmotion.planning.grid"):
+        capped = refine(solve, initial, 5e-5, max_points=cap)
+    assert max(seen[2:]) <= cap and seen[-1] > 0.9 * cap
+    assert len(capped.grid.theta) == seen[-1] and capped.error_estimate > 5e-5 * capped.solved.sol.profile.duration
+    assert capped.error_estimate > free.error_estimate
+    assert "at its largest" in caplog.text
 
 
 def test_measured_convergence_order_is_the_one_the_estimate_assumes(robot):
@@ -213,9 +259,10 @@ def test_a_short_piece_gets_grid_points_inside_whatever_the_first_segment(first,
         inside = grid[(grid > lo) & (grid < hi)]
         if hi - lo >= step / 4:
             assert inside.size >= 2, (lo, hi, inside)
-    for b in breaks[1:-1]:  # the first grading point on each side, half a step away, where it fits
+    for i in range(1, len(breaks) - 1):  # the first grading point on each side, half a step away, where it fits
+        b = breaks[i]  # (in its own neighbouring segment: beyond the next break the grid grades towards that one)
         for c in (b - step / 2, b + step / 2):
-            if 0.0 < c < length and not np.any(np.abs(np.array(breaks) - c) < 1e-3 * step):
+            if breaks[i - 1] < c < breaks[i + 1] and not np.any(np.abs(np.array(breaks) - c) < 1e-3 * step):
                 assert np.min(np.abs(grid - c)) < 1e-6 * step, (b, c)  # or its rounding twin (GRID_MIN_GAP)
 
 
@@ -247,3 +294,44 @@ def test_a_narrow_curvature_peak_inside_a_segment_is_planned_alike_on_coarse_and
     assert duration(path, 300) == pytest.approx(fine, rel=0.01)
     # the same path without its peaks, as the grid was before: 0.650 s on 300 points, 5 % short
     assert duration(dc_replace(path, peaks=()), 300) < 0.97 * fine
+
+
+def test_path_data_of_a_refined_grid_is_the_parents_where_shared_and_evaluated_elsewhere(robot):
+    """_sample with a donor (the previous grid's data) gives the path data a fresh evaluation gives, to round-off,
+    and copies the donor's values at the shared points."""
+    from pathmotion.planning.planner import _sample
+
+    path = _spline(2, 7)
+    coarse = make_grid(path, 200)
+    fine = coarse.split(np.where(np.arange(len(coarse.theta) - 1) % 3 == 0, 3, 1))
+    donor = _sample(path, robot, coarse.theta, coarse.breaks).right
+    reused = _sample(path, robot, fine.theta, fine.breaks, donor)
+    fresh = _sample(path, robot, fine.theta, fine.breaks)
+    for side in ("right", "left"):
+        for name in ("q", "dq", "ddq"):
+            np.testing.assert_allclose(getattr(getattr(reused, side), name), getattr(getattr(fresh, side), name),
+                                       rtol=1e-12, atol=1e-12)
+    shared = np.isin(fine.theta, coarse.theta)
+    assert 0 < shared.sum() < len(fine.theta)
+    np.testing.assert_array_equal(reused.right.q[shared], donor.q)
+
+
+def test_grading_towards_a_break_stops_at_the_next_break():
+    """On a path of many short segments (10,000 of 1 mm, the uniform step of 200 points 50 mm) the initial grid
+    grades each break only inside its neighbouring segments: the levels finer than a segment, on both sides of each
+    break, and no coarser ones, which would land among other breaks' points."""
+    from types import SimpleNamespace
+
+    points, length, n = 200, 10.0, 10_000
+    step = length / (points - 1)
+    breaks = tuple(np.linspace(0.0, length, n + 1))
+    grid = make_grid(SimpleNamespace(domain=(0.0, length), breaks=breaks, kinks=()), points).theta
+    gap = length / n
+    grades = step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1)
+    fitting = grades[grades < gap]  # the finest levels only
+    assert 0 < len(fitting) < len(grades)
+    assert len(grid) <= points + (n + 1) * (1 + 2 * len(fitting))
+    for b in np.asarray(breaks[1:-1])[::997]:  # the grading points of a break, on both sides, within its segments
+        for d in fitting:
+            for side in (-1, 1):
+                assert np.min(np.abs(grid - (b + side * d))) < 1e-9 * step

@@ -255,13 +255,36 @@ def test_a_repeated_target_is_dropped_and_said():
 
 # ------------------------------------------------------------------------------------ program scale
 def test_the_1000_move_contour_imports_to_a_valid_scenario():
-    """Import only (planning 1,000 segments is the program-scale work's; benchmarks/ measures it)."""
     prog = read_rapid(DATA / "contour_1000.mod")
     assert len(prog.moves) == 1001
     tolerances = api.rapid_zone_tolerances(prog)
     scenario = parse_scenario(scenario_toml(prog, tolerances), "contour_1000.toml")
     assert len(scenario.path.segments) == 1000 and len(scenario.path.blends) == 999
     assert all(s.program.move == "MoveL" and s.quaternion == (0.0, 1.0, 0.0, 0.0) for s in scenario.path.segments)
+
+
+@pytest.mark.slow
+def test_the_1000_move_contour_is_checked_and_planned_within_every_limit(tmp_path):
+    """The 1,000-move contour (999 z1 zones) passes check and is planned with the certified verification: no limit
+    exceeded, at rest at its last target (the robtarget read here, flange FK times the tool), one moves.csv row per
+    move whose times sum to the cycle, and the cycle at least the path length over the largest TCP speed planned."""
+    _, setup = imported(DATA / "contour_1000.mod", {"plan.verify": "certified"})
+    assert len(setup.task_path.segments) == 1000 + 999
+    assert api.check_scenario(setup)["segments"] == 1999
+    result = api.plan_scenario(setup)
+    assert not api.plan_failures(result, setup) and result.ratios.within()
+    assert result.profile.x[-1] == 0.0
+    text = (DATA / "contour_1000.mod").read_text()
+    last = _pose(_numbers(re.findall(r"MoveL (\[\[.*?\]\])", text)[-1]))
+    tool_p, tool_r = tool_of(fine_targets(DATA / "contour_1000.mod")[1], DATA / "contour_1000.mod")
+    flange_p, flange_r = fk(load_robot("irb140"), setup.path(np.array([setup.path.domain[1]])))
+    np.testing.assert_allclose(flange_p[0] + flange_r[0] @ tool_p, last[0], atol=1e-5)
+    assert math.degrees(Rotation.from_matrix((flange_r[0] @ tool_r).T @ last[1]).magnitude()) < 0.01
+    api.write_plan(setup, result, tmp_path)
+    _, rows = read_rows(tmp_path / "moves.csv")
+    assert len(rows) == 1000 and sum(r["cycle_s"] for r in rows) == pytest.approx(result.duration, rel=1e-6)
+    peak = max(r["peak_tcp_speed_m_s"] for r in rows)
+    assert result.duration >= setup.task_path.length / peak
 
 
 def _jointtargets_deg(text: str) -> dict:

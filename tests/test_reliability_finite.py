@@ -6,7 +6,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pathmotion import load_robot
-from pathmotion.cli import app
+from pathmotion.cli import PROGRESS_LINE, app
 from pathmotion.control.gains import OrbitalGains, TrackingGains
 from pathmotion.errors import InfeasibleError, PathError, RobotModelError, SimulationError, UnreachableError
 from pathmotion.planning.reduced import reduced_dynamics
@@ -23,7 +23,7 @@ def _one_line_exit_1(tmp_path, text, *extra):
     scenario = tmp_path / "s.toml"
     scenario.write_text(text)
     res = runner.invoke(app, ["plan", str(scenario), "--out", str(tmp_path / "out"), "--no-figures", *extra])
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    lines = [ln for ln in res.output.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
     assert res.exit_code == 1 and len(lines) == 1 and lines[0].startswith("error: "), res.output
     assert not (tmp_path / "out").exists()
     return lines[0]

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from pathmotion import api
-from pathmotion.cli import app
+from pathmotion.cli import PROGRESS_LINE, app
 from pathmotion.errors import PathmotionError
 from pathmotion.io.scenario import parse_scenario
 
@@ -179,7 +179,7 @@ def test_command_line_with_arbitrary_set_values_exits_0_or_1_with_one_line(comma
     assert res.exit_code in (0, 1, 2), f"exit {res.exit_code}: {res.output}"
     assert "Traceback" not in res.output and "internal error" not in res.output
     if res.exit_code:
-        lines = [ln for ln in res.output.splitlines() if ln.strip()]
+        lines = [ln for ln in res.output.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
         assert len(lines) == 1 and lines[0].startswith("error: "), res.output
     assert not list(tmp_path.rglob("*.tmp"))
 
@@ -191,7 +191,7 @@ def test_error_with_a_line_breaking_character_in_the_users_value_stays_one_line(
     scenario.write_text(JOINT.replace("grid_points = 60", "grid_points = 30"))
     res = runner.invoke(app, ["check", str(scenario), f"--set=plan.start=ze{char}ro"])
     assert res.exit_code == 1, res.output
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    lines = [ln for ln in res.output.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
     assert len(lines) == 1 and lines[0].startswith("error: "), res.output
     assert repr(char)[1:-1] in lines[0]
 
@@ -205,6 +205,6 @@ def test_a_file_name_with_a_line_break_is_named_on_one_line(tmp_path, name):
     from pathmotion.cli import app
 
     res = CliRunner().invoke(app, ["check", str(tmp_path / name)])
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    lines = [ln for ln in res.output.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
     assert res.exit_code == 1 and len(lines) == 1 and lines[0].startswith("error: "), res.output
     assert repr(name)[1:-1] in lines[0]

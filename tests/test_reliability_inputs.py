@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pathmotion import api
-from pathmotion.cli import app
+from pathmotion.cli import PROGRESS_LINE, app
 from pathmotion.errors import PathmotionError
 
 from reliability_cases import CASES, CLASSES
@@ -65,7 +65,7 @@ def test_command_line_prints_one_error_line_and_exits_1(case, tmp_path):
     sets = [f"--set={k}={v}" for k, v in case.overrides.items()]
     out = tmp_path / "out"
     res = runner.invoke(app, ["plan", str(path), "--out", str(out), "--no-figures", *sets])
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    lines = [ln for ln in res.output.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
     assert res.exit_code == 1, f"{case.id}: exit {res.exit_code}: {res.output}"
     assert len(lines) == 1 and lines[0].startswith("error: "), res.output
     assert "Traceback" not in res.output

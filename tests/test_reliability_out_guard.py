@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from pathmotion.cli import app
+from pathmotion.cli import PROGRESS_LINE, app
 from pathmotion.errors import OutputError
 from pathmotion.io import atomic
 from pathmotion.io.files import RESULT_MARK, check_replaceable
@@ -40,7 +40,7 @@ def project(tmp_path, monkeypatch):
 
 def refused(args, *words):
     res = runner.invoke(app, args)
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    lines = [ln for ln in res.output.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
     assert res.exit_code == 1, (args, res.exit_code, res.output)
     assert len(lines) == 1 and lines[0].startswith("error: "), res.output
     for w in words:

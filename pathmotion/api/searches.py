@@ -51,7 +51,8 @@ def search_blends(setup: Setup) -> Setup:
         return dataclasses.replace(setup, path=path, task_path=path.task_path,
                                    original_task_path=path.original_task_path, blend_request=None)
     q0 = None if scenario.path.start_configuration is None else np.asarray(scenario.path.start_configuration, float)
-    shapes = _optimal_shapes(setup.robot, request, plan_settings(scenario), q0, scenario.plan.workers)
+    shapes = _optimal_shapes(setup.robot, request, plan_settings(scenario), q0, scenario.plan.workers,
+                             scenario.plan.scheduler)
     task = with_blends(request.sharp, {**request.blends, **{c: ("g2_shape", s) for c, s in shapes.items()}},
                        request.names)
     path = lift_task_path(scenario, setup.robot, task, setup.original_task_path)
@@ -61,18 +62,19 @@ def search_blends(setup: Setup) -> Setup:
 def _runs_shapes(setup: Setup, jobs: list) -> list[dict]:
     """The optimal blends of the task runs ``jobs`` [(BlendRequest, PlanSettings, start configuration)], in order:
     each a task on the Dask cluster at plan.scheduler (its corners in one process), else one after the other
-    (each run's corners on plan.workers processes)."""
+    (each run's corners on plan.workers processes, or on the cluster when there is one run)."""
     plan_spec = setup.scenario.plan
     if plan_spec.scheduler is None or len(jobs) <= 1:
-        return [_optimal_shapes(setup.robot, *job, plan_spec.workers) for job in jobs]
+        return [_optimal_shapes(setup.robot, *job, plan_spec.workers, plan_spec.scheduler) for job in jobs]
     return run_on_cluster(plan_spec.scheduler, _optimal_shapes, [(setup.robot, *job, 1) for job in jobs],
                           "optimal-blends")
 
 
-def _optimal_shapes(robot, request: BlendRequest, settings: PlanSettings, q0, workers: int) -> dict:
+def _optimal_shapes(robot, request: BlendRequest, settings: PlanSettings, q0, workers: int,
+                    scheduler: str | None = None) -> dict:
     """{connection index: G2Shape} of the optimal blends of ``request`` planned under ``settings`` from ``q0``
     (n,) [rad] or None, each corner searched as ``request.searches`` names it (the corners are independent, so
-    each kind is one search, on ``workers`` processes); errors start with the scenario key of their corner, or
+    each kind is one search, on ``workers`` processes or the Dask cluster at ``scheduler``); errors start with the scenario key of their corner, or
     of every searched corner when they concern them all (a blended path out of reach)."""
     kinds = {c: request.searches.get(c, "fast") for c in request.tolerances}
     shapes: dict = {}
@@ -83,7 +85,7 @@ def _optimal_shapes(robot, request: BlendRequest, settings: PlanSettings, q0, wo
             found = optimal_blends(robot, request.sharp, optimal, list(optimal), settings, q0,
                                    search=SEARCHES[kind], planar=[c for c in request.planar if c in optimal],
                                    joined_ends=[c for c in request.joined if c in optimal], names=request.names,
-                                   workers=workers)
+                                   workers=workers, scheduler=scheduler)
         except PathmotionError as exc:
             if exc.where in request.names.values():
                 raise

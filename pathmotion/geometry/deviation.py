@@ -15,6 +15,7 @@ lower <= true max <= upper (up to floating-point rounding).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import chain
 from typing import Callable, Sequence
 
 import numpy as np
@@ -46,13 +47,73 @@ class Deviation:
         return self.lower
 
 
+#: SegmentIndex: fewer segments than this are all measured against every point [-].
+INDEX_MIN_SEGMENTS = 16
+#: SegmentIndex: a segment's ball radius is half its length times (1 + this) plus BALL_ROUNDING [-], [m]
+#: (arc length parameters of blends are numerical: |p'| = 1 up to rounding).
+BALL_SLACK = 1e-6
+BALL_ROUNDING = 1e-12
+
+
 def distance_to_segments(points: np.ndarray, segments: Sequence[Segment]) -> np.ndarray:
     """Distance [m] (N,) from each point (N, 3) to the nearest point of any of ``segments``."""
-    pts = np.atleast_2d(points)
-    d = segments[0].closest(pts)[1]
-    for seg in segments[1:]:
-        d = np.minimum(d, seg.closest(pts)[1])
-    return d
+    return SegmentIndex(segments).distance(points)
+
+
+class SegmentIndex:
+    """The segments of a path, for the distance from points to their nearest one in time linear in the points,
+    not points x segments. A segment lies in the ball of radius length / 2 about its middle point (arc length
+    parameter). The balls are grouped by radius (powers of two), each group in a k-d tree of its centres: a point is
+    first measured against the segment whose ball's far side is nearest, then against the segments whose ball is
+    nearer than that distance, so one long segment does not widen every query. The distances are those of measuring
+    every segment (a blend's to rounding: its closest point is found iteratively on the batch of points given)."""
+
+    def __init__(self, segments: Sequence[Segment]):
+        self.segments = tuple(segments)
+        if len(self.segments) >= INDEX_MIN_SEGMENTS:
+            from scipy.spatial import cKDTree
+
+            half = np.array([0.5 * seg.length for seg in self.segments])
+            self.centres = np.array([seg.evaluate(np.array([h]))[0][0] for seg, h in zip(self.segments, half)])
+            self.radii = half * (1.0 + BALL_SLACK) + BALL_ROUNDING
+            size = np.floor(np.log2(self.radii)).astype(int)
+            self.groups = [(idx, cKDTree(self.centres[idx]), float(self.radii[idx].max()))
+                           for idx in (np.flatnonzero(size == k) for k in np.unique(size))]
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance [m] (N,) from each point (N, 3) to the nearest point of any segment."""
+        pts = np.atleast_2d(np.asarray(points, float))
+        if len(self.segments) < INDEX_MIN_SEGMENTS:
+            d = self.segments[0].closest(pts)[1]
+            for seg in self.segments[1:]:
+                d = np.minimum(d, seg.closest(pts)[1])
+            return d
+        far, first = np.full(len(pts), np.inf), np.zeros(len(pts), int)
+        for idx, tree, _ in self.groups:  # the ball whose far side is nearest: an upper bound of the distance
+            dist, k = tree.query(pts)
+            bound = dist + self.radii[idx[k]]
+            better = bound < far
+            far[better], first[better] = bound[better], idx[k[better]]
+        d = np.full(len(pts), np.inf)
+        self._measure(pts, d, np.arange(len(pts)), first)
+        for idx, tree, largest in self.groups:
+            near = tree.query_ball_point(pts, d + largest)
+            counts = np.fromiter(map(len, near), int, len(near))
+            cols = idx[np.fromiter(chain.from_iterable(near), int, int(counts.sum()))]
+            rows = np.repeat(np.arange(len(pts)), counts)
+            gap = np.sqrt(np.add.reduce((self.centres[cols] - pts[rows]) ** 2, axis=1)) - self.radii[cols]
+            keep = gap < d[rows]
+            self._measure(pts, d, rows[keep], cols[keep])
+        return d
+
+    def _measure(self, pts: np.ndarray, d: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
+        """d[rows] = min(d[rows], distance of pts[rows] to segments[cols]), one call per segment."""
+        order = np.argsort(cols, kind="stable")
+        rows, cols = rows[order], cols[order]
+        starts = np.flatnonzero(np.r_[True, cols[1:] != cols[:-1]]) if len(cols) else np.array([], int)
+        for a, b in zip(starts, np.r_[starts[1:], len(cols)]):
+            idx = rows[a:b]
+            np.minimum.at(d, idx, self.segments[cols[a]].closest(pts[idx])[1])
 
 
 def certified_max(fn: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, lipschitz: float,
@@ -106,5 +167,6 @@ def max_deviation(path: TaskPath, reference: TaskPath | Sequence[Segment],
     if not (path.domain[0] <= lo < hi <= path.domain[1] + DOMAIN_ROUNDING):
         raise PathError(f"max_deviation: theta_range ({lo:.6g}, {hi:.6g}) is not inside the path's domain "
                         f"(0, {path.length:.6g}) m")
-    return certified_max(lambda th: distance_to_segments(path.evaluate(np.minimum(th, path.length))[0], segs),
+    index = SegmentIndex(segs)
+    return certified_max(lambda th: index.distance(path.evaluate(np.minimum(th, path.length))[0]),
                          lo, min(hi, path.length), 1.0, rel_tol)

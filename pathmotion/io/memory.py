@@ -32,14 +32,21 @@ def _size(n: float) -> str:
     return f"{n / 2**30:.3g} GiB" if n >= 2**30 else f"{n / 2**20:.3g} MiB"
 
 
-def check_memory(count: int, bytes_each: float, what: str, fix: Callable[[int], str]) -> None:
-    """ScenarioError when ``count`` items of ``bytes_each`` [bytes] exceed :func:`memory_budget`: the message
-    names ``what`` ("plan.grid_points = 1,000,000"), the estimate, the budget and ``fix(largest)``, what to
-    change given the largest count that fits (e.g. "give plan.grid_points <= 208,000")."""
+def largest_count(bytes_each: float, base: float = 0.0) -> int | None:
+    """The most items of ``bytes_each`` [bytes] that fit :func:`memory_budget` beside ``base`` [bytes] (None:
+    the budget is unknown)."""
     budget = memory_budget()
-    need = count * bytes_each
+    return None if budget is None else max(int((budget - base) // bytes_each), 0)
+
+
+def check_memory(count: int, bytes_each: float, what: str, fix: Callable[[int], str], base: float = 0.0) -> None:
+    """ScenarioError when ``base`` + ``count`` items of ``bytes_each`` [bytes] exceed :func:`memory_budget`: the
+    message names ``what`` ("plan.grid_points = 1,000,000"), the estimate, the budget and ``fix(largest)``, what
+    to change given the largest count that fits (e.g. "give plan.grid_points <= 208,000")."""
+    budget = memory_budget()
+    need = base + count * bytes_each
     if budget is None or need <= budget:
         return
-    largest = int(budget // bytes_each)
+    largest = max(int((budget - base) // bytes_each), 0)
     raise ScenarioError(f"{what} needs about {_size(need)} of memory, more than the {_size(budget)} this run may "
                         f"use ({defaults.MEMORY_FRACTION:g} of the available memory); {fix(largest)}")

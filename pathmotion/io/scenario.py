@@ -154,9 +154,10 @@ class BlendSpec(_Model):
     join_ends: bool = Field(False, description="type optimal: join the lines at the path's start and end even where "
                                                "the motion rests there (default: the blend may leave the start and reach "
                                                "the end at an angle, within the tolerance)")
-    search: Literal["fast", "thorough"] = Field("fast", description="type optimal: 'fast' the quintic and the racing "
-                                                "line (2-4 s of CPU per corner), 'thorough' every stage of the "
-                                                "search (15-45 s per corner; the corner atlas' search)")
+    search: Literal["fast", "thorough"] = Field("fast", description="type optimal: 'fast' the quintic, the racing "
+                                                "line and short free-end stages (1-3 s of CPU per corner), 'thorough' "
+                                                "every stage of the search (15-60 s per corner; the corner atlas' "
+                                                "search)")
 
     @model_validator(mode="after")
     def _size(self):

@@ -25,7 +25,13 @@ blend so far:
    together finds faster blends (docs/study.md, "The global stage");
 7. the capped retry: where the neighbouring segments, not the tolerance, capped the blend (it deviates less than
    CAPPED_SHARE of the tolerance), stages 1-6 again within the deviation it reached; the faster search is kept;
-8. the polish: COBYQA on the full grid's duration (POLISH_PLANS) from the POLISH_STARTS fastest distinct candidates.
+8. the polish: COBYQA on the full grid's duration (POLISH_PLANS) from the POLISH_STARTS fastest distinct candidates
+   (or on a fixed grid of ``polish_grid_points``, its blend then planned on the full grid).
+
+On a path of several corners each corner is searched from the symmetric blends at the others, then (the neighbour
+pass, ``neighbour_pass``) once more from its own blend with its neighbours' found blends in place: the corners at
+even places first, then those at odd places, so each half's corners are independent. A corner's blend sets the speed
+at which its neighbours' windows are entered and left, and so what is fastest there.
 
 Offsets and coefficients are searched in units of the tolerance, runs in units of sqrt(tolerance RUN_SCALE_LENGTH)
 (an S-curve's lateral acceleration ~ w v^2 / l^2). On a path of more than two segments each corner is searched on its
@@ -35,14 +41,16 @@ then planned together on the whole path.
 
 Guarantees: the symmetric blend and the fastest of each class (one quintic, S-curves, in the plane, joined to the
 lines, before the joint stage, before the wide starts, before the restart, before the crossed starts, before the
-global stage, the capped search's) are re-planned on the full grid and the fastest is kept, so the result is never
-slower than any of them; the polish keeps it unless it finds a faster one. About 255 plans per corner before the
+global stage, the capped search's; of both passes where the neighbour pass ran) are re-planned on the full grid and
+the fastest is kept, so the result is never slower than any of them; the polish keeps it unless it finds a faster one
+on the full grid. About 255 plans per corner before the
 global stage, 785-1550 with free ends and the wide starts, and the global stage's GLOBAL_PLANS (all twice when
 capped), then the polish's 150 on the full grid.
 
 How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
-atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 on the search grid and a short
-polish (FAST_POLISH_PLANS) on the full grid. Each corner is searched from the symmetric blends at the others (a
+atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 on the search grid, short stages
+5-6 (no wide starts, restart or global stage) where a free end applies, and a short polish (FAST_POLISH_PLANS) on a
+fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each corner is searched from the symmetric blends at the others (a
 :class:`_CornerJob`), so ``workers`` > 1 searches the corners on local processes with the same result.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
@@ -146,8 +154,16 @@ POLISH_PLANS = 150
 #: for about 6 s more CPU per start and corner (28-35 s for the search; benchmarks/search_spread.py --polish-starts
 #: 3): not worth the atlas' time budget by default.
 POLISH_STARTS = 1
-#: The fast search's polish: plans per corner on the full grid from its fastest blend.
+#: The fast search's polish: plans per corner from its fastest blend, on a fixed grid of FAST_POLISH_GRID_POINTS (a
+#: plan there costs a fraction of one on the adaptive full grid; its blend is then planned on the full grid). On nine
+#: atlas rows it kept 7 points less to 2 points more of the thorough search's gain than 30 plans on the full grid, for
+#: about 1 s less CPU per corner.
 FAST_POLISH_PLANS = 30
+FAST_POLISH_GRID_POINTS = 1000
+#: The fast search's free ends (stages 5-6 without the wide starts), where the motion rests at a path end that the
+#: fastest joined blend reaches: plans of the free-ends stage and of the joint stage.
+FAST_END_PLANS = 20
+FAST_JOINT_PLANS = 30
 
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
 #: run_entry, run_exit [run unit] (7: S-curve offset pieces), then (11: free offset pieces) each
@@ -766,12 +782,14 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 class SearchSettings:
     """How hard :func:`optimal_blends` searches each corner (the stages of the module docstring): ``cycles`` passes
     of the quintic stage's scalar searches of ``steps`` golden steps; ``racing`` the racing line (at line-line corners;
-    its searches ``racing_steps`` steps); plans (0 skips the stage): ``free_plans`` the free offset pieces (0: no
-    later stage but the capped retry and the polish), ``rise_plans`` the rise, ``end_plans`` the free ends,
+    its searches ``racing_steps`` steps); plans (0 skips the stage; each runs on its own): ``free_plans`` the free
+    offset pieces, ``rise_plans`` the rise, ``end_plans`` the free ends,
     ``joint_plans`` the joint stage, ``wide_plans`` / ``wide_normal_plans`` / ``wide_crossed_plans`` the wide starts,
     ``restart_plans`` the wide restart, ``global_plans`` the global stage; ``retry_capped`` stage 7;
-    ``polish_plans`` stage 8 from ``polish_starts`` candidates; ``search_grid_points`` the search's grid;
-    ``windows`` each corner on its window (else every plan on the whole path)."""
+    ``polish_plans`` stage 8 from ``polish_starts`` candidates, on ``polish_grid_points`` grid points (None: the full
+    grid; else its blend confirmed there); ``search_grid_points`` the search's grid;
+    ``windows`` each corner on its window (else every plan on the whole path); ``neighbour_pass`` on a path of
+    several corners, each searched again with its neighbours' found blends in place (_neighbour_pass)."""
 
     cycles: int = SEARCH_CYCLES
     steps: int = GOLDEN_STEPS
@@ -791,15 +809,20 @@ class SearchSettings:
     polish_plans: int = POLISH_PLANS
     polish_starts: int = POLISH_STARTS
     windows: bool = True
+    neighbour_pass: bool = True
+    polish_grid_points: int | None = None
 
 
-#: Every stage (the corner atlas' search; 15-45 s of CPU per corner).
+#: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
 THOROUGH = SearchSettings()
-#: The quintic and the racing line (S-curve offset pieces) on the search grid, each corner's winner polished
-#: briefly on the full grid: 2-4 s of CPU per corner for 66-94 % of the thorough search's gain over the
-#: symmetric G2 blend (benchmarks/bench_fast_search.py measures both on the corner atlas' rows).
-FAST = SearchSettings(free_plans=0, rise_plans=0, end_plans=0, joint_plans=0, wide_plans=0, wide_normal_plans=0,
-                      restart_plans=0, global_plans=0, retry_capped=False, polish_plans=FAST_POLISH_PLANS)
+#: The quintic and the racing line (S-curve offset pieces) on the search grid, short free-ends and joint stages where
+#: the motion rests at a path end the blend reaches, each corner's winner polished briefly on a fixed grid
+#: (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's gain over the
+#: symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it found
+#: nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
+FAST = SearchSettings(free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS, joint_plans=FAST_JOINT_PLANS, wide_plans=0,
+                      wide_normal_plans=0, restart_plans=0, global_plans=0, retry_capped=False,
+                      polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS, neighbour_pass=False)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
 SEARCHES = {"fast": FAST, "thorough": THOROUGH}
 
@@ -831,7 +854,8 @@ class _CornerJob:
     """One corner's search, self-contained (it runs in a worker process as well): the path ``original`` with the
     symmetric blends ``shapes`` at every chosen corner, the ``corner``, its ``tolerance`` [m], the search's plan
     ``settings``, ``ends`` (free ends where the motion rests), ``racing`` (a line-line corner), ``planar``,
-    ``windowed`` (on its window)."""
+    ``windowed`` (on its window); ``warm``: (coordinates, free ends or None, the tolerance [m] they are in units
+    of) of a blend to start from as well (the neighbour pass: the corner's first-pass blend)."""
 
     robot: object
     original: TaskPath
@@ -845,6 +869,7 @@ class _CornerJob:
     planar: bool
     windowed: bool
     search: SearchSettings
+    warm: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -887,14 +912,19 @@ def _late_stages(objective: _Objective, search: SearchSettings, planar: bool) ->
                    before_restart if restart else None, before_crossed if crossed else None)
 
 
-def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, planar: bool = False) -> _Stages:
-    """Fill ``objective``'s cache: the quintic stage from the symmetric blend, then (``racing``) the racing-line stage
+def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, planar: bool = False,
+                   warm: tuple | None = None) -> _Stages:
+    """Fill ``objective``'s cache: the quintic stage from the symmetric blend (or from ``warm``, (coordinates, free
+    ends or None), where that is faster), then (``racing``) the racing-line stage
     from the best quintic, the free stage (``search.free_plans`` > 0), the rise (not ``planar``), the free ends and
     the stages after them (_late_stages, at a corner with a free end) and the global stage (module docstring).
     Returns the fastest blend before each late stage that ran (candidates of their own: a later stage's blend is
     faster on the search's coarse grid, not always on the full one)."""
     start = np.array([0.5, defaults.G2_BLEND_SHAPE, defaults.G2_BLEND_SHAPE, 0.0, 0.0, 1.0, 1.0])
     objective(start)
+    if warm is not None:  # read with the free ends it was built with
+        objective.free_ends = warm[1] or objective.free_ends
+        objective(np.array(warm[0], float))
     for _ in range(search.cycles):
         for i, box in ((_BALANCE, BALANCE_RANGE), (_SHAPE_A, SHAPE_RANGE), (_SHAPE_B, SHAPE_RANGE)):
             _line_search(objective, np.array(objective.best()[2]), (i,), *box, search.steps)
@@ -906,11 +936,11 @@ def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, 
             _line_search(objective, np.array(objective.best()[2]), indices, *box, search.racing_steps)
     if search.free_plans > 0:
         _free_stage(objective, search.free_plans)
-        if search.rise_plans > 0 and not planar:
-            _rise_stage(objective, search.rise_plans)
-        if search.end_plans > 0 and any(objective.free_ends):
-            found = _late_stages(objective, search, planar)
-    if search.free_plans > 0 and search.global_plans > 0:
+    if search.rise_plans > 0 and not planar:
+        _rise_stage(objective, search.rise_plans)
+    if search.end_plans > 0 and any(objective.free_ends):
+        found = _late_stages(objective, search, planar)
+    if search.global_plans > 0:
         ahead, before_global, _ = objective.best()
         drawn, why = _global_stage(objective, search.global_plans, planar)
         log.info("blend search: corner %d: the global stage: %.6g -> %.6g s (coarse grid), %d candidates, "
@@ -934,7 +964,8 @@ def _search_one(job: _CornerJob) -> _Found:
     plans = 2 * (window is not None)  # the whole path's plan for its ends, and the window's check
     obj = _objective(job.robot, job.original, job.shapes, k, job.tolerance, job.settings, job.q_start, job.ends,
                      window)
-    stages = _search_corner(obj, job.racing, search, job.planar)
+    warm = job.warm if job.warm is not None and np.isclose(job.warm[2], job.tolerance) else None
+    stages = _search_corner(obj, job.racing, search, job.planar, None if warm is None else warm[:2])
     searched, reached, capped = [obj], obj.best()[1].deviation, None
     if search.retry_capped and reached < CAPPED_SHARE * job.tolerance:  # the neighbours capped the blend: stage 7
         again = _objective(job.robot, job.original, job.shapes, k, reached, job.settings, job.q_start, job.ends,
@@ -959,8 +990,14 @@ def _search_one(job: _CornerJob) -> _Found:
                   capped, tuple(searched), plans)
 
 
-def _search_all(jobs: list[_CornerJob], workers: int) -> dict[int, _Found]:
-    """Every corner's search, on ``workers`` local processes (1: in this process), in corner order."""
+def _search_all(jobs: list[_CornerJob], workers: int, scheduler: str | None = None) -> dict[int, _Found]:
+    """Every corner's search, in corner order: each a task on the Dask cluster at ``scheduler`` ([PROTOCOL://]HOST:PORT)
+    when given, else on ``workers`` local processes (1: in this process)."""
+    if scheduler is not None and len(jobs) > 1:
+        from ..io.scheduler import run_on_cluster
+
+        return dict(zip((job.corner for job in jobs), run_on_cluster(scheduler, _search_one, [(job,) for job in jobs],
+                                                                      "corner-search")))
     if workers <= 1 or len(jobs) <= 1:
         return {job.corner: _search_one(job) for job in jobs}
     from concurrent.futures import ProcessPoolExecutor
@@ -978,13 +1015,15 @@ _CLASSES = ("quintic", "s_curve", "in_plane", "joined", "before_joint", "before_
 def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: Sequence[int] | None = None,
                    settings: PlanSettings | None = None, q_start=None, *, search: SearchSettings = THOROUGH,
                    planar: Sequence[int] = (), joined_ends: Sequence[int] = (),
-                   names: Mapping[int, str] | None = None, workers: int = 1, **changes) -> OptimalBlend:
+                   names: Mapping[int, str] | None = None, workers: int = 1, scheduler: str | None = None,
+                   **changes) -> OptimalBlend:
     """The G2 blends within ``tolerance`` [m] (or {corner: tolerance}) at ``corners`` (connection indices, default
     every sharp corner) of ``original`` that minimise the time-optimal duration under ``settings`` (module docstring),
     searched as ``search`` says (``changes``: SearchSettings fields to override, e.g. ``polish_plans=0``). The
     corners in ``planar`` stay in their plane; those in ``joined_ends`` join the lines even at a path end where the
     motion rests. Each corner is searched from the symmetric blends at the others, so the corners are independent:
-    ``workers`` > 1 searches them on that many local processes, with the same result. PathError as
+    ``workers`` > 1 searches them on that many local processes, ``scheduler`` (a Dask scheduler's address) on its
+    cluster, with the same result. PathError as
     :func:`~pathmotion.geometry.with_blends` (prefixed with ``names[corner]`` when given) when the tolerance does not
     fit."""
     search = dataclasses.replace(search, **changes) if changes else search
@@ -1005,26 +1044,55 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         jobs.append(_CornerJob(robot, original, initial, k, tol[k], coarse, q_start, ends, racing, k in planar,
                                windowed, search))
-    found = _search_all(jobs, workers)
-    return _chosen(robot, original, symmetric, initial, found, settings, q_start, search, planar, windowed)
+    found, first = _search_all(jobs, workers, scheduler), None
+    if search.neighbour_pass and len(jobs) > 1:
+        first, found = found, _neighbour_pass(jobs, found, workers, scheduler)
+    return _chosen(robot, original, symmetric, initial, found, settings, q_start, search, planar, windowed, first)
+
+
+def _neighbour_pass(jobs: list[_CornerJob], found: dict[int, _Found], workers: int, scheduler: str | None = None
+                    ) -> dict[int, _Found]:
+    """Every corner searched again from its first-pass blend (``found``) with its neighbours' found blends in place:
+    the corners at even places in corner order first (their neighbours' first-pass blends), then those at odd places
+    (their neighbours' blends just found), so that each half's searches are independent (on ``workers`` processes
+    or the cluster at ``scheduler``).
+    A corner's blend changes the speed its neighbours' windows are entered and left at, and so their fastest blends.
+    Returns what both passes found per corner: the second pass's blends, the candidates of both."""
+    shapes = {**jobs[0].shapes, **{k: f.best for k, f in found.items()}}
+    again: dict[int, _Found] = {}
+    for half in (jobs[0::2], jobs[1::2]):
+        redo = [dataclasses.replace(job, shapes=dict(shapes), warm=_coordinates(found[job.corner])) for job in half]
+        for k, f in _search_all(redo, workers, scheduler).items():
+            again[k], shapes[k] = f, f.best
+    log.info("blend search: the neighbour pass: %d corners searched again with their neighbours' blends", len(again))
+    return {k: dataclasses.replace(again[k], searched=found[k].searched + again[k].searched,
+                                   plans=found[k].plans + again[k].plans) for k in found}
+
+
+def _coordinates(found: _Found) -> tuple | None:
+    """(coordinates, free ends or None, tolerance [m]) of ``found.best`` in its search's cache; None if not there."""
+    for objective in found.searched:
+        for key, (_, shape) in objective.cache.items():
+            if shape == found.best:
+                return key[0], key[1], objective.tolerance
+    return None
 
 
 def _chosen(robot, original: TaskPath, symmetric: TaskPath, initial: dict, found: dict[int, _Found],
             settings: PlanSettings, q_start, search: SearchSettings, planar: Sequence[int],
-            windowed: bool) -> OptimalBlend:
-    """Stage 8 and the choice: every class's fastest blends (and the symmetric ones) planned on the full grid, the
-    fastest polished (module docstring); the OptimalBlend with the class durations."""
+            windowed: bool, first: dict[int, _Found] | None = None) -> OptimalBlend:
+    """Stage 8 and the choice: every class's fastest blends (and the symmetric ones; those of the first pass
+    ``first`` too where the neighbour pass ran) planned on the full grid, the fastest polished (module docstring); the
+    OptimalBlend with the class durations."""
     plans = sum(f.plans for f in found.values())
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
     candidates = [(sym_T, initial, symmetric)]
-    shapes = {k: f.best for k, f in found.items()}
-    capped = {k: f.capped for k, f in found.items() if f.capped is not None}
-    stages = (tuple({**initial, **{k: getattr(f, name) for k, f in found.items()}} for name in _CLASSES)
-              + (({**shapes, **capped},) if capped else ()) + ({**initial, **shapes},))
+    stages = _class_blends(initial, found) + (_class_blends(initial, first) if first else ())
     for stage in [c for i, c in enumerate(stages) if c not in stages[:i]]:
         candidates.append((duration_with(robot, original, stage, full, q_start), stage, None))
     plans += len(candidates)
+    log.info("blend search: the candidates on the full grid: %s s", ", ".join(f"{c[0]:.6g}" for c in candidates))
     quintic_T = candidates[1][0]
     joined_T = min(c[0] for c in candidates if all(_joined(shape) for shape in c[1].values()))
     planar_T = min(c[0] for c in candidates if all(shape.planar for shape in c[1].values()))
@@ -1034,8 +1102,8 @@ def _chosen(robot, original: TaskPath, symmetric: TaskPath, initial: dict, found
     starts = [c for i, c in enumerate(ranked) if all(c[1] != d[1] for d in ranked[:i])][:search.polish_starts]
     searches = {k: list(f.searched) for k, f in found.items()}
     for start_T, start, _ in starts if search.polish_plans > 0 else ():
-        polished_T, polished, polish_run = _polish(robot, original, start, start_T, searches, full, q_start,
-                                                   search.polish_plans, planar, quintic_only, windowed)
+        polished_T, polished, polish_run = _polished(robot, original, start, start_T, searches, full, q_start, search,
+                                                     planar, quintic_only, windowed)
         plans += polish_run
         if polished_T < start_T:
             shapes_now = polished.values()  # the polished blend counts for the classes it still belongs to
@@ -1048,6 +1116,36 @@ def _chosen(robot, original: TaskPath, symmetric: TaskPath, initial: dict, found
             T, best, path = polished_T, polished, None
     return OptimalBlend(best, symmetric if path is not None else with_shaped_g2_blends(original, best), T, sym_T,
                         plans, quintic_T, planar_T, joined_T)
+
+
+def _class_blends(initial: dict, found: dict[int, _Found]) -> tuple[dict, ...]:
+    """The blends {corner: G2Shape} of each candidate class (_CLASSES) of ``found``, the symmetric ``initial`` ones
+    elsewhere; then the capped searches' own where any won, and the fastest blends."""
+    shapes = {k: f.best for k, f in found.items()}
+    capped = {k: f.capped for k, f in found.items() if f.capped is not None}
+    return (tuple({**initial, **{k: getattr(f, name) for k, f in found.items()}} for name in _CLASSES)
+            + (({**shapes, **capped},) if capped else ()) + ({**initial, **shapes},))
+
+
+def _polished(robot, original: TaskPath, start: dict, start_T: float, searched: dict, full: PlanSettings, q_start,
+              search: SearchSettings, planar: Sequence[int], quintic: Sequence[int],
+              windowed: bool) -> tuple[float, dict, int]:
+    """Stage 8 from the blends ``start`` (full-grid duration ``start_T`` [s]): :func:`_polish` under ``full``, or on
+    ``search.polish_grid_points`` grid points and its blends then planned on the full grid. Returns (full-grid
+    duration [s], shapes, plans run); ``start`` and ``start_T`` where the polish found nothing faster."""
+    if search.polish_grid_points is None:
+        return _polish(robot, original, start, start_T, searched, full, q_start, search.polish_plans, planar, quintic,
+                       windowed)
+    grid = replace_settings(full, grid_points=search.polish_grid_points)
+    on_grid = duration_with(robot, original, start, grid, q_start)
+    _, polished, run = _polish(robot, original, start, on_grid, searched, grid, q_start, search.polish_plans, planar,
+                               quintic, windowed)
+    if polished == start:
+        return start_T, start, run + 1
+    T = duration_with(robot, original, polished, full, q_start)
+    log.info("blend search: the polish on %d grid points, on the full grid: %.6g -> %.6g s", search.polish_grid_points,
+             start_T, T)
+    return (T, polished, run + 2) if T < start_T else (start_T, start, run + 2)
 
 
 def _joined(shape: G2Shape) -> bool:

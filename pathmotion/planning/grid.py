@@ -14,6 +14,10 @@ into n_i parts, n_i proportional to the square root of its error (the fewest par
 summed error to ``TARGET_FRACTION`` of the tolerance), and that grid is solved: one solve per
 refinement (usually 3 in all), and each grid contains the previous one, so the path data and reduced
 dynamics of the shared points are reused (planner.py).
+
+A grid never exceeds ``max_points`` (after the first halving of the initial grid): when the parts the
+tolerance asks for do not fit, the points that fit are given by the same rule (n_i proportional to the
+square root of the error), that grid is solved and returned with its larger estimate and a warning.
 """
 
 from __future__ import annotations
@@ -99,13 +103,24 @@ def make_grid(path: JointPath, points: int) -> Grid:
     # point near it on 300 points, and the search's coarse plan took 0.75 s for a motion of 0.87 s
     peaks = np.array([float(p) for p in getattr(path, "peaks", ()) if lo < p < hi])
     grid = np.union1d(grid, peaks)
-    ends = np.array([lo, hi, *special, *peaks])
-    grade = step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1)
-    extra = np.concatenate([ends[:, None] + grade[None, :], ends[:, None] - grade[None, :]]).ravel()
-    grid = np.union1d(grid, extra[(extra > lo) & (extra < hi)])
+    grid = np.union1d(grid, _graded(np.array([lo, hi, *special, *peaks]), step))
     grid = _drop_near_duplicates(grid, np.array([lo, hi, *special, *peaks]), GRID_MIN_GAP * step)
     kinks = np.array([k for k in special if float(k) in {float(x) for x in path.kinks}])
     return Grid(grid, *_indices(grid, special, kinks))
+
+
+def _graded(ends: np.ndarray, step: float) -> np.ndarray:
+    """Points graded by halving (step / 2, step / 4, ..., GRID_GRADING_LEVELS) on both sides of each of
+    ``ends`` (domain ends, breaks, peaks), each only as far as the next of ``ends`` on its side: beyond it
+    the grid grades towards that one, so a path of many short segments gets GRID_GRADING_LEVELS points per
+    side of a break at most, not one per level whatever the segment's length."""
+    ends = np.unique(ends)
+    grade = step * 0.5 ** np.arange(1, defaults.GRID_GRADING_LEVELS + 1)
+    gap_after = np.append(np.diff(ends), 0.0)[:, None]  # 0 past the domain's end: nothing graded there
+    gap_before = np.insert(np.diff(ends), 0, 0.0)[:, None]
+    after = (ends[:, None] + grade[None, :])[grade[None, :] < gap_after]
+    before = (ends[:, None] - grade[None, :])[grade[None, :] < gap_before]
+    return np.concatenate([after, before])
 
 
 def _drop_near_duplicates(grid: np.ndarray, keep: np.ndarray, gap: float) -> np.ndarray:
@@ -157,6 +172,27 @@ def pieces_for(error: np.ndarray, target: float) -> np.ndarray:
     return parts(hi).astype(int)
 
 
+def pieces_within(error: np.ndarray, room: int) -> np.ndarray:
+    """Parts (K - 1,) by the rule of :func:`pieces_for` (n_i = ceil(lambda sqrt(error_i))) that add at most
+    ``room`` points in all: the largest lambda (bisection on its logarithm) whose parts fit."""
+    root = np.sqrt(np.maximum(error, 0.0))
+    ones = np.ones(len(error), int)
+    positive = root[root > 0]
+    if room <= 0 or positive.size == 0:
+        return ones
+
+    def parts(lam):
+        return np.clip(np.ceil(lam * root), 1, MAX_PIECES)
+
+    lo, hi = np.log(1.0 / positive.max()), np.log(MAX_PIECES / positive.min())  # all ones .. all MAX_PIECES
+    if float(np.sum(parts(np.exp(hi)) - 1)) <= room:
+        return parts(np.exp(hi)).astype(int)
+    for _ in range(2 * PIECES_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if float(np.sum(parts(np.exp(mid)) - 1)) <= room else (lo, mid)
+    return parts(np.exp(lo)).astype(int)
+
+
 @dataclass(frozen=True, eq=False)
 class Refined:
     """The adaptive result: the grid (the finer of the last pair), what ``solve`` returned on it, the
@@ -180,8 +216,10 @@ def refine(solve: Callable[[Grid], tuple[float, np.ndarray, Any]], initial: Grid
     _, x, _ = solve(grid)
     prior = np.full(len(grid.theta) - 1, np.inf)  # error estimate per interval [s]; unknown at first
     pieces = np.full(len(grid.theta) - 1, 2)
+    full = False  # the latest grid used all the points max_points allows
     for iteration in range(1, max_iterations + 1):
         fine = grid.split(pieces)
+        solved = None  # the coarser grid's solve is not kept while the finer one is built
         t_fine, x_fine, solved = solve(fine)
         change = change_per_interval(grid, x, fine, x_fine, pieces)
         # an interval split into n parts: its change is e (1 - 1/n), e its error before; unsplit ones keep theirs
@@ -189,12 +227,19 @@ def refine(solve: Callable[[Grid], tuple[float, np.ndarray, Any]], initial: Grid
         estimate = ERROR_SAFETY * float(error.sum())
         log.debug("adaptive grid: %d -> %d points, duration %.9g s, error estimate %.3g %%",
                   len(grid.theta), len(fine.theta), t_fine, 100 * estimate / t_fine)
-        if estimate <= tolerance * t_fine or len(fine.theta) >= max_points or iteration == max_iterations:
-            if estimate > tolerance * t_fine:
-                log.warning("adaptive grid stopped at %d points with an estimated duration error of %.3g %% "
-                            "(requested %.3g %%)", len(fine.theta), 100 * estimate / t_fine, 100 * tolerance)
-            return Refined(fine, solved, estimate, iteration)
         prior = np.repeat(error / pieces, pieces)  # the parts share their interval's error
-        grid, x = fine, x_fine
-        pieces = pieces_for(prior, TARGET_FRACTION * tolerance * t_fine / ERROR_SAFETY)
+        if estimate > tolerance * t_fine and not full and iteration < max_iterations:
+            pieces = pieces_for(prior, TARGET_FRACTION * tolerance * t_fine / ERROR_SAFETY)
+            room = max_points - len(fine.theta)
+            full = int(np.sum(pieces - 1)) > room
+            if full:
+                pieces = pieces_within(prior, room)
+            if pieces.max() > 1:
+                grid, x = fine, x_fine
+                continue
+        if estimate > tolerance * t_fine:
+            log.warning("adaptive grid stopped at %d points with an estimated duration error of %.3g %% "
+                        "(requested %.3g %%)%s", len(fine.theta), 100 * estimate / t_fine, 100 * tolerance,
+                        f": the grid is at its largest ({max_points:,} points)" if full else "")
+        return Refined(fine, solved, estimate, iteration)
     raise AssertionError("the last iteration returns")  # the loop runs at least once and returns on its last

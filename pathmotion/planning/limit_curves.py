@@ -112,11 +112,14 @@ def _steady_side(points: PathPoints, lim) -> np.ndarray:
 
 def steady_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: np.ndarray) -> dict[str, np.ndarray]:
     """{limit name: theta_dot (K,)} at ``theta`` (K,) for every active third-order limit: the largest
-    constant path speed within that limit (see the module docstring; not a bound on the motion)."""
+    constant path speed within that limit (see the module docstring; not a bound on the motion); the path is
+    evaluated only when there is one."""
+    third = [lim for lim in effective_limits(robot, settings) if lim.order == 3]
+    if not third:
+        return {}
     sides = _sides(path, robot, theta)
     out = {}
-    for lim in effective_limits(robot, settings):
-        if lim.order == 3:
-            x = np.minimum(*(_steady_side(points, lim) for points in sides))
-            out[lim.name] = np.sqrt(np.clip(x, 0.0, X_UNBOUNDED))
+    for lim in third:
+        x = np.minimum(*(_steady_side(points, lim) for points in sides))
+        out[lim.name] = np.sqrt(np.clip(x, 0.0, X_UNBOUNDED))
     return out

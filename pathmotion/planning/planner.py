@@ -210,8 +210,12 @@ class _Reusing(PathPoints):
 def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, ...],
             donor: PathPoints | None = None, third: bool = False) -> _Sampled:
     """Path data on ``grid``, from both sides of ``breaks``; ``third``: Phi''' too, from the same
-    evaluation (third-order limits need it; path.evaluate3 repeats path.evaluate's work)."""
-    data = path.evaluate3(grid, "right") if third else path.evaluate(grid, "right")
+    evaluation (third-order limits need it; path.evaluate3 repeats path.evaluate's work). Where a point of
+    ``grid`` is one of ``donor``'s (an earlier grid's right-side data), its Phi, Phi', Phi'' are copied."""
+    if third:
+        data = path.evaluate3(grid, "right")
+    else:
+        data = path.evaluate(grid, "right") if donor is None else _evaluate_reusing(path, grid, donor)
     q, dq, ddq = data[:3]
     dq_l, ddq_l = dq.copy(), ddq.copy()
     idx = np.array(list(breaks) + [len(grid) - 1], dtype=int)
@@ -222,6 +226,20 @@ def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, 
     if third:
         right._cache["dddq"] = np.atleast_2d(data[3])
     return _Sampled(right, PathPoints(robot, path, grid, q, dq_l, ddq_l, base=right, changed=idx, side="left"))
+
+
+def _evaluate_reusing(path: JointPath, grid: np.ndarray, donor: PathPoints) -> tuple[np.ndarray, ...]:
+    """path.evaluate(grid, "right") (Phi, Phi', Phi'' (K, n)), copied from ``donor`` at its points and evaluated at
+    the new ones only: the lift is point by point, and the refinements' grids contain their parents'."""
+    pos = np.clip(np.searchsorted(donor.theta, grid), 0, len(donor.theta) - 1)
+    shared = donor.theta[pos] == grid
+    out = tuple(np.empty((len(grid),) + d.shape[1:]) for d in (donor.q, donor.dq, donor.ddq))
+    for o, d in zip(out, (donor.q, donor.dq, donor.ddq)):
+        o[shared] = d[pos[shared]]
+    if not shared.all():
+        for o, fresh in zip(out, path.evaluate(grid[~shared], "right")):
+            o[~shared] = fresh
+    return out
 
 
 def _build(grid, s: _Sampled, limits: EffectiveLimits, scale: dict,
@@ -284,17 +302,22 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         last = []  # the latest solve: its path data seeds the next grid's
 
         def solve(g: Grid):
-            out = _solve_on(path, robot, settings, limits, g, donor=last[-1].samp.right if last else None)
+            donor = last.pop().samp.right if last else None  # the earlier solve's rows are freed before these
+            out = _solve_on(path, robot, settings, limits, g, donor=donor)
             last[:] = [out[2]]
             return out
 
-        refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.duration_tolerance)
-        solved, estimate = refined.solved, refined.error_estimate
+        refined = refine(solve, make_grid(path, defaults.GRID_INITIAL_POINTS), settings.duration_tolerance,
+                         max_points=_largest_grid(robot.n))
+        estimate, held = refined.error_estimate, [refined.solved]
+        del refined
+        last.clear()  # only ``held`` refers to the solve: _solve_verified frees it when it solves a finer grid
     else:
         points = settings.grid_points or defaults.THIRD_ORDER_GRID_POINTS
         solved = _solve_on(path, robot, settings, limits, make_grid(path, points))[2]
         first, estimate = solved.sol.profile.duration, solved.error_estimate
-    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, solved, adaptive)
+        held = [solved]
+    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, held.pop(), adaptive)
     if not adaptive and estimate is not None:  # the tightening's change is part of the discretization error
         estimate += abs(solved.sol.profile.duration - first)
     sol, grid = solved.sol, solved.grid.theta
@@ -356,20 +379,31 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol, estimate)
 
 
+def _largest_grid(joints: int) -> int:
+    """The most points the adaptive grid may reach: defaults.GRID_MAX_POINTS, or fewer where the memory this
+    run may use (io/memory.py) holds fewer at PLAN_BYTES_PER_POINT_JOINT."""
+    from ..io.memory import largest_count
+
+    fits = largest_count(defaults.PLAN_BYTES_PER_POINT_JOINT * joints, defaults.PLAN_MEMORY_BASE)
+    return defaults.GRID_MAX_POINTS if fits is None else min(defaults.GRID_MAX_POINTS, fits)
+
+
 def _check_grid_memory(points: int, joints: int, settings, segments: int) -> None:
-    """ScenarioError before a grid of ``points`` is sampled when its memory estimate (PLAN_BYTES_PER_POINT_JOINT)
-    exceeds what the run may use; the message gives the largest grid (fixed) or path (adaptive) that fits."""
+    """ScenarioError before a grid of ``points`` is sampled when its memory estimate (PLAN_MEMORY_BASE +
+    PLAN_BYTES_PER_POINT_JOINT per point and joint) exceeds what the run may use; the message gives the largest
+    grid (fixed) or path (adaptive) that fits."""
     from ..io.memory import check_memory
 
     each = defaults.PLAN_BYTES_PER_POINT_JOINT * joints
     if settings.grid_points is not None:
         check_memory(points, each, f"plan.grid_points = {settings.grid_points:,} (a grid of {points:,} points)",
-                     lambda largest: f"give plan.grid_points <= {largest:,}")
+                     lambda largest: f"give plan.grid_points <= {largest:,}", defaults.PLAN_MEMORY_BASE)
         return
     per_segment = points / max(segments, 1)
     check_memory(points, each, f"the adaptive planner grid of {points:,} points for {segments:,} segments",
                  lambda largest: f"the largest grid that fits has {largest:,} points: plan the path in parts of at "
-                                 f"most {int(largest / per_segment):,} segments, or raise plan.duration_tolerance")
+                                 f"most {int(largest / per_segment):,} segments, or raise plan.duration_tolerance",
+                 defaults.PLAN_MEMORY_BASE)
 
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
@@ -401,7 +435,9 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
                 if b.size:
                     over |= (b > 1.0 + defaults.TIGHTEN_TRIGGER * tol).any(axis=1)
             log.info("refining the %d grid intervals where a limit is exceeded, then solving again", int(over.sum()))
-            s = _solve_on(path, robot, settings, limits, s.grid.halved(over), donor=s.samp.right)[2]
+            grid, donor = s.grid.halved(over), s.samp.right
+            s = None  # its rows are freed before the finer grid's are built
+            s = _solve_on(path, robot, settings, limits, grid, donor=donor)[2]
             rounds += 1
             continue
         if iterations >= settings.max_tighten_iterations:

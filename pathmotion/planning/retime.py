@@ -41,6 +41,7 @@ from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _wi
                       effective_limits)
 from .profile import Profile
 from .retime_jerk import JerkPass
+from . import retime_stop
 from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
 from .limit_rows import limit_rows
@@ -129,6 +130,7 @@ class Retimer:
         self._no_target = np.full(len(grid), -1.0)
         self._buffer = np.empty(len(grid) + 1)
         self._fine_buffer = np.empty(STOP_POINTS)
+        self._stop_buffers = tuple(np.empty(retime_stop.MAX_STEPS + 1) for _ in range(3))
         # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at), and
         # the bounds of its error on every plan interval
         self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
@@ -174,12 +176,13 @@ class Retimer:
 
     def _warm_up(self) -> None:
         """One query of each kind, so that the first one in a control loop does not load the compiled kernels
-        (third-order limits: the remaining profile's pass; their stop solves LPs)."""
+        (third-order limits: the compiled remaining pass and stop)."""
         k = int(np.argmax(self.plan.profile.x))
         state = float(self.grid[k]), float(np.sqrt(self.plan.profile.x[k]))
         try:
             if self.third_order:
                 self.remaining(*state)
+                self.compiled_stop(*state)
                 return
             self.remaining(float(self.grid[0]), 0.0)
             self.stop(*state)
@@ -203,21 +206,71 @@ class Retimer:
         grid, x = self._remaining2(theta, x0, s2, u0)
         return Profile(grid, x)
 
-    def stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, *, second_order: bool = False) -> Profile:
+    def stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, *, second_order: bool = False,
+             reference: bool = False) -> Profile:
         """The shortest stop along the path within the plan's limits (a category 2 stop: the arm stays on
         the path and stops with theta_dot = 0 at the profile's last grid point). The state must move
         (theta_dot > 0). StateInfeasibleError when no in-limit stop ends before the path's end (or the
         next kink, which the arm cannot pass at speed). ``second_order=True`` leaves out the plan's jerk and
         torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step): the
-        fallback of a caller that must stop when no jerk-limited stop exists."""
+        fallback of a caller that must stop when no jerk-limited stop exists. With jerk limits the stop is the
+        compiled one (planning/retime_stop.py), the sequential-LP search where it finds none or with
+        ``reference`` (slow; the reference the compiled stop is tested against), and where neither finds one
+        (without ``reference``), the time-optimal motion to the next point where the plan's profile rests."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
                                   "there is nothing to stop")
+        if self.third_order and not second_order and not reference:
+            fast = self._compiled_stop(theta, x0, u0)
+            if fast is not None:
+                return fast
+            log.debug("retimer: no compiled jerk-limited stop from theta = %.6g; sequential LP", theta)
         grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
         if self.third_order and not second_order:
-            return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
+            try:
+                return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
+            except StateInfeasibleError:
+                rest = None if reference else self._to_next_rest(theta, x0, u0)
+                if rest is None:
+                    raise
+                log.info("retimer: no shorter jerk-limited stop from theta = %.6g; the time-optimal motion to the "
+                         "next rest point %.6g", theta, rest.grid[-1])
+                return rest
         return Profile(grid, x)
+
+    def _to_next_rest(self, theta: float, x0: float, u0: float) -> Profile | None:
+        """Jerk limits: the remaining profile from the state (the compiled pass, else the sequential LP) up to its
+        first rest point after it (a kink, a stop of the plan or the path's end): a stop within every limit where
+        none shorter is found; None where no remaining profile exists."""
+        try:
+            got = self._smooth_remaining(theta, x0, u0, 1.0)
+        except StateInfeasibleError:
+            return None
+        k = int(np.argmax(got.x[1:] <= 0.0)) + 1
+        return Profile(got.grid[:k + 1], got.x[:k + 1], got.u_nodes[:k + 1])
+
+    def compiled_stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0) -> Profile | None:
+        """Jerk limits: the compiled stop alone (planning/retime_stop.py), None where it finds none (``stop``
+        then searches with the sequential LP)."""
+        theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
+        if not self.third_order:
+            raise PathmotionError("Retimer.compiled_stop: the plan has no jerk or torque-rate limit; use stop "
+                                  "(its second-order stop is compiled)")
+        return self._compiled_stop(theta, x0, u0) if x0 > 0.0 else None
+
+    def _compiled_stop(self, theta: float, x0: float, u0: float) -> Profile | None:
+        jp = self._jerk
+        if jp is None:
+            return None
+        end = float(self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))])
+        s, x, u = self._stop_buffers
+        n, _ = retime_stop.shortest(theta, x0, u0, 1.0 + defaults.LIMIT_TOLERANCE, end, self.grid, jp.p2, jp.p3,
+                                    jp.px, s, x, u)
+        if n < 0:
+            return None
+        got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, self.grid, jp.p2, jp.p3, jp.px)
+        return None if got is None else Profile(*got)
 
     def compiled_remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0,
                            override: float = 1.0) -> Profile | None:

@@ -358,12 +358,10 @@ def _descend(k, x, u, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u, 
             break
         _, ucn = _ceiling(i + 1, j, grid_data, xc0, uc0)
         v = lo if x > xc * (1.0 + CROSS) else max(lo, min(hi, ucn))
-        x1 = x + 2.0 * (w0 * u + w1 * v)
-        if not _interval_ok(i, j, grid_data, first, x, u, v, floor, True, _start_keep(i, 1.0 - PASS_MARGIN, first),
-                            1.0 - PASS_MARGIN) or \
-                not _rows2_right(i + 1, j, grid_data, x1, v):
+        x1, dt = _pass_step(i, j, grid_data, first, x, u, v, w0, w1, floor)
+        if dt < 0.0:
             break
-        time += 2.0 * (w0 + w1) / (np.sqrt(x) + np.sqrt(x1))
+        time += dt
         x, u = x1, v
         if write:
             out_x[i + 1], out_u[i + 1] = x, u
@@ -379,6 +377,17 @@ def _rows2_right(k, j, grid_data, x, u):
     if g >= p2[0].shape[1]:
         return True
     return _rows2_within((p2[0][0, g], p2[1][0, g], p2[2][0, g], p2[3][0, g], p2[4][0, g]), x, u, 1.0 - PASS_MARGIN)
+
+
+@njit(cache=True)
+def _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor):
+    """The pass's interval k with end acceleration ``v``: (x at k + 1, its time [s]) when every row holds at
+    the pass's margin (and the order-2 rows at k + 1), else (x at k + 1, -1.0)."""
+    x1 = x + 2.0 * (w0 * u + w1 * v)
+    if not _interval_ok(k, j, grid_data, first, x, u, v, floor, True, _start_keep(k, 1.0 - PASS_MARGIN, first),
+                        1.0 - PASS_MARGIN) or not _rows2_right(k + 1, j, grid_data, x1, v):
+        return x1, -1.0
+    return x1, 2.0 * (w0 + w1) / (np.sqrt(x) + np.sqrt(x1))
 
 
 @njit(cache=True)
@@ -445,12 +454,10 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_
             break
         else:
             v = _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u)
-        x1 = x + 2.0 * (w0 * u + w1 * v)
-        if not _interval_ok(k, j, grid_data, first, x, u, v, floor, True, _start_keep(k, 1.0 - PASS_MARGIN, first),
-                            1.0 - PASS_MARGIN) or \
-                not _rows2_right(k + 1, j, grid_data, x1, v):
+        x1, dt = _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor)
+        if dt < 0.0:
             break
-        t += 2.0 * (w0 + w1) / (np.sqrt(x) + np.sqrt(x1))
+        t += dt
         x, u = x1, v
         out_x[k + 1], out_u[k + 1] = x, u
     if best_k < 0:

@@ -76,8 +76,13 @@ def state(grid, x, u, origin, sign, i, theta):
     g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
     xi = xi_of(origin[i], sign[i], theta)
     uu = u[i] + g * (xi - xi_lo)
-    xx = np.maximum(x[i] + 2.0 * (u[i] * (theta - grid[i]) + g * xi_integral(origin[i], sign[i], grid[i], theta)),
-                    0.0)
+    # x integrated from the interval's start, or from its end where the motion rests there (from the start, x
+    # next to the rest point would be the difference of nearly equal numbers, and the jerk's sqrt(x) / xi^2
+    # below would lose all its digits)
+    from_start = x[i] + 2.0 * (u[i] * (theta - grid[i]) + g * xi_integral(origin[i], sign[i], grid[i], theta))
+    from_end = x[i + 1] + 2.0 * (u[i + 1] * (theta - grid[i + 1])
+                                 + g * xi_integral(origin[i], sign[i], grid[i + 1], theta))
+    xx = np.maximum(np.where(x[i + 1] <= 0.0, from_end, from_start), 0.0)
     # theta_dddot = g sqrt(x) / (dtheta/dxi); at a rest point (xi = 0) its limit sqrt(x) / xi^2 is that
     # of the S-curve x = x_end (xi / xi_end)^4
     slope = dtheta_dxi(sign[i], xi)

@@ -10,6 +10,7 @@ from .. import defaults
 from ..errors import PathmotionError
 from ..lift.joint_path import JointPath
 from ..robot import Robot, rnea
+from .fast_rnea import rnea_batch, supported
 from .reduced import torque_derivative
 from .profile import Profile
 
@@ -57,7 +58,7 @@ class Trajectory:
             q, dq, ddq = self.path.evaluate(theta)
         qd = dq * theta_dot[:, None]
         qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
-        tau = None if self.robot is None else rnea(self.robot, q, qd, qdd)
+        tau = None if self.robot is None else (rnea_batch if supported(self.robot) else rnea)(self.robot, q, qd, qdd)
         qddd = tau_dot = None
         if third:
             qddd = (dq * theta_dddot[:, None] + 3.0 * ddq * (theta_dot * theta_ddot)[:, None]

@@ -1,0 +1,375 @@
+"""Compiled jerk-limited stop: the shortest stop along the path from a moving state (theta, theta_dot,
+theta_ddot) within every limit of the plan (velocity, acceleration, torque, jerk, torque rate).
+
+The stop is integrated in time with a piecewise constant path jerk (steps of about the estimated stop time
+over STEPS_PER_STOP):
+
+* braking: the jerk turns theta_ddot = u towards ``depth`` times the least u the order-2 rows allow (tracking
+  it as it moves with theta and x = theta_dot^2), as fast as the order-3 rows allow at both ends of a step;
+* tail: from a braking point, m steps at the largest jerk the order-3 rows allow (their velocity terms can
+  forbid the positive jerk of a close at speed), then the constant-jerk close J = u^2 / (2 theta_dot) that
+  brings u to 0 as theta_dot reaches 0 (distance 2 x / (3 |u|)), checked along its length.
+
+Of the depths DEPTHS (until DEPTH_MISSES in a row stop no sooner), the braking points (a coarse stride, then
+halving strides around the best) and the m, the stop that ends first is taken; along a tail, the first close
+the jerk allows. The rows are those the compiled remaining pass stores at Retimer
+construction (planning/retime_jerk.py: order-2 rows, x_max and order-3 rows at the CHECK_POINTS of every plan
+interval), interpolated linearly between neighbouring check points, and met with MARGIN to spare (faded in
+from the state's own share where the state itself takes more). A step's jerk is checked as the smooth profile
+realizes it (u linear along the step's theta). :func:`profile_of` turns the points into the project's smooth
+profile (u linear in xi = (theta_stop - theta)^(1/3) per interval, where the close is exact).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .. import defaults
+from . import smooth
+
+#: Share of every limit the stop keeps free for the linear interpolation of the rows and the discrete jerk [-].
+MARGIN = 0.01
+#: Braking steps per stop: the time step is the estimated stop time over this [-].
+STEPS_PER_STOP = 200
+#: Fewest steps of a stop: a stop of fewer is searched again with a shorter step [-].
+MIN_STEPS = 100
+#: Bounds of the time step [s] and the most steps a stop may take [-].
+DT_MIN, DT_MAX, MAX_STEPS = 1e-5, 2e-3, 20000
+#: Points along the constant-jerk tail where its limits are checked [-].
+TAIL_POINTS = 8
+#: Steps over which the state's own share of the limits fades to 1 - MARGIN [-].
+FADE_STEPS = 10
+#: Share of the time step of the steps while the margin fades in [-].
+FADE_DT = 0.125
+#: Braking points tried as the switch to the tail at first (a stride of their number over this) [-].
+COARSE = 16
+#: A tail is checked at least every this fraction of a plan interval along it [-].
+CHECK_SPACING = 0.125
+#: Braking depths tried: shares of the least u the order-2 rows allow [-].
+DEPTHS = np.array([1.0, 0.85, 0.7, 0.55, 0.4, 0.25])
+#: The search over the depths ends after this many in a row that stop no sooner than the best so far [-].
+DEPTH_MISSES = 2
+#: Intervals of the tail in the returned profile (equal in xi) [-].
+TAIL_INTERVALS = 4
+#: Re-evaluations of the order-3 rows at a braking step's end [-].
+END_PASSES = 3
+#: Fixed-point iterations of the close's start x and stop point [-].
+CLOSE_ITERATIONS = 3
+#: Share of x_max the stop may take: the state's own x may lie on it within the plans' limit tolerance, and the
+#: stop brakes from there [-].
+X_SHARE = (1.0 + defaults.LIMIT_TOLERANCE) ** 2
+#: A step's jerk moved into its bounds lands this fraction of their range inside them [-].
+FIT_INSET = 1e-6
+#: Relative slack of the checks (round-off) [-].
+SLACK = 1e-9
+
+
+@njit(cache=True, inline="always")
+def _locate(s, grid):
+    """(plan interval g, check segment q, weight w) of theta = s: between check points q and q + 1."""
+    g = np.searchsorted(grid, s, side="right") - 1
+    g = min(max(g, 0), grid.shape[0] - 2)
+    f = (s - grid[g]) / (grid[g + 1] - grid[g]) * 4.0
+    q = min(max(int(f), 0), 3)
+    w = min(max(f - q, 0.0), 1.0)
+    return g, q, w
+
+
+@njit(cache=True, inline="always")
+def _at(arr, q, g, r, w):
+    return (1.0 - w) * arr[q, g, r] + w * arr[q + 1, g, r]
+
+
+@njit(cache=True)
+def _u_range(s, x, keep, grid, p2, px):
+    """(least, largest) u the order-2 rows allow at (s, x) with ``keep`` of the limits; (inf, -inf) when x is
+    above X_SHARE x_max."""
+    g, q, w = _locate(s, grid)
+    if x > X_SHARE * ((1.0 - w) * px[q, g] + w * px[q + 1, g]):
+        return np.inf, -np.inf
+    a_, b_, c_, lo_, hi_ = p2
+    low, high = -np.inf, np.inf
+    for r in range(a_.shape[2]):
+        a, b, c = _at(a_, q, g, r, w), _at(b_, q, g, r, w), _at(c_, q, g, r, w)
+        lo, hi = keep * _at(lo_, q, g, r, w), keep * _at(hi_, q, g, r, w)
+        rest = b * x + c
+        slack = SLACK * (abs(lo) + abs(hi))
+        if a > 0.0:
+            low, high = max(low, (lo - slack - rest) / a), min(high, (hi + slack - rest) / a)
+        elif a < 0.0:
+            low, high = max(low, (hi + slack - rest) / a), min(high, (lo - slack - rest) / a)
+        elif rest > hi + slack or rest < lo - slack:
+            return np.inf, -np.inf
+    return low, high
+
+
+@njit(cache=True)
+def _j_range(s, x, u, keep, grid, p3):
+    """(least, largest) path jerk the order-3 rows |a3 j + sqrt(x) (a u + b x + c)| <= keep lim allow at
+    (s, x, u)."""
+    g, q, w = _locate(s, grid)
+    a3_, a_, b_, c_, lim_ = p3
+    sx = np.sqrt(max(x, 0.0))
+    low, high = -np.inf, np.inf
+    for r in range(a3_.shape[2]):
+        a3 = _at(a3_, q, g, r, w)
+        rest = sx * (_at(a_, q, g, r, w) * u + _at(b_, q, g, r, w) * x + _at(c_, q, g, r, w))
+        lim = keep * _at(lim_, q, g, r, w) * (1.0 + SLACK)
+        if a3 > 0.0:
+            low, high = max(low, (-lim - rest) / a3), min(high, (lim - rest) / a3)
+        elif a3 < 0.0:
+            low, high = max(low, (lim - rest) / a3), min(high, (-lim - rest) / a3)
+        elif abs(rest) > lim:
+            return np.inf, -np.inf
+    return low, high
+
+
+@njit(cache=True)
+def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
+    """Whether the constant-jerk close from (s, theta_dot v, u = a < 0) to rest ends before s_end and meets every
+    row at
+    TAIL_POINTS points equal in time plus one per CHECK_SPACING of the shortest plan interval it spans."""
+    if a >= 0.0:
+        return False
+    jerk = a * a / (2.0 * v)
+    period = 2.0 * v / -a
+    dist = v * period / 3.0
+    if s + dist > s_end:
+        return False
+    g0 = min(max(np.searchsorted(grid, s, side="right") - 1, 0), grid.shape[0] - 2)
+    g1 = min(max(np.searchsorted(grid, s + dist, side="right") - 1, g0), grid.shape[0] - 2)
+    h = np.min(grid[g0 + 1:g1 + 2] - grid[g0:g1 + 1])
+    points = TAIL_POINTS + int(dist / (CHECK_SPACING * h))
+    for i in range(points + 1):
+        t = period * i / points
+        st = s + v * t + 0.5 * a * t * t + jerk * t**3 / 6.0
+        vt = v + a * t + 0.5 * jerk * t * t
+        at = a + jerk * t
+        xt = vt * vt
+        lo, hi = _u_range(st, xt, keep, grid, p2, px)
+        if not lo <= at <= hi:
+            return False
+        jlo, jhi = _j_range(st, xt, at, keep, grid, p3)
+        if not jlo <= jerk <= jhi:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _advance(s, v, a, jerk, dt):
+    """(s, v, a) after dt at constant jerk."""
+    return (s + v * dt + 0.5 * a * dt * dt + jerk * dt**3 / 6.0, v + a * dt + 0.5 * jerk * dt * dt,
+            a + jerk * dt)
+
+
+@njit(cache=True)
+def _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px):
+    """The jerk of a step of length dt from (s, v, a), moved (END_PASSES times) into what the order-3 rows allow at
+    both of its ends (jlo, jhi at its start), as the smooth profile realizes it: its u is linear along the
+    step's theta, so its jerk at a point is the step's times the speed there over the step's mean speed.
+    Returns (s, v, a) after it and whether the step meets every row (order 2 at its end too)."""
+    for _ in range(END_PASSES + 1):
+        s1, v1, a1 = _advance(s, v, a, jerk, dt)
+        if v1 <= 0.0:
+            return s1, v1, a1, False
+        mean = (s1 - s) / dt
+        elo, ehi = _j_range(s1, v1 * v1, a1, keep, grid, p3)
+        low = max(jlo * mean / v, elo * mean / v1)
+        high = min(jhi * mean / v, ehi * mean / v1)
+        if low > high:
+            return s1, v1, a1, False
+        if low <= jerk <= high:
+            lo, hi = _u_range(s1, v1 * v1, keep, grid, p2, px)
+            return s1, v1, a1, lo <= a1 <= hi
+        inset = FIT_INSET * (high - low)  # inside: the bounds move a little with the jerk's end state
+        jerk = min(max(jerk, low + inset), high - inset)
+    return s1, v1, a1, False
+
+
+@njit(cache=True)
+def _step(s, v, a, keep, depth, dt, grid, p2, p3, px):
+    """One braking step of length dt: the jerk that brings u towards ``depth`` times the least u the rows allow
+    at the step's end, within the order-3 rows (_fit); (s, v, a) after it, and whether it meets the rows."""
+    jlo, jhi = _j_range(s, v * v, a, keep, grid, p3)
+    if jlo > jhi:
+        return s, v, a, False
+    sp, vp = s + v * dt + 0.5 * a * dt * dt, v + a * dt
+    jerk = 0.0
+    for _ in range(END_PASSES):  # the target u where the step ends
+        target = depth * _u_range(sp, vp * vp, keep, grid, p2, px)[0]
+        jerk = min(max((target - a) / dt, jlo), jhi)
+        sp, vp, _ = _advance(s, v, a, jerk, dt)
+        if vp <= 0.0:
+            break
+    return _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px)
+
+
+@njit(cache=True)
+def _up_step(s, v, a, keep, dt, grid, p2, p3, px):
+    """One step of length dt at the largest jerk the order-3 rows allow (_fit); (s, v, a) after it and whether it
+    meets the rows."""
+    jlo, jhi = _j_range(s, v * v, a, keep, grid, p3)
+    if jlo > jhi:
+        return s, v, a, False
+    return _fit(s, v, a, jhi, dt, jlo, jhi, keep, grid, p2, p3, px)
+
+
+@njit(cache=True, inline="always")
+def _keep(k, share):
+    """The share of the limits kept at braking step k: ``share`` (the state's own, at least 1 - MARGIN), fading to
+    1 - MARGIN over FADE_STEPS steps."""
+    fade = min(k / FADE_STEPS, 1.0)
+    return max(share, 1.0 - MARGIN) * (1.0 - fade) + (1.0 - MARGIN) * fade
+
+
+@njit(cache=True, inline="always")
+def _dt(k, dt):
+    """The length of step k [s]: dt, FADE_DT dt while the margin fades in (a step's profile realizes its jerk
+    within about its share of the distance to the stop, which the margin covers only once it is in full)."""
+    return dt * FADE_DT if k < FADE_STEPS else dt
+
+
+@njit(cache=True)
+def _brake(s0, x0, u0, share, depth, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+    """The braking steps from the state (aimed at ``depth`` times the least u the rows allow) until a step
+    breaks a row or reaches s_end (a tail from there would end after it): their points (the state first) into
+    out_s, out_x, out_u; returns their number."""
+    s, v, a = s0, np.sqrt(x0), u0
+    out_s[0], out_x[0], out_u[0] = s, x0, a
+    for k in range(min(out_s.shape[0] - 1, MAX_STEPS)):
+        s, v, a, ok = _step(s, v, a, _keep(k, share), depth, _dt(k, dt), grid, p2, p3, px)
+        if not ok or s >= s_end:
+            return k + 1
+        out_s[k + 1], out_x[k + 1], out_u[k + 1] = s, v * v, a
+    return min(out_s.shape[0], MAX_STEPS + 1)
+
+
+@njit(cache=True)
+def _tail(k, steps, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, write):
+    """The tails from braking point k: m = 0.. steps at the largest jerk (_up_step), then the constant-jerk close
+    to rest (_tail_ok). Returns (m, stop point) of the one that stops first and before ``best``, (-1, best) when
+    none; with ``write``, its m points after point k into out_s, out_x, out_u (``steps`` = that m)."""
+    s, v, a = out_s[k], np.sqrt(out_x[k]), out_u[k]
+    best_m = -1
+    for m in range(steps + 1):
+        keep = _keep(k + m, share)
+        if a >= 0.0 or s >= best:
+            break
+        # the close's stop point moves back while the largest jerk is below the close's, then on: the first
+        # close the jerk allows is the tail's best
+        stop = s + 2.0 * v * v / (3.0 * -a)
+        if not write and a * a / (2.0 * v) <= _j_range(s, v * v, a, keep, grid, p3)[1]:
+            if stop >= best:
+                break
+            if _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
+                best_m, best = m, stop
+                break
+        if m == steps:
+            break
+        s, v, a, ok = _up_step(s, v, a, keep, _dt(k + m, dt), grid, p2, p3, px)
+        if not ok:
+            break
+        if write:
+            out_s[k + m + 1], out_x[k + m + 1], out_u[k + m + 1] = s, v * v, a
+    if write:
+        return steps, s + 2.0 * v * v / (3.0 * -a)
+    return best_m, best
+
+
+@njit(cache=True)
+def _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+    """(k, m, stop point) of the braking point k < n and tail (_tail) that stop first: braking points at a stride
+    of n / COARSE, then halving strides around the best; k = -1 when none stops before ``best``."""
+    bk, bm = -1, -1
+    stride = max(n // COARSE, 1)
+    for k in range(0, n, stride):
+        m, stop = _tail(k, MAX_STEPS, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, False)
+        if m >= 0:
+            bk, bm, best = k, m, stop
+    while stride > 1 and bk >= 0:
+        stride //= 2
+        centre = bk
+        for k in (centre - stride, centre + stride):
+            if 0 <= k < n:
+                m, stop = _tail(k, MAX_STEPS, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, False)
+                if m >= 0:
+                    bk, bm, best = k, m, stop
+    return bk, bm, best
+
+
+@njit(cache=True)
+def shortest(s0, x0, u0, share, s_end, grid, p2, p3, px, out_s, out_x, out_u):
+    """The stop of the least distance: for the braking depths of DEPTHS (until DEPTH_MISSES in a row stop no
+    sooner) the braking (_brake) and its best switch to a tail (_best_switch). Fills out_s, out_x, out_u with
+    its points (the state first, the close's start last) and returns (their number, the stop point); (-1, inf)
+    when none is found. ``share``: the share of the limits the state may take (see _keep), where it
+    does not leave the margin itself."""
+    v = np.sqrt(x0)
+    lo, hi = _u_range(s0, x0, 1.0 - MARGIN, grid, p2, px)
+    jlo, jhi = _j_range(s0, x0, u0, 1.0 - MARGIN, grid, p3)
+    if lo <= u0 <= hi and jlo <= jhi:  # the state leaves the margin: kept from the start
+        share = 1.0 - MARGIN
+    lo, hi = _u_range(s0, x0, max(share, 1.0 - MARGIN), grid, p2, px)
+    jlo, jhi = _j_range(s0, x0, u0, max(share, 1.0 - MARGIN), grid, p3)
+    if not lo <= u0 <= hi or jlo > jhi or lo >= 0.0:
+        return -1, np.inf
+    # time step: turn to the least u, brake at it, close; once more with the step the first answer's number of
+    # steps calls for, where it took fewer than MIN_STEPS (the estimate overshot)
+    period = v / -lo + abs(u0 - lo) / max(-jlo, 1e-12) + 2.0 * abs(lo) / max(-jlo, jhi, 1e-12)
+    dt = min(max(period / STEPS_PER_STOP, DT_MIN), DT_MAX)
+    n, stop = _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    if 0 <= n < MIN_STEPS and dt > DT_MIN:
+        dt = max(dt * n / STEPS_PER_STOP, DT_MIN)
+        n, stop = _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    return n, stop
+
+
+@njit(cache=True)
+def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+    """:func:`shortest` with the time step dt [s]."""
+    best, best_depth, bk, bm, misses = np.inf, -1.0, -1, -1, 0
+    for depth in DEPTHS:
+        n = _brake(s0, x0, u0, share, depth, min(s_end, best), dt, grid, p2, p3, px, out_s, out_x, out_u)
+        k, m, stop = _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+        if k < 0:
+            misses += best_depth > 0.0
+            if misses == DEPTH_MISSES:  # the stops lengthen with a shallower depth from here
+                break
+            continue
+        best, best_depth, bk, bm, misses = stop, depth, k, m, 0
+    if best_depth < 0.0 or bk + bm + 2 > out_s.shape[0]:
+        return -1, np.inf
+    _brake(s0, x0, u0, share, best_depth, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    _, stop = _tail(bk, bm, np.inf, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, True)
+    return bk + bm + 1, stop
+
+
+def profile_of(s, x, u, s_end, grid, p2, p3, px):
+    """(grid, x, u_nodes) of the smooth profile through the braking and tail points (s, u) (n,) from the state's x
+    (x[0]), u linear in xi = (stop - theta)^(1/3) on every interval (planning/smooth.py), x from it (x_{k+1} =
+    x_k + 2 (w0_k u_k + w1_k u_{k+1})), and the constant-jerk close from the last point (TAIL_INTERVALS
+    intervals equal in xi) to rest at stop = s[-1] + 2 x[-1] / (3 |u[-1]|) with that x (CLOSE_ITERATIONS fixed-
+    point iterations: the coordinates depend on the stop). None when the close from that state breaks a row or
+    an x <= 0 comes before the stop."""
+    xs = x[:-1].copy()
+    x_sw = x[-1]
+    for _ in range(CLOSE_ITERATIONS):
+        stop = s[-1] + 2.0 * x_sw / (3.0 * -u[-1])
+        xi_sw = np.cbrt(stop - s[-1])
+        xi = xi_sw * (1.0 - np.arange(1, TAIL_INTERVALS + 1) / TAIL_INTERVALS)
+        g = np.concatenate([s, stop - xi[:-1] ** 3, [stop]])
+        un = np.concatenate([u, u[-1] * xi / xi_sw])
+        rest = np.zeros(len(g), bool)
+        rest[-1] = True
+        origin, sign = smooth.coordinates(g, rest)
+        _, _, w0, w1 = smooth.weights(g, origin, sign)
+        xs = x[0] + 2.0 * np.concatenate([[0.0], np.cumsum(w0 * un[:-1] + w1 * un[1:])])
+        x_sw = xs[len(s) - 1]
+    if x_sw <= 0.0 or np.any(xs[:len(s)] <= 0.0):
+        return None
+    if not _tail_ok(s[-1], np.sqrt(x_sw), u[-1], 1.0 - MARGIN, s_end, grid, p2, p3, px):
+        return None
+    xs[len(s):-1] = x_sw * (xi[:-1] / xi_sw) ** 4  # the close's x, exact
+    xs[-1] = 0.0
+    return g, xs, un
