@@ -74,8 +74,7 @@ def test_udp_lockstep_loop_either_side_first(planned):
 @pytest.fixture(scope="module")
 def planned_smooth():
     """SHORT with the jerk limits: elastic gears ring after the acceleration steps of a second-order plan."""
-    setup = api.load_text(SHORT, overrides={"limits.use_jerk": True})
-    return setup.robot, api.plan_scenario(setup), load_drives(drive_file_for("irb140"), setup.robot.n)
+    return planned_scenario(SHORT + "[limits]\nuse_jerk = true\n")
 
 
 def test_shaping_beats_none_on_elastic_gears(planned_smooth):

@@ -84,7 +84,7 @@ def test_envelope_holds_and_binds(plain, reserve):
 
 
 def test_envelope_of_one_is_the_plain_torque_limit(plain):
-    setup = _setup(torque_speed={"knee": 1.0, "at_max_speed": 1.0})
+    setup = _setup(torque_speed={"knee": 1.0, "at_max_speed": 1.0}, torque_reserve=0.0)  # the same limit as plain
     res = plan(setup.path, setup.robot, setup.plan_settings)
     assert res.duration == pytest.approx(plain[1].duration, rel=1e-9)
 
