@@ -250,7 +250,8 @@ def _free_port() -> int:
 
 @pytest.mark.slow
 def test_cli_execute_against_virtual_robot(tmp_path):
-    """The two commands as processes: execute started second, both exit 0 and write their files."""
+    """The two commands as processes: execute started second, both exit 0 and write their files; a jerk-limited
+    plan (the elastic gears ring after a second-order plan's acceleration steps) tracks within 1 mm."""
     import json
     import os
     import subprocess
@@ -258,7 +259,7 @@ def test_cli_execute_against_virtual_robot(tmp_path):
     import time
 
     scenario = tmp_path / "short.toml"
-    scenario.write_text(SHORT)
+    scenario.write_text(SHORT + "[limits]\nuse_jerk = true\n")
     port = _free_port()
     env = dict(os.environ, PYTHONPATH=os.getcwd())
     cli = [sys.executable, "-m", "pathmotion.cli"]
