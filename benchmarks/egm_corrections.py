@@ -6,6 +6,7 @@ requested at half the planned time). Lockstep EGM in one process, through the en
     PYTHONPATH=. python benchmarks/egm_corrections.py [--scenarios circle_smooth,corner_g2,abb_cycle] [--json F]
         [--unknown-payload KG]   (the arm carries KG 0.1 m beyond the flange; the plan and the drives' model not)
         [--plant builtin|mujoco] (what moves the links: the built-in two-mass RK4 or MuJoCo)
+        [--jerk]                 (plan every scenario with the robot's jerk limits, limits.use_jerk = true)
 """
 
 from __future__ import annotations
@@ -44,15 +45,17 @@ def main() -> None:
     ap.add_argument("--json", type=Path, help="write the table as JSON here (for benchmarks/results.py)")
     ap.add_argument("--unknown-payload", type=float, default=0.0, help="kg the arm carries unknown to the plan")
     ap.add_argument("--plant", default="builtin", choices=("builtin", "mujoco"), help="what moves the links")
+    ap.add_argument("--jerk", action="store_true", help="plan every scenario with the robot's jerk limits")
     args = ap.parse_args()
     payload = f", the arm carrying {args.unknown_payload:g} kg unknown to the plan" if args.unknown_payload else ""
     on = ", MuJoCo moving the links" if args.plant == "mujoco" else ""
-    table = Table(f"EGM corrections through the virtual IRC5{payload}{on}", COLUMNS)
+    jerk = ", every plan jerk-limited" if args.jerk else ""
+    table = Table(f"EGM corrections through the virtual IRC5{payload}{on}{jerk}", COLUMNS)
     print("| " + " | ".join(h for _, h in COLUMNS) + " |")
     print("|" + "---|" * len(COLUMNS))
     for name in args.scenarios.split(","):
         text = resources.files("pathmotion.scenarios").joinpath(f"{name}.toml").read_text()
-        setup = api.load_text(text)
+        setup = api.load_text(text, overrides={"limits.use_jerk": True} if args.jerk else None)
         result = api.plan_scenario(setup)
         elastic = load_drives(drive_file_for("irb140"), setup.robot.n)
         for gears, drives in (("rigid", elastic.rigid()), ("elastic", elastic)):
