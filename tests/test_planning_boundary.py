@@ -15,6 +15,7 @@ from pathmotion import defaults
 from pathmotion.errors import InfeasibleError, ScenarioError
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, plan
+from pathmotion.planning.planner import effective_limits
 from pathmotion.robot import gravity
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -128,6 +129,28 @@ def test_baselines_are_slower_and_feasible(irb140):
     assert np.all(fitted.profile.theta_dot_at(th) <= (1 - defaults.FITTED_PROFILE_MARGIN) * res.profile.theta_dot_at(th) + 1e-12)
     # constant speed: a straight joint line has a curved TCP path; its cruise holds a constant TCP speed
     assert "constant TCP speed" in constant.description
+
+
+@pytest.mark.parametrize("waypoints", [LINE, [np.zeros(6), np.array([0.6, 0.9, -0.7, 1.2, -0.4, 0.8]),
+                                              np.array([1.4, 0.2, 0.1, -0.5, 0.6, 0.0])]])
+def test_certified_baselines_hold_on_the_dense_resample(irb140, waypoints):
+    """The baselines verified by the certified bound per grid interval (verify = "certified") exceed no limit on the
+    independent 0.1 ms resample, and are within the limit tolerance of the baselines verified on that resample."""
+    from pathmotion.planning.trajectory import Trajectory
+    from pathmotion.planning.verify import limit_ratios
+
+    path = PolylinePath.through(waypoints)
+    settings = PlanSettings(grid_points=300, baselines=True, limits={"use_torque": True})
+    certified = plan(path, irb140, settings).baselines
+    dense = plan(path, irb140, replace(settings, verify="dense")).baselines
+    tol = settings.limit_tolerance
+    for name in ("fitted", "constant_speed"):
+        b, d = getattr(certified, name), getattr(dense, name)
+        assert b.ratios.method == "certified"
+        resampled = limit_ratios(Trajectory(path, b.profile, irb140), effective_limits(irb140, settings))
+        assert resampled.within(tol), (name, resampled.worst)
+        # the certified bound is an upper bound: its baseline is at most as fast, and slower by no more than tol
+        assert d.duration * (1 - 1e-9) <= b.duration <= d.duration * (1 + 2 * tol), name
 
 
 def test_settings_are_validated():

@@ -5,7 +5,8 @@ theta_dot = w(theta) exp(p(theta)) with p a Chebyshev polynomial (a Fourier seri
 cycle) fitted by least squares to log(theta_dot / w), and w = sqrt(distance to an end where the
 optimum starts or stops from rest), so the fit keeps the square-root shape there — scaled to lie
 FITTED_PROFILE_MARGIN below the optimum, then reduced until every limit holds: exactly on the
-planner's discretization (a closed-form largest scale), then on the dense verification resample.
+planner's discretization (a closed-form largest scale), then by the plan's own verification (the certified
+bound on every grid interval, or the dense resample with ``verify = "dense"`` or "off").
 
 constant_speed: the highest constant TCP speed that can be held along the whole path, with ramps of
 constant TCP acceleration at the ends where the motion starts or stops (what a commercial
@@ -17,6 +18,7 @@ discretization is searched; on a periodic cycle there are no ramps.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -186,16 +188,22 @@ def _fit_piece(theta: np.ndarray, x: np.ndarray, periodic: bool, degree: int) ->
     return fit**2
 
 
-def _verified(name, description, problem, cuts, pieces, path, robot, limits, settings, joint_names) -> Baseline:
-    """Join, verify on the dense resample (every verify_sample_time, or at most BASELINE_SAMPLES samples on a long
-    motion), and scale x down until the ratios pass (bounded)."""
-    for _ in range(_VERIFY_ROUNDS):
-        prof, jumps = join_segments(problem.grid, cuts, pieces)
+def dense_check(path, robot, limits, settings) -> Callable:
+    """The baselines' verification on the dense resample: ``check(profile, jumps)`` -> (worst ratio outside the jump
+    intervals, LimitRatios), sampled every verify_sample_time, or at most BASELINE_SAMPLES samples on a long motion."""
+    def check(prof: Profile, jumps) -> tuple[float, LimitRatios]:
         traj = Trajectory(path, prof, robot)
         dt = max(settings.verify_sample_time, prof.duration / BASELINE_SAMPLES)
         samples, r = sample_ratios(traj, limits, dt, jumps)
-        ratios = summarize(samples, r, limits, dt, (), joint_names)
-        worst = worst_outside(samples, r, jumps)
+        return worst_outside(samples, r, jumps), summarize(samples, r, limits, dt, (), robot.joint_names)
+    return check
+
+
+def _verified(name, description, problem, cuts, pieces, check: Callable, settings) -> Baseline:
+    """Join, verify with ``check`` (see :func:`compute_baselines`), and scale x down until the ratios pass (bounded)."""
+    for _ in range(_VERIFY_ROUNDS):
+        prof, jumps = join_segments(problem.grid, cuts, pieces)
+        worst, ratios = check(prof, jumps)
         if worst <= 1.0 + settings.limit_tolerance:
             return Baseline(name, prof, ratios, description)
         pieces = [p / worst for p in pieces]
@@ -203,7 +211,7 @@ def _verified(name, description, problem, cuts, pieces, path, robot, limits, set
                           f"({ratios.worst}); switch baselines off or raise grid_points")
 
 
-def fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle) -> Baseline:
+def fitted_baseline(problem, sol, chain_args, check, settings, periodic_cycle) -> Baseline:
     cuts = _cuts(chain_args, problem.size)
     pieces = []
     for (i0, i1), x in zip(zip(cuts[:-1], cuts[1:]), _piece_values(sol, chain_args, cuts)):
@@ -215,7 +223,7 @@ def fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, per
         pieces.append(fit)
     text = (f"smooth fit (degree {defaults.FITTED_PROFILE_DEGREE}) of log theta_dot, "
             f"{100 * settings.fitted_margin:g} % below the optimum, verified")
-    return _verified("fitted", text, problem, cuts, pieces, path, robot, limits, settings, robot.joint_names)
+    return _verified("fitted", text, problem, cuts, pieces, check, settings)
 
 
 def _piece_time(theta: np.ndarray, x: np.ndarray) -> float:
@@ -243,8 +251,8 @@ def _trapezoid(theta, gain, x_max, v, a, rest_start, rest_end) -> np.ndarray:
     return x
 
 
-def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits, settings,
-                        periodic_cycle) -> Baseline:
+def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, check, settings,
+                            periodic_cycle) -> Baseline:
     """Trapezoid in TCP speed: the (cruise speed v, TCP acceleration a) pair of least duration for
     which the motion is feasible (searched: a on a logarithmic grid refined around the best, the
     largest feasible v for each a by bisection); a periodic cycle has no ramps."""
@@ -300,20 +308,22 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
                               "this plan's boundary conditions and limits (e.g. a 'max' or given start/end speed)")
     text = (f"constant TCP speed {v:.6g} m/s" +
             (f" with TCP acceleration ramps of {a:.4g} m/s^2" if ramps else " (periodic, no ramps)"))
-    return _verified("constant_speed", text, problem, cuts, pieces_for(v * (1.0 - FEASIBLE_MARGIN), a), path, robot, limits,
-                     settings, robot.joint_names)
+    return _verified("constant_speed", text, problem, cuts, pieces_for(v * (1.0 - FEASIBLE_MARGIN), a), check,
+                     settings)
 
 
 def compute_baselines(problem: IntervalProblem, sol: Solution, chain_args: dict, gain_right: np.ndarray,
-                      gain_left: np.ndarray, path, robot, limits, settings) -> Baselines:
+                      gain_left: np.ndarray, check: Callable, settings) -> Baselines:
     """Both baselines for a solved problem (see the module docstring). gain_right / gain_left (K,):
-    TCP speed per unit theta_dot, |J_v Phi'| [m per unit theta], on each side of every point."""
+    TCP speed per unit theta_dot, |J_v Phi'| [m per unit theta], on each side of every point. ``check(profile,
+    jumps)`` verifies a joined baseline: (its worst limit ratio outside the jump intervals, its LimitRatios), the
+    planner's certified bound per grid interval or :func:`dense_check`."""
     periodic_cycle = bool(chain_args["periodic"]) and not ({0, problem.size - 1} & set(chain_args["stops"]))
     periodic_cycle = periodic_cycle and chain_args["connections"] != Connections.MAX and len(_cuts(chain_args, problem.size)) == 2
-    fitted = fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle)
+    fitted = fitted_baseline(problem, sol, chain_args, check, settings, periodic_cycle)
     try:
-        constant = constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits,
-                                           settings, periodic_cycle)
+        constant = constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, check, settings,
+                                           periodic_cycle)
     except InfeasibleError as exc:
         return Baselines(fitted, None, str(exc))
     return Baselines(fitted, constant)

@@ -25,7 +25,7 @@ from ..errors import InfeasibleError, ScenarioError
 from ..lift.joint_path import JointPath
 from ..modes import BoundaryMode, Connections, VerifyMode, parse_mode
 from ..robot import Robot
-from .baselines import Baselines, compute_baselines
+from .baselines import Baselines, compute_baselines, dense_check
 from .certify import CertifyContext, certify
 from .grid import Grid, make_grid, refine
 from .boundary import X_CAP_FRACTION, Boundary, at_rest
@@ -332,7 +332,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     if settings.baselines:
         log.info("baselines: fitted and constant TCP speed")
         base = compute_baselines(solved.problem, sol, solved.chain_args, tcp_gain(solved.samp.right),
-                                 tcp_gain(solved.samp.left), path, robot, limits, settings)
+                                 tcp_gain(solved.samp.left), _baseline_check(path, robot, settings, limits, solved),
+                                 settings)
         log.debug("baselines: fitted %.6g s, constant speed %s", base.fitted.duration,
                   f"{base.constant_speed.duration:.6g} s" if base.constant_speed else base.constant_speed_error)
     profile = sol.profile
@@ -471,6 +472,22 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
         theta = 0.5 * (pgrid[:-1] + pgrid[1:])
     free = outside(theta, sol.jump_intervals)
     return interval_maxima(theta[free], {name: v[free] for name, v in r.items()}, grid), ratios
+
+
+def _baseline_check(path, robot, settings, limits, s: _Solved):
+    """How the baselines are verified (baselines.compute_baselines' ``check``): like the plan, by the certified bound
+    on every interval with the solve's path data (``verify = "certified"``), else on the dense resample."""
+    if settings.verify != VerifyMode.CERTIFIED:
+        return dense_check(path, robot, limits, settings)
+
+    def check(profile: Profile, jumps) -> tuple[float, LimitRatios]:
+        ctx = _certify_context(path, robot, profile, limits, s.grid.theta, s.samp, s.grid.breaks)
+        bounds = certify(ctx, limits)
+        pgrid = profile.grid
+        free = outside(0.5 * (pgrid[:-1] + pgrid[1:]), jumps)
+        worst = max((float(b[free].max()) for b in bounds.values() if b.size and free.any()), default=0.0)
+        return worst, summarize_intervals(profile, bounds, limits, (), robot.joint_names)
+    return check
 
 
 def _with_knots(path: JointPath, theta: np.ndarray, breaks: tuple[int, ...]) -> tuple[int, ...]:
