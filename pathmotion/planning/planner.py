@@ -409,7 +409,7 @@ def _check_grid_memory(points: int, joints: int, settings, segments: int) -> Non
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
     """Bound every limit on every grid interval of the solve ``s`` (certified or dense, settings.verify);
-    where a bound exceeds 1 + limit_tolerance, halve those intervals and re-solve (adaptive grid, at most
+    where a bound exceeds 1 + limit_tolerance, halve those intervals and their neighbours and re-solve (adaptive grid, at most
     PLAN_MAX_REFINE_ROUNDS: refinement keeps the duration at the optimum), then tighten the limits
     locally there and re-solve (bounded by settings.max_tighten_iterations).
     Returns the final solve, its trajectory, ratios and the tighten iterations."""
@@ -435,8 +435,9 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
             for b in bounds.values():
                 if b.size:
                     over |= (b > 1.0 + defaults.TIGHTEN_TRIGGER * tol).any(axis=1)
-            log.info("refining the %d grid intervals where a limit is exceeded, then solving again", int(over.sum()))
-            grid, donor = s.grid.halved(over), s.samp.right
+            log.info("refining the %d grid intervals where a limit is exceeded (and %d on each side), then solving "
+                     "again", int(over.sum()), defaults.PLAN_REFINE_NEIGHBOURS)
+            grid, donor = s.grid.halved(_widened(over, defaults.PLAN_REFINE_NEIGHBOURS)), s.samp.right
             s = None  # its rows are freed before the finer grid's are built
             s = _solve_on(path, robot, settings, limits, grid, donor=donor)[2]
             rounds += 1
@@ -451,6 +452,15 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
         s = _solve_on(path, robot, settings, limits, s.grid, s.samp, scale, s.sol.x)[2]
         iterations += 1
     return s, traj, ratios, iterations
+
+
+def _widened(mask: np.ndarray, n: int) -> np.ndarray:
+    """``mask`` (K - 1,) with the ``n`` entries on each side of every true entry set too."""
+    out = mask.copy()
+    for k in range(1, n + 1):
+        out[k:] |= mask[:-k]
+        out[:-k] |= mask[k:]
+    return out
 
 
 def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, breaks) -> tuple[dict, LimitRatios]:
