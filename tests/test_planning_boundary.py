@@ -153,6 +153,17 @@ def test_certified_baselines_hold_on_the_dense_resample(irb140, waypoints):
         assert d.duration * (1 - 1e-9) <= b.duration <= d.duration * (1 + 2 * tol), name
 
 
+def test_baselines_of_a_jerk_limited_plan_are_verified_on_the_dense_resample(irb140):
+    """With a jerk limit the plan is smooth but the baselines' theta_ddot is constant per interval: the certified
+    bound does not cover their jerk, so they are verified on the resample (a sample time), and none fails."""
+    path = SplineJointPath.from_waypoints([LINE[0], 0.5 * LINE[1] + [0.2, 0, 0, 0, 0, 0], LINE[1]])
+    jerk = tuple(10.0 * np.asarray(irb140.limits.acceleration))
+    res = plan(path, irb140, PlanSettings(grid_points=100, baselines=True, start="zero", end="zero",
+                                          limits={"use_torque": False, "jerk": jerk}))
+    for base in (res.baselines.fitted, res.baselines.constant_speed):
+        assert base.ratios.sample_time is not None and base.duration > res.duration
+
+
 def test_settings_are_validated():
     with pytest.raises(ScenarioError):
         PlanSettings(start="fast")

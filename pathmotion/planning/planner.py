@@ -486,8 +486,10 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
 
 def _baseline_check(path, robot, settings, limits, s: _Solved):
     """How the baselines are verified (baselines.compute_baselines' ``check``): like the plan, by the certified bound
-    on every interval with the solve's path data (``verify = "certified"``), else on the dense resample."""
-    if settings.verify != VerifyMode.CERTIFIED:
+    on every interval with the solve's path data (``verify = "certified"``), else on the dense resample; also with
+    jerk or torque-rate limits, which the certification bounds on smooth profiles only (a baseline's theta_ddot
+    is constant per interval)."""
+    if settings.verify != VerifyMode.CERTIFIED or limits.third_order:
         return dense_check(path, robot, limits, settings)
 
     def check(profile: Profile, jumps) -> tuple[float, LimitRatios]:
