@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from numba import njit
 
 from .. import defaults
 from ..errors import InfeasibleError
@@ -129,21 +130,47 @@ class _TrapezoidRows:
 
     def holds(self, v: float, ramp: tuple[np.ndarray, np.ndarray, bool]) -> bool:
         """Whether the trapezoid of cruise speed v (and the a of ``ramp`` = :meth:`ramps`) meets every row and x_max
-        (as ``max_feasible_scale >= 1`` does, the cruise rows up to round-off)."""
+        (as ``max_feasible_scale >= 1`` does, the cruise rows up to round-off): :func:`_holds`, one pass."""
         x_inf, ok, caps = ramp
         sub = self.problem
-        with np.errstate(divide="ignore"):
-            cruise_x = v ** 2 / self.gain ** 2
-        fixed = (x_inf < cruise_x) | ~self.moving  # on a ramp, at rest, or the TCP still: x is not v's
-        both_fixed, both_cruise = fixed[:-1] & fixed[1:], ~fixed[:-1] & ~fixed[1:]
-        if not (np.all(caps[fixed]) and np.all(ok[both_fixed]) and np.all(v ** 2 <= self.cruise[both_cruise])):
-            return False
-        if np.any(~fixed & (self.cap < v ** 2)):
-            return False
-        mixed = ~both_fixed & ~both_cruise
-        x = np.where(fixed, x_inf, cruise_x)
-        den = sub.P[mixed] * x[:-1][mixed, None] + sub.Q[mixed] * x[1:][mixed, None]
-        return bool(np.all(_rows_hold(den, sub.R[mixed])))
+        return bool(_holds(float(v) ** 2, x_inf, self.moving, self.gain, caps, ok, self.cruise, self.cap, sub.P, sub.Q,
+                           sub.R))
+
+
+@njit(cache=True, error_model="numpy")
+def _holds(v2, x_inf, moving, gain, caps, ok, cruise, cap, P, Q, R):
+    """_TrapezoidRows.holds for v^2 = ``v2``: a point is fixed (on a ramp, at rest, or the TCP still: x = x_inf, not
+    v's) where x_inf < v^2 / gain^2 or it does not move, else it cruises (x = v^2 / gain^2); a fixed point keeps its
+    ``caps``, a cruising one x <= ``cap``; a row between two fixed points holds where ``ok``, between two cruising
+    ones while v^2 <= ``cruise``, and between one of each where R / (P x_i + Q x_i+1) >= 1 (den > 0). Stops at the
+    first violation."""
+    k = x_inf.shape[0]
+    fixed = np.empty(k, np.bool_)
+    x = np.empty(k)
+    for i in range(k):
+        cruise_x = v2 / (gain[i] * gain[i])
+        fixed[i] = x_inf[i] < cruise_x or not moving[i]
+        if fixed[i]:
+            if not caps[i]:
+                return False
+            x[i] = x_inf[i]
+        else:
+            if cap[i] < v2:
+                return False
+            x[i] = cruise_x
+    for i in range(k - 1):
+        if fixed[i] and fixed[i + 1]:
+            if not ok[i]:
+                return False
+        elif not fixed[i] and not fixed[i + 1]:
+            if not v2 <= cruise[i]:
+                return False
+        else:
+            for r in range(P.shape[1]):
+                den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
+                if den > 0.0 and not R[i, r] / den >= 1.0:
+                    return False
+    return True
 
 
 def _rows_hold(den: np.ndarray, R: np.ndarray) -> np.ndarray:
