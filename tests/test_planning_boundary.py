@@ -223,3 +223,29 @@ def test_the_periodic_cycle_is_the_bisections_and_the_laps_bound_holds(irb140, m
     forced = plan(path, irb140, cfg)
     assert forced.profile.x[0] == pytest.approx(reference, rel=1e-8, abs=slack)
     assert forced.duration == pytest.approx(cyc.duration, rel=1e-8)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_max_feasible_scale_is_the_largest_scale_the_rows_allow(seed):
+    """s * x meets every row P x_i + Q x_i+1 <= R and x <= x_max at s = max_feasible_scale, and some row or bound
+    is exceeded just above it (checked on the rows directly)."""
+    from pathmotion.planning.baselines import max_feasible_scale
+    from pathmotion.planning.topp import IntervalProblem
+
+    rng = np.random.default_rng(seed)
+    k, m = int(rng.integers(2, 40)), int(rng.integers(0, 6))
+    P, Q = rng.normal(size=(k - 1, m)), rng.normal(size=(k - 1, m))
+    R = rng.uniform(0.1, 2.0, (k - 1, m))
+    x = np.where(rng.random(k) < 0.2, 0.0, rng.uniform(0.0, 2.0, k))
+    x_max = np.where(rng.random(k) < 0.2, np.inf, rng.uniform(0.5, 3.0, k))
+    s = max_feasible_scale(IntervalProblem(np.arange(k, dtype=float), P, Q, R, x_max), x)
+
+    def worst(scale):  # largest row value / bound and x / x_max
+        lhs = P * scale * x[:-1, None] + Q * scale * x[1:, None]
+        return max(float(np.max(lhs / R, initial=0.0)), float(np.max(scale * x / x_max, initial=0.0)))
+
+    if np.isfinite(s):
+        assert worst(s) <= 1.0 + 1e-12 and worst(s * (1.0 + 1e-9)) > 1.0
+    else:
+        assert worst(1e6) <= 1.0

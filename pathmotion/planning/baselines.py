@@ -77,12 +77,28 @@ class Baselines:
 
 def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
     """Largest s with s * x feasible on the discretized problem (x (K,) >= 0): each row
-    P x_i + Q x_{i+1} <= R scales linearly in s, and so does 0 <= x <= x_max."""
-    den = problem.P * x[:-1, None] + problem.Q * x[1:, None]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a row that scales without bound: inf
-        rows = np.where(den > 0, problem.R / np.where(den > 0, den, 1.0), np.inf)
-        caps = np.where(x > 0, problem.x_max / np.where(x > 0, x, 1.0), np.inf)
-    return float(min(rows.min(initial=np.inf), caps.min(initial=np.inf)))
+    P x_i + Q x_{i+1} <= R scales linearly in s, and so does 0 <= x <= x_max (inf: no row bounds the scale)."""
+    return float(_max_scale(problem.P, problem.Q, problem.R, problem.x_max, np.asarray(x, float)))
+
+
+@njit(cache=True, error_model="numpy")
+def _max_scale(P, Q, R, x_max, x):
+    """min over the rows with P x_i + Q x_i+1 > 0 of R / (P x_i + Q x_i+1), and over the points with x > 0 of
+    x_max / x; one pass, no (K, M) temporaries."""
+    best = np.inf
+    for i in range(P.shape[0]):
+        for r in range(P.shape[1]):
+            den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
+            if den > 0.0:
+                v = R[i, r] / den
+                if v < best or v != v:
+                    best = v
+    for i in range(x.shape[0]):
+        if x[i] > 0.0:
+            v = x_max[i] / x[i]
+            if v < best or v != v:
+                best = v
+    return best
 
 
 @dataclass(frozen=True, eq=False)
