@@ -135,11 +135,7 @@ class _TrapezoidRows:
         x = _trapezoid(sub.grid, self.gain, sub.x_max, np.inf, a, *self.rests)
         with np.errstate(divide="ignore"):
             fixed = (x < v_top ** 2 / self.gain ** 2) | ~self.moving
-        both = fixed[:-1] & fixed[1:]
-        xf = np.where(fixed, x, 0.0)
-        den = sub.P[both] * xf[:-1][both, None] + sub.Q[both] * xf[1:][both, None]
-        ok = np.ones(len(both), bool)
-        ok[both] = _rows_hold(den, sub.R[both])
+        ok = _fixed_rows_hold(sub.P, sub.Q, sub.R, np.where(fixed, x, 0.0), fixed)
         with np.errstate(divide="ignore", invalid="ignore"):
             caps = ~fixed | (x <= 0) | (sub.x_max / np.where(x > 0, x, 1.0) >= 1.0)
         return x, ok, caps
@@ -189,11 +185,20 @@ def _holds(v2, x_inf, moving, gain, caps, ok, cruise, cap, P, Q, R):
     return True
 
 
-def _rows_hold(den: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """Per row (first axis) whether every R / den >= 1 where den > 0 (the test of :func:`max_feasible_scale`)."""
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ratio = np.where(den > 0, R / np.where(den > 0, den, 1.0), np.inf)
-    return np.all(ratio >= 1.0, axis=1) if ratio.ndim == 2 else ratio >= 1.0
+@njit(cache=True, error_model="numpy")
+def _fixed_rows_hold(P, Q, R, x, fixed):
+    """(K - 1,) whether every row of each interval between two ``fixed`` points holds at x (K,): R / den >= 1
+    where den = P x_i + Q x_i+1 > 0; True on the other intervals."""
+    ok = np.ones(P.shape[0], np.bool_)
+    for i in range(P.shape[0]):
+        if fixed[i] and fixed[i + 1]:
+            for r in range(P.shape[1]):
+                den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
+                if den > 0.0 and not R[i, r] / den >= 1.0:
+                    ok[i] = False
+                    break
+    return ok
+
 
 def _cuts(chain_args: dict, size: int) -> list[int]:
     split = set(chain_args["stops"])
