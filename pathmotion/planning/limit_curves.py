@@ -64,10 +64,14 @@ def _sides(path: JointPath, robot: Robot, theta: np.ndarray) -> list[PathPoints]
     return [sampled.right, sampled.left]
 
 
-def limit_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: np.ndarray) -> dict[str, np.ndarray]:
+def limit_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: np.ndarray,
+                 sides: tuple[PathPoints, PathPoints] | None = None) -> dict[str, np.ndarray]:
     """{limit name: theta_dot_max (K,)} at ``theta`` (K,) for every active limit of order 1 or 2, in
-    registry order; theta_dot_max is sqrt(X_UNBOUNDED) where the limit alone does not bound the speed."""
-    sides = _sides(path, robot, theta)
+    registry order; theta_dot_max is sqrt(X_UNBOUNDED) where the limit alone does not bound the speed.
+    ``sides``: the path data (right side, left side) at ``theta`` when the caller has them (a plan's
+    ``path_points``), else the path is evaluated."""
+    if sides is None or not np.array_equal(sides[0].theta, theta):
+        sides = _sides(path, robot, theta)
     out = {}
     for lim in effective_limits(robot, settings):
         if lim.order > 2:

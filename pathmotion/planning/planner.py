@@ -147,7 +147,8 @@ class PlanResult:
     solve time [s] (everything but the baselines), grid size and tighten iterations used;
     duration_error_estimate [s]: the estimate of the duration's discretization error, from the adaptive
     grid, or with third-order limits from the nested coarse grid (planning/third_order.py) plus the
-    tightening's change; None on a fixed grid without third-order limits."""
+    tightening's change; None on a fixed grid without third-order limits. ``path_points``: the final solve's path
+    data (right side, left side) on ``curves.grid``, for the limit curves of the phase plane (None when not kept)."""
 
     profile: Profile
     trajectory: Trajectory
@@ -161,6 +162,7 @@ class PlanResult:
     jump_intervals: tuple[tuple[float, float], ...]
     settings: PlanSettings = field(repr=False)
     duration_error_estimate: float | None = None
+    path_points: tuple[PathPoints, PathPoints] | None = field(default=None, repr=False)
 
     @property
     def duration(self) -> float:
@@ -191,8 +193,13 @@ class _Reusing(PathPoints):
         self._shared = donor.theta[pos] == theta
         self._donor, self._donor_index = donor, pos[self._shared]
 
+    def detach(self) -> None:
+        """Forget the donor (its data are copied where used): an earlier grid's path data are freed with it;
+        a quantity asked for later is computed at every point."""
+        self._donor = None
+
     def cached(self, key, compute, third=False):
-        if key not in self._cache and key in self._donor._cache:
+        if key not in self._cache and self._donor is not None and key in self._donor._cache:
             new = np.nonzero(~self._shared)[0]
             data = (self.q, self.dq, self.ddq) + ((self.dddq,) if third else ())
             fresh = compute(self.robot, *(d[new] for d in data)) if new.size else None
@@ -362,7 +369,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         traj = replace(traj, profile=profile)
         log.info("dwells: %s s at rest, cycle %.6g s", " + ".join(f"{w:g}" for _, w in path.dwells), profile.duration)
     return PlanResult(profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
-                      iterations, sol.jump_intervals, settings, estimate)
+                      iterations, sol.jump_intervals, settings, estimate, (solved.samp.right, solved.samp.left))
 
 
 def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
@@ -395,6 +402,8 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     if scale is None:
         scale = limits.unit_scale(len(theta), robot.n)
     problem, right, left, sol, estimate = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
+    if isinstance(samp.right, _Reusing):  # the rows are built: the earlier grid's path data may go
+        samp.right.detach()
     _check_bounded(theta, sol.x)
     log.debug("solve on %d grid points: duration %.9g s", len(theta), sol.profile.duration)
     return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol, estimate)
