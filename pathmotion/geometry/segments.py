@@ -633,3 +633,11 @@ class StackedSegments:
                 self.coef, self.edges, self.table_u, self.table_s, self.bezier_length, self.tols,
                 self.bezier_index[k[i]], np.ascontiguousarray(s[i]), _GL_NODES, _GL_WEIGHTS, *_DERIVATIVE_FACTORS[:3])
         return line | bez
+
+    def line_distance(self, points: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """Distance [m] (N,) of points (N, 3) from the lines k (N,): Line.closest's operations, per pair."""
+        t = self.direction[k]
+        d = points - self.start[k]
+        s = np.minimum(np.maximum(d[:, 0] * t[:, 0] + d[:, 1] * t[:, 1] + d[:, 2] * t[:, 2], 0.0), self.line_length[k])
+        r = self.start[k] + s[:, None] * t - points
+        return np.sqrt(np.add.reduce(r * r, axis=1))
