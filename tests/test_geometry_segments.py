@@ -178,3 +178,13 @@ def test_no_curvature_peaks_on_lines_arcs_and_straight_beziers():
     assert Arc.through_points([0.4, 0.0, 0.4], [0.5, 0.1, 0.4], [0.6, 0.0, 0.4]).curvature_peaks == ()
     straight = BezierSegment(np.linspace([0.4, 0.0, 0.4], [0.6, 0.0, 0.4], 6))
     assert straight.curvature_peaks == ()
+
+
+def test_line_end_frames_are_evaluates_at_its_ends():
+    """A line's start and end frames (its own short form) are evaluate's at 0 and at the length, to the bit."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        line = Line(rng.normal(size=3), rng.normal(size=3) * 10.0 ** rng.uniform(-4, 1))
+        for frame, s in ((line.start_frame, 0.0), (line.end_frame, line.length)):
+            for got, want in zip(frame, line.evaluate(s)):
+                assert np.array_equal(got, want[0])

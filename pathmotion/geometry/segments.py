@@ -250,6 +250,10 @@ class Line(Segment):
         p, dp, ddp = self.evaluate(s)
         return p, dp, ddp, np.zeros_like(p)
 
+    def _end(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        # evaluate's numbers at 0 or the length without its arrays (every path construction classifies each joint)
+        return self.start + (0.0 if which == 0 else self._length) * self._t, self._t.copy(), np.zeros(3)
+
     def point(self, s: float) -> np.ndarray:
         """The point (3,) [m] at arc length ``s`` [m], clipped to [0, length]: evaluate's for one s, without
         its arrays (the blend sizing builds some 50 000 blends per corner)."""

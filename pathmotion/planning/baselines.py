@@ -120,11 +120,8 @@ class _TrapezoidRows:
     def of(cls, problem: IntervalProblem, gain: np.ndarray, rests: tuple[bool, bool]) -> "_TrapezoidRows":
         moving = gain > STILL_GAIN_FRACTION * gain.max()
         inv = np.where(moving, 1.0 / np.where(moving, gain, 1.0) ** 2, np.nan)
-        D = problem.P * inv[:-1, None] + problem.Q * inv[1:, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u = np.where(D > 0, problem.R / np.where(D > 0, D, 1.0), np.inf)
-        return cls(problem, gain, rests, u.min(axis=1, initial=np.inf), problem.x_max / np.where(moving, inv, np.nan),
-                   moving)
+        return cls(problem, gain, rests, _cruise_bounds(problem.P, problem.Q, problem.R, inv),
+                   problem.x_max / np.where(moving, inv, np.nan), moving)
 
     def ramps(self, a: float, v_top: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For ramp acceleration a: the x (K,) of every point as if v were unbounded (finite where x does not depend on
@@ -147,6 +144,25 @@ class _TrapezoidRows:
         sub = self.problem
         return bool(_holds(float(v) ** 2, x_inf, self.moving, self.gain, caps, ok, self.cruise, self.cap, sub.P, sub.Q,
                            sub.R))
+
+
+@njit(cache=True, error_model="numpy")
+def _cruise_bounds(P, Q, R, inv):
+    """(K-1,): per interval the least over its rows (P, Q, R (K-1, M)) of R / D, D = P inv_i + Q inv_(i+1) (inf
+    where D <= 0 or is nan), nan if one is nan (numpy's min); ``inv`` (K,) = 1 / gain^2, nan where still. One pass
+    instead of (K-1, M) temporaries (some 50 MB each on a program's grid)."""
+    out = np.empty(P.shape[0])
+    for i in range(P.shape[0]):
+        best = np.inf
+        for m in range(P.shape[1]):
+            d = P[i, m] * inv[i] + Q[i, m] * inv[i + 1]
+            u = R[i, m] / d if d > 0 else np.inf
+            if u < best or u != u:
+                best = u
+                if u != u:
+                    break
+        out[i] = best
+    return out
 
 
 @njit(cache=True, error_model="numpy")
