@@ -570,6 +570,14 @@ class BezierSegment(Segment):
         return bezier_arc_length.parameters(self._coef, self._panel_s, self._table_u, self._table_s, s,
                                             ARC_LENGTH_ROUNDING * max(1.0, self.length), _GL_NODES, _GL_WEIGHTS)
 
+    @cached_property
+    def _frames(self) -> tuple:
+        """Segment._end at both ends, evaluated once (every path built from this segment classifies its joints)."""
+        return tuple(Segment._end(self, which) for which in (0, 1))
+
+    def _end(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return tuple(a.copy() for a in self._frames[which])
+
     def evaluate(self, s):
         u = self.parameter(s)
         x, dx, ddx = self.curve(u)
