@@ -2,7 +2,8 @@
 1,000 and 10,000 moves (benchmarks/program_contour.py: 12 mm moves, 90 deg corners, a G2 blend within 0.5 mm at
 every corner), and what the optimal blends cost per corner and gain over the G2 blends.
 
-Each command runs as its own process (the CLI, as a user runs it), niced; its wall time, its CPU time (user + system,
+Each command runs as its own process (the CLI, as a user runs it), niced, with an empty controller cache (check
+designs the closed loop afresh); its wall time, its CPU time (user + system,
 the honest measure on a shared machine) and its peak resident memory come from the kernel (wait4). The per-segment
 columns and the ratio of each size's CPU per segment to the smallest size's say whether the cost grows linearly.
 The optimal rows plan the same contour with `type = "optimal"` (search = fast, then thorough on the smallest) and
@@ -38,8 +39,11 @@ def _measured(args: list[str], timeout: float) -> dict:
     its exit code and last stderr line."""
     import threading
 
-    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1")
-    with tempfile.TemporaryFile("w+") as err:
+    # an empty controller cache (control/design_cache.py) per command: check designs the closed loop as on a first
+    # run, not read from an earlier run's entry
+    cache = tempfile.TemporaryDirectory(prefix="pathmotion-cache-")
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1", PATHMOTION_CACHE_DIR=cache.name)
+    with cache, tempfile.TemporaryFile("w+") as err:
         t0 = time.perf_counter()
         # nice -n 10 python ...: nice execs python, so the waited process is the run itself
         proc = subprocess.Popen(["nice", "-n", "10", sys.executable, "-m", "pathmotion.cli", *args], cwd=ROOT,
@@ -146,7 +150,8 @@ def write_json(table: Table, path: Path, rows: list[dict], optimal: list[dict]) 
     """The program rows into ``table`` (started before the runs), the optimal rows, if any, as its notes."""
     for r in rows:
         table.add(**table_row(r))
-    table.notes.append("Each command is a niced CLI process; CPU is user + system, peak is its maximum resident "
+    table.notes.append("Each command is a niced CLI process with an empty controller cache; CPU is user + system, "
+                       "peak is its maximum resident "
                        "memory (wait4). The contour: benchmarks/program_contour.py (12 mm moves, 90 deg corners).")
     for o in optimal:
         table.notes.append(f"optimal blends, {o['segments']} segments, search {o['search']}, {o['workers']} workers: "

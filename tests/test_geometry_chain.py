@@ -143,3 +143,19 @@ def test_circle_chain_positions():
     np.testing.assert_allclose(path.evaluate(np.pi * 0.1)[0], [0.4, 0.0, 0.5], atol=1e-15)
     np.testing.assert_allclose(path.evaluate(path.length)[0], [0.5, 0.0, 0.5], atol=1e-15)
     assert isinstance(path.segments[0], Circle)
+
+
+@pytest.mark.parametrize("side", ["right", "left"])
+def test_stacked_evaluation_is_each_segments_own_bit_for_bit(side):
+    """TaskPath.evaluate evaluates lines and blends stacked (one compiled call for every blend): at unsorted thetas,
+    the breaks and points beyond a segment's ends (clipped), the same floats as each segment's own evaluate."""
+    path = with_g2_blend(with_g2_blend(with_g2_blend(_mixed_chain(), 2, 0.01), 1, 0.01), 0, 0.005)
+    assert {type(s).__name__ for s in path.segments} == {"Line", "Arc", "BezierSegment"}
+    rng = np.random.default_rng(3)
+    th = np.concatenate([rng.uniform(0.0, path.length, 3000), path.offsets, np.linspace(0, path.length, 517)])
+    got = path.evaluate(th, side)
+    k = path.segment_index(th, side)
+    for i in range(len(th)):
+        want = path.segments[k[i]].evaluate(np.array([th[i] - path.offsets[k[i]]]))
+        for g, w in zip(got, want):
+            assert np.array_equal(g[i], w[0])

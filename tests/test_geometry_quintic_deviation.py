@@ -92,3 +92,27 @@ def test_the_compiled_bracket_holds_on_a_dense_sample(corner, ends, offsets):
     dense = _independent_distance(BezierSegment._polyval(coef, np.linspace(0.0, 1.0, 20001)), lines)
     assert dense.max() <= got.upper * (1.0 + 1e-12) + 1e-15
     assert got.upper - got.lower <= 1e-4 * got.upper + 1e-15
+
+
+@settings(max_examples=40, deadline=None)
+@given(corner=point, ends=st.tuples(point, point), tolerance=st.floats(1e-6, 1e-2),
+       shape=st.sampled_from([0.3, 0.7, 1.0]), fraction=st.sampled_from([0.5, 1.0 - 1e-6]))
+def test_the_compiled_g2_sizing_is_the_search_over_g2_deviation_bit_for_bit(corner, ends, tolerance, shape, fraction):
+    """g2_lines_cut (the G2 blend's sizing at a line-line corner in one compiled call) against blends._largest
+    over g2_deviation's certified bound (numpy control points, one compiled bound per check): the same cut, and
+    the blend with that cut is within the tolerance by a bound computed afresh."""
+    from pathmotion.geometry import blends
+    from pathmotion.geometry.quintic_deviation import g2_lines_cut
+
+    c = np.array(corner)
+    A, B = Line(c + np.array(ends[0]) + 0.01, c), Line(c, c + np.array(ends[1]) - 0.01)
+    start = fraction * min(A.length, B.length)
+
+    def ok(cut):
+        return blends.g2_deviation(A, B, cut, shape, stop_above=tolerance, stop_below=tolerance).upper <= tolerance
+
+    want = blends._largest(ok, start, bisections=36)
+    got = g2_lines_cut((A, B), shape, tolerance, start, bisections=36)
+    assert got == want
+    if got > 0.0:
+        assert blends.g2_deviation(A, B, got, shape).upper <= tolerance

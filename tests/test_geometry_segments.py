@@ -178,3 +178,18 @@ def test_no_curvature_peaks_on_lines_arcs_and_straight_beziers():
     assert Arc.through_points([0.4, 0.0, 0.4], [0.5, 0.1, 0.4], [0.6, 0.0, 0.4]).curvature_peaks == ()
     straight = BezierSegment(np.linspace([0.4, 0.0, 0.4], [0.6, 0.0, 0.4], 6))
     assert straight.curvature_peaks == ()
+
+
+def test_end_frames_are_evaluates_at_the_ends():
+    """A line's start and end frames (its own short form) and a blend's (evaluated once) are evaluate's at 0 and at
+    the length, to the bit, and a caller changing a returned frame does not change the next one."""
+    rng = np.random.default_rng(5)
+    for _ in range(100):
+        line = Line(rng.normal(size=3), rng.normal(size=3) * 10.0 ** rng.uniform(-4, 1))
+        bezier = BezierSegment(np.cumsum(rng.uniform(0.01, 0.1, (6, 3)), axis=0))
+        for seg in (line, bezier):
+            for _ in range(2):
+                for frame, s in ((seg.start_frame, 0.0), (seg.end_frame, seg.length)):
+                    for got, want in zip(frame, seg.evaluate(s)):
+                        assert np.array_equal(got, want[0])
+                        got += 1.0

@@ -1,5 +1,6 @@
 """Exports: CSV/Parquet round trips, the ROS 2 JointTrajectory message parsed back, EGM stream, RAPID."""
 
+import io
 import os
 
 import numpy as np
@@ -149,3 +150,20 @@ def test_written_files_respect_the_umask(tmp_path, samples, umask, expected):
     assert stat.S_IMODE(reference.stat().st_mode) == expected  # the independent reference: open()
     for p in paths:
         assert stat.S_IMODE(os.stat(p).st_mode) == expected, p
+
+
+@pytest.mark.parametrize("rows", [0, 1, exports.CSV_BLOCK_ROWS + 7])
+def test_table_csv_is_savetxt_text(tmp_path, rows):
+    """write_table_csv formats blocks of rows at once: the text is np.savetxt's (%.17g, comma-separated), across
+    block boundaries and with nan, inf and -0.0, and it reads back to the same floats."""
+    data = np.random.default_rng(rows).normal(size=(rows, 3)) * 10.0 ** np.arange(-8, 7, 7)
+    if rows:
+        data.ravel()[:3] = [np.nan, -np.inf, -0.0]
+    path = exports.write_table_csv(tmp_path / "t.csv", {"a": data[:, 0], "b": data[:, 1], "c": data[:, 2]})
+    want = io.StringIO()
+    want.write("a,b,c\n")
+    np.savetxt(want, data, delimiter=",", fmt="%.17g")
+    assert path.read_text() == want.getvalue()
+    if rows:
+        back = exports.read_table_csv(path)
+        np.testing.assert_array_equal(np.column_stack([back[k] for k in "abc"]), data)

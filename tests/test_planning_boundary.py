@@ -15,6 +15,7 @@ from pathmotion import defaults
 from pathmotion.errors import InfeasibleError, ScenarioError
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, plan
+from pathmotion.planning.planner import effective_limits
 from pathmotion.robot import gravity
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -130,6 +131,39 @@ def test_baselines_are_slower_and_feasible(irb140):
     assert "constant TCP speed" in constant.description
 
 
+@pytest.mark.parametrize("waypoints", [LINE, [np.zeros(6), np.array([0.6, 0.9, -0.7, 1.2, -0.4, 0.8]),
+                                              np.array([1.4, 0.2, 0.1, -0.5, 0.6, 0.0])]])
+def test_certified_baselines_hold_on_the_dense_resample(irb140, waypoints):
+    """The baselines verified by the certified bound per grid interval (verify = "certified") exceed no limit on the
+    independent 0.1 ms resample, and are within the limit tolerance of the baselines verified on that resample."""
+    from pathmotion.planning.trajectory import Trajectory
+    from pathmotion.planning.verify import limit_ratios
+
+    path = PolylinePath.through(waypoints)
+    settings = PlanSettings(grid_points=300, baselines=True, limits={"use_torque": True})
+    certified = plan(path, irb140, settings).baselines
+    dense = plan(path, irb140, replace(settings, verify="dense")).baselines
+    tol = settings.limit_tolerance
+    for name in ("fitted", "constant_speed"):
+        b, d = getattr(certified, name), getattr(dense, name)
+        assert b.ratios.method == "certified"
+        resampled = limit_ratios(Trajectory(path, b.profile, irb140), effective_limits(irb140, settings))
+        assert resampled.within(tol), (name, resampled.worst)
+        # the certified bound is an upper bound: its baseline is at most as fast, and slower by no more than tol
+        assert d.duration * (1 - 1e-9) <= b.duration <= d.duration * (1 + 2 * tol), name
+
+
+def test_baselines_of_a_jerk_limited_plan_are_verified_on_the_dense_resample(irb140):
+    """With a jerk limit the plan is smooth but the baselines' theta_ddot is constant per interval: the certified
+    bound does not cover their jerk, so they are verified on the resample (a sample time), and none fails."""
+    path = SplineJointPath.from_waypoints([LINE[0], 0.5 * LINE[1] + [0.2, 0, 0, 0, 0, 0], LINE[1]])
+    jerk = tuple(10.0 * np.asarray(irb140.limits.acceleration))
+    res = plan(path, irb140, PlanSettings(grid_points=100, baselines=True, start="zero", end="zero",
+                                          limits={"use_torque": False, "jerk": jerk}))
+    for base in (res.baselines.fitted, res.baselines.constant_speed):
+        assert base.ratios.sample_time is not None and base.duration > res.duration
+
+
 def test_settings_are_validated():
     with pytest.raises(ScenarioError):
         PlanSettings(start="fast")
@@ -189,3 +223,29 @@ def test_the_periodic_cycle_is_the_bisections_and_the_laps_bound_holds(irb140, m
     forced = plan(path, irb140, cfg)
     assert forced.profile.x[0] == pytest.approx(reference, rel=1e-8, abs=slack)
     assert forced.duration == pytest.approx(cyc.duration, rel=1e-8)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_max_feasible_scale_is_the_largest_scale_the_rows_allow(seed):
+    """s * x meets every row P x_i + Q x_i+1 <= R and x <= x_max at s = max_feasible_scale, and some row or bound
+    is exceeded just above it (checked on the rows directly)."""
+    from pathmotion.planning.baselines import max_feasible_scale
+    from pathmotion.planning.topp import IntervalProblem
+
+    rng = np.random.default_rng(seed)
+    k, m = int(rng.integers(2, 40)), int(rng.integers(0, 6))
+    P, Q = rng.normal(size=(k - 1, m)), rng.normal(size=(k - 1, m))
+    R = rng.uniform(0.1, 2.0, (k - 1, m))
+    x = np.where(rng.random(k) < 0.2, 0.0, rng.uniform(0.0, 2.0, k))
+    x_max = np.where(rng.random(k) < 0.2, np.inf, rng.uniform(0.5, 3.0, k))
+    s = max_feasible_scale(IntervalProblem(np.arange(k, dtype=float), P, Q, R, x_max), x)
+
+    def worst(scale):  # largest row value / bound and x / x_max
+        lhs = P * scale * x[:-1, None] + Q * scale * x[1:, None]
+        return max(float(np.max(lhs / R, initial=0.0)), float(np.max(scale * x / x_max, initial=0.0)))
+
+    if np.isfinite(s):
+        assert worst(s) <= 1.0 + 1e-12 and worst(s * (1.0 + 1e-9)) > 1.0
+    else:
+        assert worst(1e6) <= 1.0

@@ -192,3 +192,18 @@ def test_steady_speed_curves_are_where_constant_speed_reaches_the_third_order_li
             assert _constant_speed_ratio(robot, path, th, curve[k], name, limits[name]) == pytest.approx(1, rel=2e-3)
             for below in (0.3, 0.7, 0.95):  # and within the limit at every slower constant speed
                 assert _constant_speed_ratio(robot, path, th, below * curve[k], name, limits[name]) <= 1.0
+
+
+@pytest.mark.parametrize("name", ["abb_cycle", "circle_smooth"])
+def test_limit_curves_from_the_plans_path_data_equal_those_of_a_fresh_path_evaluation(name):
+    """The phase plane's limit curves reuse the plan's final path data (PlanResult.path_points) on its grid; they
+    equal the curves of the path evaluated afresh there (up to round-off)."""
+    setup = api.load(scenario_path(name))
+    result = api.plan_scenario(setup)
+    grid = result.profile.grid
+    reused = limit_curves(setup.path, setup.robot, result.settings, grid, result.path_points)
+    fresh = limit_curves(setup.path, setup.robot, result.settings, grid)
+    assert result.path_points is not None and np.array_equal(result.path_points[0].theta, grid)
+    assert reused.keys() == fresh.keys() and reused
+    for key in fresh:
+        np.testing.assert_allclose(reused[key], fresh[key], rtol=1e-12, atol=0, err_msg=key)

@@ -175,7 +175,7 @@ def phase_plane_columns(result: PlanResult, setup: Setup | None = None,
     if second is not None:
         cols[schema.PHASE_SECOND_ORDER] = second.profile.theta_dot_at(grid)
     if setup is not None:
-        for name, curve in limit_curves(setup.path, setup.robot, result.settings, grid).items():
+        for name, curve in limit_curves(setup.path, setup.robot, result.settings, grid, result.path_points).items():
             cols[schema.limit_curve_column(name)] = curve
         for name, curve in steady_curves(setup.path, setup.robot, result.settings, grid).items():
             cols[schema.steady_curve_column(name)] = curve

@@ -62,7 +62,7 @@ from .. import defaults
 from ..errors import PathError
 from .chain import Connection, TaskPath, classify
 from .deviation import Deviation, certified_max, distance_to_segments
-from .quintic_deviation import bezier_lines_max, bezier_pieces_lines_max
+from .quintic_deviation import bezier_lines_max, bezier_pieces_lines_max, g2_lines_cut
 from .segments import Arc, BezierSegment, Line, Segment, _fmt
 
 log = logging.getLogger(__name__)
@@ -363,6 +363,18 @@ def _check_shape(shape: float, what: str) -> float:
     return s
 
 
+def _g2_cut(A: Segment, B: Segment, tol: float, shape: float, cut_max: float) -> float:
+    """The largest cut [m] (to ~1e-11 relative, searched down from ``cut_max``) whose G2 blend's certified
+    deviation is <= ``tol`` [m]; 0.0 if none. Two lines: the same search compiled in one call."""
+    if isinstance(A, Line) and isinstance(B, Line):
+        return g2_lines_cut((A, B), shape, tol, cut_max, bisections=36)
+
+    def ok(cut):
+        return g2_deviation(A, B, cut, shape, stop_above=tol, stop_below=tol).upper <= tol
+
+    return _largest(ok, cut_max, bisections=36)
+
+
 def _with_g2_blend(path: TaskPath, c: _Corner, tolerance: float, shape: float) -> TaskPath:
     what = "with_g2_blend"
     tol = float(tolerance) if np.isscalar(tolerance) else np.nan
@@ -373,17 +385,15 @@ def _with_g2_blend(path: TaskPath, c: _Corner, tolerance: float, shape: float) -
         raise PathError(f"{what}: at {c.where()} the path reverses direction; no blend can round it (insert a short "
                         "sideways segment, or leave the corner sharp: the motion stops there)")
     cut_max = min(c.max_a, c.max_b)
-    full = g2_deviation(c.A, c.B, cut_max, shape)
-    if full.upper <= tol:
+    # the bound refined only until it is known on which side of tol it lies (the same answer as the converged
+    # bound's), converged for the message only
+    if g2_deviation(c.A, c.B, cut_max, shape, stop_above=tol, stop_below=tol).upper <= tol:
+        full = g2_deviation(c.A, c.B, cut_max, shape)
         raise PathError(f"{what}: tolerance {tol:.6g} m is too large at {c.where()}: even the largest G2 blend the "
                         f"neighbouring segments allow (cutting {cut_max:.6g} m from each) deviates only "
                         f"{full.upper:.6g} m; give a tolerance below {_down(full.upper)} m")
 
-    def ok(cut):
-        d = g2_deviation(c.A, c.B, cut, shape, stop_above=tol, stop_below=tol)
-        return d.upper <= tol
-
-    cut = _largest(ok, cut_max, bisections=36)  # cut to ~1e-11 relative
+    cut = _g2_cut(c.A, c.B, tol, shape, cut_max)
     if cut <= 0.0:
         raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance")
     return _replace(path, c, cut, cut, BezierSegment(g2_control_points(c.A, c.B, cut, shape)))

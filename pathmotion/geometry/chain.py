@@ -17,6 +17,7 @@ Connections are classified as
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -24,7 +25,7 @@ import numpy as np
 from .. import defaults
 from ..errors import PathError
 from .orientation import FixedOrientation, Orientation
-from .segments import Segment, _fmt
+from .segments import Segment, StackedSegments, _fmt
 
 #: A path coordinate up to this times max(1, length) outside [0, length] is rounding, not an error [-].
 THETA_ROUNDING = 1e-9
@@ -199,9 +200,15 @@ class TaskPath:
         th, scalar = self._theta(theta)
         k = self._index(th, side)
         out = np.empty((3, len(th), 3))
-        for j, m in segment_groups(k):
-            out[:, m] = self.segments[j].evaluate(th[m] - self.offsets[j])
+        s = th - self.offsets[k]
+        rest = np.flatnonzero(~self._stacked.evaluate(s, k, out))  # lines and blends at once, the others here
+        for j, m in segment_groups(k[rest]):
+            out[:, rest[m]] = self.segments[j].evaluate(s[rest[m]])
         return tuple(o[0] for o in out) if scalar else tuple(out)
+
+    @cached_property
+    def _stacked(self) -> StackedSegments:
+        return StackedSegments(self.segments)
 
     def orientation(self, theta, side: Side = "right") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(R (N, 3, 3), w (N, 3) [rad/m], dw (N, 3) [rad/m^2]): tool rotation, its angular velocity

@@ -23,7 +23,7 @@ import numpy as np
 from .. import defaults
 from ..errors import PathError
 from .chain import TaskPath
-from .segments import Segment
+from .segments import Segment, StackedSegments
 
 #: certified_max: intervals whose bound exceeds the best value by less than this times
 #: max(1, Lipschitz constant * interval) differ by rounding only and are not split further [-].
@@ -76,6 +76,7 @@ class SegmentIndex:
             half = np.array([0.5 * seg.length for seg in self.segments])
             self.centres = np.array([seg.evaluate(np.array([h]))[0][0] for seg, h in zip(self.segments, half)])
             self.radii = half * (1.0 + BALL_SLACK) + BALL_ROUNDING
+            self.stacked = StackedSegments(self.segments)
             size = np.floor(np.log2(self.radii)).astype(int)
             self.groups = [(idx, cKDTree(self.centres[idx]), float(self.radii[idx].max()))
                            for idx in (np.flatnonzero(size == k) for k in np.unique(size))]
@@ -108,6 +109,10 @@ class SegmentIndex:
 
     def _measure(self, pts: np.ndarray, d: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
         """d[rows] = min(d[rows], distance of pts[rows] to segments[cols]), one call per segment."""
+        lines = self.stacked.line[cols]  # the lines at once, the other segments one call each
+        if lines.any():
+            np.minimum.at(d, rows[lines], self.stacked.line_distance(pts[rows[lines]], cols[lines]))
+            rows, cols = rows[~lines], cols[~lines]
         order = np.argsort(cols, kind="stable")
         rows, cols = rows[order], cols[order]
         starts = np.flatnonzero(np.r_[True, cols[1:] != cols[:-1]]) if len(cols) else np.array([], int)

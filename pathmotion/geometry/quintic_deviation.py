@@ -146,6 +146,72 @@ def _pieces_upper(pieces, signed, scale, starts, dirs, lengths, u, rel_tol, stop
     return upper
 
 
+@numba.njit(cache=True)
+def _g2_lines_points(starts, dirs, lengths, cut, shape, b):
+    """b (6, 3) = g2_control_points of the lines (starts, dirs, lengths (2,)) with ``cut`` and ``shape``: the
+    operations of Line.evaluate (the cut points, clipped to the lines) and _hermite_points (curvature 0)."""
+    la = 2.5 * shape * cut
+    sa = min(max(lengths[0] - cut, 0.0), lengths[0])
+    sb = min(max(cut, 0.0), lengths[1])
+    for j in range(3):
+        pa, ta = starts[0, j] + sa * dirs[0, j], dirs[0, j]
+        pb, tb = starts[1, j] + sb * dirs[1, j], dirs[1, j]
+        b[0, j] = pa
+        b[1, j] = pa + la / 5 * ta
+        b[2, j] = pa + 2 * la / 5 * ta + la ** 2 / 20 * 0.0
+        b[3, j] = pb - 2 * la / 5 * tb + la ** 2 / 20 * 0.0
+        b[4, j] = pb - la / 5 * tb
+        b[5, j] = pb
+
+
+@numba.njit(cache=True)
+def _g2_lines_fits(starts, dirs, lengths, cut, shape, tol, b, signed, scale, u, rel_tol, max_rounds, max_intervals,
+                   rounding):
+    """Whether the G2 blend with ``cut`` deviates at most ``tol`` [m] from the two lines (its certified bound)."""
+    _g2_lines_points(starts, dirs, lengths, cut, shape, b)
+    return _bezier_branch_and_bound(b, signed, scale, starts, dirs, lengths, u, rel_tol, tol, tol, max_rounds,
+                                    max_intervals, rounding)[1] <= tol
+
+
+@numba.njit(cache=True)
+def _g2_lines_cut(starts, dirs, lengths, shape, tol, start, bisections, signed, scale, u, rel_tol, max_rounds,
+                  max_intervals, rounding):
+    """blends._largest of cut -> (the G2 blend's certified bound <= tol), step for step (halve from ``start``,
+    double, then ``bisections`` bisections)."""
+    b = np.empty((6, 3))
+    args = (b, signed, scale, u, rel_tol, max_rounds, max_intervals, rounding)
+    lo, hi = 0.0, start
+    while not _g2_lines_fits(starts, dirs, lengths, hi, shape, tol, *args):
+        hi *= 0.5
+        if hi < start * 2.0 ** -40:
+            return 0.0
+    lo, hi = hi, 2.0 * hi
+    for _ in range(200):
+        if not _g2_lines_fits(starts, dirs, lengths, hi, shape, tol, *args):
+            break
+        lo, hi = hi, 2.0 * hi
+    for _ in range(bisections):
+        mid = 0.5 * (lo + hi)
+        if _g2_lines_fits(starts, dirs, lengths, mid, shape, tol, *args):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def g2_lines_cut(lines, shape: float, tolerance: float, start: float, bisections: int,
+                 rel_tol: float = defaults.DEVIATION_RELATIVE_ACCURACY, initial: int = 256,
+                 max_rounds: int = 60) -> float:
+    """The largest cut [m] (blends._largest from ``start`` [m] with ``bisections``) whose symmetric G2 blend of
+    the two ``lines`` (A ending at the corner, B starting there) with ``shape`` has a certified deviation bound
+    (:func:`bezier_lines_max`) of at most ``tolerance`` [m]; 0.0 if none down to start 2^-40. One compiled call
+    for the whole search: the same cut as the search over g2_deviation, bit for bit (the per-check numpy and
+    Python overhead was most of a 1,000-corner program's blending)."""
+    return float(_g2_lines_cut(*_line_arrays(tuple(lines)), float(shape), float(tolerance), float(start),
+                               int(bisections), _POWER_SIGNED, _POWER_SCALE, _samples(initial), float(rel_tol),
+                               int(max_rounds), defaults.DEVIATION_MAX_INTERVALS, BOUND_ROUNDING))
+
+
 @lru_cache(maxsize=16)  # a sizing checks ~40 sizes of the same corner's two lines (Lines hash by identity)
 def _line_arrays(lines: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(starts (k, 3), unit directions (k, 3), lengths (k,)) of ``lines``, read-only."""

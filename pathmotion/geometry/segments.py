@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathError
-from . import bezier_arc_length, bezier_polyval
+from . import bezier_arc_length, bezier_batch, bezier_polyval
 
 #: A direction vector shorter than this [m or -] has no direction.
 ZERO_LENGTH = 1e-12
@@ -249,6 +249,10 @@ class Line(Segment):
     def evaluate3(self, s):
         p, dp, ddp = self.evaluate(s)
         return p, dp, ddp, np.zeros_like(p)
+
+    def _end(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        # evaluate's numbers at 0 or the length without its arrays (every path construction classifies each joint)
+        return self.start + (0.0 if which == 0 else self._length) * self._t, self._t.copy(), np.zeros(3)
 
     def point(self, s: float) -> np.ndarray:
         """The point (3,) [m] at arc length ``s`` [m], clipped to [0, length]: evaluate's for one s, without
@@ -566,6 +570,14 @@ class BezierSegment(Segment):
         return bezier_arc_length.parameters(self._coef, self._panel_s, self._table_u, self._table_s, s,
                                             ARC_LENGTH_ROUNDING * max(1.0, self.length), _GL_NODES, _GL_WEIGHTS)
 
+    @cached_property
+    def _frames(self) -> tuple:
+        """Segment._end at both ends, evaluated once (every path built from this segment classifies its joints)."""
+        return tuple(Segment._end(self, which) for which in (0, 1))
+
+    def _end(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return tuple(a.copy() for a in self._frames[which])
+
     def evaluate(self, s):
         u = self.parameter(s)
         x, dx, ddx = self.curve(u)
@@ -586,3 +598,58 @@ class BezierSegment(Segment):
         dk_du = ((dddx - np.sum(dddx * t, axis=1)[:, None] * t - np.sum(ddx * dt_du, axis=1)[:, None] * t
                   - a_t * dt_du) / g ** 2 - 2.0 * k * a_t / g)
         return x, t, k, dk_du / g
+
+
+class StackedSegments:
+    """The lines and quintic blends of a chain of ``segments`` stacked into arrays, so that (p, p', p'') at many
+    points of many of them take a few array operations and one compiled call (:mod:`.bezier_batch`) instead of a
+    call per segment: the same floats as each segment's :meth:`~Segment.evaluate`. Other segments (arcs) are left
+    to their own evaluate."""
+
+    def __init__(self, segments: tuple[Segment, ...]):
+        kinds = [type(seg) for seg in segments]
+        self.line = np.array([k is Line for k in kinds], bool)
+        self.bezier = np.array([k is BezierSegment for k in kinds], bool)
+        lines = [seg for seg in segments if type(seg) is Line]
+        self.start = np.zeros((len(segments), 3))
+        self.direction = np.zeros((len(segments), 3))
+        self.line_length = np.zeros(len(segments))
+        at = np.flatnonzero(self.line)
+        if lines:
+            self.start[at] = [seg.start for seg in lines]
+            self.direction[at] = [seg.direction for seg in lines]
+            self.line_length[at] = [seg.length for seg in lines]
+        beziers = [seg for seg in segments if type(seg) is BezierSegment]
+        self.bezier_index = np.cumsum(self.bezier) - 1  # segment -> its row in the Bezier stacks
+        self.coef = np.array([seg._coef for seg in beziers], float).reshape(-1, 6, 3)
+        self.edges = np.array([seg._panel_s for seg in beziers], float).reshape(len(beziers), _GL_PANELS + 1)
+        self.table_u = beziers[0]._table_u if beziers else np.zeros(0)
+        self.table_s = np.array([seg._table_s for seg in beziers], float).reshape(len(beziers), len(self.table_u))
+        self.bezier_length = np.array([seg.length for seg in beziers], float)
+        self.tols = ARC_LENGTH_ROUNDING * np.maximum(1.0, self.bezier_length)
+
+    def evaluate(self, s: np.ndarray, k: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """out[:, i] = (p, p', p'') at arc length s[i] [m] of segment k[i] for every i on a line or blend; the mask
+        (N,) of those i (the others are left to the caller)."""
+        line, bez = self.line[k], self.bezier[k]
+        if line.any():
+            i = np.flatnonzero(line)
+            kk = k[i]
+            si = np.minimum(np.maximum(s[i], 0.0), self.line_length[kk])
+            out[0, i] = self.start[kk] + si[:, None] * self.direction[kk]
+            out[1, i] = self.direction[kk]
+            out[2, i] = 0.0
+        if bez.any():
+            i = np.flatnonzero(bez)
+            out[:, i] = bezier_batch.evaluate_many(
+                self.coef, self.edges, self.table_u, self.table_s, self.bezier_length, self.tols,
+                self.bezier_index[k[i]], np.ascontiguousarray(s[i]), _GL_NODES, _GL_WEIGHTS, *_DERIVATIVE_FACTORS[:3])
+        return line | bez
+
+    def line_distance(self, points: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """Distance [m] (N,) of points (N, 3) from the lines k (N,): Line.closest's operations, per pair."""
+        t = self.direction[k]
+        d = points - self.start[k]
+        s = np.minimum(np.maximum(d[:, 0] * t[:, 0] + d[:, 1] * t[:, 1] + d[:, 2] * t[:, 2], 0.0), self.line_length[k])
+        r = self.start[k] + s[:, None] * t - points
+        return np.sqrt(np.add.reduce(r * r, axis=1))

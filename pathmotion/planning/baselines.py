@@ -5,7 +5,8 @@ theta_dot = w(theta) exp(p(theta)) with p a Chebyshev polynomial (a Fourier seri
 cycle) fitted by least squares to log(theta_dot / w), and w = sqrt(distance to an end where the
 optimum starts or stops from rest), so the fit keeps the square-root shape there — scaled to lie
 FITTED_PROFILE_MARGIN below the optimum, then reduced until every limit holds: exactly on the
-planner's discretization (a closed-form largest scale), then on the dense verification resample.
+planner's discretization (a closed-form largest scale), then by the plan's own verification (the certified
+bound on every grid interval, or the dense resample with ``verify = "dense"`` or "off").
 
 constant_speed: the highest constant TCP speed that can be held along the whole path, with ramps of
 constant TCP acceleration at the ends where the motion starts or stops (what a commercial
@@ -17,8 +18,10 @@ discretization is searched; on a periodic cycle there are no ramps.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
+from numba import njit
 
 from .. import defaults
 from ..errors import InfeasibleError
@@ -74,12 +77,28 @@ class Baselines:
 
 def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
     """Largest s with s * x feasible on the discretized problem (x (K,) >= 0): each row
-    P x_i + Q x_{i+1} <= R scales linearly in s, and so does 0 <= x <= x_max."""
-    den = problem.P * x[:-1, None] + problem.Q * x[1:, None]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a row that scales without bound: inf
-        rows = np.where(den > 0, problem.R / np.where(den > 0, den, 1.0), np.inf)
-        caps = np.where(x > 0, problem.x_max / np.where(x > 0, x, 1.0), np.inf)
-    return float(min(rows.min(initial=np.inf), caps.min(initial=np.inf)))
+    P x_i + Q x_{i+1} <= R scales linearly in s, and so does 0 <= x <= x_max (inf: no row bounds the scale)."""
+    return float(_max_scale(problem.P, problem.Q, problem.R, problem.x_max, np.asarray(x, float)))
+
+
+@njit(cache=True, error_model="numpy")
+def _max_scale(P, Q, R, x_max, x):
+    """min over the rows with P x_i + Q x_i+1 > 0 of R / (P x_i + Q x_i+1), and over the points with x > 0 of
+    x_max / x; one pass, no (K, M) temporaries."""
+    best = np.inf
+    for i in range(P.shape[0]):
+        for r in range(P.shape[1]):
+            den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
+            if den > 0.0:
+                v = R[i, r] / den
+                if v < best or v != v:
+                    best = v
+    for i in range(x.shape[0]):
+        if x[i] > 0.0:
+            v = x_max[i] / x[i]
+            if v < best or v != v:
+                best = v
+    return best
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,11 +120,8 @@ class _TrapezoidRows:
     def of(cls, problem: IntervalProblem, gain: np.ndarray, rests: tuple[bool, bool]) -> "_TrapezoidRows":
         moving = gain > STILL_GAIN_FRACTION * gain.max()
         inv = np.where(moving, 1.0 / np.where(moving, gain, 1.0) ** 2, np.nan)
-        D = problem.P * inv[:-1, None] + problem.Q * inv[1:, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u = np.where(D > 0, problem.R / np.where(D > 0, D, 1.0), np.inf)
-        return cls(problem, gain, rests, u.min(axis=1, initial=np.inf), problem.x_max / np.where(moving, inv, np.nan),
-                   moving)
+        return cls(problem, gain, rests, _cruise_bounds(problem.P, problem.Q, problem.R, inv),
+                   problem.x_max / np.where(moving, inv, np.nan), moving)
 
     def ramps(self, a: float, v_top: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For ramp acceleration a: the x (K,) of every point as if v were unbounded (finite where x does not depend on
@@ -116,39 +132,89 @@ class _TrapezoidRows:
         x = _trapezoid(sub.grid, self.gain, sub.x_max, np.inf, a, *self.rests)
         with np.errstate(divide="ignore"):
             fixed = (x < v_top ** 2 / self.gain ** 2) | ~self.moving
-        both = fixed[:-1] & fixed[1:]
-        xf = np.where(fixed, x, 0.0)
-        den = sub.P[both] * xf[:-1][both, None] + sub.Q[both] * xf[1:][both, None]
-        ok = np.ones(len(both), bool)
-        ok[both] = _rows_hold(den, sub.R[both])
+        ok = _fixed_rows_hold(sub.P, sub.Q, sub.R, np.where(fixed, x, 0.0), fixed)
         with np.errstate(divide="ignore", invalid="ignore"):
             caps = ~fixed | (x <= 0) | (sub.x_max / np.where(x > 0, x, 1.0) >= 1.0)
         return x, ok, caps
 
     def holds(self, v: float, ramp: tuple[np.ndarray, np.ndarray, bool]) -> bool:
         """Whether the trapezoid of cruise speed v (and the a of ``ramp`` = :meth:`ramps`) meets every row and x_max
-        (as ``max_feasible_scale >= 1`` does, the cruise rows up to round-off)."""
+        (as ``max_feasible_scale >= 1`` does, the cruise rows up to round-off): :func:`_holds`, one pass."""
         x_inf, ok, caps = ramp
         sub = self.problem
-        with np.errstate(divide="ignore"):
-            cruise_x = v ** 2 / self.gain ** 2
-        fixed = (x_inf < cruise_x) | ~self.moving  # on a ramp, at rest, or the TCP still: x is not v's
-        both_fixed, both_cruise = fixed[:-1] & fixed[1:], ~fixed[:-1] & ~fixed[1:]
-        if not (np.all(caps[fixed]) and np.all(ok[both_fixed]) and np.all(v ** 2 <= self.cruise[both_cruise])):
-            return False
-        if np.any(~fixed & (self.cap < v ** 2)):
-            return False
-        mixed = ~both_fixed & ~both_cruise
-        x = np.where(fixed, x_inf, cruise_x)
-        den = sub.P[mixed] * x[:-1][mixed, None] + sub.Q[mixed] * x[1:][mixed, None]
-        return bool(np.all(_rows_hold(den, sub.R[mixed])))
+        return bool(_holds(float(v) ** 2, x_inf, self.moving, self.gain, caps, ok, self.cruise, self.cap, sub.P, sub.Q,
+                           sub.R))
 
 
-def _rows_hold(den: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """Per row (first axis) whether every R / den >= 1 where den > 0 (the test of :func:`max_feasible_scale`)."""
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ratio = np.where(den > 0, R / np.where(den > 0, den, 1.0), np.inf)
-    return np.all(ratio >= 1.0, axis=1) if ratio.ndim == 2 else ratio >= 1.0
+@njit(cache=True, error_model="numpy")
+def _cruise_bounds(P, Q, R, inv):
+    """(K-1,): per interval the least over its rows (P, Q, R (K-1, M)) of R / D, D = P inv_i + Q inv_(i+1) (inf
+    where D <= 0 or is nan), nan if one is nan (numpy's min); ``inv`` (K,) = 1 / gain^2, nan where still. One pass
+    instead of (K-1, M) temporaries (some 50 MB each on a program's grid)."""
+    out = np.empty(P.shape[0])
+    for i in range(P.shape[0]):
+        best = np.inf
+        for m in range(P.shape[1]):
+            d = P[i, m] * inv[i] + Q[i, m] * inv[i + 1]
+            u = R[i, m] / d if d > 0 else np.inf
+            if u < best or u != u:
+                best = u
+                if u != u:
+                    break
+        out[i] = best
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _holds(v2, x_inf, moving, gain, caps, ok, cruise, cap, P, Q, R):
+    """_TrapezoidRows.holds for v^2 = ``v2``: a point is fixed (on a ramp, at rest, or the TCP still: x = x_inf, not
+    v's) where x_inf < v^2 / gain^2 or it does not move, else it cruises (x = v^2 / gain^2); a fixed point keeps its
+    ``caps``, a cruising one x <= ``cap``; a row between two fixed points holds where ``ok``, between two cruising
+    ones while v^2 <= ``cruise``, and between one of each where R / (P x_i + Q x_i+1) >= 1 (den > 0). Stops at the
+    first violation."""
+    k = x_inf.shape[0]
+    fixed = np.empty(k, np.bool_)
+    x = np.empty(k)
+    for i in range(k):
+        cruise_x = v2 / (gain[i] * gain[i])
+        fixed[i] = x_inf[i] < cruise_x or not moving[i]
+        if fixed[i]:
+            if not caps[i]:
+                return False
+            x[i] = x_inf[i]
+        else:
+            if cap[i] < v2:
+                return False
+            x[i] = cruise_x
+    for i in range(k - 1):
+        if fixed[i] and fixed[i + 1]:
+            if not ok[i]:
+                return False
+        elif not fixed[i] and not fixed[i + 1]:
+            if not v2 <= cruise[i]:
+                return False
+        else:
+            for r in range(P.shape[1]):
+                den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
+                if den > 0.0 and not R[i, r] / den >= 1.0:
+                    return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def _fixed_rows_hold(P, Q, R, x, fixed):
+    """(K - 1,) whether every row of each interval between two ``fixed`` points holds at x (K,): R / den >= 1
+    where den = P x_i + Q x_i+1 > 0; True on the other intervals."""
+    ok = np.ones(P.shape[0], np.bool_)
+    for i in range(P.shape[0]):
+        if fixed[i] and fixed[i + 1]:
+            for r in range(P.shape[1]):
+                den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
+                if den > 0.0 and not R[i, r] / den >= 1.0:
+                    ok[i] = False
+                    break
+    return ok
+
 
 def _cuts(chain_args: dict, size: int) -> list[int]:
     split = set(chain_args["stops"])
@@ -186,16 +252,22 @@ def _fit_piece(theta: np.ndarray, x: np.ndarray, periodic: bool, degree: int) ->
     return fit**2
 
 
-def _verified(name, description, problem, cuts, pieces, path, robot, limits, settings, joint_names) -> Baseline:
-    """Join, verify on the dense resample (every verify_sample_time, or at most BASELINE_SAMPLES samples on a long
-    motion), and scale x down until the ratios pass (bounded)."""
-    for _ in range(_VERIFY_ROUNDS):
-        prof, jumps = join_segments(problem.grid, cuts, pieces)
+def dense_check(path, robot, limits, settings) -> Callable:
+    """The baselines' verification on the dense resample: ``check(profile, jumps)`` -> (worst ratio outside the jump
+    intervals, LimitRatios), sampled every verify_sample_time, or at most BASELINE_SAMPLES samples on a long motion."""
+    def check(prof: Profile, jumps) -> tuple[float, LimitRatios]:
         traj = Trajectory(path, prof, robot)
         dt = max(settings.verify_sample_time, prof.duration / BASELINE_SAMPLES)
         samples, r = sample_ratios(traj, limits, dt, jumps)
-        ratios = summarize(samples, r, limits, dt, (), joint_names)
-        worst = worst_outside(samples, r, jumps)
+        return worst_outside(samples, r, jumps), summarize(samples, r, limits, dt, (), robot.joint_names)
+    return check
+
+
+def _verified(name, description, problem, cuts, pieces, check: Callable, settings) -> Baseline:
+    """Join, verify with ``check`` (see :func:`compute_baselines`), and scale x down until the ratios pass (bounded)."""
+    for _ in range(_VERIFY_ROUNDS):
+        prof, jumps = join_segments(problem.grid, cuts, pieces)
+        worst, ratios = check(prof, jumps)
         if worst <= 1.0 + settings.limit_tolerance:
             return Baseline(name, prof, ratios, description)
         pieces = [p / worst for p in pieces]
@@ -203,7 +275,7 @@ def _verified(name, description, problem, cuts, pieces, path, robot, limits, set
                           f"({ratios.worst}); switch baselines off or raise grid_points")
 
 
-def fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle) -> Baseline:
+def fitted_baseline(problem, sol, chain_args, check, settings, periodic_cycle) -> Baseline:
     cuts = _cuts(chain_args, problem.size)
     pieces = []
     for (i0, i1), x in zip(zip(cuts[:-1], cuts[1:]), _piece_values(sol, chain_args, cuts)):
@@ -215,7 +287,7 @@ def fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, per
         pieces.append(fit)
     text = (f"smooth fit (degree {defaults.FITTED_PROFILE_DEGREE}) of log theta_dot, "
             f"{100 * settings.fitted_margin:g} % below the optimum, verified")
-    return _verified("fitted", text, problem, cuts, pieces, path, robot, limits, settings, robot.joint_names)
+    return _verified("fitted", text, problem, cuts, pieces, check, settings)
 
 
 def _piece_time(theta: np.ndarray, x: np.ndarray) -> float:
@@ -243,8 +315,8 @@ def _trapezoid(theta, gain, x_max, v, a, rest_start, rest_end) -> np.ndarray:
     return x
 
 
-def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits, settings,
-                        periodic_cycle) -> Baseline:
+def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, check, settings,
+                            periodic_cycle) -> Baseline:
     """Trapezoid in TCP speed: the (cruise speed v, TCP acceleration a) pair of least duration for
     which the motion is feasible (searched: a on a logarithmic grid refined around the best, the
     largest feasible v for each a by bisection); a periodic cycle has no ramps."""
@@ -300,20 +372,22 @@ def constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, pat
                               "this plan's boundary conditions and limits (e.g. a 'max' or given start/end speed)")
     text = (f"constant TCP speed {v:.6g} m/s" +
             (f" with TCP acceleration ramps of {a:.4g} m/s^2" if ramps else " (periodic, no ramps)"))
-    return _verified("constant_speed", text, problem, cuts, pieces_for(v * (1.0 - FEASIBLE_MARGIN), a), path, robot, limits,
-                     settings, robot.joint_names)
+    return _verified("constant_speed", text, problem, cuts, pieces_for(v * (1.0 - FEASIBLE_MARGIN), a), check,
+                     settings)
 
 
 def compute_baselines(problem: IntervalProblem, sol: Solution, chain_args: dict, gain_right: np.ndarray,
-                      gain_left: np.ndarray, path, robot, limits, settings) -> Baselines:
+                      gain_left: np.ndarray, check: Callable, settings) -> Baselines:
     """Both baselines for a solved problem (see the module docstring). gain_right / gain_left (K,):
-    TCP speed per unit theta_dot, |J_v Phi'| [m per unit theta], on each side of every point."""
+    TCP speed per unit theta_dot, |J_v Phi'| [m per unit theta], on each side of every point. ``check(profile,
+    jumps)`` verifies a joined baseline: (its worst limit ratio outside the jump intervals, its LimitRatios), the
+    planner's certified bound per grid interval or :func:`dense_check`."""
     periodic_cycle = bool(chain_args["periodic"]) and not ({0, problem.size - 1} & set(chain_args["stops"]))
     periodic_cycle = periodic_cycle and chain_args["connections"] != Connections.MAX and len(_cuts(chain_args, problem.size)) == 2
-    fitted = fitted_baseline(problem, sol, chain_args, path, robot, limits, settings, periodic_cycle)
+    fitted = fitted_baseline(problem, sol, chain_args, check, settings, periodic_cycle)
     try:
-        constant = constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, path, robot, limits,
-                                           settings, periodic_cycle)
+        constant = constant_speed_baseline(problem, sol, chain_args, gain_right, gain_left, check, settings,
+                                           periodic_cycle)
     except InfeasibleError as exc:
         return Baselines(fitted, None, str(exc))
     return Baselines(fitted, constant)

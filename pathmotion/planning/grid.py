@@ -3,7 +3,12 @@
 The discretized optimum converges to the continuous one at first order in the grid step (measured:
 halving every interval divides the duration's change by 1.95-2.05, i.e. order 0.96-1.04, on random
 splines, with and without torque limits; tests/test_planning_grid.py measures it again). The error is concentrated
-where the profile switches between limit curves, at kinks of the limit curves and at the ends.
+where the profile switches between limit curves, at kinks of the limit curves and at the ends. First order is
+inherent to the discretization, not to this code: theta_ddot is constant on an interval and meets every limit at both
+of its ends (TOPP-RA's "interpolation" scheme; its O(step^2) is the limits' violation between the points, not the
+duration's error), so wherever the optimal theta_ddot varies along a limit the interval's constant one meets the
+tighter end, O(step) below the optimum. toppra's interpolation and collocation schemes measure order 0.8-1.1 on the
+same paths (benchmarks/bench_duration_order.py).
 
 Refinement (Richardson, interval by interval, on nested grids): solve on G0 and on G1 = G0 with every
 interval halved. An interval split into n parts changes its time by e (1 - n^-p) (e its error before,

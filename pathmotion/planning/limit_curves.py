@@ -29,7 +29,7 @@ from ..lift.joint_path import JointPath
 from ..robot import Robot
 from .limit_rows import limit_rows
 from .limits import EffectiveLimits, PathPoints
-from .planner import PlanSettings, effective_limits
+from .planner import PlanSettings, _grid_breaks, _sample, effective_limits
 from .topp import maximum_velocity_curve
 
 #: Largest x = theta_dot^2 written for an unbounded point (the figure clips at its own headroom).
@@ -57,19 +57,21 @@ def _side_curve(points: PathPoints, limits: EffectiveLimits) -> np.ndarray:
 
 
 def _sides(path: JointPath, robot: Robot, theta: np.ndarray) -> list[PathPoints]:
-    """Path points at ``theta`` (K,) seen from the interval after and before each point."""
+    """Path points at ``theta`` (K,) seen from the interval after and before each point (the two differ at the
+    path's breaks only, where the left side is evaluated; elsewhere it shares the right side's data)."""
     theta = np.asarray(theta, float)
-    sides = []
-    for side in ("right", "left"):
-        q, dq, ddq = path.evaluate(theta, side)
-        sides.append(PathPoints(robot, path, theta, q, dq, ddq, side=side))
-    return sides
+    sampled = _sample(path, robot, theta, _grid_breaks(path, theta))
+    return [sampled.right, sampled.left]
 
 
-def limit_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: np.ndarray) -> dict[str, np.ndarray]:
+def limit_curves(path: JointPath, robot: Robot, settings: PlanSettings, theta: np.ndarray,
+                 sides: tuple[PathPoints, PathPoints] | None = None) -> dict[str, np.ndarray]:
     """{limit name: theta_dot_max (K,)} at ``theta`` (K,) for every active limit of order 1 or 2, in
-    registry order; theta_dot_max is sqrt(X_UNBOUNDED) where the limit alone does not bound the speed."""
-    sides = _sides(path, robot, theta)
+    registry order; theta_dot_max is sqrt(X_UNBOUNDED) where the limit alone does not bound the speed.
+    ``sides``: the path data (right side, left side) at ``theta`` when the caller has them (a plan's
+    ``path_points``), else the path is evaluated."""
+    if sides is None or not np.array_equal(sides[0].theta, theta):
+        sides = _sides(path, robot, theta)
     out = {}
     for lim in effective_limits(robot, settings):
         if lim.order > 2:

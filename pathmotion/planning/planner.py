@@ -25,7 +25,7 @@ from ..errors import InfeasibleError, ScenarioError
 from ..lift.joint_path import JointPath
 from ..modes import BoundaryMode, Connections, VerifyMode, parse_mode
 from ..robot import Robot
-from .baselines import Baselines, compute_baselines
+from .baselines import Baselines, compute_baselines, dense_check
 from .certify import CertifyContext, certify
 from .grid import Grid, make_grid, refine
 from .boundary import X_CAP_FRACTION, Boundary, at_rest
@@ -147,7 +147,8 @@ class PlanResult:
     solve time [s] (everything but the baselines), grid size and tighten iterations used;
     duration_error_estimate [s]: the estimate of the duration's discretization error, from the adaptive
     grid, or with third-order limits from the nested coarse grid (planning/third_order.py) plus the
-    tightening's change; None on a fixed grid without third-order limits."""
+    tightening's change; None on a fixed grid without third-order limits. ``path_points``: the final solve's path
+    data (right side, left side) on ``curves.grid``, for the limit curves of the phase plane (None when not kept)."""
 
     profile: Profile
     trajectory: Trajectory
@@ -161,6 +162,7 @@ class PlanResult:
     jump_intervals: tuple[tuple[float, float], ...]
     settings: PlanSettings = field(repr=False)
     duration_error_estimate: float | None = None
+    path_points: tuple[PathPoints, PathPoints] | None = field(default=None, repr=False)
 
     @property
     def duration(self) -> float:
@@ -191,8 +193,13 @@ class _Reusing(PathPoints):
         self._shared = donor.theta[pos] == theta
         self._donor, self._donor_index = donor, pos[self._shared]
 
+    def detach(self) -> None:
+        """Forget the donor (its data are copied where used): an earlier grid's path data are freed with it;
+        a quantity asked for later is computed at every point."""
+        self._donor = None
+
     def cached(self, key, compute, third=False):
-        if key not in self._cache and key in self._donor._cache:
+        if key not in self._cache and self._donor is not None and key in self._donor._cache:
             new = np.nonzero(~self._shared)[0]
             data = (self.q, self.dq, self.ddq) + ((self.dddq,) if third else ())
             fresh = compute(self.robot, *(d[new] for d in data)) if new.size else None
@@ -245,9 +252,29 @@ def _evaluate_reusing(path: JointPath, grid: np.ndarray, donor: PathPoints) -> t
 def _build(grid, s: _Sampled, limits: EffectiveLimits, scale: dict,
            x_ref: np.ndarray | None) -> tuple[IntervalProblem, LimitRows, LimitRows]:
     right = limit_rows(s.right, limits, scale, defaults.PLANNER_X_CAP, x_ref)
-    left = limit_rows(s.left, limits, scale, defaults.PLANNER_X_CAP, x_ref)
+    left = _left_rows(right, s.left, limits, scale, x_ref)
     problem = interval_problem(grid, right.slice(slice(0, -1)), left.slice(slice(1, None)), right.x_max, left.x_max)
     return problem, right, left
+
+
+def _left_rows(right: LimitRows, left: PathPoints, limits: EffectiveLimits, scale: dict,
+               x_ref: np.ndarray | None) -> LimitRows:
+    """limit_rows of the left side: the rows are point by point, and the left side's path data equal the right
+    side's except at ``left``'s changed points (the breaks), so only those are assembled afresh."""
+    idx = left._changed
+    if idx is None or left._base is None:
+        return limit_rows(left, limits, scale, defaults.PLANNER_X_CAP, x_ref)
+    points = PathPoints(left.robot, left.path, left.theta[idx], left.q[idx], left.dq[idx], left.ddq[idx],
+                        side="left")
+    part = limit_rows(points, limits, {name: v[idx] for name, v in scale.items()}, defaults.PLANNER_X_CAP,
+                      None if x_ref is None else x_ref[idx])
+    arrays = []
+    for whole, changed in zip((right.a, right.b, right.c, right.lo, right.hi, right.x_max),
+                              (part.a, part.b, part.c, part.lo, part.hi, part.x_max)):
+        whole = whole.copy()
+        whole[idx] = changed
+        arrays.append(whole)
+    return LimitRows(*arrays, right.row_kind, right.row_column)
 
 
 def _closure_is_kink(s: _Sampled) -> bool:
@@ -332,7 +359,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
     if settings.baselines:
         log.info("baselines: fitted and constant TCP speed")
         base = compute_baselines(solved.problem, sol, solved.chain_args, tcp_gain(solved.samp.right),
-                                 tcp_gain(solved.samp.left), path, robot, limits, settings)
+                                 tcp_gain(solved.samp.left), _baseline_check(path, robot, settings, limits, solved),
+                                 settings)
         log.debug("baselines: fitted %.6g s, constant speed %s", base.fitted.duration,
                   f"{base.constant_speed.duration:.6g} s" if base.constant_speed else base.constant_speed_error)
     profile = sol.profile
@@ -341,7 +369,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         traj = replace(traj, profile=profile)
         log.info("dwells: %s s at rest, cycle %.6g s", " + ".join(f"{w:g}" for _, w in path.dwells), profile.duration)
     return PlanResult(profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
-                      iterations, sol.jump_intervals, settings, estimate)
+                      iterations, sol.jump_intervals, settings, estimate, (solved.samp.right, solved.samp.left))
 
 
 def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
@@ -374,6 +402,8 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     if scale is None:
         scale = limits.unit_scale(len(theta), robot.n)
     problem, right, left, sol, estimate = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
+    if isinstance(samp.right, _Reusing):  # the rows are built: the earlier grid's path data may go
+        samp.right.detach()
     _check_bounded(theta, sol.x)
     log.debug("solve on %d grid points: duration %.9g s", len(theta), sol.profile.duration)
     return sol.profile.duration, sol.x, _Solved(grid, samp, chain_args, problem, right, left, sol, estimate)
@@ -408,7 +438,7 @@ def _check_grid_memory(points: int, joints: int, settings, segments: int) -> Non
 
 def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
     """Bound every limit on every grid interval of the solve ``s`` (certified or dense, settings.verify);
-    where a bound exceeds 1 + limit_tolerance, halve those intervals and re-solve (adaptive grid, at most
+    where a bound exceeds 1 + limit_tolerance, halve those intervals and their neighbours and re-solve (adaptive grid, at most
     PLAN_MAX_REFINE_ROUNDS: refinement keeps the duration at the optimum), then tighten the limits
     locally there and re-solve (bounded by settings.max_tighten_iterations).
     Returns the final solve, its trajectory, ratios and the tighten iterations."""
@@ -434,8 +464,9 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
             for b in bounds.values():
                 if b.size:
                     over |= (b > 1.0 + defaults.TIGHTEN_TRIGGER * tol).any(axis=1)
-            log.info("refining the %d grid intervals where a limit is exceeded, then solving again", int(over.sum()))
-            grid, donor = s.grid.halved(over), s.samp.right
+            log.info("refining the %d grid intervals where a limit is exceeded (and %d on each side), then solving "
+                     "again", int(over.sum()), defaults.PLAN_REFINE_NEIGHBOURS)
+            grid, donor = s.grid.halved(_widened(over, defaults.PLAN_REFINE_NEIGHBOURS)), s.samp.right
             s = None  # its rows are freed before the finer grid's are built
             s = _solve_on(path, robot, settings, limits, grid, donor=donor)[2]
             rounds += 1
@@ -450,6 +481,15 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
         s = _solve_on(path, robot, settings, limits, s.grid, s.samp, scale, s.sol.x)[2]
         iterations += 1
     return s, traj, ratios, iterations
+
+
+def _widened(mask: np.ndarray, n: int) -> np.ndarray:
+    """``mask`` (K - 1,) with the ``n`` entries on each side of every true entry set too."""
+    out = mask.copy()
+    for k in range(1, n + 1):
+        out[k:] |= mask[:-k]
+        out[:-k] |= mask[k:]
+    return out
 
 
 def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, breaks) -> tuple[dict, LimitRatios]:
@@ -471,6 +511,24 @@ def _interval_bounds(settings, traj, limits, samp, sol, jumps, robot, grid, brea
         theta = 0.5 * (pgrid[:-1] + pgrid[1:])
     free = outside(theta, sol.jump_intervals)
     return interval_maxima(theta[free], {name: v[free] for name, v in r.items()}, grid), ratios
+
+
+def _baseline_check(path, robot, settings, limits, s: _Solved):
+    """How the baselines are verified (baselines.compute_baselines' ``check``): like the plan, by the certified bound
+    on every interval with the solve's path data (``verify = "certified"``), else on the dense resample; also with
+    jerk or torque-rate limits, which the certification bounds on smooth profiles only (a baseline's theta_ddot
+    is constant per interval)."""
+    if settings.verify != VerifyMode.CERTIFIED or limits.third_order:
+        return dense_check(path, robot, limits, settings)
+
+    def check(profile: Profile, jumps) -> tuple[float, LimitRatios]:
+        ctx = _certify_context(path, robot, profile, limits, s.grid.theta, s.samp, s.grid.breaks)
+        bounds = certify(ctx, limits)
+        pgrid = profile.grid
+        free = outside(0.5 * (pgrid[:-1] + pgrid[1:]), jumps)
+        worst = max((float(b[free].max()) for b in bounds.values() if b.size and free.any()), default=0.0)
+        return worst, summarize_intervals(profile, bounds, limits, (), robot.joint_names)
+    return check
 
 
 def _with_knots(path: JointPath, theta: np.ndarray, breaks: tuple[int, ...]) -> tuple[int, ...]:

@@ -203,27 +203,39 @@ def _greedy(P, Q, R, klo, khi, x0, slack):
 
 
 @njit(cache=True)
-def _point_max(A, B, R):
-    """Largest x at each point with some u such that A[k] u + B[k] x <= R[k] (one-sided rows)."""
-    n, m = A.shape
+def _side_row(a, b, c, lo, hi, k, r, m):
+    """Row r of point k of the one-sided form (A u + B x <= R) of two-sided rows lo <= a u + b x + c <= hi (m rows):
+    r < m: (a, b, hi - c); r >= m: (-a, -b, c - lo) of row r - m."""
+    if r < m:
+        return a[k, r], b[k, r], hi[k, r] - c[k, r]
+    q = r - m
+    return -a[k, q], -b[k, q], c[k, q] - lo[k, q]
+
+
+@njit(cache=True)
+def _point_max(a, b, c, lo, hi):
+    """Largest x at each point with some u such that every row holds, lo <= a u + b x + c <= hi (K, m each): over
+    the one-sided rows A u + B x <= R, the least bound of a row with A = 0 (B > 0) and of each pair with A_r > 0 >
+    A_j (their intersection); inf if none binds."""
+    n, m = a.shape
     out = np.full(n, np.inf)
     for k in range(n):
-        hi = np.inf
-        for r in range(m):
-            a, b = A[k, r], B[k, r]
-            if a == 0.0:
-                if b > 0.0 and R[k, r] / b < hi:
-                    hi = R[k, r] / b
-            elif a > 0.0:
-                for j in range(m):
-                    aj = A[k, j]
+        hi_x = np.inf
+        for r in range(2 * m):
+            ar, br, rr = _side_row(a, b, c, lo, hi, k, r, m)
+            if ar == 0.0:
+                if br > 0.0 and rr / br < hi_x:
+                    hi_x = rr / br
+            elif ar > 0.0:
+                for j in range(2 * m):
+                    aj, bj, rj = _side_row(a, b, c, lo, hi, k, j, m)
                     if aj < 0.0:
-                        d = B[k, j] * a - b * aj
+                        d = bj * ar - br * aj
                         if d > 0.0:
-                            v = (R[k, j] * a - R[k, r] * aj) / d
-                            if v < hi:
-                                hi = v
-        out[k] = hi
+                            v = (rj * ar - rr * aj) / d
+                            if v < hi_x:
+                                hi_x = v
+        out[k] = hi_x
     return out
 
 
@@ -249,7 +261,4 @@ def greedy_profile(problem: IntervalProblem, sets: SetSequence, x0: float) -> np
 def maximum_velocity_curve(pc: LimitRows) -> np.ndarray:
     """x_max(theta) (K,) from the point-wise limits: the largest x at each point for which some u
     satisfies every row there (the maximum-velocity curve of the phase-plane plot; inf if unbounded)."""
-    A = np.ascontiguousarray(np.concatenate([pc.a, -pc.a], axis=1))
-    B = np.ascontiguousarray(np.concatenate([pc.b, -pc.b], axis=1))
-    R = np.ascontiguousarray(np.concatenate([pc.hi - pc.c, pc.c - pc.lo], axis=1))
-    return np.minimum(_point_max(A, B, R), pc.x_max)
+    return np.minimum(_point_max(pc.a, pc.b, pc.c, pc.lo, pc.hi), pc.x_max)
