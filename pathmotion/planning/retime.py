@@ -130,7 +130,7 @@ class Retimer:
         self._no_target = np.full(len(grid), -1.0)
         self._buffer = np.empty(len(grid) + 1)
         self._fine_buffer = np.empty(STOP_POINTS)
-        self._stop_buffers = tuple(np.empty(retime_stop.MAX_STEPS + 1) for _ in range(3))
+        self._stop_buffers = tuple(np.empty(retime_stop.MAX_STEPS + 1) for _ in range(6))
         # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at), and
         # the bounds of its error on every plan interval
         self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
@@ -260,16 +260,24 @@ class Retimer:
         return self._compiled_stop(theta, x0, u0) if x0 > 0.0 else None
 
     def _compiled_stop(self, theta: float, x0: float, u0: float) -> Profile | None:
+        """The compiled jerk-limited stop (planning/retime_stop.py): where the braking meets the backward pass from
+        rest, over the braking depths until its smooth profile meets the rows at its points; else the search over
+        braking points and tails; None when neither finds one."""
         jp = self._jerk
         if jp is None:
             return None
         end = float(self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))])
-        s, x, u = self._stop_buffers
-        n, _ = retime_stop.shortest(theta, x0, u0, 1.0 + defaults.LIMIT_TOLERANCE, end, self.grid, jp.p2, jp.p3,
-                                    jp.px, s, x, u)
-        if n < 0:
-            return None
-        got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, self.grid, jp.p2, jp.p3, jp.px)
+        s, x, u, bs, bv, bu = self._stop_buffers
+        share, rows = 1.0 + defaults.LIMIT_TOLERANCE, (self.grid, jp.p2, jp.p3, jp.px)
+        depth = 0
+        while depth >= 0:
+            n, _, depth = retime_stop.shortest_met(theta, x0, u0, share, end, depth, *rows, s, x, u, bs, bv, bu)
+            got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows, 1.0) if n > 0 else None
+            if got is not None and retime_stop.profile_ok(*got, 1.0, 1.0 + 2 * defaults.LIMIT_TOLERANCE, *rows):
+                return Profile(*got)
+            depth = depth + 1 if 0 <= depth < len(retime_stop.DEPTHS) - 1 else -1
+        n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
+        got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows) if n > 0 else None
         return None if got is None else Profile(*got)
 
     def compiled_remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0,
