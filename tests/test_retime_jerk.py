@@ -94,13 +94,24 @@ def _lp_stop(rt, theta, v, a):
         return None
 
 
+def _check_stop(rt, path, fast, theta, v, a):
+    """A compiled stop: smooth, from the state without a jump in speed or acceleration, at rest on the path before
+    its end, within every limit (jerk included) on the dense resample."""
+    assert fast.smooth and fast.grid[0] == theta and fast.grid[-1] < path.domain[1]
+    assert fast.x[-1] == 0.0 and fast.u_nodes[-1] == 0.0 and np.all(fast.x[:-1] > 0.0)
+    assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
+    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+
+
 @settings(max_examples=8, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-@given(where=st.floats(0.05, 0.9), speed=st.floats(0.05, 1.0), acc=st.floats(-1.0, 1.0))
+@given(where=st.floats(0.05, 0.9), speed=st.floats(0.05, 1.3), acc=st.floats(-3.0, 3.0))
 def test_compiled_stop_against_the_sequential_lp_from_random_states(torque_jerk, where, speed, acc):
-    # the compiled stop, where it answers: feasible on the dense resample, continuous at the switch (speed,
-    # acceleration), at rest (theta_dot = theta_ddot = 0) on the path, and no shorter than the LP's least distance
-    # (to its bisection accuracy); where it does not, stop answers as the LP does
+    # theta_dot above and below the plan's, theta_ddot not the plan's: where the compiled stop answers it is
+    # feasible, continuous at the switch and at rest, stop answers with it, and it is no shorter than the
+    # second-order stop (the LP's distance is bisected to 1 % on a coarse grid; from some states its coarse grid
+    # is ~15 % longer than the compiled stop's); where it does not, stop runs to the next rest point or refuses
+    # with a stop it can run
     path, res, rt = torque_jerk
     theta = where * path.domain[1]
     v, a = speed * float(res.profile.theta_dot_at(theta)), acc
@@ -108,20 +119,60 @@ def test_compiled_stop_against_the_sequential_lp_from_random_states(torque_jerk,
     if fast is None:
         try:
             got = rt.stop(theta, v, a)
-        except StateInfeasibleError:
-            got = None
-        assert (got is None) == (lp is None)
+            assert got.x[-1] == 0.0 and got.grid[0] == theta and rt.dense_ratios(got, DT).max_ratio <= 1.0 + 2 * TOL
+        except StateInfeasibleError as err:
+            assert err.stop is not None and err.stop.x[-1] == 0.0 and err.stop.grid[0] == theta
         return
-    assert fast.smooth and fast.grid[0] == theta and fast.grid[-1] < path.domain[1]
-    assert fast.x[-1] == 0.0 and fast.u_nodes[-1] == 0.0 and np.all(fast.x[:-1] > 0.0)
-    assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a  # no jump at the switch
-    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL  # jerk included: within the limits across the switch
+    _check_stop(rt, path, fast, theta, v, a)
     assert rt.stop(theta, v, a).grid[-1] == fast.grid[-1]  # stop answers with the compiled stop
+    # never shorter than the stop without the jerk limits (a lower bound), nor much shorter than the LP's
+    assert fast.grid[-1] - theta >= (1.0 - TOL) * (rt.stop(theta, v, a, second_order=True).grid[-1] - theta)
     if lp is not None:
-        ratio = (fast.grid[-1] - theta) / (lp.grid[-1] - theta)
-        # never much shorter than the LP's (the LP bisects its distance to 1 %); longer: median ~+0.4 %, worst
-        # ~+65 % where the velocity terms of the jerk rows forbid a close at speed (docs/retime.md)
-        assert 0.97 <= ratio <= 1.7
+        assert (fast.grid[-1] - theta) / (lp.grid[-1] - theta) >= 0.8
+
+
+def test_compiled_stop_distance_within_one_percent_of_the_sequential_lp(torque_jerk):
+    # 16 seeded random moving states over the path (theta_dot up to 1.3 x the plan's, theta_ddot in [-2, 2]):
+    # where the LP finds a stop, so does the compiled stop, within 1 % of the LP's distance (itself bisected to
+    # 1 %) or shorter for at least 3 in 4 of them and at the median; every compiled stop is within the limits and
+    # no shorter than the second-order stop
+    path, res, rt = torque_jerk
+    rng = np.random.default_rng(3)
+    ratios, answered = [], 0
+    for _ in range(16):
+        theta = rng.uniform(0.05, 0.9) * path.domain[1]
+        v, a = rng.uniform(0.1, 1.3) * float(res.profile.theta_dot_at(theta)), rng.uniform(-2.0, 2.0)
+        lp = _lp_stop(rt, theta, v, a)
+        fast = rt.compiled_stop(theta, v, a)
+        if fast is not None:
+            _check_stop(rt, path, fast, theta, v, a)
+            second = rt.stop(theta, v, a, second_order=True).grid[-1] - theta
+            assert fast.grid[-1] - theta >= (1.0 - TOL) * second
+        if lp is None:
+            continue
+        answered += fast is not None
+        if fast is not None:
+            ratios.append((fast.grid[-1] - theta) / (lp.grid[-1] - theta))
+    ratios = np.array(ratios)
+    assert len(ratios) >= 8 and answered == len(ratios)
+    assert np.median(ratios) <= 1.01 and np.mean(ratios <= 1.01) >= 0.75
+
+
+def test_a_state_no_jerk_limited_stop_can_save(torque_jerk):
+    # slow and braking hard: the jerk limits cannot turn theta_ddot to 0 before theta_dot runs out (the LP finds
+    # no stop either), nor does the motion go on to the next rest point: a clear error that carries the shortest
+    # stop within the velocity, acceleration and torque limits, which a caller that must stop runs
+    path, res, rt = torque_jerk
+    theta, v, a = 0.045577531828742184, 0.04242355607578061, -1.8452190301900058
+    assert _lp_stop(rt, theta, v, a) is None and rt.compiled_stop(theta, v, a) is None
+    with pytest.raises(StateInfeasibleError, match="cannot stop within the jerk") as err:
+        rt.stop(theta, v, a)
+    s = err.value.stop
+    assert s.grid[0] == theta and np.isclose(np.sqrt(s.x[0]), v) and s.x[-1] == 0.0 and s.grid[-1] < path.domain[1]
+    second = rt.stop(theta, v, a, second_order=True)
+    assert np.array_equal(s.grid, second.grid) and np.array_equal(s.x, second.x)
+    ratios = rt.dense_ratios(s, DT).values
+    assert all(ratios[k] <= 1.0 + 2 * TOL for k in ("velocity", "acceleration", "torque"))
 
 
 def test_compiled_stop_from_a_state_braking_on_the_plan(torque_jerk):

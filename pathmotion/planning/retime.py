@@ -211,12 +211,13 @@ class Retimer:
         """The shortest stop along the path within the plan's limits (a category 2 stop: the arm stays on
         the path and stops with theta_dot = 0 at the profile's last grid point). The state must move
         (theta_dot > 0). StateInfeasibleError when no in-limit stop ends before the path's end (or the
-        next kink, which the arm cannot pass at speed). ``second_order=True`` leaves out the plan's jerk and
-        torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step): the
-        fallback of a caller that must stop when no jerk-limited stop exists. With jerk limits the stop is the
-        compiled one (planning/retime_stop.py), the sequential-LP search where it finds none or with
-        ``reference`` (slow; the reference the compiled stop is tested against), and where neither finds one
-        (without ``reference``), the time-optimal motion to the next point where the plan's profile rests."""
+        next kink, which the arm cannot pass at speed); its ``stop`` is then the least overshoot-free stop the
+        limits allow (see :meth:`_jerk_unsaveable`). ``second_order=True`` leaves out the plan's jerk and
+        torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step). With jerk
+        limits the stop is the compiled one (planning/retime_stop.py); where it finds none, the compiled pass's
+        time-optimal motion to the next point where the plan's profile rests (a stop within every limit, the
+        longest kind); where neither exists, StateInfeasibleError. ``reference``: the sequential-LP search for
+        the shortest jerk-limited stop instead (slow; the reference the compiled stop is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
@@ -225,34 +226,48 @@ class Retimer:
             fast = self._compiled_stop(theta, x0, u0)
             if fast is not None:
                 return fast
-            log.debug("retimer: no compiled jerk-limited stop from theta = %.6g; sequential LP", theta)
+            rest = self._to_next_rest(theta, x0, u0)
+            if rest is not None:
+                log.info("retimer: no jerk-limited stop from theta = %.6g before the next rest point; the time-optimal "
+                         "motion to it (%.6g)", theta, rest.grid[-1])
+                return rest
+            raise self._jerk_unsaveable(theta, x0, u0)
         grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
         if self.third_order and not second_order:
             try:
                 return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
-            except StateInfeasibleError:
-                rest = None if reference else self._to_next_rest(theta, x0, u0)
-                if rest is None:
-                    raise
-                log.info("retimer: no shorter jerk-limited stop from theta = %.6g; the time-optimal motion to the "
-                         "next rest point %.6g", theta, rest.grid[-1])
-                return rest
+            except StateInfeasibleError as err:
+                err.stop = Profile(grid, x) if err.stop is None else err.stop
+                raise
         return Profile(grid, x)
 
+    def _jerk_unsaveable(self, theta: float, x0: float, u0: float) -> StateInfeasibleError:
+        """The error for a moving state from which neither the compiled jerk-limited stop nor the compiled motion
+        to the next rest point exists (a state decelerating harder than the jerk limits can turn to 0 before the
+        speed runs out, say). Its ``stop``: the shortest stop within the velocity, acceleration and torque limits
+        (the least overshoot-free stop the limits allow once the jerk limit is given up; its acceleration
+        steps), which a caller that must stop (execute) runs."""
+        end = self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))]
+        grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))  # StateInfeasibleError: not even that
+        return StateInfeasibleError(
+            f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot stop within "
+            f"the jerk and torque-rate limits before theta = {end:.6g} (the next kink or the path's end): its "
+            f"acceleration cannot be turned to 0 before the motion comes to rest, nor can it go on to that point; "
+            f"the shortest stop without the jerk limits (acceleration steps) ends at theta = {grid[-1]:.6g}. Brake "
+            f"earlier or more gently, or raise the jerk limits", stop=Profile(grid, x))
+
     def _to_next_rest(self, theta: float, x0: float, u0: float) -> Profile | None:
-        """Jerk limits: the remaining profile from the state (the compiled pass, else the sequential LP) up to its
-        first rest point after it (a kink, a stop of the plan or the path's end): a stop within every limit where
-        none shorter is found; None where no remaining profile exists."""
-        try:
-            got = self._smooth_remaining(theta, x0, u0, 1.0)
-        except StateInfeasibleError:
+        """Jerk limits: the compiled pass's remaining profile from the state up to its first rest point after it (a
+        kink, a stop of the plan or the path's end): a stop within every limit where none shorter is found; None
+        where the pass gives none."""
+        got = self._compiled(theta, x0, u0, 1.0)
+        if got is None:
             return None
         k = int(np.argmax(got.x[1:] <= 0.0)) + 1
         return Profile(got.grid[:k + 1], got.x[:k + 1], got.u_nodes[:k + 1])
 
     def compiled_stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0) -> Profile | None:
-        """Jerk limits: the compiled stop alone (planning/retime_stop.py), None where it finds none (``stop``
-        then searches with the sequential LP)."""
+        """Jerk limits: the compiled stop alone (planning/retime_stop.py), None where it finds none."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if not self.third_order:
             raise PathmotionError("Retimer.compiled_stop: the plan has no jerk or torque-rate limit; use stop "

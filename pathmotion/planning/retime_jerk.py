@@ -46,6 +46,10 @@ PASS_MARGIN = 0.01
 STATE_TOLERANCE = defaults.LIMIT_TOLERANCE
 #: Least x (relative to the state's) at a point where the motion does not rest [-].
 X_FLOOR = 1e-12
+#: An interval whose u rises from u_k < 0 through 0 has its least x where u = 0: about x_k - u_k^2 h / (u_{k+1} -
+#: u_k) (h its width; u linear in theta), taken this many times over, which must stay above the floor (the
+#: check points can miss that dip from a slow state) [-].
+DIP_SAFETY = 2.0
 
 
 class JerkPass:
@@ -204,6 +208,8 @@ def _interval_ok(k, j, grid_data, first, x, u, v, floor, check_end, keep0, keep1
     limits times ``keep0`` at its start to ``keep1`` at its end (linear between; the end point's order-2 rows
     and bounds only with ``check_end``)."""
     nq = grid_data[3].shape[1]
+    if u < 0.0 < v and x - DIP_SAFETY * u * u * _point(k, nq - 1, j, grid_data, first)[3] / (v - u) < floor:
+        return False  # x dips below the floor where u crosses 0 between the check points
     for q in range(nq):
         r2, r3, xmax, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
         keep = keep0 + (keep1 - keep0) * q / (nq - 1)
@@ -280,6 +286,10 @@ def _bounds(k, j, grid_data, first, x, u, floor):
     if not ok or low > high:
         return np.inf, -np.inf, 0.0, 0.0
     _, _, _, cxu, cxv, _, _ = _point(k, nq - 1, j, grid_data, first)
+    if u < 0.0:  # x dips where u crosses 0 inside the interval: not below the floor (_dip)
+        low = max(low, u + DIP_SAFETY * u * u * cxu / max(x - floor, 1e-300))
+        if low > high:
+            return np.inf, -np.inf, 0.0, 0.0
     return low, high, cxu - cxv, cxv
 
 

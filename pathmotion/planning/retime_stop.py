@@ -378,7 +378,7 @@ def profile_of(s, x, u, s_end, grid, p2, p3, px, keep=1.0 - MARGIN):
 # ------------------------------------------------------------------------------------ backward pass from rest
 
 #: Fixed-point passes of a backward step's start [-].
-BACK_PASSES = 3
+BACK_PASSES = 1
 #: Iterations on the stop point (each moves it by the gap between the braking and the backward pass) [-].
 MEET_ITERATIONS = 12
 #: The iterations end when the gap is below this fraction of the stop distance [-].
@@ -444,9 +444,15 @@ def _back_step(s, v, u, keep, dt, grid, p2, p3, px):
     mean = (s - sp) / dt
     if vp <= v or mean <= 0.0:
         return sp, vp, up, False
+    # the range where the step starts now: u moved into it (by the fixed point's last change, well inside the
+    # margin), the start moved with it
     lo, hi = _u_before(sp, vp * vp, vp / (mean * dt), u, v / (mean * dt), s, v * v, keep, grid, p2, p3, px)
-    tol = 1e-9 * (abs(lo) + abs(hi) + 1.0)
-    return sp, vp, up, lo - tol <= up <= hi + tol
+    if lo > hi:
+        return sp, vp, up, False
+    up = min(max(up, lo), hi)
+    vp = v - 0.5 * dt * (u + up)
+    sp = s - (vp * dt + 0.5 * up * dt * dt + (u - up) * dt * dt / 6.0)
+    return sp, vp, up, vp > v
 
 
 @njit(cache=True)
