@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from hypothesis import HealthCheck, given, settings, strategies as st
@@ -94,13 +95,22 @@ def _lp_stop(rt, theta, v, a):
         return None
 
 
+def _state_ratio(path, theta, v, a) -> float:
+    """The state's own largest ratio of a joint acceleration or torque limit (Pinocchio's RNEA)."""
+    q, d1, d2 = (np.asarray(w, float) for w in path.evaluate(theta))
+    qd, qdd = d1 * v, d1 * a + d2 * v * v
+    tau = pin.rnea(ROBOT.model, ROBOT.model.createData(), q, qd, qdd)
+    return float(max(np.max(np.abs(qdd) / ACC), np.max(np.abs(tau) / ROBOT.limits.torque)))
+
+
 def _check_stop(rt, path, fast, theta, v, a):
     """A compiled stop: smooth, from the state without a jump in speed or acceleration, at rest on the path before
-    its end, within every limit (jerk included) on the dense resample."""
+    its end, within every limit (jerk included) on the dense resample, or no further above one than the state
+    itself (a given state may lie a little above the acceleration or torque limits)."""
     assert fast.smooth and fast.grid[0] == theta and fast.grid[-1] < path.domain[1]
     assert fast.x[-1] == 0.0 and fast.u_nodes[-1] == 0.0 and np.all(fast.x[:-1] > 0.0)
     assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
-    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+    assert rt.dense_ratios(fast, DT).max_ratio <= max(1.0, _state_ratio(path, theta, v, a)) + 2 * TOL
 
 
 @settings(max_examples=8, deadline=None,

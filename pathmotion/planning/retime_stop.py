@@ -63,6 +63,10 @@ X_SHARE = (1.0 + defaults.LIMIT_TOLERANCE) ** 2
 FIT_INSET = 1e-6
 #: Relative slack of the checks (round-off) [-].
 SLACK = 1e-9
+#: The most of the order-2 limits the state itself may take (it is given: a measured state, or a plan's own,
+#: which reads up to about a percent above its limits between its grid points); the braking fades from there to
+#: 1 - MARGIN [-].
+STATE_SHARE_MAX = 1.02
 
 
 @njit(cache=True, inline="always")
@@ -102,6 +106,22 @@ def _u_range(s, x, keep, grid, p2, px):
         elif rest > hi + slack or rest < lo - slack:
             return np.inf, -np.inf
     return low, high
+
+
+@njit(cache=True)
+def state_share(s, x, u, grid, p2):
+    """The largest share of an order-2 limit the state (s, x, u) takes on the interpolated rows [-]."""
+    g, q, w = _locate(s, grid)
+    a_, b_, c_, lo_, hi_ = p2
+    share = 0.0
+    for r in range(a_.shape[2]):
+        val = _at(a_, q, g, r, w) * u + _at(b_, q, g, r, w) * x + _at(c_, q, g, r, w)
+        lo, hi = _at(lo_, q, g, r, w), _at(hi_, q, g, r, w)
+        if val > 0.0 and hi > 0.0:
+            share = max(share, val / hi)
+        elif val < 0.0 and lo < 0.0:
+            share = max(share, val / lo)
+    return share
 
 
 @njit(cache=True)
