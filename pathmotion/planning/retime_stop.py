@@ -63,10 +63,8 @@ X_SHARE = (1.0 + defaults.LIMIT_TOLERANCE) ** 2
 FIT_INSET = 1e-6
 #: Relative slack of the checks (round-off) [-].
 SLACK = 1e-9
-#: The most of the order-2 limits the state itself may take (it is given: a measured state, or a plan's own,
-#: which reads up to about a percent above its limits between its grid points); the braking fades from there to
-#: 1 - MARGIN [-].
-STATE_SHARE_MAX = 1.02
+#: The most of the order-2 limits the state itself may take; the braking fades from there to 1 - MARGIN [-].
+STATE_SHARE_MAX = defaults.RETIME_STATE_SHARE_MAX
 
 
 @njit(cache=True, inline="always")
