@@ -232,3 +232,16 @@ def test_compiled_stop_from_a_state_braking_on_the_plan(torque_jerk):
     assert (fast is None) == (lp is None) or fast is None
     if fast is not None:
         assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL and fast.x[-1] == 0.0
+
+
+def test_compiled_stop_over_a_spline_knot_is_certified(torque_jerk):
+    # a stop whose braking crosses the spline's knot at theta = 0.25 (Phi''' jumps there): the knot is one of its
+    # grid points (its motion unchanged), so the certified bounds hold it within the limits and agree with the
+    # dense resample (an interval holding the knot inside certified a 9 % jerk excess the motion does not have)
+    path, res, rt = torque_jerk
+    theta, v, a = 0.22938262888871214, 0.12620398619233164, 1.4090828960554298
+    s = rt.compiled_stop(theta, v, a)
+    assert s is not None and s.grid[0] < 0.25 < s.grid[-1] and 0.25 in s.grid
+    _check_stop(rt, path, s, theta, v, a)
+    certified, dense = rt.certify(s).max_ratio, rt.dense_ratios(s, 1e-4).max_ratio
+    assert dense <= certified <= max(1.0 + TOL, dense + 1e-3)

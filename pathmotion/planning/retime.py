@@ -41,7 +41,7 @@ from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _wi
                       effective_limits)
 from .profile import Profile
 from .retime_jerk import JerkPass
-from . import retime_stop
+from . import retime_stop, smooth
 from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
 from .limit_rows import limit_rows
@@ -291,11 +291,25 @@ class Retimer:
             n, _, depth = retime_stop.shortest_met(theta, x0, u0, share, end, depth, *rows, s, x, u, bs, bv, bu)
             got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows, 1.0) if n > 0 else None
             if got is not None and retime_stop.profile_ok(*got, 1.0, share + defaults.LIMIT_TOLERANCE, *rows):
-                return Profile(*got)
+                return self._with_knots(Profile(*got))
             depth = depth + 1 if 0 <= depth < len(retime_stop.DEPTHS) - 1 else -1
         n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
         got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows) if n > 0 else None
-        return None if got is None else Profile(*got)
+        return None if got is None else self._with_knots(Profile(*got))
+
+    def _with_knots(self, p: Profile) -> Profile:
+        """The smooth profile ``p`` with the path's spline knots inside it as grid points, x and u there from its own
+        form (the same motion): no interval holds a knot inside, as on the planner's grids, which the certified
+        bounds assume (planning/certify.py)."""
+        knots = np.asarray(getattr(self.path, "knots", ()), float)
+        knots = knots[(knots > p.grid[0]) & (knots < p.grid[-1]) & ~np.isin(knots, p.grid)]
+        if not knots.size:
+            return p
+        origin, sign = p.coords
+        i = np.searchsorted(p.grid, knots, side="right") - 1
+        x, u, _ = smooth.state(p.grid, p.x, p.u_nodes, origin, sign, i, knots)
+        order = np.argsort(np.concatenate([p.grid, knots]), kind="stable")
+        return Profile(*(np.concatenate(pair)[order] for pair in ((p.grid, knots), (p.x, x), (p.u_nodes, u))))
 
     def compiled_remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0,
                            override: float = 1.0) -> Profile | None:
