@@ -26,7 +26,6 @@ import numpy as np
 from numba import njit
 
 from .. import defaults
-from . import smooth
 
 #: Share of every limit the stop keeps free for the linear interpolation of the rows and the discrete jerk [-].
 MARGIN = 0.01
@@ -363,6 +362,22 @@ def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
     return bk + bm + 1, stop
 
 
+@njit(cache=True)
+def _x_to_rest(g, un, x0):
+    """x (K,) of the smooth profile at rest at g[-1] only, u = un (K,) linear in xi = (g[-1] - theta)^(1/3) per
+    interval, from x0: x_{k+1} = x_k + 2 (w0_k u_k + w1_k u_{k+1}) with the weights of planning/smooth.py (every
+    interval's xi measured from the rest point)."""
+    stop = g[-1]
+    xs = np.empty(g.shape[0])
+    xs[0] = x0
+    for k in range(g.shape[0] - 1):
+        d0, d1 = stop - g[k], stop - g[k + 1]
+        xi0, xi1 = np.cbrt(d0), np.cbrt(d1)
+        w1 = (0.75 * (d0 ** (4.0 / 3.0) - d1 ** (4.0 / 3.0)) - xi0 * (g[k + 1] - g[k])) / (xi1 - xi0)
+        xs[k + 1] = xs[k] + 2.0 * ((g[k + 1] - g[k] - w1) * un[k] + w1 * un[k + 1])
+    return xs
+
+
 def profile_of(s, x, u, s_end, grid, p2, p3, px, keep=1.0 - MARGIN):
     """(grid, x, u_nodes) of the smooth profile through the braking and tail points (s, u) (n,) from the state's x
     (x[0]), u linear in xi = (stop - theta)^(1/3) on every interval (planning/smooth.py), x from it (x_{k+1} =
@@ -378,11 +393,7 @@ def profile_of(s, x, u, s_end, grid, p2, p3, px, keep=1.0 - MARGIN):
         xi = xi_sw * (1.0 - np.arange(1, TAIL_INTERVALS + 1) / TAIL_INTERVALS)
         g = np.concatenate([s, stop - xi[:-1] ** 3, [stop]])
         un = np.concatenate([u, u[-1] * xi / xi_sw])
-        rest = np.zeros(len(g), bool)
-        rest[-1] = True
-        origin, sign = smooth.coordinates(g, rest)
-        _, _, w0, w1 = smooth.weights(g, origin, sign)
-        xs = x[0] + 2.0 * np.concatenate([[0.0], np.cumsum(w0 * un[:-1] + w1 * un[1:])])
+        xs = _x_to_rest(g, un, x[0])
         x_sw = xs[len(s) - 1]
     if x_sw <= 0.0 or np.any(xs[:len(s)] <= 0.0):
         return None
