@@ -59,6 +59,10 @@ MERGE_FRACTION = 1e-6
 KEPT_FLOOR = 0.25
 #: Relative slack on a state's membership in a controllable set [-] (round-off of the rows).
 STATE_TOLERANCE = 1e-7
+#: A state may lie this much (relative, in x) above its controllable bound: a plan's own state between its grid
+#: points reads up to ~4e-5 above the bound the interpolated rows give there; the motion from it exceeds the
+#: limits by about as much [-].
+STATE_ABOVE_K = 1e-4
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
 STOP_ITERATIONS = 4
 #: Intervals the second-order stop's last interval (to rest) is cut into [-].
@@ -399,7 +403,7 @@ class Retimer:
         y0 = x0 / s2
         lo, hi = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, self._x_max_at(i, f), 0.0)
         out = self._buffer
-        if lo * (1 - STATE_TOLERANCE) - STATE_TOLERANCE <= y0 <= hi * (1 + STATE_TOLERANCE):
+        if lo * (1 - STATE_TOLERANCE) - STATE_TOLERANCE <= y0 <= hi * (1 + STATE_ABOVE_K):
             xj = max(step_up(P0, Q0, R0, 0, y0, self._khi[j]), self._klo[j])
             if u0 is not None and y0 > 0.0:  # the moving state's acceleration, within the rows and K_j
                 low = max(step_down(P0, Q0, R0, 0, y0)[0], self._klo[j], KEPT_FLOOR * max(y0, xj))
