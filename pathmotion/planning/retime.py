@@ -280,7 +280,8 @@ class Retimer:
 
     def _compiled_stop(self, theta: float, x0: float, u0: float) -> Profile | None:
         """The compiled jerk-limited stop (planning/retime_stop.py): where the braking meets the backward pass from
-        rest, over the braking depths until its smooth profile meets the rows at its points; None when none does."""
+        rest, over the braking depths until its smooth profile meets the rows at its points; else the search over
+        braking points and tails; None when neither finds one."""
         jp = self._jerk
         if jp is None:
             return None
@@ -296,7 +297,9 @@ class Retimer:
             if got is not None and retime_stop.profile_ok(*got, 1.0, share + defaults.LIMIT_TOLERANCE, *rows):
                 return self._with_knots(Profile(*got))
             depth = depth + 1 if 0 <= depth < len(retime_stop.DEPTHS) - 1 else -1
-        return None
+        n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
+        got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows) if n > 0 else None
+        return None if got is None else self._with_knots(Profile(*got))
 
     def _with_knots(self, p: Profile) -> Profile:
         """The smooth profile ``p`` with the path's spline knots inside it as grid points, x and u there from its own

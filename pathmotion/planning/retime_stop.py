@@ -6,15 +6,13 @@ over STEPS_PER_STOP):
 
 * braking: the jerk turns theta_ddot = u towards ``depth`` times the least u the order-2 rows allow (tracking
   it as it moves with theta and x = theta_dot^2), as fast as the order-3 rows allow at both ends of a step;
-* the backward pass from rest at a trial stop point (:func:`_backward`): the constant-jerk close from rest at
-  the largest jerk the order-3 rows allow there, then at each step the least u at its start the rows allow,
-  integrated back in time until its speed passes the braking's;
-* the stop point moves by the gap between the two until the backward pass touches the braking (:func:`_meet`);
-  u is joined where the two cross, and the points closer to rest than CLOSE_SHARE of the distance are left to
-  the constant-jerk close J = u^2 / (2 theta_dot) that brings u to 0 as theta_dot reaches 0.
+* tail: from a braking point, m steps at the largest jerk the order-3 rows allow (their velocity terms can
+  forbid the positive jerk of a close at speed), then the constant-jerk close J = u^2 / (2 theta_dot) that
+  brings u to 0 as theta_dot reaches 0 (distance 2 x / (3 |u|)), checked along its length.
 
-Of the depths DEPTHS the first that meets (:func:`shortest_met`) and whose smooth profile meets the rows at its
-points (:func:`profile_ok`) is the stop. The rows are those the compiled remaining pass stores at Retimer
+Of the depths DEPTHS (until DEPTH_MISSES in a row stop no sooner), the braking points (a coarse stride, then
+halving strides around the best) and the m, the stop that ends first is taken; along a tail, the first close
+the jerk allows. The rows are those the compiled remaining pass stores at Retimer
 construction (planning/retime_jerk.py: order-2 rows, x_max and order-3 rows at the CHECK_POINTS of every plan
 interval), interpolated linearly between neighbouring check points, and met with MARGIN to spare (faded in
 from the state's own share where the state itself takes more). A step's jerk is checked as the smooth profile
@@ -43,10 +41,14 @@ TAIL_POINTS = 8
 FADE_STEPS = 10
 #: Share of the time step of the steps while the margin fades in [-].
 FADE_DT = 0.125
+#: Braking points tried as the switch to the tail at first (a stride of their number over this) [-].
+COARSE = 16
 #: A tail is checked at least every this fraction of a plan interval along it [-].
 CHECK_SPACING = 0.125
 #: Braking depths tried: shares of the least u the order-2 rows allow [-].
 DEPTHS = np.array([1.0, 0.85, 0.7, 0.55, 0.4, 0.25])
+#: The search over the depths ends after this many in a row that stop no sooner than the best so far [-].
+DEPTH_MISSES = 2
 #: Intervals of the tail in the returned profile (equal in xi) [-].
 TAIL_INTERVALS = 4
 #: Re-evaluations of the order-3 rows at a braking step's end [-].
@@ -220,6 +222,16 @@ def _step(s, v, a, keep, depth, dt, grid, p2, p3, px):
     return _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px)
 
 
+@njit(cache=True)
+def _up_step(s, v, a, keep, dt, grid, p2, p3, px):
+    """One step of length dt at the largest jerk the order-3 rows allow (_fit); (s, v, a) after it and whether it
+    meets the rows."""
+    jlo, jhi = _j_range(s, v * v, a, keep, grid, p3)
+    if jlo > jhi:
+        return s, v, a, False
+    return _fit(s, v, a, jhi, dt, jlo, jhi, keep, grid, p2, p3, px)
+
+
 @njit(cache=True, inline="always")
 def _keep(k, share):
     """The share of the limits kept at braking step k: ``share`` (the state's own, at least 1 - MARGIN), fading to
@@ -248,6 +260,106 @@ def _brake(s0, x0, u0, share, depth, s_end, dt, grid, p2, p3, px, out_s, out_x, 
             return k + 1
         out_s[k + 1], out_x[k + 1], out_u[k + 1] = s, v * v, a
     return min(out_s.shape[0], MAX_STEPS + 1)
+
+
+@njit(cache=True)
+def _tail(k, steps, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, write):
+    """The tails from braking point k: m = 0.. steps at the largest jerk (_up_step), then the constant-jerk close
+    to rest (_tail_ok). Returns (m, stop point) of the one that stops first and before ``best``, (-1, best) when
+    none; with ``write``, its m points after point k into out_s, out_x, out_u (``steps`` = that m)."""
+    s, v, a = out_s[k], np.sqrt(out_x[k]), out_u[k]
+    best_m = -1
+    for m in range(steps + 1):
+        keep = _keep(k + m, share)
+        if a >= 0.0 or s >= best:
+            break
+        # the close's stop point moves back while the largest jerk is below the close's, then on: the first
+        # close the jerk allows is the tail's best
+        stop = s + 2.0 * v * v / (3.0 * -a)
+        if not write and a * a / (2.0 * v) <= _j_range(s, v * v, a, keep, grid, p3)[1]:
+            if stop >= best:
+                break
+            if _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
+                best_m, best = m, stop
+                break
+        if m == steps:
+            break
+        s, v, a, ok = _up_step(s, v, a, keep, _dt(k + m, dt), grid, p2, p3, px)
+        if not ok:
+            break
+        if write:
+            out_s[k + m + 1], out_x[k + m + 1], out_u[k + m + 1] = s, v * v, a
+    if write:
+        return steps, s + 2.0 * v * v / (3.0 * -a)
+    return best_m, best
+
+
+@njit(cache=True)
+def _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+    """(k, m, stop point) of the braking point k < n and tail (_tail) that stop first: braking points at a stride
+    of n / COARSE, then halving strides around the best; k = -1 when none stops before ``best``."""
+    bk, bm = -1, -1
+    stride = max(n // COARSE, 1)
+    for k in range(0, n, stride):
+        m, stop = _tail(k, MAX_STEPS, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, False)
+        if m >= 0:
+            bk, bm, best = k, m, stop
+    while stride > 1 and bk >= 0:
+        stride //= 2
+        centre = bk
+        for k in (centre - stride, centre + stride):
+            if 0 <= k < n:
+                m, stop = _tail(k, MAX_STEPS, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, False)
+                if m >= 0:
+                    bk, bm, best = k, m, stop
+    return bk, bm, best
+
+
+@njit(cache=True)
+def shortest(s0, x0, u0, share, s_end, grid, p2, p3, px, out_s, out_x, out_u):
+    """The stop of the least distance: for the braking depths of DEPTHS (until DEPTH_MISSES in a row stop no
+    sooner) the braking (_brake) and its best switch to a tail (_best_switch). Fills out_s, out_x, out_u with
+    its points (the state first, the close's start last) and returns (their number, the stop point); (-1, inf)
+    when none is found. ``share``: the share of the limits the state may take (see _keep), where it
+    does not leave the margin itself."""
+    v = np.sqrt(x0)
+    lo, hi = _u_range(s0, x0, 1.0 - MARGIN, grid, p2, px)
+    jlo, jhi = _j_range(s0, x0, u0, 1.0 - MARGIN, grid, p3)
+    if lo <= u0 <= hi and jlo <= jhi:  # the state leaves the margin: kept from the start
+        share = 1.0 - MARGIN
+    lo, hi = _u_range(s0, x0, max(share, 1.0 - MARGIN), grid, p2, px)
+    jlo, jhi = _j_range(s0, x0, u0, max(share, 1.0 - MARGIN), grid, p3)
+    if not lo <= u0 <= hi or jlo > jhi or lo >= 0.0:
+        return -1, np.inf
+    # time step: turn to the least u, brake at it, close; once more with the step the first answer's number of
+    # steps calls for, where it took fewer than MIN_STEPS (the estimate overshot)
+    period = v / -lo + abs(u0 - lo) / max(-jlo, 1e-12) + 2.0 * abs(lo) / max(-jlo, jhi, 1e-12)
+    dt = min(max(period / STEPS_PER_STOP, DT_MIN), DT_MAX)
+    n, stop = _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    if 0 <= n < MIN_STEPS and dt > DT_MIN:
+        dt = max(dt * n / STEPS_PER_STOP, DT_MIN)
+        n, stop = _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    return n, stop
+
+
+@njit(cache=True)
+def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+    """:func:`shortest` with the time step dt [s]."""
+    best, best_depth, bk, bm, misses = np.inf, -1.0, -1, -1, 0
+    for depth in DEPTHS:
+        n = _brake(s0, x0, u0, share, depth, min(s_end, best), dt, grid, p2, p3, px, out_s, out_x, out_u)
+        k, m, stop = _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+        if k < 0:
+            misses += best_depth > 0.0
+            if misses == DEPTH_MISSES:  # the stops lengthen with a shallower depth from here
+                break
+            continue
+        best, best_depth, bk, bm, misses = stop, depth, k, m, 0
+    if best_depth < 0.0 or bk + bm + 2 > out_s.shape[0]:
+        return -1, np.inf
+    _brake(s0, x0, u0, share, best_depth, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    _, stop = _tail(bk, bm, np.inf, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, True)
+    return bk + bm + 1, stop
 
 
 @njit(cache=True)
