@@ -401,7 +401,7 @@ def main(argv=None) -> int:
         ap.error("--json writes one table: name the part with --part timing or --part optimality")
     if args.states and not args.part:
         ap.error("--states sets the states of one part: name it with --part")
-    n2, n3, o2, o3 = (300, 10, 6, 3) if args.quick else (3000, 40, 20, 6)
+    n2, n3, o2, o3 = (300, 10, 6, 3) if args.quick else (3000, 40, 20, 30)
     if args.part == "timing":
         n2, n3, o2, o3 = (*(args.states or (n2, n3)), 0, 0)
     elif args.part == "optimality":

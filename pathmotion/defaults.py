@@ -11,6 +11,10 @@ SAMPLE_TIME = 0.004
 VERIFY_SAMPLE_TIME = 1e-4
 #: Allowed relative excess over a limit on the verification resample [-].
 LIMIT_TOLERANCE = 1e-3
+#: The most of the order-2 limits a state the re-timer starts from (jerk limits) may take: a measured state, or a
+#: plan's own, which reads up to about a percent above its limits between its grid points; the re-timed motion's
+#: margin fades in from there over its first interval [-].
+RETIME_STATE_SHARE_MAX = 1.02
 #: Verify-and-tighten (planning/planner.py): an interval whose limit ratio exceeds 1 + this x the limit
 #: tolerance is tightened; the certification (planning/certify.py) refines its bounds above the same
 #: level (below it no refinement pays) [-].

@@ -41,7 +41,7 @@ from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _wi
                       effective_limits)
 from .profile import Profile
 from .retime_jerk import JerkPass
-from . import retime_stop
+from . import retime_stop, smooth
 from .retime_kernels import brake, fine_brake, greedy_from, least_u, step_down, step_up, stop_inside
 from .third_order import solve_from_state
 from .limit_rows import limit_rows
@@ -59,6 +59,10 @@ MERGE_FRACTION = 1e-6
 KEPT_FLOOR = 0.25
 #: Relative slack on a state's membership in a controllable set [-] (round-off of the rows).
 STATE_TOLERANCE = 1e-7
+#: A state may lie this much (relative, in x) above its controllable bound: a plan's own state between its grid
+#: points reads up to ~4e-5 above the bound the interpolated rows give there; the motion from it exceeds the
+#: limits by about as much [-].
+STATE_ABOVE_K = 1e-4
 #: Fixed-point iterations for the stop point inside its interval (rows interpolated there) [-].
 STOP_ITERATIONS = 4
 #: Intervals the second-order stop's last interval (to rest) is cut into [-].
@@ -130,7 +134,7 @@ class Retimer:
         self._no_target = np.full(len(grid), -1.0)
         self._buffer = np.empty(len(grid) + 1)
         self._fine_buffer = np.empty(STOP_POINTS)
-        self._stop_buffers = tuple(np.empty(retime_stop.MAX_STEPS + 1) for _ in range(3))
+        self._stop_buffers = tuple(np.empty(retime_stop.MAX_STEPS + 1) for _ in range(6))
         # rows of both sides stacked [right, left] for the compiled interpolation (retime_kernels.rows_at), and
         # the bounds of its error on every plan interval
         self._stacked = tuple(np.ascontiguousarray(np.stack([getattr(self._right, n), getattr(self._left, n)]))
@@ -211,12 +215,13 @@ class Retimer:
         """The shortest stop along the path within the plan's limits (a category 2 stop: the arm stays on
         the path and stops with theta_dot = 0 at the profile's last grid point). The state must move
         (theta_dot > 0). StateInfeasibleError when no in-limit stop ends before the path's end (or the
-        next kink, which the arm cannot pass at speed). ``second_order=True`` leaves out the plan's jerk and
-        torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step): the
-        fallback of a caller that must stop when no jerk-limited stop exists. With jerk limits the stop is the
-        compiled one (planning/retime_stop.py), the sequential-LP search where it finds none or with
-        ``reference`` (slow; the reference the compiled stop is tested against), and where neither finds one
-        (without ``reference``), the time-optimal motion to the next point where the plan's profile rests."""
+        next kink, which the arm cannot pass at speed); its ``stop`` is then the least overshoot-free stop the
+        limits allow (see :meth:`_jerk_unsaveable`). ``second_order=True`` leaves out the plan's jerk and
+        torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step). With jerk
+        limits the stop is the compiled one (planning/retime_stop.py); where it finds none, the compiled pass's
+        time-optimal motion to the next point where the plan's profile rests (a stop within every limit, the
+        longest kind); where neither exists, StateInfeasibleError. ``reference``: the sequential-LP search for
+        the shortest jerk-limited stop instead (slow; the reference the compiled stop is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
@@ -225,34 +230,48 @@ class Retimer:
             fast = self._compiled_stop(theta, x0, u0)
             if fast is not None:
                 return fast
-            log.debug("retimer: no compiled jerk-limited stop from theta = %.6g; sequential LP", theta)
+            rest = self._to_next_rest(theta, x0, u0)
+            if rest is not None:
+                log.info("retimer: no jerk-limited stop from theta = %.6g before the next rest point; the time-optimal "
+                         "motion to it (%.6g)", theta, rest.grid[-1])
+                return rest
+            raise self._jerk_unsaveable(theta, x0, u0)
         grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
         if self.third_order and not second_order:
             try:
                 return self._smooth_stop(theta, x0, u0, grid[-1] - theta)
-            except StateInfeasibleError:
-                rest = None if reference else self._to_next_rest(theta, x0, u0)
-                if rest is None:
-                    raise
-                log.info("retimer: no shorter jerk-limited stop from theta = %.6g; the time-optimal motion to the "
-                         "next rest point %.6g", theta, rest.grid[-1])
-                return rest
+            except StateInfeasibleError as err:
+                err.stop = Profile(grid, x) if err.stop is None else err.stop
+                raise
         return Profile(grid, x)
 
+    def _jerk_unsaveable(self, theta: float, x0: float, u0: float) -> StateInfeasibleError:
+        """The error for a moving state from which neither the compiled jerk-limited stop nor the compiled motion
+        to the next rest point exists (a state decelerating harder than the jerk limits can turn to 0 before the
+        speed runs out, say). Its ``stop``: the shortest stop within the velocity, acceleration and torque limits
+        (the least overshoot-free stop the limits allow once the jerk limit is given up; its acceleration
+        steps), which a caller that must stop (execute) runs."""
+        end = self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))]
+        grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))  # StateInfeasibleError: not even that
+        return StateInfeasibleError(
+            f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot stop within "
+            f"the jerk and torque-rate limits before theta = {end:.6g} (the next kink or the path's end): its "
+            f"acceleration cannot be turned to 0 before the motion comes to rest, nor can it go on to that point; "
+            f"the shortest stop without the jerk limits (acceleration steps) ends at theta = {grid[-1]:.6g}. Brake "
+            f"earlier or more gently, or raise the jerk limits", stop=Profile(grid, x))
+
     def _to_next_rest(self, theta: float, x0: float, u0: float) -> Profile | None:
-        """Jerk limits: the remaining profile from the state (the compiled pass, else the sequential LP) up to its
-        first rest point after it (a kink, a stop of the plan or the path's end): a stop within every limit where
-        none shorter is found; None where no remaining profile exists."""
-        try:
-            got = self._smooth_remaining(theta, x0, u0, 1.0)
-        except StateInfeasibleError:
+        """Jerk limits: the compiled pass's remaining profile from the state up to its first rest point after it (a
+        kink, a stop of the plan or the path's end): a stop within every limit where none shorter is found; None
+        where the pass gives none."""
+        got = self._compiled(theta, x0, u0, 1.0)
+        if got is None:
             return None
         k = int(np.argmax(got.x[1:] <= 0.0)) + 1
         return Profile(got.grid[:k + 1], got.x[:k + 1], got.u_nodes[:k + 1])
 
     def compiled_stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0) -> Profile | None:
-        """Jerk limits: the compiled stop alone (planning/retime_stop.py), None where it finds none (``stop``
-        then searches with the sequential LP)."""
+        """Jerk limits: the compiled stop alone (planning/retime_stop.py), None where it finds none."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if not self.third_order:
             raise PathmotionError("Retimer.compiled_stop: the plan has no jerk or torque-rate limit; use stop "
@@ -260,17 +279,41 @@ class Retimer:
         return self._compiled_stop(theta, x0, u0) if x0 > 0.0 else None
 
     def _compiled_stop(self, theta: float, x0: float, u0: float) -> Profile | None:
+        """The compiled jerk-limited stop (planning/retime_stop.py): where the braking meets the backward pass from
+        rest, over the braking depths until its smooth profile meets the rows at its points; else the search over
+        braking points and tails; None when neither finds one."""
         jp = self._jerk
         if jp is None:
             return None
         end = float(self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))])
-        s, x, u = self._stop_buffers
-        n, _ = retime_stop.shortest(theta, x0, u0, 1.0 + defaults.LIMIT_TOLERANCE, end, self.grid, jp.p2, jp.p3,
-                                    jp.px, s, x, u)
-        if n < 0:
-            return None
-        got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, self.grid, jp.p2, jp.p3, jp.px)
-        return None if got is None else Profile(*got)
+        s, x, u, bs, bv, bu = self._stop_buffers
+        rows = (self.grid, jp.p2, jp.p3, jp.px)
+        share = min(max(retime_stop.state_share(theta, x0, u0, self.grid, jp.p2), 1.0 + defaults.LIMIT_TOLERANCE),
+                    retime_stop.STATE_SHARE_MAX)
+        depth = 0
+        while depth >= 0:
+            n, _, depth = retime_stop.shortest_met(theta, x0, u0, share, end, depth, *rows, s, x, u, bs, bv, bu)
+            got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows, 1.0) if n > 0 else None
+            if got is not None and retime_stop.profile_ok(*got, 1.0, share + defaults.LIMIT_TOLERANCE, *rows):
+                return self._with_knots(Profile(*got))
+            depth = depth + 1 if 0 <= depth < len(retime_stop.DEPTHS) - 1 else -1
+        n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
+        got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows) if n > 0 else None
+        return None if got is None else self._with_knots(Profile(*got))
+
+    def _with_knots(self, p: Profile) -> Profile:
+        """The smooth profile ``p`` with the path's spline knots inside it as grid points, x and u there from its own
+        form (the same motion): no interval holds a knot inside, as on the planner's grids, which the certified
+        bounds assume (planning/certify.py)."""
+        knots = np.asarray(getattr(self.path, "knots", ()), float)
+        knots = knots[(knots > p.grid[0]) & (knots < p.grid[-1]) & ~np.isin(knots, p.grid)]
+        if not knots.size:
+            return p
+        origin, sign = p.coords
+        i = np.searchsorted(p.grid, knots, side="right") - 1
+        x, u, _ = smooth.state(p.grid, p.x, p.u_nodes, origin, sign, i, knots)
+        order = np.argsort(np.concatenate([p.grid, knots]), kind="stable")
+        return Profile(*(np.concatenate(pair)[order] for pair in ((p.grid, knots), (p.x, x), (p.u_nodes, u))))
 
     def compiled_remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0,
                            override: float = 1.0) -> Profile | None:
@@ -360,7 +403,7 @@ class Retimer:
         y0 = x0 / s2
         lo, hi = _project(P0, Q0, R0, 0, self._klo[j], self._khi[j], 0.0, self._x_max_at(i, f), 0.0)
         out = self._buffer
-        if lo * (1 - STATE_TOLERANCE) - STATE_TOLERANCE <= y0 <= hi * (1 + STATE_TOLERANCE):
+        if lo * (1 - STATE_TOLERANCE) - STATE_TOLERANCE <= y0 <= hi * (1 + STATE_ABOVE_K):
             xj = max(step_up(P0, Q0, R0, 0, y0, self._khi[j]), self._klo[j])
             if u0 is not None and y0 > 0.0:  # the moving state's acceleration, within the rows and K_j
                 low = max(step_down(P0, Q0, R0, 0, y0)[0], self._klo[j], KEPT_FLOOR * max(y0, xj))

@@ -16,7 +16,8 @@ allow) still ends on or below C, found by bisection when the largest step does n
 step. At every point of the walk, and where its descent ends, merges into C over N = MERGE_LENGTHS
 intervals are tried: u = u_C + d (1 - s) + alpha s (1 - s), s the fraction of the merge, d the offset
 from u_C, alpha the value that ends the merge on C's x. Of those whose rows hold, the one of the least
-total time (walk, descent, merge, C's rest) is the answer, C from its end on. Every step and merge meets
+total time (walk, descent, merge, C's rest) is the answer, C from its end on (none where the rows stop the
+walk while a merge further on might still gain WALK_GAIN). Every step and merge meets
 every row at CHECK_POINTS of each interval (the inner points' path data sampled at construction, the first
 interval's at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
 certified bounds of a result are checked like a plan's (Retimer.certify) in the tests and the benchmark.
@@ -41,11 +42,15 @@ ROW_SLACK = 1e-9
 #: The pass keeps this fraction below every limit (velocity, order-2 and order-3 rows) at its check points,
 #: for what the rows do between them; along a merge the margin fades out to the ceiling's full limits [-].
 PASS_MARGIN = 0.01
-#: The state itself may exceed an order-2 row by this fraction (the plans' limit tolerance: a plan's own state
-#: lies on its limits within it) [-].
-STATE_TOLERANCE = defaults.LIMIT_TOLERANCE
+#: The state's share of the order-2 limits the pass keeps to at least, and at most (a state above is refused) [-].
+STATE_SHARE_MIN = 1.0 + defaults.LIMIT_TOLERANCE
+STATE_SHARE_MAX = defaults.RETIME_STATE_SHARE_MAX
 #: Least x (relative to the state's) at a point where the motion does not rest [-].
 X_FLOOR = 1e-12
+#: An interval whose u rises from u_k < 0 through 0 has its least x where u = 0: about x_k - u_k^2 h / (u_{k+1} -
+#: u_k) (h its width; u linear in theta), taken this many times over, which must stay above the floor (the
+#: check points can miss that dip from a slow state) [-].
+DIP_SAFETY = 2.0
 
 
 class JerkPass:
@@ -104,13 +109,14 @@ class JerkPass:
 
     @staticmethod
     def _state_share(first, x0: float, u0: float) -> float:
-        """The share of the order-2 limits the state (x0, u0) takes at its point, at least 1 + STATE_TOLERANCE:
-        the limits at the state (the pass refuses a state above 1 + STATE_TOLERANCE)."""
+        """The share of the order-2 limits the state (x0, u0) takes at its point, at least STATE_SHARE_MIN: the
+        limits at the state, from which the pass's margin fades in over the first interval (the pass refuses a
+        state above STATE_SHARE_MAX)."""
         a, b, c, lo, hi = (r[0] for r in first[0])
         val = a * u0 + b * x0 + c
         with np.errstate(divide="ignore", invalid="ignore"):
             share = np.where(val > 0, val / hi, val / lo)
-        return float(max(np.max(share[np.isfinite(share)], initial=0.0), 1.0 + STATE_TOLERANCE))
+        return float(max(np.max(share[np.isfinite(share)], initial=0.0), STATE_SHARE_MIN))
 
     def applies(self, theta: float, i: int, j: int, x0: float) -> bool:
         """Whether the pass answers from (theta in grid interval i, j the first grid point after it, x0): a moving
@@ -127,7 +133,7 @@ class JerkPass:
         grid_data = (self.p2, self.p3, self.px, self.pc, self.cx, self.cu)
         first = self._first(theta, i, f, j)
         share = self._state_share(first, x0, u0)
-        if share > 1.0 + STATE_TOLERANCE:
+        if share > STATE_SHARE_MAX:
             return None
         first = (*first, share)
         xs, us = self._buffers
@@ -204,6 +210,8 @@ def _interval_ok(k, j, grid_data, first, x, u, v, floor, check_end, keep0, keep1
     limits times ``keep0`` at its start to ``keep1`` at its end (linear between; the end point's order-2 rows
     and bounds only with ``check_end``)."""
     nq = grid_data[3].shape[1]
+    if u < 0.0 < v and x - DIP_SAFETY * u * u * _point(k, nq - 1, j, grid_data, first)[3] / (v - u) < floor:
+        return False  # x dips below the floor where u crosses 0 between the check points
     for q in range(nq):
         r2, r3, xmax, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
         keep = keep0 + (keep1 - keep0) * q / (nq - 1)
@@ -280,6 +288,10 @@ def _bounds(k, j, grid_data, first, x, u, floor):
     if not ok or low > high:
         return np.inf, -np.inf, 0.0, 0.0
     _, _, _, cxu, cxv, _, _ = _point(k, nq - 1, j, grid_data, first)
+    if u < 0.0:  # x dips where u crosses 0 inside the interval: not below the floor (_dip)
+        low = max(low, u + DIP_SAFETY * u * u * cxu / max(x - floor, 1e-300))
+        if low > high:
+            return np.inf, -np.inf, 0.0, 0.0
     return low, high, cxu - cxv, cxv
 
 
@@ -327,7 +339,10 @@ def _merge(k, x, u, n, last, j, grid_data, first, xc0, uc0, floor, tc, budget, o
 
 
 #: The walk goes on this many points after the point of the best merge [-].
-STALL = 3
+STALL = 5
+#: ... and on after that while its time so far plus C's from its point is below the best total by this fraction
+#: (a merge from further on may still gain that much); a walk the rows stop there gives no answer [-].
+WALK_GAIN = 0.02
 #: Bisection steps of the largest step from which the descent still stays below C [-].
 BISECTION_STEPS = 6
 #: x above C's by more than this fraction counts as above C [-].
@@ -419,16 +434,18 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_
     point; C at the state: xc0, uc0.
 
     The walk: below C the largest step from which the descent still ends on or below C (the largest step the
-    rows allow, else a bisection down to the descent's own step), above C the least step. At every point of
-    the walk, the merges of every length from there and from where its descent ends are candidates; the one
-    of the least total time (walk, descent, merge, C's rest) is taken."""
+    rows allow, else a bisection down to the descent's own step; that step where even the descent crosses above
+    C), above C the least step. At every point of the walk, the merges of every length from there and from where
+    its descent ends are candidates; the one of the least total time (walk, descent, merge, C's rest) is taken.
+    The walk ends STALL points after the best merge's point once its time plus C's from there is within
+    WALK_GAIN of the best total; stopped by the rows before that, it gives no answer."""
     last = nxt - j + 1
     floor = X_FLOOR * x0
     x, u = x0, u0
     out_x[0], out_u[0] = x0, u0
     if not _rows2_within(_point(0, 0, j, grid_data, first)[0], x0, u0, first[4]):
         return np.inf, -1  # the state breaks a limit itself
-    best_t, best_k, best_m, best_n, t = np.inf, -1, -1, 0, 0.0
+    best_t, best_k, best_m, best_n, t, trapped = np.inf, -1, -1, 0, 0.0, np.inf
     for k in range(last):
         m, xd, ud, td = _descend(k, x, u, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u, False)
         for start in range(2):
@@ -442,16 +459,17 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_
                             out_u, False)
                 if np.isfinite(tm) and t + st + tm + tc[j + s0 + n - 1] < best_t:
                     best_t, best_k, best_m, best_n = t + st + tm + tc[j + s0 + n - 1], k, s0, n
-        if (best_k >= 0 and k - best_k > STALL) or k == last - 1:
+        if k == last - 1 or (best_k >= 0 and k - best_k > STALL and t + tc[j + k - 1] > (1.0 - WALK_GAIN) * best_t):
             break
         lo, hi, w0, w1 = _bounds(k, j, grid_data, first, x, u, floor)
+        trapped = t + tc[j + k - 1]  # where the walk ends when no step follows
         if lo > hi:
             break
         xc, _ = _ceiling(k, j, grid_data, xc0, uc0)
         if x > xc * (1.0 + CROSS):
             v = lo
-        elif m < 0:
-            break
+        elif m < 0:  # the descent crosses above C: its own step (the merges from above C may still end on it)
+            v = max(lo, min(hi, _ceiling(k + 1, j, grid_data, xc0, uc0)[1]))
         else:
             v = _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u)
         x1, dt = _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor)
@@ -460,8 +478,9 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_
         t += dt
         x, u = x1, v
         out_x[k + 1], out_u[k + 1] = x, u
-    if best_k < 0:
-        return np.inf, -1
+        trapped = np.inf
+    if best_k < 0 or trapped < (1.0 - WALK_GAIN) * best_t:
+        return np.inf, -1  # none, or the walk stopped where a merge further on might still gain WALK_GAIN
     if best_m > best_k:
         _descend(best_k, out_x[best_k], out_u[best_k], last, j, grid_data, first, xc0, uc0, floor, out_x, out_u,
                  True)

@@ -26,7 +26,6 @@ import numpy as np
 from numba import njit
 
 from .. import defaults
-from . import smooth
 
 #: Share of every limit the stop keeps free for the linear interpolation of the rows and the discrete jerk [-].
 MARGIN = 0.01
@@ -63,6 +62,8 @@ X_SHARE = (1.0 + defaults.LIMIT_TOLERANCE) ** 2
 FIT_INSET = 1e-6
 #: Relative slack of the checks (round-off) [-].
 SLACK = 1e-9
+#: The most of the order-2 limits the state itself may take; the braking fades from there to 1 - MARGIN [-].
+STATE_SHARE_MAX = defaults.RETIME_STATE_SHARE_MAX
 
 
 @njit(cache=True, inline="always")
@@ -102,6 +103,22 @@ def _u_range(s, x, keep, grid, p2, px):
         elif rest > hi + slack or rest < lo - slack:
             return np.inf, -np.inf
     return low, high
+
+
+@njit(cache=True)
+def state_share(s, x, u, grid, p2):
+    """The largest share of an order-2 limit the state (s, x, u) takes on the interpolated rows [-]."""
+    g, q, w = _locate(s, grid)
+    a_, b_, c_, lo_, hi_ = p2
+    share = 0.0
+    for r in range(a_.shape[2]):
+        val = _at(a_, q, g, r, w) * u + _at(b_, q, g, r, w) * x + _at(c_, q, g, r, w)
+        lo, hi = _at(lo_, q, g, r, w), _at(hi_, q, g, r, w)
+        if val > 0.0 and hi > 0.0:
+            share = max(share, val / hi)
+        elif val < 0.0 and lo < 0.0:
+            share = max(share, val / lo)
+    return share
 
 
 @njit(cache=True)
@@ -345,7 +362,23 @@ def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
     return bk + bm + 1, stop
 
 
-def profile_of(s, x, u, s_end, grid, p2, p3, px):
+@njit(cache=True)
+def _x_to_rest(g, un, x0):
+    """x (K,) of the smooth profile at rest at g[-1] only, u = un (K,) linear in xi = (g[-1] - theta)^(1/3) per
+    interval, from x0: x_{k+1} = x_k + 2 (w0_k u_k + w1_k u_{k+1}) with the weights of planning/smooth.py (every
+    interval's xi measured from the rest point)."""
+    stop = g[-1]
+    xs = np.empty(g.shape[0])
+    xs[0] = x0
+    for k in range(g.shape[0] - 1):
+        d0, d1 = stop - g[k], stop - g[k + 1]
+        xi0, xi1 = np.cbrt(d0), np.cbrt(d1)
+        w1 = (0.75 * (d0 ** (4.0 / 3.0) - d1 ** (4.0 / 3.0)) - xi0 * (g[k + 1] - g[k])) / (xi1 - xi0)
+        xs[k + 1] = xs[k] + 2.0 * ((g[k + 1] - g[k] - w1) * un[k] + w1 * un[k + 1])
+    return xs
+
+
+def profile_of(s, x, u, s_end, grid, p2, p3, px, keep=1.0 - MARGIN):
     """(grid, x, u_nodes) of the smooth profile through the braking and tail points (s, u) (n,) from the state's x
     (x[0]), u linear in xi = (stop - theta)^(1/3) on every interval (planning/smooth.py), x from it (x_{k+1} =
     x_k + 2 (w0_k u_k + w1_k u_{k+1})), and the constant-jerk close from the last point (TAIL_INTERVALS
@@ -360,16 +393,301 @@ def profile_of(s, x, u, s_end, grid, p2, p3, px):
         xi = xi_sw * (1.0 - np.arange(1, TAIL_INTERVALS + 1) / TAIL_INTERVALS)
         g = np.concatenate([s, stop - xi[:-1] ** 3, [stop]])
         un = np.concatenate([u, u[-1] * xi / xi_sw])
-        rest = np.zeros(len(g), bool)
-        rest[-1] = True
-        origin, sign = smooth.coordinates(g, rest)
-        _, _, w0, w1 = smooth.weights(g, origin, sign)
-        xs = x[0] + 2.0 * np.concatenate([[0.0], np.cumsum(w0 * un[:-1] + w1 * un[1:])])
+        xs = _x_to_rest(g, un, x[0])
         x_sw = xs[len(s) - 1]
     if x_sw <= 0.0 or np.any(xs[:len(s)] <= 0.0):
         return None
-    if not _tail_ok(s[-1], np.sqrt(x_sw), u[-1], 1.0 - MARGIN, s_end, grid, p2, p3, px):
+    if not _tail_ok(s[-1], np.sqrt(x_sw), u[-1], keep, s_end, grid, p2, p3, px):
         return None
     xs[len(s):-1] = x_sw * (xi[:-1] / xi_sw) ** 4  # the close's x, exact
     xs[-1] = 0.0
     return g, xs, un
+
+
+# ------------------------------------------------------------------------------------ backward pass from rest
+
+#: Fixed-point passes of a backward step's start [-].
+BACK_PASSES = 1
+#: Iterations on the stop point (each moves it by the gap between the braking and the backward pass) [-].
+MEET_ITERATIONS = 12
+#: The iterations end when the gap is below this fraction of the stop distance [-].
+MEET_TOLERANCE = 1e-5
+#: The backward pass's points closer to rest than this share of the stop distance are left to the constant-jerk
+#: close from the last point before them (profile_of) [-].
+CLOSE_SHARE = 0.01
+#: Backward points tried as the end of the join from the braking [-].
+JOIN_POINTS = 40
+
+
+@njit(cache=True, inline="always")
+def _narrow(low, high, q, bot, top):
+    """[low, high] narrowed to the y with bot <= q y <= top (empty: low > high)."""
+    if q > 0.0:
+        return max(low, bot / q), min(high, top / q)
+    if q < 0.0:
+        return max(low, top / q), min(high, bot / q)
+    if top < 0.0 or bot > 0.0:
+        return np.inf, -np.inf
+    return low, high
+
+
+@njit(cache=True)
+def _u_before(sp, xp, kp, u, ke, s, x, keep, grid, p2, p3, px):
+    """(least, largest) u at the start (sp, xp) of a step that ends at (s, x, u): the order-2 rows at its start,
+    and the order-3 rows at both ends with the step's jerk as the smooth profile realizes it there, (u - u_start)
+    kp at the start and (u - u_start) ke at the end (linear in u_start)."""
+    low, high = _u_range(sp, xp, keep, grid, p2, px)
+    a3_, a_, b_, c_, lim_ = p3
+    for end in range(2):
+        pt, xt, k = (sp, xp, kp) if end == 0 else (s, x, ke)
+        g, q, w = _locate(pt, grid)
+        sx = np.sqrt(max(xt, 0.0))
+        for r in range(a3_.shape[2]):
+            a3, a = _at(a3_, q, g, r, w), _at(a_, q, g, r, w)
+            lim = keep * _at(lim_, q, g, r, w) * (1.0 + SLACK)
+            rest = sx * (_at(b_, q, g, r, w) * xt + _at(c_, q, g, r, w)) + a3 * k * u
+            coef = -a3 * k + (sx * a if end == 0 else 0.0)
+            if end == 1:
+                rest += sx * a * u
+            low, high = _narrow(low, high, coef, -lim - rest, lim - rest)
+    return low, high
+
+
+@njit(cache=True)
+def _back_step(s, v, u, keep, dt, grid, p2, p3, px):
+    """The start (s, v, u) of the step of length dt that ends at (s, v, u) with the least u there the rows allow
+    (the hardest braking: the backward pass's greedy choice); ok False when the rows allow none."""
+    up, vp = u, v - dt * u
+    sp = s
+    for _ in range(BACK_PASSES + 1):
+        sp = s - (vp * dt + 0.5 * up * dt * dt + (u - up) * dt * dt / 6.0)
+        mean = (s - sp) / dt
+        if vp <= 0.0 or mean <= 0.0:
+            return sp, vp, up, False
+        lo, hi = _u_before(sp, vp * vp, vp / (mean * dt), u, v / (mean * dt), s, v * v, keep, grid, p2, p3, px)
+        if lo > hi:
+            return sp, vp, up, False
+        up = lo
+        vp = v - 0.5 * dt * (u + up)
+    sp = s - (vp * dt + 0.5 * up * dt * dt + (u - up) * dt * dt / 6.0)
+    mean = (s - sp) / dt
+    if vp <= v or mean <= 0.0:
+        return sp, vp, up, False
+    # the range where the step starts now: u moved into it (by the fixed point's last change, well inside the
+    # margin), the start moved with it
+    lo, hi = _u_before(sp, vp * vp, vp / (mean * dt), u, v / (mean * dt), s, v * v, keep, grid, p2, p3, px)
+    if lo > hi:
+        return sp, vp, up, False
+    up = min(max(up, lo), hi)
+    vp = v - 0.5 * dt * (u + up)
+    sp = s - (vp * dt + 0.5 * up * dt * dt + (u - up) * dt * dt / 6.0)
+    return sp, vp, up, vp > v
+
+
+@njit(cache=True)
+def _backward(s_end, v_top, s_low, keep, dt, grid, p2, p3, px, bs, bv, bu):
+    """The backward pass from rest at s_end: the constant-jerk close (the largest jerk the order-3 rows allow at
+    rest) over the first step, then _back_step, until its speed passes v_top, it passes s_low or the rows allow
+    no step. Its points (rest excluded, speed rising) into bs, bv, bu; returns their number."""
+    jerk = _j_range(s_end, 0.0, 0.0, keep, grid, p3)[1]
+    if not jerk > 0.0:
+        return 0
+    s, v, u = s_end - jerk * dt**3 / 6.0, 0.5 * jerk * dt * dt, -jerk * dt
+    n = 0
+    while n < bs.shape[0]:
+        bs[n], bv[n], bu[n] = s, v, u
+        n += 1
+        if v > v_top or s < s_low:
+            break
+        s, v, u, ok = _back_step(s, v, u, keep, dt, grid, p2, p3, px)
+        if not ok:
+            break
+    return n
+
+
+@njit(cache=True)
+def _contact(n, fs, fx, fu, nb, bs, bv, bu):
+    """(gap, k, b): the least gap s_B(v) - s_F over the braking points k < n (fs, fx = v^2, fu) that brake (u < 0)
+    at a speed the backward pass (bs, bv, bu; nb points, speed rising) reaches, s_B at the speed of F's point
+    interpolated between backward points b and b + 1; (inf, -1, -1) when no such point."""
+    best, bk, bb = np.inf, -1, -1
+    if nb < 2:
+        return best, bk, bb
+    for k in range(n):
+        v = np.sqrt(fx[k])
+        if fu[k] >= 0.0 or v > bv[nb - 1] or v < bv[0]:
+            continue
+        b = max(min(np.searchsorted(bv[:nb], v) - 1, nb - 2), 0)
+        w = (v - bv[b]) / (bv[b + 1] - bv[b])
+        gap = (1.0 - w) * bs[b] + w * bs[b + 1] - fs[k]
+        if gap < best:
+            best, bk, bb = gap, k, b
+    return best, bk, bb
+
+
+@njit(cache=True)
+def _b_u(s, nb, bs, bu):
+    """u of the backward pass (nb points, s falling with the index) at s, linear between its points; its first
+    point's u below them, its last's above."""
+    if s >= bs[0]:
+        return bu[0]
+    if s <= bs[nb - 1]:
+        return bu[nb - 1]
+    lo, hi = 0, nb - 1  # bs[lo] > s >= bs[hi]
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if bs[mid] > s:
+            lo = mid
+        else:
+            hi = mid
+    w = (bs[lo] - s) / (bs[lo] - bs[hi])
+    return (1.0 - w) * bu[lo] + w * bu[hi]
+
+
+@njit(cache=True)
+def _join_ok(s0, x0, u0, s1, v1, u1, keep, grid, p3):
+    """Whether the step from (s0, x0, u0) to (s1, v1, u1) (u linear in theta) meets the order-3 rows at both ends."""
+    v0 = np.sqrt(x0)
+    mean = 0.5 * (v0 + v1)
+    jerk = (u1 - u0) * mean / (s1 - s0)
+    for end in range(2):
+        s, v, u = (s0, v0, u0) if end == 0 else (s1, v1, u1)
+        jlo, jhi = _j_range(s, v * v, u, keep, grid, p3)
+        if not jlo <= jerk * v / mean <= jhi:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _meet(n, s_end_max, keep, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
+    """The stop from the braking points 0..n-1 in out_s, out_x, out_u: the stop point s_end whose backward pass
+    (_backward) touches them (moved by the gap, MEET_ITERATIONS times at most, from where the braking comes to
+    rest), and the stop's points (the braking up to the contact, then the backward pass's beyond it) written
+    into out_s, out_x, out_u. Returns (their number, s_end); (-1, inf) when the passes do not touch before
+    s_end_max or the join breaks a row."""
+    v_top, last = 0.0, -1
+    for k in range(n):
+        if out_u[k] < 0.0:
+            v_top, last = max(v_top, np.sqrt(out_x[k])), k
+    if last < 0:
+        return -1, np.inf
+    s_end = out_s[last] + 2.0 * out_x[last] / (3.0 * -out_u[last])
+    distance = s_end - out_s[0]
+    gap, k, b, nb = np.inf, -1, -1, 0
+    for _ in range(MEET_ITERATIONS):
+        s_end = min(s_end, s_end_max)
+        nb = _backward(s_end, v_top, out_s[0], keep, dt, grid, p2, p3, px, bs, bv, bu)
+        gap, k, b = _contact(n, out_s, out_x, out_u, nb, bs, bv, bu)
+        if k < 0 or (s_end >= s_end_max and gap < 0.0):
+            return -1, np.inf
+        if abs(gap) <= MEET_TOLERANCE * distance:
+            break
+        s_end -= gap
+    if k < 0 or abs(gap) > MEET_TOLERANCE * distance:
+        return -1, np.inf
+    # the join where the braking's u crosses the backward pass's (tangent in speed, u continuous): a point
+    # inserted there, the backward pass's points after it
+    c, sc, xc, uc = -1, 0.0, 0.0, 0.0
+    for o in range(2 * JOIN_POINTS):  # the crossing nearest to the contact
+        i = k + (o + 1) // 2 * (1 if o % 2 else -1)
+        if i < 0 or i >= n - 1:
+            continue
+        d0 = out_u[i] - _b_u(out_s[i], nb, bs, bu)
+        d1 = out_u[i + 1] - _b_u(out_s[i + 1], nb, bs, bu)
+        if d0 >= 0.0 > d1:
+            w = d0 / (d0 - d1)
+            c = i
+            sc = (1.0 - w) * out_s[i] + w * out_s[i + 1]
+            xc = (1.0 - w) * out_x[i] + w * out_x[i + 1]
+            uc = (1.0 - w) * out_u[i] + w * out_u[i + 1]
+            break
+    if c >= 0:
+        k = c + 1
+        out_s[k], out_x[k], out_u[k] = sc, xc, uc
+        b = nb - 1
+    while b >= 0 and bs[b] <= out_s[k] + 1e-6 * distance:
+        b -= 1
+    # without a crossing (the braking ends on the backward pass): the first backward point whose step from the
+    # contact the order-3 rows allow at both ends
+    for _ in range(JOIN_POINTS if c < 0 else 0):
+        if b < 0 or _join_ok(out_s[k], out_x[k], out_u[k], bs[b], bv[b], bu[b], keep, grid, p3):
+            break
+        b -= 1
+    if b < 0:
+        return -1, np.inf
+    m = k + 1
+    for i in range(b, -1, -1):  # the points closer to rest than CLOSE_SHARE of the distance: the close's
+        if s_end - bs[i] < CLOSE_SHARE * distance and i < b:
+            break
+        if m >= out_s.shape[0]:
+            return -1, np.inf
+        out_s[m], out_x[m], out_u[m] = bs[i], bv[i] ** 2, bu[i]
+        m += 1
+    return m, s_end
+
+
+@njit(cache=True)
+def profile_ok(g, xs, un, keep, start_keep, grid, p2, p3, px):
+    """Whether the smooth stop profile (g, xs, un) (K,), u linear in xi = (g[-1] - theta)^(1/3) per interval,
+    meets the order-2 rows at its points and the order-3 rows at both ends of every interval but the last, with
+    ``keep`` of the limits (``start_keep`` over the first FADE_STEPS intervals: the state's own share)."""
+    stop = g[-1]
+    for i in range(g.shape[0] - 2):
+        if i == 0:
+            keep, later = start_keep, keep
+        elif i == FADE_STEPS:
+            keep = later
+        lo, hi = _u_range(g[i], xs[i], keep, grid, p2, px)
+        if not lo <= un[i] <= hi:
+            return False
+        xa, xb = np.cbrt(stop - g[i]), np.cbrt(stop - g[i + 1])
+        slope = (un[i + 1] - un[i]) / (xb - xa)
+        for e in range(2):
+            s, x, u, xi = (g[i], xs[i], un[i], xa) if e == 0 else (g[i + 1], xs[i + 1], un[i + 1], xb)
+            if x <= 0.0 or xi <= 0.0:
+                continue
+            jerk = -slope * np.sqrt(x) / (3.0 * xi * xi)
+            jlo, jhi = _j_range(s, x, u, keep, grid, p3)
+            if not jlo <= jerk <= jhi:
+                return False
+    return True
+
+
+@njit(cache=True)
+def shortest_met(s0, x0, u0, share, s_end, first, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
+    """The stop where the braking from the state meets the backward pass from rest: for the braking depths of
+    DEPTHS from index ``first`` on, the first that meets (_meet). Returns (the number of points in out_s, out_x,
+    out_u, the stop point, the depth's index); (-1, inf, -1) when none meets."""
+    v = np.sqrt(x0)
+    lo, hi = _u_range(s0, x0, 1.0 - MARGIN, grid, p2, px)
+    jlo, jhi = _j_range(s0, x0, u0, 1.0 - MARGIN, grid, p3)
+    if lo <= u0 <= hi and jlo <= jhi:
+        share = 1.0 - MARGIN
+    lo, hi = _u_range(s0, x0, max(share, 1.0 - MARGIN), grid, p2, px)
+    jlo, jhi = _j_range(s0, x0, u0, max(share, 1.0 - MARGIN), grid, p3)
+    if not lo <= u0 <= hi or jlo > jhi or lo >= 0.0:
+        return -1, np.inf, -1
+    period = v / -lo + abs(u0 - lo) / max(-jlo, 1e-12) + 2.0 * abs(lo) / max(-jlo, jhi, 1e-12)
+    dt = min(max(period / STEPS_PER_STOP, DT_MIN), DT_MAX)
+    m, stop, steps, d = _met_search(s0, x0, u0, share, s_end, first, dt, grid, p2, p3, px, out_s, out_x, out_u, bs,
+                                    bv, bu)
+    if 0 <= steps < MIN_STEPS and dt > DT_MIN:
+        dt = max(dt * steps / STEPS_PER_STOP, DT_MIN)
+        m, stop, _, d = _met_search(s0, x0, u0, share, s_end, first, dt, grid, p2, p3, px, out_s, out_x, out_u, bs,
+                                    bv, bu)
+    return m, stop, d
+
+
+@njit(cache=True)
+def _met_search(s0, x0, u0, share, s_end, first, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
+    """:func:`shortest_met` with the time step dt [s]: (points, stop point, the steps of the braking to the
+    contact and of the backward pass beyond it, the depth's index) of the first depth from ``first`` on that
+    meets; (-1, inf, steps of the longest braking, -1) when none."""
+    most = 0
+    for d in range(first, DEPTHS.shape[0]):
+        n = _brake(s0, x0, u0, share, DEPTHS[d], s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+        most = max(most, n)
+        m, stop = _meet(n, s_end, 1.0 - MARGIN, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu)
+        if m > 0:
+            return m, stop, m + int((stop - out_s[m - 1]) / max(out_s[m - 1] - out_s[m - 2], 1e-300)), d
+    return -1, np.inf, most, -1
