@@ -721,61 +721,98 @@ def _global_stage(objective: _Objective, plans: int, planar: bool) -> tuple[int,
     return int(es.countevals), ", ".join(es.stop()) or "its plans"
 
 
+@dataclass(frozen=True, eq=False)
+class _PolishJob:
+    """One corner's polish (stage 8), self-contained (it runs in a worker process as well): the corner ``corner`` of
+    ``original`` with the blends ``shapes``, from the coordinates ``x`` of its shape there (free ends ``free_ends``,
+    those where the motion rests ``resting``, in units of ``tolerance`` [m]), ``plans`` plans under ``settings``;
+    ``quintic`` (only the quintic's coordinates), ``planar``; ``states`` (_connection_states of a plan of the whole
+    path with ``shapes``: the corner is polished on its window) or None (on the whole path)."""
+
+    robot: object
+    original: TaskPath
+    shapes: dict
+    corner: int
+    x: tuple
+    free_ends: tuple[bool, bool]
+    resting: tuple[bool, bool]
+    tolerance: float
+    settings: PlanSettings
+    q_start: object
+    plans: int
+    quintic: bool
+    planar: bool
+    states: tuple | None
+
+
+def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
+    """COBYQA (about ``job.plans`` plans) on the duration under ``job.settings`` from the coordinates ``job.x``: every
+    coordinate the joint stage would move, with its steps, only the quintic's if ``job.quintic``, none out of the plane
+    if ``job.planar``; on the corner's window where ``job.states`` gives one. Returns (the start's duration [s], the
+    fastest duration [s], its shape, plans run, the window's check included)."""
+    k = job.corner
+    window = (_corner_window(job.robot, job.original, job.shapes, k, job.settings, job.q_start, job.states)
+              if job.states is not None else None)
+    fine = _objective(job.robot, job.original, job.shapes, k, job.tolerance, job.settings, job.q_start, job.resting,
+                      window)
+    fine.free_ends = job.free_ends
+    x = np.array(job.x, float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
+    start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
+    idx = [i for i in range(min(len(x), _W_A if job.quintic else _DEPARTURE.start)) if not (job.planar and i >= _V_A)]
+    ends = _end_indices(fine.free_ends, job.planar) if len(x) >= _ARRIVAL.stop else []
+    box, steps = _joint_box(idx, ends)
+
+    def f(y):
+        trial = x.copy()
+        trial[idx + ends] = y
+        return fine(trial)
+
+    _trust_region(f, np.clip(x[idx + ends], box[:, 0], box[:, 1]), box, steps, job.plans)
+    best_T, best_shape, _ = fine.best()
+    log.info("blend search: corner %d polished on %s: %.6g -> %.6g s in %d plans", k,
+             "the whole path" if window is None else "its window", start_T, best_T, fine.plans)
+    return start_T, best_T, best_shape, fine.plans + (window is not None)
+
+
 def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: dict, settings: PlanSettings,
             q_start, plans: int, planar: Sequence[int], quintic: Sequence[int],
-            windowed: bool = False) -> tuple[float, dict, int]:
-    """Stage 8: COBYQA (about ``plans`` plans per corner) on the full-grid duration under ``settings`` from the
+            windowed: bool = False, runner: _Runner | None = None) -> tuple[float, dict, int]:
+    """Stage 8: :func:`_polish_corner` (about ``plans`` plans per corner) on the duration under ``settings`` from the
     coordinates of each corner's chosen shape in ``shapes`` (found in the caches of that corner's searches,
-    ``searched`` {corner: [_Objective]}), the other corners fixed; every coordinate the joint stage would move, with
-    its steps, and only the quintic's at the corners in ``quintic`` (no racing line searched there), none out of
-    the plane at those in ``planar``. The searches ranked shapes on a coarse grid; this is the duration the blend
-    is reported with. ``windowed``: each corner on its window (_Window, ends from one plan of the whole path with
-    ``shapes``), the polished corners then planned together on the whole path. Returns (duration [s], shapes, plans
-    run), never slower than given."""
-    given, shapes, run = shapes, dict(shapes), 0
+    ``searched`` {corner: [_Objective]}), the other corners fixed; only the quintic's coordinates at the corners in
+    ``quintic`` (no racing line searched there), none out of the plane at those in ``planar``. The searches ranked
+    shapes on a coarse grid; this is the duration the blend is reported with. ``windowed``: each corner on its window
+    (_Window, ends from one plan of the whole path with ``shapes``), the corners independent (by ``runner``), then
+    planned together on the whole path; else one after the other on the whole path, each with the polished blends
+    before it. Returns (duration [s], shapes, plans run), never slower than given."""
+    given, shapes = shapes, dict(shapes)
     states = _connection_states(robot, original, given, settings, q_start) if windowed else None
-    run += states is not None
+    run = int(states is not None)
+    jobs = []
     for k, objectives in searched.items():
         found = [(o, key) for o in objectives for key, (_, shape) in o.cache.items() if shape == shapes[k]]
         if not found:  # e.g. the symmetric blend of a corner whose search never tried it
             continue
         o, key = found[0]
-        window = (_corner_window(robot, original, given, k, settings, q_start, states)
-                  if states is not None else None)
-        run += window is not None
-        fine = _objective(robot, original, shapes, k, o.tolerance, settings, q_start, o.resting, window)
-        fine.free_ends = key[1] or o.free_ends
-        x = np.array(key[0], float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
-        start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
-        flat = k in planar
-        idx = [i for i in range(min(len(x), _W_A if k in quintic else _DEPARTURE.start)) if not (flat and i >= _V_A)]
-        ends = _end_indices(fine.free_ends, flat) if len(x) >= _ARRIVAL.stop else []
-        box, steps = _joint_box(idx, ends)
-
-        def f(y, x=x, cols=idx + ends, fine=fine):
-            trial = x.copy()
-            trial[cols] = y
-            return fine(trial)
-
-        _trust_region(f, np.clip(x[idx + ends], box[:, 0], box[:, 1]), box, steps, plans)
-        best_T, best_shape, _ = fine.best()
-        run += fine.plans
-        if states is None:
-            log.info("blend search: corner %d polished on the full grid: %.6g -> %.6g s in %d plans", k, duration,
-                     best_T, fine.plans)
+        jobs.append(_PolishJob(robot, original, given, k, key[0], key[1] or o.free_ends, o.resting, o.tolerance,
+                               settings, q_start, plans, k in quintic, k in planar, states))
+    if states is None:  # one after the other, each corner with the blends polished before it
+        for job in jobs:
+            _, best_T, best_shape, job_run = _polish_corner(dataclasses.replace(job, shapes=dict(shapes)))
+            run += job_run
             if best_T < duration:
-                duration, shapes[k] = best_T, best_shape
-        else:  # each corner against its own start (on its window, or on the whole path where it has none)
-            log.info("blend search: corner %d polished on %s full grid: %.6g -> %.6g s in %d plans", k,
-                     "the whole path's" if window is None else "its window's", start_T, best_T, fine.plans)
-            if best_T < start_T:
-                shapes[k] = best_shape
-    if states is not None and shapes != given:  # the windows' gains, together on the whole path
-        together = duration_with(robot, original, shapes, settings, q_start)
-        run += 1
-        log.info("blend search: the polished corners on the whole path: %.6g -> %.6g s", duration, together)
-        return (together, shapes, run) if together < duration else (duration, dict(given), run)
-    return duration, shapes, run
+                duration, shapes[job.corner] = best_T, best_shape
+        return duration, shapes, run
+    for job, (start_T, best_T, best_shape, job_run) in zip(jobs, (runner or _Runner()).map(
+            _polish_corner, [(job,) for job in jobs], "corner-polish")):
+        run += job_run
+        if best_T < start_T:  # each corner against its own start (on its window, or on the whole path)
+            shapes[job.corner] = best_shape
+    if shapes == given:
+        return duration, shapes, run
+    together = duration_with(robot, original, shapes, settings, q_start)  # the windows' gains, on the whole path
+    log.info("blend search: the polished corners on the whole path: %.6g -> %.6g s", duration, together)
+    return (together, shapes, run + 1) if together < duration else (duration, dict(given), run + 1)
 
 
 @dataclass(frozen=True)
@@ -990,21 +1027,40 @@ def _search_one(job: _CornerJob) -> _Found:
                   capped, tuple(searched), plans)
 
 
-def _search_all(jobs: list[_CornerJob], workers: int, scheduler: str | None = None) -> dict[int, _Found]:
-    """Every corner's search, in corner order: each a task on the Dask cluster at ``scheduler`` ([PROTOCOL://]HOST:PORT)
-    when given, else on ``workers`` local processes (1: in this process)."""
-    if scheduler is not None and len(jobs) > 1:
-        from ..io.scheduler import run_on_cluster
+class _Runner:
+    """Maps a function over argument tuples, in order: each call a task on the Dask cluster at ``scheduler``
+    ([PROTOCOL://]HOST:PORT) when given, else on ``workers`` local processes (one pool for the whole search, started at
+    its first map of more than one call), else in this process. A context manager: the pool ends with it."""
 
-        return dict(zip((job.corner for job in jobs), run_on_cluster(scheduler, _search_one, [(job,) for job in jobs],
-                                                                      "corner-search")))
-    if workers <= 1 or len(jobs) <= 1:
-        return {job.corner: _search_one(job) for job in jobs}
-    from concurrent.futures import ProcessPoolExecutor
+    def __init__(self, workers: int = 1, scheduler: str | None = None):
+        self.workers, self.scheduler, self._pool = workers, scheduler, None
 
-    log.info("blend search: %d corners on %d worker processes", len(jobs), workers)
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
-        return dict(zip((job.corner for job in jobs), pool.map(_search_one, jobs)))
+    def map(self, fn: Callable, calls: list[tuple], label: str) -> list:
+        if self.scheduler is not None and len(calls) > 1:
+            from ..io.scheduler import run_on_cluster
+
+            return list(run_on_cluster(self.scheduler, fn, calls, label))
+        if self.workers <= 1 or len(calls) <= 1:
+            return [fn(*call) for call in calls]
+        if self._pool is None:
+            from concurrent.futures import ProcessPoolExecutor
+
+            self._pool = ProcessPoolExecutor(max_workers=self.workers)
+        log.info("blend search: %d %s tasks on %d worker processes", len(calls), label, self.workers)
+        return list(self._pool.map(fn, *zip(*calls)))
+
+    def __enter__(self) -> "_Runner":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+
+def _search_all(jobs: list[_CornerJob], runner: _Runner) -> dict[int, _Found]:
+    """Every corner's search, in corner order, by ``runner``."""
+    return dict(zip((job.corner for job in jobs), runner.map(_search_one, [(job,) for job in jobs], "corner-search")))
 
 
 #: The candidate classes of every corner, in the order they are planned on the full grid (ties: the first wins).
@@ -1044,25 +1100,25 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         jobs.append(_CornerJob(robot, original, initial, k, tol[k], coarse, q_start, ends, racing, k in planar,
                                windowed, search))
-    found, first = _search_all(jobs, workers, scheduler), None
-    if search.neighbour_pass and len(jobs) > 1:
-        first, found = found, _neighbour_pass(jobs, found, workers, scheduler)
-    return _chosen(robot, original, symmetric, initial, found, settings, q_start, search, planar, windowed, first)
+    with _Runner(workers, scheduler) as runner:
+        found, first = _search_all(jobs, runner), None
+        if search.neighbour_pass and len(jobs) > 1:
+            first, found = found, _neighbour_pass(jobs, found, runner)
+        return _chosen(robot, original, symmetric, initial, found, settings, q_start, search, planar, windowed, runner,
+                       first)
 
 
-def _neighbour_pass(jobs: list[_CornerJob], found: dict[int, _Found], workers: int, scheduler: str | None = None
-                    ) -> dict[int, _Found]:
+def _neighbour_pass(jobs: list[_CornerJob], found: dict[int, _Found], runner: _Runner) -> dict[int, _Found]:
     """Every corner searched again from its first-pass blend (``found``) with its neighbours' found blends in place:
     the corners at even places in corner order first (their neighbours' first-pass blends), then those at odd places
-    (their neighbours' blends just found), so that each half's searches are independent (on ``workers`` processes
-    or the cluster at ``scheduler``).
+    (their neighbours' blends just found), so that each half's searches are independent (by ``runner``).
     A corner's blend changes the speed its neighbours' windows are entered and left at, and so their fastest blends.
     Returns what both passes found per corner: the second pass's blends, the candidates of both."""
     shapes = {**jobs[0].shapes, **{k: f.best for k, f in found.items()}}
     again: dict[int, _Found] = {}
     for half in (jobs[0::2], jobs[1::2]):
         redo = [dataclasses.replace(job, shapes=dict(shapes), warm=_coordinates(found[job.corner])) for job in half]
-        for k, f in _search_all(redo, workers, scheduler).items():
+        for k, f in _search_all(redo, runner).items():
             again[k], shapes[k] = f, f.best
     log.info("blend search: the neighbour pass: %d corners searched again with their neighbours' blends", len(again))
     return {k: dataclasses.replace(again[k], searched=found[k].searched + again[k].searched,
@@ -1080,10 +1136,10 @@ def _coordinates(found: _Found) -> tuple | None:
 
 def _chosen(robot, original: TaskPath, symmetric: TaskPath, initial: dict, found: dict[int, _Found],
             settings: PlanSettings, q_start, search: SearchSettings, planar: Sequence[int],
-            windowed: bool, first: dict[int, _Found] | None = None) -> OptimalBlend:
+            windowed: bool, runner: _Runner, first: dict[int, _Found] | None = None) -> OptimalBlend:
     """Stage 8 and the choice: every class's fastest blends (and the symmetric ones; those of the first pass
-    ``first`` too where the neighbour pass ran) planned on the full grid, the fastest polished (module docstring); the
-    OptimalBlend with the class durations."""
+    ``first`` too where the neighbour pass ran) planned on the full grid, the fastest polished (module docstring; its
+    corners by ``runner`` where they are polished on their windows); the OptimalBlend with the class durations."""
     plans = sum(f.plans for f in found.values())
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
@@ -1103,7 +1159,7 @@ def _chosen(robot, original: TaskPath, symmetric: TaskPath, initial: dict, found
     searches = {k: list(f.searched) for k, f in found.items()}
     for start_T, start, _ in starts if search.polish_plans > 0 else ():
         polished_T, polished, polish_run = _polished(robot, original, start, start_T, searches, full, q_start, search,
-                                                     planar, quintic_only, windowed)
+                                                     planar, quintic_only, windowed, runner)
         plans += polish_run
         if polished_T < start_T:
             shapes_now = polished.values()  # the polished blend counts for the classes it still belongs to
@@ -1129,17 +1185,17 @@ def _class_blends(initial: dict, found: dict[int, _Found]) -> tuple[dict, ...]:
 
 def _polished(robot, original: TaskPath, start: dict, start_T: float, searched: dict, full: PlanSettings, q_start,
               search: SearchSettings, planar: Sequence[int], quintic: Sequence[int],
-              windowed: bool) -> tuple[float, dict, int]:
+              windowed: bool, runner: _Runner) -> tuple[float, dict, int]:
     """Stage 8 from the blends ``start`` (full-grid duration ``start_T`` [s]): :func:`_polish` under ``full``, or on
     ``search.polish_grid_points`` grid points and its blends then planned on the full grid. Returns (full-grid
     duration [s], shapes, plans run); ``start`` and ``start_T`` where the polish found nothing faster."""
     if search.polish_grid_points is None:
         return _polish(robot, original, start, start_T, searched, full, q_start, search.polish_plans, planar, quintic,
-                       windowed)
+                       windowed, runner)
     grid = replace_settings(full, grid_points=search.polish_grid_points)
     on_grid = duration_with(robot, original, start, grid, q_start)
     _, polished, run = _polish(robot, original, start, on_grid, searched, grid, q_start, search.polish_plans, planar,
-                               quintic, windowed)
+                               quintic, windowed, runner)
     if polished == start:
         return start_T, start, run + 1
     T = duration_with(robot, original, polished, full, q_start)
