@@ -830,16 +830,16 @@ def test_the_neighbour_pass_keeps_the_guarantees_and_is_deterministic(caplog):
 
 
 def test_corners_searched_on_a_dask_cluster_equal_the_search_in_one_process(caplog):
-    """With a scheduler, every corner's search (both passes) is a task on the Dask cluster, and the blends equal
-    those searched in this process."""
+    """With a scheduler, every corner's search (both passes) and its polish on its window are tasks on the Dask
+    cluster, and the blends equal those searched and polished in this process."""
     import logging
 
     distributed = pytest.importorskip("distributed")
     from pathmotion.planning.blend_search import FAST
 
     path, tol = _polyline(ZIGZAG), 0.004
-    kw = dict(settings=SETTINGS, search=FAST, steps=2, racing_steps=2, search_grid_points=200, polish_plans=0,
-              neighbour_pass=True)
+    kw = dict(settings=SETTINGS, search=FAST, steps=2, racing_steps=2, search_grid_points=200, polish_plans=3,
+              polish_grid_points=200, neighbour_pass=True)
     here = optimal_blends(_robot(), path, tol, **kw)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
                                    dashboard_address=None) as cluster, \
@@ -847,6 +847,7 @@ def test_corners_searched_on_a_dask_cluster_equal_the_search_in_one_process(capl
         clustered = optimal_blends(_robot(), path, tol, scheduler=cluster.scheduler_address, **kw)
     # the first pass (3 corners) and the neighbour pass's even corners (2); its one odd corner runs here
     assert caplog.text.count("corner-search: ") == 2
+    assert caplog.text.count("corner-polish: 3 task(s)") == 1
     assert clustered.shapes == here.shapes and clustered.duration == here.duration
 
 

@@ -48,10 +48,12 @@ global stage, 785-1550 with free ends and the wide starts, and the global stage'
 capped), then the polish's 150 on the full grid.
 
 How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
-atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 on the search grid, short stages
-5-6 (no wide starts, restart or global stage) where a free end applies, and a short polish (FAST_POLISH_PLANS) on a
-fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each corner is searched from the symmetric blends at the others (a
-:class:`_CornerJob`), so ``workers`` > 1 searches the corners on local processes with the same result.
+atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 (one racing pass) on the search
+grid, short stages 5-6 (no wide starts, restart or global stage) where a free end applies, and a short polish
+(FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each corner is searched
+from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1 searches the corners on local
+processes with the same result; where the corners are polished on their windows, those polishes are independent too
+(a :class:`_PolishJob` each) and run on the same processes.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "The optimal blend's search".
@@ -164,6 +166,10 @@ FAST_POLISH_GRID_POINTS = 1000
 #: fastest joined blend reaches: plans of the free-ends stage and of the joint stage.
 FAST_END_PLANS = 20
 FAST_JOINT_PLANS = 30
+#: The fast search's passes of the racing line's scalar searches: on eight atlas rows (30 deg / 1, 5 mm, 60 deg / 1,
+#: 10 mm, 90 deg / 5 mm, 120 deg / 1, 10 mm, 150 deg / 5 mm) one pass kept 81.4 % of the thorough search's summed
+#: gain over G2 where two kept 81.5 %, in 40 plans less per corner (about 0.5 s of CPU).
+FAST_RACING_CYCLES = 1
 
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
 #: run_entry, run_exit [run unit] (7: S-curve offset pieces), then (11: free offset pieces) each
@@ -819,8 +825,8 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 class SearchSettings:
     """How hard :func:`optimal_blends` searches each corner (the stages of the module docstring): ``cycles`` passes
     of the quintic stage's scalar searches of ``steps`` golden steps; ``racing`` the racing line (at line-line corners;
-    its searches ``racing_steps`` steps); plans (0 skips the stage; each runs on its own): ``free_plans`` the free
-    offset pieces, ``rise_plans`` the rise, ``end_plans`` the free ends,
+    ``racing_cycles`` passes of its searches of ``racing_steps`` steps); plans (0 skips the stage; each runs on its
+    own): ``free_plans`` the free offset pieces, ``rise_plans`` the rise, ``end_plans`` the free ends,
     ``joint_plans`` the joint stage, ``wide_plans`` / ``wide_normal_plans`` / ``wide_crossed_plans`` the wide starts,
     ``restart_plans`` the wide restart, ``global_plans`` the global stage; ``retry_capped`` stage 7;
     ``polish_plans`` stage 8 from ``polish_starts`` candidates, on ``polish_grid_points`` grid points (None: the full
@@ -831,6 +837,7 @@ class SearchSettings:
     cycles: int = SEARCH_CYCLES
     steps: int = GOLDEN_STEPS
     racing_steps: int = RACING_STEPS
+    racing_cycles: int = RACING_CYCLES
     racing: bool = True
     search_grid_points: int = SEARCH_GRID_POINTS
     free_plans: int = FREE_PLANS
@@ -852,14 +859,15 @@ class SearchSettings:
 
 #: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
 THOROUGH = SearchSettings()
-#: The quintic and the racing line (S-curve offset pieces) on the search grid, short free-ends and joint stages where
-#: the motion rests at a path end the blend reaches, each corner's winner polished briefly on a fixed grid
+#: The quintic and the racing line (S-curve offset pieces, one pass) on the search grid, short free-ends and joint
+#: stages where the motion rests at a path end the blend reaches, each corner's winner polished briefly on a fixed grid
 #: (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's gain over the
 #: symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it found
 #: nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
-FAST = SearchSettings(free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS, joint_plans=FAST_JOINT_PLANS, wide_plans=0,
-                      wide_normal_plans=0, restart_plans=0, global_plans=0, retry_capped=False,
-                      polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS, neighbour_pass=False)
+FAST = SearchSettings(racing_cycles=FAST_RACING_CYCLES, free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS,
+                      joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, restart_plans=0, global_plans=0,
+                      retry_capped=False, polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS,
+                      neighbour_pass=False)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
 SEARCHES = {"fast": FAST, "thorough": THOROUGH}
 
@@ -968,7 +976,7 @@ def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, 
     if not racing:
         return _Stages()
     found = _Stages()
-    for _ in range(RACING_CYCLES):
+    for _ in range(search.racing_cycles):
         for indices, box in _RACING_MOVES:
             _line_search(objective, np.array(objective.best()[2]), indices, *box, search.racing_steps)
     if search.free_plans > 0:
