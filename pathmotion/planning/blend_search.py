@@ -170,6 +170,11 @@ FAST_JOINT_PLANS = 30
 #: 10 mm, 90 deg / 5 mm, 120 deg / 1, 10 mm, 150 deg / 5 mm) one pass kept 81.4 % of the thorough search's summed
 #: gain over G2 where two kept 81.5 %, in 40 plans less per corner (about 0.5 s of CPU).
 FAST_RACING_CYCLES = 1
+#: The fast search's racing line: its runs' range [run unit] and the runs its offsets are first searched from.
+#: Where the thorough blend spans both whole lines (120 deg / 5 mm: runs of 0.18 and 0.13 m, 3.2 and 2.3 run units)
+#: the racing line within RUN_RANGE stops short of it.
+FAST_RUN_RANGE = (0.3, 4.0)
+FAST_RUN_STARTS = (1.0, 2.0)
 
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
 #: run_entry, run_exit [run unit] (7: S-curve offset pieces), then (11: free offset pieces) each
@@ -420,6 +425,20 @@ def _line_search(f: Callable, x: np.ndarray, indices: tuple[int, ...], lo: float
 #: The racing stage's moves: (coordinates set together, range).
 _RACING_MOVES = (((_W_A, _W_B), OFFSET_RANGE), ((_L_A, _L_B), RUN_RANGE), ((_W_A,), OFFSET_RANGE),
                  ((_W_B,), OFFSET_RANGE), ((_L_A,), RUN_RANGE), ((_L_B,), RUN_RANGE), ((_BALANCE,), BALANCE_RANGE))
+
+
+def _racing_stage(objective: _Objective, search: "SearchSettings") -> None:
+    """Stage 2: the offsets searched together from the fastest blend with its runs at each of ``search.run_starts``
+    (after the first), then ``search.racing_cycles`` passes of _RACING_MOVES' scalar searches, the runs within
+    ``search.run_range``, each from the fastest blend so far."""
+    for run in search.run_starts[1:]:
+        x = np.array(objective.best()[2])
+        x[[_L_A, _L_B]] = run
+        _line_search(objective, x, (_W_A, _W_B), *OFFSET_RANGE, search.racing_steps)
+    for _ in range(search.racing_cycles):
+        for indices, box in _RACING_MOVES:
+            box = search.run_range if box == RUN_RANGE else box
+            _line_search(objective, np.array(objective.best()[2]), indices, *box, search.racing_steps)
 #: The free stage's box and initial simplex steps, per coordinate (_BALANCE ... _D_B).
 _FREE_BOX = (BALANCE_RANGE, SHAPE_RANGE, SHAPE_RANGE, OFFSET_RANGE, OFFSET_RANGE, RUN_RANGE, RUN_RANGE,
              COEFFICIENT_RANGE, COEFFICIENT_RANGE, COEFFICIENT_RANGE, COEFFICIENT_RANGE)
@@ -579,11 +598,14 @@ _JOINT_BOX = _FREE_BOX + (COEFFICIENT_RANGE,) * 6
 _JOINT_STEP = _FREE_STEP[:_C_A] + _RISE_STEP[2:]
 
 
-def _joint_box(profile: Sequence[int], ends: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+def _joint_box(profile: Sequence[int], ends: Sequence[int], start=None) -> tuple[np.ndarray, np.ndarray]:
     """(box (m, 2), initial steps (m,)) of the coordinates ``profile`` (indices below _DEPARTURE.start) followed by
-    the free ends' ``ends``: _JOINT_BOX and _JOINT_STEP, then _END_BOX and _END_STEP."""
-    return (np.array([_JOINT_BOX[i] for i in profile] + [_END_BOX] * len(ends)),
-            np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends)))
+    the free ends' ``ends``: _JOINT_BOX and _JOINT_STEP, then _END_BOX and _END_STEP; widened to hold ``start`` (m,)
+    when given (a search whose racing line ran beyond RUN_RANGE: SearchSettings.run_range)."""
+    box = np.array([_JOINT_BOX[i] for i in profile] + [_END_BOX] * len(ends), float)
+    if start is not None:
+        box = np.column_stack([np.minimum(box[:, 0], start), np.maximum(box[:, 1], start)])
+    return box, np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends))
 
 
 def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share: float = TRUST_RADIUS_SHARE) -> None:
@@ -598,7 +620,7 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share:
     profile = list(range(_V_A if planar else _DEPARTURE.start))
     ends = _end_indices(objective.free_ends, planar)
     idx = profile + ends
-    box, steps = _joint_box(profile, ends)
+    box, steps = _joint_box(profile, ends, x[idx])
 
     def f(y):
         trial = x.copy()
@@ -703,7 +725,7 @@ def _global_stage(objective: _Objective, plans: int, planar: bool) -> tuple[int,
         x, ends = _extended(x, _DEPARTURE.start), (False, False)
     profile, free = list(range(_V_A if planar else _DEPARTURE.start)), _end_indices(ends, planar)
     idx = profile + free
-    box, _ = _joint_box(profile, free)
+    box, _ = _joint_box(profile, free, x[idx])
     lo, span = box[:, 0], box[:, 1] - box[:, 0]
     z0 = np.clip(2.0 * (x[idx] - lo) / span - 1.0, -1.0, 1.0)
 
@@ -766,7 +788,7 @@ def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
     start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
     idx = [i for i in range(min(len(x), _W_A if job.quintic else _DEPARTURE.start)) if not (job.planar and i >= _V_A)]
     ends = _end_indices(fine.free_ends, job.planar) if len(x) >= _ARRIVAL.stop else []
-    box, steps = _joint_box(idx, ends)
+    box, steps = _joint_box(idx, ends, x[idx + ends])
 
     def f(y):
         trial = x.copy()
@@ -825,7 +847,8 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
 class SearchSettings:
     """How hard :func:`optimal_blends` searches each corner (the stages of the module docstring): ``cycles`` passes
     of the quintic stage's scalar searches of ``steps`` golden steps; ``racing`` the racing line (at line-line corners;
-    ``racing_cycles`` passes of its searches of ``racing_steps`` steps); plans (0 skips the stage; each runs on its
+    ``racing_cycles`` passes of its searches of ``racing_steps`` steps, the runs within ``run_range`` [run unit], the
+    offsets searched from each of ``run_starts`` first); plans (0 skips the stage; each runs on its
     own): ``free_plans`` the free offset pieces, ``rise_plans`` the rise, ``end_plans`` the free ends,
     ``joint_plans`` the joint stage, ``wide_plans`` / ``wide_normal_plans`` / ``wide_crossed_plans`` the wide starts,
     ``restart_plans`` the wide restart, ``global_plans`` the global stage; ``retry_capped`` stage 7;
@@ -838,6 +861,8 @@ class SearchSettings:
     steps: int = GOLDEN_STEPS
     racing_steps: int = RACING_STEPS
     racing_cycles: int = RACING_CYCLES
+    run_range: tuple[float, float] = RUN_RANGE
+    run_starts: tuple[float, ...] = (1.0,)
     racing: bool = True
     search_grid_points: int = SEARCH_GRID_POINTS
     free_plans: int = FREE_PLANS
@@ -864,10 +889,10 @@ THOROUGH = SearchSettings()
 #: (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's gain over the
 #: symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it found
 #: nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
-FAST = SearchSettings(racing_cycles=FAST_RACING_CYCLES, free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS,
-                      joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, restart_plans=0, global_plans=0,
-                      retry_capped=False, polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS,
-                      neighbour_pass=False)
+FAST = SearchSettings(racing_cycles=FAST_RACING_CYCLES, run_range=FAST_RUN_RANGE, run_starts=FAST_RUN_STARTS,
+                      free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS, joint_plans=FAST_JOINT_PLANS, wide_plans=0,
+                      wide_normal_plans=0, restart_plans=0, global_plans=0, retry_capped=False,
+                      polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS, neighbour_pass=False)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
 SEARCHES = {"fast": FAST, "thorough": THOROUGH}
 
@@ -976,9 +1001,7 @@ def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, 
     if not racing:
         return _Stages()
     found = _Stages()
-    for _ in range(search.racing_cycles):
-        for indices, box in _RACING_MOVES:
-            _line_search(objective, np.array(objective.best()[2]), indices, *box, search.racing_steps)
+    _racing_stage(objective, search)
     if search.free_plans > 0:
         _free_stage(objective, search.free_plans)
     if search.rise_plans > 0 and not planar:
