@@ -865,6 +865,31 @@ def test_the_polish_on_a_fixed_grid_reports_the_full_grids_duration(caplog):
     assert max_deviation(polished.path, path, rel_tol=1e-6).upper <= 0.005 * (1 + 2e-6)
 
 
+def test_the_fast_racing_line_may_run_beyond_the_default_range_and_stays_certified():
+    """At the corner atlas' 120 deg / 5 mm corner, rest to rest, the fast search's racing line (its runs allowed up
+    to FAST_RUN_RANGE, its offsets first searched from runs of FAST_RUN_STARTS) ends with a run beyond RUN_RANGE,
+    where the search within RUN_RANGE cannot go, and faster than that search here (a local search: on _turn(120),
+    placed elsewhere, the narrower one ends faster); the blend is never slower than the symmetric G2 blend, its
+    duration is its own plan's, its deviation is certified on a dense check, and the polish from it (its box holds
+    that start) never makes it slower."""
+    from pathmotion.planning import blend_search as bs
+    from pathmotion.study.atlas import corner_points
+
+    path, tol = _polyline(corner_points(120.0)), 0.005
+    kw = dict(settings=SETTINGS, search=bs.FAST, end_plans=0, polish_plans=0)
+    narrow = optimal_blends(_robot(), path, tol, run_range=bs.RUN_RANGE, run_starts=(1.0,), **kw)
+    wide = optimal_blends(_robot(), path, tol, **kw)
+    limit = bs.RUN_RANGE[1] * np.sqrt(tol * bs.RUN_SCALE_LENGTH) * (1 + 1e-9)
+    assert max(narrow.shapes[0].run_entry, narrow.shapes[0].run_exit) <= limit
+    assert max(wide.shapes[0].run_entry, wide.shapes[0].run_exit) > limit
+    assert wide.duration < narrow.duration
+    assert wide.duration <= wide.symmetric_duration
+    assert wide.duration == pytest.approx(duration_with(_robot(), path, wide.shapes, SETTINGS), rel=1e-12)
+    assert max_deviation(wide.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
+    polished = optimal_blends(_robot(), path, tol, **{**kw, "polish_plans": 8, "polish_grid_points": 300})
+    assert polished.duration <= wide.duration
+
+
 def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():
     with pytest.raises(PathError, match="give a tolerance below"):
         optimal_blends(_robot(), _turn(90, 0.05), 0.05, settings=SETTINGS)
