@@ -439,6 +439,8 @@ def _racing_stage(objective: _Objective, search: "SearchSettings") -> None:
         for indices, box in _RACING_MOVES:
             box = search.run_range if box == RUN_RANGE else box
             _line_search(objective, np.array(objective.best()[2]), indices, *box, search.racing_steps)
+
+
 #: The free stage's box and initial simplex steps, per coordinate (_BALANCE ... _D_B).
 _FREE_BOX = (BALANCE_RANGE, SHAPE_RANGE, SHAPE_RANGE, OFFSET_RANGE, OFFSET_RANGE, RUN_RANGE, RUN_RANGE,
              COEFFICIENT_RANGE, COEFFICIENT_RANGE, COEFFICIENT_RANGE, COEFFICIENT_RANGE)
@@ -1061,7 +1063,8 @@ def _search_one(job: _CornerJob) -> _Found:
 class _Runner:
     """Maps a function over argument tuples, in order: each call a task on the Dask cluster at ``scheduler``
     ([PROTOCOL://]HOST:PORT) when given, else on ``workers`` local processes (one pool for the whole search, started at
-    its first map of more than one call), else in this process. A context manager: the pool ends with it."""
+    its first map of more than one call, as many as that map's calls at most), else in this process. A context
+    manager: the pool ends with it."""
 
     def __init__(self, workers: int = 1, scheduler: str | None = None):
         self.workers, self.scheduler, self._pool = workers, scheduler, None
@@ -1076,8 +1079,8 @@ class _Runner:
         if self._pool is None:
             from concurrent.futures import ProcessPoolExecutor
 
-            self._pool = ProcessPoolExecutor(max_workers=self.workers)
-        log.info("blend search: %d %s tasks on %d worker processes", len(calls), label, self.workers)
+            self._pool = ProcessPoolExecutor(max_workers=min(self.workers, len(calls)))
+        log.info("blend search: %d %s tasks on %d worker processes", len(calls), label, self._pool._max_workers)
         return list(self._pool.map(fn, *zip(*calls)))
 
     def __enter__(self) -> "_Runner":
