@@ -334,7 +334,7 @@ CASES = (
          overrides={"plan.grid_points.x": 1}),
     # --- sizes
     Case("sample_time_far_too_small", "output far too large", _plan("").replace("grid_points = 60", "grid_points = 60\nsample_time = 1e-9"),
-         PathmotionError, ("needs 5.*e\\+08 samples", "raise the sample time"), stage="write"),
+         PathmotionError, ("needs [0-9.]*e\\+08 samples", "raise the sample time"), stage="write"),
     # (the plan itself is solved; sampling its 3e8 s motion for the files is refused, before any file is written)
     Case("tcp_speed_far_too_small", "output far too large", _limits("tcp_speed = 1e-9"), PathmotionError,
          ("samples, more than", "tcp_speed"), stage="write"),

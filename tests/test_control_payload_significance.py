@@ -20,7 +20,9 @@ def test_no_payload_is_reported_without_one_and_a_payload_with_one():
     assert s["identified_payload_kg"] is None and s["identified_payload_com_m"] is None
     assert s["identified_payload_std_kg"] == pytest.approx(raw["mass_std_kg"])
     assert "no payload identified" in s["identified_payload_note"]
-    s, raw = _summary({"simulate.realism.payload_mass": defaults.REALISTIC_PAYLOAD_MASS})
+    # the identification converges over the motion: at a tenth of the file's accelerations (circle_zero in 1.38 s);
+    # in the file's 0.51 s it reaches 4.95 of the 6 kg
+    s, raw = _summary({"simulate.realism.payload_mass": defaults.REALISTIC_PAYLOAD_MASS, "limits.acceleration_scale": 0.1})
     assert s["identified_payload_kg"] == pytest.approx(defaults.REALISTIC_PAYLOAD_MASS, rel=0.05)
     assert s["identified_payload_note"] is None
     assert abs(s["identified_payload_kg"]) >= defaults.IDENTIFIED_SIGNIFICANCE * s["identified_payload_std_kg"]

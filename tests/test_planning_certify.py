@@ -22,7 +22,7 @@ from tests.planning_paths import PolylinePath, assert_bounds_cover, dense_interv
 LIMIT_SETS = {
     "vel+acc": dict(limits={"use_torque": False}),
     "torque": dict(),
-    "torque-binding": dict(limits={"torque_scale": 0.35}),
+    "torque-binding": dict(limits={"torque_scale": 0.35, "torque_reserve": 0.0}),  # 35 % of the torque, no reserve
     "payload": dict(limits={"acceleration_scale": 2.0}),
     "tcp": dict(limits={"use_torque": False, "tcp_speed": 0.6}),
     "envelope": dict(limits={"torque_speed": {"knee": 0.4, "at_max_speed": 0.5}}),
@@ -85,8 +85,8 @@ def test_default_plan_passes_the_dense_resample(irb140, limit_set):
 
 def test_dense_mode_still_available_and_agrees(irb140):
     path = _spline(5, 4)
-    cert = plan(path, irb140, PlanSettings(limits={"torque_scale": 0.35}))
-    dense = plan(path, irb140, PlanSettings(limits={"torque_scale": 0.35}, verify="dense"))
+    cert = plan(path, irb140, PlanSettings(limits={"torque_scale": 0.35, "torque_reserve": 0.0}))
+    dense = plan(path, irb140, PlanSettings(limits={"torque_scale": 0.35, "torque_reserve": 0.0}, verify="dense"))
     assert dense.ratios.method == "dense" and dense.ratios.sample_time == pytest.approx(1e-4)
     assert dense.ratios.max_ratio <= 1.001
     assert abs(cert.duration - dense.duration) <= 5e-4 * dense.duration  # both tighten; the bound more

@@ -82,7 +82,7 @@ def test_single_joint_line_matches_trapezoid(irb140, distance, vmax, amax):
 def test_torques_recomputed_with_pinocchio_stay_within_limits(irb140, spline_path):
     """Torque limits binding (scaled down); tau recomputed by pinocchio.rnea from q, qd, qdd."""
     robot = _with(irb140, acceleration=ACC * 10)
-    res = plan(spline_path, robot, PlanSettings(limits={"torque_scale": 0.4}, baselines=False))
+    res = plan(spline_path, robot, PlanSettings(limits={"torque_scale": 0.4, "torque_reserve": 0.0}, baselines=False))
     assert res.ratios.torque == pytest.approx(1.0, abs=defaults.LIMIT_TOLERANCE)  # binding
     s = res.trajectory.sample(defaults.VERIFY_SAMPLE_TIME)
     model, data = robot.model, robot.model.createData()

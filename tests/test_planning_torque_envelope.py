@@ -38,7 +38,7 @@ def _independent(setup, result, dt=2e-4):
 
 @pytest.fixture(scope="module")
 def plain():
-    setup = _setup()
+    setup = _setup(torque_reserve=0.0)  # the whole torque limit: the plan the reserve is compared with
     return setup, plan(setup.path, setup.robot, setup.plan_settings)
 
 
@@ -54,7 +54,8 @@ def test_reserve_keeps_torque_free(plain):
     assert res.duration > plain[1].duration
     # a second route to the same problem: the torque limits scaled by 0.8
     scaled = plan(setup.path, setup.robot, PlanSettings(grid_points=GRID,
-                                                        limits={"use_acceleration": False, "torque_scale": 0.8},
+                                                        limits={"use_acceleration": False, "torque_scale": 0.8,
+                                                                "torque_reserve": 0.0},
                                                         baselines=False))
     assert res.duration == pytest.approx(scaled.duration, rel=1e-9)
 
@@ -83,7 +84,7 @@ def test_envelope_holds_and_binds(plain, reserve):
 
 
 def test_envelope_of_one_is_the_plain_torque_limit(plain):
-    setup = _setup(torque_speed={"knee": 1.0, "at_max_speed": 1.0})
+    setup = _setup(torque_speed={"knee": 1.0, "at_max_speed": 1.0}, torque_reserve=0.0)  # the same limit as plain
     res = plan(setup.path, setup.robot, setup.plan_settings)
     assert res.duration == pytest.approx(plain[1].duration, rel=1e-9)
 

@@ -2,6 +2,8 @@
 writing or the simulation settings refuse, ``check`` refuses too, with the same error class; and closed
 polygons: ``corner = "all"`` blends the closing corner too, which ``corner = N`` names."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -50,7 +52,7 @@ def test_corner_n_names_the_closing_corner_and_n_plus_1_is_refused():
         api.load_text(SQUARE.replace("CORNER", "5"))
 
 
-DESIGN_FAILS = """name = "design_fails"
+ALL_NEAR_STOPS = """name = "all_near_stops"
 [path]
 type = "joint"
 waypoints = [[0, 0, 0, 0, 0.5, 0], [0.3, 0.2, -0.2, 0.3, 0.8, 0.5]]
@@ -62,30 +64,34 @@ gains = { terminal_time_to_go = 1000.0 }
 """
 
 
-def test_check_fails_where_the_simulation_design_fails(tmp_path):
-    """The orbital controller's design (the Riccati sweep, here refused: every point of the motion is within
-    terminal_time_to_go of a stop) runs in check too: check fails with simulate's message, and simulate
-    writes nothing."""
+def test_check_builds_the_design_simulate_uses(tmp_path):
+    """The orbital controller's design runs in check too and is cached for simulate. A motion every point of
+    which is within terminal_time_to_go of a stop has no orbital stretch: the design plays the whole plan on the
+    clock (one zone from 0 to the planned duration), check passes and simulate tracks with it."""
     from typer.testing import CliRunner
 
     from pathmotion.cli import app
 
     scenario = tmp_path / "s.toml"
-    scenario.write_text(DESIGN_FAILS)
+    scenario.write_text(ALL_NEAR_STOPS)
     runner = CliRunner()
     env = {"PATHMOTION_CACHE_DIR": str(tmp_path / "cache")}
     checked = runner.invoke(app, ["check", str(scenario)], env=env)
+    assert checked.exit_code == 0, checked.output
+    designs = list((tmp_path / "cache").glob("design-*.npz"))
+    assert len(designs) == 1
+    zones = np.load(designs[0])["zones"]
     simulated = runner.invoke(app, ["simulate", str(scenario), "--out", str(tmp_path / "out"), "--no-figures"],
                               env=env)
-    assert checked.exit_code == simulated.exit_code == 1, (checked.output, simulated.output)
-    error = [ln for ln in checked.output.splitlines() if ln.startswith("error:")]
-    assert len(error) == 1 and "too short for orbital stabilization" in error[0]
-    assert error == [ln for ln in simulated.output.splitlines() if ln.startswith("error:")]
-    assert not (tmp_path / "out").exists()
+    assert simulated.exit_code == 0, simulated.output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["tracking_ok"]
+    np.testing.assert_allclose(zones, [[0.0, summary["planned_duration_s"]]], rtol=1e-12)
+    assert list((tmp_path / "cache").glob("design-*.npz")) == designs  # simulate read check's design
     # the same scenario with the default terminal time passes check, and the design it built is cached
-    scenario.write_text(DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", ""))
+    scenario.write_text(ALL_NEAR_STOPS.replace("gains = { terminal_time_to_go = 1000.0 }", ""))
     assert runner.invoke(app, ["check", str(scenario)], env=env).exit_code == 0
-    assert list((tmp_path / "cache").glob("design-*.npz"))
+    assert len(list((tmp_path / "cache").glob("design-*.npz"))) == 2
 
 
 def test_a_smooth_profile_answers_a_scalar_time_like_an_array():
@@ -115,7 +121,7 @@ def test_a_vanishing_bandwidth_is_no_internal_error(bandwidth, sampled, tmp_path
     benchmarks/fuzz_cli.py). The design now starts from a zero terminal cost where the algebraic equation has
     no solution: check passes or refuses with a PathmotionError, for both designs, never another exception."""
     monkeypatch.setenv("PATHMOTION_CACHE_DIR", str(tmp_path))
-    text = DESIGN_FAILS.replace("terminal_time_to_go = 1000.0", f"bandwidth = {bandwidth!r}").replace(
+    text = ALL_NEAR_STOPS.replace("terminal_time_to_go = 1000.0", f"bandwidth = {bandwidth!r}").replace(
         "0.8, 0.5]]", "0.8, 0.5], [0.5, 0.1, 0.0, 0.0, 0.6, 1.0]]")  # the fuzzer's joint path
     text += f"sampled_design = {str(sampled).lower()}\n"
     try:
@@ -126,12 +132,12 @@ def test_a_vanishing_bandwidth_is_no_internal_error(bandwidth, sampled, tmp_path
 
 
 def test_check_refuses_a_closed_loop_too_long_for_its_sample_budget():
-    """simulate.sample_time = 1e-9 s: the closed loop of a ~1 s plan would hold ~1e9 samples, far above
+    """simulate.sample_time = 1e-9 s: the closed loop of this short plan would hold over 1e8 samples, far above
     defaults.MAX_TRAJECTORY_SAMPLES; check (like simulate) refuses it before any array is built, and says
     how many samples and which setting to raise."""
     from pathmotion import defaults
 
-    text = DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9")
+    text = ALL_NEAR_STOPS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9")
     setup = api.load_text(text)
     settings = api.simulation_settings(setup)
     duration = api.plan_scenario(setup).profile.duration
@@ -153,7 +159,7 @@ def test_library_simulate_refuses_a_sample_budget_before_building_anything(monke
     from pathmotion import simulation
     from pathmotion.simulation import closed_loop
 
-    setup = api.load_text(DESIGN_FAILS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9"))
+    setup = api.load_text(ALL_NEAR_STOPS.replace("gains = { terminal_time_to_go = 1000.0 }", "sample_time = 1e-9"))
     settings = replace(api.simulation_settings(setup), design_cache=False)
     profile = api.plan_scenario(setup).profile
     built = []

@@ -53,7 +53,7 @@ def test_dynamic_singularities_under_torque_limits_are_crossed(robot, spline):
     crossings = np.sum(np.diff(np.sign(red.alpha), axis=0) != 0, axis=0)
     assert crossings.sum() >= 3, crossings  # the path really has alpha_i = 0 points
     loose = plan(spline, robot, PlanSettings(grid_points=400, baselines=False))
-    tight = plan(spline, robot, PlanSettings(grid_points=400, limits={"torque_scale": 0.2}, baselines=False))
+    tight = plan(spline, robot, PlanSettings(grid_points=400, limits={"torque_scale": 0.2, "torque_reserve": 0.0}, baselines=False))
     assert within_limits(tight), tight.ratios.worst
     assert tight.ratios.torque > 1.0 - TOL  # the torque limit is active (0.15 is below gravity)
     assert tight.duration > loose.duration

@@ -29,12 +29,13 @@ def test_path_accuracy_is_over_the_path_not_the_settling(tmp_path):
     on = _circle_distance(fk(setup.robot, sim.q[:k])[0])
     accuracy = sim.summary()["path_accuracy_m"]
     assert accuracy == pytest.approx(on.max(), abs=2e-7)  # (the planned line's chords)
-    # after the end the arm overshoots along the circle, past the open path's end point: a distance from the
-    # end point, not from the path (it stays within 1e-5 mm of the circle), excluded from the path accuracy
+    # after the end the arm settles along the circle, past the open path's end point: a distance from the end
+    # point, not from the path (it stays within 1e-5 mm of the circle), excluded from the path accuracy (which is
+    # the on-path maximum above, whatever the settling does)
     end = setup.task_path.evaluate(np.array([setup.task_path.domain[1]]))[0][0]
     i = k + int(np.argmax(sim.path_deviation[k:]))
     tcp = fk(setup.robot, sim.q[i:i + 1])[0]
-    assert sim.path_deviation[i] > 2 * accuracy
+    assert sim.path_deviation[i] > 0.1 * accuracy  # it does move past the end point
     assert sim.path_deviation[i] == pytest.approx(np.linalg.norm(tcp[0] - end), abs=2e-7)
     assert _circle_distance(tcp)[0] < accuracy
     # the arrival sample: the TCP within the path tolerance of the end (the cycle time credits the plan's own time

@@ -16,6 +16,9 @@ WAYPOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.5, 0.0],
                       [1.0, 0.1, 0.2, -0.2, 0.4, 1.2],
                       [1.4, -0.2, 0.4, 0.1, 0.9, 1.6]])
 THESIS_MAX_DEVIATION = 2e-4  # rad (thesis, Chapter 8)
+#: The thesis' circles at the thesis' pace (the limits file's accelerations scaled to a tenth: the circle from rest
+#: plans 1.38 s, the thesis 1.559 s), where its accuracy figure was measured.
+THESIS_PACE = {"acceleration_scale": 0.1}
 
 
 def within(a, b, rel):
@@ -36,7 +39,7 @@ def test_time_optimal_plan_on_a_joint_spline(irb140):
 
 def test_thesis_horizontal_circle_periodic(irb140):
     path = lift(irb140, horizontal_circle())
-    profile = plan(path, irb140, PlanSettings(grid_points=400, periodic=True, baselines=False)).profile
+    profile = plan(path, irb140, PlanSettings(grid_points=400, periodic=True, baselines=False, limits=THESIS_PACE)).profile
     s = simulate(irb140, path, profile, "orbital").summary()
     assert path.closed and s["tracking_ok"]
     assert within(s["cycle_time_s"], profile.duration, 0.01)  # the period
@@ -48,7 +51,7 @@ def test_transition_circle_corner_deviation(irb140):
     original = circle_with_radial_line()
     task = circle_with_radial_line_transition()
     path = lift(irb140, task, original=original)
-    profile = plan(path, irb140, PlanSettings(grid_points=400, baselines=False)).profile
+    profile = plan(path, irb140, PlanSettings(grid_points=400, baselines=False, limits=THESIS_PACE)).profile
     r = simulate(irb140, path, profile, "orbital")
     s = r.summary()
     assert s["tracking_ok"]

@@ -472,7 +472,7 @@ def test_a_robot_file_changed_since_the_atlas_started_is_each_rows_error():
 
     digest = robot_digest(load_robot_file(WEAK_ROBOT_FILE))
     spec = (f'robot_file = {json.dumps(str(WEAK_ROBOT_FILE))}\nrobot_digest = "{digest}"\n'
-            'cache = "/nonexistent"\ntorque = true\n')
+            'cache = "/nonexistent"\ntorque = true\ntorque_reserve = 0.0\n')
     result = atlas.atlas_point(spec.replace('robot_digest = "', 'robot_digest = "0'), ".",
                                (("angle_deg", 30.0), ("tolerance_m", 0.05)))
     assert result["summary"]["status"] == "error" and "changed since this atlas started" in result["error"]
@@ -487,7 +487,8 @@ def test_the_spec_names_its_robot_file_and_cache_relative_to_its_folder(tmp_path
 
     digest = robot_digest(load_robot_file(WEAK_ROBOT_FILE))
     where = os.path.relpath(WEAK_ROBOT_FILE, tmp_path)
-    spec = f'robot_file = {json.dumps(where)}\nrobot_digest = "{digest}"\ncache = "optimum_cache"\ntorque = true\n'
+    spec = (f'robot_file = {json.dumps(where)}\nrobot_digest = "{digest}"\ncache = "optimum_cache"\ntorque = true\n'
+            'torque_reserve = 0.0\n')
     result = atlas.atlas_point(spec, str(tmp_path), (("angle_deg", 30.0), ("tolerance_m", 0.05)))
     assert "give a tolerance below" in result["error"]  # the robot file was found from the spec's folder
     elsewhere = tmp_path / "a" / "b"  # another folder: the same relative path names no file there
@@ -511,7 +512,13 @@ def test_the_optimum_keys_of_before_stay_and_every_robot_or_reserve_has_its_own(
     from pathmotion.robot.model import Tool
 
     pts, spans, meshes = atlas.corner_points(90.0), [(0.01, 0.01)], (25, 50, 100)
-    irb, weak = load_robot("irb140"), _weak_drives()
+
+    def of_before(robot):  # the arm the keys were written for: the limits file's accelerations (and jerk) of then
+        box = np.array([10.0, 10.0, 12.0, 20.0, 20.0, 25.0])
+        return robot.with_limits(dataclasses.replace(robot.limits, acceleration=box, jerk=10.0 * box))
+
+    now = load_robot("irb140")
+    irb, weak = of_before(now), of_before(_weak_drives())
     before = {"irb": atlas._optimum_key(irb, pts, 0.005, spans, meshes),
               "weak": atlas._optimum_key(weak, pts, 0.005, spans, meshes, torque=True)}
     assert before == {"irb": KEY_IRB140_BEFORE, "weak": KEY_WEAK_TORQUE_BEFORE}
@@ -519,8 +526,9 @@ def test_the_optimum_keys_of_before_stay_and_every_robot_or_reserve_has_its_own(
     keys = {atlas._optimum_key(weak, pts, 0.005, spans, meshes, torque=True, torque_reserve=r) for r in (0.1, 0.2)}
     keys |= {atlas._optimum_key(irb.with_tool(Tool((0.0, 0.0, 0.1))), pts, 0.005, spans, meshes),
              atlas._optimum_key(irb.with_limits(dataclasses.replace(irb.limits, velocity=irb.limits.velocity * 0.5)),
-                                pts, 0.005, spans, meshes)}
-    assert len(keys) == 4 and not keys & set(before.values())
+                                pts, 0.005, spans, meshes),
+             atlas._optimum_key(now, pts, 0.005, spans, meshes)}  # today's limits file: another arm, another key
+    assert len(keys) == 5 and not keys & set(before.values())
     assert atlas._optimum_key(weak, pts, 0.005, spans, meshes) == before["irb"]  # payload and drives: torque only
 
 

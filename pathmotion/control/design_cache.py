@@ -182,8 +182,8 @@ def cached_design(path, profile, gains: OrbitalGains = OrbitalGains(), sample_ti
     knots = design.riccati_knots
     _write(folder, f"design-{key}", key, theta=design.theta, gain=design.gain,
            riccati_segments=np.array([[s.start, s.stop, len(s.knots)] for s in knots], dtype=np.int64).reshape(-1, 3),
-           riccati_knots=np.concatenate([s.knots for s in knots]),
-           riccati_values=np.concatenate([s.values for s in knots]),
+           riccati_knots=np.concatenate([np.zeros(0, np.int64)] + [s.knots for s in knots]),
+           riccati_values=np.concatenate([np.zeros((0,) + design.gain.shape[2:] * 2)] + [s.values for s in knots]),
            zones=np.asarray(design.zones, float).reshape(-1, 2), basis_k=np.array(design.basis.k),
            basis_sigma=np.array(design.basis.sigma))
     return design

@@ -321,15 +321,16 @@ def orbital_command(path, profile, basis, proj, gain, q, qd, guess, ts, xi, x_pe
 
 @numba.njit(cache=True)
 def clock_command(path, profile, t_ref, ts, q, qd, kp, kd, ki, xi_q, v):
-    """Clock play of the plan at planned time t_ref [s]: writes v (n,) = a_ref(t_ref + ts/2) - kd e' - kp e -
-    ki xi_q, e = q - q_ref(t_ref), after advancing xi_q (n,) by ts times the part of e across the planned
-    velocity (all of e at rest; in place); past the end of the plan a_ref = 0 and q_ref = Phi(theta_end).
-    Returns the planned (theta, theta_dot) at t_ref."""
+    """Clock play of the plan at planned time t_ref [s]: writes v (n,) = a_ref - kd e' - kp e - ki xi_q,
+    e = q - q_ref(t_ref), after advancing xi_q (n,) by ts times the part of e across the planned velocity (all
+    of e at rest; in place). a_ref = (qd_ref(t_ref + ts) - qd_ref(t_ref)) / ts, the planned acceleration
+    averaged over the sample the command is held for: the held command changes the speed as the plan does
+    over it, also across an arrival at a stop, a departure or the plan's end (past the end a_ref = 0 and
+    q_ref = Phi(theta_end)). Returns the planned (theta, theta_dot) at t_ref."""
     th0, thd0, _ = profile_at_time(profile, t_ref)
-    th1, thd1, thdd1 = profile_at_time(profile, t_ref + 0.5 * ts)
+    th1, thd1, _ = profile_at_time(profile, t_ref + ts)
     ev0 = evaluate_at(path, th0)
     ev1 = evaluate_at(path, th1)
-    moving = t_ref + 0.5 * ts < profile.times[-1]
     e = q - ev0[0]
     # integrate the error across the motion only (a lag along the path would wind the integrator up and
     # overshoot the stop); at rest all of it
@@ -338,6 +339,6 @@ def clock_command(path, profile, t_ref, ts, q, qd, kp, kd, ki, xi_q, v):
     for r in range(q.shape[0]):
         ed = qd[r] - ev0[1, r] * thd0
         xi_q[r] += ts * (e[r] - along * ev0[1, r] * thd0)
-        ff = ev1[1, r] * thdd1 + ev1[2, r] * thd1 * thd1 if moving else 0.0
+        ff = (ev1[1, r] * thd1 - ev0[1, r] * thd0) / ts
         v[r] = ff - kd * ed - kp * e[r] - ki * xi_q[r]
     return th0, thd0

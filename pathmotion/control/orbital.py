@@ -19,6 +19,7 @@ across the switches (xi = E^T xi_q one way, xi_q = E xi the other).
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -39,7 +40,9 @@ from .path_table import PathTable
 from .profile_lookup import ProfileLookup
 from .riccati import sampled_cost, solve_discrete_riccati, solve_riccati, with_delay
 from .threads import blas_single_threaded
-from .transverse import TransverseBasis, transverse_linearization
+from .transverse import ZERO_SPEED, TransverseBasis, transverse_linearization
+
+log = logging.getLogger(__name__)
 
 #: Relative mismatch allowed between the profile's and the path's theta ends, and between the start and end
 #: speeds of a periodic profile [-].
@@ -120,6 +123,30 @@ def clock_zones(times: np.ndarray, joint_speed: np.ndarray, min_speed: float, wi
     return tuple((float(a), float(b)) for a, b in zones)
 
 
+def orbital_segments(times: np.ndarray, zones: tuple, duration: float, shortest: float):
+    """(zones, in_zone (M,) bool, segments): the grid runs [i0, i1) of ``times`` (M,) [s] outside the clock
+    ``zones``, where the orbital law runs. A run shorter than ``shortest`` [s] (a sampled design needs two samples on the orbit) joins
+    the zones around it; without any run left the whole plan [0, ``duration``] is one zone (a short move)."""
+    zones = [list(z) for z in zones]
+    while True:
+        in_zone = np.zeros(len(times), bool)
+        for z0, z1 in zones:
+            in_zone |= (times >= z0) & (times <= z1)
+        segments = _runs(~in_zone)
+        short = next(((i0, i1) for i0, i1 in segments if times[i1 - 1] - times[i0] < shortest), None)
+        if short is None or not zones:
+            break
+        before = [k for k, (_, z1) in enumerate(zones) if z1 <= times[short[0]]]
+        after = [k for k, (z0, _) in enumerate(zones) if z0 >= times[short[1] - 1]]
+        lo = zones[before[-1]][0] if before else 0.0
+        hi = zones[after[0]][1] if after else duration
+        zones = [z for k, z in enumerate(zones) if k not in before[-1:] + after[:1]] + [[lo, hi]]
+        zones.sort()
+    if not segments:
+        zones, in_zone = [[0.0, duration]], np.ones(len(times), bool)
+    return tuple((float(a), float(b)) for a, b in zones), in_zone, segments
+
+
 @dataclass(frozen=True, eq=False)
 class RiccatiKnots:
     """P(theta) of one orbital segment: the design grid's points start..stop-1 take P linear in theta between
@@ -198,21 +225,17 @@ controller reads K only; :attr:`riccati` puts P on the grid when asked);
         zones = () if table.closed else clock_zones(times, joint_speed, gains.min_speed, gains.terminal_time_to_go,
                                                     lookup.duration, times - profile.holds_at(theta),
                                                     sample_time or 0.0)
-        in_zone = np.zeros(len(theta), bool)
-        for z0, z1 in zones:
-            in_zone |= (times >= z0) & (times <= z1)
-        segments = _runs(~in_zone)
+        zones, in_zone, segments = orbital_segments(times, zones, float(lookup.duration), 2.0 * (sample_time or 0.0))
         if not segments:
-            raise SimulationError(
-                "the planned motion is too short for orbital stabilization: every point is within "
-                f"{gains.terminal_time_to_go:g} s of a stop; lower OrbitalGains.terminal_time_to_go"
-            )
+            log.info("orbital design: every point is within %g s of a stop; the whole motion is played on the clock",
+                     gains.terminal_time_to_go)
         m = table.n - 1
         ni = integral_size(gains, table.n)
         d = ni + 2 * m + 1 + (delay * table.n if sample_time is not None else 0)
         gain = np.zeros((len(theta), table.n, d))
         riccati = []
-        active = np.concatenate([np.arange(i0, i1) for i0, i1 in segments])
+        active = (np.concatenate([np.arange(i0, i1) for i0, i1 in segments]) if segments
+                  else np.nonzero(np.linalg.norm(dphi_grid, axis=1) > ZERO_SPEED)[0])
         basis = TransverseBasis.for_table(table, theta[active])
         for i0, i1 in segments:
             sl = slice(i0, i1)

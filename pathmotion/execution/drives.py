@@ -19,9 +19,10 @@ torque, and the links M(q) qdd + h(q, qd) = s_g (elastic axes) or tau (rigid axe
 diagonal). The built-in plant integrates motors and links together by classical RK4 with tau held over each
 servo period (Pinocchio ABA for the links). The MuJoCo plant (``plant="mujoco"``, simulation's
 :class:`~pathmotion.simulation.mujoco_plant.MujocoPlant`: MuJoCo's own reading of the URDF and its RK4) moves
-the links: each servo period is split into short coupling steps; over each, MuJoCo moves the links under the
-gear torque of the step's start (tau on rigid axes), then the motors are integrated by RK4 against the links'
-motion over the step (linear between its ends). The splitting is first order in the coupling step, which is
+the links: each servo period is split into short coupling steps; over each, MuJoCo moves the links under a held
+gear torque (tau on rigid axes), then the motors are integrated by RK4 against the links' motion over the step
+(linear between its ends), twice: a predictor under the gear torque of the step's start, a corrector under the
+mean of the start's and the predictor's end's. The splitting is second order in the coupling step, which is
 chosen so that it spans at most 1/20 rad of the fastest gear mode. The feedback EGM reports is the motor
 side q_m (the IRC5 measures motor angles); the TCP follows the link side q.
 """
@@ -162,31 +163,43 @@ class VirtualArm:
         mujoco.mj_setConst(plant.model, mujoco.MjData(plant.model))  # the constants that follow the armature
         return plant
 
-    def _mujoco_step(self, tau: np.ndarray) -> None:
-        """One servo period on the MuJoCo plant: coupling steps of links (MuJoCo) then motors (RK4)."""
+    def _coupled(self, tau: np.ndarray, link_tau: np.ndarray, c: float) -> ArmState:
+        """The state after ``c`` seconds: MuJoCo moves the links under ``link_tau`` (n,) held, then RK4 moves the
+        motors under ``tau`` against the links' motion over the step (linear between its ends)."""
         s, el = self.state, self.elastic
-        c = self.h / self.couplings
         rotor = np.where(el, self.rotor, 1.0)
 
         def motor_accel(qm, qmd, q, qd):
             return np.where(el, (tau - self.k * (qm - q) - self.d * (qmd - qd)) / rotor, 0.0)
 
+        q0, qd0, qm, qmd = s.q, s.qd, s.qm, s.qmd
+        q1, qd1 = self.mujoco.step(q0, qd0, link_tau, c, 1)
+        qmid, qdmid = 0.5 * (q0 + q1), 0.5 * (qd0 + qd1)
+        a1 = motor_accel(qm, qmd, q0, qd0)
+        v2 = qmd + 0.5 * c * a1
+        a2 = motor_accel(qm + 0.5 * c * qmd, v2, qmid, qdmid)
+        v3 = qmd + 0.5 * c * a2
+        a3 = motor_accel(qm + 0.5 * c * v2, v3, qmid, qdmid)
+        v4 = qmd + c * a3
+        a4 = motor_accel(qm + c * v3, v4, q1, qd1)
+        return ArmState(q1, qd1, np.where(el, qm + c / 6.0 * (qmd + 2 * v2 + 2 * v3 + v4), q1),
+                        np.where(el, qmd + c / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4), qd1))
+
+    def _gear(self, s: ArmState) -> np.ndarray:
+        """The gears' torque (n,) [N m] in state s (0 on rigid axes)."""
+        return self.k * (s.qm - s.q) + self.d * (s.qmd - s.qd)
+
+    def _mujoco_step(self, tau: np.ndarray) -> None:
+        """One servo period on the MuJoCo plant in coupling steps, each a predictor (the links under the gear
+        torque of the step's start) and a corrector (under the mean of the start's and the predicted end's)."""
+        el = self.elastic
+        c = self.h / self.couplings
         for _ in range(self.couplings):
-            q0, qd0 = s.q, s.qd
-            gear = self.k * (s.qm - q0) + self.d * (s.qmd - qd0)
-            q1, qd1 = self.mujoco.step(q0, qd0, np.where(el, gear, tau), c, 1)
-            qmid, qdmid = 0.5 * (q0 + q1), 0.5 * (qd0 + qd1)
-            qm, qmd = s.qm, s.qmd
-            a1 = motor_accel(qm, qmd, q0, qd0)
-            a2 = motor_accel(qm + 0.5 * c * qmd, qmd + 0.5 * c * a1, qmid, qdmid)
-            v2 = qmd + 0.5 * c * a1
-            a3 = motor_accel(qm + 0.5 * c * v2, qmd + 0.5 * c * a2, qmid, qdmid)
-            v3 = qmd + 0.5 * c * a2
-            a4 = motor_accel(qm + c * v3, qmd + c * a3, q1, qd1)
-            v4 = qmd + c * a3
-            s.q, s.qd = q1, qd1
-            s.qm = np.where(el, qm + c / 6.0 * (qmd + 2 * v2 + 2 * v3 + v4), q1)
-            s.qmd = np.where(el, qmd + c / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4), qd1)
+            start = self._gear(self.state)
+            state = self._coupled(tau, np.where(el, start, tau), c)
+            if el.any():  # rigid gears: the links' torque is tau, held; the predictor is exact
+                state = self._coupled(tau, np.where(el, 0.5 * (start + self._gear(state)), tau), c)
+            self.state = state
 
     def envelope(self, qmd: np.ndarray) -> np.ndarray:
         """The motor torque limit (n,) [N m] at motor speed qmd (n,)."""

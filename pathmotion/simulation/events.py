@@ -157,7 +157,7 @@ class EventPlayer:
                     r.goal = None
             self.target = _joined(self.target, tail, theta)
             self.stopped = bool(event.stop)
-            self._switch(command, t)
+            self._switch(command, t, theta)
         elif event.stop and not self.stopped and theta < self.path.domain[1]:  # at rest already: hold there
             command.controller = _Held(command.controller, t)
             self.stopped = held = True
@@ -182,8 +182,9 @@ class EventPlayer:
         self.reports.append(report)
         log.info("event %s at t = %.4g s, theta = %.6g: re-timed in %.3g ms", event.kind, t, theta, spent)
 
-    def _switch(self, command, t: float) -> None:
-        """The running orbital controller replaced by one designed for the new target, with its state."""
+    def _switch(self, command, t: float, theta: float) -> None:
+        """The running orbital controller replaced by one designed for the new target, with its state (``theta``:
+        the measured path position at t)."""
         running = command.controller
         old = getattr(running, "inner", running)
         path = self.path if self.target.grid[-1] >= self.path.domain[1] else SubPath.of(self.path, self.target.grid[-1])
@@ -193,7 +194,7 @@ class EventPlayer:
         design = OrbitalDesign.build(table, self.target, s.orbital_gains, *sampled)
         new = OrbitalController(design, self.robot, s.sample_time, int(s.realism.delay), s.sampled_design,
                                 s.identify_payload)
-        _take_over(new, old, t, running.t_ref if isinstance(running, _Held) else None)
+        _take_over(new, old, t, running.t_ref if isinstance(running, _Held) else None, theta)
         command.controller = new
 
 
@@ -238,12 +239,15 @@ def _joined(old: Profile, tail: Profile, theta: float) -> Profile:
     return Profile(np.concatenate([old.grid[keep], tail.grid]), np.concatenate([old.x[keep], tail.x]))
 
 
-def _take_over(new: OrbitalController, old: OrbitalController, t: float, held: float | None = None) -> None:
+def _take_over(new: OrbitalController, old: OrbitalController, t: float, held: float | None = None,
+               measured: float | None = None) -> None:
     """``new`` continues ``old``'s run at time t [s]: its path position (in the clock play the played
     reference's, the end of old's target at most: a held stop resumes from there), integrals, observer and
     payload estimate, and the clock zone of the new design it is in (zones already passed are not entered
     again). The new target equals the old one up to the switch, so their planned times agree there. ``held``:
-    the planned time [s] old's reference was held at (a stop at rest), else None."""
+    the planned time [s] old's reference was held at (a stop at rest), else None. ``measured``: the measured path
+    position at t; where old runs the orbital law (its theta is the last sample's projection) and new starts in a
+    clock zone, the play starts from it, not a sample behind the arm."""
     theta = _played(old, t)[1] if held is None else \
         float(old.design.profile.profile.state_at_time(np.array([held]))[0][0])
     d = new.design
@@ -254,6 +258,10 @@ def _take_over(new: OrbitalController, old: OrbitalController, t: float, held: f
         new.xi[:], new.xi_q[:] = old.xi, old.xi_q
     planned = d.profile.time(theta)
     zone = d.zone_at(planned)
+    if zone is not None and held is None and old.clock is None and measured is not None:
+        new.theta = theta = min(max(measured, d.table.domain[0]), d.table.domain[1])
+        planned = d.profile.time(theta)
+        zone = d.zone_at(planned)
     if zone is not None:
         new.clock, new.next_zone = (zone, t, planned), zone + 1
         if old.clock is None:
