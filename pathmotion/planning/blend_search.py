@@ -48,12 +48,12 @@ global stage, 785-1550 with free ends and the wide starts, and the global stage'
 capped), then the polish's 150 on the full grid.
 
 How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
-atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 (one racing pass) on the search
-grid, short stages 5-6 (no wide starts, restart or global stage) where a free end applies, and a short polish
-(FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each corner is searched
-from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1 searches the corners on local
-processes with the same result; where the corners are polished on their windows, those polishes are independent too
-(a :class:`_PolishJob` each) and run on the same processes.
+atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 (FAST_STEPS golden steps, one
+racing pass) on the search grid, short stages 5-6 (no wide starts, restart or global stage) where a free end applies,
+and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each
+corner is searched from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1 searches the
+corners on local processes with the same result; where the corners are polished on their windows, those polishes are
+independent too (a :class:`_PolishJob` each) and run on the same processes.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "The optimal blend's search".
@@ -166,6 +166,10 @@ FAST_POLISH_GRID_POINTS = 1000
 #: fastest joined blend reaches: plans of the free-ends stage and of the joint stage.
 FAST_END_PLANS = 20
 FAST_JOINT_PLANS = 30
+#: The fast search's golden steps per scalar search of the quintic stage: the racing line searches the blend again
+#: after it. On the 20 atlas rows and 4 others (45 deg / 2 mm, 75 deg / 7 mm, 105 deg / 3 mm, 135 deg / 7 mm) 3 steps
+#: gained as much over G2 as 6 (0.8 % more in sum) in 14 plans less per corner (0.3 s of CPU), 2 steps 2 % less.
+FAST_STEPS = 3
 #: The fast search's passes of the racing line's scalar searches: on eight atlas rows (30 deg / 1, 5 mm, 60 deg / 1,
 #: 10 mm, 90 deg / 5 mm, 120 deg / 1, 10 mm, 150 deg / 5 mm) one pass kept 81.4 % of the thorough search's summed
 #: gain over G2 where two kept 81.5 %, in 40 plans less per corner (about 0.5 s of CPU).
@@ -886,15 +890,16 @@ class SearchSettings:
 
 #: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
 THOROUGH = SearchSettings()
-#: The quintic and the racing line (S-curve offset pieces, one pass) on the search grid, short free-ends and joint
-#: stages where the motion rests at a path end the blend reaches, each corner's winner polished briefly on a fixed grid
-#: (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's gain over the
-#: symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it found
-#: nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
-FAST = SearchSettings(racing_cycles=FAST_RACING_CYCLES, run_range=FAST_RUN_RANGE, run_starts=FAST_RUN_STARTS,
-                      free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS, joint_plans=FAST_JOINT_PLANS, wide_plans=0,
-                      wide_normal_plans=0, restart_plans=0, global_plans=0, retry_capped=False,
-                      polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS, neighbour_pass=False)
+#: The quintic (short scalar searches) and the racing line (S-curve offset pieces, one pass) on the search grid, short
+#: free-ends and joint stages where the motion rests at a path end the blend reaches, each corner's winner polished
+#: briefly on a fixed grid (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's
+#: gain over the symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it
+#: found nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
+FAST = SearchSettings(steps=FAST_STEPS, racing_cycles=FAST_RACING_CYCLES, run_range=FAST_RUN_RANGE,
+                      run_starts=FAST_RUN_STARTS, free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS,
+                      joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, restart_plans=0, global_plans=0,
+                      retry_capped=False, polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS,
+                      neighbour_pass=False)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
 SEARCHES = {"fast": FAST, "thorough": THOROUGH}
 
