@@ -497,7 +497,7 @@ def test_the_full_grid_polish_reports_what_the_returned_path_plans(caplog):
     without = optimal_blends(_robot(), path, 0.005, polish_plans=0, **kw)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         polished = optimal_blends(_robot(), path, 0.005, polish_plans=40, **kw)
-    assert "polished on the full grid" in caplog.text
+    assert "corner 0 polished on the whole path" in caplog.text
     assert polished.duration < without.duration * (1 - 1e-4)
     assert without.plans + 20 < polished.plans <= without.plans + 41
     assert polished.duration == pytest.approx(duration_with(_robot(), path, polished.shapes, SETTINGS), rel=1e-12)
@@ -507,7 +507,7 @@ def test_the_full_grid_polish_reports_what_the_returned_path_plans(caplog):
     caplog.clear()
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         quintic = optimal_blends(_robot(), path, 0.005, racing=False, polish_plans=30, **kw)
-    assert "polished on the full grid" in caplog.text and not quintic.shapes[0].racing
+    assert "corner 0 polished on the whole path" in caplog.text and not quintic.shapes[0].racing
     assert quintic.duration <= optimal_blends(_robot(), path, 0.005, racing=False, polish_plans=0, **kw).duration
 
 
@@ -915,6 +915,32 @@ def test_the_fast_quintic_stage_takes_fewer_steps_and_stays_certified():
     assert short.duration == pytest.approx(longer.duration, rel=1e-3)
     assert short.duration == pytest.approx(duration_with(_robot(), path, short.shapes, SETTINGS), rel=1e-12)
     assert max_deviation(short.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
+
+
+def test_the_fast_polish_starts_from_its_own_trust_radius_and_is_never_slower(monkeypatch):
+    """The fast search's polish (stage 8) starts COBYQA with the trust radius FAST_POLISH_RADIUS_SHARE of its steps
+    (the joint stages keep TRUST_RADIUS_SHARE); at the 90 deg turn (3 mm) the polished blend is never slower than the
+    search's blend without the polish, its duration is its own plan's and its deviation is certified."""
+    from pathmotion.planning import blend_search as bs
+
+    shares = []
+    trust_region = bs._trust_region
+
+    def recorded(f, x0, box, steps, plans, share=bs.TRUST_RADIUS_SHARE):
+        shares.append((plans, share))
+        return trust_region(f, x0, box, steps, plans, share)
+
+    monkeypatch.setattr(bs, "_trust_region", recorded)
+    path, tol = _turn(90), 0.003
+    kw = dict(settings=SETTINGS, search=bs.FAST, end_plans=0, polish_grid_points=300)
+    without = optimal_blends(_robot(), path, tol, polish_plans=0, **kw)
+    assert shares == []
+    polished = optimal_blends(_robot(), path, tol, polish_plans=12, **kw)
+    assert shares == [(12, bs.FAST_POLISH_RADIUS_SHARE)]
+    assert bs.FAST.polish_radius_share == bs.FAST_POLISH_RADIUS_SHARE != bs.THOROUGH.polish_radius_share
+    assert polished.duration <= without.duration <= without.symmetric_duration
+    assert polished.duration == pytest.approx(duration_with(_robot(), path, polished.shapes, SETTINGS), rel=1e-12)
+    assert max_deviation(polished.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
 
 
 def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():
