@@ -1082,7 +1082,7 @@ class _Runner:
     manager: the pool ends with it."""
 
     def __init__(self, workers: int = 1, scheduler: str | None = None):
-        self.workers, self.scheduler, self._pool = workers, scheduler, None
+        self.workers, self.scheduler, self._pool, self._size = workers, scheduler, None, 0
 
     def map(self, fn: Callable, calls: list[tuple], label: str) -> list:
         if self.scheduler is not None and len(calls) > 1:
@@ -1094,8 +1094,9 @@ class _Runner:
         if self._pool is None:
             from concurrent.futures import ProcessPoolExecutor
 
-            self._pool = ProcessPoolExecutor(max_workers=min(self.workers, len(calls)))
-        log.info("blend search: %d %s tasks on %d worker processes", len(calls), label, self._pool._max_workers)
+            self._size = min(self.workers, len(calls))
+            self._pool = ProcessPoolExecutor(max_workers=self._size)
+        log.info("blend search: %d %s tasks on %d worker processes", len(calls), label, self._size)
         return list(self._pool.map(fn, *zip(*calls)))
 
     def __enter__(self) -> "_Runner":
