@@ -497,7 +497,7 @@ def test_the_full_grid_polish_reports_what_the_returned_path_plans(caplog):
     without = optimal_blends(_robot(), path, 0.005, polish_plans=0, **kw)
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         polished = optimal_blends(_robot(), path, 0.005, polish_plans=40, **kw)
-    assert "polished on the full grid" in caplog.text
+    assert "corner 0 polished on the whole path" in caplog.text
     assert polished.duration < without.duration * (1 - 1e-4)
     assert without.plans + 20 < polished.plans <= without.plans + 41
     assert polished.duration == pytest.approx(duration_with(_robot(), path, polished.shapes, SETTINGS), rel=1e-12)
@@ -507,7 +507,7 @@ def test_the_full_grid_polish_reports_what_the_returned_path_plans(caplog):
     caplog.clear()
     with caplog.at_level(logging.INFO, logger="pathmotion.planning.blend_search"):
         quintic = optimal_blends(_robot(), path, 0.005, racing=False, polish_plans=30, **kw)
-    assert "polished on the full grid" in caplog.text and not quintic.shapes[0].racing
+    assert "corner 0 polished on the whole path" in caplog.text and not quintic.shapes[0].racing
     assert quintic.duration <= optimal_blends(_robot(), path, 0.005, racing=False, polish_plans=0, **kw).duration
 
 
@@ -837,16 +837,16 @@ def test_the_neighbour_pass_keeps_the_guarantees_and_is_deterministic(caplog):
 
 
 def test_corners_searched_on_a_dask_cluster_equal_the_search_in_one_process(caplog):
-    """With a scheduler, every corner's search (both passes) is a task on the Dask cluster, and the blends equal
-    those searched in this process."""
+    """With a scheduler, every corner's search (both passes) and its polish on its window are tasks on the Dask
+    cluster, and the blends equal those searched and polished in this process."""
     import logging
 
     distributed = pytest.importorskip("distributed")
     from pathmotion.planning.blend_search import FAST
 
     path, tol = _polyline(ZIGZAG), 0.004
-    kw = dict(settings=SETTINGS, search=FAST, steps=2, racing_steps=2, search_grid_points=200, polish_plans=0,
-              neighbour_pass=True)
+    kw = dict(settings=SETTINGS, search=FAST, steps=2, racing_steps=2, search_grid_points=200, polish_plans=3,
+              polish_grid_points=200, neighbour_pass=True)
     here = optimal_blends(_robot(), path, tol, **kw)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
                                    dashboard_address=None) as cluster, \
@@ -854,6 +854,7 @@ def test_corners_searched_on_a_dask_cluster_equal_the_search_in_one_process(capl
         clustered = optimal_blends(_robot(), path, tol, scheduler=cluster.scheduler_address, **kw)
     # the first pass (3 corners) and the neighbour pass's even corners (2); its one odd corner runs here
     assert caplog.text.count("corner-search: ") == 2
+    assert caplog.text.count("corner-polish: 3 task(s)") == 1
     assert clustered.shapes == here.shapes and clustered.duration == here.duration
 
 
@@ -869,6 +870,77 @@ def test_the_polish_on_a_fixed_grid_reports_the_full_grids_duration(caplog):
     assert polished.duration <= without.duration
     assert polished.duration == pytest.approx(duration_with(_robot(), path, polished.shapes, SETTINGS), rel=1e-12)
     assert max_deviation(polished.path, path, rel_tol=1e-6).upper <= 0.005 * (1 + 2e-6)
+
+
+def test_the_fast_racing_line_may_run_beyond_the_default_range_and_stays_certified():
+    """At the corner atlas' 120 deg / 5 mm corner, rest to rest, the fast search's racing line (its runs allowed up
+    to FAST_RUN_RANGE, its offsets first searched from runs of FAST_RUN_STARTS) ends with a run beyond RUN_RANGE,
+    where the search within RUN_RANGE cannot go, and faster than that search here (a local search: on _turn(120),
+    placed elsewhere, the narrower one ends faster); the blend is never slower than the symmetric G2 blend, its
+    duration is its own plan's, its deviation is certified on a dense check, and the polish from it (its box holds
+    that start) never makes it slower."""
+    from pathmotion.planning import blend_search as bs
+    from pathmotion.study.atlas import corner_points
+
+    path, tol = _polyline(corner_points(120.0)), 0.005
+    kw = dict(settings=SETTINGS, search=bs.FAST, end_plans=0, polish_plans=0)
+    narrow = optimal_blends(_robot(), path, tol, run_range=bs.RUN_RANGE, run_starts=(1.0,), **kw)
+    wide = optimal_blends(_robot(), path, tol, **kw)
+    limit = bs.RUN_RANGE[1] * np.sqrt(tol * bs.RUN_SCALE_LENGTH) * (1 + 1e-9)
+    assert max(narrow.shapes[0].run_entry, narrow.shapes[0].run_exit) <= limit
+    assert max(wide.shapes[0].run_entry, wide.shapes[0].run_exit) > limit
+    assert wide.duration < narrow.duration
+    assert wide.duration <= wide.symmetric_duration
+    assert wide.duration == pytest.approx(duration_with(_robot(), path, wide.shapes, SETTINGS), rel=1e-12)
+    assert max_deviation(wide.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
+    polished = optimal_blends(_robot(), path, tol, **{**kw, "polish_plans": 8, "polish_grid_points": 300})
+    assert polished.duration <= wide.duration
+
+
+def test_the_fast_quintic_stage_takes_fewer_steps_and_stays_certified():
+    """The fast search's quintic stage (FAST_STEPS golden steps per scalar search, against the thorough search's
+    GOLDEN_STEPS), followed by the racing line as in the fast search: at the 60 deg turn (4 mm) it plans fewer blends
+    and its blend is within 0.1 % of the longer search's duration (the quintic alone ends 0.15 % slower there; the
+    racing line searches the blend again), never slower than the symmetric G2 blend, its duration is its own plan's
+    and its deviation is certified on a dense check."""
+    from pathmotion.planning import blend_search as bs
+
+    assert bs.FAST.steps == bs.FAST_STEPS < bs.GOLDEN_STEPS == bs.THOROUGH.steps
+    path, tol = _turn(60), 0.004
+    kw = dict(settings=SETTINGS, search=bs.FAST, end_plans=0, polish_plans=0)
+    short, longer = (optimal_blends(_robot(), path, tol, steps=steps, **kw) for steps in (bs.FAST_STEPS,
+                                                                                           bs.GOLDEN_STEPS))
+    assert short.plans < longer.plans
+    assert short.duration <= short.symmetric_duration
+    assert short.duration == pytest.approx(longer.duration, rel=1e-3)
+    assert short.duration == pytest.approx(duration_with(_robot(), path, short.shapes, SETTINGS), rel=1e-12)
+    assert max_deviation(short.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
+
+
+def test_the_fast_polish_starts_from_its_own_trust_radius_and_is_never_slower(monkeypatch):
+    """The fast search's polish (stage 8) starts COBYQA with the trust radius FAST_POLISH_RADIUS_SHARE of its steps
+    (the joint stages keep TRUST_RADIUS_SHARE); at the 90 deg turn (3 mm) the polished blend is never slower than the
+    search's blend without the polish, its duration is its own plan's and its deviation is certified."""
+    from pathmotion.planning import blend_search as bs
+
+    shares = []
+    trust_region = bs._trust_region
+
+    def recorded(f, x0, box, steps, plans, share=bs.TRUST_RADIUS_SHARE):
+        shares.append((plans, share))
+        return trust_region(f, x0, box, steps, plans, share)
+
+    monkeypatch.setattr(bs, "_trust_region", recorded)
+    path, tol = _turn(90), 0.003
+    kw = dict(settings=SETTINGS, search=bs.FAST, end_plans=0, polish_grid_points=300)
+    without = optimal_blends(_robot(), path, tol, polish_plans=0, **kw)
+    assert shares == []
+    polished = optimal_blends(_robot(), path, tol, polish_plans=12, **kw)
+    assert shares == [(12, bs.FAST_POLISH_RADIUS_SHARE)]
+    assert bs.FAST.polish_radius_share == bs.FAST_POLISH_RADIUS_SHARE != bs.THOROUGH.polish_radius_share
+    assert polished.duration <= without.duration <= without.symmetric_duration
+    assert polished.duration == pytest.approx(duration_with(_robot(), path, polished.shapes, SETTINGS), rel=1e-12)
+    assert max_deviation(polished.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
 
 
 def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():

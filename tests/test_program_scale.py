@@ -139,8 +139,8 @@ def test_fast_and_thorough_within_tolerance_and_not_slower_than_g2(kind):
 
 
 def test_workers_give_the_same_blends():
-    """Three corners searched (fast search) on two worker processes give the same blends, plans and duration as in
-    one process."""
+    """Three corners searched and polished on their windows (fast search) on two worker processes give the same
+    blends, plans and duration as in one process."""
     path = _contour_path(4)
     kw = dict(settings=SETTINGS, search=bs.FAST, polish_plans=4, racing_steps=2, steps=2)
     one = bs.optimal_blends(ROBOT, path, 0.001, **kw)

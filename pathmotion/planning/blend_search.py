@@ -48,10 +48,12 @@ global stage, 785-1550 with free ends and the wide starts, and the global stage'
 capped), then the polish's 150 on the full grid.
 
 How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
-atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 on the search grid, short stages
-5-6 (no wide starts, restart or global stage) where a free end applies, and a short polish (FAST_POLISH_PLANS) on a
-fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each corner is searched from the symmetric blends at the others (a
-:class:`_CornerJob`), so ``workers`` > 1 searches the corners on local processes with the same result.
+atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 (FAST_STEPS golden steps, one
+racing pass) on the search grid, short stages 5-6 (no wide starts, restart or global stage) where a free end applies,
+and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each
+corner is searched from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1 searches the
+corners on local processes with the same result; where the corners are polished on their windows, those polishes are
+independent too (a :class:`_PolishJob` each) and run on the same processes.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "The optimal blend's search".
@@ -160,10 +162,28 @@ POLISH_STARTS = 1
 #: about 1 s less CPU per corner.
 FAST_POLISH_PLANS = 30
 FAST_POLISH_GRID_POINTS = 1000
+#: The fast polish's initial trust radius, a share of its steps (as the wide restart's): it starts from the racing
+#: line of a short search, farther from a local optimum than the thorough search's blend. On the 20 atlas rows it kept
+#: 81.4 % of the thorough search's gain over G2 where TRUST_RADIUS_SHARE kept 78.8 % (0.4 and 0.6: 78.8 and 79.5 %),
+#: on 4 rows outside them 83.5 % against 83.4 %, in the same plans.
+FAST_POLISH_RADIUS_SHARE = 1.0
 #: The fast search's free ends (stages 5-6 without the wide starts), where the motion rests at a path end that the
 #: fastest joined blend reaches: plans of the free-ends stage and of the joint stage.
 FAST_END_PLANS = 20
 FAST_JOINT_PLANS = 30
+#: The fast search's golden steps per scalar search of the quintic stage: the racing line searches the blend again
+#: after it. On the 20 atlas rows and 4 others (45 deg / 2 mm, 75 deg / 7 mm, 105 deg / 3 mm, 135 deg / 7 mm) 3 steps
+#: gained as much over G2 as 6 (0.8 % more in sum) in 14 plans less per corner (0.3 s of CPU), 2 steps 2 % less.
+FAST_STEPS = 3
+#: The fast search's passes of the racing line's scalar searches: on eight atlas rows (30 deg / 1, 5 mm, 60 deg / 1,
+#: 10 mm, 90 deg / 5 mm, 120 deg / 1, 10 mm, 150 deg / 5 mm) one pass kept 81.4 % of the thorough search's summed
+#: gain over G2 where two kept 81.5 %, in 40 plans less per corner (about 0.5 s of CPU).
+FAST_RACING_CYCLES = 1
+#: The fast search's racing line: its runs' range [run unit] and the runs its offsets are first searched from.
+#: Where the thorough blend spans both whole lines (120 deg / 5 mm: runs of 0.18 and 0.13 m, 3.2 and 2.3 run units)
+#: the racing line within RUN_RANGE stops short of it.
+FAST_RUN_RANGE = (0.3, 4.0)
+FAST_RUN_STARTS = (1.0, 2.0)
 
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
 #: run_entry, run_exit [run unit] (7: S-curve offset pieces), then (11: free offset pieces) each
@@ -414,6 +434,22 @@ def _line_search(f: Callable, x: np.ndarray, indices: tuple[int, ...], lo: float
 #: The racing stage's moves: (coordinates set together, range).
 _RACING_MOVES = (((_W_A, _W_B), OFFSET_RANGE), ((_L_A, _L_B), RUN_RANGE), ((_W_A,), OFFSET_RANGE),
                  ((_W_B,), OFFSET_RANGE), ((_L_A,), RUN_RANGE), ((_L_B,), RUN_RANGE), ((_BALANCE,), BALANCE_RANGE))
+
+
+def _racing_stage(objective: _Objective, search: "SearchSettings") -> None:
+    """Stage 2: the offsets searched together from the fastest blend with its runs at each of ``search.run_starts``
+    (after the first), then ``search.racing_cycles`` passes of _RACING_MOVES' scalar searches, the runs within
+    ``search.run_range``, each from the fastest blend so far."""
+    for run in search.run_starts[1:]:
+        x = np.array(objective.best()[2])
+        x[[_L_A, _L_B]] = run
+        _line_search(objective, x, (_W_A, _W_B), *OFFSET_RANGE, search.racing_steps)
+    for _ in range(search.racing_cycles):
+        for indices, box in _RACING_MOVES:
+            box = search.run_range if box == RUN_RANGE else box
+            _line_search(objective, np.array(objective.best()[2]), indices, *box, search.racing_steps)
+
+
 #: The free stage's box and initial simplex steps, per coordinate (_BALANCE ... _D_B).
 _FREE_BOX = (BALANCE_RANGE, SHAPE_RANGE, SHAPE_RANGE, OFFSET_RANGE, OFFSET_RANGE, RUN_RANGE, RUN_RANGE,
              COEFFICIENT_RANGE, COEFFICIENT_RANGE, COEFFICIENT_RANGE, COEFFICIENT_RANGE)
@@ -573,11 +609,14 @@ _JOINT_BOX = _FREE_BOX + (COEFFICIENT_RANGE,) * 6
 _JOINT_STEP = _FREE_STEP[:_C_A] + _RISE_STEP[2:]
 
 
-def _joint_box(profile: Sequence[int], ends: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+def _joint_box(profile: Sequence[int], ends: Sequence[int], start=None) -> tuple[np.ndarray, np.ndarray]:
     """(box (m, 2), initial steps (m,)) of the coordinates ``profile`` (indices below _DEPARTURE.start) followed by
-    the free ends' ``ends``: _JOINT_BOX and _JOINT_STEP, then _END_BOX and _END_STEP."""
-    return (np.array([_JOINT_BOX[i] for i in profile] + [_END_BOX] * len(ends)),
-            np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends)))
+    the free ends' ``ends``: _JOINT_BOX and _JOINT_STEP, then _END_BOX and _END_STEP; widened to hold ``start`` (m,)
+    when given (a search whose racing line ran beyond RUN_RANGE: SearchSettings.run_range)."""
+    box = np.array([_JOINT_BOX[i] for i in profile] + [_END_BOX] * len(ends), float)
+    if start is not None:
+        box = np.column_stack([np.minimum(box[:, 0], start), np.maximum(box[:, 1], start)])
+    return box, np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends))
 
 
 def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share: float = TRUST_RADIUS_SHARE) -> None:
@@ -592,7 +631,7 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share:
     profile = list(range(_V_A if planar else _DEPARTURE.start))
     ends = _end_indices(objective.free_ends, planar)
     idx = profile + ends
-    box, steps = _joint_box(profile, ends)
+    box, steps = _joint_box(profile, ends, x[idx])
 
     def f(y):
         trial = x.copy()
@@ -697,7 +736,7 @@ def _global_stage(objective: _Objective, plans: int, planar: bool) -> tuple[int,
         x, ends = _extended(x, _DEPARTURE.start), (False, False)
     profile, free = list(range(_V_A if planar else _DEPARTURE.start)), _end_indices(ends, planar)
     idx = profile + free
-    box, _ = _joint_box(profile, free)
+    box, _ = _joint_box(profile, free, x[idx])
     lo, span = box[:, 0], box[:, 1] - box[:, 0]
     z0 = np.clip(2.0 * (x[idx] - lo) / span - 1.0, -1.0, 1.0)
 
@@ -721,79 +760,124 @@ def _global_stage(objective: _Objective, plans: int, planar: bool) -> tuple[int,
     return int(es.countevals), ", ".join(es.stop()) or "its plans"
 
 
+@dataclass(frozen=True, eq=False)
+class _PolishJob:
+    """One corner's polish (stage 8), self-contained (it runs in a worker process as well): the corner ``corner`` of
+    ``original`` with the blends ``shapes``, from the coordinates ``x`` of its shape there (free ends ``free_ends``,
+    those where the motion rests ``resting``, in units of ``tolerance`` [m]), ``plans`` plans under ``settings``;
+    ``quintic`` (only the quintic's coordinates), ``planar``; ``states`` (_connection_states of a plan of the whole
+    path with ``shapes``: the corner is polished on its window) or None (on the whole path); ``share``: the initial
+    trust radius (_trust_region)."""
+
+    robot: object
+    original: TaskPath
+    shapes: dict
+    corner: int
+    x: tuple
+    free_ends: tuple[bool, bool]
+    resting: tuple[bool, bool]
+    tolerance: float
+    settings: PlanSettings
+    q_start: object
+    plans: int
+    quintic: bool
+    planar: bool
+    states: tuple | None
+    share: float = TRUST_RADIUS_SHARE
+
+
+def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
+    """COBYQA (about ``job.plans`` plans) on the duration under ``job.settings`` from the coordinates ``job.x``: every
+    coordinate the joint stage would move, with its steps, only the quintic's if ``job.quintic``, none out of the plane
+    if ``job.planar``; on the corner's window where ``job.states`` gives one. Returns (the start's duration [s], the
+    fastest duration [s], its shape, plans run, the window's check included)."""
+    k = job.corner
+    window = (_corner_window(job.robot, job.original, job.shapes, k, job.settings, job.q_start, job.states)
+              if job.states is not None else None)
+    fine = _objective(job.robot, job.original, job.shapes, k, job.tolerance, job.settings, job.q_start, job.resting,
+                      window)
+    fine.free_ends = job.free_ends
+    x = np.array(job.x, float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
+    start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
+    idx = [i for i in range(min(len(x), _W_A if job.quintic else _DEPARTURE.start)) if not (job.planar and i >= _V_A)]
+    ends = _end_indices(fine.free_ends, job.planar) if len(x) >= _ARRIVAL.stop else []
+    box, steps = _joint_box(idx, ends, x[idx + ends])
+
+    def f(y):
+        trial = x.copy()
+        trial[idx + ends] = y
+        return fine(trial)
+
+    _trust_region(f, np.clip(x[idx + ends], box[:, 0], box[:, 1]), box, steps, job.plans, job.share)
+    best_T, best_shape, _ = fine.best()
+    log.info("blend search: corner %d polished on %s: %.6g -> %.6g s in %d plans", k,
+             "the whole path" if window is None else "its window", start_T, best_T, fine.plans)
+    return start_T, best_T, best_shape, fine.plans + (window is not None)
+
+
 def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: dict, settings: PlanSettings,
             q_start, plans: int, planar: Sequence[int], quintic: Sequence[int],
-            windowed: bool = False) -> tuple[float, dict, int]:
-    """Stage 8: COBYQA (about ``plans`` plans per corner) on the full-grid duration under ``settings`` from the
-    coordinates of each corner's chosen shape in ``shapes`` (found in the caches of that corner's searches,
-    ``searched`` {corner: [_Objective]}), the other corners fixed; every coordinate the joint stage would move, with
-    its steps, and only the quintic's at the corners in ``quintic`` (no racing line searched there), none out of
-    the plane at those in ``planar``. The searches ranked shapes on a coarse grid; this is the duration the blend
-    is reported with. ``windowed``: each corner on its window (_Window, ends from one plan of the whole path with
-    ``shapes``), the polished corners then planned together on the whole path. Returns (duration [s], shapes, plans
-    run), never slower than given."""
-    given, shapes, run = shapes, dict(shapes), 0
+            windowed: bool = False, runner: _Runner | None = None,
+            share: float = TRUST_RADIUS_SHARE) -> tuple[float, dict, int]:
+    """Stage 8: :func:`_polish_corner` (about ``plans`` plans per corner, its initial trust radius ``share``) on the
+    duration under ``settings`` from the coordinates of each corner's chosen shape in ``shapes`` (found in the caches of
+    that corner's searches, ``searched`` {corner: [_Objective]}), the other corners fixed; only the quintic's
+    coordinates at the corners in ``quintic`` (no racing line searched there), none out of the plane at those in
+    ``planar``. The searches ranked shapes on a coarse grid; this is the duration the blend is reported with.
+    ``windowed``: each corner on its window (_Window, ends from one plan of the whole path with ``shapes``), the corners
+    independent (by ``runner``), then planned together on the whole path; else one after the other on the whole path,
+    each with the polished blends before it. Returns (duration [s], shapes, plans run), never slower than given."""
+    given, shapes = shapes, dict(shapes)
     states = _connection_states(robot, original, given, settings, q_start) if windowed else None
-    run += states is not None
+    run = int(states is not None)
+    jobs = []
     for k, objectives in searched.items():
         found = [(o, key) for o in objectives for key, (_, shape) in o.cache.items() if shape == shapes[k]]
         if not found:  # e.g. the symmetric blend of a corner whose search never tried it
             continue
         o, key = found[0]
-        window = (_corner_window(robot, original, given, k, settings, q_start, states)
-                  if states is not None else None)
-        run += window is not None
-        fine = _objective(robot, original, shapes, k, o.tolerance, settings, q_start, o.resting, window)
-        fine.free_ends = key[1] or o.free_ends
-        x = np.array(key[0], float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
-        start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
-        flat = k in planar
-        idx = [i for i in range(min(len(x), _W_A if k in quintic else _DEPARTURE.start)) if not (flat and i >= _V_A)]
-        ends = _end_indices(fine.free_ends, flat) if len(x) >= _ARRIVAL.stop else []
-        box, steps = _joint_box(idx, ends)
-
-        def f(y, x=x, cols=idx + ends, fine=fine):
-            trial = x.copy()
-            trial[cols] = y
-            return fine(trial)
-
-        _trust_region(f, np.clip(x[idx + ends], box[:, 0], box[:, 1]), box, steps, plans)
-        best_T, best_shape, _ = fine.best()
-        run += fine.plans
-        if states is None:
-            log.info("blend search: corner %d polished on the full grid: %.6g -> %.6g s in %d plans", k, duration,
-                     best_T, fine.plans)
+        jobs.append(_PolishJob(robot, original, given, k, key[0], key[1] or o.free_ends, o.resting, o.tolerance,
+                               settings, q_start, plans, k in quintic, k in planar, states, share))
+    if states is None:  # one after the other, each corner with the blends polished before it
+        for job in jobs:
+            _, best_T, best_shape, job_run = _polish_corner(dataclasses.replace(job, shapes=dict(shapes)))
+            run += job_run
             if best_T < duration:
-                duration, shapes[k] = best_T, best_shape
-        else:  # each corner against its own start (on its window, or on the whole path where it has none)
-            log.info("blend search: corner %d polished on %s full grid: %.6g -> %.6g s in %d plans", k,
-                     "the whole path's" if window is None else "its window's", start_T, best_T, fine.plans)
-            if best_T < start_T:
-                shapes[k] = best_shape
-    if states is not None and shapes != given:  # the windows' gains, together on the whole path
-        together = duration_with(robot, original, shapes, settings, q_start)
-        run += 1
-        log.info("blend search: the polished corners on the whole path: %.6g -> %.6g s", duration, together)
-        return (together, shapes, run) if together < duration else (duration, dict(given), run)
-    return duration, shapes, run
+                duration, shapes[job.corner] = best_T, best_shape
+        return duration, shapes, run
+    for job, (start_T, best_T, best_shape, job_run) in zip(jobs, (runner or _Runner()).map(
+            _polish_corner, [(job,) for job in jobs], "corner-polish")):
+        run += job_run
+        if best_T < start_T:  # each corner against its own start (on its window, or on the whole path)
+            shapes[job.corner] = best_shape
+    if shapes == given:
+        return duration, shapes, run
+    together = duration_with(robot, original, shapes, settings, q_start)  # the windows' gains, on the whole path
+    log.info("blend search: the polished corners on the whole path: %.6g -> %.6g s", duration, together)
+    return (together, shapes, run + 1) if together < duration else (duration, dict(given), run + 1)
 
 
 @dataclass(frozen=True)
 class SearchSettings:
     """How hard :func:`optimal_blends` searches each corner (the stages of the module docstring): ``cycles`` passes
     of the quintic stage's scalar searches of ``steps`` golden steps; ``racing`` the racing line (at line-line corners;
-    its searches ``racing_steps`` steps); plans (0 skips the stage; each runs on its own): ``free_plans`` the free
-    offset pieces, ``rise_plans`` the rise, ``end_plans`` the free ends,
+    ``racing_cycles`` passes of its searches of ``racing_steps`` steps, the runs within ``run_range`` [run unit], the
+    offsets searched from each of ``run_starts`` first); plans (0 skips the stage; each runs on its
+    own): ``free_plans`` the free offset pieces, ``rise_plans`` the rise, ``end_plans`` the free ends,
     ``joint_plans`` the joint stage, ``wide_plans`` / ``wide_normal_plans`` / ``wide_crossed_plans`` the wide starts,
     ``restart_plans`` the wide restart, ``global_plans`` the global stage; ``retry_capped`` stage 7;
     ``polish_plans`` stage 8 from ``polish_starts`` candidates, on ``polish_grid_points`` grid points (None: the full
-    grid; else its blend confirmed there); ``search_grid_points`` the search's grid;
+    grid; else its blend confirmed there), its initial trust radius ``polish_radius_share`` (_trust_region);
+    ``search_grid_points`` the search's grid;
     ``windows`` each corner on its window (else every plan on the whole path); ``neighbour_pass`` on a path of
     several corners, each searched again with its neighbours' found blends in place (_neighbour_pass)."""
 
     cycles: int = SEARCH_CYCLES
     steps: int = GOLDEN_STEPS
     racing_steps: int = RACING_STEPS
+    racing_cycles: int = RACING_CYCLES
+    run_range: tuple[float, float] = RUN_RANGE
+    run_starts: tuple[float, ...] = (1.0,)
     racing: bool = True
     search_grid_points: int = SEARCH_GRID_POINTS
     free_plans: int = FREE_PLANS
@@ -811,18 +895,21 @@ class SearchSettings:
     windows: bool = True
     neighbour_pass: bool = True
     polish_grid_points: int | None = None
+    polish_radius_share: float = TRUST_RADIUS_SHARE
 
 
 #: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
 THOROUGH = SearchSettings()
-#: The quintic and the racing line (S-curve offset pieces) on the search grid, short free-ends and joint stages where
-#: the motion rests at a path end the blend reaches, each corner's winner polished briefly on a fixed grid
-#: (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's gain over the
-#: symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it found
-#: nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
-FAST = SearchSettings(free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS, joint_plans=FAST_JOINT_PLANS, wide_plans=0,
-                      wide_normal_plans=0, restart_plans=0, global_plans=0, retry_capped=False,
-                      polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS, neighbour_pass=False)
+#: The quintic (short scalar searches) and the racing line (S-curve offset pieces, one pass) on the search grid, short
+#: free-ends and joint stages where the motion rests at a path end the blend reaches, each corner's winner polished
+#: briefly on a fixed grid (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's
+#: gain over the symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it
+#: found nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
+FAST = SearchSettings(steps=FAST_STEPS, racing_cycles=FAST_RACING_CYCLES, run_range=FAST_RUN_RANGE,
+                      run_starts=FAST_RUN_STARTS, free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS,
+                      joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, restart_plans=0, global_plans=0,
+                      retry_capped=False, polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS,
+                      polish_radius_share=FAST_POLISH_RADIUS_SHARE, neighbour_pass=False)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
 SEARCHES = {"fast": FAST, "thorough": THOROUGH}
 
@@ -931,9 +1018,7 @@ def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, 
     if not racing:
         return _Stages()
     found = _Stages()
-    for _ in range(RACING_CYCLES):
-        for indices, box in _RACING_MOVES:
-            _line_search(objective, np.array(objective.best()[2]), indices, *box, search.racing_steps)
+    _racing_stage(objective, search)
     if search.free_plans > 0:
         _free_stage(objective, search.free_plans)
     if search.rise_plans > 0 and not planar:
@@ -990,21 +1075,42 @@ def _search_one(job: _CornerJob) -> _Found:
                   capped, tuple(searched), plans)
 
 
-def _search_all(jobs: list[_CornerJob], workers: int, scheduler: str | None = None) -> dict[int, _Found]:
-    """Every corner's search, in corner order: each a task on the Dask cluster at ``scheduler`` ([PROTOCOL://]HOST:PORT)
-    when given, else on ``workers`` local processes (1: in this process)."""
-    if scheduler is not None and len(jobs) > 1:
-        from ..io.scheduler import run_on_cluster
+class _Runner:
+    """Maps a function over argument tuples, in order: each call a task on the Dask cluster at ``scheduler``
+    ([PROTOCOL://]HOST:PORT) when given, else on ``workers`` local processes (one pool for the whole search, started at
+    its first map of more than one call, as many as that map's calls at most), else in this process. A context
+    manager: the pool ends with it."""
 
-        return dict(zip((job.corner for job in jobs), run_on_cluster(scheduler, _search_one, [(job,) for job in jobs],
-                                                                      "corner-search")))
-    if workers <= 1 or len(jobs) <= 1:
-        return {job.corner: _search_one(job) for job in jobs}
-    from concurrent.futures import ProcessPoolExecutor
+    def __init__(self, workers: int = 1, scheduler: str | None = None):
+        self.workers, self.scheduler, self._pool, self._size = workers, scheduler, None, 0
 
-    log.info("blend search: %d corners on %d worker processes", len(jobs), workers)
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
-        return dict(zip((job.corner for job in jobs), pool.map(_search_one, jobs)))
+    def map(self, fn: Callable, calls: list[tuple], label: str) -> list:
+        if self.scheduler is not None and len(calls) > 1:
+            from ..io.scheduler import run_on_cluster
+
+            return list(run_on_cluster(self.scheduler, fn, calls, label))
+        if self.workers <= 1 or len(calls) <= 1:
+            return [fn(*call) for call in calls]
+        if self._pool is None:
+            from concurrent.futures import ProcessPoolExecutor
+
+            self._size = min(self.workers, len(calls))
+            self._pool = ProcessPoolExecutor(max_workers=self._size)
+        log.info("blend search: %d %s tasks on %d worker processes", len(calls), label, self._size)
+        return list(self._pool.map(fn, *zip(*calls)))
+
+    def __enter__(self) -> "_Runner":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+
+def _search_all(jobs: list[_CornerJob], runner: _Runner) -> dict[int, _Found]:
+    """Every corner's search, in corner order, by ``runner``."""
+    return dict(zip((job.corner for job in jobs), runner.map(_search_one, [(job,) for job in jobs], "corner-search")))
 
 
 #: The candidate classes of every corner, in the order they are planned on the full grid (ties: the first wins).
@@ -1044,25 +1150,25 @@ def optimal_blends(robot, original: TaskPath, tolerance: float | dict, corners: 
         ends = (free and rests[0] and k == 0, free and rests[1] and k == len(original.segments) - 2)
         jobs.append(_CornerJob(robot, original, initial, k, tol[k], coarse, q_start, ends, racing, k in planar,
                                windowed, search))
-    found, first = _search_all(jobs, workers, scheduler), None
-    if search.neighbour_pass and len(jobs) > 1:
-        first, found = found, _neighbour_pass(jobs, found, workers, scheduler)
-    return _chosen(robot, original, symmetric, initial, found, settings, q_start, search, planar, windowed, first)
+    with _Runner(workers, scheduler) as runner:
+        found, first = _search_all(jobs, runner), None
+        if search.neighbour_pass and len(jobs) > 1:
+            first, found = found, _neighbour_pass(jobs, found, runner)
+        return _chosen(robot, original, symmetric, initial, found, settings, q_start, search, planar, windowed, runner,
+                       first)
 
 
-def _neighbour_pass(jobs: list[_CornerJob], found: dict[int, _Found], workers: int, scheduler: str | None = None
-                    ) -> dict[int, _Found]:
+def _neighbour_pass(jobs: list[_CornerJob], found: dict[int, _Found], runner: _Runner) -> dict[int, _Found]:
     """Every corner searched again from its first-pass blend (``found``) with its neighbours' found blends in place:
     the corners at even places in corner order first (their neighbours' first-pass blends), then those at odd places
-    (their neighbours' blends just found), so that each half's searches are independent (on ``workers`` processes
-    or the cluster at ``scheduler``).
+    (their neighbours' blends just found), so that each half's searches are independent (by ``runner``).
     A corner's blend changes the speed its neighbours' windows are entered and left at, and so their fastest blends.
     Returns what both passes found per corner: the second pass's blends, the candidates of both."""
     shapes = {**jobs[0].shapes, **{k: f.best for k, f in found.items()}}
     again: dict[int, _Found] = {}
     for half in (jobs[0::2], jobs[1::2]):
         redo = [dataclasses.replace(job, shapes=dict(shapes), warm=_coordinates(found[job.corner])) for job in half]
-        for k, f in _search_all(redo, workers, scheduler).items():
+        for k, f in _search_all(redo, runner).items():
             again[k], shapes[k] = f, f.best
     log.info("blend search: the neighbour pass: %d corners searched again with their neighbours' blends", len(again))
     return {k: dataclasses.replace(again[k], searched=found[k].searched + again[k].searched,
@@ -1080,10 +1186,10 @@ def _coordinates(found: _Found) -> tuple | None:
 
 def _chosen(robot, original: TaskPath, symmetric: TaskPath, initial: dict, found: dict[int, _Found],
             settings: PlanSettings, q_start, search: SearchSettings, planar: Sequence[int],
-            windowed: bool, first: dict[int, _Found] | None = None) -> OptimalBlend:
+            windowed: bool, runner: _Runner, first: dict[int, _Found] | None = None) -> OptimalBlend:
     """Stage 8 and the choice: every class's fastest blends (and the symmetric ones; those of the first pass
-    ``first`` too where the neighbour pass ran) planned on the full grid, the fastest polished (module docstring); the
-    OptimalBlend with the class durations."""
+    ``first`` too where the neighbour pass ran) planned on the full grid, the fastest polished (module docstring; its
+    corners by ``runner`` where they are polished on their windows); the OptimalBlend with the class durations."""
     plans = sum(f.plans for f in found.values())
     full = replace_settings(settings, verify=False, baselines=False)
     sym_T = float(plan(lift(robot, symmetric, q_start, original=original), robot, full).profile.duration)
@@ -1103,7 +1209,7 @@ def _chosen(robot, original: TaskPath, symmetric: TaskPath, initial: dict, found
     searches = {k: list(f.searched) for k, f in found.items()}
     for start_T, start, _ in starts if search.polish_plans > 0 else ():
         polished_T, polished, polish_run = _polished(robot, original, start, start_T, searches, full, q_start, search,
-                                                     planar, quintic_only, windowed)
+                                                     planar, quintic_only, windowed, runner)
         plans += polish_run
         if polished_T < start_T:
             shapes_now = polished.values()  # the polished blend counts for the classes it still belongs to
@@ -1129,17 +1235,17 @@ def _class_blends(initial: dict, found: dict[int, _Found]) -> tuple[dict, ...]:
 
 def _polished(robot, original: TaskPath, start: dict, start_T: float, searched: dict, full: PlanSettings, q_start,
               search: SearchSettings, planar: Sequence[int], quintic: Sequence[int],
-              windowed: bool) -> tuple[float, dict, int]:
+              windowed: bool, runner: _Runner) -> tuple[float, dict, int]:
     """Stage 8 from the blends ``start`` (full-grid duration ``start_T`` [s]): :func:`_polish` under ``full``, or on
     ``search.polish_grid_points`` grid points and its blends then planned on the full grid. Returns (full-grid
     duration [s], shapes, plans run); ``start`` and ``start_T`` where the polish found nothing faster."""
     if search.polish_grid_points is None:
         return _polish(robot, original, start, start_T, searched, full, q_start, search.polish_plans, planar, quintic,
-                       windowed)
+                       windowed, runner, search.polish_radius_share)
     grid = replace_settings(full, grid_points=search.polish_grid_points)
     on_grid = duration_with(robot, original, start, grid, q_start)
     _, polished, run = _polish(robot, original, start, on_grid, searched, grid, q_start, search.polish_plans, planar,
-                               quintic, windowed)
+                               quintic, windowed, runner, search.polish_radius_share)
     if polished == start:
         return start_T, start, run + 1
     T = duration_with(robot, original, polished, full, q_start)
