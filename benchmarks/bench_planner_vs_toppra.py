@@ -80,6 +80,11 @@ def robots():
     return {"vel+acc": (base, False), "torque": (base, True), "binding": (heavy, True)}
 
 
+def same_limits(torque: bool) -> dict:
+    """Our planner's limit choices for the problem toppra solves: the whole torque limits (no feedback reserve)."""
+    return {"use_torque": torque, "torque_reserve": 0.0}
+
+
 def toppra_solver(robot, wp, torque):
     """f(grid) -> toppra's ConstAccel trajectory on that grid (theta in [0, 1])."""
     import toppra as ta
@@ -129,7 +134,7 @@ def search_case(robot, torque, seed, n_wp) -> dict:
     (the smallest of GRIDS within ACCURACY of T*; None when none is)."""
     wp = np.random.default_rng(seed).uniform(-1.5, 1.5, size=(n_wp, 6))
     path = SplineJointPath.from_waypoints(wp)
-    bare = PlanSettings(limits={"use_torque": torque}, verify="off")
+    bare = PlanSettings(limits=same_limits(torque), verify="off")
     ours = lambda n, **kw: plan(path, robot, replace(bare, grid_points=n, **kw))  # noqa: E731
     tp = toppra_solver(robot, wp, torque)
     uniform = lambda n: np.linspace(0.0, 1.0, n)  # noqa: E731
@@ -147,15 +152,15 @@ def run_case(label, robot, torque, seed, n_wp, repeats):
     c = search_case(robot, torque, seed, n_wp)
     path, ours, tp, uniform, t_star, n_ours, n_tp = (c[k] for k in ("path", "ours", "tp", "uniform", "t_star",
                                                                    "n_ours", "n_tp"))
-    default = plan(path, robot, PlanSettings(limits={"use_torque": torque}))
-    coarse = plan(path, robot, PlanSettings(limits={"use_torque": torque}, duration_tolerance=ACCURACY))
+    default = plan(path, robot, PlanSettings(limits=same_limits(torque)))
+    coarse = plan(path, robot, PlanSettings(limits=same_limits(torque), duration_tolerance=ACCURACY))
     verified = ours(n_ours, verify="certified")
     our_grid = make_grid(path, n_ours).theta
     fns = {"toppra own grid": lambda: tp(uniform(n_tp)), "toppra our grid": lambda: tp(our_grid),
            "ours bare": lambda: ours(n_ours), "ours verified": lambda: ours(n_ours, verify="certified"),
-           "ours adaptive 0.1%": lambda: plan(path, robot, PlanSettings(limits={"use_torque": torque},
+           "ours adaptive 0.1%": lambda: plan(path, robot, PlanSettings(limits=same_limits(torque),
                                                                         duration_tolerance=ACCURACY)),
-           "ours default": lambda: plan(path, robot, PlanSettings(limits={"use_torque": torque}))}
+           "ours default": lambda: plan(path, robot, PlanSettings(limits=same_limits(torque)))}
     if n_tp is None:
         del fns["toppra own grid"]
     times, cpu = interleaved(fns, repeats)
@@ -175,8 +180,8 @@ def direct_case(label, robot, torque, seed, n_wp, rounds=ROUNDS) -> dict:
     order after WARMUP calls each; {"cpu": ratio of medians, "cpu_blocks": ratio per block, "wall": ...}."""
     c = search_case(robot, torque, seed, n_wp)
     n, path = c["n_ours"], c["path"]
-    settings = {"bare": PlanSettings(limits={"use_torque": torque}, verify="off", grid_points=n),
-                "verified": PlanSettings(limits={"use_torque": torque}, verify="certified", grid_points=n)}
+    settings = {"bare": PlanSettings(limits=same_limits(torque), verify="off", grid_points=n),
+                "verified": PlanSettings(limits=same_limits(torque), verify="certified", grid_points=n)}
     res = plan(path, robot, settings["verified"])
     for _ in range(WARMUP):
         for s in settings.values():

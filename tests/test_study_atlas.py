@@ -540,8 +540,9 @@ def test_a_plan_with_the_reserve_is_the_plan_of_the_reduced_limits():
     reduced = atlas.reserved(weak, 0.2)
     assert np.allclose(reduced.limits.torque, 0.8 * weak.limits.torque) and atlas.reserved(weak, 0.0) is weak
     with_reserve = atlas._duration(weak, task, torque=True, torque_reserve=0.2, connections="zero")
-    assert with_reserve == pytest.approx(atlas._duration(reduced, task, torque=True, connections="zero"), rel=1e-9)
-    assert with_reserve > 1.01 * atlas._duration(weak, task, torque=True, connections="zero")
+    whole = {"torque": True, "torque_reserve": 0.0, "connections": "zero"}  # the whole torque of each robot
+    assert with_reserve == pytest.approx(atlas._duration(reduced, task, **whole), rel=1e-9)
+    assert with_reserve > 1.01 * atlas._duration(weak, task, **whole)
 
 
 @pytest.mark.slow

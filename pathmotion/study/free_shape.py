@@ -330,8 +330,9 @@ class FreeShapeSolution:
 # ----------------------------------------------------------------------------------- initial guess
 def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = None, torque: bool = False):
     """pathmotion's time-optimal plan that stops at every corner of ``line`` (velocity and
-    acceleration limits, and torque limits when ``torque``; tool orientation ``rotation`` (3, 3),
-    default tool down): (JointPath, PlanResult)."""
+    acceleration limits, and the whole torque limits when ``torque``, no feedback reserve, as the free-shape NLPs
+    take them (a reserve: a reduced robot, study.atlas.reserved); tool orientation ``rotation`` (3, 3), default tool
+    down): (JointPath, PlanResult)."""
     from ..lift.constraint import lift
     from ..geometry import FixedOrientation, Line, TaskPath
     from ..planning import PlanSettings, plan
@@ -341,8 +342,8 @@ def stop_plan(robot, line: Polyline, rotation=None, grid_points: int | None = No
     path = lift(robot, TaskPath(segs, orient))
     kw = {} if grid_points is None else {"grid_points": grid_points}
     settings = PlanSettings(start="zero", end="zero", connections="zero",
-                            limits={"use_velocity": True, "use_acceleration": True, "use_torque": torque},
-                            baselines=False, **kw)
+                            limits={"use_velocity": True, "use_acceleration": True, "use_torque": torque,
+                                    "torque_reserve": 0.0}, baselines=False, **kw)
     return path, plan(path, robot, settings)
 
 
