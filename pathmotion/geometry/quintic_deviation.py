@@ -158,8 +158,8 @@ def _g2_lines_points(starts, dirs, lengths, cut, shape, b):
         pb, tb = starts[1, j] + sb * dirs[1, j], dirs[1, j]
         b[0, j] = pa
         b[1, j] = pa + la / 5 * ta
-        b[2, j] = pa + 2 * la / 5 * ta + la ** 2 / 20 * 0.0
-        b[3, j] = pb - 2 * la / 5 * tb + la ** 2 / 20 * 0.0
+        b[2, j] = pa + 2 * la / 5 * ta
+        b[3, j] = pb - 2 * la / 5 * tb
         b[4, j] = pb - la / 5 * tb
         b[5, j] = pb
 
