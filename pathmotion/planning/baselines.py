@@ -82,17 +82,30 @@ def max_feasible_scale(problem: IntervalProblem, x: np.ndarray) -> float:
 
 
 @njit(cache=True, error_model="numpy")
+def _interval_scale(P, Q, R, i, xa, xb):
+    """The least R / den over the rows of interval i (P, Q, R (K-1, M)) with den = P xa + Q xb > 0 [-]: the scale of
+    (xa, xb) at which the first row binds; inf if none, nan if a ratio is nan (numpy's min: it stops there)."""
+    best = np.inf
+    for r in range(P.shape[1]):
+        den = P[i, r] * xa + Q[i, r] * xb
+        if den > 0.0:
+            v = R[i, r] / den
+            if v < best or v != v:
+                best = v
+                if v != v:
+                    break
+    return best
+
+
+@njit(cache=True, error_model="numpy")
 def _max_scale(P, Q, R, x_max, x):
-    """min over the rows with P x_i + Q x_i+1 > 0 of R / (P x_i + Q x_i+1), and over the points with x > 0 of
-    x_max / x; one pass, no (K, M) temporaries."""
+    """min over the intervals of :func:`_interval_scale` at x, and over the points with x > 0 of x_max / x; one
+    pass, no (K, M) temporaries."""
     best = np.inf
     for i in range(P.shape[0]):
-        for r in range(P.shape[1]):
-            den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
-            if den > 0.0:
-                v = R[i, r] / den
-                if v < best or v != v:
-                    best = v
+        v = _interval_scale(P, Q, R, i, x[i], x[i + 1])
+        if v < best or v != v:
+            best = v
     for i in range(x.shape[0]):
         if x[i] > 0.0:
             v = x_max[i] / x[i]
@@ -148,20 +161,11 @@ class _TrapezoidRows:
 
 @njit(cache=True, error_model="numpy")
 def _cruise_bounds(P, Q, R, inv):
-    """(K-1,): per interval the least over its rows (P, Q, R (K-1, M)) of R / D, D = P inv_i + Q inv_(i+1) (inf
-    where D <= 0 or is nan), nan if one is nan (numpy's min); ``inv`` (K,) = 1 / gain^2, nan where still. One pass
-    instead of (K-1, M) temporaries (some 50 MB each on a program's grid)."""
+    """(K-1,): per interval :func:`_interval_scale` at ``inv`` (K,) = 1 / gain^2 (nan where still; a nan den binds
+    no row). One pass instead of (K-1, M) temporaries (some 50 MB each on a program's grid)."""
     out = np.empty(P.shape[0])
     for i in range(P.shape[0]):
-        best = np.inf
-        for m in range(P.shape[1]):
-            d = P[i, m] * inv[i] + Q[i, m] * inv[i + 1]
-            u = R[i, m] / d if d > 0 else np.inf
-            if u < best or u != u:
-                best = u
-                if u != u:
-                    break
-        out[i] = best
+        out[i] = _interval_scale(P, Q, R, i, inv[i], inv[i + 1])
     return out
 
 
@@ -193,11 +197,8 @@ def _holds(v2, x_inf, moving, gain, caps, ok, cruise, cap, P, Q, R):
         elif not fixed[i] and not fixed[i + 1]:
             if not v2 <= cruise[i]:
                 return False
-        else:
-            for r in range(P.shape[1]):
-                den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
-                if den > 0.0 and not R[i, r] / den >= 1.0:
-                    return False
+        elif not _interval_scale(P, Q, R, i, x[i], x[i + 1]) >= 1.0:
+            return False
     return True
 
 
@@ -208,11 +209,7 @@ def _fixed_rows_hold(P, Q, R, x, fixed):
     ok = np.ones(P.shape[0], np.bool_)
     for i in range(P.shape[0]):
         if fixed[i] and fixed[i + 1]:
-            for r in range(P.shape[1]):
-                den = P[i, r] * x[i] + Q[i, r] * x[i + 1]
-                if den > 0.0 and not R[i, r] / den >= 1.0:
-                    ok[i] = False
-                    break
+            ok[i] = _interval_scale(P, Q, R, i, x[i], x[i + 1]) >= 1.0
     return ok
 
 
