@@ -243,7 +243,7 @@ def test_left_rows_assembled_at_the_breaks_equal_the_rows_of_every_left_point(na
     x_ref = np.random.default_rng(0).uniform(0.0, 4.0, len(theta))
     for ref in (None, x_ref):
         right = limit_rows(sampled.right, limits, scale, defaults.PLANNER_X_CAP, ref)
-        fast = planner._left_rows(right, sampled.left, limits, scale, ref)
+        fast = planner._left_rows(right, sampled.right, sampled.left, limits, scale, ref)
         full = limit_rows(sampled.left, limits, scale, defaults.PLANNER_X_CAP, ref)
         for a, b in zip((fast.a, fast.b, fast.c, fast.lo, fast.hi, fast.x_max),
                         (full.a, full.b, full.c, full.lo, full.hi, full.x_max)):

@@ -252,17 +252,17 @@ def _evaluate_reusing(path: JointPath, grid: np.ndarray, donor: PathPoints) -> t
 def _build(grid, s: _Sampled, limits: EffectiveLimits, scale: dict,
            x_ref: np.ndarray | None) -> tuple[IntervalProblem, LimitRows, LimitRows]:
     right = limit_rows(s.right, limits, scale, defaults.PLANNER_X_CAP, x_ref)
-    left = _left_rows(right, s.left, limits, scale, x_ref)
+    left = _left_rows(right, s.right, s.left, limits, scale, x_ref)
     problem = interval_problem(grid, right.slice(slice(0, -1)), left.slice(slice(1, None)), right.x_max, left.x_max)
     return problem, right, left
 
 
-def _left_rows(right: LimitRows, left: PathPoints, limits: EffectiveLimits, scale: dict,
+def _left_rows(right: LimitRows, right_points: PathPoints, left: PathPoints, limits: EffectiveLimits, scale: dict,
                x_ref: np.ndarray | None) -> LimitRows:
     """limit_rows of the left side: the rows are point by point, and the left side's path data equal the right
-    side's except at ``left``'s changed points (the breaks), so only those are assembled afresh."""
-    idx = left._changed
-    if idx is None or left._base is None:
+    side's (``right_points``, whose rows are ``right``) except at the breaks, so only those are assembled afresh."""
+    idx = left.changed_from(right_points)
+    if idx is None:
         return limit_rows(left, limits, scale, defaults.PLANNER_X_CAP, x_ref)
     points = PathPoints(left.robot, left.path, left.theta[idx], left.q[idx], left.dq[idx], left.ddq[idx],
                         side="left")

@@ -94,6 +94,11 @@ class PathPoints:
         self._base, self._changed = base, changed
         self._cache: dict = {}
 
+    def changed_from(self, other: "PathPoints") -> np.ndarray | None:
+        """The indices where these points differ from ``other`` when they were built on it (its ``base``), else
+        None (no relation known)."""
+        return self._changed if self._base is other else None
+
     @property
     def dddq(self) -> np.ndarray:
         """Phi''' (K, n), exact (path.evaluate3), computed on first use."""
