@@ -690,7 +690,8 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
                                                   "the robot's joints from the plan's start")):
     """Plan (or read the plan folder pathmotion plan wrote), then stream the motion to an ABB controller over EGM
     (answer each EgmRobot with an EgmSensor); stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
-    Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130).
+    Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130), and so does an arm farther from the path than
+    simulate.joint_tolerance (exit 4).
 
     Example: [bold]pathmotion execute scenarios/corner_g2.toml --egm 6510 --out out/run[/]
     or, planned before: [bold]pathmotion execute out/g2_plan --egm 6510[/]
@@ -704,7 +705,8 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
         setup, result, params = _egm_setup(scenario, set_, drives)
         if not 0.0 <= start_tolerance < float("inf"):
             _fail(f"--start-tolerance {start_tolerance!r}: give a distance >= 0 in rad")
-        streamer = make_streamer(setup.robot, result, correction, params, tolerance=start_tolerance)
+        streamer = make_streamer(setup.robot, result, correction, params, tolerance=start_tolerance,
+                                 path_tolerance=setup.scenario.simulate.joint_tolerance)
         sock = open_listener(egm)
         commands, interrupted = _stdin_commands(), False
         try:
@@ -725,6 +727,10 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
     _print_table(_summary_table(f"execute {setup.name} -> {out}", summary))
     if interrupted:
         raise typer.Exit(130)
+    if streamer.supervision.tripped is not None:
+        _fail(f"{streamer.supervision.reason()}; stopped along the path. Lower the speed (stdin 'override 0.5', or "
+              "the scenario's limits), put the payload into the scenario ([robot.payload]), or raise "
+              "simulate.joint_tolerance", EXIT_FAILED_RESULT)
     if ended != "done":
         _fail(f"the motion did not complete: {ended}", EXIT_FAILED_RESULT)
 

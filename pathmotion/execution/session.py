@@ -24,6 +24,7 @@ from .messages import decode_sensor, encode_robot
 from .orbital import TransverseLoop, loop_gain
 from .reference import MODES, RawMotion, build_reference, gear_period
 from .streamer import Streamer
+from .supervision import PathSupervision
 
 log = logging.getLogger(__name__)
 
@@ -41,9 +42,11 @@ def _stop(retimer: Retimer, state: tuple) -> Profile:
 
 
 def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
-                  tolerance: float = defaults.EGM_START_TOLERANCE) -> Streamer:
+                  tolerance: float = defaults.EGM_START_TOLERANCE,
+                  path_tolerance: float | None = defaults.JOINT_TOLERANCE) -> Streamer:
     """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; stops, overrides and
-    resumes re-timed by the plan's Retimer."""
+    resumes re-timed by the plan's Retimer; ``path_tolerance`` [rad]: the path supervision's joint deviation
+    (None: no supervision)."""
     if mode not in MODES:
         raise ExecutionError(f"--correction {mode!r}: choose one of {', '.join(MODES)}")
     try:
@@ -68,8 +71,9 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
     table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, period=period, first=True)
     lim = robot.limits
     loop = TransverseLoop(path, loop_gain(drives)) if mode == "orbital" else None
+    watch = None if path_tolerance is None else PathSupervision(robot, path, path_tolerance)
     return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
-                    plan=plan_result.trajectory)
+                    supervision=watch, plan=plan_result.trajectory)
 
 
 def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
@@ -80,6 +84,8 @@ def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
                "packets_received": c.received, "packets_lost": c.lost, "packets_late": c.late,
                "packets_duplicated": c.duplicated, "packets_out_of_order": c.out_of_order,
                "packets_rejected": c.rejected, "references_clipped": c.clipped}
+    if streamer.supervision is not None:
+        summary.update(streamer.supervision.figures())
     if recs:
         t = np.array([r.tm for r in recs]) / 1000.0
         t -= t[0]

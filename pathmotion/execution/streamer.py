@@ -63,7 +63,8 @@ class Streamer:
     the re-timed table of a stop ("stop"), an override ("override") or a resume ("resume") from ``state`` =
     (theta, theta_dot, theta_ddot), continuing the raw motion ``previous`` at its time ``offset``; ``lower``/``upper``/``velocity`` (n,): the joint limits no sent reference
     leaves; ``tolerance`` [rad]: largest start distance; ``mode``: the correction mode; ``loop``: the
-    transverse loop of the orbital mode (a :class:`.orbital.TransverseLoop`) or None; ``plan``: the planned
+    transverse loop of the orbital mode (a :class:`.orbital.TransverseLoop`) or None; ``supervision``: the
+    path supervision (a :class:`.supervision.PathSupervision`) or None; ``plan``: the planned
     planning.Trajectory (for the figures)."""
 
     table: ReferenceTable
@@ -75,6 +76,7 @@ class Streamer:
     tolerance: float = defaults.EGM_START_TOLERANCE
     settle: float = defaults.EGM_SETTLE_WINDOW
     loop: object = None
+    supervision: object = None
     plan: object = None
     counts: Counts = field(default_factory=Counts)
     records: list = field(default_factory=list)
@@ -156,6 +158,22 @@ class Streamer:
         if self._switch("resume", self.override_scale):
             self.stop_reason = None
 
+    def _supervise(self, reported: np.ndarray, deflection: np.ndarray) -> bool:
+        """Supervise the reported joints; True when a stop began (the segment changed). A diverging orbital loop
+        during the supervision's stop is switched off: the shaped stop alone is streamed."""
+        s = self.supervision
+        if s.check(reported, deflection, self._now):
+            if self.stop_reason is None:
+                self.stop(s.reason())
+                return True
+            log.warning("during the stop: %s", s.reason())
+            self.stop_reason = s.reason()
+        elif self.loop is not None and s.tripped is not None and self.stop_reason is not None and s.diverging():
+            log.warning("the path deviation keeps growing during the stop (%.4g rad): the orbital correction is "
+                        "switched off, the shaped stop alone is streamed", s.last.deviation)
+            self.loop = None
+        return False
+
     def _check_first(self, msg) -> None:
         if msg.joints.size != self.n:
             raise ExecutionError(f"the robot reports {msg.joints.size} joints, the plan has {self.n}: "
@@ -217,6 +235,9 @@ class Streamer:
         self._now = max(self._now, ((msg.tm - self._tm0) % 2**32) / 1000.0)
         tau = self._now - self._segment_start
         q, qd, plan, theta, deflection = self._segment.at(tau)
+        if self.supervision is not None and self._supervise(msg.joints, deflection):
+            tau = self._now - self._segment_start
+            q, qd, plan, theta, deflection = self._segment.at(tau)
         if self.loop is not None:
             q = q + self.loop.update(msg.joints, deflection, theta)
         safe = np.clip(q, self.lower, self.upper)

@@ -1,0 +1,108 @@
+"""execute's path supervision: does the arm the controller reports stay on the plan's path?
+
+Each robot message's motor-side joints, less the gear deflection the shaping planned at that moment, estimate
+the link side q_hat (as the orbital loop does, :mod:`.orbital`). It is projected onto the plan's joint path
+near the previous projection by simulate's own monitor (:func:`pathmotion.simulation.monitor.monitor_state`:
+the controller's local projection, kinks included), which gives theta_hat and the joint deviation
+max_j |q_hat - Phi(theta_hat)| [rad], the quantity simulate's ``joint_tolerance`` rule judges; the TCP
+distance [m] is that of FK(q_hat) from FK(Phi(theta_hat)), the planned TCP at the projection (an upper bound
+of the distance to the planned TCP path, equal to it to first order). Both peaks are kept for summary.json.
+A deviation above the tolerance trips the supervision once; the streamer then stops along the path.
+
+While the stop runs, a deviation that keeps growing (:data:`GROWTH`, :data:`GROWTH_CYCLES`) means a loop
+that pushes the arm away: the streamer then streams the shaped stop alone (:meth:`Streamer.stop`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..control.kernels import evaluate_at
+from ..control.path_table import PathTable
+from ..simulation.monitor import monitor_state
+
+#: During a stop, the deviation counts as growing when it is above this multiple of its value when the stop
+#: began [-] ...
+GROWTH = 1.5
+#: ... and has grown in this many consecutive messages (not a single noisy sample) [-].
+GROWTH_CYCLES = 5
+
+
+@dataclass
+class Excursion:
+    """Where the supervision saw the arm: time t [s, robot clock from the first message], theta (the
+    projection), joint deviation [rad], TCP distance [m]."""
+
+    t: float = 0.0
+    theta: float = 0.0
+    deviation: float = 0.0
+    tcp: float = 0.0
+
+
+class PathSupervision:
+    """The reported arm against the path of ``path`` (a JointPath) for ``robot``; ``tolerance`` [rad]: the
+    largest joint deviation max_j |q_hat - Phi(theta)| before the supervision trips."""
+
+    def __init__(self, robot, path, tolerance: float):
+        table = PathTable.from_path(path)
+        self.arrays, self.projection = table.arrays, table.projection()
+        self.speed2_eps = 0.0
+        self.tolerance = float(tolerance)
+        self.model, self.data, self.frame = robot.model, robot.model.createData(), robot.tcp_frame_id
+        self.theta = float(path.domain[0])
+        self._zero, self._unbounded = np.zeros(path.n), np.full(path.n, np.inf)
+        self.last = Excursion(theta=self.theta)
+        self.peak = Excursion(theta=self.theta)
+        self.peak_tcp = 0.0
+        self.tripped: Excursion | None = None
+        self._growing, self._baseline, self._previous = 0, None, 0.0
+
+    def _tcp(self, q: np.ndarray) -> np.ndarray:
+        pin.forwardKinematics(self.model, self.data, q)
+        return pin.updateFramePlacement(self.model, self.data, self.frame).translation.copy()
+
+    def check(self, reported: np.ndarray, deflection: np.ndarray, t: float) -> bool:
+        """One robot message at robot time t [s]: reported (n,) motor-side joints [rad], deflection (n,) the
+        planned gear deflection [rad]. True the first time the deviation is above the tolerance."""
+        q_hat = np.asarray(reported, float) - deflection
+        theta, _, deviation, _, _, _ = monitor_state(self.arrays, q_hat, self._zero, self.theta, self.projection,
+                                                     self._unbounded, self.speed2_eps)
+        self.theta = theta
+        phi = evaluate_at(self.arrays, theta)[0]
+        tcp = float(np.linalg.norm(self._tcp(q_hat) - self._tcp(phi)))
+        self.last = Excursion(t, theta, float(deviation), tcp)
+        if deviation > self.peak.deviation:
+            self.peak = self.last
+        self.peak_tcp = max(self.peak_tcp, tcp)
+        if self.tripped is None and deviation > self.tolerance:
+            self.tripped = self.last
+            return True
+        return False
+
+    def diverging(self) -> bool:
+        """Called once per message while a stop runs: the deviation has kept growing since the first call
+        (see :data:`GROWTH`)."""
+        dev = self.last.deviation
+        if self._baseline is None:
+            self._baseline, self._previous = dev, dev
+            return False
+        self._growing = self._growing + 1 if dev > self._previous else 0
+        self._previous = dev
+        return dev > GROWTH * self._baseline and self._growing >= GROWTH_CYCLES
+
+    def reason(self) -> str:
+        """The stop's reason once tripped: how far, where, the tolerance."""
+        e = self.tripped
+        return (f"the arm left the path: joint deviation {e.deviation:.4g} rad (TCP {e.tcp * 1e3:.4g} mm from the "
+                f"path) at theta = {e.theta:.6g}, t = {e.t:.4g} s; tolerance {self.tolerance:.4g} rad "
+                "(simulate.joint_tolerance)")
+
+    def figures(self) -> dict:
+        """summary.json's supervision figures (SI units)."""
+        p = self.peak
+        return {"path_deviation_tolerance_rad": self.tolerance, "peak_path_deviation_rad": p.deviation,
+                "peak_path_deviation_t_s": p.t, "peak_path_deviation_theta": p.theta,
+                "peak_path_deviation_tcp_m": self.peak_tcp}
