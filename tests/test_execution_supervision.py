@@ -2,7 +2,8 @@
 loop diverging at corner_g2's corner with rigid gears) trips it, the stop runs along the path with the loop
 switched off and ends on the path (without the supervision the arm ends hundreds of millimetres away), and
 summary.json records why; its deviation is checked against a dense search of the path; normal runs
-(circle_smooth, corner_g2 with shaping, rigid and elastic gears) never trip it; the CLI exits 4."""
+(circle_smooth, corner_g2 with shaping, rigid and elastic gears) never trip it; a resume arms it again; the CLI
+exits 4."""
 
 from __future__ import annotations
 
@@ -132,3 +133,34 @@ def test_cli_execute_exits_4_when_the_arm_leaves_the_path(tmp_path):
     assert summary["ended"].startswith("the arm left the path") and "0.0002 rad" in summary["ended"]
     assert summary["peak_path_deviation_rad"] > summary["path_deviation_tolerance_rad"] == 0.0002
     assert (tmp_path / "run" / "execution.csv").is_file()
+
+
+def test_the_supervision_rearms_on_resume():
+    """Reported joints 0.1 rad off the path after the start: a stop; at rest, 'resume' arms it again and the same
+    deviation stops the motion again."""
+    from egm_support import planned
+    from pathmotion.execution.messages import encode_robot
+
+    robot, result, drives = planned(irb140_task("egm_short", line([0.45, -0.03, 0.5], [0.45, 0.03, 0.5])))
+    st = make_streamer(robot, result, "shaping", drives)
+    start = st.table.q[0]
+    off = start + np.array([0, 0, 0.1, 0, 0, 0])
+    k = 0
+
+    def send(q, cycles):
+        nonlocal k
+        for _ in range(cycles):
+            st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
+            k += 1
+
+    send(start, 5)
+    assert st.stop_reason is None
+    send(off, 1)
+    first = st.stop_reason
+    assert first.startswith("the arm left the path") and not st.supervision.armed
+    send(off, int((st.segment.duration + 0.1) / 0.004))  # the stop runs to rest
+    st.resume()
+    assert st.stop_reason is None and st.supervision.armed
+    send(off, 1)
+    assert st.stop_reason.startswith("the arm left the path") and st.stop_reason != first
+    assert st.supervision.reason() == first  # summary.json and the CLI report the first trip

@@ -157,6 +157,8 @@ class Streamer:
             return
         if self._switch("resume", self.override_scale):
             self.stop_reason = None
+            if self.supervision is not None:
+                self.supervision.rearm()
 
     def _supervise(self, reported: np.ndarray, deflection: np.ndarray) -> bool:
         """Supervise the reported joints; True when a stop began (the segment changed). A diverging orbital loop
@@ -164,11 +166,11 @@ class Streamer:
         s = self.supervision
         if s.check(reported, deflection, self._now):
             if self.stop_reason is None:
-                self.stop(s.reason())
+                self.stop(s.reason(s.last))
                 return True
-            log.warning("during the stop: %s", s.reason())
-            self.stop_reason = s.reason()
-        elif self.loop is not None and s.tripped is not None and self.stop_reason is not None and s.diverging():
+            log.warning("during the stop: %s", s.reason(s.last))
+            self.stop_reason = s.reason(s.last)
+        elif self.loop is not None and not s.armed and self.stop_reason is not None and s.diverging():
             log.warning("the path deviation keeps growing during the stop (%.4g rad): the orbital correction is "
                         "switched off, the shaped stop alone is streamed", s.last.deviation)
             self.loop = None

@@ -7,7 +7,8 @@ the controller's local projection, kinks included), which gives theta_hat and th
 max_j |q_hat - Phi(theta_hat)| [rad], the quantity simulate's ``joint_tolerance`` rule judges; the TCP
 distance [m] is that of FK(q_hat) from FK(Phi(theta_hat)), the planned TCP at the projection (an upper bound
 of the distance to the planned TCP path, equal to it to first order). Both peaks are kept for summary.json.
-A deviation above the tolerance trips the supervision once; the streamer then stops along the path.
+A deviation above the tolerance trips the supervision; the streamer then stops along the path, and the
+supervision is armed again when the motion resumes from that stop (the first trip is what summary.json reports).
 
 While the stop runs, a deviation that keeps growing (:data:`GROWTH`, :data:`GROWTH_CYCLES`) means a loop
 that pushes the arm away: the streamer then streams the shaped stop alone (:meth:`Streamer.stop`).
@@ -58,7 +59,13 @@ class PathSupervision:
         self.peak = Excursion(theta=self.theta)
         self.peak_tcp = 0.0
         self.tripped: Excursion | None = None
+        self.armed = True
         self._growing, self._baseline, self._previous = 0, None, 0.0
+
+    def rearm(self) -> None:
+        """Supervise again (the motion resumes after a stop)."""
+        self.armed = True
+        self._growing, self._baseline = 0, None
 
     def _tcp(self, q: np.ndarray) -> np.ndarray:
         pin.forwardKinematics(self.model, self.data, q)
@@ -66,7 +73,8 @@ class PathSupervision:
 
     def check(self, reported: np.ndarray, deflection: np.ndarray, t: float) -> bool:
         """One robot message at robot time t [s]: reported (n,) motor-side joints [rad], deflection (n,) the
-        planned gear deflection [rad]. True the first time the deviation is above the tolerance."""
+        planned gear deflection [rad]. True when the deviation is above the tolerance while armed (which
+        disarms it)."""
         q_hat = np.asarray(reported, float) - deflection
         theta, _, deviation, _, _, _ = monitor_state(self.arrays, q_hat, self._zero, self.theta, self.projection,
                                                      self._unbounded, self.speed2_eps)
@@ -77,8 +85,9 @@ class PathSupervision:
         if deviation > self.peak.deviation:
             self.peak = self.last
         self.peak_tcp = max(self.peak_tcp, tcp)
-        if self.tripped is None and deviation > self.tolerance:
-            self.tripped = self.last
+        if self.armed and deviation > self.tolerance:
+            self.armed = False
+            self.tripped = self.tripped or self.last
             return True
         return False
 
@@ -93,9 +102,9 @@ class PathSupervision:
         self._previous = dev
         return dev > GROWTH * self._baseline and self._growing >= GROWTH_CYCLES
 
-    def reason(self) -> str:
-        """The stop's reason once tripped: how far, where, the tolerance."""
-        e = self.tripped
+    def reason(self, e: Excursion | None = None) -> str:
+        """A stop's reason: how far, where (``e``, default the first trip), the tolerance."""
+        e = e or self.tripped
         return (f"the arm left the path: joint deviation {e.deviation:.4g} rad (TCP {e.tcp * 1e3:.4g} mm from the "
                 f"path) at theta = {e.theta:.6g}, t = {e.t:.4g} s; tolerance {self.tolerance:.4g} rad "
                 "(simulate.joint_tolerance)")
