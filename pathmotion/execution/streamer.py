@@ -166,13 +166,13 @@ class Streamer:
         s = self.supervision
         if s.check(reported, deflection, self._now):
             if self.stop_reason is None:
-                self.stop(s.reason(s.last))
+                self.stop(s.reason(s.trip))
                 return True
-            log.warning("during the stop: %s", s.reason(s.last))
-            self.stop_reason = s.reason(s.last)
+            log.warning("during the stop: %s", s.reason(s.trip))
+            self.stop_reason = s.reason(s.trip)
         elif self.loop is not None and not s.armed and self.stop_reason is not None and s.diverging():
             log.warning("the path deviation keeps growing during the stop (%.4g rad): the orbital correction is "
-                        "switched off, the shaped stop alone is streamed", s.last.deviation)
+                        "switched off, the shaped stop alone is streamed", s.deviation)
             self.loop = None
         return False
 

@@ -16,6 +16,7 @@ that pushes the arm away: the streamer then streams the shaped stop alone (:meth
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,10 +56,11 @@ class PathSupervision:
         self.model, self.data, self.frame = robot.model, robot.model.createData(), robot.tcp_frame_id
         self.theta = float(path.domain[0])
         self._zero, self._unbounded = np.zeros(path.n), np.full(path.n, np.inf)
-        self.last = Excursion(theta=self.theta)
+        self.deviation, self.tcp = 0.0, 0.0  # of the last message [rad], [m]
         self.peak = Excursion(theta=self.theta)
         self.peak_tcp = 0.0
-        self.tripped: Excursion | None = None
+        self.tripped: Excursion | None = None  # the first trip
+        self.trip: Excursion | None = None  # the latest
         self.armed = True
         self._growing, self._baseline, self._previous = 0, None, 0.0
 
@@ -68,33 +70,37 @@ class PathSupervision:
         self._growing, self._baseline = 0, None
 
     def _tcp(self, q: np.ndarray) -> np.ndarray:
+        """The TCP position (3,) [m] at q (a view into the model data: the next call overwrites it)."""
         pin.forwardKinematics(self.model, self.data, q)
-        return pin.updateFramePlacement(self.model, self.data, self.frame).translation.copy()
+        return pin.updateFramePlacement(self.model, self.data, self.frame).translation
 
     def check(self, reported: np.ndarray, deflection: np.ndarray, t: float) -> bool:
         """One robot message at robot time t [s]: reported (n,) motor-side joints [rad], deflection (n,) the
         planned gear deflection [rad]. True when the deviation is above the tolerance while armed (which
         disarms it)."""
-        q_hat = np.asarray(reported, float) - deflection
+        q_hat = reported - deflection
         theta, _, deviation, _, _, _ = monitor_state(self.arrays, q_hat, self._zero, self.theta, self.projection,
                                                      self._unbounded, self.speed2_eps)
         self.theta = theta
-        phi = evaluate_at(self.arrays, theta)[0]
-        tcp = float(np.linalg.norm(self._tcp(q_hat) - self._tcp(phi)))
-        self.last = Excursion(t, theta, float(deviation), tcp)
+        gap = self._tcp(q_hat).copy()
+        gap -= self._tcp(evaluate_at(self.arrays, theta)[0])
+        tcp = math.sqrt(gap @ gap)
+        self.deviation, self.tcp = deviation, tcp
         if deviation > self.peak.deviation:
-            self.peak = self.last
-        self.peak_tcp = max(self.peak_tcp, tcp)
+            self.peak = Excursion(t, theta, deviation, tcp)
+        if tcp > self.peak_tcp:
+            self.peak_tcp = tcp
         if self.armed and deviation > self.tolerance:
             self.armed = False
-            self.tripped = self.tripped or self.last
+            self.trip = Excursion(t, theta, deviation, tcp)
+            self.tripped = self.tripped or self.trip
             return True
         return False
 
     def diverging(self) -> bool:
         """Called once per message while a stop runs: the deviation has kept growing since the first call
         (see :data:`GROWTH`)."""
-        dev = self.last.deviation
+        dev = self.deviation
         if self._baseline is None:
             self._baseline, self._previous = dev, dev
             return False
