@@ -63,6 +63,9 @@ class PathSupervision:
         self.trip: Excursion | None = None  # the latest
         self.armed = True
         self._growing, self._baseline, self._previous = 0, None, 0.0
+        # the compiled kernels load (or compile) now, not at the first robot message
+        monitor_state(self.arrays, evaluate_at(self.arrays, self.theta)[0], self._zero, self.theta, self.projection,
+                      self._unbounded, self.speed2_eps)
 
     def rearm(self) -> None:
         """Supervise again (the motion resumes after a stop)."""
