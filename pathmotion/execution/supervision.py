@@ -11,7 +11,8 @@ A deviation above the tolerance trips the supervision; the streamer then stops a
 supervision is armed again when the motion resumes from that stop (the first trip is what summary.json reports).
 
 While the stop runs, a deviation that keeps growing (:data:`GROWTH`, :data:`GROWTH_CYCLES`) means a loop
-that pushes the arm away: the streamer then streams the shaped stop alone (:meth:`Streamer.stop`).
+that pushes the arm away: the streamer then switches the orbital correction off and streams the shaped stop
+alone (:class:`.streamer.Streamer`).
 """
 
 from __future__ import annotations
