@@ -154,9 +154,10 @@ def refine_reference(robot: Robot, drives: DriveParameters, table: ReferenceTabl
     costs = [cost(q)]
     if iterations <= 0 or costs[0] <= tolerance:
         return table, costs
-    # the start: the analytic shaping, or the shaped motion sent as it is if the nominal arm follows its path
-    # better (the analytic feed-forward asks the motors for more than their torque where the plan runs at it)
-    base = lowpass(table.plan - table.q, lowpass_alpha(drives), max(1, int(round(dt / (table.t[1] - table.t[0])))))
+    # the start: the analytic shaping, or its plain form (the motion plus the gear deflection: no lead, no
+    # low-pass inverse) if the nominal arm follows the path better so (the analytic feed-forward asks the
+    # motors for more than their torque where the plan runs at it)
+    base = lowpass(table.plan + table.deflection - table.q, lowpass_alpha(drives), max(1, int(round(dt / (table.t[1] - table.t[0])))))
     plain = motor_correction(table, base, drives, robot)
     q_plain = run_nominal(robot, drives, plain, outputs)
     best = table
