@@ -6,12 +6,14 @@
     m(t) = q(t) + K^-1 tau_g(t)             the motor position that bends each elastic gear by its load
                                             (tau_g: the link-side torque of the plan, rotors excluded)
     m(t + L)                                lead by the transport delay L (whole EGM cycles; on a run's
-                                            first segment L grows from 0 over the delay: it starts at rest)
+                                            first segment L grows from 0 along a smoothstep: it starts at rest)
     p_k = (m_k - (1 - a) m_(k-1)) / a       the exact inverse of EGM's first-order low-pass (a per cycle)
 
 and the same for the speed reference. A second-order plan (steps in acceleration, which no motor passes
 through a spring) is first shaped in the path coordinate for the lowest locked-motor gear mode
-(:func:`path_motion`). Every reference is clipped into the joint limits (position and speed).
+(:func:`path_motion`). Every reference is clipped into the joint limits (position and speed). refine.py then
+learns a motor-side correction (added to m before the low-pass inverse, :func:`motor_correction`) on the
+nominal drive model; a re-timed segment carries the correction of the one it leaves and fades it out.
 """
 
 from __future__ import annotations

@@ -3,25 +3,28 @@
 The analytic shaping (reference.py) inverts the known dynamics one piece at a time; what it leaves (the servo's
 finite stiffness against the gear reaction, the speed-deviation clamp, the cycle-rate staircase of the servo
 reference, the coupling between axes) shows when the nominal arm (:class:`.drives.VirtualArm`: the
-controller's robot model, the built-in plant, lockstep) runs the table. The refinement adds a motor-side
-correction u (N, n) [rad] on the EGM cycle grid (its first sample 0: the first reference stays the robot's
-start) to the shaped motor position m before the low-pass inverse, so that sent = shaped + P u with
+controller's robot model, the built-in plant, lockstep) runs the table. The refinement holds the table
+``EGM_REFINE_TAIL`` past its end and adds a motor-side correction u (N, n) [rad] on the EGM cycle grid (its
+first sample 0: the first reference stays the robot's start) to the shaped motor position m before the
+low-pass inverse, so that sent = shaped + P u with
 
     P u = lowpass^-1(u) on position, lowpass^-1(du/dt) on the speed reference (linear between cycles).
 
-Iteration j runs the arm, takes the link-side error e_j(k) = q_plan((k + 1) dt) - q_j(k) against the
-reference's own (shaped) motion at the same plan time, and takes the norm-optimal step per axis i
+Iteration j runs the arm and takes the link-side error against the reference's own (shaped) motion at the same
+plan time, e_j(k) = q_plan((k + 1) dt) - q_j(k), weighted per joint by how far it moves the TCP, less its
+component along the path's tangent (path accuracy is a distance from the path, not a lag; at rest at the
+path's end all of it counts). The norm-optimal step per axis i is
 
     u_(j+1),i = u_j,i + s (G_i^T G_i + g (lambda I + mu D^T D))^-1 G_i^T e_j,i
 
 (g = max diag G_i^T G_i, lambda = EGM_REFINE_REGULARIZATION, mu = EGM_REFINE_SMOOTHING, D the first difference:
-a smooth correction, whose speed reference stays well inside the joint speed limits)
-
-with G_i the lower-triangular Toeplitz matrix of axis i's response to one cycle's unit correction, measured
-on the same arm at rest at the start (linear: no torque limit active). Of the steps s in STEPS, the one with
-the least TCP-weighted RMS error is taken if that error falls; no fall ends the iterations, so the error the
-refinement returns never exceeds the analytic shaping's. The wrist axes' and the coupling terms the
-diagonal model misses are what the next iteration sees.
+a smooth correction, whose speed reference stays well inside the joint speed limits) with G_i the
+lower-triangular Toeplitz matrix of axis i's response to one cycle's unit correction, measured on the same arm
+at rest at the start (linear: no torque limit active). Of the steps s in STEPS, the one with the least RMS
+transverse error is taken if that error falls; no fall ends the iterations, so the error the refinement
+returns never exceeds its start's. The start is the analytic table, or its plain form (the shaped motion plus
+the gear deflection, no lead and no low-pass inverse) when the nominal arm follows the path better with it.
+The wrist axes' and the coupling terms the diagonal model misses are what the next iteration sees.
 """
 
 from __future__ import annotations
@@ -157,7 +160,8 @@ def refine_reference(robot: Robot, drives: DriveParameters, table: ReferenceTabl
     # the start: the analytic shaping, or its plain form (the motion plus the gear deflection: no lead, no
     # low-pass inverse) if the nominal arm follows the path better so (the analytic feed-forward asks the
     # motors for more than their torque where the plan runs at it)
-    base = lowpass(table.plan + table.deflection - table.q, lowpass_alpha(drives), max(1, int(round(dt / (table.t[1] - table.t[0])))))
+    per = max(1, int(round(dt / (table.t[1] - table.t[0]))))
+    base = lowpass(table.plan + table.deflection - table.q, lowpass_alpha(drives), per)
     plain = motor_correction(table, base, drives, robot)
     q_plain = run_nominal(robot, drives, plain, outputs)
     best = table
@@ -172,7 +176,8 @@ def refine_reference(robot: Robot, drives: DriveParameters, table: ReferenceTabl
     for gi in g:
         gram = gi.T @ gi
         scale = max(float(np.max(np.diag(gram))), 1e-12)
-        penalty = scale * (defaults.EGM_REFINE_REGULARIZATION * np.eye(inputs) + defaults.EGM_REFINE_SMOOTHING * diff.T @ diff)
+        penalty = scale * (defaults.EGM_REFINE_REGULARIZATION * np.eye(inputs)
+                           + defaults.EGM_REFINE_SMOOTHING * diff.T @ diff)
         solve.append(np.linalg.solve(gram + penalty, gi.T))
     u = np.zeros((inputs, robot.n))
     for _ in range(iterations):

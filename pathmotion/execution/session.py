@@ -60,7 +60,7 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
     # shaper for every segment of the run, so that a re-timed segment continues the references sent. Without
     # elastic gears its period is the position loop's time constant 1 / Kp: the acceleration steps, fed
     # forward as torque steps at the plan's torque limits, would saturate the motors
-    period = 0.0 if plan_result.profile.smooth else (gear_period(robot, drives, start) or 1.0 / drives.position_gain)
+    period = 0.0 if plan_result.profile.smooth else gear_period(robot, drives, start) or 1.0 / drives.position_gain
 
     def retime(kind: str, state: tuple, override: float, previous, offset: float):
         if kind == "stop":
