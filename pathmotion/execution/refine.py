@@ -44,7 +44,7 @@ from .reference import ReferenceTable, lowpass, lowpass_alpha, motor_correction
 log = logging.getLogger(__name__)
 
 #: The step sizes tried along each iteration's update (the best one that lowers the error is taken).
-STEPS = (1.0, 0.5)
+STEPS = (1.0,)
 
 
 def run_nominal(robot: Robot, drives: DriveParameters, table: ReferenceTable, cycles: int) -> np.ndarray:
