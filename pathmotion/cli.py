@@ -687,7 +687,9 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
             correction: str = typer.Option("shaping", help="none | shaping (pre-compensate the drives and EGM) | orbital (shaping + transverse loop)"),
             drives: Optional[Path] = typer.Option(None, help="drive file (default: the robot's shipped one)"),
             start_tolerance: float = typer.Option(defaults.EGM_START_TOLERANCE, help="largest distance \\[rad] of "
-                                                  "the robot's joints from the plan's start")):
+                                                  "the robot's joints from the plan's start"),
+            refine: int = typer.Option(defaults.EGM_REFINE_ITERATIONS, help="learning iterations refining the shaped "
+                                       "references on the nominal drive model before streaming (0: analytic shaping)")):
     """Plan (or read the plan folder pathmotion plan wrote), then stream the motion to an ABB controller over EGM
     (answer each EgmRobot with an EgmSensor); stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
     Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130), and so does an arm farther from the path than
@@ -705,8 +707,10 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
         setup, result, params = _egm_setup(scenario, set_, drives)
         if not 0.0 <= start_tolerance < float("inf"):
             _fail(f"--start-tolerance {start_tolerance!r}: give a distance >= 0 in rad")
+        if refine < 0:
+            _fail(f"--refine {refine!r}: give a number of iterations >= 0")
         streamer = make_streamer(setup.robot, result, correction, params, tolerance=start_tolerance,
-                                 path_tolerance=setup.scenario.simulate.joint_tolerance)
+                                 path_tolerance=setup.scenario.simulate.joint_tolerance, refine=refine)
         sock = open_listener(egm)
         commands, interrupted = _stdin_commands(), False
         try:

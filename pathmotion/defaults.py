@@ -397,6 +397,28 @@ EGM_MAX_DATAGRAM = 65536
 #: EGM: the reference is tabulated on this time step before streaming (linear interpolation between
 #: samples: error qdd dt^2 / 8, ~1e-6 rad at 10 rad/s^2) [s].
 EGM_TABLE_STEP = 0.001
+#: EGM, --correction shaping: on a run's first segment the lead by the transport delay grows from 0 over this
+#: many transport delays (the references run up to 1 + 1.5 / this times the motion's pace meanwhile).
+EGM_LEAD_CATCH_UP = 1.0
+#: EGM, --correction shaping/orbital: learning iterations refining the plan's references on the nominal arm
+#: before streaming (execution/refine.py; 0: the analytic shaping alone), and the TCP RMS error [m] that ends
+#: them early.
+EGM_REFINE_ITERATIONS = 4
+EGM_REFINE_TOLERANCE = 1e-5
+#: EGM refinement: the error counted this long [s] after the table's end (the arm settling), the response
+#: model's length [s], its regularisation and its smoothness weight (both relative to the largest diagonal
+#: of G^T G).
+EGM_REFINE_TAIL = 0.15
+EGM_REFINE_SETTLE = 0.05
+EGM_REFINE_HORIZON = 0.3
+EGM_REFINE_REGULARIZATION = 1e-2
+EGM_REFINE_SMOOTHING = 1.0
+#: EGM refinement: each joint's error counts by the TCP's motion per radian of it, at least this fraction of the
+#: largest (a wrist axis through the TCP still counts).
+EGM_REFINE_WEIGHT_FLOOR = 0.05
+#: EGM refinement: a re-timed segment (stop, override, resume) fades the correction out over this long [s]
+#: (about the IRB 140's slowest gear period).
+EGM_REFINE_FADE = 0.05
 #: EGM, --correction orbital: the phase [rad] the drives' lag takes at the transverse integral loop's crossover
 #: (0.25 rad: the loop's bandwidth a quarter of what the lag allows, so that it follows slow errors only);
 #: the gain per cycle follows from the drive file's lag (execution/orbital.py, loop_gain): 0.05 on the IRB 140.

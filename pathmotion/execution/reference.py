@@ -6,17 +6,19 @@
     m(t) = q(t) + K^-1 tau_g(t)             the motor position that bends each elastic gear by its load
                                             (tau_g: the link-side torque of the plan, rotors excluded)
     m(t + L)                                lead by the transport delay L (whole EGM cycles; on a run's
-                                            first segment L grows from 0 over the delay: it starts at rest)
+                                            first segment L grows from 0 along a smoothstep: it starts at rest)
     p_k = (m_k - (1 - a) m_(k-1)) / a       the exact inverse of EGM's first-order low-pass (a per cycle)
 
 and the same for the speed reference. A second-order plan (steps in acceleration, which no motor passes
 through a spring) is first shaped in the path coordinate for the lowest locked-motor gear mode
-(:func:`path_motion`). Every reference is clipped into the joint limits (position and speed).
+(:func:`path_motion`). Every reference is clipped into the joint limits (position and speed). refine.py then
+learns a motor-side correction (added to m before the low-pass inverse, :func:`motor_correction`) on the
+nominal drive model; a re-timed segment carries the correction of the one it leaves and fades it out.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
@@ -34,7 +36,9 @@ class ReferenceTable:
     and plan (K, n) (the plan's own joints, for the record); deflection (K, n) [rad]: the gear deflection
     the shaping planned at each time (0 without shaping); duration [s]; path: the motion's JointPath; raw:
     the :class:`RawMotion` the references follow (time 0 = its profile's first point); motion (K, 3): theta,
-    theta_dot, theta_ddot of the references (the raw motion's, averaged when shaped)."""
+    theta_dot, theta_ddot of the references (the raw motion's, averaged when shaped); correction (K, n) [rad]
+    or None: the motor-side correction added before the low-pass inverse (refine.py's, or its fade-out on a
+    re-timed segment)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -46,6 +50,7 @@ class ReferenceTable:
     path: object = None
     raw: object = None
     motion: np.ndarray | None = None
+    correction: np.ndarray | None = None
 
     @property
     def end(self) -> float:
@@ -56,6 +61,12 @@ class ReferenceTable:
         """(theta, theta_dot, theta_ddot) of the raw motion at plan time tau [s]: a re-timing starts there."""
         th, thd, thdd = self.raw.state(np.array([max(tau, 0.0)]))
         return float(th[0]), max(float(thd[0]), 0.0), float(thdd[0])
+
+    def correction_at(self, tau: np.ndarray) -> np.ndarray:
+        """The motor-side correction (K', n) [rad] at plan times tau (K',) (held beyond the table's ends)."""
+        if self.correction is None:
+            return np.zeros((len(tau), self.q.shape[1]))
+        return np.stack([np.interp(tau, self.t, c) for c in self.correction.T], axis=1)
 
     def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
         """(q, qd, plan q, theta, deflection) at plan time tau (clipped to [0, end]), linearly interpolated."""
@@ -78,6 +89,22 @@ def gear_deflection(robot: Robot, drives: DriveParameters, q, qd, qdd) -> np.nda
     if robot.limits.armature is not None:
         tau = tau - qdd * np.asarray(robot.limits.armature, float)  # the link side only
     return np.where(elastic, tau / np.where(elastic, drives.stiffness, 1.0), 0.0)
+
+
+def lowpass_alpha(drives: DriveParameters) -> float:
+    """EGM's first-order low-pass per cycle: p_f += alpha (p - p_f)."""
+    return 1.0 - float(np.exp(-2.0 * np.pi * drives.lowpass_bandwidth * drives.cycle))
+
+
+def lowpass(x: np.ndarray, alpha: float, per: int) -> np.ndarray:
+    """EGM's low-pass of x (K, n) at the cycle (``per`` table steps per cycle), at rest at x[0] before; the
+    exact inverse of :func:`_invert_lowpass`."""
+    y = np.empty_like(x)
+    prev = np.repeat(x[:1], per, axis=0)
+    for k in range(0, len(x), per):
+        y[k:k + per] = prev[:len(x[k:k + per])] + alpha * (x[k:k + per] - prev[:len(x[k:k + per])])
+        prev = y[k:k + per]
+    return y
 
 
 def _invert_lowpass(x: np.ndarray, alpha: float, per: int) -> np.ndarray:
@@ -159,21 +186,54 @@ def path_motion(raw: RawMotion, t: np.ndarray, period: float) -> tuple[np.ndarra
     return tuple(0.5 * (a + b) for a, b in zip(first, second))
 
 
-def _lead_rows(k: np.ndarray, start: int, ahead: int, first: bool) -> np.ndarray:
-    """Rows of the motion each table row k (K,) sends: ``ahead`` rows later; on the first segment of a run
-    (``first``) the lead grows from 0 at row ``start`` (time 0) to ``ahead``, so that the first reference is
-    the robot's start and the lead is caught up over the transport delay at twice the motion's pace."""
-    lead = np.clip(k - start, 0, ahead) if first else np.full_like(k, ahead)
-    return np.minimum(k + lead, len(k) - 1)
+def _lead_rows(k: np.ndarray, start: int, ahead: int, first: bool, catch_up: int) -> np.ndarray:
+    """Fractional rows (K,) of the motion each table row k (K,) sends: ``ahead`` rows later; on the first
+    segment of a run (``first``) the lead grows from 0 at row ``start`` (time 0) to ``ahead`` over ``catch_up``
+    rows along a smoothstep (its pace at most 1 + 1.5 ahead / catch_up times the motion's), so that the first
+    reference is the robot's start and the catching up adds little acceleration."""
+    if not first:
+        lead = np.full(len(k), float(ahead))
+    else:
+        s = np.clip((k - start) / max(catch_up, 1), 0.0, 1.0)
+        lead = ahead * s * s * (3.0 - 2.0 * s)
+    return np.minimum(k + lead, len(k) - 1.0)
+
+
+def _rows_at(x: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """x (K, n) at fractional rows (K',), linearly interpolated."""
+    i = np.minimum(np.floor(rows).astype(int), len(x) - 2) if len(x) > 1 else np.zeros(len(rows), int)
+    w = (rows - i)[:, None] if len(x) > 1 else 0.0
+    return x[i] + w * (x[np.minimum(i + 1, len(x) - 1)] - x[i])
+
+
+def _fade(t: np.ndarray, width: float) -> np.ndarray:
+    """1 up to time 0, a half cosine down to 0 at ``width`` [s], 0 after (K,)."""
+    return 0.5 * (1.0 + np.cos(np.pi * np.clip(t / width, 0.0, 1.0)))
+
+
+def motor_correction(table: ReferenceTable, dm: np.ndarray, drives: DriveParameters, robot: Robot) -> ReferenceTable:
+    """The table with the motor-side correction dm (K, n) [rad] at its rows (0 at its first row) added before
+    the low-pass inverse, on position and (its derivative) speed, clipped into the joint limits."""
+    step = table.t[1] - table.t[0]
+    per = max(1, int(round(drives.cycle / step)))
+    alpha = lowpass_alpha(drives)
+    lim = robot.limits
+    q = np.clip(table.q + _invert_lowpass(dm, alpha, per), lim.lower, lim.upper)
+    qd = np.clip(table.qd + _invert_lowpass(np.gradient(dm, step, axis=0), alpha, per), -lim.velocity, lim.velocity)
+    return replace(table, q=q, qd=qd, correction=dm)
 
 
 def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: DriveParameters | None,
-                    step: float = defaults.EGM_TABLE_STEP, period: float = 0.0, first: bool = False) -> ReferenceTable:
+                    step: float = defaults.EGM_TABLE_STEP, period: float = 0.0, first: bool = False,
+                    carried: tuple | None = None) -> ReferenceTable:
     """The table of references for the raw motion ``raw`` along ``path`` in ``mode`` (one of MODES); with
     shaping, the motion shaped in the path coordinate for a gear mode of ``period`` [s] (see
     :func:`path_motion`). The table starts one EGM cycle early (the raw motion before 0 is what ran before),
     so that the low-pass inverse at its first row continues the references already sent; ``first``: the
-    run's first segment, from rest (its first reference is then the start, see :func:`_lead_rows`)."""
+    run's first segment, from rest (its first reference is then the start, see :func:`_lead_rows`);
+    ``carried``: (the previous table, the plan time of the switch in it): its motor-side correction continues
+    and fades out over ``defaults.EGM_REFINE_FADE`` (a re-timed segment is built within a cycle, unrefined;
+    the fade keeps the sent reference continuous)."""
     period = period if mode != "none" else 0.0
     duration = raw.duration + shaper_support(period)
     lead = 0.0 if mode == "none" else drives.transport_delay
@@ -184,16 +244,24 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     qd = dq * theta_dot[:, None]
     deflection = np.zeros_like(q)
     sent_q, sent_qd = q, qd
+    correction = None
     if mode != "none":
         qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
         deflection = gear_deflection(robot, drives, q, qd, qdd)
-        m = (q + deflection)[_lead_rows(np.arange(len(t)), per, int(round(lead / step)), first)]
+        ahead = int(round(lead / step))
+        catch_up = int(round(defaults.EGM_LEAD_CATCH_UP * ahead))
+        m = _rows_at(q + deflection, _lead_rows(np.arange(len(t)), per, ahead, first, catch_up))
         md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
-        alpha = 1.0 - np.exp(-2.0 * np.pi * drives.lowpass_bandwidth * drives.cycle)
+        if carried is not None and carried[0].correction is not None:
+            correction = carried[0].correction_at(t + carried[1]) * _fade(t, defaults.EGM_REFINE_FADE)[:, None]
+            m = m + correction
+            md = md + np.gradient(correction, step, axis=0)
+        alpha = lowpass_alpha(drives)
         sent_q, sent_qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)
     lim = robot.limits
     sent_q = np.clip(sent_q, lim.lower, lim.upper)[per:]
     sent_qd = np.clip(sent_qd, -lim.velocity, lim.velocity)[per:]
     cut = slice(per, None)
     return ReferenceTable(t[cut] - t[per], sent_q, sent_qd, theta[cut], q[cut], duration, deflection[cut], path, raw,
-                          np.stack([theta, theta_dot, theta_ddot], axis=1)[cut])
+                          np.stack([theta, theta_dot, theta_ddot], axis=1)[cut],
+                          None if correction is None else correction[cut])

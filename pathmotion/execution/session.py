@@ -23,6 +23,7 @@ from .figures import execution_figures
 from .messages import decode_sensor, encode_robot
 from .orbital import TransverseLoop, loop_gain
 from .reference import MODES, RawMotion, build_reference, gear_period
+from .refine import refine_reference
 from .streamer import Streamer
 from .supervision import PathSupervision
 
@@ -43,10 +44,13 @@ def _stop(retimer: Retimer, state: tuple) -> Profile:
 
 def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
                   tolerance: float = defaults.EGM_START_TOLERANCE,
-                  path_tolerance: float | None = defaults.JOINT_TOLERANCE) -> Streamer:
-    """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; stops, overrides and
-    resumes re-timed by the plan's Retimer; ``path_tolerance`` [rad]: the path supervision's joint deviation
-    (None: no supervision)."""
+                  path_tolerance: float | None = defaults.JOINT_TOLERANCE,
+                  refine: int = defaults.EGM_REFINE_ITERATIONS) -> Streamer:
+    """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; with shaping (and orbital)
+    the plan's table refined by at most ``refine`` iterations on the nominal arm (refine.py; 0: the analytic
+    shaping alone); stops, overrides and resumes re-timed by the plan's Retimer (analytic, the refinement's
+    correction faded out); ``path_tolerance`` [rad]: the path supervision's joint deviation (None: no
+    supervision)."""
     if mode not in MODES:
         raise ExecutionError(f"--correction {mode!r}: choose one of {', '.join(MODES)}")
     try:
@@ -56,19 +60,24 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
     path = plan_result.trajectory.path
     start = plan_result.trajectory.at_time([0.0]).q[0]
     # the shaper makes a second-order plan's acceleration continuous (a jerk-limited plan's already is); one
-    # shaper for every segment of the run, so that a re-timed segment continues the references sent
-    period = 0.0 if plan_result.profile.smooth else gear_period(robot, drives, start)
+    # shaper for every segment of the run, so that a re-timed segment continues the references sent. Without
+    # elastic gears its period is the position loop's time constant 1 / Kp: the acceleration steps, fed
+    # forward as torque steps at the plan's torque limits, would saturate the motors
+    period = 0.0 if plan_result.profile.smooth else gear_period(robot, drives, start) or 1.0 / drives.position_gain
 
-    def retime(kind: str, state: tuple, override: float, previous: RawMotion, offset: float):
+    def retime(kind: str, state: tuple, override: float, previous, offset: float):
         if kind == "stop":
             profile = _stop(retimer, state)
         elif kind == "resume":
             profile = retimer.remaining(state[0], 0.0, 0.0, override)
         else:
             profile = retimer.remaining(*state, override=override)
-        return build_reference(robot, path, RawMotion(profile, previous, offset), mode, drives, period=period)
+        return build_reference(robot, path, RawMotion(profile, previous.raw, offset), mode, drives, period=period,
+                               carried=(previous, offset))
 
     table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, period=period, first=True)
+    if mode != "none" and refine > 0:
+        table = refine_reference(robot, drives, table, iterations=refine)[0]
     lim = robot.limits
     loop = TransverseLoop(path, loop_gain(drives)) if mode == "orbital" else None
     watch = None if path_tolerance is None else PathSupervision(robot, path, path_tolerance)

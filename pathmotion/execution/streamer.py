@@ -61,7 +61,8 @@ class Record:
 class Streamer:
     """execute's logic. ``table``: the plan's references; ``retime(kind, state, override, previous, offset)``:
     the re-timed table of a stop ("stop"), an override ("override") or a resume ("resume") from ``state`` =
-    (theta, theta_dot, theta_ddot), continuing the raw motion ``previous`` at its time ``offset``; ``lower``/``upper``/``velocity`` (n,): the joint limits no sent reference
+    (theta, theta_dot, theta_ddot), continuing the table ``previous`` (its raw motion, its correction) at its
+    time ``offset``; ``lower``/``upper``/``velocity`` (n,): the joint limits no sent reference
     leaves; ``tolerance`` [rad]: largest start distance; ``mode``: the correction mode; ``loop``: the
     transverse loop of the orbital mode (a :class:`.orbital.TransverseLoop`) or None; ``supervision``: the
     path supervision (a :class:`.supervision.PathSupervision`) or None; ``plan``: the planned
@@ -124,7 +125,7 @@ class Streamer:
         if kind == "stop" and state[1] <= STANDSTILL:
             return True  # at rest already
         try:
-            table = self.retime(kind, state, override, self._segment.raw, self._now - self._segment_start)
+            table = self.retime(kind, state, override, self._segment, self._now - self._segment_start)
         except PathmotionError as exc:
             log.warning("cannot re-time (%s) at theta = %.6g: %s; the motion goes on as it was", kind, state[0], exc)
             return False
