@@ -50,10 +50,11 @@ capped), then the polish's 150 on the full grid.
 How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
 atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 (FAST_STEPS golden steps, one
 racing pass) on the search grid, short stages 5-6 (no wide starts, restart or global stage) where a free end applies,
-and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each
-corner is searched from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1 searches the
-corners on local processes with the same result; where the corners are polished on their windows, those polishes are
-independent too (a :class:`_PolishJob` each) and run on the same processes.
+and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), its COBYQA runs on lean models
+(n + LEAN_MODEL_EXTRA points: in so few plans the default's first model is never complete), without the neighbour
+pass. Each corner is searched from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1
+searches the corners on local processes with the same result; where the corners are polished on their windows, those
+polishes are independent too (a :class:`_PolishJob` each) and run on the same processes.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "The optimal blend's search".
