@@ -926,9 +926,9 @@ def test_the_fast_polish_starts_from_its_own_trust_radius_and_is_never_slower(mo
     shares = []
     trust_region = bs._trust_region
 
-    def recorded(f, x0, box, steps, plans, share=bs.TRUST_RADIUS_SHARE):
-        shares.append((plans, share))
-        return trust_region(f, x0, box, steps, plans, share)
+    def recorded(f, x0, box, steps, plans, share=bs.TRUST_RADIUS_SHARE, lean=False):
+        shares.append((plans, share, lean))
+        return trust_region(f, x0, box, steps, plans, share, lean)
 
     monkeypatch.setattr(bs, "_trust_region", recorded)
     path, tol = _turn(90), 0.003
@@ -936,11 +936,45 @@ def test_the_fast_polish_starts_from_its_own_trust_radius_and_is_never_slower(mo
     without = optimal_blends(_robot(), path, tol, polish_plans=0, **kw)
     assert shares == []
     polished = optimal_blends(_robot(), path, tol, polish_plans=12, **kw)
-    assert shares == [(12, bs.FAST_POLISH_RADIUS_SHARE)]
+    assert shares == [(12, bs.FAST_POLISH_RADIUS_SHARE, True)]
     assert bs.FAST.polish_radius_share == bs.FAST_POLISH_RADIUS_SHARE != bs.THOROUGH.polish_radius_share
     assert polished.duration <= without.duration <= without.symmetric_duration
     assert polished.duration == pytest.approx(duration_with(_robot(), path, polished.shapes, SETTINGS), rel=1e-12)
     assert max_deviation(polished.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
+
+
+def test_lean_trust_region_models_move_within_a_budget_under_two_n_plus_one():
+    """_trust_region on a convex quadratic of 12 coordinates (minimum known, inside the box) with 20 evaluations, fewer
+    than the 25 points of COBYQA's default first model: the default models only probe x0 and a step along each
+    coordinate (analytic: the best probe is x0 moved by the radius along the coordinate farthest from the minimum,
+    nowhere nearer), where the lean ones (n + 2 points, the fast search's) end nearer the minimum than any probe; every
+    evaluation stays in the box."""
+    from pathmotion.planning import blend_search as bs
+
+    n, plans = 12, 20
+    centre = np.linspace(-0.6, 0.6, n)
+    box = np.array([[-1.0, 1.0]] * n)
+    steps = np.full(n, 0.4)
+    radius = bs.TRUST_RADIUS_SHARE * 0.4  # the share of the mean step in the box scaled to [-1, 1] (its span is 2)
+    x0 = np.zeros(n)
+
+    def run(lean: bool) -> list[float]:
+        values = []
+
+        def f(x):
+            x = np.asarray(x, float)
+            assert np.all(x >= box[:, 0] - 1e-12) and np.all(x <= box[:, 1] + 1e-12)
+            values.append(float(np.sum((x - centre) ** 2)))
+            return values[-1]
+
+        bs._trust_region(f, x0, box, steps, plans, lean=lean)
+        return values
+
+    probe_best = float(np.sum(centre ** 2) - (2 * radius * np.max(np.abs(centre)) - radius ** 2))
+    default, lean = run(False), run(True)
+    assert len(default) <= plans and len(lean) <= plans
+    assert min(default) >= probe_best - 1e-12
+    assert min(lean) < probe_best - 1e-3
 
 
 def test_optimal_blend_tolerance_too_large_gives_the_largest_that_fits():

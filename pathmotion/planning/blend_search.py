@@ -50,10 +50,11 @@ capped), then the polish's 150 on the full grid.
 How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
 atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 (FAST_STEPS golden steps, one
 racing pass) on the search grid, short stages 5-6 (no wide starts, restart or global stage) where a free end applies,
-and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), without the neighbour pass. Each
-corner is searched from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1 searches the
-corners on local processes with the same result; where the corners are polished on their windows, those polishes are
-independent too (a :class:`_PolishJob` each) and run on the same processes.
+and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), its COBYQA runs on lean models
+(n + LEAN_MODEL_EXTRA points: in so few plans the default's first model is never complete), without the neighbour
+pass. Each corner is searched from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1
+searches the corners on local processes with the same result; where the corners are polished on their windows, those
+polishes are independent too (a :class:`_PolishJob` each) and run on the same processes.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "The optimal blend's search".
@@ -69,7 +70,7 @@ from dataclasses import dataclass, replace
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
-from scipy.optimize import minimize, minimize_scalar
+from scipy.optimize import Bounds, minimize, minimize_scalar
 
 from .. import defaults
 from ..lift.constraint import lift
@@ -136,6 +137,11 @@ TRUST_RADIUS_FINAL = 1e-4
 #: The wide restart's initial trust radius, as TRUST_RADIUS_SHARE: four times as wide, so its first models span the
 #: neighbouring basins instead of the one the joint stage ended in.
 RESTART_RADIUS_SHARE = 1.0
+#: The lean quadratic models (SearchSettings.lean_models) of n coordinates interpolate n + LEAN_MODEL_EXTRA points, the
+#: fewest COBYQA takes.
+LEAN_MODEL_EXTRA = 2
+
+
 #: The global stage (CMA-ES over every coordinate, from the fastest blend): plans, the initial step size in the box
 #: scaled to [-1, 1] and pycma's seed (the search is deterministic). At 60 deg / 10 mm, from the stages' blend
 #: (0.61355 s), 3000 plans ended at 0.61092-0.61167 s in two runs, 10000 at 0.61027 s; step 0.3 at 0.61065 s. Over
@@ -619,12 +625,13 @@ def _joint_box(profile: Sequence[int], ends: Sequence[int], start=None) -> tuple
     return box, np.array([_JOINT_STEP[i] for i in profile] + [_END_STEP] * len(ends))
 
 
-def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share: float = TRUST_RADIUS_SHARE) -> None:
+def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share: float = TRUST_RADIUS_SHARE,
+                 lean: bool = False) -> None:
     """COBYQA (about ``plans`` plans) over every coordinate of the fastest blend when it has a free end
     (the corner quintic, the offset pieces' profiles in and, unless ``planar``, out of the plane, and the
     free ends' coefficients), from it (or from the 25 coordinates ``x``), its initial trust radius ``share`` of the
-    mean step (_trust_region). The earlier stages chose the profiles for a blend joined to the lines; with a free end
-    other profiles are faster."""
+    mean step, its models ``lean`` or not (_trust_region). The earlier stages chose the profiles for a blend joined to
+    the lines; with a free end other profiles are faster."""
     x = np.array(objective.best()[2] if x is None else x, float)
     if len(x) < _ARRIVAL.stop:  # the fastest blend is joined to the lines: stages 3-4 searched it
         return
@@ -638,7 +645,7 @@ def _joint_stage(objective: _Objective, plans: int, planar: bool, x=None, share:
         trial[idx] = y
         return objective(trial)
 
-    _trust_region(f, np.clip(x[idx], box[:, 0], box[:, 1]), box, steps, plans, share)
+    _trust_region(f, np.clip(x[idx], box[:, 0], box[:, 1]), box, steps, plans, share, lean)
 
 
 #: A wide start's Bernstein coefficients of a free end's offset piece [tolerance] towards the tube's edge, after the
@@ -650,7 +657,8 @@ WIDE_RUN_TRIES = 6
 
 
 def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: bool = False,
-                crossed: tuple[str, str] | None = None, share: float = TRUST_RADIUS_SHARE) -> None:
+                crossed: tuple[str, str] | None = None, share: float = TRUST_RADIUS_SHARE,
+                lean: bool = False) -> None:
     """The joint stage (about ``plans`` plans) from a wide start: the fastest blend so far (in the corner's plane if
     ``planar``) with the offset piece of every side whose neighbour ends where the motion rests (objective.resting)
     freed at that end and bulged out to the tube's edge (WIDE_PROFILE): outwards in the corner's plane, at the sides
@@ -661,7 +669,8 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     45 mm of the 100 mm entry line and stage 5 left that end joined; at the atlas' 30 deg / 10 mm it rises out of
     the plane by 7-10 mm along both lines. ``crossed`` (a direction per side, "out", "up" or "down" along the corner's
     normal; only at a corner resting at both ends): each side in its own direction (the optimum at 135 deg / 7 mm runs
-    up along the entry and out along the exit); ``share``: the joint stage's first trust region (_trust_region)."""
+    up along the entry and out along the exit); ``share``, ``lean``: the joint stage's first trust region and models
+    (_trust_region)."""
     if (along_normal or crossed) and planar:
         return
     _, shape, x = objective.best(planar=planar)
@@ -699,20 +708,30 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     log.info("blend search: corner %d: the wide start %s frees the path's %s", objective.label,
              f"{crossed[0]} / {crossed[1]}" if crossed else "along the normal" if along_normal else "outwards",
              " and ".join(e for e, w in zip(("start", "end"), wide) if w))
-    _joint_stage(objective, plans, planar, x, share)
+    _joint_stage(objective, plans, planar, x, share, lean)
 
 
 def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarray, plans: int,
-                  share: float = TRUST_RADIUS_SHARE) -> None:
-    """scipy's COBYQA (Powell's derivative-free trust-region method on quadratic models, bounded) on f
+                  share: float = TRUST_RADIUS_SHARE, lean: bool = False) -> None:
+    """COBYQA (Powell's derivative-free trust-region method on quadratic models, bounded; scipy's) on f
     from x0 (about ``plans`` evaluations), in the box scaled to [-1, 1], its initial trust radius
-    ``share`` of the mean of ``steps`` there. COBYQA moves its first point onto a bound (or a radius
-    away from it) where x0 is within the radius of that bound (scipy's cobyqa/models.py), so near a bound x0
+    ``share`` of the mean of ``steps`` there. Its models interpolate 2 n + 1 points (n coordinates), or n + 2 if
+    ``lean`` (LEAN_MODEL_EXTRA): the first model costs that many plans, so with a budget under 2 n + 1 (a fast
+    search's 30 plans over a free-ended blend's 25 coordinates) the default models only probe each coordinate once
+    and never move, where the lean ones take a few trust-region steps. COBYQA moves its first point onto a bound (or a
+    radius away from it) where x0 is within the radius of that bound (scipy's cobyqa/models.py), so near a bound x0
     itself is not planned."""
     radius = share * float(np.mean(2.0 * steps / (box[:, 1] - box[:, 0])))
-    minimize(f, x0, method="COBYQA", bounds=box,
-             options={"maxfev": plans, "scale": True, "initial_tr_radius": radius,
-                      "final_tr_radius": TRUST_RADIUS_FINAL})
+    if not lean:
+        minimize(f, x0, method="COBYQA", bounds=box,
+                 options={"maxfev": plans, "scale": True, "initial_tr_radius": radius,
+                          "final_tr_radius": TRUST_RADIUS_FINAL})
+        return
+    from scipy._lib.cobyqa import minimize as cobyqa  # scipy's own COBYQA: its options take the model's points
+
+    cobyqa(f, x0, bounds=Bounds(box[:, 0], box[:, 1]),
+           options={"maxfev": plans, "scale": True, "radius_init": radius, "radius_final": TRUST_RADIUS_FINAL,
+                    "nb_points": len(x0) + LEAN_MODEL_EXTRA})
 
 
 def _global_stage(objective: _Objective, plans: int, planar: bool) -> tuple[int, str]:
@@ -767,7 +786,7 @@ class _PolishJob:
     those where the motion rests ``resting``, in units of ``tolerance`` [m]), ``plans`` plans under ``settings``;
     ``quintic`` (only the quintic's coordinates), ``planar``; ``states`` (_connection_states of a plan of the whole
     path with ``shapes``: the corner is polished on its window) or None (on the whole path); ``share``: the initial
-    trust radius (_trust_region)."""
+    trust radius, ``lean``: lean models (_trust_region)."""
 
     robot: object
     original: TaskPath
@@ -784,6 +803,7 @@ class _PolishJob:
     planar: bool
     states: tuple | None
     share: float = TRUST_RADIUS_SHARE
+    lean: bool = False
 
 
 def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
@@ -808,7 +828,7 @@ def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
         trial[idx + ends] = y
         return fine(trial)
 
-    _trust_region(f, np.clip(x[idx + ends], box[:, 0], box[:, 1]), box, steps, job.plans, job.share)
+    _trust_region(f, np.clip(x[idx + ends], box[:, 0], box[:, 1]), box, steps, job.plans, job.share, job.lean)
     best_T, best_shape, _ = fine.best()
     log.info("blend search: corner %d polished on %s: %.6g -> %.6g s in %d plans", k,
              "the whole path" if window is None else "its window", start_T, best_T, fine.plans)
@@ -818,15 +838,16 @@ def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
 def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: dict, settings: PlanSettings,
             q_start, plans: int, planar: Sequence[int], quintic: Sequence[int],
             windowed: bool = False, runner: _Runner | None = None,
-            share: float = TRUST_RADIUS_SHARE) -> tuple[float, dict, int]:
-    """Stage 8: :func:`_polish_corner` (about ``plans`` plans per corner, its initial trust radius ``share``) on the
-    duration under ``settings`` from the coordinates of each corner's chosen shape in ``shapes`` (found in the caches of
-    that corner's searches, ``searched`` {corner: [_Objective]}), the other corners fixed; only the quintic's
-    coordinates at the corners in ``quintic`` (no racing line searched there), none out of the plane at those in
-    ``planar``. The searches ranked shapes on a coarse grid; this is the duration the blend is reported with.
-    ``windowed``: each corner on its window (_Window, ends from one plan of the whole path with ``shapes``), the corners
-    independent (by ``runner``), then planned together on the whole path; else one after the other on the whole path,
-    each with the polished blends before it. Returns (duration [s], shapes, plans run), never slower than given."""
+            share: float = TRUST_RADIUS_SHARE, lean: bool = False) -> tuple[float, dict, int]:
+    """Stage 8: :func:`_polish_corner` (about ``plans`` plans per corner, its initial trust radius ``share``, its models
+    ``lean`` or not) on the duration under ``settings`` from the coordinates of each corner's chosen shape in
+    ``shapes`` (found in the caches of that corner's searches, ``searched`` {corner: [_Objective]}), the other corners
+    fixed; only the quintic's coordinates at the corners in ``quintic`` (no racing line searched there), none out of
+    the plane at those in ``planar``. The searches ranked shapes on a coarse grid; this is the duration the blend is
+    reported with. ``windowed``: each corner on its window (_Window, ends from one plan of the whole path with
+    ``shapes``), the corners independent (by ``runner``), then planned together on the whole path; else one after the
+    other on the whole path, each with the polished blends before it. Returns (duration [s], shapes, plans run), never
+    slower than given."""
     given, shapes = shapes, dict(shapes)
     states = _connection_states(robot, original, given, settings, q_start) if windowed else None
     run = int(states is not None)
@@ -837,7 +858,7 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
             continue
         o, key = found[0]
         jobs.append(_PolishJob(robot, original, given, k, key[0], key[1] or o.free_ends, o.resting, o.tolerance,
-                               settings, q_start, plans, k in quintic, k in planar, states, share))
+                               settings, q_start, plans, k in quintic, k in planar, states, share, lean))
     if states is None:  # one after the other, each corner with the blends polished before it
         for job in jobs:
             _, best_T, best_shape, job_run = _polish_corner(dataclasses.replace(job, shapes=dict(shapes)))
@@ -868,6 +889,7 @@ class SearchSettings:
     ``restart_plans`` the wide restart, ``global_plans`` the global stage; ``retry_capped`` stage 7;
     ``polish_plans`` stage 8 from ``polish_starts`` candidates, on ``polish_grid_points`` grid points (None: the full
     grid; else its blend confirmed there), its initial trust radius ``polish_radius_share`` (_trust_region);
+    ``lean_models``: the joint stages' and the polish's COBYQA models on n + 2 points, not 2 n + 1 (_trust_region);
     ``search_grid_points`` the search's grid;
     ``windows`` each corner on its window (else every plan on the whole path); ``neighbour_pass`` on a path of
     several corners, each searched again with its neighbours' found blends in place (_neighbour_pass)."""
@@ -896,6 +918,7 @@ class SearchSettings:
     neighbour_pass: bool = True
     polish_grid_points: int | None = None
     polish_radius_share: float = TRUST_RADIUS_SHARE
+    lean_models: bool = False
 
 
 #: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
@@ -909,7 +932,7 @@ FAST = SearchSettings(steps=FAST_STEPS, racing_cycles=FAST_RACING_CYCLES, run_ra
                       run_starts=FAST_RUN_STARTS, free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS,
                       joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, restart_plans=0, global_plans=0,
                       retry_capped=False, polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS,
-                      polish_radius_share=FAST_POLISH_RADIUS_SHARE, neighbour_pass=False)
+                      polish_radius_share=FAST_POLISH_RADIUS_SHARE, neighbour_pass=False, lean_models=True)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
 SEARCHES = {"fast": FAST, "thorough": THOROUGH}
 
@@ -976,24 +999,25 @@ def _late_stages(objective: _Objective, search: SearchSettings, planar: bool) ->
     _end_stage(objective, search.end_plans, planar)
     before = objective.best()[1]
     if search.joint_plans > 0:
-        _joint_stage(objective, search.joint_plans, planar)
+        _joint_stage(objective, search.joint_plans, planar, lean=search.lean_models)
         if _late_end_stage(objective, search.end_plans, planar):
-            _joint_stage(objective, search.joint_plans, planar)
+            _joint_stage(objective, search.joint_plans, planar, lean=search.lean_models)
     before_wide = objective.best()[1]
     if search.wide_plans > 0:
-        _wide_stage(objective, search.wide_plans, planar)
+        _wide_stage(objective, search.wide_plans, planar, lean=search.lean_models)
     if search.wide_normal_plans > 0:
-        _wide_stage(objective, search.wide_normal_plans, planar, along_normal=True)
+        _wide_stage(objective, search.wide_normal_plans, planar, along_normal=True, lean=search.lean_models)
     ahead, before_restart, _ = objective.best()
     restart = search.restart_plans > 0 and search.joint_plans > 0  # the joint stage once more: not without it
     if restart:
-        _joint_stage(objective, search.restart_plans, planar, share=RESTART_RADIUS_SHARE)
+        _joint_stage(objective, search.restart_plans, planar, share=RESTART_RADIUS_SHARE, lean=search.lean_models)
         log.info("blend search: corner %d: the wide restart: %.6g -> %.6g s (coarse grid)", objective.label,
                  ahead, objective.best()[0])
     crossed = search.wide_crossed_plans > 0 and search.joint_plans > 0  # joint stages, as the restart
     before_crossed = objective.best()[1]
     for directions in CROSSED_DIRECTIONS if crossed else ():
-        _wide_stage(objective, search.wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE)
+        _wide_stage(objective, search.wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE,
+                    lean=search.lean_models)
     wide = search.wide_plans > 0 or search.wide_normal_plans > 0 or crossed or restart
     return _Stages(before if search.joint_plans > 0 or wide else None, before_wide if wide else None,
                    before_restart if restart else None, before_crossed if crossed else None)
@@ -1241,11 +1265,11 @@ def _polished(robot, original: TaskPath, start: dict, start_T: float, searched: 
     duration [s], shapes, plans run); ``start`` and ``start_T`` where the polish found nothing faster."""
     if search.polish_grid_points is None:
         return _polish(robot, original, start, start_T, searched, full, q_start, search.polish_plans, planar, quintic,
-                       windowed, runner, search.polish_radius_share)
+                       windowed, runner, search.polish_radius_share, search.lean_models)
     grid = replace_settings(full, grid_points=search.polish_grid_points)
     on_grid = duration_with(robot, original, start, grid, q_start)
     _, polished, run = _polish(robot, original, start, on_grid, searched, grid, q_start, search.polish_plans, planar,
-                               quintic, windowed, runner, search.polish_radius_share)
+                               quintic, windowed, runner, search.polish_radius_share, search.lean_models)
     if polished == start:
         return start_T, start, run + 1
     T = duration_with(robot, original, polished, full, q_start)
