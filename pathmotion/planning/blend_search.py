@@ -713,7 +713,7 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
 
 def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarray, plans: int,
                   share: float = TRUST_RADIUS_SHARE, lean: bool = False) -> None:
-    """COBYQA (Powell's derivative-free trust-region method on quadratic models, bounded; scipy's) on f
+    """COBYQA (Powell's derivative-free trust-region method on quadratic models, bounded: scipy's, or the cobyqa package scipy wraps for lean models) on f
     from x0 (about ``plans`` evaluations), in the box scaled to [-1, 1], its initial trust radius
     ``share`` of the mean of ``steps`` there. Its models interpolate 2 n + 1 points (n coordinates), or n + 2 if
     ``lean`` (LEAN_MODEL_EXTRA): the first model costs that many plans, so with a budget under 2 n + 1 (a fast
@@ -727,7 +727,7 @@ def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarra
                  options={"maxfev": plans, "scale": True, "initial_tr_radius": radius,
                           "final_tr_radius": TRUST_RADIUS_FINAL})
         return
-    from scipy._lib.cobyqa import minimize as cobyqa  # scipy's own COBYQA: its options take the model's points
+    from cobyqa import minimize as cobyqa  # the COBYQA scipy wraps; scipy's wrapper does not pass nb_points
 
     cobyqa(f, x0, bounds=Bounds(box[:, 0], box[:, 1]),
            options={"maxfev": plans, "scale": True, "radius_init": radius, "radius_final": TRUST_RADIUS_FINAL,
