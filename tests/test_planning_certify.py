@@ -107,15 +107,15 @@ def test_union_sampling_equals_each_limit_alone(irb140, limit_set, robot_payload
     """certify() samples the union of the intervals all limits need once per pass; the bounds must be
     bit for bit those of certifying each limit on its own (samples and bounds are per interval)."""
     from pathmotion.planning.certify import CertifyContext, certify
-    from pathmotion.planning.planner import _grid_breaks, _sample
+    from pathmotion.planning.grid_data import grid_breaks, sample_grid
 
     robot = irb140.with_payload(Payload(mass=6.0, com=np.array([0.0, 0.0, 0.1]))) if robot_payload else irb140
     for path in (_spline(4, 4), _spline(9, 7)):
         s = PlanSettings(grid_points=grid_points, verify="off", **LIMIT_SETS[limit_set])
         profile = plan(path, robot, s).profile
         limits = effective_limits(robot, s)
-        breaks = _grid_breaks(path, profile.grid)
-        samp = _sample(path, robot, profile.grid, breaks)
+        breaks = grid_breaks(path, profile.grid)
+        samp = sample_grid(path, robot, profile.grid, breaks)
 
         def context():
             return CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque)
@@ -231,7 +231,7 @@ def test_accept_leaves_bounds_within_it_or_refines_all(irb140, limit_set, grid_p
     some bound exceeds ``accept`` the bounds are the full refinement's bit for bit (the planner tightens
     on them), otherwise every bound is within ``accept`` (the plan passes either way)."""
     from pathmotion.planning.certify import CertifyContext, certify
-    from pathmotion.planning.planner import _grid_breaks, _sample
+    from pathmotion.planning.grid_data import grid_breaks, sample_grid
 
     robot = irb140.with_payload(Payload(mass=6.0, com=np.array([0.0, 0.0, 0.1]))) if limit_set == "payload" else irb140
     seen = set()
@@ -240,8 +240,8 @@ def test_accept_leaves_bounds_within_it_or_refines_all(irb140, limit_set, grid_p
         s = PlanSettings(grid_points=grid_points, verify="off", **LIMIT_SETS[limit_set])
         profile = plan(path, robot, s).profile
         limits = effective_limits(robot, s)
-        breaks = _grid_breaks(path, profile.grid)
-        samp = _sample(path, robot, profile.grid, breaks)
+        breaks = grid_breaks(path, profile.grid)
+        samp = sample_grid(path, robot, profile.grid, breaks)
         context = lambda: CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque)  # noqa: E731
         accept = 1.0 + s.limit_tolerance
         full, lazy = certify(context(), limits), certify(context(), limits, accept)
@@ -260,15 +260,15 @@ def test_knot_jumps_match_one_sided_finite_differences(irb140):
     """The slope jumps the acceleration and torque limits give at spline knots (Phi''' and M Phi''' jumps)
     equal those of Phi'' and of beta measured by one-sided finite differences on either side of each knot."""
     from pathmotion.planning.certify import CertifyContext
-    from pathmotion.planning.planner import _grid_breaks, _sample
+    from pathmotion.planning.grid_data import grid_breaks, sample_grid
     from pathmotion.planning.reduced import reduced_dynamics
 
     path, robot = _spline(3, 7), irb140
     s = PlanSettings(grid_points=200, verify="off")
     profile = plan(path, robot, s).profile
     limits = effective_limits(robot, s)
-    breaks = _grid_breaks(path, profile.grid)
-    samp = _sample(path, robot, profile.grid, breaks)
+    breaks = grid_breaks(path, profile.grid)
+    samp = sample_grid(path, robot, profile.grid, breaks)
     ctx = CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque)
     index = ctx.knots[0]
     assert len(index) == 5 and np.allclose(profile.grid[index], path.knots)

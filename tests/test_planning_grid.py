@@ -299,14 +299,14 @@ def test_a_narrow_curvature_peak_inside_a_segment_is_planned_alike_on_coarse_and
 def test_path_data_of_a_refined_grid_is_the_parents_where_shared_and_evaluated_elsewhere(robot):
     """_sample with a donor (the previous grid's data) gives the path data a fresh evaluation gives, to round-off,
     and copies the donor's values at the shared points."""
-    from pathmotion.planning.planner import _sample
+    from pathmotion.planning.grid_data import sample_grid
 
     path = _spline(2, 7)
     coarse = make_grid(path, 200)
     fine = coarse.split(np.where(np.arange(len(coarse.theta) - 1) % 3 == 0, 3, 1))
-    donor = _sample(path, robot, coarse.theta, coarse.breaks).right
-    reused = _sample(path, robot, fine.theta, fine.breaks, donor)
-    fresh = _sample(path, robot, fine.theta, fine.breaks)
+    donor = sample_grid(path, robot, coarse.theta, coarse.breaks).right
+    reused = sample_grid(path, robot, fine.theta, fine.breaks, donor)
+    fresh = sample_grid(path, robot, fine.theta, fine.breaks)
     for side in ("right", "left"):
         for name in ("q", "dq", "ddq"):
             np.testing.assert_allclose(getattr(getattr(reused, side), name), getattr(getattr(fresh, side), name),

@@ -232,7 +232,7 @@ def test_slp_duration_and_gradient_match_the_profile_and_finite_differences():
     quadrature, profile.py) and central differences of it, on a converged circle profile."""
     from pathmotion.planning import third_order
     from pathmotion.planning.limits import effective_limits_for
-    from pathmotion.planning.planner import _sample
+    from pathmotion.planning.grid_data import sample_grid
 
     setup = api.load("pathmotion/scenarios/circle_zero.toml")
     s = PlanSettings(grid_points=40, limits={"use_torque": False, "jerk": tuple(10.0 * ROBOT.limits.acceleration)},
@@ -240,7 +240,7 @@ def test_slp_duration_and_gradient_match_the_profile_and_finite_differences():
     res = plan(setup.path, ROBOT, s)
     prof = res.profile
     limits = effective_limits_for(ROBOT, s.limits)
-    samp = _sample(setup.path, ROBOT, prof.grid, (), third=True)
+    samp = sample_grid(setup.path, ROBOT, prof.grid, (), third=True)
     rest = prof.x <= 0
     p = third_order._Problem(prof.grid, samp, limits, limits.unit_scale(len(prof.grid), ROBOT.n), rest, {}, False)
     x, u = prof.x, prof.u_nodes

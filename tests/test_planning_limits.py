@@ -228,9 +228,9 @@ def test_every_limit_reads_its_names_from_the_one_table():
 
 @pytest.mark.parametrize("name", ["corner_g2", "circle_smooth", "abb_cycle"])
 def test_left_rows_assembled_at_the_breaks_equal_the_rows_of_every_left_point(name):
-    """The planner assembles the left side's rows only where its path data differ from the right side's (the
+    """The planner (grid_data.grid_rows) assembles the left side's rows only where its path data differ from the right side's (the
     breaks); they equal limit_rows on every left point, bit for bit, with a linearization point x_ref too."""
-    from pathmotion.planning import planner
+    from pathmotion.planning import grid_data
     from pathmotion.planning.limit_rows import limit_rows
     from pathmotion.scenarios import scenario_path
 
@@ -238,12 +238,12 @@ def test_left_rows_assembled_at_the_breaks_equal_the_rows_of_every_left_point(na
     limits = effective_limits(setup.robot, setup.plan_settings)
     path = setup.path
     theta = np.union1d(np.linspace(*path.domain, 301), [b for b in path.breaks if path.domain[0] < b < path.domain[1]])
-    sampled = planner._sample(path, setup.robot, theta, planner._grid_breaks(path, theta))
+    sampled = grid_data.sample_grid(path, setup.robot, theta, grid_data.grid_breaks(path, theta))
     scale = limits.unit_scale(len(theta), setup.robot.n)
     x_ref = np.random.default_rng(0).uniform(0.0, 4.0, len(theta))
     for ref in (None, x_ref):
         right = limit_rows(sampled.right, limits, scale, defaults.PLANNER_X_CAP, ref)
-        fast = planner._left_rows(right, sampled.right, sampled.left, limits, scale, ref)
+        fast = grid_data._left_rows(right, sampled.right, sampled.left, limits, scale, ref)
         full = limit_rows(sampled.left, limits, scale, defaults.PLANNER_X_CAP, ref)
         for a, b in zip((fast.a, fast.b, fast.c, fast.lo, fast.hi, fast.x_max),
                         (full.a, full.b, full.c, full.lo, full.hi, full.x_max)):

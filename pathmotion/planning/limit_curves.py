@@ -29,7 +29,8 @@ from ..lift.joint_path import JointPath
 from ..robot import Robot
 from .limit_rows import limit_rows
 from .limits import EffectiveLimits, PathPoints
-from .planner import PlanSettings, _grid_breaks, _sample, effective_limits
+from .grid_data import grid_breaks, sample_grid
+from .planner import PlanSettings, effective_limits
 from .topp import maximum_velocity_curve
 
 #: Largest x = theta_dot^2 written for an unbounded point (the figure clips at its own headroom).
@@ -60,7 +61,7 @@ def _sides(path: JointPath, robot: Robot, theta: np.ndarray) -> list[PathPoints]
     """Path points at ``theta`` (K,) seen from the interval after and before each point (the two differ at the
     path's breaks only, where the left side is evaluated; elsewhere it shares the right side's data)."""
     theta = np.asarray(theta, float)
-    sampled = _sample(path, robot, theta, _grid_breaks(path, theta))
+    sampled = sample_grid(path, robot, theta, grid_breaks(path, theta))
     return [sampled.right, sampled.left]
 
 

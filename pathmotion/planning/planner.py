@@ -1,8 +1,8 @@
 """The time-optimal planner: settings, result and :func:`plan`.
 
 Flow: grid (adaptive, refined until the duration's estimated error is within ``duration_tolerance``, grid.py;
-or fixed with ``grid_points``) -> path derivatives on both sides of each connection -> limit rows from every active limit object
-(limits/, limit_rows.py) -> reachability analysis
+or fixed with ``grid_points``) -> path derivatives on both sides of each connection and limit rows from every
+active limit object (grid_data.py; limits/, limit_rows.py) -> reachability analysis
 (topp.py) with the boundary conditions (boundary.py) and connection mode (segments.py) ->
 verify (certified interval bounds or a dense time resample); where the continuous trajectory exceeds a
 limit between grid points, halve those intervals (adaptive grid) or tighten the limits locally there,
@@ -28,13 +28,14 @@ from ..robot import Robot
 from .baselines import Baselines, compute_baselines, dense_check
 from .certify import CertifyContext, certify
 from .grid import Grid, make_grid, refine
+from .grid_data import ReusingPoints, Sampled, grid_breaks, grid_rows, sample_grid, with_knots
 from .boundary import X_CAP_FRACTION, Boundary, at_rest
-from .limit_rows import LimitRows, limit_rows
+from .limit_rows import LimitRows
 from .limits import EffectiveLimits, LimitChoice, LimitChoices, PathPoints, effective_limits_for, tcp_gain
 from .profile import Profile
 from .segments import solve_chain
 from .third_order import solve_third_order
-from .topp import IntervalProblem, interval_problem, maximum_velocity_curve
+from .topp import IntervalProblem, maximum_velocity_curve
 from .trajectory import Trajectory
 from .verify import LimitRatios, interval_maxima, outside, sample_ratios, summarize, summarize_intervals
 
@@ -174,110 +175,7 @@ def effective_limits(robot: Robot, settings: PlanSettings) -> EffectiveLimits:
     return effective_limits_for(robot, settings.limits)
 
 
-@dataclass(frozen=True, eq=False)
-class _Sampled:
-    """Path data on the grid, as seen from the interval after (right) and before (left) each point."""
-
-    right: PathPoints
-    left: PathPoints
-
-
-class _Reusing(PathPoints):
-    """PathPoints whose derived quantities (reduced dynamics, TCP gain...) are copied from ``donor``
-    (right-side points of an earlier grid) where a grid point is also one of the donor's, and
-    computed only at the new points: the adaptive grid's refinements keep their parents' points."""
-
-    def __init__(self, robot, path, theta, q, dq, ddq, donor: PathPoints):
-        super().__init__(robot, path, theta, q, dq, ddq)
-        pos = np.clip(np.searchsorted(donor.theta, theta), 0, len(donor.theta) - 1)
-        self._shared = donor.theta[pos] == theta
-        self._donor, self._donor_index = donor, pos[self._shared]
-
-    def detach(self) -> None:
-        """Forget the donor (its data are copied where used): an earlier grid's path data are freed with it;
-        a quantity asked for later is computed at every point."""
-        self._donor = None
-
-    def cached(self, key, compute, third=False):
-        if key not in self._cache and self._donor is not None and key in self._donor._cache:
-            new = np.nonzero(~self._shared)[0]
-            data = (self.q, self.dq, self.ddq) + ((self.dddq,) if third else ())
-            fresh = compute(self.robot, *(d[new] for d in data)) if new.size else None
-            value = []
-            for j, old in enumerate(self._donor._cache[key]):
-                v = np.empty((len(self.theta),) + old.shape[1:], old.dtype)
-                v[self._shared] = old[self._donor_index]
-                if fresh is not None:
-                    v[new] = fresh[j]
-                value.append(v)
-            self._cache[key] = tuple(value)
-        return super().cached(key, compute, third)
-
-
-def _sample(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[int, ...],
-            donor: PathPoints | None = None, third: bool = False) -> _Sampled:
-    """Path data on ``grid``, from both sides of ``breaks``; ``third``: Phi''' too, from the same
-    evaluation (third-order limits need it; path.evaluate3 repeats path.evaluate's work). Where a point of
-    ``grid`` is one of ``donor``'s (an earlier grid's right-side data), its Phi, Phi', Phi'' are copied."""
-    if third:
-        data = path.evaluate3(grid, "right")
-    else:
-        data = path.evaluate(grid, "right") if donor is None else _evaluate_reusing(path, grid, donor)
-    q, dq, ddq = data[:3]
-    dq_l, ddq_l = dq.copy(), ddq.copy()
-    idx = np.array(list(breaks) + [len(grid) - 1], dtype=int)
-    _, dql, ddql = path.evaluate(grid[idx], "left")
-    dq_l[idx], ddq_l[idx] = dql, ddql
-    right = PathPoints(robot, path, grid, q, dq, ddq) if donor is None else \
-        _Reusing(robot, path, grid, q, dq, ddq, donor)
-    if third:
-        right._cache["dddq"] = np.atleast_2d(data[3])
-    return _Sampled(right, PathPoints(robot, path, grid, q, dq_l, ddq_l, base=right, changed=idx, side="left"))
-
-
-def _evaluate_reusing(path: JointPath, grid: np.ndarray, donor: PathPoints) -> tuple[np.ndarray, ...]:
-    """path.evaluate(grid, "right") (Phi, Phi', Phi'' (K, n)), copied from ``donor`` at its points and evaluated at
-    the new ones only: the lift is point by point, and the refinements' grids contain their parents'."""
-    pos = np.clip(np.searchsorted(donor.theta, grid), 0, len(donor.theta) - 1)
-    shared = donor.theta[pos] == grid
-    out = tuple(np.empty((len(grid),) + d.shape[1:]) for d in (donor.q, donor.dq, donor.ddq))
-    for o, d in zip(out, (donor.q, donor.dq, donor.ddq)):
-        o[shared] = d[pos[shared]]
-    if not shared.all():
-        for o, fresh in zip(out, path.evaluate(grid[~shared], "right")):
-            o[~shared] = fresh
-    return out
-
-
-def _build(grid, s: _Sampled, limits: EffectiveLimits, scale: dict,
-           x_ref: np.ndarray | None) -> tuple[IntervalProblem, LimitRows, LimitRows]:
-    right = limit_rows(s.right, limits, scale, defaults.PLANNER_X_CAP, x_ref)
-    left = _left_rows(right, s.right, s.left, limits, scale, x_ref)
-    problem = interval_problem(grid, right.slice(slice(0, -1)), left.slice(slice(1, None)), right.x_max, left.x_max)
-    return problem, right, left
-
-
-def _left_rows(right: LimitRows, right_points: PathPoints, left: PathPoints, limits: EffectiveLimits, scale: dict,
-               x_ref: np.ndarray | None) -> LimitRows:
-    """limit_rows of the left side: the rows are point by point, and the left side's path data equal the right
-    side's (``right_points``, whose rows are ``right``) except at the breaks, so only those are assembled afresh."""
-    idx = left.changed_from(right_points)
-    if idx is None:
-        return limit_rows(left, limits, scale, defaults.PLANNER_X_CAP, x_ref)
-    points = PathPoints(left.robot, left.path, left.theta[idx], left.q[idx], left.dq[idx], left.ddq[idx],
-                        side="left")
-    part = limit_rows(points, limits, {name: v[idx] for name, v in scale.items()}, defaults.PLANNER_X_CAP,
-                      None if x_ref is None else x_ref[idx])
-    arrays = []
-    for whole, changed in zip((right.a, right.b, right.c, right.lo, right.hi, right.x_max),
-                              (part.a, part.b, part.c, part.lo, part.hi, part.x_max)):
-        whole = whole.copy()
-        whole[idx] = changed
-        arrays.append(whole)
-    return LimitRows(*arrays, right.row_kind, right.row_column)
-
-
-def _closure_is_kink(s: _Sampled) -> bool:
+def _closure_is_kink(s: Sampled) -> bool:
     a, b = s.right.dq[0], s.left.dq[-1]
     return bool(np.linalg.norm(a - b) > CLOSURE_KINK_TOLERANCE * (1.0 + np.linalg.norm(a)))
 
@@ -288,7 +186,7 @@ class _Solved:
     error_estimate [s]: a third-order solve's estimate of the duration's discretization error (or None)."""
 
     grid: Grid
-    samp: _Sampled
+    samp: Sampled
     chain_args: dict
     problem: IntervalProblem
     right: LimitRows
@@ -383,15 +281,15 @@ def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
                                     "remove the dwell")
 
 
-def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None = None, scale: dict | None = None,
+def _solve_on(path, robot, settings, limits, grid: Grid, samp: Sampled | None = None, scale: dict | None = None,
               x_ref: np.ndarray | None = None, donor: PathPoints | None = None) -> tuple[float, np.ndarray, "_Solved"]:
     """Solve on ``grid`` (path data sampled unless ``samp`` is given, reusing ``donor``'s at shared points;
     unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
     theta = grid.theta
     _check_grid_memory(len(theta), robot.n, settings, len(grid.breaks) + 1)
     if samp is None:
-        sides = _with_knots(path, theta, grid.breaks) if limits.third_order else grid.breaks
-        samp = _sample(path, robot, theta, sides, donor, third=limits.third_order)
+        sides = with_knots(path, theta, grid.breaks) if limits.third_order else grid.breaks
+        samp = sample_grid(path, robot, theta, sides, donor, third=limits.third_order)
         for lim in limits:
             lim.check(samp.right, robot.joint_names)
     stops = set(grid.kinks)
@@ -402,7 +300,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: _Sampled | None =
     if scale is None:
         scale = limits.unit_scale(len(theta), robot.n)
     problem, right, left, sol, estimate = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
-    if isinstance(samp.right, _Reusing):  # the rows are built: the earlier grid's path data may go
+    if isinstance(samp.right, ReusingPoints):  # the rows are built: the earlier grid's path data may go
         samp.right.detach()
     _check_bounded(theta, sol.x)
     log.debug("solve on %d grid points: duration %.9g s", len(theta), sol.profile.duration)
@@ -476,7 +374,7 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
                 f"the planned motion still exceeds a limit by {100 * (worst - 1):.3g} % between grid points after "
                 f"{iterations} tightening iterations ({ratios.worst}); raise grid_points or limit_tolerance"
             )
-        scale = _tightened(limits.unit_scale(len(theta), robot.n) if scale is None else scale, bounds, tol)
+        scale = tightened(limits.unit_scale(len(theta), robot.n) if scale is None else scale, bounds, tol)
         log.info("tightening the limits locally where they are exceeded, then solving again")
         s = _solve_on(path, robot, settings, limits, s.grid, s.samp, scale, s.sol.x)[2]
         iterations += 1
@@ -531,26 +429,13 @@ def _baseline_check(path, robot, settings, limits, s: _Solved):
     return check
 
 
-def _with_knots(path: JointPath, theta: np.ndarray, breaks: tuple[int, ...]) -> tuple[int, ...]:
-    """``breaks`` and the indices of the path's spline knots on ``theta``: Phi''' jumps there, so
-    third-order rows and a smooth profile's certification need the path data from both sides."""
-    knots = np.searchsorted(theta, [k for k in getattr(path, "knots", ()) if theta[0] < k < theta[-1]])
-    return tuple(sorted(set(breaks) | {int(i) for i in knots}))
-
-
-def _grid_breaks(path: JointPath, pgrid: np.ndarray) -> tuple[int, ...]:
-    """Indices in ``pgrid`` of the path's interior breaks (segment joins, spline knots)."""
-    special = [float(b) for b in path.breaks if pgrid[0] < b < pgrid[-1]]
-    return tuple(int(i) for i in np.searchsorted(pgrid, special))
-
-
 def _certify_context(path, robot, profile, limits, grid, samp, breaks) -> CertifyContext:
     """The certification's view of ``profile``: the planner's grid data, or, when the profile has its own
     grid ("max" connections insert the intervals that carry the jumps), fresh path data on it."""
     pgrid = profile.grid
     if len(pgrid) == len(grid) and np.array_equal(pgrid, grid):
         return CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque)
-    pbreaks = _grid_breaks(path, pgrid)
+    pbreaks = grid_breaks(path, pgrid)
     right = PathPoints(robot, path, pgrid, *path.evaluate(pgrid, "right"))
     left = PathPoints(robot, path, pgrid, *path.evaluate(pgrid, "left"), side="left")
     return CertifyContext(path, robot, profile, right, left, pbreaks, limits.needs_torque)
@@ -561,8 +446,8 @@ def certified_bounds(path: JointPath, robot: Robot, profile: Profile, settings: 
     ``profile``'s grid (planning/certify.py), with the path data evaluated afresh on that grid."""
     limits = effective_limits(robot, settings)
     pgrid = profile.grid
-    breaks = _grid_breaks(path, pgrid)
-    samp = _sample(path, robot, pgrid, _with_knots(path, pgrid, breaks) if profile.smooth else breaks,
+    breaks = grid_breaks(path, pgrid)
+    samp = sample_grid(path, robot, pgrid, with_knots(path, pgrid, breaks) if profile.smooth else breaks,
                    third=profile.smooth)
     return certify(CertifyContext(path, robot, profile, samp.right, samp.left, breaks, limits.needs_torque), limits)
 
@@ -571,13 +456,13 @@ def _solve_rows(grid, samp, limits, scale, x_ref, chain_args):
     """Build the rows and solve. With rows linearized around x_ref (``relinearize`` limits: inner
     bounds, exact at x_ref) re-solve with x_ref = the previous x until the duration changes by less
     than RELINEARIZE_TOLERANCE: the previous x stays feasible, so the duration never increases."""
-    problem, right, left = _build(grid, samp, limits, scale, None if limits.third_order else x_ref)
+    problem, right, left = grid_rows(grid, samp, limits, scale, None if limits.third_order else x_ref)
     sol = solve_chain(problem, **chain_args)
     # a third-order re-solve (x_ref given) starts from x_ref, not from this second-order solution
     relinearize = limits.relinearize and not limits.third_order
     for _ in range(defaults.RELINEARIZE_ITERATIONS if relinearize else 0):
         previous = sol.profile.duration
-        problem, right, left = _build(grid, samp, limits, scale, sol.x)
+        problem, right, left = grid_rows(grid, samp, limits, scale, sol.x)
         sol = solve_chain(problem, **chain_args)
         log.debug("relinearized rows: duration %.9g s (was %.9g s)", sol.profile.duration, previous)
         if abs(previous - sol.profile.duration) <= defaults.RELINEARIZE_TOLERANCE * previous:
@@ -620,7 +505,7 @@ def _check_bounded(grid: np.ndarray, x: np.ndarray) -> None:
             "velocity, acceleration or torque limit (limits.use_*) or give a tcp_speed limit")
 
 
-def _tightened(scale: dict, bounds: dict, tol: float) -> dict:
+def tightened(scale: dict, bounds: dict, tol: float) -> dict:
     """Scale each limit down at both ends of every interval whose bound exceeds 1 + defaults.TIGHTEN_TRIGGER tol:
     scale {name: (K, m)}, bounds {name: (K - 1, m)} per grid interval."""
     new = {}

@@ -37,8 +37,8 @@ import numpy as np
 from .. import defaults
 from ..errors import InfeasibleError, PathmotionError, StateInfeasibleError
 from ..modes import BoundaryMode, Connections
-from .planner import (PlanResult, _build, _grid_breaks, _sample, _tightened, _with_knots, certified_bounds,
-                      effective_limits)
+from .grid_data import grid_breaks, grid_rows, sample_grid, with_knots
+from .planner import PlanResult, certified_bounds, effective_limits, tightened
 from .profile import Profile
 from .retime_jerk import JerkPass
 from . import retime_stop, smooth
@@ -107,11 +107,11 @@ class Retimer:
         self.limits = limits = effective_limits(self.robot, settings)
         self.grid = grid = plan_result.profile.grid
         self.third_order = limits.third_order
-        breaks = _grid_breaks(self.path, grid)
-        samp = _sample(self.path, self.robot, grid, breaks)
+        breaks = grid_breaks(self.path, grid)
+        samp = sample_grid(self.path, self.robot, grid, breaks)
         self._scale = limits.unit_scale(len(grid), self.robot.n)
         x_ref = plan_result.profile.x if limits.relinearize else None
-        problem, right, left = _build(grid, samp, limits, self._scale, x_ref)
+        problem, right, left = grid_rows(grid, samp, limits, self._scale, x_ref)
         stops = np.searchsorted(grid, [k for k in self.path.kinks if grid[0] < k < grid[-1]])
         if settings.connections == Connections.ZERO:
             stops = np.union1d(stops, breaks).astype(int)
@@ -151,7 +151,7 @@ class Retimer:
         error at the middle: a parabola's)."""
         g = self.grid
         mids = 0.5 * (g[:-1] + g[1:])
-        samp = _sample(self.path, self.robot, mids, ())
+        samp = sample_grid(self.path, self.robot, mids, ())
         ref = None if x_ref is None else np.interp(mids, g, x_ref)
         rows = limit_rows(samp.right, self.limits, self.limits.unit_scale(len(mids), self.robot.n),
                           defaults.PLANNER_X_CAP, ref)
@@ -167,7 +167,7 @@ class Retimer:
         """The compiled third-order pass's data (planning/retime_jerk.py), its ceiling the smooth time-optimal
         profile to the plan's end from a free start; None when the sequential LP finds none."""
         g = self.grid
-        samp = _sample(self.path, self.robot, g, _with_knots(self.path, g, _grid_breaks(self.path, g)), third=True)
+        samp = sample_grid(self.path, self.robot, g, with_knots(self.path, g, grid_breaks(self.path, g)), third=True)
         end = self.settings.end_condition
         end_x = None if end == BoundaryMode.MAX else float(self.plan.profile.x[-1])
         try:
@@ -530,8 +530,8 @@ class Retimer:
         """The third-order profile on ``grid`` from (x0, u0) (rest when x0 = 0; a free start when x0 is None) by
         the sequential LP, linearized first around ``x_start``; at rest at its end (``rest_end``) or with x =
         ``end_x``. ``with_scale``: (profile, the limits' point-wise scales it was tightened to)."""
-        breaks = _grid_breaks(self.path, grid)
-        samp = _sample(self.path, self.robot, grid, _with_knots(self.path, grid, breaks), third=True)
+        breaks = grid_breaks(self.path, grid)
+        samp = sample_grid(self.path, self.robot, grid, with_knots(self.path, grid, breaks), third=True)
         k = len(grid)
         rest = np.zeros(k, bool)
         rest[np.searchsorted(grid, [p for p in self.path.kinks if grid[0] < p < grid[-1]])] = True
@@ -551,7 +551,7 @@ class Retimer:
             log.debug("retimer: third-order profile on %d points, worst certified ratio %.5f", k, worst)
             if worst <= 1.0 + tol:
                 return (profile, scale) if with_scale else profile
-            scale, x_start = _tightened(scale, bounds, tol), profile.x
+            scale, x_start = tightened(scale, bounds, tol), profile.x
         raise InfeasibleError(f"third-order re-timing: the profile still exceeds a limit by {100 * (worst - 1):.3g} % "
                               f"between grid points after {tighten} tightening iterations; raise limit_tolerance")
 

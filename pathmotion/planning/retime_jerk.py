@@ -31,7 +31,7 @@ from numba import njit
 from .. import defaults
 from . import smooth
 from .limit_rows import limit_rows
-from .planner import _sample
+from .grid_data import sample_grid
 
 #: Where each interval's rows are checked: fractions of the interval from its start to its end [-].
 CHECK_POINTS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -145,7 +145,7 @@ class JerkPass:
 
 def _sample_points(path, robot, theta):
     """Third-order path data at the points ``theta`` (interior points of the path's pieces)."""
-    return _sample(path, robot, theta, (), third=True).right
+    return sample_grid(path, robot, theta, (), third=True).right
 
 
 def point_coefficients(grid, origin, sign) -> np.ndarray:
