@@ -42,7 +42,7 @@ from ..geometry import describe_point
 from .joint_path import JointPath
 from ..robot import Robot, frame_acceleration_bias, jacobian
 from ..robot import kinematics, redundancy
-from ..robot.serial_batch import chain_of, jerk_bias_batch
+from ..robot.serial_batch import jerk_bias_batch
 from ..robot.ik import IK_RANGE_SLACK, has_closed_form, ik_batch, ik_dls, ik_nearest
 
 log = logging.getLogger(__name__)
@@ -106,10 +106,18 @@ class TaskJointPath(JointPath):
 
     def _lifted(self, th: np.ndarray, side: str, order: int) -> list[np.ndarray]:
         """[Phi, Phi', ..., Phi^(order)] (order 2 or 3) at theta (N,): closed form and J^-1, or a wrist window."""
-        pose = self.task_path.pose3(th, side=side) if order == 3 else self.task_path.pose(th, side=side)
+        return self._lifted_parts(((th, side),), order)[0]
+
+    def _lifted_parts(self, parts, order: int) -> list[list[np.ndarray]]:
+        """:meth:`_lifted` of each (theta (N_k,), side) of ``parts``, in one pass: the poses per part, the IK and
+        J^-1 of all points at once (point by point, so each part's values are those of its own pass)."""
+        poses = [self.task_path.pose3(t, side=s) if order == 3 else self.task_path.pose(t, side=s) for t, s in parts]
+        pose = poses[0] if len(parts) == 1 else tuple(np.concatenate(x) for x in zip(*poses))
+        th = parts[0][0] if len(parts) == 1 else np.concatenate([t for t, _ in parts])
         inside = np.full(len(th), -1)
         for i, window in enumerate(self.wrist_windows):
-            inside[(inside < 0) & window.contains(th, side)] = i
+            contains = np.concatenate([window.contains(t, s) for t, s in parts])
+            inside[(inside < 0) & contains] = i
         reg = inside < 0
         out = [np.empty((len(th), self.n)) for _ in range(order + 1)]
         if reg.any():  # the IK where the closed form holds; a window's interpolant gives Phi inside it
@@ -127,12 +135,21 @@ class TaskJointPath(JointPath):
             if m.any():
                 for k, values in enumerate(window.evaluate(th[m], order)):
                     out[k][m] = values
-        return out
+        if len(parts) == 1:
+            return [out]
+        ends = np.cumsum([0] + [len(t) for t, _ in parts])
+        return [[o[a:b] for o in out] for a, b in zip(ends[:-1], ends[1:])]
 
     def evaluate(self, theta, side: str = "right"):
         th, scalar = self._check_theta(theta)
         out = self._lifted(th, side, 2)
         return tuple(o[0] for o in out) if scalar else tuple(out)
+
+    def evaluate_sides(self, theta, at) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+        """(evaluate(theta, "right"), evaluate(theta[at], "left")), in one pass (a plan's grid and its breaks)."""
+        th, _ = self._check_theta(np.atleast_1d(theta))
+        right, left = self._lifted_parts(((th, "right"), (th[np.asarray(at, int)], "left")), 2)
+        return tuple(right), tuple(left)
 
     def evaluate3(self, theta, side: str = "right"):
         """(Phi, Phi', Phi'', Phi''') at theta, each (N, n) or (n,); Phi''' [rad/m^3] exact (from the
@@ -171,7 +188,7 @@ def tcp_jerk_bias(robot: Robot, q, qd, qdd) -> np.ndarray:
     fid = robot.frame_id(None)
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
     n = len(q)
-    chain = chain_of(model, fid) if n >= kinematics.SERIAL_BATCH_MIN else None
+    chain = robot.serial_chain(fid) if n >= kinematics.SERIAL_BATCH_MIN else None
     if chain is not None:
         return jerk_bias_batch(chain, q, qd, qdd)
     vel, acc, dacc, rot = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 3, 3))
@@ -299,6 +316,8 @@ class ResolvedRateJointPath(TaskJointPath):
         if scalar:
             return q[0], dq[0], ddq[0]
         return q, dq, ddq
+
+    evaluate_sides = JointPath.evaluate_sides  # the ODE's Phi: its own evaluate per side
 
     def evaluate3(self, theta, side: str = "right"):
         """(Phi, Phi', Phi'', Phi''') at theta, each (N, n) or (n,); Phi''' exact (the ODE differentiated

@@ -48,6 +48,12 @@ class JointPath:
         """(Phi, Phi', Phi'') at ``theta`` (scalar or (N,)); each (N, n), or (n,) for a scalar."""
         raise NotImplementedError
 
+    def evaluate_sides(self, theta, at) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+        """(evaluate(theta, "right"), evaluate(theta[at], "left")) at ``theta`` (N,) and the indices ``at`` (k,) into
+        it (a plan's grid and its breaks, where Phi' and Phi'' may differ from either side); each (N, n), (k, n)."""
+        theta = np.atleast_1d(np.asarray(theta, float))
+        return self.evaluate(theta, "right"), self.evaluate(theta[np.asarray(at, int)], "left")
+
     def evaluate3(self, theta, side: str = "right") -> tuple[np.ndarray, ...]:
         """(Phi, Phi', Phi'', Phi''') at ``theta``; each (N, n), or (n,) for a scalar. Phi''' is
         exact, for jerk and torque-rate limits: joint jerk = Phi''' theta_dot^3

@@ -61,14 +61,17 @@ def sample_grid(path: JointPath, robot: Robot, grid: np.ndarray, breaks: tuple[i
     """Path data on ``grid``, from both sides of ``breaks``; ``third``: Phi''' too, from the same
     evaluation (third-order limits need it; path.evaluate3 repeats path.evaluate's work). Where a point of
     ``grid`` is one of ``donor``'s (an earlier grid's right-side data), its Phi, Phi', Phi'' are copied."""
+    idx = np.array(list(breaks) + [len(grid) - 1], dtype=int)
     if third:
         data = path.evaluate3(grid, "right")
+    elif donor is None:  # both sides in one pass
+        data, (_, dql, ddql) = path.evaluate_sides(grid, idx)
     else:
-        data = path.evaluate(grid, "right") if donor is None else _evaluate_reusing(path, grid, donor)
+        data = _evaluate_reusing(path, grid, donor)
+    if third or donor is not None:
+        _, dql, ddql = path.evaluate(grid[idx], "left")
     q, dq, ddq = data[:3]
     dq_l, ddq_l = dq.copy(), ddq.copy()
-    idx = np.array(list(breaks) + [len(grid) - 1], dtype=int)
-    _, dql, ddql = path.evaluate(grid[idx], "left")
     dq_l[idx], ddq_l[idx] = dql, ddql
     right = PathPoints(robot, path, grid, q, dq, ddq) if donor is None else \
         ReusingPoints(robot, path, grid, q, dq, ddq, donor)

@@ -11,7 +11,7 @@ import numpy as np
 import pinocchio as pin
 
 from .model import Robot
-from .serial_batch import acceleration_bias_batch, chain_of, jacobian_batch
+from .serial_batch import acceleration_bias_batch, jacobian_batch
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 #: Batches of at least this many configurations of a serial revolute chain use :mod:`.serial_batch`'s array
@@ -50,7 +50,7 @@ def jacobian(robot: Robot, q, frame: str | int | None = None) -> np.ndarray:
     model, data = robot.model, robot.data
     fid = robot.frame_id(frame)
     qs, single = _as_batch(q, robot.n)
-    chain = chain_of(model, fid) if len(qs) >= SERIAL_BATCH_MIN else None
+    chain = robot.serial_chain(fid) if len(qs) >= SERIAL_BATCH_MIN else None
     if chain is not None:
         return jacobian_batch(chain, qs)
     out = np.empty((len(qs), 6, robot.n))
@@ -68,7 +68,7 @@ def frame_acceleration_bias(robot: Robot, q, qd, frame: str | int | None = None)
     fid = robot.frame_id(frame)
     qs, single = _as_batch(q, robot.n)
     qds, _ = _as_batch(qd, robot.n)
-    chain = chain_of(model, fid) if len(qs) >= SERIAL_BATCH_MIN else None
+    chain = robot.serial_chain(fid) if len(qs) >= SERIAL_BATCH_MIN else None
     if chain is not None:
         return acceleration_bias_batch(chain, qs, qds)
     zero = np.zeros(robot.n)

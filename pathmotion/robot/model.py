@@ -176,6 +176,20 @@ class Robot:
             raise RobotModelError(f"robot {self.name}: no frame '{frame}'")
         return self.model.getFrameId(frame)
 
+    def serial_chain(self, frame_id: int):
+        """:func:`~.serial_batch.chain_of` of the model and frame ``frame_id`` (a Chain or None), built once per frame
+        (every batched Jacobian and acceleration bias asks for it; reading it from the model costs ~0.1 ms)."""
+        chains = self._serial_chains
+        if frame_id not in chains:
+            from .serial_batch import chain_of
+
+            chains[frame_id] = chain_of(self.model, frame_id)
+        return chains[frame_id]
+
+    @cached_property
+    def _serial_chains(self) -> dict:
+        return {}
+
     def with_payload(self, payload: Payload) -> "Robot":
         return _replace(self, payload=payload)
 
