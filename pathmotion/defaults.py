@@ -386,7 +386,8 @@ EGM_FIRST_MESSAGE_TIMEOUT = 30.0
 #: EGM: a robot message answered later than this after it arrived counts as late [s] (one EGM cycle).
 EGM_LATE = 0.004
 #: EGM: the virtual robot sends a robot message again after this long without an answer (--lockstep) [s],
-#: and gives up after this many silent repeats.
+#: and gives up after this many silent repeats (before the sensor's first answer: after
+#: EGM_FIRST_MESSAGE_TIMEOUT, as execute waits for the robot's first message).
 EGM_RESEND = 0.05
 EGM_RESEND_LIMIT = 100
 #: EGM: the virtual robot keeps streaming this long after the sensor's references come to rest [s] (the arm

@@ -146,7 +146,8 @@ def _receive(sock: socket.socket, n: int, timeout: float):
 def run_virtual_robot(arm: VirtualArm, address: tuple[str, int], *, lockstep: bool, max_time: float,
                       resend: float = defaults.EGM_RESEND, resend_limit: int = defaults.EGM_RESEND_LIMIT) -> RobotRun:
     """Stream EgmRobot to ``address`` and move ``arm`` by the answers until the sensor says done, ``max_time``
-    [s] of arm time passes, or (lockstep) ``resend_limit`` repeats go unanswered."""
+    [s] of arm time passes, or (lockstep) ``resend_limit`` repeats go unanswered (before the first answer: as many
+    as span ``defaults.EGM_FIRST_MESSAGE_TIMEOUT``)."""
     dt = arm.params.cycle
     run = RobotRun()
     ref = arm.feedback
@@ -167,7 +168,9 @@ def run_virtual_robot(arm: VirtualArm, address: tuple[str, int], *, lockstep: bo
                     answer = _receive(sock, arm.n, resend)
                     tries += answer is None
                     run.resent += answer is None
-                    if tries > resend_limit:
+                    # before the first answer the sensor may still be preparing (planning, refining): as long
+                    # as execute waits for its first robot message
+                    if tries > (resend_limit if k > 0 else defaults.EGM_FIRST_MESSAGE_TIMEOUT / resend):
                         run.ended = "the sensor stopped answering"
                         return run
                 else:
