@@ -80,6 +80,46 @@ def test_compiled_pass_against_the_sequential_lp_from_random_states(torque_jerk,
         assert 1.0 - 2e-3 <= fast.duration / lp.duration <= 1.25
 
 
+@pytest.mark.parametrize("theta, v, a", [
+    (0.037434796227497666, 0.08527405642162118, -1.32944632739536),
+    (0.012816962708627564, 0.1334223962662442, -2.7363479522317),
+    (0.012063041533469496, 0.09395966565427619, -1.56261622902286),
+    (0.03010302689039361, 0.11135523154556809, -1.5630647239089308)])
+def test_compiled_pass_from_a_slow_state_braking_hard(torque_jerk, theta, v, a):
+    # slow and braking hard: the jerk limit turns theta_ddot within a small part of the plan interval after the
+    # state (the graded stretch to the next grid point resolves it); the pass answers where the LP does,
+    # continuous at the state, within every limit (jerk across the switch included) on the dense resample,
+    # never faster than the LP's optimum (to its tolerance) and within 1 % of it
+    path, res, rt = torque_jerk
+    lp = _answer(rt, theta, v, a, reference=True)
+    fast = rt.compiled_remaining(theta, v, a)
+    assert lp is not None and fast is not None
+    assert fast.smooth and fast.grid[0] == theta and fast.x[-1] == 0.0 and np.all(np.diff(fast.grid) > 0.0)
+    assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
+    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+    assert 1.0 - 2e-3 <= fast.duration / lp.duration <= 1.01
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(where=st.floats(0.01, 0.9), speed=st.floats(0.02, 0.5), acc=st.floats(-3.0, -0.5))
+def test_compiled_pass_from_random_slow_braking_states(torque_jerk, where, speed, acc):
+    # slow states braking: where the pass answers, its profile starts at the state (speed and acceleration), is
+    # within every limit on the dense resample (the jerk across the graded first intervals included) and no
+    # faster than the LP's optimum; where it does not, remaining answers with the LP or refuses with it
+    path, res, rt = torque_jerk
+    theta = where * path.domain[1]
+    v, a = speed * float(res.profile.theta_dot_at(theta)), acc
+    fast, lp = rt.compiled_remaining(theta, v, a), _answer(rt, theta, v, a, reference=True)
+    if fast is None:
+        assert (_answer(rt, theta, v, a) is None) == (lp is None)
+        return
+    assert fast.smooth and fast.grid[0] == theta and fast.x[-1] == 0.0
+    assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
+    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+    if lp is not None:
+        assert fast.duration >= (1.0 - 2e-3) * lp.duration
+
+
 def test_compiled_pass_from_a_state_above_its_limits(torque_jerk):
     # half the plan's speed with theta_ddot 1.5 % above the largest the acceleration and torque limits allow there (a
     # measured state): the pass answers from it, without a jump, no further above a limit on the dense resample

@@ -332,7 +332,7 @@ class Retimer:
         got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
         if got is None:
             return None
-        return Profile(np.concatenate([[theta], self.grid[j:]]), got[0] * s2, got[1] * s2)
+        return Profile(got[0], got[1] * s2, got[2] * s2)
 
     def resume(self, theta: float) -> Profile:
         """The time-optimal profile from rest at ``theta`` to the plan's end."""
