@@ -285,3 +285,29 @@ def test_compiled_stop_over_a_spline_knot_is_certified(torque_jerk):
     _check_stop(rt, path, s, theta, v, a)
     certified, dense = rt.certify(s).max_ratio, rt.dense_ratios(s, 1e-4).max_ratio
     assert dense <= certified <= max(1.0 + TOL, dense + 1e-3)
+
+
+def test_states_certified_unable_to_turn_have_no_jerk_limited_stop(torque_jerk, monkeypatch):
+    # seeded slow states braking hard: where the certificate says the deceleration cannot be turned before the
+    # speed runs out, neither the compiled stop's search nor the compiled pass (both run without the certificate)
+    # nor the sequential LP (its first few) finds a motion, and stop refuses with the stop it can run; the
+    # certificate holds for some of them and not for all
+    path, res, rt = torque_jerk
+    rng = np.random.default_rng(11)
+    certified, lp_checked = 0, 0
+    for _ in range(200):
+        theta = rng.uniform(0.0, 0.9) * path.domain[1]
+        v, a = rng.uniform(0.01, 0.5) * float(res.profile.theta_dot_at(theta)), rng.uniform(-4.0, -0.5)
+        if not rt._cannot_turn(theta, v * v, a):
+            continue
+        certified += 1
+        with pytest.raises(StateInfeasibleError) as err:
+            rt.stop(theta, v, a)
+        assert err.value.stop is not None and err.value.stop.x[-1] == 0.0 and err.value.stop.grid[0] == theta
+        with monkeypatch.context() as m:
+            m.setattr(rt, "_cannot_turn", lambda *state: False)
+            assert rt.compiled_stop(theta, v, a) is None and rt.compiled_remaining(theta, v, a) is None
+        if lp_checked < 3:
+            lp_checked += 1
+            assert _lp_stop(rt, theta, v, a) is None
+    assert 10 <= certified <= 190

@@ -230,7 +230,7 @@ class Retimer:
             fast = self._compiled_stop(theta, x0, u0)
             if fast is not None:
                 return fast
-            rest = self._to_next_rest(theta, x0, u0)
+            rest = None if self._cannot_turn(theta, x0, u0) else self._to_next_rest(theta, x0, u0)
             if rest is not None:
                 log.info("retimer: no jerk-limited stop from theta = %.6g before the next rest point; the time-optimal "
                          "motion to it (%.6g)", theta, rest.grid[-1])
@@ -283,7 +283,7 @@ class Retimer:
         rest, over the braking depths until its smooth profile meets the rows at its points; else the search over
         braking points and tails; None when neither finds one."""
         jp = self._jerk
-        if jp is None:
+        if jp is None or self._cannot_turn(theta, x0, u0):
             return None
         end = float(self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))])
         s, x, u, bs, bv, bu = self._stop_buffers
@@ -300,6 +300,12 @@ class Retimer:
         n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
         got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows) if n > 0 else None
         return None if got is None else self._with_knots(Profile(*got))
+
+    def _cannot_turn(self, theta: float, x0: float, u0: float) -> bool:
+        """Jerk limits: whether the state's deceleration provably cannot be turned to 0 before it rests
+        (retime_stop.cannot_turn): no jerk-limited stop nor motion on exists, none is searched for."""
+        jp = self._jerk
+        return jp is not None and bool(retime_stop.cannot_turn(theta, x0, u0, self.grid, jp.p2, jp.p3, jp.px))
 
     def _with_knots(self, p: Profile) -> Profile:
         """The smooth profile ``p`` with the path's spline knots inside it as grid points, x and u there from its own
