@@ -290,8 +290,8 @@ def test_compiled_stop_over_a_spline_knot_is_certified(torque_jerk):
 def test_states_certified_unable_to_turn_have_no_jerk_limited_stop(torque_jerk, monkeypatch):
     # seeded slow states braking hard: where the certificate says the deceleration cannot be turned before the
     # speed runs out, neither the compiled stop's search nor the compiled pass (both run without the certificate)
-    # nor the sequential LP (its first few) finds a motion, and stop refuses with the stop it can run; the
-    # certificate holds for some of them and not for all
+    # nor the sequential LP (its first few: stop and remaining) finds a motion; stop refuses with the stop it can
+    # run, remaining refuses; the certificate holds for some of them and not for all
     path, res, rt = torque_jerk
     rng = np.random.default_rng(11)
     certified, lp_checked = 0, 0
@@ -307,7 +307,8 @@ def test_states_certified_unable_to_turn_have_no_jerk_limited_stop(torque_jerk, 
         with monkeypatch.context() as m:
             m.setattr(rt, "_cannot_turn", lambda *state: False)
             assert rt.compiled_stop(theta, v, a) is None and rt.compiled_remaining(theta, v, a) is None
+        assert _answer(rt, theta, v, a) is None
         if lp_checked < 3:
             lp_checked += 1
-            assert _lp_stop(rt, theta, v, a) is None
+            assert _lp_stop(rt, theta, v, a) is None and _answer(rt, theta, v, a, reference=True) is None
     assert 10 <= certified <= 190

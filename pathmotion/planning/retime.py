@@ -592,6 +592,12 @@ class Retimer:
             fast = self._compiled(theta, x0, u0, s2)
             if fast is not None:
                 return fast
+            if self._cannot_turn(theta, x0 / s2, u0 / s2):
+                raise StateInfeasibleError(
+                    f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot go on "
+                    f"within the jerk and torque-rate limits at override {np.sqrt(s2):.4g}: its deceleration cannot be "
+                    "turned to 0 before theta_dot runs out; stop first (Retimer.stop, which carries the stop without "
+                    "the jerk limits), or brake more gently", end_speed=np.nan)
             log.debug("retimer: no answer of the compiled pass from theta = %.6g; sequential LP", theta)
         try:
             grid, x2 = self._remaining2(theta, x0, s2)
