@@ -18,9 +18,10 @@ intervals are tried: u = u_C + d (1 - s) + alpha s (1 - s), s the fraction of th
 from u_C, alpha the value that ends the merge on C's x. Of those whose rows hold, the one of the least
 total time (walk, descent, merge, C's rest) is the answer, C from its end on (none where the rows stop the
 walk while a merge further on might still gain WALK_GAIN). Every step and merge meets
-every row at CHECK_POINTS of each interval (the inner points' path data sampled at construction, the first
-interval's at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
-certified bounds of a result are checked like a plan's (Retimer.certify) in the tests and the benchmark.
+every row at CHECK_POINTS of each interval (the inner points' path data sampled at construction; the stretch
+from the state to the next grid point is cut into intervals graded towards the state, FIRST_CUTS, whose path
+data is sampled at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
+results are checked on the dense time resample in the tests, their certified bounds in the benchmark.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ MERGE_LENGTHS = np.array([2, 4, 8, 16, 32])
 ROW_SLACK = 1e-9
 #: The pass keeps this fraction below every limit (velocity, order-2 and order-3 rows) at its check points,
 #: for what the rows do between them; along a merge the margin fades out to the ceiling's full limits [-].
-PASS_MARGIN = 0.01
+PASS_MARGIN = 0.005
 #: The state's share of the order-2 limits the pass keeps to at least, and at most (a state above is refused) [-].
 STATE_SHARE_MIN = 1.0 + defaults.LIMIT_TOLERANCE
 STATE_SHARE_MAX = defaults.RETIME_STATE_SHARE_MAX
