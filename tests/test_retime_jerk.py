@@ -100,7 +100,8 @@ def test_compiled_pass_from_a_slow_state_braking_hard(torque_jerk, theta, v, a):
     assert 1.0 - 2e-3 <= fast.duration / lp.duration <= 1.01
 
 
-@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@settings(max_examples=10, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(where=st.floats(0.01, 0.9), speed=st.floats(0.02, 0.5), acc=st.floats(-3.0, -0.5))
 def test_compiled_pass_from_random_slow_braking_states(torque_jerk, where, speed, acc):
     # slow states braking: where the pass answers, its profile starts at the state (speed and acceleration), is

@@ -508,7 +508,8 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u):
                             out_u, False)
                 if np.isfinite(tm) and t + st + tm + _c_time(s0 + n, j, tc, c0) < best_t:
                     best_t, best_k, best_m, best_n = t + st + tm + _c_time(s0 + n, j, tc, c0), k, s0, n
-        if k == last - 1 or (best_k >= 0 and k - best_k > STALL and t + _c_time(k, j, tc, c0) > (1.0 - WALK_GAIN) * best_t):
+        if k == last - 1 or (best_k >= 0 and k - best_k > STALL
+                             and t + _c_time(k, j, tc, c0) > (1.0 - WALK_GAIN) * best_t):
             break
         lo, hi, w0, w1 = _bounds(k, j, grid_data, first, x, u, floor)
         trapped = t + _c_time(k, j, tc, c0)  # where the walk ends when no step follows
