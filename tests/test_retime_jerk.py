@@ -313,3 +313,40 @@ def test_states_certified_unable_to_turn_have_no_jerk_limited_stop(torque_jerk, 
             lp_checked += 1
             assert _lp_stop(rt, theta, v, a) is None and _answer(rt, theta, v, a, reference=True) is None
     assert 10 <= certified <= 190
+
+
+@pytest.fixture(scope="module")
+def circle_smooth():
+    """(path, plan, retimer) of the circle_smooth scenario (jerk limits, a torque reserve; from rest to rest)."""
+    from pathmotion import api
+    from pathmotion.scenarios import scenario_path
+    res = api.plan_scenario(api.load(scenario_path("circle_smooth")))
+    return res.trajectory.path, res, Retimer(res)
+
+
+def _plan_state(res, fraction):
+    """(theta, theta_dot, theta_ddot) of the plan at ``fraction`` of its duration."""
+    theta, v, a, _ = res.profile.state3_at_time(np.array([fraction * res.profile.duration]))
+    return float(theta[0]), float(v[0]), float(a[0])
+
+
+@pytest.mark.parametrize("plan_name", ["circle_smooth", "torque_jerk"])
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(fraction=st.floats(0.005, 0.995))
+@example(fraction=0.5)  # circle_smooth: below the ceiling at the jerk limit, neither compiled answer exists there
+def test_every_state_on_the_plan_has_a_jerk_limited_stop(request, plan_name, fraction):
+    # the plan's own motion from any of its states is a motion within every limit to its next rest point: the
+    # re-timer finds a stop from every such state, continuous at the state and within the limits on the dense
+    # resample; past the start its remaining motion as well, no slower than the plan's own by more than 1 %
+    _, res, rt = request.getfixturevalue(plan_name)
+    theta, v, a = _plan_state(res, fraction)
+    answers = [rt.stop(theta, v, a)]
+    if fraction >= 0.25:  # nearer the start from rest the sequential LP answers (or refuses) the plan's own state
+        answers.append(rt.remaining(theta, v, a))
+    for got in answers:
+        assert got.smooth and np.isclose(got.grid[0], theta) and got.x[-1] >= 0.0
+        assert np.isclose(np.sqrt(got.x[0]), v, rtol=1e-9) and np.isclose(got.u_nodes[0], a, rtol=1e-9, atol=1e-9)
+        assert rt.dense_ratios(got, DT).max_ratio <= 1.0 + 2 * TOL
+    assert answers[0].x[-1] == 0.0
+    if len(answers) == 2:
+        assert answers[1].duration <= (1.0 - fraction) * res.profile.duration * 1.01
