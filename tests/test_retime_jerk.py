@@ -52,6 +52,13 @@ def test_stop_from_a_large_acceleration_where_the_spline_starts(torque_jerk):
     assert rt.dense_ratios(s, DT).max_ratio <= 1.0 + 2 * TOL
 
 
+def _state_share(path, theta, v, a):
+    """The share of the joint acceleration limits the state (theta, theta_dot, theta_ddot) takes itself [-]: a
+    random state may lie above them, and the re-timer keeps its motion within that share (plus the tolerance)."""
+    _, dq, ddq = (np.asarray(r, float).ravel() for r in path.evaluate(float(theta)))
+    return float(np.max(np.abs(dq * a + ddq * v * v) / ACC))
+
+
 def _answer(rt, theta, v, a, **kw):
     try:
         return rt.remaining(theta, v, a, **kw)
@@ -75,7 +82,7 @@ def test_compiled_pass_against_the_sequential_lp_from_random_states(torque_jerk,
         return
     assert fast.smooth and fast.grid[0] == theta and fast.grid[-1] == path.domain[1] and fast.x[-1] == 0.0
     assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and np.isclose(fast.u_nodes[0], a, rtol=1e-12)  # no jump
-    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+    assert rt.dense_ratios(fast, DT).max_ratio <= max(1.0, _state_share(path, theta, v, a)) + 2 * TOL
     if lp is not None:  # never faster than the LP's optimum (to its tolerance); slower: median ~0.35 %, up to ~14 %
         assert 1.0 - 2e-3 <= fast.duration / lp.duration <= 1.25
 
@@ -116,7 +123,7 @@ def test_compiled_pass_from_random_slow_braking_states(torque_jerk, where, speed
         return
     assert fast.smooth and fast.grid[0] == theta and fast.x[-1] == 0.0
     assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
-    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+    assert rt.dense_ratios(fast, DT).max_ratio <= max(1.0, _state_share(path, theta, v, a)) + 2 * TOL
     if lp is not None:
         assert fast.duration >= (1.0 - 2e-3) * lp.duration
 
