@@ -357,3 +357,20 @@ def test_every_state_on_the_plan_has_a_jerk_limited_stop(request, plan_name, fra
     assert answers[0].x[-1] == 0.0
     if len(answers) == 2:
         assert answers[1].duration <= (1.0 - fraction) * res.profile.duration * 1.01
+
+
+@pytest.mark.parametrize("theta, v, a", [
+    (0.037434796227497666, 0.08527405642162118, -1.32944632739536),  # the jerk at the state at the limit
+    (0.002854422301887691, 0.06691933893030654, -0.20276384804826542),  # a merge's steep jerk
+    (0.029562904848176537, 0.0010087377057796051, 1.9802863788104732),  # slow: the graded first stretch
+    (0.030355693724025, 0.26558697186400637, 0.5399501580636619)])  # a stop's first interval
+def test_compiled_answers_are_certified_within_the_limits(torque_jerk, theta, v, a):
+    # certified like a plan: the certified bound of every interval within 1 + the limit tolerance (these states
+    # lie below their limits), and above the dense resample's ratio (the certificate bounds the motion)
+    path, res, rt = torque_jerk
+    assert _state_share(path, theta, v, a) < 1.0
+    answers = [p for p in (rt.compiled_remaining(theta, v, a), rt.compiled_stop(theta, v, a)) if p is not None]
+    assert answers
+    for p in answers:
+        certified = rt.certify(p).max_ratio
+        assert rt.dense_ratios(p, 1e-4).max_ratio <= certified + 1e-6 and certified <= 1.0 + TOL

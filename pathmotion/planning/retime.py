@@ -355,13 +355,12 @@ class Retimer:
         end = float(self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))])
         s, x, u, bs, bv, bu = self._stop_buffers
         rows = (self.grid, jp.p2, jp.p3, jp.px)
-        share = min(max(retime_stop.state_share(theta, x0, u0, self.grid, jp.p2), 1.0 + defaults.LIMIT_TOLERANCE),
-                    retime_stop.STATE_SHARE_MAX)
+        share = min(max(retime_stop.state_share(theta, x0, u0, self.grid, jp.p2), 1.0), retime_stop.STATE_SHARE_MAX)
         depth = 0
         while depth >= 0:
             n, _, depth = retime_stop.shortest_met(theta, x0, u0, share, end, depth, *rows, s, x, u, bs, bv, bu)
             got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows, 1.0) if n > 0 else None
-            if got is not None and retime_stop.profile_ok(*got, 1.0, share + defaults.LIMIT_TOLERANCE, *rows):
+            if got is not None and retime_stop.profile_ok(*got, 1.0, share, *rows):
                 return self._with_knots(Profile(*got))
             depth = depth + 1 if 0 <= depth < len(retime_stop.DEPTHS) - 1 else -1
         n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)

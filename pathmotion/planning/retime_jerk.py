@@ -44,11 +44,15 @@ ROW_SLACK = 1e-9
 #: for what the rows do between them; along a merge the margin fades out to the ceiling's full limits [-].
 PASS_MARGIN = 0.005
 #: The state's share of the order-2 limits the pass keeps to at least, and at most (a state above is refused) [-].
-STATE_SHARE_MIN = 1.0 + defaults.LIMIT_TOLERANCE
+STATE_SHARE_MIN = 1.0
 STATE_SHARE_MAX = defaults.RETIME_STATE_SHARE_MAX
 #: The stretch from the state to the next grid point is cut at these fractions of it (graded towards the
 #: state: a slow state's acceleration turns at the jerk limit within a small part of a plan interval) [-].
 FIRST_CUTS = (0.0, 0.0625, 0.125, 0.25, 0.5, 1.0)
+#: The pass's own intervals (from the state to where it runs on C) are returned cut into this many, the same
+#: motion: the certified bound of an interval (planning/certify.py: samples and an interpolation remainder) is
+#: loose on an interval whose jerk changes steeply, as a merge's or a slow state's graded first ones [-].
+OUTPUT_SPLIT = 2
 #: Least x (relative to the state's) at a point where the motion does not rest [-].
 X_FLOOR = 1e-12
 #: An interval whose u rises from u_k < 0 through 0 has its least x where u = 0: about x_k - u_k^2 h / (u_{k+1} -
@@ -159,7 +163,7 @@ class JerkPass:
             return None
         grid = np.concatenate([pts, self.grid[j + 1:]])
         cx, cu = np.concatenate([c0[0], self.cx[j:]]), np.concatenate([c0[1], self.cu[j:]])
-        return grid, np.concatenate([xs[:end], cx[end:]]), np.concatenate([us[:end], cu[end:]])
+        return split(grid, np.concatenate([xs[:end], cx[end:]]), np.concatenate([us[:end], cu[end:]]), end)
 
     def _ceiling_first(self, j: int, pts: np.ndarray) -> np.ndarray:
         """(3, F): C's x, u and time [s] to the plan's end at the first output points pts[:-1] (pts (F + 1,), its
@@ -170,6 +174,21 @@ class JerkPass:
         chords = 2.0 * np.diff(pts) / np.maximum(np.sqrt(xs[:-1]) + np.sqrt(xs[1:]), 1e-300)
         time = self.tc[j] + np.cumsum(chords[::-1])[::-1]
         return np.ascontiguousarray(np.stack([np.asarray(x, float), np.asarray(u, float), time]))
+
+
+def split(grid, x, u, upto: int, parts: int = OUTPUT_SPLIT):
+    """The smooth profile (grid, x, u) (K,) with each of its intervals before point ``upto`` cut into ``parts``,
+    x and u at the new points from its own form (the same motion: no rest point is added, so every interval keeps
+    its coordinate). Returns (grid, x, u)."""
+    if upto <= 0 or parts <= 1:
+        return grid, x, u
+    origin, sign = smooth.coordinates(grid, x <= 0.0)
+    frac = np.arange(1, parts) / parts
+    index = np.repeat(np.arange(upto), parts - 1)
+    at = grid[index] + np.tile(frac, upto) * (grid[index + 1] - grid[index])
+    xi, ui, _ = smooth.state(grid, x, u, origin, sign, index, at)
+    cut = np.repeat(np.arange(1, upto + 1), parts - 1)  # each new point goes before the end of its interval
+    return np.insert(grid, cut, at), np.insert(x, cut, xi), np.insert(u, cut, ui)
 
 
 def _sample_points(path, robot, theta):
