@@ -47,8 +47,11 @@ PASS_MARGIN = 0.005
 STATE_SHARE_MIN = 1.0
 STATE_SHARE_MAX = defaults.RETIME_STATE_SHARE_MAX
 #: The stretch from the state to the next grid point is cut at these fractions of it (graded towards the
-#: state: a slow state's acceleration turns at the jerk limit within a small part of a plan interval) [-].
+#: state: a slow state's acceleration turns at the jerk limit within a small part of a plan interval) [-] ...
 FIRST_CUTS = (0.0, 0.0625, 0.125, 0.25, 0.5, 1.0)
+#: ... for a braking state that would rest within this many plan intervals at its deceleration, x0 / (2 |u0|)
+#: (the others turn theta_ddot over a plan interval or more: one interval, a shorter walk) [-].
+GRADED_REACH = 4.0
 #: The pass's own intervals (from the state to where it runs on C) are returned cut into this many, the same
 #: motion: the certified bound of an interval (planning/certify.py: samples and an interpolation remainder) is
 #: loose on an interval whose jerk changes steeply, as a merge's or a slow state's graded first ones [-].
@@ -97,13 +100,13 @@ class JerkPass:
         x, u, _ = smooth.state(self.grid, self.cx, self.cu, self.origin, self.sign, np.array(i), np.array(theta))
         return float(x), float(u)
 
-    def _first(self, theta: float, i: int, f: float, j: int) -> tuple:
-        """The first output intervals: [theta, grid[j]] cut at FIRST_CUTS (one interval where the stretch holds a
-        grid point, j = i + 2). Their points (F + 1,), and their check points' rows (five (Q, F, m2)), (five
+    def _first(self, theta: float, i: int, f: float, j: int, graded: bool) -> tuple:
+        """The first output intervals: [theta, grid[j]] cut at FIRST_CUTS when ``graded`` (else, and where the
+        stretch holds a grid point, j = i + 2, one interval). Their points (F + 1,), and their check points' rows (five (Q, F, m2)), (five
         (Q, F, m3)), x_max (Q, F) and coefficients (4, Q, F); the path data sampled at their points (the last
         end: grid point j's), the limits scaled as on grid interval i."""
         g = self.grid
-        cuts = np.array(FIRST_CUTS if j == i + 1 else (0.0, 1.0))
+        cuts = np.array(FIRST_CUTS if graded and j == i + 1 else (0.0, 1.0))
         pts_s = theta + cuts * (g[j] - theta)
         pts_s[-1] = g[j]
         nf = len(cuts) - 1
@@ -150,7 +153,8 @@ class JerkPass:
         """(x, u) on [theta, grid[j:]] from the state (x0 > 0, u0) at theta (grid interval i at the fraction f;
         j the first grid point after it; the pass must apply there), or None when the pass finds no merge."""
         nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
-        pts, first = self._first(theta, i, f, j)
+        graded = u0 < 0.0 and x0 < -2.0 * u0 * GRADED_REACH * (self.grid[i + 1] - self.grid[i])
+        pts, first = self._first(theta, i, f, j, graded)
         c0 = self._ceiling_first(j, pts)
         grid_data = (self.p2, self.p3, self.px, self.pc, self.cx, self.cu)
         share = self._state_share(first, x0, u0)
@@ -476,20 +480,24 @@ def _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor):
 @njit(cache=True)
 def _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, c0, floor, out_x, out_u):
     """The largest u_{k+1} in [the descent's own step, hi] (of output interval k from (x, u), weights w0, w1)
-    from which the descent still ends on or below C: hi, else by BISECTION_STEPS bisections."""
-    if _descend(k + 1, x + 2.0 * (w0 * u + w1 * hi), hi, last, j, grid_data, first, c0, floor, out_x, out_u,
-                False)[0] >= 0:
-        return hi
+    from which the descent still ends on or below C: hi, else by BISECTION_STEPS bisections. Returns (u_{k+1},
+    the descent from there: (m, x_m, u_m, time), m = -2 where it was not computed)."""
+    got = _descend(k + 1, x + 2.0 * (w0 * u + w1 * hi), hi, last, j, grid_data, first, c0, floor, out_x, out_u,
+                   False)
+    if got[0] >= 0:
+        return hi, got
     _, ucn = _ceiling(k + 1, j, grid_data, c0)
     low, top = max(lo, min(hi, ucn)), hi  # the descent's own step ends below C
+    kept = (-2, 0.0, 0.0, 0.0)
     for _ in range(BISECTION_STEPS):
         mid = 0.5 * (low + top)
-        if _descend(k + 1, x + 2.0 * (w0 * u + w1 * mid), mid, last, j, grid_data, first, c0, floor, out_x,
-                    out_u, False)[0] >= 0:
-            low = mid
+        got = _descend(k + 1, x + 2.0 * (w0 * u + w1 * mid), mid, last, j, grid_data, first, c0, floor, out_x,
+                       out_u, False)
+        if got[0] >= 0:
+            low, kept = mid, got
         else:
             top = mid
-    return low
+    return low, kept
 
 
 @njit(cache=True)
@@ -514,8 +522,11 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u):
     if not _rows2_within(_point(0, 0, j, grid_data, first)[0], x0, u0, first[4]):
         return np.inf, -1  # the state breaks a limit itself
     best_t, best_k, best_m, best_n, t, trapped = np.inf, -1, -1, 0, 0.0, np.inf
+    known = (-2, 0.0, 0.0, 0.0)  # the descent from the walk's next point, where _largest_safe computed it
     for k in range(last):
-        m, xd, ud, td = _descend(k, x, u, last, j, grid_data, first, c0, floor, out_x, out_u, False)
+        m, xd, ud, td = known if known[0] != -2 else _descend(k, x, u, last, j, grid_data, first, c0, floor, out_x,
+                                                               out_u, False)
+        known = (-2, 0.0, 0.0, 0.0)
         for start in range(2):
             s0, sx, su, st = (k, x, u, 0.0) if start == 0 else (m, xd, ud, td)
             if start == 1 and m <= k:
@@ -540,7 +551,7 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u):
         elif m < 0:  # the descent crosses above C: its own step (the merges from above C may still end on it)
             v = max(lo, min(hi, _ceiling(k + 1, j, grid_data, c0)[1]))
         else:
-            v = _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, c0, floor, out_x, out_u)
+            v, known = _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, c0, floor, out_x, out_u)
         x1, dt = _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor)
         if dt < 0.0:
             break
