@@ -338,7 +338,8 @@ def _plan_state(res, fraction):
 
 
 @pytest.mark.parametrize("plan_name", ["circle_smooth", "torque_jerk"])
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(fraction=st.floats(0.005, 0.995))
 @example(fraction=0.5)  # circle_smooth: below the ceiling at the jerk limit, neither compiled answer exists there
 def test_every_state_on_the_plan_has_a_jerk_limited_stop(request, plan_name, fraction):

@@ -22,9 +22,10 @@ at the end for the stop). A query then costs one compiled forward pass over the 
 
 Third-order limits (jerk, torque rate): ``remaining`` from a moving state is the compiled pass of
 planning/retime_jerk.py (a walk that merges into the smooth time-optimal ceiling profile, solved at
-construction). Where it gives no answer, and with ``reference=True``, the second-order answer is the first
-linearization point of the project's sequential LP (planning/third_order.py) on the remaining grid, started
-at the state's x and u. The stop searches the shortest stop distance whose smooth profile exists (LP solves,
+construction); for a state on the plan where it gives none, the plan's own motion from the state
+(:meth:`Retimer._plan_tail`). Where neither gives an answer, and with ``reference=True``, the second-order
+answer is the first linearization point of the project's sequential LP (planning/third_order.py) on the
+remaining grid, started at the state's x and u. The stop searches the shortest stop distance whose smooth profile exists (LP solves,
 tens to hundreds of milliseconds).
 """
 
@@ -226,8 +227,9 @@ class Retimer:
         torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step). With jerk
         limits the stop is the compiled one (planning/retime_stop.py); where it finds none, the compiled pass's
         time-optimal motion to the next point where the plan's profile rests (a stop within every limit, the
-        longest kind); where neither exists, StateInfeasibleError. ``reference``: the sequential-LP search for
-        the shortest jerk-limited stop instead (slow; the reference the compiled stop is tested against)."""
+        longest kind), or for a state on the plan the plan's own motion to that point; where none exists,
+        StateInfeasibleError. ``reference``: the sequential-LP search for the shortest jerk-limited stop instead
+        (slow; the reference the compiled stop is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
