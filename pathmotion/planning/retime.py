@@ -25,8 +25,8 @@ planning/retime_jerk.py (a walk that merges into the smooth time-optimal ceiling
 construction); for a state on the plan where it gives none, the plan's own motion from the state
 (:meth:`Retimer._plan_tail`). Where neither gives an answer, and with ``reference=True``, the second-order
 answer is the first linearization point of the project's sequential LP (planning/third_order.py) on the
-remaining grid, started at the state's x and u. The stop searches the shortest stop distance whose smooth profile exists (LP solves,
-tens to hundreds of milliseconds).
+remaining grid, started at the state's x and u. The stop searches the shortest stop distance whose smooth
+profile exists (LP solves, tens to hundreds of milliseconds).
 """
 
 from __future__ import annotations

@@ -103,8 +103,8 @@ class JerkPass:
     def _first(self, theta: float, i: int, f: float, j: int, graded: bool) -> tuple:
         """The first output intervals: [theta, grid[j]] cut at FIRST_CUTS when ``graded`` (else, and where the
         stretch holds a grid point, j = i + 2, one interval). Their points (F + 1,), and their check points' rows
-        (five (Q, F, m2)), (five (Q, F, m3)), x_max (Q, F) and coefficients (4, Q, F); the path data sampled at their points (the last
-        end: grid point j's), the limits scaled as on grid interval i."""
+        (five (Q, F, m2)), (five (Q, F, m3)), x_max (Q, F) and coefficients (4, Q, F); the path data sampled at
+        their points (the last end: grid point j's), the limits scaled as on grid interval i."""
         g = self.grid
         cuts = np.array(FIRST_CUTS if graded and j == i + 1 else (0.0, 1.0))
         pts_s = theta + cuts * (g[j] - theta)
