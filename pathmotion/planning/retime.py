@@ -362,7 +362,7 @@ class Retimer:
         while depth >= 0:
             n, _, depth = retime_stop.shortest_met(theta, x0, u0, share, end, depth, *rows, s, x, u, bs, bv, bu)
             got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows, 1.0) if n > 0 else None
-            if got is not None and retime_stop.profile_ok(*got, 1.0, share, *rows):
+            if got is not None and retime_stop.profile_ok(*got, 1.0, share + defaults.LIMIT_TOLERANCE, *rows):
                 return self._with_knots(Profile(*got))
             depth = depth + 1 if 0 <= depth < len(retime_stop.DEPTHS) - 1 else -1
         n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
