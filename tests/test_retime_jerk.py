@@ -52,6 +52,13 @@ def test_stop_from_a_large_acceleration_where_the_spline_starts(torque_jerk):
     assert rt.dense_ratios(s, DT).max_ratio <= 1.0 + 2 * TOL
 
 
+def _state_share(path, theta, v, a):
+    """The share of the joint acceleration limits the state (theta, theta_dot, theta_ddot) takes itself [-]: a
+    random state may lie above them, and the re-timer keeps its motion within that share (plus the tolerance)."""
+    _, dq, ddq = (np.asarray(r, float).ravel() for r in path.evaluate(float(theta)))
+    return float(np.max(np.abs(dq * a + ddq * v * v) / ACC))
+
+
 def _answer(rt, theta, v, a, **kw):
     try:
         return rt.remaining(theta, v, a, **kw)
@@ -75,9 +82,50 @@ def test_compiled_pass_against_the_sequential_lp_from_random_states(torque_jerk,
         return
     assert fast.smooth and fast.grid[0] == theta and fast.grid[-1] == path.domain[1] and fast.x[-1] == 0.0
     assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and np.isclose(fast.u_nodes[0], a, rtol=1e-12)  # no jump
-    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+    assert rt.dense_ratios(fast, DT).max_ratio <= max(1.0, _state_share(path, theta, v, a)) + 2 * TOL
     if lp is not None:  # never faster than the LP's optimum (to its tolerance); slower: median ~0.35 %, up to ~14 %
         assert 1.0 - 2e-3 <= fast.duration / lp.duration <= 1.25
+
+
+@pytest.mark.parametrize("theta, v, a", [
+    (0.037434796227497666, 0.08527405642162118, -1.32944632739536),
+    (0.012816962708627564, 0.1334223962662442, -2.7363479522317),
+    (0.012063041533469496, 0.09395966565427619, -1.56261622902286),
+    (0.03010302689039361, 0.11135523154556809, -1.5630647239089308)])
+def test_compiled_pass_from_a_slow_state_braking_hard(torque_jerk, theta, v, a):
+    # slow and braking hard: the jerk limit turns theta_ddot within a small part of the plan interval after the
+    # state (the graded stretch to the next grid point resolves it); the pass answers where the LP does,
+    # continuous at the state, within every limit (jerk across the switch included) on the dense resample,
+    # never faster than the LP's optimum (to its tolerance) and within 1 % of it
+    path, res, rt = torque_jerk
+    lp = _answer(rt, theta, v, a, reference=True)
+    fast = rt.compiled_remaining(theta, v, a)
+    assert lp is not None and fast is not None
+    assert fast.smooth and fast.grid[0] == theta and fast.x[-1] == 0.0 and np.all(np.diff(fast.grid) > 0.0)
+    assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
+    assert rt.dense_ratios(fast, DT).max_ratio <= 1.0 + 2 * TOL
+    assert 1.0 - 2e-3 <= fast.duration / lp.duration <= 1.01
+
+
+@settings(max_examples=10, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(where=st.floats(0.01, 0.9), speed=st.floats(0.02, 0.5), acc=st.floats(-3.0, -0.5))
+def test_compiled_pass_from_random_slow_braking_states(torque_jerk, where, speed, acc):
+    # slow states braking: where the pass answers, its profile starts at the state (speed and acceleration), is
+    # within every limit on the dense resample (the jerk across the graded first intervals included) and no
+    # faster than the LP's optimum; where it does not, remaining answers with the LP or refuses with it
+    path, res, rt = torque_jerk
+    theta = where * path.domain[1]
+    v, a = speed * float(res.profile.theta_dot_at(theta)), acc
+    fast, lp = rt.compiled_remaining(theta, v, a), _answer(rt, theta, v, a, reference=True)
+    if fast is None:
+        assert (_answer(rt, theta, v, a) is None) == (lp is None)
+        return
+    assert fast.smooth and fast.grid[0] == theta and fast.x[-1] == 0.0
+    assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
+    assert rt.dense_ratios(fast, DT).max_ratio <= max(1.0, _state_share(path, theta, v, a)) + 2 * TOL
+    if lp is not None:
+        assert fast.duration >= (1.0 - 2e-3) * lp.duration
 
 
 def test_compiled_pass_from_a_state_above_its_limits(torque_jerk):
@@ -245,3 +293,85 @@ def test_compiled_stop_over_a_spline_knot_is_certified(torque_jerk):
     _check_stop(rt, path, s, theta, v, a)
     certified, dense = rt.certify(s).max_ratio, rt.dense_ratios(s, 1e-4).max_ratio
     assert dense <= certified <= max(1.0 + TOL, dense + 1e-3)
+
+
+def test_states_certified_unable_to_turn_have_no_jerk_limited_stop(torque_jerk, monkeypatch):
+    # seeded slow states braking hard: where the certificate says the deceleration cannot be turned before the
+    # speed runs out, neither the compiled stop's search nor the compiled pass (both run without the certificate)
+    # nor the sequential LP (its first few: stop and remaining) finds a motion; stop refuses with the stop it can
+    # run, remaining refuses; the certificate holds for some of them and not for all
+    path, res, rt = torque_jerk
+    rng = np.random.default_rng(11)
+    certified, lp_checked = 0, 0
+    for _ in range(200):
+        theta = rng.uniform(0.0, 0.9) * path.domain[1]
+        v, a = rng.uniform(0.01, 0.5) * float(res.profile.theta_dot_at(theta)), rng.uniform(-4.0, -0.5)
+        if not rt._cannot_turn(theta, v * v, a):
+            continue
+        certified += 1
+        with pytest.raises(StateInfeasibleError) as err:
+            rt.stop(theta, v, a)
+        assert err.value.stop is not None and err.value.stop.x[-1] == 0.0 and err.value.stop.grid[0] == theta
+        with monkeypatch.context() as m:
+            m.setattr(rt, "_cannot_turn", lambda *state: False)
+            assert rt.compiled_stop(theta, v, a) is None and rt.compiled_remaining(theta, v, a) is None
+        assert _answer(rt, theta, v, a) is None
+        if lp_checked < 3:
+            lp_checked += 1
+            assert _lp_stop(rt, theta, v, a) is None and _answer(rt, theta, v, a, reference=True) is None
+    assert 10 <= certified <= 190
+
+
+@pytest.fixture(scope="module")
+def circle_smooth():
+    """(path, plan, retimer) of the circle_smooth scenario (jerk limits, a torque reserve; from rest to rest)."""
+    from pathmotion import api
+    from pathmotion.scenarios import scenario_path
+    res = api.plan_scenario(api.load(scenario_path("circle_smooth")))
+    return res.trajectory.path, res, Retimer(res)
+
+
+def _plan_state(res, fraction):
+    """(theta, theta_dot, theta_ddot) of the plan at ``fraction`` of its duration."""
+    theta, v, a, _ = res.profile.state3_at_time(np.array([fraction * res.profile.duration]))
+    return float(theta[0]), float(v[0]), float(a[0])
+
+
+@pytest.mark.parametrize("plan_name", ["circle_smooth", "torque_jerk"])
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(fraction=st.floats(0.005, 0.995))
+@example(fraction=0.5)  # circle_smooth: below the ceiling at the jerk limit, neither compiled answer exists there
+def test_every_state_on_the_plan_has_a_jerk_limited_stop(request, plan_name, fraction):
+    # the plan's own motion from any of its states is a motion within every limit to its next rest point: the
+    # re-timer finds a stop from every such state, continuous at the state and within the limits on the dense
+    # resample; past the start its remaining motion as well, no slower than the plan's own by more than 1 %
+    _, res, rt = request.getfixturevalue(plan_name)
+    theta, v, a = _plan_state(res, fraction)
+    answers = [rt.stop(theta, v, a)]
+    if fraction >= 0.25:  # nearer the start from rest the sequential LP answers (or refuses) the plan's own state
+        answers.append(rt.remaining(theta, v, a))
+    for got in answers:
+        assert got.smooth and np.isclose(got.grid[0], theta) and got.x[-1] >= 0.0
+        assert np.isclose(np.sqrt(got.x[0]), v, rtol=1e-9) and np.isclose(got.u_nodes[0], a, rtol=1e-9, atol=1e-9)
+        assert rt.dense_ratios(got, DT).max_ratio <= 1.0 + 2 * TOL
+    assert answers[0].x[-1] == 0.0
+    if len(answers) == 2:
+        assert answers[1].duration <= (1.0 - fraction) * res.profile.duration * 1.01
+
+
+@pytest.mark.parametrize("theta, v, a", [
+    (0.037434796227497666, 0.08527405642162118, -1.32944632739536),  # the jerk at the state at the limit
+    (0.002854422301887691, 0.06691933893030654, -0.20276384804826542),  # a merge's steep jerk
+    (0.029562904848176537, 0.0010087377057796051, 1.9802863788104732),  # slow: the graded first stretch
+    (0.030355693724025, 0.26558697186400637, 0.5399501580636619)])  # a stop's first interval
+def test_compiled_answers_are_certified_within_the_limits(torque_jerk, theta, v, a):
+    # certified like a plan: the certified bound of every interval within 1 + the limit tolerance (these states
+    # lie below their limits), and above the dense resample's ratio (the certificate bounds the motion)
+    path, res, rt = torque_jerk
+    assert _state_share(path, theta, v, a) < 1.0
+    answers = [p for p in (rt.compiled_remaining(theta, v, a), rt.compiled_stop(theta, v, a)) if p is not None]
+    assert answers
+    for p in answers:
+        certified = rt.certify(p).max_ratio
+        assert rt.dense_ratios(p, 1e-4).max_ratio <= certified + 1e-6 and certified <= 1.0 + TOL

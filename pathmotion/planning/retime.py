@@ -22,10 +22,11 @@ at the end for the stop). A query then costs one compiled forward pass over the 
 
 Third-order limits (jerk, torque rate): ``remaining`` from a moving state is the compiled pass of
 planning/retime_jerk.py (a walk that merges into the smooth time-optimal ceiling profile, solved at
-construction). Where it gives no answer, and with ``reference=True``, the second-order answer is the first
-linearization point of the project's sequential LP (planning/third_order.py) on the remaining grid, started
-at the state's x and u. The stop searches the shortest stop distance whose smooth profile exists (LP solves,
-tens to hundreds of milliseconds).
+construction); for a state on the plan where it gives none, the plan's own motion from the state
+(:meth:`Retimer._plan_tail`). Where neither gives an answer, and with ``reference=True``, the second-order
+answer is the first linearization point of the project's sequential LP (planning/third_order.py) on the
+remaining grid, started at the state's x and u. The stop searches the shortest stop distance whose smooth
+profile exists (LP solves, tens to hundreds of milliseconds).
 """
 
 from __future__ import annotations
@@ -90,6 +91,12 @@ JERK_CAP_HORIZON = 5.0
 #: Third-order: relative lowerings of x at the state tried when the LP from the state itself is infeasible
 #: by round-off, or above a limit by less than the limit tolerance [-].
 START_NUDGES = (1e-6, 1e-5, 1e-4, defaults.LIMIT_TOLERANCE)
+#: Third-order: a state within this of the plan's own (x relative to the plan's x there, u relative to the plan's
+#: largest |u|) lies on the plan, whose motion from it is an answer where the compiled pass finds none [-].
+PLAN_STATE_TOLERANCE = 1e-4
+#: ... and each plan interval its motion is re-expressed on (another interpolation coordinate) carries this many
+#: points [-].
+PLAN_TAIL_SUBDIVISION = 8
 
 
 class Retimer:
@@ -220,8 +227,9 @@ class Retimer:
         torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step). With jerk
         limits the stop is the compiled one (planning/retime_stop.py); where it finds none, the compiled pass's
         time-optimal motion to the next point where the plan's profile rests (a stop within every limit, the
-        longest kind); where neither exists, StateInfeasibleError. ``reference``: the sequential-LP search for
-        the shortest jerk-limited stop instead (slow; the reference the compiled stop is tested against)."""
+        longest kind), or for a state on the plan the plan's own motion to that point; where none exists,
+        StateInfeasibleError. ``reference``: the sequential-LP search for the shortest jerk-limited stop instead
+        (slow; the reference the compiled stop is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
@@ -230,10 +238,12 @@ class Retimer:
             fast = self._compiled_stop(theta, x0, u0)
             if fast is not None:
                 return fast
-            rest = self._to_next_rest(theta, x0, u0)
+            rest = None if self._cannot_turn(theta, x0, u0) else self._to_next_rest(theta, x0, u0)
+            if rest is None:
+                rest = self._plan_tail(theta, x0, u0, to_rest=True)
             if rest is not None:
-                log.info("retimer: no jerk-limited stop from theta = %.6g before the next rest point; the time-optimal "
-                         "motion to it (%.6g)", theta, rest.grid[-1])
+                log.info("retimer: no jerk-limited stop from theta = %.6g before the next rest point; the motion to "
+                         "it (%.6g)", theta, rest.grid[-1])
                 return rest
             raise self._jerk_unsaveable(theta, x0, u0)
         grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))
@@ -270,6 +280,65 @@ class Retimer:
         k = int(np.argmax(got.x[1:] <= 0.0)) + 1
         return Profile(got.grid[:k + 1], got.x[:k + 1], got.u_nodes[:k + 1])
 
+    def _plan_tail(self, theta: float, x0: float, u0: float, to_rest: bool) -> Profile | None:
+        """Jerk limits: the plan's own motion from a state on its profile (x within PLAN_STATE_TOLERANCE of the
+        plan's x at theta, relative, and u within it times the plan's largest |u|) up to its next rest point
+        (``to_rest``) or its end: a motion within every limit that the compiled pass, which keeps PASS_MARGIN below
+        the limits the plan runs at, may not find. Cut at theta, a plan interval nearer the rest point before it
+        than the one after has its u interpolated in another coordinate (planning/smooth.py): those intervals
+        carry PLAN_TAIL_SUBDIVISION points at the plan's own (x, u), and the least change of (x, u) at the points
+        from the state up to the first interval whose coordinate is the plan's makes x the integral of u again
+        (with the state's small offset from the plan). None where the state is off the plan or where the result's
+        certified bounds exceed the limits by more than the limit tolerance (beyond the state's own share)."""
+        p = self.plan.profile
+        if p.u_nodes is None or x0 <= 0.0:
+            return None
+        g, px, pu = p.grid, p.x, p.u_nodes
+        i = int(min(max(np.searchsorted(g, theta, side="right") - 1, 0), len(g) - 2))
+        origin, sign = p.coords
+        x_p, u_p, _ = smooth.state(g, px, pu, origin, sign, np.array(i), np.array(theta))
+        if abs(x0 - float(x_p)) > PLAN_STATE_TOLERANCE * float(x_p) or \
+                abs(u0 - float(u_p)) > PLAN_STATE_TOLERANCE * float(np.max(np.abs(pu))):
+            return None
+        rests = np.nonzero(px[i + 1:] <= 0.0)[0]
+        end = i + 1 + int(rests[0]) if to_rest and rests.size else len(g) - 1
+        if to_rest and px[end] > 0.0:
+            return None
+        first_rest = i + 1 + (int(rests[0]) if rests.size else len(g))
+        # plan intervals i.. whose coordinate changes once nothing before theta is part of the profile: before the
+        # first rest point after theta, every interval is measured from that rest point (sign -1)
+        changed = [k for k in range(i, min(end, first_rest)) if sign[k] >= 0]
+        last = max(changed[-1] + 1 if changed else i + 1, i + 1)  # plan point from which the profile is the plan's
+        pieces, idx = [], []
+        for k in range(i, last):
+            lo = theta if k == i else g[k]
+            n = PLAN_TAIL_SUBDIVISION if sign[k] >= 0 or k == i else 1
+            pieces.append(lo + (g[k + 1] - lo) * np.arange(n) / n)
+            idx.append(np.full(n, k))
+        fine, fidx = np.concatenate(pieces), np.concatenate(idx)
+        xf, uf, _ = smooth.state(g, px, pu, origin, sign, fidx, fine)
+        grid = np.concatenate([fine, g[last:end + 1]])
+        x = np.concatenate([xf, px[last:end + 1]])
+        u = np.concatenate([uf, pu[last:end + 1]])
+        x[0], u[0] = x0, u0
+        m = len(fine)  # points 1..m-1 are free; interval m-1 ends on the plan's point ``last``
+        c_origin, c_sign = smooth.coordinates(grid, x <= 0.0)
+        _, _, w0, w1 = smooth.weights(grid[:m + 1], c_origin[:m], c_sign[:m])
+        resid = x[1:m + 1] - x[:m] - 2.0 * (w0 * u[:m] + w1 * u[1:m + 1])
+        if m > 1:
+            d = _least_jerk_change(grid[:m + 1], x[:m + 1], w0, w1, resid)
+            x[1:m] += d[:m - 1]
+            u[1:m] += d[m - 1:]
+        elif abs(resid[0]) > PLAN_STATE_TOLERANCE * x0:
+            return None
+        if np.any(x[:m + 1] <= 0.0):
+            return None
+        tail = self._with_knots(Profile(grid, x, u))
+        share = retime_stop.state_share(theta, x0, u0, self.grid, self._jerk.p2) if self._jerk is not None else 0.0
+        if self.certify(tail).max_ratio > max(share, 1.0) + defaults.LIMIT_TOLERANCE:
+            return None
+        return tail
+
     def compiled_stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0) -> Profile | None:
         """Jerk limits: the compiled stop alone (planning/retime_stop.py), None where it finds none."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
@@ -283,13 +352,12 @@ class Retimer:
         rest, over the braking depths until its smooth profile meets the rows at its points; else the search over
         braking points and tails; None when neither finds one."""
         jp = self._jerk
-        if jp is None:
+        if jp is None or self._cannot_turn(theta, x0, u0):
             return None
         end = float(self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))])
         s, x, u, bs, bv, bu = self._stop_buffers
         rows = (self.grid, jp.p2, jp.p3, jp.px)
-        share = min(max(retime_stop.state_share(theta, x0, u0, self.grid, jp.p2), 1.0 + defaults.LIMIT_TOLERANCE),
-                    retime_stop.STATE_SHARE_MAX)
+        share = min(max(retime_stop.state_share(theta, x0, u0, self.grid, jp.p2), 1.0), retime_stop.STATE_SHARE_MAX)
         depth = 0
         while depth >= 0:
             n, _, depth = retime_stop.shortest_met(theta, x0, u0, share, end, depth, *rows, s, x, u, bs, bv, bu)
@@ -300,6 +368,12 @@ class Retimer:
         n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
         got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows) if n > 0 else None
         return None if got is None else self._with_knots(Profile(*got))
+
+    def _cannot_turn(self, theta: float, x0: float, u0: float) -> bool:
+        """Jerk limits: whether the state's deceleration provably cannot be turned to 0 before it rests
+        (retime_stop.cannot_turn): no jerk-limited stop nor motion on exists, none is searched for."""
+        jp = self._jerk
+        return jp is not None and bool(retime_stop.cannot_turn(theta, x0, u0, self.grid, jp.p2, jp.p3, jp.px))
 
     def _with_knots(self, p: Profile) -> Profile:
         """The smooth profile ``p`` with the path's spline knots inside it as grid points, x and u there from its own
@@ -332,7 +406,7 @@ class Retimer:
         got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
         if got is None:
             return None
-        return Profile(np.concatenate([[theta], self.grid[j:]]), got[0] * s2, got[1] * s2)
+        return Profile(got[0], got[1] * s2, got[2] * s2)
 
     def resume(self, theta: float) -> Profile:
         """The time-optimal profile from rest at ``theta`` to the plan's end."""
@@ -584,8 +658,16 @@ class Retimer:
         (or with ``reference``) the sequential LP from the second-order answer (an upper bound)."""
         if not reference:
             fast = self._compiled(theta, x0, u0, s2)
+            if fast is None and s2 == 1.0:
+                fast = self._plan_tail(theta, x0, u0, to_rest=False)
             if fast is not None:
                 return fast
+            if self._cannot_turn(theta, x0 / s2, u0 / s2):
+                raise StateInfeasibleError(
+                    f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} cannot go on "
+                    f"within the jerk and torque-rate limits at override {np.sqrt(s2):.4g}: its deceleration cannot be "
+                    "turned to 0 before theta_dot runs out; stop first (Retimer.stop, which carries the stop without "
+                    "the jerk limits), or brake more gently", end_speed=np.nan)
             log.debug("retimer: no answer of the compiled pass from theta = %.6g; sequential LP", theta)
         try:
             grid, x2 = self._remaining2(theta, x0, s2)
@@ -662,6 +744,30 @@ class Retimer:
             found = trial(mid)
             lo, hi, best = (lo, mid, found) if found is not None else (mid, hi, best)
         return best
+
+
+def _least_jerk_change(grid, x, w0, w1, resid) -> np.ndarray:
+    """(dx (m-1,), du (m-1,)) at the inner points of ``grid`` (m + 1,) that make x_{k+1} - x_k = 2 (w0_k u_k +
+    w1_k u_{k+1}) on its m intervals again (``resid``: the left side minus the right side there; the ends fixed)
+    with the least change of the path jerk theta_dddot = sqrt(x) du/dtheta (squares integrated over theta).
+    The equality-constrained least squares by its KKT system (a few hundred unknowns at most)."""
+    m = len(grid) - 1
+    h = np.diff(grid)
+    n = 2 * (m - 1)
+    rows = np.arange(m - 1)
+    a = np.zeros((m, n))  # d resid_k / d (dx, du)
+    a[rows, rows] += 1.0
+    a[rows + 1, rows] -= 1.0
+    a[rows, m - 1 + rows] -= 2.0 * w1[:m - 1]
+    a[rows + 1, m - 1 + rows] -= 2.0 * w0[1:m]
+    b = np.zeros((m, n))  # the jerk change on each interval, times sqrt(h)
+    scale = np.sqrt(np.maximum(x[:-1], 0.0) / h)
+    b[rows, m - 1 + rows] += scale[:m - 1]
+    b[rows + 1, m - 1 + rows] -= scale[1:m]
+    hess = b.T @ b
+    hess[np.diag_indices(n)] += 1e-12 * max(float(np.max(np.diag(hess))), 1.0)
+    kkt = np.block([[hess, a.T], [a, np.zeros((m, m))]])
+    return np.linalg.solve(kkt, np.concatenate([np.zeros(n), -resid]))[:n]
 
 
 def _override(override) -> float:

@@ -18,9 +18,10 @@ intervals are tried: u = u_C + d (1 - s) + alpha s (1 - s), s the fraction of th
 from u_C, alpha the value that ends the merge on C's x. Of those whose rows hold, the one of the least
 total time (walk, descent, merge, C's rest) is the answer, C from its end on (none where the rows stop the
 walk while a merge further on might still gain WALK_GAIN). Every step and merge meets
-every row at CHECK_POINTS of each interval (the inner points' path data sampled at construction, the first
-interval's at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
-certified bounds of a result are checked like a plan's (Retimer.certify) in the tests and the benchmark.
+every row at CHECK_POINTS of each interval (the inner points' path data sampled at construction; the stretch
+from the state to the next grid point is cut into intervals graded towards the state, FIRST_CUTS, whose path
+data is sampled at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
+results are checked on the dense time resample in the tests, their certified bounds in the benchmark.
 """
 
 from __future__ import annotations
@@ -41,10 +42,20 @@ MERGE_LENGTHS = np.array([2, 4, 8, 16, 32])
 ROW_SLACK = 1e-9
 #: The pass keeps this fraction below every limit (velocity, order-2 and order-3 rows) at its check points,
 #: for what the rows do between them; along a merge the margin fades out to the ceiling's full limits [-].
-PASS_MARGIN = 0.01
+PASS_MARGIN = 0.005
 #: The state's share of the order-2 limits the pass keeps to at least, and at most (a state above is refused) [-].
-STATE_SHARE_MIN = 1.0 + defaults.LIMIT_TOLERANCE
+STATE_SHARE_MIN = 1.0
 STATE_SHARE_MAX = defaults.RETIME_STATE_SHARE_MAX
+#: The stretch from the state to the next grid point is cut at these fractions of it (graded towards the
+#: state: a slow state's acceleration turns at the jerk limit within a small part of a plan interval) [-] ...
+FIRST_CUTS = (0.0, 0.0625, 0.125, 0.25, 0.5, 1.0)
+#: ... for a braking state that would rest within this many plan intervals at its deceleration, x0 / (2 |u0|)
+#: (the others turn theta_ddot over a plan interval or more: one interval, a shorter walk) [-].
+GRADED_REACH = 4.0
+#: The pass's own intervals (from the state to where it runs on C) are returned cut into this many, the same
+#: motion: the certified bound of an interval (planning/certify.py: samples and an interpolation remainder) is
+#: loose on an interval whose jerk changes steeply, as a merge's or a slow state's graded first ones [-].
+OUTPUT_SPLIT = 2
 #: Least x (relative to the state's) at a point where the motion does not rest [-].
 X_FLOOR = 1e-12
 #: An interval whose u rises from u_k < 0 through 0 has its least x where u = 0: about x_k - u_k^2 h / (u_{k+1} -
@@ -89,30 +100,43 @@ class JerkPass:
         x, u, _ = smooth.state(self.grid, self.cx, self.cu, self.origin, self.sign, np.array(i), np.array(theta))
         return float(x), float(u)
 
-    def _first(self, theta: float, i: int, f: float, j: int) -> tuple:
-        """The first output interval [theta, grid[j]]: its check points' rows (five (Q, m2)), (five (Q, m3)),
-        x_max (Q,) and coefficients (4, Q); the path data sampled at its points (its end: grid point j's), the
-        limits scaled as on grid interval i."""
+    def _first(self, theta: float, i: int, f: float, j: int, graded: bool) -> tuple:
+        """The first output intervals: [theta, grid[j]] cut at FIRST_CUTS when ``graded`` (else, and where the
+        stretch holds a grid point, j = i + 2, one interval). Their points (F + 1,), and their check points' rows
+        (five (Q, F, m2)), (five (Q, F, m3)), x_max (Q, F) and coefficients (4, Q, F); the path data sampled at
+        their points (the last end: grid point j's), the limits scaled as on grid interval i."""
         g = self.grid
-        pc = point_coefficients(np.array([theta, g[j]]), self.origin[j - 1:j], self.sign[j - 1:j])[:, :, 0]
-        inner = theta + np.array(CHECK_POINTS[:-1]) * (g[j] - theta)
-        pts = _sample_points(self.path, self.robot, inner)
-        scale = {n: np.repeat(v[i:i + 1], len(inner), axis=0) for n, v in self._inner_scale.items()}
+        cuts = np.array(FIRST_CUTS if graded and j == i + 1 else (0.0, 1.0))
+        pts_s = theta + cuts * (g[j] - theta)
+        pts_s[-1] = g[j]
+        nf = len(cuts) - 1
+        pc = point_coefficients(pts_s, np.repeat(self.origin[j - 1], nf), np.repeat(self.sign[j - 1], nf))
+        nq = len(CHECK_POINTS)
+        at = (pts_s[:-1, None] + np.array(CHECK_POINTS[:-1])[None, :] * np.diff(pts_s)[:, None]).T  # (Q-1, F)
+        pts = _sample_points(self.path, self.robot, at.ravel())
+        scale = {n: np.repeat(v[i:i + 1], at.size, axis=0) for n, v in self._inner_scale.items()}
         rows2 = limit_rows(pts, self.limits, scale, defaults.PLANNER_X_CAP)
         rows3 = [lim.rows3(pts, scale[lim.name]) for lim in self.limits if lim.order == 3]
-        p2 = tuple(np.ascontiguousarray(np.concatenate([getattr(rows2, n), r[-1, j - 1][None]]))
-                   for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
-        p3 = tuple(np.ascontiguousarray(np.concatenate([np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1),
-                                                        r[-1, j - 1][None]])) for k, r in enumerate(self.p3))
-        px = np.ascontiguousarray(np.append(rows2.x_max, self.px[-1, j - 1]))
-        return p2, p3, px, np.ascontiguousarray(pc)
+
+        def stacked(sampled, end):
+            """(Q, F, ...) from the samples ((Q-1) F, ...) at the check points before the ends and grid point j's
+            ``end``: an interval's end is the next one's start."""
+            sampled = np.asarray(sampled).reshape((nq - 1, nf) + np.shape(sampled)[1:])
+            last = np.concatenate([sampled[0, 1:], np.asarray(end)[None]])[None]
+            return np.ascontiguousarray(np.concatenate([sampled, last]))
+
+        p2 = tuple(stacked(getattr(rows2, n), r[-1, j - 1]) for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
+        p3 = tuple(stacked(np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1), r[-1, j - 1])
+                   for k, r in enumerate(self.p3))
+        px = stacked(rows2.x_max, self.px[-1, j - 1])
+        return pts_s, (p2, p3, px, pc)
 
     @staticmethod
     def _state_share(first, x0: float, u0: float) -> float:
         """The share of the order-2 limits the state (x0, u0) takes at its point, at least STATE_SHARE_MIN: the
         limits at the state, from which the pass's margin fades in over the first interval (the pass refuses a
         state above STATE_SHARE_MAX)."""
-        a, b, c, lo, hi = (r[0] for r in first[0])
+        a, b, c, lo, hi = (r[0, 0] for r in first[0])
         val = a * u0 + b * x0 + c
         with np.errstate(divide="ignore", invalid="ignore"):
             share = np.where(val > 0, val / hi, val / lo)
@@ -129,18 +153,46 @@ class JerkPass:
         """(x, u) on [theta, grid[j:]] from the state (x0 > 0, u0) at theta (grid interval i at the fraction f;
         j the first grid point after it; the pass must apply there), or None when the pass finds no merge."""
         nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
-        xc0, uc0 = self.ceiling_at(i, theta)
+        graded = u0 < 0.0 and x0 < -2.0 * u0 * GRADED_REACH * (self.grid[i + 1] - self.grid[i])
+        pts, first = self._first(theta, i, f, j, graded)
+        c0 = self._ceiling_first(j, pts)
         grid_data = (self.p2, self.p3, self.px, self.pc, self.cx, self.cu)
-        first = self._first(theta, i, f, j)
         share = self._state_share(first, x0, u0)
         if share > STATE_SHARE_MAX:
             return None
-        first = (*first, share)
+        first = (*first, share, np.ascontiguousarray((pts - pts[0]) / (pts[-1] - pts[0])))
         xs, us = self._buffers
-        end = forward(grid_data, first, self.tc, j, nxt, x0, u0, xc0, uc0, MERGE_LENGTHS, xs, us)[1]
+        end = forward(grid_data, first, self.tc, j, nxt, x0, u0, c0, MERGE_LENGTHS, xs, us)[1]
         if end < 0:
             return None
-        return (np.concatenate([xs[:end], self.cx[j + end - 1:]]), np.concatenate([us[:end], self.cu[j + end - 1:]]))
+        grid = np.concatenate([pts, self.grid[j + 1:]])
+        cx, cu = np.concatenate([c0[0], self.cx[j:]]), np.concatenate([c0[1], self.cu[j:]])
+        return split(grid, np.concatenate([xs[:end], cx[end:]]), np.concatenate([us[:end], cu[end:]]), end)
+
+    def _ceiling_first(self, j: int, pts: np.ndarray) -> np.ndarray:
+        """(3, F): C's x, u and time [s] to the plan's end at the first output points pts[:-1] (pts (F + 1,), its
+        last grid point j), the time over the stretch to grid point j by chords (x linear per output interval)."""
+        x, u, _ = smooth.state(self.grid, self.cx, self.cu, self.origin, self.sign, np.full(len(pts) - 1, j - 1),
+                               pts[:-1])
+        xs = np.append(np.maximum(x, 0.0), self.cx[j])
+        chords = 2.0 * np.diff(pts) / np.maximum(np.sqrt(xs[:-1]) + np.sqrt(xs[1:]), 1e-300)
+        time = self.tc[j] + np.cumsum(chords[::-1])[::-1]
+        return np.ascontiguousarray(np.stack([np.asarray(x, float), np.asarray(u, float), time]))
+
+
+def split(grid, x, u, upto: int, parts: int = OUTPUT_SPLIT):
+    """The smooth profile (grid, x, u) (K,) with each of its intervals before point ``upto`` cut into ``parts``,
+    x and u at the new points from its own form (the same motion: no rest point is added, so every interval keeps
+    its coordinate). Returns (grid, x, u)."""
+    if upto <= 0 or parts <= 1:
+        return grid, x, u
+    origin, sign = smooth.coordinates(grid, x <= 0.0)
+    frac = np.arange(1, parts) / parts
+    index = np.repeat(np.arange(upto), parts - 1)
+    at = grid[index] + np.tile(frac, upto) * (grid[index + 1] - grid[index])
+    xi, ui, _ = smooth.state(grid, x, u, origin, sign, index, at)
+    cut = np.repeat(np.arange(1, upto + 1), parts - 1)  # each new point goes before the end of its interval
+    return np.insert(grid, cut, at), np.insert(x, cut, xi), np.insert(u, cut, ui)
 
 
 def _sample_points(path, robot, theta):
@@ -182,26 +234,36 @@ def _cut(low, high, q, bot, top):
 
 @njit(cache=True, inline="always")
 def _point(k, q, j, grid_data, first):
-    """Check point q (CHECK_POINTS) of output interval k (0: the first, from the state; k >= 1:
-    grid interval j + k - 1): (rows2, rows3, x_max, cxu, cxv, lam, dp)."""
+    """Check point q (CHECK_POINTS) of output interval k (k < F: the first intervals, from the state to grid
+    point j; k >= F: grid interval j + k - F): (rows2, rows3, x_max, cxu, cxv, lam, dp)."""
     p2, p3, px, pc, _, _ = grid_data
-    if k == 0:
-        f2, f3, fx, fc, _ = first
-        return ((f2[0][q], f2[1][q], f2[2][q], f2[3][q], f2[4][q]), (f3[0][q], f3[1][q], f3[2][q], f3[3][q], f3[4][q]),
-                fx[q], fc[0, q], fc[1, q], fc[2, q], fc[3, q])
-    g = j + k - 1
+    f2, f3, fx, fc, _, _ = first
+    nf = fc.shape[2]
+    if k < nf:
+        return ((f2[0][q, k], f2[1][q, k], f2[2][q, k], f2[3][q, k], f2[4][q, k]),
+                (f3[0][q, k], f3[1][q, k], f3[2][q, k], f3[3][q, k], f3[4][q, k]),
+                fx[q, k], fc[0, q, k], fc[1, q, k], fc[2, q, k], fc[3, q, k])
+    g = j + k - nf
     return ((p2[0][q, g], p2[1][q, g], p2[2][q, g], p2[3][q, g], p2[4][q, g]),
             (p3[0][q, g], p3[1][q, g], p3[2][q, g], p3[3][q, g], p3[4][q, g]),
             px[q, g], pc[0, q, g], pc[1, q, g], pc[2, q, g], pc[3, q, g])
 
 
 @njit(cache=True, inline="always")
-def _ceiling(k, j, grid_data, xc0, uc0):
-    """(x, u) of C at output point k."""
-    if k == 0:
-        return xc0, uc0
+def _ceiling(k, j, grid_data, c0):
+    """(x, u) of C at output point k (c0 (3, F): C at the first output points)."""
+    nf = c0.shape[1]
+    if k < nf:
+        return c0[0, k], c0[1, k]
     cx, cu = grid_data[4], grid_data[5]
-    return cx[j + k - 1], cu[j + k - 1]
+    return cx[j + k - nf], cu[j + k - nf]
+
+
+@njit(cache=True, inline="always")
+def _c_time(k, j, tc, c0):
+    """C's time [s] from output point k to the plan's end."""
+    nf = c0.shape[1]
+    return c0[2, k] if k < nf else tc[j + k - nf]
 
 
 @njit(cache=True)
@@ -245,9 +307,11 @@ def _rows2_within(r2, x, u, keep):
 
 @njit(cache=True, inline="always")
 def _start_keep(k, keep, first):
-    """The share of the limits kept at the start of output interval k: ``keep``, but at the state (k = 0) what
-    the state itself takes (first[4]; the state is given, the margin fades in over its interval)."""
-    return first[4] if k == 0 else keep
+    """The share of the limits kept at output point k: ``keep``, but from the state to grid point j (the first
+    output points) what the state itself takes (first[4]; the state is given) fading to ``keep`` along that
+    stretch (first[5]: its points' fractions of it)."""
+    pos = first[5]
+    return first[4] + (keep - first[4]) * pos[k] if k < pos.shape[0] - 1 else keep
 
 
 @njit(cache=True)
@@ -258,8 +322,9 @@ def _bounds(k, j, grid_data, first, x, u, floor):
     low, high, ok = -np.inf, np.inf, True
     nq = grid_data[3].shape[1]
     keep0 = _start_keep(k, 1.0 - PASS_MARGIN, first)
+    keep1 = _start_keep(k + 1, 1.0 - PASS_MARGIN, first)
     for q in range(1, nq):
-        keep = keep0 + (1.0 - PASS_MARGIN - keep0) * q / (nq - 1)
+        keep = keep0 + (keep1 - keep0) * q / (nq - 1)
         r2, _, xmax, cxu, cxv, lam, _ = _point(k, q, j, grid_data, first)
         base = x + 2.0 * u * (cxu - cxv)  # x there = base + 2 cxv v
         low, high, ok2 = _cut(low, high, 2.0 * cxv, floor - base, keep * keep * xmax - base)
@@ -272,7 +337,7 @@ def _bounds(k, j, grid_data, first, x, u, floor):
     if not ok or low > high:
         return np.inf, -np.inf, 0.0, 0.0
     for q in range(nq):
-        keep = keep0 + (1.0 - PASS_MARGIN - keep0) * q / (nq - 1)
+        keep = keep0 + (keep1 - keep0) * q / (nq - 1)
         _, r3, _, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
         base = x + 2.0 * u * (cxu - cxv)
         top = base + 2.0 * cxv * high
@@ -288,20 +353,24 @@ def _bounds(k, j, grid_data, first, x, u, floor):
     if not ok or low > high:
         return np.inf, -np.inf, 0.0, 0.0
     _, _, _, cxu, cxv, _, _ = _point(k, nq - 1, j, grid_data, first)
-    if u < 0.0:  # x dips where u crosses 0 inside the interval: not below the floor (_dip)
-        low = max(low, u + DIP_SAFETY * u * u * cxu / max(x - floor, 1e-300))
+    if u < 0.0:  # x dips where u crosses 0 inside the interval: not below the floor; u_{k+1} <= 0 has no dip
+        dip = u + DIP_SAFETY * u * u * cxu / max(x - floor, 1e-300)
+        if dip > 0.0 and high < dip:
+            high = min(high, 0.0)
+        elif dip > 0.0:
+            low = max(low, dip)
         if low > high:
             return np.inf, -np.inf, 0.0, 0.0
     return low, high, cxu - cxv, cxv
 
 
 @njit(cache=True)
-def _merge(k, x, u, n, last, j, grid_data, first, xc0, uc0, floor, tc, budget, out_x, out_u, write):
+def _merge(k, x, u, n, last, j, grid_data, first, c0, floor, tc, budget, out_x, out_u, write):
     """The merge from output point k (state x, u) into C over n intervals: its time [s] (chords: x linear per
     interval), or nan when a row fails or when its time plus C's from where it stands reaches ``budget`` [s]
     (``last``: the output point where the motion rests; tc: C's time to the end from each grid point).
     ``write``: its points into out_x, out_u."""
-    xc, uc = _ceiling(k, j, grid_data, xc0, uc0)
+    xc, uc = _ceiling(k, j, grid_data, c0)
     d, e = u - uc, x - xc
     sa, sb = 0.0, 0.0
     nq = grid_data[3].shape[1]
@@ -318,7 +387,7 @@ def _merge(k, x, u, n, last, j, grid_data, first, xc0, uc0, floor, tc, budget, o
     for i in range(n):
         p = k + i + 1
         s = (i + 1) / n
-        xcp, ucp = _ceiling(p, j, grid_data, xc0, uc0)
+        xcp, ucp = _ceiling(p, j, grid_data, c0)
         v = ucp + d * (1.0 - s) + alpha * s * (1.0 - s)
         if i == n - 1:
             v = ucp
@@ -332,7 +401,7 @@ def _merge(k, x, u, n, last, j, grid_data, first, xc0, uc0, floor, tc, budget, o
         if write:
             out_x[p], out_u[p] = x1, v
         time += 2.0 * cxu / (np.sqrt(xi) + np.sqrt(x1))
-        if time + tc[j + p - 1] >= budget:
+        if time + _c_time(p, j, tc, c0) >= budget:
             return np.nan
         xi, ui = x1, v
     return time
@@ -350,16 +419,16 @@ CROSS = 1e-9
 
 
 @njit(cache=True)
-def _descend(k, x, u, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u, write):
+def _descend(k, x, u, last, j, grid_data, first, c0, floor, out_x, out_u, write):
     """The descent from output point k: u turned towards C's as fast as the rows allow (the least step while
     above C) until it lies on or below C with u <= u_C there. Returns (m, x_m, u_m, time [s]) at that point,
     m = -1 when it crosses above C (having been below) or the rows admit no step first. ``write``: its points
     into out_x, out_u."""
-    xc, uc = _ceiling(k, j, grid_data, xc0, uc0)
+    xc, uc = _ceiling(k, j, grid_data, c0)
     above = x > xc * (1.0 + CROSS)
     time = 0.0
     for i in range(k, last):
-        xc, uc = _ceiling(i, j, grid_data, xc0, uc0)
+        xc, uc = _ceiling(i, j, grid_data, c0)
         if x <= xc * (1.0 + CROSS):
             if u <= uc:
                 return i, x, u, time
@@ -371,7 +440,7 @@ def _descend(k, x, u, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u, 
         lo, hi, w0, w1 = _bounds(i, j, grid_data, first, x, u, floor)
         if lo > hi:
             break
-        _, ucn = _ceiling(i + 1, j, grid_data, xc0, uc0)
+        _, ucn = _ceiling(i + 1, j, grid_data, c0)
         v = lo if x > xc * (1.0 + CROSS) else max(lo, min(hi, ucn))
         x1, dt = _pass_step(i, j, grid_data, first, x, u, v, w0, w1, floor)
         if dt < 0.0:
@@ -384,12 +453,14 @@ def _descend(k, x, u, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u, 
 
 
 @njit(cache=True)
-def _rows2_right(k, j, grid_data, x, u):
+def _rows2_right(k, j, grid_data, first, x, u):
     """The order-2 rows at output point k >= 1 seen from the interval after it (they differ from the end
-    point's at breaks and knots); true at the grid's last point."""
+    point's at breaks and knots; the first output points lie inside a plan interval); true at the grid's last
+    point."""
     p2 = grid_data[0]
-    g = j + k - 1
-    if g >= p2[0].shape[1]:
+    nf = first[3].shape[2]
+    g = j + k - nf
+    if k < nf or g >= p2[0].shape[1]:
         return True
     return _rows2_within((p2[0][0, g], p2[1][0, g], p2[2][0, g], p2[3][0, g], p2[4][0, g]), x, u, 1.0 - PASS_MARGIN)
 
@@ -400,38 +471,43 @@ def _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor):
     the pass's margin (and the order-2 rows at k + 1), else (x at k + 1, -1.0)."""
     x1 = x + 2.0 * (w0 * u + w1 * v)
     if not _interval_ok(k, j, grid_data, first, x, u, v, floor, True, _start_keep(k, 1.0 - PASS_MARGIN, first),
-                        1.0 - PASS_MARGIN) or not _rows2_right(k + 1, j, grid_data, x1, v):
+                        _start_keep(k + 1, 1.0 - PASS_MARGIN, first)) or not _rows2_right(k + 1, j, grid_data,
+                                                                                         first, x1, v):
         return x1, -1.0
     return x1, 2.0 * (w0 + w1) / (np.sqrt(x) + np.sqrt(x1))
 
 
 @njit(cache=True)
-def _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u):
+def _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, c0, floor, out_x, out_u):
     """The largest u_{k+1} in [the descent's own step, hi] (of output interval k from (x, u), weights w0, w1)
-    from which the descent still ends on or below C: hi, else by BISECTION_STEPS bisections."""
-    if _descend(k + 1, x + 2.0 * (w0 * u + w1 * hi), hi, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u,
-                False)[0] >= 0:
-        return hi
-    _, ucn = _ceiling(k + 1, j, grid_data, xc0, uc0)
+    from which the descent still ends on or below C: hi, else by BISECTION_STEPS bisections. Returns (u_{k+1},
+    the descent from there: (m, x_m, u_m, time), m = -2 where it was not computed)."""
+    got = _descend(k + 1, x + 2.0 * (w0 * u + w1 * hi), hi, last, j, grid_data, first, c0, floor, out_x, out_u,
+                   False)
+    if got[0] >= 0:
+        return hi, got
+    _, ucn = _ceiling(k + 1, j, grid_data, c0)
     low, top = max(lo, min(hi, ucn)), hi  # the descent's own step ends below C
+    kept = (-2, 0.0, 0.0, 0.0)
     for _ in range(BISECTION_STEPS):
         mid = 0.5 * (low + top)
-        if _descend(k + 1, x + 2.0 * (w0 * u + w1 * mid), mid, last, j, grid_data, first, xc0, uc0, floor, out_x,
-                    out_u, False)[0] >= 0:
-            low = mid
+        got = _descend(k + 1, x + 2.0 * (w0 * u + w1 * mid), mid, last, j, grid_data, first, c0, floor, out_x,
+                       out_u, False)
+        if got[0] >= 0:
+            low, kept = mid, got
         else:
             top = mid
-    return low
+    return low, kept
 
 
 @njit(cache=True)
-def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_u):
+def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u):
     """The pass from the state (x0, u0) (output point 0) over the output points 1.. = grid points j.. up to
     the rest point ``nxt`` (grid index): fills out_x, out_u up to the best merge's end and returns (its total
     time [s], the first output point from which the profile is C's); (inf, -1) when no merge is found.
     ``grid_data``: (p2, p3, px, pc, cx, cu) of JerkPass; ``first``: the first interval's check points and the
     state's share of the limits (JerkPass._first, _state_share); tc (K,): C's time to the end from each grid
-    point; C at the state: xc0, uc0.
+    point; c0 (3, F): C's x, u and time to the end at the first output points.
 
     The walk: below C the largest step from which the descent still ends on or below C (the largest step the
     rows allow, else a bisection down to the descent's own step; that step where even the descent crosses above
@@ -439,15 +515,18 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_
     its descent ends are candidates; the one of the least total time (walk, descent, merge, C's rest) is taken.
     The walk ends STALL points after the best merge's point once its time plus C's from there is within
     WALK_GAIN of the best total; stopped by the rows before that, it gives no answer."""
-    last = nxt - j + 1
+    last = nxt - j + first[3].shape[2]
     floor = X_FLOOR * x0
     x, u = x0, u0
     out_x[0], out_u[0] = x0, u0
     if not _rows2_within(_point(0, 0, j, grid_data, first)[0], x0, u0, first[4]):
         return np.inf, -1  # the state breaks a limit itself
     best_t, best_k, best_m, best_n, t, trapped = np.inf, -1, -1, 0, 0.0, np.inf
+    known = (-2, 0.0, 0.0, 0.0)  # the descent from the walk's next point, where _largest_safe computed it
     for k in range(last):
-        m, xd, ud, td = _descend(k, x, u, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u, False)
+        m, xd, ud, td = known if known[0] != -2 else _descend(k, x, u, last, j, grid_data, first, c0, floor, out_x,
+                                                               out_u, False)
+        known = (-2, 0.0, 0.0, 0.0)
         for start in range(2):
             s0, sx, su, st = (k, x, u, 0.0) if start == 0 else (m, xd, ud, td)
             if start == 1 and m <= k:
@@ -455,23 +534,24 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_
             for n in lengths:
                 if s0 + n > last:
                     break
-                tm = _merge(s0, sx, su, n, last, j, grid_data, first, xc0, uc0, floor, tc, best_t - t - st, out_x,
+                tm = _merge(s0, sx, su, n, last, j, grid_data, first, c0, floor, tc, best_t - t - st, out_x,
                             out_u, False)
-                if np.isfinite(tm) and t + st + tm + tc[j + s0 + n - 1] < best_t:
-                    best_t, best_k, best_m, best_n = t + st + tm + tc[j + s0 + n - 1], k, s0, n
-        if k == last - 1 or (best_k >= 0 and k - best_k > STALL and t + tc[j + k - 1] > (1.0 - WALK_GAIN) * best_t):
+                if np.isfinite(tm) and t + st + tm + _c_time(s0 + n, j, tc, c0) < best_t:
+                    best_t, best_k, best_m, best_n = t + st + tm + _c_time(s0 + n, j, tc, c0), k, s0, n
+        if k == last - 1 or (best_k >= 0 and k - best_k > STALL
+                             and t + _c_time(k, j, tc, c0) > (1.0 - WALK_GAIN) * best_t):
             break
         lo, hi, w0, w1 = _bounds(k, j, grid_data, first, x, u, floor)
-        trapped = t + tc[j + k - 1]  # where the walk ends when no step follows
+        trapped = t + _c_time(k, j, tc, c0)  # where the walk ends when no step follows
         if lo > hi:
             break
-        xc, _ = _ceiling(k, j, grid_data, xc0, uc0)
+        xc, _ = _ceiling(k, j, grid_data, c0)
         if x > xc * (1.0 + CROSS):
             v = lo
         elif m < 0:  # the descent crosses above C: its own step (the merges from above C may still end on it)
-            v = max(lo, min(hi, _ceiling(k + 1, j, grid_data, xc0, uc0)[1]))
+            v = max(lo, min(hi, _ceiling(k + 1, j, grid_data, c0)[1]))
         else:
-            v = _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, xc0, uc0, floor, out_x, out_u)
+            v, known = _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, c0, floor, out_x, out_u)
         x1, dt = _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor)
         if dt < 0.0:
             break
@@ -482,8 +562,8 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, xc0, uc0, lengths, out_x, out_
     if best_k < 0 or trapped < (1.0 - WALK_GAIN) * best_t:
         return np.inf, -1  # none, or the walk stopped where a merge further on might still gain WALK_GAIN
     if best_m > best_k:
-        _descend(best_k, out_x[best_k], out_u[best_k], last, j, grid_data, first, xc0, uc0, floor, out_x, out_u,
+        _descend(best_k, out_x[best_k], out_u[best_k], last, j, grid_data, first, c0, floor, out_x, out_u,
                  True)
-    _merge(best_m, out_x[best_m], out_u[best_m], best_n, last, j, grid_data, first, xc0, uc0, floor, tc, np.inf,
+    _merge(best_m, out_x[best_m], out_u[best_m], best_n, last, j, grid_data, first, c0, floor, tc, np.inf,
            out_x, out_u, True)
     return best_t, best_m + best_n

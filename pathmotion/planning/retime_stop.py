@@ -142,6 +142,55 @@ def _j_range(s, x, u, keep, grid, p3):
     return low, high
 
 
+#: The certificate that a state cannot turn its deceleration (:func:`cannot_turn`) bounds |u| along the motion by
+#: this many times the largest of the state's and the least the order-2 rows allow [-].
+TURN_U_SAFETY = 2.0
+
+
+@njit(cache=True)
+def cannot_turn(s0, x0, u0, grid, p2, p3, px):
+    """Whether no motion from the state (s0, x0 = theta_dot^2 > 0, u0 = theta_ddot < 0) within the interpolated
+    rows (at any share of the limits up to STATE_SHARE_MAX) turns its deceleration to 0 before theta_dot runs out:
+    the path jerk J allowed anywhere the motion can go before it rests (theta within 2 x0 / |u0| of s0, x <= x0,
+    |u| <= U) is bounded above (every order-3 row |a3 J + sqrt(x) (a u + b x + c)| <= lim gives J <= (lim +
+    sqrt(x0) (|a| U + |b| x0 + |c|)) / |a3|, at most its largest over the check points of a segment where a3 keeps
+    its sign), and theta_dot <= v0 + u0 t + J t^2 / 2 reaches 0 while u <= u0 + J t < 0 when u0^2 > 2 J v0. Then
+    neither a stop nor a motion on (both need u = 0 where they rest) exists. U: TURN_U_SAFETY times the largest of
+    |u0| and the least u the order-2 rows allow at the region's check points (x = 0 and x0)."""
+    if not (u0 < 0.0 and x0 > 0.0):
+        return False
+    keep = STATE_SHARE_MAX + 2.0 * defaults.LIMIT_TOLERANCE
+    v0 = np.sqrt(x0)
+    g0, q0, _ = _locate(s0, grid)
+    g1, q1, _ = _locate(min(s0 + 2.0 * x0 / -u0, grid[-1]), grid)
+    first, last = 4 * g0 + q0, 4 * g1 + q1
+    top = -u0
+    for idx in range(first, last + 2):  # the check points bounding the region's segments
+        g, q = min(idx // 4, grid.shape[0] - 2), idx - 4 * min(idx // 4, grid.shape[0] - 2)
+        pt = grid[g] + (grid[g + 1] - grid[g]) * q / 4.0
+        for x in (0.0, x0):
+            lo = _u_range(pt, x, keep, grid, p2, px)[0]
+            if np.isfinite(lo):
+                top = max(top, -lo)
+    u_top = TURN_U_SAFETY * top
+    a3_, a_, b_, c_, lim_ = p3
+    jerk = np.inf
+    for r in range(a3_.shape[2]):
+        row = 0.0
+        for idx in range(first, last + 1):
+            g, q = idx // 4, idx % 4
+            d0, d1 = a3_[q, g, r], a3_[q + 1, g, r]
+            if not d0 * d1 > 0.0:
+                row = np.inf
+                break
+            for e in range(2):
+                qe = q + e
+                rest = v0 * (abs(a_[qe, g, r]) * u_top + abs(b_[qe, g, r]) * x0 + abs(c_[qe, g, r]))
+                row = max(row, (keep * lim_[qe, g, r] * (1.0 + SLACK) + rest) / abs(a3_[qe, g, r]))
+        jerk = min(jerk, row)
+    return u0 * u0 > 2.0 * jerk * v0
+
+
 @njit(cache=True)
 def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
     """Whether the constant-jerk close from (s, theta_dot v, u = a < 0) to rest ends before s_end and meets every
