@@ -208,8 +208,11 @@ def _not_closed_message(path: JointPath) -> str:
             "changes as it crosses q5 = 0); set plan.periodic = false, or change the path or tool orientation")
 
 
-def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings()) -> PlanResult:
-    """Time-optimal motion along ``path`` for ``robot`` under ``settings`` (see PlanSettings)."""
+def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings(),
+         scale_along=None) -> PlanResult:
+    """Time-optimal motion along ``path`` for ``robot`` under ``settings`` (see PlanSettings); ``scale_along``: a
+    caller's local tightening, theta (K,) -> {limit name: factor (K,) in (0, 1]} multiplying that limit at
+    each grid point (a limit not named: 1), or None."""
     t0 = time.perf_counter()
     if path.n != robot.n:
         raise ScenarioError(f"path has {path.n} joints, robot {robot.name} has {robot.n}")
@@ -228,7 +231,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
 
         def solve(g: Grid):
             donor = last.pop().samp.right if last else None  # the earlier solve's rows are freed before these
-            out = _solve_on(path, robot, settings, limits, g, donor=donor)
+            out = _solve_on(path, robot, settings, limits, g, donor=donor, scale_along=scale_along)
             last[:] = [out[2]]
             return out
 
@@ -239,10 +242,11 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         last.clear()  # only ``held`` refers to the solve: _solve_verified frees it when it solves a finer grid
     else:
         points = settings.grid_points or defaults.THIRD_ORDER_GRID_POINTS
-        solved = _solve_on(path, robot, settings, limits, make_grid(path, points))[2]
+        solved = _solve_on(path, robot, settings, limits, make_grid(path, points), scale_along=scale_along)[2]
         first, estimate = solved.sol.profile.duration, solved.error_estimate
         held = [solved]
-    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, held.pop(), adaptive)
+    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, held.pop(), adaptive,
+                                                       scale_along)
     if not adaptive and estimate is not None:  # the tightening's change is part of the discretization error
         estimate += abs(solved.sol.profile.duration - first)
     sol, grid = solved.sol, solved.grid.theta
@@ -282,9 +286,11 @@ def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
 
 
 def _solve_on(path, robot, settings, limits, grid: Grid, samp: Sampled | None = None, scale: dict | None = None,
-              x_ref: np.ndarray | None = None, donor: PathPoints | None = None) -> tuple[float, np.ndarray, "_Solved"]:
+              x_ref: np.ndarray | None = None, donor: PathPoints | None = None,
+              scale_along=None) -> tuple[float, np.ndarray, "_Solved"]:
     """Solve on ``grid`` (path data sampled unless ``samp`` is given, reusing ``donor``'s at shared points;
-    unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
+    limit scales ``scale``, else ``scale_along``'s (see :func:`plan`), else 1): (duration [s], x on the grid
+    (K,), the solve)."""
     theta = grid.theta
     _check_grid_memory(len(theta), robot.n, settings, len(grid.breaks) + 1)
     if samp is None:
@@ -298,7 +304,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: Sampled | None = 
     chain_args = dict(start=settings.start_condition, end=settings.end_condition, periodic=settings.periodic,
                       connections=settings.connections, breaks=grid.breaks, stops=tuple(sorted(stops)))
     if scale is None:
-        scale = limits.unit_scale(len(theta), robot.n)
+        scale = _start_scale(limits, theta, robot.n, scale_along)
     problem, right, left, sol, estimate = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
     if isinstance(samp.right, ReusingPoints):  # the rows are built: the earlier grid's path data may go
         samp.right.detach()
@@ -334,7 +340,17 @@ def _check_grid_memory(points: int, joints: int, settings, segments: int) -> Non
                  defaults.PLAN_MEMORY_BASE)
 
 
-def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
+def _start_scale(limits, theta: np.ndarray, n: int, scale_along) -> dict:
+    """{name: (K, m)} limit scales at the grid ``theta`` (K,): 1, times ``scale_along``'s factors (see :func:`plan`)."""
+    scale = limits.unit_scale(len(theta), n)
+    if scale_along is not None:
+        for name, factor in scale_along(theta).items():
+            if name in scale:
+                scale[name] = scale[name] * np.asarray(factor, float)[:, None]
+    return scale
+
+
+def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool, scale_along=None):
     """Bound every limit on every grid interval of the solve ``s`` (certified or dense, settings.verify);
     where a bound exceeds 1 + limit_tolerance, halve those intervals and their neighbours and re-solve (adaptive grid, at most
     PLAN_MAX_REFINE_ROUNDS: refinement keeps the duration at the optimum), then tighten the limits
@@ -366,7 +382,7 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
                      "again", int(over.sum()), defaults.PLAN_REFINE_NEIGHBOURS)
             grid, donor = s.grid.halved(_widened(over, defaults.PLAN_REFINE_NEIGHBOURS)), s.samp.right
             s = None  # its rows are freed before the finer grid's are built
-            s = _solve_on(path, robot, settings, limits, grid, donor=donor)[2]
+            s = _solve_on(path, robot, settings, limits, grid, donor=donor, scale_along=scale_along)[2]
             rounds += 1
             continue
         if iterations >= settings.max_tighten_iterations:
@@ -374,7 +390,7 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
                 f"the planned motion still exceeds a limit by {100 * (worst - 1):.3g} % between grid points after "
                 f"{iterations} tightening iterations ({ratios.worst}); raise grid_points or limit_tolerance"
             )
-        scale = tightened(limits.unit_scale(len(theta), robot.n) if scale is None else scale, bounds, tol)
+        scale = tightened(_start_scale(limits, theta, robot.n, scale_along) if scale is None else scale, bounds, tol)
         log.info("tightening the limits locally where they are exceeded, then solving again")
         s = _solve_on(path, robot, settings, limits, s.grid, s.samp, scale, s.sol.x)[2]
         iterations += 1
