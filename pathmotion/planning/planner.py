@@ -149,7 +149,8 @@ class PlanResult:
     duration_error_estimate [s]: the estimate of the duration's discretization error, from the adaptive
     grid, or with third-order limits from the nested coarse grid (planning/third_order.py) plus the
     tightening's change; None on a fixed grid without third-order limits. ``path_points``: the final solve's path
-    data (right side, left side) on ``curves.grid``, for the limit curves of the phase plane (None when not kept)."""
+    data (right side, left side) on ``curves.grid``, for the limit curves of the phase plane (None when not kept).
+    ``scale_along``: the caller's local tightening it was planned with (see :func:`plan`; the Retimer keeps it)."""
 
     profile: Profile
     trajectory: Trajectory
@@ -164,6 +165,7 @@ class PlanResult:
     settings: PlanSettings = field(repr=False)
     duration_error_estimate: float | None = None
     path_points: tuple[PathPoints, PathPoints] | None = field(default=None, repr=False)
+    scale_along: object = field(default=None, repr=False)
 
     @property
     def duration(self) -> float:
@@ -271,7 +273,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings(),
         traj = replace(traj, profile=profile)
         log.info("dwells: %s s at rest, cycle %.6g s", " + ".join(f"{w:g}" for _, w in path.dwells), profile.duration)
     return PlanResult(profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
-                      iterations, sol.jump_intervals, settings, estimate, (solved.samp.right, solved.samp.left))
+                      iterations, sol.jump_intervals, settings, estimate, (solved.samp.right, solved.samp.left),
+                      scale_along)
 
 
 def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
@@ -304,7 +307,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: Sampled | None = 
     chain_args = dict(start=settings.start_condition, end=settings.end_condition, periodic=settings.periodic,
                       connections=settings.connections, breaks=grid.breaks, stops=tuple(sorted(stops)))
     if scale is None:
-        scale = _start_scale(limits, theta, robot.n, scale_along)
+        scale = start_scale(limits, theta, robot.n, scale_along)
     problem, right, left, sol, estimate = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
     if isinstance(samp.right, ReusingPoints):  # the rows are built: the earlier grid's path data may go
         samp.right.detach()
@@ -340,7 +343,7 @@ def _check_grid_memory(points: int, joints: int, settings, segments: int) -> Non
                  defaults.PLAN_MEMORY_BASE)
 
 
-def _start_scale(limits, theta: np.ndarray, n: int, scale_along) -> dict:
+def start_scale(limits, theta: np.ndarray, n: int, scale_along) -> dict:
     """{name: (K, m)} limit scales at the grid ``theta`` (K,): 1, times ``scale_along``'s factors (see :func:`plan`)."""
     scale = limits.unit_scale(len(theta), n)
     if scale_along is not None:
@@ -390,7 +393,7 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool, s
                 f"the planned motion still exceeds a limit by {100 * (worst - 1):.3g} % between grid points after "
                 f"{iterations} tightening iterations ({ratios.worst}); raise grid_points or limit_tolerance"
             )
-        scale = tightened(_start_scale(limits, theta, robot.n, scale_along) if scale is None else scale, bounds, tol)
+        scale = tightened(start_scale(limits, theta, robot.n, scale_along) if scale is None else scale, bounds, tol)
         log.info("tightening the limits locally where they are exceeded, then solving again")
         s = _solve_on(path, robot, settings, limits, s.grid, s.samp, scale, s.sol.x)[2]
         iterations += 1
