@@ -33,7 +33,8 @@ from result_json import Table
 
 MODES = ("none", "shaping", "orbital")
 COLUMNS = [("scenario", "scenario"), ("gears", "gears"), ("correction", "correction"),
-           ("planned_s", "planned [s]"), ("streamed_s", "plan streamed [s]"), ("path_accuracy_mm", "path accuracy [mm]"),
+           ("planned_s", "planned [s]"), ("streamed_s", "plan streamed [s]"),
+           ("path_accuracy_mm", "path accuracy [mm]"),
            ("cycle_s", "cycle [s]"), ("cycle_ratio", "cycle / planned"),
            ("vibration_end_mm", "vibration after end [mm]"), ("vibration_stop_mm", "vibration after a stop [mm]"),
            ("supervision_stop_s", "supervision stop [s]"), ("end_off_path_mm", "ends off the path [mm]"),
@@ -115,8 +116,8 @@ def main() -> None:
                        "to rest, at the path's end and after a stop requested at half the planned time. Supervision "
                        "stop: when execute's path supervision (simulate.joint_tolerance) stopped the run along the "
                        "path; ends off the path: the TCP's final distance from the planned path. Plan streamed: the "
-                       "plan execute streams (with shaping of a second-order plan, planned again with lower limits "
-                       "until its shaped motion keeps the plan's limits); cycle / planned against the plan as "
+                       "plan execute streams (with shaping of a second-order plan, planned again with its limits "
+                       "tightened where its shaped motion exceeded them); cycle / planned against the plan as "
                        "planned. Largest limit ratio: of the motion the references follow (theta, theta_dot, "
                        "theta_ddot; shaped with shaping and orbital) against the plan's velocity, acceleration and "
                        "torque limits, on the run to the end and on the stop segment of the stopped run.")

@@ -36,8 +36,9 @@ def _random_corner():
     angle = rng.uniform(np.radians(45.0), np.radians(135.0))
     corner = np.array([0.50, 0.00, 0.45])
     end = corner + 0.1 * np.array([np.cos(angle), np.sin(angle), 0.0])
-    text = irb140_task("shaped_corner", line([0.40, 0.00, 0.45], corner.round(4).tolist()) + line(None, end.round(4).tolist())
-                       + '[[path.blends]]\ncorner = 1\ntype = "g2"\ntolerance = 0.004\n')
+    segments = line([0.40, 0.00, 0.45], corner.round(4).tolist()) + line(None, end.round(4).tolist())
+    blend = '[[path.blends]]\ncorner = 1\ntype = "g2"\ntolerance = 0.004\n'
+    text = irb140_task("shaped_corner", segments + blend)
     return planned(text)
 
 

@@ -48,9 +48,9 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
                   path_tolerance: float | None = defaults.JOINT_TOLERANCE,
                   refine: int = defaults.EGM_REFINE_ITERATIONS) -> Streamer:
     """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; with shaping (and orbital)
-    a second-order plan planned again with lower limits until its shaped motion keeps the plan's limits
-    (shaped_limits.py: the plan streamed and re-timed is that one), and the plan's table refined by at most ``refine`` iterations on the nominal arm (refine.py; 0: the analytic
-    shaping alone); stops, overrides and resumes re-timed by the plan's Retimer (analytic, the refinement's
+    a second-order plan planned again with its limits tightened locally until its shaped motion keeps the
+    plan's limits (shaped_limits.py: the plan streamed and re-timed is that one), and the plan's table
+    refined by at most ``refine`` iterations on the nominal arm (refine.py; 0: the analytic shaping alone); stops, overrides and resumes re-timed by the plan's Retimer (analytic, the refinement's
     correction faded out); ``path_tolerance`` [rad]: the path supervision's joint deviation (None: no
     supervision)."""
     if mode not in MODES:
