@@ -25,15 +25,20 @@ from pathmotion.execution.drive_file import drive_file_for, load_drives
 from pathmotion.execution.drives import VirtualArm
 from pathmotion.execution.figures import LINE_POINTS, PROJECTION_STEPS
 from pathmotion.execution.session import arm_figures, make_streamer, run_inprocess
+from pathmotion.execution.shaped_limits import motion_ratios
+from pathmotion.planning import effective_limits
 from pathmotion.simulation.metrics import planned_tcp_line, polish_projection, tcp_path_deviation
 from pathmotion.robot import Payload
 from result_json import Table
 
 MODES = ("none", "shaping", "orbital")
 COLUMNS = [("scenario", "scenario"), ("gears", "gears"), ("correction", "correction"),
-           ("planned_s", "planned [s]"),            ("path_accuracy_mm", "path accuracy [mm]"), ("cycle_s", "cycle [s]"), ("cycle_ratio", "cycle / planned"),
+           ("planned_s", "planned [s]"), ("streamed_s", "plan streamed [s]"),
+           ("path_accuracy_mm", "path accuracy [mm]"),
+           ("cycle_s", "cycle [s]"), ("cycle_ratio", "cycle / planned"),
            ("vibration_end_mm", "vibration after end [mm]"), ("vibration_stop_mm", "vibration after a stop [mm]"),
-           ("supervision_stop_s", "supervision stop [s]"), ("end_off_path_mm", "ends off the path [mm]")]
+           ("supervision_stop_s", "supervision stop [s]"), ("end_off_path_mm", "ends off the path [mm]"),
+           ("shaped_ratio", "shaped motion's largest limit ratio"), ("stop_ratio", "stop's largest limit ratio")]
 
 
 def run(setup, result, drives, mode, stop_at=None, payload=0.0, plant="builtin", supervision=True):
@@ -46,6 +51,13 @@ def run(setup, result, drives, mode, stop_at=None, payload=0.0, plant="builtin",
     tripped = streamer.supervision.tripped if supervision else None
     figures["supervision_stop_s"] = None if tripped is None else round(tripped.t, 3)
     figures["end_off_path_m"] = end_off_path(setup.robot, result.trajectory.path, out.q[-1], out.theta[-1])
+    limits = effective_limits(setup.robot, result.settings)  # the plan's, as the user planned it
+    path = result.trajectory.path
+    figures["shaped_ratio"] = max(motion_ratios(setup.robot, path, streamer.table.motion, limits).values())
+    stopped = streamer.segment is not streamer.table
+    figures["stop_ratio"] = max(motion_ratios(setup.robot, path, streamer.segment.motion, limits).values()) \
+        if stopped else None
+    figures["streamed_s"] = streamer.plan.duration
     return figures
 
 
@@ -85,13 +97,16 @@ def main() -> None:
                 s = run(setup, result, drives, mode, stop_at=0.5 * result.duration, **kw)
                 cyc = f["cycle_time_s"]
                 table.add(scenario=name, gears=gears, correction=mode, planned_s=round(result.duration, 4),
+                          streamed_s=round(f["streamed_s"], 4),
                           path_accuracy_mm=round(1e3 * f["path_accuracy_m"], 3),
                           cycle_s=None if cyc is None else round(cyc, 3),
                           cycle_ratio=None if cyc is None else round(cyc / result.duration, 4),
                           vibration_end_mm=round(1e3 * f["residual_vibration_m"], 3),
                           vibration_stop_mm=round(1e3 * s["residual_vibration_m"], 3),
                           supervision_stop_s=f["supervision_stop_s"],
-                          end_off_path_mm=round(1e3 * f["end_off_path_m"], 3))
+                          end_off_path_mm=round(1e3 * f["end_off_path_m"], 3),
+                          shaped_ratio=round(f["shaped_ratio"], 4),
+                          stop_ratio=None if s["stop_ratio"] is None else round(s["stop_ratio"], 4))
                 row = table.rows[-1]
                 print("| " + " | ".join("-" if row[k] is None else str(row[k]) for k, _ in COLUMNS) + " |"
                       f"  ({time.perf_counter() - t0:.1f} s)", flush=True)
@@ -100,7 +115,12 @@ def main() -> None:
                        "Vibration: the TCP's largest distance from where it finally rests, after the reference came "
                        "to rest, at the path's end and after a stop requested at half the planned time. Supervision "
                        "stop: when execute's path supervision (simulate.joint_tolerance) stopped the run along the "
-                       "path; ends off the path: the TCP's final distance from the planned path.")
+                       "path; ends off the path: the TCP's final distance from the planned path. Plan streamed: the "
+                       "plan execute streams (with shaping of a second-order plan, planned again with its limits "
+                       "tightened where its shaped motion exceeded them); cycle / planned against the plan as "
+                       "planned. Largest limit ratio: of the motion the references follow (theta, theta_dot, "
+                       "theta_ddot; shaped with shaping and orbital) against the plan's velocity, acceleration and "
+                       "torque limits, on the run to the end and on the stop segment of the stopped run.")
     if args.json:
         print(f"wrote {table.write(args.json)}")
 

@@ -417,6 +417,9 @@ EGM_REFINE_SMOOTHING = 1.0
 #: EGM refinement: each joint's error counts by the TCP's motion per radian of it, at least this fraction of the
 #: largest (a wrist axis through the TCP still counts).
 EGM_REFINE_WEIGHT_FLOOR = 0.05
+#: EGM, --correction shaping/orbital on a second-order plan: at most this many plans with lower limits until the
+#: shaped motion keeps the plan's limits (execution/shaped_limits.py).
+EGM_SHAPED_REPLANS = 6
 #: EGM refinement: a re-timed segment (stop, override, resume) fades the correction out over this long [s]
 #: (about the IRB 140's slowest gear period).
 EGM_REFINE_FADE = 0.05

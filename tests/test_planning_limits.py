@@ -249,3 +249,19 @@ def test_left_rows_assembled_at_the_breaks_equal_the_rows_of_every_left_point(na
                         (full.a, full.b, full.c, full.lo, full.hi, full.x_max)):
             np.testing.assert_array_equal(a, b)
     assert len(path.breaks) == 0 or not np.array_equal(full.b, right.b)  # the sides differ at the breaks
+
+
+def test_scale_along_equals_the_settings_scale_where_it_is_constant(irb140):
+    """plan's point-wise ``scale_along`` (a caller's local tightening), constant 0.6 on the acceleration limit,
+    plans what the scenario's acceleration_scale = 0.6 plans; 0.6 on the second half of the path only gives a
+    duration between the two."""
+    line = PolylinePath.through([np.zeros(6), np.array([0.4, 0.2, -0.2, 0.1, 0.1, 0.0])])
+    free = {"use_torque": False}
+    full = plan(line, irb140, PlanSettings(limits=free, **FAST))
+    scaled = plan(line, irb140, PlanSettings(limits={**free, "acceleration_scale": 0.6}, **FAST))
+    along = plan(line, irb140, PlanSettings(limits=free, **FAST),
+                 scale_along=lambda theta: {"acceleration": np.full(len(theta), 0.6)})
+    assert along.duration == pytest.approx(scaled.duration, rel=1e-9)
+    half = plan(line, irb140, PlanSettings(limits=free, **FAST),
+                scale_along=lambda theta: {"acceleration": np.where(theta > 0.5 * theta[-1], 0.6, 1.0)})
+    assert full.duration < half.duration < scaled.duration

@@ -24,6 +24,7 @@ from .messages import decode_sensor, encode_robot
 from .orbital import TransverseLoop, loop_gain
 from .reference import MODES, RawMotion, build_reference, gear_period
 from .refine import refine_reference
+from .shaped_limits import shaped_plan
 from .streamer import Streamer
 from .supervision import PathSupervision
 
@@ -47,16 +48,13 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
                   path_tolerance: float | None = defaults.JOINT_TOLERANCE,
                   refine: int = defaults.EGM_REFINE_ITERATIONS) -> Streamer:
     """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; with shaping (and orbital)
-    the plan's table refined by at most ``refine`` iterations on the nominal arm (refine.py; 0: the analytic
-    shaping alone); stops, overrides and resumes re-timed by the plan's Retimer (analytic, the refinement's
+    a second-order plan planned again with its limits tightened locally until its shaped motion keeps the
+    plan's limits (shaped_limits.py: the plan streamed and re-timed is that one), and the plan's table
+    refined by at most ``refine`` iterations on the nominal arm (refine.py; 0: the analytic shaping alone); stops, overrides and resumes re-timed by the plan's Retimer (analytic, the refinement's
     correction faded out); ``path_tolerance`` [rad]: the path supervision's joint deviation (None: no
     supervision)."""
     if mode not in MODES:
         raise ExecutionError(f"--correction {mode!r}: choose one of {', '.join(MODES)}")
-    try:
-        retimer = Retimer(plan_result)
-    except PathmotionError as exc:
-        raise ExecutionError(f"execute needs a plan it can stop along the path: {exc}") from None
     path = plan_result.trajectory.path
     start = plan_result.trajectory.at_time([0.0]).q[0]
     # the shaper makes a second-order plan's acceleration continuous (a jerk-limited plan's already is); one
@@ -64,6 +62,12 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
     # elastic gears its period is the position loop's time constant 1 / Kp: the acceleration steps, fed
     # forward as torque steps at the plan's torque limits, would saturate the motors
     period = 0.0 if plan_result.profile.smooth else gear_period(robot, drives, start) or 1.0 / drives.position_gain
+    if mode != "none" and period > 0.0:  # the shaped motion within the plan's limits: the plan streamed is slower
+        plan_result = shaped_plan(robot, plan_result, period)[0]
+    try:
+        retimer = Retimer(plan_result)
+    except PathmotionError as exc:
+        raise ExecutionError(f"execute needs a plan it can stop along the path: {exc}") from None
 
     def retime(kind: str, state: tuple, override: float, previous, offset: float):
         if kind == "stop":

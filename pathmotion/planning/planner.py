@@ -149,7 +149,8 @@ class PlanResult:
     duration_error_estimate [s]: the estimate of the duration's discretization error, from the adaptive
     grid, or with third-order limits from the nested coarse grid (planning/third_order.py) plus the
     tightening's change; None on a fixed grid without third-order limits. ``path_points``: the final solve's path
-    data (right side, left side) on ``curves.grid``, for the limit curves of the phase plane (None when not kept)."""
+    data (right side, left side) on ``curves.grid``, for the limit curves of the phase plane (None when not kept).
+    ``scale_along``: the caller's local tightening it was planned with (see :func:`plan`; the Retimer keeps it)."""
 
     profile: Profile
     trajectory: Trajectory
@@ -164,6 +165,7 @@ class PlanResult:
     settings: PlanSettings = field(repr=False)
     duration_error_estimate: float | None = None
     path_points: tuple[PathPoints, PathPoints] | None = field(default=None, repr=False)
+    scale_along: object = field(default=None, repr=False)
 
     @property
     def duration(self) -> float:
@@ -208,8 +210,11 @@ def _not_closed_message(path: JointPath) -> str:
             "changes as it crosses q5 = 0); set plan.periodic = false, or change the path or tool orientation")
 
 
-def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings()) -> PlanResult:
-    """Time-optimal motion along ``path`` for ``robot`` under ``settings`` (see PlanSettings)."""
+def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings(),
+         scale_along=None) -> PlanResult:
+    """Time-optimal motion along ``path`` for ``robot`` under ``settings`` (see PlanSettings); ``scale_along``: a
+    caller's local tightening, theta (K,) -> {limit name: factor (K,) in (0, 1]} multiplying that limit at
+    each grid point (a limit not named: 1), or None."""
     t0 = time.perf_counter()
     if path.n != robot.n:
         raise ScenarioError(f"path has {path.n} joints, robot {robot.name} has {robot.n}")
@@ -228,7 +233,7 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
 
         def solve(g: Grid):
             donor = last.pop().samp.right if last else None  # the earlier solve's rows are freed before these
-            out = _solve_on(path, robot, settings, limits, g, donor=donor)
+            out = _solve_on(path, robot, settings, limits, g, donor=donor, scale_along=scale_along)
             last[:] = [out[2]]
             return out
 
@@ -239,10 +244,11 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         last.clear()  # only ``held`` refers to the solve: _solve_verified frees it when it solves a finer grid
     else:
         points = settings.grid_points or defaults.THIRD_ORDER_GRID_POINTS
-        solved = _solve_on(path, robot, settings, limits, make_grid(path, points))[2]
+        solved = _solve_on(path, robot, settings, limits, make_grid(path, points), scale_along=scale_along)[2]
         first, estimate = solved.sol.profile.duration, solved.error_estimate
         held = [solved]
-    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, held.pop(), adaptive)
+    solved, traj, ratios, iterations = _solve_verified(path, robot, settings, limits, held.pop(), adaptive,
+                                                       scale_along)
     if not adaptive and estimate is not None:  # the tightening's change is part of the discretization error
         estimate += abs(solved.sol.profile.duration - first)
     sol, grid = solved.sol, solved.grid.theta
@@ -267,7 +273,8 @@ def plan(path: JointPath, robot: Robot, settings: PlanSettings = PlanSettings())
         traj = replace(traj, profile=profile)
         log.info("dwells: %s s at rest, cycle %.6g s", " + ".join(f"{w:g}" for _, w in path.dwells), profile.duration)
     return PlanResult(profile, traj, sol.segment_profiles, curves, ratios, base, solve_time, len(grid),
-                      iterations, sol.jump_intervals, settings, estimate, (solved.samp.right, solved.samp.left))
+                      iterations, sol.jump_intervals, settings, estimate, (solved.samp.right, solved.samp.left),
+                      scale_along)
 
 
 def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
@@ -282,9 +289,11 @@ def _check_dwells(path: JointPath, settings: PlanSettings) -> None:
 
 
 def _solve_on(path, robot, settings, limits, grid: Grid, samp: Sampled | None = None, scale: dict | None = None,
-              x_ref: np.ndarray | None = None, donor: PathPoints | None = None) -> tuple[float, np.ndarray, "_Solved"]:
+              x_ref: np.ndarray | None = None, donor: PathPoints | None = None,
+              scale_along=None) -> tuple[float, np.ndarray, "_Solved"]:
     """Solve on ``grid`` (path data sampled unless ``samp`` is given, reusing ``donor``'s at shared points;
-    unit limit scales unless ``scale``): (duration [s], x on the grid (K,), the solve)."""
+    limit scales ``scale``, else ``scale_along``'s (see :func:`plan`), else 1): (duration [s], x on the grid
+    (K,), the solve)."""
     theta = grid.theta
     _check_grid_memory(len(theta), robot.n, settings, len(grid.breaks) + 1)
     if samp is None:
@@ -298,7 +307,7 @@ def _solve_on(path, robot, settings, limits, grid: Grid, samp: Sampled | None = 
     chain_args = dict(start=settings.start_condition, end=settings.end_condition, periodic=settings.periodic,
                       connections=settings.connections, breaks=grid.breaks, stops=tuple(sorted(stops)))
     if scale is None:
-        scale = limits.unit_scale(len(theta), robot.n)
+        scale = start_scale(limits, theta, robot.n, scale_along)
     problem, right, left, sol, estimate = _solve_rows(theta, samp, limits, scale, x_ref, chain_args)
     if isinstance(samp.right, ReusingPoints):  # the rows are built: the earlier grid's path data may go
         samp.right.detach()
@@ -334,7 +343,17 @@ def _check_grid_memory(points: int, joints: int, settings, segments: int) -> Non
                  defaults.PLAN_MEMORY_BASE)
 
 
-def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
+def start_scale(limits, theta: np.ndarray, n: int, scale_along) -> dict:
+    """{name: (K, m)} limit scales at the grid ``theta`` (K,): 1, times ``scale_along``'s factors (see :func:`plan`)."""
+    scale = limits.unit_scale(len(theta), n)
+    if scale_along is not None:
+        for name, factor in scale_along(theta).items():
+            if name in scale:
+                scale[name] = scale[name] * np.asarray(factor, float)[:, None]
+    return scale
+
+
+def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool, scale_along=None):
     """Bound every limit on every grid interval of the solve ``s`` (certified or dense, settings.verify);
     where a bound exceeds 1 + limit_tolerance, halve those intervals and their neighbours and re-solve (adaptive grid, at most
     PLAN_MAX_REFINE_ROUNDS: refinement keeps the duration at the optimum), then tighten the limits
@@ -366,7 +385,7 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
                      "again", int(over.sum()), defaults.PLAN_REFINE_NEIGHBOURS)
             grid, donor = s.grid.halved(_widened(over, defaults.PLAN_REFINE_NEIGHBOURS)), s.samp.right
             s = None  # its rows are freed before the finer grid's are built
-            s = _solve_on(path, robot, settings, limits, grid, donor=donor)[2]
+            s = _solve_on(path, robot, settings, limits, grid, donor=donor, scale_along=scale_along)[2]
             rounds += 1
             continue
         if iterations >= settings.max_tighten_iterations:
@@ -374,7 +393,7 @@ def _solve_verified(path, robot, settings, limits, s: _Solved, adaptive: bool):
                 f"the planned motion still exceeds a limit by {100 * (worst - 1):.3g} % between grid points after "
                 f"{iterations} tightening iterations ({ratios.worst}); raise grid_points or limit_tolerance"
             )
-        scale = tightened(limits.unit_scale(len(theta), robot.n) if scale is None else scale, bounds, tol)
+        scale = tightened(start_scale(limits, theta, robot.n, scale_along) if scale is None else scale, bounds, tol)
         log.info("tightening the limits locally where they are exceeded, then solving again")
         s = _solve_on(path, robot, settings, limits, s.grid, s.samp, scale, s.sol.x)[2]
         iterations += 1

@@ -39,7 +39,7 @@ from .. import defaults
 from ..errors import InfeasibleError, PathmotionError, StateInfeasibleError
 from ..modes import BoundaryMode, Connections
 from .grid_data import grid_breaks, grid_rows, sample_grid, with_knots
-from .planner import PlanResult, certified_bounds, effective_limits, tightened
+from .planner import PlanResult, certified_bounds, effective_limits, start_scale, tightened
 from .profile import Profile
 from .retime_jerk import JerkPass
 from . import retime_stop, smooth
@@ -116,7 +116,7 @@ class Retimer:
         self.third_order = limits.third_order
         breaks = grid_breaks(self.path, grid)
         samp = sample_grid(self.path, self.robot, grid, breaks)
-        self._scale = limits.unit_scale(len(grid), self.robot.n)
+        self._scale = start_scale(limits, grid, self.robot.n, plan_result.scale_along)  # the plan's own limits
         x_ref = plan_result.profile.x if limits.relinearize else None
         problem, right, left = grid_rows(grid, samp, limits, self._scale, x_ref)
         stops = np.searchsorted(grid, [k for k in self.path.kinks if grid[0] < k < grid[-1]])
@@ -160,7 +160,7 @@ class Retimer:
         mids = 0.5 * (g[:-1] + g[1:])
         samp = sample_grid(self.path, self.robot, mids, ())
         ref = None if x_ref is None else np.interp(mids, g, x_ref)
-        rows = limit_rows(samp.right, self.limits, self.limits.unit_scale(len(mids), self.robot.n),
+        rows = limit_rows(samp.right, self.limits, start_scale(self.limits, mids, self.robot.n, self.plan.scale_along),
                           defaults.PLANNER_X_CAP, ref)
         out = np.zeros((5,) + rows.a.shape)
         for k, n in enumerate(("a", "b", "c", "lo", "hi")):
