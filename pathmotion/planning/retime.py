@@ -91,6 +91,8 @@ JERK_CAP_HORIZON = 5.0
 #: Third-order: relative lowerings of x at the state tried when the LP from the state itself is infeasible
 #: by round-off, or above a limit by less than the limit tolerance [-].
 START_NUDGES = (1e-6, 1e-5, 1e-4, defaults.LIMIT_TOLERANCE)
+#: Relative slack of the state's share of the limits against 1 + the limit tolerance (round-off) [-].
+SHARE_SLACK = 1e-9
 #: Third-order: a state within this of the plan's own (x relative to the plan's x there, u relative to the plan's
 #: largest |u|) lies on the plan, whose motion from it is an answer where the compiled pass finds none [-].
 PLAN_STATE_TOLERANCE = 1e-4
@@ -668,6 +670,12 @@ class Retimer:
                     f"within the jerk and torque-rate limits at override {np.sqrt(s2):.4g}: its deceleration cannot be "
                     "turned to 0 before theta_dot runs out; stop first (Retimer.stop, which carries the stop without "
                     "the jerk limits), or brake more gently", end_speed=np.nan)
+            share = self._start_share(theta, x0 / s2, u0 / s2)
+            if share > (1.0 + self.settings.limit_tolerance) * (1.0 + SHARE_SLACK):
+                raise StateInfeasibleError(
+                    f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} takes "
+                    f"{share:.4g} of its acceleration or torque limits at override {np.sqrt(s2):.4g}: no motion from it "
+                    "is within the limits; stop first (Retimer.stop), or brake more gently", end_speed=np.nan)
             log.debug("retimer: no answer of the compiled pass from theta = %.6g; sequential LP", theta)
         try:
             grid, x2 = self._remaining2(theta, x0, s2)
@@ -691,6 +699,23 @@ class Retimer:
                 f"brought to the plan's end within the jerk and torque-rate limits at override {np.sqrt(s2):.4g} "
                 f"({err}); stop first (Retimer.stop), or raise the override") from err
         return Profile(p.grid, p.x * s2, p.u_nodes * s2)
+
+    def _start_share(self, theta: float, x0: float, u0: float) -> float:
+        """The least share of the order-2 limits (acceleration, torque: the exact rows at theta, unit scale) the
+        state (x0 > 0, u0) or the sequential LP's start moved towards 0 by START_NUDGES takes [-]: every profile
+        the LP returns starts there with its certified bound (planning/certify.py, an upper bound on the ratio
+        at the interval's start) within 1 + the limit tolerance, so a share above that has no answer. 0 for a
+        state at rest (its u is free) and with limits linearized around a profile (torque-speed)."""
+        if x0 <= 0.0 or self.limits.relinearize:
+            return 0.0
+        pts = sample_grid(self.path, self.robot, np.array([theta]), (), third=True).right
+        rows = limit_rows(pts, self.limits, self.limits.unit_scale(1, self.robot.n), defaults.PLANNER_X_CAP)
+        nudge = 1.0 - np.array((0.0, *START_NUDGES))[:, None]
+        val = rows.a[0] * u0 * nudge + rows.b[0] * x0 * nudge + rows.c[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.where(val > 0.0, val / rows.hi[0], np.where(val < 0.0, val / rows.lo[0], 0.0))
+        share = np.where(np.isfinite(share), share, 0.0)
+        return float(np.min(np.max(share, axis=1)))
 
     def _jerk_cap(self, grid: np.ndarray, x0: float, u0: float) -> np.ndarray:
         """x (K,) on ``grid`` of the fastest speed-up from (x0, u0) at the state's path jerk bound (min over the
