@@ -402,7 +402,7 @@ class Retimer:
         return self._compiled(theta, x0, u0, _override(override) ** 2)
 
     def _compiled(self, theta: float, x0: float, u0: float, s2: float) -> Profile | None:
-        i, j, f, *_ = self._first(theta)
+        i, j, f = self._locate(theta)
         if self._jerk is None or not self._jerk.applies(theta, i, j, x0):
             return None
         got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
@@ -455,13 +455,20 @@ class Retimer:
         interval runs from theta to grid point j (i + 1, or i + 2 when theta is within MERGE_FRACTION of
         i + 1); its rows (1, M) in planning/topp.py's interval form."""
         g = self.grid
-        i = int(min(max(np.searchsorted(g, theta, side="right") - 1, 0), len(g) - 2))
-        f = (theta - g[i]) / (g[i + 1] - g[i])
-        j = i + 2 if (i + 2 < len(g) and f > 1.0 - MERGE_FRACTION and not np.isin(i + 1, self._stops)) else i + 1
+        i, j, f = self._locate(theta)
         start = self._right.between(self._left, i, f)
         end = self._left.at(j)
         P0, Q0, R0 = _interval_rows(np.array([theta, g[j]]), *(v[None, :] for v in start), *(v[None, :] for v in end))
         return i, j, f, start, P0, Q0, R0
+
+    def _locate(self, theta: float) -> tuple[int, int, float]:
+        """(i, j, f): theta lies in grid interval i at the fraction f; the first interval runs from theta to grid
+        point j (i + 1, or i + 2 when theta is within MERGE_FRACTION of i + 1)."""
+        g = self.grid
+        i = int(min(max(np.searchsorted(g, theta, side="right") - 1, 0), len(g) - 2))
+        f = (theta - g[i]) / (g[i + 1] - g[i])
+        j = i + 2 if (i + 2 < len(g) and f > 1.0 - MERGE_FRACTION and not np.isin(i + 1, self._stops)) else i + 1
+        return i, j, f
 
     def _x_max_at(self, i: int, f: float) -> float:
         return float(min((1.0 - f) * self._right.x_max[i] + f * self._left.x_max[i + 1],
@@ -680,7 +687,7 @@ class Retimer:
         try:
             grid, x2 = self._remaining2(theta, x0, s2)
         except StateInfeasibleError:  # the smooth interpolation may lie a little above the interval form's K
-            _, j, _, _, _, _, _ = self._first(theta)
+            _, j, _ = self._locate(theta)
             grid, x2 = np.concatenate([[theta], self.grid[j:]]), s2 * np.concatenate([[x0 / s2], self._khi[j:]])
         end = self.settings.end_condition
         end_x = None if end == BoundaryMode.MAX else float(self.plan.profile.x[-1]) / s2
@@ -738,7 +745,7 @@ class Retimer:
     def _smooth_stop(self, theta: float, x0: float, u0: float, d2: float) -> Profile:
         """Third-order shortest stop: the least distance (from the second-order stop distance ``d2``, a lower
         bound, grown by SMOOTH_STOP_GROWTH, then bisected to SMOOTH_STOP_ACCURACY) whose smooth stop exists."""
-        _, j, _, _, _, _, _ = self._first(theta)
+        _, j, _ = self._locate(theta)
         d_max = float(self.grid[self._next_stop(j)] - theta)
         # graded towards the state: a state with a large acceleration turns it at the jerk limit within a
         # small fraction of the stop, which the uniform points alone do not resolve (no trial would succeed)
