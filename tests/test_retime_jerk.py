@@ -392,6 +392,7 @@ def _enforced_ratio(rt, path, theta, v, a) -> float:
        override=st.sampled_from([1.0, 0.6]))
 @example(where=0.3, speed=0.6, acc=-12.0, override=1.0)
 @example(where=0.5, speed=1.0, acc=0.0, override=1.0)
+@example(where=0.5, speed=0.5, acc=0.0, override=1.0)  # within the limits: the LP answers
 def test_states_above_their_limits_are_refused_as_the_lp_refuses_them(torque_jerk, where, speed, acc, override):
     # the share certificate (the state's own acceleration or torque share above 1 + the tolerance) against
     # Pinocchio's RNEA at the state, and against the sequential LP: where it refuses, the LP finds no motion
