@@ -375,3 +375,41 @@ def test_compiled_answers_are_certified_within_the_limits(torque_jerk, theta, v,
     for p in answers:
         certified = rt.certify(p).max_ratio
         assert rt.dense_ratios(p, 1e-4).max_ratio <= certified + 1e-6 and certified <= 1.0 + TOL
+
+
+def _enforced_ratio(rt, path, theta, v, a) -> float:
+    """The state's own largest ratio of a joint acceleration or the enforced torque limit (the robot's less the
+    plans' torque reserve; Pinocchio's RNEA) [-]."""
+    q, d1, d2 = (np.asarray(w, float) for w in path.evaluate(theta))
+    qd, qdd = d1 * v, d1 * a + d2 * v * v
+    tau = pin.rnea(ROBOT.model, ROBOT.model.createData(), q, qd, qdd)
+    tau_max = next(lim for lim in rt.limits if lim.name == "torque").tau_max
+    return float(max(np.max(np.abs(qdd) / ACC), np.max(np.abs(tau) / tau_max)))
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(where=st.floats(0.01, 0.9), speed=st.floats(0.05, 1.2), acc=st.floats(-12.0, 12.0),
+       override=st.sampled_from([1.0, 0.6]))
+@example(where=0.3, speed=0.6, acc=-12.0, override=1.0)
+@example(where=0.5, speed=1.0, acc=0.0, override=1.0)
+@example(where=0.5, speed=0.5, acc=0.0, override=1.0)  # within the limits: the LP answers
+def test_states_above_their_limits_are_refused_as_the_lp_refuses_them(torque_jerk, where, speed, acc, override):
+    # the share certificate (the state's own acceleration or torque share above 1 + the tolerance) against
+    # Pinocchio's RNEA at the state, and against the sequential LP: where it refuses, the LP finds no motion
+    # either (remaining answers only by the compiled pass, which takes a state up to 2 % above its limits, or
+    # refuses); where the LP answers, it does not refuse. At an override s the LP solves the unit problem from
+    # (theta_dot / s, theta_ddot / s^2)
+    path, res, rt = torque_jerk
+    theta = where * path.domain[1]
+    v = speed * float(res.profile.theta_dot_at(theta))
+    s = override
+    share = rt._start_share(theta, v * v / s**2, acc / s**2)
+    ratio = _enforced_ratio(rt, path, theta, v / s, acc / s**2)
+    assert share <= ratio * (1.0 + 1e-9) + 1e-12
+    lp = _answer(rt, theta, v, acc, override=s, reference=True)
+    if share > 1.0 + TOL:
+        assert ratio > 1.0 + TOL and lp is None
+        got = _answer(rt, theta, v, acc, override=s)
+        assert got is None or s < 1.0 or rt.certify(got).max_ratio <= ratio + 2 * TOL
+    if lp is not None:
+        assert share <= 1.0 + TOL

@@ -91,6 +91,8 @@ JERK_CAP_HORIZON = 5.0
 #: Third-order: relative lowerings of x at the state tried when the LP from the state itself is infeasible
 #: by round-off, or above a limit by less than the limit tolerance [-].
 START_NUDGES = (1e-6, 1e-5, 1e-4, defaults.LIMIT_TOLERANCE)
+#: Relative slack of the state's share of the limits against 1 + the limit tolerance (round-off) [-].
+SHARE_SLACK = 1e-9
 #: Third-order: a state within this of the plan's own (x relative to the plan's x there, u relative to the plan's
 #: largest |u|) lies on the plan, whose motion from it is an answer where the compiled pass finds none [-].
 PLAN_STATE_TOLERANCE = 1e-4
@@ -400,7 +402,7 @@ class Retimer:
         return self._compiled(theta, x0, u0, _override(override) ** 2)
 
     def _compiled(self, theta: float, x0: float, u0: float, s2: float) -> Profile | None:
-        i, j, f, *_ = self._first(theta)
+        i, j, f = self._locate(theta)
         if self._jerk is None or not self._jerk.applies(theta, i, j, x0):
             return None
         got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
@@ -453,13 +455,20 @@ class Retimer:
         interval runs from theta to grid point j (i + 1, or i + 2 when theta is within MERGE_FRACTION of
         i + 1); its rows (1, M) in planning/topp.py's interval form."""
         g = self.grid
-        i = int(min(max(np.searchsorted(g, theta, side="right") - 1, 0), len(g) - 2))
-        f = (theta - g[i]) / (g[i + 1] - g[i])
-        j = i + 2 if (i + 2 < len(g) and f > 1.0 - MERGE_FRACTION and not np.isin(i + 1, self._stops)) else i + 1
+        i, j, f = self._locate(theta)
         start = self._right.between(self._left, i, f)
         end = self._left.at(j)
         P0, Q0, R0 = _interval_rows(np.array([theta, g[j]]), *(v[None, :] for v in start), *(v[None, :] for v in end))
         return i, j, f, start, P0, Q0, R0
+
+    def _locate(self, theta: float) -> tuple[int, int, float]:
+        """(i, j, f): theta lies in grid interval i at the fraction f; the first interval runs from theta to grid
+        point j (i + 1, or i + 2 when theta is within MERGE_FRACTION of i + 1)."""
+        g = self.grid
+        i = int(min(max(np.searchsorted(g, theta, side="right") - 1, 0), len(g) - 2))
+        f = (theta - g[i]) / (g[i + 1] - g[i])
+        j = i + 2 if (i + 2 < len(g) and f > 1.0 - MERGE_FRACTION and not np.isin(i + 1, self._stops)) else i + 1
+        return i, j, f
 
     def _x_max_at(self, i: int, f: float) -> float:
         return float(min((1.0 - f) * self._right.x_max[i] + f * self._left.x_max[i + 1],
@@ -668,11 +677,17 @@ class Retimer:
                     f"within the jerk and torque-rate limits at override {np.sqrt(s2):.4g}: its deceleration cannot be "
                     "turned to 0 before theta_dot runs out; stop first (Retimer.stop, which carries the stop without "
                     "the jerk limits), or brake more gently", end_speed=np.nan)
+            share = self._start_share(theta, x0 / s2, u0 / s2)
+            if share > (1.0 + self.settings.limit_tolerance) * (1.0 + SHARE_SLACK):
+                raise StateInfeasibleError(
+                    f"the state theta = {theta:.6g}, theta_dot = {np.sqrt(x0):.6g}, theta_ddot = {u0:.6g} takes "
+                    f"{share:.4g} of its acceleration or torque limits at override {np.sqrt(s2):.4g}: no motion from it "
+                    "is within the limits; stop first (Retimer.stop), or brake more gently", end_speed=np.nan)
             log.debug("retimer: no answer of the compiled pass from theta = %.6g; sequential LP", theta)
         try:
             grid, x2 = self._remaining2(theta, x0, s2)
         except StateInfeasibleError:  # the smooth interpolation may lie a little above the interval form's K
-            _, j, _, _, _, _, _ = self._first(theta)
+            _, j, _ = self._locate(theta)
             grid, x2 = np.concatenate([[theta], self.grid[j:]]), s2 * np.concatenate([[x0 / s2], self._khi[j:]])
         end = self.settings.end_condition
         end_x = None if end == BoundaryMode.MAX else float(self.plan.profile.x[-1]) / s2
@@ -691,6 +706,23 @@ class Retimer:
                 f"brought to the plan's end within the jerk and torque-rate limits at override {np.sqrt(s2):.4g} "
                 f"({err}); stop first (Retimer.stop), or raise the override") from err
         return Profile(p.grid, p.x * s2, p.u_nodes * s2)
+
+    def _start_share(self, theta: float, x0: float, u0: float) -> float:
+        """The least share of the order-2 limits (acceleration, torque: the exact rows at theta, unit scale) the
+        state (x0 > 0, u0) or the sequential LP's start moved towards 0 by START_NUDGES takes [-]: every profile
+        the LP returns starts there with its certified bound (planning/certify.py, an upper bound on the ratio
+        at the interval's start) within 1 + the limit tolerance, so a share above that has no answer. 0 for a
+        state at rest (its u is free) and with limits linearized around a profile (torque-speed)."""
+        if x0 <= 0.0 or self.limits.relinearize:
+            return 0.0
+        pts = sample_grid(self.path, self.robot, np.array([theta]), (), third=True).right
+        rows = limit_rows(pts, self.limits, self.limits.unit_scale(1, self.robot.n), defaults.PLANNER_X_CAP)
+        nudge = 1.0 - np.array((0.0, *START_NUDGES))[:, None]
+        val = rows.a[0] * u0 * nudge + rows.b[0] * x0 * nudge + rows.c[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.where(val > 0.0, val / rows.hi[0], np.where(val < 0.0, val / rows.lo[0], 0.0))
+        share = np.where(np.isfinite(share), share, 0.0)
+        return float(np.min(np.max(share, axis=1)))
 
     def _jerk_cap(self, grid: np.ndarray, x0: float, u0: float) -> np.ndarray:
         """x (K,) on ``grid`` of the fastest speed-up from (x0, u0) at the state's path jerk bound (min over the
@@ -713,7 +745,7 @@ class Retimer:
     def _smooth_stop(self, theta: float, x0: float, u0: float, d2: float) -> Profile:
         """Third-order shortest stop: the least distance (from the second-order stop distance ``d2``, a lower
         bound, grown by SMOOTH_STOP_GROWTH, then bisected to SMOOTH_STOP_ACCURACY) whose smooth stop exists."""
-        _, j, _, _, _, _, _ = self._first(theta)
+        _, j, _ = self._locate(theta)
         d_max = float(self.grid[self._next_stop(j)] - theta)
         # graded towards the state: a state with a large acceleration turns it at the jerk limit within a
         # small fraction of the stop, which the uniform points alone do not resolve (no trial would succeed)
