@@ -1,11 +1,13 @@
 """EGM real time on localhost: N consecutive 4 ms cycles of a robot sender (its own process, sending an
 EgmRobot on an absolute 4 ms clock and reading the answer), answered by pathmotion execute's loop
-(execution.loops.serve, shaping references of circle_smooth, held at rest after its end) and, as the peer in
-the same run, by abb-robot-client's own EGM class (receive_from_robot + send_to_robot with the same
-reference). Each answer is matched to its robot message (execute echoes the robot's time, the peer the
-robot's seqno); it is late when it arrives more than one 4 ms cycle after its message left, missing when it
-never arrives; cycles where the sender itself woke more than half a cycle late are counted apart (sender
-slips). Per-cycle compute: receive to send on the answering side.
+(execution.loops.serve, shaping references of circle_smooth, held at rest after its end, its path supervision
+on) and, as the peer in the same run, by abb-robot-client's own EGM class (receive_from_robot + send_to_robot
+with the same reference). The sender reports the joints of the latest answer it has (a robot that follows its
+references: execute's path supervision sees an arm on the path, as in a run). Each answer is matched to its
+robot message (execute echoes the robot's time, the peer the robot's seqno); it is late when it arrives more
+than one 4 ms cycle after its message left, missing when it never arrives; cycles where the sender itself woke
+more than half a cycle late are counted apart (sender slips). Per-cycle compute: receive to send on the
+answering side.
 
     PYTHONPATH=. python benchmarks/bench_egm.py [--cycles 10000] [--json FILE]
 """
@@ -36,7 +38,8 @@ def _request_of(answer, echo: str) -> int:
 
 
 def robot_sender(port: int, cycles: int, q0: list, echo: str, result) -> None:
-    """Send EgmRobot on an absolute CYCLE schedule; take every answer as it arrives and match it to its message.
+    """Send EgmRobot on an absolute CYCLE schedule, reporting the joints of the latest answer; take every answer as it
+    arrives and match it to its message.
     An answer is late when it arrives more than one cycle after its message actually left (the sender's own
     slips are counted apart, so a late sender does not count against the answering side); missing when none
     arrives before the run ends (0.2 s after the last message)."""
@@ -49,11 +52,13 @@ def robot_sender(port: int, cycles: int, q0: list, echo: str, result) -> None:
     start = time.perf_counter() + 0.2
 
     def drain(until: float) -> None:
+        nonlocal q
         while True:
             ready, _, _ = select.select([sock], [], [], max(until - time.perf_counter(), 0.0))
             if not ready:
                 return
             answer = decode_sensor(sock.recv(65536), len(q))
+            q = answer.joints
             k = _request_of(answer, echo)
             if 0 <= k < cycles and np.isnan(arrived[k]):
                 arrived[k] = time.perf_counter()
