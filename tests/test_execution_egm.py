@@ -14,7 +14,7 @@ from hypothesis.strategies import floats as st_floats
 
 pytest.importorskip("abb_robot_client")
 
-from egm_support import irb140_task, line, planned as planned_scenario  # noqa: E402
+from egm_support import free_port, irb140_task, line, planned as planned_scenario, run_commands  # noqa: E402
 from pathmotion.errors import ExecutionError  # noqa: E402
 from pathmotion.execution.drive_file import drive_file_for, load_drives, parse_drives  # noqa: E402
 from pathmotion.execution.drives import VirtualArm  # noqa: E402
@@ -47,7 +47,7 @@ def test_udp_lockstep_loop_either_side_first(planned):
     import time
 
     robot, result, drives = planned
-    port = _free_port()
+    port = free_port()
     streamer = _streamer(planned)
     arm = VirtualArm(robot, drives, streamer.table.plan[0])
     box = {}
@@ -242,37 +242,15 @@ def test_address_errors():
             parse_address(bad)
 
 
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.mark.slow
 def test_cli_execute_against_virtual_robot(tmp_path):
     """The two commands as processes: execute started second, both exit 0 and write their files; a jerk-limited
     plan (the elastic gears ring after a second-order plan's acceleration steps) tracks within 1 mm."""
     import json
-    import os
-    import subprocess
-    import sys
-    import time
 
     scenario = tmp_path / "short.toml"
     scenario.write_text(SHORT + "[limits]\nuse_jerk = true\n")
-    port = _free_port()
-    env = dict(os.environ, PYTHONPATH=os.getcwd())
-    cli = [sys.executable, "-m", "pathmotion.cli"]
-    robot = subprocess.Popen(cli + ["virtual-robot", str(scenario), "--egm", f"127.0.0.1:{port}", "--lockstep",
-                                    "--out", str(tmp_path / "robot")], env=env, stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT)
-    time.sleep(0.5)
-    try:
-        ex = subprocess.run(cli + ["execute", str(scenario), "--egm", str(port), "--out", str(tmp_path / "run")],
-                            env=env, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120)
-        out, _ = robot.communicate(timeout=60)
-    finally:
-        robot.kill()
+    ex, robot, out = run_commands(scenario, ["--out", str(tmp_path / "robot")], ["--out", str(tmp_path / "run")])
     assert ex.returncode == 0, ex.stdout + ex.stderr
     assert robot.returncode == 0, out
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())

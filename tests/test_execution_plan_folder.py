@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("abb_robot_client")
 
-from egm_support import irb140_task, line  # noqa: E402
+from egm_support import irb140_task, line, run_commands  # noqa: E402
 from pathmotion import api  # noqa: E402
 from pathmotion.api.plan_folder import is_plan_folder, read_plan  # noqa: E402
 from pathmotion.errors import ScenarioError  # noqa: E402
@@ -113,28 +113,10 @@ def test_cli_execute_a_plan_folder_against_the_virtual_robot_on_mujoco(tmp_path)
     """The commands as processes on a plan folder: execute PLAN_DIR and virtual-robot PLAN_DIR --lockstep
     --plant mujoco exit 0; the arm (MuJoCo links, elastic gears) follows the folder's plan within 0.25 mm."""
     import json
-    import os
-    import socket
-    import subprocess
-    import sys
-    import time
 
     pytest.importorskip("mujoco")
     _, _, folder = _written(tmp_path, JERK)  # jerk-limited, as elastic gears need
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    env = dict(os.environ, PYTHONPATH=os.getcwd())
-    cli = [sys.executable, "-m", "pathmotion.cli"]
-    robot = subprocess.Popen(cli + ["virtual-robot", str(folder), "--egm", f"127.0.0.1:{port}", "--lockstep",
-                                    "--plant", "mujoco"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    time.sleep(0.5)
-    try:
-        ex = subprocess.run(cli + ["execute", str(folder), "--egm", str(port)], env=env, stdin=subprocess.DEVNULL,
-                            capture_output=True, text=True, timeout=120)
-        out, _ = robot.communicate(timeout=60)
-    finally:
-        robot.kill()
+    ex, robot, out = run_commands(folder, ["--plant", "mujoco"])
     assert ex.returncode == 0, ex.stdout + ex.stderr
     assert robot.returncode == 0, out
     summary = json.loads((tmp_path / "plan_execute" / "summary.json").read_text())

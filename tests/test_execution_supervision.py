@@ -15,7 +15,7 @@ import pytest
 
 pytest.importorskip("abb_robot_client")
 
-from egm_support import irb140_task, line  # noqa: E402
+from egm_support import irb140_task, line, run_commands  # noqa: E402
 from pathmotion import api, defaults  # noqa: E402
 from pathmotion.execution.drive_file import drive_file_for, load_drives  # noqa: E402
 from pathmotion.execution.drives import VirtualArm  # noqa: E402
@@ -101,31 +101,12 @@ def test_cli_execute_exits_4_when_the_arm_leaves_the_path(tmp_path):
     """The two commands as processes; execute's tolerance below what the arm does: a stop along the path, exit
     4 naming the deviation and what to change, summary.json and execution.csv written."""
     import json
-    import os
-    import socket
-    import subprocess
-    import sys
-    import time
 
     scenario = tmp_path / "short.toml"
     scenario.write_text(irb140_task("egm_short", line([0.45, -0.03, 0.5], [0.45, 0.03, 0.5]))
                         + "[limits]\nuse_jerk = true\n")
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    env = dict(os.environ, PYTHONPATH=os.getcwd())
-    cli = [sys.executable, "-m", "pathmotion.cli"]
-    robot = subprocess.Popen(cli + ["virtual-robot", str(scenario), "--egm", f"127.0.0.1:{port}", "--lockstep",
-                                    "--out", str(tmp_path / "robot")], env=env, stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT)
-    time.sleep(0.5)
-    try:
-        ex = subprocess.run(cli + ["execute", str(scenario), "--egm", str(port), "--out", str(tmp_path / "run"),
-                                   "--set", "simulate.joint_tolerance=0.0002"],
-                            env=env, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120)
-        robot.communicate(timeout=60)
-    finally:
-        robot.kill()
+    ex, _, _ = run_commands(scenario, ["--out", str(tmp_path / "robot")],
+                            ["--out", str(tmp_path / "run"), "--set", "simulate.joint_tolerance=0.0002"])
     assert ex.returncode == 4, ex.stdout + ex.stderr
     error = [ln for ln in ex.stderr.splitlines() if ln.startswith("error:")]
     assert len(error) == 1 and "the arm left the path" in error[0] and "simulate.joint_tolerance" in error[0]
