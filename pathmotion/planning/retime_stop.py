@@ -192,10 +192,21 @@ def cannot_turn(s0, x0, u0, grid, p2, p3, px):
 
 
 @njit(cache=True)
+def _close_ok_at(st, xt, at, jerk, keep, grid, p2, p3, px):
+    """Whether the close's state (theta st, x xt, u at, constant path jerk) meets the order-2 and order-3 rows."""
+    lo, hi = _u_range(st, xt, keep, grid, p2, px)
+    if not lo <= at <= hi:
+        return False
+    jlo, jhi = _j_range(st, xt, at, keep, grid, p3)
+    return jlo <= jerk <= jhi
+
+
+@njit(cache=True)
 def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
     """Whether the constant-jerk close from (s, theta_dot v, u = a < 0) to rest ends before s_end and meets every
-    row at
-    TAIL_POINTS points equal in time plus one per CHECK_SPACING of the shortest plan interval it spans."""
+    row at TAIL_POINTS points equal in time plus one per CHECK_SPACING of the shortest plan interval it spans, and
+    on both sides of every plan grid point it passes (the rows jump there where the path's Phi''' does: a spline
+    knot)."""
     if a >= 0.0:
         return False
     jerk = a * a / (2.0 * v)
@@ -211,13 +222,23 @@ def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
         t = period * i / points
         st = s + v * t + 0.5 * a * t * t + jerk * t**3 / 6.0
         vt = v + a * t + 0.5 * jerk * t * t
-        at = a + jerk * t
-        xt = vt * vt
-        lo, hi = _u_range(st, xt, keep, grid, p2, px)
-        if not lo <= at <= hi:
+        if not _close_ok_at(st, vt * vt, a + jerk * t, jerk, keep, grid, p2, p3, px):
             return False
-        jlo, jhi = _j_range(st, xt, at, keep, grid, p3)
-        if not jlo <= jerk <= jhi:
+    for k in range(g0 + 1, g1 + 1):  # the plan grid points inside the close, on both sides
+        target = grid[k]
+        lo_t, hi_t = 0.0, period  # theta(t) rises over the close: bisection for theta(t) = grid[k]
+        for _ in range(60):
+            t = 0.5 * (lo_t + hi_t)
+            if s + v * t + 0.5 * a * t * t + jerk * t**3 / 6.0 < target:
+                lo_t = t
+            else:
+                hi_t = t
+        t = 0.5 * (lo_t + hi_t)
+        vt = v + a * t + 0.5 * jerk * t * t
+        at = a + jerk * t
+        left = target - 1e-12 * max(abs(target), 1.0)
+        if not (_close_ok_at(target, vt * vt, at, jerk, keep, grid, p2, p3, px)
+                and _close_ok_at(left, vt * vt, at, jerk, keep, grid, p2, p3, px)):
             return False
     return True
 
