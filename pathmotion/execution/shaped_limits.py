@@ -16,9 +16,10 @@ from dataclasses import replace
 import numpy as np
 
 from .. import defaults
-from ..planning import Samples, effective_limits, plan
+from ..planning import effective_limits, plan
 from ..planning.planner import TIGHTEN_TARGET
-from ..robot import Robot, rnea
+from ..planning.trajectory import motion_samples
+from ..robot import Robot
 from .reference import RawMotion, path_motion, shaper_support
 
 log = logging.getLogger(__name__)
@@ -43,12 +44,9 @@ def _shaped(robot: Robot, plan_result, period: float, limits, step: float):
 
 def _sample_ratios(robot: Robot, path, motion: np.ndarray, limits, t: np.ndarray | None = None) -> dict:
     """{limit name: ratio per sample (K,), the largest over its columns} (see :func:`motion_ratios`)."""
-    theta, theta_dot, theta_ddot = (np.asarray(c, float) for c in np.asarray(motion).T)
-    q, dq, ddq = path.evaluate(theta)
-    qd = dq * theta_dot[:, None]
-    qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
-    tau = rnea(robot, q, qd, qdd) if limits.needs_torque else None
-    samples = Samples(np.zeros(len(theta)) if t is None else t, theta, theta_dot, theta_ddot, q, qd, qdd, tau)
+    theta, theta_dot, theta_ddot = np.asarray(motion, float).T
+    samples = motion_samples(path, robot if limits.needs_torque else None,
+                             np.zeros(len(theta)) if t is None else t, theta, theta_dot, theta_ddot)
     return {lim.name: np.max(np.asarray(lim.ratios(samples, robot)).reshape(len(theta), -1), axis=1)
             for lim in limits.active if lim.order <= 2}
 

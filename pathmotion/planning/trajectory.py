@@ -33,6 +33,18 @@ class Samples:
     tau_dot: np.ndarray | None = None
 
 
+def motion_samples(path: JointPath, robot: Robot | None, t, theta, theta_dot, theta_ddot) -> Samples:
+    """Samples (no third-order terms) of the motion theta, theta_dot, theta_ddot (N,) along ``path`` at times t
+    (N,) [s]: q = Phi, qd = Phi' theta_dot, qdd = Phi' theta_ddot + Phi'' theta_dot^2, tau by inverse dynamics
+    (None without a robot)."""
+    theta, theta_dot, theta_ddot = (np.asarray(v, dtype=float) for v in (theta, theta_dot, theta_ddot))
+    q, dq, ddq = path.evaluate(theta)
+    qd = dq * theta_dot[:, None]
+    qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
+    tau = None if robot is None else (rnea_batch if supported(robot) else rnea)(robot, q, qd, qdd)
+    return Samples(np.asarray(t, dtype=float), theta, theta_dot, theta_ddot, q, qd, qdd, tau)
+
+
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """Path + profile (+ robot for torques). Sample it at any rate with :meth:`sample`."""
@@ -52,21 +64,18 @@ class Trajectory:
         t = np.atleast_1d(np.asarray(t, dtype=float))
         theta, theta_dot, theta_ddot, theta_dddot = self.profile.state3_at_time(t)
         third = third or torque_rate
-        if third:
-            q, dq, ddq, dddq = self.path.evaluate3(theta)
-        else:
-            q, dq, ddq = self.path.evaluate(theta)
+        if not third:
+            theta_ddot = np.broadcast_to(theta_ddot, t.shape).copy()
+            return motion_samples(self.path, self.robot, t, theta, theta_dot, theta_ddot)
+        q, dq, ddq, dddq = self.path.evaluate3(theta)
         qd = dq * theta_dot[:, None]
         qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
         tau = None if self.robot is None else (rnea_batch if supported(self.robot) else rnea)(self.robot, q, qd, qdd)
-        qddd = tau_dot = None
-        if third:
-            qddd = (dq * theta_dddot[:, None] + 3.0 * ddq * (theta_dot * theta_ddot)[:, None]
-                    + dddq * (theta_dot**3)[:, None])
-        if torque_rate and self.robot is not None:
-            tau_dot = torque_derivative(self.robot, q, qd, qdd, qddd)
+        qddd = (dq * theta_dddot[:, None] + 3.0 * ddq * (theta_dot * theta_ddot)[:, None]
+                + dddq * (theta_dot**3)[:, None])
+        tau_dot = torque_derivative(self.robot, q, qd, qdd, qddd) if torque_rate and self.robot is not None else None
         return Samples(t, theta, theta_dot, np.broadcast_to(theta_ddot, t.shape).copy(), q, qd, qdd, tau,
-                       theta_dddot if third else None, qddd, tau_dot)
+                       theta_dddot, qddd, tau_dot)
 
     def sample(self, dt: float = defaults.SAMPLE_TIME) -> Samples:
         """Samples every ``dt`` seconds from 0, the last one at exactly the duration."""
