@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import defaults
 from ..planning import effective_limits, plan
-from ..planning.planner import TIGHTEN_TARGET
+from ..planning.planner import TIGHTEN_TARGET, at_points
 from ..planning.trajectory import motion_samples
 from ..robot import Robot
 from .reference import RawMotion, path_motion, shaper_support
@@ -72,10 +72,7 @@ class _LocalScale:
         for windows in self.rounds:
             for name, (lo, hi, factor) in windows.items():
                 overlap = (theta[:-1, None] <= hi[None]) & (theta[1:, None] >= lo[None])  # (K - 1, W)
-                per_interval = np.where(overlap, factor[None], 1.0).min(axis=1)
-                point = np.ones(len(theta))
-                point[:-1] = np.minimum(point[:-1], per_interval)
-                point[1:] = np.minimum(point[1:], per_interval)
+                point = at_points(np.where(overlap, factor[None], 1.0).min(axis=1))
                 out[name] = out.get(name, np.ones(len(theta))) * point
         return out
 

@@ -532,8 +532,14 @@ def tightened(scale: dict, bounds: dict, tol: float) -> dict:
         worst = bounds[name]
         factor = np.where(worst > 1.0 + defaults.TIGHTEN_TRIGGER * tol,
                           (1.0 - TIGHTEN_TARGET * tol) / np.maximum(worst, 1.0), 1.0)
-        point = np.ones_like(cur)
-        point[:-1] = np.minimum(point[:-1], factor)
-        point[1:] = np.minimum(point[1:], factor)
-        new[name] = cur * point
+        new[name] = cur * at_points(factor)
     return new
+
+
+def at_points(per_interval: np.ndarray) -> np.ndarray:
+    """Factors (K, ...) at the grid points from factors (K - 1, ...) on the intervals: at each point the least of
+    the intervals on either side of it (and 1 where it is larger)."""
+    point = np.ones((per_interval.shape[0] + 1,) + per_interval.shape[1:])
+    point[:-1] = np.minimum(point[:-1], per_interval)
+    point[1:] = np.minimum(point[1:], per_interval)
+    return point
