@@ -71,6 +71,50 @@ def test_udp_lockstep_loop_either_side_first(planned):
     assert np.abs(arm.state.q - end).max() < 1e-3  # still ringing within the settle window
 
 
+def test_a_late_answer_to_a_message_sent_again_is_not_taken_for_the_next(planned):
+    """Lockstep: one answer comes after the robot's resend timeout, so the robot sends that message again and
+    then receives two answers to it. The second is stale by the next cycle: every cycle still moves the arm
+    by the answer to its own message (no one-cycle lag for the rest of the motion)."""
+    import time
+
+    from pathmotion.execution.messages import encode_sensor
+
+    robot, result, drives = planned
+    q0 = result.trajectory.at_time([0.0]).q[0]
+    sensor = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sensor.bind(("127.0.0.1", 0))
+    cycles, late_tm, resend = 30, 40, 0.02
+
+    def answer_all():
+        seen, seqno = set(), 0
+        sensor.settimeout(5.0)
+        while True:
+            data, peer = sensor.recvfrom(4096)
+            msg = decode_robot(data)
+            if msg.tm == late_tm:
+                # the first copy: the robot gives up waiting and sends it again; the repeats' answers come once
+                # the robot has taken the first answer and moved on
+                time.sleep(3 * resend if msg.tm not in seen else 0.005)
+            seen.add(msg.tm)
+            seqno += 1
+            done = msg.tm >= 4 * (cycles - 1)
+            sensor.sendto(encode_sensor(seqno, msg.tm, q0 + 1e-4 * msg.tm, None, done=done), peer)
+            if done:
+                return
+
+    thread = threading.Thread(target=answer_all)
+    thread.start()
+    try:
+        run = run_virtual_robot(VirtualArm(robot, drives, q0), sensor.getsockname(), lockstep=True,
+                                max_time=1.0, resend=resend)
+    finally:
+        thread.join(10.0)
+        sensor.close()
+    assert run.ended == "done" and run.resent >= 1 and len(run.reference) == cycles
+    tm = 4.0 * np.arange(cycles)
+    np.testing.assert_allclose(np.asarray(run.reference), q0 + 1e-4 * tm[:, None], atol=1e-9)
+
+
 @pytest.fixture(scope="module")
 def planned_smooth():
     """SHORT with the jerk limits: elastic gears ring after the acceleration steps of a second-order plan."""

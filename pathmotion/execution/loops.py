@@ -121,8 +121,10 @@ class RobotRun:
         return {k: np.asarray(getattr(self, k)) for k in ("t", "q", "qm", "reference", "tau", "answered")}
 
 
-def _receive(sock: socket.socket, n: int, timeout: float):
-    """The newest valid sensor message within ``timeout`` (None if none)."""
+def _receive(sock: socket.socket, n: int, timeout: float, answers_tm: int | None = None):
+    """The newest valid sensor message within ``timeout`` (None if none); with ``answers_tm`` [ms] only one that
+    answers the robot message of that time (the sensor echoes it in header.tm): a late answer to a message that
+    was sent again is stale by the next cycle and is dropped."""
     got = None
     end = time.perf_counter() + timeout
     while True:
@@ -138,9 +140,12 @@ def _receive(sock: socket.socket, n: int, timeout: float):
                 continue
             return got
         try:
-            got = decode_sensor(data, n)
+            message = decode_sensor(data, n)
         except ExecutionError as exc:
             log.warning("virtual robot: ignored a datagram: %s", exc)
+            continue
+        if answers_tm is None or message.tm == answers_tm & 0xFFFFFFFF:
+            got = message
 
 
 def run_virtual_robot(arm: VirtualArm, address: tuple[str, int], *, lockstep: bool, max_time: float,
@@ -157,7 +162,8 @@ def run_virtual_robot(arm: VirtualArm, address: tuple[str, int], *, lockstep: bo
     try:
         k, next_send = 0, time.perf_counter()
         while k * dt <= max_time:
-            packet = encode_robot(k + 1, int(round(k * dt * 1000)), arm.feedback, ref)
+            tm = int(round(k * dt * 1000))
+            packet = encode_robot(k + 1, tm, arm.feedback, ref)
             answer, tries = None, 0
             while answer is None:
                 try:
@@ -165,7 +171,7 @@ def run_virtual_robot(arm: VirtualArm, address: tuple[str, int], *, lockstep: bo
                 except OSError:
                     pass  # nobody listening yet (ICMP refused): the controller keeps sending
                 if lockstep:
-                    answer = _receive(sock, arm.n, resend)
+                    answer = _receive(sock, arm.n, resend, answers_tm=tm)
                     tries += answer is None
                     run.resent += answer is None
                     # before the first answer the sensor may still be preparing (planning, refining): as long
