@@ -34,6 +34,8 @@ from __future__ import annotations
 import logging
 
 import numpy as np
+from scipy import sparse
+from scipy.sparse.linalg import spsolve
 
 from .. import defaults
 from ..errors import InfeasibleError, PathmotionError, StateInfeasibleError
@@ -96,9 +98,14 @@ SHARE_SLACK = 1e-9
 #: Third-order: a state within this of the plan's own (x relative to the plan's x there, u relative to the plan's
 #: largest |u|) lies on the plan, whose motion from it is an answer where the compiled pass finds none [-].
 PLAN_STATE_TOLERANCE = 1e-4
-#: ... and each plan interval its motion is re-expressed on (another interpolation coordinate) carries this many
-#: points [-].
+#: ... and each plan interval its motion is re-expressed on (another interpolation coordinate) carries at least this
+#: many points [-], ...
 PLAN_TAIL_SUBDIVISION = 8
+#: ... and enough that the path jerk's relative change across each of its parts stays below this: the plan's u is
+#: linear in xi = (theta - a)^(1/3) there, so its du/dtheta changes by about (2/3) delta / (theta - a) across a part
+#: of length delta, which u linear in the new coordinate (nearly theta) averages: it takes parts of at most
+#: 1.5 PLAN_TAIL_JERK_CHANGE (theta - a) [-]
+PLAN_TAIL_JERK_CHANGE = 2e-3
 
 
 class Retimer:
@@ -314,7 +321,7 @@ class Retimer:
         pieces, idx = [], []
         for k in range(i, last):
             lo = theta if k == i else g[k]
-            n = PLAN_TAIL_SUBDIVISION if sign[k] >= 0 or k == i else 1
+            n = _tail_parts(lo, g[k + 1], origin[k], sign[k]) if sign[k] >= 0 or k == i else 1
             pieces.append(lo + (g[k + 1] - lo) * np.arange(n) / n)
             idx.append(np.full(n, k))
         fine, fidx = np.concatenate(pieces), np.concatenate(idx)
@@ -778,28 +785,37 @@ class Retimer:
         return best
 
 
+def _tail_parts(lo: float, hi: float, origin: float, sign: int) -> int:
+    """The parts a plan interval [lo, hi] of the plan's tail is re-expressed on (Retimer._plan_tail): at least
+    PLAN_TAIL_SUBDIVISION, and the path jerk's change across each within PLAN_TAIL_JERK_CHANGE (relative)."""
+    if sign <= 0 or not lo > origin:  # xi = theta, or measured from the rest point after as in the cut profile
+        return PLAN_TAIL_SUBDIVISION
+    near = lo - origin
+    return max(PLAN_TAIL_SUBDIVISION, int(np.ceil((hi - lo) / (1.5 * PLAN_TAIL_JERK_CHANGE * near))))
+
+
 def _least_jerk_change(grid, x, w0, w1, resid) -> np.ndarray:
     """(dx (m-1,), du (m-1,)) at the inner points of ``grid`` (m + 1,) that make x_{k+1} - x_k = 2 (w0_k u_k +
     w1_k u_{k+1}) on its m intervals again (``resid``: the left side minus the right side there; the ends fixed)
     with the least change of the path jerk theta_dddot = sqrt(x) du/dtheta (squares integrated over theta).
-    The equality-constrained least squares by its KKT system (a few hundred unknowns at most)."""
+    The equality-constrained least squares by its KKT system, sparse (banded: every row couples neighbouring
+    points), so its cost grows linearly with the points."""
     m = len(grid) - 1
     h = np.diff(grid)
     n = 2 * (m - 1)
     rows = np.arange(m - 1)
-    a = np.zeros((m, n))  # d resid_k / d (dx, du)
-    a[rows, rows] += 1.0
-    a[rows + 1, rows] -= 1.0
-    a[rows, m - 1 + rows] -= 2.0 * w1[:m - 1]
-    a[rows + 1, m - 1 + rows] -= 2.0 * w0[1:m]
-    b = np.zeros((m, n))  # the jerk change on each interval, times sqrt(h)
-    scale = np.sqrt(np.maximum(x[:-1], 0.0) / h)
-    b[rows, m - 1 + rows] += scale[:m - 1]
-    b[rows + 1, m - 1 + rows] -= scale[1:m]
-    hess = b.T @ b
-    hess[np.diag_indices(n)] += 1e-12 * max(float(np.max(np.diag(hess))), 1.0)
-    kkt = np.block([[hess, a.T], [a, np.zeros((m, m))]])
-    return np.linalg.solve(kkt, np.concatenate([np.zeros(n), -resid]))[:n]
+    # d resid_k / d (dx, du)
+    a = sparse.coo_matrix((np.concatenate([np.ones(m - 1), -np.ones(m - 1), -2.0 * w1[:m - 1], -2.0 * w0[1:m]]),
+                           (np.concatenate([rows, rows + 1, rows, rows + 1]),
+                            np.concatenate([rows, rows, m - 1 + rows, m - 1 + rows]))), shape=(m, n)).tocsr()
+    scale = np.sqrt(np.maximum(x[:-1], 0.0) / h)  # the jerk change on each interval, times sqrt(h)
+    b = sparse.coo_matrix((np.concatenate([scale[:m - 1], -scale[1:m]]),
+                           (np.concatenate([rows, rows + 1]), np.concatenate([m - 1 + rows, m - 1 + rows]))),
+                          shape=(m, n)).tocsr()
+    hess = (b.T @ b).tocsr()
+    hess = hess + sparse.identity(n, format="csr") * (1e-12 * max(float(hess.diagonal().max()), 1.0))
+    kkt = sparse.bmat([[hess, a.T], [a, None]], format="csc")
+    return spsolve(kkt, np.concatenate([np.zeros(n), -resid]))[:n]
 
 
 def _override(override) -> float:
