@@ -101,11 +101,14 @@ PLAN_STATE_TOLERANCE = 1e-4
 #: ... and each plan interval its motion is re-expressed on (another interpolation coordinate) carries at least this
 #: many points [-], ...
 PLAN_TAIL_SUBDIVISION = 8
-#: ... and enough that the path jerk's relative change across each of its parts stays below this: the plan's u is
-#: linear in xi = (theta - a)^(1/3) there, so its du/dtheta changes by about (2/3) delta / (theta - a) across a part
-#: of length delta, which u linear in the new coordinate (nearly theta) averages: it takes parts of at most
-#: 1.5 PLAN_TAIL_JERK_CHANGE (theta - a) [-]
-PLAN_TAIL_JERK_CHANGE = 2e-3
+#: ... and enough that the path jerk's relative change across each of its parts stays below the first of these
+#: (the next where the result fails its certificate): the plan's u is linear in xi = (theta - a)^(1/3) there, so
+#: its du/dtheta changes by about (2/3) delta / (theta - a) across a part of length delta, which u linear in the new
+#: coordinate (nearly theta) averages, half of that change above the plan's jerk at the part's end: parts of at
+#: most 1.5 change (theta - a) [-]
+PLAN_TAIL_JERK_CHANGE = (2e-3, 5e-4)
+#: ... on at most this many points (more parts: that size is not tried; each costs its certificate) [-].
+PLAN_TAIL_POINTS = 4000
 
 
 class Retimer:
@@ -295,10 +298,12 @@ class Retimer:
         (``to_rest``) or its end: a motion within every limit that the compiled pass, which keeps PASS_MARGIN below
         the limits the plan runs at, may not find. Cut at theta, a plan interval nearer the rest point before it
         than the one after has its u interpolated in another coordinate (planning/smooth.py): those intervals
-        carry PLAN_TAIL_SUBDIVISION points at the plan's own (x, u), and the least change of (x, u) at the points
-        from the state up to the first interval whose coordinate is the plan's makes x the integral of u again
-        (with the state's small offset from the plan). None where the state is off the plan or where the result's
-        certified bounds exceed the limits by more than the limit tolerance (beyond the state's own share)."""
+        carry points at the plan's own (x, u), at least PLAN_TAIL_SUBDIVISION and enough for the path jerk's change
+        across each part to stay within the first of PLAN_TAIL_JERK_CHANGE (the next where the result fails its
+        certificate), and the least change of (x, u) at the points from the state up to the first interval whose
+        coordinate is the plan's makes x the integral of u again (with the state's small offset from the plan).
+        None where the state is off the plan or where the result's certified bounds exceed the limits by more than
+        the limit tolerance (beyond the state's own share) at every part size."""
         p = self.plan.profile
         if p.u_nodes is None or x0 <= 0.0:
             return None
@@ -318,10 +323,29 @@ class Retimer:
         # first rest point after theta, every interval is measured from that rest point (sign -1)
         changed = [k for k in range(i, min(end, first_rest)) if sign[k] >= 0]
         last = max(changed[-1] + 1 if changed else i + 1, i + 1)  # plan point from which the profile is the plan's
+        share = retime_stop.state_share(theta, x0, u0, self.grid, self._jerk.p2) if self._jerk is not None else 0.0
+        for change in PLAN_TAIL_JERK_CHANGE if last > i + 1 or sign[i] >= 0 else PLAN_TAIL_JERK_CHANGE[:1]:
+            tail = self._plan_tail_on(theta, x0, u0, i, last, end, change)
+            if tail is not None and self.certify(tail).max_ratio <= max(share, 1.0) + defaults.LIMIT_TOLERANCE:
+                return tail
+        return None
+
+    def _plan_tail_on(self, theta: float, x0: float, u0: float, i: int, last: int, end: int,
+                      change: float) -> Profile | None:
+        """The plan's motion from the state (theta in plan interval i) to plan point ``end``, plan intervals i to
+        ``last`` - 1 re-expressed on parts across which the path jerk changes by at most ``change`` (relative; see
+        _plan_tail), not certified; None where that takes more than PLAN_TAIL_POINTS points or the re-expression
+        fails (x <= 0 inside)."""
+        p = self.plan.profile
+        g, px, pu = p.grid, p.x, p.u_nodes
+        origin, sign = p.coords
+        parts = [_tail_parts(theta if k == i else g[k], g[k + 1], origin[k], sign[k], change)
+                 if sign[k] >= 0 or k == i else 1 for k in range(i, last)]
+        if sum(parts) + end - last > PLAN_TAIL_POINTS:
+            return None
         pieces, idx = [], []
-        for k in range(i, last):
+        for k, n in zip(range(i, last), parts):
             lo = theta if k == i else g[k]
-            n = _tail_parts(lo, g[k + 1], origin[k], sign[k]) if sign[k] >= 0 or k == i else 1
             pieces.append(lo + (g[k + 1] - lo) * np.arange(n) / n)
             idx.append(np.full(n, k))
         fine, fidx = np.concatenate(pieces), np.concatenate(idx)
@@ -342,11 +366,7 @@ class Retimer:
             return None
         if np.any(x[:m + 1] <= 0.0):
             return None
-        tail = self._with_knots(Profile(grid, x, u))
-        share = retime_stop.state_share(theta, x0, u0, self.grid, self._jerk.p2) if self._jerk is not None else 0.0
-        if self.certify(tail).max_ratio > max(share, 1.0) + defaults.LIMIT_TOLERANCE:
-            return None
-        return tail
+        return self._with_knots(Profile(grid, x, u))
 
     def compiled_stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0) -> Profile | None:
         """Jerk limits: the compiled stop alone (planning/retime_stop.py), None where it finds none."""
@@ -785,13 +805,12 @@ class Retimer:
         return best
 
 
-def _tail_parts(lo: float, hi: float, origin: float, sign: int) -> int:
+def _tail_parts(lo: float, hi: float, origin: float, sign: int, change: float) -> int:
     """The parts a plan interval [lo, hi] of the plan's tail is re-expressed on (Retimer._plan_tail): at least
-    PLAN_TAIL_SUBDIVISION, and the path jerk's change across each within PLAN_TAIL_JERK_CHANGE (relative)."""
+    PLAN_TAIL_SUBDIVISION, and the path jerk's change across each within ``change`` (relative)."""
     if sign <= 0 or not lo > origin:  # xi = theta, or measured from the rest point after as in the cut profile
         return PLAN_TAIL_SUBDIVISION
-    near = lo - origin
-    return max(PLAN_TAIL_SUBDIVISION, int(np.ceil((hi - lo) / (1.5 * PLAN_TAIL_JERK_CHANGE * near))))
+    return max(PLAN_TAIL_SUBDIVISION, int(np.ceil((hi - lo) / (1.5 * change * (lo - origin)))))
 
 
 def _least_jerk_change(grid, x, w0, w1, resid) -> np.ndarray:
