@@ -100,6 +100,19 @@ def test_a_plan_state_of_circle_smooth_near_the_start_has_a_jerk_limited_stop(ci
     assert got.duration <= (1.0 - 0.20703125) * res.profile.duration * 1.001
 
 
+def test_a_stop_where_only_the_sequential_lp_finds_a_motion_to_the_next_rest_point(torque_jerk):
+    # near the plan's speed with the offline plan's start acceleration (a state of the optimality benchmark): no
+    # compiled stop, no compiled pass, not on the plan; the LP's motion to the path's end is a stop within every
+    # limit, from the state (its start nudged by at most the limit tolerance) to rest
+    path, _, rt = torque_jerk
+    theta, v, a = 0.45699501267031495, 0.27413724239231846, 0.6186903617215244
+    assert rt.compiled_stop(theta, v, a) is None and rt.compiled_remaining(theta, v, a) is None
+    got = rt.stop(theta, v, a)
+    assert got.smooth and got.grid[0] == theta and got.x[-1] == 0.0 and got.grid[-1] == path.domain[1]
+    assert np.isclose(np.sqrt(got.x[0]), v, rtol=TOL) and np.isclose(got.u_nodes[0], a, rtol=TOL)
+    assert rt.dense_ratios(got, DT).max_ratio <= 1.0 + 2 * TOL
+
+
 def test_the_stop_from_a_plan_state_across_a_spline_knot_keeps_the_jerk_limit(torque_jerk):
     # the stop's constant-jerk close crosses the knot at theta = 0.25, where Phi''' and so the order-3 rows jump:
     # checked at sampled times only, it exceeded joint 2's jerk limit by 0.55 % just after the knot

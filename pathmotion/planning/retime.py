@@ -239,8 +239,8 @@ class Retimer:
         torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step). With jerk
         limits the stop is the compiled one (planning/retime_stop.py); where it finds none, the compiled pass's
         time-optimal motion to the next point where the plan's profile rests (a stop within every limit, the
-        longest kind), or for a state on the plan the plan's own motion to that point; where none exists,
-        StateInfeasibleError. ``reference``: the sequential-LP search for the shortest jerk-limited stop instead
+        longest kind), or for a state on the plan the plan's own motion to that point, else the sequential LP's
+        motion to that point (tens to hundreds of milliseconds); where none exists, StateInfeasibleError. ``reference``: the sequential-LP search for the shortest jerk-limited stop instead
         (slow; the reference the compiled stop is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
@@ -250,9 +250,12 @@ class Retimer:
             fast = self._compiled_stop(theta, x0, u0)
             if fast is not None:
                 return fast
-            rest = None if self._cannot_turn(theta, x0, u0) else self._to_next_rest(theta, x0, u0)
+            turns = not self._cannot_turn(theta, x0, u0)
+            rest = self._to_next_rest(theta, x0, u0) if turns else None
             if rest is None:
                 rest = self._plan_tail(theta, x0, u0, to_rest=True)
+            if rest is None and turns:
+                rest = self._lp_to_next_rest(theta, x0, u0)
             if rest is not None:
                 log.info("retimer: no jerk-limited stop from theta = %.6g before the next rest point; the motion to "
                          "it (%.6g)", theta, rest.grid[-1])
@@ -268,8 +271,8 @@ class Retimer:
         return Profile(grid, x)
 
     def _jerk_unsaveable(self, theta: float, x0: float, u0: float) -> StateInfeasibleError:
-        """The error for a moving state from which neither the compiled jerk-limited stop nor the compiled motion
-        to the next rest point exists (a state decelerating harder than the jerk limits can turn to 0 before the
+        """The error for a moving state from which neither a jerk-limited stop nor a motion to the next rest point
+        is found (a state decelerating harder than the jerk limits can turn to 0 before the
         speed runs out, say). Its ``stop``: the shortest stop within the velocity, acceleration and torque limits
         (the least overshoot-free stop the limits allow once the jerk limit is given up; its acceleration
         steps), which a caller that must stop (execute) runs."""
@@ -286,11 +289,18 @@ class Retimer:
         """Jerk limits: the compiled pass's remaining profile from the state up to its first rest point after it (a
         kink, a stop of the plan or the path's end): a stop within every limit where none shorter is found; None
         where the pass gives none."""
-        got = self._compiled(theta, x0, u0, 1.0)
-        if got is None:
+        return _to_rest(self._compiled(theta, x0, u0, 1.0))
+
+    def _lp_to_next_rest(self, theta: float, x0: float, u0: float) -> Profile | None:
+        """Jerk limits: the sequential LP's remaining profile from the state up to its first rest point after it,
+        certified as every LP answer (tens to hundreds of milliseconds); None where the state's share of its
+        order-2 limits already refuses it or the LP finds none."""
+        if self._start_share(theta, x0, u0) > (1.0 + self.settings.limit_tolerance) * (1.0 + SHARE_SLACK):
             return None
-        k = int(np.argmax(got.x[1:] <= 0.0)) + 1
-        return Profile(got.grid[:k + 1], got.x[:k + 1], got.u_nodes[:k + 1])
+        try:
+            return _to_rest(self._smooth_remaining(theta, x0, u0, 1.0, reference=True))
+        except StateInfeasibleError:
+            return None
 
     def _plan_tail(self, theta: float, x0: float, u0: float, to_rest: bool) -> Profile | None:
         """Jerk limits: the plan's own motion from a state on its profile (x within PLAN_STATE_TOLERANCE of the
@@ -803,6 +813,15 @@ class Retimer:
             found = trial(mid)
             lo, hi, best = (lo, mid, found) if found is not None else (mid, hi, best)
         return best
+
+
+def _to_rest(p: Profile | None) -> Profile | None:
+    """The smooth profile ``p`` up to its first rest point after its start (None for None and where it does not
+    rest: a plan that ends moving)."""
+    if p is None or not np.any(p.x[1:] <= 0.0):
+        return None
+    k = int(np.argmax(p.x[1:] <= 0.0)) + 1
+    return Profile(p.grid[:k + 1], p.x[:k + 1], p.u_nodes[:k + 1])
 
 
 def _tail_parts(lo: float, hi: float, origin: float, sign: int, change: float) -> int:
