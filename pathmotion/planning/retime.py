@@ -240,8 +240,9 @@ class Retimer:
         limits the stop is the compiled one (planning/retime_stop.py); where it finds none, the compiled pass's
         time-optimal motion to the next point where the plan's profile rests (a stop within every limit, the
         longest kind), or for a state on the plan the plan's own motion to that point, else the sequential LP's
-        motion to that point (tens to hundreds of milliseconds); where none exists, StateInfeasibleError. ``reference``: the sequential-LP search for the shortest jerk-limited stop instead
-        (slow; the reference the compiled stop is tested against)."""
+        motion to that point (tens to hundreds of milliseconds); where none exists, StateInfeasibleError.
+        ``reference``: the sequential-LP search for the shortest jerk-limited stop instead (slow; the reference the
+        compiled stop is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         if x0 <= 0.0:
             raise PathmotionError(f"Retimer.stop: the arm is at rest at theta = {theta:.6g} (theta_dot = 0); "
@@ -272,10 +273,10 @@ class Retimer:
 
     def _jerk_unsaveable(self, theta: float, x0: float, u0: float) -> StateInfeasibleError:
         """The error for a moving state from which neither a jerk-limited stop nor a motion to the next rest point
-        is found (a state decelerating harder than the jerk limits can turn to 0 before the
-        speed runs out, say). Its ``stop``: the shortest stop within the velocity, acceleration and torque limits
-        (the least overshoot-free stop the limits allow once the jerk limit is given up; its acceleration
-        steps), which a caller that must stop (execute) runs."""
+        is found (a state decelerating harder than the jerk limits can turn to 0 before the speed runs out, say).
+        Its ``stop``: the shortest stop within the velocity, acceleration and torque limits (the least overshoot-free
+        stop the limits allow once the jerk limit is given up; its acceleration steps), which a caller that must
+        stop (execute) runs."""
         end = self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))]
         grid, x = self._fine_stop(theta, x0, *self._stop2(theta, x0))  # StateInfeasibleError: not even that
         return StateInfeasibleError(
