@@ -19,6 +19,7 @@ nominal drive model; a re-timed segment carries the correction of the one it lea
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import pinocchio as pin
@@ -52,6 +53,16 @@ class ReferenceTable:
     motion: np.ndarray | None = None
     correction: np.ndarray | None = None
 
+    @cached_property
+    def _lookup(self) -> tuple:
+        """What :meth:`at` reads per EGM cycle, copied from the arrays at the first lookup (a table is not
+        changed once streamed): the times as floats, per row [q, qd, plan, deflection, theta] (K, 4n + 1) and
+        its difference to the next row (the same doubles as row by row), the slices of q, qd, plan, deflection
+        and theta's column."""
+        rows = np.column_stack([self.q, self.qd, self.plan, self.deflection, self.theta])
+        n = self.q.shape[1]
+        return self.t.tolist(), rows, rows[1:] - rows[:-1], tuple(slice(i * n, (i + 1) * n) for i in range(4)), 4 * n
+
     @property
     def end(self) -> float:
         """Plan time of the last reference [s] (the duration plus the shaping's lead)."""
@@ -70,13 +81,15 @@ class ReferenceTable:
 
     def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
         """(q, qd, plan q, theta, deflection) at plan time tau (clipped to [0, end]), linearly interpolated."""
-        if len(self.t) == 1:
-            return self.q[0], self.qd[0], self.plan[0], float(self.theta[0]), self.deflection[0]
-        tau = min(max(tau, 0.0), self.end)
-        k = min(int(tau / self.t[1]), len(self.t) - 2)
-        w = (tau - self.t[k]) / (self.t[k + 1] - self.t[k])
-        lerp = lambda a: a[k] + w * (a[k + 1] - a[k])  # noqa: E731
-        return lerp(self.q), lerp(self.qd), lerp(self.plan), float(lerp(self.theta)), lerp(self.deflection)
+        t, rows, steps, (q, qd, plan, deflection), theta = self._lookup
+        if len(t) == 1:
+            row = rows[0].copy()
+        else:
+            tau = min(max(tau, 0.0), t[-1])
+            k = min(int(tau / t[1]), len(t) - 2)
+            row = steps[k] * ((tau - t[k]) / (t[k + 1] - t[k]))
+            row += rows[k]
+        return row[q], row[qd], row[plan], float(row[theta]), row[deflection]
 
 
 def gear_deflection(robot: Robot, drives: DriveParameters, q, qd, qdd) -> np.ndarray:
