@@ -20,10 +20,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import pinocchio as pin
 
-from ..control.kernels import evaluate_at
+from ..control.kernels import PathArrays, Projection, evaluate_at
 from ..control.path_table import PathTable
 from ..simulation.monitor import monitor_state
 
@@ -45,6 +46,20 @@ class Excursion:
     tcp: float = 0.0
 
 
+@numba.njit(cache=True)
+def _project(grid, coeffs, closed, kinks, iterations, tol, max_step, reported, deflection, guess, qd, speed_limit,
+             speed_eps):
+    """(theta, deviation, q_hat, Phi(theta)) of one message: q_hat = reported - deflection projected by
+    :func:`pathmotion.simulation.monitor.monitor_state` near ``guess``, on the path PathArrays(grid, coeffs,
+    closed, kinks) with the Projection(iterations, tol, max_step): one compiled call per EGM cycle, its
+    arguments arrays and numbers (a named tuple argument costs microseconds to type at every call)."""
+    path = PathArrays(grid, coeffs, closed, kinks)
+    q_hat = reported - deflection
+    theta, _, deviation, _, _, _ = monitor_state(path, q_hat, qd, guess, Projection(iterations, tol, max_step),
+                                                 speed_limit, speed_eps)
+    return theta, deviation, q_hat, evaluate_at(path, theta)[0]
+
+
 class PathSupervision:
     """The reported arm against the path of ``path`` (a JointPath) for ``robot``; ``tolerance`` [rad]: the
     largest joint deviation max_j |q_hat - Phi(theta)| before the supervision trips."""
@@ -64,9 +79,9 @@ class PathSupervision:
         self.trip: Excursion | None = None  # the latest
         self.armed = True
         self._growing, self._baseline, self._previous = 0, None, 0.0
-        # the compiled kernels load (or compile) now, not at the first robot message
-        monitor_state(self.arrays, evaluate_at(self.arrays, self.theta)[0], self._zero, self.theta, self.projection,
-                      self._unbounded, self.speed2_eps)
+        self._path = (*self.arrays, *self.projection)  # _project's first arguments
+        # the compiled kernel loads (or compiles) now, not at the first robot message
+        _project(*self._path, self._zero, self._zero, self.theta, self._zero, self._unbounded, self.speed2_eps)
 
     def rearm(self) -> None:
         """Supervise again (the motion resumes after a stop)."""
@@ -82,12 +97,11 @@ class PathSupervision:
         """One robot message at robot time t [s]: reported (n,) motor-side joints [rad], deflection (n,) the
         planned gear deflection [rad]. True when the deviation is above the tolerance while armed (which
         disarms it)."""
-        q_hat = reported - deflection
-        theta, _, deviation, _, _, _ = monitor_state(self.arrays, q_hat, self._zero, self.theta, self.projection,
-                                                     self._unbounded, self.speed2_eps)
+        theta, deviation, q_hat, phi = _project(*self._path, reported, deflection, self.theta, self._zero,
+                                                self._unbounded, self.speed2_eps)
         self.theta = theta
         gap = self._tcp(q_hat).copy()
-        gap -= self._tcp(evaluate_at(self.arrays, theta)[0])
+        gap -= self._tcp(phi)
         tcp = math.sqrt(gap @ gap)
         self.deviation, self.tcp = deviation, tcp
         if deviation > self.peak.deviation:
