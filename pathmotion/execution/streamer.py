@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import ExecutionError, PathmotionError
-from .messages import decode_robot, encode_sensor
+from .messages import RobotDecoder, SensorEncoder
 from .reference import ReferenceTable
 
 log = logging.getLogger(__name__)
@@ -41,7 +41,7 @@ class Counts:
     clipped: int = 0
 
 
-@dataclass
+@dataclass(slots=True)
 class Record:
     """One answered robot message: receive and send times [s, this computer's clock], seqno, robot time tm
     [ms], time in its segment [s], theta, reported joints (n,), sent reference (n,), plan joints (n,)."""
@@ -90,9 +90,14 @@ class Streamer:
     _segment: ReferenceTable | None = None
     _segment_start: float = 0.0
     _last_reply: bytes | None = None
+    _decode: RobotDecoder = field(default_factory=RobotDecoder, repr=False)
+    _encode: SensorEncoder = field(default_factory=SensorEncoder, repr=False)
+    _reverse: np.ndarray = field(init=False, repr=False)  # -velocity
 
     def __post_init__(self):
         self._segment = self.table
+        self._reverse = -np.asarray(self.velocity, float)
+        self.table.at(0.0)  # the table's lookup is built now, not at the first robot message
 
     @property
     def n(self) -> int:
@@ -206,7 +211,7 @@ class Streamer:
     def _decoded(self, data: bytes):
         """The robot message in ``data``, or None (counted as rejected) when it is not one of this robot's."""
         try:
-            msg = decode_robot(data)
+            msg = self._decode(data)
         except ExecutionError as exc:
             self.counts.rejected += 1
             log.warning("ignored a datagram: %s", exc)
@@ -243,12 +248,12 @@ class Streamer:
             q, qd, plan, theta, deflection = self._segment.at(tau)
         if self.loop is not None:
             q = q + self.loop.update(msg.joints, deflection, theta)
-        safe = np.clip(q, self.lower, self.upper)
-        speed = np.clip(qd, -self.velocity, self.velocity)
-        if np.any(safe != q) or np.any(speed != qd):
+        safe = np.minimum(np.maximum(q, self.lower), self.upper)  # np.clip's values, without its dispatch
+        speed = np.minimum(np.maximum(qd, self._reverse), self.velocity)
+        if (safe != q).any() or (speed != qd).any():
             self.counts.clipped += 1
         self.seqno_out += 1
-        reply = encode_sensor(self.seqno_out, msg.tm, safe, speed, done=self.finished)
+        reply = self._encode(self.seqno_out, msg.tm, safe, speed, done=self.finished)
         t_send = clock()
         if t_send - t_recv > defaults.EGM_LATE:
             self.counts.late += 1
