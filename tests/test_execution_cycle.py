@@ -85,7 +85,7 @@ def test_the_reused_messages_give_the_bytes_and_values_of_fresh_ones():
 
 
 def test_the_streamed_references_are_the_plan_table_clipped(planned):
-    """Every answer of a whole run (the arm reporting the reference it got) carries the table's references at
+    """After a rehearsal, every answer of a whole run (the arm reporting the reference it got) carries the table's references at
     its time, interpolated per array and clipped by np.clip, in degrees by np.degrees: bit for bit; and the
     supervision's projection is simulate's monitor and the path evaluation called one by one."""
     from pathmotion.control.kernels import evaluate_at
@@ -94,6 +94,10 @@ def test_the_streamed_references_are_the_plan_table_clipped(planned):
     robot, result, drives = planned
     st = make_streamer(robot, result, "shaping", drives)
     sv = st.supervision
+    theta0 = sv.theta
+    st.rehearse()  # as serve does: on a copy, this streamer untouched
+    assert not st.started and not st.records and st.counts.received == 0 and st.seqno_out == 0
+    assert sv.theta == theta0 and sv.peak.deviation == 0.0 and sv.tolerance < np.inf
     table, lim = st.table, robot.limits
     q_now = table.q[0]
     k = 0
