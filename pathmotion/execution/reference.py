@@ -55,13 +55,11 @@ class ReferenceTable:
 
     @cached_property
     def _lookup(self) -> tuple:
-        """What :meth:`at` reads per EGM cycle, copied from the arrays at the first lookup (a table is not
-        changed once streamed): the times as floats, per row [q, qd, plan, deflection, theta] (K, 4n + 1) and
-        its difference to the next row (the same doubles as row by row), the slices of q, qd, plan, deflection
-        and theta's column."""
+        """What :meth:`row` reads per EGM cycle, copied from the arrays at the first lookup (a table is not
+        changed once streamed): the times as floats, the rows [q, qd, plan, deflection, theta] (K, 4n + 1) and
+        each row's difference to the next (the same doubles as array by array)."""
         rows = np.column_stack([self.q, self.qd, self.plan, self.deflection, self.theta])
-        n = self.q.shape[1]
-        return self.t.tolist(), rows, rows[1:] - rows[:-1], tuple(slice(i * n, (i + 1) * n) for i in range(4)), 4 * n
+        return self.t.tolist(), rows, rows[1:] - rows[:-1]
 
     @property
     def end(self) -> float:
@@ -79,17 +77,22 @@ class ReferenceTable:
             return np.zeros((len(tau), self.q.shape[1]))
         return np.stack([np.interp(tau, self.t, c) for c in self.correction.T], axis=1)
 
+    def row(self, tau: float) -> np.ndarray:
+        """[q, qd, plan q, deflection, theta] (4n + 1,) at plan time tau (clipped to [0, end]), linearly
+        interpolated: one row for the whole lookup of an EGM cycle (q and qd side by side: clipped at once)."""
+        t, rows, steps = self._lookup
+        if len(t) == 1:
+            return rows[0].copy()
+        tau = min(max(tau, 0.0), t[-1])
+        k = min(int(tau / t[1]), len(t) - 2)
+        row = steps[k] * ((tau - t[k]) / (t[k + 1] - t[k]))
+        row += rows[k]
+        return row
+
     def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
         """(q, qd, plan q, theta, deflection) at plan time tau (clipped to [0, end]), linearly interpolated."""
-        t, rows, steps, (q, qd, plan, deflection), theta = self._lookup
-        if len(t) == 1:
-            row = rows[0].copy()
-        else:
-            tau = min(max(tau, 0.0), t[-1])
-            k = min(int(tau / t[1]), len(t) - 2)
-            row = steps[k] * ((tau - t[k]) / (t[k + 1] - t[k]))
-            row += rows[k]
-        return row[q], row[qd], row[plan], float(row[theta]), row[deflection]
+        row, n = self.row(tau), self.q.shape[1]
+        return row[:n], row[n:2 * n], row[2 * n:3 * n], float(row[4 * n]), row[3 * n:4 * n]
 
 
 def gear_deflection(robot: Robot, drives: DriveParameters, q, qd, qdd) -> np.ndarray:

@@ -96,11 +96,16 @@ class Streamer:
     _last_reply: bytes | None = None
     _decode: RobotDecoder = field(default_factory=RobotDecoder, repr=False)
     _encode: SensorEncoder = field(default_factory=SensorEncoder, repr=False)
-    _reverse: np.ndarray = field(init=False, repr=False)  # -velocity
+    _n: int = field(init=False, repr=False)
+    _low: np.ndarray = field(init=False, repr=False)  # [lower, -velocity]
+    _high: np.ndarray = field(init=False, repr=False)  # [upper, velocity]
 
     def __post_init__(self):
         self._segment = self.table
-        self._reverse = -np.asarray(self.velocity, float)
+        velocity = np.asarray(self.velocity, float)
+        self._n = self.table.q.shape[1]
+        self._low = np.concatenate([np.asarray(self.lower, float), -velocity])
+        self._high = np.concatenate([np.asarray(self.upper, float), velocity])
         self.table.at(0.0)  # the table's lookup is built now, not at the first robot message
 
     @property
@@ -262,19 +267,22 @@ class Streamer:
         if self._tm0 is None:
             self._tm0 = float(msg.tm)
         self._now = max(self._now, ((msg.tm - self._tm0) % 2**32) / 1000.0)
+        n = self._n
         tau = self._now - self._segment_start
-        q, qd, plan, theta, deflection = self._segment.at(tau)
-        if self.supervision is not None and self._supervise(msg.joints, deflection):
+        row = self._segment.row(tau)  # [q, qd, plan, deflection, theta]
+        if self.supervision is not None and self._supervise(msg.joints, row[3 * n:4 * n]):
             tau = self._now - self._segment_start
-            q, qd, plan, theta, deflection = self._segment.at(tau)
+            row = self._segment.row(tau)
+        wanted = row[:2 * n]  # q, qd
         if self.loop is not None:
-            q = q + self.loop.update(msg.joints, deflection, theta)
-        safe = np.minimum(np.maximum(q, self.lower), self.upper)  # np.clip's values, without its dispatch
-        speed = np.minimum(np.maximum(qd, self._reverse), self.velocity)
-        if (safe != q).any() or (speed != qd).any():
+            wanted = wanted.copy()
+            wanted[:n] += self.loop.update(msg.joints, row[3 * n:4 * n], float(row[4 * n]))
+        sent = np.minimum(np.maximum(wanted, self._low), self._high)  # np.clip's values, without its dispatch
+        if (sent != wanted).any():
             self.counts.clipped += 1
+        safe, plan, theta = sent[:n], row[2 * n:3 * n], float(row[4 * n])
         self.seqno_out += 1
-        reply = self._encode(self.seqno_out, msg.tm, safe, speed, done=self.finished)
+        reply = self._encode(self.seqno_out, msg.tm, safe, sent[n:], done=self.finished)
         t_send = clock()
         if t_send - t_recv > defaults.EGM_LATE:
             self.counts.late += 1
