@@ -125,27 +125,33 @@ class SensorMessage:
 
 class SensorEncoder:
     """EgmSensor datagrams from one EgmSensor kept for every call (its fields overwritten, the speed references
-    cleared when there are none): execute's per-cycle encoder."""
+    cleared when there are none; its header, digital signal and joint containers held, not looked up per
+    message): execute's per-cycle encoder."""
 
     def __init__(self):
         pb = require_egm()
         self._msg = msg = pb.EgmSensor()
         msg.header.mtype = pb.EgmHeader.MessageType.Value(SENSOR_MTYPE)
+        self._header, self._signal, self._joints = msg.header, msg.RAPIDtoRobot, msg.planned.joints.joints
+        self._speed = None  # speedRef's joints while it is set
 
     def __call__(self, seqno: int, tm: int, joints: np.ndarray, speed: np.ndarray | None,
                  done: bool = False) -> bytes:
         """An EgmSensor datagram: planned.joints (n,) [rad] and speedRef.joints (n,) [rad/s] when given; ``done``:
         RAPIDtoRobot.digVal, the motion is over (the RAPID program may end its EGM session)."""
-        msg = self._msg
-        msg.header.seqno = seqno & 0xFFFFFFFF
-        msg.header.tm = int(tm) & 0xFFFFFFFF
-        msg.RAPIDtoRobot.digVal = bool(done)
-        msg.planned.joints.joints[:] = [v * _DEG for v in joints.tolist()]
+        self._header.seqno = seqno & 0xFFFFFFFF
+        self._header.tm = int(tm) & 0xFFFFFFFF
+        self._signal.digVal = bool(done)
+        self._joints[:] = [v * _DEG for v in joints.tolist()]
         if speed is None:
-            msg.ClearField("speedRef")
+            if self._speed is not None:
+                self._msg.ClearField("speedRef")
+                self._speed = None
         else:
-            msg.speedRef.joints.joints[:] = [v * _DEG for v in speed.tolist()]
-        return msg.SerializeToString()
+            if self._speed is None:
+                self._speed = self._msg.speedRef.joints.joints
+            self._speed[:] = [v * _DEG for v in speed.tolist()]
+        return self._msg.SerializeToString()
 
 
 def encode_sensor(seqno: int, tm: int, joints: np.ndarray, speed: np.ndarray | None,
