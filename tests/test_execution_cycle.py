@@ -137,3 +137,36 @@ def test_the_tcp_reach_bounds_the_tcp_distance(planned):
     dist = np.linalg.norm(fk(robot, a)[0] - fk(robot, b)[0], axis=1)
     assert np.all(dist <= np.abs(a - b) @ reach + 1e-12)
     assert np.max(dist / (np.abs(a - b) @ reach)) > 0.3  # and not a vacuous one
+
+
+def test_a_rehearsal_mid_run_leaves_the_streamer_as_it_was(planned, caplog):
+    """serve rehearses again when it is entered again (after a Ctrl-C, during the stop): the streamer's state,
+    counts, records and supervision are untouched, nothing is logged, and the next answer is what it would be."""
+    import copy
+    import logging
+
+    robot, result, drives = planned
+    st = make_streamer(robot, result, "orbital", drives)
+    q = st.table.q[0]
+    for k in range(60):
+        st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
+        q = st.records[-1].sent
+    st.stop("stop requested")
+    st.handle(encode_robot(61, 240, q, q), 0.0, lambda: 0.0)
+    fields = ("_now", "_segment_start", "_last_seq", "_tm0", "seqno_out", "stop_reason", "_last_reply")
+    before = {f: getattr(st, f) for f in fields}
+    segment, counts, records = st.segment, copy.copy(st.counts), list(st.records)
+    watch = copy.copy(st.supervision.__dict__)
+    correction = st.loop.correction.copy()
+    twin = copy.copy(st)
+    twin.records, twin.counts = list(st.records), copy.copy(st.counts)
+    twin.supervision, twin.loop = copy.copy(st.supervision), copy.copy(st.loop)
+    caplog.clear()
+    with caplog.at_level(logging.INFO):
+        st.rehearse()
+    assert not caplog.records
+    assert {f: getattr(st, f) for f in fields} == before and st.segment is segment
+    assert st.counts == counts and st.records == records and np.array_equal(st.loop.correction, correction)
+    assert all(st.supervision.__dict__[k] is v for k, v in watch.items())
+    message = encode_robot(62, 244, q, q)
+    assert st.handle(message, 0.0, lambda: 0.0) == twin.handle(message, 0.0, lambda: 0.0)

@@ -176,16 +176,18 @@ class Streamer:
                 self.supervision.rearm()
 
     def rehearse(self, cycles: int = REHEARSAL) -> None:
-        """Answer ``cycles`` robot messages (an arm that follows the references from the start, 4 ms apart) on a
-        copy of this streamer, its counts, records, supervision and loop its own (never tripping), through
+        """Answer ``cycles`` robot messages (an arm that follows the plan's references from the start, 4 ms apart)
+        on a copy of this streamer, its counts, records, supervision and loop its own (never tripping), through
         this streamer's decoder and encoder: before the first real message Python specialises the per-cycle
         code and it and its data are in memory and cache, so the first answers take no longer than the rest.
         This streamer is left as it was."""
         watch = copy.copy(self.supervision)
         if watch is not None:
             watch.tolerance = math.inf
+            watch.rearm()
         twin = replace(self, counts=Counts(), records=[], supervision=watch, loop=copy.copy(self.loop),
-                       _last_seq=0, _tm0=0.0)
+                       stop_reason=None, seqno_out=0, _last_seq=0, _tm0=0.0, _now=0.0, _segment_start=0.0,
+                       _last_reply=None)
         q = self.table.q[0]
         twin._check_first(self._decode(encode_robot(0, 0, q, q)))
         for k in range(cycles):
