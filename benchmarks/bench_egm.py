@@ -77,10 +77,11 @@ def robot_sender(port: int, cycles: int, q0: list, echo: str, result) -> None:
                 "rtt_p99_9_s": float(np.percentile(rtt[answered], 99.9)) if answered.any() else float("nan")})
 
 
-def serve_pathmotion(cycles: int):
+def circle_smooth_streamer(cycles: int):
+    """execute's Streamer for circle_smooth (shaping, path supervision on), answering at rest after the motion's
+    end for at least ``cycles`` cycles."""
     from pathmotion import api
     from pathmotion.execution.drive_file import drive_file_for, load_drives
-    from pathmotion.execution.loops import open_listener, serve
     from pathmotion.execution.session import make_streamer
 
     from importlib import resources
@@ -88,6 +89,13 @@ def serve_pathmotion(cycles: int):
     result = api.plan_scenario(setup)
     streamer = make_streamer(setup.robot, result, "shaping", load_drives(drive_file_for("irb140"), setup.robot.n))
     streamer.settle = cycles * CYCLE + 10.0  # keep answering at rest after the motion's end
+    return streamer
+
+
+def serve_pathmotion(cycles: int):
+    from pathmotion.execution.loops import open_listener, serve
+
+    streamer = circle_smooth_streamer(cycles)
     sock = open_listener(0, "127.0.0.1")
     port = sock.getsockname()[1]
     q0 = streamer.table.q[0].tolist()

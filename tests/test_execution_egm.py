@@ -389,8 +389,8 @@ def test_the_first_reference_is_the_robots_start(planned_smooth, rigid):
 
 
 def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
-    """A collection of the whole heap takes about 25 EGM cycles: serve answers with it paused, and leaves the
-    collector as it found it, also when the loop raises."""
+    """A collection of the whole heap takes about 25 EGM cycles: serve rehearses the streamer's cycle, then
+    answers with the collector paused, and leaves the collector as it found it, also when the loop raises."""
     import gc
     import socket
 
@@ -402,6 +402,9 @@ def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
         mode, started, stop_reason = "none", False, None
         finished = False
 
+        def rehearse(self):
+            seen.append("rehearsed")
+
         def handle(self, data, t_recv, clock):
             seen.append(gc.isenabled())
             self.started = self.finished = True
@@ -412,7 +415,7 @@ def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
     robot.sendto(b"x", sock.getsockname())
     assert gc.isenabled()
     assert serve(sock, OneMessage(), first_timeout=5.0) == "done"
-    assert seen == [False] and gc.isenabled() and robot.recv(16) == b"ok"
+    assert seen == ["rehearsed", False] and gc.isenabled() and robot.recv(16) == b"ok"
 
     class Raises(OneMessage):
         def handle(self, data, t_recv, clock):

@@ -48,11 +48,14 @@ def serve(sock: socket.socket, streamer: Streamer, *, commands=None,
     (the controller stopped sending mid-motion), or the stop's reason. ``commands()``: pending stdin lines.
     A KeyboardInterrupt leaves it; the caller stops the streamer and serves on. Python's cycle collector is
     paused while serving (reference counting still frees what the loop drops): one collection of the whole heap
-    takes about 0.1 s, 25 EGM cycles, and would answer them all late."""
+    takes about 0.1 s, 25 EGM cycles, and would answer them all late. The streamer then rehearses its cycle
+    (:meth:`.streamer.Streamer.rehearse`, after the collection that sweeps the caches): the first answers are as
+    quick as the rest."""
     gc.collect()
     gc.freeze()  # what exists now is never scanned again
     gc.disable()
     try:
+        streamer.rehearse()
         return _serve(sock, streamer, commands, first_timeout, silence)
     finally:
         gc.enable()

@@ -19,6 +19,7 @@ nominal drive model; a re-timed segment carries the correction of the one it lea
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import pinocchio as pin
@@ -52,6 +53,14 @@ class ReferenceTable:
     motion: np.ndarray | None = None
     correction: np.ndarray | None = None
 
+    @cached_property
+    def _lookup(self) -> tuple:
+        """What :meth:`row` reads per EGM cycle, copied from the arrays at the first lookup (a table is not
+        changed once streamed): the times as floats, the rows [q, qd, plan, deflection, theta] (K, 4n + 1) and
+        each row's difference to the next (the same doubles as array by array)."""
+        rows = np.column_stack([self.q, self.qd, self.plan, self.deflection, self.theta])
+        return self.t.tolist(), rows, rows[1:] - rows[:-1]
+
     @property
     def end(self) -> float:
         """Plan time of the last reference [s] (the duration plus the shaping's lead)."""
@@ -68,15 +77,22 @@ class ReferenceTable:
             return np.zeros((len(tau), self.q.shape[1]))
         return np.stack([np.interp(tau, self.t, c) for c in self.correction.T], axis=1)
 
+    def row(self, tau: float) -> np.ndarray:
+        """[q, qd, plan q, deflection, theta] (4n + 1,) at plan time tau (clipped to [0, end]), linearly
+        interpolated: one row for the whole lookup of an EGM cycle (q and qd side by side: clipped at once)."""
+        t, rows, steps = self._lookup
+        if len(t) == 1:
+            return rows[0].copy()
+        tau = min(max(tau, 0.0), t[-1])
+        k = min(int(tau / t[1]), len(t) - 2)
+        row = steps[k] * ((tau - t[k]) / (t[k + 1] - t[k]))
+        row += rows[k]
+        return row
+
     def at(self, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
         """(q, qd, plan q, theta, deflection) at plan time tau (clipped to [0, end]), linearly interpolated."""
-        if len(self.t) == 1:
-            return self.q[0], self.qd[0], self.plan[0], float(self.theta[0]), self.deflection[0]
-        tau = min(max(tau, 0.0), self.end)
-        k = min(int(tau / self.t[1]), len(self.t) - 2)
-        w = (tau - self.t[k]) / (self.t[k + 1] - self.t[k])
-        lerp = lambda a: a[k] + w * (a[k + 1] - a[k])  # noqa: E731
-        return lerp(self.q), lerp(self.qd), lerp(self.plan), float(lerp(self.theta)), lerp(self.deflection)
+        row, n = self.row(tau), self.q.shape[1]
+        return row[:n], row[n:2 * n], row[2 * n:3 * n], float(row[4 * n]), row[3 * n:4 * n]
 
 
 def gear_deflection(robot: Robot, drives: DriveParameters, q, qd, qdd) -> np.ndarray:
