@@ -568,6 +568,21 @@ def test_racing_blend_without_offsets_is_the_quintic():
     assert not plain.racing and plain == g2_shape_for_tolerance(path, 0, 2e-3, 0.4, 0.6, 0.8, runs=(0.05, 0.05))
 
 
+def test_the_search_plans_each_shape_once():
+    """Coordinates that build the same shape (the runs of sides without an offset piece size nothing) are planned
+    once: the same duration as a plan of that shape, one plan, both coordinates tried."""
+    from pathmotion.planning.blend_search import _Objective
+
+    path = _turn(90)
+    objective = _Objective(_robot(), path, {}, 0, 0.005, SETTINGS, None)
+    x = np.array([0.5, 0.6, 0.6, 0.0, 0.0, 1.0, 1.0])
+    first = objective(x)
+    again = objective(np.array([0.5, 0.6, 0.6, 0.0, 0.0, 1.7, 0.4]))
+    shape = g2_shape_for_tolerance(path, 0, 0.005, 0.5, 0.6, 0.6)
+    assert first == again == duration_with(_robot(), path, {0: shape}, SETTINGS)
+    assert (objective.plans, objective.tried, len(objective.cache)) == (1, 2, 2)
+
+
 def test_racing_blend_bad_inputs():
     path = TaskPath((incoming("line", 0.3, 0.5, True), outgoing("line", 0.3, 0.5, False, np.radians(70))))
     with pytest.raises(PathError, match="offset must be in"):
