@@ -313,10 +313,11 @@ def test_the_search_frees_the_ends_only_where_the_motion_rests():
 def test_the_joint_stage_moves_every_coordinate_of_a_blend_with_free_ends():
     """60 deg / 10 mm rest to rest: after the free ends, the joint stage (every coordinate at once, COBYQA) finds
     a faster blend than the free-ends stage left, still within the certified deviation; in the plane it stays
-    there (no rise, no normal end coefficient); the search without it is a candidate, so it is never slower."""
+    there (no rise, no normal end coefficient); the search without it is a candidate, so it is never slower. No
+    polish: its plans (each distinct shape once) and its gain would blur the joint stage's."""
     path = _turn(60)
     kw = dict(settings=SETTINGS, cycles=1, steps=2, racing_steps=2, search_grid_points=200, free_plans=16, rise_plans=0,
-              end_plans=30, restart_plans=0, global_plans=0, wide_crossed_plans=0)
+              end_plans=30, restart_plans=0, global_plans=0, wide_crossed_plans=0, polish_plans=0)
     without = optimal_blends(_robot(), path, 0.01, joint_plans=0, **kw)
     joint = optimal_blends(_robot(), path, 0.01, joint_plans=40, **kw)
     assert without.shapes[0].departure is not None  # the free ends were taken before the joint stage
@@ -566,6 +567,21 @@ def test_racing_blend_without_offsets_is_the_quintic():
     np.testing.assert_array_equal(pieces[0], g2_shaped_control_points(A, B, 0.02, 0.03, 0.6, 0.8))
     plain = g2_shape_for_tolerance(path, 0, 2e-3, 0.4, 0.6, 0.8)
     assert not plain.racing and plain == g2_shape_for_tolerance(path, 0, 2e-3, 0.4, 0.6, 0.8, runs=(0.05, 0.05))
+
+
+def test_the_search_plans_each_shape_once():
+    """Coordinates that build the same shape (the runs of sides without an offset piece size nothing) are planned
+    once: the same duration as a plan of that shape, one plan, both coordinates tried."""
+    from pathmotion.planning.blend_search import _Objective
+
+    path = _turn(90)
+    objective = _Objective(_robot(), path, {}, 0, 0.005, SETTINGS, None)
+    x = np.array([0.5, 0.6, 0.6, 0.0, 0.0, 1.0, 1.0])
+    first = objective(x)
+    again = objective(np.array([0.5, 0.6, 0.6, 0.0, 0.0, 1.7, 0.4]))
+    shape = g2_shape_for_tolerance(path, 0, 0.005, 0.5, 0.6, 0.6)
+    assert first == again == duration_with(_robot(), path, {0: shape}, SETTINGS)
+    assert (objective.plans, objective.tried, len(objective.cache)) == (1, 2, 2)
 
 
 def test_racing_blend_bad_inputs():

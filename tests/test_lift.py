@@ -138,3 +138,30 @@ def test_joint_spline_rejects_bad_waypoints():
         SplineJointPath.from_waypoints([[0, 0], [0, 0], [1, 1]])
     with pytest.raises(Exception, match="NaN"):
         SplineJointPath.from_waypoints([[0, np.nan], [1, 1]])
+
+
+def test_the_least_singular_values_are_the_full_decompositions():
+    """smallest_singular_values_where_least (the lift's singularity check) gives numpy's smallest singular value at
+    every point it decomposes and the same least value and first place over each mask as the full decomposition, on
+    smooth joint paths through and away from the wrist singularity (some the check's dense kind, some coarse)."""
+    from pathmotion.lift.constraint import smallest_singular_values_where_least
+    from pathmotion.robot import jacobian, load_robot
+
+    robot = load_robot("irb140")
+    rng = np.random.default_rng(7)
+    for trial in range(60):
+        n = int(rng.integers(5, 400))
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        q0, q1 = rng.uniform(-1.0, 1.0, 6), rng.uniform(-1.0, 1.0, 6)
+        if trial % 3 == 0:
+            q0[4], q1[4] = -0.3, 0.3  # through q5 = 0
+        q = q0 + (q1 - q0) * t * (0.05 if trial % 2 else 1.0) + 0.2 * np.sin(3.0 * t * rng.uniform(1.0, 4.0, 6))
+        jac = jacobian(robot, q)
+        masks = (np.ones(n, bool), rng.uniform(size=n) > 0.3)
+        got = smallest_singular_values_where_least(jac, masks)
+        full = np.linalg.svd(jac, compute_uv=False)[:, -1]
+        done = np.isfinite(got)
+        assert np.array_equal(got[done], full[done])
+        for mask in masks:
+            want, have = np.where(mask, full, np.inf), np.where(mask, got, np.inf)
+            assert np.argmin(have) == np.argmin(want) and np.min(have) == np.min(want)

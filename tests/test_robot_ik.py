@@ -505,6 +505,18 @@ def test_non_rotation_matrix_and_bad_shapes_are_rejected(robot):
         ik(robot, pos, rot, np.zeros(5))
 
 
+def test_a_batch_of_one_orientation_is_checked_as_every_point(robot):
+    """A batch whose rotations are all the same (a path's fixed tool orientation) is checked once: an improper one
+    is reported at point 0, a bad one among equal proper ones at its own point."""
+    pos, rot = fk(robot, np.zeros(6))
+    positions, rotations = np.repeat(pos[None], 5, axis=0), np.repeat(rot[None], 5, axis=0)
+    with pytest.raises(PathmotionError, match="rotation at point 0 is not a proper rotation"):
+        ik_batch(robot, positions, -rotations, np.zeros(6))
+    rotations[3] = 1.01 * rot
+    with pytest.raises(PathmotionError, match="rotation at point 3 is not a proper rotation"):
+        ik_batch(robot, positions, rotations, np.zeros(6))
+
+
 def test_defaults_used_by_ik_exist():
     assert defaults.IK_TOLERANCE > 0 and defaults.DLS_MAX_ITERATIONS > 0 and defaults.IK_MAX_JOINT_STEP > 0
 

@@ -45,3 +45,36 @@ def power_basis(b: np.ndarray, signed: np.ndarray, scale: np.ndarray) -> np.ndar
         for j in range(3):
             coef[k, j] = scale[k] * acc[k, j]
     return coef
+
+
+@numba.njit(cache=True)
+def curvature_terms(coef: np.ndarray, u: np.ndarray, fac1: np.ndarray, fac2: np.ndarray) -> tuple:
+    """(g2 X''.X'' - (X'.X'')^2, g2) (N,) each at u (N,), g2 = X'.X', the numerator and the root of the denominator
+    of the squared curvature |X' x X''|^2 / |X'|^6 (Lagrange's identity): X' and X'' by :func:`polyval`'s Horner
+    loop (``fac1``, ``fac2``: its factors of orders 1 and 2), each dot product summed as numpy's
+    einsum("ij,ij->i") sums rows of 3, (x0 y0 + x2 y2) + x1 y1: the same floats as the numpy form. The cube is
+    numpy's (its vectorised pow differs from the compiled one in the last bit)."""
+    n = u.shape[0]
+    num = np.empty(n)
+    g2s = np.empty(n)
+    d1 = np.empty(3)
+    d2 = np.empty(3)
+    for i in range(n):
+        ui = u[i]
+        for j in range(3):
+            x = fac1[4] * coef[5, j]
+            for k in range(4, 0, -1):
+                x = x * ui
+                x = x + fac1[k - 1] * coef[k, j]
+            d1[j] = x
+            y = fac2[3] * coef[5, j]
+            for k in range(4, 1, -1):
+                y = y * ui
+                y = y + fac2[k - 2] * coef[k, j]
+            d2[j] = y
+        g2 = (d1[0] * d1[0] + d1[2] * d1[2]) + d1[1] * d1[1]
+        h2 = (d2[0] * d2[0] + d2[2] * d2[2]) + d2[1] * d2[1]
+        dot = (d1[0] * d2[0] + d1[2] * d2[2]) + d1[1] * d2[1]
+        num[i] = g2 * h2 - dot * dot
+        g2s[i] = g2
+    return num, g2s

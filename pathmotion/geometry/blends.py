@@ -61,9 +61,10 @@ import numpy as np
 from .. import defaults
 from ..errors import PathError
 from .chain import Connection, TaskPath, classify
-from .deviation import Deviation, certified_max, distance_to_segments
-from .quintic_deviation import bezier_lines_max, bezier_pieces_lines_max, g2_lines_cut
-from .segments import Arc, BezierSegment, Line, Segment, _fmt
+from .deviation import BOUND_ROUNDING, Deviation, certified_max, distance_to_segments
+from . import blend_sizing
+from .quintic_deviation import _line_arrays, _samples, bezier_lines_max, bezier_pieces_lines_max, g2_lines_cut
+from .segments import _POWER_SCALE, _POWER_SIGNED, Arc, BezierSegment, Line, Segment, _fmt
 
 log = logging.getLogger(__name__)
 
@@ -811,7 +812,13 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
     def ok(size):
         return _pieces_deviation(c.A, c.B, build(size)[0], stop_above=tol, stop_below=tol) <= tol
 
-    size = size_max if ok(size_max) else _largest_between(ok, size_min, size_max)
+    compiled = _compiled_sizing(c, pieces_at, sa, sb)
+    if compiled is not None:  # the same size, in one compiled call (geometry/blend_sizing.py)
+        size = blend_sizing.largest_size(size_min, size_max, _SIZING_SCAN, _SIZING_BISECTIONS, tol, balance,
+                                         *compiled)
+    else:
+        size = size_max if ok(size_max) else _largest_between(ok, size_min, size_max, _SIZING_SCAN.size,
+                                                                _SIZING_BISECTIONS)
     if size <= size_min:
         raise PathError(f"{what}: no G2 blend within {tol:.6g} m found at {c.where()}; give a larger tolerance"
                         + (" or smaller offsets, slopes and bends" if racing else ""))
@@ -822,6 +829,35 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
                 exit - (1 - balance) * size + r.shift_b if arrival is not None else runs[1])
     return G2Shape(entry, exit, sa, sb, _pieces_deviation(c.A, c.B, pieces), *offsets, *runs, *slopes, *bends,
                    *rises, departure, arrival)
+
+
+#: The sizing's scan (_largest_between) and bisections.
+_SIZING_SCAN = np.geomspace(1.0, 1e-6, 24)
+_SIZING_BISECTIONS = 36
+
+
+def _compiled_sizing(c: _Corner, pieces_at: _BlendPieces, sa: float, sb: float) -> tuple | None:
+    """The arguments after ``balance`` of :func:`~pathmotion.geometry.blend_sizing.largest_size` for the blends
+    ``pieces_at`` builds at the corner ``c`` between two lines, without a free end; None elsewhere (the sizing then
+    runs in Python)."""
+    if not (isinstance(c.A, Line) and isinstance(c.B, Line)):
+        return None
+    zero = np.zeros(3)
+    if any(pieces_at.has):
+        if any(free is not None for free in pieces_at.free):
+            return None
+        ends, frames = (pieces_at.r.A, pieces_at.r.B), (pieces_at.start_frame, pieces_at.end_frame)
+    else:
+        ends, frames = (c.A, c.B), ((c.A.direction, zero), (c.B.direction, zero))
+    lines = np.array([[line.start, line.direction, (line.length, 0.0, 0.0)] for line in ends], float)
+    backs, n_backs, terms = np.zeros((2, 3, 3)), np.zeros(2, np.int64), np.zeros((2, 3, 6, 3))
+    for side in (0, 1):
+        if pieces_at.has[side]:
+            back, term = pieces_at.fixed[side]
+            backs[side, :len(back)], n_backs[side], terms[side] = back, len(back), term
+    return (lines, np.array(frames, float), np.array([2.5 * sa, 2.5 * sb]), np.array(pieces_at.has), backs, n_backs,
+            terms, 2.0, _POWER_SIGNED, _POWER_SCALE, *_line_arrays((c.A, c.B)), _samples(256),
+            float(defaults.DEVIATION_RELATIVE_ACCURACY), 60, defaults.DEVIATION_MAX_INTERVALS, BOUND_ROUNDING)
 
 
 def _shape_pieces(c: _Corner, shape: G2Shape, what: str):

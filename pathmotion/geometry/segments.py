@@ -532,10 +532,9 @@ class BezierSegment(Segment):
         return np.linalg.norm(self._polyval(self._coef, u, 1), axis=1)
 
     def _curvature_squared(self, u) -> np.ndarray:
-        """|X' x X''|^2 / |X'|^6 [1/m^2] (N,) at u (N,), by Lagrange's identity."""
-        d1, d2 = self._polyval(self._coef, u, 1), self._polyval(self._coef, u, 2)
-        g2 = np.einsum("ij,ij->i", d1, d1)
-        return (g2 * np.einsum("ij,ij->i", d2, d2) - np.einsum("ij,ij->i", d1, d2) ** 2) / g2 ** 3
+        """|X' x X''|^2 / |X'|^6 [1/m^2] (N,) at u (N,), by Lagrange's identity (its terms compiled)."""
+        num, g2 = bezier_polyval.curvature_terms(self._coef, _as_s(u), _DERIVATIVE_FACTORS[1], _DERIVATIVE_FACTORS[2])
+        return num / g2 ** 3
 
     @cached_property
     def curvature_peaks(self) -> tuple[float, ...]:

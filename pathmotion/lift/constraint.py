@@ -402,6 +402,40 @@ def _lift_ode(robot: Robot, task_path, q_start, original, reference_step: float,
         task_path=task_path, original_task_path=original, reference_theta=theta, reference_q=q, check=check,
         reference_dq_right=dq_r, reference_dq_left=dq_l, q_ref=q_start, gain=gain, weights_inv=winv)
 
+#: smallest_singular_values_where_least: every this many points a singular value decomposition; an absolute margin
+#: [in units of the largest Jacobian's Frobenius norm] on the bounds for the rounding of both.
+SV_STRIDE = 8
+SV_MARGIN = 1e-10
+
+
+def smallest_singular_values_where_least(jac: np.ndarray, masks) -> np.ndarray:
+    """The smallest singular value (N,) of each Jacobian jac (N, 6, 6) that could be the least over any of the point
+    sets ``masks`` ((N,) bool each), exactly numpy's (the decomposition is per matrix), inf at the others: the
+    decomposition at every SV_STRIDE-th point (and the last), then at each point whose lower bound, by Weyl's
+    inequality sigma_min(J_i) >= sigma_min(J_j) - |J_i - J_j|_F from the nearest of those, is not above the least of
+    those in a mask it is in (less SV_MARGIN). Along a path the Jacobians change little between neighbours, so only
+    points near the least ones are decomposed (a lift's singularity check: np.argmin of the result is np.argmin of
+    the full decomposition over each mask)."""
+    n = len(jac)
+    if n <= 2 * SV_STRIDE:
+        return np.linalg.svd(jac, compute_uv=False)[:, -1]
+    sampled = np.unique(np.append(np.arange(0, n, SV_STRIDE), n - 1))
+    out = np.full(n, np.inf)
+    out[sampled] = np.linalg.svd(jac[sampled], compute_uv=False)[:, -1]
+    nearest = sampled[np.clip(np.searchsorted(sampled, np.arange(n) - SV_STRIDE // 2), 0, len(sampled) - 1)]
+    gap = np.sqrt(np.sum((jac - jac[nearest]) ** 2, axis=(1, 2)))
+    margin = SV_MARGIN * max(1.0, float(np.sqrt(np.max(np.sum(jac ** 2, axis=(1, 2))))))
+    lower = out[nearest] - gap - margin
+    need = np.zeros(n, bool)
+    for mask in masks:
+        least = np.min(out[sampled][mask[sampled]], initial=np.inf)
+        need |= mask & (lower <= least)
+    need[sampled] = False
+    if need.any():
+        out[need] = np.linalg.svd(jac[need], compute_uv=False)[:, -1]
+    return out
+
+
 def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathCheck:
     lim = robot.limits
     below = q < lim.lower - IK_RANGE_SLACK
@@ -414,11 +448,11 @@ def _check_path(robot, task_path, theta, q, p, threshold, windows=()) -> PathChe
             "path.start_configuration for another branch", reason="joint_range", position=p[k])
     margin = np.minimum(q - lim.lower, lim.upper - q)
     k, j = np.unravel_index(np.argmin(margin), margin.shape)
-    sv = np.linalg.svd(jacobian(robot, q), compute_uv=False)[:, -1]
-    ks = int(np.argmin(sv))
     crossing = np.zeros(len(theta), dtype=bool)
     for window in windows:  # a wrist crossing: Phi is the smooth branch's interpolant there
         crossing |= (theta >= window.lo) & (theta <= window.hi)
+    sv = smallest_singular_values_where_least(jacobian(robot, q), (np.ones(len(theta), bool), ~crossing))
+    ks = int(np.argmin(sv))
     checked = np.where(crossing, np.inf, sv)
     kc = int(np.argmin(checked))
     if checked[kc] < threshold:

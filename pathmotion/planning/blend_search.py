@@ -243,7 +243,9 @@ class _Objective:
         self.shared = (corner - 1 in chosen, corner + 1 in chosen) if shared is None else tuple(shared)
         self.label = corner if label is None else label
         self.cache: dict[tuple, tuple[float, G2Shape | None]] = {}  # (x, free ends or None): (duration, shape)
-        self.plans = 0
+        self.planned: dict[G2Shape, float] = {}  # duration per shape: coordinates that build one planned already
+        self.plans = 0  # plans run
+        self.tried = 0  # coordinates whose shape was built (a stage's budget: the same whether planned or not)
 
     def shape(self, x) -> G2Shape:
         x = np.asarray(x, float)
@@ -281,9 +283,12 @@ class _Objective:
                 log.debug("blend search: coordinates %s rejected (%s)", key, exc)
                 self.cache[key] = (float("inf"), None)
                 return float("inf")
-            self.cache[key] = (duration_with(self.robot, self.original, {**self.shapes, self.corner: shape},
-                                             self.settings, self.q_start), shape)
-            self.plans += 1
+            self.tried += 1
+            if shape not in self.planned:  # e.g. runs of sides without an offset, which size no piece
+                self.planned[shape] = duration_with(self.robot, self.original, {**self.shapes, self.corner: shape},
+                                                    self.settings, self.q_start)
+                self.plans += 1
+            self.cache[key] = (self.planned[shape], shape)
         return self.cache[key][0]
 
     def best(self, quintic_only: bool = False, s_curve_only: bool = False, planar: bool = False,
@@ -525,7 +530,7 @@ def _rise_stage(objective: _Objective, plans: int) -> None:
         x[idx] = y
         return objective(x)
 
-    start = objective.plans
+    start = objective.tried
     grid = min(((f(turned(a)), a) for a in itertools.product(RISE_ANGLES, RISE_ANGLES)), key=lambda r: r[0])
     angles = list(grid[1])
     for side in (0, 1):
@@ -539,7 +544,7 @@ def _rise_stage(objective: _Objective, plans: int) -> None:
         if found.fun < along(angles[side]):  # (cached: no plan)
             angles[side] = float(found.x)
     y0 = turned(angles)
-    left = plans - (objective.plans - start)
+    left = plans - (objective.tried - start)
     if left > len(y0) + 1:
         _nelder_mead(f, y0, box, _RISE_STEP, left)
 
