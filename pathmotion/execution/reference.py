@@ -51,6 +51,7 @@ class ReferenceTable:
     raw: object = None
     motion: np.ndarray | None = None
     correction: np.ndarray | None = None
+    sent: np.ndarray | None = None
 
     @property
     def end(self) -> float:
@@ -199,6 +200,18 @@ def _lead_rows(k: np.ndarray, start: int, ahead: int, first: bool, catch_up: int
     return np.minimum(k + lead, len(k) - 1.0)
 
 
+def sent_motion(motion: np.ndarray, rows: np.ndarray, step: float) -> np.ndarray:
+    """(theta, theta_dot, theta_ddot) (K, 3) of the motion the references follow when table row k shows the
+    motion (K, 3) at fractional row rows[k] (rows (K,), ``step`` [s] per row): theta at the row, its rates
+    by the chain rule with the pace d rows / d k (the lead's catch-up runs the references faster than the
+    motion while the lead grows)."""
+    pace = np.gradient(rows) if len(rows) > 1 else np.ones(len(rows))
+    at = _rows_at(motion, rows)
+    theta_dot = at[:, 1] * pace
+    theta_ddot = at[:, 2] * pace**2 + at[:, 1] * (np.gradient(pace, step) if len(rows) > 1 else 0.0)
+    return np.stack([at[:, 0], theta_dot, theta_ddot], axis=1)
+
+
 def _rows_at(x: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """x (K, n) at fractional rows (K',), linearly interpolated."""
     i = np.minimum(np.floor(rows).astype(int), len(x) - 2) if len(x) > 1 else np.zeros(len(rows), int)
@@ -245,12 +258,14 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     deflection = np.zeros_like(q)
     sent_q, sent_qd = q, qd
     correction = None
+    rows = np.arange(len(t), dtype=float)
     if mode != "none":
         qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
         deflection = gear_deflection(robot, drives, q, qd, qdd)
         ahead = int(round(lead / step))
         catch_up = int(round(defaults.EGM_LEAD_CATCH_UP * ahead))
-        m = _rows_at(q + deflection, _lead_rows(np.arange(len(t)), per, ahead, first, catch_up))
+        rows = _lead_rows(np.arange(len(t)), per, ahead, first, catch_up)
+        m = _rows_at(q + deflection, rows)
         md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
         if carried is not None and carried[0].correction is not None:
             correction = carried[0].correction_at(t + carried[1]) * _fade(t, defaults.EGM_REFINE_FADE)[:, None]
@@ -262,6 +277,7 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     sent_q = np.clip(sent_q, lim.lower, lim.upper)[per:]
     sent_qd = np.clip(sent_qd, -lim.velocity, lim.velocity)[per:]
     cut = slice(per, None)
+    motion = np.stack([theta, theta_dot, theta_ddot], axis=1)
     return ReferenceTable(t[cut] - t[per], sent_q, sent_qd, theta[cut], q[cut], duration, deflection[cut], path, raw,
-                          np.stack([theta, theta_dot, theta_ddot], axis=1)[cut],
-                          None if correction is None else correction[cut])
+                          motion[cut], None if correction is None else correction[cut],
+                          sent_motion(motion, rows, step)[cut])

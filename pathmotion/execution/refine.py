@@ -105,10 +105,11 @@ def _extended(table: ReferenceTable, tail: float) -> ReferenceTable:
         return None if a is None else np.concatenate([a, np.repeat(a[-1:] if rest is None else rest, extra, axis=0)])
 
     motion = None if table.motion is None else held(table.motion, np.array([[table.motion[-1, 0], 0.0, 0.0]]))
+    sent = None if table.sent is None else held(table.sent, np.array([[table.sent[-1, 0], 0.0, 0.0]]))
     return dataclasses.replace(table, t=np.concatenate([table.t, table.t[-1] + step * np.arange(1, extra + 1)]),
                                q=held(table.q), qd=held(table.qd, np.zeros((1, table.qd.shape[1]))),
                                theta=held(table.theta), plan=held(table.plan), deflection=held(table.deflection),
-                               motion=motion, correction=held(table.correction))
+                               motion=motion, correction=held(table.correction), sent=sent)
 
 
 def _tangents(table: ReferenceTable, times: np.ndarray, weight: np.ndarray) -> np.ndarray:
