@@ -1,4 +1,4 @@
-"""execute's path supervision: an arm that leaves the path (a 5 kg payload the plan does not know, the orbital
+"""execute's path supervision: an arm that leaves the path (a 6.5 kg payload the plan does not know, the orbital
 loop diverging at corner_g2's corner with rigid gears) trips it, the stop runs along the path with the loop
 switched off and ends on the path (without the supervision the arm ends hundreds of millimetres away), and
 summary.json records why; its deviation is checked against a dense search of the path; normal runs
@@ -55,7 +55,7 @@ def _end_distance(robot, path, q_end: np.ndarray) -> float:
 def test_an_unknown_payload_trips_the_supervision_and_the_arm_stops_on_the_path(corner, tmp_path):
     robot, result, _ = corner
     path = result.trajectory.path
-    st, run = _run(corner, "orbital", rigid=True, payload=5.0)
+    st, run = _run(corner, "orbital", rigid=True, payload=6.5)
     sv = st.supervision
     assert sv.tripped is not None and st.stop_reason.startswith("the arm left the path")
     assert st.loop is None  # the loop kept pushing the arm away during the stop: switched off
@@ -65,7 +65,7 @@ def test_an_unknown_payload_trips_the_supervision_and_the_arm_stops_on_the_path(
     ended_at = _end_distance(robot, path, run.q[-1])
     assert ended_at < 1e-3, ended_at
     # the peer: the same run without the supervision leaves the arm far from the path
-    _, free = _run(corner, "orbital", rigid=True, payload=5.0, path_tolerance=None)
+    _, free = _run(corner, "orbital", rigid=True, payload=6.5, path_tolerance=None)
     assert _end_distance(robot, path, free.q[-1]) > 100 * max(ended_at, 1e-3)
     # the tripping deviation against a dense search of the path near it (rigid gears: the reported joints are
     # the link's, the planned deflection 0); the TCP figure bounds the distance to the planned TCP path
