@@ -123,8 +123,9 @@ def main() -> None:
                        "planned. Largest limit ratio: of the motion the references follow (theta, theta_dot, "
                        "theta_ddot; shaped with shaping and orbital) against the plan's velocity, acceleration and "
                        "torque limits, on the run to the end and on the stop segment of the stopped run; the sent "
-                       "motion's: of the motion the sent references follow in time, that motion shown ahead by "
-                       "the transport delay, the lead's catch-up from rest on the run's first segment included.")
+                       "motion's: of the motion the sent references follow in time on the run's first segment, "
+                       "from rest (the references show the motion at its own plan time: no lead by the "
+                       "transport delay).")
     if args.json:
         print(f"wrote {table.write(args.json)}")
 
