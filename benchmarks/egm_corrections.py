@@ -38,7 +38,8 @@ COLUMNS = [("scenario", "scenario"), ("gears", "gears"), ("correction", "correct
            ("cycle_s", "cycle [s]"), ("cycle_ratio", "cycle / planned"),
            ("vibration_end_mm", "vibration after end [mm]"), ("vibration_stop_mm", "vibration after a stop [mm]"),
            ("supervision_stop_s", "supervision stop [s]"), ("end_off_path_mm", "ends off the path [mm]"),
-           ("shaped_ratio", "shaped motion's largest limit ratio"), ("stop_ratio", "stop's largest limit ratio")]
+           ("shaped_ratio", "shaped motion's largest limit ratio"),
+           ("sent_ratio", "sent motion's largest limit ratio"), ("stop_ratio", "stop's largest limit ratio")]
 
 
 def run(setup, result, drives, mode, stop_at=None, payload=0.0, plant="builtin", supervision=True):
@@ -54,6 +55,7 @@ def run(setup, result, drives, mode, stop_at=None, payload=0.0, plant="builtin",
     limits = effective_limits(setup.robot, result.settings)  # the plan's, as the user planned it
     path = result.trajectory.path
     figures["shaped_ratio"] = max(motion_ratios(setup.robot, path, streamer.table.motion, limits).values())
+    figures["sent_ratio"] = max(motion_ratios(setup.robot, path, streamer.table.sent, limits).values())
     stopped = streamer.segment is not streamer.table
     figures["stop_ratio"] = max(motion_ratios(setup.robot, path, streamer.segment.motion, limits).values()) \
         if stopped else None
@@ -105,7 +107,7 @@ def main() -> None:
                           vibration_stop_mm=round(1e3 * s["residual_vibration_m"], 3),
                           supervision_stop_s=f["supervision_stop_s"],
                           end_off_path_mm=round(1e3 * f["end_off_path_m"], 3),
-                          shaped_ratio=round(f["shaped_ratio"], 4),
+                          shaped_ratio=round(f["shaped_ratio"], 4), sent_ratio=round(f["sent_ratio"], 4),
                           stop_ratio=None if s["stop_ratio"] is None else round(s["stop_ratio"], 4))
                 row = table.rows[-1]
                 print("| " + " | ".join("-" if row[k] is None else str(row[k]) for k, _ in COLUMNS) + " |"
@@ -120,7 +122,10 @@ def main() -> None:
                        "tightened where its shaped motion exceeded them); cycle / planned against the plan as "
                        "planned. Largest limit ratio: of the motion the references follow (theta, theta_dot, "
                        "theta_ddot; shaped with shaping and orbital) against the plan's velocity, acceleration and "
-                       "torque limits, on the run to the end and on the stop segment of the stopped run.")
+                       "torque limits, on the run to the end and on the stop segment of the stopped run; the sent "
+                       "motion's: of the motion the sent references follow in time on the run's first segment, "
+                       "from rest (the references show the motion at its own plan time: no lead by the "
+                       "transport delay).")
     if args.json:
         print(f"wrote {table.write(args.json)}")
 

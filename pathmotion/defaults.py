@@ -398,13 +398,10 @@ EGM_MAX_DATAGRAM = 65536
 #: EGM: the reference is tabulated on this time step before streaming (linear interpolation between
 #: samples: error qdd dt^2 / 8, ~1e-6 rad at 10 rad/s^2) [s].
 EGM_TABLE_STEP = 0.001
-#: EGM, --correction shaping: on a run's first segment the lead by the transport delay grows from 0 over this
-#: many transport delays (the references run up to 1 + 1.5 / this times the motion's pace meanwhile).
-EGM_LEAD_CATCH_UP = 1.0
 #: EGM, --correction shaping/orbital: learning iterations refining the plan's references on the nominal arm
 #: before streaming (execution/refine.py; 0: the analytic shaping alone), and the TCP RMS error [m] that ends
 #: them early.
-EGM_REFINE_ITERATIONS = 4
+EGM_REFINE_ITERATIONS = 12
 EGM_REFINE_TOLERANCE = 1e-5
 #: EGM refinement: the error counted this long [s] after the table's end (the arm settling), the response
 #: model's length [s], its regularisation and its smoothness weight (both relative to the largest diagonal
@@ -420,6 +417,9 @@ EGM_REFINE_WEIGHT_FLOOR = 0.05
 #: EGM, --correction shaping/orbital on a second-order plan: at most this many plans with lower limits until the
 #: shaped motion keeps the plan's limits (execution/shaped_limits.py).
 EGM_SHAPED_REPLANS = 6
+#: EGM, --correction shaping/orbital on a second-order plan: at most this many slower re-timings of a stop, an
+#: override or a resume until its shaped motion keeps the plan's limits (execution/session.py).
+EGM_RETIME_TIGHTEN = 3
 #: EGM refinement: a re-timed segment (stop, override, resume) fades the correction out over this long [s]
 #: (about the IRB 140's slowest gear period).
 EGM_REFINE_FADE = 0.05

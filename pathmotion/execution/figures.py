@@ -1,8 +1,9 @@
 """ISO 9283 figures of an executed motion, by the simulation's own measures (simulation/metrics.py):
 path accuracy (largest TCP distance to the planned TCP path), cycle time (the TCP first within the path
 tolerance of the path's end, plus the plan's own time from entering that ball to its end, as simulate
-credits it), settle time (within it for good), and the residual vibration after the reference came to rest
-(largest TCP distance from where the arm finally rests, after that moment)."""
+credits it), settle time (within it for good), the residual vibration after the reference came to rest
+(largest TCP distance from where the arm finally rests, after that moment), and the start latency (from the
+first message to the TCP's first motion: EGM's transport delay and low-pass, which the cycle time includes)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ from ..simulation.metrics import planned_tcp_line, polish_projection, tcp_path_d
 PROJECTION_STEPS = 4
 #: Planned-path polyline points per metre of TCP path (chord sag below a micrometre on these paths).
 LINE_POINTS = 4000
+#: The TCP has started moving once it is this far from where it was at the first message [m].
+START_MOTION = 5e-5
 
 
 def _plan_in_ball(robot: Robot, trajectory, end: np.ndarray, tolerance: float) -> float:
@@ -44,11 +47,13 @@ def execution_figures(robot: Robot, trajectory, t: np.ndarray, q: np.ndarray, th
     outside = np.flatnonzero(~near_end)
     after = t >= rest_time
     vibration = float(np.max(np.linalg.norm(tcp[after] - tcp[-1], axis=1))) if after.any() else None
+    moved = np.flatnonzero(np.linalg.norm(tcp - tcp[0], axis=1) > START_MOTION) if len(tcp) else np.array([], int)
     return {
         "planned_duration_s": float(planned_duration),
         "path_accuracy_m": float(np.max(dist)) if dist.size else 0.0,
         "cycle_time_s": (float(t[reached[0]]) + _plan_in_ball(robot, trajectory, end, tolerance)
                          if reached.size else None),
+        "start_latency_s": float(t[moved[0]] - t[0]) if moved.size else None,
         "settle_time_s": (float(t[outside[-1] + 1]) if outside.size and outside[-1] + 1 < len(t) else
                           (None if outside.size else float(t[0]))),
         "residual_vibration_m": vibration,

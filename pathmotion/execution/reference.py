@@ -5,15 +5,16 @@
 
     m(t) = q(t) + K^-1 tau_g(t)             the motor position that bends each elastic gear by its load
                                             (tau_g: the link-side torque of the plan, rotors excluded)
-    m(t + L)                                lead by the transport delay L (whole EGM cycles; on a run's
-                                            first segment L grows from 0 along a smoothstep: it starts at rest)
     p_k = (m_k - (1 - a) m_(k-1)) / a       the exact inverse of EGM's first-order low-pass (a per cycle)
 
-and the same for the speed reference. A second-order plan (steps in acceleration, which no motor passes
-through a spring) is first shaped in the path coordinate for the lowest locked-motor gear mode
-(:func:`path_motion`). Every reference is clipped into the joint limits (position and speed). refine.py then
-learns a motor-side correction (added to m before the low-pass inverse, :func:`motor_correction`) on the
-nominal drive model; a re-timed segment carries the correction of the one it leaves and fades it out.
+and the same for the speed reference. The references are not led by EGM's transport delay L: a lead has to
+be caught up from rest, and running the references ahead of a plan that leaves rest at its limits exceeds
+them; the arm follows the plan L late (``ReferenceTable.delay``). A second-order plan (steps in
+acceleration, which no motor passes through a spring) is first smoothed in the path coordinate over a
+quarter of the lowest locked-motor gear mode's period (:func:`path_motion`). Every reference is clipped
+into the joint limits (position and speed). refine.py then learns a motor-side correction (added to m
+before the low-pass inverse, :func:`motor_correction`) on the nominal drive model; a re-timed segment
+carries the correction of the one it leaves and fades it out.
 """
 
 from __future__ import annotations
@@ -39,7 +40,8 @@ class ReferenceTable:
     the :class:`RawMotion` the references follow (time 0 = its profile's first point); motion (K, 3): theta,
     theta_dot, theta_ddot of the references (the raw motion's, averaged when shaped); correction (K, n) [rad]
     or None: the motor-side correction added before the low-pass inverse (refine.py's, or its fade-out on a
-    re-timed segment)."""
+    re-timed segment); delay [s]: how long after its plan time a reference reaches the servo (EGM's transport
+    delay with shaping and orbital; 0 with none): the arm follows the plan that much late."""
 
     t: np.ndarray
     q: np.ndarray
@@ -52,6 +54,13 @@ class ReferenceTable:
     raw: object = None
     motion: np.ndarray | None = None
     correction: np.ndarray | None = None
+    delay: float = 0.0
+
+    @property
+    def sent(self) -> np.ndarray | None:
+        """(theta, theta_dot, theta_ddot) (K, 3) of the motion the sent references follow in time: the references
+        show the motion at its own plan time (no lead), so it is :attr:`motion`, on every segment."""
+        return self.motion
 
     @cached_property
     def _lookup(self) -> tuple:
@@ -63,7 +72,7 @@ class ReferenceTable:
 
     @property
     def end(self) -> float:
-        """Plan time of the last reference [s] (the duration plus the shaping's lead)."""
+        """Plan time of the last reference [s]."""
         return float(self.t[-1])
 
     def state(self, tau: float) -> tuple[float, float, float]:
@@ -183,43 +192,20 @@ def _box_average(raw: RawMotion, t: np.ndarray, width: float) -> tuple[np.ndarra
 
 
 def shaper_support(period: float) -> float:
-    """How much longer [s] the shaped motion lasts than the raw one (0 for period 0): 3/4 of the period."""
-    return 0.75 * period if period > 0.0 else 0.0
+    """How much longer [s] the smoothed motion lasts than the raw one (0 for period 0): a quarter period."""
+    return 0.25 * period if period > 0.0 else 0.0
 
 
 def path_motion(raw: RawMotion, t: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s, evenly spaced] of the raw motion shaped for a
-    gear mode of ``period`` [s] (0: the raw motion itself). The shaper, in the path coordinate, is the mean
-    of two copies of the motion half a period apart (a zero-vibration shaper: the mode's frequency and its
-    odd multiples vanish from the motion), each averaged over the last quarter period (the acceleration
-    becomes continuous; 4x the frequency vanishes too). Its weights are positive, so the motion stays on the
-    path and never runs back; it lasts the raw one plus 3/4 of the period, and its centroid lags the raw
-    motion by 3/8 of it (a moving average over the whole period, which also removes the mode, lags by 1/2)."""
+    """(theta, theta_dot, theta_ddot) (K,) at times t (K,) [s, evenly spaced] of the raw motion smoothed for a
+    gear mode of ``period`` [s] (0: the raw motion itself): averaged over the last quarter period, so that its
+    acceleration ramps over T/4 instead of stepping (a bounded jerk the motors can pass through the gears;
+    the refinement on the nominal arm takes the mode's response out of the references). The weights are
+    positive, so the motion stays on the path and never runs back; it lasts the raw one plus T/4 and lags it
+    by T/8 on average."""
     if period <= 0.0:
         return raw.state(t)
-    first = _box_average(raw, t, 0.25 * period)
-    second = _box_average(raw, t - 0.5 * period, 0.25 * period)
-    return tuple(0.5 * (a + b) for a, b in zip(first, second))
-
-
-def _lead_rows(k: np.ndarray, start: int, ahead: int, first: bool, catch_up: int) -> np.ndarray:
-    """Fractional rows (K,) of the motion each table row k (K,) sends: ``ahead`` rows later; on the first
-    segment of a run (``first``) the lead grows from 0 at row ``start`` (time 0) to ``ahead`` over ``catch_up``
-    rows along a smoothstep (its pace at most 1 + 1.5 ahead / catch_up times the motion's), so that the first
-    reference is the robot's start and the catching up adds little acceleration."""
-    if not first:
-        lead = np.full(len(k), float(ahead))
-    else:
-        s = np.clip((k - start) / max(catch_up, 1), 0.0, 1.0)
-        lead = ahead * s * s * (3.0 - 2.0 * s)
-    return np.minimum(k + lead, len(k) - 1.0)
-
-
-def _rows_at(x: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """x (K, n) at fractional rows (K',), linearly interpolated."""
-    i = np.minimum(np.floor(rows).astype(int), len(x) - 2) if len(x) > 1 else np.zeros(len(rows), int)
-    w = (rows - i)[:, None] if len(x) > 1 else 0.0
-    return x[i] + w * (x[np.minimum(i + 1, len(x) - 1)] - x[i])
+    return _box_average(raw, t, 0.25 * period)
 
 
 def _fade(t: np.ndarray, width: float) -> np.ndarray:
@@ -240,21 +226,22 @@ def motor_correction(table: ReferenceTable, dm: np.ndarray, drives: DriveParamet
 
 
 def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: DriveParameters | None,
-                    step: float = defaults.EGM_TABLE_STEP, period: float = 0.0, first: bool = False,
+                    step: float = defaults.EGM_TABLE_STEP, period: float = 0.0,
                     carried: tuple | None = None) -> ReferenceTable:
     """The table of references for the raw motion ``raw`` along ``path`` in ``mode`` (one of MODES); with
     shaping, the motion shaped in the path coordinate for a gear mode of ``period`` [s] (see
     :func:`path_motion`). The table starts one EGM cycle early (the raw motion before 0 is what ran before),
-    so that the low-pass inverse at its first row continues the references already sent; ``first``: the
-    run's first segment, from rest (its first reference is then the start, see :func:`_lead_rows`);
-    ``carried``: (the previous table, the plan time of the switch in it): its motor-side correction continues
-    and fades out over ``defaults.EGM_REFINE_FADE`` (a re-timed segment is built within a cycle, unrefined;
-    the fade keeps the sent reference continuous)."""
+    so that the low-pass inverse at its first row continues the references already sent; ``carried``: (the
+    previous table, the plan time of the switch in it): its motor-side correction continues and fades out
+    over ``defaults.EGM_REFINE_FADE`` (a re-timed segment is built within a cycle, unrefined; the fade keeps
+    the sent reference continuous)."""
     period = period if mode != "none" else 0.0
     duration = raw.duration + shaper_support(period)
-    lead = 0.0 if mode == "none" else drives.transport_delay
     per = 0 if mode == "none" else max(1, int(round(drives.cycle / step)))
-    t = np.arange(-per, int(np.ceil((duration + lead) / step)) + 1) * step
+    fading = mode != "none" and carried is not None and carried[0].correction is not None
+    end = max(duration, defaults.EGM_REFINE_FADE) if fading else duration  # the carried correction fades out
+    # smoothed: one row more, the average's width is rounded to whole rows (by at most half a row)
+    t = np.arange(-per, int(np.ceil(end / step)) + (2 if period > 0.0 else 1)) * step
     theta, theta_dot, theta_ddot = path_motion(raw, t, period)
     q, dq, ddq = path.evaluate(theta)
     qd = dq * theta_dot[:, None]
@@ -264,11 +251,9 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     if mode != "none":
         qdd = dq * theta_ddot[:, None] + ddq * (theta_dot**2)[:, None]
         deflection = gear_deflection(robot, drives, q, qd, qdd)
-        ahead = int(round(lead / step))
-        catch_up = int(round(defaults.EGM_LEAD_CATCH_UP * ahead))
-        m = _rows_at(q + deflection, _lead_rows(np.arange(len(t)), per, ahead, first, catch_up))
+        m = q + deflection
         md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
-        if carried is not None and carried[0].correction is not None:
+        if fading:
             correction = carried[0].correction_at(t + carried[1]) * _fade(t, defaults.EGM_REFINE_FADE)[:, None]
             m = m + correction
             md = md + np.gradient(correction, step, axis=0)
@@ -280,4 +265,5 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     cut = slice(per, None)
     return ReferenceTable(t[cut] - t[per], sent_q, sent_qd, theta[cut], q[cut], duration, deflection[cut], path, raw,
                           np.stack([theta, theta_dot, theta_ddot], axis=1)[cut],
-                          None if correction is None else correction[cut])
+                          None if correction is None else correction[cut],
+                          0.0 if mode == "none" else drives.transport_delay)

@@ -10,8 +10,9 @@ low-pass inverse, so that sent = shaped + P u with
 
     P u = lowpass^-1(u) on position, lowpass^-1(du/dt) on the speed reference (linear between cycles).
 
-Iteration j runs the arm and takes the link-side error against the reference's own (shaped) motion at the same
-plan time, e_j(k) = q_plan((k + 1) dt) - q_j(k), weighted per joint by how far it moves the TCP, less its
+Iteration j runs the arm and takes the link-side error against the reference's own (shaped) motion at the plan
+time the arm follows, e_j(k) = q_plan((k + 1) dt - d) - q_j(k) (d: the table's delay, EGM's transport delay:
+the references are not led by it), weighted per joint by how far it moves the TCP, less its
 component along the path's tangent (path accuracy is a distance from the path, not a lag; at rest at the
 path's end all of it counts). The norm-optimal step per axis i is
 
@@ -23,7 +24,7 @@ lower-triangular Toeplitz matrix of axis i's response to one cycle's unit correc
 at rest at the start (linear: no torque limit active). Of the steps s in STEPS, the one with the least RMS
 transverse error is taken if that error falls; no fall ends the iterations, so the error the refinement
 returns never exceeds its start's. The start is the analytic table, or its plain form (the shaped motion plus
-the gear deflection, no lead and no low-pass inverse) when the nominal arm follows the path better with it.
+the gear deflection, no low-pass inverse) when the nominal arm follows the path better with it.
 The wrist axes' and the coupling terms the diagonal model misses are what the next iteration sees.
 """
 
@@ -140,10 +141,11 @@ def refine_reference(robot: Robot, drives: DriveParameters, table: ReferenceTabl
     inputs = int(np.floor(table.end / dt)) + 1
     outputs = inputs + int(round(defaults.EGM_REFINE_SETTLE / dt))
     times = np.arange(1, outputs + 1) * dt
-    want = np.array([table.at(x)[2] for x in times])
+    shown = times - table.delay  # the plan time the arm follows: the references reach it table.delay late
+    want = np.array([table.at(x)[2] for x in shown])
     weight = tcp_weights(robot, table.plan[0])
     weight = np.maximum(weight, defaults.EGM_REFINE_WEIGHT_FLOOR * weight.max())
-    along = _tangents(table, times, weight) * (times < table.duration)[:, None]  # at rest at the end: all counts
+    along = _tangents(table, shown, weight) * (shown < table.duration)[:, None]  # at rest at the end: all counts
 
     def transverse(q):
         """The weighted error orthogonal to the path (outputs, n) [m]: the part the path accuracy counts."""
@@ -157,7 +159,7 @@ def refine_reference(robot: Robot, drives: DriveParameters, table: ReferenceTabl
     costs = [cost(q)]
     if iterations <= 0 or costs[0] <= tolerance:
         return table, costs
-    # the start: the analytic shaping, or its plain form (the motion plus the gear deflection: no lead, no
+    # the start: the analytic shaping, or its plain form (the motion plus the gear deflection: no
     # low-pass inverse) if the nominal arm follows the path better so (the analytic feed-forward asks the
     # motors for more than their torque where the plan runs at it)
     per = max(1, int(round(dt / (table.t[1] - table.t[0]))))

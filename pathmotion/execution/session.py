@@ -12,6 +12,8 @@ import numpy as np
 
 from .. import defaults
 from ..errors import ExecutionError, PathmotionError, StateInfeasibleError
+from ..planning import effective_limits
+from ..planning.planner import TIGHTEN_TARGET
 from ..planning.profile import Profile
 from ..planning.retime import Retimer
 from ..io import exports
@@ -24,7 +26,7 @@ from .messages import decode_sensor, encode_robot
 from .orbital import TransverseLoop, loop_gain
 from .reference import MODES, RawMotion, build_reference, gear_period
 from .refine import refine_reference
-from .shaped_limits import shaped_plan
+from .shaped_limits import motion_ratios, shaped_plan
 from .streamer import Streamer
 from .supervision import PathSupervision
 
@@ -41,6 +43,43 @@ def _stop(retimer: Retimer, state: tuple) -> Profile:
             raise
         log.warning("no jerk-limited stop from theta = %.6g (%s); stopping within the second-order limits", state[0], exc)
         return retimer.stop(*state, second_order=True)
+
+
+def _retimed(retimer: Retimer, kind: str, state: tuple, override: float, s2: float) -> Profile:
+    """The re-timed profile of a stop, an override or a resume from ``state`` with the acceleration and the
+    torque's dynamic part scaled by ``s2`` in (0, 1] (velocity by its root; the Retimer's override scaling: the
+    stop is ``s2`` times the unit-limit stop from theta_dot^2 / s2)."""
+    if kind == "stop":
+        if s2 >= 1.0:
+            return _stop(retimer, state)
+        unit = retimer.stop(state[0], state[1] / np.sqrt(s2), second_order=True)
+        return Profile(unit.grid, s2 * unit.x)
+    if kind == "resume":
+        return retimer.remaining(state[0], 0.0, 0.0, override * np.sqrt(s2))
+    return retimer.remaining(*state, override=override * np.sqrt(s2))
+
+
+def _shaped_within(table, ratio, tolerance: float, kind: str):
+    """``table(s2)``'s re-timed table whose shaped motion keeps the plan's limits (``ratio(table)``: its largest
+    limit ratio): the shaper averages the motion before the switch into the re-timed one, which starts at the
+    limits, so where the ratio exceeds 1 + ``tolerance`` the re-timed profile's acceleration is scaled by
+    (1 - TIGHTEN_TARGET x tolerance) / ratio, at most ``defaults.EGM_RETIME_TIGHTEN`` times (a warning when it
+    still exceeds them, or when no slower re-timing exists)."""
+    s2, built = 1.0, table(1.0)
+    for _ in range(defaults.EGM_RETIME_TIGHTEN):
+        r = ratio(built)
+        if r <= 1.0 + tolerance:
+            return built
+        s2 *= (1.0 - TIGHTEN_TARGET * tolerance) / r
+        try:
+            built = table(s2)
+        except PathmotionError as exc:
+            log.warning("the shaped %s exceeds the plan's limits %.4g times and none slower exists (%s)", kind, r, exc)
+            return built
+    r = ratio(built)
+    if r > 1.0 + tolerance:
+        log.warning("the shaped %s exceeds the plan's limits %.4g times", kind, r)
+    return built
 
 
 def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
@@ -62,6 +101,7 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
     # elastic gears its period is the position loop's time constant 1 / Kp: the acceleration steps, fed
     # forward as torque steps at the plan's torque limits, would saturate the motors
     period = 0.0 if plan_result.profile.smooth else gear_period(robot, drives, start) or 1.0 / drives.position_gain
+    limits = effective_limits(robot, plan_result.settings)  # the plan's, as the user planned it
     if mode != "none" and period > 0.0:  # the shaped motion within the plan's limits: the plan streamed is slower
         plan_result = shaped_plan(robot, plan_result, period)[0]
     try:
@@ -70,16 +110,17 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
         raise ExecutionError(f"execute needs a plan it can stop along the path: {exc}") from None
 
     def retime(kind: str, state: tuple, override: float, previous, offset: float):
-        if kind == "stop":
-            profile = _stop(retimer, state)
-        elif kind == "resume":
-            profile = retimer.remaining(state[0], 0.0, 0.0, override)
-        else:
-            profile = retimer.remaining(*state, override=override)
-        return build_reference(robot, path, RawMotion(profile, previous.raw, offset), mode, drives, period=period,
-                               carried=(previous, offset))
+        def table(s2: float):
+            profile = _retimed(retimer, kind, state, override, s2)
+            return build_reference(robot, path, RawMotion(profile, previous.raw, offset), mode, drives,
+                                   period=period, carried=(previous, offset))
 
-    table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, period=period, first=True)
+        if mode == "none" or period <= 0.0:
+            return table(1.0)
+        return _shaped_within(table, lambda t: max(motion_ratios(robot, path, t.motion, limits).values()),
+                              plan_result.settings.limit_tolerance, kind)
+
+    table = build_reference(robot, path, RawMotion(plan_result.profile), mode, drives, period=period)
     if mode != "none" and refine > 0:
         table = refine_reference(robot, drives, table, iterations=refine)[0]
     lim = robot.limits

@@ -82,7 +82,7 @@ def shaped_plan(robot: Robot, plan_result, period: float, iterations: int = defa
     """(a plan whose motion shaped for ``period`` [s] is within ``plan_result``'s limits, its shaped ratios
     against them). Where the shaped motion exceeds a limit by more than TIGHTEN_TRIGGER x limit_tolerance, that
     limit is scaled by (1 - TIGHTEN_TARGET x tol) / ratio on the path the shaper averaged there (the raw
-    motion's theta over the last 3/4 period) and the path planned again (``planning.plan``'s ``scale_along``),
+    motion's theta over the last quarter period) and the path planned again (``planning.plan``'s ``scale_along``),
     at most ``iterations`` times (a log warning when the ratios are still above 1 + tol then). A jerk-limited
     plan (no shaper, period 0) or one already within its limits comes back as it is."""
     settings = plan_result.settings

@@ -122,8 +122,9 @@ class Streamer:
 
     @property
     def rest_time(self) -> float:
-        """Robot time [s, from the first message] at which the current segment's motion comes to rest."""
-        return self._segment_start + self._segment.duration
+        """Robot time [s, from the first message] at which the current segment's motion comes to rest at the servo
+        (its references' rest plus the delay they take to reach it, :attr:`ReferenceTable.delay`)."""
+        return self._segment_start + self._segment.duration + self._segment.delay
 
     @property
     def finished(self) -> bool:
