@@ -2,7 +2,8 @@
 velocity and acceleration limits; pathmotion.study.atlas): per row the symmetric G2 blend's duration, each search's
 duration, CPU time and plans, and the share of the thorough search's gain over G2 that the fast search keeps.
 
-Each search runs in its own process (so CPU times do not mix), ``--workers`` rows at a time, niced. The thorough
+Each search runs in a worker process (so CPU times do not mix), ``--workers`` rows at a time, niced; each worker
+first searches one corner untimed (warm-up). The thorough
 search costs about a minute of CPU per row; ``--thorough-from FILE`` takes its durations from a JSON file instead
 ({"source": ..., "rows": [{angle_deg, tolerance_m, thorough_s}]}, e.g. benchmarks/atlas_thorough_durations.json) and
 runs only the fast search.
@@ -48,6 +49,12 @@ def _search(job: tuple[float, float, str]) -> dict:
         return {"angle_deg": angle, "tolerance_m": tol, "search": kind, "error": str(exc)}
     return {"angle_deg": angle, "tolerance_m": tol, "search": kind, "duration_s": best.duration,
             "g2_s": best.symmetric_duration, "plans": best.plans, "cpu_s": time.process_time() - t0}
+
+
+def _warm_up() -> None:
+    """Each worker searches one corner untimed first: imports, the compiled kernels' loading (their compilation
+    where no cache exists yet) and first-call costs do not land on the first timed row."""
+    _search((90.0, 0.001, "fast"))
 
 
 def _rows(records: list[dict]) -> list[dict]:
@@ -118,7 +125,7 @@ def main() -> None:
     kinds = ("fast",) if a.thorough_from else ("thorough", "fast")
     jobs = [(an, t, kind) for an, t in sorted(keys) for kind in kinds]
     print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores), {a.workers} workers, niced")
-    with ProcessPoolExecutor(a.workers) as pool:
+    with ProcessPoolExecutor(a.workers, initializer=_warm_up) as pool:
         records = list(pool.map(_search, jobs))
     source = None
     if a.thorough_from:
