@@ -447,3 +447,26 @@ def test_states_above_their_limits_are_refused_as_the_lp_refuses_them(torque_jer
         assert got is None or s < 1.0 or rt.certify(got).max_ratio <= ratio + 2 * TOL
     if lp is not None:
         assert share <= 1.0 + TOL
+
+
+@pytest.fixture(scope="module")
+def corner_g2_jerk():
+    """(path, plan, retimer) of the corner_g2 scenario planned with its jerk limits: the G2 blend's spline knots
+    leave grid intervals far shorter than the others."""
+    from pathmotion import api
+    from pathmotion.scenarios import scenario_path
+    res = api.plan_scenario(api.load(scenario_path("corner_g2"), {"limits.use_jerk": True}))
+    return res.trajectory.path, res, Retimer(res)
+
+
+@pytest.mark.parametrize("fraction", [0.42, 0.51, 0.58])
+def test_stops_from_plan_states_around_a_blend_with_short_grid_intervals(corner_g2_jerk, fraction):
+    # around the blend no braking-point search finds a stop before the path's end; each of its tail checks spans
+    # the blend's short knot intervals, which are checked on their own (their shortness does not multiply the
+    # checks of the other intervals): the answer is the plan's own motion to rest, within every limit
+    _, res, rt = corner_g2_jerk
+    theta, v, a = _plan_state(res, fraction)
+    got = rt.stop(theta, v, a)
+    assert got.smooth and got.grid[0] == theta and got.x[-1] == 0.0
+    assert np.isclose(np.sqrt(got.x[0]), v, rtol=1e-9) and np.isclose(got.u_nodes[0], a, rtol=1e-9)
+    assert rt.dense_ratios(got, DT).max_ratio <= 1.0 + 2 * TOL

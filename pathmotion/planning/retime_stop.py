@@ -43,7 +43,7 @@ FADE_STEPS = 10
 FADE_DT = 0.125
 #: Braking points tried as the switch to the tail at first (a stride of their number over this) [-].
 COARSE = 16
-#: A tail is checked at least every this fraction of a plan interval along it [-].
+#: A tail is checked at least every this fraction of each plan interval along it [-].
 CHECK_SPACING = 0.125
 #: Braking depths tried: shares of the least u the order-2 rows allow [-].
 DEPTHS = np.array([1.0, 0.85, 0.7, 0.55, 0.4, 0.25])
@@ -202,11 +202,26 @@ def _close_ok_at(st, xt, at, jerk, keep, grid, p2, p3, px):
 
 
 @njit(cache=True)
+def _close_time(s, v, a, jerk, period, target):
+    """The time [s] at which the constant-jerk close from (s, v, a) reaches theta = target (bisection: theta(t)
+    rises over the close)."""
+    lo_t, hi_t = 0.0, period
+    for _ in range(60):
+        t = 0.5 * (lo_t + hi_t)
+        if s + v * t + 0.5 * a * t * t + jerk * t**3 / 6.0 < target:
+            lo_t = t
+        else:
+            hi_t = t
+    return 0.5 * (lo_t + hi_t)
+
+
+@njit(cache=True)
 def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
     """Whether the constant-jerk close from (s, theta_dot v, u = a < 0) to rest ends before s_end and meets every
-    row at TAIL_POINTS points equal in time plus one per CHECK_SPACING of the shortest plan interval it spans, and
-    on both sides of every plan grid point it passes (the rows jump there where the path's Phi''' does: a spline
-    knot)."""
+    row at TAIL_POINTS points equal in time, at points CHECK_SPACING of each plan interval it spans apart, and on
+    both sides of every plan grid point it passes (the rows jump there where the path's Phi''' does: a spline
+    knot). The checks in an interval do not depend on the other intervals' lengths: a knot's sliver of an
+    interval does not multiply the checks of the whole close."""
     if a >= 0.0:
         return False
     jerk = a * a / (2.0 * v)
@@ -216,24 +231,25 @@ def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
         return False
     g0 = min(max(np.searchsorted(grid, s, side="right") - 1, 0), grid.shape[0] - 2)
     g1 = min(max(np.searchsorted(grid, s + dist, side="right") - 1, g0), grid.shape[0] - 2)
-    h = np.min(grid[g0 + 1:g1 + 2] - grid[g0:g1 + 1])
-    points = TAIL_POINTS + int(dist / (CHECK_SPACING * h))
-    for i in range(points + 1):
-        t = period * i / points
+    for i in range(TAIL_POINTS + 1):
+        t = period * i / TAIL_POINTS
         st = s + v * t + 0.5 * a * t * t + jerk * t**3 / 6.0
         vt = v + a * t + 0.5 * jerk * t * t
         if not _close_ok_at(st, vt * vt, a + jerk * t, jerk, keep, grid, p2, p3, px):
             return False
+    parts = int(round(1.0 / CHECK_SPACING))
+    for k in range(g0, g1 + 1):  # inside every plan interval the close spans
+        for i in range(1, parts):
+            target = grid[k] + (grid[k + 1] - grid[k]) * i / parts
+            if target <= s or target >= s + dist:
+                continue
+            t = _close_time(s, v, a, jerk, period, target)
+            vt = v + a * t + 0.5 * jerk * t * t
+            if not _close_ok_at(target, vt * vt, a + jerk * t, jerk, keep, grid, p2, p3, px):
+                return False
     for k in range(g0 + 1, g1 + 1):  # the plan grid points inside the close, on both sides
         target = grid[k]
-        lo_t, hi_t = 0.0, period  # theta(t) rises over the close: bisection for theta(t) = grid[k]
-        for _ in range(60):
-            t = 0.5 * (lo_t + hi_t)
-            if s + v * t + 0.5 * a * t * t + jerk * t**3 / 6.0 < target:
-                lo_t = t
-            else:
-                hi_t = t
-        t = 0.5 * (lo_t + hi_t)
+        t = _close_time(s, v, a, jerk, period, target)
         vt = v + a * t + 0.5 * jerk * t * t
         at = a + jerk * t
         left = target - 1e-12 * max(abs(target), 1.0)
