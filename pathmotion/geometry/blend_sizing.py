@@ -87,7 +87,7 @@ def largest_size(size_min, size_max, scan, bisections, tol, balance, lines, fram
     if ok(size_max):
         return size_max
     lo, hi = size_min, size_max
-    if lo <= 0.0:  # _largest(ok, hi, bisections)
+    if lo <= 0.0:  # _largest(ok, hi, bisections): halve until ok, double while ok
         start = hi
         while not ok(hi):
             hi *= 0.5
@@ -98,22 +98,21 @@ def largest_size(size_min, size_max, scan, bisections, tol, balance, lines, fram
             if not ok(hi):
                 break
             lo, hi = hi, 2.0 * hi
-        for _ in range(bisections):
-            mid = 0.5 * (lo + hi)
-            if ok(mid):
-                lo = mid
-            else:
-                hi = mid
-        return lo
-    xs = lo + (hi - lo) * scan
-    for k in range(1, xs.shape[0]):
-        if ok(xs[k]):
-            good, bad = xs[k], xs[k - 1]
-            for _ in range(bisections):
-                mid = 0.5 * (good + bad)
-                if ok(mid):
-                    good = mid
-                else:
-                    bad = mid
-            return good
-    return lo
+        good, bad = lo, hi
+    else:  # _largest_between: the first ok point of the geometric scan down from hi
+        xs = lo + (hi - lo) * scan
+        found = False
+        good, bad = lo, lo
+        for k in range(1, xs.shape[0]):
+            if ok(xs[k]):
+                good, bad, found = xs[k], xs[k - 1], True
+                break
+        if not found:
+            return lo
+    for _ in range(bisections):  # between the ok point and the failing one
+        mid = 0.5 * (good + bad)
+        if ok(mid):
+            good = mid
+        else:
+            bad = mid
+    return good
