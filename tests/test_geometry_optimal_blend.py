@@ -933,6 +933,29 @@ def test_the_fast_quintic_stage_takes_fewer_steps_and_stays_certified():
     assert max_deviation(short.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
 
 
+def test_the_fast_wide_screen_finds_a_blend_off_the_racing_line_and_stays_certified():
+    """The fast search's wide starts (FAST_WIDE_SCREEN), each planned once after its joint stage where the motion rests
+    at a path end: at the 140 deg turn (4 mm), rest to rest, the racing line ends short of both path ends (no free end
+    applies), and a wide start, which spans a whole line and leaves (reaches) the path's end at rest off the line, is
+    faster than the search without the screen; its deviation is certified on a dense check, its duration is its own
+    plan's and it is never slower than the symmetric G2 blend. The thorough search does not screen (its wide starts
+    each run a joint stage)."""
+    from pathmotion.planning import blend_search as bs
+
+    assert bs.FAST.wide_screen == bs.FAST_WIDE_SCREEN and not bs.THOROUGH.wide_screen
+    path, tol = _turn(140), 0.004
+    kw = dict(settings=SETTINGS, search=bs.FAST, polish_plans=0)
+    without = optimal_blends(_robot(), path, tol, wide_screen=(), **kw)
+    screened = optimal_blends(_robot(), path, tol, **kw)
+    assert without.shapes[0].departure is None and without.shapes[0].arrival is None
+    shape = screened.shapes[0]
+    assert shape.departure is not None or shape.arrival is not None
+    assert screened.duration < without.duration
+    assert screened.duration <= screened.symmetric_duration
+    assert screened.duration == pytest.approx(duration_with(_robot(), path, screened.shapes, SETTINGS), rel=1e-12)
+    assert max_deviation(screened.path, path, rel_tol=1e-6).upper <= tol * (1 + 2e-6)
+
+
 def test_the_fast_polish_starts_from_its_own_trust_radius_and_is_never_slower(monkeypatch):
     """The fast search's polish (stage 8) starts COBYQA with the trust radius FAST_POLISH_RADIUS_SHARE of its steps
     (the joint stages keep TRUST_RADIUS_SHARE); at the 90 deg turn (3 mm) the polished blend is never slower than the

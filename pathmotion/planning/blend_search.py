@@ -49,12 +49,13 @@ capped), then the polish's 150 on the full grid.
 
 How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
 atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 (FAST_STEPS golden steps, one
-racing pass) on the search grid, short stages 5-6 (no wide starts, restart or global stage) where a free end applies,
-and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), its COBYQA runs on lean models
-(n + LEAN_MODEL_EXTRA points: in so few plans the default's first model is never complete), without the neighbour
-pass. Each corner is searched from the symmetric blends at the others (a :class:`_CornerJob`), so ``workers`` > 1
-searches the corners on local processes with the same result; where the corners are polished on their windows, those
-polishes are independent too (a :class:`_PolishJob` each) and run on the same processes.
+racing pass) on the search grid, short stages 5-6 where a free end applies (the wide starts outwards and along the
+normal each planned once after the joint stage, FAST_WIDE_SCREEN: where one is faster, the polish starts from it; no
+restart or global stage), and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), its
+COBYQA runs on lean models (n + LEAN_MODEL_EXTRA points: in so few plans the default's first model is never complete),
+without the neighbour pass. Each corner is searched from the symmetric blends at the others (a :class:`_CornerJob`),
+so ``workers`` > 1 searches the corners on local processes with the same result; where the corners are polished on
+their windows, those polishes are independent too (a :class:`_PolishJob` each) and run on the same processes.
 
 Why each stage, with the measurements that chose its plans and starts, and the families tried and not kept:
 docs/study.md, "The optimal blend's search".
@@ -177,6 +178,10 @@ FAST_POLISH_RADIUS_SHARE = 1.0
 #: fastest joined blend reaches: plans of the free-ends stage and of the joint stage.
 FAST_END_PLANS = 20
 FAST_JOINT_PLANS = 30
+#: The fast search's wide starts (_wide_screen), each planned once after its joint stage where the motion rests at a
+#: path end: outwards and along the corner's normal (the crossed starts found nothing more on the atlas rows the
+#: screen helps, 150 deg / 5 mm and 120 deg / 1 mm).
+FAST_WIDE_SCREEN = ("out", "normal")
 #: The fast search's golden steps per scalar search of the quintic stage: the racing line searches the blend again
 #: after it. On the 20 atlas rows and 4 others (45 deg / 2 mm, 75 deg / 7 mm, 105 deg / 3 mm, 135 deg / 7 mm) 3 steps
 #: gained as much over G2 as 6 (0.8 % more in sum) in 14 plans less per corner (0.3 s of CPU), 2 steps 2 % less.
@@ -663,11 +668,11 @@ WIDE_RUN_TRIES = 6
 
 def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: bool = False,
                 crossed: tuple[str, str] | None = None, share: float = TRUST_RADIUS_SHARE,
-                lean: bool = False) -> None:
-    """The joint stage (about ``plans`` plans) from a wide start: the fastest blend so far (in the corner's plane if
-    ``planar``) with the offset piece of every side whose neighbour ends where the motion rests (objective.resting)
-    freed at that end and bulged out to the tube's edge (WIDE_PROFILE): outwards in the corner's plane, at the sides
-    not free yet, or (``along_normal``, not ``planar``) along the corner's normal at every resting side, towards the
+                lean: bool = False, screen: bool = False) -> None:
+    """The joint stage (about ``plans`` plans; none if ``screen``: the wide start is planned alone) from a wide start:
+    the fastest blend so far (in the corner's plane if ``planar``) with the offset piece of every side whose neighbour
+    ends where the motion rests (objective.resting) freed at that end and bulged out to the tube's edge (WIDE_PROFILE):
+    outwards in the corner's plane, at the sides not free yet, or (``along_normal``, not ``planar``) along the corner's normal at every resting side, towards the
     side of the plane the fastest blend rises to there (up if it stays in the plane). Nothing if there is no such
     side. The whole-tube optimum does both (benchmarks/right_turn.py, docs/study.md): on benchmarks/right_turn.py's turn at 10 mm it
     leaves the start outwards and runs at the tube's edge 50 mm before the corner, where the fastest joined blend used
@@ -713,7 +718,25 @@ def _wide_stage(objective: _Objective, plans: int, planar: bool, along_normal: b
     log.info("blend search: corner %d: the wide start %s frees the path's %s", objective.label,
              f"{crossed[0]} / {crossed[1]}" if crossed else "along the normal" if along_normal else "outwards",
              " and ".join(e for e, w in zip(("start", "end"), wide) if w))
+    if screen:
+        objective(x)
+        return
     _joint_stage(objective, plans, planar, x, share, lean)
+
+
+def _wide_screen(objective: _Objective, planar: bool, starts: Sequence) -> None:
+    """Each wide start in ``starts`` planned once (_wide_stage: "out" outwards, "normal" along the corner's normal, or a
+    pair of directions, crossed), then the free ends read as the fastest blend so far has them: where a wide start is
+    faster than the blend the joint stage found, the polish starts from it. The wide starts lie in another basin than
+    the racing line's: the blend spans the whole lines at the tube's edge and leaves (reaches) the path's end at rest
+    off the line, which the racing line's scalar searches and the short free-ends and joint stages after them do not
+    reach where the racing line ends short of that end (150 deg / 5 mm, 120 deg / 1 mm: the thorough search's free
+    stage and wide starts end there)."""
+    for start in starts:
+        crossed = None if isinstance(start, str) else tuple(start)
+        _wide_stage(objective, 0, planar, start == "normal", crossed, screen=True)
+    shape = objective.best()[1]
+    objective.free_ends = (shape.departure is not None, shape.arrival is not None)
 
 
 def _trust_region(f: Callable, x0: np.ndarray, box: np.ndarray, steps: np.ndarray, plans: int,
@@ -891,6 +914,7 @@ class SearchSettings:
     offsets searched from each of ``run_starts`` first); plans (0 skips the stage; each runs on its
     own): ``free_plans`` the free offset pieces, ``rise_plans`` the rise, ``end_plans`` the free ends,
     ``joint_plans`` the joint stage, ``wide_plans`` / ``wide_normal_plans`` / ``wide_crossed_plans`` the wide starts,
+    ``wide_screen`` wide starts each planned once after the joint stage (_wide_screen; empty: none),
     ``restart_plans`` the wide restart, ``global_plans`` the global stage; ``retry_capped`` stage 7;
     ``polish_plans`` stage 8 from ``polish_starts`` candidates, on ``polish_grid_points`` grid points (None: the full
     grid; else its blend confirmed there), its initial trust radius ``polish_radius_share`` (_trust_region);
@@ -915,6 +939,7 @@ class SearchSettings:
     wide_normal_plans: int = WIDE_NORMAL_PLANS
     wide_crossed_plans: int = CROSSED_DEFAULT_PLANS
     restart_plans: int = RESTART_PLANS
+    wide_screen: tuple = ()
     global_plans: int = GLOBAL_PLANS
     retry_capped: bool = True
     polish_plans: int = POLISH_PLANS
@@ -929,13 +954,15 @@ class SearchSettings:
 #: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
 THOROUGH = SearchSettings()
 #: The quintic (short scalar searches) and the racing line (S-curve offset pieces, one pass) on the search grid, short
-#: free-ends and joint stages where the motion rests at a path end the blend reaches, each corner's winner polished
+#: free-ends and joint stages where the motion rests at a path end the blend reaches, the wide starts planned once each
+#: where it rests at a path end (FAST_WIDE_SCREEN), each corner's winner polished
 #: briefly on a fixed grid (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's
 #: gain over the symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it
 #: found nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
 FAST = SearchSettings(steps=FAST_STEPS, racing_cycles=FAST_RACING_CYCLES, run_range=FAST_RUN_RANGE,
                       run_starts=FAST_RUN_STARTS, free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS,
-                      joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, restart_plans=0, global_plans=0,
+                      joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, wide_screen=FAST_WIDE_SCREEN,
+                      restart_plans=0, global_plans=0,
                       retry_capped=False, polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS,
                       polish_radius_share=FAST_POLISH_RADIUS_SHARE, neighbour_pass=False, lean_models=True)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
@@ -1008,6 +1035,8 @@ def _late_stages(objective: _Objective, search: SearchSettings, planar: bool) ->
         if _late_end_stage(objective, search.end_plans, planar):
             _joint_stage(objective, search.joint_plans, planar, lean=search.lean_models)
     before_wide = objective.best()[1]
+    if search.wide_screen:
+        _wide_screen(objective, planar, search.wide_screen)
     if search.wide_plans > 0:
         _wide_stage(objective, search.wide_plans, planar, lean=search.lean_models)
     if search.wide_normal_plans > 0:
@@ -1023,7 +1052,7 @@ def _late_stages(objective: _Objective, search: SearchSettings, planar: bool) ->
     for directions in CROSSED_DIRECTIONS if crossed else ():
         _wide_stage(objective, search.wide_crossed_plans, planar, crossed=directions, share=WIDE_CROSSED_RADIUS_SHARE,
                     lean=search.lean_models)
-    wide = search.wide_plans > 0 or search.wide_normal_plans > 0 or crossed or restart
+    wide = search.wide_plans > 0 or search.wide_normal_plans > 0 or crossed or restart or bool(search.wide_screen)
     return _Stages(before if search.joint_plans > 0 or wide else None, before_wide if wide else None,
                    before_restart if restart else None, before_crossed if crossed else None)
 
