@@ -152,6 +152,15 @@ def gear_period(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> float:
     return float(2.0 * np.pi / omega.min())
 
 
+def shaper_period(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> float:
+    """The period [s] the shaper is sized for (:func:`path_motion` averages over a quarter of it): the lowest
+    locked-motor gear mode's at q0; drives without elastic gears have no gear mode, and the period is 4 / Kp:
+    the average spans the position loop's time constant 1 / Kp, so that an acceleration step of the plan,
+    fed forward as torque at the plan's limits, ramps over the time the servo's position loop takes to follow
+    it (a shorter ramp leaves the servo's feedback no torque beside a feed-forward at the limits)."""
+    return gear_period(robot, drives, q0) or 4.0 / drives.position_gain
+
+
 @dataclass(frozen=True, eq=False)
 class RawMotion:
     """A motion along the path in time: ``profile`` from time 0 on (at rest at its end), and before 0 the
