@@ -11,10 +11,12 @@ and the same for the speed reference. The references are not led by EGM's transp
 be caught up from rest, and running the references ahead of a plan that leaves rest at its limits exceeds
 them; the arm follows the plan L late (``ReferenceTable.delay``). A second-order plan (steps in
 acceleration, which no motor passes through a spring) is first smoothed in the path coordinate over a
-quarter of the lowest locked-motor gear mode's period (:func:`path_motion`). Every reference is clipped
-into the joint limits (position and speed). refine.py then learns a motor-side correction (added to m
-before the low-pass inverse, :func:`motor_correction`) on the nominal drive model; a re-timed segment
-carries the correction of the one it leaves and fades it out.
+quarter of the lowest locked-motor gear mode's period, on rigid gears over the position loop's time
+constant (:func:`path_motion`, :func:`shaper_period`). Every reference is clipped into the joint limits
+(position and speed). refine.py then learns a motor-side correction (added to m before the low-pass
+inverse, :func:`motor_correction`) on the nominal drive model, from the analytic table or its plain form
+(m sent as it is); a re-timed segment takes the form of the one it leaves, carries its correction and
+fades it out.
 """
 
 from __future__ import annotations
