@@ -81,23 +81,6 @@ def test_shaped_table_keeps_the_plans_limits_on_the_path(case):
     assert streamer.plan.duration >= result.duration  # what keeping the limits costs
 
 
-def test_shaping_through_rigid_gears_beats_none_at_a_corner():
-    """A second-order corner through rigid gears runs at its torque limits, where the servo's feedback has no
-    torque beside the feed-forward; with the shaper's average spanning the position loop's time constant
-    (shaper_period), shaping's path accuracy (execution_figures of the link side, lockstep) is below a third
-    of none's (0.09 against 0.96 mm; averaged over a quarter of that time: 0.62)."""
-    from pathmotion.execution.session import arm_figures, run_inprocess
-
-    robot, result, drives = _random_corner()
-    rigid = drives.rigid()
-    accuracy = {}
-    for mode in ("none", "shaping"):
-        streamer = make_streamer(robot, result, mode, rigid)
-        run = run_inprocess(streamer, VirtualArm(robot, rigid, streamer.table.plan[0]), result.duration + 1.0)
-        accuracy[mode] = arm_figures(robot, run)["path_accuracy_m"]
-    assert accuracy["shaping"] < accuracy["none"] / 3.0, accuracy
-
-
 def test_the_difference_check_sees_the_plan_streamed_as_planned():
     """The finite-difference check finds the excess a shaper makes without the re-planning (it can fail): the
     average over a whole period (four times execute's) takes corner_g2's acceleration to 1.30 times its limit."""

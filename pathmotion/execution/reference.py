@@ -11,9 +11,8 @@ and the same for the speed reference. The references are not led by EGM's transp
 be caught up from rest, and running the references ahead of a plan that leaves rest at its limits exceeds
 them; the arm follows the plan L late (``ReferenceTable.delay``). A second-order plan (steps in
 acceleration, which no motor passes through a spring) is first smoothed in the path coordinate over a
-quarter of the lowest locked-motor gear mode's period, on rigid gears over the position loop's time
-constant (:func:`path_motion`, :func:`shaper_period`). Every reference is clipped into the joint limits
-(position and speed). refine.py then learns a motor-side correction (added to m before the low-pass
+quarter of the lowest locked-motor gear mode's period (:func:`path_motion`). Every reference is clipped
+into the joint limits (position and speed). refine.py then learns a motor-side correction (added to m before the low-pass
 inverse, :func:`motor_correction`) on the nominal drive model, from the analytic table or its plain form
 (m sent as it is); a re-timed segment takes the form of the one it leaves, carries its correction and
 fades it out.
@@ -152,15 +151,6 @@ def gear_period(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> float:
     inertia = np.diag(pin.crba(model, model.createData(), np.asarray(q0, float))) - np.asarray(model.armature, float)
     omega = np.sqrt(drives.stiffness[elastic] / np.maximum(inertia[elastic], 1e-9))
     return float(2.0 * np.pi / omega.min())
-
-
-def shaper_period(robot: Robot, drives: DriveParameters, q0: np.ndarray) -> float:
-    """The period [s] the shaper is sized for (:func:`path_motion` averages over a quarter of it): the lowest
-    locked-motor gear mode's at q0; drives without elastic gears have no gear mode, and the period is 4 / Kp:
-    the average spans the position loop's time constant 1 / Kp, so that an acceleration step of the plan,
-    fed forward as torque at the plan's limits, ramps over the time the servo's position loop takes to follow
-    it (a shorter ramp leaves the servo's feedback no torque beside a feed-forward at the limits)."""
-    return gear_period(robot, drives, q0) or 4.0 / drives.position_gain
 
 
 @dataclass(frozen=True, eq=False)

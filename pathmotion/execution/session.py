@@ -24,7 +24,7 @@ from .drives import VirtualArm
 from .figures import execution_figures
 from .messages import decode_sensor, encode_robot
 from .orbital import TransverseLoop, loop_gain
-from .reference import MODES, RawMotion, build_reference, shaper_period
+from .reference import MODES, RawMotion, build_reference, gear_period
 from .refine import refine_reference
 from .shaped_limits import motion_ratios, shaped_plan
 from .streamer import Streamer
@@ -97,9 +97,10 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
     path = plan_result.trajectory.path
     start = plan_result.trajectory.at_time([0.0]).q[0]
     # the shaper makes a second-order plan's acceleration continuous (a jerk-limited plan's already is); one
-    # shaper for every segment of the run, so that a re-timed segment continues the references sent (sized
-    # for the gear mode, or on rigid gears for the position loop: shaper_period)
-    period = 0.0 if plan_result.profile.smooth else shaper_period(robot, drives, start)
+    # shaper for every segment of the run, so that a re-timed segment continues the references sent. Without
+    # elastic gears its period is the position loop's time constant 1 / Kp: the acceleration steps, fed
+    # forward as torque steps at the plan's torque limits, would saturate the motors
+    period = 0.0 if plan_result.profile.smooth else gear_period(robot, drives, start) or 1.0 / drives.position_gain
     limits = effective_limits(robot, plan_result.settings)  # the plan's, as the user planned it
     if mode != "none" and period > 0.0:  # the shaped motion within the plan's limits: the plan streamed is slower
         plan_result = shaped_plan(robot, plan_result, period)[0]
