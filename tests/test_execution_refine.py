@@ -1,7 +1,7 @@
 """The refinement of shaped references on the nominal virtual IRC5 (execution/refine.py): it beats the analytic
 shaping through the arm, by the execution figures (not its own cost); its error falls every iteration; what it
-sends stays inside the limits; a stop after it continues the sent references and fades its correction out; the
-forward low-pass it uses is EGM's own filter."""
+sends stays inside the limits; a stop after it continues the sent references (in the refined table's form)
+and fades its correction out; the forward low-pass it uses is EGM's own filter."""
 
 from __future__ import annotations
 
@@ -79,6 +79,22 @@ def test_a_stop_after_refinement_continues_the_references_and_fades_the_correcti
     assert stop.correction is not None
     assert np.abs(stop.correction[stop.t >= defaults.EGM_REFINE_FADE]).max() == 0.0
     assert np.abs(stop.correction[0]).max() > 0.0
+
+
+@pytest.mark.parametrize("fraction", [0.5, 0.7])
+def test_a_stop_after_a_plain_refinement_vibrates_no_more_than_none(planned, fraction):
+    """Where the refinement starts from the plain form (the short line: the analytic low-pass inverse asks the
+    motors for more than their torque), a stop requested mid-motion continues in that form: the arm's residual
+    vibration after the stop (execution_figures, elastic gears) is no larger than with no correction."""
+    robot, result, drives = planned
+    vibration = {}
+    for mode in ("none", "shaping"):
+        st = make_streamer(robot, result, mode, drives)
+        run = run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0,
+                            stop_at=fraction * result.duration)
+        vibration[mode] = arm_figures(robot, run)["residual_vibration_m"]
+    assert vibration["shaping"] <= vibration["none"], vibration
+    assert st.table.plain and st.segment is not st.table and st.segment.plain
 
 
 def test_lowpass_is_egms_filter_and_its_inverse_undoes_it():

@@ -12,9 +12,10 @@ be caught up from rest, and running the references ahead of a plan that leaves r
 them; the arm follows the plan L late (``ReferenceTable.delay``). A second-order plan (steps in
 acceleration, which no motor passes through a spring) is first smoothed in the path coordinate over a
 quarter of the lowest locked-motor gear mode's period (:func:`path_motion`). Every reference is clipped
-into the joint limits (position and speed). refine.py then learns a motor-side correction (added to m
-before the low-pass inverse, :func:`motor_correction`) on the nominal drive model; a re-timed segment
-carries the correction of the one it leaves and fades it out.
+into the joint limits (position and speed). refine.py then learns a motor-side correction (added to m before the low-pass
+inverse, :func:`motor_correction`) on the nominal drive model, from the analytic table or its plain form
+(m sent as it is); a re-timed segment takes the form of the one it leaves, carries its correction and
+fades it out.
 """
 
 from __future__ import annotations
@@ -41,7 +42,9 @@ class ReferenceTable:
     theta_dot, theta_ddot of the references (the raw motion's, averaged when shaped); correction (K, n) [rad]
     or None: the motor-side correction added before the low-pass inverse (refine.py's, or its fade-out on a
     re-timed segment); delay [s]: how long after its plan time a reference reaches the servo (EGM's transport
-    delay with shaping and orbital; 0 with none): the arm follows the plan that much late."""
+    delay with shaping and orbital; 0 with none): the arm follows the plan that much late; plain: the shaped
+    motor motion is sent without the low-pass inverse (refine.py's plain start; a re-timed segment continues
+    its previous segment's form)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -55,6 +58,7 @@ class ReferenceTable:
     motion: np.ndarray | None = None
     correction: np.ndarray | None = None
     delay: float = 0.0
+    plain: bool = False
 
     @property
     def sent(self) -> np.ndarray | None:
@@ -234,11 +238,13 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     so that the low-pass inverse at its first row continues the references already sent; ``carried``: (the
     previous table, the plan time of the switch in it): its motor-side correction continues and fades out
     over ``defaults.EGM_REFINE_FADE`` (a re-timed segment is built within a cycle, unrefined; the fade keeps
-    the sent reference continuous)."""
+    the sent reference continuous), and the segment takes the previous table's form: plain (the motor motion
+    sent as it is, the low-pass not inverted) when that one is."""
     period = period if mode != "none" else 0.0
     duration = raw.duration + shaper_support(period)
     per = 0 if mode == "none" else max(1, int(round(drives.cycle / step)))
     fading = mode != "none" and carried is not None and carried[0].correction is not None
+    plain = mode != "none" and carried is not None and carried[0].plain
     end = max(duration, defaults.EGM_REFINE_FADE) if fading else duration  # the carried correction fades out
     # smoothed: one row more, the average's width is rounded to whole rows (by at most half a row)
     t = np.arange(-per, int(np.ceil(end / step)) + (2 if period > 0.0 else 1)) * step
@@ -253,12 +259,15 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
         deflection = gear_deflection(robot, drives, q, qd, qdd)
         m = q + deflection
         md = np.gradient(m, step, axis=0) if len(t) > 2 else np.zeros_like(m)
+        alpha = lowpass_alpha(drives)
+        if plain:  # the motor motion as it is, the correction through the low-pass inverse (refine.py's P u)
+            sent_q, sent_qd = m, md
+        else:
+            sent_q, sent_qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)
         if fading:
             correction = carried[0].correction_at(t + carried[1]) * _fade(t, defaults.EGM_REFINE_FADE)[:, None]
-            m = m + correction
-            md = md + np.gradient(correction, step, axis=0)
-        alpha = lowpass_alpha(drives)
-        sent_q, sent_qd = _invert_lowpass(m, alpha, per), _invert_lowpass(md, alpha, per)
+            sent_q = sent_q + _invert_lowpass(correction, alpha, per)
+            sent_qd = sent_qd + _invert_lowpass(np.gradient(correction, step, axis=0), alpha, per)
     lim = robot.limits
     sent_q = np.clip(sent_q, lim.lower, lim.upper)[per:]
     sent_qd = np.clip(sent_qd, -lim.velocity, lim.velocity)[per:]
@@ -266,4 +275,4 @@ def build_reference(robot: Robot, path, raw: RawMotion, mode: str, drives: Drive
     return ReferenceTable(t[cut] - t[per], sent_q, sent_qd, theta[cut], q[cut], duration, deflection[cut], path, raw,
                           np.stack([theta, theta_dot, theta_ddot], axis=1)[cut],
                           None if correction is None else correction[cut],
-                          0.0 if mode == "none" else drives.transport_delay)
+                          0.0 if mode == "none" else drives.transport_delay, plain)

@@ -24,7 +24,9 @@ lower-triangular Toeplitz matrix of axis i's response to one cycle's unit correc
 at rest at the start (linear: no torque limit active). Of the steps s in STEPS, the one with the least RMS
 transverse error is taken if that error falls; no fall ends the iterations, so the error the refinement
 returns never exceeds its start's. The start is the analytic table, or its plain form (the shaped motion plus
-the gear deflection, no low-pass inverse) when the nominal arm follows the path better with it.
+the gear deflection, no low-pass inverse) when the nominal arm follows the path better with it; the
+refined table then says so (``plain``) and its correction is the learned one on top of the plain form, so
+that a re-timed segment (stop, override, resume: built unrefined) continues in the plain form too.
 The wrist axes' and the coupling terms the diagonal model misses are what the next iteration sees.
 """
 
@@ -198,6 +200,8 @@ def refine_reference(robot: Robot, drives: DriveParameters, table: ReferenceTabl
         costs.append(c)
         if c <= tolerance:
             break
+    if base is not None:  # the plain form: the correction on top of it (what a re-timed segment carries)
+        best = dataclasses.replace(best, correction=best.correction - base, plain=True)
     log.info("reference refined on the nominal arm: TCP transverse RMS error %.4g -> %.4g mm (%s start, %d "
              "iterations), %.2f s CPU", 1e3 * costs[0], 1e3 * costs[-1], "analytic" if base is None else "plain",
              len(costs) - 1 - (base is not None), time.process_time() - start)
