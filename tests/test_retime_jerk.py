@@ -288,7 +288,7 @@ def test_compiled_stop_distance_within_one_percent_of_the_sequential_lp(torque_j
 
 
 @pytest.mark.parametrize("theta, v, a, most", [
-    (0.1731619295867796, 0.2386866335543975, 0.8608459682278425, 1.5),
+    (0.1731619295867796, 0.2386866335543975, 0.8608459682278425, 1.45),
     (0.1441908304720601, 0.22585941915473798, 1.0622458733371363, 1.1)])
 def test_compiled_stop_whose_braking_meets_a_rising_deceleration_bound(torque_jerk, theta, v, a, most):
     # states of the optimality benchmark whose braking at the least acceleration runs into a stretch where that
