@@ -287,6 +287,21 @@ def test_compiled_stop_distance_within_one_percent_of_the_sequential_lp(torque_j
     assert np.median(ratios) <= 1.01 and np.mean(ratios <= 1.01) >= 0.75
 
 
+@pytest.mark.parametrize("theta, v, a, most", [
+    (0.1731619295867796, 0.2386866335543975, 0.8608459682278425, 1.45),
+    (0.1441908304720601, 0.22585941915473798, 1.0622458733371363, 1.1)])
+def test_compiled_stop_whose_braking_meets_a_rising_deceleration_bound(torque_jerk, theta, v, a, most):
+    # states of the optimality benchmark whose braking at the least acceleration runs into a stretch where that
+    # least acceleration rises faster than the jerk rows let theta_ddot follow (the torque's velocity terms near
+    # their limit): the braking that gives way there and brakes fully again after it stops within `most` times the
+    # LP reference's distance (the braking that ends there: 1.66 and 1.18 times), within the limits
+    path, res, rt = torque_jerk
+    fast, lp = rt.compiled_stop(theta, v, a), _lp_stop(rt, theta, v, a)
+    assert fast is not None and lp is not None
+    _check_stop(rt, path, fast, theta, v, a)
+    assert fast.grid[-1] - theta <= most * (lp.grid[-1] - theta)
+
+
 def test_a_state_no_jerk_limited_stop_can_save(torque_jerk):
     # slow and braking hard: the jerk limits cannot turn theta_ddot to 0 before theta_dot runs out (the LP finds
     # no stop either), nor does the motion go on to the next rest point: a clear error that carries the shortest

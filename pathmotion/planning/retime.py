@@ -407,6 +407,8 @@ class Retimer:
             depth = depth + 1 if 0 <= depth < len(retime_stop.DEPTHS) - 1 else -1
         n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
         got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows) if n > 0 else None
+        if got is None and n > 0:  # the close from the smooth form's x at the switch, checked on the full rows (as
+            got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows, 1.0)  # the met stop's close)
         return None if got is None else self._with_knots(Profile(*got))
 
     def _cannot_turn(self, theta: float, x0: float, u0: float) -> bool:

@@ -45,6 +45,9 @@ FADE_DT = 0.125
 COARSE = 16
 #: A tail is checked at least every this fraction of each plan interval along it [-].
 CHECK_SPACING = 0.125
+#: A braking step that breaks a row sends the braking this many steps back, to aim at this share of its depth, at
+#: most this many times per braking [-].
+REWIND, RECOVER_DEPTH, RECOVER_TRIES = 10, 0.85, 4
 #: Braking depths tried: shares of the least u the order-2 rows allow [-].
 DEPTHS = np.array([1.0, 0.85, 0.7, 0.55, 0.4, 0.25])
 #: The search over the depths ends after this many in a row that stop no sooner than the best so far [-].
@@ -334,17 +337,28 @@ def _dt(k, dt):
 
 
 @njit(cache=True)
-def _brake(s0, x0, u0, share, depth, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+def _brake(s0, x0, u0, share, depth, recover, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
     """The braking steps from the state (aimed at ``depth`` times the least u the rows allow) until a step
     breaks a row or reaches s_end (a tail from there would end after it): their points (the state first) into
-    out_s, out_x, out_u; returns their number."""
+    out_s, out_x, out_u; returns their number. With ``recover``, where a step breaks a row (the least u rises faster
+    than the jerk rows let u follow), the braking goes back REWIND steps and aims shallower (RECOVER_DEPTH times,
+    once more for every further break before it passes that point by REWIND steps; RECOVER_TRIES breaks in all),
+    then at ``depth`` again."""
     s, v, a = s0, np.sqrt(x0), u0
     out_s[0], out_x[0], out_u[0] = s, x0, a
-    for k in range(min(out_s.shape[0] - 1, MAX_STEPS)):
-        s, v, a, ok = _step(s, v, a, _keep(k, share), depth, _dt(k, dt), grid, p2, p3, px)
+    k, dead, tries, breaks, top = 0, -1, 0, 0, min(out_s.shape[0] - 1, MAX_STEPS)
+    while k < top:
+        aim = depth * RECOVER_DEPTH ** tries if k < dead + REWIND else depth
+        s, v, a, ok = _step(s, v, a, _keep(k, share), aim, _dt(k, dt), grid, p2, p3, px)
+        if recover and not ok and k >= REWIND and breaks < RECOVER_TRIES:
+            tries = tries + 1 if k <= dead + REWIND else 1
+            breaks, dead, k = breaks + 1, k, k - REWIND
+            s, v, a = out_s[k], np.sqrt(out_x[k]), out_u[k]
+            continue
         if not ok or s >= s_end:
             return k + 1
         out_s[k + 1], out_x[k + 1], out_u[k + 1] = s, v * v, a
+        k += 1
     return min(out_s.shape[0], MAX_STEPS + 1)
 
 
@@ -430,20 +444,22 @@ def shortest(s0, x0, u0, share, s_end, grid, p2, p3, px, out_s, out_x, out_u):
 
 @njit(cache=True)
 def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
-    """:func:`shortest` with the time step dt [s]."""
-    best, best_depth, bk, bm, misses = np.inf, -1.0, -1, -1, 0
-    for depth in DEPTHS:
-        n = _brake(s0, x0, u0, share, depth, min(s_end, best), dt, grid, p2, p3, px, out_s, out_x, out_u)
+    """:func:`shortest` with the time step dt [s]: the braking at the full depth without and with its recovery
+    (_brake), then at the other depths of DEPTHS."""
+    best, best_depth, best_recover, bk, bm, misses = np.inf, -1.0, False, -1, -1, 0
+    for d in range(DEPTHS.shape[0] + 1):
+        depth, recover = DEPTHS[max(d - 1, 0)], d == 1
+        n = _brake(s0, x0, u0, share, depth, recover, min(s_end, best), dt, grid, p2, p3, px, out_s, out_x, out_u)
         k, m, stop = _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
         if k < 0:
-            misses += best_depth > 0.0
+            misses += best_depth > 0.0 and not recover
             if misses == DEPTH_MISSES:  # the stops lengthen with a shallower depth from here
                 break
             continue
-        best, best_depth, bk, bm, misses = stop, depth, k, m, 0
+        best, best_depth, best_recover, bk, bm, misses = stop, depth, recover, k, m, 0
     if best_depth < 0.0 or bk + bm + 2 > out_s.shape[0]:
         return -1, np.inf
-    _brake(s0, x0, u0, share, best_depth, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    _brake(s0, x0, u0, share, best_depth, best_recover, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
     _, stop = _tail(bk, bm, np.inf, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, True)
     return bk + bm + 1, stop
 
@@ -771,7 +787,7 @@ def _met_search(s0, x0, u0, share, s_end, first, dt, grid, p2, p3, px, out_s, ou
     meets; (-1, inf, steps of the longest braking, -1) when none."""
     most = 0
     for d in range(first, DEPTHS.shape[0]):
-        n = _brake(s0, x0, u0, share, DEPTHS[d], s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+        n = _brake(s0, x0, u0, share, DEPTHS[d], False, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
         most = max(most, n)
         m, stop = _meet(n, s_end, 1.0 - MARGIN, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu)
         if m > 0:
