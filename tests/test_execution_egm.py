@@ -246,6 +246,52 @@ def test_override_slows_the_rest_of_the_motion(planned):
     assert st.segment.duration > 1.3 * result.duration
 
 
+def test_override_at_full_speed_on_a_jerk_limited_plan_slows_the_motion(planned_smooth, caplog):
+    """A jerk-limited plan at its top speed: the jerk-limited re-timer refuses override 0.5 (the state is above
+    the override's envelope), so execute brakes into it within the second-order limits (a warning says so)
+    instead of keeping the motion: the re-timed motion enters the envelope (Retimer.max_speed at 0.5) and stays
+    in it, slower than the plan's rest, its shaped motion is within the plan's velocity, acceleration and torque limits, every reference inside
+    the joint limits, and it ends at the plan's end."""
+    import logging
+
+    from pathmotion.execution.shaped_limits import motion_ratios
+    from pathmotion.planning import effective_limits
+    from pathmotion.planning.retime import Retimer
+
+    robot, result, drives = planned_smooth
+    st = _streamer(planned_smooth, "shaping")
+    profile = result.profile
+    top = float(np.sqrt(profile.x.max()))
+    t_top = float(profile.times[int(np.argmax(profile.x > 0.8 ** 2 * top ** 2))])  # 0.8 of the top speed, rising
+    q = st.table.q[0]
+    k = 0
+    while 0.004 * k < t_top:
+        st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
+        q = st.records[-1].sent
+        k += 1
+    with caplog.at_level(logging.WARNING):
+        st.override(0.5)
+    assert st.segment is not st.table, "the override kept the motion"
+    assert "within the second-order limits" in caplog.text
+    # it brakes into the override's envelope (the largest speed from which the end is reachable at 0.5) and stays in
+    retimer = Retimer(result)
+    theta, theta_dot = st.segment.motion[:, 0], st.segment.motion[:, 1]
+    moving = theta < theta[-1] - 1e-3 * (theta[-1] - theta[0])
+    envelope = np.array([retimer.max_speed(th, 0.5) for th in theta[moving]])
+    inside = theta_dot[moving] <= 1.01 * envelope
+    assert inside.any() and inside[int(np.argmax(inside)):].all()
+    assert st.segment.duration > 1.05 * (result.duration - 0.004 * (k - 1))  # slower than the plan's rest
+    assert st.segment.theta[-1] == pytest.approx(st.table.theta[-1], abs=1e-9)
+    ratios = motion_ratios(robot, result.trajectory.path, st.segment.motion, effective_limits(robot, result.settings))
+    assert max(ratios.values()) <= 1.0 + result.settings.limit_tolerance, ratios
+    for j in range(k, k + 2000):
+        if st.finished:
+            break
+        st.handle(encode_robot(j + 1, 4 * j, q, q), 0.0, lambda: 0.0)
+        q = st.records[-1].sent
+    assert st.finished and _inside_limits(robot, st.records)
+
+
 def test_a_controller_that_vanishes_mid_motion_ends_in_a_stop(planned):
     robot, result, drives = planned
     sock = open_listener(0, "127.0.0.1")

@@ -215,16 +215,18 @@ class Retimer:
     # ----------------------------------------------------------------------------------------------- queries
 
     def remaining(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, override: float = 1.0, *,
-                  reference: bool = False) -> Profile:
+                  reference: bool = False, second_order: bool = False) -> Profile:
         """The time-optimal profile from the state (theta, theta_dot [unit theta / s], theta_ddot
         [unit theta / s^2]) to the plan's end under the plan's limits scaled by ``override`` in (0, 1]
         (velocity x override, acceleration and torque's dynamic part x override^2, jerk and torque rate x
         override^3). Its first point is the state. StateInfeasibleError when no motion within the limits
         ends as the plan does. ``reference`` (jerk limits): the sequential LP's answer instead of the compiled
-        pass's (slow; the reference the pass is tested against)."""
+        pass's (slow; the reference the pass is tested against). ``second_order=True`` leaves out the plan's jerk
+        and torque-rate limits, as :meth:`stop`'s does: with them a state above the override's envelope is refused,
+        without them it brakes into it with the full limits (the acceleration may step)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
         s2 = _override(override) ** 2
-        if self.third_order:
+        if self.third_order and not second_order:
             return self._smooth_remaining(theta, x0, u0, s2, reference)
         grid, x = self._remaining2(theta, x0, s2, u0)
         return Profile(grid, x)
