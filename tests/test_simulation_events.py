@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pathmotion import api, defaults
-from pathmotion.errors import ScenarioError, SimulationError
+from pathmotion.errors import ScenarioError, SimulationError, StateInfeasibleError
 from pathmotion.lift.joint_path import SplineJointPath
 from pathmotion.planning import PlanSettings, Retimer, plan
 from pathmotion.robot import load_robot
@@ -105,3 +105,21 @@ def test_a_stop_at_rest_holds_until_the_resume_and_a_replay_of_the_plan_changes_
     again = simulate(robot, path, res.profile, "orbital", SimulationSettings(events=(Event(0.1, resume=True),)),
                      retimer=rt)
     assert again.tracking_ok and again.cycle_time == pytest.approx(base.cycle_time, abs=0.01)
+
+
+def test_an_override_from_full_speed_on_a_jerk_limited_plan_brakes_into_it():
+    """A jerk-limited plan: the jerk-limited re-timer refuses override 0.5 from the plan's state at full speed
+    (above the override's envelope); the event brakes into it within the second-order limits (a warning) and the
+    loop follows: tracking holds, the measured path speed reaches half the plan's (reaction time reported), and
+    the cycle is longer than the plan's."""
+    setup = api.load_text(SCENARIO.replace(
+        "events = [{t = 0.3, override = 0.5}, {t = 0.6, stop = true}, {t = 1.0, resume = true}]",
+        "events = [{t = 0.3, override = 0.5}]") + "[limits]\nuse_jerk = true\n")
+    result = api.plan_scenario(setup)
+    theta, v, a = (float(x[0]) for x in result.profile.state_at_time(np.array([0.3])))
+    with pytest.raises(StateInfeasibleError):
+        Retimer(result).remaining(theta, v, a, 0.5)
+    sim = api.simulate_scenario(setup, result)
+    (override,) = sim.summary()["events"]
+    assert sim.tracking_ok and override["reaction_time_s"] is not None and override["reaction_time_s"] < 0.5
+    assert sim.cycle_time > result.duration + 0.1
