@@ -13,8 +13,6 @@ cycle's answer when it takes longer than one 4 ms cycle: `over 4 ms` counts thos
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import copy
 import logging
 import random
 import time
@@ -23,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bench_egm_cycle import _copy
 from result_json import Table
 
 CYCLE = 0.004
@@ -30,15 +29,6 @@ COLUMNS = [("scenario", "scenario"), ("request", "request"), ("calls", "calls"),
            ("median_ms", "median [ms]"), ("p90_ms", "p90 [ms]"), ("max_ms", "max [ms]"),
            ("over_cycle", "over 4 ms"), ("refused", "kept its motion (no re-timed segment)"),
            ("ruckig_median_ms", "Ruckig stop median [ms]"), ("ratio", "median / Ruckig's")]
-
-
-def _streamer_at(streamer, t: float):
-    """A copy of ``streamer`` at plan time ``t`` [s] of its table (its own counts, records and segment)."""
-    from pathmotion.execution.streamer import Counts
-
-    st = dataclasses.replace(streamer, counts=Counts(), records=[], supervision=copy.copy(streamer.supervision))
-    st._now = t
-    return st
 
 
 def _ruckig_stop(n: int, lim, jerk):
@@ -88,22 +78,23 @@ def main() -> None:
         times = np.linspace(0.05, 0.9, args.states) * tab.duration
         requests = {"stop": lambda st: st.stop("benchmark"), "override 0.5": lambda st: st.override(0.5)}
 
-        def ruckig_at(t):
-            k = min(int(round(t / step)), len(tab.t) - 1)
-            return lambda: peer(tab.q[k], tab.qd[k], qdd[k])
+        def prepare(kind, t):
+            """The call of ``kind`` at plan time t, and the streamer copy it acts on (None for Ruckig)."""
+            if kind == "ruckig":
+                k = min(int(round(t / step)), len(tab.t) - 1)
+                return (lambda: peer(tab.q[k], tab.qd[k], qdd[k])), None
+            st = _copy(streamer)
+            st._now = t
+            return (lambda: requests[kind](st)), st
 
         calls = [(kind, t) for kind in (*requests, "ruckig") for t in times]
         for kind, t in calls[:: max(1, len(calls) // 6)]:  # warm-up: compiled kernels, caches
-            (ruckig_at(t) if kind == "ruckig" else (lambda: requests[kind](_streamer_at(streamer, t))))()
+            prepare(kind, t)[0]()
         random.Random(0).shuffle(calls)
         cost = {kind: [] for kind in (*requests, "ruckig")}
         kept = {kind: 0 for kind in requests}
         for kind, t in calls:
-            if kind == "ruckig":
-                fn = ruckig_at(t)
-            else:
-                st = _streamer_at(streamer, t)
-                fn = (lambda st=st, kind=kind: requests[kind](st))
+            fn, st = prepare(kind, t)
             t0 = time.thread_time()
             fn()
             cost[kind].append(time.thread_time() - t0)

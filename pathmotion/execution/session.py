@@ -56,16 +56,7 @@ def _retimed(retimer: Retimer, kind: str, state: tuple, override: float, s2: flo
         return Profile(unit.grid, s2 * unit.x)
     if kind == "resume":
         return retimer.remaining(state[0], 0.0, 0.0, override * np.sqrt(s2))
-    try:
-        return retimer.remaining(*state, override=override * np.sqrt(s2))
-    except StateInfeasibleError as exc:
-        if not retimer.third_order:
-            raise
-        # the jerk-limited re-timer does not brake from above the override's envelope; the operator's override
-        # still applies, within the second-order limits (as a stop that finds no jerk-limited one)
-        log.warning("no jerk-limited override %.3g from theta = %.6g (%s); braking into it within the second-order "
-                    "limits", override, state[0], exc)
-        return retimer.remaining(*state, override=override * np.sqrt(s2), second_order=True)
+    return retimer.override_remaining(*state, override * np.sqrt(s2))
 
 
 def _shaped_within(table, ratio, tolerance: float, kind: str):

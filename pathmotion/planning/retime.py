@@ -231,6 +231,20 @@ class Retimer:
         grid, x = self._remaining2(theta, x0, s2, u0)
         return Profile(grid, x)
 
+    def override_remaining(self, theta: float, theta_dot: float, theta_ddot: float, override: float) -> Profile:
+        """:meth:`remaining` at ``override`` < 1 as a controller applies an operator's lowered override: where the
+        jerk-limited re-timer refuses the state (StateInfeasibleError: it lies above the override's envelope), the
+        motion that brakes into it within the second-order limits (velocity, acceleration, torque; the acceleration
+        may step), with a warning. At override 1 (the plan's own limits) a refusal is raised."""
+        try:
+            return self.remaining(theta, theta_dot, theta_ddot, override)
+        except StateInfeasibleError as exc:
+            if not self.third_order or override >= 1.0:
+                raise
+            log.warning("no jerk-limited override %.3g from theta = %.6g (%s); braking into it within the "
+                        "second-order limits", override, theta, exc)
+            return self.remaining(theta, theta_dot, theta_ddot, override, second_order=True)
+
     def stop(self, theta: float, theta_dot: float, theta_ddot: float = 0.0, *, second_order: bool = False,
              reference: bool = False) -> Profile:
         """The shortest stop along the path within the plan's limits (a category 2 stop: the arm stays on

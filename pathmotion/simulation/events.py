@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..control import OrbitalController, OrbitalDesign, PathTable
-from ..errors import PathmotionError, SimulationError, StateInfeasibleError
+from ..errors import PathmotionError, SimulationError
 from ..lift.joint_path import JointPath
 from ..planning.profile import Profile
 
@@ -143,7 +143,7 @@ class EventPlayer:
             elif event.stop:
                 tail = self.retimer.stop(theta, v_ref, u_ref) if v_ref > 0 else None
             elif event.resume or not self.stopped:  # an override while stopped applies at the resume
-                tail = self._remaining(theta, v_ref, u_ref if v_ref > 0 else 0.0)
+                tail = self.retimer.override_remaining(theta, v_ref, u_ref if v_ref > 0 else 0.0, self.override)
             else:
                 tail = None
         except PathmotionError as err:
@@ -181,18 +181,6 @@ class EventPlayer:
             report.goal = lambda th, s=self.override: s * float(plan.theta_dot_at(min(th, plan.grid[-1])))
         self.reports.append(report)
         log.info("event %s at t = %.4g s, theta = %.6g: re-timed in %.3g ms", event.kind, t, theta, spent)
-
-    def _remaining(self, theta: float, theta_dot: float, theta_ddot: float) -> Profile:
-        """The Retimer's remaining profile at the override; where the jerk-limited re-timer refuses a state above
-        the override's envelope, the one that brakes into it within the second-order limits (a warning)."""
-        try:
-            return self.retimer.remaining(theta, theta_dot, theta_ddot, self.override)
-        except StateInfeasibleError as exc:
-            if not self.retimer.third_order or self.override >= 1.0:
-                raise
-            log.warning("no jerk-limited override %.3g from theta = %.6g (%s); braking into it within the "
-                        "second-order limits", self.override, theta, exc)
-            return self.retimer.remaining(theta, theta_dot, theta_ddot, self.override, second_order=True)
 
     def _switch(self, command, t: float, theta: float) -> None:
         """The running orbital controller replaced by one designed for the new target, with its state (``theta``:
