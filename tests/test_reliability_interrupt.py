@@ -315,6 +315,76 @@ def test_sigterm_stops_workers_in_the_middle_of_a_point(tmp_path):
         kill_group(proc)
 
 
+def test_a_sigterm_delivered_to_another_thread_still_stops_a_parallel_sweep(tmp_path):
+    """The kernel delivers a process-directed SIGTERM to any thread; one that lands on a thread other than the
+    main one (here: sent to a thread of the script's own) must still end the sweep. A main thread blocked on the
+    workers' results without a timeout was never woken to run the handler: the sweep waited for its points
+    (here: forever)."""
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(str(tmp_path) + "\n")
+    script = ("import signal, sys, threading, time; from pathlib import Path; sys.path.insert(0, sys.argv[1])\n"
+              "from pathmotion.cli import _interrupt\n"
+              "from pathmotion.study.sweep import run_sweep\n"
+              "from test_reliability_interrupt import spin_point\n"
+              "signal.signal(signal.SIGTERM, _interrupt)\n"
+              "def kill_from_here():\n"
+              "    while len(list(Path(sys.argv[4]).glob('started-*'))) < 2:\n"
+              "        time.sleep(0.01)\n"
+              "    signal.pthread_kill(threading.get_ident(), signal.SIGTERM)\n"
+              "threading.Thread(target=kill_from_here, daemon=True).start()\n"
+              "try:\n"
+              "    run_sweep(sys.argv[2], {'a': [1, 2, 3]}, sys.argv[3], workers=2, point_fn=spin_point)\n"
+              "except KeyboardInterrupt:\n"
+              "    sys.exit(130)\n")
+    proc = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent), str(scenario),
+                             str(tmp_path / "out"), str(tmp_path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        _, err = proc.communicate(timeout=300)  # only a hang guard: without the fix this never returns
+        assert proc.returncode == 130, err.decode()
+        assert len(sorted(tmp_path.glob("started-*"))) == 2 and finished_points(tmp_path / "out") == 0
+    finally:
+        kill_group(proc)
+
+
+def sleep_call(folder):
+    """A call that leaves started-PID in ``folder`` and sleeps (blocking in C, as a numerical call does)."""
+    Path(folder, f"started-{os.getpid()}").touch()
+    time.sleep(600.0)
+
+
+def test_an_interrupted_worker_pool_map_ends_its_workers(tmp_path):
+    """WorkerPool (the blend search's and the sweep's workers): a Ctrl-C while the main thread waits for a map's
+    results raises there and leaves no worker running its call. Run in a subprocess: a hang guard."""
+    script = ("import _thread, sys, threading, time; from pathlib import Path; sys.path.insert(0, sys.argv[1])\n"
+              "from pathmotion.io.processes import WorkerPool\n"
+              "from test_reliability_interrupt import sleep_call\n"
+              "def interrupt():\n"
+              "    while len(list(Path(sys.argv[2]).glob('started-*'))) < 2:\n"
+              "        time.sleep(0.01)\n"
+              "    _thread.interrupt_main()\n"
+              "threading.Thread(target=interrupt, daemon=True).start()\n"
+              "try:\n"
+              "    with WorkerPool(2) as pool:\n"
+              "        pool.map(sleep_call, [(sys.argv[2],), (sys.argv[2],)])\n"
+              "except KeyboardInterrupt:\n"
+              "    sys.exit(130)\n")
+    proc = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent), str(tmp_path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        _, err = proc.communicate(timeout=300)  # the workers hold the pipes: this returns once they are gone
+        assert proc.returncode == 130, err.decode()
+        pids = [int(m.name.split("-")[1]) for m in tmp_path.glob("started-*")]
+        assert len(pids) == 2
+        for pid in pids:
+            deadline = time.monotonic() + 60
+            while _alive(pid) and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert not _alive(pid)
+    finally:
+        kill_group(proc)
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)

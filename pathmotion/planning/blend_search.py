@@ -79,6 +79,7 @@ from ..errors import PathmotionError
 from ..geometry import Line, TaskPath
 from ..geometry.orientation import FixedOrientation
 from ..geometry.blends import G2Shape, g2_shape_for_tolerance, with_blends, with_shaped_g2_blends
+from ..io.processes import WorkerPool
 from .boundary import at_rest
 from .planner import PlanSettings, plan
 
@@ -1140,7 +1141,7 @@ class _Runner:
     manager: the pool ends with it."""
 
     def __init__(self, workers: int = 1, scheduler: str | None = None):
-        self.workers, self.scheduler, self._pool, self._size = workers, scheduler, None, 0
+        self.workers, self.scheduler, self._pool = workers, scheduler, None
 
     def map(self, fn: Callable, calls: list[tuple], label: str) -> list:
         if self.scheduler is not None and len(calls) > 1:
@@ -1150,19 +1151,16 @@ class _Runner:
         if self.workers <= 1 or len(calls) <= 1:
             return [fn(*call) for call in calls]
         if self._pool is None:
-            from concurrent.futures import ProcessPoolExecutor
-
-            self._size = min(self.workers, len(calls))
-            self._pool = ProcessPoolExecutor(max_workers=self._size)
-        log.info("blend search: %d %s tasks on %d worker processes", len(calls), label, self._size)
-        return list(self._pool.map(fn, *zip(*calls)))
+            self._pool = WorkerPool(min(self.workers, len(calls)))
+        log.info("blend search: %d %s tasks on %d worker processes", len(calls), label, self._pool.workers)
+        return self._pool.map(fn, calls)
 
     def __enter__(self) -> "_Runner":
         return self
 
     def __exit__(self, *exc) -> None:
         if self._pool is not None:
-            self._pool.shutdown()
+            self._pool.__exit__(*exc)
             self._pool = None
 
 

@@ -22,8 +22,6 @@ import itertools
 import json
 import logging
 import math
-import signal
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Iterable
@@ -35,6 +33,7 @@ from ..io.atomic import atomic_path, write_json, write_text
 from ..io.files import mark_result
 from ..io import schema
 from ..io.scenario import parse_value
+from ..io.processes import WorkerPool, completed
 from ..io.scheduler import dask_client
 from .point import SUMMARY_KEYS, run_point
 
@@ -257,36 +256,18 @@ def _lost(exc: BaseException) -> dict:
     return {"summary": summary, "error": f"worker failed: {type(exc).__name__}: {exc}", "trace": None}
 
 
-def _worker_signals() -> None:
-    """Start of a pool worker: SIGTERM ends it at once and Ctrl-C is left to the parent.
-
-    A forked worker inherits the CLI's SIGTERM -> KeyboardInterrupt handler, and ProcessPoolExecutor's
-    worker loop catches that exception as the point's result and starts the next queued point: an
-    interrupted sweep then waited for the queued points (minutes for a worker still compiling the numba
-    kernels under load). Only the parent records points, so killing a worker loses nothing finished."""
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a terminal's Ctrl-C reaches the whole process group
-
-
 def _run_processes(workers: int, args, todo, record, point_fn, traces) -> None:
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_signals)
-    try:
+    """The points on local worker processes, each recorded as it finishes; an interrupt (Ctrl-C, SIGTERM) drops
+    the queued points and stops the running ones now: every finished point is already on disk, so a re-run
+    resumes from there."""
+    with WorkerPool(min(workers, len(todo))) as pool:
         futures = {pool.submit(point_fn, *args, p.overrides, traces): p for p in todo}
-        for fut in as_completed(futures):
+        for fut in completed(futures):
             try:
                 result = fut.result()
             except Exception as exc:  # a crashed worker process: record it, keep the others
                 result = _lost(exc)
             record(futures[fut], result)
-    except BaseException:
-        # interrupted (Ctrl-C, SIGTERM): drop the queued points and stop the running ones now; every
-        # finished point is already on disk, so a re-run resumes from there
-        processes = list((getattr(pool, "_processes", None) or {}).values())  # no public terminate before 3.14
-        pool.shutdown(wait=False, cancel_futures=True)
-        for proc in processes:
-            proc.terminate()
-        raise
-    pool.shutdown(wait=True)
 
 
 def _run_dask(address: str, args, todo, record, point_fn, traces) -> None:
