@@ -192,3 +192,41 @@ def test_lead_zero_switches_on_the_requests_cycle(planned):
     st.stop("stop requested")
     assert held.calls[0][0] and st.pending is None and st.segment is not st.table
     assert st.requests[0].at == st.requests[0].requested and st.requests[0].outcome == "switched"
+
+
+def test_real_time_leads_cover_the_last_re_timing_of_the_kind(planned):
+    """Against a real controller a request's lead is at least EGM_SWITCH_MARGIN times what the last re-timing of
+    its kind took (no re-timing started only to miss its switch); lockstep keeps the lead as set."""
+    from pathmotion import defaults
+
+    robot, result, drives = planned
+    for realtime, expected in ((True, defaults.EGM_SWITCH_MARGIN * 0.1), (False, defaults.EGM_SWITCH_LEAD)):
+        st = make_streamer(robot, result, "none", drives, realtime=realtime)
+        _feed(st, 0, 20)
+        st._took["override"] = 0.1
+        st.override(0.5)
+        assert st.pending.at - st.pending.requested == pytest.approx(expected)
+        st.close()
+
+
+def test_the_re_timing_worker_runs_nicer_than_the_loop(planned):
+    """On a busy machine the system runs the loop's thread before the worker's (Linux: a thread's own nice)."""
+    import os
+
+    robot, result, drives = planned
+    st = make_streamer(robot, result, "none", drives)
+    retime, seen = st.retime, []
+
+    def nice(*args):
+        seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+        return retime(*args)
+
+    st.retime = nice
+    q = _feed(st, 0, 20)
+    st.stop("stop requested")
+    _feed(st, 20, 6, q)
+    st.close()
+    from pathmotion import defaults
+
+    own = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    assert seen == [min(own + defaults.EGM_WORKER_NICE, 19)] and seen[0] > own

@@ -18,6 +18,8 @@ from __future__ import annotations
 import copy
 import logging
 import math
+import os
+import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -36,6 +38,16 @@ log = logging.getLogger(__name__)
 STANDSTILL = 1e-9
 #: Cycles :meth:`Streamer.rehearse` runs before the first robot message [-].
 REHEARSAL = 100
+
+
+def _lower_priority() -> None:
+    """The calling thread's scheduling priority lowered by ``defaults.EGM_WORKER_NICE`` (Linux: a thread's nice
+    value is its own), so that on a busy machine the system runs the EGM loop's thread first."""
+    try:
+        tid = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, tid, min(os.getpriority(os.PRIO_PROCESS, tid) + defaults.EGM_WORKER_NICE, 19))
+    except (AttributeError, OSError):
+        pass
 
 
 @dataclass
@@ -107,7 +119,8 @@ class Streamer:
     own cycle, re-timed before that cycle's answer); ``realtime``: False (lockstep, in-process) waits at the
     switch for a re-timing that is not ready (the run does not depend on compute time); True (a real
     controller) never waits the first ``defaults.EGM_SWITCH_RETRIES`` times: the motion goes on as it was and
-    the switch is scheduled again from a later state once the re-timing is done. ``requests``: every
+    the switch is scheduled again from a later state once the re-timing is done, and a request's lead is at
+    least ``defaults.EGM_SWITCH_MARGIN`` times what the last re-timing of its kind took. ``requests``: every
     :class:`Request`."""
 
     table: ReferenceTable
@@ -136,6 +149,7 @@ class Streamer:
     _segment_start: float = 0.0
     _last_reply: bytes | None = None
     _pending: Request | None = None
+    _took: dict = field(default_factory=dict, repr=False)  # kind -> its last re-timing's compute time [s]
     _worker: ThreadPoolExecutor | None = field(default=None, repr=False)
     _decode: RobotDecoder = field(default_factory=RobotDecoder, repr=False)
     _encode: SensorEncoder = field(default_factory=SensorEncoder, repr=False)
@@ -207,18 +221,27 @@ class Streamer:
             req.future.set_result(self._retimed(*args))
             return
         if self._worker is None:
-            self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pathmotion-retime")
+            self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pathmotion-retime",
+                                              initializer=_lower_priority)
         req.future = self._worker.submit(self._retimed, *args)
 
     def _request(self, kind: str, override: float) -> None:
         """A switch of ``kind`` at robot time now + lead, replacing a pending one (its re-timing is dropped); a
         stop with nothing to stop at that time is none."""
         self._cancel()
-        req = Request(kind, self._now, self._now + max(self.lead, 0.0), override)
+        req = Request(kind, self._now, self._now + self._lead(kind), override)
         self.requests.append(req)
         self._pending = req
         self._schedule(req)
         self._due()
+
+    def _lead(self, kind: str) -> float:
+        """The lead of a request of ``kind``: :attr:`lead`; in real time at least ``defaults.EGM_SWITCH_MARGIN``
+        times the last re-timing of that kind took (with lead > 0)."""
+        if self.lead <= 0.0:
+            return 0.0
+        last = self._took.get(kind, 0.0) if self.realtime else 0.0
+        return max(self.lead, defaults.EGM_SWITCH_MARGIN * last)
 
     def _cancel(self) -> None:
         if self._pending is not None:
@@ -234,8 +257,8 @@ class Streamer:
             return
         if req.missed:
             if req.future.done():
-                req.compute = req.future.result()[2]
-                lead = max(self.lead, defaults.EGM_SWITCH_MARGIN * req.compute)
+                req.compute = self._took[req.kind] = req.future.result()[2]
+                lead = self._lead(req.kind)
                 req.at, req.missed, req.attempts = self._now + lead, False, req.attempts + 1
                 log.warning("the %s's re-timing took %.0f ms, past its switch: scheduled again %.0f ms ahead",
                             req.kind, 1e3 * req.compute, 1e3 * lead)
@@ -256,6 +279,7 @@ class Streamer:
 
     def _install(self, req: Request) -> None:
         table, exc, req.compute = req.future.result()
+        self._took[req.kind] = req.compute
         self._pending = None
         if exc is not None:
             req.outcome = "kept"
@@ -326,7 +350,7 @@ class Streamer:
             watch.rearm()
         twin = replace(self, counts=Counts(), records=[], supervision=watch, loop=copy.copy(self.loop),
                        stop_reason=None, seqno_out=0, _last_seq=0, _tm0=0.0, _now=0.0, _segment_start=0.0,
-                       _last_reply=None, requests=[], _pending=None, _worker=None)
+                       _last_reply=None, requests=[], _pending=None, _worker=None, _took={})
         q = self.table.q[0]
         twin._check_first(self._decode(encode_robot(0, 0, q, q)))
         for k in range(cycles):
