@@ -36,6 +36,8 @@ log = logging.getLogger(__name__)
 
 #: A path speed below this counts as standing still (nothing to stop) [unit theta / s].
 STANDSTILL = 1e-9
+#: Robot times closer than this are the same [s] (header.tm counts whole ms; t + lead is a float sum).
+ROUNDING = 1e-9
 #: Cycles :meth:`Streamer.rehearse` runs before the first robot message [-].
 REHEARSAL = 100
 
@@ -264,7 +266,7 @@ class Streamer:
                             req.kind, 1e3 * req.compute, 1e3 * lead)
                 self._schedule(req)
             return
-        if self._now < req.at:
+        if self._now < req.at - ROUNDING:
             return
         if not req.future.done():
             if self.realtime and req.attempts <= defaults.EGM_SWITCH_RETRIES:
