@@ -234,12 +234,14 @@ def test_the_re_timing_worker_runs_nicer_than_the_loop(planned):
 
 def test_the_switch_is_at_the_message_of_its_time_whatever_the_float_sum(planned):
     """t + lead as a float sum can exceed the robot time of the message it names (0.016 + 0.02 >
-    36 / 1000): the switch is still made at that message, not one cycle later."""
+    36 / 1000): the switch is at that message's time exactly (the re-timing starts from the state there and
+    continues the segment before it from there), not one cycle later."""
     robot, result, drives = planned
     st = make_streamer(robot, result, "none", drives)
     q = _feed(st, 0, 5)  # robot time 16 ms
+    assert 0.016 + 0.02 > 36 / 1000
     st.override(0.5)
-    assert st.pending.at > 36 / 1000
+    assert st.pending.at == 36 / 1000
     _feed(st, 5, 5, q)  # up to 36 ms
     assert st.pending is None and st.requests[0].outcome == "switched"
     assert st.records[-1].tau == pytest.approx(0.0, abs=1e-9)

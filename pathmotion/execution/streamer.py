@@ -36,10 +36,13 @@ log = logging.getLogger(__name__)
 
 #: A path speed below this counts as standing still (nothing to stop) [unit theta / s].
 STANDSTILL = 1e-9
-#: Robot times closer than this are the same [s] (header.tm counts whole ms; t + lead is a float sum).
-ROUNDING = 1e-9
 #: Cycles :meth:`Streamer.rehearse` runs before the first robot message [-].
 REHEARSAL = 100
+
+
+def _robot_time(t: float) -> float:
+    """``t`` [s] on the robot's clock: whole ms, the float a message of that time gives (header.tm / 1000)."""
+    return round(t * 1000.0) / 1000.0
 
 
 def _lower_priority() -> None:
@@ -231,7 +234,7 @@ class Streamer:
         """A switch of ``kind`` at robot time now + lead, replacing a pending one (its re-timing is dropped); a
         stop with nothing to stop at that time is none."""
         self._cancel()
-        req = Request(kind, self._now, self._now + self._lead(kind), override)
+        req = Request(kind, self._now, _robot_time(self._now + self._lead(kind)), override)
         self.requests.append(req)
         self._pending = req
         self._schedule(req)
@@ -261,12 +264,12 @@ class Streamer:
             if req.future.done():
                 req.compute = self._took[req.kind] = req.future.result()[2]
                 lead = self._lead(req.kind)
-                req.at, req.missed, req.attempts = self._now + lead, False, req.attempts + 1
+                req.at, req.missed, req.attempts = _robot_time(self._now + lead), False, req.attempts + 1
                 log.warning("the %s's re-timing took %.0f ms, past its switch: scheduled again %.0f ms ahead",
                             req.kind, 1e3 * req.compute, 1e3 * lead)
                 self._schedule(req)
             return
-        if self._now < req.at - ROUNDING:
+        if self._now < req.at:
             return
         if not req.future.done():
             if self.realtime and req.attempts <= defaults.EGM_SWITCH_RETRIES:
