@@ -9,7 +9,16 @@ than one 4 ms cycle after its message left, missing when it never arrives; cycle
 more than half a cycle late are counted apart (sender slips). Per-cycle compute: receive to send on the
 answering side.
 
+With --requests, execute's side alone: during the real-time run stdin-like requests come in a fixed cycle
+(override 0.1 moving, stop, resume at rest, override 0.2, stop, resume, ...) while the arm moves, every second
+one switched on its own cycle (lead 0: the re-timing before that cycle's answer) and the others with
+execute's default lead (the re-timing in the worker thread, the loop answering from the current segment), so
+both share the run and its load. Per lead: the answers late (sender side: arrived more than 4 ms after their
+message left) behind a request until the next one, the reaction (robot time from the request to its switch),
+the re-timing's compute time.
+
     PYTHONPATH=. python benchmarks/bench_egm.py [--cycles 10000] [--json FILE]
+    PYTHONPATH=. python benchmarks/bench_egm.py --requests [--cycles 10000] [--json FILE]
 """
 
 from __future__ import annotations
@@ -72,7 +81,7 @@ def robot_sender(port: int, cycles: int, q0: list, echo: str, result) -> None:
     slip = sent - (start + CYCLE * np.arange(cycles))
     rtt = arrived - sent
     answered = ~np.isnan(rtt)
-    result.put({"late": int(np.sum(rtt[answered] > CYCLE)), "missing": int(np.sum(~answered)),
+    result.put({"rtt": rtt.tolist(), "late": int(np.sum(rtt[answered] > CYCLE)), "missing": int(np.sum(~answered)),
                 "sender_slips": int(np.sum(slip > 0.5 * CYCLE)), "max_send_slip_s": float(slip.max()),
                 "rtt_p99_9_s": float(np.percentile(rtt[answered], 99.9)) if answered.any() else float("nan")})
 
@@ -137,17 +146,144 @@ def measure(name, port, q0, answer, compute, sock, cycles, echo):
     sender.join(10)
     sock.close()
     c = compute()
+    got.pop("rtt")
     return {"side": name, "cycles": cycles, "answers": int(c.size), **got,
             "compute_median_s": float(np.median(c)), "compute_p99_s": float(np.percentile(c, 99)),
             "compute_p99_9_s": float(np.percentile(c, 99.9)), "compute_max_s": float(c.max()),
             "load_1min": os.getloadavg()[0]}
 
 
+#: The requests' cycle of --requests, and the robot time [s] between a request and the next.
+REQUESTS = ("override 0.1", "stop", "resume", "override 0.2", "stop", "resume")
+GAP = 0.25
+
+
+def request_commands(streamer, leads: tuple):
+    """serve's ``commands()``: the next of REQUESTS once GAP has passed since the last one's switch (a resume once
+    the stop is at rest), while the motion goes on; each with the next of ``leads`` [s] as the streamer's lead.
+    Returns (commands, issued): issued lists (lead, request line, index of its request in streamer.requests)."""
+    issued, state = [], {"k": 0, "next": GAP}
+
+    def commands():
+        st = streamer
+        if not st.started or st.pending is not None or st._now < state["next"]:
+            return []
+        line = REQUESTS[state["k"] % len(REQUESTS)]
+        tau = st._now - st._segment_start
+        if line == "resume" and tau < st.segment.duration:
+            return []  # still stopping
+        if line != "resume" and (st.stop_reason is not None or tau >= st.segment.duration):
+            return []  # the motion is over
+        st.lead = leads[len(issued) % len(leads)]
+        issued.append((st.lead, line, len(st.requests)))  # its request, if it makes one, comes next
+        state["k"] += 1
+        state["next"] = st._now + GAP
+        return [line]
+
+    return commands, issued
+
+
+def measure_requests(cycles: int) -> tuple[list, dict]:
+    """A real-time run of execute's serve with requests (--requests): per lead, its row."""
+    import logging
+
+    from pathmotion import defaults
+    from pathmotion.execution.loops import open_listener, serve
+
+    logging.disable(logging.WARNING)  # the requests' own warnings (stopping, re-timed slower)
+    streamer = circle_smooth_streamer(cycles)
+    streamer.realtime = True  # as execute runs against a controller
+    commands, issued = request_commands(streamer, (0.0, defaults.EGM_SWITCH_LEAD))
+    sock = open_listener(0, "127.0.0.1")
+    result = mp.Queue()
+    q0 = streamer.table.q[0].tolist()
+    sender = mp.Process(target=robot_sender, args=(sock.getsockname()[1], cycles, q0, "tm", result))
+    sender.start()
+    serve(sock, streamer, commands=commands, first_timeout=30.0, silence=0.5)
+    got = result.get(timeout=30)
+    sender.join(10)
+    sock.close()
+    rtt = np.asarray(got["rtt"], float)
+    late = ~(rtt <= CYCLE)  # late or missing
+    made = [(lead, streamer.requests[i]) for lead, _, i in issued if i < len(streamer.requests)]
+    made = [(lead, r) for lead, r in made if r.outcome != "at rest"]
+    reqs = [r for _, r in made]
+    starts = [int(round(r.requested / CYCLE)) + 1 for r in reqs]  # the first message behind the request
+    # a request's window: from it to GAP after its switch (or its request), at most to the next request
+    ends = [min(int(round(((r.at if r.outcome == "switched" else r.requested) + GAP) / CYCLE)) + 1, b)
+            for r, b in zip(reqs, starts[1:] + [len(rtt)])]
+    outside = np.ones(len(rtt), bool)
+    rows = {}
+    for (lead, r), a, b in zip(made, starts, ends):
+        row = rows.setdefault(lead, {"lead_ms": round(1e3 * lead, 1), "requests": 0, "late": 0, "window": 0,
+                                     "reaction": [], "compute": [], "rescheduled": 0, "waited": 0, "kept": 0})
+        row["requests"] += 1
+        row["late"] += int(late[a:b].sum())
+        row["window"] += b - a
+        outside[a:b] = False
+        if r.outcome == "switched":
+            row["reaction"].append(r.at - r.requested)
+        else:
+            row["kept"] += 1
+        row["compute"].append(r.compute or 0.0)
+        row["rescheduled"] += r.attempts > 1
+        row["waited"] += r.waited > 0.0
+    before = int(late[:starts[0]].sum()) if starts else int(late.sum())
+    for row in rows.values():
+        row["late_per_s"] = round(row["late"] / max(row.pop("window") * CYCLE, 1e-9), 2)
+    return list(rows.values()), {"late_total": int(late.sum()), "late_before_requests": before,
+                                 "late_outside_per_s": round(float(late[outside].sum()) / (outside.sum() * CYCLE), 2),
+                                 "sender_slips": got["sender_slips"], "load": os.getloadavg()[0],
+                                 "requests": len(reqs), "moving_until_s": float(reqs[-1].requested) if reqs else 0.0}
+
+
+def main_requests(args) -> None:
+    columns = [("lead_ms", "lead [ms]"), ("requests", "requests"), ("late", "late answers behind them"),
+               ("late_per_s", "late per s of their windows"),
+               ("reaction_median_ms", "reaction median [ms]"), ("reaction_max_ms", "reaction max [ms]"),
+               ("compute_median_ms", "re-timing median [ms]"), ("compute_max_ms", "re-timing max [ms]"),
+               ("rescheduled", "scheduled again"), ("waited", "waited for"), ("kept", "no switch"),
+               ("load", "load (1 min)")]
+    table = Table("EGM requests in real time: late answers behind stop, override and resume requests, switched "
+                  "on their cycle (lead 0) and a lead later", columns)
+    rows, totals = measure_requests(args.cycles)
+    print(" | ".join(h for _, h in columns))
+    for r in rows:
+        reaction, compute = 1e3 * np.asarray(r.pop("reaction") or [np.nan]), 1e3 * np.asarray(r.pop("compute"))
+        r.update(reaction_median_ms=round(float(np.median(reaction)), 1),
+                 reaction_max_ms=round(float(np.max(reaction)), 1),
+                 compute_median_ms=round(float(np.median(compute)), 1),
+                 compute_max_ms=round(float(np.max(compute)), 1), load=round(totals["load"], 2))
+        table.add(**r)
+        print(" | ".join(str(r[k]) for k, _ in columns))
+    print(f"late answers in the run: {totals['late_total']} of {args.cycles} ({totals['late_before_requests']} before "
+          f"the first request; {totals['late_outside_per_s']} per s outside the requests' windows); sender slips {totals['sender_slips']}; {totals['requests']} requests until "
+          f"{totals['moving_until_s']:.1f} s; load (1 min) {totals['load']:.2f}")
+    table.notes += [
+        f"One real-time run of {args.cycles} cycles on localhost (execute's serve, circle_smooth, shaping, its "
+        "path supervision on; the robot sender in its own process on an absolute 4 ms clock): "
+        f"{totals['requests']} requests (override 0.1, stop, resume, override 0.2, stop, resume, ... 0.25 s of "
+        "robot time apart while the arm moves), alternately switched on their own cycle (lead 0) and a lead "
+        f"later. Late answers in the whole run: {totals['late_total']} ({totals['late_before_requests']} before the "
+        f"first request; {totals['late_outside_per_s']} per s outside the requests' windows: the machine's load); "
+        f"sender slips {totals['sender_slips']}.",
+        "Late: an answer that arrived more than 4 ms after its message left (sender side) or never, counted "
+        "in the request's window: from the request to 0.25 s after its switch, at most to the next request. Reaction: robot time from the request to the switch. Re-timing: "
+        "wall time of the Retimer, shaped table and limit check (the last attempt); scheduled again: not ready at "
+        "its switch, re-timed from a later state; waited for: the loop waited for it at its switch."]
+    if args.json:
+        print(f"wrote {table.write(args.json)}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=10_000)
     ap.add_argument("--json", type=Path, help="write the table as JSON here (for benchmarks/results.py)")
+    ap.add_argument("--requests", action="store_true", help="execute alone, with stop / override / resume requests")
     args = ap.parse_args()
+    if args.requests:
+        main_requests(args)
+        return
     table = Table("EGM real time on localhost: 4 ms cycles answered by pathmotion execute and by its peer",
                   [("side", "answering side"), ("cycles", "cycles"), ("late", "late"), ("missing", "missing"),
                    ("sender_slips", "sender slips"), ("rtt_p99_9_ms", "round trip p99.9 [ms]"),

@@ -25,10 +25,11 @@ from bench_egm import CYCLE, circle_smooth_streamer
 
 
 def _copy(streamer):
-    """A fresh streamer on the same table (its own counts, records, supervision state)."""
+    """A fresh streamer on the same table (its own counts, records, supervision state, requests)."""
     from pathmotion.execution.streamer import Counts
 
-    return dataclasses.replace(streamer, counts=Counts(), records=[], supervision=copy.copy(streamer.supervision))
+    return dataclasses.replace(streamer, counts=Counts(), records=[], supervision=copy.copy(streamer.supervision),
+                               requests=[], _pending=None, _worker=None, _took={})
 
 
 def run(streamer, cycles: int, cold: bool) -> np.ndarray:

@@ -1,10 +1,11 @@
-"""EGM switch cost: the compute of the cycle on which execute takes a stop or an override request, i.e.
-Streamer.stop / Streamer.override on a streamer at a moving state of the plan (the Retimer's profile, the
+"""EGM switch cost: the compute of a stop or an override request's re-timing (execute runs it in a worker
+thread within the switch's lead; timed here as Streamer.stop / Streamer.override with lead 0, which re-time on
+the call) on a streamer at a moving state of the plan (the Retimer's profile, the
 shaped reference table built from it and its check against the plan's limits, re-timed slower where it exceeds
 them), against the peer in the same run: Ruckig (off the path: joint-space velocity control to rest from the
 same sent joint state within the joint velocity, acceleration and jerk limits; Ruckig's `calculate` alone).
-The calls are interleaved in a shuffled order after a warm-up; thread CPU time per call. A switch costs its
-cycle's answer when it takes longer than one 4 ms cycle: `over 4 ms` counts those calls.
+The calls are interleaved in a shuffled order after a warm-up; thread CPU time per call. `over 4 ms` counts
+the calls longer than one 4 ms cycle (with execute --switch-lead 0 they would make that cycle's answer late).
 
     PYTHONPATH=. python benchmarks/bench_egm_switch.py [--scenarios circle_smooth,corner_g2,abb_cycle]
         [--states 18] [--jerk] [--json FILE]
@@ -84,7 +85,7 @@ def main() -> None:
                 k = min(int(round(t / step)), len(tab.t) - 1)
                 return (lambda: peer(tab.q[k], tab.qd[k], qdd[k])), None
             st = _copy(streamer)
-            st._now = t
+            st._now, st.lead = t, 0.0  # the re-timing on the request's call, as execute's worker runs it
             return (lambda: requests[kind](st)), st
 
         calls = [(kind, t) for kind in (*requests, "ruckig") for t in times]

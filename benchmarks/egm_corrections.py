@@ -1,7 +1,7 @@
 """The three corrections of ``pathmotion execute`` (none, shaping, orbital) through the virtual IRC5, rigid
 and elastic gears, on shipped scenarios: path accuracy and cycle time of the arm's link side (the TCP that
 moves), and the residual vibration after its stops (at the path's end, and after a stop along the path
-requested at half the planned time); when execute's path supervision stopped the run, when, and how far from
+switched at half the planned time); when execute's path supervision stopped the run, when, and how far from
 the planned path the arm ends. Lockstep EGM in one process, through the encoded messages.
 
     PYTHONPATH=. python benchmarks/egm_corrections.py [--scenarios circle_smooth,corner_g2,abb_cycle] [--json F]
@@ -47,7 +47,9 @@ def run(setup, result, drives, mode, stop_at=None, payload=0.0, plant="builtin",
     streamer = make_streamer(setup.robot, result, mode, drives, path_tolerance=tolerance)
     carried = setup.robot.with_payload(Payload(mass=payload, com=(0.0, 0.0, 0.1))) if payload > 0 else None
     arm = VirtualArm(setup.robot, drives, streamer.table.plan[0], plant_robot=carried, plant=plant)
-    out = run_inprocess(streamer, arm, result.duration + 2.0, stop_at=stop_at)
+    # the stop requested its lead before stop_at (defaults.EGM_SWITCH_LEAD), so that it switches at stop_at
+    request = None if stop_at is None else stop_at - streamer.lead
+    out = run_inprocess(streamer, arm, result.duration + 2.0, stop_at=request)
     figures = arm_figures(setup.robot, out)
     tripped = streamer.supervision.tripped if supervision else None
     figures["supervision_stop_s"] = None if tripped is None else round(tripped.t, 3)
@@ -115,7 +117,8 @@ def main() -> None:
     table.notes.append("Lockstep EGM through the virtual IRC5, the link side's TCP. Cycle as `simulate` counts it: "
                        "the TCP first within 1 mm of the path's end plus the plan's own time inside that ball. "
                        "Vibration: the TCP's largest distance from where it finally rests, after the reference came "
-                       "to rest, at the path's end and after a stop requested at half the planned time. Supervision "
+                       "to rest, at the path's end and after a stop switched at half the planned time (requested "
+                       "its lead, defaults.EGM_SWITCH_LEAD, before). Supervision "
                        "stop: when execute's path supervision (simulate.joint_tolerance) stopped the run along the "
                        "path; ends off the path: the TCP's final distance from the planned path. Plan streamed: the "
                        "plan execute streams (with shaping of a second-order plan, planned again with its limits "

@@ -689,7 +689,12 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
             start_tolerance: float = typer.Option(defaults.EGM_START_TOLERANCE, help="largest distance \\[rad] of "
                                                   "the robot's joints from the plan's start"),
             refine: int = typer.Option(defaults.EGM_REFINE_ITERATIONS, help="learning iterations refining the shaped "
-                                       "references on the nominal drive model before streaming (0: analytic shaping)")):
+                                       "references on the nominal drive model before streaming (0: analytic shaping)"),
+            switch_lead: float = typer.Option(defaults.EGM_SWITCH_LEAD, help="a stop, override or resume switches this "
+                                              "long \\[s] after it comes, re-timed meanwhile off the loop (0: on its "
+                                              "cycle, whose answer waits for the re-timing)"),
+            lockstep: bool = typer.Option(False, help="the robot waits for each answer (virtual-robot --lockstep): a "
+                                          "switch waits for its re-timing, the run does not depend on compute time")):
     """Plan (or read the plan folder pathmotion plan wrote), then stream the motion to an ABB controller over EGM
     (answer each EgmRobot with an EgmSensor); stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
     Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130), and so does an arm farther from the path than
@@ -709,8 +714,11 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
             _fail(f"--start-tolerance {start_tolerance!r}: give a distance >= 0 in rad")
         if refine < 0:
             _fail(f"--refine {refine!r}: give a number of iterations >= 0")
+        if not 0.0 <= switch_lead < float("inf"):
+            _fail(f"--switch-lead {switch_lead!r}: give a time >= 0 in s")
         streamer = make_streamer(setup.robot, result, correction, params, tolerance=start_tolerance,
-                                 path_tolerance=setup.scenario.simulate.joint_tolerance, refine=refine)
+                                 path_tolerance=setup.scenario.simulate.joint_tolerance, refine=refine,
+                                 lead=switch_lead, realtime=not lockstep)
         sock = open_listener(egm)
         commands, interrupted = _stdin_commands(), False
         try:
@@ -726,6 +734,7 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
                     streamer.stop("interrupted (Ctrl-C or SIGTERM)")
         finally:
             sock.close()
+            streamer.close()
         with result_folder(out) as folder:
             summary = write_execution(folder, setup.robot, streamer, ended)
     _print_table(_summary_table(f"execute {setup.name} -> {out}", summary))

@@ -427,3 +427,19 @@ EGM_REFINE_FADE = 0.05
 #: (0.25 rad: the loop's bandwidth a quarter of what the lag allows, so that it follows slow errors only);
 #: the gain per cycle follows from the drive file's lag (execution/orbital.py, loop_gain): 0.05 on the IRB 140.
 EGM_ORBITAL_CROSSOVER_PHASE = 0.25
+#: EGM: a stop, override or resume request at robot time t switches to its re-timed segment at t + this lead
+#: [s] (execute --switch-lead): the motion until then is the current segment, so the re-timing starts from a
+#: known state and runs off the loop while the loop answers from the current segment; 0: the re-timing runs
+#: on the cycle that takes the request (its answer, and those behind it, wait for it).
+EGM_SWITCH_LEAD = 0.02
+#: EGM, real time (execute without --lockstep): a switch whose re-timing is not ready at its time is
+#: scheduled again from a later state, at least this many times its re-timing's compute time after the
+#: re-timing ends [-], at most EGM_SWITCH_RETRIES times; then it is waited for (answers late). A request's
+#: lead is at least this many times what the last re-timing of its kind took.
+EGM_SWITCH_MARGIN = 1.5
+EGM_SWITCH_RETRIES = 3
+#: EGM: Python's thread switch interval while execute serves [s] (the re-timing worker hands the loop the
+#: interpreter within about this long; Python's default is 5 ms, more than an EGM cycle).
+EGM_SWITCH_INTERVAL = 0.0002
+#: EGM: the re-timing worker thread runs this much nicer than execute's loop (Linux thread priority) [-].
+EGM_WORKER_NICE = 10

@@ -40,8 +40,8 @@ def free_port() -> int:
 
 
 def run_commands(source, robot_args=(), execute_args=()):
-    """``pathmotion virtual-robot SOURCE --lockstep`` started first, then ``pathmotion execute SOURCE`` against
-    it, as processes on a free loopback port, each with its extra arguments: (execute's CompletedProcess (text),
+    """``pathmotion virtual-robot SOURCE --lockstep`` started first, then ``pathmotion execute SOURCE --lockstep``
+    against it, as processes on a free loopback port, each with its extra arguments: (execute's CompletedProcess (text),
     the virtual robot's Popen after it ended, its combined output)."""
     port = free_port()
     env = dict(os.environ, PYTHONPATH=os.getcwd())
@@ -50,7 +50,7 @@ def run_commands(source, robot_args=(), execute_args=()):
                                     *robot_args], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     time.sleep(0.5)
     try:
-        ex = subprocess.run(cli + ["execute", str(source), "--egm", str(port), *execute_args], env=env,
+        ex = subprocess.run(cli + ["execute", str(source), "--egm", str(port), "--lockstep", *execute_args], env=env,
                             stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120)
         out, _ = robot.communicate(timeout=60)
     finally:

@@ -35,6 +35,14 @@ def _streamer(planned, mode="shaping", **kw):
     return make_streamer(robot, result, mode, drives, **kw)
 
 
+def _until_switched(st, k, q):
+    """Answer robot messages k, k + 1, ... (the arm reporting q) until the pending switch is made; the next k."""
+    while st.pending is not None:
+        st.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
+        k += 1
+    return k
+
+
 def _inside_limits(robot, records):
     sent = np.array([r.sent for r in records])
     lim = robot.limits
@@ -218,12 +226,13 @@ def test_sequence_numbers_lost_duplicated_out_of_order(planned):
 
 
 def test_stop_along_the_path_never_jumps_and_stays_in_limits(planned):
-    """A stop mid-motion (the Retimer's shortest stop): every reference lies on the plan's joint path at its
-    own theta, theta never runs back, the arm comes to rest before the path's end, inside the limits."""
+    """A stop mid-motion (the Retimer's shortest stop, switched at 0.4 of the plan): every reference lies on the
+    plan's joint path at its own theta, theta never runs back, the arm comes to rest before the path's end,
+    inside the limits."""
     robot, result, drives = planned
     st = _streamer(planned, "none")
     run = run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0,
-                        stop_at=0.4 * result.duration)
+                        stop_at=0.4 * result.duration - st.lead)
     path = result.trajectory.path
     theta = np.array([r.theta for r in st.records])
     assert st.stop_reason == "stop requested"
@@ -243,6 +252,7 @@ def test_override_slows_the_rest_of_the_motion(planned):
     q = st.table.q[0]
     st.handle(encode_robot(1, 0, q, q), 0.0, lambda: 0.0)
     st.override(0.5)
+    _until_switched(st, 1, q)
     assert st.segment.duration > 1.3 * result.duration
 
 
@@ -271,6 +281,7 @@ def test_override_at_full_speed_on_a_jerk_limited_plan_slows_the_motion(planned_
         k += 1
     with caplog.at_level(logging.WARNING):
         st.override(0.5)
+        k = _until_switched(st, k, q)
     assert st.segment is not st.table, "the override kept the motion"
     assert "within the second-order limits" in caplog.text
     # it brakes into the override's envelope (the largest speed from which the end is reachable at 0.5) and stays in
@@ -280,7 +291,7 @@ def test_override_at_full_speed_on_a_jerk_limited_plan_slows_the_motion(planned_
     envelope = np.array([retimer.max_speed(th, 0.5) for th in theta[moving]])
     inside = theta_dot[moving] <= 1.01 * envelope
     assert inside.any() and inside[int(np.argmax(inside)):].all()
-    assert st.segment.duration > 1.05 * (result.duration - 0.004 * (k - 1))  # slower than the plan's rest
+    assert st.segment.duration > 1.05 * (result.duration - st.requests[-1].at)  # slower than the plan's rest
     assert st.segment.theta[-1] == pytest.approx(st.table.theta[-1], abs=1e-9)
     ratios = motion_ratios(robot, result.trajectory.path, st.segment.motion, effective_limits(robot, result.settings))
     assert max(ratios.values()) <= 1.0 + result.settings.limit_tolerance, ratios
@@ -374,6 +385,8 @@ def test_stdin_commands(planned, caplog):
         k += 1
     assert st.records[-1].theta < result.trajectory.path.domain[1]
     apply_command(st, "resume")
+    assert st.pending.kind == "resume"
+    _until_switched(st, k, q)
     assert st.stop_reason is None and st.segment.duration > 0
     apply_command(st, "jump 3")
     assert "give 'override F', 'stop' or 'resume'" in caplog.text
@@ -415,7 +428,8 @@ def test_a_shaped_stop_continues_the_references(planned):
     run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), result.duration + 1.0, stop_at=stop_at)
     sent = np.array([r.sent for r in st.records])
     steps = np.abs(np.diff(sent, axis=0)).max(axis=1)
-    k = int(round(stop_at / drives.cycle))
+    k = int(round(st.requests[0].at / drives.cycle))  # the switch, a lead after the request
+    assert st.requests[0].outcome == "switched" and k > int(round(stop_at / drives.cycle))
     assert steps[k - 1:k + 2].max() <= 1.5 * steps[:k - 1].max()
     assert _inside_limits(robot, st.records)
 
@@ -439,10 +453,13 @@ def test_the_first_reference_is_the_robots_start(planned_smooth, rigid):
 
 def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
     """A collection of the whole heap takes about 25 EGM cycles: serve rehearses the streamer's cycle, then
-    answers with the collector paused, and leaves the collector as it found it, also when the loop raises."""
+    answers with the collector paused and Python's switch interval lowered (the re-timing worker yields the
+    interpreter quickly), and leaves both as it found them and the worker ended, also when the loop raises."""
     import gc
     import socket
+    import sys
 
+    from pathmotion import defaults
     from pathmotion.execution.loops import open_listener, serve
 
     seen = []
@@ -454,8 +471,12 @@ def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
         def rehearse(self):
             seen.append("rehearsed")
 
+        def close(self):
+            seen.append("closed")
+
         def handle(self, data, t_recv, clock):
             seen.append(gc.isenabled())
+            seen.append(sys.getswitchinterval())
             self.started = self.finished = True
             return b"ok"
 
@@ -463,8 +484,10 @@ def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
     robot = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     robot.sendto(b"x", sock.getsockname())
     assert gc.isenabled()
+    interval = sys.getswitchinterval()
     assert serve(sock, OneMessage(), first_timeout=5.0) == "done"
-    assert seen == ["rehearsed", False] and gc.isenabled() and robot.recv(16) == b"ok"
+    assert seen == ["rehearsed", False, pytest.approx(defaults.EGM_SWITCH_INTERVAL), "closed"] and robot.recv(16) == b"ok"
+    assert gc.isenabled() and sys.getswitchinterval() == interval
 
     class Raises(OneMessage):
         def handle(self, data, t_recv, clock):
@@ -474,5 +497,6 @@ def test_serve_pauses_the_cycle_collector_and_restores_it(monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         serve(sock, Raises(), first_timeout=5.0)
     assert gc.isenabled() and gc.get_freeze_count() == 0
+    assert seen[-1] == "closed" and sys.getswitchinterval() == interval  # the worker ended on the interrupt too
     sock.close()
     robot.close()

@@ -60,8 +60,9 @@ def test_a_plan_folder_executes_and_stops_along_the_path(tmp_path):
     assert st.finished and arm_figures(robot, run)["path_accuracy_m"] < 0.25e-3
     read = read_plan(_written(tmp_path, LINE)[2])[1]
     st = make_streamer(robot, read, "shaping", drives)
-    # before half way: a line's time-optimal plan brakes from half way as a stop does, and ends at the end
-    run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), read.duration + 1.0, stop_at=0.4 * read.duration)
+    # switched before half way: a line's time-optimal plan brakes from half way as a stop does, and ends at the end
+    run_inprocess(st, VirtualArm(robot, drives, st.table.plan[0]), read.duration + 1.0,
+                  stop_at=0.4 * read.duration - st.lead)
     theta = np.array([r.theta for r in st.records])
     assert st.stop_reason and theta[-1] < read.profile.grid[-1] and np.all(np.diff(theta) >= -1e-12)
 

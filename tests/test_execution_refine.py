@@ -73,7 +73,7 @@ def test_a_stop_after_refinement_continues_the_references_and_fades_the_correcti
     assert st.table.correction is not None and np.abs(st.table.correction).max() > 1e-5
     sent = np.array([r.sent for r in st.records])
     steps = np.abs(np.diff(sent, axis=0)).max(axis=1)
-    k = int(round(stop_at / drives.cycle))
+    k = int(round(st.requests[0].at / drives.cycle))  # the switch, a lead after the request
     assert steps[k - 1:k + 2].max() <= 1.5 * steps[:k - 1].max()
     stop = st.segment
     assert stop.correction is not None

@@ -7,6 +7,7 @@ import gc
 import logging
 import select
 import socket
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -50,14 +51,21 @@ def serve(sock: socket.socket, streamer: Streamer, *, commands=None,
     paused while serving (reference counting still frees what the loop drops): one collection of the whole heap
     takes about 0.1 s, 25 EGM cycles, and would answer them all late. The streamer then rehearses its cycle
     (:meth:`.streamer.Streamer.rehearse`, after the collection that sweeps the caches): the first answers are as
-    quick as the rest."""
+    quick as the rest. A request's re-timing runs in the streamer's worker thread (:attr:`.streamer.Streamer.lead`):
+    Python's thread switch interval is lowered to ``defaults.EGM_SWITCH_INTERVAL`` while serving, so that the loop
+    gets the interpreter back within a fraction of a millisecond when a message comes, and the worker is ended
+    when serve ends (a pending switch stays pending for the next serve)."""
     gc.collect()
     gc.freeze()  # what exists now is never scanned again
     gc.disable()
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(defaults.EGM_SWITCH_INTERVAL)
     try:
         streamer.rehearse()
         return _serve(sock, streamer, commands, first_timeout, silence)
     finally:
+        sys.setswitchinterval(interval)
+        streamer.close()
         gc.enable()
         gc.unfreeze()
 

@@ -85,13 +85,15 @@ def _shaped_within(table, ratio, tolerance: float, kind: str):
 def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
                   tolerance: float = defaults.EGM_START_TOLERANCE,
                   path_tolerance: float | None = defaults.JOINT_TOLERANCE,
-                  refine: int = defaults.EGM_REFINE_ITERATIONS) -> Streamer:
+                  refine: int = defaults.EGM_REFINE_ITERATIONS, lead: float = defaults.EGM_SWITCH_LEAD,
+                  realtime: bool = False) -> Streamer:
     """execute's Streamer for a plan (a planning.PlanResult) in correction ``mode``; with shaping (and orbital)
     a second-order plan planned again with its limits tightened locally until its shaped motion keeps the
     plan's limits (shaped_limits.py: the plan streamed and re-timed is that one), and the plan's table
     refined by at most ``refine`` iterations on the nominal arm (refine.py; 0: the analytic shaping alone); stops, overrides and resumes re-timed by the plan's Retimer (analytic, the refinement's
     correction faded out); ``path_tolerance`` [rad]: the path supervision's joint deviation (None: no
-    supervision)."""
+    supervision); ``lead`` [s], ``realtime``: when a request switches and whether the loop ever waits for its
+    re-timing (:class:`.streamer.Streamer`)."""
     if mode not in MODES:
         raise ExecutionError(f"--correction {mode!r}: choose one of {', '.join(MODES)}")
     path = plan_result.trajectory.path
@@ -127,7 +129,7 @@ def make_streamer(robot: Robot, plan_result, mode: str, drives: DriveParameters,
     loop = TransverseLoop(path, loop_gain(drives)) if mode == "orbital" else None
     watch = None if path_tolerance is None else PathSupervision(robot, path, path_tolerance)
     return Streamer(table, retime, lim.lower, lim.upper, lim.velocity, mode=mode, tolerance=tolerance, loop=loop,
-                    supervision=watch, plan=plan_result.trajectory)
+                    supervision=watch, plan=plan_result.trajectory, lead=lead, realtime=realtime)
 
 
 def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
@@ -149,6 +151,7 @@ def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
                                          streamer.rest_time))
         summary["cycle_compute_p99_s"] = float(np.percentile(compute, 99))
         summary["cycle_compute_max_s"] = float(np.max(compute))
+    summary["requests"] = [r.summary() for r in streamer.requests]
     return summary
 
 

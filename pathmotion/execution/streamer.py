@@ -2,9 +2,12 @@
 
 The motion is a sequence of segments, each a profile on the plan's joint path tabulated as references
 (:class:`.reference.ReferenceTable`), its plan time running with the robot's own clock (header.tm). An
-override, a stop and a resume start a new segment from the current state (theta, theta_dot, theta_ddot),
-re-timed by :class:`pathmotion.planning.retime.Retimer` within the plan's limits: the shortest stop along the
-path, the time-optimal rest under an override, the time-optimal rest from standstill. Packets are counted:
+override, a stop and a resume start a new segment, re-timed by :class:`pathmotion.planning.retime.Retimer`
+within the plan's limits: the shortest stop along the path, the time-optimal rest under an override, the
+time-optimal rest from standstill. A request at robot time t switches at t + lead (:attr:`Streamer.lead`):
+until then the motion is the current segment, so the state there (theta, theta_dot, theta_ddot) is known at
+once; a worker thread re-times from it while the loop answers from the current segment, and the first message
+at or after t + lead is answered from the re-timed one. Packets are counted:
 lost (a gap in seqno), duplicated (the same seqno again: answered again, the controller repeats a message
 it got no answer to), out of order (an older seqno: not answered), rejected (not an EgmRobot of this
 robot: not answered), late (answered more than defaults.EGM_LATE after it arrived).
@@ -15,6 +18,10 @@ from __future__ import annotations
 import copy
 import logging
 import math
+import os
+import threading
+import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
@@ -33,6 +40,21 @@ STANDSTILL = 1e-9
 REHEARSAL = 100
 
 
+def _robot_time(t: float) -> float:
+    """``t`` [s] on the robot's clock: whole ms, the float a message of that time gives (header.tm / 1000)."""
+    return round(t * 1000.0) / 1000.0
+
+
+def _lower_priority() -> None:
+    """The calling thread's scheduling priority lowered by ``defaults.EGM_WORKER_NICE`` (Linux: a thread's nice
+    value is its own), so that on a busy machine the system runs the EGM loop's thread first."""
+    try:
+        tid = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, tid, min(os.getpriority(os.PRIO_PROCESS, tid) + defaults.EGM_WORKER_NICE, 19))
+    except (AttributeError, OSError):
+        pass
+
+
 @dataclass
 class Counts:
     received: int = 0
@@ -43,6 +65,34 @@ class Counts:
     rejected: int = 0
     late: int = 0
     clipped: int = 0
+
+
+@dataclass
+class Request:
+    """A stop, override or resume request: its kind, the robot time it came at and the one its switch is
+    scheduled at [s, from the first message], the override it runs at, its re-timing (a Future of (table or
+    None, the PathmotionError or None, compute time [s])), how often it was scheduled, and how it ended:
+    "pending", "switched", "kept" (no re-timed segment: the motion went on as it was), "at rest" (a stop with
+    nothing to stop), "cancelled" (replaced by a later request). ``waited`` [s]: how long the loop waited for the
+    re-timing at the switch (the answer then is late in real time)."""
+
+    kind: str
+    requested: float
+    at: float
+    override: float
+    future: Future | None = None
+    attempts: int = 1
+    missed: bool = False
+    compute: float | None = None
+    waited: float = 0.0
+    outcome: str = "pending"
+
+    def summary(self) -> dict:
+        """The request in execute's summary.json: times [s, robot time from the first message]."""
+        return {"kind": self.kind, "requested_s": round(self.requested, 6),
+                "switched_s": round(self.at, 6) if self.outcome == "switched" else None,
+                "compute_s": None if self.compute is None else round(self.compute, 6),
+                "waited_s": round(self.waited, 6), "attempts": self.attempts, "outcome": self.outcome}
 
 
 @dataclass(slots=True)
@@ -70,7 +120,13 @@ class Streamer:
     leaves; ``tolerance`` [rad]: largest start distance; ``mode``: the correction mode; ``loop``: the
     transverse loop of the orbital mode (a :class:`.orbital.TransverseLoop`) or None; ``supervision``: the
     path supervision (a :class:`.supervision.PathSupervision`) or None; ``plan``: the planned
-    planning.Trajectory (for the figures)."""
+    planning.Trajectory (for the figures); ``lead`` [s]: a request switches this long after it came (0: on its
+    own cycle, re-timed before that cycle's answer); ``realtime``: False (lockstep, in-process) waits at the
+    switch for a re-timing that is not ready (the run does not depend on compute time); True (a real
+    controller) never waits the first ``defaults.EGM_SWITCH_RETRIES`` times: the motion goes on as it was and
+    the switch is scheduled again from a later state once the re-timing is done, and a request's lead is at
+    least ``defaults.EGM_SWITCH_MARGIN`` times what the last re-timing of its kind took. ``requests``: every
+    :class:`Request`."""
 
     table: ReferenceTable
     retime: Callable
@@ -83,6 +139,9 @@ class Streamer:
     loop: object = None
     supervision: object = None
     plan: object = None
+    lead: float = defaults.EGM_SWITCH_LEAD
+    realtime: bool = False
+    requests: list = field(default_factory=list)
     counts: Counts = field(default_factory=Counts)
     records: list = field(default_factory=list)
     stop_reason: str | None = None
@@ -94,6 +153,9 @@ class Streamer:
     _segment: ReferenceTable | None = None
     _segment_start: float = 0.0
     _last_reply: bytes | None = None
+    _pending: Request | None = None
+    _took: dict = field(default_factory=dict, repr=False)  # kind -> its last re-timing's compute time [s]
+    _worker: ThreadPoolExecutor | None = field(default=None, repr=False)
     _decode: RobotDecoder = field(default_factory=RobotDecoder, repr=False)
     _encode: SensorEncoder = field(default_factory=SensorEncoder, repr=False)
     _n: int = field(init=False, repr=False)
@@ -128,53 +190,158 @@ class Streamer:
 
     @property
     def finished(self) -> bool:
-        """The motion (plan or stop) is over and the arm had the settle window."""
-        return self._now - self._segment_start >= self._segment.end + self.settle
+        """The motion (plan or stop) is over, the arm had the settle window and no switch is pending."""
+        return self._pending is None and self._now - self._segment_start >= self._segment.end + self.settle
 
     def _state(self) -> tuple[float, float, float]:
         return self._segment.state(self._now - self._segment_start)
 
-    def _switch(self, kind: str, override: float) -> bool:
-        """Start a re-timed segment from the current state; False (and a warning) when there is none."""
-        state = self._state()
-        if kind == "stop" and state[1] <= STANDSTILL:
-            return True  # at rest already
+    @property
+    def pending(self) -> Request | None:
+        """The request whose switch is scheduled and not yet made (None: none)."""
+        return self._pending
+
+    def _retimed(self, kind: str, state: tuple, override: float, previous: ReferenceTable, offset: float):
+        """(re-timed table or None, the PathmotionError or None, compute time [s]); the table's lookup is built
+        here, off the loop."""
+        t0 = time.perf_counter()
         try:
-            table = self.retime(kind, state, override, self._segment, self._now - self._segment_start)
+            table = self.retime(kind, state, override, previous, offset)
+            table.at(0.0)
+            return table, None, time.perf_counter() - t0
         except PathmotionError as exc:
-            log.warning("cannot re-time (%s) at theta = %.6g: %s; the motion goes on as it was", kind, state[0], exc)
-            return False
-        self._segment, self._segment_start = table, self._now
-        return True
+            return None, exc, time.perf_counter() - t0
+
+    def _schedule(self, req: Request) -> None:
+        """Re-time ``req`` from the current segment's state at its time: in the worker thread, or (lead 0) here;
+        a stop with nothing to stop then is none (its outcome "at rest")."""
+        offset = req.at - self._segment_start
+        state = self._segment.state(offset)
+        if req.kind == "stop" and state[1] <= STANDSTILL:
+            req.outcome, self._pending = "at rest", None
+            return
+        args = (req.kind, state, req.override, self._segment, offset)
+        if self.lead <= 0.0:
+            req.future = Future()
+            req.future.set_result(self._retimed(*args))
+            return
+        if self._worker is None:
+            self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pathmotion-retime",
+                                              initializer=_lower_priority)
+        req.future = self._worker.submit(self._retimed, *args)
+
+    def _request(self, kind: str, override: float) -> None:
+        """A switch of ``kind`` at robot time now + lead, replacing a pending one (its re-timing is dropped); a
+        stop with nothing to stop at that time is none."""
+        self._cancel()
+        req = Request(kind, self._now, _robot_time(self._now + self._lead(kind)), override)
+        self.requests.append(req)
+        self._pending = req
+        self._schedule(req)
+        self._due()
+
+    def _lead(self, kind: str) -> float:
+        """The lead of a request of ``kind``: :attr:`lead`; in real time at least ``defaults.EGM_SWITCH_MARGIN``
+        times the last re-timing of that kind took (with lead > 0)."""
+        if self.lead <= 0.0:
+            return 0.0
+        last = self._took.get(kind, 0.0) if self.realtime else 0.0
+        return max(self.lead, defaults.EGM_SWITCH_MARGIN * last)
+
+    def _cancel(self) -> None:
+        if self._pending is not None:
+            self._pending.outcome = "cancelled"
+            self._pending = None
+
+    def _due(self) -> None:
+        """Make the pending switch when its time has come (at the first message at or after it): wait for its
+        re-timing when it is not ready (lockstep, or after its retries), or (real time) go on with the current
+        segment and schedule it again from a later state once the re-timing is done."""
+        req = self._pending
+        if req is None:
+            return
+        if req.missed:
+            if req.future.done():
+                req.compute = self._took[req.kind] = req.future.result()[2]
+                lead = self._lead(req.kind)
+                req.at, req.missed, req.attempts = _robot_time(self._now + lead), False, req.attempts + 1
+                log.warning("the %s's re-timing took %.0f ms, past its switch: scheduled again %.0f ms ahead",
+                            req.kind, 1e3 * req.compute, 1e3 * lead)
+                self._schedule(req)
+            return
+        if self._now < req.at:
+            return
+        if not req.future.done():
+            if self.realtime and req.attempts <= defaults.EGM_SWITCH_RETRIES:
+                req.missed = True
+                return
+            t0 = time.perf_counter()
+            req.future.result()
+            req.waited += time.perf_counter() - t0
+            (log.warning if self.realtime else log.debug)(
+                "waited %.1f ms for the %s's re-timing at its switch", 1e3 * req.waited, req.kind)
+        self._install(req)
+
+    def _install(self, req: Request) -> None:
+        table, exc, req.compute = req.future.result()
+        self._took[req.kind] = req.compute
+        self._pending = None
+        if exc is not None:
+            req.outcome = "kept"
+            state = self._segment.state(req.at - self._segment_start)
+            log.warning("cannot re-time (%s) at theta = %.6g: %s; the motion goes on as it was", req.kind, state[0],
+                        exc)
+            return
+        self._segment, self._segment_start = table, req.at
+        req.outcome = "switched"
+        if req.kind == "resume":
+            self.stop_reason = None
+            if self.supervision is not None:
+                self.supervision.rearm()
+
+    def close(self) -> None:
+        """End the re-timing worker (after the re-timing under way); a pending switch stays pending (its
+        re-timing's result is kept, a later request starts another worker)."""
+        if self._worker is not None:
+            self._worker.shutdown(wait=True)
+            self._worker = None
 
     def override(self, scale: float) -> None:
-        """Run the rest of the motion at ``scale`` in (0, 1] of the plan's limits."""
+        """Run the rest of the motion at ``scale`` in (0, 1] of the plan's limits (during a stop: the resume's;
+        a pending resume is scheduled again at it)."""
         if not np.isfinite(scale) or not 0.0 < scale <= 1.0:
             raise ExecutionError(f"override {scale!r}: give a speed fraction in (0, 1]")
         self.override_scale = float(scale)
-        if self.stop_reason is None:
-            self._switch("override", self.override_scale)
+        if self._pending is not None and self._pending.kind == "resume":
+            self._request("resume", self.override_scale)
+        elif self.stop_reason is None:
+            self._request("override", self.override_scale)
 
     def stop(self, reason: str) -> None:
-        """The shortest stop along the path (kept until :meth:`resume`)."""
+        """The shortest stop along the path (kept until :meth:`resume`); it replaces a pending override, cancels a
+        pending resume (the arm stays at rest), and a second stop leaves a pending or made one as it is."""
         if self.stop_reason is not None:
+            if self._pending is not None and self._pending.kind == "resume":
+                log.warning("stopping along the path: %s (the pending resume is cancelled)", reason)
+                self._cancel()
+                self.stop_reason = reason
             return
         log.warning("stopping along the path: %s", reason)
         self.stop_reason = reason
-        self._switch("stop", 1.0)
+        self._request("stop", 1.0)
 
     def resume(self) -> None:
-        """From a stop: the time-optimal rest of the motion (at the current override)."""
-        if self.stop_reason is None:
+        """From a stop at rest: the time-optimal rest of the motion (at the current override)."""
+        if self.stop_reason is None or (self._pending is not None and self._pending.kind == "resume"):
+            return
+        if self._pending is not None:
+            log.warning("resume ignored: the stop is not made yet (switch at %.3f s)", self._pending.at)
             return
         state = self._state()
         if state[1] > STANDSTILL:
             log.warning("resume ignored: the arm is still stopping (theta_dot = %.3g)", state[1])
             return
-        if self._switch("resume", self.override_scale):
-            self.stop_reason = None
-            if self.supervision is not None:
-                self.supervision.rearm()
+        self._request("resume", self.override_scale)
 
     def rehearse(self, cycles: int = REHEARSAL) -> None:
         """Answer ``cycles`` robot messages (an arm that follows the plan's references from the start, 4 ms apart)
@@ -188,28 +355,27 @@ class Streamer:
             watch.rearm()
         twin = replace(self, counts=Counts(), records=[], supervision=watch, loop=copy.copy(self.loop),
                        stop_reason=None, seqno_out=0, _last_seq=0, _tm0=0.0, _now=0.0, _segment_start=0.0,
-                       _last_reply=None)
+                       _last_reply=None, requests=[], _pending=None, _worker=None, _took={})
         q = self.table.q[0]
         twin._check_first(self._decode(encode_robot(0, 0, q, q)))
         for k in range(cycles):
             twin.handle(encode_robot(k + 1, 4 * k, q, q), 0.0, lambda: 0.0)
             q = twin.records[-1].sent
 
-    def _supervise(self, reported: np.ndarray, deflection: np.ndarray) -> bool:
-        """Supervise the reported joints; True when a stop began (the segment changed). A diverging orbital loop
+    def _supervise(self, reported: np.ndarray, deflection: np.ndarray) -> None:
+        """Supervise the reported joints; a trip requests a stop. A diverging orbital loop
         during the supervision's stop is switched off: the shaped stop alone is streamed."""
         s = self.supervision
         if s.check(reported, deflection, self._now):
             if self.stop_reason is None:
                 self.stop(s.reason(s.trip))
-                return True
+                return
             log.warning("during the stop: %s", s.reason(s.trip))
             self.stop_reason = s.reason(s.trip)
         elif self.loop is not None and not s.armed and self.stop_reason is not None and s.diverging():
             log.warning("the path deviation keeps growing during the stop (%.4g rad): the orbital correction is "
                         "switched off, the shaped stop alone is streamed", s.deviation)
             self.loop = None
-        return False
 
     def _check_first(self, msg) -> None:
         if msg.joints.size != self.n:
@@ -270,12 +436,17 @@ class Streamer:
         if self._tm0 is None:
             self._tm0 = float(msg.tm)
         self._now = max(self._now, ((msg.tm - self._tm0) % 2**32) / 1000.0)
+        if self._pending is not None:
+            self._due()
         n = self._n
+        segment = self._segment
         tau = self._now - self._segment_start
-        row = self._segment.row(tau)  # [q, qd, plan, deflection, theta]
-        if self.supervision is not None and self._supervise(msg.joints, row[3 * n:4 * n]):
-            tau = self._now - self._segment_start
-            row = self._segment.row(tau)
+        row = segment.row(tau)  # [q, qd, plan, deflection, theta]
+        if self.supervision is not None:
+            self._supervise(msg.joints, row[3 * n:4 * n])
+            if self._segment is not segment:  # a stop made on this cycle (lead 0)
+                tau = self._now - self._segment_start
+                row = self._segment.row(tau)
         wanted = row[:2 * n]  # q, qd
         if self.loop is not None:
             wanted = wanted.copy()

@@ -181,7 +181,7 @@ def row_bounds(ctx: CertifyContext, forms: dict) -> dict:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _row_kernel(ar, al, br, bl, cr, cl, use_a, use_b, use_c, h, u, x, smooth, knots, jumps, safety, out):
     """Row-form bound ``out`` (K - 1, m) of |a u + b x + c| on every interval (module docstring) from the
     coefficients' (right, left) values (K, m) at the grid points (``use_*`` False: that coefficient is 0
@@ -234,7 +234,7 @@ def _row_kernel(ar, al, br, bl, cr, cl, use_a, use_b, use_c, h, u, x, smooth, kn
             out[i, j] = _chord_bound(v0, v1, 0.5 * bend * h[i] * h[i])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _chord_bound(v0, v1, a):
     """max over t in [0, 1] of |v| for v with end values v0, v1 and |v''| <= 2 ``a`` (in t): each of v and
     -v lies below its chord plus a t (1 - t), whose maximum is the larger end where the chord's rise

@@ -103,7 +103,7 @@ def reduced_batch(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tupl
     return alpha, beta, gamma
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _joint_rotation(kind, axis, angle, rot0, out, b):
     """out[b] = rot0 @ R(axis, angle) for a revolute joint, rot0 for a prismatic one (3, 3)."""
     if kind != 0:
@@ -124,7 +124,7 @@ def _joint_rotation(kind, axis, angle, rot0, out, b):
         out[b, i, 2] = a0 * r02 + a1 * r12 + a2 * r22
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _transforms(kind, axis, rot, pos, q, R, P):
     """R (B, 3, 3), P (B, 3): each joint's rotation and translation in its parent's frame at q (B,)."""
     for b in range(len(kind)):
@@ -135,7 +135,7 @@ def _transforms(kind, axis, rot, pos, q, R, P):
                 P[b, k] += (axis[b, 0] * rot[b, k, 0] + axis[b, 1] * rot[b, k, 1] + axis[b, 2] * rot[b, k, 2]) * q[b]
 
 
-@njit(cache=True, inline="always")  # inlined: no call per body
+@njit(cache=True, nogil=True, inline="always")  # inlined: no call per body
 def _body_force(b, mass, com, inertia, M, F):
     """The spatial force F[b + 1] (force, moment about the body origin) body ``b`` needs for its motion M[b + 1]
     (velocity and acceleration, body frame): f = I a + v x* (I v)."""
@@ -165,7 +165,7 @@ def _body_force(b, mass, com, inertia, M, F):
     F[i, 5] = n2 + w0 * k1 - w1 * k0 + v0 * h1 - v1 * h0
 
 
-@njit(cache=True, inline="always")  # inlined: no call per body
+@njit(cache=True, nogil=True, inline="always")  # inlined: no call per body
 def _backward_pass(parent, kind, axis, armature, qdd, R, P, F, tau, n):
     """tau[n] (B,) from the bodies' forces F, tip to base: each joint takes its axis' component (plus the
     armature's torque), each parent the child's force carried to its frame."""
@@ -188,7 +188,7 @@ def _backward_pass(parent, kind, axis, armature, qdd, R, P, F, tau, n):
             F[lam, 5] += R[b, 2, 0] * F[i, 3] + R[b, 2, 1] * F[i, 4] + R[b, 2, 2] * F[i, 5] + p0 * t1 - p1 * t0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _body_pass(parent, kind, axis, mass, com, inertia, armature, qd, qdd, g0, g1, g2, R, P, M, F, tau, n):
     """One RNEA at one point: qd, qdd (B,) rows ``n`` of (N, B) arrays, base acceleration -g; R, P the joint
     transforms at q (precomputed); scratch M (B + 1, 12) (angular and linear velocity, angular and
@@ -238,7 +238,7 @@ def _body_pass(parent, kind, axis, mass, com, inertia, armature, qd, qdd, g0, g1
     _backward_pass(parent, kind, axis, armature, qdd, R, P, F, tau, n)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rnea_kernel(parent, kind, axis, rot, pos, mass, com, inertia, armature, gravity, q, qd, qdd, out):
     nb = len(parent)
     R, P, M, F = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb + 1, 12)), np.empty((nb + 1, 6))
@@ -248,7 +248,7 @@ def _rnea_kernel(parent, kind, axis, rot, pos, mass, com, inertia, armature, gra
                    R, P, M, F, out, n)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _reduced_kernel(parent, kind, axis, rot, pos, mass, com, inertia, armature, gravity, q, dq, ddq, alpha, beta, gamma):
     nb = len(parent)
     R, P, M, F = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb + 1, 12)), np.empty((nb + 1, 6))

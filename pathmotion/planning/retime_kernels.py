@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def step_up(P, Q, R, i, xi, hi):
     """The largest x_{i+1} <= ``hi`` that interval i's rows allow from x_i = ``xi``."""
     for k in range(P.shape[1]):
@@ -22,7 +22,7 @@ def step_up(P, Q, R, i, xi, hi):
     return hi
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def step_down(P, Q, R, i, xi):
     """(lowest, highest) x_{i+1} that interval i's rows allow from x_i = ``xi`` (lowest may be < 0: the
     rows would let x reach 0 inside the interval)."""
@@ -42,7 +42,7 @@ def step_down(P, Q, R, i, xi):
     return lo, hi
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def greedy_from(P, Q, R, klo, khi, j, xj, out):
     """Forward greedy pass (the time-optimal choice, Pham & Pham 2018) from x_j = ``xj`` through the
     controllable sets [klo, khi]: fills out[0] = xj, out[1..] = x_{j+1}..x_{K-1}."""
@@ -57,7 +57,7 @@ def greedy_from(P, Q, R, klo, khi, j, xj, out):
         out[i + 1 - j] = x
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def brake(P, Q, R, j, xj, target, x_max, out):
     """Lowest profile (maximum deceleration) from x_j = ``xj``: out[0] = xj, out[k - j] = x_k. Returns k > j,
     the first point where the lowest x is <= target[k] (out[k - j] = the largest x there <= target[k]), or
@@ -81,7 +81,7 @@ def brake(P, Q, R, j, xj, target, x_max, out):
     return -1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, nogil=True, inline="always")
 def _narrow(low, high, q, bot, top, offset):
     """[low, high] narrowed to the y = offset + v with bot <= q v <= top: (low, high, False when no v
     satisfies it, q = 0 with 0 outside [bot, top])."""
@@ -92,7 +92,7 @@ def _narrow(low, high, q, bot, top, offset):
     return low, high, not (top < 0.0 or bot > 0.0)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def least_u(a, b, c, lo, hi, x):
     """(least, largest) u with lo <= a u + b x + c <= hi on every row at one point, x given."""
     umin, umax = -np.inf, np.inf
@@ -103,7 +103,7 @@ def least_u(a, b, c, lo, hi, x):
     return umin, umax
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def stop_inside(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x0, width, iterations):
     """Shortest distance d in (0, width] over which x falls from ``x0`` to 0 at a constant u = -x0 / (2 d)
     allowed by the rows at the interval's start (x = x0) and at the stop point (x = 0; rows interpolated
@@ -123,7 +123,7 @@ def stop_inside(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x0, width, iteration
     return d
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def rows_at(g, a, b, c, lo, hi, xm, oa, ob, oc, olo, ohi, t, right, err, x, u):
     """Rows at ``t`` seen from the interval after it (``right``) or before it, linear inside each plan
     interval between the right-side rows (first index) and the left-side rows (second index) of its ends;
@@ -147,7 +147,7 @@ def rows_at(g, a, b, c, lo, hi, xm, oa, ob, oc, olo, ohi, t, right, err, x, u):
     return (1.0 - f) * xm[0, i] + f * xm[1, i + 1]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _next_x_range(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x, h):
     """Range of x_1 at the end of an interval of width h from x at its start, u = (x_1 - x) / (2 h)
     constant, the start rows (a0..hi0) at x and the end rows (a1..hi1) at x_1."""
@@ -165,7 +165,7 @@ def _next_x_range(a0, b0, c0, lo0, hi0, a1, b1, c1, lo1, hi1, x, h):
     return low, high
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fine_brake(g, a, b, c, lo, hi, xm, err, theta, x0, end, n, xs, iterations):
     """Maximum deceleration from (theta, x0) on n uniform points up to ``end``, the rows interpolated at each
     (rows_at, narrowed by the interpolation's error ``err`` at the previous step's |u|; the first step is

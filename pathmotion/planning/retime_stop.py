@@ -69,7 +69,7 @@ SLACK = 1e-9
 STATE_SHARE_MAX = defaults.RETIME_STATE_SHARE_MAX
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, nogil=True, inline="always")
 def _locate(s, grid):
     """(plan interval g, check segment q, weight w) of theta = s: between check points q and q + 1."""
     g = np.searchsorted(grid, s, side="right") - 1
@@ -80,12 +80,12 @@ def _locate(s, grid):
     return g, q, w
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, nogil=True, inline="always")
 def _at(arr, q, g, r, w):
     return (1.0 - w) * arr[q, g, r] + w * arr[q + 1, g, r]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _u_range(s, x, keep, grid, p2, px):
     """(least, largest) u the order-2 rows allow at (s, x) with ``keep`` of the limits; (inf, -inf) when x is
     above X_SHARE x_max."""
@@ -108,7 +108,7 @@ def _u_range(s, x, keep, grid, p2, px):
     return low, high
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def state_share(s, x, u, grid, p2):
     """The largest share of an order-2 limit the state (s, x, u) takes on the interpolated rows [-]."""
     g, q, w = _locate(s, grid)
@@ -124,7 +124,7 @@ def state_share(s, x, u, grid, p2):
     return share
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _j_range(s, x, u, keep, grid, p3):
     """(least, largest) path jerk the order-3 rows |a3 j + sqrt(x) (a u + b x + c)| <= keep lim allow at
     (s, x, u)."""
@@ -150,7 +150,7 @@ def _j_range(s, x, u, keep, grid, p3):
 TURN_U_SAFETY = 2.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def cannot_turn(s0, x0, u0, grid, p2, p3, px):
     """Whether no motion from the state (s0, x0 = theta_dot^2 > 0, u0 = theta_ddot < 0) within the interpolated
     rows (at any share of the limits up to STATE_SHARE_MAX) turns its deceleration to 0 before theta_dot runs out:
@@ -194,7 +194,7 @@ def cannot_turn(s0, x0, u0, grid, p2, p3, px):
     return u0 * u0 > 2.0 * jerk * v0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _close_ok_at(st, xt, at, jerk, keep, grid, p2, p3, px):
     """Whether the close's state (theta st, x xt, u at, constant path jerk) meets the order-2 and order-3 rows."""
     lo, hi = _u_range(st, xt, keep, grid, p2, px)
@@ -204,7 +204,7 @@ def _close_ok_at(st, xt, at, jerk, keep, grid, p2, p3, px):
     return jlo <= jerk <= jhi
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _close_time(s, v, a, jerk, period, target):
     """The time [s] at which the constant-jerk close from (s, v, a) reaches theta = target (bisection: theta(t)
     rises over the close)."""
@@ -218,7 +218,7 @@ def _close_time(s, v, a, jerk, period, target):
     return 0.5 * (lo_t + hi_t)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
     """Whether the constant-jerk close from (s, theta_dot v, u = a < 0) to rest ends before s_end and meets every
     row at TAIL_POINTS points equal in time, at points CHECK_SPACING of each plan interval it spans apart, and on
@@ -262,14 +262,14 @@ def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _advance(s, v, a, jerk, dt):
     """(s, v, a) after dt at constant jerk."""
     return (s + v * dt + 0.5 * a * dt * dt + jerk * dt**3 / 6.0, v + a * dt + 0.5 * jerk * dt * dt,
             a + jerk * dt)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px):
     """The jerk of a step of length dt from (s, v, a), moved (END_PASSES times) into what the order-3 rows allow at
     both of its ends (jlo, jhi at its start), as the smooth profile realizes it: its u is linear along the
@@ -293,7 +293,7 @@ def _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px):
     return s1, v1, a1, False
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _step(s, v, a, keep, depth, dt, grid, p2, p3, px):
     """One braking step of length dt: the jerk that brings u towards ``depth`` times the least u the rows allow
     at the step's end, within the order-3 rows (_fit); (s, v, a) after it, and whether it meets the rows."""
@@ -311,7 +311,7 @@ def _step(s, v, a, keep, depth, dt, grid, p2, p3, px):
     return _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _up_step(s, v, a, keep, dt, grid, p2, p3, px):
     """One step of length dt at the largest jerk the order-3 rows allow (_fit); (s, v, a) after it and whether it
     meets the rows."""
@@ -321,7 +321,7 @@ def _up_step(s, v, a, keep, dt, grid, p2, p3, px):
     return _fit(s, v, a, jhi, dt, jlo, jhi, keep, grid, p2, p3, px)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, nogil=True, inline="always")
 def _keep(k, share):
     """The share of the limits kept at braking step k: ``share`` (the state's own, at least 1 - MARGIN), fading to
     1 - MARGIN over FADE_STEPS steps."""
@@ -329,14 +329,14 @@ def _keep(k, share):
     return max(share, 1.0 - MARGIN) * (1.0 - fade) + (1.0 - MARGIN) * fade
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, nogil=True, inline="always")
 def _dt(k, dt):
     """The length of step k [s]: dt, FADE_DT dt while the margin fades in (a step's profile realizes its jerk
     within about its share of the distance to the stop, which the margin covers only once it is in full)."""
     return dt * FADE_DT if k < FADE_STEPS else dt
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _brake(s0, x0, u0, share, depth, recover, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
     """The braking steps from the state (aimed at ``depth`` times the least u the rows allow) until a step
     breaks a row or reaches s_end (a tail from there would end after it): their points (the state first) into
@@ -362,7 +362,7 @@ def _brake(s0, x0, u0, share, depth, recover, s_end, dt, grid, p2, p3, px, out_s
     return min(out_s.shape[0], MAX_STEPS + 1)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _tail(k, steps, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, write):
     """The tails from braking point k: m = 0.. steps at the largest jerk (_up_step), then the constant-jerk close
     to rest (_tail_ok). Returns (m, stop point) of the one that stops first and before ``best``, (-1, best) when
@@ -394,7 +394,7 @@ def _tail(k, steps, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_
     return best_m, best
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
     """(k, m, stop point) of the braking point k < n and tail (_tail) that stop first: braking points at a stride
     of n / COARSE, then halving strides around the best; k = -1 when none stops before ``best``."""
@@ -415,7 +415,7 @@ def _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_
     return bk, bm, best
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def shortest(s0, x0, u0, share, s_end, grid, p2, p3, px, out_s, out_x, out_u):
     """The stop of the least distance: for the braking depths of DEPTHS (until DEPTH_MISSES in a row stop no
     sooner) the braking (_brake) and its best switch to a tail (_best_switch). Fills out_s, out_x, out_u with
@@ -442,7 +442,7 @@ def shortest(s0, x0, u0, share, s_end, grid, p2, p3, px, out_s, out_x, out_u):
     return n, stop
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
     """:func:`shortest` with the time step dt [s]: the braking at the full depth without and with its recovery
     (_brake), then at the other depths of DEPTHS."""
@@ -464,7 +464,7 @@ def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
     return bk + bm + 1, stop
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _x_to_rest(g, un, x0):
     """x (K,) of the smooth profile at rest at g[-1] only, u = un (K,) linear in xi = (g[-1] - theta)^(1/3) per
     interval, from x0: x_{k+1} = x_k + 2 (w0_k u_k + w1_k u_{k+1}) with the weights of planning/smooth.py (every
@@ -521,7 +521,7 @@ CLOSE_SHARE = 0.01
 JOIN_POINTS = 40
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, nogil=True, inline="always")
 def _narrow(low, high, q, bot, top):
     """[low, high] narrowed to the y with bot <= q y <= top (empty: low > high)."""
     if q > 0.0:
@@ -533,7 +533,7 @@ def _narrow(low, high, q, bot, top):
     return low, high
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _u_before(sp, xp, kp, u, ke, s, x, keep, grid, p2, p3, px):
     """(least, largest) u at the start (sp, xp) of a step that ends at (s, x, u): the order-2 rows at its start,
     and the order-3 rows at both ends with the step's jerk as the smooth profile realizes it there, (u - u_start)
@@ -555,7 +555,7 @@ def _u_before(sp, xp, kp, u, ke, s, x, keep, grid, p2, p3, px):
     return low, high
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _back_step(s, v, u, keep, dt, grid, p2, p3, px):
     """The start (s, v, u) of the step of length dt that ends at (s, v, u) with the least u there the rows allow
     (the hardest braking: the backward pass's greedy choice); ok False when the rows allow none."""
@@ -586,7 +586,7 @@ def _back_step(s, v, u, keep, dt, grid, p2, p3, px):
     return sp, vp, up, vp > v
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _backward(s_end, v_top, s_low, keep, dt, grid, p2, p3, px, bs, bv, bu):
     """The backward pass from rest at s_end: the constant-jerk close (the largest jerk the order-3 rows allow at
     rest) over the first step, then _back_step, until its speed passes v_top, it passes s_low or the rows allow
@@ -607,7 +607,7 @@ def _backward(s_end, v_top, s_low, keep, dt, grid, p2, p3, px, bs, bv, bu):
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _contact(n, fs, fx, fu, nb, bs, bv, bu):
     """(gap, k, b): the least gap s_B(v) - s_F over the braking points k < n (fs, fx = v^2, fu) that brake (u < 0)
     at a speed the backward pass (bs, bv, bu; nb points, speed rising) reaches, s_B at the speed of F's point
@@ -627,7 +627,7 @@ def _contact(n, fs, fx, fu, nb, bs, bv, bu):
     return best, bk, bb
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _b_u(s, nb, bs, bu):
     """u of the backward pass (nb points, s falling with the index) at s, linear between its points; its first
     point's u below them, its last's above."""
@@ -646,7 +646,7 @@ def _b_u(s, nb, bs, bu):
     return (1.0 - w) * bu[lo] + w * bu[hi]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _join_ok(s0, x0, u0, s1, v1, u1, keep, grid, p3):
     """Whether the step from (s0, x0, u0) to (s1, v1, u1) (u linear in theta) meets the order-3 rows at both ends."""
     v0 = np.sqrt(x0)
@@ -660,7 +660,7 @@ def _join_ok(s0, x0, u0, s1, v1, u1, keep, grid, p3):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _meet(n, s_end_max, keep, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
     """The stop from the braking points 0..n-1 in out_s, out_x, out_u: the stop point s_end whose backward pass
     (_backward) touches them (moved by the gap, MEET_ITERATIONS times at most, from where the braking comes to
@@ -728,7 +728,7 @@ def _meet(n, s_end_max, keep, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv,
     return m, s_end
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def profile_ok(g, xs, un, keep, start_keep, grid, p2, p3, px):
     """Whether the smooth stop profile (g, xs, un) (K,), u linear in xi = (g[-1] - theta)^(1/3) per interval,
     meets the order-2 rows at its points and the order-3 rows at both ends of every interval but the last, with
@@ -755,7 +755,7 @@ def profile_ok(g, xs, un, keep, start_keep, grid, p2, p3, px):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def shortest_met(s0, x0, u0, share, s_end, first, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
     """The stop where the braking from the state meets the backward pass from rest: for the braking depths of
     DEPTHS from index ``first`` on, the first that meets (_meet). Returns (the number of points in out_s, out_x,
@@ -780,7 +780,7 @@ def shortest_met(s0, x0, u0, share, s_end, first, grid, p2, p3, px, out_s, out_x
     return m, stop, d
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _met_search(s0, x0, u0, share, s_end, first, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
     """:func:`shortest_met` with the time step dt [s]: (points, stop point, the steps of the braking to the
     contact and of the backward pass beyond it, the depth's index) of the first depth from ``first`` on that
