@@ -70,10 +70,10 @@ def test_an_unknown_payload_trips_the_supervision_and_the_arm_stops_on_the_path(
     theta = np.array([r.theta for r in st.records])
     assert np.all(np.diff(theta) >= -1e-12) and theta[-1] < path.domain[1] - 0.1 * (path.domain[1] - path.domain[0])
     ended_at = _end_distance(robot, path, run.q[-1])
-    assert ended_at < 2.5e-3, ended_at  # the stop switches defaults.EGM_SWITCH_LEAD after the trip
+    assert ended_at < 1e-3, ended_at  # the trip stops on its own cycle
     # the peer: the same run without the supervision leaves the arm far from the path
     _, free = _run(corner, "orbital", rigid=True, payload=PAYLOAD, path_tolerance=None)
-    assert _end_distance(robot, path, free.q[-1]) > 50 * max(ended_at, 1e-3)
+    assert _end_distance(robot, path, free.q[-1]) > 100 * max(ended_at, 1e-3)
     # the tripping deviation against a dense search of the path near it (rigid gears: the reported joints are
     # the link's, the planned deflection 0); the TCP figure bounds the distance to the planned TCP path
     e = sv.tripped

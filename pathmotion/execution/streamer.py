@@ -221,7 +221,7 @@ class Streamer:
             req.outcome, self._pending = "at rest", None
             return
         args = (req.kind, state, req.override, self._segment, offset)
-        if self.lead <= 0.0:
+        if req.at <= self._now:
             req.future = Future()
             req.future.set_result(self._retimed(*args))
             return
@@ -230,11 +230,11 @@ class Streamer:
                                               initializer=_lower_priority)
         req.future = self._worker.submit(self._retimed, *args)
 
-    def _request(self, kind: str, override: float) -> None:
-        """A switch of ``kind`` at robot time now + lead, replacing a pending one (its re-timing is dropped); a
-        stop with nothing to stop at that time is none."""
+    def _request(self, kind: str, override: float, immediate: bool = False) -> None:
+        """A switch of ``kind`` at robot time now + lead (``immediate``: now, re-timed on this cycle), replacing a
+        pending one (its re-timing is dropped); a stop with nothing to stop at that time is none."""
         self._cancel()
-        req = Request(kind, self._now, _robot_time(self._now + self._lead(kind)), override)
+        req = Request(kind, self._now, self._now if immediate else _robot_time(self._now + self._lead(kind)), override)
         self.requests.append(req)
         self._pending = req
         self._schedule(req)
@@ -317,9 +317,10 @@ class Streamer:
         elif self.stop_reason is None:
             self._request("override", self.override_scale)
 
-    def stop(self, reason: str) -> None:
-        """The shortest stop along the path (kept until :meth:`resume`); it replaces a pending override, cancels a
-        pending resume (the arm stays at rest), and a second stop leaves a pending or made one as it is."""
+    def stop(self, reason: str, immediate: bool = False) -> None:
+        """The shortest stop along the path (kept until :meth:`resume`), switched a lead later (``immediate``: on
+        this cycle, whose answer waits for its re-timing); it replaces a pending override, cancels a pending resume
+        (the arm stays at rest), and a second stop leaves a pending or made one as it is."""
         if self.stop_reason is not None:
             if self._pending is not None and self._pending.kind == "resume":
                 log.warning("stopping along the path: %s (the pending resume is cancelled)", reason)
@@ -328,7 +329,7 @@ class Streamer:
             return
         log.warning("stopping along the path: %s", reason)
         self.stop_reason = reason
-        self._request("stop", 1.0)
+        self._request("stop", 1.0, immediate)
 
     def resume(self) -> None:
         """From a stop at rest: the time-optimal rest of the motion (at the current override)."""
@@ -363,12 +364,13 @@ class Streamer:
             q = twin.records[-1].sent
 
     def _supervise(self, reported: np.ndarray, deflection: np.ndarray) -> None:
-        """Supervise the reported joints; a trip requests a stop. A diverging orbital loop
+        """Supervise the reported joints; a trip stops at once (the arm is leaving the path: every cycle of a lead
+        would take it farther, so this cycle's answer waits for the stop's re-timing). A diverging orbital loop
         during the supervision's stop is switched off: the shaped stop alone is streamed."""
         s = self.supervision
         if s.check(reported, deflection, self._now):
             if self.stop_reason is None:
-                self.stop(s.reason(s.trip))
+                self.stop(s.reason(s.trip), immediate=True)
                 return
             log.warning("during the stop: %s", s.reason(s.trip))
             self.stop_reason = s.reason(s.trip)
