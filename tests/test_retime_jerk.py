@@ -508,3 +508,26 @@ def test_stops_from_plan_states_around_a_blend_with_short_grid_intervals(corner_
     assert got.smooth and got.grid[0] == theta and got.x[-1] == 0.0
     assert np.isclose(np.sqrt(got.x[0]), v, rtol=1e-9) and np.isclose(got.u_nodes[0], a, rtol=1e-9)
     assert rt.dense_ratios(got, DT).max_ratio <= 1.0 + 2 * TOL
+
+
+def test_the_first_stretch_kernels_agree_with_the_smooth_form(torque_jerk):
+    # the query's first-stretch coefficients and the ceiling's x, u at its points are compiled point by point:
+    # against planning/smooth.py's vectorized formulas (point_coefficients, state) on stretches graded towards
+    # states across the path
+    from pathmotion.planning import retime_jerk as rj, smooth
+    jp = torque_jerk[2]._jerk
+    for k in (5, 30, 60, 100):
+        lo, hi = jp.grid[k], jp.grid[k + 1]
+        pts = lo + (hi - lo) * np.array([0.3, 0.31, 0.33, 0.4, 0.6, 1.0])
+        pts[-1] = hi
+        n = len(pts) - 1
+        ref = rj.point_coefficients(pts, np.repeat(jp.origin[k], n), np.repeat(jp.sign[k], n))
+        got = rj._first_coefficients(pts, float(jp.origin[k]), int(jp.sign[k]), np.array(rj.CHECK_POINTS))
+        # the lengths cxu, cxv: x_k + 2 u_k cxu + 2 (u_{k+1} - u_k) cxv differs at the cancellation of both forms
+        # next to the path's start (cxv ~ h^2 / (6 d^(2/3)) from terms ~ d^(4/3), d the distance to the rest point)
+        assert np.allclose(got[:2], ref[:2], rtol=0.0, atol=1e-4 * (hi - lo))
+        assert np.allclose(got[2:], ref[2:], rtol=1e-6, atol=0.0)
+        index = np.full(n, k)
+        x, u, _ = smooth.state(jp.grid, jp.cx, jp.cu, jp.origin, jp.sign, index, pts[:-1])
+        gx, gu = rj._state_xu(jp.grid, jp.cx, jp.cu, jp.origin, jp.sign.astype(np.int64), index, pts[:-1])
+        assert np.allclose(gx, x, rtol=1e-9, atol=0.0) and np.allclose(gu, u, rtol=1e-9, atol=1e-12)

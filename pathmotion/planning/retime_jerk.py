@@ -89,6 +89,7 @@ class JerkPass:
         self._buffers = (np.empty(len(grid) + 1), np.empty(len(grid) + 1))  # the pass's work arrays
         self.tc = np.ascontiguousarray(np.concatenate([np.cumsum(ceiling.intervals[::-1])[::-1], [0.0]]))
         self.origin, self.sign = smooth.coordinates(grid, self.rest)
+        self._sign_i = np.ascontiguousarray(self.sign, np.int64)
         self.pc = point_coefficients(grid, self.origin, self.sign)
         self.path, self.robot, self.limits = path, robot, limits
         self._inner_scale = inner_scale = {n: np.minimum(v[:-1], v[1:]) for n, v in scale.items()}
@@ -116,7 +117,7 @@ class JerkPass:
         limits scaled as on the grid interval each lies in."""
         g = self.grid
         nf = len(pts_s) - 1
-        pc = point_coefficients(pts_s, np.repeat(self.origin[j - 1], nf), np.repeat(self.sign[j - 1], nf))
+        pc = _first_coefficients(pts_s, float(self.origin[j - 1]), int(self.sign[j - 1]), np.array(CHECK_POINTS))
         nq = len(CHECK_POINTS)
         at = (pts_s[:-1, None] + np.array(CHECK_POINTS[:-1])[None, :] * np.diff(pts_s)[:, None]).T  # (Q-1, F)
         pts = _sample_points(self.path, self.robot, at.ravel())
@@ -218,7 +219,7 @@ class JerkPass:
         """(3, F): C's x, u and time [s] to the plan's end at the first output points pts[:-1] (pts (F + 1,), its
         last grid point j), the time over the stretch to grid point j by chords (x linear per output interval)."""
         idx = np.clip(np.searchsorted(self.grid, pts[:-1], side="right") - 1, 0, j - 1)
-        x, u, _ = smooth.state(self.grid, self.cx, self.cu, self.origin, self.sign, idx, pts[:-1])
+        x, u = _state_xu(self.grid, self.cx, self.cu, self.origin, self._sign_i, idx, pts[:-1])
         xs = np.append(np.maximum(x, 0.0), self.cx[j])
         chords = 2.0 * np.diff(pts) / np.maximum(np.sqrt(xs[:-1]) + np.sqrt(xs[1:]), 1e-300)
         time = self.tc[j] + np.cumsum(chords[::-1])[::-1]
@@ -235,7 +236,7 @@ def split(grid, x, u, upto: int, parts: int = OUTPUT_SPLIT):
     frac = np.arange(1, parts) / parts
     index = np.repeat(np.arange(upto), parts - 1)
     at = grid[index] + np.tile(frac, upto) * (grid[index + 1] - grid[index])
-    xi, ui, _ = smooth.state(grid, x, u, origin, sign, index, at)
+    xi, ui = _state_xu(grid, x, u, origin.astype(float), sign.astype(np.int64), index, at)
     cut = np.repeat(np.arange(1, upto + 1), parts - 1)  # each new point goes before the end of its interval
     return np.insert(grid, cut, at), np.insert(x, cut, xi), np.insert(u, cut, ui)
 
@@ -262,6 +263,66 @@ def point_coefficients(grid, origin, sign) -> np.ndarray:
             out[2, q] = (xi - xi_lo) / span
             out[3, q] = 1.0 / (smooth.dtheta_dxi(sign, xi) * span)
     return np.ascontiguousarray(out)
+
+
+@njit(cache=True, inline="always")
+def _xi(origin, sign, theta):
+    """smooth.xi_of at one point."""
+    if sign > 0:
+        return np.cbrt(max(theta - origin, 0.0))
+    if sign < 0:
+        return np.cbrt(max(origin - theta, 0.0))
+    return theta
+
+
+@njit(cache=True, inline="always")
+def _xi_integral(origin, sign, theta0, theta):
+    """smooth.xi_integral at one point."""
+    if sign == 0:
+        return 0.5 * (theta - theta0) ** 2
+    d0, d1 = abs(theta0 - origin), abs(theta - origin)
+    cube = 0.75 * (d1 ** (4 / 3) - d0 ** (4 / 3)) if sign > 0 else 0.75 * (d0 ** (4 / 3) - d1 ** (4 / 3))
+    return cube - _xi(origin, sign, theta0) * (theta - theta0)
+
+
+@njit(cache=True, error_model="numpy")
+def _first_coefficients(pts, origin, sign, at):
+    """point_coefficients of the intervals of ``pts`` in one coordinate (origin, sign), ``at`` the check points:
+    smooth.weights' and smooth.xi_integral's formulas point by point (the query's first stretch)."""
+    n = pts.shape[0] - 1
+    out = np.zeros((4, at.shape[0], n))
+    for k in range(n):
+        lo, hi = pts[k], pts[k + 1]
+        xi_lo, xi_hi = _xi(origin, sign, lo), _xi(origin, sign, hi)
+        span = xi_hi - xi_lo
+        for q in range(at.shape[0]):
+            a = at[q]
+            th = hi if a == 1.0 else (1.0 - a) * lo + a * hi
+            xi = xi_hi if a == 1.0 else (xi_lo if a == 0.0 else _xi(origin, sign, th))
+            out[0, q, k] = th - lo
+            out[1, q, k] = _xi_integral(origin, sign, lo, th) / span
+            out[2, q, k] = (xi - xi_lo) / span
+            out[3, q, k] = 1.0 / ((1.0 if sign == 0 else 3.0 * sign * xi * xi) * span)
+    return out
+
+
+@njit(cache=True)
+def _state_xu(grid, x, u, origin, sign, index, theta):
+    """smooth.state's (x, u) at the points theta (interval ``index`` each), point by point."""
+    n = theta.shape[0]
+    xs, us = np.empty(n), np.empty(n)
+    for p in range(n):
+        i, th = index[p], theta[p]
+        o, sg = origin[i], sign[i]
+        xi_lo, xi_hi = _xi(o, sg, grid[i]), _xi(o, sg, grid[i + 1])
+        g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
+        us[p] = u[i] + g * (_xi(o, sg, th) - xi_lo)
+        if x[i + 1] <= 0.0:
+            xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral(o, sg, grid[i + 1], th))
+        else:
+            xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral(o, sg, grid[i], th))
+        xs[p] = max(xx, 0.0)
+    return xs, us
 
 
 # ----------------------------------------------------------------------------------------------- kernels
