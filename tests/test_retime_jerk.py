@@ -70,6 +70,7 @@ def _answer(rt, theta, v, a, **kw):
 @given(where=st.floats(0.01, 0.9), speed=st.floats(0.05, 1.3), acc=st.floats(-3.0, 3.0))
 @example(where=0.6953125, speed=0.375, acc=0.0)  # the best merge lies more than a few points down the walk
 @example(where=0.697265625, speed=0.375, acc=0.0)  # the rows stop the walk below C where it rides x_max
+@example(where=0.5, speed=0.25, acc=-1.0)  # braking to a speed dip: faster than the LP, certified
 def test_compiled_pass_against_the_sequential_lp_from_random_states(torque_jerk, where, speed, acc):
     # moving states (the pass answers those), theta_dot above and below the plan's own speed there, theta_ddot not
     # the plan's
@@ -83,8 +84,13 @@ def test_compiled_pass_against_the_sequential_lp_from_random_states(torque_jerk,
     assert fast.smooth and fast.grid[0] == theta and fast.grid[-1] == path.domain[1] and fast.x[-1] == 0.0
     assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and np.isclose(fast.u_nodes[0], a, rtol=1e-12)  # no jump
     assert rt.dense_ratios(fast, DT).max_ratio <= max(1.0, _state_share(path, theta, v, a)) + 2 * TOL
-    if lp is not None:  # never faster than the LP's optimum (to its tolerance); slower: median ~0.35 %, up to ~14 %
-        assert 1.0 - 2e-3 <= fast.duration / lp.duration <= 1.25
+    if lp is not None:  # slower than the LP: median ~0.35 %, up to ~14 %
+        assert fast.duration / lp.duration <= 1.25
+    if lp is not None and fast.duration < (1.0 - 2e-3) * lp.duration:
+        # faster than the LP's optimum on its grid: a slow braking state whose speed dips past it, which the pass's
+        # stretch there resolves finer than the LP's grid (3 % at theta 0.5, theta_dot a quarter of the plan's,
+        # theta_ddot -1): certified within the limits, so a motion the LP's grid misses
+        assert rt.certify(fast).max_ratio <= max(1.0, _state_share(path, theta, v, a)) + TOL
 
 
 def test_a_plan_state_of_circle_smooth_near_the_start_has_a_jerk_limited_stop(circle_smooth):
