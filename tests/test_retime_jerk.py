@@ -537,3 +537,18 @@ def test_the_first_stretch_kernels_agree_with_the_smooth_form(torque_jerk):
         x, u, _ = smooth.state(jp.grid, jp.cx, jp.cu, jp.origin, jp.sign, index, pts[:-1])
         gx, gu = rj._state_xu(jp.grid, jp.cx, jp.cu, jp.origin, jp.sign.astype(np.int64), index, pts[:-1])
         assert np.allclose(gx, x, rtol=1e-9, atol=0.0) and np.allclose(gu, u, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("theta, v, a", [
+    (0.4838273491423397, 0.05900915881907442, -0.636655121815015),
+    (0.22902778002132854, 0.07039557917401798, -0.34804172231513675)])
+def test_a_nearly_resting_state_whose_stretch_passes_a_spline_knot(torque_jerk, theta, v, a):
+    # the first stretch of a nearly resting braking state runs over grid points up to a spline knot (0.25, 0.5): an
+    # interval ending at the knot is checked on the rows left of it (the path's third derivative jumps there), not
+    # on the next interval's start; checked on the right-hand rows the jerk of joint 2 took 1.064 to 1.074 of its
+    # limit just before the knot
+    path, res, rt = torque_jerk
+    fast = rt.compiled_remaining(theta, v, a)
+    assert fast is not None and np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
+    certified = rt.certify(fast).max_ratio
+    assert certified <= 1.0 + TOL and rt.dense_ratios(fast, DT).max_ratio <= certified + 1e-6

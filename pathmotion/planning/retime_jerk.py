@@ -129,17 +129,25 @@ class JerkPass:
         rows2 = limit_rows(pts, self.limits, scale, defaults.PLANNER_X_CAP)
         rows3 = [lim.rows3(pts, scale[lim.name]) for lim in self.limits if lim.order == 3]
 
-        def stacked(sampled, end):
-            """(Q, F, ...) from the samples ((Q-1) F, ...) at the check points before the ends and grid point j's
-            ``end``: an interval's end is the next one's start."""
-            sampled = np.asarray(sampled).reshape((nq - 1, nf) + np.shape(sampled)[1:])
-            last = np.concatenate([sampled[0, 1:], np.asarray(end)[None]])[None]
-            return np.ascontiguousarray(np.concatenate([sampled, last]))
+        # the output intervals that end at a grid point m (j among them): their end's rows are the plan interval
+        # m - 1's end rows (left of m: a spline knot's third derivative jumps there), the others' their next start's
+        inner = np.searchsorted(g, pts_s[1:], side="left")
+        at_grid = np.nonzero((inner < len(g)) & (g[np.minimum(inner, len(g) - 1)] == pts_s[1:]))[0]
+        at_grid = at_grid[at_grid < nf - 1]
 
-        p2 = tuple(stacked(getattr(rows2, n), r[-1, j - 1]) for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
-        p3 = tuple(stacked(np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1), r[-1, j - 1])
+        def stacked(sampled, plan):
+            """(Q, F, ...) from the samples ((Q-1) F, ...) at the check points before the ends and the plan's rows
+            (Q, K-1, ...) for the ends at grid points: an interval's end is else the next one's start."""
+            sampled = np.asarray(sampled).reshape((nq - 1, nf) + np.shape(sampled)[1:])
+            last = np.concatenate([sampled[0, 1:], plan[-1, j - 1][None]])
+            if at_grid.size:
+                last[at_grid] = plan[-1, inner[at_grid] - 1]
+            return np.ascontiguousarray(np.concatenate([sampled, last[None]]))
+
+        p2 = tuple(stacked(getattr(rows2, n), r) for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
+        p3 = tuple(stacked(np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1), r)
                    for k, r in enumerate(self.p3))
-        px = stacked(rows2.x_max, self.px[-1, j - 1])
+        px = stacked(rows2.x_max, self.px)
         return p2, p3, px, pc
 
     def first_points(self, theta: float, i: int, j: int, nxt: int, x0: float, u0: float) -> tuple[int, np.ndarray, int]:
