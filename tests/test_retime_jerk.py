@@ -552,3 +552,15 @@ def test_a_nearly_resting_state_whose_stretch_passes_a_spline_knot(torque_jerk, 
     assert fast is not None and np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
     certified = rt.certify(fast).max_ratio
     assert certified <= 1.0 + TOL and rt.dense_ratios(fast, DT).max_ratio <= certified + 1e-6
+
+
+@pytest.mark.parametrize("theta, v, a", [
+    (0.005067601958848721, 0.03520068388398293, -2.9197307401397268),
+    (0.26265696377187214, 0.04380438800651926, -1.6415066124123623)])
+def test_a_nearly_resting_state_whose_pass_breaks_a_limit_between_its_check_points(torque_jerk, theta, v, a):
+    # the pass's own part from a nearly resting state is certified before it is taken: from these states its walk
+    # broke the jerk of joint 2 between its check points (certified 1.039 and 1.008; next to the clamped spline's
+    # start and past the knot at 0.25), so the pass gives none (remaining solves the LP) or a certified answer
+    path, res, rt = torque_jerk
+    fast = rt.compiled_remaining(theta, v, a)
+    assert fast is None or rt.certify(fast).max_ratio <= 1.0 + TOL

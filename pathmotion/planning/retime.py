@@ -468,7 +468,12 @@ class Retimer:
         got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
         if got is None:
             return None
-        return Profile(got[0], got[1] * s2, got[2] * s2)
+        grid, x, u, own = got
+        if own:  # a nearly resting state's stretch past its speed dip: its own part certified before it is taken
+            share = max(retime_stop.state_share(theta, x0 / s2, u0 / s2, self.grid, self._jerk.p2), 1.0)
+            if self.certify(Profile(grid[:own], x[:own], u[:own])).max_ratio > share + self.settings.limit_tolerance:
+                return None
+        return Profile(grid, x * s2, u * s2)
 
     def resume(self, theta: float) -> Profile:
         """The time-optimal profile from rest at ``theta`` to the plan's end."""

@@ -202,8 +202,11 @@ class JerkPass:
         return x0 > 0.0 and not np.any(self.sign[i:nxt] > 0)
 
     def remaining(self, theta: float, i: int, f: float, j: int, x0: float, u0: float):
-        """(x, u) on [theta, grid[j:]] from the state (x0 > 0, u0) at theta (grid interval i at the fraction f;
-        j the first grid point after it; the pass must apply there), or None when the pass finds no merge."""
+        """(grid, x, u, own) on [theta, grid[j:]] from the state (x0 > 0, u0) at theta (grid interval i at the fraction
+        f; j the first grid point after it; the pass must apply there), or None when the pass finds no merge. ``own``:
+        for a nearly resting state (its stretch past the speed dip, JerkPass.first_points) the number of leading
+        points that are the pass's own (from there on the profile is C's), which the caller certifies (the pass's
+        check points and margin are no certificate, and these states' steep jerk finds their gaps); else 0."""
         nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
         j, pts, merge_from = self.first_points(theta, i, j, nxt, x0, u0)
         first = self._first(theta, i, j, pts)
@@ -221,7 +224,8 @@ class JerkPass:
             return None
         grid = np.concatenate([pts, self.grid[j + 1:]])
         cx, cu = np.concatenate([c0[0], self.cx[j:]]), np.concatenate([c0[1], self.cu[j:]])
-        return split(grid, np.concatenate([xs[:end], cx[end:]]), np.concatenate([us[:end], cu[end:]]), end)
+        out = split(grid, np.concatenate([xs[:end], cx[end:]]), np.concatenate([us[:end], cu[end:]]), end)
+        return (*out, (OUTPUT_SPLIT * end + 1) if merge_from else 0)
 
     def _ceiling_first(self, j: int, pts: np.ndarray) -> np.ndarray:
         """(3, F): C's x, u and time [s] to the plan's end at the first output points pts[:-1] (pts (F + 1,), its
