@@ -268,11 +268,15 @@ class Retimer:
             if fast is not None:
                 return fast
             turns = not self._cannot_turn(theta, x0, u0)
-            rest = self._to_next_rest(theta, x0, u0) if turns else None
+            # the state's share of its order-2 limits, once: above the pass's largest (its own share is at least
+            # this one) neither the pass nor the LP answers
+            share = self._start_share(theta, x0, u0) if turns else np.inf
+            passes = share <= defaults.RETIME_STATE_SHARE_MAX * (1.0 + SHARE_SLACK)
+            rest = self._to_next_rest(theta, x0, u0) if passes else None
             if rest is None:
                 rest = self._plan_tail(theta, x0, u0, to_rest=True)
             if rest is None and turns:
-                rest = self._lp_to_next_rest(theta, x0, u0)
+                rest = self._lp_to_next_rest(theta, x0, u0, share)
             if rest is not None:
                 log.info("retimer: no jerk-limited stop from theta = %.6g before the next rest point; the motion to "
                          "it (%.6g)", theta, rest.grid[-1])
@@ -308,11 +312,11 @@ class Retimer:
         where the pass gives none."""
         return _to_rest(self._compiled(theta, x0, u0, 1.0))
 
-    def _lp_to_next_rest(self, theta: float, x0: float, u0: float) -> Profile | None:
+    def _lp_to_next_rest(self, theta: float, x0: float, u0: float, share: float) -> Profile | None:
         """Jerk limits: the sequential LP's remaining profile from the state up to its first rest point after it,
         certified as every LP answer (tens to hundreds of milliseconds); None where the state's share of its
-        order-2 limits already refuses it or the LP finds none."""
-        if self._start_share(theta, x0, u0) > (1.0 + self.settings.limit_tolerance) * (1.0 + SHARE_SLACK):
+        order-2 limits (``share``: :meth:`_start_share`) already refuses it or the LP finds none."""
+        if share > (1.0 + self.settings.limit_tolerance) * (1.0 + SHARE_SLACK):
             return None
         try:
             return _to_rest(self._smooth_remaining(theta, x0, u0, 1.0, reference=True))
@@ -464,7 +468,12 @@ class Retimer:
         got = self._jerk.remaining(theta, i, f, j, x0 / s2, u0 / s2)
         if got is None:
             return None
-        return Profile(got[0], got[1] * s2, got[2] * s2)
+        grid, x, u, own = got
+        if own:  # a nearly resting state's stretch past its speed dip: its own part certified before it is taken
+            share = max(retime_stop.state_share(theta, x0 / s2, u0 / s2, self.grid, self._jerk.p2), 1.0)
+            if self.certify(Profile(grid[:own], x[:own], u[:own])).max_ratio > share + self.settings.limit_tolerance:
+                return None
+        return Profile(grid, x * s2, u * s2)
 
     def resume(self, theta: float) -> Profile:
         """The time-optimal profile from rest at ``theta`` to the plan's end."""

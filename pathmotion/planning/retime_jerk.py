@@ -19,8 +19,9 @@ from u_C, alpha the value that ends the merge on C's x. Of those whose rows hold
 total time (walk, descent, merge, C's rest) is the answer, C from its end on (none where the rows stop the
 walk while a merge further on might still gain WALK_GAIN). Every step and merge meets
 every row at CHECK_POINTS of each interval (the inner points' path data sampled at construction; the stretch
-from the state to the next grid point is cut into intervals graded towards the state, FIRST_CUTS, whose path
-data is sampled at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
+from the state to the next grid point is cut into intervals graded towards the state, FIRST_CUTS, or for a
+state that nearly rests runs on past the point where its speed dips, cut finely there (JerkPass.first_points);
+its path data is sampled at the query) with PASS_MARGIN to spare, which fades out along a merge to C's full limits; the
 results are checked on the dense time resample in the tests, their certified bounds in the benchmark.
 """
 
@@ -52,6 +53,14 @@ FIRST_CUTS = (0.0, 0.0625, 0.125, 0.25, 0.5, 1.0)
 #: ... for a braking state that would rest within this many plan intervals at its deceleration, x0 / (2 |u0|)
 #: (the others turn theta_ddot over a plan interval or more: one interval, a shorter walk) [-].
 GRADED_REACH = 4.0
+#: ... and where that rest reach D is below this share of a plan interval (the motion on nearly rests about D
+#: on: u linear over a plan interval cannot turn theta_ddot there), the first stretch runs up to the first grid
+#: point DIP_REACH D past the state, DIP_CUTS intervals per D around the dip [-].
+DIP_REACH_MAX = 1.0
+DIP_REACH = 8.0
+DIP_CUTS = 16
+#: Least spacing of the first stretch's points, relative to its length [-].
+DIP_GAP = 1e-6
 #: The pass's own intervals (from the state to where it runs on C) are returned cut into this many, the same
 #: motion: the certified bound of an interval (planning/certify.py: samples and an interpolation remainder) is
 #: loose on an interval whose jerk changes steeply, as a merge's or a slow state's graded first ones [-].
@@ -80,6 +89,7 @@ class JerkPass:
         self._buffers = (np.empty(len(grid) + 1), np.empty(len(grid) + 1))  # the pass's work arrays
         self.tc = np.ascontiguousarray(np.concatenate([np.cumsum(ceiling.intervals[::-1])[::-1], [0.0]]))
         self.origin, self.sign = smooth.coordinates(grid, self.rest)
+        self._sign_i = np.ascontiguousarray(self.sign, np.int64)
         self.pc = point_coefficients(grid, self.origin, self.sign)
         self.path, self.robot, self.limits = path, robot, limits
         self._inner_scale = inner_scale = {n: np.minimum(v[:-1], v[1:]) for n, v in scale.items()}
@@ -100,36 +110,78 @@ class JerkPass:
         x, u, _ = smooth.state(self.grid, self.cx, self.cu, self.origin, self.sign, np.array(i), np.array(theta))
         return float(x), float(u)
 
-    def _first(self, theta: float, i: int, f: float, j: int, graded: bool) -> tuple:
-        """The first output intervals: [theta, grid[j]] cut at FIRST_CUTS when ``graded`` (else, and where the
-        stretch holds a grid point, j = i + 2, one interval). Their points (F + 1,), and their check points' rows
-        (five (Q, F, m2)), (five (Q, F, m3)), x_max (Q, F) and coefficients (4, Q, F); the path data sampled at
-        their points (the last end: grid point j's), the limits scaled as on grid interval i."""
+    def _first(self, theta: float, i: int, j: int, pts_s: np.ndarray) -> tuple:
+        """The first output intervals: [theta, grid[j]] cut at ``pts_s`` (F + 1,) (theta first, grid[j] last; every
+        grid point between among them). Their check points' rows (five (Q, F, m2)), (five (Q, F, m3)), x_max (Q, F)
+        and coefficients (4, Q, F); the path data sampled at their points (the last end: grid point j's), the
+        limits scaled as on the grid interval each lies in."""
         g = self.grid
-        cuts = np.array(FIRST_CUTS if graded and j == i + 1 else (0.0, 1.0))
-        pts_s = theta + cuts * (g[j] - theta)
-        pts_s[-1] = g[j]
-        nf = len(cuts) - 1
-        pc = point_coefficients(pts_s, np.repeat(self.origin[j - 1], nf), np.repeat(self.sign[j - 1], nf))
+        nf = len(pts_s) - 1
+        pc = _first_coefficients(pts_s, float(self.origin[j - 1]), int(self.sign[j - 1]), np.array(CHECK_POINTS))
         nq = len(CHECK_POINTS)
         at = (pts_s[:-1, None] + np.array(CHECK_POINTS[:-1])[None, :] * np.diff(pts_s)[:, None]).T  # (Q-1, F)
         pts = _sample_points(self.path, self.robot, at.ravel())
-        scale = {n: np.repeat(v[i:i + 1], at.size, axis=0) for n, v in self._inner_scale.items()}
+        if j == i + 1:
+            scale = {n: np.repeat(v[i:i + 1], at.size, axis=0) for n, v in self._inner_scale.items()}
+        else:
+            idx = np.clip(np.searchsorted(g, np.tile(pts_s[:-1], nq - 1), side="right") - 1, i, j - 1)
+            scale = {n: v[idx] for n, v in self._inner_scale.items()}
         rows2 = limit_rows(pts, self.limits, scale, defaults.PLANNER_X_CAP)
         rows3 = [lim.rows3(pts, scale[lim.name]) for lim in self.limits if lim.order == 3]
 
-        def stacked(sampled, end):
-            """(Q, F, ...) from the samples ((Q-1) F, ...) at the check points before the ends and grid point j's
-            ``end``: an interval's end is the next one's start."""
-            sampled = np.asarray(sampled).reshape((nq - 1, nf) + np.shape(sampled)[1:])
-            last = np.concatenate([sampled[0, 1:], np.asarray(end)[None]])[None]
-            return np.ascontiguousarray(np.concatenate([sampled, last]))
+        # the output intervals that end at a grid point m (j among them): their end's rows are the plan interval
+        # m - 1's end rows (left of m: a spline knot's third derivative jumps there), the others' their next start's
+        inner = np.searchsorted(g, pts_s[1:], side="left")
+        at_grid = np.nonzero((inner < len(g)) & (g[np.minimum(inner, len(g) - 1)] == pts_s[1:]))[0]
+        at_grid = at_grid[at_grid < nf - 1]
 
-        p2 = tuple(stacked(getattr(rows2, n), r[-1, j - 1]) for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
-        p3 = tuple(stacked(np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1), r[-1, j - 1])
+        def stacked(sampled, plan):
+            """(Q, F, ...) from the samples ((Q-1) F, ...) at the check points before the ends and the plan's rows
+            (Q, K-1, ...) for the ends at grid points: an interval's end is else the next one's start."""
+            sampled = np.asarray(sampled).reshape((nq - 1, nf) + np.shape(sampled)[1:])
+            last = np.concatenate([sampled[0, 1:], plan[-1, j - 1][None]])
+            if at_grid.size:
+                last[at_grid] = plan[-1, inner[at_grid] - 1]
+            return np.ascontiguousarray(np.concatenate([sampled, last[None]]))
+
+        p2 = tuple(stacked(getattr(rows2, n), r) for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
+        p3 = tuple(stacked(np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1), r)
                    for k, r in enumerate(self.p3))
-        px = stacked(rows2.x_max, self.px[-1, j - 1])
-        return pts_s, (p2, p3, px, pc)
+        px = stacked(rows2.x_max, self.px)
+        return p2, p3, px, pc
+
+    def first_points(self, theta: float, i: int, j: int, nxt: int, x0: float, u0: float) -> tuple[int, np.ndarray, int]:
+        """(j', points, merge_from): the first output intervals run from theta to grid point j' >= j, cut at the
+        points (theta first, grid[j'] last); merges into C are tried from output point merge_from on. One interval
+        [theta, grid[j]] (j = i + 2 where theta lies next to grid point i + 1), but for a braking state that would
+        rest within GRADED_REACH plan intervals at its deceleration, D = x0 / (2 |u0|): the stretch to grid point
+        j = i + 1 cut at FIRST_CUTS; and where D is within DIP_REACH_MAX of a plan interval (the motion on nearly
+        rests: its speed dips where the jerk limit has turned theta_ddot, about D on), up to the first grid point
+        DIP_REACH D past theta (before the next rest point nxt), cut at every grid point between, at D 2^-m
+        (m = 1 .. 4) towards the state, at spacing D / DIP_CUTS over [D / 2, 2 D] and at D (2 + 2^m) (m = -2, -1,
+        ...) after it, where the motion speeds up again (u turns at the jerk limit there too: the rows are checked
+        on this stretch at its own points). Merges into C from that stretch's points (far below C, over its short
+        intervals) are not tried: from grid point j' on."""
+        g = self.grid
+        h = g[i + 1] - g[i]
+        if not (u0 < 0.0 and x0 < -2.0 * u0 * GRADED_REACH * h):
+            return j, np.array([theta, g[j]]), 0
+        d = x0 / (-2.0 * u0)
+        if d >= DIP_REACH_MAX * h:
+            if j != i + 1:
+                return j, np.array([theta, g[j]]), 0
+            pts = theta + np.array(FIRST_CUTS) * (g[j] - theta)
+            pts[-1] = g[j]
+            return j, pts, 0
+        end = min(max(j, int(np.searchsorted(g, theta + DIP_REACH * d))), nxt - 1)
+        cuts = theta + d * np.concatenate([0.5 ** np.arange(4, 0, -1), np.linspace(0.5, 2.0, int(1.5 * DIP_CUTS) + 1),
+                                           2.0 + 2.0 ** np.arange(-2, 30)])
+        fixed = np.concatenate([[theta], g[i + 1:end + 1]])  # every grid point between (knots among them) is kept
+        gap = DIP_GAP * (g[end] - theta)
+        cuts = cuts[(cuts < g[end]) & (np.min(np.abs(cuts[:, None] - fixed[None, :]), axis=1) > gap)]
+        pts = np.unique(np.concatenate([fixed, cuts]))
+        pts = pts[np.concatenate([[True], np.diff(pts) > gap])]
+        return end, pts, len(pts) - 1
 
     @staticmethod
     def _state_share(first, x0: float, u0: float) -> float:
@@ -150,30 +202,36 @@ class JerkPass:
         return x0 > 0.0 and not np.any(self.sign[i:nxt] > 0)
 
     def remaining(self, theta: float, i: int, f: float, j: int, x0: float, u0: float):
-        """(x, u) on [theta, grid[j:]] from the state (x0 > 0, u0) at theta (grid interval i at the fraction f;
-        j the first grid point after it; the pass must apply there), or None when the pass finds no merge."""
+        """(grid, x, u, own) on [theta, grid[j:]] from the state (x0 > 0, u0) at theta (grid interval i at the fraction
+        f; j the first grid point after it; the pass must apply there), or None when the pass finds no merge. ``own``:
+        for a nearly resting state (its stretch past the speed dip, JerkPass.first_points) the number of leading
+        points that are the pass's own (from there on the profile is C's), which the caller certifies (the pass's
+        check points and margin are no certificate, and these states' steep jerk finds their gaps); else 0."""
         nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
-        graded = u0 < 0.0 and x0 < -2.0 * u0 * GRADED_REACH * (self.grid[i + 1] - self.grid[i])
-        pts, first = self._first(theta, i, f, j, graded)
+        j, pts, merge_from = self.first_points(theta, i, j, nxt, x0, u0)
+        first = self._first(theta, i, j, pts)
         c0 = self._ceiling_first(j, pts)
         grid_data = (self.p2, self.p3, self.px, self.pc, self.cx, self.cu)
         share = self._state_share(first, x0, u0)
         if share > STATE_SHARE_MAX:
             return None
         first = (*first, share, np.ascontiguousarray((pts - pts[0]) / (pts[-1] - pts[0])))
+        if len(self._buffers[0]) < len(pts) + len(self.grid) - j:
+            self._buffers = (np.empty(len(pts) + len(self.grid)), np.empty(len(pts) + len(self.grid)))
         xs, us = self._buffers
-        end = forward(grid_data, first, self.tc, j, nxt, x0, u0, c0, MERGE_LENGTHS, xs, us)[1]
+        end = forward(grid_data, first, self.tc, j, nxt, x0, u0, c0, MERGE_LENGTHS, xs, us, merge_from)[1]
         if end < 0:
             return None
         grid = np.concatenate([pts, self.grid[j + 1:]])
         cx, cu = np.concatenate([c0[0], self.cx[j:]]), np.concatenate([c0[1], self.cu[j:]])
-        return split(grid, np.concatenate([xs[:end], cx[end:]]), np.concatenate([us[:end], cu[end:]]), end)
+        out = split(grid, np.concatenate([xs[:end], cx[end:]]), np.concatenate([us[:end], cu[end:]]), end)
+        return (*out, (OUTPUT_SPLIT * end + 1) if merge_from else 0)
 
     def _ceiling_first(self, j: int, pts: np.ndarray) -> np.ndarray:
         """(3, F): C's x, u and time [s] to the plan's end at the first output points pts[:-1] (pts (F + 1,), its
         last grid point j), the time over the stretch to grid point j by chords (x linear per output interval)."""
-        x, u, _ = smooth.state(self.grid, self.cx, self.cu, self.origin, self.sign, np.full(len(pts) - 1, j - 1),
-                               pts[:-1])
+        idx = np.clip(np.searchsorted(self.grid, pts[:-1], side="right") - 1, 0, j - 1)
+        x, u = _state_xu(self.grid, self.cx, self.cu, self.origin, self._sign_i, idx, pts[:-1])
         xs = np.append(np.maximum(x, 0.0), self.cx[j])
         chords = 2.0 * np.diff(pts) / np.maximum(np.sqrt(xs[:-1]) + np.sqrt(xs[1:]), 1e-300)
         time = self.tc[j] + np.cumsum(chords[::-1])[::-1]
@@ -190,7 +248,7 @@ def split(grid, x, u, upto: int, parts: int = OUTPUT_SPLIT):
     frac = np.arange(1, parts) / parts
     index = np.repeat(np.arange(upto), parts - 1)
     at = grid[index] + np.tile(frac, upto) * (grid[index + 1] - grid[index])
-    xi, ui, _ = smooth.state(grid, x, u, origin, sign, index, at)
+    xi, ui = _state_xu(grid, x, u, origin.astype(float), sign.astype(np.int64), index, at)
     cut = np.repeat(np.arange(1, upto + 1), parts - 1)  # each new point goes before the end of its interval
     return np.insert(grid, cut, at), np.insert(x, cut, xi), np.insert(u, cut, ui)
 
@@ -217,6 +275,66 @@ def point_coefficients(grid, origin, sign) -> np.ndarray:
             out[2, q] = (xi - xi_lo) / span
             out[3, q] = 1.0 / (smooth.dtheta_dxi(sign, xi) * span)
     return np.ascontiguousarray(out)
+
+
+@njit(cache=True, inline="always")
+def _xi(origin, sign, theta):
+    """smooth.xi_of at one point."""
+    if sign > 0:
+        return np.cbrt(max(theta - origin, 0.0))
+    if sign < 0:
+        return np.cbrt(max(origin - theta, 0.0))
+    return theta
+
+
+@njit(cache=True, inline="always")
+def _xi_integral(origin, sign, theta0, theta):
+    """smooth.xi_integral at one point."""
+    if sign == 0:
+        return 0.5 * (theta - theta0) ** 2
+    d0, d1 = abs(theta0 - origin), abs(theta - origin)
+    cube = 0.75 * (d1 ** (4 / 3) - d0 ** (4 / 3)) if sign > 0 else 0.75 * (d0 ** (4 / 3) - d1 ** (4 / 3))
+    return cube - _xi(origin, sign, theta0) * (theta - theta0)
+
+
+@njit(cache=True, error_model="numpy")
+def _first_coefficients(pts, origin, sign, at):
+    """point_coefficients of the intervals of ``pts`` in one coordinate (origin, sign), ``at`` the check points:
+    smooth.weights' and smooth.xi_integral's formulas point by point (the query's first stretch)."""
+    n = pts.shape[0] - 1
+    out = np.zeros((4, at.shape[0], n))
+    for k in range(n):
+        lo, hi = pts[k], pts[k + 1]
+        xi_lo, xi_hi = _xi(origin, sign, lo), _xi(origin, sign, hi)
+        span = xi_hi - xi_lo
+        for q in range(at.shape[0]):
+            a = at[q]
+            th = hi if a == 1.0 else (1.0 - a) * lo + a * hi
+            xi = xi_hi if a == 1.0 else (xi_lo if a == 0.0 else _xi(origin, sign, th))
+            out[0, q, k] = th - lo
+            out[1, q, k] = _xi_integral(origin, sign, lo, th) / span
+            out[2, q, k] = (xi - xi_lo) / span
+            out[3, q, k] = 1.0 / ((1.0 if sign == 0 else 3.0 * sign * xi * xi) * span)
+    return out
+
+
+@njit(cache=True)
+def _state_xu(grid, x, u, origin, sign, index, theta):
+    """smooth.state's (x, u) at the points theta (interval ``index`` each), point by point."""
+    n = theta.shape[0]
+    xs, us = np.empty(n), np.empty(n)
+    for p in range(n):
+        i, th = index[p], theta[p]
+        o, sg = origin[i], sign[i]
+        xi_lo, xi_hi = _xi(o, sg, grid[i]), _xi(o, sg, grid[i + 1])
+        g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
+        us[p] = u[i] + g * (_xi(o, sg, th) - xi_lo)
+        if x[i + 1] <= 0.0:
+            xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral(o, sg, grid[i + 1], th))
+        else:
+            xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral(o, sg, grid[i], th))
+        xs[p] = max(xx, 0.0)
+    return xs, us
 
 
 # ----------------------------------------------------------------------------------------------- kernels
@@ -501,7 +619,7 @@ def _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, c0, floor,
 
 
 @njit(cache=True)
-def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u):
+def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u, merge_from=0):
     """The pass from the state (x0, u0) (output point 0) over the output points 1.. = grid points j.. up to
     the rest point ``nxt`` (grid index): fills out_x, out_u up to the best merge's end and returns (its total
     time [s], the first output point from which the profile is C's); (inf, -1) when no merge is found.
@@ -514,7 +632,8 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u):
     C), above C the least step. At every point of the walk, the merges of every length from there and from where
     its descent ends are candidates; the one of the least total time (walk, descent, merge, C's rest) is taken.
     The walk ends STALL points after the best merge's point once its time plus C's from there is within
-    WALK_GAIN of the best total; stopped by the rows before that, it gives no answer."""
+    WALK_GAIN of the best total; stopped by the rows before that, it gives no answer. Merges start at output
+    points >= ``merge_from`` (JerkPass.first_points)."""
     last = nxt - j + first[3].shape[2]
     floor = X_FLOOR * x0
     x, u = x0, u0
@@ -531,6 +650,8 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u):
             s0, sx, su, st = (k, x, u, 0.0) if start == 0 else (m, xd, ud, td)
             if start == 1 and m <= k:
                 break
+            if s0 < merge_from:
+                continue
             for n in lengths:
                 if s0 + n > last:
                     break
