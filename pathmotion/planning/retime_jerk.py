@@ -297,7 +297,7 @@ def _xi_integral(origin, sign, theta0, theta):
     return cube - _xi(origin, sign, theta0) * (theta - theta0)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _first_coefficients(pts, origin, sign, at):
     """point_coefficients of the intervals of ``pts`` in one coordinate (origin, sign), ``at`` the check points:
     smooth.weights' and smooth.xi_integral's formulas point by point (the query's first stretch)."""
@@ -318,7 +318,7 @@ def _first_coefficients(pts, origin, sign, at):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _state_xu(grid, x, u, origin, sign, index, theta):
     """smooth.state's (x, u) at the points theta (interval ``index`` each), point by point."""
     n = theta.shape[0]
@@ -384,7 +384,7 @@ def _c_time(k, j, tc, c0):
     return c0[2, k] if k < nf else tc[j + k - nf]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _interval_ok(k, j, grid_data, first, x, u, v, floor, check_end, keep0, keep1):
     """Whether every row holds at the check points of output interval k from (x, u) with u_{k+1} = v, the
     limits times ``keep0`` at its start to ``keep1`` at its end (linear between; the end point's order-2 rows
@@ -411,7 +411,7 @@ def _interval_ok(k, j, grid_data, first, x, u, v, floor, check_end, keep0, keep1
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rows2_within(r2, x, u, keep):
     """lo keep <= a u + b x + c <= hi keep on the rows r2 = (a, b, c, lo, hi)."""
     a, b, c, lo, hi = r2
@@ -432,7 +432,7 @@ def _start_keep(k, keep, first):
     return first[4] + (keep - first[4]) * pos[k] if k < pos.shape[0] - 1 else keep
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _bounds(k, j, grid_data, first, x, u, floor):
     """(least, largest) u_{k+1} that output interval k's check points allow from (x, u) at its start, and the
     interval's (w0, w1); (inf, -inf) when none. The order-3 rows at the middle and the end take sqrt(x) at its
@@ -482,7 +482,7 @@ def _bounds(k, j, grid_data, first, x, u, floor):
     return low, high, cxu - cxv, cxv
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _merge(k, x, u, n, last, j, grid_data, first, c0, floor, tc, budget, out_x, out_u, write):
     """The merge from output point k (state x, u) into C over n intervals: its time [s] (chords: x linear per
     interval), or nan when a row fails or when its time plus C's from where it stands reaches ``budget`` [s]
@@ -536,7 +536,7 @@ BISECTION_STEPS = 6
 CROSS = 1e-9
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _descend(k, x, u, last, j, grid_data, first, c0, floor, out_x, out_u, write):
     """The descent from output point k: u turned towards C's as fast as the rows allow (the least step while
     above C) until it lies on or below C with u <= u_C there. Returns (m, x_m, u_m, time [s]) at that point,
@@ -570,7 +570,7 @@ def _descend(k, x, u, last, j, grid_data, first, c0, floor, out_x, out_u, write)
     return -1, x, u, time
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rows2_right(k, j, grid_data, first, x, u):
     """The order-2 rows at output point k >= 1 seen from the interval after it (they differ from the end
     point's at breaks and knots; the first output points lie inside a plan interval); true at the grid's last
@@ -583,7 +583,7 @@ def _rows2_right(k, j, grid_data, first, x, u):
     return _rows2_within((p2[0][0, g], p2[1][0, g], p2[2][0, g], p2[3][0, g], p2[4][0, g]), x, u, 1.0 - PASS_MARGIN)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor):
     """The pass's interval k with end acceleration ``v``: (x at k + 1, its time [s]) when every row holds at
     the pass's margin (and the order-2 rows at k + 1), else (x at k + 1, -1.0)."""
@@ -595,7 +595,7 @@ def _pass_step(k, j, grid_data, first, x, u, v, w0, w1, floor):
     return x1, 2.0 * (w0 + w1) / (np.sqrt(x) + np.sqrt(x1))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, c0, floor, out_x, out_u):
     """The largest u_{k+1} in [the descent's own step, hi] (of output interval k from (x, u), weights w0, w1)
     from which the descent still ends on or below C: hi, else by BISECTION_STEPS bisections. Returns (u_{k+1},
@@ -618,7 +618,7 @@ def _largest_safe(k, x, u, lo, hi, w0, w1, last, j, grid_data, first, c0, floor,
     return low, kept
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u, merge_from=0):
     """The pass from the state (x0, u0) (output point 0) over the output points 1.. = grid points j.. up to
     the rest point ``nxt`` (grid index): fills out_x, out_u up to the best merge's end and returns (its total
