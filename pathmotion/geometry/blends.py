@@ -818,10 +818,11 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
         return _pieces_deviation(c.A, c.B, build(size)[0], stop_above=tol, stop_below=tol) <= tol
 
     compiled = _compiled_sizing(c, pieces_at, sa, sb)
+    size = np.nan
     if compiled is not None:  # the same size, in one compiled call (geometry/blend_sizing.py)
         size = blend_sizing.largest_size(size_min, size_max, _SIZING_SCAN, _SIZING_BISECTIONS, tol, balance,
                                          *compiled)
-    else:
+    if np.isnan(size):  # in Python: no compiled sizing here, or a free end's piece with no room (its error)
         size = size_max if ok(size_max) else _largest_between(ok, size_min, size_max, _SIZING_SCAN.size,
                                                                 _SIZING_BISECTIONS)
     if size <= size_min:
@@ -843,26 +844,34 @@ _SIZING_BISECTIONS = 36
 
 def _compiled_sizing(c: _Corner, pieces_at: _BlendPieces, sa: float, sb: float) -> tuple | None:
     """The arguments after ``balance`` of :func:`~pathmotion.geometry.blend_sizing.largest_size` for the blends
-    ``pieces_at`` builds at the corner ``c`` between two lines, without a free end; None elsewhere (the sizing then
+    ``pieces_at`` builds at the corner ``c`` between two lines (free ends included); None elsewhere (the sizing then
     runs in Python)."""
     if not (isinstance(c.A, Line) and isinstance(c.B, Line)):
         return None
     zero = np.zeros(3)
+    frees, free, far_ends = np.zeros(2, np.bool_), np.zeros((2, 4)), np.zeros((2, 2, 3))
+    profile, axes = np.zeros((2, 6)), np.zeros((2, 3, 3))
     if any(pieces_at.has):
-        if any(free is not None for free in pieces_at.free):
-            return None
-        ends, frames = (pieces_at.r.A, pieces_at.r.B), (pieces_at.start_frame, pieces_at.end_frame)
+        r = pieces_at.r
+        ends, frames = (r.A, r.B), (pieces_at.start_frame, pieces_at.end_frame)
+        for side, (line, far, out) in enumerate(((c.A, c.A.start, r.out_a), (c.B, c.B.end, r.out_b))):
+            if pieces_at.free[side] is not None:
+                frees[side], free[side], far_ends[side] = True, pieces_at.free[side], (far, line.direction)
+                profile[side] = (pieces_at.offsets[side], pieces_at.slopes[side], pieces_at.bends[side],
+                                 *pieces_at.rises[side])
+                axes[side] = (line.direction, out, r.up)
     else:
         ends, frames = (c.A, c.B), ((c.A.direction, zero), (c.B.direction, zero))
     lines = np.array([[line.start, line.direction, (line.length, 0.0, 0.0)] for line in ends], float)
     backs, n_backs, terms = np.zeros((2, 3, 3)), np.zeros(2, np.int64), np.zeros((2, 3, 6, 3))
     for side in (0, 1):
-        if pieces_at.has[side]:
+        if pieces_at.has[side] and not frees[side]:
             back, term = pieces_at.fixed[side]
             backs[side, :len(back)], n_backs[side], terms[side] = back, len(back), term
     return (lines, np.array(frames, float), np.array([2.5 * sa, 2.5 * sb]), np.array(pieces_at.has), backs, n_backs,
-            terms, 2.0, _POWER_SIGNED, _POWER_SCALE, *_line_arrays((c.A, c.B)), _samples(256),
-            float(defaults.DEVIATION_RELATIVE_ACCURACY), 60, defaults.DEVIATION_MAX_INTERVALS, BOUND_ROUNDING)
+            terms, 2.0, frees, free, far_ends, profile, axes, _POWER_SIGNED, _POWER_SCALE, *_line_arrays((c.A, c.B)),
+            _samples(256), float(defaults.DEVIATION_RELATIVE_ACCURACY), 60, defaults.DEVIATION_MAX_INTERVALS,
+            BOUND_ROUNDING)
 
 
 def _shape_pieces(c: _Corner, shape: G2Shape, what: str):
