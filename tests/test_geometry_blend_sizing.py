@@ -1,6 +1,6 @@
 """The compiled sizing of a G2 blend between two lines (geometry/blend_sizing.py) against the Python sizing
 (blends._largest_between over _BlendPieces' builds): the same shape, float for float, for one quintic and racing
-lines (offsets, slopes, bends, rises) at the atlas' corners; free ends are sized in Python."""
+lines (offsets, slopes, bends, rises) at the atlas' corners, with departures and arrivals too."""
 
 import numpy as np
 import pytest
