@@ -94,3 +94,30 @@ def test_jacobian_and_bias_equal_the_separate_calls():
         jac, bias_at = jacobian_and_bias(robot, q)
         np.testing.assert_array_equal(jac, jacobian(robot, q))
         np.testing.assert_array_equal(bias_at(qd), frame_acceleration_bias(robot, q, qd))
+
+
+def test_the_polish_does_not_plan_its_start_again(monkeypatch):
+    """The fast polish (on its own grid, the whole path) is handed its start's duration: it is that of a fresh plan
+    of the start's blends on that grid, and the corner's polish with it equals the polish planning its start, one
+    plan less where the start's coordinates build the start's blend."""
+    import dataclasses
+
+    from pathmotion.planning import blend_search
+    from pathmotion.study.atlas import _settings, _task, corner_points
+
+    jobs, polish_corner = [], blend_search._polish_corner
+
+    def spied(job):
+        jobs.append(job)
+        return polish_corner(job)
+
+    monkeypatch.setattr(blend_search, "_polish_corner", spied)
+    robot = load_robot("irb140")
+    optimal_blends(robot, _task(corner_points(150.0)), 1e-4, settings=_settings(False, verify=False, baselines=False),
+                   search=FAST)
+    assert jobs and all(job.start_T is not None for job in jobs)
+    for job in jobs:
+        assert job.start_T == duration_with(robot, job.original, job.shapes, job.settings, job.q_start)
+        seeded, planned = polish_corner(job), polish_corner(dataclasses.replace(job, start_T=None))
+        assert seeded[:3] == planned[:3]
+        assert seeded[3] == planned[3] - 1

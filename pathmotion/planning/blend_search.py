@@ -830,7 +830,9 @@ class _PolishJob:
     those where the motion rests ``resting``, in units of ``tolerance`` [m]), ``plans`` plans under ``settings``;
     ``quintic`` (only the quintic's coordinates), ``planar``; ``states`` (_connection_states of a plan of the whole
     path with ``shapes``: the corner is polished on its window) or None (on the whole path); ``share``: the initial
-    trust radius, ``lean``: lean models (_trust_region)."""
+    trust radius, ``lean``: lean models (_trust_region); ``start_T``: the duration [s] of the whole path with
+    ``shapes`` under ``settings`` where a plan of it ran already (else None): on the whole path the start is then not
+    planned again where ``x`` builds ``shapes[corner]``."""
 
     robot: object
     original: TaskPath
@@ -848,6 +850,7 @@ class _PolishJob:
     states: tuple | None
     share: float = TRUST_RADIUS_SHARE
     lean: bool = False
+    start_T: float | None = None
 
 
 def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
@@ -861,6 +864,8 @@ def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
     fine = _objective(job.robot, job.original, job.shapes, k, job.tolerance, job.settings, job.q_start, job.resting,
                       window)
     fine.free_ends = job.free_ends
+    if window is None and job.start_T is not None:
+        fine.planned[job.shapes[k]] = job.start_T
     x = np.array(job.x, float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
     start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
     idx = [i for i in range(min(len(x), _W_A if job.quintic else _DEPARTURE.start)) if not (job.planar and i >= _V_A)]
@@ -882,7 +887,7 @@ def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
 def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: dict, settings: PlanSettings,
             q_start, plans: int, planar: Sequence[int], quintic: Sequence[int],
             windowed: bool = False, runner: _Runner | None = None,
-            share: float = TRUST_RADIUS_SHARE, lean: bool = False) -> tuple[float, dict, int]:
+            share: float = TRUST_RADIUS_SHARE, lean: bool = False, planned: bool = False) -> tuple[float, dict, int]:
     """Stage 8: :func:`_polish_corner` (about ``plans`` plans per corner, its initial trust radius ``share``, its models
     ``lean`` or not) on the duration under ``settings`` from the coordinates of each corner's chosen shape in
     ``shapes`` (found in the caches of that corner's searches, ``searched`` {corner: [_Objective]}), the other corners
@@ -890,8 +895,9 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
     the plane at those in ``planar``. The searches ranked shapes on a coarse grid; this is the duration the blend is
     reported with. ``windowed``: each corner on its window (_Window, ends from one plan of the whole path with
     ``shapes``), the corners independent (by ``runner``), then planned together on the whole path; else one after the
-    other on the whole path, each with the polished blends before it. Returns (duration [s], shapes, plans run), never
-    slower than given."""
+    other on the whole path, each with the polished blends before it (``planned``: ``duration`` is
+    :func:`duration_with`'s of ``shapes`` under ``settings``, so a corner's start is not planned again). Returns
+    (duration [s], shapes, plans run), never slower than given."""
     given, shapes = shapes, dict(shapes)
     states = _connection_states(robot, original, given, settings, q_start) if windowed else None
     run = int(states is not None)
@@ -905,10 +911,11 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
                                settings, q_start, plans, k in quintic, k in planar, states, share, lean))
     if states is None:  # one after the other, each corner with the blends polished before it
         for job in jobs:
-            _, best_T, best_shape, job_run = _polish_corner(dataclasses.replace(job, shapes=dict(shapes)))
+            _, best_T, best_shape, job_run = _polish_corner(dataclasses.replace(
+                job, shapes=dict(shapes), start_T=duration if planned else None))
             run += job_run
-            if best_T < duration:
-                duration, shapes[job.corner] = best_T, best_shape
+            if best_T < duration:  # a plan of the whole path with these shapes
+                duration, shapes[job.corner], planned = best_T, best_shape, True
         return duration, shapes, run
     for job, (start_T, best_T, best_shape, job_run) in zip(jobs, (runner or _Runner()).map(
             _polish_corner, [(job,) for job in jobs], "corner-polish")):
@@ -1323,7 +1330,7 @@ def _polished(robot, original: TaskPath, start: dict, start_T: float, searched: 
     grid = replace_settings(full, grid_points=search.polish_grid_points)
     on_grid = duration_with(robot, original, start, grid, q_start)
     _, polished, run = _polish(robot, original, start, on_grid, searched, grid, q_start, search.polish_plans, planar,
-                               quintic, windowed, runner, search.polish_radius_share, search.lean_models)
+                               quintic, windowed, runner, search.polish_radius_share, search.lean_models, planned=True)
     if polished == start:
         return start_T, start, run + 1
     T = duration_with(robot, original, polished, full, q_start)
