@@ -108,3 +108,18 @@ def _no_cusp(b) -> bool:
     except Exception:
         return False
     return True
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), scale=st.sampled_from([1e-4, 1e-2, 1.0]), n=st.integers(1, 300))
+def test_compiled_speed_range_is_numpy_bit_for_bit(seed, scale, n):
+    """BezierSegment's cusp check: the slowest speed, its first index and the fastest of numpy's norm of X'
+    (summed in the same order, so a curve on the check's edge is refused either way alike)."""
+    from pathmotion.geometry import bezier_polyval
+
+    rng = np.random.default_rng(seed)
+    coef = BezierSegment._power_basis(scale * rng.normal(size=(6, 3)))
+    u = np.concatenate([[0.0, 1.0], rng.uniform(0.0, 1.0, n)])
+    speed = np.linalg.norm(BezierSegment._polyval(coef, u, 1), axis=1)
+    assert bezier_polyval.speed_range(coef, u, _DERIVATIVE_FACTORS[1]) == (np.min(speed), int(np.argmin(speed)),
+                                                                          np.max(speed))

@@ -159,3 +159,16 @@ def test_stacked_evaluation_is_each_segments_own_bit_for_bit(side):
         want = path.segments[k[i]].evaluate(np.array([th[i] - path.offsets[k[i]]]))
         for g, w in zip(got, want):
             assert np.array_equal(g[i], w[0])
+
+
+def test_cross3_is_numpy_cross_bit_for_bit():
+    """classify's angle between tangents: chain.cross3 gives np.cross's floats (so connections' angles and kinds
+    stay the same)."""
+    from pathmotion.geometry.chain import cross3
+
+    rng = np.random.default_rng(3)
+    for scale in (1e-8, 1.0, 1e6):
+        for _ in range(2000):
+            a, b = rng.normal(size=3) * scale, rng.normal(size=3)
+            assert np.array_equal(cross3(a, b), np.cross(a, b))
+    assert np.array_equal(cross3((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)), (0.0, 0.0, 1.0))

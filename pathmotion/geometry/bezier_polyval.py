@@ -78,3 +78,26 @@ def curvature_terms(coef: np.ndarray, u: np.ndarray, fac1: np.ndarray, fac2: np.
         num[i] = g2 * h2 - dot * dot
         g2s[i] = g2
     return num, g2s
+
+
+@numba.njit(cache=True)
+def speed_range(coef: np.ndarray, u: np.ndarray, fac1: np.ndarray) -> tuple:
+    """(min |X'|, its first index, max |X'|) over u (N,), |X'| [m per unit u] by :func:`polyval`'s Horner loop
+    (``fac1``: its factors of order 1) and summed as numpy's np.linalg.norm(axis=1), (x0^2 + x1^2) + x2^2: the same
+    floats as np.min, np.argmin and np.max of that norm, without its (N, 3) temporaries."""
+    lo, at, hi = np.inf, 0, -np.inf
+    for i in range(u.shape[0]):
+        ui = u[i]
+        s = 0.0
+        for j in range(3):
+            x = fac1[4] * coef[5, j]
+            for k in range(4, 0, -1):
+                x = x * ui
+                x = x + fac1[k - 1] * coef[k, j]
+            s = x * x if j == 0 else s + x * x
+        speed = np.sqrt(s)
+        if speed < lo:
+            lo, at = speed, i
+        if speed > hi:
+            hi = speed
+    return lo, at, hi

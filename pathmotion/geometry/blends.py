@@ -52,7 +52,7 @@ after it move by the change of length.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Iterable, Mapping
 
@@ -464,7 +464,9 @@ class G2Shape:
     """An asymmetric G2 blend: it replaces the last ``entry`` [m] of A and the first ``exit`` [m] of
     B; ``shape_entry``, ``shape_exit`` in (0, 1] are the end-speed shapes of its corner quintic
     (lambda = 5/2 shape cut on each side; the symmetric blend has entry = exit and one shape);
-    ``deviation``: its certified deviation bound [m].
+    ``deviation``: its certified deviation bound [m], nan where it was not bounded (:func:`g2_shape_for_tolerance`
+    with ``certify=False``: the blend search's candidates). Two shapes are equal when their geometry is (the
+    deviation, a function of it at a given corner, is not compared).
 
     With every offset, slope and bend 0 it is one quintic. Otherwise (two lines only) it is the
     racing line: on each side an *offset piece* over ``run_entry`` [m] of A, a quintic whose lateral
@@ -494,7 +496,7 @@ class G2Shape:
     exit: float
     shape_entry: float
     shape_exit: float
-    deviation: float
+    deviation: float = field(compare=False)
     offset_entry: float = 0.0
     offset_exit: float = 0.0
     run_entry: float = 0.0
@@ -768,7 +770,7 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
                            slopes: tuple[float, float] = (0.0, 0.0),
                            bends: tuple[float, float] = (0.0, 0.0),
                            rises: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), departure=None,
-                           arrival=None) -> G2Shape:
+                           arrival=None, certify: bool = True) -> G2Shape:
     """The largest asymmetric G2 blend at connection ``corner`` whose corner quintic has
     entry / (entry + exit) = ``balance`` in (0, 1) and whose certified deviation is <= ``tolerance``
     [m] (or, if even the largest the neighbours allow deviates less, that one). ``offsets`` (w_A,
@@ -778,7 +780,10 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
     SHARED_SEGMENT_FRACTION of it). ``rises``: per side (rise [m], slope [-], bend [1/m]) of the offset
     pieces along the corner's normal (see G2Shape). ``departure`` / ``arrival``: see G2Shape; the
     corner quintic is sized as for the blend joined to the line with that side's run, and the piece
-    then runs on to the path's end (the shape's run is its full length)."""
+    then runs on to the path's end (the shape's run is its full length). ``certify=False``: its ``deviation`` is nan
+    instead of the blend's precise certified bound (the sizing alone already keeps it within ``tolerance``; at 0.1 mm
+    the precise bound of a racing line costs about as much as a plan, so the blend search bounds only the shapes it
+    returns: the same call with ``certify=True`` gives the same shape with its bound)."""
     what = "g2_shape_for_tolerance"
     departure, arrival = _check_free_end(departure, "departure", what), _check_free_end(arrival, "arrival", what)
     c = _corner(path, corner, ("corner", "tangent"), what, shared=shared)
@@ -813,10 +818,11 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
         return _pieces_deviation(c.A, c.B, build(size)[0], stop_above=tol, stop_below=tol) <= tol
 
     compiled = _compiled_sizing(c, pieces_at, sa, sb)
+    size = np.nan
     if compiled is not None:  # the same size, in one compiled call (geometry/blend_sizing.py)
         size = blend_sizing.largest_size(size_min, size_max, _SIZING_SCAN, _SIZING_BISECTIONS, tol, balance,
                                          *compiled)
-    else:
+    if np.isnan(size):  # in Python: no compiled sizing here, or a free end's piece with no room (its error)
         size = size_max if ok(size_max) else _largest_between(ok, size_min, size_max, _SIZING_SCAN.size,
                                                                 _SIZING_BISECTIONS)
     if size <= size_min:
@@ -827,8 +833,8 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
         r = pieces_at.r
         runs = (entry - balance * size + r.shift_a if departure is not None else runs[0],
                 exit - (1 - balance) * size + r.shift_b if arrival is not None else runs[1])
-    return G2Shape(entry, exit, sa, sb, _pieces_deviation(c.A, c.B, pieces), *offsets, *runs, *slopes, *bends,
-                   *rises, departure, arrival)
+    deviation = _pieces_deviation(c.A, c.B, pieces) if certify else float("nan")
+    return G2Shape(entry, exit, sa, sb, deviation, *offsets, *runs, *slopes, *bends, *rises, departure, arrival)
 
 
 #: The sizing's scan (_largest_between) and bisections.
@@ -838,26 +844,34 @@ _SIZING_BISECTIONS = 36
 
 def _compiled_sizing(c: _Corner, pieces_at: _BlendPieces, sa: float, sb: float) -> tuple | None:
     """The arguments after ``balance`` of :func:`~pathmotion.geometry.blend_sizing.largest_size` for the blends
-    ``pieces_at`` builds at the corner ``c`` between two lines, without a free end; None elsewhere (the sizing then
+    ``pieces_at`` builds at the corner ``c`` between two lines (free ends included); None elsewhere (the sizing then
     runs in Python)."""
     if not (isinstance(c.A, Line) and isinstance(c.B, Line)):
         return None
     zero = np.zeros(3)
+    frees, free, far_ends = np.zeros(2, np.bool_), np.zeros((2, 4)), np.zeros((2, 2, 3))
+    profile, axes = np.zeros((2, 6)), np.zeros((2, 3, 3))
     if any(pieces_at.has):
-        if any(free is not None for free in pieces_at.free):
-            return None
-        ends, frames = (pieces_at.r.A, pieces_at.r.B), (pieces_at.start_frame, pieces_at.end_frame)
+        r = pieces_at.r
+        ends, frames = (r.A, r.B), (pieces_at.start_frame, pieces_at.end_frame)
+        for side, (line, far, out) in enumerate(((c.A, c.A.start, r.out_a), (c.B, c.B.end, r.out_b))):
+            if pieces_at.free[side] is not None:
+                frees[side], free[side], far_ends[side] = True, pieces_at.free[side], (far, line.direction)
+                profile[side] = (pieces_at.offsets[side], pieces_at.slopes[side], pieces_at.bends[side],
+                                 *pieces_at.rises[side])
+                axes[side] = (line.direction, out, r.up)
     else:
         ends, frames = (c.A, c.B), ((c.A.direction, zero), (c.B.direction, zero))
     lines = np.array([[line.start, line.direction, (line.length, 0.0, 0.0)] for line in ends], float)
     backs, n_backs, terms = np.zeros((2, 3, 3)), np.zeros(2, np.int64), np.zeros((2, 3, 6, 3))
     for side in (0, 1):
-        if pieces_at.has[side]:
+        if pieces_at.has[side] and not frees[side]:
             back, term = pieces_at.fixed[side]
             backs[side, :len(back)], n_backs[side], terms[side] = back, len(back), term
     return (lines, np.array(frames, float), np.array([2.5 * sa, 2.5 * sb]), np.array(pieces_at.has), backs, n_backs,
-            terms, 2.0, _POWER_SIGNED, _POWER_SCALE, *_line_arrays((c.A, c.B)), _samples(256),
-            float(defaults.DEVIATION_RELATIVE_ACCURACY), 60, defaults.DEVIATION_MAX_INTERVALS, BOUND_ROUNDING)
+            terms, 2.0, frees, free, far_ends, profile, axes, _POWER_SIGNED, _POWER_SCALE, *_line_arrays((c.A, c.B)),
+            _samples(256), float(defaults.DEVIATION_RELATIVE_ACCURACY), 60, defaults.DEVIATION_MAX_INTERVALS,
+            BOUND_ROUNDING)
 
 
 def _shape_pieces(c: _Corner, shape: G2Shape, what: str):

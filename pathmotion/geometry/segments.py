@@ -455,6 +455,10 @@ class Circle(Arc):
 
 #: Gauss-Legendre rule used for the arc length of Bezier segments: panels on [0, 1], nodes each.
 _GL_PANELS = 32
+#: The values of u where a BezierSegment's speed is checked for a cusp, and those of its arc-length table (shared,
+#: read-only).
+_CUSP_U, _TABLE_U = np.linspace(0.0, 1.0, 2049), np.linspace(0.0, 1.0, 257)
+_CUSP_U.flags.writeable = _TABLE_U.flags.writeable = False
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
 
 
@@ -498,16 +502,13 @@ class BezierSegment(Segment):
         coef = self._power_basis(b)
         object.__setattr__(self, "control_points", b)
         object.__setattr__(self, "_coef", coef)
-        ug = np.linspace(0.0, 1.0, 2049)
-        speed = self._speed(ug)
-        if np.min(speed) < CUSP_SPEED_RATIO * max(np.max(speed), NONZERO):
-            k = int(np.argmin(speed))
-            raise PathError(f"BezierSegment {self.describe()}: the curve stops (cusp) near u = {ug[k]:.3g}; "
+        slowest, k, fastest = bezier_polyval.speed_range(coef, _CUSP_U, _DERIVATIVE_FACTORS[1])
+        if slowest < CUSP_SPEED_RATIO * max(fastest, NONZERO):
+            raise PathError(f"BezierSegment {self.describe()}: the curve stops (cusp) near u = {_CUSP_U[k]:.3g}; "
                             "the blend is degenerate (tangents nearly opposite?)")
         object.__setattr__(self, "_panel_s", bezier_arc_length.panel_edges(coef, _GL_PANELS, _GL_NODES, _GL_WEIGHTS))
-        table_u = np.linspace(0.0, 1.0, 257)
-        object.__setattr__(self, "_table_u", table_u)
-        object.__setattr__(self, "_table_s", self._arc_length(table_u))
+        object.__setattr__(self, "_table_u", _TABLE_U)
+        object.__setattr__(self, "_table_s", self._arc_length(_TABLE_U))
 
     def describe(self) -> str:
         b = self.control_points
@@ -527,9 +528,6 @@ class BezierSegment(Segment):
     def curve(self, u, order: int = 2) -> tuple[np.ndarray, ...]:
         """(X, X', X'') at the Bezier parameter u (N,), each (N, 3); ``order=3`` appends X'''."""
         return tuple(self._polyval(self._coef, u, k) for k in range(order + 1))
-
-    def _speed(self, u):
-        return np.linalg.norm(self._polyval(self._coef, u, 1), axis=1)
 
     def _curvature_squared(self, u) -> np.ndarray:
         """|X' x X''|^2 / |X'|^6 [1/m^2] (N,) at u (N,), by Lagrange's identity (its terms compiled)."""

@@ -40,7 +40,8 @@ from . import wrist_crossing
 from ..errors import PathError, UnreachableError
 from ..geometry import describe_point
 from .joint_path import JointPath
-from ..robot import Robot, frame_acceleration_bias, jacobian
+from ..robot import Robot, jacobian
+from ..robot.kinematics import jacobian_and_bias
 from ..robot import kinematics, redundancy
 from ..robot.serial_batch import jerk_bias_batch
 from ..robot.ik import IK_RANGE_SLACK, has_closed_form, ik_batch, ik_dls, ik_nearest
@@ -161,10 +162,10 @@ class TaskJointPath(JointPath):
 
 def joint_derivatives(robot: Robot, q, dp, ddp, w, dw) -> tuple[np.ndarray, np.ndarray]:
     """Phi' and Phi'' (N, n) from the task-space derivatives through the TCP Jacobian."""
-    jac = jacobian(robot, q)
+    jac, bias_at = jacobian_and_bias(robot, q)
     twist = np.concatenate([dp, w], axis=1)
     dq = np.linalg.solve(jac, twist[..., None])[..., 0]
-    bias = frame_acceleration_bias(robot, q, dq)
+    bias = bias_at(dq)
     acc = np.concatenate([ddp, dw], axis=1) - bias
     ddq = np.linalg.solve(jac, acc[..., None])[..., 0]
     return dq, ddq

@@ -235,7 +235,8 @@ def _side(w: float, far: float, near: float, run: float) -> tuple[float, float]:
 
 class _Objective:
     """Duration of the path with the blend coordinates x (7,), (11,) or (17,) at one corner (others
-    fixed), cached."""
+    fixed), cached. Its candidate shapes carry no deviation bound (nan: g2_shape_for_tolerance's ``certify``);
+    :meth:`certified` bounds those the search returns."""
 
     def __init__(self, robot, original: TaskPath, shapes: dict, corner: int, tolerance: float,
                  settings: PlanSettings, q_start, free_ends: tuple[bool, bool] = (False, False),
@@ -250,11 +251,16 @@ class _Objective:
         self.label = corner if label is None else label
         self.cache: dict[tuple, tuple[float, G2Shape | None]] = {}  # (x, free ends or None): (duration, shape)
         self.planned: dict[G2Shape, float] = {}  # duration per shape: coordinates that build one planned already
+        self.built: dict[G2Shape, tuple] = {}  # per shape the (coordinates, free ends) that built it first
+        self.bounded: dict[G2Shape, G2Shape] = {}  # per shape the same with its deviation bound (certified)
         self.plans = 0  # plans run
         self.tried = 0  # coordinates whose shape was built (a stage's budget: the same whether planned or not)
 
-    def shape(self, x) -> G2Shape:
+    def shape(self, x, free_ends: tuple[bool, bool] | None = None, certify: bool = False) -> G2Shape:
+        """The shape of coordinates x, its free ends' coordinates read for ``free_ends`` (default: the objective's
+        current ones); its deviation bound only if ``certify``."""
         x = np.asarray(x, float)
+        free_ends = self.free_ends if free_ends is None else free_ends
         tol = self.tolerance
         w = (x[_W_A] * tol, x[_W_B] * tol)
         runs = (x[_L_A] * self.run_unit, x[_L_B] * self.run_unit)
@@ -268,11 +274,20 @@ class _Objective:
                 rises[j] = (x[rise] * tol, *_side(x[rise] * tol, x[far] * tol, x[near] * tol, runs[j]))
         ends = [None, None]
         if len(x) > _DEPARTURE.start:
-            ends = [tuple(x[part] * tol) if free else None for part, free in zip((_DEPARTURE, _ARRIVAL), self.free_ends)]
+            ends = [tuple(x[part] * tol) if free else None for part, free in zip((_DEPARTURE, _ARRIVAL), free_ends)]
         return g2_shape_for_tolerance(self.original, self.corner, tol, float(x[_BALANCE]), float(x[_SHAPE_A]),
                                       float(x[_SHAPE_B]), shared=self.shared, offsets=w, runs=runs,
                                       slopes=tuple(slopes), bends=tuple(bends), rises=tuple(rises),
-                                      departure=ends[0], arrival=ends[1])
+                                      departure=ends[0], arrival=ends[1], certify=certify)
+
+    def certified(self, shape: G2Shape) -> G2Shape:
+        """``shape`` (one this objective built) with its certified deviation bound: built again from the coordinates
+        and free ends that built it, with the bound (the same geometry: the sizing is deterministic); once per
+        shape."""
+        if shape not in self.bounded:
+            x, free_ends = self.built[shape]
+            self.bounded[shape] = self.shape(x, free_ends, certify=True)
+        return self.bounded[shape]
 
     def key(self, x) -> tuple:
         """The cache key of x: its coordinates, rounded, and with free ends' coordinates the free ends they are
@@ -290,6 +305,7 @@ class _Objective:
                 self.cache[key] = (float("inf"), None)
                 return float("inf")
             self.tried += 1
+            self.built.setdefault(shape, (np.array(x, float), self.free_ends))
             if shape not in self.planned:  # e.g. runs of sides without an offset, which size no piece
                 self.planned[shape] = duration_with(self.robot, self.original, {**self.shapes, self.corner: shape},
                                                     self.settings, self.q_start)
@@ -815,7 +831,9 @@ class _PolishJob:
     those where the motion rests ``resting``, in units of ``tolerance`` [m]), ``plans`` plans under ``settings``;
     ``quintic`` (only the quintic's coordinates), ``planar``; ``states`` (_connection_states of a plan of the whole
     path with ``shapes``: the corner is polished on its window) or None (on the whole path); ``share``: the initial
-    trust radius, ``lean``: lean models (_trust_region)."""
+    trust radius, ``lean``: lean models (_trust_region); ``start_T``: the duration [s] of the whole path with
+    ``shapes`` under ``settings`` where a plan of it ran already (else None): on the whole path the start is then not
+    planned again where ``x`` builds ``shapes[corner]``."""
 
     robot: object
     original: TaskPath
@@ -833,6 +851,7 @@ class _PolishJob:
     states: tuple | None
     share: float = TRUST_RADIUS_SHARE
     lean: bool = False
+    start_T: float | None = None
 
 
 def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
@@ -846,6 +865,8 @@ def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
     fine = _objective(job.robot, job.original, job.shapes, k, job.tolerance, job.settings, job.q_start, job.resting,
                       window)
     fine.free_ends = job.free_ends
+    if window is None and job.start_T is not None:
+        fine.planned[job.shapes[k]] = job.start_T
     x = np.array(job.x, float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
     start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
     idx = [i for i in range(min(len(x), _W_A if job.quintic else _DEPARTURE.start)) if not (job.planar and i >= _V_A)]
@@ -861,13 +882,13 @@ def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
     best_T, best_shape, _ = fine.best()
     log.info("blend search: corner %d polished on %s: %.6g -> %.6g s in %d plans", k,
              "the whole path" if window is None else "its window", start_T, best_T, fine.plans)
-    return start_T, best_T, best_shape, fine.plans + (window is not None)
+    return start_T, best_T, fine.certified(best_shape), fine.plans + (window is not None)
 
 
 def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: dict, settings: PlanSettings,
             q_start, plans: int, planar: Sequence[int], quintic: Sequence[int],
             windowed: bool = False, runner: _Runner | None = None,
-            share: float = TRUST_RADIUS_SHARE, lean: bool = False) -> tuple[float, dict, int]:
+            share: float = TRUST_RADIUS_SHARE, lean: bool = False, planned: bool = False) -> tuple[float, dict, int]:
     """Stage 8: :func:`_polish_corner` (about ``plans`` plans per corner, its initial trust radius ``share``, its models
     ``lean`` or not) on the duration under ``settings`` from the coordinates of each corner's chosen shape in
     ``shapes`` (found in the caches of that corner's searches, ``searched`` {corner: [_Objective]}), the other corners
@@ -875,8 +896,9 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
     the plane at those in ``planar``. The searches ranked shapes on a coarse grid; this is the duration the blend is
     reported with. ``windowed``: each corner on its window (_Window, ends from one plan of the whole path with
     ``shapes``), the corners independent (by ``runner``), then planned together on the whole path; else one after the
-    other on the whole path, each with the polished blends before it. Returns (duration [s], shapes, plans run), never
-    slower than given."""
+    other on the whole path, each with the polished blends before it (``planned``: ``duration`` is
+    :func:`duration_with`'s of ``shapes`` under ``settings``, so a corner's start is not planned again). Returns
+    (duration [s], shapes, plans run), never slower than given."""
     given, shapes = shapes, dict(shapes)
     states = _connection_states(robot, original, given, settings, q_start) if windowed else None
     run = int(states is not None)
@@ -890,10 +912,11 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
                                settings, q_start, plans, k in quintic, k in planar, states, share, lean))
     if states is None:  # one after the other, each corner with the blends polished before it
         for job in jobs:
-            _, best_T, best_shape, job_run = _polish_corner(dataclasses.replace(job, shapes=dict(shapes)))
+            _, best_T, best_shape, job_run = _polish_corner(dataclasses.replace(
+                job, shapes=dict(shapes), start_T=duration if planned else None))
             run += job_run
-            if best_T < duration:
-                duration, shapes[job.corner] = best_T, best_shape
+            if best_T < duration:  # a plan of the whole path with these shapes
+                duration, shapes[job.corner], planned = best_T, best_shape, True
         return duration, shapes, run
     for job, (start_T, best_T, best_shape, job_run) in zip(jobs, (runner or _Runner()).map(
             _polish_corner, [(job,) for job in jobs], "corner-polish")):
@@ -1110,8 +1133,9 @@ def _search_one(job: _CornerJob) -> _Found:
                      window)
     warm = job.warm if job.warm is not None and np.isclose(job.warm[2], job.tolerance) else None
     stages = _search_corner(obj, job.racing, search, job.planar, None if warm is None else warm[:2])
-    searched, reached, capped = [obj], obj.best()[1].deviation, None
-    if search.retry_capped and reached < CAPPED_SHARE * job.tolerance:  # the neighbours capped the blend: stage 7
+    searched, capped = [obj], None
+    reached = obj.certified(obj.best()[1]).deviation if search.retry_capped else job.tolerance
+    if reached < CAPPED_SHARE * job.tolerance:  # the neighbours capped the blend: stage 7
         again = _objective(job.robot, job.original, job.shapes, k, reached, job.settings, job.q_start, job.ends,
                            window)
         stages_again = _search_corner(again, job.racing, search, job.planar)
@@ -1125,13 +1149,16 @@ def _search_one(job: _CornerJob) -> _Found:
     def fastest(**kind) -> G2Shape:  # over both searches when capped: the retry adds candidates, never drops any
         return min((o.best(**kind) for o in searched), key=lambda r: r[0])[1]
 
-    best = obj.best()[1]
+    def certified(shape: G2Shape | None) -> G2Shape | None:  # with its deviation bound, by the search that built it
+        return None if shape is None else next(o for o in searched if shape in o.built).certified(shape)
+
+    best = certified(obj.best()[1])
     plans += sum(o.plans for o in searched)
     log.info("blend search: corner %d: %d plans, shape %s", k, plans - 2 * (window is not None), best)
-    return _Found(best, fastest(quintic_only=True), fastest(s_curve_only=True), fastest(planar=True),
-                  fastest(joined=True), stages.before_joint or best, stages.before_wide or best,
-                  stages.before_restart or best, stages.before_crossed or best, stages.before_global or best,
-                  capped, tuple(searched), plans)
+    classes = (fastest(quintic_only=True), fastest(s_curve_only=True), fastest(planar=True), fastest(joined=True),
+               stages.before_joint or best, stages.before_wide or best, stages.before_restart or best,
+               stages.before_crossed or best, stages.before_global or best, capped)
+    return _Found(best, *(certified(shape) for shape in classes), tuple(searched), plans)
 
 
 class _Runner:
@@ -1301,7 +1328,7 @@ def _polished(robot, original: TaskPath, start: dict, start_T: float, searched: 
     grid = replace_settings(full, grid_points=search.polish_grid_points)
     on_grid = duration_with(robot, original, start, grid, q_start)
     _, polished, run = _polish(robot, original, start, on_grid, searched, grid, q_start, search.polish_plans, planar,
-                               quintic, windowed, runner, search.polish_radius_share, search.lean_models)
+                               quintic, windowed, runner, search.polish_radius_share, search.lean_models, planned=True)
     if polished == start:
         return start_T, start, run + 1
     T = duration_with(robot, original, polished, full, q_start)

@@ -23,6 +23,7 @@ stretched) or "not_converged" (DLS), and for batches ``index`` = the first bad p
 from __future__ import annotations
 
 import itertools
+from functools import lru_cache
 
 import numpy as np
 import pinocchio as pin
@@ -49,6 +50,9 @@ IK_SAME_SOLUTION = IK_RANGE_SLACK
 DLS_MAX_DAMPING = 1e6
 #: |sin q5| below which a large q4 jump is attributed to the wrist singularity in messages [-].
 WRIST_NEAR_SINGULAR = 0.1
+#: ik_batch's first-point solutions kept (:func:`_first_solution`): a blend search lifts hundreds of paths from
+#: the same start pose and reference.
+FIRST_POINT_CACHE = 64
 
 
 def opw_geometry(robot: Robot) -> OPWGeometry:
@@ -343,10 +347,8 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
     if geo is None:
         return _dls_batch(robot, p, r, q_ref)
     n_pts = len(p)
-    t_ref = geo.to_t(q_ref)
-    first = solve(geo, p[:1], r[:1], t_ref[None, 0], t_ref[None, 3])
     try:
-        q0, branch = _closest(robot, geo, first, 0, q_ref, "point 0, " + _fmt_pose(p[0], r[0]))
+        q0, branch = _first_solution(robot, p[0].tobytes(), r[0].tobytes(), q_ref.tobytes())
     except UnreachableError as exc:
         raise UnreachableError(str(exc), index=0, reason=exc.reason) from None
     t0 = geo.to_t(q0)
@@ -390,6 +392,22 @@ def ik_batch(robot: Robot, positions, rotations, q_ref, *,
     raise UnreachableError(
         f"{where}: {_range_violation(robot, q[i_bad])} on the branch followed from point 0 ({name}, wrist continuous); "
         "start from another q_ref or move the path", index=i_bad, reason="joint_range")
+
+
+@lru_cache(maxsize=FIRST_POINT_CACHE)
+def _first_solution(robot: Robot, position: bytes, rotation: bytes, q_ref: bytes) -> tuple[np.ndarray, int]:
+    """ik_batch's first point: the closed-form solution of the pose (position (3,) [m] and rotation (3, 3), as
+    float64 bytes) nearest to ``q_ref`` (n,) over all branches and shifts (read-only (n,) [rad]), and its branch.
+    A pure function of its arguments, kept for FIRST_POINT_CACHE of them (the bytes are the exact floats)."""
+    geo = robot.opw_detection[0]
+    p, r, ref = (np.frombuffer(b).reshape(shape) for b, shape in ((position, (1, 3)), (rotation, (1, 3, 3)),
+                                                                  (q_ref, (robot.n,))))
+    t_ref = geo.to_t(ref)
+    first = solve(geo, p, r, t_ref[None, 0], t_ref[None, 3])
+    q0, branch = _closest(robot, geo, first, 0, ref, "point 0, " + _fmt_pose(p[0], r[0]))
+    q0 = np.array(q0)
+    q0.flags.writeable = False
+    return q0, branch
 
 
 def _singular_message(robot: Robot, geo: OPWGeometry, sol: OPWSolutions, qb, branch: int, i: int) -> str:

@@ -11,7 +11,9 @@ import numpy as np
 import pinocchio as pin
 
 from .model import Robot
-from .serial_batch import acceleration_bias_batch, jacobian_batch
+from typing import Callable
+
+from .serial_batch import acceleration_bias_batch, bias_from, chain_frames, jacobian_batch, jacobian_from
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 #: Batches of at least this many configurations of a serial revolute chain use :mod:`.serial_batch`'s array
@@ -80,6 +82,18 @@ def frame_acceleration_bias(robot: Robot, q, qd, frame: str | int | None = None)
         out[k, :3] = acc.linear
         out[k, 3:] = acc.angular
     return out[0] if single else out
+
+
+def jacobian_and_bias(robot: Robot, q) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+    """(:func:`jacobian` of the TCP (N, 6, n) at configurations q (N, n), qd (N, n) -> :func:`frame_acceleration_bias`
+    (N, 6) at q, qd): the same values, a serial chain's frames at q computed once for both (the lift's Phi' needs J,
+    then Phi'' the bias at Phi')."""
+    qs, _ = _as_batch(q, robot.n)
+    chain = robot.serial_chain(robot.frame_id(None)) if len(qs) >= SERIAL_BATCH_MIN else None
+    if chain is None:
+        return jacobian(robot, q), lambda qd: frame_acceleration_bias(robot, q, qd)
+    frames = chain_frames(chain, qs)
+    return jacobian_from(frames), lambda qd: bias_from(frames, _as_batch(qd, robot.n)[0])
 
 
 def manipulability(robot: Robot, q, frame: str | int | None = None) -> np.ndarray:

@@ -213,16 +213,31 @@ def _jerk_bias(origins, axes, tip, qd, qdd):
     return out
 
 
+def chain_frames(chain: Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(joint origins (N, n, 3), world joint axes (N, n, 3), frame origin (N, 3)) [m] of the chain at q (N, n): what
+    :func:`jacobian_from` and :func:`bias_from` take, so one configuration batch's frames serve both."""
+    return _frames(chain.rot, chain.trans, chain.axis, chain.tool_trans, np.ascontiguousarray(q, float))
+
+
+def jacobian_from(frames: tuple) -> np.ndarray:
+    """LOCAL_WORLD_ALIGNED Jacobians (N, 6, n) of the chain's frame from its :func:`chain_frames`."""
+    return _jacobian(*frames)
+
+
+def bias_from(frames: tuple, qd: np.ndarray) -> np.ndarray:
+    """Jdot(q, qd) qd (N, 6) from the chain's :func:`chain_frames` at q and qd (N, n) (acceleration_bias_batch)."""
+    return _bias(*frames, np.ascontiguousarray(qd, float))
+
+
 def jacobian_batch(chain: Chain, q: np.ndarray) -> np.ndarray:
     """LOCAL_WORLD_ALIGNED Jacobians (N, 6, n) of the chain's frame at q (N, n)."""
-    return _jacobian(*_frames(chain.rot, chain.trans, chain.axis, chain.tool_trans, np.ascontiguousarray(q, float)))
+    return jacobian_from(chain_frames(chain, q))
 
 
 def acceleration_bias_batch(chain: Chain, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     """Jdot(q, qd) qd (N, 6) of the chain's frame: its classical acceleration at qdd = 0, linear then angular,
     world axes, at q, qd (N, n)."""
-    frames = _frames(chain.rot, chain.trans, chain.axis, chain.tool_trans, np.ascontiguousarray(q, float))
-    return _bias(*frames, np.ascontiguousarray(qd, float))
+    return bias_from(chain_frames(chain, q), qd)
 
 
 def jerk_bias_batch(chain: Chain, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
