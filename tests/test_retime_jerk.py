@@ -564,3 +564,23 @@ def test_a_nearly_resting_state_whose_pass_breaks_a_limit_between_its_check_poin
     path, res, rt = torque_jerk
     fast = rt.compiled_remaining(theta, v, a)
     assert fast is None or rt.certify(fast).max_ratio <= 1.0 + TOL
+
+
+@pytest.mark.parametrize("back, frac, share", [(1, 0.1, 0.01), (1, 0.5, 0.3), (1, 0.9, 0.9), (2, 0.5, 0.01)])
+def test_a_nearly_resting_state_next_to_a_rest_point(torque_jerk, back, frac, share):
+    # braking to within a fraction of a plan interval of rest in the last grid intervals before the plan's end (a
+    # rest point): the stretch past the speed dip ends at the rest point at the latest, never before the state
+    # (an IndexError from the re-timer before); a state the limits cannot save is refused with its clear error
+    path, res, rt = torque_jerk
+    g = res.profile.grid
+    i = len(g) - 1 - back
+    h = g[i + 1] - g[i]
+    theta, a = g[i] + frac * h, -1.0
+    v = np.sqrt(2.0 * share * h * abs(a))
+    j, pts, _ = rt._jerk.first_points(theta, i, i + 1, len(g) - 1, v * v, a)
+    assert len(pts) >= 2 and pts[0] == theta and pts[-1] == g[j] and j >= i + 1
+    try:
+        s = rt.remaining(theta, v, a)
+    except StateInfeasibleError:
+        return
+    assert s.x[-1] == 0.0 and np.isclose(np.sqrt(s.x[0]), v) and rt.certify(s).max_ratio <= 1.0 + TOL

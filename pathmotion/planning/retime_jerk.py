@@ -173,7 +173,7 @@ class JerkPass:
             pts = theta + np.array(FIRST_CUTS) * (g[j] - theta)
             pts[-1] = g[j]
             return j, pts, 0
-        end = min(max(j, int(np.searchsorted(g, theta + DIP_REACH * d))), nxt - 1)
+        end = max(j, min(int(np.searchsorted(g, theta + DIP_REACH * d)), nxt - 1))  # j: next to a rest point
         cuts = theta + d * np.concatenate([0.5 ** np.arange(4, 0, -1), np.linspace(0.5, 2.0, int(1.5 * DIP_CUTS) + 1),
                                            2.0 + 2.0 ** np.arange(-2, 30)])
         fixed = np.concatenate([[theta], g[i + 1:end + 1]])  # every grid point between (knots among them) is kept
