@@ -569,8 +569,9 @@ def test_a_nearly_resting_state_whose_pass_breaks_a_limit_between_its_check_poin
 @pytest.mark.parametrize("back, frac, share", [(1, 0.1, 0.01), (1, 0.5, 0.3), (1, 0.9, 0.9), (2, 0.5, 0.01)])
 def test_a_nearly_resting_state_next_to_a_rest_point(torque_jerk, back, frac, share):
     # braking to within a fraction of a plan interval of rest in the last grid intervals before the plan's end (a
-    # rest point): the stretch past the speed dip ends at the rest point at the latest, never before the state
-    # (an IndexError from the re-timer before); a state the limits cannot save is refused with its clear error
+    # rest point): the first stretch runs from the state to a grid point after it, at most to the rest point (a
+    # stretch capped before the rest point was one point, an IndexError); a state the limits cannot save is refused
+    # with its clear error
     path, res, rt = torque_jerk
     g = res.profile.grid
     i = len(g) - 1 - back
@@ -584,3 +585,21 @@ def test_a_nearly_resting_state_next_to_a_rest_point(torque_jerk, back, frac, sh
     except StateInfeasibleError:
         return
     assert s.x[-1] == 0.0 and np.isclose(np.sqrt(s.x[0]), v) and rt.certify(s).max_ratio <= 1.0 + TOL
+
+
+def test_a_stop_a_moment_before_a_fine_point_brakes_into_it():
+    # abb_cycle jerk-limited, the state execute's shaped references reach 4 ms before the plan rests at a fine point
+    # (theta_dot 3e-5, theta_ddot -0.13): its stop runs into the fine point within the jerk limit (a stretch past the
+    # speed dip, capped at the rest point, had no room: the jerk-limited stop was refused and execute stopped with
+    # acceleration steps)
+    from importlib import resources
+
+    from pathmotion import api
+
+    setup = api.load_text(resources.files("pathmotion.scenarios").joinpath("abb_cycle.toml").read_text(),
+                          overrides={"limits.use_jerk": True})
+    rt = Retimer(api.plan_scenario(setup))
+    theta, v, a = 0.3549999960760106, 2.7931599263058183e-05, -0.13254779862029675
+    s = rt.stop(theta, v, a)
+    assert s.smooth and s.x[-1] == 0.0 and s.grid[-1] <= 0.355 + 1e-12
+    assert rt.certify(s).max_ratio <= 1.0 + TOL

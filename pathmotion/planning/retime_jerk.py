@@ -157,7 +157,8 @@ class JerkPass:
         rest within GRADED_REACH plan intervals at its deceleration, D = x0 / (2 |u0|): the stretch to grid point
         j = i + 1 cut at FIRST_CUTS; and where D is within DIP_REACH_MAX of a plan interval (the motion on nearly
         rests: its speed dips where the jerk limit has turned theta_ddot, about D on), up to the first grid point
-        DIP_REACH D past theta (before the next rest point nxt), cut at every grid point between, at D 2^-m
+        DIP_REACH D past theta (before the next rest point nxt; where grid point j is that rest point, the stretch
+        to it cut at FIRST_CUTS), cut at every grid point between, at D 2^-m
         (m = 1 .. 4) towards the state, at spacing D / DIP_CUTS over [D / 2, 2 D] and at D (2 + 2^m) (m = -2, -1,
         ...) after it, where the motion speeds up again (u turns at the jerk limit there too: the rows are checked
         on this stretch at its own points). Merges into C from that stretch's points (far below C, over its short
@@ -167,13 +168,13 @@ class JerkPass:
         if not (u0 < 0.0 and x0 < -2.0 * u0 * GRADED_REACH * h):
             return j, np.array([theta, g[j]]), 0
         d = x0 / (-2.0 * u0)
-        if d >= DIP_REACH_MAX * h:
+        end = min(max(j, int(np.searchsorted(g, theta + DIP_REACH * d))), nxt - 1)
+        if d >= DIP_REACH_MAX * h or end < j:  # (end < j: the next grid point is a rest point)
             if j != i + 1:
                 return j, np.array([theta, g[j]]), 0
             pts = theta + np.array(FIRST_CUTS) * (g[j] - theta)
             pts[-1] = g[j]
             return j, pts, 0
-        end = max(j, min(int(np.searchsorted(g, theta + DIP_REACH * d)), nxt - 1))  # j: next to a rest point
         cuts = theta + d * np.concatenate([0.5 ** np.arange(4, 0, -1), np.linspace(0.5, 2.0, int(1.5 * DIP_CUTS) + 1),
                                            2.0 + 2.0 ** np.arange(-2, 30)])
         fixed = np.concatenate([[theta], g[i + 1:end + 1]])  # every grid point between (knots among them) is kept
