@@ -305,12 +305,7 @@ def test_sigterm_stops_workers_in_the_middle_of_a_point(tmp_path):
         assert proc.returncode == 130, err.decode()
         assert len(started()) == 2  # no queued point was started after the signal
         assert finished_points(tmp_path / "out") == 0
-        for marker in started():  # the workers are gone (reaped by init once the parent has exited)
-            pid = int(marker.name.split("-")[1])
-            deadline = time.monotonic() + 60
-            while _alive(pid) and time.monotonic() < deadline:
-                time.sleep(0.05)
-            assert not _alive(pid)
+        _assert_workers_gone(tmp_path)
     finally:
         kill_group(proc)
 
@@ -374,15 +369,21 @@ def test_an_interrupted_worker_pool_map_ends_its_workers(tmp_path):
     try:
         _, err = proc.communicate(timeout=300)  # the workers hold the pipes: this returns once they are gone
         assert proc.returncode == 130, err.decode()
-        pids = [int(m.name.split("-")[1]) for m in tmp_path.glob("started-*")]
-        assert len(pids) == 2
-        for pid in pids:
-            deadline = time.monotonic() + 60
-            while _alive(pid) and time.monotonic() < deadline:
-                time.sleep(0.05)
-            assert not _alive(pid)
+        assert len(list(tmp_path.glob("started-*"))) == 2
+        _assert_workers_gone(tmp_path)
     finally:
         kill_group(proc)
+
+
+def _assert_workers_gone(folder: Path) -> None:
+    """Every worker that left started-PID in ``folder`` has exited (within 60 s: reaped by init once its parent has
+    exited)."""
+    for marker in folder.glob("started-*"):
+        pid = int(marker.name.split("-")[1])
+        deadline = time.monotonic() + 60
+        while _alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not _alive(pid), marker.name
 
 
 def _alive(pid: int) -> bool:
