@@ -150,6 +150,16 @@ def test_compiled_pass_from_a_slow_state_braking_hard(torque_jerk, theta, v, a):
     assert 0.98 <= fast.duration / lp.duration <= 1.01
 
 
+def _certified_compiled_answer(rt, theta, v, a):
+    """The compiled pass's answer from (theta, v, a): from that state, certified within the limits, and the dense
+    resample below its certificate."""
+    fast = rt.compiled_remaining(theta, v, a)
+    assert fast is not None and np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
+    certified = rt.certify(fast).max_ratio
+    assert certified <= 1.0 + TOL and rt.dense_ratios(fast, DT).max_ratio <= certified + 1e-6
+    return fast
+
+
 @pytest.mark.parametrize("theta, v, a", [
     (0.04785468316040023, 0.017443851862113426, -0.6742091052006553),
     (0.002015753549089236, 0.04297753298050798, -2.8179000618917835)])
@@ -161,11 +171,8 @@ def test_compiled_pass_from_a_state_that_nearly_rests(torque_jerk, theta, v, a):
     # (the dense resample below the certificate), and within 5 % of the offline plan from the same speed (which
     # picks its own start acceleration: a lower bound up to its grid)
     path, res, rt = torque_jerk
-    fast = rt.compiled_remaining(theta, v, a)
-    assert fast is not None and rt.remaining(theta, v, a).duration == fast.duration
-    assert np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a and fast.x[-1] == 0.0
-    certified = rt.certify(fast).max_ratio
-    assert certified <= 1.0 + TOL and rt.dense_ratios(fast, DT).max_ratio <= certified + 1e-6
+    fast = _certified_compiled_answer(rt, theta, v, a)
+    assert rt.remaining(theta, v, a).duration == fast.duration and fast.x[-1] == 0.0
     off = plan(replace(path, domain=(theta, path.domain[1])), ROBOT, replace(res.settings, start=v))
     assert 0.998 * off.duration <= fast.duration <= 1.05 * off.duration
 
@@ -547,11 +554,7 @@ def test_a_nearly_resting_state_whose_stretch_passes_a_spline_knot(torque_jerk, 
     # interval ending at the knot is checked on the rows left of it (the path's third derivative jumps there), not
     # on the next interval's start; checked on the right-hand rows the jerk of joint 2 took 1.064 to 1.074 of its
     # limit just before the knot
-    path, res, rt = torque_jerk
-    fast = rt.compiled_remaining(theta, v, a)
-    assert fast is not None and np.isclose(np.sqrt(fast.x[0]), v, rtol=1e-12) and fast.u_nodes[0] == a
-    certified = rt.certify(fast).max_ratio
-    assert certified <= 1.0 + TOL and rt.dense_ratios(fast, DT).max_ratio <= certified + 1e-6
+    _certified_compiled_answer(torque_jerk[2], theta, v, a)
 
 
 @pytest.mark.parametrize("theta, v, a", [

@@ -7,12 +7,12 @@ in world axes [m/s per rad/s], rows 3-5 the angular velocity in world axes.
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 import pinocchio as pin
 
 from .model import Robot
-from typing import Callable
-
 from .serial_batch import acceleration_bias_batch, bias_from, chain_frames, jacobian_batch, jacobian_from
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
