@@ -694,7 +694,10 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
                                               "long \\[s] after it comes, re-timed meanwhile off the loop (0: on its "
                                               "cycle, whose answer waits for the re-timing)"),
             lockstep: bool = typer.Option(False, help="the robot waits for each answer (virtual-robot --lockstep): a "
-                                          "switch waits for its re-timing, the run does not depend on compute time")):
+                                          "switch waits for its re-timing, the run does not depend on compute time"),
+            realtime_priority: int = typer.Option(defaults.EGM_REALTIME_PRIORITY, help="answer at this SCHED_FIFO "
+                                                  "priority (Linux, 1-99, e.g. 50) with the memory locked; where the "
+                                                  "system refuses, a warning and normal priority (0: off)")):
     """Plan (or read the plan folder pathmotion plan wrote), then stream the motion to an ABB controller over EGM
     (answer each EgmRobot with an EgmSensor); stdin takes 'override F', 'stop', 'resume'. Writes execution.csv and summary.json. A silent controller,
     Ctrl-C or SIGTERM end in a stop along the path (exit 4, 130), and so does an arm farther from the path than
@@ -704,9 +707,14 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
     or, planned before: [bold]pathmotion execute out/g2_plan --egm 6510[/]
     """
     from .execution.loops import open_listener, serve
+    from .execution.realtime import priority_range
     from .execution.session import make_streamer, write_execution
     from .io.atomic import output_lock, result_folder
 
+    low, high = priority_range()
+    if realtime_priority != 0 and not low <= realtime_priority <= high:
+        _fail(f"--realtime-priority {realtime_priority}: give a SCHED_FIFO priority {low}-{high} (0: normal "
+              "scheduling)")
     out = _out(_egm_out(out, scenario, ""), *_egm_inputs(scenario))
     with output_lock(out):
         setup, result, params = _egm_setup(scenario, set_, drives)
@@ -724,7 +732,7 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
         try:
             while True:
                 try:
-                    ended = serve(sock, streamer, commands=commands)
+                    ended = serve(sock, streamer, commands=commands, priority=realtime_priority)
                     break
                 except KeyboardInterrupt:
                     if interrupted or not streamer.started:

@@ -443,3 +443,10 @@ EGM_SWITCH_RETRIES = 3
 EGM_SWITCH_INTERVAL = 0.0002
 #: EGM: the re-timing worker thread runs this much nicer than execute's loop (Linux thread priority) [-].
 EGM_WORKER_NICE = 10
+#: EGM: the same with execute's loop at a real-time priority (--realtime-priority): SCHED_FIFO already runs the
+#: loop first, and a worker holding Python's interpreter lock gives it back to the loop only once it runs (a
+#: nicer worker waits longer for its turn behind the machine's other processes) [-].
+EGM_WORKER_NICE_REALTIME = 0
+#: EGM: execute's loop thread runs at this SCHED_FIFO priority, its process's memory locked (execute
+#: --realtime-priority, 1-99 on Linux); 0: normal scheduling [-].
+EGM_REALTIME_PRIORITY = 0

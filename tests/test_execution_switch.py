@@ -232,6 +232,37 @@ def test_the_re_timing_worker_runs_nicer_than_the_loop(planned):
     assert seen == [min(own + defaults.EGM_WORKER_NICE, 19)] and seen[0] > own
 
 
+def test_behind_a_realtime_loop_the_worker_runs_at_normal_scheduling_and_the_loop_s_nice(planned, monkeypatch):
+    """execute --realtime-priority: the worker the SCHED_FIFO loop starts runs SCHED_OTHER (it never preempts the
+    loop) at the loop's nice value (not nicer: while it holds Python's lock the loop waits for it to run). The loop
+    at a real SCHED_FIFO priority where the system allows it (a few cycles; it never spins), else as serve records
+    a granted one."""
+    import os
+
+    from pathmotion import defaults
+    from pathmotion.execution import realtime as rt
+
+    robot, result, drives = planned
+    st = make_streamer(robot, result, "none", drives)
+    retime, seen = st.retime, []
+
+    def worker(*args):
+        seen.append((os.getpriority(os.PRIO_PROCESS, threading.get_native_id()), rt.current_scheduling()))
+        return retime(*args)
+
+    st.retime = worker
+    monkeypatch.setattr(rt, "lock_memory", lambda: "not tried in the tests")
+    with rt.realtime(1) as got:
+        st.scheduling = got if got["policy"] == "SCHED_FIFO" else {"policy": "SCHED_FIFO", "priority": 1}
+        q = _feed(st, 0, 20)
+        st.stop("stop requested")
+        _feed(st, 20, 6, q)
+    st.close()
+    own = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    assert defaults.EGM_WORKER_NICE_REALTIME == 0
+    assert seen == [(own, {"policy": "SCHED_OTHER", "priority": 0})]
+
+
 def test_the_switch_is_at_the_message_of_its_time_whatever_the_float_sum(planned):
     """t + lead as a float sum can exceed the robot time of the message it names (0.016 + 0.02 >
     36 / 1000): the switch is at that message's time exactly (the re-timing starts from the state there and

@@ -17,6 +17,7 @@ from .. import defaults
 from ..errors import ExecutionError
 from .drives import VirtualArm
 from .messages import decode_sensor, encode_robot
+from .realtime import realtime
 from .streamer import Streamer
 
 log = logging.getLogger(__name__)
@@ -44,7 +45,8 @@ def open_listener(port: int, host: str = "0.0.0.0") -> socket.socket:
 
 
 def serve(sock: socket.socket, streamer: Streamer, *, commands=None,
-          first_timeout: float = defaults.EGM_FIRST_MESSAGE_TIMEOUT, silence: float = defaults.EGM_SILENCE) -> str:
+          first_timeout: float = defaults.EGM_FIRST_MESSAGE_TIMEOUT, silence: float = defaults.EGM_SILENCE,
+          priority: int = defaults.EGM_REALTIME_PRIORITY) -> str:
     """Answer robot datagrams on ``sock`` until the motion is over; returns how it ended: "done", "silent"
     (the controller stopped sending mid-motion), or the stop's reason. ``commands()``: pending stdin lines.
     A KeyboardInterrupt leaves it; the caller stops the streamer and serves on. Python's cycle collector is
@@ -54,15 +56,21 @@ def serve(sock: socket.socket, streamer: Streamer, *, commands=None,
     quick as the rest. A request's re-timing runs in the streamer's worker thread (:attr:`.streamer.Streamer.lead`):
     Python's thread switch interval is lowered to ``defaults.EGM_SWITCH_INTERVAL`` while serving, so that the loop
     gets the interpreter back within a fraction of a millisecond when a message comes, and the worker is ended
-    when serve ends (a pending switch stays pending for the next serve)."""
+    when serve ends (a pending switch stays pending for the next serve). ``priority`` > 0: the calling thread
+    answers at SCHED_FIFO ``priority`` with the process's memory locked (:func:`.realtime.realtime`: a refusal
+    is a warning, the loop goes on at normal priority; restored when serve ends); what it got is
+    ``streamer.scheduling``. The loop never busy-waits (it blocks in select between messages), so a real-time
+    loop leaves the core to the rest between cycles."""
     gc.collect()
     gc.freeze()  # what exists now is never scanned again
     gc.disable()
     interval = sys.getswitchinterval()
     sys.setswitchinterval(defaults.EGM_SWITCH_INTERVAL)
     try:
-        streamer.rehearse()
-        return _serve(sock, streamer, commands, first_timeout, silence)
+        with realtime(priority) as got:
+            streamer.scheduling = got
+            streamer.rehearse()
+            return _serve(sock, streamer, commands, first_timeout, silence)
     finally:
         sys.setswitchinterval(interval)
         streamer.close()

@@ -152,6 +152,9 @@ def execution_summary(robot: Robot, streamer: Streamer, ended: str) -> dict:
         summary["cycle_compute_p99_s"] = float(np.percentile(compute, 99))
         summary["cycle_compute_max_s"] = float(np.max(compute))
     summary["requests"] = [r.summary() for r in streamer.requests]
+    if streamer.scheduling:
+        summary["loop_scheduling"] = {k: streamer.scheduling[k] for k in ("requested_priority", "policy", "priority",
+                                                                          "memory_locked", "refused")}
     return summary
 
 

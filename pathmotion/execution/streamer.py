@@ -30,6 +30,7 @@ import numpy as np
 from .. import defaults
 from ..errors import ExecutionError, PathmotionError
 from .messages import RobotDecoder, SensorEncoder, encode_robot
+from .realtime import normal_scheduling
 from .reference import ReferenceTable
 
 log = logging.getLogger(__name__)
@@ -45,12 +46,15 @@ def _robot_time(t: float) -> float:
     return round(t * 1000.0) / 1000.0
 
 
-def _lower_priority() -> None:
-    """The calling thread's scheduling priority lowered by ``defaults.EGM_WORKER_NICE`` (Linux: a thread's nice
-    value is its own), so that on a busy machine the system runs the EGM loop's thread first."""
+def _lower_priority(nice: int | None) -> None:
+    """The calling thread at normal scheduling (SCHED_OTHER, whatever it inherited from a real-time loop thread:
+    it never preempts the loop) and at the nice value ``nice`` (None: as it is; Linux: a thread's nice value is
+    its own; where the system refuses a value below the thread's, it stays as it is)."""
+    normal_scheduling()
+    if nice is None:
+        return
     try:
-        tid = threading.get_native_id()
-        os.setpriority(os.PRIO_PROCESS, tid, min(os.getpriority(os.PRIO_PROCESS, tid) + defaults.EGM_WORKER_NICE, 19))
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), max(-20, min(nice, 19)))
     except (AttributeError, OSError):
         pass
 
@@ -126,7 +130,8 @@ class Streamer:
     controller) never waits the first ``defaults.EGM_SWITCH_RETRIES`` times: the motion goes on as it was and
     the switch is scheduled again from a later state once the re-timing is done, and a request's lead is at
     least ``defaults.EGM_SWITCH_MARGIN`` times what the last re-timing of its kind took. ``requests``: every
-    :class:`Request`."""
+    :class:`Request`. ``scheduling``: how the loop thread answering it was scheduled (set by
+    :func:`.loops.serve`, :func:`.realtime.realtime`'s record; empty before)."""
 
     table: ReferenceTable
     retime: Callable
@@ -142,6 +147,7 @@ class Streamer:
     lead: float = defaults.EGM_SWITCH_LEAD
     realtime: bool = False
     requests: list = field(default_factory=list)
+    scheduling: dict = field(default_factory=dict)
     counts: Counts = field(default_factory=Counts)
     records: list = field(default_factory=list)
     stop_reason: str | None = None
@@ -227,8 +233,19 @@ class Streamer:
             return
         if self._worker is None:
             self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pathmotion-retime",
-                                              initializer=_lower_priority)
+                                              initializer=_lower_priority, initargs=(self._worker_nice(),))
         req.future = self._worker.submit(self._retimed, *args)
+
+    def _worker_nice(self) -> int | None:
+        """The re-timing worker's nice value (called on the loop's thread): the loop's own plus
+        ``defaults.EGM_WORKER_NICE``, or plus ``defaults.EGM_WORKER_NICE_REALTIME`` when the loop runs a real-time
+        policy (:attr:`scheduling`); None where a thread's nice value cannot be read."""
+        real_time = self.scheduling.get("policy") in ("SCHED_FIFO", "SCHED_RR")
+        try:
+            loop = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+        except (AttributeError, OSError):
+            return None
+        return loop + (defaults.EGM_WORKER_NICE_REALTIME if real_time else defaults.EGM_WORKER_NICE)
 
     def _request(self, kind: str, override: float, immediate: bool = False) -> None:
         """A switch of ``kind`` at robot time now + lead (``immediate``: now, re-timed on this cycle), replacing a
