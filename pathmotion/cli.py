@@ -707,7 +707,7 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
     or, planned before: [bold]pathmotion execute out/g2_plan --egm 6510[/]
     """
     from .execution.loops import open_listener, serve
-    from .execution.realtime import priority_range
+    from .execution.realtime import priority_range, realtime
     from .execution.session import make_streamer, write_execution
     from .io.atomic import output_lock, result_folder
 
@@ -730,19 +730,22 @@ def execute(scenario: Path = typer.Argument(..., help="scenario TOML file, or th
         sock = open_listener(egm)
         commands, interrupted = _stdin_commands(), False
         try:
-            while True:
-                try:
-                    ended = serve(sock, streamer, commands=commands, priority=realtime_priority)
-                    break
-                except KeyboardInterrupt:
-                    if interrupted or not streamer.started:
-                        raise
-                    interrupted = True
-                    _SIGNALLED.clear()
-                    streamer.stop("interrupted (Ctrl-C or SIGTERM)")
+            # one real-time block for both serves: the stop after Ctrl-C answers on at once, its memory locked
+            with realtime(realtime_priority) as scheduling:
+                while True:
+                    try:
+                        ended = serve(sock, streamer, commands=commands)
+                        break
+                    except KeyboardInterrupt:
+                        if interrupted or not streamer.started:
+                            raise
+                        interrupted = True
+                        _SIGNALLED.clear()
+                        streamer.stop("interrupted (Ctrl-C or SIGTERM)")
         finally:
             sock.close()
             streamer.close()
+        streamer.scheduling = scheduling  # what was asked and granted (serve's own record: what it ran at)
         with result_folder(out) as folder:
             summary = write_execution(folder, setup.robot, streamer, ended)
     _print_table(_summary_table(f"execute {setup.name} -> {out}", summary))

@@ -259,3 +259,27 @@ def test_cli_refuses_a_priority_outside_sched_fifo_s_range(tmp_path):
         res = CliRunner().invoke(app, ["execute", str(tmp_path / "none.toml"), "--egm", "0",
                                        "--realtime-priority", bad])
         assert res.exit_code == 1 and f"--realtime-priority {bad}" in res.output and "1-99" in res.output, res.output
+
+
+@pytest.mark.slow
+def test_cli_execute_records_its_loop_scheduling(tmp_path):
+    """execute --realtime-priority 1 against the virtual robot (processes, lockstep): it completes either way, and
+    summary.json says what the loop asked for and got (SCHED_FIFO 1 where the system allows it; else normal
+    priority and what was refused)."""
+    import json
+
+    pytest.importorskip("abb_robot_client")
+    from egm_support import irb140_task, line, run_commands
+
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(irb140_task("egm_short", line([0.45, -0.03, 0.5], [0.45, 0.03, 0.5])))
+    ex, robot, out = run_commands(scenario, ["--out", str(tmp_path / "robot")],
+                                  ["--out", str(tmp_path / "run"), "--realtime-priority", "1"])
+    assert ex.returncode == 0, ex.stdout + ex.stderr
+    got = json.loads((tmp_path / "run" / "summary.json").read_text())["loop_scheduling"]
+    assert got["requested_priority"] == 1
+    if got["policy"] == "SCHED_FIFO":
+        assert got["priority"] == 1 and not any(r.startswith("SCHED_FIFO") for r in got["refused"])
+    else:
+        assert any(r.startswith("SCHED_FIFO priority 1") for r in got["refused"])
+        assert "--realtime-priority 1" in ex.stderr + ex.stdout
