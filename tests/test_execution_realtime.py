@@ -106,6 +106,29 @@ def test_granted_priority_is_set_and_restored(monkeypatch, caplog):
     assert "realtime-priority" not in caplog.text
 
 
+@linux
+def test_granted_by_rlimit_alone_the_scheduling_is_restored_too(monkeypatch):
+    """SCHED_FIFO granted by RLIMIT_RTPRIO without CAP_SYS_NICE: Linux refuses to clear SCHED_RESET_ON_FORK, so the
+    thread goes back to its policy with the flag kept (not left at SCHED_FIFO)."""
+    sched = FakeScheduler(monkeypatch)
+    set_ = sched.set
+
+    def no_clearing(tid, policy, param):
+        flag = os.SCHED_RESET_ON_FORK
+        if sched.table.get(tid, (0, 0))[0] & flag and not policy & flag:
+            raise PermissionError(errno.EPERM, "Operation not permitted")
+        set_(tid, policy, param)
+
+    monkeypatch.setattr(os, "sched_setscheduler", no_clearing)
+    monkeypatch.setattr(rt, "lock_memory", lambda: "not tried in the tests")
+    tid = threading.get_native_id()
+    with realtime(20) as got:
+        assert sched.table[tid] == (os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 20)
+    assert got["policy"] == "SCHED_FIFO"
+    assert sched.table[tid] == (os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, 0)
+    assert current_scheduling() == {"policy": "SCHED_OTHER", "priority": 0}
+
+
 def test_priority_zero_changes_nothing(monkeypatch):
     sched = FakeScheduler(monkeypatch) if hasattr(os, "sched_setscheduler") else None
     libc = FakeLibc(0)

@@ -135,9 +135,20 @@ def realtime(priority: int):
         yield got
     finally:
         if switched:
-            try:
-                os.sched_setscheduler(tid, before[0], before[1])
-            except OSError as exc:  # lowering one's own scheduling is always allowed; never seen
-                log.warning("could not restore the loop thread's scheduling: %s", exc)
+            _restore(tid, *before)
         if got["memory_locked"]:
             unlock_memory()
+
+
+def _restore(tid: int, policy: int, param) -> None:
+    """Thread ``tid`` back to ``policy`` / ``param``; without CAP_SYS_NICE (SCHED_FIFO granted by RLIMIT_RTPRIO)
+    Linux refuses to clear SCHED_RESET_ON_FORK, so the policy is restored with it kept."""
+    try:
+        os.sched_setscheduler(tid, policy, param)
+        return
+    except OSError:
+        pass
+    try:
+        os.sched_setscheduler(tid, policy | os.SCHED_RESET_ON_FORK, param)
+    except OSError as exc:
+        log.warning("could not restore the loop thread's scheduling: %s", exc.strerror or exc)
