@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from egm_support import irb140_task, line, planned as planned_scenario
+from pathmotion import defaults
 from pathmotion.execution.drives import VirtualArm
 from pathmotion.execution.messages import decode_sensor, encode_robot
 from pathmotion.execution.session import make_streamer, run_inprocess, write_execution
@@ -57,11 +58,14 @@ def _steps(st):
 
 
 @pytest.mark.parametrize("realtime", [False, True], ids=["lockstep", "realtime"])
-def test_a_slow_retime_does_not_hold_the_loop(planned, realtime):
+def test_a_slow_retime_does_not_hold_the_loop(planned, realtime, monkeypatch):
     """The re-timing of a stop is held until the test releases it: the request and the answers until its switch
     return meanwhile (the re-timing runs off the loop's thread), every answer comes from the current segment, and
     the stop is switched at t + lead (real time: the loop never waits; the stop, not ready at its switch, is
-    scheduled again from a later state), the references continuous across the switch."""
+    scheduled again from a later state), the references continuous across the switch. The retries are not
+    counted here (a loaded machine may need more than the default's: a re-timing slower than the margin times
+    the last), only that the loop never waits for them."""
+    monkeypatch.setattr(defaults, "EGM_SWITCH_RETRIES", 40)
     robot, result, drives = planned
     st = make_streamer(robot, result, "shaping", drives, realtime=realtime)
     held = Held(st.retime)
@@ -74,7 +78,7 @@ def test_a_slow_retime_does_not_hold_the_loop(planned, realtime):
     assert len(st.records) == 30 + lead_cycles + (3 if realtime else -1)
     held.release.set()
     k = len(st.records)
-    while st.pending is not None and k < 400:
+    while st.pending is not None and k < 2000:
         q = _feed(st, k, 1, q)
         k += 1
         if realtime:
