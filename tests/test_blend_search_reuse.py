@@ -96,10 +96,12 @@ def test_jacobian_and_bias_equal_the_separate_calls():
         np.testing.assert_array_equal(bias_at(qd), frame_acceleration_bias(robot, q, qd))
 
 
-def test_the_polish_does_not_plan_its_start_again(monkeypatch):
+@pytest.mark.parametrize("angle, tolerance", [(150.0, 1e-4), (60.0, 1e-4)])
+def test_the_polish_does_not_plan_its_start_again(monkeypatch, angle, tolerance):
     """The fast polish (on its own grid, the whole path) is handed its start's duration: it is that of a fresh plan
     of the start's blends on that grid, and the corner's polish with it equals the polish planning its start, one
-    plan less where the start's coordinates build the start's blend."""
+    plan less: its coordinates (those that built the start's blend, not rounded) build that blend again (at 60 deg /
+    0.1 mm the rounded ones built another in the last bits)."""
     import dataclasses
 
     from pathmotion.planning import blend_search
@@ -113,11 +115,32 @@ def test_the_polish_does_not_plan_its_start_again(monkeypatch):
 
     monkeypatch.setattr(blend_search, "_polish_corner", spied)
     robot = load_robot("irb140")
-    optimal_blends(robot, _task(corner_points(150.0)), 1e-4, settings=_settings(False, verify=False, baselines=False),
-                   search=FAST)
+    optimal_blends(robot, _task(corner_points(angle)), tolerance,
+                   settings=_settings(False, verify=False, baselines=False), search=FAST)
     assert jobs and all(job.start_T is not None for job in jobs)
     for job in jobs:
         assert job.start_T == duration_with(robot, job.original, job.shapes, job.settings, job.q_start)
         seeded, planned = polish_corner(job), polish_corner(dataclasses.replace(job, start_T=None))
         assert seeded[:3] == planned[:3]
         assert seeded[3] == planned[3] - 1
+
+
+def test_the_path_of_a_sized_shape_reuses_its_offset_lines():
+    """The racing lines a shape was sized with are those its path is built with (one computation, whichever caller
+    names itself in the errors), and the path is the one built from fresh offset lines."""
+    from pathmotion.geometry import blends
+
+    robot = load_robot("irb140")
+    path, tol = _turn(90.0, (0.35, -0.1, 0.45)), 0.005
+    objective = _Objective(robot, path, {}, 0, tol, SETTINGS, None)
+    shape = objective.shape(COORDINATES[1])
+    before = blends._offset_lines.cache_info()
+    built = blends.with_shaped_g2_blends(path, {0: shape})
+    after = blends._offset_lines.cache_info()
+    assert after.misses == before.misses and after.hits > before.hits
+    blends._offset_lines.cache_clear()
+    fresh = blends.with_shaped_g2_blends(path, {0: shape})
+    for a, b in zip(built.segments, fresh.segments):
+        np.testing.assert_array_equal(a.start_point, b.start_point)
+        np.testing.assert_array_equal(a.end_point, b.end_point)
+        np.testing.assert_array_equal(getattr(a, "control_points", 0.0), getattr(b, "control_points", 0.0))
