@@ -52,8 +52,9 @@ def curvature_terms(coef: np.ndarray, u: np.ndarray, fac1: np.ndarray, fac2: np.
     """(g2 X''.X'' - (X'.X'')^2, g2) (N,) each at u (N,), g2 = X'.X', the numerator and the root of the denominator
     of the squared curvature |X' x X''|^2 / |X'|^6 (Lagrange's identity): X' and X'' by :func:`polyval`'s Horner
     loop (``fac1``, ``fac2``: its factors of orders 1 and 2), each dot product summed as numpy's
-    einsum("ij,ij->i") sums rows of 3, (x0 y0 + x2 y2) + x1 y1: the same floats as the numpy form. The cube is
-    numpy's (its vectorised pow differs from the compiled one in the last bit)."""
+    einsum("ij,ij->i") sums rows of 3, (x0 y0 + x2 y2) + x1 y1: the same floats as the numpy form. The cube is the
+    caller's: numpy's g2 ** 3 is libm's pow, which a compiled cube of a constant exponent (folded into products)
+    differs from in the last bit (:func:`curvature_peak_parameters` passes the exponent at run time)."""
     n = u.shape[0]
     num = np.empty(n)
     g2s = np.empty(n)
