@@ -904,12 +904,11 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
     run = int(states is not None)
     jobs = []
     for k, objectives in searched.items():
-        found = [(o, o.built[shapes[k]]) for o in objectives if shapes[k] in o.built]
+        found = [(o, key) for o in objectives for key, (_, shape) in o.cache.items() if shape == shapes[k]]
         if not found:  # e.g. the symmetric blend of a corner whose search never tried it
             continue
-        o, (x, free_ends) = found[0]  # the coordinates that built the shape (not rounded: they build it again)
-        free_ends = free_ends if len(x) > _DEPARTURE.start else o.free_ends
-        jobs.append(_PolishJob(robot, original, given, k, x, free_ends, o.resting, o.tolerance,
+        o, key = found[0]
+        jobs.append(_PolishJob(robot, original, given, k, key[0], key[1] or o.free_ends, o.resting, o.tolerance,
                                settings, q_start, plans, k in quintic, k in planar, states, share, lean))
     if states is None:  # one after the other, each corner with the blends polished before it
         for job in jobs:
