@@ -566,9 +566,13 @@ class BezierSegment(Segment):
 
     @cached_property
     def _frames(self) -> tuple:
-        """Segment._end at both ends, evaluated once and in one call (every path built from this segment classifies its
-        joints; evaluate's numbers are per point, the same floats as one call per end)."""
-        p, dp, ddp = self.evaluate(np.array([0.0, self.length]))
+        """Segment._end at both ends, evaluated once, in one compiled call (every path built from this segment
+        classifies its joints): :func:`~pathmotion.geometry.bezier_batch.evaluate_many`, evaluate's floats."""
+        length = self.length
+        p, dp, ddp = bezier_batch.evaluate_many(
+            self._coef[None], self._panel_s[None], self._table_u, self._table_s[None], np.array([length]),
+            np.array([ARC_LENGTH_ROUNDING * max(1.0, length)]), np.zeros(2, np.int64), np.array([0.0, length]),
+            _GL_NODES, _GL_WEIGHTS, *_DERIVATIVE_FACTORS[:3])
         return tuple((p[k], dp[k], ddp[k]) for k in (0, 1))
 
     def _end(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
