@@ -121,3 +121,24 @@ def test_the_polish_does_not_plan_its_start_again(monkeypatch):
         seeded, planned = polish_corner(job), polish_corner(dataclasses.replace(job, start_T=None))
         assert seeded[:3] == planned[:3]
         assert seeded[3] == planned[3] - 1
+
+
+def test_the_path_of_a_sized_shape_reuses_its_offset_lines():
+    """The racing lines a shape was sized with are those its path is built with (one computation, whichever caller
+    names itself in the errors), and the path is the one built from fresh offset lines."""
+    from pathmotion.geometry import blends
+
+    robot = load_robot("irb140")
+    path, tol = _turn(90.0, (0.35, -0.1, 0.45)), 0.005
+    objective = _Objective(robot, path, {}, 0, tol, SETTINGS, None)
+    shape = objective.shape(COORDINATES[1])
+    before = blends._offset_lines.cache_info()
+    built = blends.with_shaped_g2_blends(path, {0: shape})
+    after = blends._offset_lines.cache_info()
+    assert after.misses == before.misses and after.hits > before.hits
+    blends._offset_lines.cache_clear()
+    fresh = blends.with_shaped_g2_blends(path, {0: shape})
+    for a, b in zip(built.segments, fresh.segments):
+        np.testing.assert_array_equal(a.start_point, b.start_point)
+        np.testing.assert_array_equal(a.end_point, b.end_point)
+        np.testing.assert_array_equal(getattr(a, "control_points", 0.0), getattr(b, "control_points", 0.0))

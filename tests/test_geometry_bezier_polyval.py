@@ -123,3 +123,49 @@ def test_compiled_speed_range_is_numpy_bit_for_bit(seed, scale, n):
     speed = np.linalg.norm(BezierSegment._polyval(coef, u, 1), axis=1)
     assert bezier_polyval.speed_range(coef, u, _DERIVATIVE_FACTORS[1]) == (np.min(speed), int(np.argmin(speed)),
                                                                           np.max(speed))
+
+
+def _numpy_peak_parameters(seg):
+    """The numpy rounds BezierSegment.curvature_peaks ran before they were compiled: the parameters u of the peaks."""
+    from pathmotion.geometry.segments import PEAK_MIN_CURVATURE, PEAK_REFINE_ROUNDS, PEAK_REFINE_SAMPLES, PEAK_SAMPLES
+
+    u = np.linspace(0.0, 1.0, PEAK_SAMPLES)
+    k = seg._curvature_squared(u)
+    i = np.nonzero((k[1:-1] >= k[:-2]) & (k[1:-1] > k[2:]) & (k[1:-1] > PEAK_MIN_CURVATURE ** 2))[0] + 1
+    at, half = u[i], np.full(i.size, u[1])
+    offsets = np.linspace(-1.0, 1.0, PEAK_REFINE_SAMPLES)
+    for _ in range(PEAK_REFINE_ROUNDS if i.size else 0):
+        trial = np.clip(at[:, None] + half[:, None] * offsets[None, :], 0.0, 1.0)
+        best = np.argmax(seg._curvature_squared(trial.ravel()).reshape(trial.shape), axis=1)
+        at, half = trial[np.arange(i.size), best], half * 2.0 / (PEAK_REFINE_SAMPLES - 1)
+    return at
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), scale=st.sampled_from([1e-4, 1e-2, 1.0]),
+       kind=st.sampled_from(["random", "blend", "nearly straight"]))
+def test_compiled_curvature_peaks_are_numpy_bit_for_bit(seed, scale, kind):
+    """The peaks every blend piece grades the plan's grid at (one compiled call): numpy's rounds' parameters, the
+    same floats (so grids and durations stay the same), on random curves, blend-like corners and nearly straight
+    pieces (many rounding-noise maxima, none above the floor)."""
+    from pathmotion.geometry import bezier_polyval
+    from pathmotion.geometry.segments import _PEAK_OFFSETS, _PEAK_U, PEAK_MIN_CURVATURE, PEAK_REFINE_ROUNDS
+
+    rng = np.random.default_rng(seed)
+    if kind == "random":
+        b = scale * rng.normal(size=(6, 3))
+    elif kind == "blend":
+        a = np.radians(rng.uniform(5.0, 175.0))
+        side = np.array([np.cos(a), np.sin(a), 0.0])
+        b = scale * np.array([[-1.0, 0, 0], [-0.6, 0, 0], [-0.2, 0, 0], 0.2 * side, 0.6 * side, side])
+        b += scale * rng.choice([0.0, 1e-3, 0.05]) * rng.normal(size=(6, 3))
+    else:
+        b = scale * (np.linspace(0.0, 1.0, 6)[:, None] * rng.normal(size=3) + 1e-7 * rng.normal(size=(6, 3)))
+    if not _no_cusp(b):
+        return
+    seg = BezierSegment(b)
+    got = bezier_polyval.curvature_peak_parameters(seg._coef, _PEAK_U, _DERIVATIVE_FACTORS[1], _DERIVATIVE_FACTORS[2],
+                                                   PEAK_MIN_CURVATURE ** 2, _PEAK_OFFSETS, PEAK_REFINE_ROUNDS, 3.0)
+    want = _numpy_peak_parameters(seg)
+    assert np.array_equal(got, want)
+    assert seg.curvature_peaks == (tuple(float(s) for s in seg._arc_length(want)) if want.size else ())

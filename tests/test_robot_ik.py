@@ -598,3 +598,27 @@ def test_a_joint_beyond_its_limit_by_more_than_the_slack_is_still_rejected(robot
     with pytest.raises(UnreachableError) as info:
         ik_batch(robot, pos[None], rot[None], q)
     assert info.value.reason == "joint_range"
+
+
+def test_solve_on_listed_branches_equals_all_branches_and_skips_a_shoulder_none_of_them_use(robot):
+    """ik_batch and ik_nearest solve the branches they follow only: each listed branch's solution, reach, sin t5 and
+    its shoulder's arm distance and elbow angle are the eight-branch solve's, bit for bit; a shoulder none of the
+    listed branches uses is not computed (its arm distance and elbow angle NaN)."""
+    geo = opw_geometry(robot)
+    qs = np.random.default_rng(11).uniform(-2.0, 2.0, (400, 6))
+    pos, rot = fk(robot, qs)
+    t = geo.to_t(qs)
+    full = solve(geo, pos, rot, t[:, 0], t[:, 3])
+    for branches in [(0,), (1,), (5,), (2, 3), (6, 7), (0, 4)]:
+        sub = solve(geo, pos, rot, t[:, 0], t[:, 3], branches=branches)
+        for b in branches:
+            for name in ("q", "reach_ok", "sin_wrist"):
+                np.testing.assert_array_equal(getattr(sub, name)[:, b], getattr(full, name)[:, b])
+        for shoulder in (0, 1):
+            used = any(b >> 2 == shoulder for b in branches)
+            for name in ("arm_distance", "elbow_angle"):
+                got = getattr(sub, name)[:, shoulder]
+                if used:
+                    np.testing.assert_array_equal(got, getattr(full, name)[:, shoulder])
+                else:
+                    assert np.all(np.isnan(got))

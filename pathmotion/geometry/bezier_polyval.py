@@ -52,8 +52,9 @@ def curvature_terms(coef: np.ndarray, u: np.ndarray, fac1: np.ndarray, fac2: np.
     """(g2 X''.X'' - (X'.X'')^2, g2) (N,) each at u (N,), g2 = X'.X', the numerator and the root of the denominator
     of the squared curvature |X' x X''|^2 / |X'|^6 (Lagrange's identity): X' and X'' by :func:`polyval`'s Horner
     loop (``fac1``, ``fac2``: its factors of orders 1 and 2), each dot product summed as numpy's
-    einsum("ij,ij->i") sums rows of 3, (x0 y0 + x2 y2) + x1 y1: the same floats as the numpy form. The cube is
-    numpy's (its vectorised pow differs from the compiled one in the last bit)."""
+    einsum("ij,ij->i") sums rows of 3, (x0 y0 + x2 y2) + x1 y1: the same floats as the numpy form. The cube is the
+    caller's: numpy's g2 ** 3 is libm's pow, which a compiled cube of a constant exponent (folded into products)
+    differs from in the last bit (:func:`curvature_peak_parameters` passes the exponent at run time)."""
     n = u.shape[0]
     num = np.empty(n)
     g2s = np.empty(n)
@@ -101,3 +102,60 @@ def speed_range(coef: np.ndarray, u: np.ndarray, fac1: np.ndarray) -> tuple:
         if speed > hi:
             hi = speed
     return lo, at, hi
+
+
+@numba.njit(cache=True)
+def curvature_peak_parameters(coef: np.ndarray, u: np.ndarray, fac1: np.ndarray, fac2: np.ndarray, floor: float,
+                              offsets: np.ndarray, rounds: int, three: float) -> np.ndarray:
+    """BezierSegment.curvature_peaks' parameters u (k,) of the squared curvature's interior local maxima above
+    ``floor`` on the samples ``u`` (N,), each refined ``rounds`` times: the largest of the samples ``offsets`` (m,)
+    across its bracket (half-width u[1] at first, then (m - 1) / 2 times narrower each round; the first of equal
+    largest, numpy's argmax). The squared curvature is :func:`curvature_terms`' num / g2^3 with the cube libm's
+    pow(g2, e) for the run-time exponent ``three`` (3.0), as numpy's ``g2 ** 3`` computes it (a constant exponent
+    would be folded into products, which differ in the last bit): the same floats as the numpy form, in one call
+    instead of one per round."""
+    num, g2 = curvature_terms(coef, u, fac1, fac2)
+    n = u.shape[0]
+    k = np.empty(n)
+    for i in range(n):
+        k[i] = num[i] / g2[i] ** three
+    count = 0
+    for i in range(1, n - 1):
+        if k[i] >= k[i - 1] and k[i] > k[i + 1] and k[i] > floor:
+            count += 1
+    at = np.empty(count)
+    half = np.empty(count)
+    c = 0
+    for i in range(1, n - 1):
+        if k[i] >= k[i - 1] and k[i] > k[i + 1] and k[i] > floor:
+            at[c] = u[i]
+            half[c] = u[1]
+            c += 1
+    if count == 0:
+        return at
+    m = offsets.shape[0]
+    trial = np.empty(count * m)
+    for _ in range(rounds):
+        for a in range(count):
+            for b in range(m):
+                v = at[a] + half[a] * offsets[b]
+                if v < 0.0:
+                    v = 0.0
+                elif v > 1.0:
+                    v = 1.0
+                trial[a * m + b] = v
+        num, g2 = curvature_terms(coef, trial, fac1, fac2)
+        for a in range(count):
+            best = 0
+            top = num[a * m] / g2[a * m] ** three
+            if not np.isnan(top):
+                for b in range(1, m):
+                    v = num[a * m + b] / g2[a * m + b] ** three
+                    if np.isnan(v):
+                        best = b
+                        break
+                    if v > top:
+                        top, best = v, b
+            at[a] = trial[a * m + best]
+            half[a] = half[a] * 2.0 / (m - 1)
+    return at

@@ -60,7 +60,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import PathError
-from .chain import Connection, TaskPath, classify
+from .chain import Connection, TaskPath, classify, cross3
 from .deviation import BOUND_ROUNDING, Deviation, certified_max, distance_to_segments
 from . import blend_sizing
 from .quintic_deviation import _line_arrays, _samples, bezier_lines_max, bezier_pieces_lines_max, g2_lines_cut
@@ -569,18 +569,27 @@ class _Racing:
     up: np.ndarray
 
 
-@lru_cache(maxsize=16)  # a sizing builds ~20 blends with the same offset lines
 def _racing_lines(A: Segment, B: Segment, w_a: float, w_b: float, what: str, v_a: float = 0.0,
                   v_b: float = 0.0) -> _Racing:
     if not (isinstance(A, Line) and isinstance(B, Line)):
         raise PathError(f"{what}: a racing blend (offset > 0) needs two line neighbours, got {A.kind} and {B.kind}; "
                         "give offsets 0 there")
-    c, tA, tB = A.end, A.direction, B.direction
-    m = np.cross(tA, tB)
-    if np.linalg.norm(m) < REVERSAL_SINE:
+    racing = _offset_lines(A, B, w_a, w_b, v_a, v_b)
+    if racing is None:
         raise PathError(f"{what}: a racing blend needs a corner that turns (the lines are parallel)")
+    return racing
+
+
+@lru_cache(maxsize=16)  # a sizing builds ~20 blends with the same offset lines; the path of its shape builds them again
+def _offset_lines(A: Line, B: Line, w_a: float, w_b: float, v_a: float, v_b: float) -> _Racing | None:
+    """_racing_lines' answer, None where the lines are parallel (cached whichever caller asks: ``what`` only names
+    it in the errors)."""
+    c, tA, tB = A.end, A.direction, B.direction
+    m = cross3(tA, tB)  # np.cross's floats (chain.cross3)
+    if np.linalg.norm(m) < REVERSAL_SINE:
+        return None
     m = m / np.linalg.norm(m)
-    out_a, out_b = -np.cross(m, tA), -np.cross(m, tB)  # outside the turn
+    out_a, out_b = -cross3(m, tA), -cross3(m, tB)  # outside the turn
     # c + w_a out_a + v_a m + s tA = c + w_b out_b + v_b m + t tB (least squares: closest points when skew)
     s, t = np.linalg.lstsq(np.column_stack([tA, -tB]), w_b * out_b - w_a * out_a + (v_b - v_a) * m, rcond=None)[0]
     ca, cb = c + w_a * out_a + v_a * m + s * tA, c + w_b * out_b + v_b * m + t * tB
@@ -807,7 +816,9 @@ def g2_shape_for_tolerance(path: TaskPath, corner: int, tolerance: float, balanc
     else:  # the total cuts are affine in the size: entry(size) = e0 + balance size, exit(size) = x0 + (1 - balance) size
         # (of the blend joined to both lines: its runs bound the corner quintic, and a free end's piece then
         # runs on from there to the path's end, at least as far as its run)
-        _, e0, x0 = g2_blend_pieces(c.A, c.B, 0.0, 0.0, sa, sb, offsets, runs, what, slopes, bends, rises)
+        joined = pieces_at if departure is None and arrival is None else _BlendPieces(
+            c.A, c.B, sa, sb, offsets, runs, what, slopes, bends, rises)  # g2_blend_pieces without the free ends
+        _, e0, x0 = joined(0.0, 0.0)
         size_min = max(0.0, -e0 / balance, -x0 / (1 - balance))  # both cuts > 0
         size_max = min((c.max_a - e0) / balance, (c.max_b - x0) / (1 - balance))
     if not size_max > size_min:

@@ -465,6 +465,9 @@ _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
 #: _power_basis' integers: (-1)^(k-i) C(k, i) for i <= k, else 0 (6, 6), and C(5, k) (6,).
 _POWER_SIGNED = np.array([[(-1) ** (k - i) * comb(k, i) if i <= k else 0 for i in range(6)] for k in range(6)], float)
 _POWER_SCALE = np.array([comb(5, k) for k in range(6)], float)
+#: curvature_peaks' samples of u and of each peak's bracket (PEAK_SAMPLES, PEAK_REFINE_SAMPLES).
+_PEAK_U = np.linspace(0.0, 1.0, PEAK_SAMPLES)
+_PEAK_OFFSETS = np.linspace(-1.0, 1.0, PEAK_REFINE_SAMPLES)
 #: k! / (k - order)! for k = order .. 5, per order: the factors of d^order u^k / du^order.
 _DERIVATIVE_FACTORS = tuple(np.array([np.prod(np.arange(k - order + 1, k + 1)) for k in range(order, 6)], float)
                             for order in range(6))
@@ -540,17 +543,11 @@ class BezierSegment(Segment):
         refined PEAK_REFINE_ROUNDS times on PEAK_REFINE_SAMPLES between the neighbours of the largest (a near-cusp's
         peak is a few um of arc wide where it is thousands of 1/m high, but its width in u is not: the search found
         one of 25000 1/m, 0.07 mm wide at half height)."""
-        u = np.linspace(0.0, 1.0, PEAK_SAMPLES)
-        k = self._curvature_squared(u)
-        i = np.nonzero((k[1:-1] >= k[:-2]) & (k[1:-1] > k[2:]) & (k[1:-1] > PEAK_MIN_CURVATURE ** 2))[0] + 1
-        if i.size == 0:
+        at = bezier_polyval.curvature_peak_parameters(self._coef, _PEAK_U, _DERIVATIVE_FACTORS[1],
+                                                      _DERIVATIVE_FACTORS[2], PEAK_MIN_CURVATURE ** 2,
+                                                      _PEAK_OFFSETS, PEAK_REFINE_ROUNDS, 3.0)
+        if at.size == 0:
             return ()
-        at, half = u[i], np.full(i.size, u[1])
-        offsets = np.linspace(-1.0, 1.0, PEAK_REFINE_SAMPLES)
-        for _ in range(PEAK_REFINE_ROUNDS):  # every peak at once: the largest of the samples across its bracket
-            trial = np.clip(at[:, None] + half[:, None] * offsets[None, :], 0.0, 1.0)
-            best = np.argmax(self._curvature_squared(trial.ravel()).reshape(trial.shape), axis=1)
-            at, half = trial[np.arange(i.size), best], half * 2.0 / (PEAK_REFINE_SAMPLES - 1)
         return tuple(float(s) for s in self._arc_length(at))
 
     def _arc_length(self, u):
@@ -569,8 +566,14 @@ class BezierSegment(Segment):
 
     @cached_property
     def _frames(self) -> tuple:
-        """Segment._end at both ends, evaluated once (every path built from this segment classifies its joints)."""
-        return tuple(Segment._end(self, which) for which in (0, 1))
+        """Segment._end at both ends, evaluated once, in one compiled call (every path built from this segment
+        classifies its joints): :func:`~pathmotion.geometry.bezier_batch.evaluate_many`, evaluate's floats."""
+        length = self.length
+        p, dp, ddp = bezier_batch.evaluate_many(
+            self._coef[None], self._panel_s[None], self._table_u, self._table_s[None], np.array([length]),
+            np.array([ARC_LENGTH_ROUNDING * max(1.0, length)]), np.zeros(2, np.int64), np.array([0.0, length]),
+            _GL_NODES, _GL_WEIGHTS, *_DERIVATIVE_FACTORS[:3])
+        return tuple((p[k], dp[k], ddp[k]) for k in (0, 1))
 
     def _end(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return tuple(a.copy() for a in self._frames[which])

@@ -272,7 +272,8 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
 
     positions (N, 3) [m]; rotations (N, 3, 3); t1_ref, t4_ref (N,) OPW angles used where the
     shoulder (wrist centre on axis 1), respectively the wrist (t5 = 0), is degenerate. Only the
-    branches listed in ``branches`` are computed (the others stay NaN / False).
+    branches listed in ``branches`` are computed (the others stay NaN / False; a shoulder none of whose branches is
+    listed is skipped, its arm_distance and elbow_angle NaN).
     """
     wanted = set(branches)
     n_pts = len(positions)
@@ -290,6 +291,9 @@ def solve(geo: OPWGeometry, positions: np.ndarray, rotations: np.ndarray,
     g = rotations @ geo.tcp_rotation.T
     g = (g[:, 0], g[:, 1], g[:, 2])  # rows (N, 3) of R R_c^T
     for shoulder in (0, 1):
+        if not wanted & set(range(4 * shoulder, 4 * shoulder + 4)):  # none of its branches: its columns stay NaN
+            arm_distance[:, shoulder] = elbow_angle[:, shoulder] = np.nan
+            continue
         cx1 = radius if shoulder == 0 else -radius
         degenerate = radius < defaults.IK_DEGENERATE
         t1 = np.where(degenerate, t1_ref, np.arctan2(centre[:, 1], centre[:, 0]) - np.arctan2(geo.b, cx1))
