@@ -18,6 +18,7 @@ Away from a rest point the interpolant is O(Delta^2) accurate like linear-in-the
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
 def coordinates(grid: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -71,24 +72,63 @@ def weights(grid: np.ndarray, origin: np.ndarray, sign: np.ndarray):
 
 def state(grid, x, u, origin, sign, i, theta):
     """(x, u, du/dtheta * sqrt(x) = theta_dddot) at theta in interval i (arrays of one shape)."""
-    xi_lo = xi_of(origin[i], sign[i], grid[i])
-    xi_hi = xi_of(origin[i], sign[i], grid[i + 1])
-    g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
-    xi = xi_of(origin[i], sign[i], theta)
-    uu = u[i] + g * (xi - xi_lo)
-    # x integrated from the interval's start, or from its end where the motion rests there (from the start, x
-    # next to the rest point would be the difference of nearly equal numbers, and the jerk's sqrt(x) / xi^2
-    # below would lose all its digits)
-    from_start = x[i] + 2.0 * (u[i] * (theta - grid[i]) + g * xi_integral(origin[i], sign[i], grid[i], theta))
-    from_end = x[i + 1] + 2.0 * (u[i + 1] * (theta - grid[i + 1])
-                                 + g * xi_integral(origin[i], sign[i], grid[i + 1], theta))
-    xx = np.maximum(np.where(x[i + 1] <= 0.0, from_end, from_start), 0.0)
-    # theta_dddot = g sqrt(x) / (dtheta/dxi); at a rest point (xi = 0) its limit sqrt(x) / xi^2 is that
-    # of the S-curve x = x_end (xi / xi_end)^4
-    slope = dtheta_dxi(sign[i], xi)
-    far = np.where(np.abs(xi_lo) > np.abs(xi_hi), xi_lo, xi_hi)
-    x_far = np.where(np.abs(xi_lo) > np.abs(xi_hi), x[i], x[i + 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        jerk = np.where(slope != 0, g * np.sqrt(xx) / np.where(slope != 0, slope, 1.0),
-                        g * np.sqrt(x_far) / (3.0 * sign[i] * np.where(far != 0, far, 1.0) ** 2))
-    return xx, uu, jerk
+    i, theta = np.asarray(i), np.asarray(theta, float)
+    shape = np.broadcast_shapes(i.shape, theta.shape)
+    flat_i = np.ascontiguousarray(np.broadcast_to(i, shape), np.int64).ravel()
+    flat_t = np.ascontiguousarray(np.broadcast_to(theta, shape)).ravel()
+    xx, uu, jerk = _state_kernel(np.ascontiguousarray(grid, float), np.ascontiguousarray(x, float),
+                                 np.ascontiguousarray(u, float), np.ascontiguousarray(origin, float),
+                                 np.ascontiguousarray(sign, np.int64), flat_i, flat_t)
+    return xx.reshape(shape)[()], uu.reshape(shape)[()], jerk.reshape(shape)  # (numpy's types: 0-d x, u are scalars)
+
+
+@njit(cache=True, inline="always")
+def _xi1(origin, sign, theta):
+    """xi_of at one point."""
+    if sign > 0:
+        return np.cbrt(max(theta - origin, 0.0))
+    if sign < 0:
+        return np.cbrt(max(origin - theta, 0.0))
+    return theta
+
+
+@njit(cache=True, inline="always")
+def _xi_integral1(origin, sign, theta0, theta):
+    """xi_integral at one point."""
+    if sign == 0:
+        return 0.5 * (theta - theta0) ** 2
+    d0, d1 = abs(theta0 - origin), abs(theta - origin)
+    cube = 0.75 * (d1 ** (4 / 3) - d0 ** (4 / 3)) if sign > 0 else 0.75 * (d0 ** (4 / 3) - d1 ** (4 / 3))
+    return cube - _xi1(origin, sign, theta0) * (theta - theta0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _state_kernel(grid, x, u, origin, sign, index, theta):
+    """:func:`state` point by point: the same formulas in the same order.
+
+    x is integrated from the interval's start, or from its end where the motion rests there (from the start, x
+    next to the rest point would be the difference of nearly equal numbers, and the jerk's sqrt(x) / xi^2 below
+    would lose all its digits); theta_dddot = g sqrt(x) / (dtheta/dxi), and at a rest point (xi = 0) its limit
+    sqrt(x) / xi^2, that of the S-curve x = x_end (xi / xi_end)^4."""
+    n = theta.shape[0]
+    xs, us, js = np.empty(n), np.empty(n), np.empty(n)
+    for p in range(n):
+        i, th = index[p], theta[p]
+        o, sg = origin[i], sign[i]
+        xi_lo, xi_hi = _xi1(o, sg, grid[i]), _xi1(o, sg, grid[i + 1])
+        g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
+        xi = _xi1(o, sg, th)
+        us[p] = u[i] + g * (xi - xi_lo)
+        if x[i + 1] <= 0.0:
+            val = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral1(o, sg, grid[i + 1], th))
+        else:
+            val = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral1(o, sg, grid[i], th))
+        xx = val if (val >= 0.0 or val != val) else 0.0
+        xs[p] = xx
+        slope = 1.0 if sg == 0 else 3.0 * sg * xi ** 2
+        if slope != 0:
+            js[p] = g * np.sqrt(xx) / slope
+        else:
+            far, x_far = (xi_lo, x[i]) if abs(xi_lo) > abs(xi_hi) else (xi_hi, x[i + 1])
+            js[p] = g * np.sqrt(x_far) / (3.0 * sg * (far if far != 0 else 1.0) ** 2)
+    return xs, us, js
