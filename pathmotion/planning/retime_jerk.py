@@ -104,6 +104,7 @@ class JerkPass:
         self.p3 = tuple(np.ascontiguousarray(np.stack([np.concatenate([np.asarray(r[f]) for r in side], axis=1)[sl]
                                                        for side, (_, _, sl) in zip(third, points)]))
                         for f in range(5))
+        self._r2, self._r3 = np.stack(self.p2), np.stack(self.p3)  # (5, Q, K-1, m): the kernels' layout
 
     def ceiling_at(self, i: int, theta: float) -> tuple[float, float]:
         """(x, u) of C at theta in grid interval i."""
@@ -210,13 +211,17 @@ class JerkPass:
         check points and margin are no certificate, and these states' steep jerk finds their gaps); else 0."""
         nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
         j, pts, merge_from = self.first_points(theta, i, j, nxt, x0, u0)
-        first = self._first(theta, i, j, pts)
+        f2, f3, fx, fc = first = self._first(theta, i, j, pts)
         c0 = self._ceiling_first(j, pts)
-        grid_data = (self.p2, self.p3, self.px, self.pc, self.cx, self.cu)
         share = self._state_share(first, x0, u0)
         if share > STATE_SHARE_MAX:
             return None
-        first = (*first, share, np.ascontiguousarray((pts - pts[0]) / (pts[-1] - pts[0])))
+        # every output interval's check points in one array each: the first F, then the plan's from interval j on
+        grid_data = (np.concatenate([np.stack(f2), self._r2[:, :, j:]], axis=2),
+                     np.concatenate([np.stack(f3), self._r3[:, :, j:]], axis=2),
+                     np.concatenate([fx, self.px[:, j:]], axis=1), np.concatenate([fc, self.pc[:, :, j:]], axis=2),
+                     self.cx, self.cu)
+        first = (share, np.ascontiguousarray((pts - pts[0]) / (pts[-1] - pts[0])))
         if len(self._buffers[0]) < len(pts) + len(self.grid) - j:
             self._buffers = (np.empty(len(pts) + len(self.grid)), np.empty(len(pts) + len(self.grid)))
         xs, us = self._buffers
@@ -352,23 +357,6 @@ def _cut(low, high, q, bot, top):
 
 
 @njit(cache=True, inline="always")
-def _point(k, q, j, grid_data, first):
-    """Check point q (CHECK_POINTS) of output interval k (k < F: the first intervals, from the state to grid
-    point j; k >= F: grid interval j + k - F): (rows2, rows3, x_max, cxu, cxv, lam, dp)."""
-    p2, p3, px, pc, _, _ = grid_data
-    f2, f3, fx, fc, _, _ = first
-    nf = fc.shape[2]
-    if k < nf:
-        return ((f2[0][q, k], f2[1][q, k], f2[2][q, k], f2[3][q, k], f2[4][q, k]),
-                (f3[0][q, k], f3[1][q, k], f3[2][q, k], f3[3][q, k], f3[4][q, k]),
-                fx[q, k], fc[0, q, k], fc[1, q, k], fc[2, q, k], fc[3, q, k])
-    g = j + k - nf
-    return ((p2[0][q, g], p2[1][q, g], p2[2][q, g], p2[3][q, g], p2[4][q, g]),
-            (p3[0][q, g], p3[1][q, g], p3[2][q, g], p3[3][q, g], p3[4][q, g]),
-            px[q, g], pc[0, q, g], pc[1, q, g], pc[2, q, g], pc[3, q, g])
-
-
-@njit(cache=True, inline="always")
 def _ceiling(k, j, grid_data, c0):
     """(x, u) of C at output point k (c0 (3, F): C at the first output points)."""
     nf = c0.shape[1]
@@ -390,36 +378,38 @@ def _interval_ok(k, j, grid_data, first, x, u, v, floor, check_end, keep0, keep1
     """Whether every row holds at the check points of output interval k from (x, u) with u_{k+1} = v, the
     limits times ``keep0`` at its start to ``keep1`` at its end (linear between; the end point's order-2 rows
     and bounds only with ``check_end``)."""
-    nq = grid_data[3].shape[1]
-    if u < 0.0 < v and x - DIP_SAFETY * u * u * _point(k, nq - 1, j, grid_data, first)[3] / (v - u) < floor:
+    r2, r3, px, pc = grid_data[0], grid_data[1], grid_data[2], grid_data[3]
+    nq = pc.shape[1]
+    if u < 0.0 < v and x - DIP_SAFETY * u * u * pc[0, nq - 1, k] / (v - u) < floor:
         return False  # x dips below the floor where u crosses 0 between the check points
     for q in range(nq):
-        r2, r3, xmax, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
+        cxu, cxv, lam, dp = pc[0, q, k], pc[1, q, k], pc[2, q, k], pc[3, q, k]
         keep = keep0 + (keep1 - keep0) * q / (nq - 1)
         xp = x + 2.0 * u * cxu + 2.0 * (v - u) * cxv
         up = u + lam * (v - u)
         if q > 0 and (q < nq - 1 or check_end):
-            if xp < floor or xp > xmax * keep * keep:
+            if xp < floor or xp > px[q, k] * keep * keep:
                 return False
-            if not _rows2_within(r2, xp, up, keep):
+            if not _rows2_within(r2, q, k, xp, up, keep):
                 return False
         if xp > 0.0 and np.isfinite(dp):
-            a3, a, b, c, lim = r3
             sx = np.sqrt(xp)
-            for r in range(a3.shape[0]):
-                if abs(sx * (a3[r] * dp * (v - u) + a[r] * up + b[r] * xp + c[r])) > keep * lim[r] * (1.0 + ROW_SLACK):
+            for r in range(r3.shape[3]):
+                if abs(sx * (r3[0, q, k, r] * dp * (v - u) + r3[1, q, k, r] * up + r3[2, q, k, r] * xp
+                             + r3[3, q, k, r])) > keep * r3[4, q, k, r] * (1.0 + ROW_SLACK):
                     return False
     return True
 
 
-@njit(cache=True, nogil=True)
-def _rows2_within(r2, x, u, keep):
-    """lo keep <= a u + b x + c <= hi keep on the rows r2 = (a, b, c, lo, hi)."""
-    a, b, c, lo, hi = r2
-    for r in range(a.shape[0]):
-        val = a[r] * u + b[r] * x + c[r]
-        slack = ROW_SLACK * (abs(lo[r]) + abs(hi[r]))
-        if val > keep * hi[r] + slack or val < keep * lo[r] - slack:
+@njit(cache=True, inline="always")
+def _rows2_within(r2, q, k, x, u, keep):
+    """lo keep <= a u + b x + c <= hi keep on the order-2 rows r2 (a, b, c, lo, hi) at check point q of output
+    interval k."""
+    for r in range(r2.shape[3]):
+        val = r2[0, q, k, r] * u + r2[1, q, k, r] * x + r2[2, q, k, r]
+        lo, hi = r2[3, q, k, r], r2[4, q, k, r]
+        slack = ROW_SLACK * (abs(lo) + abs(hi))
+        if val > keep * hi + slack or val < keep * lo - slack:
             return False
     return True
 
@@ -427,10 +417,10 @@ def _rows2_within(r2, x, u, keep):
 @njit(cache=True, inline="always")
 def _start_keep(k, keep, first):
     """The share of the limits kept at output point k: ``keep``, but from the state to grid point j (the first
-    output points) what the state itself takes (first[4]; the state is given) fading to ``keep`` along that
-    stretch (first[5]: its points' fractions of it)."""
-    pos = first[5]
-    return first[4] + (keep - first[4]) * pos[k] if k < pos.shape[0] - 1 else keep
+    output points) what the state itself takes (first[0]; the state is given) fading to ``keep`` along that
+    stretch (first[1]: its points' fractions of it)."""
+    pos = first[1]
+    return first[0] + (keep - first[0]) * pos[k] if k < pos.shape[0] - 1 else keep
 
 
 @njit(cache=True, nogil=True)
@@ -439,39 +429,40 @@ def _bounds(k, j, grid_data, first, x, u, floor):
     interval's (w0, w1); (inf, -inf) when none. The order-3 rows at the middle and the end take sqrt(x) at its
     largest over the range: conservative for every u_{k+1} in it."""
     low, high, ok = -np.inf, np.inf, True
-    nq = grid_data[3].shape[1]
+    r2, r3, px, pc = grid_data[0], grid_data[1], grid_data[2], grid_data[3]
+    nq = pc.shape[1]
     keep0 = _start_keep(k, 1.0 - PASS_MARGIN, first)
     keep1 = _start_keep(k + 1, 1.0 - PASS_MARGIN, first)
     for q in range(1, nq):
         keep = keep0 + (keep1 - keep0) * q / (nq - 1)
-        r2, _, xmax, cxu, cxv, lam, _ = _point(k, q, j, grid_data, first)
+        cxu, cxv, lam = pc[0, q, k], pc[1, q, k], pc[2, q, k]
         base = x + 2.0 * u * (cxu - cxv)  # x there = base + 2 cxv v
-        low, high, ok2 = _cut(low, high, 2.0 * cxv, floor - base, keep * keep * xmax - base)
+        low, high, ok2 = _cut(low, high, 2.0 * cxv, floor - base, keep * keep * px[q, k] - base)
         ok = ok and ok2
-        a, b, c, lo, hi = r2
-        for r in range(a.shape[0]):
-            rest = a[r] * u * (1.0 - lam) + b[r] * base + c[r]
-            low, high, ok2 = _cut(low, high, a[r] * lam + 2.0 * b[r] * cxv, keep * lo[r] - rest, keep * hi[r] - rest)
+        for r in range(r2.shape[3]):
+            a, b, c, lo, hi = r2[0, q, k, r], r2[1, q, k, r], r2[2, q, k, r], r2[3, q, k, r], r2[4, q, k, r]
+            rest = a * u * (1.0 - lam) + b * base + c
+            low, high, ok2 = _cut(low, high, a * lam + 2.0 * b * cxv, keep * lo - rest, keep * hi - rest)
             ok = ok and ok2
     if not ok or low > high:
         return np.inf, -np.inf, 0.0, 0.0
     for q in range(nq):
         keep = keep0 + (keep1 - keep0) * q / (nq - 1)
-        _, r3, _, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
+        cxu, cxv, lam, dp = pc[0, q, k], pc[1, q, k], pc[2, q, k], pc[3, q, k]
         base = x + 2.0 * u * (cxu - cxv)
         top = base + 2.0 * cxv * high
         if top <= 0.0 or not np.isfinite(dp):
             continue
         sx = np.sqrt(top)
-        a3, a, b, c, lim = r3
-        for r in range(a3.shape[0]):
-            rest = -a3[r] * dp * u + a[r] * u * (1.0 - lam) + b[r] * base + c[r]
-            low, high, ok2 = _cut(low, high, a3[r] * dp + a[r] * lam + 2.0 * b[r] * cxv, -keep * lim[r] / sx - rest,
-                                  keep * lim[r] / sx - rest)
+        for r in range(r3.shape[3]):
+            a3, a, b, c, lim = r3[0, q, k, r], r3[1, q, k, r], r3[2, q, k, r], r3[3, q, k, r], r3[4, q, k, r]
+            rest = -a3 * dp * u + a * u * (1.0 - lam) + b * base + c
+            low, high, ok2 = _cut(low, high, a3 * dp + a * lam + 2.0 * b * cxv, -keep * lim / sx - rest,
+                                  keep * lim / sx - rest)
             ok = ok and ok2
     if not ok or low > high:
         return np.inf, -np.inf, 0.0, 0.0
-    _, _, _, cxu, cxv, _, _ = _point(k, nq - 1, j, grid_data, first)
+    cxu, cxv = pc[0, nq - 1, k], pc[1, nq - 1, k]
     if u < 0.0:  # x dips where u crosses 0 inside the interval: not below the floor; u_{k+1} <= 0 has no dip
         dip = u + DIP_SAFETY * u * u * cxu / max(x - floor, 1e-300)
         if dip > 0.0 and high < dip:
@@ -492,10 +483,11 @@ def _merge(k, x, u, n, last, j, grid_data, first, c0, floor, tc, budget, out_x, 
     xc, uc = _ceiling(k, j, grid_data, c0)
     d, e = u - uc, x - xc
     sa, sb = 0.0, 0.0
-    nq = grid_data[3].shape[1]
+    pc = grid_data[3]
+    nq = pc.shape[1]
     for i in range(n):
         a0, a1 = i / n, (i + 1) / n
-        _, _, _, cxu, cxv, _, _ = _point(k + i, nq - 1, j, grid_data, first)
+        cxu, cxv = pc[0, nq - 1, k + i], pc[1, nq - 1, k + i]
         sa += (cxu - cxv) * (1.0 - a0) + cxv * (1.0 - a1)
         sb += (cxu - cxv) * a0 * (1.0 - a0) + cxv * a1 * (1.0 - a1)
     if sb <= 0.0:
@@ -515,7 +507,7 @@ def _merge(k, x, u, n, last, j, grid_data, first, c0, floor, tc, budget, out_x, 
         if not _interval_ok(k + i, j, grid_data, first, xi, ui, v, floor, p < last and i < n - 1,
                             keep + (1.0 - keep) * i / n, keep + (1.0 - keep) * s):
             return np.nan
-        _, _, _, cxu, cxv, _, _ = _point(k + i, nq - 1, j, grid_data, first)
+        cxu, cxv = pc[0, nq - 1, k + i], pc[1, nq - 1, k + i]
         x1 = xcp if i == n - 1 else xi + 2.0 * ui * cxu + 2.0 * (v - ui) * cxv
         if write:
             out_x[p], out_u[p] = x1, v
@@ -576,12 +568,10 @@ def _rows2_right(k, j, grid_data, first, x, u):
     """The order-2 rows at output point k >= 1 seen from the interval after it (they differ from the end
     point's at breaks and knots; the first output points lie inside a plan interval); true at the grid's last
     point."""
-    p2 = grid_data[0]
-    nf = first[3].shape[2]
-    g = j + k - nf
-    if k < nf or g >= p2[0].shape[1]:
+    r2 = grid_data[0]
+    if k < first[1].shape[0] - 1 or k >= r2.shape[2]:
         return True
-    return _rows2_within((p2[0][0, g], p2[1][0, g], p2[2][0, g], p2[3][0, g], p2[4][0, g]), x, u, 1.0 - PASS_MARGIN)
+    return _rows2_within(r2, 0, k, x, u, 1.0 - PASS_MARGIN)
 
 
 @njit(cache=True, nogil=True)
@@ -624,9 +614,12 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u, mer
     """The pass from the state (x0, u0) (output point 0) over the output points 1.. = grid points j.. up to
     the rest point ``nxt`` (grid index): fills out_x, out_u up to the best merge's end and returns (its total
     time [s], the first output point from which the profile is C's); (inf, -1) when no merge is found.
-    ``grid_data``: (p2, p3, px, pc, cx, cu) of JerkPass; ``first``: the first interval's check points and the
-    state's share of the limits (JerkPass._first, _state_share); tc (K,): C's time to the end from each grid
-    point; c0 (3, F): C's x, u and time to the end at the first output points.
+    ``grid_data``: (r2, r3, px, pc, cx, cu): the rows at the check points of every output interval, the first F
+    (from the state to grid point j: JerkPass._first) and the plan's from grid interval j on, stacked (r2 (5, Q,
+    N, m2): a, b, c, lo, hi; r3 (5, Q, N, m3): a3, a, b, c, lim; px (Q, N); pc (4, Q, N): JerkPass's), and C's x
+    and u on the grid (JerkPass.cx, cu); ``first``: (the state's share of the limits, JerkPass._state_share; the
+    first output points' fractions of the stretch to grid point j (F + 1,)); tc (K,): C's time to the end from
+    each grid point; c0 (3, F): C's x, u and time to the end at the first output points.
 
     The walk: below C the largest step from which the descent still ends on or below C (the largest step the
     rows allow, else a bisection down to the descent's own step; that step where even the descent crosses above
@@ -635,11 +628,11 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u, mer
     The walk ends STALL points after the best merge's point once its time plus C's from there is within
     WALK_GAIN of the best total; stopped by the rows before that, it gives no answer. Merges start at output
     points >= ``merge_from`` (JerkPass.first_points)."""
-    last = nxt - j + first[3].shape[2]
+    last = nxt - j + first[1].shape[0] - 1
     floor = X_FLOOR * x0
     x, u = x0, u0
     out_x[0], out_u[0] = x0, u0
-    if not _rows2_within(_point(0, 0, j, grid_data, first)[0], x0, u0, first[4]):
+    if not _rows2_within(grid_data[0], 0, 0, x0, u0, first[0]):
         return np.inf, -1  # the state breaks a limit itself
     best_t, best_k, best_m, best_n, t, trapped = np.inf, -1, -1, 0, 0.0, np.inf
     known = (-2, 0.0, 0.0, 0.0)  # the descent from the walk's next point, where _largest_safe computed it
