@@ -113,22 +113,57 @@ def _state_kernel(grid, x, u, origin, sign, index, theta):
     n = theta.shape[0]
     xs, us, js = np.empty(n), np.empty(n), np.empty(n)
     for p in range(n):
-        i, th = index[p], theta[p]
-        o, sg = origin[i], sign[i]
-        xi_lo, xi_hi = _xi1(o, sg, grid[i]), _xi1(o, sg, grid[i + 1])
-        g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
-        xi = _xi1(o, sg, th)
-        us[p] = u[i] + g * (xi - xi_lo)
-        if x[i + 1] <= 0.0:
-            val = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral1(o, sg, grid[i + 1], th))
-        else:
-            val = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral1(o, sg, grid[i], th))
-        xx = val if (val >= 0.0 or val != val) else 0.0
-        xs[p] = xx
-        slope = 1.0 if sg == 0 else 3.0 * sg * xi ** 2
-        if slope != 0:
-            js[p] = g * np.sqrt(xx) / slope
-        else:
-            far, x_far = (xi_lo, x[i]) if abs(xi_lo) > abs(xi_hi) else (xi_hi, x[i + 1])
-            js[p] = g * np.sqrt(x_far) / (3.0 * sg * (far if far != 0 else 1.0) ** 2)
+        xs[p], us[p], js[p] = _state1(grid, x, u, origin, sign, index[p], theta[p])
     return xs, us, js
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _state1(grid, x, u, origin, sign, i, th):
+    """:func:`state` at one point (theta ``th`` in interval ``i``)."""
+    o, sg = origin[i], sign[i]
+    xi_lo, xi_hi = _xi1(o, sg, grid[i]), _xi1(o, sg, grid[i + 1])
+    g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
+    xi = _xi1(o, sg, th)
+    uu = u[i] + g * (xi - xi_lo)
+    if x[i + 1] <= 0.0:
+        val = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral1(o, sg, grid[i + 1], th))
+    else:
+        val = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral1(o, sg, grid[i], th))
+    xx = val if (val >= 0.0 or val != val) else 0.0
+    slope = 1.0 if sg == 0 else 3.0 * sg * xi ** 2
+    if slope != 0:
+        return xx, uu, g * np.sqrt(xx) / slope
+    far, x_far = (xi_lo, x[i]) if abs(xi_lo) > abs(xi_hi) else (xi_hi, x[i + 1])
+    return xx, uu, g * np.sqrt(x_far) / (3.0 * sg * (far if far != 0 else 1.0) ** 2)
+
+
+def interval_times(grid, x, u, origin, sign, nodes, weights) -> np.ndarray:
+    """Duration of every interval (K-1,) [s] by the 8-point quadrature (``nodes``, ``weights`` on [0, 1]) in its xi of
+    dt/dlambda = (dtheta/dxi) (xi_hi - xi_lo) / sqrt(x), lambda the fraction of its xi range (finite at a rest
+    point, where x ~ xi^4 and dtheta/dxi ~ xi^2); the sum of the weighted values pairwise, as numpy's sum."""
+    if len(nodes) != 8 or len(weights) != 8:
+        raise ValueError("interval_times: an 8-point quadrature")
+    return _times_kernel(np.ascontiguousarray(grid, float), np.ascontiguousarray(x, float),
+                         np.ascontiguousarray(u, float), np.ascontiguousarray(origin, float),
+                         np.ascontiguousarray(sign, np.int64), np.ascontiguousarray(nodes, float),
+                         np.ascontiguousarray(weights, float))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _times_kernel(grid, x, u, origin, sign, nodes, weights):
+    """:func:`interval_times`, interval by interval."""
+    out = np.empty(grid.shape[0] - 1)
+    r = np.empty(8)
+    for i in range(grid.shape[0] - 1):
+        o, sg = origin[i], sign[i]
+        xi0 = _xi1(o, sg, grid[i])
+        dxi = _xi1(o, sg, grid[i + 1]) - xi0
+        for k in range(8):
+            xi = xi0 + nodes[k] * dxi
+            th = (o + xi ** 3.0) if sg > 0 else ((o - xi ** 3.0) if sg < 0 else xi)
+            th = min(max(th, grid[i]), grid[i + 1])
+            xx = _state1(grid, x, u, origin, sign, i, th)[0]
+            dth = (1.0 if sg == 0 else 3.0 * sg * xi ** 2) * dxi
+            r[k] = weights[k] * (dth / np.sqrt(xx))
+        out[i] = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    return out
