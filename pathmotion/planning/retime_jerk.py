@@ -112,10 +112,12 @@ class JerkPass:
         return float(x), float(u)
 
     def _first(self, theta: float, i: int, j: int, pts_s: np.ndarray) -> tuple:
-        """The first output intervals: [theta, grid[j]] cut at ``pts_s`` (F + 1,) (theta first, grid[j] last; every
-        grid point between among them). Their check points' rows (five (Q, F, m2)), (five (Q, F, m3)), x_max (Q, F)
-        and coefficients (4, Q, F); the path data sampled at their points (the last end: grid point j's), the
-        limits scaled as on the grid interval each lies in."""
+        """The rows at the check points of every output interval: the first ones, [theta, grid[j]] cut at ``pts_s``
+        (F + 1,) (theta first, grid[j] last; every grid point between among them), then the plan's from grid interval
+        j on (N output intervals in all): (r2 (5, Q, N, m2): a, b, c, lo, hi; r3 (5, Q, N, m3): a3, a, b, c, lim;
+        x_max (Q, N); coefficients (4, Q, N)), the forward pass's ``grid_data`` rows. On the first intervals the path
+        data sampled at their points (the last end: grid point j's), the limits scaled as on the grid interval each
+        lies in."""
         g = self.grid
         nf = len(pts_s) - 1
         pc = _first_coefficients(pts_s, float(self.origin[j - 1]), int(self.sign[j - 1]), np.array(CHECK_POINTS))
@@ -137,19 +139,24 @@ class JerkPass:
         at_grid = at_grid[at_grid < nf - 1]
 
         def stacked(sampled, plan):
-            """(Q, F, ...) from the samples ((Q-1) F, ...) at the check points before the ends and the plan's rows
-            (Q, K-1, ...) for the ends at grid points: an interval's end is else the next one's start."""
-            sampled = np.asarray(sampled).reshape((nq - 1, nf) + np.shape(sampled)[1:])
-            last = np.concatenate([sampled[0, 1:], plan[-1, j - 1][None]])
+            """(L, Q, N, ...) from the samples (L, (Q-1) F, ...) at the first intervals' check points before their
+            ends and the plan's rows (L, Q, K-1, ...): for the ends at grid points and from grid interval j on (an
+            interval's end is else the next one's start)."""
+            sampled = sampled.reshape((len(sampled), nq - 1, nf) + sampled.shape[2:])
+            out = np.empty((len(sampled), nq, nf + plan.shape[2] - j) + sampled.shape[3:])
+            out[:, :nq - 1, :nf] = sampled
+            out[:, nq - 1, :nf - 1] = sampled[:, 0, 1:]
+            out[:, nq - 1, nf - 1] = plan[:, nq - 1, j - 1]
             if at_grid.size:
-                last[at_grid] = plan[-1, inner[at_grid] - 1]
-            return np.ascontiguousarray(np.concatenate([sampled, last[None]]))
+                out[:, nq - 1, at_grid] = plan[:, nq - 1, inner[at_grid] - 1]
+            out[:, :, nf:] = plan[:, :, j:]
+            return out
 
-        p2 = tuple(stacked(getattr(rows2, n), r) for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
-        p3 = tuple(stacked(np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1), r)
-                   for k, r in enumerate(self.p3))
-        px = stacked(rows2.x_max, self.px)
-        return p2, p3, px, pc
+        r2 = stacked(np.stack([getattr(rows2, n) for n in ("a", "b", "c", "lo", "hi")]), self._r2)
+        r3 = stacked(np.stack([np.concatenate([np.asarray(r[k]) for r in rows3], axis=1) for k in range(5)]),
+                     self._r3)
+        px = stacked(np.asarray(rows2.x_max)[None], self.px[None])[0]
+        return r2, r3, px, np.concatenate([pc, self.pc[:, :, j:]], axis=2)
 
     def first_points(self, theta: float, i: int, j: int, nxt: int, x0: float, u0: float) -> tuple[int, np.ndarray, int]:
         """(j', points, merge_from): the first output intervals run from theta to grid point j' >= j, cut at the
@@ -186,11 +193,11 @@ class JerkPass:
         return end, pts, len(pts) - 1
 
     @staticmethod
-    def _state_share(first, x0: float, u0: float) -> float:
-        """The share of the order-2 limits the state (x0, u0) takes at its point, at least STATE_SHARE_MIN: the
-        limits at the state, from which the pass's margin fades in over the first interval (the pass refuses a
-        state above STATE_SHARE_MAX)."""
-        a, b, c, lo, hi = (r[0, 0] for r in first[0])
+    def _state_share(r2, x0: float, u0: float) -> float:
+        """The share of the order-2 limits the state (x0, u0) takes at its point (``r2``: JerkPass._first's), at
+        least STATE_SHARE_MIN: the limits at the state, from which the pass's margin fades in over the first
+        interval (the pass refuses a state above STATE_SHARE_MAX)."""
+        a, b, c, lo, hi = r2[:, 0, 0]
         val = a * u0 + b * x0 + c
         with np.errstate(divide="ignore", invalid="ignore"):
             share = np.where(val > 0, val / hi, val / lo)
@@ -211,16 +218,12 @@ class JerkPass:
         check points and margin are no certificate, and these states' steep jerk finds their gaps); else 0."""
         nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
         j, pts, merge_from = self.first_points(theta, i, j, nxt, x0, u0)
-        f2, f3, fx, fc = first = self._first(theta, i, j, pts)
+        rows = self._first(theta, i, j, pts)
         c0 = self._ceiling_first(j, pts)
-        share = self._state_share(first, x0, u0)
+        share = self._state_share(rows[0], x0, u0)
         if share > STATE_SHARE_MAX:
             return None
-        # every output interval's check points in one array each: the first F, then the plan's from interval j on
-        grid_data = (np.concatenate([np.stack(f2), self._r2[:, :, j:]], axis=2),
-                     np.concatenate([np.stack(f3), self._r3[:, :, j:]], axis=2),
-                     np.concatenate([fx, self.px[:, j:]], axis=1), np.concatenate([fc, self.pc[:, :, j:]], axis=2),
-                     self.cx, self.cu)
+        grid_data = (*rows, self.cx, self.cu)
         first = (share, np.ascontiguousarray((pts - pts[0]) / (pts[-1] - pts[0])))
         if len(self._buffers[0]) < len(pts) + len(self.grid) - j:
             self._buffers = (np.empty(len(pts) + len(self.grid)), np.empty(len(pts) + len(self.grid)))
