@@ -33,7 +33,7 @@ from numba import njit
 from .. import defaults
 from . import smooth
 from .limit_rows import limit_rows
-from .grid_data import sample_grid
+from .limits import PathPoints
 
 #: Where each interval's rows are checked: fractions of the interval from its start to its end [-].
 CHECK_POINTS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -263,8 +263,12 @@ def split(grid, x, u, upto: int, parts: int = OUTPUT_SPLIT):
 
 
 def _sample_points(path, robot, theta):
-    """Third-order path data at the points ``theta`` (interior points of the path's pieces)."""
-    return sample_grid(path, robot, theta, (), third=True).right
+    """Third-order path data at the points ``theta`` (interior points of the path's pieces): sample_grid's right
+    side, without its left side (the points' last one seen from the left, which no check point is)."""
+    q, dq, ddq, dddq = path.evaluate3(theta, "right")
+    points = PathPoints(robot, path, theta, q, dq, ddq)
+    points._cache["dddq"] = np.atleast_2d(dddq)
+    return points
 
 
 def point_coefficients(grid, origin, sign) -> np.ndarray:
