@@ -306,13 +306,7 @@ def smooth_interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions
     grid = p.grid
     k1, S, n = len(index), int(subdivisions), path.n
     origin, sign = p.coords
-    o, sg = origin[index, None], sign[index, None]
-    xi0, xi1 = smooth.xi_of(o, sg, grid[index, None]), smooth.xi_of(o, sg, grid[index + 1, None])
-    xi = xi0 + (xi1 - xi0) * (np.arange(S + 1) / S)[None, :]
-    theta = np.clip(smooth.theta_of(o, sg, xi), grid[index, None], grid[index + 1, None])
-    theta[:, 0], theta[:, -1] = grid[index], grid[index + 1]
-    i = np.repeat(index[:, None], S + 1, 1)
-    x, u, jerk = smooth.state(grid, p.x, p.u_nodes, origin, sign, i, theta)
+    theta, x, u, jerk = smooth.interval_samples(grid, p.x, p.u_nodes, origin, sign, index, S)
     q, dq, ddq, dddq = (np.empty((k1, S + 1, n)) for _ in range(4))
     r, l = ctx.right, ctx.left
     for arr, pr, pl in ((q, r.q, l.q), (dq, r.dq, l.dq), (ddq, r.ddq, l.ddq), (dddq, r.dddq, l.dddq)):

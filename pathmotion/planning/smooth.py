@@ -137,6 +137,39 @@ def _state1(grid, x, u, origin, sign, i, th):
     return xx, uu, g * np.sqrt(x_far) / (3.0 * sg * (far if far != 0 else 1.0) ** 2)
 
 
+def interval_samples(grid, x, u, origin, sign, index, subdivisions: int):
+    """(theta, x, u, theta_dddot), each (I, S + 1): the state at S + 1 points of each interval in ``index`` (I,)
+    uniform in its xi, theta clipped to the interval and its ends the grid points."""
+    index = np.ascontiguousarray(index, np.int64)
+    return _samples_kernel(np.ascontiguousarray(grid, float), np.ascontiguousarray(x, float),
+                           np.ascontiguousarray(u, float), np.ascontiguousarray(origin, float),
+                           np.ascontiguousarray(sign, np.int64), index, int(subdivisions))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _samples_kernel(grid, x, u, origin, sign, index, subdivisions):
+    """:func:`interval_samples`, point by point: xi = xi_lo + (xi_hi - xi_lo) (s / S), theta_of(xi) clipped to
+    the interval (the ends set to its grid points), the state there as :func:`state`."""
+    shape = (index.shape[0], subdivisions + 1)
+    th, xs, us, js = np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape)
+    for p in range(index.shape[0]):
+        i = index[p]
+        o, sg, lo, hi = origin[i], sign[i], grid[i], grid[i + 1]
+        xi0, xi1 = _xi1(o, sg, lo), _xi1(o, sg, hi)
+        for s in range(subdivisions + 1):
+            if s == 0:
+                t = lo
+            elif s == subdivisions:
+                t = hi
+            else:
+                xi = xi0 + (xi1 - xi0) * (s / subdivisions)
+                t = (o + xi ** 3.0) if sg > 0 else ((o - xi ** 3.0) if sg < 0 else xi)
+                t = lo if t < lo else (hi if t > hi else t)
+            th[p, s] = t
+            xs[p, s], us[p, s], js[p, s] = _state1(grid, x, u, origin, sign, i, t)
+    return th, xs, us, js
+
+
 def interval_times(grid, x, u, origin, sign, nodes, weights) -> np.ndarray:
     """Duration of every interval (K-1,) [s] by the 8-point quadrature (``nodes``, ``weights`` on [0, 1]) in its xi of
     dt/dlambda = (dtheta/dxi) (xi_hi - xi_lo) / sqrt(x), lambda the fraction of its xi range (finite at a rest
