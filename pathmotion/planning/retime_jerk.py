@@ -254,12 +254,25 @@ def split(grid, x, u, upto: int, parts: int = OUTPUT_SPLIT):
     if upto <= 0 or parts <= 1:
         return grid, x, u
     origin, sign = smooth.coordinates(grid, x <= 0.0)
-    frac = np.arange(1, parts) / parts
-    index = np.repeat(np.arange(upto), parts - 1)
-    at = grid[index] + np.tile(frac, upto) * (grid[index + 1] - grid[index])
-    xi, ui = _state_xu(grid, x, u, origin.astype(float), sign.astype(np.int64), index, at)
-    cut = np.repeat(np.arange(1, upto + 1), parts - 1)  # each new point goes before the end of its interval
-    return np.insert(grid, cut, at), np.insert(x, cut, xi), np.insert(u, cut, ui)
+    return _split_kernel(grid, x, u, origin.astype(float), sign.astype(np.int64), int(upto), int(parts))
+
+
+@njit(cache=True, nogil=True)
+def _split_kernel(grid, x, u, origin, sign, upto, parts):
+    """:func:`split`: each new point (at the fractions k / parts of its interval) right after its interval's start."""
+    n = grid.shape[0] + upto * (parts - 1)
+    g, xs, us = np.empty(n), np.empty(n), np.empty(n)
+    p = 0
+    for i in range(grid.shape[0]):
+        g[p], xs[p], us[p] = grid[i], x[i], u[i]
+        p += 1
+        if i < upto:
+            for k in range(1, parts):
+                th = grid[i] + (k / parts) * (grid[i + 1] - grid[i])
+                g[p] = th
+                xs[p], us[p] = _xu(grid, x, u, origin, sign, i, th)
+                p += 1
+    return g, xs, us
 
 
 def _sample_points(path, robot, theta):
@@ -337,17 +350,22 @@ def _state_xu(grid, x, u, origin, sign, index, theta):
     n = theta.shape[0]
     xs, us = np.empty(n), np.empty(n)
     for p in range(n):
-        i, th = index[p], theta[p]
-        o, sg = origin[i], sign[i]
-        xi_lo, xi_hi = _xi(o, sg, grid[i]), _xi(o, sg, grid[i + 1])
-        g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
-        us[p] = u[i] + g * (_xi(o, sg, th) - xi_lo)
-        if x[i + 1] <= 0.0:
-            xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral(o, sg, grid[i + 1], th))
-        else:
-            xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral(o, sg, grid[i], th))
-        xs[p] = max(xx, 0.0)
+        xs[p], us[p] = _xu(grid, x, u, origin, sign, index[p], theta[p])
     return xs, us
+
+
+@njit(cache=True, inline="always")
+def _xu(grid, x, u, origin, sign, i, th):
+    """smooth.state's (x, u) at theta ``th`` in interval ``i``."""
+    o, sg = origin[i], sign[i]
+    xi_lo, xi_hi = _xi(o, sg, grid[i]), _xi(o, sg, grid[i + 1])
+    g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
+    uu = u[i] + g * (_xi(o, sg, th) - xi_lo)
+    if x[i + 1] <= 0.0:
+        xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral(o, sg, grid[i + 1], th))
+    else:
+        xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral(o, sg, grid[i], th))
+    return max(xx, 0.0), uu
 
 
 # ----------------------------------------------------------------------------------------------- kernels
