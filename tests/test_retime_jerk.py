@@ -445,6 +445,42 @@ def test_every_state_on_the_plan_has_a_jerk_limited_stop(request, plan_name, fra
         assert answers[1].duration <= (1.0 - fraction) * res.profile.duration * 1.01
 
 
+@pytest.mark.parametrize("fraction", [0.2762923797321721])  # found by hypothesis (the test above)
+def test_stop_from_a_plan_state_the_interpolated_rows_read_above_its_limits(torque_jerk, fraction):
+    # the plan's own state takes 0.99 of its acceleration limits, the order-2 rows interpolated between check points
+    # read 1.0104 there: the stop may keep that share of the order-2 rows while it leaves the state, but its jerk,
+    # which it chooses, within 1 - MARGIN of the order-3 rows; certified within the limits like a plan
+    _, res, rt = torque_jerk
+    theta, v, a = _plan_state(res, fraction)
+    assert _state_share(torque_jerk[0], theta, v, a) < 1.0
+    for got in (rt.stop(theta, v, a), rt.compiled_stop(theta, v, a)):
+        assert got is not None and got.x[-1] == 0.0 and np.isclose(got.u_nodes[0], a)
+        certified = rt.certify(got).max_ratio
+        assert rt.dense_ratios(got, DT).max_ratio <= certified + 1e-6 and certified <= 1.0 + TOL
+
+
+def test_a_compiled_stop_that_fails_its_certificate_is_not_returned(torque_jerk, monkeypatch):
+    # the compiled stop meets rows interpolated between check points, which certify nothing by themselves: its
+    # first answer's certificate made to fail, the next one (a shallower braking, stopping no sooner) is returned,
+    # certified
+    _, res, rt = torque_jerk
+    theta, v, a = _plan_state(res, 0.5)
+    first = rt.compiled_stop(theta, v, a)
+    assert first is not None
+    certify, calls = rt.certify, []
+
+    def failing_first(profile):
+        calls.append(profile)
+        got = certify(profile)
+        return got if len(calls) > 1 else replace(got, values={**got.values, "jerk": 2.0})
+
+    monkeypatch.setattr(rt, "certify", failing_first)
+    got = rt.compiled_stop(theta, v, a)
+    assert len(calls) >= 2 and np.array_equal(calls[0].grid, first.grid)
+    assert got is not None and not np.array_equal(got.grid, first.grid) and got.grid[-1] >= first.grid[-1] - 1e-9
+    assert certify(got).max_ratio <= 1.0 + TOL
+
+
 @pytest.mark.parametrize("theta, v, a", [
     (0.037434796227497666, 0.08527405642162118, -1.32944632739536),  # the jerk at the state at the limit
     (0.002854422301887691, 0.06691933893030654, -0.20276384804826542),  # a merge's steep jerk

@@ -306,13 +306,7 @@ def smooth_interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions
     grid = p.grid
     k1, S, n = len(index), int(subdivisions), path.n
     origin, sign = p.coords
-    o, sg = origin[index, None], sign[index, None]
-    xi0, xi1 = smooth.xi_of(o, sg, grid[index, None]), smooth.xi_of(o, sg, grid[index + 1, None])
-    xi = xi0 + (xi1 - xi0) * (np.arange(S + 1) / S)[None, :]
-    theta = np.clip(smooth.theta_of(o, sg, xi), grid[index, None], grid[index + 1, None])
-    theta[:, 0], theta[:, -1] = grid[index], grid[index + 1]
-    i = np.repeat(index[:, None], S + 1, 1)
-    x, u, jerk = smooth.state(grid, p.x, p.u_nodes, origin, sign, i, theta)
+    theta, x, u, jerk = smooth.interval_samples(grid, p.x, p.u_nodes, origin, sign, index, S)
     q, dq, ddq, dddq = (np.empty((k1, S + 1, n)) for _ in range(4))
     r, l = ctx.right, ctx.left
     for arr, pr, pl in ((q, r.q, l.q), (dq, r.dq, l.dq), (ddq, r.ddq, l.ddq), (dddq, r.dddq, l.dddq)):
@@ -384,26 +378,131 @@ def smooth_sampled_bound(values: np.ndarray) -> np.ndarray:
     so g rises above the chord only where g'' < 0, by at most max(-g'', 0) / 8 (a unit sub-interval);
     g'' on a sub-interval is the larger of the second differences at its two ends (one end only at the
     interval's ends) widened by the largest third difference, times REMAINDER_SAFETY."""
-    v = np.asarray(values, float)
-    s1 = v.shape[1]
-    # (P, S + 1): no sign change, or one after sample k (a smooth f crosses zero at most once in so short
-    # an interval; a second crossing lies where |f| is small, and a wrong pattern only widens the bound)
-    signs = np.array([[1.0] * k + [-1.0] * (s1 - k) for k in range(1, s1 + 1)])
-    with np.errstate(invalid="ignore"):
-        f = signs[:, None, :, None] * v[None]  # (P, I, S + 1, m)
-        rough = np.abs(f[:, :, :-2] - 2.0 * f[:, :, 1:-1] + f[:, :, 2:]).max(axis=2)  # (P, I, m)
-        pick = np.argmin(np.where(np.isfinite(rough), rough, np.inf), axis=0)  # (I, m)
-        f = np.take_along_axis(f, pick[None, :, None, :], axis=0)[0]  # (I, S + 1, m)
-        tops = []
-        for g in (f, -f):
-            d2 = g[:, :-2] - 2.0 * g[:, 1:-1] + g[:, 2:]  # at the interior samples 1 .. S - 1
-            d3 = np.abs(np.diff(d2, axis=1)).max(axis=1, keepdims=True)
-            left = np.concatenate([d2[:, :1], d2], axis=1)  # sub-interval k: samples k, k + 1
-            right = np.concatenate([d2, d2[:, -1:]], axis=1)
-            concave = np.maximum(np.maximum(-left, -right) + d3, 0.0)
-            tops.append((np.maximum(g[:, :-1], g[:, 1:]) + REMAINDER_SAFETY * concave / 8.0).max(axis=1))
-    bound = np.maximum(*tops)
-    return np.where(np.isfinite(v.max(axis=1)), bound, v.max(axis=1))
+    v = np.ascontiguousarray(values, float)
+    if v.ndim != 3 or v.shape[1] < 4:
+        raise ValueError(f"smooth_sampled_bound: values of shape (I, S + 1 >= 4, m), got {v.shape}")
+    return _smooth_bound_kernel(v)
+
+
+@njit(cache=True, inline="always")
+def _nan_max(a, b):
+    """max(a, b), NaN where either is (as np.maximum and np.max)."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a >= b else b
+
+
+@njit(cache=True, inline="always")
+def _tame(w):
+    """Whether every sample is finite and below 1e300 in size: no sum or difference of them overflows (no NaN)."""
+    for s in range(w.shape[0]):
+        if not abs(w[s]) <= 1e300:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _straddle(w, s, p):
+    """|second difference| at sample s of the samples w with the signs + up to sample p, - after it."""
+    a = w[s] if s <= p else -w[s]
+    b = w[s + 1] if s + 1 <= p else -w[s + 1]
+    e = w[s + 2] if s + 2 <= p else -w[s + 2]
+    return abs(a - 2.0 * b + e)
+
+
+@njit(cache=True, nogil=True)
+def _tame_bound(w, d2):
+    """_smooth_bound_kernel's bound of one column of tame samples w (S + 1,) (no NaN arises): a second difference
+    whose three samples share a sign is that of w (negated: the same size), only the two that straddle a pattern's
+    sign change are formed again; the bounds of g = f and g = -f in one pass (-f's second differences are f's
+    negated, exactly)."""
+    s1 = w.shape[0]
+    for s in range(s1 - 2):
+        d2[s] = w[s] - 2.0 * w[s + 1] + w[s + 2]
+    pick, least = 0, np.inf
+    for p in range(s1):
+        rough = 0.0
+        for s in range(s1 - 2):
+            val = _straddle(w, s, p) if s == p - 1 or s == p else abs(d2[s])
+            rough = val if s == 0 else max(rough, val)
+        if rough < least:
+            pick, least = p, rough
+    for s in range(s1 - 2):  # f's second differences
+        d2[s] = (w[s] if s <= pick else -w[s]) - 2.0 * (w[s + 1] if s + 1 <= pick else -w[s + 1]) + \
+            (w[s + 2] if s + 2 <= pick else -w[s + 2])
+    d3 = abs(d2[1] - d2[0])
+    for s in range(1, s1 - 3):
+        d3 = max(d3, abs(d2[s + 1] - d2[s]))
+    top_f, top_g = 0.0, 0.0
+    for k in range(s1 - 1):
+        left, right = d2[max(k - 1, 0)], d2[min(k, s1 - 3)]
+        f0 = w[k] if k <= pick else -w[k]
+        f1 = w[k + 1] if k + 1 <= pick else -w[k + 1]
+        val_f = max(f0, f1) + REMAINDER_SAFETY * max(max(-left, -right) + d3, 0.0) / 8.0
+        val_g = max(-f0, -f1) + REMAINDER_SAFETY * max(max(left, right) + d3, 0.0) / 8.0
+        top_f = val_f if k == 0 else max(top_f, val_f)
+        top_g = val_g if k == 0 else max(top_g, val_g)
+    return max(top_f, top_g)
+
+
+@njit(cache=True, nogil=True)
+def _smooth_bound_kernel(v):
+    """:func:`smooth_sampled_bound` on ``v`` (I, S + 1 >= 4, m), interval by interval and column by column: the same
+    operations in the same order (the sign pattern of the least largest second difference, the first of equal
+    ones; NaN propagated as numpy's maximum does)."""
+    ni, s1, m = v.shape
+    out = np.empty((ni, m))
+    w = np.empty(s1)
+    f = np.empty(s1)
+    d2 = np.empty(s1 - 2)
+    for i in range(ni):
+        for c in range(m):
+            for s in range(s1):
+                w[s] = v[i, s, c]
+            top = w[0]
+            for s in range(1, s1):
+                top = _nan_max(top, w[s])
+            if not np.isfinite(top):
+                out[i, c] = top
+                continue
+            if _tame(w):
+                out[i, c] = _tame_bound(w, d2)
+                continue
+            # sign patterns k = 1 .. S + 1: + on the first k samples, - after
+            pick, least = 0, np.inf
+            for p in range(s1):
+                rough = 0.0
+                for s in range(s1 - 2):
+                    a = w[s] if s <= p else -w[s]
+                    b = w[s + 1] if s + 1 <= p else -w[s + 1]
+                    e = w[s + 2] if s + 2 <= p else -w[s + 2]
+                    val = abs(a - 2.0 * b + e)
+                    rough = val if s == 0 else _nan_max(rough, val)
+                if not np.isfinite(rough):
+                    rough = np.inf
+                if rough < least:
+                    pick, least = p, rough
+            bound = 0.0
+            for side in range(2):
+                for s in range(s1):
+                    fs = w[s] if s <= pick else -w[s]
+                    f[s] = fs if side == 0 else -fs
+                for s in range(s1 - 2):
+                    d2[s] = f[s] - 2.0 * f[s + 1] + f[s + 2]
+                d3 = abs(d2[1] - d2[0])
+                for s in range(1, s1 - 3):
+                    d3 = _nan_max(d3, abs(d2[s + 1] - d2[s]))
+                g_top = 0.0
+                for k in range(s1 - 1):
+                    left, right = d2[max(k - 1, 0)], d2[min(k, s1 - 3)]
+                    concave = _nan_max(_nan_max(-left, -right) + d3, 0.0)
+                    val = _nan_max(f[k], f[k + 1]) + REMAINDER_SAFETY * concave / 8.0
+                    g_top = val if k == 0 else _nan_max(g_top, val)
+                bound = g_top if side == 0 else _nan_max(bound, g_top)
+            out[i, c] = bound
+    return out
 
 
 def certify(ctx: CertifyContext, limits, accept: float | None = None) -> dict:

@@ -242,9 +242,8 @@ def _rate(p: Profile, i, lam):
 def _smooth_interval_times(p: Profile) -> np.ndarray:
     """Duration of every interval (K-1,) [s], by Gauss-Legendre quadrature in its xi (the integrand
     stays finite at a rest point, where x ~ xi^4 and d theta / d xi ~ xi^2)."""
-    i = np.repeat(np.arange(len(p.grid) - 1)[:, None], len(_GL_T), 1)
-    _, rate = _rate(p, i, np.broadcast_to(_GL_T, i.shape))
-    return np.sum(_GL_W * rate, axis=1)
+    origin, sign = p.coords
+    return smooth.interval_times(p.grid, p.x, p.u_nodes, origin, sign, _GL_T, _GL_W)
 
 
 def _smooth_at_time(p: Profile, i: np.ndarray, tau: np.ndarray):

@@ -253,10 +253,11 @@ class Retimer:
         next kink, which the arm cannot pass at speed); its ``stop`` is then the least overshoot-free stop the
         limits allow (see :meth:`_jerk_unsaveable`). ``second_order=True`` leaves out the plan's jerk and
         torque-rate limits (velocity, acceleration and torque still hold; the acceleration may step). With jerk
-        limits the stop is the compiled one (planning/retime_stop.py); where it finds none, the compiled pass's
-        time-optimal motion to the next point where the plan's profile rests (a stop within every limit, the
-        longest kind), or for a state on the plan the plan's own motion to that point, else the sequential LP's
-        motion to that point (tens to hundreds of milliseconds); where none exists, StateInfeasibleError.
+        limits the stop is the compiled one (planning/retime_stop.py), certified (:meth:`_stop_certified`); where it
+        finds none, the compiled pass's time-optimal motion to the next point where the plan's profile rests (a stop
+        within every limit, the longest kind), or for a state on the plan the plan's own motion to that point, else
+        the sequential LP's motion to that point (tens to hundreds of milliseconds); where none exists,
+        StateInfeasibleError.
         ``reference``: the sequential-LP search for the shortest jerk-limited stop instead (slow; the reference the
         compiled stop is tested against)."""
         theta, x0, u0 = self._state(theta, theta_dot, theta_ddot)
@@ -409,27 +410,75 @@ class Retimer:
 
     def _compiled_stop(self, theta: float, x0: float, u0: float) -> Profile | None:
         """The compiled jerk-limited stop (planning/retime_stop.py): where the braking meets the backward pass from
-        rest, over the braking depths until its smooth profile meets the rows at its points; else the search over
-        braking points and tails; None when neither finds one."""
+        rest, over the braking depths until its smooth profile meets the rows at its points and its certificate
+        the limits (:meth:`_stop_certified`); else the search over braking points and tails, if certified; None
+        when neither finds one. The braking starts with the state's own share of the order-2 rows and, apart,
+        of the order-3 rows (the least at which some jerk meets them), each at least 1, fading to the margin."""
         jp = self._jerk
         if jp is None or self._cannot_turn(theta, x0, u0):
             return None
         end = float(self.grid[self._next_stop(int(np.searchsorted(self.grid, theta, side="right")))])
         s, x, u, bs, bv, bu = self._stop_buffers
         rows = (self.grid, jp.p2, jp.p3, jp.px)
-        share = min(max(retime_stop.state_share(theta, x0, u0, self.grid, jp.p2), 1.0), retime_stop.STATE_SHARE_MAX)
+        top, tol = retime_stop.STATE_SHARE_MAX, defaults.LIMIT_TOLERANCE
+        share = min(max(retime_stop.state_share(theta, x0, u0, self.grid, jp.p2), 1.0), top)
+        share3 = min(max(retime_stop.jerk_share(theta, x0, u0, self.grid, jp.p3), 1.0), top)
         depth = 0
         while depth >= 0:
-            n, _, depth = retime_stop.shortest_met(theta, x0, u0, share, end, depth, *rows, s, x, u, bs, bv, bu)
+            n, _, depth = retime_stop.shortest_met(theta, x0, u0, share, share3, end, depth, *rows, s, x, u, bs, bv,
+                                                   bu)
             got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows, 1.0) if n > 0 else None
-            if got is not None and retime_stop.profile_ok(*got, 1.0, share + defaults.LIMIT_TOLERANCE, *rows):
-                return self._with_knots(Profile(*got))
+            if got is not None and retime_stop.profile_ok(*got, 1.0, share + tol, share3 + tol, *rows):
+                stop = self._with_knots(Profile(*got))
+                if self._stop_certified(stop, theta, x0, u0):
+                    return stop
             depth = depth + 1 if 0 <= depth < len(retime_stop.DEPTHS) - 1 else -1
-        n, _ = retime_stop.shortest(theta, x0, u0, share, end, *rows, s, x, u)
+        n, _ = retime_stop.shortest(theta, x0, u0, share, share3, end, *rows, s, x, u)
         got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows) if n > 0 else None
         if got is None and n > 0:  # the close from the smooth form's x at the switch, checked on the full rows (as
             got = retime_stop.profile_of(s[:n], x[:n], u[:n], end, *rows, 1.0)  # the met stop's close)
-        return None if got is None else self._with_knots(Profile(*got))
+        if got is None:
+            return None
+        stop = self._with_knots(Profile(*got))
+        return stop if self._stop_certified(stop, theta, x0, u0) else None
+
+    def _stop_certified(self, stop: Profile, theta: float, x0: float, u0: float) -> bool:
+        """Whether the stop's certified bound (planning/certify.py) lies within 1 + the limit tolerance, or within
+        the state's own share (:meth:`_own_share`, which its first interval holds) plus it: a compiled stop meets
+        the rows interpolated between check points, which certifies nothing by itself."""
+        tol = self.settings.limit_tolerance
+        ratio = self.certify(stop).max_ratio
+        if ratio <= (1.0 + tol) * (1.0 + SHARE_SLACK):
+            return True
+        return ratio <= (max(self._own_share(theta, x0, u0), 1.0) + tol) * (1.0 + SHARE_SLACK)
+
+    def _own_share(self, theta: float, x0: float, u0: float) -> float:
+        """The moving state's own share of the plan's limits on the exact rows at theta [-]: the largest of its
+        order-2 ones (acceleration, torque) and the least share of the order-3 ones (jerk, torque rate) at which
+        some path jerk J meets them all (the motion from the state chooses its jerk): of the rows |a3 J + r| <= lim
+        (r = sqrt(x) (a u + b x + c)), min over J of max |a3 J + r| / lim, the largest over pairs of rows of
+        w1 w2 |J1 - J2| / (w1 + w2) (w = |a3| / lim, J = -r / a3), and of |r| / lim where a3 = 0. With limits
+        linearized around a profile (torque-speed), the interpolated rows' order-2 share."""
+        if self.limits.relinearize:
+            return float(retime_stop.state_share(theta, x0, u0, self.grid, self._jerk.p2))
+        pts = sample_grid(self.path, self.robot, np.array([theta]), (), third=True).right
+        scale = self.limits.unit_scale(1, self.robot.n)
+        r2 = limit_rows(pts, self.limits, scale, defaults.PLANNER_X_CAP)
+        val = r2.a[0] * u0 + r2.b[0] * x0 + r2.c[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            own = np.where(val > 0.0, val / r2.hi[0], np.where(val < 0.0, val / r2.lo[0], 0.0))
+        share = float(np.max(np.where(np.isfinite(own), own, 0.0), initial=0.0))
+        r3 = [lim.rows3(pts, scale[lim.name]) for lim in self.limits if lim.order == 3]
+        if not r3:
+            return share
+        a3, a, b, c, lim = (np.concatenate([np.asarray(r[f], float)[0] for r in r3]) for f in range(5))
+        rest = np.sqrt(x0) * (a * u0 + b * x0 + c)
+        flat = a3 == 0.0
+        share = max(share, float(np.max(np.abs(rest[flat]) / lim[flat], initial=0.0)))
+        w, j = np.abs(a3[~flat]) / lim[~flat], -rest[~flat] / a3[~flat]
+        with np.errstate(divide="ignore", invalid="ignore"):  # a limit off (inf): w = 0, no pair
+            pair = w[:, None] * w[None, :] * np.abs(j[:, None] - j[None, :]) / (w[:, None] + w[None, :])
+        return max(share, float(np.max(np.where(np.isfinite(pair), pair, 0.0), initial=0.0)))
 
     def _cannot_turn(self, theta: float, x0: float, u0: float) -> bool:
         """Jerk limits: whether the state's deceleration provably cannot be turned to 0 before it rests

@@ -33,7 +33,7 @@ from numba import njit
 from .. import defaults
 from . import smooth
 from .limit_rows import limit_rows
-from .grid_data import sample_grid
+from .limits import PathPoints
 
 #: Where each interval's rows are checked: fractions of the interval from its start to its end [-].
 CHECK_POINTS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -104,6 +104,7 @@ class JerkPass:
         self.p3 = tuple(np.ascontiguousarray(np.stack([np.concatenate([np.asarray(r[f]) for r in side], axis=1)[sl]
                                                        for side, (_, _, sl) in zip(third, points)]))
                         for f in range(5))
+        self._r2, self._r3 = np.stack(self.p2), np.stack(self.p3)  # (5, Q, K-1, m): the kernels' layout
 
     def ceiling_at(self, i: int, theta: float) -> tuple[float, float]:
         """(x, u) of C at theta in grid interval i."""
@@ -111,10 +112,12 @@ class JerkPass:
         return float(x), float(u)
 
     def _first(self, theta: float, i: int, j: int, pts_s: np.ndarray) -> tuple:
-        """The first output intervals: [theta, grid[j]] cut at ``pts_s`` (F + 1,) (theta first, grid[j] last; every
-        grid point between among them). Their check points' rows (five (Q, F, m2)), (five (Q, F, m3)), x_max (Q, F)
-        and coefficients (4, Q, F); the path data sampled at their points (the last end: grid point j's), the
-        limits scaled as on the grid interval each lies in."""
+        """The rows at the check points of every output interval: the first ones, [theta, grid[j]] cut at ``pts_s``
+        (F + 1,) (theta first, grid[j] last; every grid point between among them), then the plan's from grid interval
+        j on (N output intervals in all): (r2 (5, Q, N, m2): a, b, c, lo, hi; r3 (5, Q, N, m3): a3, a, b, c, lim;
+        x_max (Q, N); coefficients (4, Q, N)), the forward pass's ``grid_data`` rows. On the first intervals the path
+        data sampled at their points (the last end: grid point j's), the limits scaled as on the grid interval each
+        lies in."""
         g = self.grid
         nf = len(pts_s) - 1
         pc = _first_coefficients(pts_s, float(self.origin[j - 1]), int(self.sign[j - 1]), np.array(CHECK_POINTS))
@@ -136,19 +139,24 @@ class JerkPass:
         at_grid = at_grid[at_grid < nf - 1]
 
         def stacked(sampled, plan):
-            """(Q, F, ...) from the samples ((Q-1) F, ...) at the check points before the ends and the plan's rows
-            (Q, K-1, ...) for the ends at grid points: an interval's end is else the next one's start."""
-            sampled = np.asarray(sampled).reshape((nq - 1, nf) + np.shape(sampled)[1:])
-            last = np.concatenate([sampled[0, 1:], plan[-1, j - 1][None]])
+            """(L, Q, N, ...) from the samples (L, (Q-1) F, ...) at the first intervals' check points before their
+            ends and the plan's rows (L, Q, K-1, ...): for the ends at grid points and from grid interval j on (an
+            interval's end is else the next one's start)."""
+            sampled = sampled.reshape((len(sampled), nq - 1, nf) + sampled.shape[2:])
+            out = np.empty((len(sampled), nq, nf + plan.shape[2] - j) + sampled.shape[3:])
+            out[:, :nq - 1, :nf] = sampled
+            out[:, nq - 1, :nf - 1] = sampled[:, 0, 1:]
+            out[:, nq - 1, nf - 1] = plan[:, nq - 1, j - 1]
             if at_grid.size:
-                last[at_grid] = plan[-1, inner[at_grid] - 1]
-            return np.ascontiguousarray(np.concatenate([sampled, last[None]]))
+                out[:, nq - 1, at_grid] = plan[:, nq - 1, inner[at_grid] - 1]
+            out[:, :, nf:] = plan[:, :, j:]
+            return out
 
-        p2 = tuple(stacked(getattr(rows2, n), r) for n, r in zip(("a", "b", "c", "lo", "hi"), self.p2))
-        p3 = tuple(stacked(np.concatenate([np.asarray(r3[k]) for r3 in rows3], axis=1), r)
-                   for k, r in enumerate(self.p3))
-        px = stacked(rows2.x_max, self.px)
-        return p2, p3, px, pc
+        r2 = stacked(np.stack([getattr(rows2, n) for n in ("a", "b", "c", "lo", "hi")]), self._r2)
+        r3 = stacked(np.stack([np.concatenate([np.asarray(r[k]) for r in rows3], axis=1) for k in range(5)]),
+                     self._r3)
+        px = stacked(np.asarray(rows2.x_max)[None], self.px[None])[0]
+        return r2, r3, px, np.concatenate([pc, self.pc[:, :, j:]], axis=2)
 
     def first_points(self, theta: float, i: int, j: int, nxt: int, x0: float, u0: float) -> tuple[int, np.ndarray, int]:
         """(j', points, merge_from): the first output intervals run from theta to grid point j' >= j, cut at the
@@ -185,11 +193,11 @@ class JerkPass:
         return end, pts, len(pts) - 1
 
     @staticmethod
-    def _state_share(first, x0: float, u0: float) -> float:
-        """The share of the order-2 limits the state (x0, u0) takes at its point, at least STATE_SHARE_MIN: the
-        limits at the state, from which the pass's margin fades in over the first interval (the pass refuses a
-        state above STATE_SHARE_MAX)."""
-        a, b, c, lo, hi = (r[0, 0] for r in first[0])
+    def _state_share(r2, x0: float, u0: float) -> float:
+        """The share of the order-2 limits the state (x0, u0) takes at its point (``r2``: JerkPass._first's), at
+        least STATE_SHARE_MIN: the limits at the state, from which the pass's margin fades in over the first
+        interval (the pass refuses a state above STATE_SHARE_MAX)."""
+        a, b, c, lo, hi = r2[:, 0, 0]
         val = a * u0 + b * x0 + c
         with np.errstate(divide="ignore", invalid="ignore"):
             share = np.where(val > 0, val / hi, val / lo)
@@ -210,13 +218,13 @@ class JerkPass:
         check points and margin are no certificate, and these states' steep jerk finds their gaps); else 0."""
         nxt = int(self.rest_index[np.searchsorted(self.rest_index, j)])
         j, pts, merge_from = self.first_points(theta, i, j, nxt, x0, u0)
-        first = self._first(theta, i, j, pts)
+        rows = self._first(theta, i, j, pts)
         c0 = self._ceiling_first(j, pts)
-        grid_data = (self.p2, self.p3, self.px, self.pc, self.cx, self.cu)
-        share = self._state_share(first, x0, u0)
+        share = self._state_share(rows[0], x0, u0)
         if share > STATE_SHARE_MAX:
             return None
-        first = (*first, share, np.ascontiguousarray((pts - pts[0]) / (pts[-1] - pts[0])))
+        grid_data = (*rows, self.cx, self.cu)
+        first = (share, np.ascontiguousarray((pts - pts[0]) / (pts[-1] - pts[0])))
         if len(self._buffers[0]) < len(pts) + len(self.grid) - j:
             self._buffers = (np.empty(len(pts) + len(self.grid)), np.empty(len(pts) + len(self.grid)))
         xs, us = self._buffers
@@ -246,17 +254,34 @@ def split(grid, x, u, upto: int, parts: int = OUTPUT_SPLIT):
     if upto <= 0 or parts <= 1:
         return grid, x, u
     origin, sign = smooth.coordinates(grid, x <= 0.0)
-    frac = np.arange(1, parts) / parts
-    index = np.repeat(np.arange(upto), parts - 1)
-    at = grid[index] + np.tile(frac, upto) * (grid[index + 1] - grid[index])
-    xi, ui = _state_xu(grid, x, u, origin.astype(float), sign.astype(np.int64), index, at)
-    cut = np.repeat(np.arange(1, upto + 1), parts - 1)  # each new point goes before the end of its interval
-    return np.insert(grid, cut, at), np.insert(x, cut, xi), np.insert(u, cut, ui)
+    return _split_kernel(grid, x, u, origin.astype(float), sign.astype(np.int64), int(upto), int(parts))
+
+
+@njit(cache=True, nogil=True)
+def _split_kernel(grid, x, u, origin, sign, upto, parts):
+    """:func:`split`: each new point (at the fractions k / parts of its interval) right after its interval's start."""
+    n = grid.shape[0] + upto * (parts - 1)
+    g, xs, us = np.empty(n), np.empty(n), np.empty(n)
+    p = 0
+    for i in range(grid.shape[0]):
+        g[p], xs[p], us[p] = grid[i], x[i], u[i]
+        p += 1
+        if i < upto:
+            for k in range(1, parts):
+                th = grid[i] + (k / parts) * (grid[i + 1] - grid[i])
+                g[p] = th
+                xs[p], us[p] = _xu(grid, x, u, origin, sign, i, th)
+                p += 1
+    return g, xs, us
 
 
 def _sample_points(path, robot, theta):
-    """Third-order path data at the points ``theta`` (interior points of the path's pieces)."""
-    return sample_grid(path, robot, theta, (), third=True).right
+    """Third-order path data at the points ``theta`` (interior points of the path's pieces): sample_grid's right
+    side, without its left side (the points' last one seen from the left, which no check point is)."""
+    q, dq, ddq, dddq = path.evaluate3(theta, "right")
+    points = PathPoints(robot, path, theta, q, dq, ddq)
+    points._cache["dddq"] = np.atleast_2d(dddq)
+    return points
 
 
 def point_coefficients(grid, origin, sign) -> np.ndarray:
@@ -325,17 +350,22 @@ def _state_xu(grid, x, u, origin, sign, index, theta):
     n = theta.shape[0]
     xs, us = np.empty(n), np.empty(n)
     for p in range(n):
-        i, th = index[p], theta[p]
-        o, sg = origin[i], sign[i]
-        xi_lo, xi_hi = _xi(o, sg, grid[i]), _xi(o, sg, grid[i + 1])
-        g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
-        us[p] = u[i] + g * (_xi(o, sg, th) - xi_lo)
-        if x[i + 1] <= 0.0:
-            xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral(o, sg, grid[i + 1], th))
-        else:
-            xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral(o, sg, grid[i], th))
-        xs[p] = max(xx, 0.0)
+        xs[p], us[p] = _xu(grid, x, u, origin, sign, index[p], theta[p])
     return xs, us
+
+
+@njit(cache=True, inline="always")
+def _xu(grid, x, u, origin, sign, i, th):
+    """smooth.state's (x, u) at theta ``th`` in interval ``i``."""
+    o, sg = origin[i], sign[i]
+    xi_lo, xi_hi = _xi(o, sg, grid[i]), _xi(o, sg, grid[i + 1])
+    g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
+    uu = u[i] + g * (_xi(o, sg, th) - xi_lo)
+    if x[i + 1] <= 0.0:
+        xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral(o, sg, grid[i + 1], th))
+    else:
+        xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral(o, sg, grid[i], th))
+    return max(xx, 0.0), uu
 
 
 # ----------------------------------------------------------------------------------------------- kernels
@@ -349,23 +379,6 @@ def _cut(low, high, q, bot, top):
     if q < 0.0:
         return max(low, top / q), min(high, bot / q), True
     return low, high, not (top < 0.0 or bot > 0.0)
-
-
-@njit(cache=True, inline="always")
-def _point(k, q, j, grid_data, first):
-    """Check point q (CHECK_POINTS) of output interval k (k < F: the first intervals, from the state to grid
-    point j; k >= F: grid interval j + k - F): (rows2, rows3, x_max, cxu, cxv, lam, dp)."""
-    p2, p3, px, pc, _, _ = grid_data
-    f2, f3, fx, fc, _, _ = first
-    nf = fc.shape[2]
-    if k < nf:
-        return ((f2[0][q, k], f2[1][q, k], f2[2][q, k], f2[3][q, k], f2[4][q, k]),
-                (f3[0][q, k], f3[1][q, k], f3[2][q, k], f3[3][q, k], f3[4][q, k]),
-                fx[q, k], fc[0, q, k], fc[1, q, k], fc[2, q, k], fc[3, q, k])
-    g = j + k - nf
-    return ((p2[0][q, g], p2[1][q, g], p2[2][q, g], p2[3][q, g], p2[4][q, g]),
-            (p3[0][q, g], p3[1][q, g], p3[2][q, g], p3[3][q, g], p3[4][q, g]),
-            px[q, g], pc[0, q, g], pc[1, q, g], pc[2, q, g], pc[3, q, g])
 
 
 @njit(cache=True, inline="always")
@@ -390,36 +403,38 @@ def _interval_ok(k, j, grid_data, first, x, u, v, floor, check_end, keep0, keep1
     """Whether every row holds at the check points of output interval k from (x, u) with u_{k+1} = v, the
     limits times ``keep0`` at its start to ``keep1`` at its end (linear between; the end point's order-2 rows
     and bounds only with ``check_end``)."""
-    nq = grid_data[3].shape[1]
-    if u < 0.0 < v and x - DIP_SAFETY * u * u * _point(k, nq - 1, j, grid_data, first)[3] / (v - u) < floor:
+    r2, r3, px, pc = grid_data[0], grid_data[1], grid_data[2], grid_data[3]
+    nq = pc.shape[1]
+    if u < 0.0 < v and x - DIP_SAFETY * u * u * pc[0, nq - 1, k] / (v - u) < floor:
         return False  # x dips below the floor where u crosses 0 between the check points
     for q in range(nq):
-        r2, r3, xmax, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
+        cxu, cxv, lam, dp = pc[0, q, k], pc[1, q, k], pc[2, q, k], pc[3, q, k]
         keep = keep0 + (keep1 - keep0) * q / (nq - 1)
         xp = x + 2.0 * u * cxu + 2.0 * (v - u) * cxv
         up = u + lam * (v - u)
         if q > 0 and (q < nq - 1 or check_end):
-            if xp < floor or xp > xmax * keep * keep:
+            if xp < floor or xp > px[q, k] * keep * keep:
                 return False
-            if not _rows2_within(r2, xp, up, keep):
+            if not _rows2_within(r2, q, k, xp, up, keep):
                 return False
         if xp > 0.0 and np.isfinite(dp):
-            a3, a, b, c, lim = r3
             sx = np.sqrt(xp)
-            for r in range(a3.shape[0]):
-                if abs(sx * (a3[r] * dp * (v - u) + a[r] * up + b[r] * xp + c[r])) > keep * lim[r] * (1.0 + ROW_SLACK):
+            for r in range(r3.shape[3]):
+                if abs(sx * (r3[0, q, k, r] * dp * (v - u) + r3[1, q, k, r] * up + r3[2, q, k, r] * xp
+                             + r3[3, q, k, r])) > keep * r3[4, q, k, r] * (1.0 + ROW_SLACK):
                     return False
     return True
 
 
-@njit(cache=True, nogil=True)
-def _rows2_within(r2, x, u, keep):
-    """lo keep <= a u + b x + c <= hi keep on the rows r2 = (a, b, c, lo, hi)."""
-    a, b, c, lo, hi = r2
-    for r in range(a.shape[0]):
-        val = a[r] * u + b[r] * x + c[r]
-        slack = ROW_SLACK * (abs(lo[r]) + abs(hi[r]))
-        if val > keep * hi[r] + slack or val < keep * lo[r] - slack:
+@njit(cache=True, inline="always")
+def _rows2_within(r2, q, k, x, u, keep):
+    """lo keep <= a u + b x + c <= hi keep on the order-2 rows r2 (a, b, c, lo, hi) at check point q of output
+    interval k."""
+    for r in range(r2.shape[3]):
+        val = r2[0, q, k, r] * u + r2[1, q, k, r] * x + r2[2, q, k, r]
+        lo, hi = r2[3, q, k, r], r2[4, q, k, r]
+        slack = ROW_SLACK * (abs(lo) + abs(hi))
+        if val > keep * hi + slack or val < keep * lo - slack:
             return False
     return True
 
@@ -427,10 +442,10 @@ def _rows2_within(r2, x, u, keep):
 @njit(cache=True, inline="always")
 def _start_keep(k, keep, first):
     """The share of the limits kept at output point k: ``keep``, but from the state to grid point j (the first
-    output points) what the state itself takes (first[4]; the state is given) fading to ``keep`` along that
-    stretch (first[5]: its points' fractions of it)."""
-    pos = first[5]
-    return first[4] + (keep - first[4]) * pos[k] if k < pos.shape[0] - 1 else keep
+    output points) what the state itself takes (first[0]; the state is given) fading to ``keep`` along that
+    stretch (first[1]: its points' fractions of it)."""
+    pos = first[1]
+    return first[0] + (keep - first[0]) * pos[k] if k < pos.shape[0] - 1 else keep
 
 
 @njit(cache=True, nogil=True)
@@ -439,39 +454,40 @@ def _bounds(k, j, grid_data, first, x, u, floor):
     interval's (w0, w1); (inf, -inf) when none. The order-3 rows at the middle and the end take sqrt(x) at its
     largest over the range: conservative for every u_{k+1} in it."""
     low, high, ok = -np.inf, np.inf, True
-    nq = grid_data[3].shape[1]
+    r2, r3, px, pc = grid_data[0], grid_data[1], grid_data[2], grid_data[3]
+    nq = pc.shape[1]
     keep0 = _start_keep(k, 1.0 - PASS_MARGIN, first)
     keep1 = _start_keep(k + 1, 1.0 - PASS_MARGIN, first)
     for q in range(1, nq):
         keep = keep0 + (keep1 - keep0) * q / (nq - 1)
-        r2, _, xmax, cxu, cxv, lam, _ = _point(k, q, j, grid_data, first)
+        cxu, cxv, lam = pc[0, q, k], pc[1, q, k], pc[2, q, k]
         base = x + 2.0 * u * (cxu - cxv)  # x there = base + 2 cxv v
-        low, high, ok2 = _cut(low, high, 2.0 * cxv, floor - base, keep * keep * xmax - base)
+        low, high, ok2 = _cut(low, high, 2.0 * cxv, floor - base, keep * keep * px[q, k] - base)
         ok = ok and ok2
-        a, b, c, lo, hi = r2
-        for r in range(a.shape[0]):
-            rest = a[r] * u * (1.0 - lam) + b[r] * base + c[r]
-            low, high, ok2 = _cut(low, high, a[r] * lam + 2.0 * b[r] * cxv, keep * lo[r] - rest, keep * hi[r] - rest)
+        for r in range(r2.shape[3]):
+            a, b, c, lo, hi = r2[0, q, k, r], r2[1, q, k, r], r2[2, q, k, r], r2[3, q, k, r], r2[4, q, k, r]
+            rest = a * u * (1.0 - lam) + b * base + c
+            low, high, ok2 = _cut(low, high, a * lam + 2.0 * b * cxv, keep * lo - rest, keep * hi - rest)
             ok = ok and ok2
     if not ok or low > high:
         return np.inf, -np.inf, 0.0, 0.0
     for q in range(nq):
         keep = keep0 + (keep1 - keep0) * q / (nq - 1)
-        _, r3, _, cxu, cxv, lam, dp = _point(k, q, j, grid_data, first)
+        cxu, cxv, lam, dp = pc[0, q, k], pc[1, q, k], pc[2, q, k], pc[3, q, k]
         base = x + 2.0 * u * (cxu - cxv)
         top = base + 2.0 * cxv * high
         if top <= 0.0 or not np.isfinite(dp):
             continue
         sx = np.sqrt(top)
-        a3, a, b, c, lim = r3
-        for r in range(a3.shape[0]):
-            rest = -a3[r] * dp * u + a[r] * u * (1.0 - lam) + b[r] * base + c[r]
-            low, high, ok2 = _cut(low, high, a3[r] * dp + a[r] * lam + 2.0 * b[r] * cxv, -keep * lim[r] / sx - rest,
-                                  keep * lim[r] / sx - rest)
+        for r in range(r3.shape[3]):
+            a3, a, b, c, lim = r3[0, q, k, r], r3[1, q, k, r], r3[2, q, k, r], r3[3, q, k, r], r3[4, q, k, r]
+            rest = -a3 * dp * u + a * u * (1.0 - lam) + b * base + c
+            low, high, ok2 = _cut(low, high, a3 * dp + a * lam + 2.0 * b * cxv, -keep * lim / sx - rest,
+                                  keep * lim / sx - rest)
             ok = ok and ok2
     if not ok or low > high:
         return np.inf, -np.inf, 0.0, 0.0
-    _, _, _, cxu, cxv, _, _ = _point(k, nq - 1, j, grid_data, first)
+    cxu, cxv = pc[0, nq - 1, k], pc[1, nq - 1, k]
     if u < 0.0:  # x dips where u crosses 0 inside the interval: not below the floor; u_{k+1} <= 0 has no dip
         dip = u + DIP_SAFETY * u * u * cxu / max(x - floor, 1e-300)
         if dip > 0.0 and high < dip:
@@ -492,10 +508,11 @@ def _merge(k, x, u, n, last, j, grid_data, first, c0, floor, tc, budget, out_x, 
     xc, uc = _ceiling(k, j, grid_data, c0)
     d, e = u - uc, x - xc
     sa, sb = 0.0, 0.0
-    nq = grid_data[3].shape[1]
+    pc = grid_data[3]
+    nq = pc.shape[1]
     for i in range(n):
         a0, a1 = i / n, (i + 1) / n
-        _, _, _, cxu, cxv, _, _ = _point(k + i, nq - 1, j, grid_data, first)
+        cxu, cxv = pc[0, nq - 1, k + i], pc[1, nq - 1, k + i]
         sa += (cxu - cxv) * (1.0 - a0) + cxv * (1.0 - a1)
         sb += (cxu - cxv) * a0 * (1.0 - a0) + cxv * a1 * (1.0 - a1)
     if sb <= 0.0:
@@ -515,7 +532,7 @@ def _merge(k, x, u, n, last, j, grid_data, first, c0, floor, tc, budget, out_x, 
         if not _interval_ok(k + i, j, grid_data, first, xi, ui, v, floor, p < last and i < n - 1,
                             keep + (1.0 - keep) * i / n, keep + (1.0 - keep) * s):
             return np.nan
-        _, _, _, cxu, cxv, _, _ = _point(k + i, nq - 1, j, grid_data, first)
+        cxu, cxv = pc[0, nq - 1, k + i], pc[1, nq - 1, k + i]
         x1 = xcp if i == n - 1 else xi + 2.0 * ui * cxu + 2.0 * (v - ui) * cxv
         if write:
             out_x[p], out_u[p] = x1, v
@@ -576,12 +593,10 @@ def _rows2_right(k, j, grid_data, first, x, u):
     """The order-2 rows at output point k >= 1 seen from the interval after it (they differ from the end
     point's at breaks and knots; the first output points lie inside a plan interval); true at the grid's last
     point."""
-    p2 = grid_data[0]
-    nf = first[3].shape[2]
-    g = j + k - nf
-    if k < nf or g >= p2[0].shape[1]:
+    r2 = grid_data[0]
+    if k < first[1].shape[0] - 1 or k >= r2.shape[2]:
         return True
-    return _rows2_within((p2[0][0, g], p2[1][0, g], p2[2][0, g], p2[3][0, g], p2[4][0, g]), x, u, 1.0 - PASS_MARGIN)
+    return _rows2_within(r2, 0, k, x, u, 1.0 - PASS_MARGIN)
 
 
 @njit(cache=True, nogil=True)
@@ -624,9 +639,12 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u, mer
     """The pass from the state (x0, u0) (output point 0) over the output points 1.. = grid points j.. up to
     the rest point ``nxt`` (grid index): fills out_x, out_u up to the best merge's end and returns (its total
     time [s], the first output point from which the profile is C's); (inf, -1) when no merge is found.
-    ``grid_data``: (p2, p3, px, pc, cx, cu) of JerkPass; ``first``: the first interval's check points and the
-    state's share of the limits (JerkPass._first, _state_share); tc (K,): C's time to the end from each grid
-    point; c0 (3, F): C's x, u and time to the end at the first output points.
+    ``grid_data``: (r2, r3, px, pc, cx, cu): the rows at the check points of every output interval, the first F
+    (from the state to grid point j: JerkPass._first) and the plan's from grid interval j on, stacked (r2 (5, Q,
+    N, m2): a, b, c, lo, hi; r3 (5, Q, N, m3): a3, a, b, c, lim; px (Q, N); pc (4, Q, N): JerkPass's), and C's x
+    and u on the grid (JerkPass.cx, cu); ``first``: (the state's share of the limits, JerkPass._state_share; the
+    first output points' fractions of the stretch to grid point j (F + 1,)); tc (K,): C's time to the end from
+    each grid point; c0 (3, F): C's x, u and time to the end at the first output points.
 
     The walk: below C the largest step from which the descent still ends on or below C (the largest step the
     rows allow, else a bisection down to the descent's own step; that step where even the descent crosses above
@@ -635,11 +653,11 @@ def forward(grid_data, first, tc, j, nxt, x0, u0, c0, lengths, out_x, out_u, mer
     The walk ends STALL points after the best merge's point once its time plus C's from there is within
     WALK_GAIN of the best total; stopped by the rows before that, it gives no answer. Merges start at output
     points >= ``merge_from`` (JerkPass.first_points)."""
-    last = nxt - j + first[3].shape[2]
+    last = nxt - j + first[1].shape[0] - 1
     floor = X_FLOOR * x0
     x, u = x0, u0
     out_x[0], out_u[0] = x0, u0
-    if not _rows2_within(_point(0, 0, j, grid_data, first)[0], x0, u0, first[4]):
+    if not _rows2_within(grid_data[0], 0, 0, x0, u0, first[0]):
         return np.inf, -1  # the state breaks a limit itself
     best_t, best_k, best_m, best_n, t, trapped = np.inf, -1, -1, 0, 0.0, np.inf
     known = (-2, 0.0, 0.0, 0.0)  # the descent from the walk's next point, where _largest_safe computed it

@@ -15,9 +15,10 @@ halving strides around the best) and the m, the stop that ends first is taken; a
 the jerk allows. The rows are those the compiled remaining pass stores at Retimer
 construction (planning/retime_jerk.py: order-2 rows, x_max and order-3 rows at the CHECK_POINTS of every plan
 interval), interpolated linearly between neighbouring check points, and met with MARGIN to spare (faded in
-from the state's own share where the state itself takes more). A step's jerk is checked as the smooth profile
-realizes it (u linear along the step's theta). :func:`profile_of` turns the points into the project's smooth
-profile (u linear in xi = (theta_stop - theta)^(1/3) per interval, where the close is exact).
+from the state's own share where the state itself takes more: of the order-2 rows its u's, of the order-3 rows
+the least any jerk takes, apart). A step's jerk is checked as the smooth profile realizes it (u linear along the
+step's theta). :func:`profile_of` turns the points into the project's smooth profile (u linear in xi = (theta_stop -
+theta)^(1/3) per interval, where the close is exact).
 """
 
 from __future__ import annotations
@@ -145,6 +146,45 @@ def _j_range(s, x, u, keep, grid, p3):
     return low, high
 
 
+#: Bisection steps of :func:`jerk_share` [-].
+JERK_SHARE_ITERATIONS = 40
+
+
+@njit(cache=True, nogil=True)
+def jerk_share(s, x, u, grid, p3):
+    """The least share of the order-3 limits at which the interpolated rows allow a path jerk at the state (s, x,
+    u) [-]: the state's own (its jerk is free, only its u and x enter the rows), by bisection up to STATE_SHARE_MAX;
+    inf above it."""
+    low, high = 0.0, STATE_SHARE_MAX
+    jlo, jhi = _j_range(s, x, u, high, grid, p3)
+    if jlo > jhi:
+        return np.inf
+    for _ in range(JERK_SHARE_ITERATIONS):
+        mid = 0.5 * (low + high)
+        jlo, jhi = _j_range(s, x, u, mid, grid, p3)
+        if jlo <= jhi:
+            high = mid
+        else:
+            low = mid
+    return high
+
+
+@njit(cache=True, nogil=True)
+def _start_shares(s0, x0, u0, share, share3, grid, p2, p3, px):
+    """The shares of the order-2 and of the order-3 limits the braking starts with (_keep): for each order, 1 -
+    MARGIN where the state meets its rows with the margin (u within the order-2 rows; some jerk within the order-3
+    rows), else ``share`` or ``share3`` (the state's own), at least 1 - MARGIN. The orders apart: a state above
+    its order-2 rows (the rows' linear interpolation between check points reads up to a few per cent high) gives
+    the stop's jerk, which it chooses, no share of the jerk limits above 1 - MARGIN."""
+    lo, hi = _u_range(s0, x0, 1.0 - MARGIN, grid, p2, px)
+    if lo <= u0 <= hi:
+        share = 1.0 - MARGIN
+    jlo, jhi = _j_range(s0, x0, u0, 1.0 - MARGIN, grid, p3)
+    if jlo <= jhi:
+        share3 = 1.0 - MARGIN
+    return max(share, 1.0 - MARGIN), max(share3, 1.0 - MARGIN)
+
+
 #: The certificate that a state cannot turn its deceleration (:func:`cannot_turn`) bounds |u| along the motion by
 #: this many times the largest of the state's and the least the order-2 rows allow [-].
 TURN_U_SAFETY = 2.0
@@ -195,12 +235,13 @@ def cannot_turn(s0, x0, u0, grid, p2, p3, px):
 
 
 @njit(cache=True, nogil=True)
-def _close_ok_at(st, xt, at, jerk, keep, grid, p2, p3, px):
-    """Whether the close's state (theta st, x xt, u at, constant path jerk) meets the order-2 and order-3 rows."""
+def _close_ok_at(st, xt, at, jerk, keep, keep3, grid, p2, p3, px):
+    """Whether the close's state (theta st, x xt, u at, constant path jerk) meets the order-2 rows with ``keep`` and
+    the order-3 rows with ``keep3`` of the limits."""
     lo, hi = _u_range(st, xt, keep, grid, p2, px)
     if not lo <= at <= hi:
         return False
-    jlo, jhi = _j_range(st, xt, at, keep, grid, p3)
+    jlo, jhi = _j_range(st, xt, at, keep3, grid, p3)
     return jlo <= jerk <= jhi
 
 
@@ -219,12 +260,12 @@ def _close_time(s, v, a, jerk, period, target):
 
 
 @njit(cache=True, nogil=True)
-def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
+def _tail_ok(s, v, a, keep, keep3, s_end, grid, p2, p3, px):
     """Whether the constant-jerk close from (s, theta_dot v, u = a < 0) to rest ends before s_end and meets every
-    row at TAIL_POINTS points equal in time, at points CHECK_SPACING of each plan interval it spans apart, and on
-    both sides of every plan grid point it passes (the rows jump there where the path's Phi''' does: a spline
-    knot). The checks in an interval do not depend on the other intervals' lengths: a knot's sliver of an
-    interval does not multiply the checks of the whole close."""
+    row (order 2 with ``keep``, order 3 with ``keep3`` of the limits) at TAIL_POINTS points equal in time, at
+    points CHECK_SPACING of each plan interval it spans apart, and on both sides of every plan grid point it passes
+    (the rows jump there where the path's Phi''' does: a spline knot). The checks in an interval do not depend on
+    the other intervals' lengths: a knot's sliver of an interval does not multiply the checks of the whole close."""
     if a >= 0.0:
         return False
     jerk = a * a / (2.0 * v)
@@ -238,7 +279,7 @@ def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
         t = period * i / TAIL_POINTS
         st = s + v * t + 0.5 * a * t * t + jerk * t**3 / 6.0
         vt = v + a * t + 0.5 * jerk * t * t
-        if not _close_ok_at(st, vt * vt, a + jerk * t, jerk, keep, grid, p2, p3, px):
+        if not _close_ok_at(st, vt * vt, a + jerk * t, jerk, keep, keep3, grid, p2, p3, px):
             return False
     parts = int(round(1.0 / CHECK_SPACING))
     for k in range(g0, g1 + 1):  # inside every plan interval the close spans
@@ -248,7 +289,7 @@ def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
                 continue
             t = _close_time(s, v, a, jerk, period, target)
             vt = v + a * t + 0.5 * jerk * t * t
-            if not _close_ok_at(target, vt * vt, a + jerk * t, jerk, keep, grid, p2, p3, px):
+            if not _close_ok_at(target, vt * vt, a + jerk * t, jerk, keep, keep3, grid, p2, p3, px):
                 return False
     for k in range(g0 + 1, g1 + 1):  # the plan grid points inside the close, on both sides
         target = grid[k]
@@ -256,8 +297,8 @@ def _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
         vt = v + a * t + 0.5 * jerk * t * t
         at = a + jerk * t
         left = target - 1e-12 * max(abs(target), 1.0)
-        if not (_close_ok_at(target, vt * vt, at, jerk, keep, grid, p2, p3, px)
-                and _close_ok_at(left, vt * vt, at, jerk, keep, grid, p2, p3, px)):
+        if not (_close_ok_at(target, vt * vt, at, jerk, keep, keep3, grid, p2, p3, px)
+                and _close_ok_at(left, vt * vt, at, jerk, keep, keep3, grid, p2, p3, px)):
             return False
     return True
 
@@ -270,17 +311,18 @@ def _advance(s, v, a, jerk, dt):
 
 
 @njit(cache=True, nogil=True)
-def _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px):
+def _fit(s, v, a, jerk, dt, jlo, jhi, keep, keep3, grid, p2, p3, px):
     """The jerk of a step of length dt from (s, v, a), moved (END_PASSES times) into what the order-3 rows allow at
     both of its ends (jlo, jhi at its start), as the smooth profile realizes it: its u is linear along the
-    step's theta, so its jerk at a point is the step's times the speed there over the step's mean speed.
-    Returns (s, v, a) after it and whether the step meets every row (order 2 at its end too)."""
+    step's theta, so its jerk at a point is the step's times the speed there over the step's mean speed; ``keep``
+    of the order-2 limits, ``keep3`` of the order-3 ones. Returns (s, v, a) after it and whether the step meets
+    every row (order 2 at its end too)."""
     for _ in range(END_PASSES + 1):
         s1, v1, a1 = _advance(s, v, a, jerk, dt)
         if v1 <= 0.0:
             return s1, v1, a1, False
         mean = (s1 - s) / dt
-        elo, ehi = _j_range(s1, v1 * v1, a1, keep, grid, p3)
+        elo, ehi = _j_range(s1, v1 * v1, a1, keep3, grid, p3)
         low = max(jlo * mean / v, elo * mean / v1)
         high = min(jhi * mean / v, ehi * mean / v1)
         if low > high:
@@ -294,10 +336,10 @@ def _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px):
 
 
 @njit(cache=True, nogil=True)
-def _step(s, v, a, keep, depth, dt, grid, p2, p3, px):
+def _step(s, v, a, keep, keep3, depth, dt, grid, p2, p3, px):
     """One braking step of length dt: the jerk that brings u towards ``depth`` times the least u the rows allow
     at the step's end, within the order-3 rows (_fit); (s, v, a) after it, and whether it meets the rows."""
-    jlo, jhi = _j_range(s, v * v, a, keep, grid, p3)
+    jlo, jhi = _j_range(s, v * v, a, keep3, grid, p3)
     if jlo > jhi:
         return s, v, a, False
     sp, vp = s + v * dt + 0.5 * a * dt * dt, v + a * dt
@@ -308,17 +350,17 @@ def _step(s, v, a, keep, depth, dt, grid, p2, p3, px):
         sp, vp, _ = _advance(s, v, a, jerk, dt)
         if vp <= 0.0:
             break
-    return _fit(s, v, a, jerk, dt, jlo, jhi, keep, grid, p2, p3, px)
+    return _fit(s, v, a, jerk, dt, jlo, jhi, keep, keep3, grid, p2, p3, px)
 
 
 @njit(cache=True, nogil=True)
-def _up_step(s, v, a, keep, dt, grid, p2, p3, px):
+def _up_step(s, v, a, keep, keep3, dt, grid, p2, p3, px):
     """One step of length dt at the largest jerk the order-3 rows allow (_fit); (s, v, a) after it and whether it
     meets the rows."""
-    jlo, jhi = _j_range(s, v * v, a, keep, grid, p3)
+    jlo, jhi = _j_range(s, v * v, a, keep3, grid, p3)
     if jlo > jhi:
         return s, v, a, False
-    return _fit(s, v, a, jhi, dt, jlo, jhi, keep, grid, p2, p3, px)
+    return _fit(s, v, a, jhi, dt, jlo, jhi, keep, keep3, grid, p2, p3, px)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -337,8 +379,9 @@ def _dt(k, dt):
 
 
 @njit(cache=True, nogil=True)
-def _brake(s0, x0, u0, share, depth, recover, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
-    """The braking steps from the state (aimed at ``depth`` times the least u the rows allow) until a step
+def _brake(s0, x0, u0, share, share3, depth, recover, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+    """The braking steps from the state (aimed at ``depth`` times the least u the rows allow; ``share`` and
+    ``share3`` the state's own shares of the order-2 and order-3 limits, see _keep) until a step
     breaks a row or reaches s_end (a tail from there would end after it): their points (the state first) into
     out_s, out_x, out_u; returns their number. With ``recover``, where a step breaks a row (the least u rises faster
     than the jerk rows let u follow), the braking goes back REWIND steps and aims shallower (RECOVER_DEPTH times,
@@ -349,7 +392,7 @@ def _brake(s0, x0, u0, share, depth, recover, s_end, dt, grid, p2, p3, px, out_s
     k, dead, tries, breaks, top = 0, -1, 0, 0, min(out_s.shape[0] - 1, MAX_STEPS)
     while k < top:
         aim = depth * RECOVER_DEPTH ** tries if k < dead + REWIND else depth
-        s, v, a, ok = _step(s, v, a, _keep(k, share), aim, _dt(k, dt), grid, p2, p3, px)
+        s, v, a, ok = _step(s, v, a, _keep(k, share), _keep(k, share3), aim, _dt(k, dt), grid, p2, p3, px)
         if recover and not ok and k >= REWIND and breaks < RECOVER_TRIES:
             tries = tries + 1 if k <= dead + REWIND else 1
             breaks, dead, k = breaks + 1, k, k - REWIND
@@ -363,28 +406,28 @@ def _brake(s0, x0, u0, share, depth, recover, s_end, dt, grid, p2, p3, px, out_s
 
 
 @njit(cache=True, nogil=True)
-def _tail(k, steps, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, write):
+def _tail(k, steps, best, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, write):
     """The tails from braking point k: m = 0.. steps at the largest jerk (_up_step), then the constant-jerk close
     to rest (_tail_ok). Returns (m, stop point) of the one that stops first and before ``best``, (-1, best) when
     none; with ``write``, its m points after point k into out_s, out_x, out_u (``steps`` = that m)."""
     s, v, a = out_s[k], np.sqrt(out_x[k]), out_u[k]
     best_m = -1
     for m in range(steps + 1):
-        keep = _keep(k + m, share)
+        keep, keep3 = _keep(k + m, share), _keep(k + m, share3)
         if a >= 0.0 or s >= best:
             break
         # the close's stop point moves back while the largest jerk is below the close's, then on: the first
         # close the jerk allows is the tail's best
         stop = s + 2.0 * v * v / (3.0 * -a)
-        if not write and a * a / (2.0 * v) <= _j_range(s, v * v, a, keep, grid, p3)[1]:
+        if not write and a * a / (2.0 * v) <= _j_range(s, v * v, a, keep3, grid, p3)[1]:
             if stop >= best:
                 break
-            if _tail_ok(s, v, a, keep, s_end, grid, p2, p3, px):
+            if _tail_ok(s, v, a, keep, keep3, s_end, grid, p2, p3, px):
                 best_m, best = m, stop
                 break
         if m == steps:
             break
-        s, v, a, ok = _up_step(s, v, a, keep, _dt(k + m, dt), grid, p2, p3, px)
+        s, v, a, ok = _up_step(s, v, a, keep, keep3, _dt(k + m, dt), grid, p2, p3, px)
         if not ok:
             break
         if write:
@@ -395,13 +438,13 @@ def _tail(k, steps, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_
 
 
 @njit(cache=True, nogil=True)
-def _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+def _best_switch(n, best, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
     """(k, m, stop point) of the braking point k < n and tail (_tail) that stop first: braking points at a stride
     of n / COARSE, then halving strides around the best; k = -1 when none stops before ``best``."""
     bk, bm = -1, -1
     stride = max(n // COARSE, 1)
     for k in range(0, n, stride):
-        m, stop = _tail(k, MAX_STEPS, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, False)
+        m, stop = _tail(k, MAX_STEPS, best, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, False)
         if m >= 0:
             bk, bm, best = k, m, stop
     while stride > 1 and bk >= 0:
@@ -409,48 +452,48 @@ def _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_
         centre = bk
         for k in (centre - stride, centre + stride):
             if 0 <= k < n:
-                m, stop = _tail(k, MAX_STEPS, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, False)
+                m, stop = _tail(k, MAX_STEPS, best, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u,
+                                False)
                 if m >= 0:
                     bk, bm, best = k, m, stop
     return bk, bm, best
 
 
 @njit(cache=True, nogil=True)
-def shortest(s0, x0, u0, share, s_end, grid, p2, p3, px, out_s, out_x, out_u):
+def shortest(s0, x0, u0, share, share3, s_end, grid, p2, p3, px, out_s, out_x, out_u):
     """The stop of the least distance: for the braking depths of DEPTHS (until DEPTH_MISSES in a row stop no
     sooner) the braking (_brake) and its best switch to a tail (_best_switch). Fills out_s, out_x, out_u with
     its points (the state first, the close's start last) and returns (their number, the stop point); (-1, inf)
-    when none is found. ``share``: the share of the limits the state may take (see _keep), where it
-    does not leave the margin itself."""
+    when none is found. ``share``, ``share3``: the share of the order-2 and of the order-3 limits the state may
+    take (see _keep; the state's own, :func:`state_share` and :func:`jerk_share`), where it does not leave the
+    margin itself."""
     v = np.sqrt(x0)
-    lo, hi = _u_range(s0, x0, 1.0 - MARGIN, grid, p2, px)
-    jlo, jhi = _j_range(s0, x0, u0, 1.0 - MARGIN, grid, p3)
-    if lo <= u0 <= hi and jlo <= jhi:  # the state leaves the margin: kept from the start
-        share = 1.0 - MARGIN
-    lo, hi = _u_range(s0, x0, max(share, 1.0 - MARGIN), grid, p2, px)
-    jlo, jhi = _j_range(s0, x0, u0, max(share, 1.0 - MARGIN), grid, p3)
+    share, share3 = _start_shares(s0, x0, u0, share, share3, grid, p2, p3, px)
+    lo, hi = _u_range(s0, x0, share, grid, p2, px)
+    jlo, jhi = _j_range(s0, x0, u0, share3, grid, p3)
     if not lo <= u0 <= hi or jlo > jhi or lo >= 0.0:
         return -1, np.inf
     # time step: turn to the least u, brake at it, close; once more with the step the first answer's number of
     # steps calls for, where it took fewer than MIN_STEPS (the estimate overshot)
     period = v / -lo + abs(u0 - lo) / max(-jlo, 1e-12) + 2.0 * abs(lo) / max(-jlo, jhi, 1e-12)
     dt = min(max(period / STEPS_PER_STOP, DT_MIN), DT_MAX)
-    n, stop = _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    n, stop = _search(s0, x0, u0, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
     if 0 <= n < MIN_STEPS and dt > DT_MIN:
         dt = max(dt * n / STEPS_PER_STOP, DT_MIN)
-        n, stop = _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+        n, stop = _search(s0, x0, u0, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
     return n, stop
 
 
 @njit(cache=True, nogil=True)
-def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
+def _search(s0, x0, u0, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u):
     """:func:`shortest` with the time step dt [s]: the braking at the full depth without and with its recovery
     (_brake), then at the other depths of DEPTHS."""
     best, best_depth, best_recover, bk, bm, misses = np.inf, -1.0, False, -1, -1, 0
     for d in range(DEPTHS.shape[0] + 1):
         depth, recover = DEPTHS[max(d - 1, 0)], d == 1
-        n = _brake(s0, x0, u0, share, depth, recover, min(s_end, best), dt, grid, p2, p3, px, out_s, out_x, out_u)
-        k, m, stop = _best_switch(n, best, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+        n = _brake(s0, x0, u0, share, share3, depth, recover, min(s_end, best), dt, grid, p2, p3, px, out_s, out_x,
+                   out_u)
+        k, m, stop = _best_switch(n, best, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
         if k < 0:
             misses += best_depth > 0.0 and not recover
             if misses == DEPTH_MISSES:  # the stops lengthen with a shallower depth from here
@@ -459,8 +502,8 @@ def _search(s0, x0, u0, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
         best, best_depth, best_recover, bk, bm, misses = stop, depth, recover, k, m, 0
     if best_depth < 0.0 or bk + bm + 2 > out_s.shape[0]:
         return -1, np.inf
-    _brake(s0, x0, u0, share, best_depth, best_recover, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
-    _, stop = _tail(bk, bm, np.inf, share, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, True)
+    _brake(s0, x0, u0, share, share3, best_depth, best_recover, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+    _, stop = _tail(bk, bm, np.inf, share, share3, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u, True)
     return bk + bm + 1, stop
 
 
@@ -499,7 +542,7 @@ def profile_of(s, x, u, s_end, grid, p2, p3, px, keep=1.0 - MARGIN):
         x_sw = xs[len(s) - 1]
     if x_sw <= 0.0 or np.any(xs[:len(s)] <= 0.0):
         return None
-    if not _tail_ok(s[-1], np.sqrt(x_sw), u[-1], keep, s_end, grid, p2, p3, px):
+    if not _tail_ok(s[-1], np.sqrt(x_sw), u[-1], keep, keep, s_end, grid, p2, p3, px):
         return None
     xs[len(s):-1] = x_sw * (xi[:-1] / xi_sw) ** 4  # the close's x, exact
     xs[-1] = 0.0
@@ -729,16 +772,18 @@ def _meet(n, s_end_max, keep, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv,
 
 
 @njit(cache=True, nogil=True)
-def profile_ok(g, xs, un, keep, start_keep, grid, p2, p3, px):
+def profile_ok(g, xs, un, keep, start_keep, start_keep3, grid, p2, p3, px):
     """Whether the smooth stop profile (g, xs, un) (K,), u linear in xi = (g[-1] - theta)^(1/3) per interval,
     meets the order-2 rows at its points and the order-3 rows at both ends of every interval but the last, with
-    ``keep`` of the limits (``start_keep`` over the first FADE_STEPS intervals: the state's own share)."""
+    ``keep`` of the limits (``start_keep`` of the order-2 and ``start_keep3`` of the order-3 limits over the first
+    FADE_STEPS intervals: the state's own shares)."""
     stop = g[-1]
+    keep3 = keep
     for i in range(g.shape[0] - 2):
         if i == 0:
-            keep, later = start_keep, keep
+            keep, keep3, later = start_keep, start_keep3, keep
         elif i == FADE_STEPS:
-            keep = later
+            keep, keep3 = later, later
         lo, hi = _u_range(g[i], xs[i], keep, grid, p2, px)
         if not lo <= un[i] <= hi:
             return False
@@ -749,45 +794,42 @@ def profile_ok(g, xs, un, keep, start_keep, grid, p2, p3, px):
             if x <= 0.0 or xi <= 0.0:
                 continue
             jerk = -slope * np.sqrt(x) / (3.0 * xi * xi)
-            jlo, jhi = _j_range(s, x, u, keep, grid, p3)
+            jlo, jhi = _j_range(s, x, u, keep3, grid, p3)
             if not jlo <= jerk <= jhi:
                 return False
     return True
 
 
 @njit(cache=True, nogil=True)
-def shortest_met(s0, x0, u0, share, s_end, first, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
+def shortest_met(s0, x0, u0, share, share3, s_end, first, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
     """The stop where the braking from the state meets the backward pass from rest: for the braking depths of
     DEPTHS from index ``first`` on, the first that meets (_meet). Returns (the number of points in out_s, out_x,
     out_u, the stop point, the depth's index); (-1, inf, -1) when none meets."""
     v = np.sqrt(x0)
-    lo, hi = _u_range(s0, x0, 1.0 - MARGIN, grid, p2, px)
-    jlo, jhi = _j_range(s0, x0, u0, 1.0 - MARGIN, grid, p3)
-    if lo <= u0 <= hi and jlo <= jhi:
-        share = 1.0 - MARGIN
-    lo, hi = _u_range(s0, x0, max(share, 1.0 - MARGIN), grid, p2, px)
-    jlo, jhi = _j_range(s0, x0, u0, max(share, 1.0 - MARGIN), grid, p3)
+    share, share3 = _start_shares(s0, x0, u0, share, share3, grid, p2, p3, px)
+    lo, hi = _u_range(s0, x0, share, grid, p2, px)
+    jlo, jhi = _j_range(s0, x0, u0, share3, grid, p3)
     if not lo <= u0 <= hi or jlo > jhi or lo >= 0.0:
         return -1, np.inf, -1
     period = v / -lo + abs(u0 - lo) / max(-jlo, 1e-12) + 2.0 * abs(lo) / max(-jlo, jhi, 1e-12)
     dt = min(max(period / STEPS_PER_STOP, DT_MIN), DT_MAX)
-    m, stop, steps, d = _met_search(s0, x0, u0, share, s_end, first, dt, grid, p2, p3, px, out_s, out_x, out_u, bs,
-                                    bv, bu)
+    m, stop, steps, d = _met_search(s0, x0, u0, share, share3, s_end, first, dt, grid, p2, p3, px, out_s, out_x,
+                                    out_u, bs, bv, bu)
     if 0 <= steps < MIN_STEPS and dt > DT_MIN:
         dt = max(dt * steps / STEPS_PER_STOP, DT_MIN)
-        m, stop, _, d = _met_search(s0, x0, u0, share, s_end, first, dt, grid, p2, p3, px, out_s, out_x, out_u, bs,
-                                    bv, bu)
+        m, stop, _, d = _met_search(s0, x0, u0, share, share3, s_end, first, dt, grid, p2, p3, px, out_s, out_x,
+                                    out_u, bs, bv, bu)
     return m, stop, d
 
 
 @njit(cache=True, nogil=True)
-def _met_search(s0, x0, u0, share, s_end, first, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
+def _met_search(s0, x0, u0, share, share3, s_end, first, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu):
     """:func:`shortest_met` with the time step dt [s]: (points, stop point, the steps of the braking to the
     contact and of the backward pass beyond it, the depth's index) of the first depth from ``first`` on that
     meets; (-1, inf, steps of the longest braking, -1) when none."""
     most = 0
     for d in range(first, DEPTHS.shape[0]):
-        n = _brake(s0, x0, u0, share, DEPTHS[d], False, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
+        n = _brake(s0, x0, u0, share, share3, DEPTHS[d], False, s_end, dt, grid, p2, p3, px, out_s, out_x, out_u)
         most = max(most, n)
         m, stop = _meet(n, s_end, 1.0 - MARGIN, dt, grid, p2, p3, px, out_s, out_x, out_u, bs, bv, bu)
         if m > 0:
