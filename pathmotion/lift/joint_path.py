@@ -124,6 +124,8 @@ class SplineJointPath(JointPath):
         Phi, Phi', Phi'' are the spline's own values (scipy's PPoly evaluation, in one compiled pass)."""
         th, scalar = self._check_theta(theta)
         s = self._spline
+        if s.c.shape[0] != 4:
+            raise PathError(f"SplineJointPath: a cubic's 4 coefficients per piece, got {s.c.shape[0]}")
         out = _spline_kernel(np.ascontiguousarray(s.c, float), np.ascontiguousarray(s.x, float),
                              np.ascontiguousarray(th, float), side != "right")
         return tuple(o[0] for o in out) if scalar else out
@@ -134,9 +136,9 @@ def _spline_kernel(c, x, theta, left):
     """(Phi, Phi', Phi'', Phi''') (N, n) of the piecewise cubic with coefficients ``c`` (4, m - 1, n) (highest
     power first) on the breakpoints ``x`` (m,) at ``theta`` (N,) within [x[0], x[-1]]: the operations of scipy's
     PPoly evaluation (the piece with x[i] <= theta < x[i + 1], the last one closed on the right; each derivative's
-    sum over powers in increasing order, term c z prefactor), bit for bit. Phi''' = 6 c[0] of that piece, or at a
-    breakpoint with ``left`` of the piece that ends there."""
-    m, k, n = x.shape[0], c.shape[0], c.shape[2]
+    sum over powers in increasing order from 0.0, term c z prefactor, z = 1, s, s s, (s s) s), bit for bit.
+    Phi''' = 6 c[0] of that piece, or at a breakpoint with ``left`` of the piece that ends there."""
+    m, n = x.shape[0], c.shape[2]
     size = theta.shape[0]
     out = (np.empty((size, n)), np.empty((size, n)), np.empty((size, n)), np.empty((size, n)))
     for p in range(size):
@@ -156,17 +158,12 @@ def _spline_kernel(c, x, theta, left):
             i = lo
         j = i - 1 if left and i > 0 and t == x[i] else i
         s = t - x[i]
+        z2 = s * s
+        z3 = z2 * s
         for col in range(n):
-            for dx in range(3):
-                res = 0.0
-                z = 1.0
-                for kp in range(dx, k):
-                    prefactor = 1.0
-                    for q in range(kp, kp - dx, -1):
-                        prefactor *= q
-                    res = res + c[k - kp - 1, i, col] * z * prefactor
-                    if kp < k - 1:
-                        z *= s
-                out[dx][p, col] = res
+            c0, c1, c2, c3 = c[0, i, col], c[1, i, col], c[2, i, col], c[3, i, col]
+            out[0][p, col] = (((0.0 + c3 * 1.0 * 1.0) + c2 * s * 1.0) + c1 * z2 * 1.0) + c0 * z3 * 1.0
+            out[1][p, col] = ((0.0 + c2 * 1.0 * 1.0) + c1 * s * 2.0) + c0 * z2 * 3.0
+            out[2][p, col] = (0.0 + c1 * 1.0 * 2.0) + c0 * s * 6.0
             out[3][p, col] = 6.0 * c[0, j, col]
     return out
