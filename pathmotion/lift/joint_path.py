@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy.interpolate import CubicSpline
 
 from ..errors import PathError, check_finite
@@ -115,17 +116,54 @@ class SplineJointPath(JointPath):
         return tuple(float(k) for k in self._spline.x[1:-1])
 
     def evaluate(self, theta, side: str = "right"):
-        th, scalar = self._check_theta(theta)
-        s = self._spline
-        out = (s(th), s(th, 1), s(th, 2))
-        return tuple(o[0] for o in out) if scalar else out
+        return self.evaluate3(theta, side)[:3]
 
     def evaluate3(self, theta, side: str = "right"):
         """Adds Phi''' (piecewise constant, 6 x the cubic coefficient of each piece); at an interior
-        knot ``side="right"`` takes the piece that starts there, ``side="left"`` the one that ends there."""
+        knot ``side="right"`` takes the piece that starts there, ``side="left"`` the one that ends there.
+        Phi, Phi', Phi'' are the spline's own values (scipy's PPoly evaluation, in one compiled pass)."""
         th, scalar = self._check_theta(theta)
         s = self._spline
-        idx = np.searchsorted(s.x, th, side="right" if side == "right" else "left") - 1
-        idx = np.clip(idx, 0, len(s.x) - 2)
-        out = (s(th), s(th, 1), s(th, 2), 6.0 * s.c[0, idx])
+        if s.c.shape[0] != 4:
+            raise PathError(f"SplineJointPath: a cubic's 4 coefficients per piece, got {s.c.shape[0]}")
+        out = _spline_kernel(np.ascontiguousarray(s.c, float), np.ascontiguousarray(s.x, float),
+                             np.ascontiguousarray(th, float), side != "right")
         return tuple(o[0] for o in out) if scalar else out
+
+
+@njit(cache=True, nogil=True)
+def _spline_kernel(c, x, theta, left):
+    """(Phi, Phi', Phi'', Phi''') (N, n) of the piecewise cubic with coefficients ``c`` (4, m - 1, n) (highest
+    power first) on the breakpoints ``x`` (m,) at ``theta`` (N,) within [x[0], x[-1]]: the operations of scipy's
+    PPoly evaluation (the piece with x[i] <= theta < x[i + 1], the last one closed on the right; each derivative's
+    sum over powers in increasing order from 0.0, term c z prefactor, z = 1, s, s s, (s s) s), bit for bit.
+    Phi''' = 6 c[0] of that piece, or at a breakpoint with ``left`` of the piece that ends there."""
+    m, n = x.shape[0], c.shape[2]
+    size = theta.shape[0]
+    out = (np.empty((size, n)), np.empty((size, n)), np.empty((size, n)), np.empty((size, n)))
+    for p in range(size):
+        t = theta[p]
+        if t >= x[m - 1]:
+            i = m - 2
+        elif t < x[0]:
+            i = 0
+        else:  # the last breakpoint at or below t
+            lo, hi = 0, m - 2
+            while lo < hi:
+                mid = (lo + hi + 1) // 2
+                if x[mid] <= t:
+                    lo = mid
+                else:
+                    hi = mid - 1
+            i = lo
+        j = i - 1 if left and i > 0 and t == x[i] else i
+        s = t - x[i]
+        z2 = s * s
+        z3 = z2 * s
+        for col in range(n):
+            c0, c1, c2, c3 = c[0, i, col], c[1, i, col], c[2, i, col], c[3, i, col]
+            out[0][p, col] = (((0.0 + c3 * 1.0 * 1.0) + c2 * s * 1.0) + c1 * z2 * 1.0) + c0 * z3 * 1.0
+            out[1][p, col] = ((0.0 + c2 * 1.0 * 1.0) + c1 * s * 2.0) + c0 * z2 * 3.0
+            out[2][p, col] = (0.0 + c1 * 1.0 * 2.0) + c0 * s * 6.0
+            out[3][p, col] = 6.0 * c[0, j, col]
+    return out

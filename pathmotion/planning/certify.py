@@ -306,29 +306,56 @@ def smooth_interval_samples(ctx: CertifyContext, index: np.ndarray, subdivisions
     grid = p.grid
     k1, S, n = len(index), int(subdivisions), path.n
     origin, sign = p.coords
+    index = np.ascontiguousarray(index, np.int64)
     theta, x, u, jerk = smooth.interval_samples(grid, p.x, p.u_nodes, origin, sign, index, S)
-    q, dq, ddq, dddq = (np.empty((k1, S + 1, n)) for _ in range(4))
     r, l = ctx.right, ctx.left
-    for arr, pr, pl in ((q, r.q, l.q), (dq, r.dq, l.dq), (ddq, r.ddq, l.ddq), (dddq, r.dddq, l.dddq)):
-        arr[:, 0], arr[:, -1] = pr[index], pl[index + 1]
-    if S > 1:
-        inner = _interior_path(ctx, theta[:, 1:-1].ravel())
-        for arr, value in zip((q, dq, ddq, dddq), inner):
-            arr[:, 1:-1] = value.reshape(k1, S - 1, n)
-    v = np.sqrt(x)
-    qd = dq * v[..., None]
-    qdd = dq * u[..., None] + ddq * x[..., None]
-    qddd = dq * jerk[..., None] + 3.0 * ddq * (v * u)[..., None] + dddq * (x * v)[..., None]
-    flat = lambda a: None if a is None else a.reshape(k1 * (S + 1), *a.shape[2:])  # noqa: E731
+    inner = _interior_path(ctx, theta[:, 1:-1].ravel()) if S > 1 else (np.empty((0, n)),) * 4
+    c = lambda a: np.ascontiguousarray(a, float)  # noqa: E731
+    q, qd, qdd, qddd, v = _smooth_samples_kernel(index, S, x, u, jerk, c(r.q), c(r.dq), c(r.ddq), c(r.dddq),
+                                                 c(l.q), c(l.dq), c(l.ddq), c(l.dddq), *(c(a) for a in inner))
+    flat = lambda a: a.reshape(k1 * (S + 1))  # noqa: E731
     tau = tau_dot = None
     if ctx.needs_torque and robot is not None:
-        tau = (rnea_batch if supported(robot) else rnea)(robot, flat(q), flat(qd), flat(qdd))
+        tau = (rnea_batch if supported(robot) else rnea)(robot, q, qd, qdd)
         if ctx.torque_rate:
-            tau_dot = torque_derivative(robot, flat(q), flat(qd), flat(qdd), flat(qddd))
+            tau_dot = torque_derivative(robot, q, qd, qdd, qddd)
     t = np.broadcast_to(p.times[index, None], theta.shape)
-    samples = Samples(flat(t), flat(theta), flat(v), flat(u), flat(q), flat(qd), flat(qdd), tau, flat(jerk),
-                      flat(qddd), tau_dot)
+    samples = Samples(flat(t), flat(theta), v, flat(u), q, qd, qdd, tau, flat(jerk), qddd, tau_dot)
     return IntervalSamples(samples, index, S + 1)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _smooth_samples_kernel(index, subdivisions, x, u, jerk, rq, rdq, rddq, rdddq, lq, ldq, lddq, ldddq,
+                           iq, idq, iddq, idddq):
+    """:func:`smooth_interval_samples`' joint motion, sample by sample (I (S + 1) rows, interval by interval): the
+    path data at an interval's start from the right side ``r*`` (K, n), at its end from the left side ``l*``, inside
+    from ``i*`` (I (S - 1), n); v = sqrt(x), qd = Phi' v, qdd = Phi' u + Phi'' x, qddd = Phi' jerk + 3 Phi'' (v u)
+    + Phi''' (x v): the operations of their array form, in the same order. Returns (q, qd, qdd, qddd (N, n), v (N,))."""
+    pts, n = subdivisions + 1, rq.shape[1]
+    size = index.shape[0] * pts
+    q, qd, qdd, qddd = np.empty((size, n)), np.empty((size, n)), np.empty((size, n)), np.empty((size, n))
+    v = np.empty(size)
+    for p in range(index.shape[0]):
+        i = index[p]
+        for s in range(pts):
+            row = p * pts + s
+            xx, uu, jj = x[p, s], u[p, s], jerk[p, s]
+            vv = np.sqrt(xx)
+            v[row] = vv
+            vu, xv = vv * uu, xx * vv
+            for col in range(n):
+                if s == 0:
+                    a0, a1, a2, a3 = rq[i, col], rdq[i, col], rddq[i, col], rdddq[i, col]
+                elif s == subdivisions:
+                    a0, a1, a2, a3 = lq[i + 1, col], ldq[i + 1, col], lddq[i + 1, col], ldddq[i + 1, col]
+                else:
+                    m = p * (subdivisions - 1) + s - 1
+                    a0, a1, a2, a3 = iq[m, col], idq[m, col], iddq[m, col], idddq[m, col]
+                q[row, col] = a0
+                qd[row, col] = a1 * vv
+                qdd[row, col] = a1 * uu + a2 * xx
+                qddd[row, col] = a1 * jj + 3.0 * a2 * vu + a3 * xv
+    return q, qd, qdd, qddd, v
 
 
 def _interior_path(ctx: CertifyContext, theta: np.ndarray) -> tuple:
