@@ -197,17 +197,20 @@ FAST_RACING_CYCLES = 1
 #: the racing line within RUN_RANGE stops short of it.
 FAST_RUN_RANGE = (0.3, 4.0)
 FAST_RUN_STARTS = (1.0, 2.0)
-#: The fast search's rise (stage 4, FAST_RISE_PLANS plans) where the tolerance is at least FAST_RISE_TOLERANCE_SHARE of
-#: the shorter of the corner's two segments: there the fastest blends rise out of the corner's plane (at 60-120 deg /
-#: 10 mm the thorough search's entry piece turns 35-47 deg from outwards towards the normal; at 30 deg / 5 and 10 mm
-#: both pieces turn 45-90 deg), which the racing line and the short joint stage do not reach. Where the rise ran, the
-#: polish moves only the racing line's seven coordinates and the free ends (FAST_RISE_POLISH_RACING): with the rise's
-#: 17 coordinates and more, 30 lean plans mostly build COBYQA's first model (120 deg / 10 mm after a 90-plan rise:
-#: 0.34158 s over every coordinate, 0.34071 s over the racing line's and the free ends'). On the atlas' ten rows at 5 and 10 mm (0.2 m lines) it
-#: gained 1.5 points of gain over G2 in sum (30 deg / 5 mm 0.37 -> 0.78 %, 60 deg / 10 mm 2.11 -> 2.52 %, 90 deg /
-#: 10 mm 4.94 -> 5.34 %; 30 deg / 10 mm 1.32 -> 1.24 %) for 0.5-0.9 s more CPU per such corner; 90 plans kept more at
-#: 30 deg / 10 mm and less at 120 deg / 10 mm (3.62 against 4.19 %).
-FAST_RISE_PLANS = 60
+#: The fast search's rise (stage 4, FAST_RISE_PLANS plans, its grid of turn angles FAST_RISE_ANGLES) where the tolerance
+#: is at least FAST_RISE_TOLERANCE_SHARE of the shorter of the corner's two segments: there the fastest blends rise out
+#: of the corner's plane (at 60-120 deg / 10 mm the thorough search's entry piece turns 35-47 deg from outwards towards
+#: the normal; at 30 deg / 5 and 10 mm both pieces turn 45-90 deg), which the racing line and the short joint stage do
+#: not reach. Where the rise ran, the polish moves only the racing line's seven coordinates and the free ends
+#: (FAST_RISE_POLISH_RACING): with the rise's 17 coordinates and more, 30 lean plans mostly build COBYQA's first model
+#: (120 deg / 10 mm after a 90-plan rise: 0.34158 s over every coordinate, 0.34071 s over the racing line's and the
+#: free ends'). Interleaved on the atlas' ten rows at 5 and 10 mm (0.2 m lines; load 3.4-3.5) it gained 1.7 points of
+#: gain over G2 in sum (30 deg / 5 mm 0.37 -> 0.78 %, 60 deg / 10 mm 2.11 -> 2.52 %, 90 deg / 10 mm 4.94 -> 5.34 %,
+#: 150 deg / 10 mm 0.05 -> 0.23 %; 60 deg / 5 mm 3.80 -> 3.79 %) for 18.0 s of CPU against 14.4 s. The full grid of
+#: RISE_ANGLES in 60 plans kept 0.2 points less (30 deg / 10 mm 1.24 against 1.39 %), 90 plans lost 120 deg / 10 mm
+#: (3.62 against 4.19 %); without -45 deg the grid kept the same but at 30 deg / 10 mm (1.43 %, in 100 plans more).
+FAST_RISE_PLANS = 45
+FAST_RISE_ANGLES = (-45.0, 0.0, 45.0, 90.0)
 FAST_RISE_TOLERANCE_SHARE = 0.02
 FAST_RISE_POLISH_RACING = True
 
@@ -553,7 +556,7 @@ def _rise_room(objective: _Objective, share: float) -> bool:
     return objective.tolerance >= share * min(segment.length for segment in segments)
 
 
-def _rise_stage(objective: _Objective, plans: int) -> None:
+def _rise_stage(objective: _Objective, plans: int, angles: Sequence[float] = RISE_ANGLES) -> None:
     """Each side's planar profile turned about its line (grid of RISE_ANGLES, then a scalar search
     per angle), then Nelder-Mead over the offset pieces' profiles in and out of the corner's plane
     (_RISE_COORDS) from the fastest, the other coordinates fixed at the fastest planar blend's;
@@ -574,7 +577,7 @@ def _rise_stage(objective: _Objective, plans: int) -> None:
         return objective(x)
 
     start = objective.tried
-    grid = min(((f(turned(a)), a) for a in itertools.product(RISE_ANGLES, RISE_ANGLES)), key=lambda r: r[0])
+    grid = min(((f(turned(a)), a) for a in itertools.product(angles, angles)), key=lambda r: r[0])
     angles = list(grid[1])
     for side in (0, 1):
         def along(a, side=side):
@@ -1001,6 +1004,7 @@ class SearchSettings:
     lean_models: bool = False
     rise_tolerance_share: float = 0.0
     rise_polish_racing: bool = False
+    rise_angles: tuple = RISE_ANGLES
 
 
 #: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
@@ -1016,7 +1020,8 @@ FAST = SearchSettings(steps=FAST_STEPS, racing_cycles=FAST_RACING_CYCLES, run_ra
                       run_starts=FAST_RUN_STARTS, free_plans=0, end_plans=FAST_END_PLANS,
                       joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, wide_screen=FAST_WIDE_SCREEN,
                       restart_plans=0, global_plans=0, rise_plans=FAST_RISE_PLANS,
-                      rise_tolerance_share=FAST_RISE_TOLERANCE_SHARE, rise_polish_racing=FAST_RISE_POLISH_RACING,
+                      rise_angles=FAST_RISE_ANGLES, rise_tolerance_share=FAST_RISE_TOLERANCE_SHARE,
+                      rise_polish_racing=FAST_RISE_POLISH_RACING,
                       retry_capped=False, polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS,
                       polish_radius_share=FAST_POLISH_RADIUS_SHARE, neighbour_pass=False, lean_models=True)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
@@ -1134,7 +1139,7 @@ def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, 
     if search.free_plans > 0:
         _free_stage(objective, search.free_plans)
     if search.rise_plans > 0 and not planar and _rise_room(objective, search.rise_tolerance_share):
-        _rise_stage(objective, search.rise_plans)
+        _rise_stage(objective, search.rise_plans, search.rise_angles)
         objective.risen = search.rise_polish_racing
     if search.end_plans > 0 and any(objective.free_ends):
         found = _late_stages(objective, search, planar)
