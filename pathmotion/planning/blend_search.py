@@ -49,7 +49,8 @@ capped), then the polish's 150 on the full grid.
 
 How hard each corner is searched is a :class:`SearchSettings`: ``THOROUGH`` runs every stage above (the corner
 atlas' search); ``FAST`` (scenarios' default, ``search = "fast"``) runs stages 1-2 (FAST_STEPS golden steps, one
-racing pass) on the search grid, short stages 5-6 where a free end applies (the wide starts outwards and along the
+racing pass) on the search grid, a short stage 4 where the tolerance is at least FAST_RISE_TOLERANCE_SHARE of the
+shorter segment (then the polish moves only the racing line's coordinates and the free ends), short stages 5-6 where a free end applies (the wide starts outwards and along the
 normal each planned once after the joint stage, FAST_WIDE_SCREEN: where one is faster, the polish starts from it; no
 restart or global stage), and a short polish (FAST_POLISH_PLANS) on a fixed grid (FAST_POLISH_GRID_POINTS), its
 COBYQA runs on lean models (n + LEAN_MODEL_EXTRA points: in so few plans the default's first model is never complete),
@@ -196,6 +197,22 @@ FAST_RACING_CYCLES = 1
 #: the racing line within RUN_RANGE stops short of it.
 FAST_RUN_RANGE = (0.3, 4.0)
 FAST_RUN_STARTS = (1.0, 2.0)
+#: The fast search's rise (stage 4, FAST_RISE_PLANS plans, its grid of turn angles FAST_RISE_ANGLES) where the tolerance
+#: is at least FAST_RISE_TOLERANCE_SHARE of the shorter of the corner's two segments: there the fastest blends rise out
+#: of the corner's plane (at 60-120 deg / 10 mm the thorough search's entry piece turns 35-47 deg from outwards towards
+#: the normal; at 30 deg / 5 and 10 mm both pieces turn 45-90 deg), which the racing line and the short joint stage do
+#: not reach. Where the rise ran, the polish moves only the racing line's seven coordinates and the free ends
+#: (FAST_RISE_POLISH_RACING): with the rise's 17 coordinates and more, 30 lean plans mostly build COBYQA's first model
+#: (120 deg / 10 mm after a 90-plan rise: 0.34158 s over every coordinate, 0.34071 s over the racing line's and the
+#: free ends'). Interleaved on the atlas' ten rows at 5 and 10 mm (0.2 m lines; load 3.4-3.5) it gained 1.7 points of
+#: gain over G2 in sum (30 deg / 5 mm 0.37 -> 0.78 %, 60 deg / 10 mm 2.11 -> 2.52 %, 90 deg / 10 mm 4.94 -> 5.34 %,
+#: 150 deg / 10 mm 0.05 -> 0.23 %; 60 deg / 5 mm 3.80 -> 3.79 %) for 18.0 s of CPU against 14.4 s. The full grid of
+#: RISE_ANGLES in 60 plans kept 0.2 points less (30 deg / 10 mm 1.24 against 1.39 %), 90 plans lost 120 deg / 10 mm
+#: (3.62 against 4.19 %); without -45 deg the grid kept the same but at 30 deg / 10 mm (1.43 %, in 100 plans more).
+FAST_RISE_PLANS = 45
+FAST_RISE_ANGLES = (-45.0, 0.0, 45.0, 90.0)
+FAST_RISE_TOLERANCE_SHARE = 0.02
+FAST_RISE_POLISH_RACING = True
 
 #: Search coordinates x: balance, shape_entry, shape_exit, offset_entry, offset_exit [tolerance],
 #: run_entry, run_exit [run unit] (7: S-curve offset pieces), then (11: free offset pieces) each
@@ -255,6 +272,7 @@ class _Objective:
         self.bounded: dict[G2Shape, G2Shape] = {}  # per shape the same with its deviation bound (certified)
         self.plans = 0  # plans run
         self.tried = 0  # coordinates whose shape was built (a stage's budget: the same whether planned or not)
+        self.risen = False  # the polish moves only the racing line's coordinates and the free ends (rise_polish_racing)
 
     def shape(self, x, free_ends: tuple[bool, bool] | None = None, certify: bool = False) -> G2Shape:
         """The shape of coordinates x, its free ends' coordinates read for ``free_ends`` (default: the objective's
@@ -532,7 +550,13 @@ _RISE_BOX = (OFFSET_RANGE, OFFSET_RANGE) + (COEFFICIENT_RANGE,) * 10
 _RISE_STEP = (0.1,) * 6 + (0.15,) * 6
 
 
-def _rise_stage(objective: _Objective, plans: int) -> None:
+def _rise_room(objective: _Objective, share: float) -> bool:
+    """Whether the tolerance leaves the rise room: at least ``share`` of the shorter of the corner's two segments."""
+    segments = objective.original.segments[objective.corner:objective.corner + 2]
+    return objective.tolerance >= share * min(segment.length for segment in segments)
+
+
+def _rise_stage(objective: _Objective, plans: int, angles: Sequence[float] = RISE_ANGLES) -> None:
     """Each side's planar profile turned about its line (grid of RISE_ANGLES, then a scalar search
     per angle), then Nelder-Mead over the offset pieces' profiles in and out of the corner's plane
     (_RISE_COORDS) from the fastest, the other coordinates fixed at the fastest planar blend's;
@@ -553,7 +577,7 @@ def _rise_stage(objective: _Objective, plans: int) -> None:
         return objective(x)
 
     start = objective.tried
-    grid = min(((f(turned(a)), a) for a in itertools.product(RISE_ANGLES, RISE_ANGLES)), key=lambda r: r[0])
+    grid = min(((f(turned(a)), a) for a in itertools.product(angles, angles)), key=lambda r: r[0])
     angles = list(grid[1])
     for side in (0, 1):
         def along(a, side=side):
@@ -852,6 +876,7 @@ class _PolishJob:
     share: float = TRUST_RADIUS_SHARE
     lean: bool = False
     start_T: float | None = None
+    racing_only: bool = False
 
 
 def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
@@ -869,7 +894,8 @@ def _polish_corner(job: _PolishJob) -> tuple[float, float, G2Shape, int]:
         fine.planned[job.shapes[k]] = job.start_T
     x = np.array(job.x, float)  # its shape: the chosen one up to the key's rounding (every shape is certified)
     start_T = fine(x)  # planned as given: COBYQA's first plan is not x when x is near a bound (_trust_region)
-    idx = [i for i in range(min(len(x), _W_A if job.quintic else _DEPARTURE.start)) if not (job.planar and i >= _V_A)]
+    idx = [i for i in range(min(len(x), _W_A if job.quintic else _C_A if job.racing_only else _DEPARTURE.start))
+           if not (job.planar and i >= _V_A)]
     ends = _end_indices(fine.free_ends, job.planar) if len(x) >= _ARRIVAL.stop else []
     box, steps = _joint_box(idx, ends, x[idx + ends])
 
@@ -909,7 +935,8 @@ def _polish(robot, original: TaskPath, shapes: dict, duration: float, searched: 
             continue
         o, key = found[0]
         jobs.append(_PolishJob(robot, original, given, k, key[0], key[1] or o.free_ends, o.resting, o.tolerance,
-                               settings, q_start, plans, k in quintic, k in planar, states, share, lean))
+                               settings, q_start, plans, k in quintic, k in planar, states, share, lean,
+                               racing_only=any(objective.risen for objective in objectives)))
     if states is None:  # one after the other, each corner with the blends polished before it
         for job in jobs:
             _, best_T, best_shape, job_run = _polish_corner(dataclasses.replace(
@@ -943,7 +970,9 @@ class SearchSettings:
     ``polish_plans`` stage 8 from ``polish_starts`` candidates, on ``polish_grid_points`` grid points (None: the full
     grid; else its blend confirmed there), its initial trust radius ``polish_radius_share`` (_trust_region);
     ``lean_models``: the joint stages' and the polish's COBYQA models on n + 2 points, not 2 n + 1 (_trust_region);
-    ``search_grid_points`` the search's grid;
+    ``search_grid_points`` the search's grid; ``rise_tolerance_share``: the rise runs only where the tolerance is at
+    least that share of the shorter of the corner's segments (_rise_room); ``rise_polish_racing``: where it ran, the
+    polish moves only the racing line's coordinates and the free ends;
     ``windows`` each corner on its window (else every plan on the whole path); ``neighbour_pass`` on a path of
     several corners, each searched again with its neighbours' found blends in place (_neighbour_pass)."""
 
@@ -973,20 +1002,26 @@ class SearchSettings:
     polish_grid_points: int | None = None
     polish_radius_share: float = TRUST_RADIUS_SHARE
     lean_models: bool = False
+    rise_tolerance_share: float = 0.0
+    rise_polish_racing: bool = False
+    rise_angles: tuple = RISE_ANGLES
 
 
 #: Every stage (the corner atlas' search; 15-60 s of CPU per corner).
 THOROUGH = SearchSettings()
-#: The quintic (short scalar searches) and the racing line (S-curve offset pieces, one pass) on the search grid, short
+#: The quintic (short scalar searches) and the racing line (S-curve offset pieces, one pass) on the search grid, a short
+#: rise where the tolerance leaves room (FAST_RISE_PLANS), short
 #: free-ends and joint stages where the motion rests at a path end the blend reaches, the wide starts planned once each
 #: where it rests at a path end (FAST_WIDE_SCREEN), each corner's winner polished
 #: briefly on a fixed grid (benchmarks/bench_fast_search.py measures its cost and its share of the thorough search's
 #: gain over the symmetric G2 blend on the corner atlas' rows: docs/results.md). No neighbour pass: on the z10 cycle it
 #: found nothing faster for the fast search (1.2413 s either way) for 40 % more CPU.
 FAST = SearchSettings(steps=FAST_STEPS, racing_cycles=FAST_RACING_CYCLES, run_range=FAST_RUN_RANGE,
-                      run_starts=FAST_RUN_STARTS, free_plans=0, rise_plans=0, end_plans=FAST_END_PLANS,
+                      run_starts=FAST_RUN_STARTS, free_plans=0, end_plans=FAST_END_PLANS,
                       joint_plans=FAST_JOINT_PLANS, wide_plans=0, wide_normal_plans=0, wide_screen=FAST_WIDE_SCREEN,
-                      restart_plans=0, global_plans=0,
+                      restart_plans=0, global_plans=0, rise_plans=FAST_RISE_PLANS,
+                      rise_angles=FAST_RISE_ANGLES, rise_tolerance_share=FAST_RISE_TOLERANCE_SHARE,
+                      rise_polish_racing=FAST_RISE_POLISH_RACING,
                       retry_capped=False, polish_plans=FAST_POLISH_PLANS, polish_grid_points=FAST_POLISH_GRID_POINTS,
                       polish_radius_share=FAST_POLISH_RADIUS_SHARE, neighbour_pass=False, lean_models=True)
 #: The searches by name (scenario ``search = "fast" | "thorough"``).
@@ -1103,8 +1138,9 @@ def _search_corner(objective: _Objective, racing: bool, search: SearchSettings, 
     _racing_stage(objective, search)
     if search.free_plans > 0:
         _free_stage(objective, search.free_plans)
-    if search.rise_plans > 0 and not planar:
-        _rise_stage(objective, search.rise_plans)
+    if search.rise_plans > 0 and not planar and _rise_room(objective, search.rise_tolerance_share):
+        _rise_stage(objective, search.rise_plans, search.rise_angles)
+        objective.risen = search.rise_polish_racing
     if search.end_plans > 0 and any(objective.free_ends):
         found = _late_stages(objective, search, planar)
     if search.global_plans > 0:
