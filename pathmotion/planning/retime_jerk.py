@@ -303,26 +303,6 @@ def point_coefficients(grid, origin, sign) -> np.ndarray:
     return np.ascontiguousarray(out)
 
 
-@njit(cache=True, inline="always")
-def _xi(origin, sign, theta):
-    """smooth.xi_of at one point."""
-    if sign > 0:
-        return np.cbrt(max(theta - origin, 0.0))
-    if sign < 0:
-        return np.cbrt(max(origin - theta, 0.0))
-    return theta
-
-
-@njit(cache=True, inline="always")
-def _xi_integral(origin, sign, theta0, theta):
-    """smooth.xi_integral at one point."""
-    if sign == 0:
-        return 0.5 * (theta - theta0) ** 2
-    d0, d1 = abs(theta0 - origin), abs(theta - origin)
-    cube = 0.75 * (d1 ** (4 / 3) - d0 ** (4 / 3)) if sign > 0 else 0.75 * (d0 ** (4 / 3) - d1 ** (4 / 3))
-    return cube - _xi(origin, sign, theta0) * (theta - theta0)
-
-
 @njit(cache=True, nogil=True, error_model="numpy")
 def _first_coefficients(pts, origin, sign, at):
     """point_coefficients of the intervals of ``pts`` in one coordinate (origin, sign), ``at`` the check points:
@@ -331,14 +311,14 @@ def _first_coefficients(pts, origin, sign, at):
     out = np.zeros((4, at.shape[0], n))
     for k in range(n):
         lo, hi = pts[k], pts[k + 1]
-        xi_lo, xi_hi = _xi(origin, sign, lo), _xi(origin, sign, hi)
+        xi_lo, xi_hi = smooth.xi_at(origin, sign, lo), smooth.xi_at(origin, sign, hi)
         span = xi_hi - xi_lo
         for q in range(at.shape[0]):
             a = at[q]
             th = hi if a == 1.0 else (1.0 - a) * lo + a * hi
-            xi = xi_hi if a == 1.0 else (xi_lo if a == 0.0 else _xi(origin, sign, th))
+            xi = xi_hi if a == 1.0 else (xi_lo if a == 0.0 else smooth.xi_at(origin, sign, th))
             out[0, q, k] = th - lo
-            out[1, q, k] = _xi_integral(origin, sign, lo, th) / span
+            out[1, q, k] = smooth.xi_integral_at(origin, sign, lo, th) / span
             out[2, q, k] = (xi - xi_lo) / span
             out[3, q, k] = 1.0 / ((1.0 if sign == 0 else 3.0 * sign * xi * xi) * span)
     return out
@@ -358,13 +338,13 @@ def _state_xu(grid, x, u, origin, sign, index, theta):
 def _xu(grid, x, u, origin, sign, i, th):
     """smooth.state's (x, u) at theta ``th`` in interval ``i``."""
     o, sg = origin[i], sign[i]
-    xi_lo, xi_hi = _xi(o, sg, grid[i]), _xi(o, sg, grid[i + 1])
+    xi_lo, xi_hi = smooth.xi_at(o, sg, grid[i]), smooth.xi_at(o, sg, grid[i + 1])
     g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
-    uu = u[i] + g * (_xi(o, sg, th) - xi_lo)
+    uu = u[i] + g * (smooth.xi_at(o, sg, th) - xi_lo)
     if x[i + 1] <= 0.0:
-        xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral(o, sg, grid[i + 1], th))
+        xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * smooth.xi_integral_at(o, sg, grid[i + 1], th))
     else:
-        xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral(o, sg, grid[i], th))
+        xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * smooth.xi_integral_at(o, sg, grid[i], th))
     return max(xx, 0.0), uu
 
 

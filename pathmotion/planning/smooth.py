@@ -83,8 +83,8 @@ def state(grid, x, u, origin, sign, i, theta):
 
 
 @njit(cache=True, inline="always")
-def _xi1(origin, sign, theta):
-    """xi_of at one point."""
+def xi_at(origin, sign, theta):
+    """:func:`xi_of` at one point (compiled, inlined)."""
     if sign > 0:
         return np.cbrt(max(theta - origin, 0.0))
     if sign < 0:
@@ -93,13 +93,13 @@ def _xi1(origin, sign, theta):
 
 
 @njit(cache=True, inline="always")
-def _xi_integral1(origin, sign, theta0, theta):
-    """xi_integral at one point."""
+def xi_integral_at(origin, sign, theta0, theta):
+    """:func:`xi_integral` at one point (compiled, inlined)."""
     if sign == 0:
         return 0.5 * (theta - theta0) ** 2
     d0, d1 = abs(theta0 - origin), abs(theta - origin)
     cube = 0.75 * (d1 ** (4 / 3) - d0 ** (4 / 3)) if sign > 0 else 0.75 * (d0 ** (4 / 3) - d1 ** (4 / 3))
-    return cube - _xi1(origin, sign, theta0) * (theta - theta0)
+    return cube - xi_at(origin, sign, theta0) * (theta - theta0)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -121,14 +121,14 @@ def _state_kernel(grid, x, u, origin, sign, index, theta):
 def _state1(grid, x, u, origin, sign, i, th):
     """:func:`state` at one point (theta ``th`` in interval ``i``)."""
     o, sg = origin[i], sign[i]
-    xi_lo, xi_hi = _xi1(o, sg, grid[i]), _xi1(o, sg, grid[i + 1])
+    xi_lo, xi_hi = xi_at(o, sg, grid[i]), xi_at(o, sg, grid[i + 1])
     g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
-    xi = _xi1(o, sg, th)
+    xi = xi_at(o, sg, th)
     uu = u[i] + g * (xi - xi_lo)
     if x[i + 1] <= 0.0:
-        val = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * _xi_integral1(o, sg, grid[i + 1], th))
+        val = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * xi_integral_at(o, sg, grid[i + 1], th))
     else:
-        val = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * _xi_integral1(o, sg, grid[i], th))
+        val = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * xi_integral_at(o, sg, grid[i], th))
     xx = val if (val >= 0.0 or val != val) else 0.0
     slope = 1.0 if sg == 0 else 3.0 * sg * xi ** 2
     if slope != 0:
@@ -155,7 +155,7 @@ def _samples_kernel(grid, x, u, origin, sign, index, subdivisions):
     for p in range(index.shape[0]):
         i = index[p]
         o, sg, lo, hi = origin[i], sign[i], grid[i], grid[i + 1]
-        xi0, xi1 = _xi1(o, sg, lo), _xi1(o, sg, hi)
+        xi0, xi1 = xi_at(o, sg, lo), xi_at(o, sg, hi)
         for s in range(subdivisions + 1):
             if s == 0:
                 t = lo
@@ -189,8 +189,8 @@ def _times_kernel(grid, x, u, origin, sign, nodes, weights):
     r = np.empty(8)
     for i in range(grid.shape[0] - 1):
         o, sg = origin[i], sign[i]
-        xi0 = _xi1(o, sg, grid[i])
-        dxi = _xi1(o, sg, grid[i + 1]) - xi0
+        xi0 = xi_at(o, sg, grid[i])
+        dxi = xi_at(o, sg, grid[i + 1]) - xi0
         for k in range(8):
             xi = xi0 + nodes[k] * dxi
             th = (o + xi ** 3.0) if sg > 0 else ((o - xi ** 3.0) if sg < 0 else xi)
