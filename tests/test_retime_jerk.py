@@ -563,6 +563,8 @@ def test_the_first_stretch_kernels_agree_with_the_smooth_form(torque_jerk):
     # the query's first-stretch coefficients and the ceiling's x, u at its points are compiled point by point:
     # against planning/smooth.py's vectorized formulas (point_coefficients, state) on stretches graded towards
     # states across the path
+    from scipy.integrate import quad
+
     from pathmotion.planning import retime_jerk as rj, smooth
     jp = torque_jerk[2]._jerk
     for k in (5, 30, 60, 100):
@@ -576,10 +578,15 @@ def test_the_first_stretch_kernels_agree_with_the_smooth_form(torque_jerk):
         # next to the path's start (cxv ~ h^2 / (6 d^(2/3)) from terms ~ d^(4/3), d the distance to the rest point)
         assert np.allclose(got[:2], ref[:2], rtol=0.0, atol=1e-4 * (hi - lo))
         assert np.allclose(got[2:], ref[2:], rtol=1e-6, atol=0.0)
+        # the ceiling's x, u at those points (smooth.state's compiled kernel, which the pass calls) against the
+        # smooth form's definition: u linear in xi over the interval, x = x_k + 2 (integral of u d theta) by quadrature
         index = np.full(n, k)
         x, u, _ = smooth.state(jp.grid, jp.cx, jp.cu, jp.origin, jp.sign, index, pts[:-1])
-        gx, gu = rj._state_xu(jp.grid, jp.cx, jp.cu, jp.origin, jp.sign.astype(np.int64), index, pts[:-1])
-        assert np.allclose(gx, x, rtol=1e-9, atol=0.0) and np.allclose(gu, u, rtol=1e-9, atol=1e-12)
+        xi = lambda th: smooth.xi_of(jp.origin[k], jp.sign[k], th)  # noqa: E731
+        u_of = lambda th: jp.cu[k] + (jp.cu[k + 1] - jp.cu[k]) * (xi(th) - xi(lo)) / (xi(hi) - xi(lo))  # noqa: E731
+        x_ref = [jp.cx[k] + 2.0 * quad(u_of, lo, th, epsabs=0.0, epsrel=1e-12)[0] for th in pts[:-1]]
+        assert np.allclose(u, [u_of(th) for th in pts[:-1]], rtol=1e-9, atol=1e-12)
+        assert np.allclose(x, x_ref, rtol=1e-7, atol=1e-12)
 
 
 @pytest.mark.parametrize("theta, v, a", [

@@ -240,7 +240,7 @@ class JerkPass:
         """(3, F): C's x, u and time [s] to the plan's end at the first output points pts[:-1] (pts (F + 1,), its
         last grid point j), the time over the stretch to grid point j by chords (x linear per output interval)."""
         idx = np.clip(np.searchsorted(self.grid, pts[:-1], side="right") - 1, 0, j - 1)
-        x, u = _state_xu(self.grid, self.cx, self.cu, self.origin, self._sign_i, idx, pts[:-1])
+        x, u, _ = smooth.state_points(self.grid, self.cx, self.cu, self.origin, self._sign_i, idx, pts[:-1])
         xs = np.append(np.maximum(x, 0.0), self.cx[j])
         chords = 2.0 * np.diff(pts) / np.maximum(np.sqrt(xs[:-1]) + np.sqrt(xs[1:]), 1e-300)
         time = self.tc[j] + np.cumsum(chords[::-1])[::-1]
@@ -270,7 +270,8 @@ def _split_kernel(grid, x, u, origin, sign, upto, parts):
             for k in range(1, parts):
                 th = grid[i] + (k / parts) * (grid[i + 1] - grid[i])
                 g[p] = th
-                xs[p], us[p] = _xu(grid, x, u, origin, sign, i, th)
+                xx, us[p], _ = smooth.state_at(grid, x, u, origin, sign, i, th)
+                xs[p] = max(xx, 0.0)
                 p += 1
     return g, xs, us
 
@@ -322,30 +323,6 @@ def _first_coefficients(pts, origin, sign, at):
             out[2, q, k] = (xi - xi_lo) / span
             out[3, q, k] = 1.0 / ((1.0 if sign == 0 else 3.0 * sign * xi * xi) * span)
     return out
-
-
-@njit(cache=True, nogil=True)
-def _state_xu(grid, x, u, origin, sign, index, theta):
-    """smooth.state's (x, u) at the points theta (interval ``index`` each), point by point."""
-    n = theta.shape[0]
-    xs, us = np.empty(n), np.empty(n)
-    for p in range(n):
-        xs[p], us[p] = _xu(grid, x, u, origin, sign, index[p], theta[p])
-    return xs, us
-
-
-@njit(cache=True, inline="always")
-def _xu(grid, x, u, origin, sign, i, th):
-    """smooth.state's (x, u) at theta ``th`` in interval ``i``."""
-    o, sg = origin[i], sign[i]
-    xi_lo, xi_hi = smooth.xi_at(o, sg, grid[i]), smooth.xi_at(o, sg, grid[i + 1])
-    g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
-    uu = u[i] + g * (smooth.xi_at(o, sg, th) - xi_lo)
-    if x[i + 1] <= 0.0:
-        xx = x[i + 1] + 2.0 * (u[i + 1] * (th - grid[i + 1]) + g * smooth.xi_integral_at(o, sg, grid[i + 1], th))
-    else:
-        xx = x[i] + 2.0 * (u[i] * (th - grid[i]) + g * smooth.xi_integral_at(o, sg, grid[i], th))
-    return max(xx, 0.0), uu
 
 
 # ----------------------------------------------------------------------------------------------- kernels

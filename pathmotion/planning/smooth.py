@@ -76,7 +76,7 @@ def state(grid, x, u, origin, sign, i, theta):
     shape = np.broadcast_shapes(i.shape, theta.shape)
     flat_i = np.ascontiguousarray(np.broadcast_to(i, shape), np.int64).ravel()
     flat_t = np.ascontiguousarray(np.broadcast_to(theta, shape)).ravel()
-    xx, uu, jerk = _state_kernel(np.ascontiguousarray(grid, float), np.ascontiguousarray(x, float),
+    xx, uu, jerk = state_points(np.ascontiguousarray(grid, float), np.ascontiguousarray(x, float),
                                  np.ascontiguousarray(u, float), np.ascontiguousarray(origin, float),
                                  np.ascontiguousarray(sign, np.int64), flat_i, flat_t)
     return xx.reshape(shape)[()], uu.reshape(shape)[()], jerk.reshape(shape)  # (numpy's types: 0-d x, u are scalars)
@@ -103,7 +103,7 @@ def xi_integral_at(origin, sign, theta0, theta):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _state_kernel(grid, x, u, origin, sign, index, theta):
+def state_points(grid, x, u, origin, sign, index, theta):
     """:func:`state` point by point: the same formulas in the same order.
 
     x is integrated from the interval's start, or from its end where the motion rests there (from the start, x
@@ -113,13 +113,13 @@ def _state_kernel(grid, x, u, origin, sign, index, theta):
     n = theta.shape[0]
     xs, us, js = np.empty(n), np.empty(n), np.empty(n)
     for p in range(n):
-        xs[p], us[p], js[p] = _state1(grid, x, u, origin, sign, index[p], theta[p])
+        xs[p], us[p], js[p] = state_at(grid, x, u, origin, sign, index[p], theta[p])
     return xs, us, js
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _state1(grid, x, u, origin, sign, i, th):
-    """:func:`state` at one point (theta ``th`` in interval ``i``)."""
+def state_at(grid, x, u, origin, sign, i, th):
+    """:func:`state` at one point (theta ``th`` in interval ``i``; compiled, inlined)."""
     o, sg = origin[i], sign[i]
     xi_lo, xi_hi = xi_at(o, sg, grid[i]), xi_at(o, sg, grid[i + 1])
     g = (u[i + 1] - u[i]) / (xi_hi - xi_lo)
@@ -166,7 +166,7 @@ def _samples_kernel(grid, x, u, origin, sign, index, subdivisions):
                 t = (o + xi ** 3.0) if sg > 0 else ((o - xi ** 3.0) if sg < 0 else xi)
                 t = lo if t < lo else (hi if t > hi else t)
             th[p, s] = t
-            xs[p, s], us[p, s], js[p, s] = _state1(grid, x, u, origin, sign, i, t)
+            xs[p, s], us[p, s], js[p, s] = state_at(grid, x, u, origin, sign, i, t)
     return th, xs, us, js
 
 
@@ -195,7 +195,7 @@ def _times_kernel(grid, x, u, origin, sign, nodes, weights):
             xi = xi0 + nodes[k] * dxi
             th = (o + xi ** 3.0) if sg > 0 else ((o - xi ** 3.0) if sg < 0 else xi)
             th = min(max(th, grid[i]), grid[i + 1])
-            xx = _state1(grid, x, u, origin, sign, i, th)[0]
+            xx = state_at(grid, x, u, origin, sign, i, th)[0]
             dth = (1.0 if sg == 0 else 3.0 * sg * xi ** 2) * dxi
             r[k] = weights[k] * (dth / np.sqrt(xx))
         out[i] = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
